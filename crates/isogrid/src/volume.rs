@@ -1,0 +1,329 @@
+//! Scalar volumes: a regular grid of samples in the file's storage order.
+//!
+//! Sample `(i, j, k)` sits at linear index `i + nx * (j + ny * k)` (i fastest), exactly as the file
+//! stored it: no reorientation, no resampling. Its physical position is `origin + (i·sx, j·sy, k·sz)`
+//! along the file's axes; `direction` (rows are the world directions of the i, j, k axes) is kept as
+//! metadata only. Cells are the `(nx-1)(ny-1)(nz-1)` cubes between samples.
+
+use crate::error::{Error, Result};
+
+/// Largest number of samples per axis: metacell positions are 16-bit in units of 2 cells (§3.1).
+pub const MAX_DIM: usize = 131_072;
+
+/// The scalar types a volume stores. Other file types are converted on read.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum ScalarType {
+    U8,
+    U16,
+    I16,
+    F32,
+}
+
+impl ScalarType {
+    pub fn size(self) -> usize {
+        match self {
+            ScalarType::U8 => 1,
+            ScalarType::U16 | ScalarType::I16 => 2,
+            ScalarType::F32 => 4,
+        }
+    }
+    pub fn name(self) -> &'static str {
+        match self {
+            ScalarType::U8 => "u8",
+            ScalarType::U16 => "u16",
+            ScalarType::I16 => "i16",
+            ScalarType::F32 => "f32",
+        }
+    }
+    pub fn is_integer(self) -> bool {
+        self != ScalarType::F32
+    }
+}
+
+/// A sample type the extraction is generic over.
+pub trait Scalar: Copy + PartialOrd + Send + Sync + bytemuck::Pod + 'static {
+    const TYPE: ScalarType;
+    fn to_f64(self) -> f64;
+}
+
+impl Scalar for u8 {
+    const TYPE: ScalarType = ScalarType::U8;
+    fn to_f64(self) -> f64 {
+        self as f64
+    }
+}
+impl Scalar for u16 {
+    const TYPE: ScalarType = ScalarType::U16;
+    fn to_f64(self) -> f64 {
+        self as f64
+    }
+}
+impl Scalar for i16 {
+    const TYPE: ScalarType = ScalarType::I16;
+    fn to_f64(self) -> f64 {
+        self as f64
+    }
+}
+impl Scalar for f32 {
+    const TYPE: ScalarType = ScalarType::F32;
+    fn to_f64(self) -> f64 {
+        self as f64
+    }
+}
+
+/// Owned samples of one of the supported types.
+#[derive(Debug, Clone, PartialEq)]
+pub enum VolumeData {
+    U8(Vec<u8>),
+    U16(Vec<u16>),
+    I16(Vec<i16>),
+    F32(Vec<f32>),
+}
+
+/// Borrowed samples of one of the supported types (e.g. a numpy array's buffer).
+#[derive(Debug, Clone, Copy)]
+pub enum Samples<'a> {
+    U8(&'a [u8]),
+    U16(&'a [u16]),
+    I16(&'a [i16]),
+    F32(&'a [f32]),
+}
+
+impl VolumeData {
+    pub fn len(&self) -> usize {
+        self.samples().len()
+    }
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+    pub fn scalar_type(&self) -> ScalarType {
+        self.samples().scalar_type()
+    }
+    pub fn samples(&self) -> Samples<'_> {
+        match self {
+            VolumeData::U8(v) => Samples::U8(v),
+            VolumeData::U16(v) => Samples::U16(v),
+            VolumeData::I16(v) => Samples::I16(v),
+            VolumeData::F32(v) => Samples::F32(v),
+        }
+    }
+}
+
+impl<'a> Samples<'a> {
+    pub fn len(&self) -> usize {
+        match self {
+            Samples::U8(v) => v.len(),
+            Samples::U16(v) => v.len(),
+            Samples::I16(v) => v.len(),
+            Samples::F32(v) => v.len(),
+        }
+    }
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+    pub fn scalar_type(&self) -> ScalarType {
+        match self {
+            Samples::U8(_) => ScalarType::U8,
+            Samples::U16(_) => ScalarType::U16,
+            Samples::I16(_) => ScalarType::I16,
+            Samples::F32(_) => ScalarType::F32,
+        }
+    }
+    /// Sample `index` as f64 (for tests and slow paths; hot loops are generic over [`Scalar`]).
+    pub fn get_f64(&self, index: usize) -> f64 {
+        match self {
+            Samples::U8(v) => v[index] as f64,
+            Samples::U16(v) => v[index] as f64,
+            Samples::I16(v) => v[index] as f64,
+            Samples::F32(v) => v[index] as f64,
+        }
+    }
+    /// Smallest and largest sample, ignoring NaN; `None` when there is no finite sample.
+    pub fn value_range(&self) -> Option<(f64, f64)> {
+        fn range<T: Scalar>(v: &[T]) -> Option<(f64, f64)> {
+            use rayon::prelude::*;
+            v.par_chunks(1 << 16)
+                .filter_map(|chunk| {
+                    let mut it = chunk.iter().copied().filter(|x| x == x);
+                    let first = it.next()?;
+                    let (lo, hi) = it.fold((first, first), |(lo, hi), x| {
+                        (if x < lo { x } else { lo }, if x > hi { x } else { hi })
+                    });
+                    Some((lo.to_f64(), hi.to_f64()))
+                })
+                .reduce_with(|a, b| (a.0.min(b.0), a.1.max(b.1)))
+        }
+        match self {
+            Samples::U8(v) => range(v),
+            Samples::U16(v) => range(v),
+            Samples::I16(v) => range(v),
+            Samples::F32(v) => range(v),
+        }
+    }
+}
+
+/// Geometry shared by owned volumes and borrowed views.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Geometry {
+    /// Samples per axis (nx, ny, nz).
+    pub dims: [usize; 3],
+    /// Physical distance between samples along i, j, k (file units, usually mm).
+    pub spacing: [f64; 3],
+    /// Physical position of sample (0, 0, 0).
+    pub origin: [f64; 3],
+    /// Rows: world direction of the i, j, k axes. Metadata only; rendering ignores it.
+    pub direction: [[f64; 3]; 3],
+}
+
+impl Geometry {
+    pub fn new(dims: [usize; 3]) -> Self {
+        Geometry {
+            dims,
+            spacing: [1.0; 3],
+            origin: [0.0; 3],
+            direction: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+        }
+    }
+    pub fn sample_count(&self) -> usize {
+        self.dims.iter().product()
+    }
+    /// Cells per axis: one fewer than samples (0 for an axis of a single sample).
+    pub fn cell_dims(&self) -> [usize; 3] {
+        self.dims.map(|n| n.saturating_sub(1))
+    }
+    fn validate(&self, len: usize) -> Result<()> {
+        for (axis, &n) in self.dims.iter().enumerate() {
+            if n == 0 || n > MAX_DIM {
+                return Err(Error::too_large(format!(
+                    "dimension {} along axis {} is outside 1..={MAX_DIM}",
+                    n, axis
+                )));
+            }
+        }
+        let count = self
+            .dims
+            .iter()
+            .try_fold(1usize, |acc, &n| acc.checked_mul(n));
+        if count != Some(len) {
+            return Err(Error::invalid(format!(
+                "dims {}x{}x{} need {} samples but {} were given",
+                self.dims[0],
+                self.dims[1],
+                self.dims[2],
+                count.map_or("too many".to_string(), |c| c.to_string()),
+                len
+            )));
+        }
+        for s in self.spacing {
+            if !(s.is_finite() && s > 0.0) {
+                return Err(Error::invalid(format!(
+                    "spacing {s} is not a positive finite number"
+                )));
+            }
+        }
+        if self.origin.iter().any(|o| !o.is_finite()) {
+            return Err(Error::invalid("origin is not finite"));
+        }
+        Ok(())
+    }
+}
+
+/// An owned scalar volume.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Volume {
+    geometry: Geometry,
+    data: VolumeData,
+}
+
+impl Volume {
+    /// A volume with unit spacing and zero origin. Fails when `data` does not hold `nx·ny·nz` samples
+    /// or a dimension is outside `1..=131072`.
+    pub fn new(dims: [usize; 3], data: VolumeData) -> Result<Self> {
+        Self::with_geometry(Geometry::new(dims), data)
+    }
+    pub fn with_geometry(geometry: Geometry, data: VolumeData) -> Result<Self> {
+        geometry.validate(data.len())?;
+        Ok(Volume { geometry, data })
+    }
+    pub fn with_spacing(mut self, spacing: [f64; 3]) -> Result<Self> {
+        self.geometry.spacing = spacing;
+        self.geometry.validate(self.data.len())?;
+        Ok(self)
+    }
+    pub fn with_origin(mut self, origin: [f64; 3]) -> Result<Self> {
+        self.geometry.origin = origin;
+        self.geometry.validate(self.data.len())?;
+        Ok(self)
+    }
+    pub fn geometry(&self) -> &Geometry {
+        &self.geometry
+    }
+    pub fn dims(&self) -> [usize; 3] {
+        self.geometry.dims
+    }
+    pub fn spacing(&self) -> [f64; 3] {
+        self.geometry.spacing
+    }
+    pub fn origin(&self) -> [f64; 3] {
+        self.geometry.origin
+    }
+    pub fn scalar_type(&self) -> ScalarType {
+        self.data.scalar_type()
+    }
+    pub fn data(&self) -> &VolumeData {
+        &self.data
+    }
+    pub fn into_data(self) -> VolumeData {
+        self.data
+    }
+    /// Sample (i, j, k) as f64.
+    pub fn get(&self, i: usize, j: usize, k: usize) -> f64 {
+        let [nx, ny, _] = self.geometry.dims;
+        self.data.samples().get_f64(i + nx * (j + ny * k))
+    }
+    /// Smallest and largest sample, ignoring NaN.
+    pub fn value_range(&self) -> Option<(f64, f64)> {
+        self.data.samples().value_range()
+    }
+    /// A borrowed view, the form extraction takes.
+    pub fn view(&self) -> VolumeView<'_> {
+        VolumeView {
+            geometry: self.geometry,
+            samples: self.data.samples(),
+        }
+    }
+}
+
+/// A borrowed volume: geometry plus a slice of samples in i-fastest order.
+#[derive(Debug, Clone, Copy)]
+pub struct VolumeView<'a> {
+    geometry: Geometry,
+    samples: Samples<'a>,
+}
+
+impl<'a> VolumeView<'a> {
+    /// Checks that `samples` holds exactly `nx·ny·nz` values and the geometry is sane.
+    pub fn new(geometry: Geometry, samples: Samples<'a>) -> Result<Self> {
+        geometry.validate(samples.len())?;
+        Ok(VolumeView { geometry, samples })
+    }
+    pub fn geometry(&self) -> &Geometry {
+        &self.geometry
+    }
+    pub fn dims(&self) -> [usize; 3] {
+        self.geometry.dims
+    }
+    pub fn samples(&self) -> Samples<'a> {
+        self.samples
+    }
+    pub fn scalar_type(&self) -> ScalarType {
+        self.samples.scalar_type()
+    }
+    pub fn value_range(&self) -> Option<(f64, f64)> {
+        self.samples.value_range()
+    }
+    pub fn get(&self, i: usize, j: usize, k: usize) -> f64 {
+        let [nx, ny, _] = self.geometry.dims;
+        self.samples.get_f64(i + nx * (j + ny * k))
+    }
+}
