@@ -8,6 +8,7 @@
 //! Data flows one way: [`Volume`] → extraction → CGC → (file | renderer | tracer | stats).
 
 pub mod error;
+pub mod fs;
 pub mod volume;
 
 pub use error::{Error, ErrorKind, Result, ResultExt};
