@@ -5,11 +5,35 @@
 //! metacells, clusters of 16 metacell slots and 16³-cell blocks (§3.1), each cell keeping its eight
 //! corner values so that rendering never needs the volume again.
 //!
-//! Data flows one way: [`Volume`] → extraction → CGC → (file | renderer | tracer | stats).
+//! Data flows one way: [`Volume`] → [`extract`] → [`CellGrid`] → (file | renderer | tracer | stats).
+//!
+//! ```
+//! use isogrid::{extract, ExtractOptions, Iso, Volume, VolumeData};
+//! let n = 24;
+//! let data: Vec<f32> = (0..n * n * n)
+//!     .map(|i| {
+//!         let p = [i % n, i / n % n, i / (n * n)].map(|c| c as f32 - 11.5);
+//!         8.0 - (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt() // > 0 inside a sphere of radius 8
+//!     })
+//!     .collect();
+//! let volume = Volume::new([n, n, n], VolumeData::F32(data)).unwrap();
+//! let grid = extract(&volume.view(), &ExtractOptions::new(Iso::Value(0.0))).unwrap();
+//! assert!(grid.active_cells() > 500);
+//! assert_eq!(grid.metacell_slots() % 16, 0);
+//! ```
 
 pub mod error;
+pub mod extract;
 pub mod fs;
+pub mod grid;
+pub mod layout;
+pub mod morton;
+pub mod quantize;
 pub mod volume;
 
 pub use error::{Error, ErrorKind, Result, ResultExt};
+pub use extract::{extract, ExtractOptions, Iso};
+pub use grid::{CellGrid, GridInfo};
+pub use layout::{Block, ClusterBound, Metacell, Precision};
+pub use quantize::ValueMapping;
 pub use volume::{Geometry, Samples, Scalar, ScalarType, Volume, VolumeData, VolumeView, MAX_DIM};

@@ -1,0 +1,173 @@
+//! Pass 2 of the extraction (paper §3.1): writes one block's metacells, cluster bounds and corner
+//! records into its pre-sized, disjoint part of the output.
+//!
+//! Inside a block, metacells are visited in Morton order and, inside a metacell, cells in mask-bit
+//! order, which together is the Morton order of the cells. Every 15 metacells close a cluster whose
+//! 16th slot receives the bound; the last cluster is padded with empty (all-zero) slots.
+
+use super::scalar::ExtractScalar;
+use crate::layout::{
+    ClusterBound, Metacell, BLOCK_CELLS, BLOCK_METACELLS, BOUND_SLOT, CLUSTER_METACELLS,
+    CLUSTER_SLOTS,
+};
+use crate::morton;
+use crate::quantize::Quantizer;
+
+/// Per-thread scratch for one block.
+pub(crate) struct BlockScratch {
+    /// Inside bits per sample row (17 bits used), index `ly + 17·lz`.
+    inside: [u32; 17 * 17],
+    /// Active-cell mask per metacell, by Morton code.
+    metacell_masks: [u8; BLOCK_METACELLS * BLOCK_METACELLS * BLOCK_METACELLS],
+}
+
+impl Default for BlockScratch {
+    fn default() -> Self {
+        BlockScratch {
+            inside: [0; 17 * 17],
+            metacell_masks: [0; 512],
+        }
+    }
+}
+
+/// Where one block's output goes.
+pub(crate) struct BlockOutput<'a> {
+    pub block: [usize; 3],
+    /// Exactly the block's metacell slots (a multiple of 16).
+    pub slots: &'a mut [Metacell],
+    /// Exactly the block's corner records.
+    pub cells: &'a mut [u8],
+    /// Global index of the block's first active cell.
+    pub first_cell: u32,
+}
+
+/// Emits one block. The counts must match what pass 1 found (checked in debug builds).
+pub(crate) fn emit_block<T: ExtractScalar>(
+    samples: &[T],
+    dims: [usize; 3],
+    threshold: Option<T>,
+    quantizer: &Quantizer,
+    out: BlockOutput<'_>,
+    scratch: &mut BlockScratch,
+) {
+    let [nx, ny, nz] = dims;
+    let origin = out.block.map(|b| b * BLOCK_CELLS);
+    let cells = [0, 1, 2].map(|a| (dims[a] - 1 - origin[a]).min(BLOCK_CELLS));
+    let slab = nx * ny;
+
+    // Inside bits of the block's samples.
+    for lz in 0..=cells[2] {
+        for ly in 0..=cells[1] {
+            let start = origin[0] + nx * (origin[1] + ly + ny * (origin[2] + lz));
+            let mut bits = 0u32;
+            if let Some(t) = threshold {
+                for (i, &v) in samples[start..=start + cells[0]].iter().enumerate() {
+                    bits |= ((v >= t) as u32) << i;
+                }
+            }
+            scratch.inside[ly + 17 * lz] = bits;
+        }
+    }
+
+    // Active cells scattered into Morton-ordered metacell masks.
+    scratch.metacell_masks.fill(0);
+    let cell_bits = (1u32 << cells[0]) - 1;
+    for cz in 0..cells[2] {
+        for cy in 0..cells[1] {
+            let ins = &scratch.inside;
+            let (a, b, c, d) = (
+                ins[cy + 17 * cz],
+                ins[cy + 1 + 17 * cz],
+                ins[cy + 17 * (cz + 1)],
+                ins[cy + 1 + 17 * (cz + 1)],
+            );
+            let all_in = a & b & c & d;
+            let any_in = a | b | c | d;
+            let mut act = !(all_in & all_in >> 1) & (any_in | any_in >> 1) & cell_bits;
+            while act != 0 {
+                let cx = act.trailing_zeros();
+                act &= act - 1;
+                let code = morton::cell_code(cx, cy as u32, cz as u32);
+                scratch.metacell_masks[(code >> 3) as usize] |= 1 << (code & 7);
+            }
+        }
+    }
+
+    // Metacells, bounds and corner records in Morton order.
+    let block_mc = out.block.map(|b| (b * BLOCK_METACELLS) as u16);
+    let record = quantizer.precision().bytes_per_cell();
+    let corner_offsets = [0, 1, nx, nx + 1, slab, slab + 1, slab + nx, slab + nx + 1];
+    let mut slot = 0usize;
+    let mut cell = 0usize;
+    let mut bound = ClusterBound {
+        lo: [u16::MAX; 3],
+        hi: [0; 3],
+    };
+    let close_cluster = |slots: &mut [Metacell], slot: &mut usize, bound: &mut ClusterBound| {
+        let cluster_start = *slot - *slot % CLUSTER_SLOTS;
+        *slot = cluster_start + BOUND_SLOT;
+        slots[*slot] = bound.into_slot();
+        *slot += 1;
+        *bound = ClusterBound {
+            lo: [u16::MAX; 3],
+            hi: [0; 3],
+        };
+    };
+    for code in 0..scratch.metacell_masks.len() as u32 {
+        let mask = scratch.metacell_masks[code as usize];
+        if mask == 0 {
+            continue;
+        }
+        let local = morton::decode(code);
+        let position = [0, 1, 2].map(|a| block_mc[a] + local[a] as u16);
+        out.slots[slot] = Metacell {
+            position,
+            cell_mask: mask as u16,
+            cell_pointer: out.first_cell + cell as u32,
+        };
+        for a in 0..3 {
+            bound.lo[a] = bound.lo[a].min(position[a]);
+            bound.hi[a] = bound.hi[a].max(position[a]);
+        }
+        slot += 1;
+
+        let mut bits = mask;
+        while bits != 0 {
+            let b = bits.trailing_zeros() as usize;
+            bits &= bits - 1;
+            let g = [0, 1, 2].map(|a| origin[a] + 2 * local[a] as usize + (b >> a & 1));
+            let base = g[0] + nx * (g[1] + ny * g[2]);
+            let values = corner_offsets.map(|o| samples[base + o].to_f64());
+            let l = [g[0] - origin[0], g[1] - origin[1], g[2] - origin[2]];
+            let ins = &scratch.inside;
+            let row_bits = |dy: usize, dz: usize| ins[l[1] + dy + 17 * (l[2] + dz)] >> l[0] & 3;
+            let inside =
+                (row_bits(0, 0) | row_bits(1, 0) << 2 | row_bits(0, 1) << 4 | row_bits(1, 1) << 6)
+                    as u8;
+            quantizer.encode_cell(
+                &values,
+                inside,
+                &mut out.cells[cell * record..(cell + 1) * record],
+            );
+            cell += 1;
+        }
+        if slot % CLUSTER_SLOTS == CLUSTER_METACELLS {
+            close_cluster(out.slots, &mut slot, &mut bound);
+        }
+    }
+    if slot % CLUSTER_SLOTS != 0 {
+        // Padding slots were zeroed when the output was allocated.
+        close_cluster(out.slots, &mut slot, &mut bound);
+    }
+    debug_assert_eq!(
+        slot,
+        out.slots.len(),
+        "pass 1 and pass 2 disagree on metacells"
+    );
+    debug_assert_eq!(
+        cell * record,
+        out.cells.len(),
+        "pass 1 and pass 2 disagree on cells"
+    );
+    let _ = nz;
+}

@@ -1,0 +1,191 @@
+//! Isosurface extraction into clustered grid cells (paper §3.1).
+//!
+//! Two passes over 16³ blocks, both parallel (rayon) and deterministic for any thread count:
+//! [`scan`] sweeps the whole volume once and counts, per block, active cells and occupied
+//! metacells; prefix sums then give every block a disjoint part of the exactly-sized output; [`emit`]
+//! revisits only blocks that hold active cells and writes their records. Memory beyond the volume
+//! and the output is O(blocks) plus per-thread scratch for one block row.
+
+mod emit;
+mod scalar;
+mod scan;
+
+use crate::error::{Error, Result};
+use crate::grid::{CellGrid, GridInfo};
+use crate::layout::{Block, Metacell, Precision, BLOCK_CELLS, CLUSTER_METACELLS, CLUSTER_SLOTS};
+use crate::quantize::Quantizer;
+use crate::volume::{Samples, VolumeView};
+use rayon::prelude::*;
+use scalar::ExtractScalar;
+
+/// The isovalue, in data units or normalised to the volume's value range.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Iso {
+    /// In data units: a sample is inside when `value >= iso`.
+    Value(f64),
+    /// `min + t·(max - min)` over the volume's finite samples (the paper uses 0.5 throughout).
+    Normalized(f64),
+}
+
+/// What to extract.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ExtractOptions {
+    pub iso: Iso,
+    /// Corner precision; `None` picks [`Precision::default_for`] the volume's type.
+    pub precision: Option<Precision>,
+}
+
+impl ExtractOptions {
+    pub fn new(iso: Iso) -> Self {
+        ExtractOptions {
+            iso,
+            precision: None,
+        }
+    }
+    pub fn with_precision(mut self, precision: Precision) -> Self {
+        self.precision = Some(precision);
+        self
+    }
+}
+
+/// Extracts the active cells of `volume` at the isovalue into clustered grid cells.
+///
+/// Runs on the current rayon pool; the output is byte-identical for any pool size.
+pub fn extract(volume: &VolumeView, options: &ExtractOptions) -> Result<CellGrid> {
+    match volume.samples() {
+        Samples::U8(s) => extract_typed(volume, s, options),
+        Samples::U16(s) => extract_typed(volume, s, options),
+        Samples::I16(s) => extract_typed(volume, s, options),
+        Samples::F32(s) => extract_typed(volume, s, options),
+    }
+}
+
+fn extract_typed<T: ExtractScalar>(
+    volume: &VolumeView,
+    samples: &[T],
+    options: &ExtractOptions,
+) -> Result<CellGrid> {
+    let geometry = volume.geometry();
+    let dims = geometry.dims;
+    let precision = options.precision.unwrap_or(Precision::default_for(T::TYPE));
+
+    // A normalised isovalue needs the range before the sweep; otherwise the sweep's block ranges give it.
+    let mut value_range = None;
+    let iso = match options.iso {
+        Iso::Value(v) => v,
+        Iso::Normalized(t) => {
+            if !(0.0..=1.0).contains(&t) {
+                return Err(Error::invalid(format!(
+                    "normalised isovalue {t} is outside [0, 1]"
+                )));
+            }
+            let (lo, hi) = volume
+                .value_range()
+                .ok_or_else(|| Error::invalid("the volume has no finite sample"))?;
+            value_range = Some((lo, hi));
+            lo + t * (hi - lo)
+        }
+    };
+    if !iso.is_finite() {
+        return Err(Error::invalid(format!(
+            "isovalue {iso} is not a finite number"
+        )));
+    }
+    let threshold = T::threshold(iso);
+
+    let cell_dims = geometry.cell_dims();
+    let block_dims = cell_dims.map(|c| c.div_ceil(BLOCK_CELLS));
+    let [nbx, nby, nbz] = block_dims;
+    let block_count = nbx * nby * nbz;
+
+    // Pass 1: per-block ranges and counts, block rows in block order.
+    let scans: Vec<scan::BlockScan> = if block_count == 0 {
+        Vec::new()
+    } else {
+        (0..nby * nbz)
+            .into_par_iter()
+            .map_init(scan::RowScratch::default, |scratch, row| {
+                scan::scan_block_row(samples, dims, row % nby, row / nby, threshold, scratch)
+            })
+            .flatten_iter()
+            .collect()
+    };
+
+    let (lo, hi) = match value_range {
+        Some(r) => r,
+        None if !scans.is_empty() => scans
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), s| {
+                (lo.min(s.min), hi.max(s.max))
+            }),
+        None => volume.value_range().unwrap_or((0.0, 0.0)),
+    };
+    let (lo, hi) = if lo <= hi { (lo, hi) } else { (0.0, 0.0) }; // all NaN
+    let quantizer = Quantizer::new(precision, T::TYPE.is_integer(), lo, hi, iso);
+
+    // Prefix sums: each block's slots and cells.
+    let mut blocks = Vec::with_capacity(block_count);
+    let (mut slot_total, mut cell_total) = (0u64, 0u64);
+    for s in &scans {
+        let slots =
+            (s.occupied_metacells as u64).div_ceil(CLUSTER_METACELLS as u64) * CLUSTER_SLOTS as u64;
+        blocks.push(Block {
+            metacell_count: slots as u32,
+            metacell_pointer: slot_total as u32,
+            min: s.min as f32,
+            max: s.max as f32,
+        });
+        slot_total += slots;
+        cell_total += s.active_cells as u64;
+        if slot_total > u32::MAX as u64 || cell_total > u32::MAX as u64 {
+            return Err(Error::too_large("more than 2^32 metacell slots or active cells: beyond the 32-bit pointers of the format"));
+        }
+    }
+
+    // Pass 2: emit active blocks into disjoint parts of the output.
+    let record = precision.bytes_per_cell();
+    let mut metacells = vec![bytemuck::Zeroable::zeroed(); slot_total as usize];
+    let mut cells = vec![0u8; cell_total as usize * record];
+    let mut outputs = Vec::new();
+    {
+        let (mut slots_rest, mut cells_rest): (&mut [Metacell], &mut [u8]) =
+            (&mut metacells, &mut cells);
+        let mut first_cell = 0u32;
+        for (index, (block, scan)) in blocks.iter().zip(&scans).enumerate() {
+            if block.metacell_count == 0 {
+                continue;
+            }
+            let (slots, rest) =
+                std::mem::take(&mut slots_rest).split_at_mut(block.metacell_count as usize);
+            slots_rest = rest;
+            let (cell_bytes, rest) =
+                std::mem::take(&mut cells_rest).split_at_mut(scan.active_cells as usize * record);
+            cells_rest = rest;
+            let block_pos = [index % nbx, index / nbx % nby, index / (nbx * nby)];
+            outputs.push(emit::BlockOutput {
+                block: block_pos,
+                slots,
+                cells: cell_bytes,
+                first_cell,
+            });
+            first_cell += scan.active_cells;
+        }
+    }
+    outputs
+        .into_par_iter()
+        .for_each_init(emit::BlockScratch::default, |scratch, out| {
+            emit::emit_block(samples, dims, threshold, &quantizer, out, scratch)
+        });
+
+    let info = GridInfo {
+        dims: dims.map(|d| d as u32),
+        spacing: geometry.spacing,
+        origin: geometry.origin,
+        scalar_type: T::TYPE,
+        value_range: [lo, hi],
+        iso,
+        precision,
+        mapping: quantizer.mapping(),
+    };
+    Ok(CellGrid::from_parts(info, blocks, metacells, cells))
+}

@@ -1,0 +1,163 @@
+//! [`CellGrid`]: an extracted clustered grid cell structure, owned or memory-mapped from a `.cgc` file.
+
+use crate::layout::{
+    Block, ClusterBound, Metacell, Precision, BLOCK_CELLS, BOUND_SLOT, CLUSTER_SLOTS,
+};
+use crate::quantize::ValueMapping;
+use crate::volume::ScalarType;
+
+/// Everything about a grid except its three buffers (the `.cgc` header).
+#[derive(Debug, Clone, PartialEq)]
+pub struct GridInfo {
+    /// Samples per axis of the source volume; cells are one fewer.
+    pub dims: [u32; 3],
+    /// Physical sample spacing (file units). World position of sample (i,j,k) is (i·sx, j·sy, k·sz).
+    pub spacing: [f64; 3],
+    /// Physical position of sample (0,0,0) (metadata: rendering ignores it).
+    pub origin: [f64; 3],
+    /// Type of the source samples.
+    pub scalar_type: ScalarType,
+    /// Smallest and largest finite sample of the source volume.
+    pub value_range: [f64; 2],
+    /// The isovalue in data units (`inside ⇔ value >= iso`).
+    pub iso: f64,
+    pub precision: Precision,
+    pub mapping: ValueMapping,
+}
+
+impl GridInfo {
+    pub fn cell_dims(&self) -> [u32; 3] {
+        self.dims.map(|n| n.saturating_sub(1))
+    }
+    /// Blocks per axis: `ceil(cells / 16)`.
+    pub fn block_dims(&self) -> [u32; 3] {
+        self.cell_dims().map(|c| c.div_ceil(BLOCK_CELLS as u32))
+    }
+    pub fn block_count(&self) -> usize {
+        self.block_dims().iter().map(|&n| n as usize).product()
+    }
+}
+
+/// Buffers of a grid: owned vectors or slices of a mapped file.
+pub(crate) enum Storage {
+    Owned {
+        blocks: Vec<Block>,
+        metacells: Vec<Metacell>,
+        cells: Vec<u8>,
+    },
+    Mapped {
+        map: memmap2::Mmap,
+        blocks: std::ops::Range<usize>,
+        metacells: std::ops::Range<usize>,
+        cells: std::ops::Range<usize>,
+    },
+}
+
+/// Clustered grid cells (paper §3.1): blocks, metacell slots and corner records. See [`crate::layout`].
+///
+/// ```
+/// use isogrid::{extract, ExtractOptions, Iso, Volume, VolumeData};
+/// // A 4×4×4 volume with one bright sample in the middle.
+/// let mut data = vec![0u8; 64];
+/// data[1 + 4 * (1 + 4 * 1)] = 200;
+/// let volume = Volume::new([4, 4, 4], VolumeData::U8(data)).unwrap();
+/// let grid = extract(&volume.view(), &ExtractOptions::new(Iso::Value(100.0))).unwrap();
+/// assert_eq!(grid.active_cells(), 8); // the 8 cells around the bright sample
+/// assert_eq!(grid.clusters(), 1);
+/// ```
+pub struct CellGrid {
+    info: GridInfo,
+    storage: Storage,
+}
+
+impl std::fmt::Debug for CellGrid {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("CellGrid")
+            .field("info", &self.info)
+            .field("blocks", &self.blocks().len())
+            .field("metacell_slots", &self.metacells().len())
+            .field("active_cells", &self.active_cells())
+            .finish()
+    }
+}
+
+impl CellGrid {
+    pub(crate) fn from_parts(
+        info: GridInfo,
+        blocks: Vec<Block>,
+        metacells: Vec<Metacell>,
+        cells: Vec<u8>,
+    ) -> Self {
+        CellGrid {
+            info,
+            storage: Storage::Owned {
+                blocks,
+                metacells,
+                cells,
+            },
+        }
+    }
+    pub(crate) fn from_storage(info: GridInfo, storage: Storage) -> Self {
+        CellGrid { info, storage }
+    }
+
+    pub fn info(&self) -> &GridInfo {
+        &self.info
+    }
+    pub fn blocks(&self) -> &[Block] {
+        match &self.storage {
+            Storage::Owned { blocks, .. } => blocks,
+            Storage::Mapped { map, blocks, .. } => bytemuck::cast_slice(&map[blocks.clone()]),
+        }
+    }
+    /// All metacell slots, bound slots and padding included.
+    pub fn metacells(&self) -> &[Metacell] {
+        match &self.storage {
+            Storage::Owned { metacells, .. } => metacells,
+            Storage::Mapped { map, metacells, .. } => bytemuck::cast_slice(&map[metacells.clone()]),
+        }
+    }
+    /// Corner records, `precision.bytes_per_cell()` bytes each.
+    pub fn cells(&self) -> &[u8] {
+        match &self.storage {
+            Storage::Owned { cells, .. } => cells,
+            Storage::Mapped { map, cells, .. } => &map[cells.clone()],
+        }
+    }
+    /// Whether the buffers live in a memory-mapped file.
+    pub fn is_mapped(&self) -> bool {
+        matches!(self.storage, Storage::Mapped { .. })
+    }
+
+    pub fn active_cells(&self) -> usize {
+        self.cells().len() / self.info.precision.bytes_per_cell()
+    }
+    pub fn metacell_slots(&self) -> usize {
+        self.metacells().len()
+    }
+    pub fn clusters(&self) -> usize {
+        self.metacells().len() / CLUSTER_SLOTS
+    }
+    /// Metacells with at least one active cell (bound and padding slots excluded).
+    pub fn occupied_metacells(&self) -> usize {
+        self.metacells()
+            .chunks_exact(CLUSTER_SLOTS)
+            .map(|c| c[..BOUND_SLOT].iter().filter(|m| !m.is_empty()).count())
+            .sum()
+    }
+    pub fn nonempty_blocks(&self) -> usize {
+        self.blocks()
+            .iter()
+            .filter(|b| b.metacell_count > 0)
+            .count()
+    }
+    /// The bound of cluster `index`.
+    pub fn cluster_bound(&self, index: usize) -> ClusterBound {
+        self.metacells()[index * CLUSTER_SLOTS + BOUND_SLOT].as_bound()
+    }
+    /// Corner record of active cell `index`.
+    pub fn cell_record(&self, index: usize) -> &[u8] {
+        let n = self.info.precision.bytes_per_cell();
+        &self.cells()[index * n..(index + 1) * n]
+    }
+}

@@ -1,0 +1,267 @@
+//! Corner-value quantisation that never moves a corner across the isovalue (paper §3.1, §3.5).
+//!
+//! Stored codes relate to data values by `value ≈ offset + code · step`. Integer volumes whose value
+//! range fits the code range are stored exactly (`step = 1`): u8 at 8 bits, u16 and i16 at 16 bits.
+//! Otherwise the value range `[min, max]` is spread over all codes and each value rounds to the
+//! nearest code — except that a corner whose rounded code would land on the wrong side of the
+//! threshold is pulled to the nearest code on its own side. Renderers compare interpolated codes
+//! with [`ValueMapping::iso_code`]: `code >= iso_code` holds for a stored corner exactly when
+//! `value >= iso` held for the original sample, so the set of active cells and every corner's side
+//! survive quantisation. 32-bit precision stores the values themselves.
+
+use crate::layout::Precision;
+
+/// How stored codes map to data values, and the isovalue in code units.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ValueMapping {
+    /// Data value of code 0.
+    pub offset: f64,
+    /// Data units per code step (1 for 32-bit floats, whose codes are the values).
+    pub step: f64,
+    /// Threshold in code units: a stored corner is inside when its code is `>= iso_code`.
+    pub iso_code: f32,
+}
+
+impl ValueMapping {
+    /// Data value of a code.
+    pub fn value(&self, code: f32) -> f64 {
+        self.offset + code as f64 * self.step
+    }
+    /// The isovalue normalised to the code range, as a renderer that reads codes as unorm values
+    /// (code / max_code) compares them; for floats, the isovalue itself.
+    pub fn iso_normalized(&self, precision: Precision) -> f32 {
+        match precision.max_code() {
+            Some(max) => self.iso_code / max as f32,
+            None => self.iso_code,
+        }
+    }
+}
+
+/// Precomputed quantiser for one extraction.
+#[derive(Debug, Clone, Copy)]
+pub struct Quantizer {
+    precision: Precision,
+    mapping: ValueMapping,
+    inv_step: f64,
+    max_code: f64,
+    /// Smallest code that counts as inside (integer precisions).
+    first_inside: f64,
+    exact: bool,
+}
+
+/// Smallest f32 that is `>= x`, so that `v >= x ⇔ v >= result` for every f32 `v`.
+fn f32_at_or_above(x: f64) -> f32 {
+    let r = x as f32;
+    if (r as f64) < x {
+        r.next_up()
+    } else {
+        r
+    }
+}
+
+impl Quantizer {
+    /// Builds the mapping for values in `[min, max]` of an integer (`integer_data`) or float volume.
+    pub fn new(precision: Precision, integer_data: bool, min: f64, max: f64, iso: f64) -> Self {
+        let Some(max_code) = precision.max_code() else {
+            return Quantizer {
+                precision,
+                mapping: ValueMapping {
+                    offset: 0.0,
+                    step: 1.0,
+                    iso_code: f32_at_or_above(iso),
+                },
+                inv_step: 1.0,
+                max_code: f64::MAX,
+                first_inside: 0.0,
+                exact: true,
+            };
+        };
+        let max_code = max_code as f64;
+        let span = max - min;
+        let (offset, step, exact) = if integer_data && span <= max_code {
+            // Keep raw codes when they already fit, e.g. u8 at 8 bits stores the samples themselves.
+            let offset = if min >= 0.0 && max <= max_code {
+                0.0
+            } else {
+                min
+            };
+            (offset, 1.0, true)
+        } else if span > 0.0 {
+            (min, span / max_code, false)
+        } else {
+            (min, 1.0, false)
+        };
+        let x = (iso - offset) / step;
+        let first_inside = x.ceil();
+        // iso_code must separate first_inside - 1 (outside) from first_inside (inside).
+        let mut t = x as f32;
+        if t as f64 > first_inside {
+            t = first_inside as f32;
+        }
+        if t as f64 <= first_inside - 1.0 {
+            t = ((first_inside - 1.0) as f32).next_up();
+        }
+        Quantizer {
+            precision,
+            mapping: ValueMapping {
+                offset,
+                step,
+                iso_code: t,
+            },
+            inv_step: 1.0 / step,
+            max_code,
+            first_inside,
+            exact,
+        }
+    }
+
+    pub fn precision(&self) -> Precision {
+        self.precision
+    }
+    pub fn mapping(&self) -> ValueMapping {
+        self.mapping
+    }
+
+    /// Code of one sample; `inside` is the sample's side (`value >= iso`), which the code keeps.
+    #[inline]
+    pub fn code(&self, value: f64, inside: bool) -> u32 {
+        if self.exact {
+            return (value - self.mapping.offset) as u32;
+        }
+        let mut c = ((value - self.mapping.offset) * self.inv_step).round();
+        c = if c.is_nan() {
+            0.0
+        } else {
+            c.clamp(0.0, self.max_code)
+        };
+        if inside && c < self.first_inside {
+            c = self.first_inside;
+        } else if !inside && c >= self.first_inside {
+            c = self.first_inside - 1.0;
+        }
+        c as u32
+    }
+
+    /// Writes the corner record of one cell (`values` in corner order, `inside` bit c = corner c's side).
+    #[inline]
+    pub fn encode_cell(&self, values: &[f64; 8], inside: u8, out: &mut [u8]) {
+        match self.precision {
+            Precision::Float32 => {
+                for (c, v) in values.iter().enumerate() {
+                    out[4 * c..4 * c + 4].copy_from_slice(&(*v as f32).to_le_bytes());
+                }
+            }
+            Precision::Bits16 => {
+                for (c, v) in values.iter().enumerate() {
+                    let code = self.code(*v, inside >> c & 1 != 0) as u16;
+                    out[2 * c..2 * c + 2].copy_from_slice(&code.to_le_bytes());
+                }
+            }
+            Precision::Bits8 => {
+                for (c, v) in values.iter().enumerate() {
+                    out[c] = self.code(*v, inside >> c & 1 != 0) as u8;
+                }
+            }
+            Precision::Bits4 => {
+                for pair in 0..4 {
+                    let lo = self.code(values[2 * pair], inside >> (2 * pair) & 1 != 0);
+                    let hi = self.code(values[2 * pair + 1], inside >> (2 * pair + 1) & 1 != 0);
+                    out[pair] = (lo | hi << 4) as u8;
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::layout::read_corner;
+
+    /// Every value of a dense sweep around the isovalue keeps its side after quantisation.
+    fn assert_sides_kept(
+        precision: Precision,
+        integer: bool,
+        min: f64,
+        max: f64,
+        iso: f64,
+        values: &[f64],
+    ) {
+        let q = Quantizer::new(precision, integer, min, max, iso);
+        let t = q.mapping().iso_code;
+        for chunk in values.chunks(8) {
+            let mut vals = [min; 8];
+            vals[..chunk.len()].copy_from_slice(chunk);
+            let inside = vals
+                .iter()
+                .enumerate()
+                .fold(0u8, |m, (c, v)| m | ((*v >= iso) as u8) << c);
+            let mut rec = [0u8; 32];
+            q.encode_cell(&vals, inside, &mut rec[..precision.bytes_per_cell()]);
+            for (c, v) in vals.iter().enumerate() {
+                let code = read_corner(&rec, precision, c);
+                assert_eq!(
+                    code >= t,
+                    *v >= iso,
+                    "{precision:?} value {v} iso {iso} code {code} threshold {t} (range {min}..{max})"
+                );
+                if let Some(mc) = precision.max_code() {
+                    assert!(code <= mc as f32);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn adversarial_values_within_one_step_of_the_isovalue_keep_their_side() {
+        for precision in Precision::ALL {
+            for &(min, max) in &[(0.0, 1.0), (-1000.0, 3000.0), (0.0, 255.0), (10.0, 10.5)] {
+                let step = match precision.max_code() {
+                    Some(mc) => (max - min) / mc as f64,
+                    None => 1e-6,
+                };
+                for frac in [0.0, 0.13, 0.5, 0.5 + 1e-9, 0.77, 1.0 - 1e-12, 1.0] {
+                    let iso = min + frac * (max - min);
+                    let mut values = vec![min, max];
+                    for k in -40..=40 {
+                        let v = iso + k as f64 * step / 16.0;
+                        if v >= min && v <= max {
+                            values.push(v);
+                        }
+                    }
+                    values.extend([iso, iso - 1e-9, iso + 1e-9, iso - step, iso + step]);
+                    values.retain(|v| *v >= min && *v <= max);
+                    // Float32 stores f32 values: feed it values that are f32 already.
+                    if precision == Precision::Float32 {
+                        values.iter_mut().for_each(|v| *v = *v as f32 as f64);
+                    }
+                    assert_sides_kept(precision, false, min, max, iso, &values);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn integer_data_is_exact_when_it_fits() {
+        let q = Quantizer::new(Precision::Bits8, true, 3.0, 200.0, 100.0);
+        assert_eq!(q.mapping().offset, 0.0);
+        assert_eq!(q.code(137.0, true), 137);
+        let q = Quantizer::new(Precision::Bits16, true, -1024.0, 3071.0, 300.5);
+        assert_eq!(q.mapping().offset, -1024.0);
+        assert_eq!(q.mapping().value(q.code(-5.0, false) as f32), -5.0);
+        assert_eq!(q.mapping().iso_code, 1324.5);
+        // Integer isovalues tie on samples: equal counts as inside.
+        let values: Vec<f64> = (0..=255).map(f64::from).collect();
+        assert_sides_kept(Precision::Bits8, true, 0.0, 255.0, 128.0, &values);
+        assert_sides_kept(Precision::Bits4, true, 0.0, 255.0, 128.0, &values);
+        assert_sides_kept(Precision::Bits4, true, 0.0, 255.0, 127.5, &values);
+    }
+
+    #[test]
+    fn threshold_is_just_above_an_isovalue_that_is_not_an_f32() {
+        let iso = 0.1f64; // 0.1 rounds down to f32
+        let q = Quantizer::new(Precision::Float32, false, 0.0, 1.0, iso);
+        let t = q.mapping().iso_code;
+        assert!(t as f64 >= iso && (t.next_down() as f64) < iso);
+    }
+}

@@ -1,0 +1,4 @@
+//! Integration tests of the core crate, one binary.
+
+mod common;
+mod extract;
