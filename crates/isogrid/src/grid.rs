@@ -15,6 +15,8 @@ pub struct GridInfo {
     pub spacing: [f64; 3],
     /// Physical position of sample (0,0,0) (metadata: rendering ignores it).
     pub origin: [f64; 3],
+    /// Rows: world direction of the i, j, k axes (metadata only).
+    pub direction: [[f64; 3]; 3],
     /// Type of the source samples.
     pub scalar_type: ScalarType,
     /// Smallest and largest finite sample of the source volume.

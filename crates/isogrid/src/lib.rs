@@ -22,6 +22,7 @@
 //! assert_eq!(grid.metacell_slots() % 16, 0);
 //! ```
 
+pub mod cgc;
 pub mod error;
 pub mod extract;
 pub mod fs;

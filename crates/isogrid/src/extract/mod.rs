@@ -181,6 +181,7 @@ fn extract_typed<T: ExtractScalar>(
         dims: dims.map(|d| d as u32),
         spacing: geometry.spacing,
         origin: geometry.origin,
+        direction: geometry.direction,
         scalar_type: T::TYPE,
         value_range: [lo, hi],
         iso,

@@ -1,4 +1,5 @@
 //! Integration tests of the core crate, one binary.
 
+mod cgc;
 mod common;
 mod extract;
