@@ -30,6 +30,7 @@ pub mod grid;
 pub mod layout;
 pub mod morton;
 pub mod quantize;
+pub mod stats;
 pub mod volume;
 
 pub use error::{Error, ErrorKind, Result, ResultExt};
@@ -37,4 +38,5 @@ pub use extract::{extract, ExtractOptions, Iso};
 pub use grid::{CellGrid, GridInfo};
 pub use layout::{Block, ClusterBound, Metacell, Precision};
 pub use quantize::ValueMapping;
+pub use stats::GridStats;
 pub use volume::{Geometry, Samples, Scalar, ScalarType, Volume, VolumeData, VolumeView, MAX_DIM};

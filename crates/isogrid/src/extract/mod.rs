@@ -27,6 +27,38 @@ pub enum Iso {
     Normalized(f64),
 }
 
+impl Iso {
+    /// The isovalue in data units for `volume`; errors on non-finite values, a normalised value
+    /// outside [0, 1], or a volume without finite samples.
+    pub fn resolve(&self, volume: &VolumeView) -> Result<f64> {
+        self.resolve_with_range(volume).map(|(iso, _)| iso)
+    }
+
+    /// Like [`Iso::resolve`], also returning the value range when it had to be computed.
+    fn resolve_with_range(&self, volume: &VolumeView) -> Result<(f64, Option<(f64, f64)>)> {
+        let (iso, range) = match *self {
+            Iso::Value(v) => (v, None),
+            Iso::Normalized(t) => {
+                if !(0.0..=1.0).contains(&t) {
+                    return Err(Error::invalid(format!(
+                        "normalised isovalue {t} is outside [0, 1]"
+                    )));
+                }
+                let (lo, hi) = volume
+                    .value_range()
+                    .ok_or_else(|| Error::invalid("the volume has no finite sample"))?;
+                (lo + t * (hi - lo), Some((lo, hi)))
+            }
+        };
+        if !iso.is_finite() {
+            return Err(Error::invalid(format!(
+                "isovalue {iso} is not a finite number"
+            )));
+        }
+        Ok((iso, range))
+    }
+}
+
 /// What to extract.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ExtractOptions {
@@ -70,27 +102,7 @@ fn extract_typed<T: ExtractScalar>(
     let precision = options.precision.unwrap_or(Precision::default_for(T::TYPE));
 
     // A normalised isovalue needs the range before the sweep; otherwise the sweep's block ranges give it.
-    let mut value_range = None;
-    let iso = match options.iso {
-        Iso::Value(v) => v,
-        Iso::Normalized(t) => {
-            if !(0.0..=1.0).contains(&t) {
-                return Err(Error::invalid(format!(
-                    "normalised isovalue {t} is outside [0, 1]"
-                )));
-            }
-            let (lo, hi) = volume
-                .value_range()
-                .ok_or_else(|| Error::invalid("the volume has no finite sample"))?;
-            value_range = Some((lo, hi));
-            lo + t * (hi - lo)
-        }
-    };
-    if !iso.is_finite() {
-        return Err(Error::invalid(format!(
-            "isovalue {iso} is not a finite number"
-        )));
-    }
+    let (iso, value_range) = options.iso.resolve_with_range(volume)?;
     let threshold = T::threshold(iso);
 
     let cell_dims = geometry.cell_dims();

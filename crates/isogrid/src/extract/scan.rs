@@ -25,50 +25,91 @@ pub(crate) struct BlockScan {
 pub(crate) struct RowScratch {
     inside: Vec<u64>,
     active: Vec<u64>,
-    row_min: Vec<f64>,
-    row_max: Vec<f64>,
 }
 
-/// Inside bits of `row` into `out` (bit x of word x/64). Written for autovectorisation: 64 compares
-/// fold into one word.
-#[inline]
-fn inside_mask<T: ExtractScalar>(row: &[T], threshold: Option<T>, out: &mut [u64]) {
-    let Some(t) = threshold else {
-        out.fill(0);
-        return;
-    };
-    let mut chunks = row.chunks_exact(64);
-    for (word, chunk) in out.iter_mut().zip(&mut chunks) {
-        let mut m = 0u64;
-        for (i, &v) in chunk.iter().enumerate() {
-            m |= ((v >= t) as u64) << i;
+/// Per-block running minima and maxima of one block row, kept as 16 lanes per block so the
+/// per-sample work is element-wise (vectorised) and lanes are folded once per block row.
+struct LaneRanges<T> {
+    lo: Vec<[T; 16]>,
+    hi: Vec<[T; 16]>,
+    /// Range of each block's 17th sample column (x = 16·bx + 16), shared with the next block.
+    edge_lo: Vec<T>,
+    edge_hi: Vec<T>,
+}
+
+impl<T: ExtractScalar> LaneRanges<T> {
+    fn new(blocks: usize) -> Self {
+        LaneRanges {
+            lo: vec![[T::HIGHEST; 16]; blocks],
+            hi: vec![[T::LOWEST; 16]; blocks],
+            edge_lo: vec![T::HIGHEST; blocks],
+            edge_hi: vec![T::LOWEST; blocks],
         }
-        *word = m;
     }
-    let rest = chunks.remainder();
-    if !rest.is_empty() {
-        let mut m = 0u64;
-        for (i, &v) in rest.iter().enumerate() {
-            m |= ((v >= t) as u64) << i;
-        }
-        out[row.len() / 64] = m;
+    /// (min, max) of block `bx`, NaN ignored.
+    fn block(&self, bx: usize) -> (f64, f64) {
+        let fold = |init: T, lanes: &[T; 16], pick: fn(T, T) -> T| {
+            lanes.iter().fold(init, |a, &b| pick(a, b))
+        };
+        let lo = fold(
+            self.edge_lo[bx],
+            &self.lo[bx],
+            |a, b| if b < a { b } else { a },
+        );
+        let hi = fold(
+            self.edge_hi[bx],
+            &self.hi[bx],
+            |a, b| if b > a { b } else { a },
+        );
+        (lo.to_f64(), hi.to_f64())
     }
 }
 
-/// Min and max of each block's 17-sample segment of `row` (NaN ignored), folded into `mins`/`maxs`.
+/// One sample row: inside bits into `words` (bit x of word x/64, words zeroed by the caller) and
+/// block ranges into `ranges`. Written so that each 16-sample chunk compiles to a few SIMD
+/// instructions (compare to bitmask, lane-wise min and max).
 #[inline]
-fn segment_ranges<T: ExtractScalar>(row: &[T], mins: &mut [f64], maxs: &mut [f64]) {
-    let last = row.len() - 1;
-    for (bx, (lo_out, hi_out)) in mins.iter_mut().zip(maxs.iter_mut()).enumerate() {
-        let start = bx * BLOCK_CELLS;
-        let seg = &row[start..=(start + BLOCK_CELLS).min(last)];
-        let (mut lo, mut hi) = (T::HIGHEST, T::LOWEST);
-        for &v in seg {
-            lo = if v < lo { v } else { lo };
-            hi = if v > hi { v } else { hi };
+fn scan_row<T: ExtractScalar>(
+    row: &[T],
+    threshold: Option<T>,
+    words: &mut [u64],
+    ranges: &mut LaneRanges<T>,
+) {
+    let t = threshold.unwrap_or(T::HIGHEST);
+    let mut chunks = row.chunks_exact(16);
+    for (c, chunk) in (&mut chunks).enumerate() {
+        let chunk: &[T; 16] = chunk.try_into().unwrap();
+        // nx / 16 full chunks never exceed the ceil((nx - 1) / 16) blocks, so chunk c is block c.
+        let m = T::scan_chunk(chunk, t, &mut ranges.lo[c], &mut ranges.hi[c]) as u64;
+        words[c / 4] |= m << (16 * (c % 4));
+    }
+    let full = row.len() / 16;
+    for (i, &v) in chunks.remainder().iter().enumerate() {
+        let x = 16 * full + i;
+        words[x / 64] |= ((v >= t) as u64) << (x % 64);
+        // A lone sample after the last full chunk is only the last block's edge (below).
+        if let (Some(lo), Some(hi)) = (ranges.lo.get_mut(full), ranges.hi.get_mut(full)) {
+            lo[i] = if v < lo[i] { v } else { lo[i] };
+            hi[i] = if v > hi[i] { v } else { hi[i] };
         }
-        *lo_out = lo_out.min(lo.to_f64());
-        *hi_out = hi_out.max(hi.to_f64());
+    }
+    // The 17th sample of block bx is the first of chunk bx + 1.
+    for bx in 0..ranges.edge_lo.len() {
+        if let Some(&v) = row.get(16 * bx + 16) {
+            ranges.edge_lo[bx] = if v < ranges.edge_lo[bx] {
+                v
+            } else {
+                ranges.edge_lo[bx]
+            };
+            ranges.edge_hi[bx] = if v > ranges.edge_hi[bx] {
+                v
+            } else {
+                ranges.edge_hi[bx]
+            };
+        }
+    }
+    if threshold.is_none() {
+        words.fill(0);
     }
 }
 
@@ -92,17 +133,18 @@ pub(crate) fn scan_block_row<T: ExtractScalar>(
 
     scratch.inside.clear();
     scratch.inside.resize(words * rows_y * (cells_z + 1), 0);
-    scratch.row_min.clear();
-    scratch.row_min.resize(nbx, f64::INFINITY);
-    scratch.row_max.clear();
-    scratch.row_max.resize(nbx, f64::NEG_INFINITY);
+    let mut ranges = LaneRanges::<T>::new(nbx);
     for lz in 0..=cells_z {
         for ly in 0..rows_y {
             let start = nx * (y0 + ly + ny * (z0 + lz));
             let row = &samples[start..start + nx];
             let r = (lz * rows_y + ly) * words;
-            inside_mask(row, threshold, &mut scratch.inside[r..r + words]);
-            segment_ranges(row, &mut scratch.row_min, &mut scratch.row_max);
+            scan_row(
+                row,
+                threshold,
+                &mut scratch.inside[r..r + words],
+                &mut ranges,
+            );
         }
     }
 
@@ -167,9 +209,10 @@ pub(crate) fn scan_block_row<T: ExtractScalar>(
                     occupied_metacells += ((m | m >> 1) & 0x5555).count_ones();
                 }
             }
+            let (min, max) = ranges.block(bx);
             BlockScan {
-                min: scratch.row_min[bx],
-                max: scratch.row_max[bx],
+                min,
+                max,
                 active_cells,
                 occupied_metacells,
             }
