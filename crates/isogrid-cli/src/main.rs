@@ -1,1 +1,54 @@
-fn main() {}
+//! `isogrid`: extract, inspect and compare clustered grid cell isosurfaces from the command line.
+
+mod args;
+mod commands;
+mod input;
+mod progress;
+mod report;
+
+use clap::{Parser, Subcommand};
+use std::process::ExitCode;
+
+/// Isosurfaces as clustered grid cells (Nysjö, "Clustered Grid Cell Data Structure for Isosurface Rendering").
+#[derive(Parser)]
+#[command(name = "isogrid", version, about, propagate_version = true)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Extract the active cells of a volume into a .cgc file and print their statistics.
+    Extract(commands::extract::Args),
+    /// Print the statistics of a .cgc file.
+    Info(commands::info::Args),
+    /// Extract the Marching Cubes mesh the paper compares with (indexed, snorm16 positions).
+    Mc(commands::mc::Args),
+    /// Voxelise a triangle mesh (PLY, OBJ, STL) into an 8-bit coverage volume, as the paper made its datasets.
+    Voxelize(commands::voxelize::Args),
+    /// Write a built-in procedural volume (hairball, sphere, gyroid, ...).
+    Generate(commands::generate::Args),
+    /// Build a built-in volume, extract it and compare with Marching Cubes.
+    Demo(commands::demo::Args),
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Extract(a) => commands::extract::run(a),
+        Command::Info(a) => commands::info::run(a),
+        Command::Mc(a) => commands::mc::run(a),
+        Command::Voxelize(a) => commands::voxelize::run(a),
+        Command::Generate(a) => commands::generate::run(a),
+        Command::Demo(a) => commands::demo::run(a),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(err) => {
+            // One line: the outermost context and its causes, never a backtrace.
+            eprintln!("isogrid: error: {err:#}");
+            ExitCode::FAILURE
+        }
+    }
+}

@@ -1,0 +1,82 @@
+//! Argument groups shared by several subcommands.
+
+use anyhow::{bail, Result};
+use clap::Args;
+use isogrid::{Iso, Precision, ScalarType};
+use isogrid_io::{RawSpec, ReadOptions};
+
+/// `--iso V | --iso-normalized V`, exactly one.
+#[derive(Args, Debug, Clone)]
+#[group(required = true, multiple = false)]
+pub struct IsoArgs {
+    /// Isovalue in data units: a sample is inside when value >= V.
+    #[arg(long, value_name = "V", allow_negative_numbers = true)]
+    pub iso: Option<f64>,
+    /// Isovalue as a fraction of the volume's value range (the paper uses 0.5).
+    #[arg(long, value_name = "V")]
+    pub iso_normalized: Option<f64>,
+}
+
+impl IsoArgs {
+    pub fn iso(&self) -> Iso {
+        match (self.iso, self.iso_normalized) {
+            (Some(v), _) => Iso::Value(v),
+            (_, Some(t)) => Iso::Normalized(t),
+            _ => unreachable!("clap requires one of --iso and --iso-normalized"),
+        }
+    }
+}
+
+/// How to read the input volume when its format needs telling.
+#[derive(Args, Debug, Clone, Default)]
+pub struct InputArgs {
+    /// Read INPUT as raw samples of this shape (X,Y,Z; X varies fastest).
+    #[arg(long, value_name = "X,Y,Z", value_delimiter = ',', num_args = 3)]
+    pub raw_shape: Option<Vec<usize>>,
+    /// Sample type of a raw file.
+    #[arg(long, value_name = "TYPE", value_parser = ["u8", "u16", "i16", "f32"], requires = "raw_shape")]
+    pub raw_type: Option<String>,
+    /// Raw samples are big-endian.
+    #[arg(long, requires = "raw_shape")]
+    pub big_endian: bool,
+}
+
+impl InputArgs {
+    pub fn read_options(&self) -> Result<ReadOptions> {
+        let mut options = ReadOptions::default();
+        if let Some(shape) = &self.raw_shape {
+            let scalar = match self.raw_type.as_deref() {
+                Some("u8") => ScalarType::U8,
+                Some("u16") => ScalarType::U16,
+                Some("i16") => ScalarType::I16,
+                Some("f32") => ScalarType::F32,
+                _ => bail!("--raw-shape needs --raw-type u8|u16|i16|f32"),
+            };
+            options.raw = Some(RawSpec { dims: [shape[0], shape[1], shape[2]], scalar, big_endian: self.big_endian });
+        }
+        Ok(options)
+    }
+}
+
+/// `--threads N`.
+#[derive(Args, Debug, Clone, Default)]
+pub struct ThreadArgs {
+    /// Worker threads (default: all cores). Output is identical for any count.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u16).range(1..))]
+    pub threads: Option<u16>,
+}
+
+impl ThreadArgs {
+    /// Runs `f` on a rayon pool of the requested size.
+    pub fn install<T: Send>(&self, f: impl FnOnce() -> T + Send) -> Result<T> {
+        let mut builder = rayon::ThreadPoolBuilder::new();
+        if let Some(n) = self.threads {
+            builder = builder.num_threads(n as usize);
+        }
+        Ok(builder.build()?.install(f))
+    }
+}
+
+pub fn parse_precision(s: &str) -> Result<Precision, String> {
+    s.parse::<u32>().ok().and_then(Precision::from_bits).ok_or_else(|| format!("precision must be 4, 8, 16 or 32, not {s}"))
+}

@@ -1,0 +1,37 @@
+//! `isogrid info`: statistics of a `.cgc` file (validated on open).
+
+use crate::report::{print_json, GridReport, Seconds};
+use anyhow::Result;
+use isogrid::GridStats;
+use std::path::PathBuf;
+use std::time::Instant;
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// A .cgc file written by `isogrid extract`.
+    pub file: PathBuf,
+    /// Print one JSON object instead of a table.
+    #[arg(long)]
+    pub json: bool,
+}
+
+pub fn run(args: Args) -> Result<()> {
+    let start = Instant::now();
+    let grid = isogrid::cgc::open(&args.file)?;
+    let read = start.elapsed().as_secs_f64();
+    let report = GridReport::new(&GridStats::of(&grid), Seconds { read, ..Default::default() });
+    if args.json {
+        print_json(&report)
+    } else {
+        report.print_human();
+        let info = grid.info();
+        println!(
+            "source        {} samples in [{}, {}], spacing {:?}",
+            info.scalar_type.name(),
+            info.value_range[0],
+            info.value_range[1],
+            info.spacing
+        );
+        Ok(())
+    }
+}

