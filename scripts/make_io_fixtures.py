@@ -64,6 +64,13 @@ def write_nifti():
     aff[:3, 3] = [5, 6, 7]
     nib.Nifti1Image(i16(), aff).to_filename(path("i16.nii.gz"))
 
+    # Big-endian header and data.
+    hdr = nib.Nifti1Header(endianness=">")
+    hdr.set_data_dtype(np.uint16)
+    nib.Nifti1Image(u16(), np.eye(4), header=hdr).to_filename(path("u16_big.nii"))
+    with open(path("u16_big.nii"), "rb") as f:
+        assert struct.unpack(">i", f.read(4))[0] == 348, "nibabel wrote little endian"
+
     # qform only, with qfac = -1 (k flipped): spacing (2, 3, 4), origin (1, 2, 3).
     aff = np.diag([2.0, 3.0, -4.0, 1.0])
     aff[:3, 3] = [1, 2, 3]

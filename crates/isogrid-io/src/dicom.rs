@@ -239,7 +239,7 @@ fn stored(slice: &Slice, index: usize) -> i64 {
         (1u32 << bits) - 1
     };
     let v = raw & mask;
-    if slice.signed && bits < 64 && v >> (bits - 1) & 1 == 1 {
+    if slice.signed && (v >> (bits - 1)) & 1 == 1 {
         v as i64 - (1i64 << bits)
     } else {
         v as i64

@@ -43,8 +43,7 @@ pub(crate) fn geometry(
             g.direction = direction;
         }
     }
-    for axis in 0..3 {
-        let s = spacing[axis];
+    for (axis, &s) in spacing.iter().enumerate() {
         if s.is_finite() && s != 0.0 {
             g.spacing[axis] = s.abs();
             if s < 0.0 {

@@ -19,8 +19,8 @@
 
 use crate::geometry::{cross, geometry, normalized, Vec3};
 use crate::samples::{
-    byte_count, check_available, check_deflate_budget, read_samples, sample_count, skip_bytes,
-    ElemType,
+    byte_count, check_available, check_deflate_budget, expect_end, read_samples, sample_count,
+    skip_bytes, ElemType,
 };
 use isogrid::{Error, Result, ResultExt, Volume, VolumeData};
 use std::fs::File;
@@ -74,6 +74,10 @@ fn read(path: &Path) -> Result<Volume> {
     }
     skip_bytes(&mut reader, header.vox_offset - HEADER_SIZE as u64)?;
     let data = read_samples(&mut reader, header.elem, header.big_endian, count)?;
+    if gzipped {
+        // A 3-D file has nothing after its volume; more data means the header is wrong.
+        expect_end(&mut reader)?;
+    }
     let data = match header.scale {
         Some((slope, inter)) => VolumeData::F32(scaled(&data, slope, inter)),
         None => data,
@@ -125,9 +129,11 @@ fn parse_header(raw: &[u8; HEADER_SIZE]) -> Result<Header> {
         }
         match d {
             1..=3 => dims[d - 1] = n as usize,
-            _ if n > 1 => return Err(Error::unsupported(format!(
+            _ if n > 1 => {
+                return Err(Error::unsupported(format!(
                 "dimension {d} has {n} entries (4-D or vector data); only one 3-D volume is read"
-            ))),
+            )))
+            }
             _ => {}
         }
     }

@@ -34,9 +34,11 @@ fn read(path: &Path) -> Result<Volume> {
         let (w, h) = decoder.dimensions().map_err(tiff_error)?;
         match decoder.colortype().map_err(tiff_error)? {
             ColorType::Gray(8 | 16 | 32 | 64) => {}
-            other => return Err(Error::unsupported(format!(
+            other => {
+                return Err(Error::unsupported(format!(
                 "page {pages} is {other:?}; only single-channel grayscale TIFF stacks are volumes"
-            ))),
+            )))
+            }
         }
         if *first_size.get_or_insert((w, h)) != (w, h) {
             return Err(Error::corrupt(format!(

@@ -13,9 +13,16 @@ fn expect_err(path: &Path, opts: &ReadOptions, kind: ErrorKind, needle: &str) {
     };
     let text = err.to_string();
     assert_eq!(err.kind(), kind, "{text}");
-    assert!(text.contains(needle), "'{text}' does not mention '{needle}'");
+    assert!(
+        text.contains(needle),
+        "'{text}' does not mention '{needle}'"
+    );
     assert!(!text.contains('\n'), "error is not one line: {text}");
-    assert_eq!(err.path(), Some(path), "error does not name the file: {text}");
+    assert_eq!(
+        err.path(),
+        Some(path),
+        "error does not name the file: {text}"
+    );
 }
 
 fn fixture_bytes(name: &str) -> Vec<u8> {
@@ -50,7 +57,10 @@ fn truncated_files_are_corrupt() {
             "{name} cut to {keep}: {err} ({:?})",
             err.kind()
         );
-        assert!(err.to_string().contains(needle), "{name} cut to {keep}: '{err}' lacks '{needle}'");
+        assert!(
+            err.to_string().contains(needle),
+            "{name} cut to {keep}: '{err}' lacks '{needle}'"
+        );
         assert_eq!(err.path(), Some(path.as_path()));
     }
 }
@@ -62,7 +72,10 @@ fn truncated_detached_data_names_the_data_file() {
     let data = dir.file("u8_detached.raw", &fixture_bytes("u8_detached.raw")[..100]);
     let err = read_volume(&dir.path("u8_detached.nhdr"), &ReadOptions::default()).unwrap_err();
     assert_eq!(err.kind(), ErrorKind::Corrupt);
-    assert!(err.message().contains("needs 105 bytes but only 100"), "{err}");
+    assert!(
+        err.message().contains("needs 105 bytes but only 100"),
+        "{err}"
+    );
     assert_eq!(err.path(), Some(data.as_path()));
 }
 
@@ -70,17 +83,52 @@ fn truncated_detached_data_names_the_data_file() {
 fn garbage_headers_are_corrupt() {
     let dir = TempDir::new("garbage");
     let none = ReadOptions::default();
-    let noise: Vec<u8> = (0..600u32).map(|x| (x.wrapping_mul(2654435761) >> 13) as u8).collect();
+    let noise: Vec<u8> = (0..600u32)
+        .map(|x| (x.wrapping_mul(2654435761) >> 13) as u8)
+        .collect();
     let mut fake_nifti = noise.clone();
     fake_nifti[..4].copy_from_slice(&348i32.to_le_bytes());
-    expect_err(&dir.file("g.nii", &noise), &none, ErrorKind::Corrupt, "sizeof_hdr");
-    expect_err(&dir.file("h.nii", &fake_nifti), &none, ErrorKind::Corrupt, "bad magic");
-    expect_err(&dir.file("g.nrrd", &noise), &none, ErrorKind::Corrupt, "NRRD");
-    expect_err(&dir.file("g.npy", &noise), &none, ErrorKind::Corrupt, "bad magic");
-    expect_err(&dir.file("g.tif", &noise), &none, ErrorKind::Corrupt, "TIFF");
-    expect_err(&dir.file("g.dat", &noise), &none, ErrorKind::Unsupported, "unknown volume format");
     expect_err(
-        &dir.file("h.npy", b"\x93NUMPY\x01\x00\x20\x00{'descr': '<f4', 'shape': (2,)}  \n"),
+        &dir.file("g.nii", &noise),
+        &none,
+        ErrorKind::Corrupt,
+        "sizeof_hdr",
+    );
+    expect_err(
+        &dir.file("h.nii", &fake_nifti),
+        &none,
+        ErrorKind::Corrupt,
+        "bad magic",
+    );
+    expect_err(
+        &dir.file("g.nrrd", &noise),
+        &none,
+        ErrorKind::Corrupt,
+        "NRRD",
+    );
+    expect_err(
+        &dir.file("g.npy", &noise),
+        &none,
+        ErrorKind::Corrupt,
+        "bad magic",
+    );
+    expect_err(
+        &dir.file("g.tif", &noise),
+        &none,
+        ErrorKind::Corrupt,
+        "TIFF",
+    );
+    expect_err(
+        &dir.file("g.dat", &noise),
+        &none,
+        ErrorKind::Unsupported,
+        "unknown volume format",
+    );
+    expect_err(
+        &dir.file(
+            "h.npy",
+            b"\x93NUMPY\x01\x00\x20\x00{'descr': '<f4', 'shape': (2,)}  \n",
+        ),
         &none,
         ErrorKind::Corrupt,
         "fortran_order",
@@ -112,19 +160,28 @@ fn absurd_sizes_fail_before_allocating() {
     let none = ReadOptions::default();
     let huge = "NRRD0004\ntype: uint8\ndimension: 3\nsizes: 100000 100000 100000\n";
     expect_err(
-        &dir.file("huge.nrrd", format!("{huge}encoding: raw\n\n0123456789").as_bytes()),
+        &dir.file(
+            "huge.nrrd",
+            format!("{huge}encoding: raw\n\n0123456789").as_bytes(),
+        ),
         &none,
         ErrorKind::Corrupt,
         "needs 1000000000000000 bytes but only 10",
     );
     expect_err(
-        &dir.file("huge_gz.nrrd", format!("{huge}encoding: gzip\n\n0123456789").as_bytes()),
+        &dir.file(
+            "huge_gz.nrrd",
+            format!("{huge}encoding: gzip\n\n0123456789").as_bytes(),
+        ),
         &none,
         ErrorKind::Corrupt,
         "cannot hold",
     );
     expect_err(
-        &dir.file("wide.nrrd", b"NRRD0004\ntype: uint8\ndimension: 3\nsizes: 200000 1 1\nencoding: raw\n\n0"),
+        &dir.file(
+            "wide.nrrd",
+            b"NRRD0004\ntype: uint8\ndimension: 3\nsizes: 200000 1 1\nencoding: raw\n\n0",
+        ),
         &none,
         ErrorKind::TooLarge,
         "exceeds the limit",
@@ -144,7 +201,12 @@ fn absurd_sizes_fail_before_allocating() {
     for d in 0..3 {
         nii[42 + 2 * d..44 + 2 * d].copy_from_slice(&30000i16.to_le_bytes());
     }
-    expect_err(&dir.file("huge.nii", &nii), &none, ErrorKind::Corrupt, "truncated");
+    expect_err(
+        &dir.file("huge.nii", &nii),
+        &none,
+        ErrorKind::Corrupt,
+        "truncated",
+    );
     let mut gz = Vec::new();
     {
         use std::io::Write;
@@ -152,48 +214,106 @@ fn absurd_sizes_fail_before_allocating() {
         enc.write_all(&nii[..352]).unwrap();
         enc.finish().unwrap();
     }
-    expect_err(&dir.file("huge.nii.gz", &gz), &none, ErrorKind::Corrupt, "cannot hold");
+    expect_err(
+        &dir.file("huge.nii.gz", &gz),
+        &none,
+        ErrorKind::Corrupt,
+        "cannot hold",
+    );
     // TIFF width, height and rows per strip (LONG tags 256, 257, 278, in every page) patched to
     // 60000 and the strip byte count (279) to match, so the header is consistent but the file tiny.
     let mut tif = fixture_bytes("u8_stack.tif");
-    for (tag, value) in [(256u16, 60000u32), (257, 60000), (278, 60000), (279, 3_600_000_000)] {
-        let entry = [&tag.to_le_bytes()[..], &4u16.to_le_bytes(), &1u32.to_le_bytes()].concat();
-        let hits: Vec<usize> = (0..tif.len() - 8).filter(|&i| tif[i..i + 8] == entry[..]).collect();
+    for (tag, value) in [
+        (256u16, 60000u32),
+        (257, 60000),
+        (278, 60000),
+        (279, 3_600_000_000),
+    ] {
+        let entry = [
+            &tag.to_le_bytes()[..],
+            &4u16.to_le_bytes(),
+            &1u32.to_le_bytes(),
+        ]
+        .concat();
+        let hits: Vec<usize> = (0..tif.len() - 8)
+            .filter(|&i| tif[i..i + 8] == entry[..])
+            .collect();
         assert_eq!(hits.len(), 3, "one entry per page");
         for at in hits {
             tif[at + 8..at + 12].copy_from_slice(&value.to_le_bytes());
         }
     }
-    expect_err(&dir.file("huge.tif", &tif), &none, ErrorKind::Corrupt, "cannot fit");
+    expect_err(
+        &dir.file("huge.tif", &tif),
+        &none,
+        ErrorKind::Corrupt,
+        "cannot fit",
+    );
 }
 
 #[test]
 fn raw_size_mismatch_says_expected_and_actual() {
-    let spec = RawSpec { dims: [7, 5, 4], scalar: ScalarType::U8, big_endian: false };
+    let spec = RawSpec {
+        dims: [7, 5, 4],
+        scalar: ScalarType::U8,
+        big_endian: false,
+    };
     expect_err(
         &fixture("u8_detached.raw"),
         &ReadOptions { raw: Some(spec) },
         ErrorKind::InvalidInput,
         "needs 140 bytes but the file has 105",
     );
-    let spec = RawSpec { dims: [7, 5, 3], scalar: ScalarType::F32, big_endian: false };
-    expect_err(&fixture("u8_detached.raw"), &ReadOptions { raw: Some(spec) }, ErrorKind::InvalidInput, "420 bytes");
-    expect_err(&fixture("u8_detached.raw"), &ReadOptions::default(), ErrorKind::InvalidInput, "raw spec");
+    let spec = RawSpec {
+        dims: [7, 5, 3],
+        scalar: ScalarType::F32,
+        big_endian: false,
+    };
+    expect_err(
+        &fixture("u8_detached.raw"),
+        &ReadOptions { raw: Some(spec) },
+        ErrorKind::InvalidInput,
+        "420 bytes",
+    );
+    expect_err(
+        &fixture("u8_detached.raw"),
+        &ReadOptions::default(),
+        ErrorKind::InvalidInput,
+        "raw spec",
+    );
 }
 
 #[test]
 fn unsupported_content_is_named() {
     let none = ReadOptions::default();
-    expect_err(&fixture("rgb.tif"), &none, ErrorKind::Unsupported, "grayscale");
+    expect_err(
+        &fixture("rgb.tif"),
+        &none,
+        ErrorKind::Unsupported,
+        "grayscale",
+    );
     let dir = TempDir::new("unsupported");
     let mut nii = fixture_bytes("u8.nii");
     nii[40..42].copy_from_slice(&4i16.to_le_bytes()); // dim[0] = 4
     nii[48..50].copy_from_slice(&2i16.to_le_bytes()); // dim[4] = 2 volumes
-    expect_err(&dir.file("t2.nii", &nii), &none, ErrorKind::Unsupported, "4-D");
-    nii[48..50].copy_from_slice(&1i16.to_le_bytes()); // t = 1 is fine
-    assert_eq!(read_volume(&dir.file("t1.nii", &nii), &none).unwrap().dims(), [7, 5, 3]);
     expect_err(
-        &dir.file("bz.nrrd", b"NRRD0004\ntype: uint8\ndimension: 3\nsizes: 2 2 2\nencoding: bzip2\n\n"),
+        &dir.file("t2.nii", &nii),
+        &none,
+        ErrorKind::Unsupported,
+        "4-D",
+    );
+    nii[48..50].copy_from_slice(&1i16.to_le_bytes()); // t = 1 is fine
+    assert_eq!(
+        read_volume(&dir.file("t1.nii", &nii), &none)
+            .unwrap()
+            .dims(),
+        [7, 5, 3]
+    );
+    expect_err(
+        &dir.file(
+            "bz.nrrd",
+            b"NRRD0004\ntype: uint8\ndimension: 3\nsizes: 2 2 2\nencoding: bzip2\n\n",
+        ),
         &none,
         ErrorKind::Unsupported,
         "bzip2",
@@ -203,7 +323,10 @@ fn unsupported_content_is_named() {
 fn copy_series(dir: &TempDir, folder: &str) {
     for entry in std::fs::read_dir(fixture(folder)).unwrap() {
         let p = entry.unwrap().path();
-        dir.file(p.file_name().unwrap().to_str().unwrap(), &std::fs::read(&p).unwrap());
+        dir.file(
+            p.file_name().unwrap().to_str().unwrap(),
+            &std::fs::read(&p).unwrap(),
+        );
     }
 }
 
@@ -211,9 +334,19 @@ fn copy_series(dir: &TempDir, folder: &str) {
 fn dicom_folders_without_slices_are_invalid() {
     let none = ReadOptions::default();
     let empty = TempDir::new("dicom-empty");
-    expect_err(&empty.0, &none, ErrorKind::InvalidInput, "no DICOM image slices");
+    expect_err(
+        &empty.0,
+        &none,
+        ErrorKind::InvalidInput,
+        "no DICOM image slices",
+    );
     empty.file("notes.txt", b"hello");
-    expect_err(&empty.0, &none, ErrorKind::InvalidInput, "no DICOM image slices");
+    expect_err(
+        &empty.0,
+        &none,
+        ErrorKind::InvalidInput,
+        "no DICOM image slices",
+    );
 }
 
 #[test]
@@ -223,10 +356,18 @@ fn dicom_slices_of_different_size_are_rejected() {
     // Explicit VR LE element (0028,0010) Rows: tag, "US", length 2, value 5.
     let mut bytes = std::fs::read(dir.path("b.dcm")).unwrap();
     let rows = [0x28u8, 0x00, 0x10, 0x00, b'U', b'S', 2, 0, 5, 0];
-    let at = bytes.windows(10).position(|w| w == rows).expect("Rows element");
+    let at = bytes
+        .windows(10)
+        .position(|w| w == rows)
+        .expect("Rows element");
     bytes[at + 8] = 4;
     dir.file("b.dcm", &bytes);
-    expect_err(&dir.0, &ReadOptions::default(), ErrorKind::Corrupt, "slices differ in size");
+    expect_err(
+        &dir.0,
+        &ReadOptions::default(),
+        ErrorKind::Corrupt,
+        "slices differ in size",
+    );
 }
 
 #[test]
@@ -235,7 +376,10 @@ fn dicom_huge_rows_and_truncated_slices_are_corrupt() {
     copy_series(&dir, "dicom_ct");
     let mut bytes = std::fs::read(dir.path("a.dcm")).unwrap();
     let rows = [0x28u8, 0x00, 0x10, 0x00, b'U', b'S', 2, 0, 5, 0];
-    let at = bytes.windows(10).position(|w| w == rows).expect("Rows element");
+    let at = bytes
+        .windows(10)
+        .position(|w| w == rows)
+        .expect("Rows element");
     bytes[at + 8..at + 10].copy_from_slice(&65535u16.to_le_bytes());
     let a = dir.file("a.dcm", &bytes);
     let err = read_volume(&dir.0, &ReadOptions::default()).unwrap_err();

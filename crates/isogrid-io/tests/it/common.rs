@@ -7,7 +7,9 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 pub const DIMS: [usize; 3] = [7, 5, 3];
 
 pub fn fixture(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures").join(name)
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/fixtures")
+        .join(name)
 }
 
 /// The base value every fixture derives its samples from.
@@ -16,7 +18,11 @@ pub fn base(i: usize, j: usize, k: usize) -> f64 {
 }
 
 /// Checks type, dims and every sample against `expected(i, j, k)` exactly.
-pub fn check_samples(v: &Volume, scalar: ScalarType, expected: impl Fn(usize, usize, usize) -> f64) {
+pub fn check_samples(
+    v: &Volume,
+    scalar: ScalarType,
+    expected: impl Fn(usize, usize, usize) -> f64,
+) {
     assert_eq!(v.scalar_type(), scalar);
     assert_eq!(v.dims(), DIMS);
     for k in 0..DIMS[2] {
@@ -30,7 +36,10 @@ pub fn check_samples(v: &Volume, scalar: ScalarType, expected: impl Fn(usize, us
 
 pub fn assert_close(actual: [f64; 3], expected: [f64; 3]) {
     for a in 0..3 {
-        assert!((actual[a] - expected[a]).abs() < 1e-6, "{actual:?} != {expected:?}");
+        assert!(
+            (actual[a] - expected[a]).abs() < 1e-6,
+            "{actual:?} != {expected:?}"
+        );
     }
 }
 

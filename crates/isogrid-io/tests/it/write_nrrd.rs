@@ -32,10 +32,17 @@ fn round_trip_every_type_and_geometry() {
         assert_close(back.spacing(), original.spacing());
         assert_eq!(back.origin(), original.origin());
         for axis in 0..3 {
-            assert_close(back.geometry().direction[axis], original.geometry().direction[axis]);
+            assert_close(
+                back.geometry().direction[axis],
+                original.geometry().direction[axis],
+            );
         }
     }
-    assert_eq!(std::fs::read_dir(&dir.0).unwrap().count(), 1, "temporary files left behind");
+    assert_eq!(
+        std::fs::read_dir(&dir.0).unwrap().count(),
+        1,
+        "temporary files left behind"
+    );
 }
 
 #[test]
@@ -46,10 +53,24 @@ fn header_is_plain_nrrd_with_space_fields() {
     let bytes = std::fs::read(&path).unwrap();
     let end = bytes.windows(2).position(|w| w == b"\n\n").unwrap();
     let header = std::str::from_utf8(&bytes[..end]).unwrap();
-    for line in ["NRRD0004", "type: uint16", "sizes: 4 3 2", "endian: little", "encoding: raw", "space origin: (-10.5,0.125,1000)"] {
-        assert!(header.lines().any(|l| l == line), "missing '{line}' in\n{header}");
+    for line in [
+        "NRRD0004",
+        "type: uint16",
+        "sizes: 4 3 2",
+        "endian: little",
+        "encoding: raw",
+        "space origin: (-10.5,0.125,1000)",
+    ] {
+        assert!(
+            header.lines().any(|l| l == line),
+            "missing '{line}' in\n{header}"
+        );
     }
-    assert_eq!(bytes.len() - end - 2, 48, "data is 24 u16 samples right after the blank line");
+    assert_eq!(
+        bytes.len() - end - 2,
+        48,
+        "data is 24 u16 samples right after the blank line"
+    );
 }
 
 #[test]
