@@ -19,8 +19,8 @@
 
 use crate::geometry::{cross, geometry, normalized, Vec3};
 use crate::samples::{
-    byte_count, check_available, check_deflate_budget, expect_end, read_samples, sample_count,
-    skip_bytes, ElemType,
+    byte_count, check_available, check_deflate_budget, expect_end, gzip_error, read_samples,
+    sample_count, skip_bytes, ElemType,
 };
 use isogrid::{Error, Result, ResultExt, Volume, VolumeData};
 use std::fs::File;
@@ -72,12 +72,16 @@ fn read(path: &Path) -> Result<Volume> {
     } else {
         check_available(needed, file_len.saturating_sub(header.vox_offset))?;
     }
-    skip_bytes(&mut reader, header.vox_offset - HEADER_SIZE as u64)?;
-    let data = read_samples(&mut reader, header.elem, header.big_endian, count)?;
-    if gzipped {
-        // A 3-D file has nothing after its volume; more data means the header is wrong.
-        expect_end(&mut reader)?;
-    }
+    let data = (|| {
+        skip_bytes(&mut reader, header.vox_offset - HEADER_SIZE as u64)?;
+        let data = read_samples(&mut reader, header.elem, header.big_endian, count)?;
+        if gzipped {
+            // A 3-D file has nothing after its volume; more data means the header is wrong.
+            expect_end(&mut reader)?;
+        }
+        Ok(data)
+    })()
+    .map_err(|e| if gzipped { gzip_error(e) } else { e })?;
     let data = match header.scale {
         Some((slope, inter)) => VolumeData::F32(scaled(&data, slope, inter)),
         None => data,

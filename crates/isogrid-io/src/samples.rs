@@ -152,6 +152,15 @@ pub(crate) fn expect_end<R: Read + ?Sized>(reader: &mut R) -> Result<()> {
     }
 }
 
+/// Turns an OS-level error from a decompressing reader into what it means: invalid gzip data.
+pub(crate) fn gzip_error(e: Error) -> Error {
+    if e.kind() == isogrid::ErrorKind::Io {
+        Error::corrupt(format!("gzip data is invalid: {}", e.message()))
+    } else {
+        e
+    }
+}
+
 /// Skips exactly `n` bytes of a stream.
 pub(crate) fn skip_bytes<R: Read + ?Sized>(reader: &mut R, n: u64) -> Result<()> {
     let skipped = std::io::copy(&mut reader.take(n), &mut std::io::sink())?;

@@ -14,8 +14,8 @@
 use super::header::{self, clip, DataFiles, Encoding, Header};
 use crate::geometry::geometry;
 use crate::samples::{
-    byte_count, check_available, check_deflate_budget, expect_end, from_f64_values, read_samples,
-    sample_count, skip_bytes,
+    byte_count, check_available, check_deflate_budget, expect_end, from_f64_values, gzip_error,
+    read_samples, sample_count, skip_bytes,
 };
 use isogrid::{Error, Result, ResultExt, Volume, VolumeData};
 use std::fs::File;
@@ -145,10 +145,10 @@ fn read_part(file: File, offset: u64, header: &Header, count: usize) -> Result<V
             let skip = header.byte_skip as u64;
             check_deflate_budget(needed.saturating_add(skip), available)?;
             let mut stream = flate2::read::MultiGzDecoder::new(reader);
-            skip_bytes(&mut stream, skip)?;
+            skip_bytes(&mut stream, skip).map_err(gzip_error)?;
             let data = read_samples(&mut stream, header.elem, header.big_endian, count)
-                .map_err(|e| gzip_error(e, needed))?;
-            expect_end(&mut stream).map_err(|e| gzip_error(e, needed))?;
+                .map_err(gzip_error)?;
+            expect_end(&mut stream).map_err(gzip_error)?;
             Ok(data)
         }
         Encoding::Ascii => {
@@ -180,19 +180,6 @@ fn read_part(file: File, offset: u64, header: &Header, count: usize) -> Result<V
             }
             Ok(from_f64_values(&values, header.elem))
         }
-    }
-}
-
-/// Makes gzip-layer failures say what they are (a bad stream is corrupt data, not an OS error).
-fn gzip_error(e: Error, needed: u64) -> Error {
-    if e.kind() == isogrid::ErrorKind::Io {
-        Error::corrupt(format!("gzip data is invalid: {}", e.message()))
-    } else if e.message().contains("longer") {
-        Error::corrupt(format!(
-            "gzip data decompresses to more than the declared {needed} bytes"
-        ))
-    } else {
-        e
     }
 }
 

@@ -154,6 +154,40 @@ fn garbage_headers_are_corrupt() {
     );
 }
 
+fn gzip(bytes: &[u8]) -> Vec<u8> {
+    use std::io::Write;
+    let mut enc = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::default());
+    enc.write_all(bytes).unwrap();
+    enc.finish().unwrap()
+}
+
+#[test]
+fn gzip_data_longer_than_declared_or_damaged_is_corrupt() {
+    let dir = TempDir::new("gzip-len");
+    let none = ReadOptions::default();
+    let head = b"NRRD0004\ntype: uint8\ndimension: 3\nsizes: 2 2 2\nencoding: gzip\n\n".to_vec();
+    let long = [head.clone(), gzip(&[1u8; 9])].concat();
+    expect_err(
+        &dir.file("long.nrrd", &long),
+        &none,
+        ErrorKind::Corrupt,
+        "longer than the header declares",
+    );
+    let short = [head.clone(), gzip(&[1u8; 7])].concat();
+    expect_err(
+        &dir.file("short.nrrd", &short),
+        &none,
+        ErrorKind::Corrupt,
+        "needs 8 bytes, only 7",
+    );
+    // Damage the deflate payload of the nibabel-written .nii.gz past its gzip header.
+    let mut nii = fixture_bytes("i16.nii.gz");
+    for b in &mut nii[40..120] {
+        *b ^= 0x5a;
+    }
+    expect_err(&dir.file("bad.nii.gz", &nii), &none, ErrorKind::Corrupt, "");
+}
+
 #[test]
 fn absurd_sizes_fail_before_allocating() {
     let dir = TempDir::new("absurd");
@@ -207,13 +241,7 @@ fn absurd_sizes_fail_before_allocating() {
         ErrorKind::Corrupt,
         "truncated",
     );
-    let mut gz = Vec::new();
-    {
-        use std::io::Write;
-        let mut enc = flate2::write::GzEncoder::new(&mut gz, flate2::Compression::default());
-        enc.write_all(&nii[..352]).unwrap();
-        enc.finish().unwrap();
-    }
+    let gz = gzip(&nii[..352]);
     expect_err(
         &dir.file("huge.nii.gz", &gz),
         &none,
