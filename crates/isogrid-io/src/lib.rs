@@ -1,1 +1,28 @@
-//! File formats.
+//! Volume file formats for isogrid: NIfTI-1, NRRD, NumPy `.npy`, raw, DICOM series and TIFF
+//! stacks, read into an [`isogrid::Volume`], and NRRD written back.
+//!
+//! Every reader keeps the file's storage order (voxel (i, j, k), i fastest; no reorientation or
+//! resampling), keeps spacing and origin in physical file units in [`isogrid::Geometry`] and the
+//! axis directions as metadata when the format has them. Sample types u8, u16, i16 and f32 are
+//! kept; i8 becomes i16, bool becomes u8, and u32/i32/u64/i64/f64 become f32 (integers above 2²⁴
+//! and f64 precision are rounded). Malformed or truncated files give one-line errors naming the
+//! file; declared sizes are checked against the file before anything is allocated.
+
+pub mod dicom;
+pub mod nifti;
+pub mod npy;
+pub mod nrrd;
+pub mod raw;
+pub mod tiff;
+
+mod geometry;
+mod read;
+mod samples;
+
+pub use dicom::read_dicom_series;
+pub use nifti::read_nifti;
+pub use npy::read_npy;
+pub use nrrd::{read_nrrd, write_nrrd};
+pub use raw::{read_raw, RawSpec};
+pub use read::{read_volume, ReadOptions};
+pub use tiff::read_tiff;

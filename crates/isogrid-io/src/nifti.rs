@@ -1,0 +1,257 @@
+//! NIfTI-1 single-file volumes (`.nii`, and gzip-compressed `.nii.gz`).
+//!
+//! Spec: the NIfTI-1 header `nifti1.h` (348-byte header, magic `n+1`, data at `vox_offset`).
+//! The header is parsed here directly: it is small and fixed, and a hand parser lets every size be
+//! checked against the file before anything is allocated (the `nifti` crate would bring nalgebra
+//! and ndarray for no gain here). Either byte order is accepted (detected from `sizeof_hdr`).
+//!
+//! - Grid: voxel (i, j, k) in file order, i fastest; no reorientation.
+//! - Spacing: `|pixdim[1..=3]|` (0 or NaN means unknown and becomes 1).
+//! - Origin and direction, in NIfTI world space (RAS+, usually mm): from the **sform** when
+//!   `sform_code > 0` (as nibabel's best affine does), else from the **qform** when
+//!   `qform_code > 0`, else origin 0 and identity directions (NIfTI "method 1").
+//! - Intensity scaling: when `scl_slope` is non-zero and not exactly (1, 0), values become
+//!   `slope·v + inter` stored as f32.
+//! - 4-D files: `t = 1` is read as 3-D; `t > 1` (and any extra dimension > 1) is an `Unsupported`
+//!   error rather than a silent pick of the first volume: extract one first (e.g. `fslroi`).
+//! - Types: u8, i8, u16, i16, u32, i32, u64, i64, f32, f64 (converted as in the crate docs);
+//!   complex, RGB and binary are `Unsupported`. NIfTI-2 and the `.hdr/.img` pair are `Unsupported`.
+
+use crate::geometry::{cross, geometry, normalized, Vec3};
+use crate::samples::{
+    byte_count, check_available, check_deflate_budget, expect_end, gzip_error, read_samples,
+    sample_count, skip_bytes, ElemType,
+};
+use isogrid::{Error, Result, ResultExt, Volume, VolumeData};
+use std::fs::File;
+use std::io::{BufReader, Read, Seek, SeekFrom};
+use std::path::Path;
+
+const HEADER_SIZE: usize = 348;
+
+/// Reads a `.nii` or `.nii.gz` file (gzip is detected from the content). Errors name `path`.
+pub fn read_nifti(path: &Path) -> Result<Volume> {
+    read(path).at_path(path)
+}
+
+/// The header fields a volume needs.
+struct Header {
+    dims: [usize; 3],
+    elem: ElemType,
+    big_endian: bool,
+    vox_offset: u64,
+    spacing: [f64; 3],
+    origin: Vec3,
+    direction: Option<[Vec3; 3]>,
+    scale: Option<(f32, f32)>,
+}
+
+fn read(path: &Path) -> Result<Volume> {
+    let mut file = File::open(path)?;
+    let file_len = file.metadata()?.len();
+    let mut magic = [0u8; 2];
+    let gzipped = file.read(&mut magic)? == 2 && magic == [0x1f, 0x8b];
+    file.seek(SeekFrom::Start(0))?;
+    let mut reader: Box<dyn Read> = if gzipped {
+        Box::new(flate2::read::MultiGzDecoder::new(BufReader::new(file)))
+    } else {
+        Box::new(BufReader::new(file))
+    };
+    let mut raw = [0u8; HEADER_SIZE];
+    reader.read_exact(&mut raw).map_err(|e| match e.kind() {
+        std::io::ErrorKind::UnexpectedEof => {
+            Error::corrupt("file is shorter than a NIfTI-1 header")
+        }
+        _ => Error::corrupt(format!("cannot read the NIfTI header: {e}")),
+    })?;
+    let header = parse_header(&raw)?;
+    let count = sample_count(header.dims)?;
+    let needed = byte_count(count, header.elem)?;
+    if gzipped {
+        check_deflate_budget(header.vox_offset + needed, file_len)?;
+    } else {
+        check_available(needed, file_len.saturating_sub(header.vox_offset))?;
+    }
+    let data = (|| {
+        skip_bytes(&mut reader, header.vox_offset - HEADER_SIZE as u64)?;
+        let data = read_samples(&mut reader, header.elem, header.big_endian, count)?;
+        if gzipped {
+            // A 3-D file has nothing after its volume; more data means the header is wrong.
+            expect_end(&mut reader)?;
+        }
+        Ok(data)
+    })()
+    .map_err(|e| if gzipped { gzip_error(e) } else { e })?;
+    let data = match header.scale {
+        Some((slope, inter)) => VolumeData::F32(scaled(&data, slope, inter)),
+        None => data,
+    };
+    let g = geometry(header.dims, header.spacing, header.origin, header.direction);
+    Volume::with_geometry(g, data)
+}
+
+fn scaled(data: &VolumeData, slope: f32, inter: f32) -> Vec<f32> {
+    let s = data.samples();
+    (0..s.len())
+        .map(|i| s.get_f64(i) as f32 * slope + inter)
+        .collect()
+}
+
+fn parse_header(raw: &[u8; HEADER_SIZE]) -> Result<Header> {
+    let big_endian = match (
+        i32::from_le_bytes(field(raw, 0)),
+        i32::from_be_bytes(field(raw, 0)),
+    ) {
+        (348, _) => false,
+        (_, 348) => true,
+        (540, _) | (_, 540) => return Err(Error::unsupported("NIfTI-2 files are not supported")),
+        _ => return Err(Error::corrupt("not a NIfTI-1 file: sizeof_hdr is not 348")),
+    };
+    let h = Fields { raw, big_endian };
+    match &raw[344..348] {
+        b"n+1\0" => {}
+        b"ni1\0" => {
+            return Err(Error::unsupported(
+                "NIfTI .hdr/.img pairs are not supported; convert to a single .nii",
+            ))
+        }
+        _ => return Err(Error::corrupt("not a NIfTI-1 file: bad magic")),
+    }
+    let ndim = h.i16(40);
+    if !(1..=7).contains(&ndim) {
+        return Err(Error::corrupt(format!("dim[0] = {ndim} is outside 1..=7")));
+    }
+    let mut dims = [1usize; 3];
+    for d in 1..=7usize {
+        let n = if d <= ndim as usize {
+            h.i16(40 + 2 * d)
+        } else {
+            1
+        };
+        if n < 1 {
+            return Err(Error::corrupt(format!("dim[{d}] = {n} is not positive")));
+        }
+        match d {
+            1..=3 => dims[d - 1] = n as usize,
+            _ if n > 1 => {
+                return Err(Error::unsupported(format!(
+                "dimension {d} has {n} entries (4-D or vector data); only one 3-D volume is read"
+            )))
+            }
+            _ => {}
+        }
+    }
+    let datatype = h.i16(70);
+    let elem = match datatype {
+        2 => ElemType::U8,
+        4 => ElemType::I16,
+        8 => ElemType::I32,
+        16 => ElemType::F32,
+        64 => ElemType::F64,
+        256 => ElemType::I8,
+        512 => ElemType::U16,
+        768 => ElemType::U32,
+        1024 => ElemType::I64,
+        1280 => ElemType::U64,
+        _ => {
+            return Err(Error::unsupported(format!(
+                "NIfTI datatype {datatype} is not supported"
+            )))
+        }
+    };
+    let vox_offset = h.f32(108);
+    if !(vox_offset.is_finite() && vox_offset >= HEADER_SIZE as f32 && vox_offset < 1e12) {
+        return Err(Error::corrupt(format!(
+            "vox_offset {vox_offset} is not a valid data offset"
+        )));
+    }
+    let pixdim = |d: usize| h.f32(76 + 4 * d) as f64;
+    let spacing = [pixdim(1), pixdim(2), pixdim(3)];
+    let (slope, inter) = (h.f32(112), h.f32(116));
+    let scale = (slope != 0.0 && slope.is_finite() && (slope, inter) != (1.0, 0.0))
+        .then_some((slope, if inter.is_finite() { inter } else { 0.0 }));
+    let (origin, direction) = if h.i16(254) > 0 {
+        sform(&h)
+    } else if h.i16(252) > 0 {
+        qform(&h, pixdim(0))
+    } else {
+        ([0.0; 3], None)
+    };
+    Ok(Header {
+        dims,
+        elem,
+        big_endian,
+        vox_offset: vox_offset as u64,
+        spacing: spacing.map(|s| s.abs()),
+        origin,
+        direction,
+        scale,
+    })
+}
+
+/// Origin and axis directions from the sform rows `srow_x/y/z` (world = S · (i, j, k, 1)).
+fn sform(h: &Fields) -> (Vec3, Option<[Vec3; 3]>) {
+    let row = |r: usize| [0, 1, 2, 3].map(|c| h.f32(280 + 16 * r + 4 * c) as f64);
+    let rows = [row(0), row(1), row(2)];
+    let origin = [rows[0][3], rows[1][3], rows[2][3]];
+    let column = |c: usize| normalized([rows[0][c], rows[1][c], rows[2][c]]);
+    let direction = match (column(0), column(1), column(2)) {
+        (Some(a), Some(b), Some(c)) => Some([a, b, c]),
+        _ => None,
+    };
+    (origin, direction)
+}
+
+/// Origin and axis directions from the qform quaternion; `qfac` (pixdim[0]) flips k when negative.
+fn qform(h: &Fields, qfac: f64) -> (Vec3, Option<[Vec3; 3]>) {
+    let (b, c, d) = (h.f32(256) as f64, h.f32(260) as f64, h.f32(264) as f64);
+    let origin = [h.f32(268) as f64, h.f32(272) as f64, h.f32(276) as f64];
+    let a = (1.0 - (b * b + c * c + d * d)).max(0.0).sqrt();
+    // Columns of the rotation matrix of nifti1.h are the world directions of i, j, k.
+    let i_dir = [
+        a * a + b * b - c * c - d * d,
+        2.0 * (b * c + a * d),
+        2.0 * (b * d - a * c),
+    ];
+    let j_dir = [
+        2.0 * (b * c - a * d),
+        a * a + c * c - b * b - d * d,
+        2.0 * (c * d + a * b),
+    ];
+    let mut k_dir = cross(i_dir, j_dir);
+    if qfac < 0.0 {
+        k_dir = k_dir.map(|x| -x);
+    }
+    (origin, Some([i_dir, j_dir, k_dir]))
+}
+
+/// Typed access to header fields in the file's byte order.
+struct Fields<'a> {
+    raw: &'a [u8; HEADER_SIZE],
+    big_endian: bool,
+}
+
+impl Fields<'_> {
+    fn i16(&self, at: usize) -> i16 {
+        let b = field(self.raw, at);
+        if self.big_endian {
+            i16::from_be_bytes(b)
+        } else {
+            i16::from_le_bytes(b)
+        }
+    }
+    fn f32(&self, at: usize) -> f32 {
+        let b = field(self.raw, at);
+        if self.big_endian {
+            f32::from_be_bytes(b)
+        } else {
+            f32::from_le_bytes(b)
+        }
+    }
+}
+
+fn field<const N: usize>(raw: &[u8; HEADER_SIZE], at: usize) -> [u8; N] {
+    let mut out = [0u8; N];
+    out.copy_from_slice(&raw[at..at + N]);
+    out
+}

@@ -1,0 +1,10 @@
+//! NRRD volumes: reading attached `.nrrd` and detached `.nhdr` files, writing attached `.nrrd`.
+//!
+//! Spec: the Teem NRRD file format, <http://teem.sourceforge.net/nrrd/format.html>.
+
+mod header;
+mod read;
+mod write;
+
+pub use read::read_nrrd;
+pub use write::write_nrrd;

@@ -1,0 +1,224 @@
+//! Reading NRRD data: the header (see `header.rs`), then the samples from the attached data or
+//! the detached data file(s), decoded as raw, gzip or ascii.
+//!
+//! Follows the Teem NRRD spec: `line skip` lines are skipped first, on the file as stored; then
+//! `byte skip` bytes, on the raw bytes for raw encoding and on the *decompressed* stream for gzip;
+//! `byte skip: -1` (raw only) means the data is the last bytes of the file. Every declared size is
+//! checked against the file before allocating, and a gzip stream must decompress to exactly the
+//! declared byte count.
+//!
+//! Geometry: spacing from `space directions` (vector lengths) or else `spacings`; origin from
+//! `space origin`; directions (unit `space directions`) kept as metadata. Grid order is the file's
+//! (first axis fastest).
+
+use super::header::{self, clip, DataFiles, Encoding, Header};
+use crate::geometry::geometry;
+use crate::samples::{
+    byte_count, check_available, check_deflate_budget, expect_end, from_f64_values, gzip_error,
+    read_samples, sample_count, skip_bytes,
+};
+use isogrid::{Error, Result, ResultExt, Volume, VolumeData};
+use std::fs::File;
+use std::io::{BufRead, BufReader, Read, Seek, SeekFrom};
+use std::path::{Path, PathBuf};
+
+/// Headers longer than this are not NRRD headers (they are garbage or binary data).
+const MAX_HEADER_BYTES: u64 = 1 << 20;
+
+/// Reads an attached `.nrrd` or a detached `.nhdr` (+ data files). Errors name the file at fault.
+pub fn read_nrrd(path: &Path) -> Result<Volume> {
+    let file = File::open(path).at_path(path)?;
+    let mut reader = BufReader::new(file);
+    let (lines, data_offset) = read_header_lines(&mut reader).at_path(path)?;
+    let header = header::parse(&lines).at_path(path)?;
+    let count = sample_count(header.dims).at_path(path)?;
+    let data = match &header.data {
+        DataFiles::Attached => {
+            let offset = data_offset.ok_or_else(|| {
+                Error::corrupt("NRRD header names no data file and has no attached data")
+                    .with_path(path)
+            })?;
+            read_part(reader.into_inner(), offset, &header, count).at_path(path)?
+        }
+        DataFiles::Detached(names) => {
+            let base = path.parent().unwrap_or(Path::new("."));
+            if count % names.len() != 0 {
+                return Err(Error::corrupt(format!(
+                    "{count} samples cannot be split evenly over {} data files",
+                    names.len()
+                ))
+                .with_path(path));
+            }
+            let part = count / names.len();
+            let mut data: Option<VolumeData> = None;
+            for name in names {
+                let data_path = resolve(base, name);
+                let file = File::open(&data_path).at_path(&data_path)?;
+                let piece = read_part(file, 0, &header, part).at_path(&data_path)?;
+                data = Some(match data {
+                    None => piece,
+                    Some(d) => append(d, piece),
+                });
+            }
+            data.ok_or_else(|| Error::corrupt("no data files").with_path(path))?
+        }
+    };
+    let g = geometry(header.dims, header.spacing, header.origin, header.direction);
+    Volume::with_geometry(g, data).at_path(path)
+}
+
+fn resolve(base: &Path, name: &str) -> PathBuf {
+    let p = Path::new(name);
+    if p.is_absolute() {
+        p.to_path_buf()
+    } else {
+        base.join(p)
+    }
+}
+
+/// Reads the magic line and the header lines. Returns the lines and, when a blank line ended the
+/// header, the byte offset right after it (where attached data starts).
+fn read_header_lines<R: BufRead>(reader: &mut R) -> Result<(Vec<String>, Option<u64>)> {
+    let mut limited = reader.take(MAX_HEADER_BYTES);
+    let mut offset = 0u64;
+    let mut lines = Vec::new();
+    let mut raw = Vec::new();
+    let mut first = true;
+    loop {
+        raw.clear();
+        let n = limited.read_until(b'\n', &mut raw)?;
+        if n == 0 {
+            if offset >= MAX_HEADER_BYTES {
+                return Err(Error::corrupt("NRRD header is longer than 1 MiB"));
+            }
+            return Ok((lines, None));
+        }
+        offset += n as u64;
+        let text = std::str::from_utf8(&raw)
+            .map_err(|_| Error::corrupt("NRRD header is not text"))?
+            .trim_end_matches(['\n', '\r']);
+        if first {
+            let version = text
+                .strip_prefix("NRRD000")
+                .and_then(|v| v.parse::<u8>().ok());
+            if !matches!(version, Some(1..=5)) {
+                return Err(Error::corrupt(format!(
+                    "not a NRRD file: bad magic line '{}'",
+                    clip(text)
+                )));
+            }
+            first = false;
+            continue;
+        }
+        if text.is_empty() {
+            return Ok((lines, Some(offset)));
+        }
+        lines.push(text.to_string());
+    }
+}
+
+/// Reads `count` samples from `file`, starting at `offset`, applying line and byte skips and the
+/// header's encoding.
+fn read_part(file: File, offset: u64, header: &Header, count: usize) -> Result<VolumeData> {
+    let file_len = file.metadata()?.len();
+    let mut reader = BufReader::new(file);
+    reader.seek(SeekFrom::Start(offset))?;
+    for _ in 0..header.line_skip {
+        skip_line(&mut reader)?;
+    }
+    let position = reader.stream_position()?;
+    let available = file_len.saturating_sub(position);
+    let needed = byte_count(count, header.elem)?;
+    match header.encoding {
+        Encoding::Raw => {
+            if header.byte_skip == -1 {
+                check_available(needed, available)?;
+                reader.seek(SeekFrom::Start(file_len - needed))?;
+            } else {
+                let skip = header.byte_skip as u64;
+                check_available(needed.saturating_add(skip), available)?;
+                skip_bytes(&mut reader, skip)?;
+            }
+            read_samples(&mut reader, header.elem, header.big_endian, count)
+        }
+        Encoding::Gzip => {
+            let skip = header.byte_skip as u64;
+            check_deflate_budget(needed.saturating_add(skip), available)?;
+            let mut stream = flate2::read::MultiGzDecoder::new(reader);
+            skip_bytes(&mut stream, skip).map_err(gzip_error)?;
+            let data = read_samples(&mut stream, header.elem, header.big_endian, count)
+                .map_err(gzip_error)?;
+            expect_end(&mut stream).map_err(gzip_error)?;
+            Ok(data)
+        }
+        Encoding::Ascii => {
+            skip_bytes(&mut reader, header.byte_skip.max(0) as u64)?;
+            // Each value takes at least one character plus a separator.
+            if count as u64 > available / 2 + 1 {
+                return Err(Error::corrupt(format!(
+                    "ascii data of {available} bytes cannot hold {count} values"
+                )));
+            }
+            let mut text = String::new();
+            reader
+                .read_to_string(&mut text)
+                .map_err(|_| Error::corrupt("ascii NRRD data is not text"))?;
+            let values = text
+                .split(|c: char| c.is_whitespace() || c == ',')
+                .filter(|t| !t.is_empty())
+                .map(|t| {
+                    t.parse::<f64>().map_err(|_| {
+                        Error::corrupt(format!("ascii NRRD value '{}' is not a number", clip(t)))
+                    })
+                })
+                .collect::<Result<Vec<f64>>>()?;
+            if values.len() != count {
+                return Err(Error::corrupt(format!(
+                    "ascii NRRD data holds {} values, the header declares {count}",
+                    values.len()
+                )));
+            }
+            Ok(from_f64_values(&values, header.elem))
+        }
+    }
+}
+
+fn skip_line<R: BufRead>(reader: &mut R) -> Result<()> {
+    loop {
+        let buf = reader.fill_buf()?;
+        if buf.is_empty() {
+            return Err(Error::corrupt(
+                "file ends inside the lines to skip ('line skip')",
+            ));
+        }
+        if let Some(p) = buf.iter().position(|&b| b == b'\n') {
+            reader.consume(p + 1);
+            return Ok(());
+        }
+        let n = buf.len();
+        reader.consume(n);
+    }
+}
+
+fn append(a: VolumeData, b: VolumeData) -> VolumeData {
+    match (a, b) {
+        (VolumeData::U8(mut a), VolumeData::U8(b)) => {
+            a.extend(b);
+            VolumeData::U8(a)
+        }
+        (VolumeData::U16(mut a), VolumeData::U16(b)) => {
+            a.extend(b);
+            VolumeData::U16(a)
+        }
+        (VolumeData::I16(mut a), VolumeData::I16(b)) => {
+            a.extend(b);
+            VolumeData::I16(a)
+        }
+        (VolumeData::F32(mut a), VolumeData::F32(b)) => {
+            a.extend(b);
+            VolumeData::F32(a)
+        }
+        // Every piece is decoded with the same element type, so the variants always match.
+        (a, _) => a,
+    }
+}

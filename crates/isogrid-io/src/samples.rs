@@ -1,0 +1,261 @@
+//! Decoding sample arrays stored in files into [`VolumeData`], shared by every reader.
+//!
+//! Files store many element types; a [`Volume`](isogrid::Volume) keeps four (u8, u16, i16, f32).
+//! The conversion rule, the same for every format:
+//!
+//! | file type               | kept as | note |
+//! |-------------------------|---------|------|
+//! | u8, u16, i16, f32       | same    | bit-exact |
+//! | bool                    | u8      | 0 / 1 |
+//! | i8                      | i16     | exact |
+//! | u32, i32, u64, i64, f64 | f32     | **lossy**: integers above 2²⁴ and f64 mantissas are rounded to f32 |
+//!
+//! Reading never trusts a declared size: callers check it against the file first, and streams
+//! (gzip) are read in bounded chunks so that a tiny file claiming a huge volume fails after
+//! reading what it really holds, not after allocating what it claims.
+
+use isogrid::{Error, Result, VolumeData, MAX_DIM};
+use std::io::Read;
+
+/// An element type as a file declares it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum ElemType {
+    U8,
+    I8,
+    U16,
+    I16,
+    U32,
+    I32,
+    U64,
+    I64,
+    F32,
+    F64,
+}
+
+impl ElemType {
+    pub(crate) fn size(self) -> usize {
+        match self {
+            ElemType::U8 | ElemType::I8 => 1,
+            ElemType::U16 | ElemType::I16 => 2,
+            ElemType::U32 | ElemType::I32 | ElemType::F32 => 4,
+            ElemType::U64 | ElemType::I64 | ElemType::F64 => 8,
+        }
+    }
+}
+
+/// Checks that every dimension is in `1..=MAX_DIM` and returns the sample count.
+pub(crate) fn sample_count(dims: [usize; 3]) -> Result<usize> {
+    for (axis, &n) in dims.iter().enumerate() {
+        if n == 0 {
+            return Err(Error::corrupt(format!("size along axis {axis} is 0")));
+        }
+        if n > MAX_DIM {
+            return Err(Error::too_large(format!(
+                "size {n} along axis {axis} exceeds the limit of {MAX_DIM}"
+            )));
+        }
+    }
+    // Each factor is at most 2^17, so the product fits in u64; it may not fit in usize on 32-bit.
+    let count = dims.iter().map(|&n| n as u64).product::<u64>();
+    usize::try_from(count)
+        .map_err(|_| Error::too_large(format!("{count} samples do not fit in memory")))
+}
+
+/// Bytes that `count` elements of `elem` take, or a TooLarge error.
+pub(crate) fn byte_count(count: usize, elem: ElemType) -> Result<u64> {
+    (count as u64)
+        .checked_mul(elem.size() as u64)
+        .ok_or_else(|| Error::too_large("sample data size overflows"))
+}
+
+/// Fails unless a file region of `available` bytes can hold `needed` bytes.
+pub(crate) fn check_available(needed: u64, available: u64) -> Result<()> {
+    if needed > available {
+        return Err(Error::corrupt(format!(
+            "file is truncated: sample data needs {needed} bytes but only {available} are there"
+        )));
+    }
+    Ok(())
+}
+
+/// Fails when `compressed` bytes of deflate data could not possibly expand to `needed` bytes.
+///
+/// Deflate cannot expand more than about 1032:1; a looser 1100:1 plus 1 MiB keeps the check safe
+/// while still rejecting a tiny file that claims gigabytes before anything is allocated.
+pub(crate) fn check_deflate_budget(needed: u64, compressed: u64) -> Result<()> {
+    let most = compressed.saturating_mul(1100).saturating_add(1 << 20);
+    if needed > most {
+        return Err(Error::corrupt(format!(
+            "compressed data of {compressed} bytes cannot hold the {needed} bytes the header declares"
+        )));
+    }
+    Ok(())
+}
+
+/// Reads exactly `count` elements of `elem` (byte order `big_endian`) and converts them to one of
+/// the kept types. Memory grows with the data actually read (in chunks), so a short stream fails
+/// without the full allocation. A short read is a `Corrupt` error naming expected and actual bytes.
+pub(crate) fn read_samples<R: Read + ?Sized>(
+    reader: &mut R,
+    elem: ElemType,
+    big_endian: bool,
+    count: usize,
+) -> Result<VolumeData> {
+    let swap = big_endian != cfg!(target_endian = "big");
+    Ok(match elem {
+        ElemType::U8 => VolumeData::U8(read_vec::<u8, R>(reader, count, false)?),
+        ElemType::U16 => VolumeData::U16(read_vec(reader, count, swap)?),
+        ElemType::I16 => VolumeData::I16(read_vec(reader, count, swap)?),
+        ElemType::F32 => VolumeData::F32(read_vec(reader, count, swap)?),
+        ElemType::I8 => VolumeData::I16(convert(read_vec::<i8, R>(reader, count, false)?, |v| {
+            v as i16
+        })),
+        ElemType::U32 => VolumeData::F32(convert(read_vec::<u32, R>(reader, count, swap)?, |v| {
+            v as f32
+        })),
+        ElemType::I32 => VolumeData::F32(convert(read_vec::<i32, R>(reader, count, swap)?, |v| {
+            v as f32
+        })),
+        ElemType::U64 => VolumeData::F32(convert(read_vec::<u64, R>(reader, count, swap)?, |v| {
+            v as f32
+        })),
+        ElemType::I64 => VolumeData::F32(convert(read_vec::<i64, R>(reader, count, swap)?, |v| {
+            v as f32
+        })),
+        ElemType::F64 => VolumeData::F32(convert(read_vec::<f64, R>(reader, count, swap)?, |v| {
+            v as f32
+        })),
+    })
+}
+
+/// Builds kept-type data from values given as f64 (text encodings), converting like [`read_samples`].
+pub(crate) fn from_f64_values(values: &[f64], elem: ElemType) -> VolumeData {
+    match elem {
+        ElemType::U8 => VolumeData::U8(values.iter().map(|&v| v as u8).collect()),
+        ElemType::U16 => VolumeData::U16(values.iter().map(|&v| v as u16).collect()),
+        ElemType::I16 => VolumeData::I16(values.iter().map(|&v| v as i16).collect()),
+        ElemType::I8 => VolumeData::I16(values.iter().map(|&v| v as i8 as i16).collect()),
+        _ => VolumeData::F32(values.iter().map(|&v| v as f32).collect()),
+    }
+}
+
+/// Fails if `reader` has any byte left: a stream longer than declared is inconsistent.
+pub(crate) fn expect_end<R: Read + ?Sized>(reader: &mut R) -> Result<()> {
+    let mut byte = [0u8; 1];
+    loop {
+        match reader.read(&mut byte) {
+            Ok(0) => return Ok(()),
+            Ok(_) => return Err(Error::corrupt("data is longer than the header declares")),
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
+            Err(e) => return Err(Error::io(e)),
+        }
+    }
+}
+
+/// Turns an OS-level error from a decompressing reader into what it means: invalid gzip data.
+pub(crate) fn gzip_error(e: Error) -> Error {
+    if e.kind() == isogrid::ErrorKind::Io {
+        Error::corrupt(format!("gzip data is invalid: {}", e.message()))
+    } else {
+        e
+    }
+}
+
+/// Skips exactly `n` bytes of a stream.
+pub(crate) fn skip_bytes<R: Read + ?Sized>(reader: &mut R, n: u64) -> Result<()> {
+    let skipped = std::io::copy(&mut reader.take(n), &mut std::io::sink())?;
+    if skipped != n {
+        return Err(Error::corrupt(format!(
+            "file is truncated: expected to skip {n} bytes, only {skipped} were there"
+        )));
+    }
+    Ok(())
+}
+
+fn convert<T: Copy, U>(values: Vec<T>, f: impl Fn(T) -> U) -> Vec<U> {
+    values.into_iter().map(f).collect()
+}
+
+/// Largest chunk grown at once while reading: bounds the over-allocation for short streams.
+const CHUNK_BYTES: usize = 64 << 20;
+
+fn read_vec<T: bytemuck::Pod, R: Read + ?Sized>(
+    reader: &mut R,
+    count: usize,
+    swap: bool,
+) -> Result<Vec<T>> {
+    let size = std::mem::size_of::<T>();
+    let chunk = (CHUNK_BYTES / size).max(1);
+    let mut values: Vec<T> = Vec::new();
+    while values.len() < count {
+        let start = values.len();
+        let end = count.min(start + chunk);
+        values.resize(end, T::zeroed());
+        let bytes: &mut [u8] = bytemuck::cast_slice_mut(&mut values[start..end]);
+        let got = fill(reader, bytes)?;
+        if got < bytes.len() {
+            return Err(Error::corrupt(format!(
+                "file is truncated: sample data needs {} bytes, only {} were there",
+                count as u64 * size as u64,
+                (start * size + got) as u64
+            )));
+        }
+    }
+    if swap && size > 1 {
+        for element in bytemuck::cast_slice_mut::<T, u8>(&mut values).chunks_exact_mut(size) {
+            element.reverse();
+        }
+    }
+    Ok(values)
+}
+
+/// Reads until `buf` is full or the stream ends; returns the bytes read.
+fn fill<R: Read + ?Sized>(reader: &mut R, buf: &mut [u8]) -> Result<usize> {
+    let mut filled = 0;
+    while filled < buf.len() {
+        match reader.read(&mut buf[filled..]) {
+            Ok(0) => break,
+            Ok(n) => filled += n,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
+            Err(e) => return Err(Error::io(e)),
+        }
+    }
+    Ok(filled)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn big_endian_u16_is_swapped() {
+        let bytes = [0x01u8, 0x02, 0x03, 0x04];
+        let data = read_samples(&mut &bytes[..], ElemType::U16, true, 2).unwrap();
+        assert_eq!(data, VolumeData::U16(vec![0x0102, 0x0304]));
+        let data = read_samples(&mut &bytes[..], ElemType::U16, false, 2).unwrap();
+        assert_eq!(data, VolumeData::U16(vec![0x0201, 0x0403]));
+    }
+
+    #[test]
+    fn wide_types_become_f32_and_i8_becomes_i16() {
+        let bytes = (-3i32).to_be_bytes();
+        let data = read_samples(&mut &bytes[..], ElemType::I32, true, 1).unwrap();
+        assert_eq!(data, VolumeData::F32(vec![-3.0]));
+        let data = read_samples(&mut &[0xFFu8][..], ElemType::I8, false, 1).unwrap();
+        assert_eq!(data, VolumeData::I16(vec![-1]));
+    }
+
+    #[test]
+    fn short_stream_reports_expected_and_actual_bytes() {
+        let err = read_samples(&mut &[0u8; 5][..], ElemType::U16, false, 4).unwrap_err();
+        assert_eq!(err.kind(), isogrid::ErrorKind::Corrupt);
+        assert!(err.message().contains("needs 8 bytes, only 5"), "{err}");
+    }
+
+    #[test]
+    fn absurd_dims_are_too_large() {
+        let err = sample_count([200_000, 1, 1]).unwrap_err();
+        assert_eq!(err.kind(), isogrid::ErrorKind::TooLarge);
+        assert_eq!(sample_count([7, 5, 3]).unwrap(), 105);
+    }
+}

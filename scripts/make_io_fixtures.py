@@ -1,0 +1,182 @@
+#!/usr/bin/env python3
+"""Writes the small volume fixtures that crates/isogrid-io/tests read, with the reference tools.
+
+Each fixture is a 7x5x3 volume (nx=7 columns, ny=5 rows, nz=3 slices) whose sample (i, j, k)
+follows a formula of the base value f = i + 10*j + 100*k that the Rust tests recompute:
+
+    u8   : f                 i16 : f - 150          u16 : 200*f
+    f32  : 0.25*f - 3.5      f64 : same as f32, stored as double
+
+Files are written by nibabel, pynrrd, numpy, pydicom and tifffile (pip install numpy nibabel
+pynrrd pydicom tifffile), so the readers are checked against other implementations of the formats.
+Run from the repository root: python3 scripts/make_io_fixtures.py
+"""
+import os
+import shutil
+import struct
+
+import nibabel as nib
+import nrrd
+import numpy as np
+import pydicom
+import tifffile
+from pydicom.dataset import Dataset, FileMetaDataset
+from pydicom.uid import ExplicitVRLittleEndian, ImplicitVRLittleEndian, generate_uid
+
+OUT = os.path.join("crates", "isogrid-io", "tests", "fixtures")
+NX, NY, NZ = 7, 5, 3
+
+# base[i, j, k] = i + 10 j + 100 k, indexed (i, j, k) like nibabel and pynrrd (index_order F).
+i, j, k = np.meshgrid(np.arange(NX), np.arange(NY), np.arange(NZ), indexing="ij")
+BASE = i + 10 * j + 100 * k
+
+
+def u8():
+    return BASE.astype(np.uint8)
+
+
+def i16():
+    return (BASE - 150).astype(np.int16)
+
+
+def u16():
+    return (200 * BASE).astype(np.uint16)
+
+
+def f32():
+    return (0.25 * BASE - 3.5).astype(np.float32)
+
+
+def path(name):
+    return os.path.join(OUT, name)
+
+
+def write_nifti():
+    # sform only (nibabel's default for a new image): spacing (0.5, 0.75, 2), origin (10, -20, 30).
+    aff = np.diag([0.5, 0.75, 2.0, 1.0])
+    aff[:3, 3] = [10, -20, 30]
+    img = nib.Nifti1Image(u8(), aff)
+    img.set_qform(None, code=0)
+    img.to_filename(path("u8.nii"))
+
+    # Gzipped, with a flipped first axis: spacing 1.5 along i but pointing to -x.
+    aff = np.diag([-1.5, 1.0, 1.25, 1.0])
+    aff[:3, 3] = [5, 6, 7]
+    nib.Nifti1Image(i16(), aff).to_filename(path("i16.nii.gz"))
+
+    # Big-endian header and data.
+    hdr = nib.Nifti1Header(endianness=">")
+    hdr.set_data_dtype(np.uint16)
+    nib.Nifti1Image(u16(), np.eye(4), header=hdr).to_filename(path("u16_big.nii"))
+    with open(path("u16_big.nii"), "rb") as f:
+        assert struct.unpack(">i", f.read(4))[0] == 348, "nibabel wrote little endian"
+
+    # qform only, with qfac = -1 (k flipped): spacing (2, 3, 4), origin (1, 2, 3).
+    aff = np.diag([2.0, 3.0, -4.0, 1.0])
+    aff[:3, 3] = [1, 2, 3]
+    img = nib.Nifti1Image(f32(), aff)
+    img.set_sform(None, code=0)
+    img.set_qform(aff, code=1)
+    img.to_filename(path("f32_qform.nii"))
+
+    # u8 storage with scl_slope 0.5 and scl_inter -10, patched into the header so that the stored
+    # bytes are exactly BASE (nibabel would otherwise choose its own scaling).
+    img = nib.Nifti1Image(u8(), np.eye(4))
+    img.to_filename(path("scaled.nii"))
+    with open(path("scaled.nii"), "r+b") as f:
+        f.seek(112)
+        f.write(struct.pack("<ff", 0.5, -10.0))
+    check = nib.load(path("scaled.nii")).get_fdata()
+    assert np.allclose(check, 0.5 * BASE - 10), "scl_slope patch did not take"
+
+
+def write_nrrd():
+    nrrd.write(path("u16_raw.nrrd"), u16(), {"encoding": "raw", "spacings": [0.5, 0.6, 0.7]})
+    nrrd.write(
+        path("i16_gzip.nrrd"),
+        i16(),
+        {
+            "encoding": "gzip",
+            "space": "left-posterior-superior",
+            "space directions": np.array([[0, 1.5, 0], [-2.0, 0, 0], [0, 0, 2.5]]),
+            "space origin": np.array([-1.0, 2.0, 3.5]),
+        },
+    )
+    nrrd.write(path("f32_big.nrrd"), f32().astype(">f4"), {"encoding": "raw", "spacings": [1.0, 2.0, 3.0]})
+    nrrd.write(path("f64_gzip.nrrd"), f32().astype(np.float64), {"encoding": "gzip"})
+    nrrd.write(path("u8_detached.nhdr"), u8(), {"encoding": "raw"}, detached_header=True)
+
+
+def write_npy():
+    c_order = np.ascontiguousarray(u8().transpose(2, 1, 0))  # shape (nz, ny, nx), x fastest
+    np.save(path("u8_c.npy"), c_order)
+    np.save(path("f32_fortran.npy"), np.asfortranarray(f32()))  # shape (nx, ny, nz), x fastest
+    np.save(path("u16_big.npy"), np.ascontiguousarray(u16().transpose(2, 1, 0)).astype(">u2"))
+    np.save(path("f64_c.npy"), np.ascontiguousarray(f32().astype(np.float64).transpose(2, 1, 0)))
+    np.save(path("i8_c.npy"), np.ascontiguousarray((BASE % 100 - 50).astype(np.int8).transpose(2, 1, 0)))
+
+
+def dicom_slice(filename, k, instance, series, stored, slope, intercept, syntax):
+    meta = FileMetaDataset()
+    meta.MediaStorageSOPClassUID = "1.2.840.10008.5.1.4.1.1.2"  # CT Image Storage
+    meta.MediaStorageSOPInstanceUID = generate_uid()
+    meta.TransferSyntaxUID = syntax
+    ds = Dataset()
+    ds.file_meta = meta
+    ds.SOPClassUID = meta.MediaStorageSOPClassUID
+    ds.SOPInstanceUID = meta.MediaStorageSOPInstanceUID
+    ds.SeriesInstanceUID = series
+    ds.Modality = "CT"
+    ds.InstanceNumber = instance
+    ds.ImagePositionPatient = [-3.0, 4.0, 30.0 + 2.5 * k]
+    ds.ImageOrientationPatient = [1, 0, 0, 0, 1, 0]
+    ds.PixelSpacing = [0.8, 0.6]  # row spacing (along j), column spacing (along i)
+    ds.SliceThickness = 2.5
+    ds.Rows, ds.Columns = NY, NX
+    ds.SamplesPerPixel = 1
+    ds.PhotometricInterpretation = "MONOCHROME2"
+    ds.BitsAllocated = ds.BitsStored = 16
+    ds.HighBit = 15
+    ds.PixelRepresentation = 0
+    ds.RescaleSlope = slope
+    ds.RescaleIntercept = intercept
+    # Rows are j, columns i: the slice array is indexed [j, i].
+    ds.PixelData = np.ascontiguousarray(stored[:, :, k].T).astype("<u2").tobytes()
+    ds.save_as(filename, enforce_file_format=True)
+
+
+def write_dicom():
+    # Files written in shuffled order under names that do not sort spatially; instance numbers
+    # run against the positions, so only sorting by position gives the formula back.
+    for folder, slope, intercept, syntax in [
+        ("dicom_ct", "1", "-1024", ExplicitVRLittleEndian),
+        ("dicom_scaled", "0.5", "2", ImplicitVRLittleEndian),
+    ]:
+        d = path(folder)
+        shutil.rmtree(d, ignore_errors=True)
+        os.makedirs(d)
+        series = generate_uid()
+        for name, kk in [("b.dcm", 2), ("c.dcm", 0), ("a.dcm", 1)]:
+            dicom_slice(os.path.join(d, name), kk, 3 - kk, series, 10 * BASE, slope, intercept, syntax)
+        with open(os.path.join(d, "README.txt"), "w") as f:
+            f.write("not a DICOM file; readers must skip it\n")
+
+
+def write_tiff():
+    zyx = lambda a: np.ascontiguousarray(a.transpose(2, 1, 0))  # pages = k, rows = j, cols = i
+    # minisblack: without it tifffile takes a leading axis of 3 for RGB planes.
+    gray = {"photometric": "minisblack"}
+    tifffile.imwrite(path("u8_stack.tif"), zyx(u8()), **gray)
+    tifffile.imwrite(path("u16_stack.tif"), zyx(u16()), compression="zlib", **gray)
+    tifffile.imwrite(path("f32_stack.tif"), zyx(f32()), **gray)
+    tifffile.imwrite(path("rgb.tif"), np.zeros((2, 3, 3), np.uint8), photometric="rgb")
+
+
+if __name__ == "__main__":
+    os.makedirs(OUT, exist_ok=True)
+    write_nifti()
+    write_nrrd()
+    write_npy()
+    write_dicom()
+    write_tiff()
+    print("fixtures written to", OUT)
