@@ -256,12 +256,20 @@ fn pack_plane<T: Threshold>(grid: &Grid<T>, k: usize, out: &mut [u64]) {
     let threshold = grid.threshold;
     for (row, words) in plane.chunks_exact(nx).zip(out.chunks_exact_mut(grid.words)) {
         let mut bytes = [0u8; 64];
-        for (chunk, word) in row.chunks(64).zip(words.iter_mut()) {
+        let full = row.chunks_exact(64);
+        let tail = full.remainder();
+        for (chunk, word) in full.zip(words.iter_mut()) {
             for (b, &v) in bytes.iter_mut().zip(chunk) {
                 *b = (v >= threshold) as u8;
             }
-            bytes[chunk.len()..].fill(0);
             *word = pack_bytes(&bytes);
+        }
+        if !tail.is_empty() {
+            bytes = [0; 64];
+            for (b, &v) in bytes.iter_mut().zip(tail) {
+                *b = (v >= threshold) as u8;
+            }
+            words[words.len() - 1] = pack_bytes(&bytes);
         }
     }
 }
