@@ -28,6 +28,7 @@ pub mod extract;
 pub mod fs;
 pub mod grid;
 pub mod layout;
+pub mod mc;
 pub mod morton;
 pub mod quantize;
 pub mod stats;

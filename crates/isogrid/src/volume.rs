@@ -144,7 +144,7 @@ impl<'a> Samples<'a> {
             use rayon::prelude::*;
             v.par_chunks(1 << 16)
                 .filter_map(|chunk| {
-                    let mut it = chunk.iter().copied().filter(|x| x == x);
+                    let mut it = chunk.iter().copied().filter(|x| x.partial_cmp(x).is_some()); // skip NaN
                     let first = it.next()?;
                     let (lo, hi) = it.fold((first, first), |(lo, hi), x| {
                         (if x < lo { x } else { lo }, if x > hi { x } else { hi })

@@ -3,3 +3,4 @@
 mod cgc;
 mod common;
 mod extract;
+mod mc;

@@ -1,0 +1,82 @@
+//! Mesh writers: binary little-endian PLY (the PLY 1.0 format of Turk, 1994) and Wavefront OBJ.
+//!
+//! Both go through [`crate::fs::write_atomic`]; positions are written as stored (world units).
+
+use super::McMesh;
+use crate::error::Result;
+use crate::fs::write_atomic;
+use std::io::Write;
+use std::path::Path;
+
+/// Bytes gathered before each write call.
+const CHUNK: usize = 1 << 20;
+
+impl McMesh {
+    /// Writes a binary little-endian PLY: `float x, y, z` per vertex and a
+    /// `list uchar uint vertex_indices` per face. Errors name `path`.
+    pub fn write_ply(&self, path: &Path) -> Result<()> {
+        write_atomic(path, |out| {
+            write!(
+                out,
+                "ply\nformat binary_little_endian 1.0\ncomment isogrid marching cubes\n\
+                 element vertex {}\nproperty float x\nproperty float y\nproperty float z\n\
+                 element face {}\nproperty list uchar uint vertex_indices\nend_header\n",
+                self.positions.len(),
+                self.triangles.len()
+            )?;
+            let mut buf = Vec::with_capacity(CHUNK + 16);
+            for p in &self.positions {
+                for c in p {
+                    buf.extend_from_slice(&c.to_le_bytes());
+                }
+                if buf.len() >= CHUNK {
+                    out.write_all(&buf)?;
+                    buf.clear();
+                }
+            }
+            for t in &self.triangles {
+                buf.push(3);
+                for i in t {
+                    buf.extend_from_slice(&i.to_le_bytes());
+                }
+                if buf.len() >= CHUNK {
+                    out.write_all(&buf)?;
+                    buf.clear();
+                }
+            }
+            out.write_all(&buf)?;
+            Ok(())
+        })
+    }
+
+    /// Writes a Wavefront OBJ (`v x y z` lines, then `f a b c` with 1-based indices). Coordinates
+    /// are printed in the shortest form that reads back to the same f32. Errors name `path`.
+    pub fn write_obj(&self, path: &Path) -> Result<()> {
+        write_atomic(path, |out| {
+            writeln!(out, "# isogrid marching cubes")?;
+            let mut buf = Vec::with_capacity(CHUNK + 128);
+            for p in &self.positions {
+                writeln!(buf, "v {} {} {}", p[0], p[1], p[2])?;
+                if buf.len() >= CHUNK {
+                    out.write_all(&buf)?;
+                    buf.clear();
+                }
+            }
+            for t in &self.triangles {
+                writeln!(
+                    buf,
+                    "f {} {} {}",
+                    t[0] as u64 + 1,
+                    t[1] as u64 + 1,
+                    t[2] as u64 + 1
+                )?;
+                if buf.len() >= CHUNK {
+                    out.write_all(&buf)?;
+                    buf.clear();
+                }
+            }
+            out.write_all(&buf)?;
+            Ok(())
+        })
+    }
+}
