@@ -9,6 +9,7 @@
 
 pub mod error;
 pub mod fs;
+pub mod generate;
 pub mod volume;
 
 pub use error::{Error, ErrorKind, Result, ResultExt};
