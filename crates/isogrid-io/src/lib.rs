@@ -1,1 +1,3 @@
 //! File formats.
+pub mod mesh;
+pub mod voxelize;
