@@ -69,20 +69,23 @@ impl MeshFormat {
 /// recognised by its magic bytes. Errors name `path`.
 pub fn read_mesh(path: &Path) -> Result<TriMesh> {
     let raw = std::fs::read(path).at_path(path)?;
-    let bytes = if raw.starts_with(&[0x1f, 0x8b]) {
-        let mut out = Vec::new();
-        flate2::read::MultiGzDecoder::new(raw.as_slice())
-            .read_to_end(&mut out)
-            .map_err(|e| Error::corrupt(format!("gzip stream is damaged: {e}")))
-            .at_path(path)?;
-        out
-    } else {
-        raw
-    };
     let name = path
         .file_name()
         .map(|n| n.to_string_lossy().to_ascii_lowercase())
         .unwrap_or_default();
+    let bytes = if raw.starts_with(&[0x1f, 0x8b]) {
+        let mut out = Vec::new();
+        match flate2::read::MultiGzDecoder::new(raw.as_slice()).read_to_end(&mut out) {
+            Ok(_) => out,
+            // A binary STL header may begin with the gzip magic by chance.
+            Err(_) if !name.ends_with(".gz") => raw,
+            Err(e) => {
+                return Err(Error::corrupt(format!("gzip stream is damaged: {e}")).with_path(path))
+            }
+        }
+    } else {
+        raw
+    };
     let stem = name.strip_suffix(".gz").unwrap_or(&name);
     let format = Path::new(stem)
         .extension()
@@ -234,6 +237,19 @@ pub(crate) mod tests {
         let missing = dir.join("missing.ply");
         let err = read_mesh(&missing).unwrap_err();
         assert!(err.to_string().contains("missing.ply"), "{err}");
+
+        // A binary STL whose free-form header happens to start with the gzip magic.
+        let mut stl = vec![0x1f, 0x8b];
+        stl.resize(80, b' ');
+        stl.extend(1u32.to_le_bytes());
+        stl.extend([0u8; 12]);
+        for v in &expected.vertices {
+            stl.extend(v.iter().flat_map(|c| c.to_le_bytes()));
+        }
+        stl.extend([0u8; 2]);
+        let stl_path = dir.join("magic.stl");
+        std::fs::write(&stl_path, stl).unwrap();
+        assert_eq!(read_mesh(&stl_path).unwrap(), expected);
 
         let broken_gz = dir.join("broken.ply.gz");
         std::fs::write(&broken_gz, [0x1f, 0x8b, 8, 0, 1, 2, 3]).unwrap();
