@@ -1,5 +1,6 @@
 //! Volume file formats for isogrid: NIfTI-1, NRRD, NumPy `.npy`, raw, DICOM series and TIFF
-//! stacks, read into an [`isogrid::Volume`], and NRRD written back.
+//! stacks, read into an [`isogrid::Volume`], and NRRD written back; triangle meshes ([`mesh`]) and
+//! their solid voxelisation into coverage volumes ([`voxelize`], paper §4).
 //!
 //! Every reader keeps the file's storage order (voxel (i, j, k), i fastest; no reorientation or
 //! resampling), keeps spacing and origin in physical file units in [`isogrid::Geometry`] and the
@@ -9,11 +10,13 @@
 //! file; declared sizes are checked against the file before anything is allocated.
 
 pub mod dicom;
+pub mod mesh;
 pub mod nifti;
 pub mod npy;
 pub mod nrrd;
 pub mod raw;
 pub mod tiff;
+pub mod voxelize;
 
 mod geometry;
 mod read;

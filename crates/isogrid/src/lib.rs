@@ -26,6 +26,7 @@ pub mod cgc;
 pub mod error;
 pub mod extract;
 pub mod fs;
+pub mod generate;
 pub mod grid;
 pub mod layout;
 pub mod mc;
