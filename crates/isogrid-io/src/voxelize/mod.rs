@@ -15,8 +15,8 @@
 //!
 //! # Inside test
 //! Real scanned meshes are rarely closed, so "inside" is a vote of three ray-parity tests, along
-//! x, y and z, through every fine-voxel centre ([`parity`]); crossings come from an exact,
-//! watertight rasterisation of every triangle onto the columns of the three planes ([`raster`]).
+//! x, y and z, through every fine-voxel centre (`parity.rs`); crossings come from an exact,
+//! watertight rasterisation of every triangle onto the columns of the three planes (`raster.rs`).
 //!
 //! # Memory and time
 //! The fine grid is never stored. Output slices are produced in z order, `supersample` fine slices
@@ -29,7 +29,7 @@ mod raster;
 
 use crate::mesh::TriMesh;
 use isogrid::{Error, Geometry, Result, Volume, VolumeData, MAX_DIM};
-use parity::{coverage_row, SliceVoter};
+use parity::{coverage_row, CoverageScratch, SliceVoter};
 use raster::{centre_span, rasterise, toggle_span, Fixed, RayAxis, ONE};
 use rayon::prelude::*;
 use std::ops::Range;
@@ -141,8 +141,8 @@ pub fn voxelize(
                 .par_chunks_mut(nx)
                 .enumerate()
                 .for_each_init(
-                    || vec![0u32; nx],
-                    |counts, (j, row)| coverage_row(&planes, j, counts, row),
+                    || CoverageScratch::new(voter.words_per_row()),
+                    |scratch, (j, row)| coverage_row(&planes, j, scratch, row),
                 );
             progress(k as u64 + 1, nz as u64);
         }

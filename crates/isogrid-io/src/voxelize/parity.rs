@@ -99,6 +99,10 @@ impl SliceVoter {
         }
     }
 
+    pub(super) fn words_per_row(&self) -> usize {
+        self.words_per_row
+    }
+
     /// A plane shaped for [`SliceVoter::decide_slice`]'s output.
     pub(super) fn new_plane(&self) -> BitPlane {
         BitPlane::new(self.words_per_row, self.ny)
@@ -164,47 +168,121 @@ impl SliceVoter {
                 |x_parity, (y, out_row)| {
                     let mut carry = 0u64;
                     for (p, &t) in x_parity.iter_mut().zip(x_toggles.row(y)) {
-                        *p = prefix_xor(t) ^ carry;
+                        *p = if t == 0 { carry } else { prefix_xor(t) ^ carry };
                         carry = 0u64.wrapping_sub(*p >> 63);
                     }
                     // The x-ray's total parity is its parity after the last toggle slot, nx.
                     let x_open = (x_parity[nx / 64] >> (nx % 64)) & 1;
                     let rx = 0u64.wrapping_sub(1 - x_open);
+                    let (vy, vz, z_open) = (y_parity.row(y), z_parity.row(y), z_total.row(y));
                     for (i, o) in out_row.iter_mut().enumerate() {
-                        *o = vote(
-                            x_parity[i],
-                            rx,
-                            y_parity.row(y)[i],
-                            !y_total[i],
-                            z_parity.row(y)[i],
-                            !z_total.row(y)[i],
-                        ) & last_word_mask(i);
+                        let (x, y, z) = (x_parity[i], vy[i], vz[i]);
+                        // Agreement (empty space, solid interior) needs no vote.
+                        let solid = if (x ^ y) | (y ^ z) == 0 {
+                            x
+                        } else {
+                            vote(x, rx, y, !y_total[i], z, !z_open[i])
+                        };
+                        *o = solid & last_word_mask(i);
                     }
                 },
             );
     }
 }
 
+/// Scratch space for [`coverage_row`], one per worker.
+pub(super) struct CoverageScratch {
+    all: Vec<u64>,
+    any: Vec<u64>,
+}
+
+impl CoverageScratch {
+    pub(super) fn new(words_per_row: usize) -> Self {
+        CoverageScratch {
+            all: vec![0; words_per_row],
+            any: vec![0; words_per_row],
+        }
+    }
+}
+
+/// The `len ≤ 64` bits of `words` starting at bit `start`, in the low bits.
+fn bit_field(words: &[u64], start: usize, len: usize) -> u64 {
+    let (w, off) = (start / 64, start % 64);
+    let mut bits = words[w] >> off;
+    if off + len > 64 {
+        bits |= words[w + 1] << (64 - off);
+    }
+    if len == 64 {
+        bits
+    } else {
+        bits & ((1u64 << len) - 1)
+    }
+}
+
 /// Coverage of one output row: output voxel `i` of row `j` covers fine voxels
 /// `[i·s, (i+1)·s) × [j·s, (j+1)·s)` of each of the `s` planes. Writes `round(255 · solid / s³)`.
-pub(super) fn coverage_row(planes: &[BitPlane], j: usize, counts: &mut [u32], out: &mut [u8]) {
+///
+/// Most of a volume is empty or solid: the AND and OR of the `s²` fine rows settle whole words at
+/// once, and fine bits are counted only for samples on the surface.
+pub(super) fn coverage_row(
+    planes: &[BitPlane],
+    j: usize,
+    scratch: &mut CoverageScratch,
+    out: &mut [u8],
+) {
     let s = planes.len();
-    counts.fill(0);
-    for plane in planes {
-        for fy in j * s..(j + 1) * s {
-            for (wi, &word) in plane.row(fy).iter().enumerate() {
-                let mut bits = word;
-                while bits != 0 {
-                    let fx = wi * 64 + bits.trailing_zeros() as usize;
-                    counts[fx / s] += 1;
-                    bits &= bits - 1;
-                }
-            }
+    let fine_rows = || {
+        planes
+            .iter()
+            .flat_map(move |plane| (j * s..(j + 1) * s).map(move |fy| plane.row(fy)))
+    };
+    scratch.all.fill(!0);
+    scratch.any.fill(0);
+    for row in fine_rows() {
+        for ((all, any), &word) in scratch.all.iter_mut().zip(scratch.any.iter_mut()).zip(row) {
+            *all &= word;
+            *any |= word;
         }
     }
     let full = (s * s * s) as u32;
-    for (o, &c) in out.iter_mut().zip(counts.iter()) {
-        *o = ((c * 255 + full / 2) / full) as u8;
+    let exact = |start: usize| {
+        let count: u32 = fine_rows()
+            .map(|row| bit_field(row, start, s).count_ones())
+            .sum();
+        ((count * 255 + full / 2) / full) as u8
+    };
+    let field_mask = if s == 64 { !0 } else { (1u64 << s) - 1 };
+    let (all, any) = (&scratch.all, &scratch.any);
+    let sample = |start: usize| {
+        if bit_field(any, start, s) == 0 {
+            0
+        } else if bit_field(all, start, s) == field_mask {
+            255
+        } else {
+            exact(start)
+        }
+    };
+    let nx = out.len();
+    let mut i = 0;
+    while i < nx {
+        let word = i * s / 64;
+        // Samples whose fine bits all lie in this word.
+        let end = ((word + 1) * 64 / s).min(nx);
+        if end <= i {
+            out[i] = sample(i * s);
+            i += 1;
+        } else if any[word] == 0 {
+            out[i..end].fill(0);
+            i = end;
+        } else if all[word] == !0 {
+            out[i..end].fill(255);
+            i = end;
+        } else {
+            for (o, n) in out[i..end].iter_mut().zip(i..end) {
+                *o = sample(n * s);
+            }
+            i = end;
+        }
     }
 }
 
@@ -311,9 +389,8 @@ mod tests {
         let mut planes = vec![BitPlane::new(1, 2), BitPlane::new(1, 2)];
         planes[0].words = vec![0b0011, 0b0001];
         planes[1].words = vec![0b0111, 0b1000];
-        let mut counts = vec![0; 2];
         let mut out = vec![0u8; 2];
-        coverage_row(&planes, 0, &mut counts, &mut out);
+        coverage_row(&planes, 0, &mut CoverageScratch::new(1), &mut out);
         // Voxel 0: fine x 0..2 → 2 + 1 + 2 + 0 = 5 of 8; voxel 1: 0 + 0 + 1 + 1 = 2 of 8.
         assert_eq!(out, vec![159, 64]);
     }
