@@ -31,8 +31,8 @@ impl IsoArgs {
 #[derive(Args, Debug, Clone, Default)]
 pub struct InputArgs {
     /// Read INPUT as raw samples of this shape (X,Y,Z; X varies fastest).
-    #[arg(long, value_name = "X,Y,Z", value_delimiter = ',', num_args = 3)]
-    pub raw_shape: Option<Vec<usize>>,
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_shape)]
+    pub raw_shape: Option<[usize; 3]>,
     /// Sample type of a raw file.
     #[arg(long, value_name = "TYPE", value_parser = ["u8", "u16", "i16", "f32"], requires = "raw_shape")]
     pub raw_type: Option<String>,
@@ -52,7 +52,11 @@ impl InputArgs {
                 Some("f32") => ScalarType::F32,
                 _ => bail!("--raw-shape needs --raw-type u8|u16|i16|f32"),
             };
-            options.raw = Some(RawSpec { dims: [shape[0], shape[1], shape[2]], scalar, big_endian: self.big_endian });
+            options.raw = Some(RawSpec {
+                dims: *shape,
+                scalar,
+                big_endian: self.big_endian,
+            });
         }
         Ok(options)
     }
@@ -78,5 +82,20 @@ impl ThreadArgs {
 }
 
 pub fn parse_precision(s: &str) -> Result<Precision, String> {
-    s.parse::<u32>().ok().and_then(Precision::from_bits).ok_or_else(|| format!("precision must be 4, 8, 16 or 32, not {s}"))
+    s.parse::<u32>()
+        .ok()
+        .and_then(Precision::from_bits)
+        .ok_or_else(|| format!("precision must be 4, 8, 16 or 32, not {s}"))
+}
+
+/// "X,Y,Z" → [X, Y, Z], each a positive integer.
+fn parse_shape(s: &str) -> Result<[usize; 3], String> {
+    let parts: Vec<usize> = s
+        .split(',')
+        .map(|p| p.trim().parse::<usize>().ok().filter(|&n| n > 0))
+        .collect::<Option<_>>()
+        .ok_or_else(|| format!("shape must be three positive integers X,Y,Z, not {s:?}"))?;
+    parts
+        .try_into()
+        .map_err(|_| format!("shape must have three values X,Y,Z, not {s:?}"))
 }

@@ -22,7 +22,11 @@ pub fn spinner(message: String) -> ProgressBar {
 
 pub fn bar(message: &str, total: u64) -> ProgressBar {
     let bar = ProgressBar::with_draw_target(Some(total), target());
-    bar.set_style(ProgressStyle::with_template("{msg} [{bar:40}] {percent}% eta {eta}").unwrap().progress_chars("=> "));
+    bar.set_style(
+        ProgressStyle::with_template("{msg} [{bar:40}] {percent}% eta {eta}")
+            .unwrap()
+            .progress_chars("=> "),
+    );
     bar.set_message(message.to_string());
     bar
 }

@@ -64,10 +64,22 @@ impl GridReport {
 
     pub fn print_human(&self) {
         let [x, y, z] = self.dims;
-        println!("grid          {x} x {y} x {z} samples, iso {}, {}-bit corners", self.iso, self.precision);
+        println!(
+            "grid          {x} x {y} x {z} samples, iso {}, {}-bit corners",
+            self.iso, self.precision
+        );
         println!("active cells  {}", group(self.active_cells));
-        println!("metacells     {} occupied in {} slots ({} clusters)", group(self.metacells), group(self.metacell_slots), group(self.clusters));
-        println!("blocks        {} ({} with cells)", group(self.blocks), group(self.nonempty_blocks));
+        println!(
+            "metacells     {} occupied in {} slots ({} clusters)",
+            group(self.metacells),
+            group(self.metacell_slots),
+            group(self.clusters)
+        );
+        println!(
+            "blocks        {} ({} with cells)",
+            group(self.blocks),
+            group(self.nonempty_blocks)
+        );
         println!(
             "memory        {} (metacells {} + cells {}; paper's Table 3 figure), block volume {}",
             mb(self.bytes.paper_total),
@@ -75,7 +87,10 @@ impl GridReport {
             mb(self.bytes.cells),
             mb(self.bytes.blocks)
         );
-        println!("bytes/cell    {:.2} (blocks + metacells + cells)", self.bytes_per_cell);
+        println!(
+            "bytes/cell    {:.2} (blocks + metacells + cells)",
+            self.bytes_per_cell
+        );
         println!(
             "seconds       read {:.3}, extract {:.3}, write {:.3}",
             self.seconds.read, self.seconds.extract, self.seconds.write
@@ -96,8 +111,16 @@ pub struct MeshReport {
 
 impl MeshReport {
     pub fn print_human(&self) {
-        println!("mesh          {} vertices, {} triangles, iso {}", group(self.vertices), group(self.triangles), self.iso);
-        println!("memory        {} (6 B/vertex snorm16 + 12 B/triangle)", mb(self.bytes));
+        println!(
+            "mesh          {} vertices, {} triangles, iso {}",
+            group(self.vertices),
+            group(self.triangles),
+            self.iso
+        );
+        println!(
+            "memory        {} (6 B/vertex snorm16 + 12 B/triangle)",
+            mb(self.bytes)
+        );
         println!(
             "seconds       read {:.3}, extract {:.3}, write {:.3}",
             self.seconds.read, self.seconds.extract, self.seconds.write

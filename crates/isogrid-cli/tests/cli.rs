@@ -5,13 +5,25 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 fn isogrid(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_isogrid")).args(args).output().expect("runs the binary")
+    Command::new(env!("CARGO_BIN_EXE_isogrid"))
+        .args(args)
+        .output()
+        .expect("runs the binary")
 }
 
 fn ok_json(args: &[&str]) -> Value {
     let out = isogrid(args);
-    assert!(out.status.success(), "{args:?} failed: {}", String::from_utf8_lossy(&out.stderr));
-    serde_json::from_slice(&out.stdout).unwrap_or_else(|e| panic!("{args:?}: not one JSON object ({e}): {}", String::from_utf8_lossy(&out.stdout)))
+    assert!(
+        out.status.success(),
+        "{args:?} failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).unwrap_or_else(|e| {
+        panic!(
+            "{args:?}: not one JSON object ({e}): {}",
+            String::from_utf8_lossy(&out.stdout)
+        )
+    })
 }
 
 /// Runs a command that must fail: non-zero exit, one line on stderr naming `mention`, no panic.
@@ -19,9 +31,19 @@ fn fails(args: &[&str], mention: &str) -> String {
     let out = isogrid(args);
     let stderr = String::from_utf8_lossy(&out.stderr).to_string();
     assert!(!out.status.success(), "{args:?} should fail");
-    assert!(!stderr.contains("panicked") && !stderr.contains("RUST_BACKTRACE"), "{args:?} panicked: {stderr}");
-    assert_eq!(stderr.trim_end().lines().count(), 1, "{args:?}: want one line, got: {stderr}");
-    assert!(stderr.contains(mention), "{args:?}: {stderr} should mention {mention}");
+    assert!(
+        !stderr.contains("panicked") && !stderr.contains("RUST_BACKTRACE"),
+        "{args:?} panicked: {stderr}"
+    );
+    assert_eq!(
+        stderr.trim_end().lines().count(),
+        1,
+        "{args:?}: want one line, got: {stderr}"
+    );
+    assert!(
+        stderr.contains(mention),
+        "{args:?}: {stderr} should mention {mention}"
+    );
     stderr
 }
 
@@ -40,11 +62,26 @@ fn extract_info_and_mc_report_consistent_numbers() {
     let dir = temp_dir("flow");
     let volume = dir.join("torus.nrrd");
     let out = isogrid(&["generate", "torus", "--size", "40", "-o", s(&volume)]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
 
     let cgc = dir.join("torus.cgc");
-    let e = ok_json(&["extract", s(&volume), "--iso-normalized", "0.5", "-o", s(&cgc), "--json"]);
-    let n = |v: &Value, k: &str| v[k].as_u64().unwrap_or_else(|| panic!("missing {k} in {v}"));
+    let e = ok_json(&[
+        "extract",
+        s(&volume),
+        "--iso-normalized",
+        "0.5",
+        "-o",
+        s(&cgc),
+        "--json",
+    ]);
+    let n = |v: &Value, k: &str| {
+        v[k].as_u64()
+            .unwrap_or_else(|| panic!("missing {k} in {v}"))
+    };
     assert_eq!(e["dims"], serde_json::json!([40, 40, 40]));
     assert_eq!(n(&e, "precision"), 8);
     assert!(n(&e, "active_cells") > 1000);
@@ -54,21 +91,42 @@ fn extract_info_and_mc_report_consistent_numbers() {
     let bytes = &e["bytes"];
     assert_eq!(n(bytes, "metacells"), 12 * n(&e, "metacell_slots"));
     assert_eq!(n(bytes, "cells"), 8 * n(&e, "active_cells"));
-    assert_eq!(n(bytes, "paper_total"), n(bytes, "metacells") + n(bytes, "cells"));
+    assert_eq!(
+        n(bytes, "paper_total"),
+        n(bytes, "metacells") + n(bytes, "cells")
+    );
     assert_eq!(n(bytes, "blocks"), 16 * 27);
     for k in ["read", "extract", "write"] {
         assert!(e["seconds"][k].as_f64().is_some(), "seconds.{k}");
     }
 
     let i = ok_json(&["info", s(&cgc), "--json"]);
-    for k in ["active_cells", "metacells", "metacell_slots", "clusters", "blocks", "nonempty_blocks"] {
+    for k in [
+        "active_cells",
+        "metacells",
+        "metacell_slots",
+        "clusters",
+        "blocks",
+        "nonempty_blocks",
+    ] {
         assert_eq!(i[k], e[k], "{k} differs between extract and info");
     }
     assert_eq!(i["iso"], e["iso"]);
 
     let ply = dir.join("torus.ply");
-    let m = ok_json(&["mc", s(&volume), "--iso-normalized", "0.5", "-o", s(&ply), "--json"]);
-    assert_eq!(n(&m, "bytes"), 6 * n(&m, "vertices") + 12 * n(&m, "triangles"));
+    let m = ok_json(&[
+        "mc",
+        s(&volume),
+        "--iso-normalized",
+        "0.5",
+        "-o",
+        s(&ply),
+        "--json",
+    ]);
+    assert_eq!(
+        n(&m, "bytes"),
+        6 * n(&m, "vertices") + 12 * n(&m, "triangles")
+    );
     // A closed torus: Euler characteristic V - E + F = 0 with E = 3F/2.
     assert_eq!(2 * n(&m, "vertices"), n(&m, "triangles"));
     assert!(std::fs::metadata(&ply).unwrap().len() > 12 * n(&m, "triangles"));
@@ -79,12 +137,28 @@ fn extract_info_and_mc_report_consistent_numbers() {
 fn thread_count_does_not_change_the_file() {
     let dir = temp_dir("threads");
     let volume = dir.join("gyroid.nrrd");
-    assert!(isogrid(&["generate", "gyroid", "--size", "48", "-o", s(&volume)]).status.success());
+    assert!(
+        isogrid(&["generate", "gyroid", "--size", "48", "-o", s(&volume)])
+            .status
+            .success()
+    );
     let files: Vec<Vec<u8>> = ["1", "2", "3"]
         .iter()
         .map(|t| {
             let out = dir.join(format!("g{t}.cgc"));
-            ok_json(&["extract", s(&volume), "--iso", "127.5", "--threads", t, "--precision", "4", "-o", s(&out), "--json"]);
+            ok_json(&[
+                "extract",
+                s(&volume),
+                "--iso",
+                "127.5",
+                "--threads",
+                t,
+                "--precision",
+                "4",
+                "-o",
+                s(&out),
+                "--json",
+            ]);
             std::fs::read(out).unwrap()
         })
         .collect();
@@ -109,7 +183,11 @@ fn bad_input_gets_one_clear_line() {
     fails(&["extract", s(&missing), "--iso", "1"], "missing.nii.gz");
 
     let garbage = dir.join("garbage.nrrd");
-    std::fs::write(&garbage, b"NRRD0004\ntype: uchar\ndimension: 3\nsizes: 100000 100000 100000\nencoding: raw\n\n").unwrap();
+    std::fs::write(
+        &garbage,
+        b"NRRD0004\ntype: uchar\ndimension: 3\nsizes: 100000 100000 100000\nencoding: raw\n\n",
+    )
+    .unwrap();
     fails(&["extract", s(&garbage), "--iso", "1"], "garbage.nrrd");
 
     let not_cgc = dir.join("not.cgc");
@@ -118,22 +196,64 @@ fn bad_input_gets_one_clear_line() {
 
     let raw = dir.join("v.raw");
     std::fs::write(&raw, vec![0u8; 999]).unwrap();
-    fails(&["extract", s(&raw), "--iso", "1", "--raw-shape", "10,10,10", "--raw-type", "u8"], "v.raw");
+    fails(
+        &[
+            "extract",
+            s(&raw),
+            "--iso",
+            "1",
+            "--raw-shape",
+            "10,10,10",
+            "--raw-type",
+            "u8",
+        ],
+        "v.raw",
+    );
 
     let volume = dir.join("s.nrrd");
-    assert!(isogrid(&["generate", "sphere", "--size", "16", "-o", s(&volume)]).status.success());
-    fails(&["extract", s(&volume), "--iso-normalized", "1.5"], "normalised isovalue");
-    fails(&["mc", s(&volume), "--iso", "1", "-o", s(&dir.join("m.stl"))], "m.stl");
-    fails(&["extract", s(&volume), "--iso", "1", "-o", s(&dir.join("no/such/dir/x.cgc"))], "x.cgc");
+    assert!(
+        isogrid(&["generate", "sphere", "--size", "16", "-o", s(&volume)])
+            .status
+            .success()
+    );
+    fails(
+        &["extract", s(&volume), "--iso-normalized", "1.5"],
+        "normalised isovalue",
+    );
+    fails(
+        &["mc", s(&volume), "--iso", "1", "-o", s(&dir.join("m.stl"))],
+        "m.stl",
+    );
+    fails(
+        &[
+            "extract",
+            s(&volume),
+            "--iso",
+            "1",
+            "-o",
+            s(&dir.join("no/such/dir/x.cgc")),
+        ],
+        "x.cgc",
+    );
 
     // An existing output survives a failed run.
     let keep = dir.join("keep.cgc");
     std::fs::write(&keep, b"old").unwrap();
-    fails(&["extract", s(&missing), "--iso", "1", "-o", s(&keep)], "missing.nii.gz");
+    fails(
+        &["extract", s(&missing), "--iso", "1", "-o", s(&keep)],
+        "missing.nii.gz",
+    );
     assert_eq!(std::fs::read(&keep).unwrap(), b"old");
 
     // Argument errors come from clap: non-zero exit, no panic.
-    let out = isogrid(&["extract", s(&volume), "--iso", "1", "--iso-normalized", "0.5"]);
+    let out = isogrid(&[
+        "extract",
+        s(&volume),
+        "--iso",
+        "1",
+        "--iso-normalized",
+        "0.5",
+    ]);
     assert!(!out.status.success() && !String::from_utf8_lossy(&out.stderr).contains("panicked"));
     std::fs::remove_dir_all(dir).unwrap();
 }

@@ -49,7 +49,9 @@ pub fn run(args: Args) -> Result<()> {
     let iso = Iso::Normalized(0.5);
 
     let start = Instant::now();
-    let grid = args.threads.install(|| extract(&view, &ExtractOptions::new(iso)))??;
+    let grid = args
+        .threads
+        .install(|| extract(&view, &ExtractOptions::new(iso)))??;
     let cgc_seconds = start.elapsed().as_secs_f64();
     let mut write = 0.0;
     if let Some(out) = &args.output {
@@ -60,24 +62,47 @@ pub fn run(args: Args) -> Result<()> {
     let stats = GridStats::of(&grid);
 
     let start = Instant::now();
-    let mesh = args.threads.install(|| marching_cubes(&view, grid.info().iso))?;
+    let mesh = args
+        .threads
+        .install(|| marching_cubes(&view, grid.info().iso))?;
     let mc_seconds = start.elapsed().as_secs_f64();
 
-    let cgc = GridReport::new(&stats, Seconds { read: generated, extract: cgc_seconds, write });
+    let cgc = GridReport::new(
+        &stats,
+        Seconds {
+            read: generated,
+            extract: cgc_seconds,
+            write,
+        },
+    );
     let mc = MeshReport {
         dims: stats.dims,
         iso: grid.info().iso,
         vertices: mesh.vertex_count() as u64,
         triangles: mesh.triangle_count() as u64,
         bytes: mesh.memory_bytes(),
-        seconds: Seconds { read: generated, extract: mc_seconds, write: 0.0 },
+        seconds: Seconds {
+            read: generated,
+            extract: mc_seconds,
+            write: 0.0,
+        },
     };
     let memory_ratio = stats.bytes.paper_total as f64 / mc.bytes.max(1) as f64;
     let speedup = mc_seconds / cgc_seconds.max(1e-9);
     if args.json {
-        return print_json(&DemoReport { field: args.field.to_string(), size: args.size, cgc, mc, memory_ratio, speedup });
+        return print_json(&DemoReport {
+            field: args.field.to_string(),
+            size: args.size,
+            cgc,
+            mc,
+            memory_ratio,
+            speedup,
+        });
     }
-    println!("isogrid demo: built-in '{}' volume, {}³ u8, generated in {generated:.2} s", args.field, args.size);
+    println!(
+        "isogrid demo: built-in '{}' volume, {}³ u8, generated in {generated:.2} s",
+        args.field, args.size
+    );
     println!("isovalue: normalised 0.5 (= {})\n", grid.info().iso);
     println!("== clustered grid cells (paper §3.1)");
     cgc.print_human();

@@ -31,7 +31,10 @@ pub struct Args {
 
 pub fn run(args: Args) -> Result<()> {
     let (volume, read) = input::read_volume(&args.input, &args.input_args.read_options()?)?;
-    let options = ExtractOptions { iso: args.iso.iso(), precision: args.precision };
+    let options = ExtractOptions {
+        iso: args.iso.iso(),
+        precision: args.precision,
+    };
     let spinner = progress::spinner("extracting".into());
     let start = Instant::now();
     let grid = args
@@ -46,7 +49,14 @@ pub fn run(args: Args) -> Result<()> {
         isogrid::cgc::write(out, &grid)?;
         write = start.elapsed().as_secs_f64();
     }
-    let report = GridReport::new(&GridStats::of(&grid), Seconds { read, extract: extract_seconds, write });
+    let report = GridReport::new(
+        &GridStats::of(&grid),
+        Seconds {
+            read,
+            extract: extract_seconds,
+            write,
+        },
+    );
     if args.json {
         print_json(&report)
     } else {

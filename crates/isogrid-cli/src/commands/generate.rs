@@ -24,8 +24,15 @@ pub fn run(args: Args) -> Result<()> {
     let start = Instant::now();
     let volume = generate(args.field, args.size as usize, args.seed);
     let seconds = start.elapsed().as_secs_f64();
-    let output = args.output.unwrap_or_else(|| PathBuf::from(format!("{}-{}.nrrd", args.field, args.size)));
+    let output = args
+        .output
+        .unwrap_or_else(|| PathBuf::from(format!("{}-{}.nrrd", args.field, args.size)));
     isogrid_io::write_nrrd(&output, &volume)?;
-    println!("{}: {}³ u8 in {seconds:.2} s, wrote {}", args.field, args.size, output.display());
+    println!(
+        "{}: {}³ u8 in {seconds:.2} s, wrote {}",
+        args.field,
+        args.size,
+        output.display()
+    );
     Ok(())
 }

@@ -19,7 +19,13 @@ pub fn run(args: Args) -> Result<()> {
     let start = Instant::now();
     let grid = isogrid::cgc::open(&args.file)?;
     let read = start.elapsed().as_secs_f64();
-    let report = GridReport::new(&GridStats::of(&grid), Seconds { read, ..Default::default() });
+    let report = GridReport::new(
+        &GridStats::of(&grid),
+        Seconds {
+            read,
+            ..Default::default()
+        },
+    );
     if args.json {
         print_json(&report)
     } else {

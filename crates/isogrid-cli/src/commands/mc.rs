@@ -27,7 +27,12 @@ pub struct Args {
 }
 
 pub fn write_mesh(mesh: &McMesh, path: &Path) -> Result<()> {
-    match path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
+    match path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase)
+        .as_deref()
+    {
         Some("ply") => mesh.write_ply(path)?,
         Some("obj") => mesh.write_obj(path)?,
         _ => bail!("{}: mesh output must end in .ply or .obj", path.display()),
@@ -38,7 +43,13 @@ pub fn write_mesh(mesh: &McMesh, path: &Path) -> Result<()> {
 pub fn run(args: Args) -> Result<()> {
     if let Some(out) = &args.output {
         // Fail before the work, not after it.
-        if !matches!(out.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref(), Some("ply" | "obj")) {
+        if !matches!(
+            out.extension()
+                .and_then(|e| e.to_str())
+                .map(str::to_ascii_lowercase)
+                .as_deref(),
+            Some("ply" | "obj")
+        ) {
             bail!("{}: mesh output must end in .ply or .obj", out.display());
         }
     }
@@ -46,7 +57,9 @@ pub fn run(args: Args) -> Result<()> {
     let iso = args.iso.iso().resolve(&volume.view())?;
     let spinner = progress::spinner("marching cubes".into());
     let start = Instant::now();
-    let mesh = args.threads.install(|| marching_cubes(&volume.view(), iso))?;
+    let mesh = args
+        .threads
+        .install(|| marching_cubes(&volume.view(), iso))?;
     let extract = start.elapsed().as_secs_f64();
     spinner.finish_and_clear();
     let mut write = 0.0;
@@ -62,7 +75,11 @@ pub fn run(args: Args) -> Result<()> {
         vertices: mesh.vertex_count() as u64,
         triangles: mesh.triangle_count() as u64,
         bytes: mesh.memory_bytes(),
-        seconds: Seconds { read, extract, write },
+        seconds: Seconds {
+            read,
+            extract,
+            write,
+        },
     };
     if args.json {
         print_json(&report)

@@ -41,7 +41,10 @@ pub fn run(args: Args) -> Result<()> {
     })?;
     bar.finish_and_clear();
     let seconds = start.elapsed().as_secs_f64();
-    let output = args.output.clone().unwrap_or_else(|| default_output(&args.mesh));
+    let output = args
+        .output
+        .clone()
+        .unwrap_or_else(|| default_output(&args.mesh));
     isogrid_io::write_nrrd(&output, &volume)?;
     let [x, y, z] = volume.dims();
     println!(
@@ -56,7 +59,14 @@ pub fn run(args: Args) -> Result<()> {
 
 /// `models/dragon.ply.gz` → `dragon.nrrd` in the current directory.
 fn default_output(mesh: &std::path::Path) -> PathBuf {
-    let name = mesh.file_name().and_then(|n| n.to_str()).unwrap_or("volume");
-    let stem = name.split('.').next().filter(|s| !s.is_empty()).unwrap_or("volume");
+    let name = mesh
+        .file_name()
+        .and_then(|n| n.to_str())
+        .unwrap_or("volume");
+    let stem = name
+        .split('.')
+        .next()
+        .filter(|s| !s.is_empty())
+        .unwrap_or("volume");
     PathBuf::from(format!("{stem}.nrrd"))
 }
