@@ -35,6 +35,13 @@ impl GridInfo {
     pub fn block_dims(&self) -> [u32; 3] {
         self.cell_dims().map(|c| c.div_ceil(BLOCK_CELLS as u32))
     }
+    /// World-space box of the grid: sample (i,j,k) is at (i·sx, j·sy, k·sz), so `[0, (dims−1)·spacing]`.
+    pub fn world_bounds(&self) -> ([f64; 3], [f64; 3]) {
+        (
+            [0.0; 3],
+            [0, 1, 2].map(|a| self.dims[a].saturating_sub(1) as f64 * self.spacing[a]),
+        )
+    }
     pub fn block_count(&self) -> usize {
         self.block_dims().iter().map(|&n| n as usize).product()
     }

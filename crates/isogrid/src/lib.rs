@@ -22,6 +22,7 @@
 //! assert_eq!(grid.metacell_slots() % 16, 0);
 //! ```
 
+pub mod camera;
 pub mod cgc;
 pub mod error;
 pub mod extract;
@@ -35,6 +36,7 @@ pub mod quantize;
 pub mod stats;
 pub mod volume;
 
+pub use camera::{Camera, Ray};
 pub use error::{Error, ErrorKind, Result, ResultExt};
 pub use extract::{extract, ExtractOptions, Iso};
 pub use grid::{CellGrid, GridInfo};
