@@ -33,6 +33,7 @@ pub mod layout;
 pub mod mc;
 pub mod morton;
 pub mod quantize;
+pub mod shading;
 pub mod stats;
 pub mod volume;
 
