@@ -115,6 +115,11 @@ impl Quantizer {
         }
     }
 
+    /// The integer offset when codes are `sample − offset` exactly (integer data that fits).
+    pub(crate) fn exact_integer_offset(&self) -> Option<i64> {
+        (self.exact && self.precision != Precision::Float32).then_some(self.mapping.offset as i64)
+    }
+
     pub fn precision(&self) -> Precision {
         self.precision
     }

@@ -7,7 +7,7 @@
 
 use super::scalar::ExtractScalar;
 use crate::layout::{
-    ClusterBound, Metacell, BLOCK_CELLS, BLOCK_METACELLS, BOUND_SLOT, CLUSTER_METACELLS,
+    ClusterBound, Metacell, Precision, BLOCK_CELLS, BLOCK_METACELLS, BOUND_SLOT, CLUSTER_METACELLS,
     CLUSTER_SLOTS,
 };
 use crate::morton;
@@ -55,14 +55,38 @@ pub(crate) fn emit_block<T: ExtractScalar>(
     let cells = [0, 1, 2].map(|a| (dims[a] - 1 - origin[a]).min(BLOCK_CELLS));
     let slab = nx * ny;
 
-    // Inside bits of the block's samples.
+    // The block's 17×17 sample rows are scattered over the volume and were last read in pass 1:
+    // ask for all of them up front so the misses overlap instead of queueing behind each other.
+    #[cfg(target_arch = "x86_64")]
     for lz in 0..=cells[2] {
         for ly in 0..=cells[1] {
             let start = origin[0] + nx * (origin[1] + ly + ny * (origin[2] + lz));
+            let row = samples[start..=start + cells[0]].as_ptr_range();
+            // SAFETY: prefetch is a hint and never faults; both addresses are inside the row.
+            unsafe {
+                use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+                _mm_prefetch::<_MM_HINT_T0>(row.start.cast());
+                _mm_prefetch::<_MM_HINT_T0>(row.end.wrapping_sub(1).cast());
+            }
+        }
+    }
+
+    // Inside bits of the block's samples: 16 at a time where the block is full width.
+    for lz in 0..=cells[2] {
+        for ly in 0..=cells[1] {
+            let start = origin[0] + nx * (origin[1] + ly + ny * (origin[2] + lz));
+            let row = &samples[start..=start + cells[0]];
             let mut bits = 0u32;
             if let Some(t) = threshold {
-                for (i, &v) in samples[start..=start + cells[0]].iter().enumerate() {
-                    bits |= ((v >= t) as u32) << i;
+                if let Some((chunk, rest)) = row.split_first_chunk::<16>() {
+                    bits = T::mask_chunk(chunk, t) as u32;
+                    for (i, &v) in rest.iter().enumerate() {
+                        bits |= ((v >= t) as u32) << (16 + i);
+                    }
+                } else {
+                    for (i, &v) in row.iter().enumerate() {
+                        bits |= ((v >= t) as u32) << i;
+                    }
                 }
             }
             scratch.inside[ly + 17 * lz] = bits;
@@ -96,7 +120,7 @@ pub(crate) fn emit_block<T: ExtractScalar>(
     // Metacells, bounds and corner records in Morton order.
     let block_mc = out.block.map(|b| (b * BLOCK_METACELLS) as u16);
     let record = quantizer.precision().bytes_per_cell();
-    let corner_offsets = [0, 1, nx, nx + 1, slab, slab + 1, slab + nx, slab + nx + 1];
+    let exact_offset = quantizer.exact_integer_offset();
     let mut slot = 0usize;
     let mut cell = 0usize;
     let mut bound = ClusterBound {
@@ -135,16 +159,30 @@ pub(crate) fn emit_block<T: ExtractScalar>(
         while bits != 0 {
             let b = bits.trailing_zeros() as usize;
             bits &= bits - 1;
-            let g = [0, 1, 2].map(|a| origin[a] + 2 * local[a] as usize + (b >> a & 1));
-            let base = g[0] + nx * (g[1] + ny * g[2]);
-            let values = corner_offsets.map(|o| samples[base + o].to_f64());
-            let l = [g[0] - origin[0], g[1] - origin[1], g[2] - origin[2]];
+            // Cell position inside the block, then in the grid.
+            let lx = 2 * local[0] as usize + (b & 1);
+            let ly = 2 * local[1] as usize + (b >> 1 & 1);
+            let lz = 2 * local[2] as usize + (b >> 2 & 1);
+            let base = origin[0] + lx + nx * (origin[1] + ly + ny * (origin[2] + lz));
+            let corners = &samples[base..=base + slab + nx + 1];
+            let values: [T; 8] = [
+                corners[0],
+                corners[1],
+                corners[nx],
+                corners[nx + 1],
+                corners[slab],
+                corners[slab + 1],
+                corners[slab + nx],
+                corners[slab + nx + 1],
+            ];
             let ins = &scratch.inside;
-            let row_bits = |dy: usize, dz: usize| ins[l[1] + dy + 17 * (l[2] + dz)] >> l[0] & 3;
+            let row_bits = |dy: usize, dz: usize| ins[ly + dy + 17 * (lz + dz)] >> lx & 3;
             let inside =
                 (row_bits(0, 0) | row_bits(1, 0) << 2 | row_bits(0, 1) << 4 | row_bits(1, 1) << 6)
                     as u8;
-            quantizer.encode_cell(
+            encode_cell(
+                quantizer,
+                exact_offset,
                 &values,
                 inside,
                 &mut out.cells[cell * record..(cell + 1) * record],
@@ -170,4 +208,30 @@ pub(crate) fn emit_block<T: ExtractScalar>(
         "pass 1 and pass 2 disagree on cells"
     );
     let _ = nz;
+}
+
+/// Writes one corner record. Integer data stored exactly skips floating point altogether (the
+/// common u8-at-8-bit and 16-bit cases); everything else goes through the quantiser.
+#[inline]
+fn encode_cell<T: ExtractScalar>(
+    quantizer: &Quantizer,
+    exact_offset: Option<i64>,
+    values: &[T; 8],
+    inside: u8,
+    out: &mut [u8],
+) {
+    match (exact_offset, quantizer.precision()) {
+        (Some(offset), Precision::Bits8) => {
+            for c in 0..8 {
+                out[c] = values[c].exact_code(offset) as u8;
+            }
+        }
+        (Some(offset), Precision::Bits16) => {
+            for c in 0..8 {
+                out[2 * c..2 * c + 2]
+                    .copy_from_slice(&(values[c].exact_code(offset) as u16).to_le_bytes());
+            }
+        }
+        _ => quantizer.encode_cell(&values.map(|v| v.to_f64()), inside, out),
+    }
 }

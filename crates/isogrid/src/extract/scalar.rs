@@ -12,6 +12,22 @@ pub(crate) trait ExtractScalar: Scalar {
     /// `None` when no value of the type reaches `iso`.
     fn threshold(iso: f64) -> Option<Self>;
 
+    /// Whether samples can be NaN (which count as outside but escape min/max).
+    const MAY_BE_NAN: bool = false;
+
+    /// The integer code of an integer sample under an exact (`step = 1`) mapping with this offset.
+    fn exact_code(self, offset: i64) -> u32;
+
+    /// Bit i set when `chunk[i] >= t`.
+    #[inline]
+    fn mask_chunk(chunk: &[Self; 16], t: Self) -> u16 {
+        let mut m = 0u16;
+        for (i, &v) in chunk.iter().enumerate() {
+            m |= ((v >= t) as u16) << i;
+        }
+        m
+    }
+
     /// One 16-sample chunk of a row: returns bit i set when `chunk[i] >= t`, and folds the chunk
     /// into the lane-wise running minima and maxima (NaN ignored). The hot loop of pass 1.
     #[inline]
@@ -40,6 +56,10 @@ macro_rules! integer_scalar {
                     Some(c.max(<$t>::MIN as f64) as $t)
                 }
             }
+            #[inline]
+            fn exact_code(self, offset: i64) -> u32 {
+                (self as i64 - offset) as u32
+            }
         }
     };
 }
@@ -53,6 +73,22 @@ impl ExtractScalar for u8 {
             None
         } else {
             Some(c.max(0.0) as u8)
+        }
+    }
+
+    #[inline]
+    fn exact_code(self, offset: i64) -> u32 {
+        (self as i64 - offset) as u32
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[inline]
+    fn mask_chunk(chunk: &[u8; 16], t: u8) -> u16 {
+        use std::arch::x86_64::*;
+        // SAFETY: SSE2 is part of the x86-64 baseline; the load is unaligned and in bounds.
+        unsafe {
+            let v = _mm_loadu_si128(chunk.as_ptr().cast());
+            _mm_movemask_epi8(_mm_cmpeq_epi8(_mm_max_epu8(v, _mm_set1_epi8(t as i8)), v)) as u16
         }
     }
 
@@ -77,11 +113,17 @@ integer_scalar!(u16);
 integer_scalar!(i16);
 
 impl ExtractScalar for f32 {
+    const MAY_BE_NAN: bool = true;
     const HIGHEST: Self = f32::INFINITY;
     const LOWEST: Self = f32::NEG_INFINITY;
     fn threshold(iso: f64) -> Option<Self> {
         let r = iso as f32;
         Some(if (r as f64) < iso { r.next_up() } else { r })
+    }
+
+    /// Float data never gets an exact integer mapping.
+    fn exact_code(self, _offset: i64) -> u32 {
+        unreachable!("float samples are quantised through the affine path")
     }
 
     /// SSE (baseline on x86-64), four lanes at a time; `minps(v, lo)` keeps `lo` when `v` is NaN.

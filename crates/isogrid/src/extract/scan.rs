@@ -148,14 +148,43 @@ pub(crate) fn scan_block_row<T: ExtractScalar>(
         }
     }
 
-    // Active cells of each cell row (cy, cz): corners disagree somewhere.
+    // Blocks entirely on one side need no cell-level work. NaN (outside, but invisible to the
+    // range) only allows the "all outside" shortcut.
+    let iso_threshold = threshold.map(|t| t.to_f64());
+    let uniform: Vec<bool> = (0..nbx)
+        .map(|bx| {
+            let (min, max) = ranges.block(bx);
+            let all_outside = iso_threshold.is_none_or(|t| max < t);
+            let all_inside = !T::MAY_BE_NAN && iso_threshold.is_some_and(|t| min >= t);
+            all_outside || all_inside
+        })
+        .collect();
+    if uniform.iter().all(|&u| u) {
+        return (0..nbx)
+            .map(|bx| {
+                let (min, max) = ranges.block(bx);
+                BlockScan {
+                    min,
+                    max,
+                    active_cells: 0,
+                    occupied_metacells: 0,
+                }
+            })
+            .collect();
+    }
+
+    // Active cells of each cell row (cy, cz): corners disagree somewhere. Only the 64-bit words
+    // that overlap a block with both sides present are computed.
     let valid_cells_last_word = match (nx - 1) % 64 {
         0 => u64::MAX,
         r => (1u64 << r) - 1,
     };
+    let cell_words = (nx - 1).div_ceil(64);
+    let needed: Vec<usize> = (0..cell_words)
+        .filter(|&w| (4 * w..(4 * w + 4).min(nbx)).any(|bx| !uniform[bx]))
+        .collect();
     scratch.active.clear();
     scratch.active.resize(words * BLOCK_CELLS * BLOCK_CELLS, 0);
-    let cell_words = (nx - 1).div_ceil(64);
     for cz in 0..cells_z {
         for cy in 0..cells_y {
             let row = |y: usize, z: usize| &scratch.inside[(z * rows_y + y) * words..][..words];
@@ -166,7 +195,7 @@ pub(crate) fn scan_block_row<T: ExtractScalar>(
                 row(cy + 1, cz + 1),
             );
             let out = &mut scratch.active[(cz * BLOCK_CELLS + cy) * words..][..words];
-            for w in 0..cell_words {
+            for &w in &needed {
                 let all_in = a[w] & b[w] & c[w] & d[w];
                 let any_in = a[w] | b[w] | c[w] | d[w];
                 let (next_all, next_any) = if w + 1 < words {
@@ -193,6 +222,15 @@ pub(crate) fn scan_block_row<T: ExtractScalar>(
     };
     (0..nbx)
         .map(|bx| {
+            let (min, max) = ranges.block(bx);
+            if uniform[bx] {
+                return BlockScan {
+                    min,
+                    max,
+                    active_cells: 0,
+                    occupied_metacells: 0,
+                };
+            }
             let mut active_cells = 0;
             let mut occupied_metacells = 0;
             for mz in 0..cells_z.div_ceil(2) {
