@@ -25,7 +25,7 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 DATASETS = [
     ("MNI152 T1 (nilearn)", "data/mni152_t1.nii.gz"),
-    ("Dragon 512³ (voxelised)", "data/dragon512.nrrd"),
+    ("Dragon 512³ (voxelised, cube)", "data/dragon512.nrrd"),
 ]
 
 # Paper Table 3, Dragon row (GTX 1070 machine, Ryzen 7 2700).

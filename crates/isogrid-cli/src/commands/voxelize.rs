@@ -17,6 +17,9 @@ pub struct Args {
     /// Fine voxels per output voxel along each axis (the paper uses 3).
     #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..=8))]
     pub supersample: u32,
+    /// Make the volume a cube of N³ samples with the mesh centred (the paper's datasets are cubes).
+    #[arg(long)]
+    pub cube: bool,
     /// Output volume (.nrrd). Default: the mesh's name with .nrrd.
     #[arg(short, long, value_name = "VOLUME.nrrd")]
     pub output: Option<PathBuf>,
@@ -31,6 +34,7 @@ pub fn run(args: Args) -> Result<()> {
     let options = VoxelizeOptions {
         resolution: args.resolution as usize,
         supersample: args.supersample as usize,
+        cube: args.cube,
         ..VoxelizeOptions::default()
     };
     let bar = progress::bar("voxelising", 1);

@@ -9,7 +9,9 @@
 //! size is `h = L / (resolution − 2·padding)`, the same on every axis, so the box spans exactly
 //! `resolution − 2·padding` voxels along its longest axis with `padding` empty voxels on each side.
 //! Output sample `(i, j, k)` stands for the cube `lo + ([i, i+1] − padding)·h` (per axis) and sits
-//! at its centre: volume spacing is `h`, origin `lo + (½ − padding)·h`. Each such cube is split
+//! at its centre: volume spacing is `h`, origin `lo + (½ − padding)·h`. With `cube`, every axis
+//! has `resolution` samples and the shorter axes get extra whole voxels of padding, split evenly,
+//! so the mesh sits centred (the paper's datasets are cubes, e.g. the 512³ Dragon). Each such cube is split
 //! into `supersample³` fine voxels; a fine voxel is solid when its *centre* is inside the mesh, and
 //! the sample's value is `round(255 · solid / supersample³)` (255 = fully inside).
 //!
@@ -43,6 +45,9 @@ pub struct VoxelizeOptions {
     pub supersample: usize,
     /// Empty samples added around the mesh's bounding box on every side.
     pub padding: usize,
+    /// Give every axis `resolution` samples, the mesh centred, as the paper's cubic datasets
+    /// (its Dragon is 512³); otherwise the shorter axes fit the mesh's bounding box.
+    pub cube: bool,
 }
 
 impl Default for VoxelizeOptions {
@@ -51,6 +56,7 @@ impl Default for VoxelizeOptions {
             resolution: 256,
             supersample: 3,
             padding: 2,
+            cube: false,
         }
     }
 }
@@ -212,7 +218,8 @@ struct Placement {
     /// Output voxel edge, mesh units.
     voxel_size: f64,
     lo: [f64; 3],
-    padding: usize,
+    /// Empty samples before the mesh's bounding box, per axis.
+    padding: [usize; 3],
     supersample: usize,
 }
 
@@ -222,6 +229,7 @@ impl Placement {
             resolution,
             supersample,
             padding,
+            cube,
         } = *opts;
         if !(1..=MAX_SUPERSAMPLE).contains(&supersample) {
             return Err(Error::invalid(format!(
@@ -277,11 +285,14 @@ impl Placement {
             ));
         }
         let voxel_size = longest / interior as f64;
-        let dims = extent.map(|e| {
-            // The longest axis divides exactly; tolerate rounding so it does not gain a voxel.
-            let cells = (e / voxel_size - 1e-9).ceil().max(1.0) as usize;
-            cells.min(interior) + 2 * padding
-        });
+        // The longest axis divides exactly; tolerate rounding so it does not gain a voxel.
+        let cells =
+            extent.map(|e| ((e / voxel_size - 1e-9).ceil().max(1.0) as usize).min(interior));
+        let (dims, padding) = if cube {
+            ([resolution; 3], cells.map(|c| padding + (interior - c) / 2))
+        } else {
+            (cells.map(|c| c + 2 * padding), [padding; 3])
+        };
         Ok(Placement {
             dims,
             voxel_size,
@@ -293,15 +304,14 @@ impl Placement {
 
     /// Position of sample (0, 0, 0): the centre of the first output voxel.
     fn origin(&self) -> [f64; 3] {
-        self.lo
-            .map(|l| l + (0.5 - self.padding as f64) * self.voxel_size)
+        [0, 1, 2].map(|a| self.lo[a] + (0.5 - self.padding[a] as f64) * self.voxel_size)
     }
 
     /// Mesh units → fixed-point fine-voxel coordinates.
     fn to_fixed(&self, p: [f32; 3]) -> Fixed {
         let scale = self.supersample as f64 * ONE as f64;
         [0, 1, 2].map(|a| {
-            let voxels = (p[a] as f64 - self.lo[a]) / self.voxel_size + self.padding as f64;
+            let voxels = (p[a] as f64 - self.lo[a]) / self.voxel_size + self.padding[a] as f64;
             (voxels * scale).round() as i64
         })
     }

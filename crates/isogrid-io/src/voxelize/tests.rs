@@ -105,6 +105,7 @@ fn opts(resolution: usize, supersample: usize, padding: usize) -> VoxelizeOption
         resolution,
         supersample,
         padding,
+        cube: false,
     }
 }
 
@@ -124,6 +125,45 @@ fn placement_dims_spacing_origin() {
     {
         assert!((got - want).abs() < 1e-12, "{o:?}");
     }
+}
+
+#[test]
+fn cube_placement_centres_the_mesh_and_keeps_the_voxels() {
+    let mesh = icosphere(2, [0.0, 0.0, 0.0], 1.0);
+    let mut stretched = mesh.clone();
+    stretched.vertices.iter_mut().for_each(|v| v[1] *= 0.5);
+    let tight = voxelize(&stretched, &opts(24, 2, 2), &no_progress).unwrap();
+    let cube = voxelize(
+        &stretched,
+        &VoxelizeOptions {
+            cube: true,
+            ..opts(24, 2, 2)
+        },
+        &no_progress,
+    )
+    .unwrap();
+    assert_eq!(cube.dims(), [24, 24, 24]);
+    assert_eq!(cube.spacing(), tight.spacing());
+    // Same samples, shifted by whole voxels along y: the tight volume sits centred inside the cube.
+    let [tx, ty, tz] = tight.dims();
+    assert_eq!((tx, tz), (24, 24));
+    let shift = (24 - ty) / 2;
+    for k in 0..tz {
+        for j in 0..ty {
+            for i in 0..tx {
+                assert_eq!(
+                    tight.get(i, j, k),
+                    cube.get(i, j + shift, k),
+                    "({i}, {j}, {k})"
+                );
+            }
+        }
+    }
+    let total = |v: &Volume| samples(v).iter().map(|&x| x as u64).sum::<u64>();
+    assert_eq!(total(&tight), total(&cube));
+    assert!(
+        (cube.origin()[1] - (tight.origin()[1] - shift as f64 * tight.spacing()[1])).abs() < 1e-9
+    );
 }
 
 /// The voxeliser against a brute-force count of fine-voxel centres inside a convex polyhedron,
