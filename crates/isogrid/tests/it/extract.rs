@@ -345,3 +345,31 @@ fn output_is_identical_for_any_thread_count() {
     }
     assert!(one.active_cells() > 10_000);
 }
+
+#[test]
+fn the_largest_grid_coordinates_fit_the_16_bit_metacell_positions() {
+    // 131,072 samples along x (the paper's 128K limit): the last cell is x = 131,070, metacell 65,535.
+    let n = isogrid::MAX_DIM;
+    let mut data = vec![0u8; n * 2 * 2];
+    for k in 0..2 {
+        for j in 0..2 {
+            data[n - 1 + n * (j + 2 * k)] = 255; // the last sample of every row is inside
+            data[n / 2 + n * (j + 2 * k)] = 255;
+        }
+    }
+    let volume = Volume::new([n, 2, 2], VolumeData::U8(data)).unwrap();
+    let grid = run(&volume, 127.5, None);
+    assert_eq!(grid.active_cells(), 3);
+    let positions: Vec<[u16; 3]> = grid
+        .metacells()
+        .iter()
+        .enumerate()
+        .filter(|(s, m)| s % 16 != 15 && !m.is_empty())
+        .map(|(_, m)| m.position)
+        .collect();
+    assert!(positions.contains(&[65535, 0, 0]), "{positions:?}");
+    check(&volume, &grid, 127.5, true);
+    let back = isogrid::cgc::read_bytes(&isogrid::cgc::to_bytes(&grid)).unwrap();
+    assert_eq!(back.metacells(), grid.metacells());
+    assert!(Volume::new([n + 1, 1, 1], VolumeData::U8(vec![0; n + 1])).is_err());
+}
