@@ -259,3 +259,29 @@ mod tests {
         assert_eq!(sample_count([7, 5, 3]).unwrap(), 105);
     }
 }
+
+/// `b`'s samples after `a`'s (slices of a stack, pieces of a file); both back when the types differ.
+pub(crate) fn append(
+    a: VolumeData,
+    b: VolumeData,
+) -> std::result::Result<VolumeData, (VolumeData, VolumeData)> {
+    Ok(match (a, b) {
+        (VolumeData::U8(mut a), VolumeData::U8(b)) => {
+            a.extend(b);
+            VolumeData::U8(a)
+        }
+        (VolumeData::U16(mut a), VolumeData::U16(b)) => {
+            a.extend(b);
+            VolumeData::U16(a)
+        }
+        (VolumeData::I16(mut a), VolumeData::I16(b)) => {
+            a.extend(b);
+            VolumeData::I16(a)
+        }
+        (VolumeData::F32(mut a), VolumeData::F32(b)) => {
+            a.extend(b);
+            VolumeData::F32(a)
+        }
+        (a, b) => return Err((a, b)),
+    })
+}

@@ -111,30 +111,12 @@ fn append(stack: Option<VolumeData>, page: DecodingResult, index: usize) -> Resu
         DecodingResult::F16(v) => VolumeData::F32(v.into_iter().map(|x| x.to_f32()).collect()),
     };
     let Some(stack) = stack else { return Ok(page) };
-    Ok(match (stack, page) {
-        (VolumeData::U8(mut a), VolumeData::U8(b)) => {
-            a.extend(b);
-            VolumeData::U8(a)
-        }
-        (VolumeData::U16(mut a), VolumeData::U16(b)) => {
-            a.extend(b);
-            VolumeData::U16(a)
-        }
-        (VolumeData::I16(mut a), VolumeData::I16(b)) => {
-            a.extend(b);
-            VolumeData::I16(a)
-        }
-        (VolumeData::F32(mut a), VolumeData::F32(b)) => {
-            a.extend(b);
-            VolumeData::F32(a)
-        }
-        (a, b) => {
-            return Err(Error::corrupt(format!(
-                "page {index} holds {} samples but page 0 holds {}",
-                b.scalar_type().name(),
-                a.scalar_type().name()
-            )))
-        }
+    crate::samples::append(stack, page).map_err(|(a, b)| {
+        Error::corrupt(format!(
+            "page {index} holds {} samples but page 0 holds {}",
+            b.scalar_type().name(),
+            a.scalar_type().name()
+        ))
     })
 }
 

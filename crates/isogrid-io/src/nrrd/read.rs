@@ -57,7 +57,8 @@ pub fn read_nrrd(path: &Path) -> Result<Volume> {
                 let piece = read_part(file, 0, &header, part).at_path(&data_path)?;
                 data = Some(match data {
                     None => piece,
-                    Some(d) => append(d, piece),
+                    // Every piece is decoded with the same element type, so the variants always match.
+                    Some(d) => crate::samples::append(d, piece).unwrap_or_else(|(a, _)| a),
                 });
             }
             data.ok_or_else(|| Error::corrupt("no data files").with_path(path))?
@@ -197,28 +198,5 @@ fn skip_line<R: BufRead>(reader: &mut R) -> Result<()> {
         }
         let n = buf.len();
         reader.consume(n);
-    }
-}
-
-fn append(a: VolumeData, b: VolumeData) -> VolumeData {
-    match (a, b) {
-        (VolumeData::U8(mut a), VolumeData::U8(b)) => {
-            a.extend(b);
-            VolumeData::U8(a)
-        }
-        (VolumeData::U16(mut a), VolumeData::U16(b)) => {
-            a.extend(b);
-            VolumeData::U16(a)
-        }
-        (VolumeData::I16(mut a), VolumeData::I16(b)) => {
-            a.extend(b);
-            VolumeData::I16(a)
-        }
-        (VolumeData::F32(mut a), VolumeData::F32(b)) => {
-            a.extend(b);
-            VolumeData::F32(a)
-        }
-        // Every piece is decoded with the same element type, so the variants always match.
-        (a, _) => a,
     }
 }
