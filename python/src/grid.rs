@@ -11,8 +11,22 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use std::path::PathBuf;
 
-/// Clustered grid cells: blocks, metacell slots and corner records (see `isogrid.CellGrid`).
-#[pyclass(frozen, module = "isogrid")]
+/// Clustered grid cells of one isosurface (paper §3.1), from `isogrid.extract` or `isogrid.load`.
+///
+/// Attributes: `stats` (counts and bytes, named as `isogrid extract --json`), `info` (dims,
+/// spacing, origin, direction, scalar_type, value_range, iso, precision, iso_code, mapping,
+/// world_bounds), `active_cells`, `is_mapped`, and three read-only NumPy views of the packed
+/// buffers, which keep the grid alive:
+///
+/// - `blocks`: one per 16³ cells, x fastest; fields metacell_count (slots), metacell_pointer,
+///   min, max (data units).
+/// - `metacells`: all slots, in clusters of 16 whose slot 15 is the cluster bound (lo, hi as
+///   3×u2 each: view it with dtype [("lo", "3<u2"), ("hi", "3<u2")]); fields position (3×u2,
+///   in units of 2 cells), cell_mask (bit b = cell (b&1, b>>1&1, b>>2&1)), cell_pointer.
+/// - `cells`: uint8 (active_cells, bytes_per_cell), 8 corner codes per cell at `precision` bits.
+///
+/// Methods: `cell_positions()`, `corners()`, `save(path)`.
+#[pyclass(frozen, weakref, module = "isogrid")]
 pub struct CellGrid {
     inner: isogrid::CellGrid,
 }
@@ -251,7 +265,11 @@ impl CellGrid {
             i.iso,
             i.precision.bits(),
             self.inner.active_cells(),
-            if self.inner.is_mapped() { "True" } else { "False" }
+            if self.inner.is_mapped() {
+                "True"
+            } else {
+                "False"
+            }
         )
     }
 }

@@ -29,5 +29,8 @@ pub fn marching_cubes<'py>(
         isogrid::mc::try_marching_cubes(&view, iso)
     })?
     .map_err(to_py)?;
-    Ok((to_array2(py, mesh.positions)?, to_array2(py, mesh.triangles)?))
+    Ok((
+        to_array2(py, mesh.positions)?,
+        to_array2(py, mesh.triangles)?,
+    ))
 }

@@ -97,7 +97,11 @@ fn rows3<T: numpy::Element + Copy>(
             view.shape()
         )));
     }
-    Ok(view.rows().into_iter().map(|r| [r[0], r[1], r[2]]).collect())
+    Ok(view
+        .rows()
+        .into_iter()
+        .map(|r| [r[0], r[1], r[2]])
+        .collect())
 }
 
 fn volume_dict(py: Python<'_>, volume: Volume) -> PyResult<Bound<'_, PyDict>> {
@@ -130,4 +134,3 @@ fn volume_dict(py: Python<'_>, volume: Volume) -> PyResult<Bound<'_, PyDict>> {
     d.set_item("direction", tuple3(g.direction.map(tuple3)))?;
     Ok(d)
 }
-
