@@ -1,0 +1,345 @@
+"""isogrid: isosurfaces as clustered grid cells (CGC), from NumPy.
+
+Extracts the active cells of a scalar volume into the clustered grid cell structure of Nysjö's
+*Clustered Grid Cell Data Structure for Isosurface Rendering* (§3.1): 16³-cell blocks, clusters of
+2×2×2 metacells and, per active cell, its eight corner values.
+
+    import isogrid
+    grid = isogrid.extract(isogrid.load_volume("head.nii.gz"), iso_normalized=0.5)
+    print(grid.stats["active_cells"]); grid.save("head.cgc")
+
+Axis convention
+---------------
+isogrid's coordinates are always (x, y, z), and **x is the axis that varies fastest in memory**:
+
+* a C-ordered array (NumPy's default) of shape ``(nz, ny, nx)`` — indexed ``a[z, y, x]`` — and
+* a Fortran-ordered array of shape ``(nx, ny, nz)`` — indexed ``a[x, y, z]``, as nibabel returns —
+
+describe the same volume of ``nx × ny × nz`` samples, and give the same grid; ``a`` and
+``np.asfortranarray(a.transpose())`` are interchangeable. Both are used without copying. Other
+layouts are copied first: an array that is neither C- nor Fortran-contiguous is read as Fortran
+order when its first axis has the smaller stride, otherwise as C order (an array that is both, i.e.
+with at most one axis longer than 1, counts as C order).
+
+Everything else is in (x, y, z) order: ``spacing=(sx, sy, sz)``, grid ``dims`` ``(nx, ny, nz)``,
+cell positions, and world coordinates, where sample (i, j, k) sits at ``(i·sx, j·sy, k·sz)``
+(the origin is kept as metadata only). :func:`load_volume` follows the same rule: it returns a C
+array of shape ``(nz, ny, nx)`` and ``spacing`` as ``(sx, sy, sz)``.
+
+Samples of type uint8, uint16, int16 and float32 are used as they are; int8 becomes int16, bool
+becomes uint8 and other numeric types become float32 (a copy). A sample is *inside* when
+``value >= iso``.
+
+Errors: bad arguments raise ``ValueError``; files that cannot be opened raise ``OSError`` (e.g.
+``FileNotFoundError``); malformed or unsupported files raise :class:`IsogridError`, a ``ValueError``.
+"""
+
+from __future__ import annotations
+
+import operator
+import os
+from typing import Any, Optional, Sequence, Tuple, Union
+
+import numpy as np
+
+from . import _isogrid
+from ._isogrid import CellGrid, IsogridError
+
+__version__: str = _isogrid.__version__
+
+# New bindings (e.g. rendering) go here: a thin wrapper that prepares arrays with `_prepare` and
+# calls the native function of the same name, plus an entry in __all__ and in _isogrid.pyi.
+__all__ = [
+    "CellGrid",
+    "IsogridError",
+    "Volume",
+    "extract",
+    "load",
+    "load_volume",
+    "marching_cubes",
+    "voxelize",
+]
+
+Triple = Tuple[float, float, float]
+PathLike = Union[str, "os.PathLike[str]"]
+
+
+class Volume:
+    """Samples plus geometry, as :func:`load_volume` and :func:`voxelize` return.
+
+    ``array`` is C-ordered with shape ``(nz, ny, nx)`` (index it ``array[z, y, x]``);
+    ``spacing`` and ``origin`` are ``(x, y, z)`` in the file's units (usually mm); ``direction``
+    rows are the world directions of the x, y, z axes (metadata). A Volume can be passed wherever
+    an array is accepted, and then also supplies the spacing.
+    """
+
+    __slots__ = ("array", "spacing", "origin", "direction")
+
+    def __init__(
+        self,
+        array: np.ndarray,
+        spacing: Sequence[float] = (1.0, 1.0, 1.0),
+        origin: Sequence[float] = (0.0, 0.0, 0.0),
+        direction: Sequence[Sequence[float]] = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)),
+    ) -> None:
+        self.array: np.ndarray = array
+        self.spacing: Triple = _triple(spacing, "spacing")
+        self.origin: Triple = _triple(origin, "origin")
+        self.direction: Tuple[Triple, Triple, Triple] = tuple(  # type: ignore[assignment]
+            _triple(row, "direction row") for row in direction
+        )
+
+    @property
+    def dims(self) -> Tuple[int, int, int]:
+        """Samples per axis, (nx, ny, nz), by the axis rule of this module."""
+        _, fortran = _layout(np.asarray(self.array))
+        shape = self.array.shape
+        return tuple(shape if fortran else shape[::-1])  # type: ignore[return-value]
+
+    def __array__(self, dtype: Any = None, copy: Optional[bool] = None) -> np.ndarray:
+        if copy:
+            return np.array(self.array, dtype=dtype, copy=True)
+        return np.asarray(self.array, dtype=dtype)
+
+    def __repr__(self) -> str:
+        return (
+            f"Volume(dims={self.dims}, dtype={self.array.dtype}, spacing={self.spacing}, "
+            f"origin={self.origin})"
+        )
+
+
+def extract(
+    array: Union[np.ndarray, Volume, Any],
+    iso: Optional[float] = None,
+    iso_normalized: Optional[float] = None,
+    spacing: Optional[Sequence[float]] = None,
+    precision: Optional[int] = None,
+    threads: Optional[int] = None,
+) -> CellGrid:
+    """Extracts the active cells of a 3-D volume into clustered grid cells.
+
+    Args:
+        array: 3-D samples; a :class:`Volume` also supplies its spacing. The axis that varies
+            fastest in memory is x: a C array of shape (nz, ny, nx) and a Fortran array of shape
+            (nx, ny, nz) are read in place. uint8, uint16, int16 and float32 are not copied when
+            contiguous; other types and layouts are converted first (see the module docs).
+        iso: isovalue in data units; a sample is inside when ``value >= iso``.
+        iso_normalized: isovalue as a fraction of the finite value range, ``min + t·(max − min)``
+            (the paper uses 0.5). Give exactly one of ``iso`` and ``iso_normalized``.
+        spacing: sample spacing ``(sx, sy, sz)``; default the Volume's, else (1, 1, 1).
+        precision: bits per stored corner, 4, 8, 16 or 32; default 8 for uint8, 16 otherwise.
+        threads: worker threads (default all cores); the result is the same for any count.
+
+    The GIL is released while extracting; do not modify ``array`` from another thread meanwhile.
+
+    Returns:
+        The :class:`CellGrid`.
+    """
+    iso, iso_normalized = _iso_pair(iso, iso_normalized)
+    spacing3 = _spacing_of(array, spacing)
+    prepared, fortran = _prepare(array)
+    return _isogrid.extract(
+        prepared,
+        fortran,
+        spacing3,
+        iso=iso,
+        iso_normalized=iso_normalized,
+        precision=None if precision is None else _int(precision, "precision"),
+        threads=None if threads is None else _int(threads, "threads", 1),
+    )
+
+
+def load(path: PathLike) -> CellGrid:
+    """Opens a ``.cgc`` file written by :meth:`CellGrid.save` or ``isogrid extract -o``.
+
+    The file is memory-mapped and fully validated (sizes, checksums, pointers) before use; the
+    grid's ``blocks``, ``metacells`` and ``cells`` views then read the page cache directly.
+    """
+    return _isogrid.load(os.fspath(path))
+
+
+def load_volume(
+    path: PathLike,
+    raw_shape: Optional[Sequence[int]] = None,
+    raw_dtype: Any = None,
+    big_endian: bool = False,
+) -> Volume:
+    """Reads a volume file: NIfTI-1 (``.nii``, ``.nii.gz``), NRRD (``.nrrd``, ``.nhdr``), NumPy
+    ``.npy``, TIFF stacks, a DICOM series (a folder), or headerless raw samples.
+
+    Samples keep the file's storage order (no reorientation or resampling) and come back as a
+    :class:`Volume` whose ``array`` is C-ordered with shape ``(nz, ny, nx)`` — the reader's buffer
+    handed to NumPy without a copy — and whose ``spacing``/``origin`` are (x, y, z).
+    ``extract(load_volume(p), ...)`` therefore matches ``isogrid extract p`` on the command line.
+
+    Args:
+        raw_shape: for raw files, samples per axis **(nx, ny, nz)**, x fastest — the order of the
+            CLI's ``--raw-shape X,Y,Z``, i.e. the reverse of the returned array's shape.
+        raw_dtype: for raw files, uint8, uint16, int16 or float32 (any NumPy dtype spelling;
+            an explicit ``'>'`` byte order implies ``big_endian``).
+        big_endian: raw samples are big-endian.
+    """
+    dtype_name = None
+    if raw_dtype is not None:
+        dt = np.dtype(raw_dtype)
+        big_endian = big_endian or dt.byteorder == ">"
+        dtype_name = dt.newbyteorder("=").name
+    shape = None
+    if raw_shape is not None:
+        shape = [_int(n, "raw_shape", 1) for n in raw_shape]
+        if len(shape) != 3:
+            raise ValueError(f"raw_shape must be three positive integers (nx, ny, nz), not {tuple(raw_shape)}")
+    d = _isogrid.load_volume(os.fspath(path), shape, dtype_name, bool(big_endian))
+    return Volume(d["array"], d["spacing"], d["origin"], d["direction"])
+
+
+def marching_cubes(
+    array: Union[np.ndarray, Volume, Any],
+    iso: Optional[float] = None,
+    iso_normalized: Optional[float] = None,
+    spacing: Optional[Sequence[float]] = None,
+    threads: Optional[int] = None,
+) -> Tuple[np.ndarray, np.ndarray]:
+    """Marching Cubes isosurface of a 3-D volume: the indexed mesh baseline of the paper.
+
+    ``array``, ``iso``, ``iso_normalized`` and ``spacing`` are read as by :func:`extract`.
+
+    Returns:
+        ``(vertices, faces)``: vertices float32 of shape (V, 3) as **(x, y, z)** world
+        coordinates, sample (i, j, k) at (i·sx, j·sy, k·sz) — for a C array ``a[z, y, x]`` the
+        columns are reversed relative to its axes; faces uint32 of shape (T, 3), counter-clockwise
+        seen from outside (where value < iso). One vertex per crossed edge, no duplicates.
+    """
+    iso, iso_normalized = _iso_pair(iso, iso_normalized)
+    spacing3 = _spacing_of(array, spacing)
+    prepared, fortran = _prepare(array)
+    return _isogrid.marching_cubes(
+        prepared,
+        fortran,
+        spacing3,
+        iso=iso,
+        iso_normalized=iso_normalized,
+        threads=None if threads is None else _int(threads, "threads", 1),
+    )
+
+
+def voxelize(
+    vertices: Any,
+    faces: Any,
+    resolution: int = 256,
+    supersample: int = 3,
+    padding: int = 2,
+    threads: Optional[int] = None,
+) -> Volume:
+    """Solid voxelisation of a triangle mesh into an 8-bit coverage volume (paper §4).
+
+    The mesh's bounding box spans ``resolution − 2·padding`` samples along its longest axis with
+    ``padding`` empty samples on each side; each sample is split into ``supersample³`` fine
+    voxels, inside by a three-axis ray-parity vote (robust to small holes), and stores
+    ``round(255 · inside fraction)``. Render or extract it at ``iso_normalized=0.5``.
+
+    Args:
+        vertices: (V, 3) positions (x, y, z), any real dtype (used as float32).
+        faces: (T, 3) vertex indices, any integer dtype.
+
+    Returns:
+        A :class:`Volume`: uint8 ``array`` of shape (nz, ny, nx), cubic ``spacing`` in mesh units
+        and ``origin`` = world position of sample (0, 0, 0) in mesh coordinates.
+    """
+    v = np.ascontiguousarray(vertices, dtype=np.float32)
+    f = np.asarray(faces)
+    if v.ndim != 2 or v.shape[1:] != (3,):
+        raise ValueError(f"vertices must have shape (V, 3), got {v.shape}")
+    if f.ndim != 2 or f.shape[1:] != (3,):
+        raise ValueError(f"faces must have shape (T, 3), got {f.shape}")
+    if f.dtype.kind not in "iu":
+        raise ValueError(f"faces must be integers, got dtype {f.dtype}")
+    if f.size and (f.min() < 0 or f.max() >= len(v)):
+        raise ValueError(f"face indices must lie in 0..{len(v) - 1}")
+    f = np.ascontiguousarray(f, dtype=np.uint32)
+    d = _isogrid.voxelize(
+        v,
+        f,
+        _int(resolution, "resolution", 1),
+        _int(supersample, "supersample", 1),
+        _int(padding, "padding"),
+        threads=None if threads is None else _int(threads, "threads", 1),
+    )
+    return Volume(d["array"], d["spacing"], d["origin"], d["direction"])
+
+
+# --- preparing arguments -------------------------------------------------------------------------
+
+_KEPT = {np.dtype(t) for t in (np.uint8, np.uint16, np.int16, np.float32)}
+
+
+def _sample_dtype(dtype: np.dtype) -> np.dtype:
+    """The supported type samples of `dtype` are read as (see the module docs)."""
+    if dtype.kind == "b":
+        return np.dtype(np.uint8)
+    if dtype.kind not in "iuf":
+        raise ValueError(f"unsupported sample dtype {dtype}: expected a real number type")
+    native = dtype.newbyteorder("=")
+    if native in _KEPT:
+        return native
+    if native == np.dtype(np.int8):
+        return np.dtype(np.int16)
+    return np.dtype(np.float32)
+
+
+def _layout(a: np.ndarray) -> Tuple[np.ndarray, bool]:
+    """(a, whether x is its first axis): the axis rule of the module docs."""
+    if a.flags.c_contiguous:
+        return a, False
+    if a.flags.f_contiguous:
+        return a, True
+    return a, abs(a.strides[0]) < abs(a.strides[-1])
+
+
+def _prepare(array: Any) -> Tuple[np.ndarray, bool]:
+    """A 3-D, supported-type, aligned array contiguous in its own order (copied only if needed)."""
+    if isinstance(array, Volume):
+        array = array.array
+    a = np.asarray(array)
+    if a.ndim != 3:
+        raise ValueError(
+            f"expected a 3-D array, got {a.ndim} dimension{'' if a.ndim == 1 else 's'} (shape {a.shape})"
+        )
+    _, fortran = _layout(a)
+    order = "F" if fortran else "C"
+    return np.require(a, dtype=_sample_dtype(a.dtype), requirements=[order, "A"]), fortran
+
+
+def _spacing_of(array: Any, spacing: Optional[Sequence[float]]) -> Triple:
+    if spacing is None:
+        return array.spacing if isinstance(array, Volume) else (1.0, 1.0, 1.0)
+    return _triple(spacing, "spacing")
+
+
+def _triple(values: Sequence[float], name: str) -> Triple:
+    t = tuple(float(v) for v in values)
+    if len(t) != 3:
+        raise ValueError(f"{name} must have 3 values (x, y, z), got {len(t)}")
+    return t  # type: ignore[return-value]
+
+
+def _iso_pair(iso: Optional[float], iso_normalized: Optional[float]) -> Tuple[Optional[float], Optional[float]]:
+    if (iso is None) == (iso_normalized is None):
+        raise ValueError("give exactly one of iso and iso_normalized")
+    return (
+        None if iso is None else float(iso),
+        None if iso_normalized is None else float(iso_normalized),
+    )
+
+
+def _int(value: Any, name: str, minimum: int = 0) -> int:
+    """`value` as an int >= minimum; floats and bools are refused rather than truncated."""
+    try:
+        if isinstance(value, bool):
+            raise TypeError
+        n = operator.index(value)
+    except TypeError:
+        raise ValueError(f"{name} must be an integer, not {value!r}") from None
+    if n < minimum:
+        raise ValueError(f"{name} must be at least {minimum}, not {n}")
+    return n

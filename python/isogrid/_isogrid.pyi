@@ -1,0 +1,72 @@
+"""Type stubs of the native module; use the wrappers in `isogrid` (they prepare the arrays)."""
+
+from typing import Any, Dict, Optional, Sequence, Tuple
+
+import numpy as np
+import numpy.typing as npt
+
+__version__: str
+
+class IsogridError(ValueError):
+    """A file isogrid cannot use: malformed, truncated, inconsistent or of an unsupported kind."""
+
+class CellGrid:
+    """Clustered grid cells (paper §3.1) of one isosurface."""
+
+    @property
+    def stats(self) -> Dict[str, Any]:
+        """dims, iso, precision, active_cells, metacells, metacell_slots, clusters, blocks,
+        nonempty_blocks, bytes {blocks, metacells, cells, paper_total}, bytes_per_cell."""
+    @property
+    def info(self) -> Dict[str, Any]:
+        """dims, spacing, origin, direction, scalar_type, value_range, iso, precision, iso_code,
+        mapping {offset, step, iso_code}, world_bounds."""
+    @property
+    def active_cells(self) -> int: ...
+    @property
+    def is_mapped(self) -> bool: ...
+    @property
+    def blocks(self) -> np.ndarray:
+        """Read-only, fields metacell_count u4, metacell_pointer u4, min f4, max f4."""
+    @property
+    def metacells(self) -> np.ndarray:
+        """Read-only, fields position (3,)u2, cell_mask u2, cell_pointer u4."""
+    @property
+    def cells(self) -> npt.NDArray[np.uint8]:
+        """Read-only, shape (active_cells, bytes_per_cell)."""
+    def cell_positions(self) -> npt.NDArray[np.uint32]: ...
+    def corners(self) -> npt.NDArray[np.float32]: ...
+    def save(self, path: str) -> None: ...
+
+def extract(
+    array: np.ndarray,
+    fortran: bool,
+    spacing: Sequence[float],
+    iso: Optional[float] = None,
+    iso_normalized: Optional[float] = None,
+    precision: Optional[int] = None,
+    threads: Optional[int] = None,
+) -> CellGrid: ...
+def load(path: str) -> CellGrid: ...
+def marching_cubes(
+    array: np.ndarray,
+    fortran: bool,
+    spacing: Sequence[float],
+    iso: Optional[float] = None,
+    iso_normalized: Optional[float] = None,
+    threads: Optional[int] = None,
+) -> Tuple[npt.NDArray[np.float32], npt.NDArray[np.uint32]]: ...
+def load_volume(
+    path: str,
+    raw_shape: Optional[Sequence[int]] = None,
+    raw_dtype: Optional[str] = None,
+    big_endian: bool = False,
+) -> Dict[str, Any]: ...
+def voxelize(
+    vertices: npt.NDArray[np.float32],
+    faces: npt.NDArray[np.uint32],
+    resolution: int,
+    supersample: int = 3,
+    padding: int = 2,
+    threads: Optional[int] = None,
+) -> Dict[str, Any]: ...

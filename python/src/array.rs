@@ -1,0 +1,111 @@
+//! Borrowing a numpy array as an isogrid volume without copying it.
+//!
+//! Axis rule (the Python docs state it for users): the axis that varies fastest in memory is x.
+//! A C-ordered array of shape `(nz, ny, nx)` and a Fortran-ordered array of shape `(nx, ny, nz)`
+//! both hold sample `(i, j, k)` at element `i + nx·(j + ny·k)`, which is exactly isogrid's
+//! storage order, so their buffers are used as they are. The caller says which order it means
+//! (`fortran`); the array must then be contiguous in that order and aligned, or this refuses:
+//! converting is the Python layer's job, where it is visible.
+
+use crate::errors::invalid;
+use isogrid::{Geometry, Samples, VolumeView};
+use numpy::{Element, PyReadonlyArrayDyn, PyUntypedArrayMethods};
+use pyo3::prelude::*;
+
+/// A read-only borrow of a numpy array of one of the four sample types.
+pub enum BorrowedArray<'py> {
+    U8(PyReadonlyArrayDyn<'py, u8>),
+    U16(PyReadonlyArrayDyn<'py, u16>),
+    I16(PyReadonlyArrayDyn<'py, i16>),
+    F32(PyReadonlyArrayDyn<'py, f32>),
+}
+
+/// The borrowed array and where its samples sit.
+pub struct VolumeArg<'py> {
+    array: BorrowedArray<'py>,
+    geometry: Geometry,
+}
+
+impl<'py> VolumeArg<'py> {
+    /// Checks `array` (3-D, a supported native dtype, contiguous in the stated order, aligned)
+    /// and records its isogrid dims (`nx, ny, nz`) and `spacing` (`sx, sy, sz`).
+    pub fn new(array: &Bound<'py, PyAny>, fortran: bool, spacing: [f64; 3]) -> PyResult<Self> {
+        let borrowed = if let Ok(a) = array.extract() {
+            BorrowedArray::U8(a)
+        } else if let Ok(a) = array.extract() {
+            BorrowedArray::U16(a)
+        } else if let Ok(a) = array.extract() {
+            BorrowedArray::I16(a)
+        } else if let Ok(a) = array.extract() {
+            BorrowedArray::F32(a)
+        } else {
+            return Err(invalid(
+                "expected a numpy array of uint8, uint16, int16 or float32 in native byte order",
+            ));
+        };
+        let (shape, c_order, f_order) = match &borrowed {
+            BorrowedArray::U8(a) => layout(a),
+            BorrowedArray::U16(a) => layout(a),
+            BorrowedArray::I16(a) => layout(a),
+            BorrowedArray::F32(a) => layout(a),
+        };
+        let shape: [usize; 3] = shape.try_into().map_err(|shape: Vec<usize>| {
+            invalid(format!(
+                "expected a 3-D array, got {} dimension{} (shape {shape:?})",
+                shape.len(),
+                if shape.len() == 1 { "" } else { "s" }
+            ))
+        })?;
+        let dims = if fortran {
+            if !f_order {
+                return Err(invalid("array is not Fortran-contiguous"));
+            }
+            shape
+        } else {
+            if !c_order {
+                return Err(invalid("array is not C-contiguous"));
+            }
+            [shape[2], shape[1], shape[0]]
+        };
+        let geometry = Geometry {
+            spacing,
+            ..Geometry::new(dims)
+        };
+        Ok(VolumeArg {
+            array: borrowed,
+            geometry,
+        })
+    }
+
+    /// The samples as an isogrid view, borrowing the numpy buffer.
+    pub fn view(&self) -> PyResult<VolumeView<'_>> {
+        let samples = match &self.array {
+            BorrowedArray::U8(a) => Samples::U8(slice(a)?),
+            BorrowedArray::U16(a) => Samples::U16(slice(a)?),
+            BorrowedArray::I16(a) => Samples::I16(slice(a)?),
+            BorrowedArray::F32(a) => Samples::F32(slice(a)?),
+        };
+        VolumeView::new(self.geometry, samples).map_err(crate::errors::to_py)
+    }
+}
+
+fn layout<T: Element>(a: &PyReadonlyArrayDyn<'_, T>) -> (Vec<usize>, bool, bool) {
+    (
+        a.shape().to_vec(),
+        a.is_c_contiguous(),
+        a.is_fortran_contiguous(),
+    )
+}
+
+fn slice<'a, T: Element>(a: &'a PyReadonlyArrayDyn<'_, T>) -> PyResult<&'a [T]> {
+    a.as_slice()
+        .map_err(|_| invalid("array is not contiguous and aligned"))
+}
+
+/// `spacing` as three positive finite numbers (the library checks them again).
+pub fn spacing3(spacing: Vec<f64>) -> PyResult<[f64; 3]> {
+    let n = spacing.len();
+    spacing
+        .try_into()
+        .map_err(|_| invalid(format!("spacing must have 3 values (sx, sy, sz), got {n}")))
+}

@@ -1,0 +1,292 @@
+//! `CellGrid`: an extracted or memory-mapped clustered grid cell structure (paper §3.1), with its
+//! three packed buffers exposed as read-only numpy views that keep the grid alive.
+
+use crate::array::{spacing3, VolumeArg};
+use crate::errors::{invalid, to_py};
+use crate::pool::run_detached;
+use isogrid::{layout, ExtractOptions, GridStats, Iso, Precision, ScalarType};
+use numpy::ndarray::{ArrayView1, ArrayView2};
+use numpy::{PyArray1, PyArray2, PyArrayDescr, PyArrayMethods};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use std::path::PathBuf;
+
+/// Clustered grid cells of one isosurface (paper §3.1), from `isogrid.extract` or `isogrid.load`.
+///
+/// Attributes: `stats` (counts and bytes, named as `isogrid extract --json`), `info` (dims,
+/// spacing, origin, direction, scalar_type, value_range, iso, precision, iso_code, mapping,
+/// world_bounds), `active_cells`, `is_mapped`, and three read-only NumPy views of the packed
+/// buffers, which keep the grid alive:
+///
+/// - `blocks`: one per 16³ cells, x fastest; fields metacell_count (slots), metacell_pointer,
+///   min, max (data units).
+/// - `metacells`: all slots, in clusters of 16 whose slot 15 is the cluster bound (lo, hi as
+///   3×u2 each: view it with dtype [("lo", "3<u2"), ("hi", "3<u2")]); fields position (3×u2,
+///   in units of 2 cells), cell_mask (bit b = cell (b&1, b>>1&1, b>>2&1)), cell_pointer.
+/// - `cells`: uint8 (active_cells, bytes_per_cell), 8 corner codes per cell at `precision` bits.
+///
+/// Methods: `cell_positions()`, `corners()`, `save(path)`.
+#[pyclass(frozen, weakref, module = "isogrid")]
+pub struct CellGrid {
+    inner: isogrid::CellGrid,
+}
+
+/// Extracts the active cells of a 3-D array (see `isogrid.extract`, which prepares `array`).
+#[pyfunction]
+#[pyo3(signature = (array, fortran, spacing, iso=None, iso_normalized=None, precision=None, threads=None))]
+#[allow(clippy::too_many_arguments)]
+pub fn extract(
+    py: Python<'_>,
+    array: &Bound<'_, PyAny>,
+    fortran: bool,
+    spacing: Vec<f64>,
+    iso: Option<f64>,
+    iso_normalized: Option<f64>,
+    precision: Option<u32>,
+    threads: Option<usize>,
+) -> PyResult<CellGrid> {
+    let volume = VolumeArg::new(array, fortran, spacing3(spacing)?)?;
+    let view = volume.view()?;
+    let mut options = ExtractOptions::new(iso_arg(iso, iso_normalized)?);
+    options.precision = precision.map(precision_arg).transpose()?;
+    let inner = run_detached(py, threads, move || isogrid::extract(&view, &options))?;
+    Ok(CellGrid {
+        inner: inner.map_err(to_py)?,
+    })
+}
+
+/// Memory-maps and validates a `.cgc` file.
+#[pyfunction]
+pub fn load(py: Python<'_>, path: PathBuf) -> PyResult<CellGrid> {
+    let inner = py.detach(|| isogrid::cgc::open(&path)).map_err(to_py)?;
+    Ok(CellGrid { inner })
+}
+
+/// Exactly one of `iso` (data units) and `iso_normalized` (fraction of the value range).
+pub fn iso_arg(iso: Option<f64>, iso_normalized: Option<f64>) -> PyResult<Iso> {
+    match (iso, iso_normalized) {
+        (Some(v), None) => Ok(Iso::Value(v)),
+        (None, Some(t)) => Ok(Iso::Normalized(t)),
+        _ => Err(invalid("give exactly one of iso and iso_normalized")),
+    }
+}
+
+fn precision_arg(bits: u32) -> PyResult<Precision> {
+    Precision::from_bits(bits)
+        .ok_or_else(|| invalid(format!("precision must be 4, 8, 16 or 32, not {bits}")))
+}
+
+pub fn dtype_name(t: ScalarType) -> &'static str {
+    match t {
+        ScalarType::U8 => "uint8",
+        ScalarType::U16 => "uint16",
+        ScalarType::I16 => "int16",
+        ScalarType::F32 => "float32",
+    }
+}
+
+/// A read-only numpy array over `bytes`, which live inside `owner`'s grid: the array's base is
+/// `owner`, so the grid stays alive (and its buffers unmoved: they are never modified) as long as
+/// any view does. Views of a mapped file could not be written anyway.
+fn byte_view<'py>(
+    owner: &Bound<'py, CellGrid>,
+    bytes: &[u8],
+    row: usize,
+) -> PyResult<Bound<'py, PyAny>> {
+    let rows = bytes.len().checked_div(row).unwrap_or(0);
+    let view = ArrayView2::from_shape((rows, row), bytes)
+        .map_err(|e| invalid(format!("buffer of {} bytes: {e}", bytes.len())))?;
+    // SAFETY: `bytes` is one of the grid's buffers (a Vec or the mapping), which are immutable
+    // and live until the grid is dropped; the array holds a reference to the grid.
+    let array = unsafe { PyArray2::borrow_from_array(&view, owner.clone().into_any()) };
+    drop(array.readwrite().make_nonwriteable());
+    Ok(array.into_any())
+}
+
+fn struct_view<'py>(
+    owner: &Bound<'py, CellGrid>,
+    bytes: &[u8],
+    fields: &[(&str, &str)],
+) -> PyResult<Bound<'py, PyAny>> {
+    let py = owner.py();
+    let view = ArrayView1::from(bytes);
+    // SAFETY: as in `byte_view`.
+    let array = unsafe { PyArray1::borrow_from_array(&view, owner.clone().into_any()) };
+    drop(array.readwrite().make_nonwriteable());
+    let dtype = PyArrayDescr::new(py, fields.to_vec())?;
+    array.call_method1("view", (dtype,))
+}
+
+#[pymethods]
+impl CellGrid {
+    /// Counts and sizes, with the names of the CLI's `--json` output (without `seconds`).
+    #[getter]
+    fn stats<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let s = GridStats::of(&self.inner);
+        let d = PyDict::new(py);
+        d.set_item("dims", tuple3(s.dims))?;
+        d.set_item("iso", s.iso)?;
+        d.set_item("precision", s.precision_bits)?;
+        d.set_item("active_cells", s.active_cells)?;
+        d.set_item("metacells", s.metacells)?;
+        d.set_item("metacell_slots", s.metacell_slots)?;
+        d.set_item("clusters", s.clusters)?;
+        d.set_item("blocks", s.blocks)?;
+        d.set_item("nonempty_blocks", s.nonempty_blocks)?;
+        let bytes = PyDict::new(py);
+        bytes.set_item("blocks", s.bytes.blocks)?;
+        bytes.set_item("metacells", s.bytes.metacells)?;
+        bytes.set_item("cells", s.bytes.cells)?;
+        bytes.set_item("paper_total", s.bytes.paper_total)?;
+        d.set_item("bytes", bytes)?;
+        d.set_item("bytes_per_cell", s.bytes_per_cell())?;
+        Ok(d)
+    }
+
+    /// Geometry, isovalue and value mapping (the `.cgc` header).
+    #[getter]
+    fn info<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let i = self.inner.info();
+        let d = PyDict::new(py);
+        d.set_item("dims", tuple3(i.dims))?;
+        d.set_item("spacing", tuple3(i.spacing))?;
+        d.set_item("origin", tuple3(i.origin))?;
+        d.set_item("direction", tuple3(i.direction.map(tuple3)))?;
+        d.set_item("scalar_type", dtype_name(i.scalar_type))?;
+        d.set_item("value_range", (i.value_range[0], i.value_range[1]))?;
+        d.set_item("iso", i.iso)?;
+        d.set_item("precision", i.precision.bits())?;
+        d.set_item("iso_code", i.mapping.iso_code)?;
+        let mapping = PyDict::new(py);
+        mapping.set_item("offset", i.mapping.offset)?;
+        mapping.set_item("step", i.mapping.step)?;
+        mapping.set_item("iso_code", i.mapping.iso_code)?;
+        d.set_item("mapping", mapping)?;
+        let (lo, hi) = i.world_bounds();
+        d.set_item("world_bounds", (tuple3(lo), tuple3(hi)))?;
+        Ok(d)
+    }
+
+    #[getter]
+    fn active_cells(&self) -> usize {
+        self.inner.active_cells()
+    }
+
+    /// Whether the buffers are views of a memory-mapped `.cgc` file.
+    #[getter]
+    fn is_mapped(&self) -> bool {
+        self.inner.is_mapped()
+    }
+
+    /// One record per 16³-cell block, x-fastest: read-only structured view.
+    #[getter]
+    fn blocks<'py>(slf: &Bound<'py, Self>) -> PyResult<Bound<'py, PyAny>> {
+        let bytes: &[u8] = bytemuck::cast_slice(slf.get().inner.blocks());
+        struct_view(
+            slf,
+            bytes,
+            &[
+                ("metacell_count", "<u4"),
+                ("metacell_pointer", "<u4"),
+                ("min", "<f4"),
+                ("max", "<f4"),
+            ],
+        )
+    }
+
+    /// All metacell slots (slot 15 of each cluster of 16 is the cluster bound): read-only view.
+    #[getter]
+    fn metacells<'py>(slf: &Bound<'py, Self>) -> PyResult<Bound<'py, PyAny>> {
+        let bytes: &[u8] = bytemuck::cast_slice(slf.get().inner.metacells());
+        struct_view(
+            slf,
+            bytes,
+            &[
+                ("position", "(3,)<u2"),
+                ("cell_mask", "<u2"),
+                ("cell_pointer", "<u4"),
+            ],
+        )
+    }
+
+    /// Corner records, shape (active_cells, bytes_per_cell), uint8: read-only view.
+    #[getter]
+    fn cells<'py>(slf: &Bound<'py, Self>) -> PyResult<Bound<'py, PyAny>> {
+        let grid = &slf.get().inner;
+        byte_view(slf, grid.cells(), grid.info().precision.bytes_per_cell())
+    }
+
+    /// Grid position (x, y, z) of every active cell, in record order: uint32 array (N, 3).
+    fn cell_positions<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<u32>>> {
+        let grid = &self.inner;
+        let mut out = vec![[0u32; 3]; grid.active_cells()];
+        for chunk in grid.metacells().chunks_exact(layout::CLUSTER_SLOTS) {
+            for m in &chunk[..layout::BOUND_SLOT] {
+                let mut index = m.cell_pointer as usize;
+                for bit in 0..8 {
+                    if m.cell_mask >> bit & 1 == 1 {
+                        // The file was validated on open, so pointers are in range.
+                        if let Some(slot) = out.get_mut(index) {
+                            *slot = m.cell_position(bit);
+                        }
+                        index += 1;
+                    }
+                }
+            }
+        }
+        to_array2(py, out)
+    }
+
+    /// The eight corner codes of every active cell (corner c = (c&1, c>>1&1, c>>2&1)), float32
+    /// array (N, 8); a corner is inside when its code >= `info["iso_code"]`. At 32-bit precision
+    /// the codes are the values; otherwise value = mapping offset + code · step.
+    fn corners<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f32>>> {
+        let grid = &self.inner;
+        let precision = grid.info().precision;
+        let out: Vec<[f32; 8]> = grid
+            .cells()
+            .chunks_exact(precision.bytes_per_cell())
+            .map(|record| layout::read_corners(record, precision))
+            .collect();
+        to_array2(py, out)
+    }
+
+    /// Writes a `.cgc` file (atomically: a temporary file renamed into place).
+    fn save(&self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
+        py.detach(|| isogrid::cgc::write(&path, &self.inner))
+            .map_err(to_py)
+    }
+
+    fn __repr__(&self) -> String {
+        let i = self.inner.info();
+        let [x, y, z] = i.dims;
+        format!(
+            "CellGrid(dims=({x}, {y}, {z}), iso={}, precision={}, active_cells={}, mapped={})",
+            i.iso,
+            i.precision.bits(),
+            self.inner.active_cells(),
+            if self.inner.is_mapped() {
+                "True"
+            } else {
+                "False"
+            }
+        )
+    }
+}
+
+/// Rows of N values as an (rows, N) array, moving the vector into numpy without a copy.
+pub fn to_array2<T: numpy::Element, const N: usize>(
+    py: Python<'_>,
+    rows: Vec<[T; N]>,
+) -> PyResult<Bound<'_, PyArray2<T>>> {
+    let n = rows.len();
+    let flat = numpy::ndarray::Array2::from_shape_vec((n, N), rows.into_flattened())
+        .map_err(|e| invalid(e.to_string()))?;
+    Ok(numpy::IntoPyArray::into_pyarray(flat, py))
+}
+
+/// `[a, b, c]` as a Python tuple rather than a list.
+pub fn tuple3<T>(v: [T; 3]) -> (T, T, T) {
+    let [a, b, c] = v;
+    (a, b, c)
+}

@@ -1,0 +1,32 @@
+//! `isogrid._isogrid`: the native half of the Python package (PyO3).
+//!
+//! Thin bindings: arrays are checked for type and memory order here, everything else is the Rust
+//! library's. The pure-Python `isogrid/__init__.py` converts dtypes and memory orders and documents
+//! the axis convention; these functions expect arrays already in a supported form and refuse
+//! others rather than guess. Every long computation runs with the GIL released.
+//!
+//! Adding a function: write it in the file of its topic (or a new one), `#[pyfunction]` it, add
+//! it to [`_isogrid`] below, to `_isogrid.pyi`, and re-export it from `isogrid/__init__.py`.
+
+mod array;
+mod errors;
+mod grid;
+mod mesh;
+mod pool;
+mod volume_io;
+
+use pyo3::prelude::*;
+
+/// Native core of the isogrid package; use the functions of `isogrid` instead.
+#[pymodule]
+fn _isogrid(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("IsogridError", m.py().get_type::<errors::IsogridError>())?;
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    m.add_class::<grid::CellGrid>()?;
+    m.add_function(wrap_pyfunction!(grid::extract, m)?)?;
+    m.add_function(wrap_pyfunction!(grid::load, m)?)?;
+    m.add_function(wrap_pyfunction!(mesh::marching_cubes, m)?)?;
+    m.add_function(wrap_pyfunction!(volume_io::load_volume, m)?)?;
+    m.add_function(wrap_pyfunction!(volume_io::voxelize, m)?)?;
+    Ok(())
+}

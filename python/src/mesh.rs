@@ -1,0 +1,36 @@
+//! Marching Cubes on a numpy array: the indexed triangle mesh baseline (paper Table 3).
+
+use crate::array::{spacing3, VolumeArg};
+use crate::errors::to_py;
+use crate::grid::{iso_arg, to_array2};
+use crate::pool::run_detached;
+use numpy::PyArray2;
+use pyo3::prelude::*;
+
+/// Vertices (V, 3) float32 in world units (x, y, z) = (i·sx, j·sy, k·sz), and faces (T, 3) uint32,
+/// counter-clockwise seen from outside (value < iso). See `isogrid.marching_cubes`.
+#[pyfunction]
+#[pyo3(signature = (array, fortran, spacing, iso=None, iso_normalized=None, threads=None))]
+#[allow(clippy::type_complexity)]
+pub fn marching_cubes<'py>(
+    py: Python<'py>,
+    array: &Bound<'py, PyAny>,
+    fortran: bool,
+    spacing: Vec<f64>,
+    iso: Option<f64>,
+    iso_normalized: Option<f64>,
+    threads: Option<usize>,
+) -> PyResult<(Bound<'py, PyArray2<f32>>, Bound<'py, PyArray2<u32>>)> {
+    let volume = VolumeArg::new(array, fortran, spacing3(spacing)?)?;
+    let view = volume.view()?;
+    let iso = iso_arg(iso, iso_normalized)?;
+    let mesh = run_detached(py, threads, move || {
+        let iso = iso.resolve(&view)?;
+        isogrid::mc::try_marching_cubes(&view, iso)
+    })?
+    .map_err(to_py)?;
+    Ok((
+        to_array2(py, mesh.positions)?,
+        to_array2(py, mesh.triangles)?,
+    ))
+}

@@ -1,0 +1,136 @@
+//! Volume files and mesh voxelisation, returning samples as numpy arrays without copying them.
+
+use crate::errors::{invalid, to_py};
+use crate::grid::tuple3;
+use crate::pool::run_detached;
+use isogrid::{ScalarType, Volume, VolumeData};
+use isogrid_io::mesh::TriMesh;
+use isogrid_io::voxelize::VoxelizeOptions;
+use isogrid_io::{RawSpec, ReadOptions};
+use numpy::ndarray::Array3;
+use numpy::{IntoPyArray, PyReadonlyArray2};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use std::path::PathBuf;
+
+/// Reads a volume file; returns a dict with `array` (C order, shape (nz, ny, nx), the reader's
+/// buffer moved into numpy), `spacing`, `origin`, `direction` (all in x, y, z order).
+#[pyfunction]
+#[pyo3(signature = (path, raw_shape=None, raw_dtype=None, big_endian=false))]
+pub fn load_volume(
+    py: Python<'_>,
+    path: PathBuf,
+    raw_shape: Option<[usize; 3]>,
+    raw_dtype: Option<String>,
+    big_endian: bool,
+) -> PyResult<Bound<'_, PyDict>> {
+    let raw = match (raw_shape, raw_dtype.as_deref()) {
+        (None, None) => None,
+        (Some(dims), Some(name)) => Some(RawSpec {
+            dims,
+            scalar: scalar_type(name)?,
+            big_endian,
+        }),
+        _ => {
+            return Err(invalid(
+                "raw files need both raw_shape (nx, ny, nz) and raw_dtype",
+            ))
+        }
+    };
+    let options = ReadOptions { raw };
+    let volume = py
+        .detach(|| isogrid_io::read_volume(&path, &options))
+        .map_err(to_py)?;
+    volume_dict(py, volume)
+}
+
+fn scalar_type(name: &str) -> PyResult<ScalarType> {
+    Ok(match name {
+        "uint8" => ScalarType::U8,
+        "uint16" => ScalarType::U16,
+        "int16" => ScalarType::I16,
+        "float32" => ScalarType::F32,
+        _ => {
+            return Err(invalid(format!(
+                "raw_dtype must be uint8, uint16, int16 or float32, not {name}"
+            )))
+        }
+    })
+}
+
+/// Solid voxelisation into an 8-bit coverage volume (paper §4). See `isogrid.voxelize`.
+#[pyfunction]
+#[pyo3(signature = (vertices, faces, resolution, supersample=3, padding=2, threads=None))]
+pub fn voxelize<'py>(
+    py: Python<'py>,
+    vertices: PyReadonlyArray2<'py, f32>,
+    faces: PyReadonlyArray2<'py, u32>,
+    resolution: usize,
+    supersample: usize,
+    padding: usize,
+    threads: Option<usize>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let mesh = TriMesh {
+        vertices: rows3(&vertices, "vertices")?,
+        triangles: rows3(&faces, "faces")?,
+    };
+    let options = VoxelizeOptions {
+        resolution,
+        supersample,
+        padding,
+    };
+    let volume = run_detached(py, threads, move || {
+        isogrid_io::voxelize::voxelize(&mesh, &options, &|_, _| {})
+    })?
+    .map_err(to_py)?;
+    volume_dict(py, volume)
+}
+
+fn rows3<T: numpy::Element + Copy>(
+    array: &PyReadonlyArray2<'_, T>,
+    name: &str,
+) -> PyResult<Vec<[T; 3]>> {
+    let view = array.as_array();
+    if view.ncols() != 3 {
+        return Err(invalid(format!(
+            "{name} must have shape (N, 3), got {:?}",
+            view.shape()
+        )));
+    }
+    Ok(view
+        .rows()
+        .into_iter()
+        .map(|r| [r[0], r[1], r[2]])
+        .collect())
+}
+
+fn volume_dict(py: Python<'_>, volume: Volume) -> PyResult<Bound<'_, PyDict>> {
+    let g = *volume.geometry();
+    let [nx, ny, nz] = g.dims;
+    let shape = (nz, ny, nx);
+    let shape_err = |e: numpy::ndarray::ShapeError| invalid(e.to_string());
+    let array = match volume.into_data() {
+        VolumeData::U8(v) => Array3::from_shape_vec(shape, v)
+            .map_err(shape_err)?
+            .into_pyarray(py)
+            .into_any(),
+        VolumeData::U16(v) => Array3::from_shape_vec(shape, v)
+            .map_err(shape_err)?
+            .into_pyarray(py)
+            .into_any(),
+        VolumeData::I16(v) => Array3::from_shape_vec(shape, v)
+            .map_err(shape_err)?
+            .into_pyarray(py)
+            .into_any(),
+        VolumeData::F32(v) => Array3::from_shape_vec(shape, v)
+            .map_err(shape_err)?
+            .into_pyarray(py)
+            .into_any(),
+    };
+    let d = PyDict::new(py);
+    d.set_item("array", array)?;
+    d.set_item("spacing", tuple3(g.spacing))?;
+    d.set_item("origin", tuple3(g.origin))?;
+    d.set_item("direction", tuple3(g.direction.map(tuple3)))?;
+    Ok(d)
+}

@@ -1,0 +1,104 @@
+"""load_volume: formats, the axis convention shared with extract, raw specs and errors."""
+
+import gzip
+
+import numpy as np
+import pytest
+
+import isogrid
+from conftest import REPO, same_grid, sphere
+
+
+@pytest.mark.parametrize("fortran", [False, True])
+def test_npy_round_trip_follows_the_axis_rule(tmp_path, fortran):
+    c = sphere(dtype=np.int16)
+    a = np.asfortranarray(c.transpose()) if fortran else c
+    path = tmp_path / "v.npy"
+    np.save(path, a)
+    vol = isogrid.load_volume(path)
+    # Whatever the file order, the result is C-ordered (nz, ny, nx) with the same samples.
+    assert vol.array.flags.c_contiguous and vol.array.shape == (20, 24, 28)
+    assert vol.array.dtype == np.int16
+    np.testing.assert_array_equal(vol.array, c)
+    assert vol.spacing == (1.0, 1.0, 1.0) and vol.dims == (28, 24, 20)
+    assert same_grid(isogrid.extract(vol, iso=0), isogrid.extract(a, iso=0))
+
+
+def test_loaded_array_is_an_owned_writable_numpy_array(tmp_path):
+    np.save(tmp_path / "v.npy", sphere())
+    vol = isogrid.load_volume(tmp_path / "v.npy")
+    assert vol.array.flags.writeable
+    vol.array[0, 0, 0] = 42
+    assert vol.array[0, 0, 0] == 42
+
+
+@pytest.mark.parametrize("dtype", ["uint8", "uint16", "int16", "float32"])
+@pytest.mark.parametrize("big_endian", [False, True])
+def test_raw(tmp_path, dtype, big_endian):
+    c = np.round(sphere() * 3 + 50).astype(dtype)
+    path = tmp_path / "v.raw"
+    path.write_bytes(c.astype(c.dtype.newbyteorder(">" if big_endian else "<")).tobytes())
+    vol = isogrid.load_volume(path, raw_shape=(28, 24, 20), raw_dtype=dtype, big_endian=big_endian)
+    np.testing.assert_array_equal(vol.array, c)
+    assert vol.array.dtype == np.dtype(dtype)
+
+
+def test_raw_byte_order_from_dtype(tmp_path):
+    c = np.arange(2 * 3 * 4, dtype=np.uint16).reshape(2, 3, 4) * 300
+    (tmp_path / "v.raw").write_bytes(c.astype(">u2").tobytes())
+    vol = isogrid.load_volume(tmp_path / "v.raw", raw_shape=(4, 3, 2), raw_dtype=">u2")
+    np.testing.assert_array_equal(vol.array, c)
+
+
+def test_raw_errors(tmp_path):
+    path = tmp_path / "v.raw"
+    path.write_bytes(bytes(100))
+    with pytest.raises(ValueError, match="raw size mismatch: 4x4x4 u8 needs 64 bytes but the file has 100"):
+        isogrid.load_volume(path, raw_shape=(4, 4, 4), raw_dtype=np.uint8)
+    with pytest.raises(ValueError, match="raw files need"):
+        isogrid.load_volume(path)
+    with pytest.raises(ValueError, match="need both raw_shape"):
+        isogrid.load_volume(path, raw_shape=(10, 10, 1))
+    with pytest.raises(ValueError, match="raw_dtype must be"):
+        isogrid.load_volume(path, raw_shape=(25, 1, 1), raw_dtype=np.float64)
+    with pytest.raises(ValueError, match="raw_shape must be"):
+        isogrid.load_volume(path, raw_shape=(100, 1))
+    with pytest.raises(ValueError, match="at least 1"):
+        isogrid.load_volume(path, raw_shape=(100, 1, 0), raw_dtype="uint8")
+
+
+def test_file_errors(tmp_path):
+    with pytest.raises(FileNotFoundError):
+        isogrid.load_volume(tmp_path / "missing.nii")
+    junk = tmp_path / "junk.dat"
+    junk.write_bytes(b"hello" * 100)
+    with pytest.raises(isogrid.IsogridError, match="junk.dat: unknown volume format"):
+        isogrid.load_volume(junk)
+    bad = tmp_path / "bad.npy"
+    bad.write_bytes(b"\x93NUMPY\x01\x00" + b"\x10\x00" + b"{'descr': '<f4'" + b"x" * 20)
+    with pytest.raises(isogrid.IsogridError, match="bad.npy"):
+        isogrid.load_volume(bad)
+
+
+def test_nifti_with_spacing(tmp_path):
+    nib = pytest.importorskip("nibabel")
+    f = np.asfortranarray(sphere(dtype=np.uint8).transpose())  # nibabel's [x, y, z]
+    img = nib.Nifti1Image(f, np.diag([0.5, 0.75, 2.0, 1.0]))
+    img.header.set_zooms((0.5, 0.75, 2.0))
+    nib.save(img, tmp_path / "v.nii.gz")
+    vol = isogrid.load_volume(tmp_path / "v.nii.gz")
+    assert vol.spacing == (0.5, 0.75, 2.0)
+    np.testing.assert_array_equal(vol.array, f.transpose())
+    # nibabel's own array, Fortran (x, y, z), with its zooms gives the grid of the Rust reader.
+    loaded = nib.load(tmp_path / "v.nii.gz")
+    direct = isogrid.extract(np.asanyarray(loaded.dataobj), iso=3, spacing=loaded.header.get_zooms())
+    assert same_grid(direct, isogrid.extract(vol, iso=3))
+
+
+def test_mni_template_if_fetched():
+    path = REPO / "data" / "mni152_t1.nii.gz"
+    if not path.exists():
+        pytest.skip("data/mni152_t1.nii.gz not fetched (bash scripts/fetch_data.sh)")
+    vol = isogrid.load_volume(path)
+    assert vol.dims == (197, 233, 189) and vol.array.dtype == np.uint8
+    assert vol.spacing == (1.0, 1.0, 1.0)

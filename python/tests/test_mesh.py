@@ -1,0 +1,89 @@
+"""marching_cubes and voxelize: the (x, y, z) convention, spacing, and argument checks."""
+
+import numpy as np
+import pytest
+
+import isogrid
+from conftest import same_grid, sphere
+
+# A closed unit cube, outward counter-clockwise faces.
+CUBE_V = np.array(
+    [[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0, 0, 1], [1, 0, 1], [1, 1, 1], [0, 1, 1]],
+    dtype=np.float64,
+)
+CUBE_F = np.array(
+    [[0, 2, 1], [0, 3, 2], [4, 5, 6], [4, 6, 7], [0, 1, 5], [0, 5, 4],
+     [2, 3, 7], [2, 7, 6], [1, 2, 6], [1, 6, 5], [0, 4, 7], [0, 7, 3]],
+    dtype=np.int64,
+)
+
+
+def test_marching_cubes_vertices_are_xyz_world_coordinates():
+    a = sphere(centre_xyz=(13.0, 11.0, 9.0), radius=6.0)
+    v, f = isogrid.marching_cubes(a, iso=0.0, spacing=(1.0, 2.0, 0.5))
+    assert v.dtype == np.float32 and v.shape[1] == 3 and f.dtype == np.uint32 and f.shape[1] == 3
+    assert f.max() < len(v)
+    # Vertices lie on the sphere, centred at (13·1, 11·2, 9·0.5) in world units.
+    centre = np.array([13.0, 22.0, 4.5])
+    scaled = (v - centre) / np.array([1.0, 2.0, 0.5])
+    r = np.linalg.norm(scaled, axis=1)
+    assert np.abs(r - 6.0).max() < 0.1
+    np.testing.assert_allclose((v.min(0) + v.max(0)) / 2, centre, atol=0.05)
+
+
+def test_marching_cubes_orders_and_normalised_iso():
+    a = sphere(dtype=np.uint8)  # values 0..8: 8 - distance clipped by the cast
+    f = np.asfortranarray(a.transpose())
+    va, fa = isogrid.marching_cubes(a, iso_normalized=0.5)
+    vf, ff = isogrid.marching_cubes(f, iso_normalized=0.5)
+    np.testing.assert_array_equal(va, vf)
+    np.testing.assert_array_equal(fa, ff)
+    with pytest.raises(ValueError, match="exactly one"):
+        isogrid.marching_cubes(a)
+    with pytest.raises(ValueError, match="3-D"):
+        isogrid.marching_cubes(a[0], iso=1)
+
+
+def test_marching_cubes_faces_point_outward():
+    a = sphere(radius=6.6)  # no sample exactly on the surface, so no degenerate triangle
+    v, f = isogrid.marching_cubes(a, iso=0.0)
+    p0, p1, p2 = v[f[:, 0]], v[f[:, 1]], v[f[:, 2]]
+    n = np.cross(p1 - p0, p2 - p0)
+    out = (p0 + p1 + p2) / 3 - np.array([13.0, 11.0, 9.0])
+    assert (np.einsum("ij,ij->i", n, out) > 0).all()
+
+
+def test_voxelize_cube():
+    vol = isogrid.voxelize(CUBE_V * 10, CUBE_F, resolution=24, supersample=1, padding=2)
+    assert isinstance(vol, isogrid.Volume)
+    assert vol.array.dtype == np.uint8 and vol.array.shape == (24, 24, 24)
+    assert vol.spacing == pytest.approx((0.5, 0.5, 0.5))
+    solid = vol.array == 255
+    # 20 voxels across, padding 2 on each side, fully solid inside.
+    assert solid[2:22, 2:22, 2:22].all() and solid.sum() == 20**3
+    grid = isogrid.extract(vol, iso_normalized=0.5)
+    assert grid.info["spacing"] == pytest.approx((0.5, 0.5, 0.5))
+
+
+def test_voxelize_axes_follow_xyz():
+    box = CUBE_V * np.array([4.0, 2.0, 1.0])  # long in x, short in z
+    vol = isogrid.voxelize(box, CUBE_F, resolution=20, supersample=2, padding=0)
+    nz, ny, nx = vol.array.shape
+    assert (nx, ny, nz) == (20, 10, 5) == vol.dims
+
+
+def test_voxelize_argument_errors():
+    with pytest.raises(ValueError, match="vertices must have shape"):
+        isogrid.voxelize(CUBE_V[:, :2], CUBE_F, 16)
+    with pytest.raises(ValueError, match="faces must have shape"):
+        isogrid.voxelize(CUBE_V, CUBE_F.ravel(), 16)
+    with pytest.raises(ValueError, match="faces must be integers"):
+        isogrid.voxelize(CUBE_V, CUBE_F.astype(float), 16)
+    with pytest.raises(ValueError, match="face indices"):
+        isogrid.voxelize(CUBE_V, CUBE_F + 1, 16)
+    with pytest.raises(ValueError, match="leaves no room"):
+        isogrid.voxelize(CUBE_V, CUBE_F, 4, padding=2)
+    with pytest.raises(ValueError, match="supersample 99"):
+        isogrid.voxelize(CUBE_V, CUBE_F, 16, supersample=99)
+    with pytest.raises(ValueError, match="no triangles"):
+        isogrid.voxelize(CUBE_V, np.zeros((0, 3), dtype=np.uint32), 16)
