@@ -90,6 +90,10 @@ pub struct Frame {
     /// Cluster index of the hit (global, slot / 16); `u32::MAX` on a miss, 0 for MC hits.
     pub cluster: Vec<u32>,
     pub timings: PassTimings,
+    /// Cells fully rasterised in the last frame (both visibility passes; 0 for MC).
+    pub drawn_cells: u64,
+    /// Probe splats drawn in the last frame.
+    pub probed_cells: u64,
 }
 
 impl Frame {
@@ -514,6 +518,14 @@ impl Renderer {
             (texture, row, buffer)
         });
 
+        let page_count = grid.map_or(0, |g| g.pages.len()) as u64;
+        let args_size = std::mem::size_of::<PageDrawArgs>() as u64;
+        let args_readback = self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("draw arguments readback"),
+            size: (args_size * page_count).max(args_size),
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
         let mut ran = [false; 8];
         for f in 0..frames {
             let frame_index = grid.map_or(0, |g| g.frame_index.fetch_add(1, Ordering::Relaxed));
@@ -780,6 +792,9 @@ impl Renderer {
                     encoder.resolve_query_set(set, 0..TS_PER_FRAME * timed_frames, resolve, 0);
                     encoder.copy_buffer_to_buffer(resolve, 0, readback, 0, resolve.size());
                 }
+                for (i, page) in grid.iter().flat_map(|g| &g.pages).enumerate() {
+                    encoder.copy_buffer_to_buffer(&page.args, 0, &args_readback, i as u64 * args_size, args_size);
+                }
                 for (texture, row, buffer) in &readbacks {
                     encoder.copy_texture_to_buffer(
                         texture.as_image_copy(),
@@ -809,6 +824,10 @@ impl Renderer {
             }
             None => PassTimings::default(),
         };
+        let args: Vec<PageDrawArgs> = bytemuck::pod_collect_to_vec(&self.read_buffer(&args_readback)?);
+        let count = |list: u64| -> u64 {
+            args.iter().take(page_count as usize).map(|a| a.lists[list as usize][1] as u64).sum()
+        };
         let (w, h) = (camera.width as usize, camera.height as usize);
         let mut frame = Frame {
             width: camera.width,
@@ -818,6 +837,8 @@ impl Renderer {
             normal: Vec::with_capacity(w * h),
             cluster: Vec::with_capacity(w * h),
             timings,
+            drawn_cells: count(LIST_FULL) + if occlusion { count(LIST_NEW) } else { 0 },
+            probed_cells: if occlusion { count(LIST_PROBE) } else { 0 },
         };
         let rows = |i: usize| mapped[i].chunks(readbacks[i].1 as usize);
         for ((color, normal), ids) in rows(0).zip(rows(1)).zip(rows(2)) {
