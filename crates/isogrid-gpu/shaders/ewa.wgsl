@@ -4,7 +4,8 @@
 // surface point estimate (one Newton step from the cell centre along the corner-value gradient)
 // and weighted by a Gaussian of the cell-space distance from the surface point that the raster
 // pass found at the pixel, which also acts as the depth test with a tolerance: splats more than
-// two sigma away from the visible surface, or facing the other way, add nothing.
+// two sigma away from the visible surface point, more than one sigma off its tangent plane, or
+// facing the other way, add nothing.
 
 @group(1) @binding(3) var<storage, read> instances: array<u32>;
 @group(2) @binding(0) var raster_surface: texture_2d<f32>;
@@ -49,7 +50,11 @@ fn fs_splat(in: SplatVarying) -> @location(0) vec4<f32> {
     let d = p - in.center;
     let sigma = frame.forward.w;
     let r2 = dot(d, d) / (sigma * sigma);
-    if r2 > 4.0 {
+    // Depth tolerance: a splat whose surface point is off the visible surface's tangent plane by
+    // more than sigma belongs to another sheet (thin or close layers), not to this one.
+    let s = frame.cell_to_world.xyz;
+    let off_plane = abs(dot(d * s, surface.xyz)) / min(min(s.x, s.y), s.z);
+    if r2 > 4.0 || off_plane > sigma {
         discard;
     }
     let w = exp(-0.5 * r2);

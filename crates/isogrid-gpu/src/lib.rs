@@ -79,6 +79,18 @@ impl Renderer {
                 ),
             ));
         }
+        for format in [pipelines::SURFACE_FORMAT, pipelines::IDS_FORMAT, pipelines::EWA_FORMAT] {
+            let usages = adapter.get_texture_format_features(format).allowed_usages;
+            if !usages.contains(wgpu::TextureUsages::RENDER_ATTACHMENT) {
+                return Err(GpuError::new(
+                    GpuErrorKind::NoAdapter,
+                    format!(
+                        "adapter {} ({:?}) cannot render to {format:?} targets",
+                        info.name, info.backend
+                    ),
+                ));
+            }
+        }
         let timestamps = adapter.features().contains(wgpu::Features::TIMESTAMP_QUERY);
         let features = if timestamps {
             wgpu::Features::TIMESTAMP_QUERY

@@ -567,9 +567,9 @@ impl Renderer {
                 encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                     label: Some(label),
                     color_attachments: &[
-                        color_attachment(&surface_view, Some(wgpu::Color::TRANSPARENT)),
+                        color_attachment(surface_view, Some(wgpu::Color::TRANSPARENT)),
                         color_attachment(
-                            &ids_view,
+                            ids_view,
                             Some(wgpu::Color {
                                 r: u32::MAX as f64,
                                 g: u32::MAX as f64,
@@ -579,7 +579,7 @@ impl Renderer {
                         ),
                     ],
                     depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                        view: &depth_view,
+                        view: depth_view,
                         depth_ops: Some(wgpu::Operations {
                             load: wgpu::LoadOp::Clear(0.0),
                             store: wgpu::StoreOp::Store,
@@ -793,7 +793,13 @@ impl Renderer {
                     encoder.copy_buffer_to_buffer(resolve, 0, readback, 0, resolve.size());
                 }
                 for (i, page) in grid.iter().flat_map(|g| &g.pages).enumerate() {
-                    encoder.copy_buffer_to_buffer(&page.args, 0, &args_readback, i as u64 * args_size, args_size);
+                    encoder.copy_buffer_to_buffer(
+                        &page.args,
+                        0,
+                        &args_readback,
+                        i as u64 * args_size,
+                        args_size,
+                    );
                 }
                 for (texture, row, buffer) in &readbacks {
                     encoder.copy_texture_to_buffer(
@@ -824,9 +830,13 @@ impl Renderer {
             }
             None => PassTimings::default(),
         };
-        let args: Vec<PageDrawArgs> = bytemuck::pod_collect_to_vec(&self.read_buffer(&args_readback)?);
+        let args: Vec<PageDrawArgs> =
+            bytemuck::pod_collect_to_vec(&self.read_buffer(&args_readback)?);
         let count = |list: u64| -> u64 {
-            args.iter().take(page_count as usize).map(|a| a.lists[list as usize][1] as u64).sum()
+            args.iter()
+                .take(page_count as usize)
+                .map(|a| a.lists[list as usize][1] as u64)
+                .sum()
         };
         let (w, h) = (camera.width as usize, camera.height as usize);
         let mut frame = Frame {

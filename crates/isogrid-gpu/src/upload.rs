@@ -257,7 +257,10 @@ impl Renderer {
             let args = self.buffer_init(
                 &format!("page {p} draw arguments"),
                 bytemuck::bytes_of(&PageDrawArgs::empty()),
-                storage | wgpu::BufferUsages::INDIRECT | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
+                storage
+                    | wgpu::BufferUsages::INDIRECT
+                    | wgpu::BufferUsages::COPY_DST
+                    | wgpu::BufferUsages::COPY_SRC,
             )?;
             let compute_group = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some(&format!("page {p} (compute)")),

@@ -34,18 +34,32 @@ fn camera(volume: &Volume, view: u8, width: u32, height: u32) -> Camera {
 #[test]
 fn cgc_without_ewa_matches_the_reference_ray_caster() {
     let Some(r) = renderer() else { return };
-    for (field, size, view) in [(Field::Sphere, 40, 2), (Field::Gyroid, 32, 1), (Field::MarschnerLobb, 40, 2)] {
+    for (field, size, view) in [
+        (Field::Sphere, 40, 2),
+        (Field::Gyroid, 32, 1),
+        (Field::MarschnerLobb, 40, 2),
+    ] {
         let (volume, grid) = scene(field, size, None);
         let cam = camera(&volume, view, 128, 96);
         let gpu = r.upload_grid(&grid).unwrap();
-        let frame = r.render(Scene::Grid(&gpu), &cam, Mode::CgcNoEwa, 1).unwrap();
+        let frame = r
+            .render(Scene::Grid(&gpu), &cam, Mode::CgcNoEwa, 1)
+            .unwrap();
         let reference = Reference::new(&volume, &grid).render(&cam);
         let a = compare(&frame, &reference, DEPTH_TOLERANCE);
         report(&format!("{field} {size} view {view} CgcNoEwa"), &a);
-        assert!(a.both_hit > 1000, "{field}: too few hits to say anything ({})", a.both_hit);
+        assert!(
+            a.both_hit > 1000,
+            "{field}: too few hits to say anything ({})",
+            a.both_hit
+        );
         assert!(a.hit_fraction() >= 0.99, "{field}: {a:?}");
         assert!(a.depth_fraction() >= 0.99, "{field}: {a:?}");
-        assert!(a.angle_quantile(0.99) <= 2.0, "{field}: p99 normal angle {}", a.angle_quantile(0.99));
+        assert!(
+            a.angle_quantile(0.99) <= 2.0,
+            "{field}: p99 normal angle {}",
+            a.angle_quantile(0.99)
+        );
     }
 }
 
@@ -58,8 +72,14 @@ fn every_corner_precision_decodes_like_the_core() {
         let (volume, grid) = scene(Field::Torus, 32, Some(precision));
         let cam = camera(&volume, 2, 64, 64);
         let gpu = r.upload_grid(&grid).unwrap();
-        let frame = r.render(Scene::Grid(&gpu), &cam, Mode::CgcNoEwa, 1).unwrap();
-        let a = compare(&frame, &Reference::new(&volume, &grid).render(&cam), DEPTH_TOLERANCE);
+        let frame = r
+            .render(Scene::Grid(&gpu), &cam, Mode::CgcNoEwa, 1)
+            .unwrap();
+        let a = compare(
+            &frame,
+            &Reference::new(&volume, &grid).render(&cam),
+            DEPTH_TOLERANCE,
+        );
         report(&format!("torus 32 {precision:?}"), &a);
         assert!(a.both_hit > 300);
         assert!(a.hit_fraction() >= 0.99, "{precision:?}: {a:?}");
@@ -72,15 +92,30 @@ fn every_corner_precision_decodes_like_the_core() {
 #[test]
 fn anisotropic_spacing_matches_the_reference() {
     let Some(r) = renderer() else { return };
-    let volume = isogrid::generate::generate(Field::Torus, 32, 1).with_spacing([1.0, 1.5, 0.7]).unwrap();
-    let grid = isogrid::extract(&volume.view(), &isogrid::ExtractOptions::new(isogrid::Iso::Normalized(0.5))).unwrap();
+    let volume = isogrid::generate::generate(Field::Torus, 32, 1)
+        .with_spacing([1.0, 1.5, 0.7])
+        .unwrap();
+    let grid = isogrid::extract(
+        &volume.view(),
+        &isogrid::ExtractOptions::new(isogrid::Iso::Normalized(0.5)),
+    )
+    .unwrap();
     let (lo, hi) = grid.info().world_bounds();
     let cam = Camera::preset(2, lo, hi, 96, 96).unwrap();
     let gpu = r.upload_grid(&grid).unwrap();
-    let frame = r.render(Scene::Grid(&gpu), &cam, Mode::CgcNoEwa, 1).unwrap();
-    let a = compare(&frame, &Reference::new(&volume, &grid).render(&cam), DEPTH_TOLERANCE * 0.7);
+    let frame = r
+        .render(Scene::Grid(&gpu), &cam, Mode::CgcNoEwa, 1)
+        .unwrap();
+    let a = compare(
+        &frame,
+        &Reference::new(&volume, &grid).render(&cam),
+        DEPTH_TOLERANCE * 0.7,
+    );
     report("torus 32 spacing (1, 1.5, 0.7)", &a);
-    assert!(a.both_hit > 500 && a.hit_fraction() >= 0.99 && a.depth_fraction() >= 0.99, "{a:?}");
+    assert!(
+        a.both_hit > 500 && a.hit_fraction() >= 0.99 && a.depth_fraction() >= 0.99,
+        "{a:?}"
+    );
     assert!(a.angle_quantile(0.99) <= 2.0);
 }
 
@@ -98,12 +133,25 @@ fn cgc_with_ewa_keeps_depth_and_smooths_normals() {
         let cam = camera(&volume, view, 128, 96);
         let gpu = r.upload_grid(&grid).unwrap();
         let frame = r.render(Scene::Grid(&gpu), &cam, Mode::Cgc, 1).unwrap();
-        let a = compare(&frame, &Reference::new(&volume, &grid).render(&cam), DEPTH_TOLERANCE);
+        let a = compare(
+            &frame,
+            &Reference::new(&volume, &grid).render(&cam),
+            DEPTH_TOLERANCE,
+        );
         report(&format!("{field} {size} view {view} Cgc (EWA)"), &a);
-        assert!(a.hit_fraction() >= 0.99 && a.depth_fraction() >= 0.99, "{a:?}");
-        assert!(a.angle_quantile(0.5) <= 4.0 && a.angle_quantile(0.95) <= 10.0, "{field}");
+        assert!(
+            a.hit_fraction() >= 0.99 && a.depth_fraction() >= 0.99,
+            "{a:?}"
+        );
+        assert!(
+            a.angle_quantile(0.5) <= 4.0 && a.angle_quantile(0.95) <= 10.0,
+            "{field}"
+        );
         // EWA must actually change the normals: the per-pixel gradient agrees to 0.02°.
-        assert!(a.angle_quantile(0.5) >= 0.2, "{field}: EWA normals equal the raster normals");
+        assert!(
+            a.angle_quantile(0.5) >= 0.2,
+            "{field}: EWA normals equal the raster normals"
+        );
         for n in frame.normal.iter().filter(|n| !n[0].is_nan()) {
             let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
             assert!((len - 1.0).abs() < 1e-3, "normal {n:?} is not unit");
@@ -123,11 +171,31 @@ fn cr_baseline_matches_the_reference() {
         let cam = camera(&volume, view, 128, 96);
         let gpu = r.upload_grid(&grid).unwrap();
         let vol = r.upload_volume(&volume.view(), &gpu).unwrap();
-        let frame = r.render(Scene::Volume { grid: &gpu, volume: &vol }, &cam, Mode::Cr, 1).unwrap();
-        let a = compare(&frame, &Reference::new(&volume, &grid).render(&cam), DEPTH_TOLERANCE);
+        let frame = r
+            .render(
+                Scene::Volume {
+                    grid: &gpu,
+                    volume: &vol,
+                },
+                &cam,
+                Mode::Cr,
+                1,
+            )
+            .unwrap();
+        let a = compare(
+            &frame,
+            &Reference::new(&volume, &grid).render(&cam),
+            DEPTH_TOLERANCE,
+        );
         report(&format!("{field} {size} view {view} Cr"), &a);
-        assert!(a.both_hit > 1000 && a.hit_fraction() >= 0.99 && a.depth_fraction() >= 0.99, "{a:?}");
-        assert!(a.angle_quantile(0.5) <= 6.0 && a.angle_quantile(0.95) <= 12.0, "{field}");
+        assert!(
+            a.both_hit > 1000 && a.hit_fraction() >= 0.99 && a.depth_fraction() >= 0.99,
+            "{a:?}"
+        );
+        assert!(
+            a.angle_quantile(0.5) <= 6.0 && a.angle_quantile(0.95) <= 12.0,
+            "{field}"
+        );
     }
 }
 
@@ -146,8 +214,14 @@ fn mc_baseline_depth_is_within_the_mesh_approximation_error() {
         let frame = r.render(Scene::Mesh(&gpu), &cam, Mode::Mc, 1).unwrap();
         let a = compare(&frame, &Reference::new(&volume, &grid).render(&cam), 0.3);
         report(&format!("{field} {size} view {view} Mc"), &a);
-        assert!(a.both_hit > 1000 && a.hit_fraction() >= 0.98 && a.depth_fraction() >= 0.98, "{a:?}");
-        assert!(a.angle_quantile(0.5) <= 10.0, "{field}: flat triangles vs trilinear gradient");
+        assert!(
+            a.both_hit > 1000 && a.hit_fraction() >= 0.98 && a.depth_fraction() >= 0.98,
+            "{a:?}"
+        );
+        assert!(
+            a.angle_quantile(0.5) <= 10.0,
+            "{field}: flat triangles vs trilinear gradient"
+        );
     }
 }
 
@@ -172,12 +246,17 @@ fn shading_matches_the_core_shading_model() {
             }
             hits += 1;
             let n = frame.normal[i].map(|v| v as f64);
-            let d = cam.ray(i as u32 % cam.width, i as u32 / cam.width).direction;
+            let d = cam
+                .ray(i as u32 % cam.width, i as u32 / cam.width)
+                .direction;
             let n_cam = [dot(n, right), dot(n, up), -dot(n, forward)].map(|v| v as f32);
             let view = [-dot(d, right), -dot(d, up), dot(d, forward)].map(|v| v as f32);
             let expected = isogrid::shading::shade(n_cam, view).map(isogrid::shading::to_srgb8);
             for c in 0..3 {
-                assert!((rgb[c] as i32 - expected[c] as i32).abs() <= 2, "{mode:?} pixel {i}: {rgb:?} vs {expected:?}");
+                assert!(
+                    (rgb[c] as i32 - expected[c] as i32).abs() <= 2,
+                    "{mode:?} pixel {i}: {rgb:?} vs {expected:?}"
+                );
             }
         }
         assert!(hits > 400, "{hits} hits");

@@ -56,7 +56,8 @@ impl Reference {
         for k in 0..cells[2] {
             for j in 0..cells[1] {
                 for i in 0..cells[0] {
-                    inactive_inside[i + cells[0] * (j + cells[1] * k)] = volume.get(i, j, k) >= info.iso;
+                    inactive_inside[i + cells[0] * (j + cells[1] * k)] =
+                        volume.get(i, j, k) >= info.iso;
                 }
             }
         }
@@ -80,7 +81,10 @@ impl Reference {
             cell[a] = i;
             local[a] = c - i as f64;
         }
-        (cell[0] + self.cells[0] * (cell[1] + self.cells[1] * cell[2]), local)
+        (
+            cell[0] + self.cells[0] * (cell[1] + self.cells[1] * cell[2]),
+            local,
+        )
     }
 
     fn inside(&self, p: [f64; 3]) -> bool {
@@ -145,7 +149,10 @@ impl Reference {
                     }
                 }
                 let normal = self.normal(at(b)).or_else(|| self.normal(at(a)))?;
-                return Some(Hit { t: 0.5 * (a + b), normal });
+                return Some(Hit {
+                    t: 0.5 * (a + b),
+                    normal,
+                });
             }
             prev = t;
         }
@@ -210,7 +217,11 @@ impl Agreement {
     }
 }
 
-pub fn compare(frame: &isogrid_gpu::Frame, reference: &[Option<Hit>], depth_tolerance: f64) -> Agreement {
+pub fn compare(
+    frame: &isogrid_gpu::Frame,
+    reference: &[Option<Hit>],
+    depth_tolerance: f64,
+) -> Agreement {
     let mut a = Agreement {
         pixels: reference.len(),
         hit_agree: 0,
@@ -232,7 +243,8 @@ pub fn compare(frame: &isogrid_gpu::Frame, reference: &[Option<Hit>], depth_tole
         if err <= depth_tolerance {
             a.depth_ok += 1;
             let n = frame.normal[i].map(|v| v as f64);
-            let dot = (n[0] * r.normal[0] + n[1] * r.normal[1] + n[2] * r.normal[2]).clamp(-1.0, 1.0);
+            let dot =
+                (n[0] * r.normal[0] + n[1] * r.normal[1] + n[2] * r.normal[2]).clamp(-1.0, 1.0);
             a.angles.push(dot.acos().to_degrees());
         }
     }
