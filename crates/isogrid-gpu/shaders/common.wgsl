@@ -1,0 +1,75 @@
+// Declarations shared by every isogrid-gpu shader; the Rust side prepends this file to each role's
+// file. Structs here are keep-in-sync twins of `src/gpu_types.rs`.
+//
+// Spaces: *cell space* has one unit per cell (= per sample spacing), sample (i, j, k) at (i, j, k);
+// *world space* is cell space scaled by the spacing (`frame.cell_to_world.xyz`), as in
+// `isogrid::camera`. Depth is reversed-Z with an infinite far plane: depth = near / z_view, so 1 is
+// the near plane and 0 is infinitely far; tests use `greater`.
+
+// Keep in sync with `FrameUniforms` in src/gpu_types.rs.
+struct FrameUniforms {
+    eye: vec4<f32>,           // world eye; w = near plane distance along `forward`
+    right: vec4<f32>,         // world image right; w = tan(fovy / 2) · aspect
+    up: vec4<f32>,            // world image up; w = tan(fovy / 2)
+    forward: vec4<f32>,       // world view direction; w = EWA Gaussian sigma in cells
+    viewport: vec4<f32>,      // width, height, 1 / width, 1 / height (pixels)
+    cell_to_world: vec4<f32>, // spacing xyz; w = isovalue in corner units (codes, or data units for the volume)
+    params: vec4<u32>,        // x: precision bits (4, 8, 16, 32); y: corner source; z: FLAG_*; w: frame index
+}
+
+const SOURCE_RECORDS: u32 = 0u;
+const SOURCE_VOLUME: u32 = 1u;
+const FLAG_OCCLUSION: u32 = 1u;
+const FLAG_BACKFACE: u32 = 2u;
+const FLAG_EWA: u32 = 4u; // the EWA target holds the normals to shade with
+const NO_CLUSTER: u32 = 0xffffffffu;
+
+// Keep in sync with `PageUniforms` in src/gpu_types.rs.
+struct PageUniforms {
+    first_slot: u32,  // global index of the page's first metacell slot
+    first_cell: u32,  // global index of the page's first corner record
+    slot_count: u32,
+    _pad: u32,
+}
+
+// The ray through a pixel position (pixels from the top-left corner), exactly `Camera::ray_at`.
+fn ray_direction(frame: FrameUniforms, pixel: vec2<f32>) -> vec3<f32> {
+    let sx = (2.0 * pixel.x * frame.viewport.z - 1.0) * frame.right.w;
+    let sy = (1.0 - 2.0 * pixel.y * frame.viewport.w) * frame.up.w;
+    return normalize(frame.forward.xyz + sx * frame.right.xyz + sy * frame.up.xyz);
+}
+
+// Clip position of a world point: x, y as the camera's perspective, depth = near / z_view.
+fn clip_from_world(frame: FrameUniforms, p: vec3<f32>) -> vec4<f32> {
+    let v = p - frame.eye.xyz;
+    return vec4<f32>(dot(v, frame.right.xyz) / frame.right.w, dot(v, frame.up.xyz) / frame.up.w, frame.eye.w, dot(v, frame.forward.xyz));
+}
+
+// Trilinear interpolation of 8 corner values (corner c at (c&1, c>>1&1, c>>2&1)) at p in [0,1]^3.
+fn trilinear(a: vec4<f32>, b: vec4<f32>, p: vec3<f32>) -> f32 {
+    let x00 = mix(a.x, a.y, p.x);
+    let x10 = mix(a.z, a.w, p.x);
+    let x01 = mix(b.x, b.y, p.x);
+    let x11 = mix(b.z, b.w, p.x);
+    return mix(mix(x00, x10, p.y), mix(x01, x11, p.y), p.z);
+}
+
+// Gradient of `trilinear` in cell units.
+fn trilinear_gradient(a: vec4<f32>, b: vec4<f32>, p: vec3<f32>) -> vec3<f32> {
+    let gx = mix(mix(a.y - a.x, a.w - a.z, p.y), mix(b.y - b.x, b.w - b.z, p.y), p.z);
+    let gy = mix(mix(a.z - a.x, a.w - a.y, p.x), mix(b.z - b.x, b.w - b.y, p.x), p.z);
+    let gz = mix(mix(b.x - a.x, b.y - a.y, p.x), mix(b.z - a.z, b.w - a.w, p.x), p.y);
+    return vec3<f32>(gx, gy, gz);
+}
+
+// Slab test (Majercik et al.) of a ray against the unit box [0,1]^3: (t_enter, t_exit).
+fn slab_unit_box(origin: vec3<f32>, dir: vec3<f32>) -> vec2<f32> {
+    // A zero component would give 0/0 on a face; a tiny one keeps the slab test well defined.
+    let safe = select(dir, vec3<f32>(1e-30), abs(dir) < vec3<f32>(1e-30));
+    let inv = 1.0 / safe;
+    let t0 = (vec3<f32>(0.0) - origin) * inv;
+    let t1 = (vec3<f32>(1.0) - origin) * inv;
+    let lo = min(t0, t1);
+    let hi = max(t0, t1);
+    return vec2<f32>(max(max(lo.x, lo.y), lo.z), min(min(hi.x, hi.y), hi.z));
+}

@@ -1,0 +1,58 @@
+// The Marching Cubes baseline (paper Table 4, "MC"): an indexed triangle mesh with snorm16
+// positions (Table 3 layout: 6 bytes per vertex, pulled from a storage buffer because there is no
+// 3-component 16-bit vertex format) and no stored normals; the face normal comes from screen-space
+// derivatives of the world position. Writes the same G-buffer as the cell passes.
+
+@group(0) @binding(0) var<uniform> frame: FrameUniforms;
+
+// Keep in sync with `MeshUniforms` in src/gpu_types.rs.
+struct MeshUniforms {
+    center: vec4<f32>,      // world, xyz
+    half_extent: vec4<f32>, // world, xyz: position = center + half_extent * q / 32767
+}
+
+@group(1) @binding(0) var<uniform> mesh: MeshUniforms;
+@group(1) @binding(1) var<storage, read> positions: array<u32>;
+
+fn snorm16(index: u32) -> f32 {
+    let half_word = (positions[index / 2u] >> (16u * (index % 2u))) & 0xffffu;
+    let signed = i32(half_word << 16u) >> 16u;
+    return f32(signed) / 32767.0;
+}
+
+struct MeshVarying {
+    @builtin(position) position: vec4<f32>,
+    @location(0) world: vec3<f32>,
+}
+
+@vertex
+fn vs_mesh(@builtin(vertex_index) vertex: u32) -> MeshVarying {
+    let q = vec3<f32>(snorm16(3u * vertex), snorm16(3u * vertex + 1u), snorm16(3u * vertex + 2u));
+    let p = mesh.center.xyz + mesh.half_extent.xyz * q;
+    var out: MeshVarying;
+    out.position = clip_from_world(frame, p);
+    out.world = p;
+    return out;
+}
+
+struct MeshOut {
+    @location(0) surface: vec4<f32>,
+    @location(1) ids: vec2<u32>,
+}
+
+@fragment
+fn fs_mesh(in: MeshVarying, @builtin(front_facing) front: bool) -> MeshOut {
+    var n = cross(dpdy(in.world), dpdx(in.world));
+    let len = length(n);
+    let to_eye = frame.eye.xyz - in.world;
+    n = select(normalize(to_eye), n / len, len > 0.0);
+    // Triangles wind counter-clockwise seen from outside, so a front face's outward normal (−∇f)
+    // points towards the eye and a back face's away from it.
+    if (dot(n, to_eye) > 0.0) != front {
+        n = -n;
+    }
+    var out: MeshOut;
+    out.surface = vec4<f32>(n, length(to_eye));
+    out.ids = vec2<u32>(0u, 0u);
+    return out;
+}

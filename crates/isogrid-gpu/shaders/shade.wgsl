@@ -1,0 +1,88 @@
+// Deferred normalised Blinn–Phong shading (paper §3.2) of the G-buffer, with the EWA-accumulated
+// normals (§3.4) when present. Keep the constants and the formula in sync with
+// `crates/isogrid/src/shading.rs` (`shade`, `to_srgb8`, `BACKGROUND_SRGB`).
+
+@group(0) @binding(0) var<uniform> frame: FrameUniforms;
+@group(1) @binding(0) var raster_surface: texture_2d<f32>;
+@group(1) @binding(1) var ewa_normals: texture_2d<f32>;
+@group(1) @binding(2) var cluster_ids: texture_2d<u32>;
+
+const KEY_LIGHT_DIR: vec3<f32> = vec3<f32>(-0.40, 0.55, 0.73);
+const KEY_LIGHT_RADIANCE: f32 = 2.6;
+const FILL_LIGHT_DIR: vec3<f32> = vec3<f32>(0.70, -0.10, 0.70);
+const FILL_LIGHT_RADIANCE: f32 = 0.6;
+const AMBIENT: f32 = 0.06;
+const ALBEDO: vec3<f32> = vec3<f32>(0.80, 0.74, 0.66);
+const SPECULAR: f32 = 0.25;
+const SHININESS: f32 = 48.0;
+const BACKGROUND_SRGB: vec3<f32> = vec3<f32>(28.0, 30.0, 36.0);
+const PI: f32 = 3.14159265358979;
+
+fn blinn_phong(n_in: vec3<f32>, view: vec3<f32>) -> vec3<f32> {
+    let n = select(n_in, -n_in, dot(n_in, view) < 0.0);
+    var rgb = ALBEDO * AMBIENT;
+    var dirs = array<vec3<f32>, 2>(KEY_LIGHT_DIR, FILL_LIGHT_DIR);
+    var radiance = array<f32, 2>(KEY_LIGHT_RADIANCE, FILL_LIGHT_RADIANCE);
+    for (var i = 0; i < 2; i++) {
+        let l = normalize(dirs[i]);
+        let ndl = max(dot(n, l), 0.0);
+        if ndl <= 0.0 {
+            continue;
+        }
+        let h = normalize(l + view);
+        let spec = SPECULAR * (SHININESS + 8.0) / (8.0 * PI) * pow(max(dot(n, h), 0.0), SHININESS);
+        rgb += radiance[i] * ndl * (ALBEDO / PI + vec3<f32>(spec));
+    }
+    return rgb;
+}
+
+// Linear → sRGB 8-bit code / 255, rounded like `to_srgb8` so the unorm target stores it exactly.
+fn to_srgb8(linear: f32) -> f32 {
+    let x = clamp(linear, 0.0, 1.0);
+    var s: f32;
+    if x <= 0.0031308 {
+        s = 12.92 * x;
+    } else {
+        s = 1.055 * pow(x, 1.0 / 2.4) - 0.055;
+    }
+    return floor(s * 255.0 + 0.5) / 255.0;
+}
+
+struct ShadeOut {
+    @location(0) color: vec4<f32>,
+    @location(1) normal: vec4<f32>, // final world normal (EWA or raster), eye distance
+}
+
+@vertex
+fn vs_fullscreen(@builtin(vertex_index) vertex: u32) -> @builtin(position) vec4<f32> {
+    let uv = vec2<f32>(f32((vertex << 1u) & 2u), f32(vertex & 2u));
+    return vec4<f32>(uv * 2.0 - 1.0, 0.0, 1.0);
+}
+
+@fragment
+fn fs_shade(@builtin(position) position: vec4<f32>) -> ShadeOut {
+    let pixel = vec2<i32>(position.xy);
+    var out: ShadeOut;
+    if textureLoad(cluster_ids, pixel, 0).r == NO_CLUSTER {
+        out.color = vec4<f32>(BACKGROUND_SRGB / 255.0, 1.0);
+        out.normal = vec4<f32>(0.0);
+        return out;
+    }
+    let surface = textureLoad(raster_surface, pixel, 0);
+    var n = surface.xyz;
+    if (frame.params.z & FLAG_EWA) != 0u {
+        let acc = textureLoad(ewa_normals, pixel, 0);
+        let len = length(acc.xyz);
+        if acc.w > 0.0 && len > 0.0 {
+            n = acc.xyz / len;
+        }
+    }
+    let dir = ray_direction(frame, position.xy);
+    // Camera space: x right, y up, z towards the viewer.
+    let n_cam = vec3<f32>(dot(n, frame.right.xyz), dot(n, frame.up.xyz), -dot(n, frame.forward.xyz));
+    let view = -vec3<f32>(dot(dir, frame.right.xyz), dot(dir, frame.up.xyz), -dot(dir, frame.forward.xyz));
+    let rgb = blinn_phong(n_cam, normalize(view));
+    out.color = vec4<f32>(to_srgb8(rgb.x), to_srgb8(rgb.y), to_srgb8(rgb.z), 1.0);
+    out.normal = vec4<f32>(n, surface.w);
+    return out;
+}

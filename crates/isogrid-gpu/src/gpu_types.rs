@@ -1,0 +1,80 @@
+//! `#[repr(C)]` structs shared with the WGSL shaders, one per uniform block. Each is a
+//! keep-in-sync twin of a struct in `shaders/` (named on the struct); WGSL's uniform layout rules
+//! are met by using only 16-byte vectors or four 4-byte scalars.
+
+use bytemuck::{Pod, Zeroable};
+
+/// Per-frame uniforms (group 0, binding 0 of every pass). Keep in sync with `FrameUniforms` in
+/// `shaders/common.wgsl`.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub(crate) struct FrameUniforms {
+    /// World eye position; w = near plane distance along `forward` (world units).
+    pub eye: [f32; 4],
+    /// World image right; w = tan(fovy / 2) · aspect.
+    pub right: [f32; 4],
+    /// World image up; w = tan(fovy / 2).
+    pub up: [f32; 4],
+    /// World view direction; w = EWA Gaussian sigma in cells.
+    pub forward: [f32; 4],
+    /// width, height, 1 / width, 1 / height (pixels).
+    pub viewport: [f32; 4],
+    /// world_from_cell scale (the spacing) xyz; w = isovalue in the units of the corner source.
+    pub cell_to_world: [f32; 4],
+    /// x: precision bits; y: corner source (`SOURCE_*`); z: `FLAG_*`; w: frame index.
+    pub params: [u32; 4],
+}
+
+pub(crate) const SOURCE_RECORDS: u32 = 0;
+pub(crate) const SOURCE_VOLUME: u32 = 1;
+pub(crate) const FLAG_OCCLUSION: u32 = 1;
+pub(crate) const FLAG_BACKFACE: u32 = 2;
+pub(crate) const FLAG_EWA: u32 = 4;
+
+/// One page of a grid's buffers (group 1, binding 0 of the cell passes). Keep in sync with
+/// `PageUniforms` in `shaders/common.wgsl`.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub(crate) struct PageUniforms {
+    pub first_slot: u32,
+    pub first_cell: u32,
+    pub slot_count: u32,
+    pub _pad: u32,
+}
+
+/// Decoding of snorm16 positions (group 1, binding 0 of the mesh pass). Keep in sync with
+/// `MeshUniforms` in `shaders/mesh.wgsl`.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub(crate) struct MeshUniforms {
+    pub center: [f32; 4],
+    pub half_extent: [f32; 4],
+}
+
+/// `wgpu::util::DrawIndirectArgs` for the full, probe and new instance lists of a page, as the
+/// expansion shader's `draw_args` sees them. Keep in sync with `draw_args` in `shaders/expand.wgsl`.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub(crate) struct PageDrawArgs {
+    pub lists: [[u32; 4]; 3],
+}
+
+pub(crate) const LIST_FULL: u64 = 0;
+pub(crate) const LIST_PROBE: u64 = 1;
+pub(crate) const LIST_NEW: u64 = 2;
+
+impl PageDrawArgs {
+    /// Six vertices (one rectangle) per instance, no instances yet.
+    pub fn empty() -> Self {
+        PageDrawArgs {
+            lists: [[6, 0, 0, 0]; 3],
+        }
+    }
+    /// Byte offset of a list's arguments.
+    pub fn offset(list: u64) -> u64 {
+        list * 16
+    }
+}
+
+const _: () = assert!(std::mem::size_of::<FrameUniforms>() == 112);
+const _: () = assert!(std::mem::size_of::<PageDrawArgs>() == 48);

@@ -1,0 +1,521 @@
+//! Scene data on the GPU: clustered grid cells split into pages of whole clusters (paper §3.1,
+//! byte for byte `isogrid::layout`), the Marching Cubes mesh (Table 3 layout) and the original
+//! volume as a 3D texture for the CR baseline.
+
+use crate::error::GpuError;
+use crate::gpu_types::{MeshUniforms, PageDrawArgs, PageUniforms};
+use crate::render::buffer_entry as entry;
+use crate::Renderer;
+use isogrid::layout::{BOUND_SLOT, CLUSTER_SLOTS};
+use isogrid::{CellGrid, GridInfo, Metacell};
+use std::sync::atomic::AtomicU32;
+use std::sync::Mutex;
+use wgpu::util::DeviceExt;
+
+/// Clusters the visibility buffers hold at least (the paper's 1M, 128 KiB per buffer).
+pub(crate) const MIN_VISIBILITY_CLUSTERS: u64 = 1 << 20;
+
+/// One binding's worth of a grid: a contiguous range of whole clusters.
+pub(crate) struct Page {
+    pub slot_count: u32,
+    pub args: wgpu::Buffer,
+    pub compute_group: wgpu::BindGroup,
+    /// Render bind groups reading the full, probe and new instance list.
+    pub render_groups: [wgpu::BindGroup; 3],
+}
+
+/// A [`CellGrid`] resident on the GPU, with its cluster visibility buffers.
+pub struct GpuGrid {
+    pub(crate) info: GridInfo,
+    pub(crate) pages: Vec<Page>,
+    /// Dense block records, resident for completeness (the raster passes address cells through
+    /// metacells only; blocks serve ray traversal).
+    #[allow(dead_code)]
+    pub(crate) blocks: Option<wgpu::Buffer>,
+    pub(crate) visible_last_frame: wgpu::Buffer,
+    pub(crate) visible_new: wgpu::Buffer,
+    pub(crate) visibility_bytes: u64,
+    /// No sample of the grid's border is inside, so a ray from an eye outside the grid box first
+    /// meets the surface from outside and back-face culling is safe.
+    pub(crate) border_outside: bool,
+    pub(crate) frame_index: AtomicU32,
+    /// What the visibility bits were last computed for; another view starts from "all visible".
+    pub(crate) last_view: Mutex<Option<String>>,
+    active_cells: u64,
+    clusters: u64,
+}
+
+impl GpuGrid {
+    pub fn info(&self) -> &GridInfo {
+        &self.info
+    }
+    /// Number of pages (storage-binding-sized pieces) the grid was split into.
+    pub fn page_count(&self) -> usize {
+        self.pages.len()
+    }
+    pub fn active_cells(&self) -> u64 {
+        self.active_cells
+    }
+    pub fn clusters(&self) -> u64 {
+        self.clusters
+    }
+    /// Forgets the visibility of earlier frames: the next frame draws every cluster fully.
+    pub fn reset_visibility(&self) {
+        if let Ok(mut v) = self.last_view.lock() {
+            *v = None;
+        }
+    }
+}
+
+/// An MC mesh on the GPU: snorm16 positions (6 bytes per vertex) and u32 indices.
+pub struct GpuMesh {
+    pub(crate) positions: wgpu::Buffer,
+    pub(crate) indices: wgpu::Buffer,
+    pub(crate) index_count: u32,
+    pub(crate) bind_group: wgpu::BindGroup,
+    /// World-space box of the vertices.
+    pub(crate) bounds: ([f64; 3], [f64; 3]),
+}
+
+impl GpuMesh {
+    pub fn triangle_count(&self) -> u32 {
+        self.index_count / 3
+    }
+    /// Bytes as the paper counts them (Table 3): positions + indices.
+    pub fn memory_bytes(&self) -> u64 {
+        self.positions.size() + self.indices.size()
+    }
+}
+
+/// The original samples of a volume as an `R32Float` 3D texture (data units), for [`crate::Mode::Cr`].
+pub struct GpuVolume {
+    pub(crate) view: wgpu::TextureView,
+    pub(crate) dims: [u32; 3],
+}
+
+impl GpuVolume {
+    pub fn dims(&self) -> [u32; 3] {
+        self.dims
+    }
+}
+
+fn padded(bytes: &[u8]) -> Vec<u8> {
+    // Storage bindings need a non-zero size that is a multiple of 4.
+    let mut v = bytes.to_vec();
+    v.resize(bytes.len().div_ceil(4).max(4) * 4, 0);
+    v
+}
+
+/// Cell count of each cluster, from its metacells' masks.
+fn cluster_cells(metacells: &[Metacell]) -> Vec<u64> {
+    metacells
+        .chunks_exact(CLUSTER_SLOTS)
+        .map(|c| {
+            c[..BOUND_SLOT]
+                .iter()
+                .map(|m| m.active_cells() as u64)
+                .sum()
+        })
+        .collect()
+}
+
+/// Splits clusters into contiguous ranges whose metacells, corner records and instance lists each
+/// fit in `limit` bytes. Returns (first cluster, cluster count, first record, record count).
+pub(crate) fn plan_pages(
+    per_cluster: &[u64],
+    bytes_per_cell: u64,
+    limit: u64,
+) -> Result<Vec<(u64, u64, u64, u64)>, GpuError> {
+    let slot_bytes = (CLUSTER_SLOTS * std::mem::size_of::<Metacell>()) as u64;
+    let cell_bytes = bytes_per_cell.max(4); // records, or the u32 instance list of the same cells
+    let mut pages = Vec::new();
+    let (mut first, mut count, mut first_cell, mut cells) = (0u64, 0u64, 0u64, 0u64);
+    for (i, &n) in per_cluster.iter().enumerate() {
+        if slot_bytes > limit || n * cell_bytes > limit {
+            return Err(GpuError::too_large(format!(
+                "one cluster needs {} bytes, more than a storage binding holds ({limit} bytes)",
+                (n * cell_bytes).max(slot_bytes)
+            )));
+        }
+        if count > 0 && ((count + 1) * slot_bytes > limit || (cells + n) * cell_bytes > limit) {
+            pages.push((first, count, first_cell, cells));
+            first = i as u64;
+            first_cell += cells;
+            count = 0;
+            cells = 0;
+        }
+        count += 1;
+        cells += n;
+    }
+    if count > 0 {
+        pages.push((first, count, first_cell, cells));
+    }
+    Ok(pages)
+}
+
+impl Renderer {
+    fn buffer_init(
+        &self,
+        label: &str,
+        contents: &[u8],
+        usage: wgpu::BufferUsages,
+    ) -> Result<wgpu::Buffer, GpuError> {
+        if contents.len() as u64 > self.limits.max_buffer_size {
+            return Err(GpuError::too_large(format!(
+                "{label}: {} bytes exceed the device's largest buffer ({} bytes)",
+                contents.len(),
+                self.limits.max_buffer_size
+            )));
+        }
+        Ok(self
+            .device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents,
+                usage,
+            }))
+    }
+
+    fn buffer(
+        &self,
+        label: &str,
+        size: u64,
+        usage: wgpu::BufferUsages,
+    ) -> Result<wgpu::Buffer, GpuError> {
+        if size > self.limits.max_buffer_size {
+            return Err(GpuError::too_large(format!(
+                "{label}: {size} bytes exceed the device's largest buffer ({} bytes)",
+                self.limits.max_buffer_size
+            )));
+        }
+        Ok(self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some(label),
+            size: size.max(16).div_ceil(4) * 4,
+            usage,
+            mapped_at_creation: false,
+        }))
+    }
+
+    /// Uploads blocks, metacell slots and corner records, split into pages when they exceed one
+    /// storage binding, and allocates the visibility buffers (all clusters visible at first).
+    pub fn upload_grid(&self, grid: &CellGrid) -> Result<GpuGrid, GpuError> {
+        self.scoped("uploading the grid", || self.upload_grid_unscoped(grid))
+    }
+
+    fn upload_grid_unscoped(&self, grid: &CellGrid) -> Result<GpuGrid, GpuError> {
+        let info = grid.info().clone();
+        let metacells = grid.metacells();
+        let cells = grid.cells();
+        let bpc = info.precision.bytes_per_cell() as u64;
+        let per_cluster = cluster_cells(metacells);
+        let plan = plan_pages(&per_cluster, bpc, self.page_bytes)?;
+        let storage = wgpu::BufferUsages::STORAGE;
+        let mut pages = Vec::with_capacity(plan.len());
+        for (p, &(first_cluster, clusters, first_cell, cell_count)) in plan.iter().enumerate() {
+            let slots = first_cluster as usize * CLUSTER_SLOTS
+                ..(first_cluster + clusters) as usize * CLUSTER_SLOTS;
+            let records = (first_cell * bpc) as usize..((first_cell + cell_count) * bpc) as usize;
+            let uniforms = PageUniforms {
+                first_slot: slots.start as u32,
+                first_cell: first_cell as u32,
+                slot_count: slots.len() as u32,
+                _pad: 0,
+            };
+            let uniforms = self.buffer_init(
+                &format!("page {p} uniforms"),
+                bytemuck::bytes_of(&uniforms),
+                wgpu::BufferUsages::UNIFORM,
+            )?;
+            let metacell_buffer = self.buffer_init(
+                &format!("page {p} metacells"),
+                &padded(bytemuck::cast_slice(&metacells[slots.clone()])),
+                storage,
+            )?;
+            let cell_buffer = self.buffer_init(
+                &format!("page {p} corner records"),
+                &padded(&cells[records]),
+                storage,
+            )?;
+            let list_bytes = [cell_count, slots.len() as u64, cell_count].map(|n| 4 * n);
+            let lists = [
+                self.buffer(
+                    &format!("page {p} full instance list"),
+                    list_bytes[0],
+                    storage,
+                )?,
+                self.buffer(
+                    &format!("page {p} probe instance list"),
+                    list_bytes[1],
+                    storage,
+                )?,
+                self.buffer(
+                    &format!("page {p} new instance list"),
+                    list_bytes[2],
+                    storage,
+                )?,
+            ];
+            let args = self.buffer_init(
+                &format!("page {p} draw arguments"),
+                bytemuck::bytes_of(&PageDrawArgs::empty()),
+                storage
+                    | wgpu::BufferUsages::INDIRECT
+                    | wgpu::BufferUsages::COPY_DST
+                    | wgpu::BufferUsages::COPY_SRC,
+            )?;
+            let compute_group = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some(&format!("page {p} (compute)")),
+                layout: &self.pipelines.page_compute,
+                entries: &[
+                    entry(0, &uniforms),
+                    entry(1, &metacell_buffer),
+                    entry(2, &cell_buffer),
+                    entry(3, &lists[0]),
+                    entry(4, &lists[1]),
+                    entry(5, &lists[2]),
+                    entry(6, &args),
+                ],
+            });
+            let render_groups = std::array::from_fn(|l| {
+                self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: Some(&format!("page {p} list {l} (render)")),
+                    layout: &self.pipelines.page_render,
+                    entries: &[
+                        entry(0, &uniforms),
+                        entry(1, &metacell_buffer),
+                        entry(2, &cell_buffer),
+                        entry(3, &lists[l]),
+                    ],
+                })
+            });
+            pages.push(Page {
+                slot_count: slots.len() as u32,
+                args,
+                compute_group,
+                render_groups,
+            });
+        }
+        let blocks = if grid.blocks().is_empty() {
+            None
+        } else {
+            Some(self.buffer_init("blocks", bytemuck::cast_slice(grid.blocks()), storage)?)
+        };
+        let clusters = grid.clusters() as u64;
+        let visibility_bytes = clusters.max(MIN_VISIBILITY_CLUSTERS).div_ceil(32) * 4;
+        let visibility_usage = storage | wgpu::BufferUsages::COPY_DST;
+        Ok(GpuGrid {
+            border_outside: border_is_outside(grid),
+            visible_last_frame: self.buffer(
+                "visible clusters (last frame)",
+                visibility_bytes,
+                visibility_usage,
+            )?,
+            visible_new: self.buffer(
+                "newly visible clusters",
+                visibility_bytes,
+                visibility_usage,
+            )?,
+            visibility_bytes,
+            info,
+            pages,
+            blocks,
+            frame_index: AtomicU32::new(0),
+            last_view: Mutex::new(None),
+            active_cells: grid.active_cells() as u64,
+            clusters,
+        })
+    }
+
+    /// Uploads an MC mesh as snorm16 positions scaled by its bounds and u32 indices (paper Table 3).
+    pub fn upload_mesh(&self, mesh: &isogrid::mc::McMesh) -> Result<GpuMesh, GpuError> {
+        self.scoped("uploading the mesh", || {
+            let snorm = mesh.to_snorm16();
+            let index_count = u32::try_from(mesh.triangles.len() * 3)
+                .map_err(|_| GpuError::too_large("the mesh has more than 2^32 indices"))?;
+            let positions = self.buffer_init(
+                "mc snorm16 positions",
+                &padded(bytemuck::cast_slice(&snorm.positions)),
+                wgpu::BufferUsages::STORAGE,
+            )?;
+            let indices = self.buffer_init(
+                "mc indices",
+                &padded(bytemuck::cast_slice(&snorm.triangles)),
+                wgpu::BufferUsages::INDEX,
+            )?;
+            let uniforms = MeshUniforms {
+                center: [snorm.center[0], snorm.center[1], snorm.center[2], 0.0],
+                half_extent: [
+                    snorm.half_extent[0],
+                    snorm.half_extent[1],
+                    snorm.half_extent[2],
+                    0.0,
+                ],
+            };
+            let uniforms = self.buffer_init(
+                "mc mesh uniforms",
+                bytemuck::bytes_of(&uniforms),
+                wgpu::BufferUsages::UNIFORM,
+            )?;
+            let bind_group = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("mc mesh"),
+                layout: &self.pipelines.mesh,
+                entries: &[
+                    wgpu::BindGroupEntry {
+                        binding: 0,
+                        resource: uniforms.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 1,
+                        resource: positions.as_entire_binding(),
+                    },
+                ],
+            });
+            let lo = std::array::from_fn(|a| (snorm.center[a] - snorm.half_extent[a]) as f64);
+            let hi = std::array::from_fn(|a| (snorm.center[a] + snorm.half_extent[a]) as f64);
+            Ok(GpuMesh {
+                positions,
+                indices,
+                index_count,
+                bind_group,
+                bounds: (lo, hi),
+            })
+        })
+    }
+
+    /// Uploads the original samples (as f32 data values) for the CR baseline; `grid` must have
+    /// been extracted from this volume.
+    pub fn upload_volume(
+        &self,
+        volume: &isogrid::VolumeView,
+        grid: &GpuGrid,
+    ) -> Result<GpuVolume, GpuError> {
+        let dims = volume.dims();
+        if dims.map(|d| d as u32) != grid.info.dims {
+            return Err(GpuError::invalid(format!(
+                "volume is {}x{}x{} but the grid was extracted from {}x{}x{}",
+                dims[0], dims[1], dims[2], grid.info.dims[0], grid.info.dims[1], grid.info.dims[2]
+            )));
+        }
+        let max = self.limits.max_texture_dimension_3d as usize;
+        if dims.iter().any(|&d| d > max) {
+            return Err(GpuError::too_large(format!(
+                "volume {}x{}x{} exceeds the largest 3D texture ({max} per axis)",
+                dims[0], dims[1], dims[2]
+            )));
+        }
+        self.scoped("uploading the volume", || {
+            let size = wgpu::Extent3d {
+                width: dims[0] as u32,
+                height: dims[1] as u32,
+                depth_or_array_layers: dims[2] as u32,
+            };
+            let texture = self.device.create_texture(&wgpu::TextureDescriptor {
+                label: Some("original volume (CR)"),
+                size,
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D3,
+                format: wgpu::TextureFormat::R32Float,
+                usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+                view_formats: &[],
+            });
+            let samples = volume.samples();
+            let slice = dims[0] * dims[1];
+            // One z slice at a time keeps the f32 staging copy small.
+            let mut plane = vec![0f32; slice];
+            for z in 0..dims[2] {
+                for (i, v) in plane.iter_mut().enumerate() {
+                    *v = samples.get_f64(z * slice + i) as f32;
+                }
+                self.queue.write_texture(
+                    wgpu::TexelCopyTextureInfo {
+                        texture: &texture,
+                        mip_level: 0,
+                        origin: wgpu::Origin3d {
+                            x: 0,
+                            y: 0,
+                            z: z as u32,
+                        },
+                        aspect: wgpu::TextureAspect::All,
+                    },
+                    bytemuck::cast_slice(&plane),
+                    wgpu::TexelCopyBufferLayout {
+                        offset: 0,
+                        bytes_per_row: Some(4 * dims[0] as u32),
+                        rows_per_image: Some(dims[1] as u32),
+                    },
+                    wgpu::Extent3d {
+                        depth_or_array_layers: 1,
+                        ..size
+                    },
+                );
+            }
+            let view = texture.create_view(&wgpu::TextureViewDescriptor {
+                label: Some("original volume view"),
+                ..Default::default()
+            });
+            Ok(GpuVolume {
+                view,
+                dims: dims.map(|d| d as u32),
+            })
+        })
+    }
+}
+
+/// Whether no sample on the grid's border is inside. Border samples of active cells are checked
+/// from their corner records; the remaining border samples lie in inactive cells only, and since
+/// the border is connected, a border sample inside next to one outside would make an active cell
+/// with an inside border corner. So with no such corner all border samples share one side, which
+/// is "outside" once one border sample is known to be outside: a border corner of an active cell,
+/// or a border block whose largest sample is below the isovalue.
+fn border_is_outside(grid: &CellGrid) -> bool {
+    let info = grid.info();
+    let iso_code = info.mapping.iso_code;
+    let last = info.dims.map(|d| d.saturating_sub(1));
+    let mut known_outside = false;
+    let on_border = |p: [u32; 3]| (0..3).any(|a| p[a] == 0 || p[a] >= last[a]);
+    for m in grid
+        .metacells()
+        .chunks_exact(CLUSTER_SLOTS)
+        .flat_map(|c| &c[..BOUND_SLOT])
+    {
+        let mut record = m.cell_pointer as usize;
+        for bit in 0..8 {
+            if m.cell_mask & (1 << bit) == 0 {
+                continue;
+            }
+            let cell = m.cell_position(bit);
+            if (0..3).any(|a| cell[a] == 0 || cell[a] + 1 >= last[a]) {
+                let corners =
+                    isogrid::layout::read_corners(grid.cell_record(record), info.precision);
+                for (c, code) in corners.iter().enumerate() {
+                    let p = [
+                        cell[0] + (c as u32 & 1),
+                        cell[1] + (c as u32 >> 1 & 1),
+                        cell[2] + (c as u32 >> 2 & 1),
+                    ];
+                    if on_border(p) {
+                        if *code >= iso_code {
+                            return false;
+                        }
+                        known_outside = true;
+                    }
+                }
+            }
+            record += 1;
+        }
+    }
+    if known_outside {
+        return true;
+    }
+    let n = info.block_dims();
+    let blocks = grid.blocks();
+    (0..blocks.len()).any(|i| {
+        let b = [
+            i as u32 % n[0],
+            i as u32 / n[0] % n[1],
+            i as u32 / (n[0] * n[1]),
+        ];
+        let border = (0..3).any(|a| b[a] == 0 || b[a] + 1 == n[a]);
+        border && (blocks[i].max as f64) < info.iso
+    })
+}
