@@ -229,6 +229,7 @@ def voxelize(
     resolution: int = 256,
     supersample: int = 3,
     padding: int = 2,
+    cube: bool = False,
     threads: Optional[int] = None,
 ) -> Volume:
     """Solid voxelisation of a triangle mesh into an 8-bit coverage volume (paper §4).
@@ -236,7 +237,9 @@ def voxelize(
     The mesh's bounding box spans ``resolution − 2·padding`` samples along its longest axis with
     ``padding`` empty samples on each side; each sample is split into ``supersample³`` fine
     voxels, inside by a three-axis ray-parity vote (robust to small holes), and stores
-    ``round(255 · inside fraction)``. Render or extract it at ``iso_normalized=0.5``.
+    ``round(255 · inside fraction)``. Render or extract it at ``iso_normalized=0.5``. With
+    ``cube=True`` every axis gets ``resolution`` samples and the mesh is centred (the paper's
+    datasets are cubes, e.g. the 512³ Dragon).
 
     Args:
         vertices: (V, 3) positions (x, y, z), any real dtype (used as float32).
@@ -263,6 +266,7 @@ def voxelize(
         _int(resolution, "resolution", 1),
         _int(supersample, "supersample", 1),
         _int(padding, "padding"),
+        cube=bool(cube),
         threads=None if threads is None else _int(threads, "threads", 1),
     )
     return Volume(d["array"], d["spacing"], d["origin"], d["direction"])

@@ -68,5 +68,6 @@ def voxelize(
     resolution: int,
     supersample: int = 3,
     padding: int = 2,
+    cube: bool = False,
     threads: Optional[int] = None,
 ) -> Dict[str, Any]: ...

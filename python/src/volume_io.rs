@@ -60,7 +60,7 @@ fn scalar_type(name: &str) -> PyResult<ScalarType> {
 
 /// Solid voxelisation into an 8-bit coverage volume (paper §4). See `isogrid.voxelize`.
 #[pyfunction]
-#[pyo3(signature = (vertices, faces, resolution, supersample=3, padding=2, threads=None))]
+#[pyo3(signature = (vertices, faces, resolution, supersample=3, padding=2, cube=false, threads=None))]
 pub fn voxelize<'py>(
     py: Python<'py>,
     vertices: PyReadonlyArray2<'py, f32>,
@@ -68,6 +68,7 @@ pub fn voxelize<'py>(
     resolution: usize,
     supersample: usize,
     padding: usize,
+    cube: bool,
     threads: Option<usize>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let mesh = TriMesh {
@@ -78,6 +79,7 @@ pub fn voxelize<'py>(
         resolution,
         supersample,
         padding,
+        cube,
     };
     let volume = run_detached(py, threads, move || {
         isogrid_io::voxelize::voxelize(&mesh, &options, &|_, _| {})

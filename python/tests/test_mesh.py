@@ -87,3 +87,13 @@ def test_voxelize_argument_errors():
         isogrid.voxelize(CUBE_V, CUBE_F, 16, supersample=99)
     with pytest.raises(ValueError, match="no triangles"):
         isogrid.voxelize(CUBE_V, np.zeros((0, 3), dtype=np.uint32), 16)
+
+
+def test_voxelize_cube_gives_every_axis_the_resolution():
+    v = np.array([[0, 0, 0], [1, 0, 0], [0, 0.5, 0], [0, 0, 0.25]], dtype=np.float32)
+    f = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]], dtype=np.uint32)
+    tight = isogrid.voxelize(v, f, resolution=20)
+    cube = isogrid.voxelize(v, f, resolution=20, cube=True)
+    assert cube.array.shape == (20, 20, 20)
+    assert tight.array.shape[2] == 20 and tight.array.shape[0] < 20
+    assert int(cube.array.sum(dtype=np.int64)) == int(tight.array.sum(dtype=np.int64))

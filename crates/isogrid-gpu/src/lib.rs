@@ -79,7 +79,11 @@ impl Renderer {
                 ),
             ));
         }
-        for format in [pipelines::SURFACE_FORMAT, pipelines::IDS_FORMAT, pipelines::EWA_FORMAT] {
+        for format in [
+            pipelines::SURFACE_FORMAT,
+            pipelines::IDS_FORMAT,
+            pipelines::EWA_FORMAT,
+        ] {
             let usages = adapter.get_texture_format_features(format).allowed_usages;
             if !usages.contains(wgpu::TextureUsages::RENDER_ATTACHMENT) {
                 return Err(GpuError::new(
