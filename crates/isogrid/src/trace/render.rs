@@ -82,6 +82,8 @@ pub struct Image {
     pub normal: Vec<[f32; 3]>,
     /// Cluster index of the hit cell; `u32::MAX` on a miss.
     pub cluster: Vec<u32>,
+    /// Closest-hit queries made (primary rays plus every path segment).
+    pub rays_traced: u64,
 }
 
 impl Image {
@@ -135,6 +137,7 @@ pub fn render_with_progress(
         })
         .collect();
     progress(1, passes);
+    let mut rays_traced = n;
 
     let radiance: Vec<[f32; 3]> = match &options.shading {
         Shading::Phong => {
@@ -161,18 +164,21 @@ pub fn render_with_progress(
             let world = grid.info().spacing;
             let offset = 1e-3 * world.iter().cloned().fold(f64::INFINITY, f64::min);
             for s in 0..p.samples_per_pixel {
-                sum.par_iter_mut()
+                rays_traced += sum
+                    .par_iter_mut()
                     .enumerate()
                     .with_min_len(64)
-                    .for_each(|(i, acc)| {
+                    .map(|(i, acc)| {
                         let mut rng = Rng::for_sample(p.seed, i as u64, s as u64);
                         let (x, y) = pixel(i);
                         let ray = camera.ray_at(x as f64 + rng.unit(), y as f64 + rng.unit());
-                        let l = trace_path(&tracer, ray, p, offset, &mut rng);
+                        let (l, rays) = trace_path(&tracer, ray, p, offset, &mut rng);
                         for c in 0..3 {
                             acc[c] += l[c] as f64;
                         }
-                    });
+                        rays
+                    })
+                    .sum::<u64>();
                 progress(2 + s as u64, passes);
             }
             let inv = 1.0 / p.samples_per_pixel as f64;
@@ -201,22 +207,24 @@ pub fn render_with_progress(
         depth,
         normal,
         cluster,
+        rays_traced,
     })
 }
 
-/// Radiance carried back along `ray` (one path, see the module docs).
+/// Radiance carried back along `ray` (one path, see the module docs) and the rays it took.
 fn trace_path(
     tracer: &Tracer,
     mut ray: Ray,
     p: &PathTraceOptions,
     offset: f64,
     rng: &mut Rng,
-) -> [f32; 3] {
+) -> ([f32; 3], u64) {
     let mut throughput = [1.0f32; 3];
     for depth in 0..=p.bounces {
         let Some(hit) = tracer.closest_hit(&ray, 0.0, f64::INFINITY) else {
             let env = p.environment.radiance(ray.direction);
-            return std::array::from_fn(|c| throughput[c] * env[c]);
+            let l = std::array::from_fn(|c| throughput[c] * env[c]);
+            return (l, depth as u64 + 1);
         };
         if depth == p.bounces {
             break;
@@ -237,7 +245,7 @@ fn trace_path(
             throughput[c] *= p.albedo[c];
         }
     }
-    [0.0; 3]
+    ([0.0; 3], p.bounces as u64 + 1)
 }
 
 fn srgb8_to_linear(v: u8) -> f32 {
