@@ -69,6 +69,8 @@ struct RaysReport {
     /// Grid memory: blocks + metacell slots + corner records.
     bytes: u64,
     active_cells: u64,
+    /// World box the random rays start in: [lo, hi].
+    world_bounds: [[f64; 3]; 2],
 }
 
 pub fn run(args: Args) -> Result<()> {
@@ -156,6 +158,10 @@ fn rays(args: RaysArgs) -> Result<()> {
         rays_per_second: rays.len() as f64 / seconds.max(1e-9),
         bytes: stats.bytes.blocks + stats.bytes.paper_total,
         active_cells: stats.active_cells,
+        world_bounds: {
+            let (lo, hi) = grid.info().world_bounds();
+            [lo, hi]
+        },
     };
     if args.json {
         print_json(&report)

@@ -60,6 +60,7 @@ pub struct Tracer<'g> {
     cell_dims: [f64; 3],
     block_dims: [i64; 3],
     crossing: Crossing,
+    margin: f32,
 }
 
 /// A ray in cell units: `origin / spacing`, `direction / spacing`, and the reciprocal direction
@@ -69,6 +70,9 @@ struct CellRay {
     origin: [f64; 3],
     direction: [f64; 3],
     inv: [f64; 3],
+    /// f32 copies for the batched metacell test, with the reciprocal kept finite.
+    origin32: [f32; 3],
+    inv32: [f32; 3],
 }
 
 impl CellRay {
@@ -91,6 +95,66 @@ impl CellRay {
     }
 }
 
+/// Clusters a block can hold: 16³ cells = 512 metacells in clusters of 15.
+const MAX_BLOCK_CLUSTERS: usize = (BLOCK_CELLS / 2).pow(3).div_ceil(CLUSTER_SLOTS - 1);
+
+/// Margin (cells) by which the f32 metacell test grows each box so that rounding never culls a
+/// box the ray really touches; exact f64 tests follow for the cells.
+fn metacell_margin(cell_dims: [f64; 3]) -> f32 {
+    let largest = cell_dims[0].max(cell_dims[1]).max(cell_dims[2]);
+    (1e-3f64).max(largest * 1e-5) as f32
+}
+
+#[inline(always)]
+fn min32(a: f32, b: f32) -> f32 {
+    if a < b {
+        a
+    } else {
+        b
+    }
+}
+#[inline(always)]
+fn max32(a: f32, b: f32) -> f32 {
+    if a > b {
+        a
+    } else {
+        b
+    }
+}
+
+/// Bit `i` set when the ray may pass through metacell slot `i` (0–14) of `cluster` within
+/// `[tmin, tmax]`: all 15 slab tests at once in f32 lanes (vectorised by the compiler), on boxes
+/// grown by `margin`. Empty slots are not excluded here.
+#[inline(always)]
+fn metacell_hits(r: &CellRay, cluster: &[Metacell], tmin: f64, tmax: f64, margin: f32) -> u32 {
+    let mut lo = [[0f32; 16]; 3];
+    for (i, m) in cluster[..BOUND_SLOT].iter().enumerate() {
+        for a in 0..3 {
+            lo[a][i] = 2.0 * m.position[a] as f32;
+        }
+    }
+    let mut near = [f32::NEG_INFINITY; 16];
+    let mut far = [f32::INFINITY; 16];
+    for a in 0..3 {
+        let (o, inv) = (r.origin32[a], r.inv32[a]);
+        for i in 0..16 {
+            let t0 = (lo[a][i] - margin - o) * inv;
+            let t1 = (lo[a][i] + (2.0 + margin) - o) * inv;
+            near[i] = max32(near[i], min32(t0, t1));
+            far[i] = min32(far[i], max32(t0, t1));
+        }
+    }
+    // Widen the t range a little too: t itself is rounded to f32.
+    let lo_t = (tmin - 1e-3 - 1e-5 * tmin.abs()) as f32;
+    let hi_t = (tmax + 1e-3 + 1e-5 * tmax.abs()).min(f32::MAX as f64) as f32;
+    let mut mask = 0u32;
+    for i in 0..16 {
+        let hit = near[i] <= far[i] && far[i] >= lo_t && near[i] <= hi_t;
+        mask |= (hit as u32) << i;
+    }
+    mask & 0x7fff
+}
+
 #[inline(always)]
 fn box_of(lo: [u32; 3], size: u32) -> ([f64; 3], [f64; 3]) {
     (lo.map(|v| v as f64), lo.map(|v| (v + size) as f64))
@@ -110,6 +174,7 @@ impl<'g> Tracer<'g> {
             cell_dims: info.cell_dims().map(|c| c as f64),
             block_dims: bd.map(|b| b as i64),
             crossing,
+            margin: metacell_margin(info.cell_dims().map(|c| c as f64)),
         }
     }
 
@@ -119,10 +184,14 @@ impl<'g> Tracer<'g> {
 
     fn cell_ray(&self, ray: &Ray) -> CellRay {
         let direction: [f64; 3] = [0, 1, 2].map(|a| ray.direction[a] / self.spacing[a]);
+        let origin = [0, 1, 2].map(|a| ray.origin[a] / self.spacing[a]);
+        let inv = direction.map(|d| 1.0 / if d == 0.0 { 1e-300 } else { d });
         CellRay {
-            origin: [0, 1, 2].map(|a| ray.origin[a] / self.spacing[a]),
+            origin,
             direction,
-            inv: direction.map(|d| 1.0 / if d == 0.0 { 1e-300 } else { d }),
+            inv,
+            origin32: origin.map(|v| v as f32),
+            inv32: inv.map(|v| v.clamp(-1e30, 1e30) as f32),
         }
     }
 
@@ -229,19 +298,36 @@ impl<'g> Tracer<'g> {
     fn closest_in_block(&self, r: &CellRay, block: &Block, tmin: f64, best: &mut Best) {
         let slots = &self.metacells[block.slots()];
         let first_cluster = block.metacell_pointer as usize / CLUSTER_SLOTS;
+        // Clusters whose bound the ray enters, nearest first, so that the search can stop at the
+        // first cluster that starts behind the best hit. A block holds at most 512 metacells, so
+        // at most 35 clusters.
+        let mut order = [(0.0f64, 0u16); MAX_BLOCK_CLUSTERS];
+        let mut count = 0;
         for (ci, cluster) in slots.chunks_exact(CLUSTER_SLOTS).enumerate() {
             let (lo, hi) = cluster[BOUND_SLOT].as_bound().cell_box();
             let (near, far) = r.slab(lo.map(|v| v as f64), hi.map(|v| v as f64));
-            if near > far || far < tmin || near > best.t {
+            if near > far || far < tmin || near > best.t || count == MAX_BLOCK_CLUSTERS {
                 continue;
             }
-            for m in &cluster[..BOUND_SLOT] {
+            let mut k = count;
+            while k > 0 && order[k - 1].0 > near {
+                order[k] = order[k - 1];
+                k -= 1;
+            }
+            order[k] = (near, ci as u16);
+            count += 1;
+        }
+        for &(near, ci) in &order[..count] {
+            if near > best.t {
+                break;
+            }
+            let ci = ci as usize;
+            let cluster = &slots[ci * CLUSTER_SLOTS..(ci + 1) * CLUSTER_SLOTS];
+            let mut candidates = metacell_hits(r, cluster, tmin, best.t, self.margin);
+            while candidates != 0 {
+                let m = &cluster[candidates.trailing_zeros() as usize];
+                candidates &= candidates - 1;
                 if m.cell_mask == 0 {
-                    continue;
-                }
-                let (lo, hi) = box_of(m.position.map(|v| 2 * v as u32), 2);
-                let (near, far) = r.slab(lo, hi);
-                if near > far || far < tmin || near > best.t {
                     continue;
                 }
                 let mask = m.cell_mask & 0xff;
@@ -285,13 +371,11 @@ impl<'g> Tracer<'g> {
             if near > far || far < tmin || near > tmax {
                 continue;
             }
-            for m in &cluster[..BOUND_SLOT] {
+            let mut candidates = metacell_hits(r, cluster, tmin, tmax, self.margin);
+            while candidates != 0 {
+                let m = &cluster[candidates.trailing_zeros() as usize];
+                candidates &= candidates - 1;
                 if m.cell_mask == 0 {
-                    continue;
-                }
-                let (lo, hi) = box_of(m.position.map(|v| 2 * v as u32), 2);
-                let (near, far) = r.slab(lo, hi);
-                if near > far || far < tmin || near > tmax {
                     continue;
                 }
                 let mut bits = m.cell_mask & 0xff;
