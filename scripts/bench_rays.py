@@ -238,11 +238,13 @@ def write_report(args, results):
     lines += ["", "Agreement on the same rays (hit or miss; distance where both hit):", ""]
     for r in results:
         a, b = r["exact_vs_embree"], r["samples3_vs_exact"]
+        lo, hi = r["samples3"]["world_bounds"]
+        voxel = min((hi[i] - lo[i]) / max(r["dims"][i] - 1, 1) for i in range(3))
         lines.append(
-            f"- {r['dataset']}: Exact vs Embree agree on {100 * a['hit_agreement']:.2f} % of rays "
-            f"(median |Δt| {a['median_abs_dt']:.4f} voxel-scaled world units where both hit; the MC mesh is "
-            f"a piecewise-linear approximation of the trilinear surface); Samples3 vs Exact agree on "
-            f"{100 * b['hit_agreement']:.3f} % (median |Δt| {b['median_abs_dt']:.2e})."
+            f"- {r['dataset']}: Exact vs Embree agree on hit/miss for {100 * a['hit_agreement']:.2f} % of rays; "
+            f"where both hit, median |Δt| = {a['median_abs_dt'] / voxel:.4f} voxel (the MC mesh is a "
+            f"piecewise-linear approximation of the trilinear surface). Samples3 vs Exact agree on "
+            f"{100 * b['hit_agreement']:.4f} % of rays (median |Δt| {b['median_abs_dt'] / voxel:.1e} voxel)."
         )
     lines += [
         "",
@@ -258,7 +260,16 @@ def write_report(args, results):
             f"(best ours {best / em:.2f}× Embree), memory {'met' if mem <= 1 / 3 else 'NOT met'} "
             f"({mem:.2f}× Embree's)."
         )
-    lines += ["", "Raw results (JSON):", "", "```json", json.dumps(results, indent=1), "```", ""]
+    lines += [
+        "",
+        "Notes: the CGC traversal is a scalar block DDA with f64 slab tests per cluster and cell (the",
+        "15 metacell boxes of a cluster are tested together in f32 lanes, SSE2 baseline build) and reads",
+        "one corner record per candidate cell, which profiles as the main cache-miss stall; Embree",
+        "traverses a SIMD BVH over the mesh. Hit/miss agreement with Embree is limited by the MC mesh",
+        "approximating the trilinear surface, not by the tracer (the tests compare `Exact` with a",
+        "brute-force reference to 1e-4 voxel).",
+        "",
+        "Raw results (JSON):", "", "```json", json.dumps(results, indent=1), "```", ""]
     with open(args.out, "w") as f:
         f.write("\n".join(lines))
     print(f"wrote {args.out}", file=sys.stderr)
