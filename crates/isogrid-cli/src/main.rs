@@ -31,6 +31,10 @@ enum Command {
     Generate(commands::generate::Args),
     /// Build a built-in volume, extract it and compare with Marching Cubes.
     Demo(commands::demo::Args),
+    /// Render the isosurface to a PNG (CPU ray tracing or path tracing), with optional AOVs.
+    Render(commands::render::Args),
+    /// Benchmarks: `bench rays` measures closest-hit rays per second.
+    Bench(commands::bench::Args),
 }
 
 fn main() -> ExitCode {
@@ -42,6 +46,8 @@ fn main() -> ExitCode {
         Command::Voxelize(a) => commands::voxelize::run(a),
         Command::Generate(a) => commands::generate::run(a),
         Command::Demo(a) => commands::demo::run(a),
+        Command::Render(a) => commands::render::run(a),
+        Command::Bench(a) => commands::bench::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -169,7 +169,22 @@ fn thread_count_does_not_change_the_file() {
 
 #[test]
 fn demo_compares_with_marching_cubes() {
-    let d = ok_json(&["demo", "--size", "48", "--json"]);
+    let dir = temp_dir("demo");
+    let png = dir.join("demo.png");
+    let d = ok_json(&[
+        "demo",
+        "--size",
+        "48",
+        "--image",
+        s(&png),
+        "--image-size",
+        "64x48",
+        "--json",
+    ]);
+    let bytes = std::fs::read(&png).unwrap();
+    assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n");
+    assert!(d["image_backend"] == "gpu" || d["image_backend"] == "cpu");
+    std::fs::remove_dir_all(dir).unwrap();
     let ratio = d["memory_ratio"].as_f64().unwrap();
     let cgc = d["cgc"]["bytes"]["paper_total"].as_f64().unwrap();
     let mc = d["mc"]["bytes"].as_f64().unwrap();

@@ -10,6 +10,7 @@
 //! file; declared sizes are checked against the file before anything is allocated.
 
 pub mod dicom;
+pub mod image;
 pub mod mesh;
 pub mod nifti;
 pub mod npy;

@@ -35,6 +35,7 @@ pub mod morton;
 pub mod quantize;
 pub mod shading;
 pub mod stats;
+pub mod trace;
 pub mod volume;
 
 pub use camera::{Camera, Ray};

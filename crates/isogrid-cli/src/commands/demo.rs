@@ -21,6 +21,12 @@ pub struct Args {
     pub size: u32,
     #[command(flatten)]
     pub threads: ThreadArgs,
+    /// Picture of the isosurface (PNG), rendered on a GPU adapter when there is one, else on the CPU.
+    #[arg(long, value_name = "OUT.png", default_value = "isogrid-demo.png")]
+    pub image: PathBuf,
+    /// Size of the picture.
+    #[arg(long, value_name = "WxH", default_value = "960x540", value_parser = super::render::parse_size)]
+    pub image_size: (u32, u32),
     /// Also write the grid to this .cgc file.
     #[arg(short, long, value_name = "OUT.cgc")]
     pub output: Option<PathBuf>,
@@ -39,6 +45,29 @@ struct DemoReport {
     memory_ratio: f64,
     /// MC extraction time over CGC extraction time.
     speedup: f64,
+    /// Where the picture was rendered: "gpu" or "cpu".
+    image_backend: &'static str,
+    image: PathBuf,
+}
+
+/// Renders view 2 of the grid to a PNG; returns the backend used and a description.
+fn picture(
+    grid: &isogrid::CellGrid,
+    path: &std::path::Path,
+    (w, h): (u32, u32),
+) -> Result<(&'static str, String)> {
+    let (lo, hi) = grid.info().world_bounds();
+    let camera = isogrid::Camera::preset(2, lo, hi, w, h)?;
+    if let Some(renderer) = super::render_gpu::renderer()? {
+        let out =
+            super::render_gpu::render(&renderer, grid, None, &camera, isogrid_gpu::Mode::Cgc, 2)?;
+        isogrid_io::image::write_png(path, w, h, 4, &out.frame.rgba8)?;
+        return Ok(("gpu", out.adapter));
+    }
+    let options = isogrid::trace::RenderOptions::default();
+    let image = isogrid::trace::render(grid, &camera, &options)?;
+    isogrid_io::image::write_png(path, w, h, 3, &image.rgb8)?;
+    Ok(("cpu", "CPU ray tracer (no GPU adapter)".to_string()))
 }
 
 pub fn run(args: Args) -> Result<()> {
@@ -89,6 +118,9 @@ pub fn run(args: Args) -> Result<()> {
     };
     let memory_ratio = stats.bytes.paper_total as f64 / mc.bytes.max(1) as f64;
     let speedup = mc_seconds / cgc_seconds.max(1e-9);
+    let (image_backend, renderer) = args
+        .threads
+        .install(|| picture(&grid, &args.image, args.image_size))??;
     if args.json {
         return print_json(&DemoReport {
             field: args.field.to_string(),
@@ -97,6 +129,8 @@ pub fn run(args: Args) -> Result<()> {
             mc,
             memory_ratio,
             speedup,
+            image_backend,
+            image: args.image.clone(),
         });
     }
     println!(
@@ -122,6 +156,8 @@ pub fn run(args: Args) -> Result<()> {
         group(stats.active_cells),
         group(mc.triangles)
     );
+    println!("\n== picture (view 2, cell rasterisation with EWA normals and deferred shading on a GPU; ray traced on the CPU otherwise)");
+    println!("wrote         {} ({renderer})", args.image.display());
     if let Some(out) = &args.output {
         println!("wrote         {}", out.display());
     }

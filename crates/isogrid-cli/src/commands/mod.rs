@@ -1,8 +1,11 @@
 //! One module per subcommand.
 
+pub mod bench;
 pub mod demo;
 pub mod extract;
 pub mod generate;
 pub mod info;
 pub mod mc;
+pub mod render;
+pub mod render_gpu;
 pub mod voxelize;

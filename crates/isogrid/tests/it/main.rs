@@ -4,3 +4,4 @@ mod cgc;
 mod common;
 mod extract;
 mod mc;
+mod trace;

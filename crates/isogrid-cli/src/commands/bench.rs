@@ -1,0 +1,180 @@
+//! `isogrid bench rays`: closest-hit throughput of the CPU tracer (paper §3.6) on random rays.
+//!
+//! Rays: origins uniform in the grid's world box, directions uniform on the sphere, from a
+//! SplitMix64 stream of `--seed` (or read from `--rays-file`, raw little-endian f32 records
+//! `ox oy oz dx dy dz`, so another tracer can be given the very same rays). Only the tracing is
+//! timed; memory is the grid's three buffers (blocks, metacells, cells).
+
+use super::render::GridSource;
+use crate::args::ThreadArgs;
+use crate::report::print_json;
+use anyhow::{bail, Context, Result};
+use isogrid::trace::sample::{uniform_sphere, Rng};
+use isogrid::trace::{closest_hits, Crossing, Hit, Tracer};
+use isogrid::{GridStats, Ray};
+use serde::Serialize;
+use std::path::PathBuf;
+use std::time::Instant;
+
+#[derive(clap::Subcommand)]
+pub enum Bench {
+    /// Closest-hit rays per second on random rays through the grid's box.
+    Rays(RaysArgs),
+}
+
+#[derive(clap::Args)]
+pub struct Args {
+    #[command(subcommand)]
+    pub what: Bench,
+}
+
+/// Rays a benchmark may trace at once.
+const MAX_RAYS: u64 = 1 << 28;
+
+#[derive(clap::Args)]
+pub struct RaysArgs {
+    #[command(flatten)]
+    pub source: GridSource,
+    /// Number of random rays.
+    #[arg(long, value_name = "N", default_value_t = 1_000_000,
+          value_parser = clap::value_parser!(u64).range(1..=MAX_RAYS))]
+    pub rays: u64,
+    /// Seed of the random rays.
+    #[arg(long, value_name = "S", default_value_t = 1)]
+    pub seed: u64,
+    /// Trace these rays instead: raw little-endian f32, 6 per ray (origin xyz, direction xyz).
+    #[arg(long, value_name = "FILE", conflicts_with = "rays")]
+    pub rays_file: Option<PathBuf>,
+    /// Write the hit distance of every ray (f32 .npy, inf on a miss).
+    #[arg(long, value_name = "T.npy")]
+    pub t_out: Option<PathBuf>,
+    /// Solve the exact crossing (cubic roots) instead of three samples per cell.
+    #[arg(long)]
+    pub exact: bool,
+    #[command(flatten)]
+    pub threads: ThreadArgs,
+    /// Print one JSON object.
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(Serialize)]
+struct RaysReport {
+    crossing: &'static str,
+    threads: usize,
+    rays: u64,
+    hits: u64,
+    seconds: f64,
+    rays_per_second: f64,
+    /// Grid memory: blocks + metacell slots + corner records.
+    bytes: u64,
+    active_cells: u64,
+    /// World box the random rays start in: [lo, hi].
+    world_bounds: [[f64; 3]; 2],
+}
+
+pub fn run(args: Args) -> Result<()> {
+    match args.what {
+        Bench::Rays(a) => rays(a),
+    }
+}
+
+fn read_rays(path: &PathBuf) -> Result<Vec<Ray>> {
+    let len = std::fs::metadata(path)
+        .with_context(|| format!("{}: cannot read", path.display()))?
+        .len();
+    if len % 24 != 0 || len / 24 > MAX_RAYS || len == 0 {
+        bail!(
+            "{}: {len} bytes are not whole rays of 6 f32 (at most {MAX_RAYS})",
+            path.display()
+        );
+    }
+    let bytes = std::fs::read(path).with_context(|| format!("{}: cannot read", path.display()))?;
+    let f = |b: &[u8]| f32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f64;
+    let mut rays = Vec::with_capacity(bytes.len() / 24);
+    for r in bytes.chunks_exact(24) {
+        let v: [f64; 6] = std::array::from_fn(|i| f(&r[4 * i..]));
+        let d = [v[3], v[4], v[5]];
+        let n = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+        if !(n > 0.0 && n.is_finite() && v.iter().all(|x| x.is_finite())) {
+            bail!(
+                "{}: ray {} is not finite with a non-zero direction",
+                path.display(),
+                rays.len()
+            );
+        }
+        rays.push(Ray {
+            origin: [v[0], v[1], v[2]],
+            direction: d.map(|c| c / n),
+        });
+    }
+    Ok(rays)
+}
+
+fn rays(args: RaysArgs) -> Result<()> {
+    let grid = args.threads.install(|| args.source.load())??;
+    let rays = match &args.rays_file {
+        Some(path) => read_rays(path)?,
+        None => {
+            let (lo, hi) = grid.info().world_bounds();
+            let mut rng = Rng::for_sample(args.seed, 0, 0);
+            (0..args.rays)
+                .map(|_| {
+                    let origin = [0, 1, 2].map(|a| lo[a] + (hi[a] - lo[a]) * rng.unit());
+                    Ray {
+                        origin,
+                        direction: uniform_sphere(&mut rng),
+                    }
+                })
+                .collect()
+        }
+    };
+    let crossing = if args.exact {
+        Crossing::Exact
+    } else {
+        Crossing::Samples3
+    };
+    let tracer = Tracer::new(&grid, crossing);
+    let mut hits: Vec<Option<Hit>> = vec![None; rays.len()];
+    let (seconds, threads) = args.threads.install(|| {
+        let start = Instant::now();
+        closest_hits(&tracer, &rays, &mut hits);
+        (start.elapsed().as_secs_f64(), rayon::current_num_threads())
+    })?;
+    if let Some(out) = &args.t_out {
+        let t: Vec<f32> = hits
+            .iter()
+            .map(|h| h.map_or(f32::INFINITY, |h| h.t as f32))
+            .collect();
+        isogrid_io::image::write_npy(out, &[t.len()], &t)?;
+    }
+    let stats = GridStats::of(&grid);
+    let report = RaysReport {
+        crossing: if args.exact { "exact" } else { "samples3" },
+        threads,
+        rays: rays.len() as u64,
+        hits: hits.iter().filter(|h| h.is_some()).count() as u64,
+        seconds,
+        rays_per_second: rays.len() as f64 / seconds.max(1e-9),
+        bytes: stats.bytes.blocks + stats.bytes.paper_total,
+        active_cells: stats.active_cells,
+        world_bounds: {
+            let (lo, hi) = grid.info().world_bounds();
+            [lo, hi]
+        },
+    };
+    if args.json {
+        print_json(&report)
+    } else {
+        println!(
+            "traced        {} rays ({} hits) in {:.3} s on {} threads, {} crossing",
+            report.rays, report.hits, report.seconds, report.threads, report.crossing
+        );
+        println!("rays/second   {:.0}", report.rays_per_second);
+        println!(
+            "memory        {:.2} MB (blocks + metacells + cells)",
+            report.bytes as f64 / 1e6
+        );
+        Ok(())
+    }
+}

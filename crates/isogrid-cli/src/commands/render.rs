@@ -1,0 +1,464 @@
+//! `isogrid render`: an image of the isosurface with optional AOVs as `.npy`. On a GPU adapter
+//! (lavapipe counts) by cell rasterisation (paper §3.2–3.4) or the MC / CR baselines; on the CPU
+//! by ray tracing the same structure (§3.6) with the same shading, or path tracing under an
+//! environment. `--backend auto` prefers the GPU and falls back to the CPU with a notice.
+
+use super::render_gpu;
+use crate::args::{parse_precision, InputArgs, ThreadArgs};
+use crate::report::print_json;
+use crate::{input, progress};
+use anyhow::{bail, Context, Result};
+use isogrid::trace::{
+    render_with_progress, Crossing, Environment, PathTraceOptions, RenderOptions, Shading,
+};
+use isogrid::{extract, Camera, CellGrid, ExtractOptions, Iso, Precision, Volume};
+use serde::Serialize;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// `--iso V | --iso-normalized V`, needed unless the input is a `.cgc` file.
+#[derive(clap::Args, Debug, Clone)]
+#[group(required = false, multiple = false)]
+pub struct OptionalIso {
+    /// Isovalue in data units: a sample is inside when value >= V.
+    #[arg(long, value_name = "V", allow_negative_numbers = true)]
+    pub iso: Option<f64>,
+    /// Isovalue as a fraction of the volume's value range (the paper uses 0.5).
+    #[arg(long, value_name = "V")]
+    pub iso_normalized: Option<f64>,
+}
+
+/// Where the grid of a render or benchmark comes from.
+#[derive(clap::Args, Debug, Clone)]
+pub struct GridSource {
+    /// A .cgc file, or a volume (.nii/.nii.gz, .nrrd, .npy, .tif, DICOM folder, raw) to extract.
+    pub input: PathBuf,
+    #[command(flatten)]
+    pub iso: OptionalIso,
+    /// Bits per stored corner value when extracting: 4, 8, 16 or 32.
+    #[arg(long, value_name = "BITS", value_parser = parse_precision)]
+    pub precision: Option<Precision>,
+    #[command(flatten)]
+    pub input_args: InputArgs,
+}
+
+fn is_cgc(path: &Path) -> bool {
+    path.extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("cgc"))
+}
+
+impl GridSource {
+    /// Opens the `.cgc` file or reads and extracts the volume (on the current rayon pool).
+    pub fn load(&self) -> Result<CellGrid> {
+        Ok(self.load_with_volume()?.0)
+    }
+
+    /// Like [`GridSource::load`], also keeping the volume (absent for `.cgc` files).
+    pub fn load_with_volume(&self) -> Result<(CellGrid, Option<Volume>)> {
+        if is_cgc(&self.input) {
+            if self.iso.iso.is_some() || self.iso.iso_normalized.is_some() {
+                bail!(
+                    "{}: a .cgc file has its isovalue already; drop --iso/--iso-normalized",
+                    self.input.display()
+                );
+            }
+            return Ok((isogrid::cgc::open(&self.input)?, None));
+        }
+        let iso = match (self.iso.iso, self.iso.iso_normalized) {
+            (Some(v), _) => Iso::Value(v),
+            (_, Some(t)) => Iso::Normalized(t),
+            _ => bail!(
+                "{}: a volume needs --iso V or --iso-normalized V",
+                self.input.display()
+            ),
+        };
+        let (volume, _) = input::read_volume(&self.input, &self.input_args.read_options()?)?;
+        let spinner = progress::spinner("extracting".into());
+        let options = ExtractOptions {
+            iso,
+            precision: self.precision,
+        };
+        let grid = extract(&volume.view(), &options)
+            .with_context(|| format!("{}: extraction failed", self.input.display()))?;
+        spinner.finish_and_clear();
+        Ok((grid, Some(volume)))
+    }
+}
+
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Mode {
+    /// The clustered grid cell isosurface: cell rasterisation with EWA normals on the GPU, ray
+    /// traced on the CPU; Blinn–Phong shaded.
+    Cgc,
+    /// GPU only: cell rasterisation without EWA normal interpolation.
+    CgcNoewa,
+    /// GPU only: the Marching Cubes mesh.
+    Mc,
+    /// GPU only: cell rasterisation sampling the original volume.
+    Cr,
+    /// Monte Carlo path tracing under an environment (on the CPU in this build).
+    Pathtrace,
+}
+
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Backend {
+    Auto,
+    Cpu,
+    Gpu,
+}
+
+#[derive(clap::Args)]
+pub struct Args {
+    #[command(flatten)]
+    pub source: GridSource,
+    /// What to draw.
+    #[arg(long, value_enum, default_value = "cgc")]
+    pub mode: Mode,
+    /// Where to render: `auto` uses a GPU adapter when there is one, else the CPU.
+    #[arg(long, value_enum, default_value = "auto")]
+    pub backend: Backend,
+    /// GPU: render the view this many times (the visibility buffer converges; timings are the
+    /// median over frames after the first).
+    #[arg(long, value_name = "N", default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=10000))]
+    pub frames: u32,
+    /// Image size in pixels.
+    #[arg(long, value_name = "WxH", default_value = "1280x720", value_parser = parse_size)]
+    pub size: (u32, u32),
+    /// Standard view of the grid's box: 1 (front) or 2 (oblique).
+    #[arg(long, value_name = "1|2", default_value_t = 1, conflicts_with = "camera",
+          value_parser = clap::value_parser!(u8).range(1..=2))]
+    pub view: u8,
+    /// Camera as EYE:TARGET:UP:FOVY in world units (points x,y,z; FOVY in degrees).
+    #[arg(long, value_name = "EYE:TARGET:UP:FOVY", allow_hyphen_values = true)]
+    pub camera: Option<String>,
+    /// Write the image here (PNG).
+    #[arg(short, long, value_name = "OUT.png")]
+    pub output: Option<PathBuf>,
+    /// Per-pixel outputs as .npy: depth=D.npy (f32 HxW, inf on miss), normal=N.npy (f32 HxWx3,
+    /// NaN on miss), cluster=C.npy (u32 HxW, 4294967295 on miss), comma-separated.
+    #[arg(long, value_name = "NAME=FILE,...", value_parser = parse_aovs)]
+    pub aov: Option<Aovs>,
+    /// Path tracing: samples per pixel.
+    #[arg(long, value_name = "N", default_value_t = 16,
+          value_parser = clap::value_parser!(u32).range(1..))]
+    pub spp: u32,
+    /// Path tracing: scatterings per path.
+    #[arg(long, value_name = "N", default_value_t = 3)]
+    pub bounces: u32,
+    /// Path tracing: environment, `sky` or an equirectangular .hdr/.exr map (+y up).
+    #[arg(long, value_name = "sky|FILE", default_value = "sky")]
+    pub env: String,
+    /// Path tracing: random seed.
+    #[arg(long, value_name = "S", default_value_t = 0)]
+    pub seed: u64,
+    /// Solve the exact crossing (cubic roots) instead of the paper's three samples per cell.
+    #[arg(long)]
+    pub exact: bool,
+    #[command(flatten)]
+    pub threads: ThreadArgs,
+    /// Print one JSON object.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Output paths of `--aov`.
+#[derive(Clone, Debug, Default)]
+pub struct Aovs {
+    pub depth: Option<PathBuf>,
+    pub normal: Option<PathBuf>,
+    pub cluster: Option<PathBuf>,
+}
+
+fn parse_aovs(s: &str) -> Result<Aovs, String> {
+    let mut aovs = Aovs::default();
+    for part in s.split(',') {
+        let (name, file) = part
+            .split_once('=')
+            .filter(|(_, f)| !f.is_empty())
+            .ok_or_else(|| format!("AOV {part:?} is not NAME=FILE"))?;
+        let slot = match name.trim() {
+            "depth" => &mut aovs.depth,
+            "normal" => &mut aovs.normal,
+            "cluster" => &mut aovs.cluster,
+            other => return Err(format!("unknown AOV {other:?} (depth, normal or cluster)")),
+        };
+        if slot.replace(PathBuf::from(file)).is_some() {
+            return Err(format!("AOV {name} given twice"));
+        }
+    }
+    Ok(aovs)
+}
+
+/// "1280x720" → (1280, 720).
+pub fn parse_size(s: &str) -> Result<(u32, u32), String> {
+    let bad = || format!("size must be WxH with positive integers, not {s:?}");
+    let (w, h) = s.split_once(['x', 'X']).ok_or_else(bad)?;
+    let w: u32 = w.trim().parse().map_err(|_| bad())?;
+    let h: u32 = h.trim().parse().map_err(|_| bad())?;
+    if w == 0 || h == 0 || w as u64 * h as u64 > isogrid::trace::render::MAX_PIXELS {
+        return Err(bad());
+    }
+    Ok((w, h))
+}
+
+#[derive(Serialize)]
+struct RenderReport {
+    backend: &'static str,
+    /// The GPU adapter (name and API), for GPU renders.
+    adapter: Option<String>,
+    mode: &'static str,
+    /// CPU: the crossing solver.
+    crossing: Option<&'static str>,
+    width: u32,
+    height: u32,
+    /// Rendering only (not reading, extracting, uploading or writing), wall clock.
+    seconds: f64,
+    /// Pixels whose centre ray hit the surface.
+    hits: u64,
+    active_cells: u64,
+    clusters: u64,
+    /// CPU: rays traced and their rate.
+    rays: Option<u64>,
+    rays_per_second: Option<f64>,
+    spp: Option<u32>,
+    bounces: Option<u32>,
+    /// GPU: frames rendered, per-pass GPU times, cells drawn and probed in the last frame.
+    frames: Option<u32>,
+    gpu_ms: Option<render_gpu::GpuTimes>,
+    drawn_cells: Option<u64>,
+    probed_cells: Option<u64>,
+    output: Option<PathBuf>,
+}
+
+/// The pixels and AOVs of a render, whichever backend made them.
+struct Rendered {
+    channels: u8,
+    pixels: Vec<u8>,
+    depth: Vec<f32>,
+    normal: Vec<[f32; 3]>,
+    cluster: Vec<u32>,
+}
+
+fn mode_name(mode: Mode) -> &'static str {
+    match mode {
+        Mode::Cgc => "cgc",
+        Mode::CgcNoewa => "cgc-noewa",
+        Mode::Mc => "mc",
+        Mode::Cr => "cr",
+        Mode::Pathtrace => "pathtrace",
+    }
+}
+
+fn gpu_mode(mode: Mode) -> Option<isogrid_gpu::Mode> {
+    match mode {
+        Mode::Cgc => Some(isogrid_gpu::Mode::Cgc),
+        Mode::CgcNoewa => Some(isogrid_gpu::Mode::CgcNoEwa),
+        Mode::Mc => Some(isogrid_gpu::Mode::Mc),
+        Mode::Cr => Some(isogrid_gpu::Mode::Cr),
+        Mode::Pathtrace => None,
+    }
+}
+
+/// Picks the backend before any data is read, so impossible requests fail fast.
+fn choose_renderer(backend: Backend, mode: Mode) -> Result<Option<isogrid_gpu::Renderer>> {
+    let gpu_only = matches!(mode, Mode::CgcNoewa | Mode::Mc | Mode::Cr);
+    match backend {
+        Backend::Cpu if gpu_only => bail!(
+            "mode {} needs the GPU renderer; on the CPU use --mode cgc or pathtrace",
+            mode_name(mode)
+        ),
+        Backend::Cpu => Ok(None),
+        Backend::Gpu if mode == Mode::Pathtrace => {
+            bail!("path tracing runs on the CPU in this build: use --backend cpu or auto")
+        }
+        Backend::Gpu => render_gpu::renderer()?.map(Some).ok_or_else(|| {
+            anyhow::anyhow!(
+                "no GPU adapter found (for a CPU Vulkan driver install mesa-vulkan-drivers)"
+            )
+        }),
+        Backend::Auto if mode == Mode::Pathtrace => {
+            eprintln!("isogrid: GPU path tracing is not in this build, rendering on the CPU");
+            Ok(None)
+        }
+        Backend::Auto => match render_gpu::renderer()? {
+            Some(r) => Ok(Some(r)),
+            None if gpu_only => bail!(
+                "mode {} needs a GPU adapter and none was found",
+                mode_name(mode)
+            ),
+            None => {
+                eprintln!("isogrid: no GPU adapter, rendering on the CPU");
+                Ok(None)
+            }
+        },
+    }
+}
+
+pub fn run(args: Args) -> Result<()> {
+    // Check everything that does not need the data first.
+    if let Some(out) = &args.output {
+        if !out
+            .extension()
+            .and_then(|e| e.to_str())
+            .is_some_and(|e| e.eq_ignore_ascii_case("png"))
+        {
+            bail!("{}: the image output must end in .png", out.display());
+        }
+    }
+    let (width, height) = args.size;
+    if let Some(spec) = &args.camera {
+        Camera::parse(spec, width, height)?;
+    }
+    let environment = match args.mode {
+        Mode::Pathtrace if !args.env.eq_ignore_ascii_case("sky") => {
+            Environment::Map(isogrid_io::image::read_env_map(Path::new(&args.env))?)
+        }
+        _ => Environment::Sky,
+    };
+    let renderer = choose_renderer(args.backend, args.mode)?;
+
+    let (grid, volume) = args.threads.install(|| args.source.load_with_volume())??;
+    let camera = match &args.camera {
+        Some(spec) => Camera::parse(spec, width, height)?,
+        None => {
+            let (lo, hi) = grid.info().world_bounds();
+            Camera::preset(args.view, lo, hi, width, height)?
+        }
+    };
+    let mut report = RenderReport {
+        backend: "cpu",
+        adapter: None,
+        mode: mode_name(args.mode),
+        crossing: None,
+        width,
+        height,
+        seconds: 0.0,
+        hits: 0,
+        active_cells: grid.active_cells() as u64,
+        clusters: grid.clusters() as u64,
+        rays: None,
+        rays_per_second: None,
+        spp: None,
+        bounces: None,
+        frames: None,
+        gpu_ms: None,
+        drawn_cells: None,
+        probed_cells: None,
+        output: args.output.clone(),
+    };
+
+    let rendered = match (&renderer, gpu_mode(args.mode)) {
+        (Some(renderer), Some(mode)) => {
+            let spinner = progress::spinner("rendering on the GPU".into());
+            let start = Instant::now();
+            let out =
+                render_gpu::render(renderer, &grid, volume.as_ref(), &camera, mode, args.frames)?;
+            report.seconds = start.elapsed().as_secs_f64();
+            spinner.finish_and_clear();
+            report.backend = "gpu";
+            report.adapter = Some(out.adapter);
+            report.frames = Some(args.frames);
+            report.gpu_ms = Some(out.times);
+            report.drawn_cells = Some(out.frame.drawn_cells);
+            report.probed_cells = Some(out.frame.probed_cells);
+            let f = out.frame;
+            report.hits = f.cluster.iter().filter(|&&c| c != u32::MAX).count() as u64;
+            Rendered {
+                channels: 4,
+                pixels: f.rgba8,
+                depth: f.depth,
+                normal: f.normal,
+                cluster: f.cluster,
+            }
+        }
+        _ => {
+            let shading = match args.mode {
+                Mode::Pathtrace => Shading::PathTrace(PathTraceOptions {
+                    samples_per_pixel: args.spp,
+                    bounces: args.bounces,
+                    environment,
+                    seed: args.seed,
+                    ..PathTraceOptions::default()
+                }),
+                _ => Shading::Phong,
+            };
+            let crossing = if args.exact {
+                Crossing::Exact
+            } else {
+                Crossing::Samples3
+            };
+            let options = RenderOptions { crossing, shading };
+            let passes = match &options.shading {
+                Shading::PathTrace(p) => 1 + p.samples_per_pixel as u64,
+                Shading::Phong => 1,
+            };
+            let bar = progress::bar("rendering", passes);
+            let start = Instant::now();
+            let image = args.threads.install(|| {
+                render_with_progress(&grid, &camera, &options, &|done, _| bar.set_position(done))
+            })??;
+            report.seconds = start.elapsed().as_secs_f64();
+            bar.finish_and_clear();
+            report.crossing = Some(if args.exact { "exact" } else { "samples3" });
+            report.hits = image.hits() as u64;
+            report.rays = Some(image.rays_traced);
+            report.rays_per_second = Some(image.rays_traced as f64 / report.seconds.max(1e-9));
+            if args.mode == Mode::Pathtrace {
+                report.spp = Some(args.spp);
+                report.bounces = Some(args.bounces);
+            }
+            Rendered {
+                channels: 3,
+                pixels: image.rgb8,
+                depth: image.depth,
+                normal: image.normal,
+                cluster: image.cluster,
+            }
+        }
+    };
+
+    if let Some(out) = &args.output {
+        isogrid_io::image::write_png(out, width, height, rendered.channels, &rendered.pixels)?;
+    }
+    if let Some(aovs) = &args.aov {
+        if let Some(p) = &aovs.depth {
+            isogrid_io::image::write_npy_f32_hw(p, width, height, &rendered.depth)?;
+        }
+        if let Some(p) = &aovs.normal {
+            isogrid_io::image::write_npy_f32_hw3(p, width, height, &rendered.normal)?;
+        }
+        if let Some(p) = &aovs.cluster {
+            isogrid_io::image::write_npy_u32_hw(p, width, height, &rendered.cluster)?;
+        }
+    }
+    if args.json {
+        return print_json(&report);
+    }
+    let on = match &report.adapter {
+        Some(a) => format!("on the GPU ({a})"),
+        None => "on the CPU".to_string(),
+    };
+    println!(
+        "rendered      {width}x{height} {} {on} in {:.3} s ({} of {} pixels hit)",
+        report.mode,
+        report.seconds,
+        report.hits,
+        width as u64 * height as u64
+    );
+    if let Some(t) = &report.gpu_ms {
+        let ms = |v: Option<f64>| v.map_or("n/a".to_string(), |v| format!("{v:.2} ms"));
+        println!(
+            "gpu passes    raster {} (without EWA {}), shade {}, cull {}, frame {}",
+            ms(t.raster_ms),
+            ms(t.raster_no_ewa_ms),
+            ms(t.shade_ms),
+            ms(t.cull_ms),
+            ms(t.frame_ms)
+        );
+    }
+    if let Some(out) = &args.output {
+        println!("wrote         {}", out.display());
+    }
+    Ok(())
+}

@@ -1,0 +1,402 @@
+//! `isogrid render` and `isogrid bench rays` end to end: PNG and AOV files with the right shapes
+//! (headers parsed here), JSON names, and one-line errors.
+
+use serde_json::Value;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn isogrid(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_isogrid"))
+        .args(args)
+        .output()
+        .expect("runs the binary")
+}
+
+fn temp_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("isogrid-render-{}-{name}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+/// (descr, shape, data offset) of a .npy file, parsed from its header.
+fn npy_header(path: &Path) -> (String, Vec<usize>, usize, usize) {
+    let bytes = std::fs::read(path).unwrap();
+    assert_eq!(&bytes[..6], b"\x93NUMPY");
+    let len = u16::from_le_bytes([bytes[8], bytes[9]]) as usize;
+    let text = std::str::from_utf8(&bytes[10..10 + len]).unwrap();
+    let descr = text
+        .split("'descr': '")
+        .nth(1)
+        .unwrap()
+        .split('\'')
+        .next()
+        .unwrap();
+    assert!(text.contains("'fortran_order': False"));
+    let shape = text
+        .split("'shape': (")
+        .nth(1)
+        .unwrap()
+        .split(')')
+        .next()
+        .unwrap();
+    let shape = shape
+        .split(',')
+        .filter(|v| !v.trim().is_empty())
+        .map(|v| v.trim().parse().unwrap())
+        .collect();
+    (descr.to_string(), shape, 10 + len, bytes.len() - 10 - len)
+}
+
+fn volume(dir: &Path) -> PathBuf {
+    let path = dir.join("sphere.nrrd");
+    let out = isogrid(&["generate", "sphere", "--size", "24", "-o", s(&path)]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    path
+}
+
+#[test]
+fn render_writes_png_and_aovs_of_the_right_shapes() {
+    let dir = temp_dir("aov");
+    let input = volume(&dir);
+    let (png, d, n, c) = (
+        dir.join("a.png"),
+        dir.join("d.npy"),
+        dir.join("n.npy"),
+        dir.join("c.npy"),
+    );
+    let aov = format!("depth={},normal={},cluster={}", s(&d), s(&n), s(&c));
+    let out = isogrid(&[
+        "render",
+        s(&input),
+        "--iso-normalized",
+        "0.5",
+        "--size",
+        "30x20",
+        "--view",
+        "2",
+        "--backend",
+        "cpu",
+        "-o",
+        s(&png),
+        "--aov",
+        &aov,
+        "--json",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(out.stderr.is_empty(), "no notice with --backend cpu");
+    let json: Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(json["backend"], "cpu");
+    assert_eq!(
+        (json["width"].as_u64(), json["height"].as_u64()),
+        (Some(30), Some(20))
+    );
+    let hits = json["hits"].as_u64().unwrap();
+    assert!(hits > 20 && hits < 600, "{hits}");
+    assert!(json["rays_per_second"].as_f64().unwrap() > 0.0);
+
+    let bytes = std::fs::read(&png).unwrap();
+    assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n");
+    assert_eq!(u32::from_be_bytes(bytes[16..20].try_into().unwrap()), 30);
+    assert_eq!(u32::from_be_bytes(bytes[20..24].try_into().unwrap()), 20);
+
+    for (path, descr, shape) in [
+        (&d, "<f4", vec![20, 30]),
+        (&n, "<f4", vec![20, 30, 3]),
+        (&c, "<u4", vec![20, 30]),
+    ] {
+        let (got_descr, got_shape, offset, data) = npy_header(path);
+        assert_eq!(
+            (got_descr.as_str(), &got_shape),
+            (descr, &shape),
+            "{path:?}"
+        );
+        assert_eq!(offset % 64, 0);
+        assert_eq!(data, shape.iter().product::<usize>() * 4);
+    }
+    // Misses: depth +inf exactly where cluster is u32::MAX; as many hits as the JSON says.
+    let (_, _, off, _) = npy_header(&d);
+    let depth: Vec<f32> = std::fs::read(&d).unwrap()[off..]
+        .chunks(4)
+        .map(|b| f32::from_le_bytes(b.try_into().unwrap()))
+        .collect();
+    let (_, _, off, _) = npy_header(&c);
+    let cluster: Vec<u32> = std::fs::read(&c).unwrap()[off..]
+        .chunks(4)
+        .map(|b| u32::from_le_bytes(b.try_into().unwrap()))
+        .collect();
+    for (t, id) in depth.iter().zip(&cluster) {
+        assert_eq!(*t == f32::INFINITY, *id == u32::MAX);
+    }
+    assert_eq!(
+        cluster.iter().filter(|&&id| id != u32::MAX).count() as u64,
+        hits
+    );
+
+    // A .cgc input renders the same depth without --iso; pathtrace mode runs.
+    let cgc = dir.join("g.cgc");
+    assert!(isogrid(&[
+        "extract",
+        s(&input),
+        "--iso-normalized",
+        "0.5",
+        "-o",
+        s(&cgc)
+    ])
+    .status
+    .success());
+    let d2 = dir.join("d2.npy");
+    let out = isogrid(&[
+        "render",
+        s(&cgc),
+        "--size",
+        "30x20",
+        "--view",
+        "2",
+        "--mode",
+        "pathtrace",
+        "--spp",
+        "2",
+        "--aov",
+        &format!("depth={}", s(&d2)),
+        "--json",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let notice = String::from_utf8_lossy(&out.stderr);
+    assert!(notice.contains("rendering on the CPU"), "{notice}");
+    assert_eq!(std::fs::read(&d).unwrap(), std::fs::read(&d2).unwrap());
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+fn fails(args: &[&str], mention: &str) {
+    let out = isogrid(args);
+    let stderr = String::from_utf8_lossy(&out.stderr).to_string();
+    assert!(!out.status.success(), "{args:?} should fail");
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert_eq!(stderr.trim_end().lines().count(), 1, "{args:?}: {stderr}");
+    assert!(
+        stderr.contains(mention),
+        "{args:?}: {stderr} should mention {mention}"
+    );
+}
+
+/// Rejected by the argument parser: clap adds its usage hint after the one-line reason.
+fn rejected(args: &[&str], mention: &str) {
+    let out = isogrid(args);
+    let stderr = String::from_utf8_lossy(&out.stderr).to_string();
+    assert!(!out.status.success(), "{args:?} should fail");
+    let first = stderr.lines().next().unwrap_or("");
+    assert!(
+        first.contains(mention),
+        "{args:?}: {stderr} should mention {mention}"
+    );
+}
+
+#[test]
+fn render_and_bench_fail_in_one_line() {
+    let dir = temp_dir("bad");
+    let input = volume(&dir);
+    let i = s(&input);
+    fails(
+        &["render", i, "--iso", "100", "--camera", "1,2,3:0,0,0:0,1,0"],
+        "EYE:TARGET:UP:FOVY",
+    );
+    fails(
+        &[
+            "render",
+            i,
+            "--iso",
+            "100",
+            "--camera",
+            "0,0,5:0,0,0:0,0,1:40",
+        ],
+        "parallel",
+    );
+    fails(
+        &[
+            "render",
+            i,
+            "--iso",
+            "100",
+            "--backend",
+            "gpu",
+            "--mode",
+            "pathtrace",
+        ],
+        "path tracing runs on the CPU",
+    );
+    fails(&["render", i], "--iso");
+    fails(
+        &[
+            "render",
+            i,
+            "--iso",
+            "100",
+            "--mode",
+            "mc",
+            "--backend",
+            "cpu",
+        ],
+        "GPU",
+    );
+    fails(
+        &["render", i, "--iso", "100", "-o", s(&dir.join("x.jpg"))],
+        ".png",
+    );
+    rejected(&["render", i, "--iso", "100", "--size", "0x10"], "WxH");
+    rejected(
+        &["render", i, "--iso", "100", "--aov", "albedo=a.npy"],
+        "albedo",
+    );
+    fails(
+        &[
+            "render",
+            i,
+            "--iso",
+            "100",
+            "--mode",
+            "pathtrace",
+            "--env",
+            s(&dir.join("none.hdr")),
+        ],
+        "none.hdr",
+    );
+    std::fs::write(dir.join("rays.bin"), [0u8; 25]).unwrap();
+    fails(
+        &[
+            "bench",
+            "rays",
+            i,
+            "--iso",
+            "100",
+            "--rays-file",
+            s(&dir.join("rays.bin")),
+        ],
+        "rays.bin",
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn bench_rays_reports_the_same_hits_for_both_crossings_and_any_thread_count() {
+    let dir = temp_dir("bench");
+    let input = volume(&dir);
+    let run = |extra: &[&str]| -> Value {
+        let mut args = vec![
+            "bench",
+            "rays",
+            s(&input),
+            "--iso-normalized",
+            "0.5",
+            "--rays",
+            "3000",
+            "--seed",
+            "4",
+            "--json",
+        ];
+        args.extend_from_slice(extra);
+        let out = isogrid(&args);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        serde_json::from_slice(&out.stdout).unwrap()
+    };
+    let a = run(&["--threads", "1"]);
+    let b = run(&["--threads", "2", "--exact"]);
+    assert_eq!(a["rays"], 3000);
+    assert_eq!(a["threads"], 1);
+    // Origins inside the box of a closed sphere: every ray starting outside the ball and aimed
+    // at it hits, and every ray starting inside the ball hits; some miss.
+    let hits = a["hits"].as_u64().unwrap();
+    assert!(hits > 300 && hits < 3000, "{hits}");
+    // A smooth sphere: the three samples find what the exact solver finds.
+    assert_eq!(a["hits"], b["hits"]);
+    assert!(a["bytes"].as_u64().unwrap() > 0);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// The GPU renderer and the CPU tracer draw the same isosurface: same hit pixels and depths
+/// (both solve the paper's 3-sample crossing of the same stored corners).
+#[test]
+fn gpu_and_cpu_backends_agree_on_depth() {
+    let dir = temp_dir("backends");
+    let input = volume(&dir);
+    let depth = |backend: &str| -> Option<Vec<f32>> {
+        let path = dir.join(format!("depth-{backend}.npy"));
+        let out = isogrid(&[
+            "render",
+            s(&input),
+            "--iso-normalized",
+            "0.5",
+            "--size",
+            "64x48",
+            "--view",
+            "2",
+            "--backend",
+            backend,
+            "--aov",
+            &format!("depth={}", s(&path)),
+            "--json",
+        ]);
+        if !out.status.success() {
+            let err = String::from_utf8_lossy(&out.stderr);
+            assert!(err.contains("no GPU adapter"), "{backend}: {err}");
+            return None;
+        }
+        let bytes = std::fs::read(&path).unwrap();
+        let header_len = u16::from_le_bytes([bytes[8], bytes[9]]) as usize;
+        Some(
+            bytes[10 + header_len..]
+                .chunks_exact(4)
+                .map(|c| f32::from_le_bytes(c.try_into().unwrap()))
+                .collect(),
+        )
+    };
+    let Some(gpu) = depth("gpu") else {
+        eprintln!("skipped: no GPU adapter (install mesa-vulkan-drivers for lavapipe)");
+        return;
+    };
+    let cpu = depth("cpu").unwrap();
+    assert_eq!(gpu.len(), cpu.len());
+    let same_side = gpu
+        .iter()
+        .zip(&cpu)
+        .filter(|(g, c)| g.is_finite() == c.is_finite())
+        .count();
+    assert!(
+        same_side as f64 >= 0.99 * gpu.len() as f64,
+        "hit/miss agree on {same_side} of {}",
+        gpu.len()
+    );
+    let both: Vec<f32> = gpu
+        .iter()
+        .zip(&cpu)
+        .filter(|(g, c)| g.is_finite() && c.is_finite())
+        .map(|(g, c)| (g - c).abs())
+        .collect();
+    assert!(both.len() > 100, "too few hits to compare");
+    let close = both.iter().filter(|&&d| d <= 0.05).count();
+    assert!(
+        close as f64 >= 0.99 * both.len() as f64,
+        "{close} of {} depths within 0.05 voxel",
+        both.len()
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
