@@ -59,8 +59,15 @@ fn picture(
     let (lo, hi) = grid.info().world_bounds();
     let camera = isogrid::Camera::preset(2, lo, hi, w, h)?;
     if let Some(renderer) = super::render_gpu::renderer()? {
-        let out =
-            super::render_gpu::render(&renderer, grid, None, &camera, isogrid_gpu::Mode::Cgc, 2)?;
+        let out = super::render_gpu::render(
+            &renderer,
+            grid,
+            None,
+            &camera,
+            isogrid_gpu::Mode::Cgc,
+            2,
+            true,
+        )?;
         isogrid_io::image::write_png(path, w, h, 4, &out.frame.rgba8)?;
         return Ok(("gpu", out.adapter));
     }

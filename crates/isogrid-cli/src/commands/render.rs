@@ -122,6 +122,10 @@ pub struct Args {
     /// median over frames after the first).
     #[arg(long, value_name = "N", default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=10000))]
     pub frames: u32,
+    /// GPU: draw every cluster every frame (turns off the visibility buffer of §3.3), to measure
+    /// what culling saves.
+    #[arg(long)]
+    pub no_occlusion_culling: bool,
     /// Image size in pixels.
     #[arg(long, value_name = "WxH", default_value = "1280x720", value_parser = parse_size)]
     pub size: (u32, u32),
@@ -352,8 +356,15 @@ pub fn run(args: Args) -> Result<()> {
         (Some(renderer), Some(mode)) => {
             let spinner = progress::spinner("rendering on the GPU".into());
             let start = Instant::now();
-            let out =
-                render_gpu::render(renderer, &grid, volume.as_ref(), &camera, mode, args.frames)?;
+            let out = render_gpu::render(
+                renderer,
+                &grid,
+                volume.as_ref(),
+                &camera,
+                mode,
+                args.frames,
+                !args.no_occlusion_culling,
+            )?;
             report.seconds = start.elapsed().as_secs_f64();
             spinner.finish_and_clear();
             report.backend = "gpu";

@@ -4,7 +4,7 @@
 use anyhow::Result;
 use isogrid::mc::marching_cubes;
 use isogrid::{Camera, CellGrid, Volume};
-use isogrid_gpu::{Frame, GpuErrorKind, Mode, Renderer, Scene};
+use isogrid_gpu::{Frame, GpuErrorKind, Mode, RenderOptions, Renderer, Scene};
 use serde::Serialize;
 
 /// Per-pass GPU milliseconds (median over frames after the first), `null` where unmeasured.
@@ -43,7 +43,13 @@ pub fn render(
     camera: &Camera,
     mode: Mode,
     frames: u32,
+    occlusion_culling: bool,
 ) -> Result<GpuRender> {
+    let options = RenderOptions {
+        frames,
+        occlusion_culling,
+        ..RenderOptions::default()
+    };
     let need_volume = |what: &str| {
         anyhow::anyhow!("mode {what} needs the volume: give a volume file, not a .cgc file")
     };
@@ -52,7 +58,7 @@ pub fn render(
             let volume = volume.ok_or_else(|| need_volume("mc"))?;
             let mesh = marching_cubes(&volume.view(), grid.info().iso);
             let gpu_mesh = renderer.upload_mesh(&mesh).map_err(isogrid::Error::from)?;
-            renderer.render(Scene::Mesh(&gpu_mesh), camera, mode, frames)
+            renderer.render_with(Scene::Mesh(&gpu_mesh), camera, mode, &options)
         }
         Mode::Cr => {
             let volume = volume.ok_or_else(|| need_volume("cr"))?;
@@ -60,19 +66,19 @@ pub fn render(
             let gpu_volume = renderer
                 .upload_volume(&volume.view(), &gpu_grid)
                 .map_err(isogrid::Error::from)?;
-            renderer.render(
+            renderer.render_with(
                 Scene::Volume {
                     grid: &gpu_grid,
                     volume: &gpu_volume,
                 },
                 camera,
                 mode,
-                frames,
+                &options,
             )
         }
         _ => {
             let gpu_grid = renderer.upload_grid(grid).map_err(isogrid::Error::from)?;
-            renderer.render(Scene::Grid(&gpu_grid), camera, mode, frames)
+            renderer.render_with(Scene::Grid(&gpu_grid), camera, mode, &options)
         }
     }
     .map_err(isogrid::Error::from)?;
