@@ -31,6 +31,12 @@ pub struct CellGrid {
     inner: isogrid::CellGrid,
 }
 
+impl CellGrid {
+    pub(crate) fn inner(&self) -> &isogrid::CellGrid {
+        &self.inner
+    }
+}
+
 /// Extracts the active cells of a 3-D array (see `isogrid.extract`, which prepares `array`).
 #[pyfunction]
 #[pyo3(signature = (array, fortran, spacing, iso=None, iso_normalized=None, precision=None, threads=None))]

@@ -13,6 +13,7 @@ mod errors;
 mod grid;
 mod mesh;
 mod pool;
+mod render;
 mod volume_io;
 
 use pyo3::prelude::*;
@@ -28,5 +29,6 @@ fn _isogrid(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(mesh::marching_cubes, m)?)?;
     m.add_function(wrap_pyfunction!(volume_io::load_volume, m)?)?;
     m.add_function(wrap_pyfunction!(volume_io::voxelize, m)?)?;
+    m.add_function(wrap_pyfunction!(render::render, m)?)?;
     Ok(())
 }
