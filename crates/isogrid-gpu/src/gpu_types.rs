@@ -78,3 +78,20 @@ impl PageDrawArgs {
 
 const _: () = assert!(std::mem::size_of::<FrameUniforms>() == 112);
 const _: () = assert!(std::mem::size_of::<PageDrawArgs>() == 48);
+
+/// Path tracing and ray traversal uniforms (group 0, binding 1 of the trace passes). Keep in sync
+/// with `TraceUniforms` in `shaders/trace.wgsl`.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub(crate) struct TraceUniforms {
+    /// Blocks per axis (0 when the grid has no blocks); w = bounces.
+    pub block_dims: [u32; 4],
+    /// Cells per axis; w = offset of secondary ray origins along the normal (world units).
+    pub cell_dims: [f32; 4],
+    /// Diffuse albedo rgb; w unused.
+    pub albedo: [f32; 4],
+    /// x: sample index; y: 1 = environment texture, 0 = built-in sky; z: ray count; w unused.
+    pub sample: [u32; 4],
+}
+
+const _: () = assert!(std::mem::size_of::<TraceUniforms>() == 64);

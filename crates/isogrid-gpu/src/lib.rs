@@ -13,6 +13,10 @@
 //! 5. `visibility.wgsl` (compute): rebuilds the per-cluster visibility bits from the ID target.
 //! 6. `shade.wgsl`: deferred normalised Blinn–Phong (`isogrid::shading`), sRGB output.
 //!
+//! [`Mode::PathTrace`] (§3.6, `pathtrace.rs`) runs the [`Mode::Cgc`] passes for primary hits, then
+//! `trace.wgsl` + `pathtrace.wgsl` (compute) trace secondary rays through blocks, clusters,
+//! metacells and cells and accumulate diffuse path-traced samples over frames.
+//!
 //! Baselines: [`Mode::Mc`] draws a Marching Cubes mesh (`mesh.wgsl`), [`Mode::Cr`] runs the same
 //! cell passes with corner values read from a 3D texture of the original samples.
 //!
@@ -24,11 +28,15 @@
 
 mod error;
 mod gpu_types;
+mod pathtrace;
 mod pipelines;
 mod render;
 mod upload;
 
 pub use error::{GpuError, GpuErrorKind};
+pub use pathtrace::{
+    sky_radiance, EnvMap, GpuEnvMap, PathTraceOptions, RayHit, DEFAULT_BOUNCES, MAX_BOUNCES,
+};
 pub use render::{Frame, Mode, PassTimings, RenderOptions, Scene};
 pub use upload::{GpuGrid, GpuMesh, GpuVolume};
 

@@ -14,8 +14,8 @@ pub(crate) const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8U
 /// Final world normal (xyz) and eye distance (w).
 pub(crate) const FINAL_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
 
-const COMMON: &str = include_str!("../shaders/common.wgsl");
-const CELL_DATA: &str = include_str!("../shaders/cell_data.wgsl");
+pub(crate) const COMMON: &str = include_str!("../shaders/common.wgsl");
+pub(crate) const CELL_DATA: &str = include_str!("../shaders/cell_data.wgsl");
 
 pub(crate) struct Pipelines {
     pub scene_compute: BindGroupLayout,
@@ -35,9 +35,10 @@ pub(crate) struct Pipelines {
     pub ewa: RenderPipeline,
     pub shade: RenderPipeline,
     pub mesh_pipeline: RenderPipeline,
+    pub trace: crate::pathtrace::TracePipelines,
 }
 
-fn uniform(binding: u32, visibility: ShaderStages) -> wgpu::BindGroupLayoutEntry {
+pub(crate) fn uniform(binding: u32, visibility: ShaderStages) -> wgpu::BindGroupLayoutEntry {
     wgpu::BindGroupLayoutEntry {
         binding,
         visibility,
@@ -50,7 +51,11 @@ fn uniform(binding: u32, visibility: ShaderStages) -> wgpu::BindGroupLayoutEntry
     }
 }
 
-fn storage(binding: u32, visibility: ShaderStages, read_only: bool) -> wgpu::BindGroupLayoutEntry {
+pub(crate) fn storage(
+    binding: u32,
+    visibility: ShaderStages,
+    read_only: bool,
+) -> wgpu::BindGroupLayoutEntry {
     wgpu::BindGroupLayoutEntry {
         binding,
         visibility,
@@ -63,7 +68,7 @@ fn storage(binding: u32, visibility: ShaderStages, read_only: bool) -> wgpu::Bin
     }
 }
 
-fn texture(
+pub(crate) fn texture(
     binding: u32,
     visibility: ShaderStages,
     sample_type: wgpu::TextureSampleType,
@@ -81,24 +86,29 @@ fn texture(
     }
 }
 
-const FLOAT: wgpu::TextureSampleType = wgpu::TextureSampleType::Float { filterable: false };
-const D2: wgpu::TextureViewDimension = wgpu::TextureViewDimension::D2;
+pub(crate) const FLOAT: wgpu::TextureSampleType =
+    wgpu::TextureSampleType::Float { filterable: false };
+pub(crate) const D2: wgpu::TextureViewDimension = wgpu::TextureViewDimension::D2;
 
-fn layout(device: &Device, label: &str, entries: &[wgpu::BindGroupLayoutEntry]) -> BindGroupLayout {
+pub(crate) fn layout(
+    device: &Device,
+    label: &str,
+    entries: &[wgpu::BindGroupLayoutEntry],
+) -> BindGroupLayout {
     device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: Some(label),
         entries,
     })
 }
 
-fn module(device: &Device, label: &str, parts: &[&str]) -> wgpu::ShaderModule {
+pub(crate) fn module(device: &Device, label: &str, parts: &[&str]) -> wgpu::ShaderModule {
     device.create_shader_module(wgpu::ShaderModuleDescriptor {
         label: Some(label),
         source: wgpu::ShaderSource::Wgsl(parts.concat().into()),
     })
 }
 
-fn pipeline_layout(
+pub(crate) fn pipeline_layout(
     device: &Device,
     label: &str,
     groups: &[&BindGroupLayout],
@@ -111,7 +121,7 @@ fn pipeline_layout(
     })
 }
 
-fn compute(
+pub(crate) fn compute(
     device: &Device,
     label: &str,
     layout: &wgpu::PipelineLayout,
@@ -429,6 +439,7 @@ impl Pipelines {
             ewa,
             shade,
             mesh_pipeline,
+            trace: crate::pathtrace::TracePipelines::new(device),
         }
     }
 }

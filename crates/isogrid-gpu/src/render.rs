@@ -3,6 +3,7 @@
 
 use crate::error::GpuError;
 use crate::gpu_types::*;
+use crate::pathtrace::PathTraceOptions;
 use crate::pipelines::*;
 use crate::upload::{GpuGrid, GpuMesh, GpuVolume};
 use crate::Renderer;
@@ -21,6 +22,10 @@ pub enum Mode {
     /// Cell rasterisation sampling the original volume (the paper's CR [13] baseline), with the
     /// same clusters and visibility buffer.
     Cr,
+    /// Hybrid path tracing (§3.6): the [`Mode::Cgc`] G-buffer gives primary hits, secondary rays
+    /// are traced through the blocks, clusters, metacells and cells in a compute pass, and the
+    /// samples accumulate while the view rests. See [`Renderer::path_trace`] for the options.
+    PathTrace,
 }
 
 /// The uploaded data a mode draws: [`Mode::Cgc`] and [`Mode::CgcNoEwa`] need a grid,
@@ -73,6 +78,8 @@ pub struct PassTimings {
     pub cull_ms: Option<f64>,
     /// First to last timestamp of the frame.
     pub frame_ms: Option<f64>,
+    /// The path tracing pass ([`Mode::PathTrace`]): secondary rays, accumulation, tone mapping.
+    pub trace_ms: Option<f64>,
 }
 
 /// A rendered image with per-pixel AOVs, row-major from the top-left.
@@ -94,6 +101,11 @@ pub struct Frame {
     pub drawn_cells: u64,
     /// Probe splats drawn in the last frame.
     pub probed_cells: u64,
+    /// [`Mode::PathTrace`]: mean linear RGB radiance per pixel over all accumulated samples (what
+    /// `rgba8` encodes as sRGB); empty in other modes.
+    pub linear: Vec<[f32; 3]>,
+    /// [`Mode::PathTrace`]: samples per pixel accumulated so far for this view; 0 in other modes.
+    pub samples: u32,
 }
 
 impl Frame {
@@ -111,7 +123,10 @@ const TS_RASTER_NEW: u32 = 8;
 const TS_EWA: u32 = 10;
 const TS_VISIBILITY: u32 = 12;
 const TS_SHADE: u32 = 14;
-const TS_PER_FRAME: u32 = 16;
+const TS_TRACE: u32 = 16;
+const TS_PER_FRAME: u32 = 18;
+/// Passes with timestamp slots.
+const TIMED_PASSES: usize = (TS_PER_FRAME / 2) as usize;
 /// Frames whose timestamps are kept.
 const TIMED_FRAMES: u32 = 64;
 
@@ -185,12 +200,32 @@ impl Renderer {
     ///
     /// Visibility persists in the [`GpuGrid`] between calls with the same camera, mode and
     /// options; any other view starts from "every cluster visible", so the first frame is complete.
+    ///
+    /// [`Mode::PathTrace`] uses [`PathTraceOptions::default`] with these frames and culling
+    /// options; [`Renderer::path_trace`] takes the others.
     pub fn render_with(
         &self,
         scene: Scene<'_>,
         camera: &Camera,
         mode: Mode,
         options: &RenderOptions,
+    ) -> Result<Frame, GpuError> {
+        let path_trace = (mode == Mode::PathTrace).then(|| PathTraceOptions {
+            frames: options.frames,
+            occlusion_culling: options.occlusion_culling,
+            backface_culling: options.backface_culling,
+            ..Default::default()
+        });
+        self.render_checked(scene, camera, mode, options, path_trace.as_ref())
+    }
+
+    pub(crate) fn render_checked(
+        &self,
+        scene: Scene<'_>,
+        camera: &Camera,
+        mode: Mode,
+        options: &RenderOptions,
+        path_trace: Option<&PathTraceOptions>,
     ) -> Result<Frame, GpuError> {
         camera
             .validate()
@@ -203,9 +238,10 @@ impl Renderer {
             )));
         }
         let (grid, volume, mesh) = match (mode, scene) {
-            (Mode::Cgc | Mode::CgcNoEwa, Scene::Grid(g) | Scene::Volume { grid: g, .. }) => {
-                (Some(g), None, None)
-            }
+            (
+                Mode::Cgc | Mode::CgcNoEwa | Mode::PathTrace,
+                Scene::Grid(g) | Scene::Volume { grid: g, .. },
+            ) => (Some(g), None, None),
             (Mode::Cr, Scene::Volume { grid, volume }) => (Some(grid), Some(volume), None),
             (Mode::Mc, Scene::Mesh(m)) => (None, None, Some(m)),
             _ => {
@@ -220,7 +256,7 @@ impl Renderer {
             }
         };
         self.scoped("rendering", || {
-            self.render_unscoped(grid, volume, mesh, camera, mode, options)
+            self.render_unscoped(grid, volume, mesh, camera, mode, options, path_trace)
         })
     }
 
@@ -259,13 +295,15 @@ impl Renderer {
                 "shaded colour",
                 camera,
                 COLOR_FORMAT,
-                U::RENDER_ATTACHMENT | U::COPY_SRC,
+                // Storage: the path tracer writes its tone-mapped mean here.
+                U::RENDER_ATTACHMENT | U::COPY_SRC | U::STORAGE_BINDING,
             ),
             final_normal: self.texture(
                 "final normal + distance",
                 camera,
                 FINAL_FORMAT,
-                U::RENDER_ATTACHMENT | U::COPY_SRC,
+                // Texture binding: the path tracer's primary hits.
+                U::RENDER_ATTACHMENT | U::COPY_SRC | U::TEXTURE_BINDING,
             ),
         }
     }
@@ -345,8 +383,10 @@ impl Renderer {
         camera: &Camera,
         mode: Mode,
         options: &RenderOptions,
+        path_trace: Option<&PathTraceOptions>,
     ) -> Result<Frame, GpuError> {
         let frames = options.frames.max(1);
+        let ewa = matches!(mode, Mode::Cgc | Mode::PathTrace);
         let targets = self.targets(camera);
         let bounds = match (grid, mesh) {
             (Some(g), _) => g.info.world_bounds(),
@@ -365,7 +405,7 @@ impl Renderer {
         if backface {
             flags |= FLAG_BACKFACE;
         }
-        if mode == Mode::Cgc {
+        if ewa {
             flags |= FLAG_EWA;
         }
 
@@ -526,7 +566,17 @@ impl Renderer {
             usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        let mut ran = [false; 8];
+        let path_pass = match (path_trace, grid) {
+            (Some(o), Some(g)) => Some(self.prepare_path_trace(
+                g,
+                camera,
+                o,
+                [&targets.final_normal, &targets.color],
+                &uniform_buffer,
+            )?),
+            _ => None,
+        };
+        let mut ran = [false; TIMED_PASSES];
         for f in 0..frames {
             let frame_index = grid.map_or(0, |g| g.frame_index.fetch_add(1, Ordering::Relaxed));
             let uniforms =
@@ -711,15 +761,11 @@ impl Renderer {
                             Some(wgpu::Color::TRANSPARENT),
                         )],
                         depth_stencil_attachment: None,
-                        timestamp_writes: if mode == Mode::Cgc {
-                            render_ts(TS_EWA)
-                        } else {
-                            None
-                        },
+                        timestamp_writes: if ewa { render_ts(TS_EWA) } else { None },
                         occlusion_query_set: None,
                         multiview_mask: None,
                     });
-                    if mode == Mode::Cgc {
+                    if ewa {
                         ran[(TS_EWA / 2) as usize] = true;
                         pass.set_pipeline(&p.ewa);
                         pass.set_bind_group(0, &scene_render, &[]);
@@ -787,6 +833,10 @@ impl Renderer {
                 pass.set_bind_group(1, &shade_inputs, &[]);
                 pass.draw(0..3, 0..1);
             }
+            if let Some(pt) = &path_pass {
+                ran[(TS_TRACE / 2) as usize] = true;
+                pt.encode(self, &mut encoder, f, compute_ts(TS_TRACE), f + 1 == frames);
+            }
             if f + 1 == frames {
                 if let Some((set, resolve, readback)) = &queries {
                     encoder.resolve_query_set(set, 0..TS_PER_FRAME * timed_frames, resolve, 0);
@@ -849,6 +899,8 @@ impl Renderer {
             timings,
             drawn_cells: count(LIST_FULL) + if occlusion { count(LIST_NEW) } else { 0 },
             probed_cells: if occlusion { count(LIST_PROBE) } else { 0 },
+            linear: Vec::new(),
+            samples: 0,
         };
         let rows = |i: usize| mapped[i].chunks(readbacks[i].1 as usize);
         for ((color, normal), ids) in rows(0).zip(rows(1)).zip(rows(2)) {
@@ -866,11 +918,14 @@ impl Renderer {
                 });
             }
         }
+        if let (Some(pt), Some(g)) = (path_pass, grid) {
+            pt.finish(self, &mut frame, g, frames)?;
+        }
         Ok(frame)
     }
 
     /// Maps a MAP_READ buffer and copies its bytes out.
-    fn read_buffer(&self, buffer: &wgpu::Buffer) -> Result<Vec<u8>, GpuError> {
+    pub(crate) fn read_buffer(&self, buffer: &wgpu::Buffer) -> Result<Vec<u8>, GpuError> {
         let slice = buffer.slice(..);
         let (tx, rx) = std::sync::mpsc::channel();
         slice.map_async(wgpu::MapMode::Read, move |r| {
@@ -890,7 +945,7 @@ impl Renderer {
         Ok(bytes)
     }
 
-    fn pass_timings(&self, ticks: &[u64], frames: u32, ran: &[bool; 8]) -> PassTimings {
+    fn pass_timings(&self, ticks: &[u64], frames: u32, ran: &[bool; TIMED_PASSES]) -> PassTimings {
         let period_ms = self.queue.get_timestamp_period() as f64 * 1e-6;
         // Frames after the first (the first one draws every cluster), unless there is only one.
         let frames: Vec<u32> = if frames > 1 {
@@ -920,8 +975,10 @@ impl Renderer {
             frames
                 .iter()
                 .filter_map(|&f| {
-                    let ran_slots: Vec<u32> =
-                        (0..8).filter(|&i| ran[i as usize]).map(|i| 2 * i).collect();
+                    let ran_slots: Vec<u32> = (0..TIMED_PASSES as u32)
+                        .filter(|&i| ran[i as usize])
+                        .map(|i| 2 * i)
+                        .collect();
                     let first = ticks.get((f * TS_PER_FRAME + *ran_slots.first()?) as usize)?;
                     let last = ticks.get((f * TS_PER_FRAME + *ran_slots.last()? + 1) as usize)?;
                     Some(last.saturating_sub(*first) as f64 * period_ms)
@@ -934,6 +991,7 @@ impl Renderer {
             shade_ms: sum(&[TS_SHADE]),
             cull_ms: sum(&[TS_EXPAND, TS_PROBE, TS_EXPAND_NEW, TS_VISIBILITY]),
             frame_ms: span,
+            trace_ms: sum(&[TS_TRACE]),
         }
     }
 }
@@ -945,7 +1003,7 @@ pub(crate) fn buffer_entry(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGro
     }
 }
 
-fn texture_entry(binding: u32, view: &wgpu::TextureView) -> wgpu::BindGroupEntry<'_> {
+pub(crate) fn texture_entry(binding: u32, view: &wgpu::TextureView) -> wgpu::BindGroupEntry<'_> {
     wgpu::BindGroupEntry {
         binding,
         resource: wgpu::BindingResource::TextureView(view),
@@ -956,7 +1014,7 @@ fn texture_entry(binding: u32, view: &wgpu::TextureView) -> wgpu::BindGroupEntry
 const EWA_SIGMA_CELLS: f64 = 0.7;
 
 /// Workgroups (x, y) of 64 threads covering `slots` threads; y spills over the 65535 x limit.
-fn dispatch_size(slots: u32) -> (u32, u32) {
+pub(crate) fn dispatch_size(slots: u32) -> (u32, u32) {
     let groups = slots.div_ceil(64).max(1);
     let x = groups.min(65535);
     (x, groups.div_ceil(x))

@@ -18,6 +18,10 @@ pub(crate) const MIN_VISIBILITY_CLUSTERS: u64 = 1 << 20;
 /// One binding's worth of a grid: a contiguous range of whole clusters.
 pub(crate) struct Page {
     pub slot_count: u32,
+    /// Page uniforms, metacell slots and corner records, bound again by the ray tracer.
+    pub uniforms: wgpu::Buffer,
+    pub metacells: wgpu::Buffer,
+    pub cells: wgpu::Buffer,
     pub args: wgpu::Buffer,
     pub compute_group: wgpu::BindGroup,
     /// Render bind groups reading the full, probe and new instance list.
@@ -28,9 +32,8 @@ pub(crate) struct Page {
 pub struct GpuGrid {
     pub(crate) info: GridInfo,
     pub(crate) pages: Vec<Page>,
-    /// Dense block records, resident for completeness (the raster passes address cells through
-    /// metacells only; blocks serve ray traversal).
-    #[allow(dead_code)]
+    /// Dense block records (the raster passes address cells through metacells only; blocks
+    /// serve ray traversal).
     pub(crate) blocks: Option<wgpu::Buffer>,
     pub(crate) visible_last_frame: wgpu::Buffer,
     pub(crate) visible_new: wgpu::Buffer,
@@ -41,6 +44,8 @@ pub struct GpuGrid {
     pub(crate) frame_index: AtomicU32,
     /// What the visibility bits were last computed for; another view starts from "all visible".
     pub(crate) last_view: Mutex<Option<String>>,
+    /// The path tracer's running sums for the last view it rendered.
+    pub(crate) accumulation: Mutex<Option<crate::pathtrace::Accumulation>>,
     active_cells: u64,
     clusters: u64,
 }
@@ -289,6 +294,9 @@ impl Renderer {
             });
             pages.push(Page {
                 slot_count: slots.len() as u32,
+                uniforms,
+                metacells: metacell_buffer,
+                cells: cell_buffer,
                 args,
                 compute_group,
                 render_groups,
@@ -320,6 +328,7 @@ impl Renderer {
             blocks,
             frame_index: AtomicU32::new(0),
             last_view: Mutex::new(None),
+            accumulation: Mutex::new(None),
             active_cells: grid.active_cells() as u64,
             clusters,
         })

@@ -4,6 +4,7 @@
 mod accuracy;
 mod culling;
 mod edges;
+mod pathtrace;
 mod reference;
 
 use isogrid::generate::{generate, Field};

@@ -1,0 +1,135 @@
+// Hybrid path tracing (paper §3.6, Figure 6): primary hits come from the raster G-buffer (final
+// normal and eye distance of the deferred shading pass); from there, one path per pixel and frame
+// bounces off Lambertian surfaces with cosine-weighted directions, traced through the clustered
+// grid cells by `trace_ray` (trace.wgsl), until it escapes to the environment or runs out of
+// bounces (then it contributes nothing). Each frame adds its sample to a per-pixel sum; the mean
+// is written as sRGB 8-bit. Keep `sky`, `environment` and `to_srgb8_unorm` in sync with
+// `src/pathtrace.rs` (`sky_radiance`, `EnvMap`) and `isogrid::shading::to_srgb8`.
+//
+// Prepended: common.wgsl, cell_data.wgsl, trace.wgsl.
+
+// Final world normal (xyz; zero on a miss) and eye distance (w) from the shading pass.
+@group(2) @binding(0) var gbuffer: texture_2d<f32>;
+// Running sum of linear radiance (rgb) and sample count (a) per pixel, row-major.
+@group(2) @binding(1) var<storage, read_write> accumulation: array<vec4<f32>>;
+@group(2) @binding(2) var output: texture_storage_2d<rgba8unorm, write>;
+// Equirectangular RGB radiance (rgba32float, a unused); a 1×1 dummy when the built-in sky is used.
+@group(2) @binding(3) var env: texture_2d<f32>;
+
+const PI: f32 = 3.14159265358979;
+
+// Built-in sky (world +y up, the camera presets' up): horizon → zenith gradient above, horizon →
+// ground below, plus a smooth sun lobe.
+const SKY_ZENITH: vec3<f32> = vec3<f32>(0.20, 0.40, 0.90);
+const SKY_HORIZON: vec3<f32> = vec3<f32>(0.85, 0.90, 1.00);
+const SKY_GROUND: vec3<f32> = vec3<f32>(0.30, 0.27, 0.24);
+const SUN_DIR: vec3<f32> = vec3<f32>(-0.35, 0.80, 0.50);
+const SUN_RADIANCE: vec3<f32> = vec3<f32>(12.0, 11.0, 9.5);
+const SUN_EXPONENT: f32 = 64.0;
+
+fn sky(d: vec3<f32>) -> vec3<f32> {
+    var base: vec3<f32>;
+    if d.y >= 0.0 {
+        base = mix(SKY_HORIZON, SKY_ZENITH, sqrt(d.y));
+    } else {
+        base = mix(SKY_HORIZON, SKY_GROUND, sqrt(-d.y));
+    }
+    return base + SUN_RADIANCE * pow(max(dot(d, normalize(SUN_DIR)), 0.0), SUN_EXPONENT);
+}
+
+// Radiance arriving from direction d (unit, world): the environment map, or the sky. Column
+// (φ + π) / 2π · width with φ = atan2(d.z, d.x); row acos(d.y) / π · height (row 0 = +y);
+// bilinear between texel centres, wrapping in φ and clamping at the poles.
+fn environment(d: vec3<f32>) -> vec3<f32> {
+    if trace.sample.y == 0u {
+        return sky(d);
+    }
+    let size = vec2<i32>(textureDimensions(env));
+    let phi = atan2(d.z, d.x);
+    let theta = acos(clamp(d.y, -1.0, 1.0));
+    let uv = vec2<f32>((phi + PI) / (2.0 * PI), theta / PI) * vec2<f32>(size) - 0.5;
+    let base = floor(uv);
+    let f = uv - base;
+    let x0 = ((i32(base.x) % size.x) + size.x) % size.x;
+    let x1 = (x0 + 1) % size.x;
+    let y0 = clamp(i32(base.y), 0, size.y - 1);
+    let y1 = clamp(i32(base.y) + 1, 0, size.y - 1);
+    let top = mix(textureLoad(env, vec2<i32>(x0, y0), 0).rgb, textureLoad(env, vec2<i32>(x1, y0), 0).rgb, f.x);
+    let bottom = mix(textureLoad(env, vec2<i32>(x0, y1), 0).rgb, textureLoad(env, vec2<i32>(x1, y1), 0).rgb, f.x);
+    return mix(top, bottom, f.y);
+}
+
+// PCG hash (Jarzynski & Olano 2020, "Hash functions for GPU rendering").
+fn pcg(v: u32) -> u32 {
+    let state = v * 747796405u + 2891336453u;
+    let word = ((state >> ((state >> 28u) + 4u)) ^ state) * 277803737u;
+    return (word >> 22u) ^ word;
+}
+
+// Uniform in [0, 1) from the 24 high bits of the next state.
+fn random(state: ptr<function, u32>) -> f32 {
+    *state = pcg(*state);
+    return f32(*state >> 8u) * (1.0 / 16777216.0);
+}
+
+// Cosine-weighted direction about unit n (pdf cos θ / π), with the branchless orthonormal basis
+// of Duff et al. 2017.
+fn cosine_direction(n: vec3<f32>, u1: f32, u2: f32) -> vec3<f32> {
+    let flip = select(-1.0, 1.0, n.z >= 0.0);
+    let a = -1.0 / (flip + n.z);
+    let b = n.x * n.y * a;
+    let tangent = vec3<f32>(1.0 + flip * n.x * n.x * a, flip * b, -flip * n.x);
+    let bitangent = vec3<f32>(b, flip + n.y * n.y * a, -n.y);
+    let r = sqrt(u1);
+    let phi = 2.0 * PI * u2;
+    return normalize(r * cos(phi) * tangent + r * sin(phi) * bitangent + sqrt(max(1.0 - u1, 0.0)) * n);
+}
+
+fn to_srgb8_unorm(linear: f32) -> f32 {
+    let x = clamp(linear, 0.0, 1.0);
+    var s: f32;
+    if x <= 0.0031308 {
+        s = 12.92 * x;
+    } else {
+        s = 1.055 * pow(x, 1.0 / 2.4) - 0.055;
+    }
+    return floor(s * 255.0 + 0.5) / 255.0;
+}
+
+@compute @workgroup_size(8, 8)
+fn path_trace(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let width = u32(frame.viewport.x);
+    if gid.x >= width || gid.y >= u32(frame.viewport.y) {
+        return;
+    }
+    let index = gid.x + gid.y * width;
+    var rng = pcg(index ^ pcg(trace.sample.x));
+    let g = textureLoad(gbuffer, vec2<i32>(gid.xy), 0);
+    let dir = ray_direction(frame, vec2<f32>(gid.xy) + 0.5);
+    var radiance = vec3<f32>(0.0);
+    if dot(g.xyz, g.xyz) == 0.0 {
+        radiance = environment(dir);
+    } else {
+        var p = frame.eye.xyz + g.w * dir;
+        var n = select(g.xyz, -g.xyz, dot(g.xyz, dir) > 0.0);
+        var throughput = trace.albedo.rgb;
+        for (var bounce = 0u; bounce < trace.block_dims.w; bounce++) {
+            let u1 = random(&rng);
+            let u2 = random(&rng);
+            let wi = cosine_direction(n, u1, u2);
+            let origin = p + trace.cell_dims.w * n;
+            let hit = trace_ray(origin, wi, 0.0, NO_HIT);
+            if hit.t >= NO_HIT {
+                radiance = throughput * environment(wi);
+                break;
+            }
+            p = origin + hit.t * wi;
+            n = select(hit.normal, -hit.normal, dot(hit.normal, wi) > 0.0);
+            throughput *= trace.albedo.rgb;
+        }
+    }
+    let sum = accumulation[index] + vec4<f32>(radiance, 1.0);
+    accumulation[index] = sum;
+    let mean = sum.rgb / sum.a;
+    textureStore(output, vec2<i32>(gid.xy), vec4<f32>(to_srgb8_unorm(mean.r), to_srgb8_unorm(mean.g), to_srgb8_unorm(mean.b), 1.0));
+}

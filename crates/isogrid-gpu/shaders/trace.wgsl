@@ -1,0 +1,224 @@
+// Hierarchical ray traversal of the clustered grid cells (paper §3.6): a 3D DDA over the dense
+// 16³-cell block grid visits blocks front to back, skipping blocks without slots; inside a block,
+// each cluster's bound (slot 15, Table 1 / `isogrid::layout::ClusterBound`) is slab-tested, then
+// the 2×2×2 boxes of its metacells, then each active cell's unit box, and finally the cell's
+// trilinear interpolant of its 8 stored corner codes is sampled three times along the segment and
+// refined like the cell raster (`cells.wgsl`). The first block with a hit holds the nearest one:
+// its cells lie inside its box, and later blocks start where it ends.
+//
+// Prepended: common.wgsl, cell_data.wgsl (for `frame`, `page`, `read_metacell`, `record_corner`).
+// Rays are in world space (unit direction, t = world distance); traversal runs in cell space
+// (world / spacing), where the same t applies to the scaled direction.
+
+// Keep in sync with `TraceUniforms` in src/gpu_types.rs.
+struct TraceUniforms {
+    block_dims: vec4<u32>, // blocks per axis (0 when the grid has none); w = bounces
+    cell_dims: vec4<f32>,  // cells per axis (the grid box in cell units); w = ray offset (world units)
+    albedo: vec4<f32>,     // diffuse albedo rgb
+    sample: vec4<u32>,     // x: sample index; y: 1 = environment texture, 0 = built-in sky; z: ray count
+}
+
+@group(0) @binding(1) var<uniform> trace: TraceUniforms;
+// Dense block records, 4 words each: slot count, first slot, min, max (`isogrid::layout::Block`).
+@group(0) @binding(3) var<storage, read> blocks: array<u32>;
+
+const NO_HIT: f32 = 3.0e38;
+const BLOCK_CELLS: f32 = 16.0;
+const TRACE_SAMPLES: u32 = 3u;
+const TRACE_BISECTION_STEPS: u32 = 12u;
+
+struct TraceHit {
+    t: f32,              // world distance, NO_HIT on a miss
+    normal: vec3<f32>,   // unit world −∇f at the hit (out of the solid)
+}
+
+// Entry and exit t of the box [lo, hi] (cell units) for a ray with origin o and 1/direction inv.
+fn box_span(o: vec3<f32>, inv: vec3<f32>, lo: vec3<f32>, hi: vec3<f32>) -> vec2<f32> {
+    let t0 = (lo - o) * inv;
+    let t1 = (hi - o) * inv;
+    let a = min(t0, t1);
+    let b = max(t0, t1);
+    return vec2<f32>(max(max(a.x, a.y), a.z), min(min(b.x, b.y), b.z));
+}
+
+fn record_corners(local_record: u32) -> Corners {
+    var v: array<f32, 8>;
+    for (var c = 0u; c < 8u; c++) {
+        v[c] = record_corner(local_record, c);
+    }
+    return Corners(vec4<f32>(v[0], v[1], v[2], v[3]), vec4<f32>(v[4], v[5], v[6], v[7]));
+}
+
+// First crossing of the isovalue on [ta, tb] inside one cell (o is cell-local), or NO_HIT: the
+// side at ta against three samples, bisection of the first change and a secant step, as fs_cell.
+fn cell_crossing(k: Corners, o: vec3<f32>, d: vec3<f32>, t_enter: f32, t_exit: f32) -> f32 {
+    let iso = frame.cell_to_world.w;
+    let inside_at_entry = trilinear(k.lo, k.hi, o + t_enter * d) >= iso;
+    var ta = t_enter;
+    var tb = t_enter;
+    var found = false;
+    for (var s = 1u; s <= TRACE_SAMPLES; s++) {
+        ta = tb;
+        tb = mix(t_enter, t_exit, f32(s) / f32(TRACE_SAMPLES));
+        if (trilinear(k.lo, k.hi, o + tb * d) >= iso) != inside_at_entry {
+            found = true;
+            break;
+        }
+    }
+    if !found {
+        return NO_HIT;
+    }
+    var fa = trilinear(k.lo, k.hi, o + ta * d) - iso;
+    var fb = trilinear(k.lo, k.hi, o + tb * d) - iso;
+    for (var i = 0u; i < TRACE_BISECTION_STEPS; i++) {
+        let tm = 0.5 * (ta + tb);
+        let fm = trilinear(k.lo, k.hi, o + tm * d) - iso;
+        if (fm >= 0.0) == inside_at_entry {
+            ta = tm;
+            fa = fm;
+        } else {
+            tb = tm;
+            fb = fm;
+        }
+    }
+    let w = clamp(fa / (fa - fb), 0.0, 1.0);
+    return select(mix(ta, tb, w), tb, fa == fb);
+}
+
+// Nearest crossing so far: t, and the cell and page-local record it lies in.
+struct Nearest {
+    t: f32,
+    cell: vec3<u32>,
+    record: u32,
+}
+
+// Tests the clusters of one block (global slots [first, first + count)) on [t_lo, t_hi].
+fn trace_block(first: u32, count: u32, o: vec3<f32>, d: vec3<f32>, inv: vec3<f32>, t_lo: f32, t_hi: f32, best_in: Nearest) -> Nearest {
+    var best = best_in;
+    for (var c = 0u; c < count; c += 16u) {
+        let cluster = first + c - page.first_slot;
+        let b = 3u * (cluster + 15u);
+        let w0 = metacells[b];
+        let w1 = metacells[b + 1u];
+        let w2 = metacells[b + 2u];
+        let lo = 2.0 * vec3<f32>(vec3<u32>(w0 & 0xffffu, w0 >> 16u, w1 & 0xffffu));
+        let hi = 2.0 * vec3<f32>(vec3<u32>(w1 >> 16u, w2 & 0xffffu, w2 >> 16u)) + 2.0;
+        let cs = box_span(o, inv, lo, hi);
+        if max(cs.x, t_lo) > min(cs.y, t_hi) || max(cs.x, t_lo) >= best.t {
+            continue;
+        }
+        for (var s = 0u; s < 15u; s++) {
+            let m = read_metacell(cluster + s);
+            if m.mask == 0u {
+                continue;
+            }
+            let mo = vec3<f32>(m.origin);
+            let ms = box_span(o, inv, mo, mo + 2.0);
+            if max(ms.x, t_lo) > min(ms.y, t_hi) || max(ms.x, t_lo) >= best.t {
+                continue;
+            }
+            for (var bit = 0u; bit < 8u; bit++) {
+                if (m.mask & (1u << bit)) == 0u {
+                    continue;
+                }
+                let cell = m.origin + cell_offset(bit);
+                let co = vec3<f32>(cell);
+                let span = box_span(o, inv, co, co + 1.0);
+                let enter = max(span.x, t_lo);
+                let exit = min(span.y, t_hi);
+                if enter > exit || enter >= best.t {
+                    continue;
+                }
+                let record = m.cell_pointer + countOneBits(m.mask & ((1u << bit) - 1u)) - page.first_cell;
+                let t = cell_crossing(record_corners(record), o - co, d, enter, exit);
+                if t < best.t {
+                    best = Nearest(t, cell, record);
+                }
+            }
+        }
+    }
+    return best;
+}
+
+// Nearest crossing of the world ray origin + t·dir (unit dir) with t in [t_min, t_max].
+fn trace_ray(origin: vec3<f32>, dir: vec3<f32>, t_min: f32, t_max: f32) -> TraceHit {
+    let miss = TraceHit(NO_HIT, vec3<f32>(0.0));
+    if trace.block_dims.x == 0u {
+        return miss;
+    }
+    let s = frame.cell_to_world.xyz;
+    let o = origin / s;
+    let d = dir / s;
+    // Tiny components keep their sign so that the DDA steps and boundary times agree.
+    let safe = select(d, select(vec3<f32>(-1e-30), vec3<f32>(1e-30), d >= vec3<f32>(0.0)), abs(d) < vec3<f32>(1e-30));
+    let inv = 1.0 / safe;
+    let grid = box_span(o, inv, vec3<f32>(0.0), trace.cell_dims.xyz);
+    let t_start = max(grid.x, t_min);
+    let t_end = min(grid.y, t_max);
+    if t_start > t_end {
+        return miss;
+    }
+    let nb = vec3<i32>(trace.block_dims.xyz);
+    let p = o + t_start * d;
+    var b = clamp(vec3<i32>(floor(p / BLOCK_CELLS)), vec3<i32>(0), nb - vec3<i32>(1));
+    let positive = safe >= vec3<f32>(0.0);
+    let dda_step = select(vec3<i32>(-1), vec3<i32>(1), positive);
+    let boundary = vec3<f32>(b + select(vec3<i32>(0), vec3<i32>(1), positive)) * BLOCK_CELLS;
+    var t_next = (boundary - o) * inv;
+    let t_delta = abs(BLOCK_CELLS * inv);
+    var best = Nearest(NO_HIT, vec3<u32>(0u), 0u);
+    let max_steps = nb.x + nb.y + nb.z + 3;
+    for (var i = 0; i < max_steps; i++) {
+        let block = 4u * (u32(b.x) + trace.block_dims.x * (u32(b.y) + trace.block_dims.y * u32(b.z)));
+        let count = blocks[block];
+        if count > 0u {
+            best = trace_block(blocks[block + 1u], count, o, d, inv, t_min, t_max, best);
+            if best.t < NO_HIT {
+                break;
+            }
+        }
+        let t_leave = min(min(t_next.x, t_next.y), t_next.z);
+        if t_leave >= t_end {
+            break;
+        }
+        if t_next.x <= t_next.y && t_next.x <= t_next.z {
+            b.x += dda_step.x;
+            t_next.x += t_delta.x;
+        } else if t_next.y <= t_next.z {
+            b.y += dda_step.y;
+            t_next.y += t_delta.y;
+        } else {
+            b.z += dda_step.z;
+            t_next.z += t_delta.z;
+        }
+        if any(b < vec3<i32>(0)) || any(b >= nb) {
+            break;
+        }
+    }
+    if best.t >= NO_HIT {
+        return miss;
+    }
+    let k = record_corners(best.record);
+    let local = clamp(o + best.t * d - vec3<f32>(best.cell), vec3<f32>(0.0), vec3<f32>(1.0));
+    var n = -trilinear_gradient(k.lo, k.hi, local) / s;
+    let len = length(n);
+    n = select(-dir, n / len, len > 0.0);
+    return TraceHit(best.t, n);
+}
+
+// Test entry point: one thread per ray. Rays: origin (xyz, w = t_min), direction (xyz, unit;
+// w = t_max). Hits: normal (xyz), t (w; NO_HIT on a miss).
+@group(2) @binding(4) var<storage, read> rays: array<vec4<f32>>;
+@group(2) @binding(5) var<storage, read_write> hits: array<vec4<f32>>;
+
+@compute @workgroup_size(64)
+fn trace_rays(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = gid.x + gid.y * groups.x * 64u;
+    if i >= trace.sample.z {
+        return;
+    }
+    let o = rays[2u * i];
+    let d = rays[2u * i + 1u];
+    let h = trace_ray(o.xyz, d.xyz, o.w, d.w);
+    hits[i] = vec4<f32>(h.normal, h.t);
+}

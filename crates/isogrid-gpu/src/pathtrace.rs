@@ -1,0 +1,715 @@
+//! Hybrid path tracing of clustered grid cells (paper §3.6, Figure 6): primary hits come from the
+//! cell raster's G-buffer ([`crate::Mode::Cgc`] passes, EWA normals), secondary rays are traced in
+//! a compute pass through blocks → clusters → metacells → cells (`shaders/trace.wgsl`), with
+//! Lambertian bounces, cosine-weighted sampling and an HDR environment (`shaders/pathtrace.wgsl`).
+//!
+//! One sample per pixel per frame; samples accumulate in a per-pixel `vec4<f32>` sum (the
+//! Rgba32Float texel layout) kept with the [`GpuGrid`] and reset whenever the view, bounces,
+//! albedo or environment change. World space and rays are `isogrid::camera`'s; the environment's
+//! up is world +y (the camera presets' up).
+
+use crate::error::GpuError;
+use crate::gpu_types::{FrameUniforms, TraceUniforms, SOURCE_RECORDS};
+use crate::pipelines::{
+    compute, layout, module, pipeline_layout, storage, texture, uniform, CELL_DATA, COMMON, D2,
+    FLOAT,
+};
+use crate::render::{buffer_entry, dispatch_size, texture_entry, Frame};
+use crate::upload::GpuGrid;
+use crate::Renderer;
+use isogrid::{Camera, Ray};
+use std::sync::atomic::{AtomicU64, Ordering};
+use wgpu::util::DeviceExt;
+
+/// Bounces of [`PathTraceOptions::default`] (the paper's Figure 6).
+pub const DEFAULT_BOUNCES: u32 = 3;
+/// Most bounces a path may take.
+pub const MAX_BOUNCES: u32 = 64;
+/// Secondary rays start this far (in cells of the smallest spacing) off the surface along the
+/// normal, well above the raster's and the tracer's crossing error (≈ 1e-4 cell after bisection).
+const RAY_OFFSET_CELLS: f64 = 2e-3;
+
+/// An equirectangular HDR environment: linear RGB radiance, `width × height` texels, row-major
+/// from the top. Texel (x, y) is centred on the direction with φ = 2π(x + ½)/width − π and
+/// θ = π(y + ½)/height: `(sin θ cos φ, cos θ, sin θ sin φ)`, so row 0 is world +y (up) and the
+/// middle of the image looks along −x. Lookups interpolate bilinearly between texel centres,
+/// wrapping in φ.
+#[derive(Debug, Clone, PartialEq)]
+pub struct EnvMap {
+    width: u32,
+    height: u32,
+    rgb: Vec<f32>,
+}
+
+impl EnvMap {
+    /// `rgb` holds `width · height · 3` finite, non-negative values.
+    pub fn new(width: u32, height: u32, rgb: Vec<f32>) -> Result<EnvMap, GpuError> {
+        let texels = width as u64 * height as u64;
+        if texels == 0 || rgb.len() as u64 != 3 * texels {
+            return Err(GpuError::invalid(format!(
+                "environment map of {width}x{height} texels needs {} floats, got {}",
+                3 * texels,
+                rgb.len()
+            )));
+        }
+        if let Some(bad) = rgb.iter().find(|v| !v.is_finite() || **v < 0.0) {
+            return Err(GpuError::invalid(format!(
+                "environment radiance must be finite and non-negative, found {bad}"
+            )));
+        }
+        Ok(EnvMap { width, height, rgb })
+    }
+
+    /// The same radiance from every direction (a 1×1 map).
+    pub fn constant(rgb: [f32; 3]) -> Result<EnvMap, GpuError> {
+        EnvMap::new(1, 1, rgb.to_vec())
+    }
+
+    /// A map whose texels hold `radiance(direction)` at their centre directions.
+    pub fn from_fn(
+        width: u32,
+        height: u32,
+        radiance: impl Fn([f32; 3]) -> [f32; 3],
+    ) -> Result<EnvMap, GpuError> {
+        let mut rgb = Vec::with_capacity(3 * width as usize * height as usize);
+        for y in 0..height {
+            for x in 0..width {
+                rgb.extend_from_slice(&radiance(Self::texel_direction(width, height, x, y)));
+            }
+        }
+        EnvMap::new(width, height, rgb)
+    }
+
+    /// Unit world direction at the centre of texel (x, y).
+    pub fn texel_direction(width: u32, height: u32, x: u32, y: u32) -> [f32; 3] {
+        let phi = std::f64::consts::TAU * (x as f64 + 0.5) / width as f64 - std::f64::consts::PI;
+        let theta = std::f64::consts::PI * (y as f64 + 0.5) / height as f64;
+        [
+            (theta.sin() * phi.cos()) as f32,
+            theta.cos() as f32,
+            (theta.sin() * phi.sin()) as f32,
+        ]
+    }
+
+    pub fn width(&self) -> u32 {
+        self.width
+    }
+    pub fn height(&self) -> u32 {
+        self.height
+    }
+    pub fn rgb(&self) -> &[f32] {
+        &self.rgb
+    }
+}
+
+/// An [`EnvMap`] resident on the GPU (`Rgba32Float` texture).
+#[derive(Debug)]
+pub struct GpuEnvMap {
+    view: wgpu::TextureView,
+    /// Identifies the map in the accumulation key: another map restarts accumulation.
+    id: u64,
+}
+
+// The built-in sky; keep in sync with `sky` in shaders/pathtrace.wgsl.
+const SKY_ZENITH: [f32; 3] = [0.20, 0.40, 0.90];
+const SKY_HORIZON: [f32; 3] = [0.85, 0.90, 1.00];
+const SKY_GROUND: [f32; 3] = [0.30, 0.27, 0.24];
+const SUN_DIR: [f32; 3] = [-0.35, 0.80, 0.50];
+const SUN_RADIANCE: [f32; 3] = [12.0, 11.0, 9.5];
+const SUN_EXPONENT: f32 = 64.0;
+
+/// Linear RGB radiance of the built-in sky (used when no [`EnvMap`] is given) from unit world
+/// direction `d`: with `y = d[1]` (world +y is up), `mix(HORIZON, ZENITH, √y)` above the horizon,
+/// `mix(HORIZON, GROUND, √−y)` below, plus a sun lobe `SUN · max(d·s, 0)^64` around
+/// `s = normalize(−0.35, 0.80, 0.50)`, where ZENITH = (0.20, 0.40, 0.90), HORIZON = (0.85, 0.90,
+/// 1.00), GROUND = (0.30, 0.27, 0.24) and SUN = (12.0, 11.0, 9.5).
+pub fn sky_radiance(d: [f32; 3]) -> [f32; 3] {
+    let (far, t) = if d[1] >= 0.0 {
+        (SKY_ZENITH, d[1].sqrt())
+    } else {
+        (SKY_GROUND, (-d[1]).sqrt())
+    };
+    let len = SUN_DIR.iter().map(|v| v * v).sum::<f32>().sqrt();
+    let cos = (0..3)
+        .map(|a| d[a] * SUN_DIR[a] / len)
+        .sum::<f32>()
+        .max(0.0);
+    let sun = cos.powf(SUN_EXPONENT);
+    std::array::from_fn(|a| SKY_HORIZON[a] + (far[a] - SKY_HORIZON[a]) * t + SUN_RADIANCE[a] * sun)
+}
+
+/// How to path trace ([`Renderer::path_trace`]).
+#[derive(Debug, Clone, Copy)]
+pub struct PathTraceOptions<'a> {
+    /// Frames rendered by this call, each adding one sample per pixel (at least 1).
+    pub frames: u32,
+    /// Diffuse reflections per path (secondary rays traced); a path that has not escaped to the
+    /// environment after them contributes nothing. 0 shows only the directly visible environment.
+    pub bounces: u32,
+    /// The environment; `None` uses the built-in sky ([`sky_radiance`]).
+    pub env: Option<&'a GpuEnvMap>,
+    /// Lambertian albedo, each component in [0, 1].
+    pub albedo: [f32; 3],
+    /// Culling of the primary raster passes ([`crate::RenderOptions`]); does not change the image.
+    pub occlusion_culling: bool,
+    pub backface_culling: bool,
+}
+
+impl Default for PathTraceOptions<'_> {
+    fn default() -> Self {
+        PathTraceOptions {
+            frames: 1,
+            bounces: DEFAULT_BOUNCES,
+            env: None,
+            albedo: isogrid::shading::ALBEDO,
+            occlusion_culling: true,
+            backface_culling: true,
+        }
+    }
+}
+
+/// The nearest crossing of a ray with the isosurface ([`Renderer::trace_rays`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RayHit {
+    /// World distance along the unit ray direction.
+    pub t: f32,
+    /// Unit world normal −∇f of the stored trilinear field (out of the solid).
+    pub normal: [f32; 3],
+}
+
+/// Layouts and pipelines of the trace passes, built once per renderer.
+pub(crate) struct TracePipelines {
+    grid: wgpu::BindGroupLayout,
+    page: wgpu::BindGroupLayout,
+    path_io: wgpu::BindGroupLayout,
+    ray_io: wgpu::BindGroupLayout,
+    path_trace: wgpu::ComputePipeline,
+    trace_rays: wgpu::ComputePipeline,
+}
+
+impl TracePipelines {
+    pub fn new(device: &wgpu::Device) -> Self {
+        let c = wgpu::ShaderStages::COMPUTE;
+        // Group 0: frame uniforms, trace uniforms, blocks.
+        let grid = layout(
+            device,
+            "trace grid",
+            &[uniform(0, c), uniform(1, c), storage(3, c, true)],
+        );
+        // Group 1: the (single) page's uniforms, metacell slots and corner records.
+        let page = layout(
+            device,
+            "trace page",
+            &[uniform(0, c), storage(1, c, true), storage(2, c, true)],
+        );
+        let path_io = layout(
+            device,
+            "path trace io",
+            &[
+                texture(0, c, FLOAT, D2),
+                storage(1, c, false),
+                wgpu::BindGroupLayoutEntry {
+                    binding: 2,
+                    visibility: c,
+                    ty: wgpu::BindingType::StorageTexture {
+                        access: wgpu::StorageTextureAccess::WriteOnly,
+                        format: crate::pipelines::COLOR_FORMAT,
+                        view_dimension: D2,
+                    },
+                    count: None,
+                },
+                texture(3, c, FLOAT, D2),
+            ],
+        );
+        let ray_io = layout(
+            device,
+            "trace rays io",
+            &[storage(4, c, true), storage(5, c, false)],
+        );
+        let shader = module(
+            device,
+            "trace.wgsl + pathtrace.wgsl",
+            &[
+                COMMON,
+                CELL_DATA,
+                include_str!("../shaders/trace.wgsl"),
+                include_str!("../shaders/pathtrace.wgsl"),
+            ],
+        );
+        let path_layout = pipeline_layout(device, "path trace", &[&grid, &page, &path_io]);
+        let rays_layout = pipeline_layout(device, "trace rays", &[&grid, &page, &ray_io]);
+        TracePipelines {
+            path_trace: compute(device, "path trace", &path_layout, &shader, "path_trace"),
+            trace_rays: compute(device, "trace rays", &rays_layout, &shader, "trace_rays"),
+            grid,
+            page,
+            path_io,
+            ray_io,
+        }
+    }
+}
+
+/// Running per-pixel sums of one view.
+pub(crate) struct Accumulation {
+    key: String,
+    sum: wgpu::Buffer,
+    samples: u32,
+}
+
+/// Everything one path-traced render call needs, prepared before its frames.
+pub(crate) struct PathTracePass {
+    uniforms: wgpu::Buffer,
+    base: TraceUniforms,
+    groups: [wgpu::BindGroup; 3],
+    sum: wgpu::Buffer,
+    readback: wgpu::Buffer,
+    first_sample: u32,
+    size: (u32, u32),
+}
+
+static NEXT_ENV_ID: AtomicU64 = AtomicU64::new(1);
+
+impl Renderer {
+    /// Uploads an environment map for [`PathTraceOptions::env`].
+    pub fn upload_env(&self, env: &EnvMap) -> Result<GpuEnvMap, GpuError> {
+        let max = self.limits.max_texture_dimension_2d;
+        if env.width > max || env.height > max {
+            return Err(GpuError::too_large(format!(
+                "environment map {}x{} exceeds the device's largest texture ({max} per side)",
+                env.width, env.height
+            )));
+        }
+        self.scoped("uploading the environment map", || {
+            let rgba: Vec<f32> = env
+                .rgb
+                .chunks_exact(3)
+                .flat_map(|c| [c[0], c[1], c[2], 0.0])
+                .collect();
+            Ok(GpuEnvMap {
+                view: self.float_texture("environment map", env.width, env.height, &rgba),
+                id: NEXT_ENV_ID.fetch_add(1, Ordering::Relaxed),
+            })
+        })
+    }
+
+    fn float_texture(
+        &self,
+        label: &str,
+        width: u32,
+        height: u32,
+        rgba: &[f32],
+    ) -> wgpu::TextureView {
+        self.device
+            .create_texture_with_data(
+                &self.queue,
+                &wgpu::TextureDescriptor {
+                    label: Some(label),
+                    size: wgpu::Extent3d {
+                        width,
+                        height,
+                        depth_or_array_layers: 1,
+                    },
+                    mip_level_count: 1,
+                    sample_count: 1,
+                    dimension: wgpu::TextureDimension::D2,
+                    format: wgpu::TextureFormat::Rgba32Float,
+                    usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+                    view_formats: &[],
+                },
+                wgpu::util::TextureDataOrder::LayerMajor,
+                bytemuck::cast_slice(rgba),
+            )
+            .create_view(&wgpu::TextureViewDescriptor::default())
+    }
+
+    /// Path traces `options.frames` frames of one view (hybrid: raster primaries, traced
+    /// secondaries) and reads back the accumulated image: `rgba8` is the sRGB mean, `linear` the
+    /// linear mean and `samples` the samples per pixel so far. Calls with the same camera,
+    /// bounces, albedo and environment keep accumulating; anything else starts afresh.
+    ///
+    /// Grids split into several pages (larger than one storage binding) are not supported yet
+    /// and fail with [`crate::GpuErrorKind::TooLarge`].
+    pub fn path_trace(
+        &self,
+        grid: &GpuGrid,
+        camera: &Camera,
+        options: &PathTraceOptions<'_>,
+    ) -> Result<Frame, GpuError> {
+        let raster = crate::RenderOptions {
+            frames: options.frames,
+            occlusion_culling: options.occlusion_culling,
+            backface_culling: options.backface_culling,
+        };
+        self.render_checked(
+            crate::Scene::Grid(grid),
+            camera,
+            crate::Mode::PathTrace,
+            &raster,
+            Some(options),
+        )
+    }
+
+    /// Traces world-space rays (any non-zero direction length; t is measured along the unit
+    /// direction from t = 0) through the grid's hierarchy on the GPU and returns the nearest
+    /// isosurface crossing of each, as the path tracer's secondary rays find them.
+    pub fn trace_rays(
+        &self,
+        grid: &GpuGrid,
+        rays: &[Ray],
+    ) -> Result<Vec<Option<RayHit>>, GpuError> {
+        if rays.is_empty() {
+            return Ok(Vec::new());
+        }
+        let mut packed = Vec::with_capacity(rays.len() * 8);
+        for (i, ray) in rays.iter().enumerate() {
+            let len = ray.direction.iter().map(|v| v * v).sum::<f64>().sqrt();
+            let finite = ray
+                .origin
+                .iter()
+                .chain(&ray.direction)
+                .all(|v| v.is_finite());
+            if !finite || !len.is_finite() || len == 0.0 {
+                return Err(GpuError::invalid(format!(
+                    "ray {i} has a non-finite origin or a zero or non-finite direction"
+                )));
+            }
+            packed.extend(ray.origin.map(|v| v as f32));
+            packed.push(0.0);
+            packed.extend(ray.direction.map(|v| (v / len) as f32));
+            packed.push(f32::MAX);
+        }
+        let ray_bytes = packed.len() as u64 * 4;
+        if ray_bytes > self.page_bytes {
+            return Err(GpuError::too_large(format!(
+                "{} rays need {ray_bytes} bytes, more than one storage binding holds ({} bytes)",
+                rays.len(),
+                self.page_bytes
+            )));
+        }
+        self.scoped("tracing rays", || {
+            let frame = FrameUniforms {
+                eye: [0.0; 4],
+                right: [1.0, 0.0, 0.0, 1.0],
+                up: [0.0, 1.0, 0.0, 1.0],
+                forward: [0.0, 0.0, -1.0, 0.0],
+                viewport: [1.0; 4],
+                cell_to_world: spacing_and_iso(grid),
+                params: [grid.info.precision.bits(), SOURCE_RECORDS, 0, 0],
+            };
+            let frame = self.uniform_buffer("trace frame uniforms", bytemuck::bytes_of(&frame));
+            let mut uniforms = self.trace_uniforms(grid, 0, [0.0; 3]);
+            uniforms.sample[2] = rays.len() as u32;
+            let uniforms = self.uniform_buffer("trace uniforms", bytemuck::bytes_of(&uniforms));
+            let (group0, group1) = self.grid_groups(grid, &frame, &uniforms)?;
+            let storage = wgpu::BufferUsages::STORAGE;
+            let ray_buffer = self
+                .device
+                .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                    label: Some("rays"),
+                    contents: bytemuck::cast_slice(&packed),
+                    usage: storage,
+                });
+            let hit_bytes = ray_bytes / 2;
+            let hits = self.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("ray hits"),
+                size: hit_bytes,
+                usage: storage | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            });
+            let readback = self.readback_buffer("ray hits readback", hit_bytes);
+            let io = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("trace rays io"),
+                layout: &self.pipelines.trace.ray_io,
+                entries: &[buffer_entry(4, &ray_buffer), buffer_entry(5, &hits)],
+            });
+            let mut encoder = self
+                .device
+                .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                    label: Some("trace rays"),
+                });
+            {
+                let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                    label: Some("trace rays"),
+                    timestamp_writes: None,
+                });
+                pass.set_pipeline(&self.pipelines.trace.trace_rays);
+                pass.set_bind_group(0, &group0, &[]);
+                pass.set_bind_group(1, &group1, &[]);
+                pass.set_bind_group(2, &io, &[]);
+                let (x, y) = dispatch_size(rays.len() as u32);
+                pass.dispatch_workgroups(x, y, 1);
+            }
+            encoder.copy_buffer_to_buffer(&hits, 0, &readback, 0, hit_bytes);
+            self.queue.submit([encoder.finish()]);
+            let hits: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&self.read_buffer(&readback)?);
+            Ok(hits
+                .iter()
+                .map(|h| {
+                    (h[3] < 1e38).then_some(RayHit {
+                        t: h[3],
+                        normal: [h[0], h[1], h[2]],
+                    })
+                })
+                .collect())
+        })
+    }
+
+    fn uniform_buffer(&self, label: &str, contents: &[u8]) -> wgpu::Buffer {
+        self.device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents,
+                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            })
+    }
+
+    fn readback_buffer(&self, label: &str, size: u64) -> wgpu::Buffer {
+        self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some(label),
+            size,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        })
+    }
+
+    fn trace_uniforms(&self, grid: &GpuGrid, bounces: u32, albedo: [f32; 3]) -> TraceUniforms {
+        let info = &grid.info;
+        let blocks = if grid.blocks.is_some() {
+            info.block_dims()
+        } else {
+            [0; 3]
+        };
+        let cells = info.cell_dims();
+        let offset = RAY_OFFSET_CELLS * info.spacing.iter().cloned().fold(f64::INFINITY, f64::min);
+        TraceUniforms {
+            block_dims: [blocks[0], blocks[1], blocks[2], bounces],
+            cell_dims: [
+                cells[0] as f32,
+                cells[1] as f32,
+                cells[2] as f32,
+                offset as f32,
+            ],
+            albedo: [albedo[0], albedo[1], albedo[2], 0.0],
+            sample: [0; 4],
+        }
+    }
+
+    /// Bind groups 0 (uniforms, blocks) and 1 (the page) of the trace passes. A grid without
+    /// blocks or pages binds small dummies that the shader never reads (it sees no blocks).
+    fn grid_groups(
+        &self,
+        grid: &GpuGrid,
+        frame: &wgpu::Buffer,
+        uniforms: &wgpu::Buffer,
+    ) -> Result<(wgpu::BindGroup, wgpu::BindGroup), GpuError> {
+        if grid.pages.len() > 1 {
+            return Err(GpuError::too_large(format!(
+                "ray tracing needs the grid in one storage binding, but it was split into {} pages \
+                 ({} active cells); multi-page grids can only be rasterised",
+                grid.pages.len(),
+                grid.active_cells()
+            )));
+        }
+        let dummy = || {
+            self.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("unused trace data"),
+                size: 16,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::UNIFORM,
+                mapped_at_creation: false,
+            })
+        };
+        let blocks = grid.blocks.clone().unwrap_or_else(dummy);
+        let (page_uniforms, metacells, cells) = match grid.pages.first() {
+            Some(p) => (p.uniforms.clone(), p.metacells.clone(), p.cells.clone()),
+            None => (dummy(), dummy(), dummy()),
+        };
+        let t = &self.pipelines.trace;
+        let group0 = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("trace grid"),
+            layout: &t.grid,
+            entries: &[
+                buffer_entry(0, frame),
+                buffer_entry(1, uniforms),
+                buffer_entry(3, &blocks),
+            ],
+        });
+        let group1 = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("trace page"),
+            layout: &t.page,
+            entries: &[
+                buffer_entry(0, &page_uniforms),
+                buffer_entry(1, &metacells),
+                buffer_entry(2, &cells),
+            ],
+        });
+        Ok((group0, group1))
+    }
+
+    /// Validates the options, finds or restarts the grid's accumulation for this view, and binds
+    /// the G-buffer (`targets[0]`, final normal + distance) and output (`targets[1]`, colour).
+    pub(crate) fn prepare_path_trace(
+        &self,
+        grid: &GpuGrid,
+        camera: &Camera,
+        options: &PathTraceOptions<'_>,
+        targets: [&wgpu::Texture; 2],
+        frame_uniforms: &wgpu::Buffer,
+    ) -> Result<PathTracePass, GpuError> {
+        if options.bounces > MAX_BOUNCES {
+            return Err(GpuError::invalid(format!(
+                "{} bounces requested, at most {MAX_BOUNCES} are supported",
+                options.bounces
+            )));
+        }
+        if options.albedo.iter().any(|a| !(0.0..=1.0).contains(a)) {
+            return Err(GpuError::invalid(format!(
+                "albedo {:?} is outside [0, 1]",
+                options.albedo
+            )));
+        }
+        let base = {
+            let mut u = self.trace_uniforms(grid, options.bounces, options.albedo);
+            u.sample[1] = options.env.is_some() as u32;
+            u
+        };
+        let uniforms = self.uniform_buffer("trace uniforms", bytemuck::bytes_of(&base));
+        let (group0, group1) = self.grid_groups(grid, frame_uniforms, &uniforms)?;
+        let pixels = camera.width as u64 * camera.height as u64;
+        let sum_bytes = 16 * pixels;
+        if sum_bytes > self.page_bytes {
+            return Err(GpuError::too_large(format!(
+                "a {}x{} accumulation buffer exceeds one storage binding",
+                camera.width, camera.height
+            )));
+        }
+        let key = format!(
+            "{camera:?} bounces {} albedo {:?} env {}",
+            options.bounces,
+            options.albedo,
+            options.env.map_or(0, |e| e.id)
+        );
+        let (sum, first_sample) = {
+            let mut acc = grid
+                .accumulation
+                .lock()
+                .map_err(|_| GpuError::device("accumulation state poisoned"))?;
+            match acc.as_ref() {
+                Some(a) if a.key == key => (a.sum.clone(), a.samples),
+                _ => {
+                    // New buffers are zero-initialised: an empty sum.
+                    let sum = self.device.create_buffer(&wgpu::BufferDescriptor {
+                        label: Some("path trace accumulation"),
+                        size: sum_bytes,
+                        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+                        mapped_at_creation: false,
+                    });
+                    *acc = Some(Accumulation {
+                        key,
+                        sum: sum.clone(),
+                        samples: 0,
+                    });
+                    (sum, 0)
+                }
+            }
+        };
+        let dummy_env;
+        let env_view = match options.env {
+            Some(e) => &e.view,
+            None => {
+                dummy_env = self.float_texture("no environment map", 1, 1, &[0.0; 4]);
+                &dummy_env
+            }
+        };
+        let gbuffer = targets[0].create_view(&wgpu::TextureViewDescriptor::default());
+        let output = targets[1].create_view(&wgpu::TextureViewDescriptor::default());
+        let io = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("path trace io"),
+            layout: &self.pipelines.trace.path_io,
+            entries: &[
+                texture_entry(0, &gbuffer),
+                buffer_entry(1, &sum),
+                texture_entry(2, &output),
+                texture_entry(3, env_view),
+            ],
+        });
+        Ok(PathTracePass {
+            uniforms,
+            base,
+            groups: [group0, group1, io],
+            readback: self.readback_buffer("accumulation readback", sum_bytes),
+            sum,
+            first_sample,
+            size: (camera.width, camera.height),
+        })
+    }
+}
+
+impl PathTracePass {
+    /// Records frame `f` of this call's trace pass; the last frame also copies the sums out.
+    pub(crate) fn encode(
+        &self,
+        renderer: &Renderer,
+        encoder: &mut wgpu::CommandEncoder,
+        f: u32,
+        timestamps: Option<wgpu::ComputePassTimestampWrites<'_>>,
+        last: bool,
+    ) {
+        let mut u = self.base;
+        u.sample[0] = self.first_sample.wrapping_add(f);
+        renderer
+            .queue
+            .write_buffer(&self.uniforms, 0, bytemuck::bytes_of(&u));
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("path trace"),
+                timestamp_writes: timestamps,
+            });
+            pass.set_pipeline(&renderer.pipelines.trace.path_trace);
+            for (i, group) in self.groups.iter().enumerate() {
+                pass.set_bind_group(i as u32, group, &[]);
+            }
+            pass.dispatch_workgroups(self.size.0.div_ceil(8), self.size.1.div_ceil(8), 1);
+        }
+        if last {
+            encoder.copy_buffer_to_buffer(&self.sum, 0, &self.readback, 0, self.readback.size());
+        }
+    }
+
+    /// Reads the sums back into `frame.linear` and records the samples taken.
+    pub(crate) fn finish(
+        self,
+        renderer: &Renderer,
+        frame: &mut Frame,
+        grid: &GpuGrid,
+        frames: u32,
+    ) -> Result<(), GpuError> {
+        let sums: Vec<[f32; 4]> =
+            bytemuck::pod_collect_to_vec(&renderer.read_buffer(&self.readback)?);
+        frame.linear = sums
+            .iter()
+            .map(|s| {
+                let n = s[3].max(1.0);
+                [s[0] / n, s[1] / n, s[2] / n]
+            })
+            .collect();
+        frame.samples = self.first_sample + frames;
+        let mut acc = grid
+            .accumulation
+            .lock()
+            .map_err(|_| GpuError::device("accumulation state poisoned"))?;
+        if let Some(a) = acc.as_mut() {
+            a.samples = frame.samples;
+        }
+        Ok(())
+    }
+}
+
+fn spacing_and_iso(grid: &GpuGrid) -> [f32; 4] {
+    let s = grid.info.spacing;
+    [
+        s[0] as f32,
+        s[1] as f32,
+        s[2] as f32,
+        grid.info.mapping.iso_code,
+    ]
+}
