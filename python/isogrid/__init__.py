@@ -57,6 +57,7 @@ __all__ = [
     "load",
     "load_volume",
     "marching_cubes",
+    "render",
     "voxelize",
 ]
 
@@ -275,6 +276,64 @@ def voxelize(
 # --- preparing arguments -------------------------------------------------------------------------
 
 _KEPT = {np.dtype(t) for t in (np.uint8, np.uint16, np.int16, np.float32)}
+
+
+def render(
+    grid: "CellGrid",
+    camera: Any = 1,
+    size: Tuple[int, int] = (640, 480),
+    mode: str = "cgc",
+    backend: str = "auto",
+    aovs: Sequence[str] = (),
+    frames: int = 1,
+    spp: int = 16,
+    bounces: int = 3,
+    threads: Optional[int] = None,
+) -> Any:
+    """An image of the isosurface, as ``isogrid render`` draws it.
+
+    World space is the grid's: sample ``(i, j, k)`` at ``(i·sx, j·sy, k·sz)``; pixel (0, 0) is the
+    top-left and each pixel's ray passes through its centre.
+
+    Args:
+        grid: a :class:`CellGrid` (from :func:`extract` or :func:`load`).
+        camera: ``1`` (front) or ``2`` (oblique) for the standard views of the grid's box, or
+            ``(eye, target, up, fovy_degrees)`` with points as (x, y, z) world coordinates.
+        size: ``(width, height)`` in pixels.
+        mode: ``"cgc"`` (cell rasterisation with EWA normals on a GPU; ray traced on the CPU),
+            ``"cgc-noewa"`` (GPU only) or ``"pathtrace"`` (sky environment; on the CPU ``spp``
+            samples, on the GPU one sample per frame).
+        backend: ``"auto"`` (a GPU adapter when there is one, lavapipe included, else the CPU),
+            ``"gpu"`` or ``"cpu"``.
+        aovs: any of ``"depth"`` (H×W float32 eye distance, +inf on misses), ``"normal"``
+            (H×W×3 float32 unit world normal, NaN on misses), ``"cluster"`` (H×W uint32,
+            4294967295 on misses), ``"backend"`` (which backend rendered).
+
+    Returns:
+        The sRGB image as a uint8 array of shape (H, W, 3); with ``aovs``, ``(image, {name: value})``.
+    """
+    if not isinstance(grid, CellGrid):
+        raise ValueError(f"render needs a CellGrid, got {type(grid).__name__}")
+    w, h = (_int(v, "size", 1) for v in size)
+    names = tuple(aovs)
+    for name in names:
+        if name not in ("depth", "normal", "cluster", "backend"):
+            raise ValueError(f"unknown AOV {name!r} (depth, normal, cluster or backend)")
+    out = _isogrid.render(
+        grid,
+        camera,
+        w,
+        h,
+        str(mode),
+        str(backend),
+        frames=_int(frames, "frames", 1),
+        spp=_int(spp, "spp", 1),
+        bounces=_int(bounces, "bounces"),
+        threads=None if threads is None else _int(threads, "threads", 1),
+    )
+    if not names:
+        return out["image"]
+    return out["image"], {name: out[name] for name in names}
 
 
 def _sample_dtype(dtype: np.dtype) -> np.dtype:

@@ -71,3 +71,15 @@ def voxelize(
     cube: bool = False,
     threads: Optional[int] = None,
 ) -> Dict[str, Any]: ...
+def render(
+    grid: CellGrid,
+    camera: Any,
+    width: int,
+    height: int,
+    mode: str,
+    backend: str,
+    frames: int = 1,
+    spp: int = 16,
+    bounces: int = 3,
+    threads: Optional[int] = None,
+) -> Dict[str, Any]: ...

@@ -97,7 +97,8 @@ pub enum Mode {
     Mc,
     /// GPU only: cell rasterisation sampling the original volume.
     Cr,
-    /// Monte Carlo path tracing under an environment (on the CPU in this build).
+    /// Path tracing under an environment: hybrid on the GPU (raster primaries, traced secondaries,
+    /// one sample per pixel per frame, so --frames is the sample count), or on the CPU (--spp).
     Pathtrace,
 }
 
@@ -273,18 +274,11 @@ fn choose_renderer(backend: Backend, mode: Mode) -> Result<Option<isogrid_gpu::R
             mode_name(mode)
         ),
         Backend::Cpu => Ok(None),
-        Backend::Gpu if mode == Mode::Pathtrace => {
-            bail!("path tracing runs on the CPU in this build: use --backend cpu or auto")
-        }
         Backend::Gpu => render_gpu::renderer()?.map(Some).ok_or_else(|| {
             anyhow::anyhow!(
                 "no GPU adapter found (for a CPU Vulkan driver install mesa-vulkan-drivers)"
             )
         }),
-        Backend::Auto if mode == Mode::Pathtrace => {
-            eprintln!("isogrid: GPU path tracing is not in this build, rendering on the CPU");
-            Ok(None)
-        }
         Backend::Auto => match render_gpu::renderer()? {
             Some(r) => Ok(Some(r)),
             None if gpu_only => bail!(
@@ -314,11 +308,11 @@ pub fn run(args: Args) -> Result<()> {
     if let Some(spec) = &args.camera {
         Camera::parse(spec, width, height)?;
     }
-    let environment = match args.mode {
+    let env_map = match args.mode {
         Mode::Pathtrace if !args.env.eq_ignore_ascii_case("sky") => {
-            Environment::Map(isogrid_io::image::read_env_map(Path::new(&args.env))?)
+            Some(isogrid_io::image::read_env_map(Path::new(&args.env))?)
         }
-        _ => Environment::Sky,
+        _ => None,
     };
     let renderer = choose_renderer(args.backend, args.mode)?;
 
@@ -353,6 +347,35 @@ pub fn run(args: Args) -> Result<()> {
     };
 
     let rendered = match (&renderer, gpu_mode(args.mode)) {
+        (Some(renderer), None) => {
+            let spinner = progress::spinner("path tracing on the GPU".into());
+            let start = Instant::now();
+            let out = render_gpu::path_trace(
+                renderer,
+                &grid,
+                &camera,
+                args.frames,
+                args.bounces,
+                env_map.as_ref(),
+            )?;
+            report.seconds = start.elapsed().as_secs_f64();
+            spinner.finish_and_clear();
+            report.backend = "gpu";
+            report.adapter = Some(out.adapter);
+            report.frames = Some(args.frames);
+            report.spp = Some(out.frame.samples);
+            report.bounces = Some(args.bounces);
+            report.gpu_ms = Some(out.times);
+            let f = out.frame;
+            report.hits = f.cluster.iter().filter(|&&c| c != u32::MAX).count() as u64;
+            Rendered {
+                channels: 4,
+                pixels: f.rgba8,
+                depth: f.depth,
+                normal: f.normal,
+                cluster: f.cluster,
+            }
+        }
         (Some(renderer), Some(mode)) => {
             let spinner = progress::spinner("rendering on the GPU".into());
             let start = Instant::now();
@@ -388,7 +411,7 @@ pub fn run(args: Args) -> Result<()> {
                 Mode::Pathtrace => Shading::PathTrace(PathTraceOptions {
                     samples_per_pixel: args.spp,
                     bounces: args.bounces,
-                    environment,
+                    environment: env_map.map_or(Environment::Sky, Environment::Map),
                     seed: args.seed,
                     ..PathTraceOptions::default()
                 }),

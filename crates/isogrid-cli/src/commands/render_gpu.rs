@@ -18,6 +18,22 @@ pub struct GpuTimes {
     pub shade_ms: Option<f64>,
     pub cull_ms: Option<f64>,
     pub frame_ms: Option<f64>,
+    /// Path tracing: the secondary-ray compute pass.
+    pub trace_ms: Option<f64>,
+}
+
+impl From<isogrid_gpu::PassTimings> for GpuTimes {
+    fn from(t: isogrid_gpu::PassTimings) -> Self {
+        GpuTimes {
+            raster_ms: t.raster_ms,
+            raster_no_ewa_ms: t.raster_ms.map(|r| r - t.ewa_ms.unwrap_or(0.0)),
+            ewa_ms: t.ewa_ms,
+            shade_ms: t.shade_ms,
+            cull_ms: t.cull_ms,
+            frame_ms: t.frame_ms,
+            trace_ms: t.trace_ms,
+        }
+    }
 }
 
 pub struct GpuRender {
@@ -33,6 +49,42 @@ pub fn renderer() -> Result<Option<Renderer>> {
         Err(e) if e.kind() == GpuErrorKind::NoAdapter => Ok(None),
         Err(e) => Err(isogrid::Error::from(e).into()),
     }
+}
+
+/// Hybrid path tracing (§3.6): raster primaries, traced secondaries; `frames` samples per pixel.
+pub fn path_trace(
+    renderer: &Renderer,
+    grid: &CellGrid,
+    camera: &Camera,
+    frames: u32,
+    bounces: u32,
+    env: Option<&isogrid::trace::EnvMap>,
+) -> Result<GpuRender> {
+    let gpu_grid = renderer.upload_grid(grid).map_err(isogrid::Error::from)?;
+    let gpu_env = match env {
+        Some(map) => {
+            let rgb = map.texels().iter().flatten().copied().collect();
+            let env = isogrid_gpu::EnvMap::new(map.width(), map.height(), rgb)
+                .map_err(isogrid::Error::from)?;
+            Some(renderer.upload_env(&env).map_err(isogrid::Error::from)?)
+        }
+        None => None,
+    };
+    let options = isogrid_gpu::PathTraceOptions {
+        frames,
+        bounces,
+        env: gpu_env.as_ref(),
+        ..Default::default()
+    };
+    let frame = renderer
+        .path_trace(&gpu_grid, camera, &options)
+        .map_err(isogrid::Error::from)?;
+    let times = GpuTimes::from(frame.timings);
+    Ok(GpuRender {
+        adapter: renderer.adapter_info(),
+        frame,
+        times,
+    })
 }
 
 /// Renders `mode` of `grid` (with `volume` for `mc` and `cr`) for `frames` frames.
@@ -82,15 +134,7 @@ pub fn render(
         }
     }
     .map_err(isogrid::Error::from)?;
-    let t = frame.timings;
-    let times = GpuTimes {
-        raster_ms: t.raster_ms,
-        raster_no_ewa_ms: t.raster_ms.map(|r| r - t.ewa_ms.unwrap_or(0.0)),
-        ewa_ms: t.ewa_ms,
-        shade_ms: t.shade_ms,
-        cull_ms: t.cull_ms,
-        frame_ms: t.frame_ms,
-    };
+    let times = GpuTimes::from(frame.timings);
     Ok(GpuRender {
         adapter: renderer.adapter_info(),
         frame,

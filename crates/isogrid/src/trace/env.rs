@@ -41,6 +41,10 @@ impl EnvMap {
             texels,
         })
     }
+    /// Texels row by row from the top (+y up, equirectangular).
+    pub fn texels(&self) -> &[[f32; 3]] {
+        &self.texels
+    }
     pub fn width(&self) -> u32 {
         self.width
     }
