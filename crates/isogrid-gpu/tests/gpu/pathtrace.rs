@@ -482,3 +482,80 @@ fn an_empty_grid_shows_only_the_environment() {
         assert!((0..3).all(|ch| (px[ch] - want[ch]).abs() <= 1e-4 + 1e-4 * want[ch]));
     }
 }
+
+/// The GPU hybrid path tracer and the CPU path tracer (`isogrid::trace`) estimate the same image:
+/// same grid, camera, albedo, bounces and a uniform environment. Their random numbers differ, so
+/// only the means over the surface pixels are compared, against several standard errors.
+#[test]
+fn gpu_and_cpu_path_tracers_agree_on_the_mean() {
+    use isogrid::trace::{Environment, PathTraceOptions as CpuOptions, RenderOptions, Shading};
+    let Some(r) = renderer() else { return };
+    let radiance = [0.9f32, 0.7, 0.5];
+    let env = r.upload_env(&EnvMap::constant(radiance).unwrap()).unwrap();
+    let (size, pixels, samples, bounces) = (32, 64, 24, 3);
+    for field in [Field::Torus, Field::Gyroid] {
+        let (_, grid) = scene(field, size, None);
+        let cam = camera(size, 2, pixels, pixels);
+        let gpu_grid = r.upload_grid(&grid).unwrap();
+        let gpu = r
+            .path_trace(
+                &gpu_grid,
+                &cam,
+                &PathTraceOptions {
+                    frames: samples,
+                    bounces,
+                    env: Some(&env),
+                    ..Default::default()
+                },
+            )
+            .unwrap();
+        let options = RenderOptions {
+            shading: Shading::PathTrace(CpuOptions {
+                samples_per_pixel: samples,
+                bounces,
+                environment: Environment::Uniform(radiance),
+                seed: 5,
+                ..CpuOptions::default()
+            }),
+            ..RenderOptions::default()
+        };
+        let cpu = isogrid::trace::render(&grid, &cam, &options).unwrap();
+        // Interior surface pixels: the pixel and its 4 neighbours hit in both images. At
+        // silhouettes the CPU's jittered primaries mix in the environment, the GPU's pixel-centre
+        // primaries do not, which would bias the comparison.
+        let w = pixels as usize;
+        let hit = |i: usize| gpu.is_hit(i) && cpu.cluster[i] != u32::MAX;
+        let both: Vec<usize> = (0..gpu.linear.len())
+            .filter(|&i| {
+                let (x, y) = (i % w, i / w);
+                x > 0
+                    && y > 0
+                    && x + 1 < w
+                    && y + 1 < w
+                    && [i, i - 1, i + 1, i - w, i + w].into_iter().all(hit)
+            })
+            .collect();
+        assert!(
+            both.len() > 150,
+            "{field}: {} common surface pixels",
+            both.len()
+        );
+        for c in 0..3 {
+            let stats = |values: Vec<f64>| {
+                let n = values.len() as f64;
+                let mean = values.iter().sum::<f64>() / n;
+                let var = values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0);
+                (mean, (var / n).sqrt())
+            };
+            let (g, g_err) = stats(both.iter().map(|&i| gpu.linear[i][c] as f64).collect());
+            let (k, k_err) = stats(both.iter().map(|&i| cpu.radiance[i][c] as f64).collect());
+            // 5 standard errors of the difference of two independent estimates.
+            let tolerance = 5.0 * (g_err * g_err + k_err * k_err).sqrt();
+            eprintln!("{field} channel {c}: GPU {g:.4} ± {g_err:.4}, CPU {k:.4} ± {k_err:.4}");
+            assert!(
+                (g - k).abs() <= tolerance,
+                "{field} channel {c}: GPU {g} vs CPU {k} (tolerance {tolerance})"
+            );
+        }
+    }
+}
