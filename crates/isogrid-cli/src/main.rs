@@ -31,6 +31,8 @@ enum Command {
     Generate(commands::generate::Args),
     /// Build a built-in volume, extract it and compare with Marching Cubes.
     Demo(commands::demo::Args),
+    /// Open the interactive viewer (orbit, isovalue slider, modes, measurements); --frames N renders N frames and exits.
+    View(commands::view::Args),
 }
 
 fn main() -> ExitCode {
@@ -42,6 +44,7 @@ fn main() -> ExitCode {
         Command::Voxelize(a) => commands::voxelize::run(a),
         Command::Generate(a) => commands::generate::run(a),
         Command::Demo(a) => commands::demo::run(a),
+        Command::View(a) => commands::view::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -5,4 +5,5 @@ pub mod extract;
 pub mod generate;
 pub mod info;
 pub mod mc;
+pub mod view;
 pub mod voxelize;

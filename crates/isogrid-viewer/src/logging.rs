@@ -1,0 +1,46 @@
+//! Log messages of eframe, egui-wgpu and wgpu on stderr, so that window and surface problems
+//! (a surface format that cannot be captured, a lost device) are visible. `ISOGRID_VIEW_LOG`
+//! sets the level (`error`, `warn` (default), `info`, `debug`, `trace`, `off`).
+
+use log::{Level, LevelFilter, Log, Metadata, Record};
+
+struct Stderr;
+
+impl Log for Stderr {
+    fn enabled(&self, metadata: &Metadata) -> bool {
+        metadata.level() <= log::max_level()
+    }
+    fn log(&self, record: &Record) {
+        if !self.enabled(record.metadata()) {
+            return;
+        }
+        // wgpu reports every validation message at warn level with multi-line context; keep the
+        // first line so that the terminal stays readable.
+        let message = record.args().to_string();
+        let first = message.lines().next().unwrap_or_default();
+        let level = match record.level() {
+            Level::Error => "error",
+            Level::Warn => "warning",
+            Level::Info => "info",
+            Level::Debug => "debug",
+            Level::Trace => "trace",
+        };
+        eprintln!("isogrid view: {level}: {}: {first}", record.target());
+    }
+    fn flush(&self) {}
+}
+
+/// Installs the logger once; later calls (a second viewer in one process) keep the first.
+pub fn init() {
+    let level = match std::env::var("ISOGRID_VIEW_LOG").as_deref() {
+        Ok("off") => LevelFilter::Off,
+        Ok("error") => LevelFilter::Error,
+        Ok("info") => LevelFilter::Info,
+        Ok("debug") => LevelFilter::Debug,
+        Ok("trace") => LevelFilter::Trace,
+        _ => LevelFilter::Warn,
+    };
+    if log::set_logger(&Stderr).is_ok() {
+        log::set_max_level(level);
+    }
+}
