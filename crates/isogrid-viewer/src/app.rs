@@ -6,6 +6,7 @@
 //! reduced size picked from the measured cost per pixel, and the full size follows when the
 //! interaction stops.
 
+use crate::cost::CostModel;
 use crate::events::{Event, Failure, Notifier, RenderedFrame, SourceInfo};
 use crate::extract_worker::{ExtractWorker, OpenRequest, Wanted};
 use crate::orbit::Orbit;
@@ -22,8 +23,12 @@ use std::time::{Duration, Instant};
 
 /// Width of the control panel in points.
 const PANEL_WIDTH: f32 = 300.0;
+/// Width of the measurement panel in points.
+const MEASUREMENTS_WIDTH: f32 = 270.0;
 /// Render time aimed at while the view moves.
 const INTERACTIVE_MS: f64 = 70.0;
+/// Render time aimed at for the first image after the view stops; the full size follows.
+const PREVIEW_MS: f64 = 500.0;
 /// The view counts as moving for this long after the last drag or wheel event.
 const SETTLE: Duration = Duration::from_millis(250);
 /// A scripted run that has not finished by then reports failure instead of hanging.
@@ -36,7 +41,10 @@ pub fn run(options: ViewerOptions) -> isogrid::Result<()> {
     let failure: Arc<Mutex<Option<String>>> = Arc::default();
     let inner_size = match options.size {
         // Room for the image at one pixel per point next to the panel.
-        Some([w, h]) => [w as f32 + PANEL_WIDTH + 48.0, (h as f32 + 24.0).max(640.0)],
+        Some([w, h]) => [
+            w as f32 + PANEL_WIDTH + MEASUREMENTS_WIDTH + 64.0,
+            (h as f32 + 24.0).max(640.0),
+        ],
         None => [1280.0, 800.0],
     };
     let native = eframe::NativeOptions {
@@ -106,6 +114,7 @@ struct App {
     precision: Option<Precision>,
     mode: ViewMode,
     compare_mc: bool,
+    full_when_idle: bool,
     orbit: Orbit,
     has_view: bool,
 
@@ -119,7 +128,9 @@ struct App {
     /// A view the render worker could not draw: not asked again until something changes.
     refused: Option<ViewKey>,
     next_request: u64,
-    ms_per_pixel: Option<f64>,
+    cost: CostModel,
+    /// The mode and scene version the cost model has frames of.
+    cost_of: Option<(ViewMode, u64)>,
     last_interaction: Option<Instant>,
     /// The last painted image rectangle, in window pixels.
     image_rect_px: Option<egui::Rect>,
@@ -167,6 +178,7 @@ impl App {
             precision: options.precision,
             mode: options.mode,
             compare_mc,
+            full_when_idle: true,
             events,
             render,
             extractor,
@@ -182,7 +194,8 @@ impl App {
             in_flight: None,
             refused: None,
             next_request: 0,
-            ms_per_pixel: None,
+            cost: CostModel::default(),
+            cost_of: None,
             last_interaction: None,
             image_rect_px: None,
             busy: None,
@@ -399,12 +412,12 @@ impl App {
             return;
         }
         self.in_flight = None;
-        let pixels = (frame.width as f64 * frame.height as f64).max(1.0);
-        let per_pixel = seconds * 1e3 / pixels;
-        self.ms_per_pixel = Some(match self.ms_per_pixel {
-            Some(old) => 0.5 * old + 0.5 * per_pixel,
-            None => per_pixel,
-        });
+        if self.cost_of != Some((key.mode, key.scene)) {
+            self.cost.reset();
+            self.cost_of = Some((key.mode, key.scene));
+        }
+        self.cost
+            .record(frame.width as u64 * frame.height as u64, seconds * 1e3);
         let full = [frame.width, frame.height] == full_size;
         let image = egui::ColorImage::from_rgba_unmultiplied(
             [frame.width as usize, frame.height as usize],
@@ -632,8 +645,12 @@ impl App {
             ui.label("Marching Cubes mesh: extracting…");
         }
         let compare = ui
-            .checkbox(&mut self.compare_mc, "extract MC too (memory comparison)")
-            .on_hover_text("Runs Marching Cubes in the background after each extraction");
+            .add_enabled(
+                has_volume,
+                egui::Checkbox::new(&mut self.compare_mc, "extract MC too (memory comparison)"),
+            )
+            .on_hover_text("Runs Marching Cubes in the background after each extraction")
+            .on_disabled_hover_text("needs the original volume");
         if compare.changed() {
             let mesh = self.wants_mesh();
             self.extractor.update(|w| w.mesh = mesh);
@@ -682,13 +699,11 @@ impl App {
                 ui.label("idle");
             }
         });
-        egui::CollapsingHeader::new("Measurements")
-            .default_open(true)
-            .show(ui, |ui| {
-                let dt = ui.input(|i| i.stable_dt) as f64 * 1e3;
-                panel::show(ui, &self.measurements, dt);
-            });
-
+        ui.checkbox(&mut self.full_when_idle, "full resolution when idle")
+            .on_hover_text(
+                "Off: stay at the preview resolution (about 0.5 s per frame); \
+                 useful on CPU adapters, where large images take seconds",
+            );
         if !self.messages.is_empty() {
             ui.separator();
             for m in self.messages.iter().rev() {
@@ -841,13 +856,28 @@ impl App {
             .last_interaction
             .map(|t| t.elapsed())
             .filter(|&e| e < SETTLE);
-        let size = match (settling, self.ms_per_pixel) {
-            (Some(_), Some(ms)) => reduced_size(full_size, ms),
-            _ => full_size,
-        };
         let scene = match self.mode {
             ViewMode::Mc => self.mesh_version,
             _ => self.grid_version,
+        };
+        let shown_width = self
+            .shown
+            .filter(|k| k.mode == self.mode && k.scene == scene)
+            .filter(|k| same_view(&k.camera, &self.orbit.camera(1, 1)))
+            .map(|k| k.camera.width);
+        // Moving: a size rendered within the interactive budget. Still: a preview within a
+        // larger budget, then the full size. Scripted runs go straight to the full size.
+        let size = if self.script.is_some() {
+            full_size
+        } else if settling.is_some() {
+            self.cost.size_for(full_size, INTERACTIVE_MS)
+        } else {
+            let preview = self.cost.size_for(full_size, PREVIEW_MS);
+            match (shown_width, self.shown) {
+                (Some(w), _) if w >= preview[0] && self.full_when_idle => full_size,
+                (Some(w), Some(k)) if w >= preview[0] => [w, k.camera.height],
+                _ => preview,
+            }
         };
         let key = ViewKey {
             camera: self.orbit.camera(size[0], size[1]),
@@ -949,6 +979,22 @@ impl eframe::App for App {
         panel.show(ui, |ui| {
             egui::ScrollArea::vertical().show(ui, |ui| self.controls(ui, &ctx, full_size));
         });
+        let right = egui::Panel::right("measurements");
+        let right = if self.options.size.is_some() {
+            right.exact_size(MEASUREMENTS_WIDTH)
+        } else {
+            right
+                .resizable(true)
+                .default_size(MEASUREMENTS_WIDTH)
+                .min_size(MEASUREMENTS_WIDTH - 40.0)
+        };
+        right.show(ui, |ui| {
+            egui::ScrollArea::vertical().show(ui, |ui| {
+                ui.heading("Measurements");
+                let dt = ui.input(|i| i.stable_dt) as f64 * 1e3;
+                panel::show(ui, &self.measurements, dt);
+            });
+        });
         egui::CentralPanel::no_frame().show(ui, |ui| {
             let area = ui.available_rect_before_wrap();
             ctx.data_mut(|d| d.insert_temp(egui::Id::unique("isogrid-view-area"), area));
@@ -1001,8 +1047,10 @@ fn background() -> egui::Color32 {
 /// it fits (scaled down to fit otherwise), centred, with its corner on the pixel grid.
 fn image_rect(area: egui::Rect, size: [u32; 2], fixed: bool, ppp: f32) -> egui::Rect {
     if !fixed {
+        // The render size is the area's size floored to whole pixels: show it texel for pixel.
         let min = (area.min.to_vec2() * ppp).round() / ppp;
-        return egui::Rect::from_min_size(min.to_pos2(), area.size());
+        let size = egui::vec2(size[0] as f32, size[1] as f32) / ppp;
+        return egui::Rect::from_min_size(min.to_pos2(), size);
     }
     let natural = egui::vec2(size[0] as f32, size[1] as f32) / ppp;
     let scale = (area.width() / natural.x)
@@ -1014,33 +1062,14 @@ fn image_rect(area: egui::Rect, size: [u32; 2], fixed: bool, ppp: f32) -> egui::
     egui::Rect::from_min_size(min.to_pos2(), shown)
 }
 
-/// A smaller render size whose expected time (at `ms_per_pixel`) is about [`INTERACTIVE_MS`],
-/// in steps of 1/8 of the full size so that consecutive frames share it.
-fn reduced_size(full: [u32; 2], ms_per_pixel: f64) -> [u32; 2] {
-    let pixels = full[0] as f64 * full[1] as f64;
-    let scale = (INTERACTIVE_MS / (ms_per_pixel * pixels).max(1e-9))
-        .sqrt()
-        .clamp(0.125, 1.0);
-    let scale = (scale * 8.0).floor().max(1.0) / 8.0;
-    if scale >= 1.0 {
-        return full;
-    }
-    full.map(|n| ((n as f64 * scale).round() as u32).max(1))
+/// Whether two cameras show the same view (image size aside).
+fn same_view(a: &Camera, b: &Camera) -> bool {
+    (a.eye, a.target, a.up, a.fovy_degrees) == (b.eye, b.target, b.up, b.fovy_degrees)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn reduced_size_meets_the_budget_and_keeps_the_aspect() {
-        // 10 µs per pixel: 640×480 takes 3 s, so the interactive size shrinks to 1/8.
-        assert_eq!(reduced_size([640, 480], 1e-2), [80, 60]);
-        // Cheap frames stay full size.
-        assert_eq!(reduced_size([640, 480], 1e-7), [640, 480]);
-        // 70 ms budget at 0.5 µs/px: 140k px of 307k, scale ≈ 0.675 → 5/8.
-        assert_eq!(reduced_size([640, 480], 5e-4), [400, 300]);
-    }
 
     #[test]
     fn fixed_images_sit_on_the_pixel_grid_at_one_texel_per_pixel() {

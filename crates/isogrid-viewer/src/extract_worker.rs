@@ -285,3 +285,118 @@ impl Worker {
         self.busy(None);
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::events::Event;
+    use eframe::egui;
+    use isogrid::generate::{generate, Field};
+    use isogrid::mc::marching_cubes;
+    use isogrid::CellGrid;
+    use std::sync::mpsc::{channel, Receiver};
+    use std::time::Duration;
+
+    const WAIT: Duration = Duration::from_secs(60);
+
+    fn next_grid(rx: &Receiver<RenderMsg>) -> (u64, CellGrid) {
+        loop {
+            match rx.recv_timeout(WAIT).expect("a grid arrives") {
+                RenderMsg::Grid {
+                    generation, grid, ..
+                } => return (generation, grid),
+                _ => continue,
+            }
+        }
+    }
+
+    fn reference(volume: &Volume, iso: Iso, precision: Option<Precision>) -> CellGrid {
+        extract(&volume.view(), &ExtractOptions { iso, precision }).unwrap()
+    }
+
+    #[test]
+    fn follows_the_wanted_isovalue_precision_and_mesh() {
+        let dir =
+            std::env::temp_dir().join(format!("isogrid-viewer-worker-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("sphere.nrrd");
+        let volume = generate(Field::Sphere, 24, 1);
+        isogrid_io::write_nrrd(&path, &volume).unwrap();
+
+        let (render_tx, render_rx) = channel();
+        let (event_tx, event_rx) = channel();
+        let worker = ExtractWorker::spawn(
+            Wanted {
+                open: Some(OpenRequest {
+                    generation: 1,
+                    path: path.clone(),
+                    read_options: Default::default(),
+                }),
+                iso: Iso::Normalized(0.5),
+                precision: None,
+                mesh: false,
+                shutdown: false,
+            },
+            render_tx,
+            Notifier::new(event_tx, egui::Context::default()),
+        );
+
+        let (generation, grid) = next_grid(&render_rx);
+        let expected = reference(&volume, Iso::Normalized(0.5), None);
+        assert_eq!(generation, 1);
+        assert_eq!(grid.info(), expected.info());
+        assert_eq!(grid.cells(), expected.cells());
+
+        // A burst of slider positions: the worker ends on the last one, in at most one
+        // extraction per position.
+        let values: Vec<f64> = (0..10).map(|i| 100.0 + 10.0 * i as f64).collect();
+        for &v in &values {
+            worker.update(|w| {
+                w.iso = Iso::Value(v);
+                w.precision = Some(Precision::Bits16);
+            });
+        }
+        let last = *values.last().unwrap();
+        let mut extractions = 0;
+        let grid = loop {
+            let (_, grid) = next_grid(&render_rx);
+            extractions += 1;
+            assert!(values.contains(&grid.info().iso));
+            if grid.info().iso == last {
+                break grid;
+            }
+        };
+        assert!(extractions <= values.len());
+        let expected = reference(&volume, Iso::Value(last), Some(Precision::Bits16));
+        assert_eq!(grid.info(), expected.info());
+        assert_eq!(grid.cells(), expected.cells());
+
+        worker.update(|w| w.mesh = true);
+        let mesh = loop {
+            if let RenderMsg::Mesh { iso, mesh, .. } = render_rx.recv_timeout(WAIT).unwrap() {
+                assert_eq!(iso, last);
+                break mesh;
+            }
+        };
+        assert_eq!(mesh, marching_cubes(&volume.view(), last));
+
+        // A missing file is reported with its path; nothing is extracted for it.
+        let missing = dir.join("missing.nrrd");
+        worker.update(|w| {
+            w.open = Some(OpenRequest {
+                generation: 2,
+                path: missing.clone(),
+                read_options: Default::default(),
+            })
+        });
+        let message = loop {
+            if let Event::Error { failure, message } = event_rx.recv_timeout(WAIT).unwrap() {
+                assert_eq!(failure, Failure::Open);
+                break message;
+            }
+        };
+        assert!(message.contains("missing.nrrd"), "{message}");
+        drop(worker);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}

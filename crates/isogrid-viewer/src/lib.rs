@@ -15,6 +15,7 @@
 //! frames, save a screenshot of the whole window and close; tests use them under Xvfb.
 
 mod app;
+mod cost;
 mod events;
 mod extract_worker;
 mod logging;

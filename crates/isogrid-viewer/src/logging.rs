@@ -1,14 +1,22 @@
 //! Log messages of eframe, egui-wgpu and wgpu on stderr, so that window and surface problems
 //! (a surface format that cannot be captured, a lost device) are visible. `ISOGRID_VIEW_LOG`
-//! sets the level (`error`, `warn` (default), `info`, `debug`, `trace`, `off`).
+//! sets the level (`error`, `warn` (default), `info`, `debug`, `trace`, `off`); without it,
+//! wgpu-hal's messages are hidden.
 
 use log::{Level, LevelFilter, Log, Metadata, Record};
+use std::sync::atomic::{AtomicBool, Ordering};
+
+/// `ISOGRID_VIEW_LOG` was set: show everything at its level, wgpu-hal included.
+static VERBOSE: AtomicBool = AtomicBool::new(false);
 
 struct Stderr;
 
 impl Log for Stderr {
     fn enabled(&self, metadata: &Metadata) -> bool {
-        metadata.level() <= log::max_level()
+        // wgpu-hal logs probing of absent backends (the Vulkan loader without a driver, EGL
+        // without DRI) as errors although nothing fails; shown only when asked for.
+        let quiet = !VERBOSE.load(Ordering::Relaxed) && metadata.target().starts_with("wgpu_hal");
+        metadata.level() <= log::max_level() && !quiet
     }
     fn log(&self, record: &Record) {
         if !self.enabled(record.metadata()) {
@@ -32,7 +40,9 @@ impl Log for Stderr {
 
 /// Installs the logger once; later calls (a second viewer in one process) keep the first.
 pub fn init() {
-    let level = match std::env::var("ISOGRID_VIEW_LOG").as_deref() {
+    let setting = std::env::var("ISOGRID_VIEW_LOG");
+    VERBOSE.store(setting.is_ok(), Ordering::Relaxed);
+    let level = match setting.as_deref() {
         Ok("off") => LevelFilter::Off,
         Ok("error") => LevelFilter::Error,
         Ok("info") => LevelFilter::Info,

@@ -64,6 +64,16 @@ pub fn fmt_ms(ms: Option<f64>) -> String {
     }
 }
 
+/// A CPU-side duration: milliseconds, one decimal below 10 ms.
+pub fn fmt_seconds(s: f64) -> String {
+    let ms = s * 1e3;
+    if ms < 10.0 {
+        format!("{ms:.1} ms")
+    } else {
+        format!("{ms:.0} ms")
+    }
+}
+
 /// A data value with enough digits to tell slider steps apart.
 pub fn fmt_value(v: f64) -> String {
     if v != 0.0 && (v.abs() >= 1e5 || v.abs() < 1e-3) {
@@ -87,18 +97,23 @@ pub fn fmt_count(n: u64) -> String {
 }
 
 fn row(ui: &mut egui::Ui, label: &str, value: impl Into<egui::WidgetText>) -> egui::Response {
-    let response = ui.label(label) | ui.add(egui::Label::new(value).wrap());
+    let response = ui.label(label) | ui.add(egui::Label::new(value).extend());
     ui.end_row();
     response
 }
 
 /// Draws the measurements as a two-column grid.
 pub fn show(ui: &mut egui::Ui, m: &Measurements, ui_frame_ms: f64) {
+    ui.add(
+        egui::Label::new(
+            egui::RichText::new(m.adapter.as_deref().unwrap_or("adapter: starting…")).small(),
+        )
+        .wrap(),
+    );
     egui::Grid::new("measurements")
         .num_columns(2)
         .striped(true)
         .show(ui, |ui| {
-            row(ui, "adapter", m.adapter.as_deref().unwrap_or("(starting…)"));
             match &m.grid {
                 Some(g) => {
                     let s = &g.stats;
@@ -112,11 +127,7 @@ pub fn show(ui: &mut egui::Ui, m: &Measurements, ui_frame_ms: f64) {
                     row(ui, "+ blocks", fmt_bytes(s.bytes.blocks));
                     row(ui, "bytes / cell", format!("{:.2}", s.bytes_per_cell()));
                     if g.extract_seconds > 0.0 {
-                        row(
-                            ui,
-                            "extraction",
-                            format!("{:.0} ms", g.extract_seconds * 1e3),
-                        );
+                        row(ui, "extraction", fmt_seconds(g.extract_seconds));
                     }
                 }
                 None => {
@@ -137,7 +148,7 @@ pub fn show(ui: &mut egui::Ui, m: &Measurements, ui_frame_ms: f64) {
                             row(ui, "MC / CGC", format!("{:.2}×", mesh.bytes as f64 / cgc));
                         }
                     }
-                    row(ui, "MC extraction", format!("{:.0} ms", mesh.seconds * 1e3));
+                    row(ui, "MC extraction", fmt_seconds(mesh.seconds));
                 }
                 (None, _) => {
                     row(ui, "MC memory", "n/a");
@@ -154,7 +165,7 @@ pub fn show(ui: &mut egui::Ui, m: &Measurements, ui_frame_ms: f64) {
                     row(ui, "GPU shade", fmt_ms(t.shade_ms));
                     row(ui, "GPU culling", fmt_ms(t.cull_ms));
                     row(ui, "GPU frame", fmt_ms(t.frame_ms));
-                    row(ui, "render call", format!("{:.0} ms", f.seconds * 1e3))
+                    row(ui, "render call", fmt_seconds(f.seconds))
                         .on_hover_text("Wall time of one render, read-back to the CPU included");
                     row(ui, "drawn cells", fmt_count(f.drawn_cells));
                     row(ui, "probe cells", fmt_count(f.probed_cells));
@@ -183,5 +194,7 @@ mod tests {
         assert_eq!(fmt_count(12), "12");
         assert_eq!(fmt_value(127.5), "127.5");
         assert_eq!(fmt_value(0.0), "0");
+        assert_eq!(fmt_seconds(0.0042), "4.2 ms");
+        assert_eq!(fmt_seconds(1.5), "1500 ms");
     }
 }

@@ -191,7 +191,10 @@ fn render(renderer: &Renderer, scene: &mut Uploaded, request: RenderRequest, not
     let target = match (request.mode, &scene.grid, &scene.gpu_volume, &scene.mesh) {
         (ViewMode::Mc, _, _, Some(mesh)) => Scene::Mesh(mesh),
         (ViewMode::Cr, Some(grid), Some(volume), _) => Scene::Volume { grid, volume },
-        (ViewMode::Cgc | ViewMode::CgcNoEwa, Some(grid), _, _) => Scene::Grid(grid),
+        // Path tracing will draw the same grid once the renderer has it (gpu_mode() is None now).
+        (ViewMode::Cgc | ViewMode::CgcNoEwa | ViewMode::PathTrace, Some(grid), _, _) => {
+            Scene::Grid(grid)
+        }
         // Not there yet (still extracting), or not possible (CR of a .cgc file): the UI says which.
         _ => {
             notify.send(Event::NotRendered {
