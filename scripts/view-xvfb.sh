@@ -7,11 +7,13 @@
 #
 # ISOGRID=path/to/isogrid picks the binary (default: target/release/isogrid, else `isogrid` on PATH).
 set -euo pipefail
-cd "$(dirname "$0")/.."
+# Paths in ARGS stay relative to the caller's directory: no cd.
+root="$(cd "$(dirname "$0")/.." && pwd)"
+target="${CARGO_TARGET_DIR:-$root/target}"
 bin="${ISOGRID:-}"
 if [ -z "$bin" ]; then
-  if [ -x "${CARGO_TARGET_DIR:-target}/release/isogrid" ]; then
-    bin="${CARGO_TARGET_DIR:-target}/release/isogrid"
+  if [ -x "$target/release/isogrid" ]; then
+    bin="$target/release/isogrid"
   else
     bin=isogrid
   fi

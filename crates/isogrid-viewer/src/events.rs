@@ -119,3 +119,20 @@ impl Notifier {
         });
     }
 }
+
+/// Runs `f`, turning a panic (a bug, or a driver failure that wgpu reports by panicking) into an
+/// error message in the window instead of a silently dead worker.
+pub fn guarded(notify: &Notifier, failure: Failure, what: &str, f: impl FnOnce()) -> bool {
+    match std::panic::catch_unwind(std::panic::AssertUnwindSafe(f)) {
+        Ok(()) => true,
+        Err(payload) => {
+            let reason = payload
+                .downcast_ref::<&str>()
+                .map(|s| s.to_string())
+                .or_else(|| payload.downcast_ref::<String>().cloned())
+                .unwrap_or_else(|| "unknown panic".into());
+            notify.error(failure, format!("{what} failed unexpectedly: {reason}"));
+            false
+        }
+    }
+}

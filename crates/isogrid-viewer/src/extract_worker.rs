@@ -7,7 +7,7 @@
 //! done after each step, so a slider dragged across many values costs one extraction per step
 //! the worker finishes, never a queue of stale ones. Extraction itself cannot be interrupted.
 
-use crate::events::{Event, Failure, Notifier, SourceInfo};
+use crate::events::{guarded, Event, Failure, Notifier, SourceInfo};
 use crate::render_worker::RenderMsg;
 use crate::source::{self, Source};
 use isogrid::mc::try_marching_cubes;
@@ -76,6 +76,8 @@ impl Drop for ExtractWorker {
 /// compares exactly) and precision.
 type GridKey = (u64, u64, Option<Precision>);
 type MeshKey = (u64, u64);
+/// An open volume and its finite value range.
+type OpenVolume = (Arc<Volume>, Option<(f64, f64)>);
 
 enum Step {
     Open(OpenRequest),
@@ -89,7 +91,7 @@ struct Worker {
     notify: Notifier,
     /// The open input's generation and, for volumes, the volume and its value range.
     generation: Option<u64>,
-    volume: Option<(Arc<Volume>, Option<(f64, f64)>)>,
+    volume: Option<OpenVolume>,
     /// What was last extracted (or failed to; not retried until something changes).
     grid_done: Option<GridKey>,
     mesh_done: Option<MeshKey>,
@@ -124,9 +126,22 @@ impl Worker {
             };
             match step {
                 Step::Shutdown => return,
-                Step::Open(request) => self.open(request),
-                Step::Grid(volume, iso, precision) => self.extract_grid(&volume, iso, precision),
-                Step::Mesh(volume, iso) => self.extract_mesh(&volume, iso),
+                Step::Open(request) => {
+                    let notify = self.notify.clone();
+                    guarded(&notify, Failure::Open, "opening", || self.open(request));
+                }
+                Step::Grid(volume, iso, precision) => {
+                    let notify = self.notify.clone();
+                    guarded(&notify, Failure::Extract, "extraction", || {
+                        self.extract_grid(&volume, iso, precision)
+                    });
+                }
+                Step::Mesh(volume, iso) => {
+                    let notify = self.notify.clone();
+                    guarded(&notify, Failure::Mesh, "Marching Cubes", || {
+                        self.extract_mesh(&volume, iso)
+                    });
+                }
             }
         }
     }
@@ -152,9 +167,7 @@ impl Worker {
             return Some(Step::Open(open.clone()));
         }
         let (volume, range) = self.volume.as_ref()?;
-        let Some(iso) = Self::resolve(wanted.iso, *range) else {
-            return None;
-        };
+        let iso = Self::resolve(wanted.iso, *range)?;
         let grid_key = (open.generation, iso.to_bits(), wanted.precision);
         if self.grid_done != Some(grid_key) {
             return Some(Step::Grid(volume.clone(), iso, wanted.precision));
@@ -246,7 +259,7 @@ impl Worker {
                 let stats = GridStats::of(&grid);
                 let _ = self.render.send(RenderMsg::Grid {
                     generation,
-                    grid,
+                    grid: Box::new(grid),
                     volume: Some(volume.clone()),
                     stats,
                     extract_seconds: start.elapsed().as_secs_f64(),
@@ -304,7 +317,7 @@ mod tests {
             match rx.recv_timeout(WAIT).expect("a grid arrives") {
                 RenderMsg::Grid {
                     generation, grid, ..
-                } => return (generation, grid),
+                } => return (generation, *grid),
                 _ => continue,
             }
         }

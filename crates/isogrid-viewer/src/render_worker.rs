@@ -3,7 +3,7 @@
 //! hundreds of milliseconds, so it must not run on the UI thread; requests that arrive while a
 //! frame renders replace each other, and only the newest is drawn.
 
-use crate::events::{Event, Failure, Notifier, RenderedFrame};
+use crate::events::{guarded, Event, Failure, Notifier, RenderedFrame};
 use crate::ViewMode;
 use isogrid::mc::McMesh;
 use isogrid::{Camera, CellGrid, GridStats, Volume};
@@ -24,7 +24,7 @@ pub enum RenderMsg {
     /// Draw this grid from now on; `volume` is its source (for CR), `None` for `.cgc` inputs.
     Grid {
         generation: u64,
-        grid: CellGrid,
+        grid: Box<CellGrid>,
         volume: Option<Arc<Volume>>,
         stats: GridStats,
         extract_seconds: f64,
@@ -89,14 +89,24 @@ fn run(rx: Receiver<RenderMsg>, notify: Notifier) {
                 }
                 other => {
                     if let Some(renderer) = &renderer {
-                        apply(renderer, &mut scene, other, &notify);
+                        guarded(&notify, Failure::Render, "uploading", || {
+                            apply(renderer, &mut scene, other, &notify)
+                        });
                     }
                 }
             }
         }
         if let Some(request) = request {
             match &renderer {
-                Some(renderer) => render(renderer, &mut scene, request, &notify),
+                Some(renderer) => {
+                    let id = request.id;
+                    let ok = guarded(&notify, Failure::Render, "rendering", || {
+                        render(renderer, &mut scene, request, &notify)
+                    });
+                    if !ok {
+                        notify.send(Event::NotRendered { request: id });
+                    }
+                }
                 None => notify.send(Event::NotRendered {
                     request: request.id,
                 }),

@@ -13,7 +13,7 @@ const CGC_MAGIC: [u8; 8] = *b"\x89CGC\r\n\x1a\n";
 /// An opened input.
 pub enum Source {
     Volume(Arc<Volume>),
-    Grid(CellGrid),
+    Grid(Box<CellGrid>),
 }
 
 /// Whether `path` is a `.cgc` file: by extension, or by its first bytes.
@@ -35,7 +35,9 @@ pub fn is_cgc(path: &Path) -> bool {
 /// Reads `path`; errors name the path.
 pub fn open(path: &Path, read_options: &isogrid_io::ReadOptions) -> isogrid::Result<Source> {
     if is_cgc(path) {
-        isogrid::cgc::open(path).map(Source::Grid).at_path(path)
+        isogrid::cgc::open(path)
+            .map(|g| Source::Grid(Box::new(g)))
+            .at_path(path)
     } else {
         isogrid_io::read_volume(path, read_options)
             .map(|v| Source::Volume(Arc::new(v)))
