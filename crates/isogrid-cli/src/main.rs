@@ -31,10 +31,12 @@ enum Command {
     Generate(commands::generate::Args),
     /// Build a built-in volume, extract it and compare with Marching Cubes.
     Demo(commands::demo::Args),
-    /// Render the isosurface to a PNG (CPU ray tracing or path tracing), with optional AOVs.
+    /// Render the isosurface to a PNG on the GPU (CPU fallback), with optional AOVs and pass timings.
     Render(commands::render::Args),
     /// Benchmarks: `bench rays` measures closest-hit rays per second.
     Bench(commands::bench::Args),
+    /// Open the interactive viewer (orbit, isovalue slider, modes, measurements); --frames N renders N frames and exits.
+    View(commands::view::Args),
 }
 
 fn main() -> ExitCode {
@@ -48,6 +50,7 @@ fn main() -> ExitCode {
         Command::Demo(a) => commands::demo::run(a),
         Command::Render(a) => commands::render::run(a),
         Command::Bench(a) => commands::bench::run(a),
+        Command::View(a) => commands::view::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -8,4 +8,5 @@ pub mod info;
 pub mod mc;
 pub mod render;
 pub mod render_gpu;
+pub mod view;
 pub mod voxelize;

@@ -1,0 +1,83 @@
+//! `isogrid view`: the interactive viewer (`isogrid-viewer`), or with `--frames` a scripted run
+//! that renders a few frames in a real window, saves a screenshot and exits.
+
+use crate::args::{parse_precision, InputArgs};
+use anyhow::{bail, Result};
+use isogrid::{Iso, Precision};
+use isogrid_viewer::{ViewMode, ViewerOptions};
+use std::path::PathBuf;
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// A volume (any format `extract` reads) or a .cgc file; omit to drop one on the window.
+    pub input: Option<PathBuf>,
+    /// Initial isovalue in data units (default: --iso-normalized 0.5). Ignored for .cgc files.
+    #[arg(
+        long,
+        value_name = "V",
+        allow_negative_numbers = true,
+        conflicts_with = "iso_normalized"
+    )]
+    pub iso: Option<f64>,
+    /// Initial isovalue as a fraction of the volume's value range.
+    #[arg(long, value_name = "V")]
+    pub iso_normalized: Option<f64>,
+    /// Bits per stored corner value: 4, 8, 16 or 32 (default: by sample type).
+    #[arg(long, value_name = "BITS", value_parser = parse_precision)]
+    pub precision: Option<Precision>,
+    /// What to draw: cgc, cgc-noewa, mc (Marching Cubes mesh) or cr (needs the volume).
+    #[arg(long, default_value = "cgc", value_parser = ["cgc", "cgc-noewa", "mc", "cr"])]
+    pub mode: String,
+    /// Initial camera: the paper's view 1 (front) or 2 (oblique).
+    #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u8).range(1..=2))]
+    pub view: u8,
+    /// Fixed render size in pixels (default: the size of the window's image area).
+    #[arg(long, value_name = "WxH", value_parser = parse_size)]
+    pub size: Option<[u32; 2]>,
+    /// Scripted run: render this many full-size frames, then exit.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=10000))]
+    pub frames: Option<u32>,
+    /// Scripted run: save a PNG of the window after the last frame (needs --frames).
+    #[arg(long, value_name = "OUT.png", requires = "frames")]
+    pub screenshot: Option<PathBuf>,
+    #[command(flatten)]
+    pub input_args: InputArgs,
+}
+
+pub fn run(args: Args) -> Result<()> {
+    let iso = match (args.iso, args.iso_normalized) {
+        (Some(v), _) => Iso::Value(v),
+        (None, Some(t)) if (0.0..=1.0).contains(&t) => Iso::Normalized(t),
+        (None, Some(t)) => bail!("--iso-normalized {t} is outside [0, 1]"),
+        (None, None) => Iso::Normalized(0.5),
+    };
+    if args.frames.is_some() && args.input.is_none() {
+        bail!("--frames needs an INPUT to render");
+    }
+    let mode: ViewMode = args.mode.parse()?;
+    isogrid_viewer::run(ViewerOptions {
+        input: args.input,
+        read_options: args.input_args.read_options()?,
+        iso,
+        precision: args.precision,
+        mode,
+        view: args.view,
+        size: args.size,
+        frames: args.frames,
+        screenshot: args.screenshot,
+    })?;
+    Ok(())
+}
+
+/// "WxH" → [W, H], each in 1..=8192.
+fn parse_size(s: &str) -> Result<[u32; 2], String> {
+    let bad = || format!("size must be WxH with W and H in 1..=8192, not {s:?}");
+    let (w, h) = s.split_once(['x', 'X']).ok_or_else(bad)?;
+    let parse = |v: &str| {
+        v.trim()
+            .parse::<u32>()
+            .ok()
+            .filter(|n| (1..=8192).contains(n))
+    };
+    Ok([parse(w).ok_or_else(bad)?, parse(h).ok_or_else(bad)?])
+}

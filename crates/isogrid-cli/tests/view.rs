@@ -1,0 +1,268 @@
+//! `isogrid view` end to end: a scripted run in a real window under Xvfb must show the same
+//! isosurface as the headless renderer for the same camera, and bad inputs must end in one-line
+//! errors. Window tests skip with a message (they do not fail) when `xvfb-run` is not installed
+//! or the machine has no GPU adapter at all (Mesa lavapipe counts as one).
+
+use isogrid::generate::{generate, Field};
+use isogrid::shading::BACKGROUND_SRGB;
+use isogrid::{extract, Camera, ExtractOptions, Iso};
+use isogrid_gpu::{GpuErrorKind, Mode, Renderer, Scene};
+use std::io::Read;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+fn temp_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("isogrid-view-{}-{name}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn xvfb_run() -> Option<PathBuf> {
+    let path = std::env::var_os("PATH")?;
+    let found = std::env::split_paths(&path)
+        .map(|d| d.join("xvfb-run"))
+        .find(|p| p.is_file());
+    if found.is_none() {
+        eprintln!("skipping window test: xvfb-run is not installed (apt-get install xvfb)");
+    }
+    found
+}
+
+fn renderer() -> Option<Renderer> {
+    match Renderer::new() {
+        Ok(r) => Some(r),
+        Err(e) if e.kind() == GpuErrorKind::NoAdapter => {
+            eprintln!("skipping window test: no GPU adapter: {e}");
+            None
+        }
+        Err(e) => panic!("GPU renderer failed to start: {e}"),
+    }
+}
+
+/// Runs `isogrid ARGS` on a fresh Xvfb screen (24-bit: Vulkan surfaces need a true-colour
+/// visual, and xvfb-run's default screen is 8-bit), killing it after `limit`.
+fn isogrid_in_xvfb(xvfb: &Path, args: &[&str], limit: Duration) -> Output {
+    let mut child = Command::new(xvfb)
+        .args(["-a", "-s", "-screen 0 1280x1024x24 -nolisten tcp"])
+        .arg(env!("CARGO_BIN_EXE_isogrid"))
+        .args(args)
+        .env("NODEVICE_SELECT", "1")
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("starts xvfb-run");
+    let start = Instant::now();
+    loop {
+        if child.try_wait().expect("waits for xvfb-run").is_some() {
+            break;
+        }
+        if start.elapsed() > limit {
+            let _ = child.kill();
+            let mut err = String::new();
+            if let Some(mut e) = child.stderr.take() {
+                let _ = e.read_to_string(&mut err);
+            }
+            panic!("isogrid {args:?} did not finish within {limit:?}; stderr: {err}");
+        }
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    child.wait_with_output().expect("collects the output")
+}
+
+/// "… rendered image at X,Y size WxH px" from the viewer's stdout.
+fn image_region(stdout: &str) -> Option<[u32; 4]> {
+    let rest = stdout.split("rendered image at ").nth(1)?;
+    let (xy, rest) = rest.split_once(" size ")?;
+    let (x, y) = xy.split_once(',')?;
+    let (w, rest) = rest.split_once('x')?;
+    let h = rest.split_whitespace().next()?;
+    Some([x, y, w, h].map(|v| v.trim().parse().unwrap_or(u32::MAX)))
+}
+
+/// The PNG as (width, height, RGB bytes).
+fn read_png(path: &Path) -> (u32, u32, Vec<u8>) {
+    let file = std::io::BufReader::new(std::fs::File::open(path).unwrap());
+    let mut reader = png::Decoder::new(file).read_info().unwrap();
+    let mut buf = vec![0; reader.output_buffer_size().unwrap()];
+    let info = reader.next_frame(&mut buf).unwrap();
+    let channels = info.color_type.samples();
+    assert!(channels >= 3 && info.bit_depth == png::BitDepth::Eight);
+    let rgb = buf[..info.buffer_size()]
+        .chunks_exact(channels)
+        .flat_map(|p| [p[0], p[1], p[2]])
+        .collect();
+    (info.width, info.height, rgb)
+}
+
+fn is_background(rgb: &[u8]) -> bool {
+    (0..3).all(|c| (rgb[c] as i32 - BACKGROUND_SRGB[c] as i32).abs() <= 3)
+}
+
+#[test]
+fn scripted_window_shows_the_headless_image() {
+    let Some(xvfb) = xvfb_run() else { return };
+    let Some(renderer) = renderer() else { return };
+    let dir = temp_dir("scripted");
+    let volume = generate(Field::Torus, 40, 1);
+    let input = dir.join("torus.nrrd");
+    isogrid_io::write_nrrd(&input, &volume).unwrap();
+    let shot = dir.join("window.png");
+    let (w, h) = (320u32, 240u32);
+    let out = isogrid_in_xvfb(
+        &xvfb,
+        &[
+            "view",
+            input.to_str().unwrap(),
+            "--iso-normalized",
+            "0.5",
+            "--size",
+            &format!("{w}x{h}"),
+            "--frames",
+            "3",
+            "--screenshot",
+            shot.to_str().unwrap(),
+        ],
+        Duration::from_secs(240),
+    );
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "view failed: {stderr}\n{stdout}");
+    let [x, y, rw, rh] =
+        image_region(&stdout).unwrap_or_else(|| panic!("no image region in the output: {stdout}"));
+    assert_eq!(
+        [rw, rh],
+        [w, h],
+        "the image is shown at one texel per pixel"
+    );
+
+    let (sw, sh, pixels) = read_png(&shot);
+    assert!(
+        x + w <= sw && y + h <= sh,
+        "{x},{y} {w}x{h} outside {sw}x{sh}"
+    );
+
+    // The same camera, headless.
+    let grid = extract(&volume.view(), &ExtractOptions::new(Iso::Normalized(0.5))).unwrap();
+    let gpu = renderer.upload_grid(&grid).unwrap();
+    let (lo, hi) = grid.info().world_bounds();
+    let camera = Camera::preset(2, lo, hi, w, h).unwrap();
+    let frame = renderer
+        .render(Scene::Grid(&gpu), &camera, Mode::Cgc, 3)
+        .unwrap();
+
+    let (mut agree, mut hits, mut colour_diff, mut both) = (0u64, 0u64, 0u64, 0u64);
+    for py in 0..h {
+        for px in 0..w {
+            let s = (((y + py) * sw + x + px) * 3) as usize;
+            let window = &pixels[s..s + 3];
+            let i = (py * w + px) as usize;
+            let headless_hit = frame.is_hit(i);
+            let window_hit = !is_background(window);
+            hits += headless_hit as u64;
+            agree += (headless_hit == window_hit) as u64;
+            if headless_hit && window_hit {
+                both += 1;
+                colour_diff += (0..3)
+                    .map(|c| (window[c] as i64 - frame.rgba8[4 * i + c] as i64).unsigned_abs())
+                    .sum::<u64>();
+            }
+        }
+    }
+    let total = (w * h) as u64;
+    // A test that cannot fail would pass on an empty or full image: the torus covers part of it.
+    assert!(
+        hits > total / 20 && hits < total * 9 / 10,
+        "{hits} of {total} pixels hit"
+    );
+    let agreement = agree as f64 / total as f64;
+    assert!(
+        agreement >= 0.98,
+        "hit/miss agree on {:.2} % of pixels",
+        agreement * 100.0
+    );
+    let mean_diff = colour_diff as f64 / (3 * both.max(1)) as f64;
+    assert!(
+        mean_diff < 4.0,
+        "mean colour difference {mean_diff:.2} on shared hits"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// Runs a scripted view that must fail: non-zero exit, the last stderr line names `mention`.
+fn view_fails(xvfb: &Path, args: &[&str], mention: &str) {
+    let out = isogrid_in_xvfb(xvfb, args, Duration::from_secs(120));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "{args:?} should fail: {stderr}");
+    assert!(!stderr.contains("panicked"), "{args:?} panicked: {stderr}");
+    let last = stderr.trim_end().lines().last().unwrap_or_default();
+    assert!(last.starts_with("isogrid: error:"), "{args:?}: {stderr}");
+    assert!(
+        last.contains(mention),
+        "{args:?}: {last:?} should mention {mention}"
+    );
+}
+
+#[test]
+fn scripted_window_reports_bad_inputs() {
+    let Some(xvfb) = xvfb_run() else { return };
+    if renderer().is_none() {
+        return;
+    }
+    let dir = temp_dir("bad");
+    let missing = dir.join("missing.nrrd");
+    view_fails(
+        &xvfb,
+        &["view", missing.to_str().unwrap(), "--frames", "1"],
+        "missing.nrrd",
+    );
+
+    // A .cgc file holds no volume, so CR cannot be drawn.
+    let volume = generate(Field::Sphere, 20, 1);
+    let grid = extract(&volume.view(), &ExtractOptions::new(Iso::Normalized(0.5))).unwrap();
+    let cgc = dir.join("sphere.cgc");
+    isogrid::cgc::write(&cgc, &grid).unwrap();
+    view_fails(
+        &xvfb,
+        &[
+            "view",
+            cgc.to_str().unwrap(),
+            "--mode",
+            "cr",
+            "--frames",
+            "1",
+        ],
+        "needs the original volume",
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn arguments_are_checked_before_any_window_opens() {
+    let run = |args: &[&str]| {
+        Command::new(env!("CARGO_BIN_EXE_isogrid"))
+            .args(args)
+            .env_remove("DISPLAY")
+            .env_remove("WAYLAND_DISPLAY")
+            .output()
+            .unwrap()
+    };
+    for (args, mention) in [
+        (&["view", "--frames", "2"][..], "needs an INPUT"),
+        (&["view", "x.nrrd", "--size", "0x10"], "size must be WxH"),
+        (
+            &["view", "x.nrrd", "--iso-normalized", "1.5"],
+            "outside [0, 1]",
+        ),
+        (&["view", "x.nrrd", "--mode", "pathtrace"], "pathtrace"),
+        (&["view", "x.nrrd", "--screenshot", "a.png"], "--frames"),
+    ] {
+        let out = run(args);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{args:?} should fail");
+        assert!(
+            stderr.contains(mention),
+            "{args:?}: {stderr} should mention {mention}"
+        );
+    }
+}

@@ -1,0 +1,415 @@
+//! The extraction worker: a thread that brings the scene up to date with what the UI wants —
+//! open the requested input, extract clustered grid cells (`isogrid::extract`, paper §3.1) at the
+//! wanted isovalue and precision, and, when asked, the Marching Cubes mesh at the same isovalue —
+//! and hands the results to the render worker.
+//!
+//! The UI only ever overwrites one shared [`Wanted`]; the worker compares it with what it has
+//! done after each step, so a slider dragged across many values costs one extraction per step
+//! the worker finishes, never a queue of stale ones. Extraction itself cannot be interrupted.
+
+use crate::events::{guarded, Event, Failure, Notifier, SourceInfo};
+use crate::render_worker::RenderMsg;
+use crate::source::{self, Source};
+use isogrid::mc::try_marching_cubes;
+use isogrid::{extract, ExtractOptions, GridStats, Iso, Precision, Volume};
+use std::path::PathBuf;
+use std::sync::mpsc::Sender;
+use std::sync::{Arc, Condvar, Mutex};
+use std::time::Instant;
+
+/// An input to open; `generation` increases with every request, so that reopening the same
+/// path reloads it.
+#[derive(Debug, Clone)]
+pub struct OpenRequest {
+    pub generation: u64,
+    pub path: PathBuf,
+    pub read_options: isogrid_io::ReadOptions,
+}
+
+/// What the scene should be.
+#[derive(Debug, Clone)]
+pub struct Wanted {
+    pub open: Option<OpenRequest>,
+    pub iso: Iso,
+    pub precision: Option<Precision>,
+    /// Also extract the MC mesh (MC mode, and the memory comparison).
+    pub mesh: bool,
+    pub shutdown: bool,
+}
+
+/// The UI's handle: set what is wanted, the worker follows.
+pub struct ExtractWorker {
+    shared: Arc<(Mutex<Wanted>, Condvar)>,
+}
+
+impl ExtractWorker {
+    pub fn spawn(initial: Wanted, render: Sender<RenderMsg>, notify: Notifier) -> Self {
+        let shared = Arc::new((Mutex::new(initial), Condvar::new()));
+        let for_thread = shared.clone();
+        let spawned = std::thread::Builder::new()
+            .name("isogrid-extract".into())
+            .spawn(move || Worker::new(render, notify.clone()).run(&for_thread));
+        if let Err(e) = spawned {
+            // Without the thread nothing will ever load; say so in the window.
+            eprintln!("isogrid view: cannot start the extraction thread: {e}");
+        }
+        ExtractWorker { shared }
+    }
+
+    /// Changes what is wanted and wakes the worker.
+    pub fn update(&self, f: impl FnOnce(&mut Wanted)) {
+        let (lock, wake) = &*self.shared;
+        if let Ok(mut wanted) = lock.lock() {
+            f(&mut wanted);
+            wake.notify_one();
+        }
+    }
+}
+
+impl Drop for ExtractWorker {
+    fn drop(&mut self) {
+        self.update(|w| w.shutdown = true);
+    }
+}
+
+/// A grid or mesh identity: input generation, isovalue in data units (bit pattern, so that it
+/// compares exactly) and precision.
+type GridKey = (u64, u64, Option<Precision>);
+type MeshKey = (u64, u64);
+/// An open volume and its finite value range.
+type OpenVolume = (Arc<Volume>, Option<(f64, f64)>);
+
+enum Step {
+    Open(OpenRequest),
+    Grid(Arc<Volume>, f64, Option<Precision>),
+    Mesh(Arc<Volume>, f64),
+    Shutdown,
+}
+
+struct Worker {
+    render: Sender<RenderMsg>,
+    notify: Notifier,
+    /// The open input's generation and, for volumes, the volume and its value range.
+    generation: Option<u64>,
+    volume: Option<OpenVolume>,
+    /// What was last extracted (or failed to; not retried until something changes).
+    grid_done: Option<GridKey>,
+    mesh_done: Option<MeshKey>,
+}
+
+impl Worker {
+    fn new(render: Sender<RenderMsg>, notify: Notifier) -> Self {
+        Worker {
+            render,
+            notify,
+            generation: None,
+            volume: None,
+            grid_done: None,
+            mesh_done: None,
+        }
+    }
+
+    fn run(mut self, shared: &(Mutex<Wanted>, Condvar)) {
+        let (lock, wake) = shared;
+        loop {
+            let step = {
+                let Ok(mut wanted) = lock.lock() else { return };
+                loop {
+                    if let Some(step) = self.next_step(&wanted) {
+                        break step;
+                    }
+                    wanted = match wake.wait(wanted) {
+                        Ok(w) => w,
+                        Err(_) => return,
+                    };
+                }
+            };
+            match step {
+                Step::Shutdown => return,
+                Step::Open(request) => {
+                    let notify = self.notify.clone();
+                    guarded(&notify, Failure::Open, "opening", || self.open(request));
+                }
+                Step::Grid(volume, iso, precision) => {
+                    let notify = self.notify.clone();
+                    guarded(&notify, Failure::Extract, "extraction", || {
+                        self.extract_grid(&volume, iso, precision)
+                    });
+                }
+                Step::Mesh(volume, iso) => {
+                    let notify = self.notify.clone();
+                    guarded(&notify, Failure::Mesh, "Marching Cubes", || {
+                        self.extract_mesh(&volume, iso)
+                    });
+                }
+            }
+        }
+    }
+
+    /// The isovalue in data units for the open volume, as `Iso::resolve` computes it.
+    fn resolve(iso: Iso, range: Option<(f64, f64)>) -> Option<f64> {
+        let value = match iso {
+            Iso::Value(v) => v,
+            Iso::Normalized(t) => {
+                let (lo, hi) = range?;
+                lo + t * (hi - lo)
+            }
+        };
+        value.is_finite().then_some(value)
+    }
+
+    fn next_step(&self, wanted: &Wanted) -> Option<Step> {
+        if wanted.shutdown {
+            return Some(Step::Shutdown);
+        }
+        let open = wanted.open.as_ref()?;
+        if self.generation != Some(open.generation) {
+            return Some(Step::Open(open.clone()));
+        }
+        let (volume, range) = self.volume.as_ref()?;
+        let iso = Self::resolve(wanted.iso, *range)?;
+        let grid_key = (open.generation, iso.to_bits(), wanted.precision);
+        if self.grid_done != Some(grid_key) {
+            return Some(Step::Grid(volume.clone(), iso, wanted.precision));
+        }
+        let mesh_key = (open.generation, iso.to_bits());
+        if wanted.mesh && self.mesh_done != Some(mesh_key) {
+            return Some(Step::Mesh(volume.clone(), iso));
+        }
+        None
+    }
+
+    fn busy(&self, what: Option<String>) {
+        self.notify.send(Event::Busy(what));
+    }
+
+    fn open(&mut self, request: OpenRequest) {
+        self.busy(Some(format!("reading {}", request.path.display())));
+        // Forget the old input first: a failed open leaves nothing half-shown.
+        self.generation = Some(request.generation);
+        self.volume = None;
+        self.grid_done = None;
+        self.mesh_done = None;
+        match source::open(&request.path, &request.read_options) {
+            Err(e) => self.notify.error(Failure::Open, e.to_string()),
+            Ok(Source::Volume(volume)) => {
+                let range = volume.value_range();
+                let info = SourceInfo {
+                    path: request.path.clone(),
+                    dims: volume.dims().map(|d| d as u32),
+                    spacing: volume.spacing(),
+                    scalar_type: volume.scalar_type(),
+                    value_range: range,
+                    grid_info: None,
+                };
+                self.notify.send(Event::Opened {
+                    generation: request.generation,
+                    info,
+                });
+                if range.is_none() {
+                    self.notify.error(
+                        Failure::Open,
+                        "the volume has no finite sample: nothing to show",
+                    );
+                }
+                self.volume = Some((volume, range));
+            }
+            Ok(Source::Grid(grid)) => {
+                let info = grid.info().clone();
+                self.notify.send(Event::Opened {
+                    generation: request.generation,
+                    info: SourceInfo {
+                        path: request.path.clone(),
+                        dims: info.dims,
+                        spacing: info.spacing,
+                        scalar_type: info.scalar_type,
+                        value_range: Some((info.value_range[0], info.value_range[1])),
+                        grid_info: Some(info),
+                    },
+                });
+                let stats = GridStats::of(&grid);
+                let _ = self.render.send(RenderMsg::Grid {
+                    generation: request.generation,
+                    grid,
+                    volume: None,
+                    stats,
+                    extract_seconds: 0.0,
+                });
+            }
+        }
+        self.busy(None);
+    }
+
+    fn extract_grid(&mut self, volume: &Arc<Volume>, iso: f64, precision: Option<Precision>) {
+        let Some(generation) = self.generation else {
+            return;
+        };
+        self.grid_done = Some((generation, iso.to_bits(), precision));
+        self.busy(Some(format!(
+            "extracting cells at {}",
+            crate::panel::fmt_value(iso)
+        )));
+        let start = Instant::now();
+        let options = ExtractOptions {
+            iso: Iso::Value(iso),
+            precision,
+        };
+        match extract(&volume.view(), &options) {
+            Ok(grid) => {
+                let stats = GridStats::of(&grid);
+                let _ = self.render.send(RenderMsg::Grid {
+                    generation,
+                    grid: Box::new(grid),
+                    volume: Some(volume.clone()),
+                    stats,
+                    extract_seconds: start.elapsed().as_secs_f64(),
+                });
+            }
+            Err(e) => self
+                .notify
+                .error(Failure::Extract, format!("extraction: {e}")),
+        }
+        self.busy(None);
+    }
+
+    fn extract_mesh(&mut self, volume: &Arc<Volume>, iso: f64) {
+        let Some(generation) = self.generation else {
+            return;
+        };
+        self.mesh_done = Some((generation, iso.to_bits()));
+        self.busy(Some(format!(
+            "Marching Cubes at {}",
+            crate::panel::fmt_value(iso)
+        )));
+        let start = Instant::now();
+        match try_marching_cubes(&volume.view(), iso) {
+            Ok(mesh) => {
+                let _ = self.render.send(RenderMsg::Mesh {
+                    generation,
+                    iso,
+                    mesh,
+                    seconds: start.elapsed().as_secs_f64(),
+                });
+            }
+            Err(e) => self
+                .notify
+                .error(Failure::Mesh, format!("Marching Cubes: {e}")),
+        }
+        self.busy(None);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::events::Event;
+    use eframe::egui;
+    use isogrid::generate::{generate, Field};
+    use isogrid::mc::marching_cubes;
+    use isogrid::CellGrid;
+    use std::sync::mpsc::{channel, Receiver};
+    use std::time::Duration;
+
+    const WAIT: Duration = Duration::from_secs(60);
+
+    fn next_grid(rx: &Receiver<RenderMsg>) -> (u64, CellGrid) {
+        loop {
+            match rx.recv_timeout(WAIT).expect("a grid arrives") {
+                RenderMsg::Grid {
+                    generation, grid, ..
+                } => return (generation, *grid),
+                _ => continue,
+            }
+        }
+    }
+
+    fn reference(volume: &Volume, iso: Iso, precision: Option<Precision>) -> CellGrid {
+        extract(&volume.view(), &ExtractOptions { iso, precision }).unwrap()
+    }
+
+    #[test]
+    fn follows_the_wanted_isovalue_precision_and_mesh() {
+        let dir =
+            std::env::temp_dir().join(format!("isogrid-viewer-worker-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("sphere.nrrd");
+        let volume = generate(Field::Sphere, 24, 1);
+        isogrid_io::write_nrrd(&path, &volume).unwrap();
+
+        let (render_tx, render_rx) = channel();
+        let (event_tx, event_rx) = channel();
+        let worker = ExtractWorker::spawn(
+            Wanted {
+                open: Some(OpenRequest {
+                    generation: 1,
+                    path: path.clone(),
+                    read_options: Default::default(),
+                }),
+                iso: Iso::Normalized(0.5),
+                precision: None,
+                mesh: false,
+                shutdown: false,
+            },
+            render_tx,
+            Notifier::new(event_tx, egui::Context::default()),
+        );
+
+        let (generation, grid) = next_grid(&render_rx);
+        let expected = reference(&volume, Iso::Normalized(0.5), None);
+        assert_eq!(generation, 1);
+        assert_eq!(grid.info(), expected.info());
+        assert_eq!(grid.cells(), expected.cells());
+
+        // A burst of slider positions: the worker ends on the last one, in at most one
+        // extraction per position.
+        let values: Vec<f64> = (0..10).map(|i| 100.0 + 10.0 * i as f64).collect();
+        for &v in &values {
+            worker.update(|w| {
+                w.iso = Iso::Value(v);
+                w.precision = Some(Precision::Bits16);
+            });
+        }
+        let last = *values.last().unwrap();
+        let mut extractions = 0;
+        let grid = loop {
+            let (_, grid) = next_grid(&render_rx);
+            extractions += 1;
+            assert!(values.contains(&grid.info().iso));
+            if grid.info().iso == last {
+                break grid;
+            }
+        };
+        assert!(extractions <= values.len());
+        let expected = reference(&volume, Iso::Value(last), Some(Precision::Bits16));
+        assert_eq!(grid.info(), expected.info());
+        assert_eq!(grid.cells(), expected.cells());
+
+        worker.update(|w| w.mesh = true);
+        let mesh = loop {
+            if let RenderMsg::Mesh { iso, mesh, .. } = render_rx.recv_timeout(WAIT).unwrap() {
+                assert_eq!(iso, last);
+                break mesh;
+            }
+        };
+        assert_eq!(mesh, marching_cubes(&volume.view(), last));
+
+        // A missing file is reported with its path; nothing is extracted for it.
+        let missing = dir.join("missing.nrrd");
+        worker.update(|w| {
+            w.open = Some(OpenRequest {
+                generation: 2,
+                path: missing.clone(),
+                read_options: Default::default(),
+            })
+        });
+        let message = loop {
+            if let Event::Error { failure, message } = event_rx.recv_timeout(WAIT).unwrap() {
+                assert_eq!(failure, Failure::Open);
+                break message;
+            }
+        };
+        assert!(message.contains("missing.nrrd"), "{message}");
+        drop(worker);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}

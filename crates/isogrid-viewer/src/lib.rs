@@ -1,0 +1,156 @@
+//! Interactive isosurface viewer for clustered grid cells (issue 5 §1): an eframe/egui window
+//! showing the isosurface rendered by [`isogrid_gpu::Renderer`], with an orbit camera, an
+//! isovalue slider that re-extracts in the background, a mode switch between CGC and the paper's
+//! baselines, and a panel with what the paper measures (cells, clusters, memory, pass times).
+//!
+//! Threads, so that the window never waits for the CPU or the GPU:
+//! - the UI thread (eframe) owns the camera and settings and only displays finished frames;
+//! - the extraction worker (`extract_worker.rs`) reads files and runs `isogrid::extract` and
+//!   Marching Cubes for the latest requested isovalue and precision;
+//! - the render worker (`render_worker.rs`) owns the headless renderer and its uploaded scene,
+//!   renders the latest requested view offscreen and sends back the read-back [`isogrid_gpu::Frame`],
+//!   which the UI shows as a texture. The window's own wgpu device (eframe's) is a separate one.
+//!
+//! Scripted runs (`frames` with an optional `screenshot`) render a fixed number of full-quality
+//! frames, save a screenshot of the whole window and close; tests use them under Xvfb.
+
+mod app;
+mod cost;
+mod events;
+mod extract_worker;
+mod logging;
+mod panel;
+mod render_worker;
+mod screenshot;
+mod source;
+
+pub mod orbit;
+
+use std::path::PathBuf;
+use std::str::FromStr;
+
+pub use isogrid::Iso;
+pub use isogrid::Precision;
+
+/// What the viewer draws.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum ViewMode {
+    /// Clustered grid cells with EWA normals (the paper's method).
+    Cgc,
+    /// Clustered grid cells with trilinear-gradient normals.
+    CgcNoEwa,
+    /// The Marching Cubes mesh baseline (extracted in the background when selected).
+    Mc,
+    /// Cell rasterisation sampling the original volume (needs the volume, not a .cgc file).
+    Cr,
+    /// GPU path tracing; a placeholder until the renderer has the mode, never selectable now.
+    PathTrace,
+}
+
+impl ViewMode {
+    /// Every mode in the order the mode switch lists them.
+    pub const ALL: [ViewMode; 5] = [
+        ViewMode::Cgc,
+        ViewMode::CgcNoEwa,
+        ViewMode::Mc,
+        ViewMode::Cr,
+        ViewMode::PathTrace,
+    ];
+
+    /// The command-line name.
+    pub fn name(self) -> &'static str {
+        match self {
+            ViewMode::Cgc => "cgc",
+            ViewMode::CgcNoEwa => "cgc-noewa",
+            ViewMode::Mc => "mc",
+            ViewMode::Cr => "cr",
+            ViewMode::PathTrace => "pathtrace",
+        }
+    }
+
+    /// The renderer's mode, `None` where the renderer does not have it yet.
+    pub fn gpu_mode(self) -> Option<isogrid_gpu::Mode> {
+        match self {
+            ViewMode::Cgc => Some(isogrid_gpu::Mode::Cgc),
+            ViewMode::CgcNoEwa => Some(isogrid_gpu::Mode::CgcNoEwa),
+            ViewMode::Mc => Some(isogrid_gpu::Mode::Mc),
+            ViewMode::Cr => Some(isogrid_gpu::Mode::Cr),
+            // When isogrid_gpu::Mode::PathTrace exists, map it here; the UI enables every mode
+            // that maps to Some.
+            ViewMode::PathTrace => None,
+        }
+    }
+
+    /// Needs the original volume (so is unavailable for .cgc inputs).
+    pub fn needs_volume(self) -> bool {
+        matches!(self, ViewMode::Mc | ViewMode::Cr)
+    }
+}
+
+impl FromStr for ViewMode {
+    type Err = isogrid::Error;
+    fn from_str(s: &str) -> isogrid::Result<Self> {
+        ViewMode::ALL
+            .into_iter()
+            .find(|m| m.name().eq_ignore_ascii_case(s))
+            .ok_or_else(|| {
+                isogrid::Error::invalid(format!(
+                    "unknown mode '{s}' (expected cgc, cgc-noewa, mc, cr or pathtrace)"
+                ))
+            })
+    }
+}
+
+impl std::fmt::Display for ViewMode {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// How to start the viewer.
+#[derive(Debug, Clone)]
+pub struct ViewerOptions {
+    /// A volume (any format `isogrid_io::read_volume` reads) or a `.cgc` file; `None` opens an
+    /// empty window waiting for a dropped or typed path.
+    pub input: Option<PathBuf>,
+    /// How to read `input` when its format needs telling (raw files).
+    pub read_options: isogrid_io::ReadOptions,
+    /// Initial isovalue; ignored for `.cgc` inputs, which carry theirs.
+    pub iso: Iso,
+    /// Corner precision; `None` is the default for the volume's sample type.
+    pub precision: Option<Precision>,
+    pub mode: ViewMode,
+    /// Initial camera: `Camera::preset` view 1 (front) or 2 (oblique).
+    pub view: u8,
+    /// Fixed render size in pixels; `None` renders at the size of the window's image area.
+    pub size: Option<[u32; 2]>,
+    /// Scripted run: render this many full-quality frames, then close.
+    pub frames: Option<u32>,
+    /// Scripted run: save a PNG of the window (or, where the window cannot be captured, of the
+    /// rendered image) after the last frame.
+    pub screenshot: Option<PathBuf>,
+}
+
+impl Default for ViewerOptions {
+    fn default() -> Self {
+        ViewerOptions {
+            input: None,
+            read_options: Default::default(),
+            iso: Iso::Normalized(0.5),
+            precision: None,
+            mode: ViewMode::Cgc,
+            view: 2,
+            size: None,
+            frames: None,
+            screenshot: None,
+        }
+    }
+}
+
+/// Opens the viewer window and returns when it is closed (or, in a scripted run, after the last
+/// frame and the screenshot). Errors: no window could be opened (no display), or a scripted run
+/// failed (the input could not be read, no GPU adapter, extraction or rendering failed). In an
+/// interactive run such failures are shown in the window instead.
+pub fn run(options: ViewerOptions) -> isogrid::Result<()> {
+    app::run(options)
+}
