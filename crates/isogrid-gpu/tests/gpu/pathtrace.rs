@@ -395,8 +395,26 @@ fn accumulation_restarts_when_the_view_changes() {
     assert_eq!(moved.samples, 1);
     let back = r.path_trace(&gpu, &a, &frames(2)).unwrap();
     assert_eq!(back.samples, 2);
-    assert_eq!(back.linear, first.linear);
-    assert_eq!(back.rgba8, first.rgba8);
+    // Same samples as the first image. Not bit-identical: EWA splats are blended in whatever
+    // order the rasteriser emits them, so primary normals can differ in the last bits and a few
+    // paths take another turn; a restart that failed would differ everywhere.
+    let diffs: Vec<f32> = back
+        .linear
+        .iter()
+        .zip(&first.linear)
+        .flat_map(|(p, q)| (0..3).map(move |c| (p[c] - q[c]).abs()))
+        .collect();
+    let mean_diff = diffs.iter().sum::<f32>() / diffs.len() as f32;
+    let close = diffs.iter().filter(|&&d| d <= 1e-3).count();
+    assert!(
+        mean_diff < 2e-3,
+        "mean |Δ| {mean_diff} after returning to the first camera"
+    );
+    assert!(
+        close as f64 >= 0.98 * diffs.len() as f64,
+        "{close} of {} values match",
+        diffs.len()
+    );
     let other_bounces = r
         .path_trace(
             &gpu,
