@@ -71,13 +71,18 @@ pub struct ThreadArgs {
 }
 
 impl ThreadArgs {
-    /// Runs `f` on a rayon pool of the requested size.
-    pub fn install<T: Send>(&self, f: impl FnOnce() -> T + Send) -> Result<T> {
+    /// A rayon pool of the requested size (build it before timing work that runs on it).
+    pub fn pool(&self) -> Result<rayon::ThreadPool> {
         let mut builder = rayon::ThreadPoolBuilder::new();
         if let Some(n) = self.threads {
             builder = builder.num_threads(n as usize);
         }
-        Ok(builder.build()?.install(f))
+        Ok(builder.build()?)
+    }
+
+    /// Runs `f` on a rayon pool of the requested size.
+    pub fn install<T: Send>(&self, f: impl FnOnce() -> T + Send) -> Result<T> {
+        Ok(self.pool()?.install(f))
     }
 }
 

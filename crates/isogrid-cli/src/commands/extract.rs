@@ -36,10 +36,11 @@ pub fn run(args: Args) -> Result<()> {
         precision: args.precision,
     };
     let spinner = progress::spinner("extracting".into());
+    // The pool is started before the clock: thread start-up is not extraction.
+    let pool = args.threads.pool()?;
     let start = Instant::now();
-    let grid = args
-        .threads
-        .install(|| extract(&volume.view(), &options))?
+    let grid = pool
+        .install(|| extract(&volume.view(), &options))
         .with_context(|| format!("{}: extraction failed", args.input.display()))?;
     let extract_seconds = start.elapsed().as_secs_f64();
     spinner.finish_and_clear();

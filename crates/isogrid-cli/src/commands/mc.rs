@@ -56,10 +56,9 @@ pub fn run(args: Args) -> Result<()> {
     let (volume, read) = input::read_volume(&args.input, &args.input_args.read_options()?)?;
     let iso = args.iso.iso().resolve(&volume.view())?;
     let spinner = progress::spinner("marching cubes".into());
+    let pool = args.threads.pool()?;
     let start = Instant::now();
-    let mesh = args
-        .threads
-        .install(|| marching_cubes(&volume.view(), iso))?;
+    let mesh = pool.install(|| marching_cubes(&volume.view(), iso));
     let extract = start.elapsed().as_secs_f64();
     spinner.finish_and_clear();
     let mut write = 0.0;
