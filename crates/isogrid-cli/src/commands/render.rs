@@ -293,6 +293,23 @@ fn choose_renderer(backend: Backend, mode: Mode) -> Result<Option<isogrid_gpu::R
     }
 }
 
+/// Fills the GPU fields of the report and hands back the frame's pixels and AOVs.
+fn gpu_rendered(report: &mut RenderReport, out: render_gpu::GpuRender, frames: u32) -> Rendered {
+    report.backend = "gpu";
+    report.adapter = Some(out.adapter);
+    report.frames = Some(frames);
+    report.gpu_ms = Some(out.times);
+    let f = out.frame;
+    report.hits = f.cluster.iter().filter(|&&c| c != u32::MAX).count() as u64;
+    Rendered {
+        channels: 4,
+        pixels: f.rgba8,
+        depth: f.depth,
+        normal: f.normal,
+        cluster: f.cluster,
+    }
+}
+
 pub fn run(args: Args) -> Result<()> {
     // Check everything that does not need the data first.
     if let Some(out) = &args.output {
@@ -360,21 +377,9 @@ pub fn run(args: Args) -> Result<()> {
             )?;
             report.seconds = start.elapsed().as_secs_f64();
             spinner.finish_and_clear();
-            report.backend = "gpu";
-            report.adapter = Some(out.adapter);
-            report.frames = Some(args.frames);
             report.spp = Some(out.frame.samples);
             report.bounces = Some(args.bounces);
-            report.gpu_ms = Some(out.times);
-            let f = out.frame;
-            report.hits = f.cluster.iter().filter(|&&c| c != u32::MAX).count() as u64;
-            Rendered {
-                channels: 4,
-                pixels: f.rgba8,
-                depth: f.depth,
-                normal: f.normal,
-                cluster: f.cluster,
-            }
+            gpu_rendered(&mut report, out, args.frames)
         }
         (Some(renderer), Some(mode)) => {
             let spinner = progress::spinner("rendering on the GPU".into());
@@ -390,21 +395,9 @@ pub fn run(args: Args) -> Result<()> {
             )?;
             report.seconds = start.elapsed().as_secs_f64();
             spinner.finish_and_clear();
-            report.backend = "gpu";
-            report.adapter = Some(out.adapter);
-            report.frames = Some(args.frames);
-            report.gpu_ms = Some(out.times);
             report.drawn_cells = Some(out.frame.drawn_cells);
             report.probed_cells = Some(out.frame.probed_cells);
-            let f = out.frame;
-            report.hits = f.cluster.iter().filter(|&&c| c != u32::MAX).count() as u64;
-            Rendered {
-                channels: 4,
-                pixels: f.rgba8,
-                depth: f.depth,
-                normal: f.normal,
-                cluster: f.cluster,
-            }
+            gpu_rendered(&mut report, out, args.frames)
         }
         _ => {
             let shading = match args.mode {
