@@ -254,7 +254,7 @@ fn arguments_are_checked_before_any_window_opens() {
             &["view", "x.nrrd", "--iso-normalized", "1.5"],
             "outside [0, 1]",
         ),
-        (&["view", "x.nrrd", "--mode", "pathtrace"], "pathtrace"),
+        (&["view", "x.nrrd", "--mode", "wireframe"], "wireframe"),
         (&["view", "x.nrrd", "--screenshot", "a.png"], "--frames"),
     ] {
         let out = run(args);

@@ -22,6 +22,8 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 /// Width of the control panel in points.
+/// Samples per pixel the viewer accumulates while the camera rests in path-tracing mode.
+const PATH_TRACE_SAMPLES: u32 = 256;
 const PANEL_WIDTH: f32 = 300.0;
 /// Width of the measurement panel in points.
 const MEASUREMENTS_WIDTH: f32 = 270.0;
@@ -124,6 +126,8 @@ struct App {
     shown: Option<ViewKey>,
     /// The frame's image (RGBA), kept for saving the render alone.
     shown_pixels: Option<(u32, u32, Vec<u8>)>,
+    /// Path-tracing samples accumulated in the shown image.
+    shown_samples: u32,
     in_flight: Option<(u64, ViewKey)>,
     /// A view the render worker could not draw: not asked again until something changes.
     refused: Option<ViewKey>,
@@ -191,6 +195,7 @@ impl App {
             texture: None,
             shown: None,
             shown_pixels: None,
+            shown_samples: 0,
             in_flight: None,
             refused: None,
             next_request: 0,
@@ -443,6 +448,7 @@ impl App {
         });
         debug_assert_eq!((key.camera, key.mode), (camera, mode));
         self.shown = Some(key);
+        self.shown_samples = frame.samples;
         self.shown_pixels = Some((frame.width, frame.height, frame.rgba8));
         if let Some(script) = &mut self.script {
             if let ScriptState::Rendering { done } = &mut script.state {
@@ -885,7 +891,13 @@ impl App {
             scene,
         };
         let recheck = settling.map(|e| SETTLE - e);
-        if self.shown == Some(key) || self.refused == Some(key) || key.mode.gpu_mode().is_none() {
+        // Path tracing refines while the camera rests: the same view is asked for again, each
+        // call adding a sample, until PATH_TRACE_SAMPLES.
+        let refining = key.mode == ViewMode::PathTrace && self.shown_samples < PATH_TRACE_SAMPLES;
+        if (self.shown == Some(key) && !refining)
+            || self.refused == Some(key)
+            || key.mode.gpu_mode().is_none()
+        {
             return recheck;
         }
         self.refused = None;

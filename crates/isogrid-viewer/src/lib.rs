@@ -75,9 +75,9 @@ impl ViewMode {
             ViewMode::CgcNoEwa => Some(isogrid_gpu::Mode::CgcNoEwa),
             ViewMode::Mc => Some(isogrid_gpu::Mode::Mc),
             ViewMode::Cr => Some(isogrid_gpu::Mode::Cr),
-            // When isogrid_gpu::Mode::PathTrace exists, map it here; the UI enables every mode
-            // that maps to Some.
-            ViewMode::PathTrace => None,
+            // Hybrid path tracing: one sample per render call, accumulated by the renderer while
+            // the camera rests (the app keeps asking until PATH_TRACE_SAMPLES).
+            ViewMode::PathTrace => Some(isogrid_gpu::Mode::PathTrace),
         }
     }
 

@@ -26,7 +26,7 @@ pub struct Args {
     #[arg(long, value_name = "BITS", value_parser = parse_precision)]
     pub precision: Option<Precision>,
     /// What to draw: cgc, cgc-noewa, mc (Marching Cubes mesh) or cr (needs the volume).
-    #[arg(long, default_value = "cgc", value_parser = ["cgc", "cgc-noewa", "mc", "cr"])]
+    #[arg(long, default_value = "cgc", value_parser = ["cgc", "cgc-noewa", "mc", "cr", "pathtrace"])]
     pub mode: String,
     /// Initial camera: the paper's view 1 (front) or 2 (oblique).
     #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u8).range(1..=2))]
