@@ -30,7 +30,6 @@ fn vs_cell(@builtin(vertex_index) vertex: u32, @builtin(instance_index) instance
 
 // Samples along the ray segment inside the cell (the paper found three sufficient).
 const RAY_SAMPLES: u32 = 3u;
-const BISECTION_STEPS: u32 = 12u;
 
 // −∇ of the original volume for the CR baseline: central differences at the 8 corners (one-sided
 // at the border), trilinearly interpolated, in world units.
@@ -96,22 +95,7 @@ fn fs_cell(in: CellVarying) -> GBufferOut {
     if !found {
         discard;
     }
-    var fa = trilinear(in.corners_lo, in.corners_hi, origin + ta * dir_local) - iso;
-    var fb = trilinear(in.corners_lo, in.corners_hi, origin + tb * dir_local) - iso;
-    for (var i = 0u; i < BISECTION_STEPS; i++) {
-        let tm = 0.5 * (ta + tb);
-        let fm = trilinear(in.corners_lo, in.corners_hi, origin + tm * dir_local) - iso;
-        if (fm >= 0.0) == inside_at_entry {
-            ta = tm;
-            fa = fm;
-        } else {
-            tb = tm;
-            fb = fm;
-        }
-    }
-    // Secant step inside the last bracket; fa and fb have opposite sides, so the weight is in [0, 1].
-    let w = clamp(fa / (fa - fb), 0.0, 1.0);
-    let t = select(mix(ta, tb, w), tb, fa == fb);
+    let t = refine_crossing(in.corners_lo, in.corners_hi, origin, dir_local, ta, tb, iso, inside_at_entry);
     let p = clamp(origin + t * dir_local, vec3<f32>(0.0), vec3<f32>(1.0));
     var normal: vec3<f32>;
     if frame.params.y == SOURCE_VOLUME {

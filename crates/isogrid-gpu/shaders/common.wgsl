@@ -62,6 +62,31 @@ fn trilinear_gradient(a: vec4<f32>, b: vec4<f32>, p: vec3<f32>) -> vec3<f32> {
     return vec3<f32>(gx, gy, gz);
 }
 
+// Refines a crossing of `trilinear(a, b, ·) - iso` bracketed by [ta, tb] along o + t·d (cell
+// units; the field is on the `inside_at_entry` side at ta and on the other at tb): 12 bisection
+// steps, then a secant step inside the last bracket. Shared by the raster (§3.2) and the tracer
+// (§3.6) so both find the same surface.
+fn refine_crossing(a: vec4<f32>, b: vec4<f32>, o: vec3<f32>, d: vec3<f32>, t_a: f32, t_b: f32, iso: f32, inside_at_entry: bool) -> f32 {
+    var ta = t_a;
+    var tb = t_b;
+    var fa = trilinear(a, b, o + ta * d) - iso;
+    var fb = trilinear(a, b, o + tb * d) - iso;
+    for (var i = 0u; i < 12u; i++) {
+        let tm = 0.5 * (ta + tb);
+        let fm = trilinear(a, b, o + tm * d) - iso;
+        if (fm >= 0.0) == inside_at_entry {
+            ta = tm;
+            fa = fm;
+        } else {
+            tb = tm;
+            fb = fm;
+        }
+    }
+    // fa and fb have opposite sides, so the secant weight is in [0, 1].
+    let w = clamp(fa / (fa - fb), 0.0, 1.0);
+    return select(mix(ta, tb, w), tb, fa == fb);
+}
+
 // Slab test (Majercik et al.) of a ray against the unit box [0,1]^3: (t_enter, t_exit).
 fn slab_unit_box(origin: vec3<f32>, dir: vec3<f32>) -> vec2<f32> {
     // A zero component would give 0/0 on a face; a tiny one keeps the slab test well defined.

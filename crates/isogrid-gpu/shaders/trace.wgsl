@@ -25,7 +25,6 @@ struct TraceUniforms {
 const NO_HIT: f32 = 3.0e38;
 const BLOCK_CELLS: f32 = 16.0;
 const TRACE_SAMPLES: u32 = 3u;
-const TRACE_BISECTION_STEPS: u32 = 12u;
 
 struct TraceHit {
     t: f32,              // world distance, NO_HIT on a miss
@@ -68,21 +67,7 @@ fn cell_crossing(k: Corners, o: vec3<f32>, d: vec3<f32>, t_enter: f32, t_exit: f
     if !found {
         return NO_HIT;
     }
-    var fa = trilinear(k.lo, k.hi, o + ta * d) - iso;
-    var fb = trilinear(k.lo, k.hi, o + tb * d) - iso;
-    for (var i = 0u; i < TRACE_BISECTION_STEPS; i++) {
-        let tm = 0.5 * (ta + tb);
-        let fm = trilinear(k.lo, k.hi, o + tm * d) - iso;
-        if (fm >= 0.0) == inside_at_entry {
-            ta = tm;
-            fa = fm;
-        } else {
-            tb = tm;
-            fb = fm;
-        }
-    }
-    let w = clamp(fa / (fa - fb), 0.0, 1.0);
-    return select(mix(ta, tb, w), tb, fa == fb);
+    return refine_crossing(k.lo, k.hi, o, d, ta, tb, iso, inside_at_entry);
 }
 
 // Nearest crossing so far: t, and the cell and page-local record it lies in.
