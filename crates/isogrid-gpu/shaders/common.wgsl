@@ -45,6 +45,19 @@ fn clip_from_world(frame: FrameUniforms, p: vec3<f32>) -> vec4<f32> {
     return vec4<f32>(dot(v, frame.right.xyz) / frame.right.w, dot(v, frame.up.xyz) / frame.up.w, frame.eye.w, dot(v, frame.forward.xyz));
 }
 
+// Linear → sRGB 8-bit code / 255, rounded like `to_srgb8` so a unorm target stores it exactly;
+// keep in sync with `isogrid::shading::to_srgb8`.
+fn to_srgb8(linear: f32) -> f32 {
+    let x = clamp(linear, 0.0, 1.0);
+    var s: f32;
+    if x <= 0.0031308 {
+        s = 12.92 * x;
+    } else {
+        s = 1.055 * pow(x, 1.0 / 2.4) - 0.055;
+    }
+    return floor(s * 255.0 + 0.5) / 255.0;
+}
+
 // Trilinear interpolation of 8 corner values (corner c at (c&1, c>>1&1, c>>2&1)) at p in [0,1]^3.
 fn trilinear(a: vec4<f32>, b: vec4<f32>, p: vec3<f32>) -> f32 {
     let x00 = mix(a.x, a.y, p.x);

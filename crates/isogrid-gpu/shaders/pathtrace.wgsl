@@ -3,8 +3,8 @@
 // bounces off Lambertian surfaces with cosine-weighted directions, traced through the clustered
 // grid cells by `trace_ray` (trace.wgsl), until it escapes to the environment or runs out of
 // bounces (then it contributes nothing). Each frame adds its sample to a per-pixel sum; the mean
-// is written as sRGB 8-bit. Keep `sky`, `environment` and `to_srgb8_unorm` in sync with
-// `src/pathtrace.rs` (`sky_radiance`, `EnvMap`) and `isogrid::shading::to_srgb8`.
+// is written as sRGB 8-bit. Keep `sky` and `environment` in sync with
+// `src/pathtrace.rs` (`sky_radiance`, `EnvMap`); `to_srgb8` is shared, in common.wgsl.
 //
 // Prepended: common.wgsl, cell_data.wgsl, trace.wgsl.
 
@@ -85,17 +85,6 @@ fn cosine_direction(n: vec3<f32>, u1: f32, u2: f32) -> vec3<f32> {
     return normalize(r * cos(phi) * tangent + r * sin(phi) * bitangent + sqrt(max(1.0 - u1, 0.0)) * n);
 }
 
-fn to_srgb8_unorm(linear: f32) -> f32 {
-    let x = clamp(linear, 0.0, 1.0);
-    var s: f32;
-    if x <= 0.0031308 {
-        s = 12.92 * x;
-    } else {
-        s = 1.055 * pow(x, 1.0 / 2.4) - 0.055;
-    }
-    return floor(s * 255.0 + 0.5) / 255.0;
-}
-
 @compute @workgroup_size(8, 8)
 fn path_trace(@builtin(global_invocation_id) gid: vec3<u32>) {
     let width = u32(frame.viewport.x);
@@ -131,5 +120,5 @@ fn path_trace(@builtin(global_invocation_id) gid: vec3<u32>) {
     let sum = accumulation[index] + vec4<f32>(radiance, 1.0);
     accumulation[index] = sum;
     let mean = sum.rgb / sum.a;
-    textureStore(output, vec2<i32>(gid.xy), vec4<f32>(to_srgb8_unorm(mean.r), to_srgb8_unorm(mean.g), to_srgb8_unorm(mean.b), 1.0));
+    textureStore(output, vec2<i32>(gid.xy), vec4<f32>(to_srgb8(mean.r), to_srgb8(mean.g), to_srgb8(mean.b), 1.0));
 }

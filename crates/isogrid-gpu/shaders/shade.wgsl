@@ -36,18 +36,6 @@ fn blinn_phong(n_in: vec3<f32>, view: vec3<f32>) -> vec3<f32> {
     return rgb;
 }
 
-// Linear → sRGB 8-bit code / 255, rounded like `to_srgb8` so the unorm target stores it exactly.
-fn to_srgb8(linear: f32) -> f32 {
-    let x = clamp(linear, 0.0, 1.0);
-    var s: f32;
-    if x <= 0.0031308 {
-        s = 12.92 * x;
-    } else {
-        s = 1.055 * pow(x, 1.0 / 2.4) - 0.055;
-    }
-    return floor(s * 255.0 + 0.5) / 255.0;
-}
-
 struct ShadeOut {
     @location(0) color: vec4<f32>,
     @location(1) normal: vec4<f32>, // final world normal (EWA or raster), eye distance
