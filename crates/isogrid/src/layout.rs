@@ -91,11 +91,11 @@ impl Metacell {
     }
     /// Grid index of cell `bit` of this metacell.
     pub fn cell_position(&self, bit: u32) -> [u32; 3] {
-        let p = self.position.map(|v| 2 * v as u32);
+        let p = self.position;
         [
-            p[0] + (bit & 1),
-            p[1] + (bit >> 1 & 1),
-            p[2] + (bit >> 2 & 1),
+            2 * p[0] as u32 + (bit & 1),
+            2 * p[1] as u32 + (bit >> 1 & 1),
+            2 * p[2] as u32 + (bit >> 2 & 1),
         ]
     }
 }
@@ -194,7 +194,29 @@ pub fn read_corner(record: &[u8], precision: Precision, c: usize) -> f32 {
     }
 }
 
-/// All eight corners of a packed record, in corner order.
+/// All eight corners of a packed record, in corner order. One branch on the precision for all
+/// eight (the ray tracer reads a record per candidate cell).
+///
+/// # Panics
+/// When `record` is shorter than [`Precision::bytes_per_cell`].
+#[inline]
 pub fn read_corners(record: &[u8], precision: Precision) -> [f32; 8] {
-    std::array::from_fn(|c| read_corner(record, precision, c))
+    match precision {
+        Precision::Bits4 => {
+            let r: [u8; 4] = record[..4].try_into().unwrap();
+            std::array::from_fn(|c| ((r[c / 2] >> (4 * (c % 2))) & 0xf) as f32)
+        }
+        Precision::Bits8 => {
+            let r: [u8; 8] = record[..8].try_into().unwrap();
+            r.map(|v| v as f32)
+        }
+        Precision::Bits16 => {
+            let r: [u8; 16] = record[..16].try_into().unwrap();
+            std::array::from_fn(|c| u16::from_le_bytes([r[2 * c], r[2 * c + 1]]) as f32)
+        }
+        Precision::Float32 => {
+            let r: [u8; 32] = record[..32].try_into().unwrap();
+            std::array::from_fn(|c| f32::from_le_bytes(r[4 * c..4 * c + 4].try_into().unwrap()))
+        }
+    }
 }

@@ -18,7 +18,9 @@
 //! assert!(hit.normal[2] < -0.9); // facing the ray
 //! ```
 
+mod cell_ray;
 pub mod crossing;
+pub mod empty_space;
 pub mod env;
 pub mod render;
 pub mod sample;

@@ -12,7 +12,9 @@
 //! the minimum kept; a block is finished before the DDA moves on, and traversal stops once the best
 //! hit lies before the exit of the current block — all later blocks start after it.
 
+use super::cell_ray::{max, min, xyz, CellRay};
 use super::crossing::{Crossing, Trilinear};
+use super::empty_space::EmptySpaceMap;
 use crate::camera::Ray;
 use crate::grid::CellGrid;
 use crate::layout::{
@@ -48,8 +50,9 @@ pub enum Occlusion {
     Surface,
 }
 
-/// Traces rays through one grid. Cheap to create; shares the grid's buffers; `Sync`.
-#[derive(Debug, Clone, Copy)]
+/// Traces rays through one grid. Shares the grid's buffers and adds one byte per block (an
+/// [`EmptySpaceMap`], built in `new` in time linear in the block count); `Sync`.
+#[derive(Debug, Clone)]
 pub struct Tracer<'g> {
     blocks: &'g [Block],
     metacells: &'g [Metacell],
@@ -60,104 +63,85 @@ pub struct Tracer<'g> {
     cell_dims: [f64; 3],
     block_dims: [i64; 3],
     crossing: Crossing,
-    margin: f32,
-}
-
-/// A ray in cell units: `origin / spacing`, `direction / spacing`, and the reciprocal direction
-/// with zero components replaced by a tiny value so that slab tests never see 0·∞.
-#[derive(Debug, Clone, Copy)]
-struct CellRay {
-    origin: [f64; 3],
-    direction: [f64; 3],
-    inv: [f64; 3],
-    /// f32 copies for the batched metacell test, with the reciprocal kept finite.
-    origin32: [f32; 3],
-    inv32: [f32; 3],
-}
-
-impl CellRay {
-    /// Entry and exit `t` of the box `[lo, hi]` (cell units); empty when entry > exit.
-    #[inline(always)]
-    fn slab(&self, lo: [f64; 3], hi: [f64; 3]) -> (f64, f64) {
-        let mut near = f64::NEG_INFINITY;
-        let mut far = f64::INFINITY;
-        for a in 0..3 {
-            let t0 = (lo[a] - self.origin[a]) * self.inv[a];
-            let t1 = (hi[a] - self.origin[a]) * self.inv[a];
-            near = near.max(t0.min(t1));
-            far = far.min(t0.max(t1));
-        }
-        (near, far)
-    }
-    #[inline(always)]
-    fn at(&self, t: f64) -> [f64; 3] {
-        [0, 1, 2].map(|a| self.origin[a] + t * self.direction[a])
-    }
+    margin: f64,
+    empty_space: EmptySpaceMap,
 }
 
 /// Clusters a block can hold: 16³ cells = 512 metacells in clusters of 15.
 const MAX_BLOCK_CLUSTERS: usize = (BLOCK_CELLS / 2).pow(3).div_ceil(CLUSTER_SLOTS - 1);
+/// [`MAX_BLOCK_CLUSTERS`] rounded up to whole groups of 4 f32 lanes.
+const CLUSTER_LANES: usize = MAX_BLOCK_CLUSTERS.div_ceil(4) * 4;
 
 /// Margin (cells) by which the f32 metacell test grows each box so that rounding never culls a
 /// box the ray really touches; exact f64 tests follow for the cells.
-fn metacell_margin(cell_dims: [f64; 3]) -> f32 {
+fn metacell_margin(cell_dims: [f64; 3]) -> f64 {
     let largest = cell_dims[0].max(cell_dims[1]).max(cell_dims[2]);
-    (1e-3f64).max(largest * 1e-5) as f32
+    (1e-3f64).max(largest * 1e-5)
 }
 
+/// `floor(v / BLOCK_CELLS)` for the block index of a coordinate: a truncating cast, which agrees
+/// with `floor` for `v ≥ 0` and the callers clamp negative results anyway (no libm `floor` call,
+/// which the x86-64 baseline lacks an instruction for).
 #[inline(always)]
-fn min32(a: f32, b: f32) -> f32 {
-    if a < b {
-        a
+fn block_of(v: f64) -> i64 {
+    let b = v * (1.0 / BLOCK_CELLS as f64);
+    if b < 0.0 {
+        -1
     } else {
-        b
+        b as i64
     }
 }
+
+/// `[tmin, tmax]` widened for the f32 lane tests (t itself is rounded to f32 there).
 #[inline(always)]
-fn max32(a: f32, b: f32) -> f32 {
-    if a > b {
-        a
-    } else {
-        b
-    }
+fn widened_f32(tmin: f64, tmax: f64) -> (f32, f32) {
+    let lo = (tmin - 1e-3 - 1e-5 * tmin.abs()) as f32;
+    let hi = min(tmax + 1e-3 + 1e-5 * tmax.abs(), f32::MAX as f64) as f32;
+    (lo, hi)
 }
 
 /// Bit `i` set when the ray may pass through metacell slot `i` (0–14) of `cluster` within
-/// `[tmin, tmax]`: all 15 slab tests at once in f32 lanes (vectorised by the compiler), on boxes
-/// grown by `margin`. Empty slots are not excluded here.
+/// `[tmin, tmax]` (see [`CellRay::metacell_boxes`]). Empty slots are not excluded.
 #[inline(always)]
-fn metacell_hits(r: &CellRay, cluster: &[Metacell], tmin: f64, tmax: f64, margin: f32) -> u32 {
-    let mut lo = [[0f32; 16]; 3];
+fn metacell_hits(r: &CellRay, cluster: &[Metacell], tmin: f64, tmax: f64) -> u32 {
+    let mut positions = [[0f32; 16]; 3];
     for (i, m) in cluster[..BOUND_SLOT].iter().enumerate() {
         for a in 0..3 {
-            lo[a][i] = 2.0 * m.position[a] as f32;
+            positions[a][i] = m.position[a] as f32;
         }
     }
-    let mut near = [f32::NEG_INFINITY; 16];
-    let mut far = [f32::INFINITY; 16];
-    for a in 0..3 {
-        let (o, inv) = (r.origin32[a], r.inv32[a]);
-        for i in 0..16 {
-            let t0 = (lo[a][i] - margin - o) * inv;
-            let t1 = (lo[a][i] + (2.0 + margin) - o) * inv;
-            near[i] = max32(near[i], min32(t0, t1));
-            far[i] = min32(far[i], max32(t0, t1));
-        }
-    }
-    // Widen the t range a little too: t itself is rounded to f32.
-    let lo_t = (tmin - 1e-3 - 1e-5 * tmin.abs()) as f32;
-    let hi_t = (tmax + 1e-3 + 1e-5 * tmax.abs()).min(f32::MAX as f64) as f32;
-    let mut mask = 0u32;
-    for i in 0..16 {
-        let hit = near[i] <= far[i] && far[i] >= lo_t && near[i] <= hi_t;
-        mask |= (hit as u32) << i;
-    }
-    mask & 0x7fff
+    let mut entry = [0f32; 16];
+    let t = widened_f32(tmin, tmax);
+    r.metacell_boxes(&positions, &positions, BOUND_SLOT, t, &mut entry) as u32 & 0x7fff
 }
 
+/// Bit `c` set when the ray may pass through the bound of cluster `c` of a block within
+/// `[tmin, tmax]`, with each bound's (conservative) entry `t` in `entry`.
 #[inline(always)]
-fn box_of(lo: [u32; 3], size: u32) -> ([f64; 3], [f64; 3]) {
-    (lo.map(|v| v as f64), lo.map(|v| (v + size) as f64))
+fn cluster_hits(
+    r: &CellRay,
+    slots: &[Metacell],
+    tmin: f64,
+    tmax: f64,
+    entry: &mut [f32; CLUSTER_LANES],
+) -> u64 {
+    let clusters = (slots.len() / CLUSTER_SLOTS).min(MAX_BLOCK_CLUSTERS);
+    let mut lo = [[0f32; CLUSTER_LANES]; 3];
+    let mut hi = [[0f32; CLUSTER_LANES]; 3];
+    for c in 0..clusters.next_multiple_of(4) {
+        for a in 0..3 {
+            if c < clusters {
+                let bound = slots[c * CLUSTER_SLOTS + BOUND_SLOT].as_bound();
+                lo[a][c] = bound.lo[a] as f32;
+                hi[a][c] = bound.hi[a] as f32;
+            } else {
+                // Padding lanes get an inverted box, which no ray enters.
+                lo[a][c] = 1.0;
+                hi[a][c] = -1.0;
+            }
+        }
+    }
+    r.metacell_boxes(&lo, &hi, clusters, widened_f32(tmin, tmax), entry)
 }
 
 impl<'g> Tracer<'g> {
@@ -175,6 +159,7 @@ impl<'g> Tracer<'g> {
             block_dims: bd.map(|b| b as i64),
             crossing,
             margin: metacell_margin(info.cell_dims().map(|c| c as f64)),
+            empty_space: EmptySpaceMap::new(grid.blocks(), bd.map(|b| b as usize)),
         }
     }
 
@@ -182,17 +167,13 @@ impl<'g> Tracer<'g> {
         self.crossing
     }
 
+    /// Bytes the tracer adds to the grid's own buffers (its [`EmptySpaceMap`]).
+    pub fn extra_bytes(&self) -> usize {
+        self.empty_space.bytes()
+    }
+
     fn cell_ray(&self, ray: &Ray) -> CellRay {
-        let direction: [f64; 3] = [0, 1, 2].map(|a| ray.direction[a] / self.spacing[a]);
-        let origin = [0, 1, 2].map(|a| ray.origin[a] / self.spacing[a]);
-        let inv = direction.map(|d| 1.0 / if d == 0.0 { 1e-300 } else { d });
-        CellRay {
-            origin,
-            direction,
-            inv,
-            origin32: origin.map(|v| v as f32),
-            inv32: inv.map(|v| v.clamp(-1e30, 1e30) as f32),
-        }
+        CellRay::new(ray, self.spacing, self.margin)
     }
 
     /// The closest crossing of the isosurface with `t ∈ [tmin, tmax]`, or `None`.
@@ -208,7 +189,7 @@ impl<'g> Tracer<'g> {
         });
         let (t, cell, position, cluster, tri, u) = best.found?;
         let g = tri.gradient(u);
-        let gw = [0, 1, 2].map(|a| g[a] / self.spacing[a]);
+        let gw = xyz(|a| g[a] / self.spacing[a]);
         let len = (gw[0] * gw[0] + gw[1] * gw[1] + gw[2] * gw[2]).sqrt();
         let normal = if len > 0.0 && len.is_finite() {
             gw.map(|v| -v / len)
@@ -242,37 +223,73 @@ impl<'g> Tracer<'g> {
         hit
     }
 
-    /// Amanatides–Woo over blocks in `[tmin, tmax]`. `visit(block)` handles a non-empty block and
-    /// returns the best hit `t` so far; traversal stops once it is no later than the block's exit.
+    /// Amanatides–Woo over blocks in `[tmin, tmax]`, leaping across empty space with the
+    /// [`EmptySpaceMap`]. `visit(block)` handles a non-empty block and returns the best hit `t` so
+    /// far; traversal stops once it is no later than the block's exit.
     #[inline(always)]
     fn walk_blocks(&self, r: &CellRay, tmin: f64, tmax: f64, mut visit: impl FnMut(&Block) -> f64) {
         let (near, far) = r.slab([0.0; 3], self.cell_dims);
-        let t_enter = near.max(tmin);
-        let t_exit = far.min(tmax);
+        let t_enter = max(near, tmin);
+        let t_exit = min(far, tmax);
         if !(t_enter <= t_exit) || self.block_dims.contains(&0) {
             return;
         }
         let p = r.at(t_enter);
         let bc = BLOCK_CELLS as f64;
-        let mut block =
-            [0usize, 1, 2].map(|a| ((p[a] / bc).floor() as i64).clamp(0, self.block_dims[a] - 1));
-        let mut step = [0i64; 3];
-        let mut t_next = [0.0f64; 3];
-        let mut t_delta = [0.0f64; 3];
-        for a in 0..3 {
-            let forward = r.direction[a] >= 0.0;
-            step[a] = if forward { 1 } else { -1 };
-            let boundary = if forward { block[a] + 1 } else { block[a] } as f64 * bc;
-            t_next[a] = (boundary - r.origin[a]) * r.inv[a];
-            t_delta[a] = bc * r.inv[a].abs();
-        }
+        let mut block = xyz(|a| block_of(p[a]).clamp(0, self.block_dims[a] - 1));
+        let forward = xyz(|a| r.direction[a] >= 0.0);
+        let step = xyz(|a| if forward[a] { 1i64 } else { -1 });
+        // `t` where the ray leaves the slab of blocks ending at `last` along axis `a`.
+        let leave = |a: usize, last: i64| {
+            let boundary = if forward[a] { last + 1 } else { last } as f64 * bc;
+            (boundary - r.origin[a]) * r.inv[a]
+        };
+        let mut t_next = xyz(|a| leave(a, block[a]));
+        let t_delta = xyz(|a| bc * r.inv[a].abs());
         let [nx, ny, _] = self.block_dims;
         loop {
-            let exit = t_next[0].min(t_next[1]).min(t_next[2]);
             let index = (block[0] + nx * (block[1] + ny * block[2])) as usize;
-            let b = &self.blocks[index];
-            if b.metacell_count > 0 {
-                let best = visit(b);
+            let distance = self.empty_space.distance(index) as i64;
+            if distance > 1 {
+                // Every block within `distance − 1` of this one is empty: leave that cube at once.
+                let reach = distance - 1;
+                let far_side = xyz(|a| block[a] + step[a] * reach);
+                let leaves = xyz(|a| leave(a, far_side[a]));
+                let axis = if leaves[0] <= leaves[1] && leaves[0] <= leaves[2] {
+                    0
+                } else if leaves[1] <= leaves[2] {
+                    1
+                } else {
+                    2
+                };
+                let t = leaves[axis];
+                if t >= t_exit {
+                    return;
+                }
+                let p = r.at(t);
+                for a in 0..3 {
+                    block[a] = if a == axis {
+                        far_side[a] + step[a]
+                    } else {
+                        // Inside the cube on this axis (up to rounding), and never backwards.
+                        let here = block_of(p[a]);
+                        let (lo, hi) = if forward[a] {
+                            (block[a], far_side[a])
+                        } else {
+                            (far_side[a], block[a])
+                        };
+                        here.clamp(lo, hi)
+                    };
+                    if block[a] < 0 || block[a] >= self.block_dims[a] {
+                        return;
+                    }
+                    t_next[a] = leave(a, block[a]);
+                }
+                continue;
+            }
+            let exit = min(min(t_next[0], t_next[1]), t_next[2]);
+            if distance == 0 {
+                let best = visit(&self.blocks[index]);
                 if best <= exit {
                     return;
                 }
@@ -301,14 +318,14 @@ impl<'g> Tracer<'g> {
         // Clusters whose bound the ray enters, nearest first, so that the search can stop at the
         // first cluster that starts behind the best hit. A block holds at most 512 metacells, so
         // at most 35 clusters.
-        let mut order = [(0.0f64, 0u16); MAX_BLOCK_CLUSTERS];
+        let mut order = [(0.0f32, 0u16); MAX_BLOCK_CLUSTERS];
         let mut count = 0;
-        for (ci, cluster) in slots.chunks_exact(CLUSTER_SLOTS).enumerate() {
-            let (lo, hi) = cluster[BOUND_SLOT].as_bound().cell_box();
-            let (near, far) = r.slab(lo.map(|v| v as f64), hi.map(|v| v as f64));
-            if near > far || far < tmin || near > best.t || count == MAX_BLOCK_CLUSTERS {
-                continue;
-            }
+        let mut entry = [0f32; CLUSTER_LANES];
+        let mut hits = cluster_hits(r, slots, tmin, best.t, &mut entry);
+        while hits != 0 {
+            let ci = hits.trailing_zeros() as usize;
+            hits &= hits - 1;
+            let near = entry[ci];
             let mut k = count;
             while k > 0 && order[k - 1].0 > near {
                 order[k] = order[k - 1];
@@ -318,12 +335,12 @@ impl<'g> Tracer<'g> {
             count += 1;
         }
         for &(near, ci) in &order[..count] {
-            if near > best.t {
+            if near > widened_f32(tmin, best.t).1 {
                 break;
             }
             let ci = ci as usize;
             let cluster = &slots[ci * CLUSTER_SLOTS..(ci + 1) * CLUSTER_SLOTS];
-            let mut candidates = metacell_hits(r, cluster, tmin, best.t, self.margin);
+            let mut candidates = metacell_hits(r, cluster, tmin, best.t);
             while candidates != 0 {
                 let m = &cluster[candidates.trailing_zeros() as usize];
                 candidates &= candidates - 1;
@@ -331,33 +348,32 @@ impl<'g> Tracer<'g> {
                     continue;
                 }
                 let mask = m.cell_mask & 0xff;
-                let mut bits = mask;
-                while bits != 0 {
-                    let bit = bits.trailing_zeros();
-                    bits &= bits - 1;
-                    let pos = m.cell_position(bit);
-                    let (lo, hi) = box_of(pos, 1);
-                    let (near, far) = r.slab(lo, hi);
-                    let t0 = near.max(tmin);
-                    let t1 = far.min(best.t);
+                let lo = xyz(|a| 2.0 * m.position[a] as f64);
+                let mut cells = [(0.0, 0.0, 0); 4];
+                let n = r.metacell_cells(lo, mask, tmin, best.t, &mut cells);
+                for &(t0, t1, bit) in &cells[..n] {
+                    // Cells come nearest first, so the first crossing is this metacell's closest.
+                    let t1 = min(t1, best.t);
                     if !(t0 < t1) {
-                        continue;
+                        break;
                     }
+                    let pos = m.cell_position(bit);
+                    let cell_lo = xyz(|a| pos[a] as f64);
                     let index = m.cell_pointer + (mask & ((1u16 << bit) - 1)).count_ones();
                     let tri = Trilinear::new(&self.corners(index));
                     let start = r.at(t0);
                     let end = r.at(t1);
-                    let start_local = [0, 1, 2].map(|a| start[a] - lo[a]);
-                    let delta = [0, 1, 2].map(|a| end[a] - start[a]);
+                    let start_local = xyz(|a| start[a] - cell_lo[a]);
+                    let delta = xyz(|a| end[a] - start[a]);
                     let cubic = tri.along(start_local, delta, self.iso_code);
                     if let Some(s) = cubic.first_crossing(self.crossing) {
                         let t = t0 + s * (t1 - t0);
                         if t < best.t || best.found.is_none() {
-                            let u =
-                                [0, 1, 2].map(|a| (start_local[a] + s * delta[a]).clamp(0.0, 1.0));
+                            let u = xyz(|a| (start_local[a] + s * delta[a]).clamp(0.0, 1.0));
                             best.t = t;
                             best.found = Some((t, index, pos, (first_cluster + ci) as u32, tri, u));
                         }
+                        break;
                     }
                 }
             }
@@ -365,28 +381,24 @@ impl<'g> Tracer<'g> {
     }
 
     fn any_box_in_block(&self, r: &CellRay, block: &Block, tmin: f64, tmax: f64) -> bool {
-        for cluster in self.metacells[block.slots()].chunks_exact(CLUSTER_SLOTS) {
-            let (lo, hi) = cluster[BOUND_SLOT].as_bound().cell_box();
-            let (near, far) = r.slab(lo.map(|v| v as f64), hi.map(|v| v as f64));
-            if near > far || far < tmin || near > tmax {
-                continue;
-            }
-            let mut candidates = metacell_hits(r, cluster, tmin, tmax, self.margin);
+        let slots = &self.metacells[block.slots()];
+        let mut entry = [0f32; CLUSTER_LANES];
+        let mut hits = cluster_hits(r, slots, tmin, tmax, &mut entry);
+        while hits != 0 {
+            let ci = hits.trailing_zeros() as usize;
+            hits &= hits - 1;
+            let cluster = &slots[ci * CLUSTER_SLOTS..(ci + 1) * CLUSTER_SLOTS];
+            let mut candidates = metacell_hits(r, cluster, tmin, tmax);
             while candidates != 0 {
                 let m = &cluster[candidates.trailing_zeros() as usize];
                 candidates &= candidates - 1;
                 if m.cell_mask == 0 {
                     continue;
                 }
-                let mut bits = m.cell_mask & 0xff;
-                while bits != 0 {
-                    let bit = bits.trailing_zeros();
-                    bits &= bits - 1;
-                    let (lo, hi) = box_of(m.cell_position(bit), 1);
-                    let (near, far) = r.slab(lo, hi);
-                    if near.max(tmin) < far.min(tmax) {
-                        return true;
-                    }
+                let lo = xyz(|a| 2.0 * m.position[a] as f64);
+                let mut cells = [(0.0, 0.0, 0); 4];
+                if r.metacell_cells(lo, m.cell_mask & 0xff, tmin, tmax, &mut cells) > 0 {
+                    return true;
                 }
             }
         }

@@ -1,0 +1,225 @@
+//! A ray in cell units with everything the slab tests of [`super::traverse`] need precomputed
+//! (the slab test of Kay & Kajiya 1986 as the paper's §3.2 uses it, with the near and far face of
+//! every box chosen once per ray from the direction's signs, Williams et al. 2005).
+//!
+//! Cell units: world / spacing per axis, so cell `(i, j, k)` is the box `[i, i+1]×[j, j+1]×[k, k+1]`;
+//! the ray parameter `t` stays the world distance along the unit-direction world ray.
+
+use crate::camera::Ray;
+
+/// See the module docs. Zero direction components get a huge finite reciprocal (as if the
+/// direction were +1e−300) so that slab tests never compute 0·∞.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct CellRay {
+    pub origin: [f64; 3],
+    pub direction: [f64; 3],
+    pub inv: [f64; 3],
+    /// Per axis, 1 when the ray runs towards −axis (then a box's upper face is met first).
+    near_face: [f64; 3],
+    /// `t = position · scale + near/far` in f32 for the faces of a metacell's 2×2×2-cell box at
+    /// metacell `position`, grown by the tracer's margin.
+    metacell_scale: [f32; 3],
+    metacell_near: [f32; 3],
+    metacell_far: [f32; 3],
+}
+
+impl CellRay {
+    /// `ray` (world space) rescaled by `spacing`; metacell boxes grown by `margin` cells.
+    pub fn new(ray: &Ray, spacing: [f64; 3], margin: f64) -> Self {
+        let direction: [f64; 3] = xyz(|a| ray.direction[a] / spacing[a]);
+        let origin = xyz(|a| ray.origin[a] / spacing[a]);
+        let inv = xyz(|a| {
+            1.0 / if direction[a] == 0.0 {
+                1e-300
+            } else {
+                direction[a]
+            }
+        });
+        let near_face = xyz(|a| if inv[a] < 0.0 { 1.0 } else { 0.0 });
+        // f32 keeps the reciprocal finite; the margin absorbs the rounding of these constants.
+        let inv32 = xyz(|a| inv[a].clamp(-1e30, 1e30));
+        let face = |a: usize, upper: bool| {
+            let plane = if upper { 2.0 + margin } else { -margin };
+            ((plane - origin[a]) * inv32[a]) as f32
+        };
+        CellRay {
+            origin,
+            direction,
+            inv,
+            near_face,
+            metacell_scale: xyz(|a| (2.0 * inv32[a]) as f32),
+            metacell_near: xyz(|a| face(a, near_face[a] == 1.0)),
+            metacell_far: xyz(|a| face(a, near_face[a] == 0.0)),
+        }
+    }
+
+    /// Entry and exit `t` of the box `[lo, hi]` (cell units); empty when entry > exit.
+    #[inline(always)]
+    pub fn slab(&self, lo: [f64; 3], hi: [f64; 3]) -> (f64, f64) {
+        let mut near = f64::NEG_INFINITY;
+        let mut far = f64::INFINITY;
+        for a in 0..3 {
+            let (n, f) = if self.near_face[a] == 1.0 {
+                (hi[a], lo[a])
+            } else {
+                (lo[a], hi[a])
+            };
+            near = max(near, (n - self.origin[a]) * self.inv[a]);
+            far = min(far, (f - self.origin[a]) * self.inv[a]);
+        }
+        (near, far)
+    }
+
+    /// Whether the ray runs towards −axis `a`.
+    #[inline(always)]
+    pub fn negative(&self, a: usize) -> bool {
+        self.near_face[a] == 1.0
+    }
+
+    /// Slab tests of up to `N` boxes made of metacells, in f32 lanes, on boxes grown by the
+    /// margin. Lane `i`'s box runs from metacell `lo[a][i]` to metacell `hi[a][i]` (inclusive) on
+    /// axis `a`, so `lo == hi` is one metacell's 2×2×2 cells and a cluster bound is its `lo, hi`.
+    /// Only the first `lanes` boxes are tested (rounded up to a multiple of 4). Returns bit `i`
+    /// set when the ray passes through box `i` within `[lo_t, hi_t]`, and writes each box's entry
+    /// `t` (≤ the true entry: the box is grown) to `entry`.
+    #[inline(always)]
+    pub fn metacell_boxes<const N: usize>(
+        &self,
+        lo: &[[f32; N]; 3],
+        hi: &[[f32; N]; 3],
+        lanes: usize,
+        (lo_t, hi_t): (f32, f32),
+        entry: &mut [f32; N],
+    ) -> u64 {
+        const { assert!(N.is_multiple_of(4) && N <= 64) };
+        let mut mask = 0u64;
+        for chunk in 0..lanes.div_ceil(4).min(N / 4) {
+            let lanes = chunk * 4..chunk * 4 + 4;
+            let mut near = [lo_t; 4];
+            let mut far = [hi_t; 4];
+            for a in 0..3 {
+                // The face met first belongs to the box's lower metacell unless the ray runs
+                // towards −axis (then `metacell_near` already holds the upper face's offset).
+                let (first, last) = if self.negative(a) { (hi, lo) } else { (lo, hi) };
+                let (scale, n, f) = (
+                    self.metacell_scale[a],
+                    self.metacell_near[a],
+                    self.metacell_far[a],
+                );
+                for (k, i) in lanes.clone().enumerate() {
+                    near[k] = max(near[k], first[a][i] * scale + n);
+                    far[k] = min(far[k], last[a][i] * scale + f);
+                }
+            }
+            entry[lanes].copy_from_slice(&near);
+            mask |= (lanes4_le(&near, &far) as u64) << (chunk * 4);
+        }
+        mask
+    }
+
+    /// The cells of the metacell whose lowest cell is `lo` (cell units) that the ray passes
+    /// through within `[tmin, tmax]`, nearest first: at most four `(entry, exit, cell bit)` with
+    /// bit = x + 2y + 4z inside the metacell, and only cells whose bit is set in `mask`.
+    ///
+    /// One slab test for the metacell and the three mid-planes replace eight cell slab tests, and
+    /// the order lets the closest-hit search stop at the first crossing. Every face time is
+    /// `(plane − origin)·inv` as in [`Self::slab`], so neighbouring cells and metacells agree
+    /// exactly on shared faces.
+    #[inline(always)]
+    pub fn metacell_cells(
+        &self,
+        lo: [f64; 3],
+        mask: u16,
+        tmin: f64,
+        tmax: f64,
+        out: &mut [(f64, f64, u32); 4],
+    ) -> usize {
+        let (near, far) = self.slab(lo, xyz(|a| lo[a] + 2.0));
+        let (t_in, t_out) = (max(near, tmin), min(far, tmax));
+        if !(t_in < t_out) {
+            return 0;
+        }
+        let mid = xyz(|a| (lo[a] + 1.0 - self.origin[a]) * self.inv[a]);
+        // Segment boundaries: entry, the mid-planes crossed in between (sorted), exit.
+        let mut bounds = [t_in, t_out, t_out, t_out, t_out];
+        let mut n = 1;
+        for t in mid {
+            if t > t_in && t < t_out {
+                let mut k = n;
+                while k > 1 && bounds[k - 1] > t {
+                    bounds[k] = bounds[k - 1];
+                    k -= 1;
+                }
+                bounds[k] = t;
+                n += 1;
+            }
+        }
+        let mut count = 0;
+        for k in 0..n {
+            let (t0, t1) = (bounds[k], bounds[k + 1]);
+            // Which cell: the side of each mid-plane at the segment's middle.
+            let t = 0.5 * (t0 + t1);
+            let bit = (0..3).fold(0u32, |bit, a| {
+                let upper = self.origin[a] + t * self.direction[a] >= lo[a] + 1.0;
+                bit | (upper as u32) << a
+            });
+            if mask >> bit & 1 == 1 {
+                out[count] = (t0, t1, bit);
+                count += 1;
+            }
+        }
+        count
+    }
+
+    #[inline(always)]
+    pub fn at(&self, t: f64) -> [f64; 3] {
+        xyz(|a| self.origin[a] + t * self.direction[a])
+    }
+}
+
+/// `min` and `max` without `f64::min`'s NaN handling (a few instructions more per call on the
+/// hottest path): no NaN reaches them, since directions are finite and reciprocals are finite.
+#[inline(always)]
+pub(super) fn min<T: PartialOrd>(a: T, b: T) -> T {
+    if a < b {
+        a
+    } else {
+        b
+    }
+}
+#[inline(always)]
+pub(super) fn max<T: PartialOrd>(a: T, b: T) -> T {
+    if a > b {
+        a
+    } else {
+        b
+    }
+}
+
+/// Bit `k` set when `a[k] <= b[k]`: one SSE2 compare and movemask on x86-64 (the compiler does not
+/// find it for a loop of shifts).
+#[inline(always)]
+fn lanes4_le(a: &[f32; 4], b: &[f32; 4]) -> u32 {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::{_mm_cmple_ps, _mm_loadu_ps, _mm_movemask_ps};
+        // SAFETY: SSE2 is part of the x86-64 baseline; both pointers address 4 f32s.
+        unsafe {
+            _mm_movemask_ps(_mm_cmple_ps(
+                _mm_loadu_ps(a.as_ptr()),
+                _mm_loadu_ps(b.as_ptr()),
+            )) as u32
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        (0..4).fold(0, |m, k| m | ((a[k] <= b[k]) as u32) << k)
+    }
+}
+
+/// `[f(0), f(1), f(2)]`. `<[T; 3]>::map` is not always inlined: its calls were a tenth of the
+/// tracer's instructions.
+#[inline(always)]
+pub(super) fn xyz<T>(f: impl Fn(usize) -> T) -> [T; 3] {
+    [f(0), f(1), f(2)]
+}
