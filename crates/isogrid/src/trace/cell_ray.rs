@@ -76,45 +76,59 @@ impl CellRay {
         self.near_face[a] == 1.0
     }
 
-    /// Slab tests of up to `N` boxes made of metacells, in f32 lanes, on boxes grown by the
-    /// margin. Lane `i`'s box runs from metacell `lo[a][i]` to metacell `hi[a][i]` (inclusive) on
-    /// axis `a`, so `lo == hi` is one metacell's 2×2×2 cells and a cluster bound is its `lo, hi`.
-    /// Only the first `lanes` boxes are tested (rounded up to a multiple of 4). Returns bit `i`
-    /// set when the ray passes through box `i` within `[lo_t, hi_t]`, and writes each box's entry
-    /// `t` (≤ the true entry: the box is grown) to `entry`.
+    /// Slab tests of four boxes made of metacells, in f32 lanes, on boxes grown by the margin.
+    /// Box `k` runs from metacell `lo[a][k]` to metacell `hi[a][k]` (inclusive) on axis `a`, so
+    /// `lo == hi` is one metacell's 2×2×2 cells and a cluster bound is its `lo, hi`; `lo > hi`
+    /// is an empty box. Returns bit `k` set when the ray passes through box `k` within
+    /// `[lo_t, hi_t]`, and each box's entry `t` (≤ the true entry: the box is grown).
     #[inline(always)]
-    pub fn metacell_boxes<const N: usize>(
+    pub fn metacell_boxes4(
         &self,
-        lo: &[[f32; N]; 3],
-        hi: &[[f32; N]; 3],
-        lanes: usize,
+        lo: &[[i32; 4]; 3],
+        hi: &[[i32; 4]; 3],
         (lo_t, hi_t): (f32, f32),
-        entry: &mut [f32; N],
-    ) -> u64 {
-        const { assert!(N.is_multiple_of(4) && N <= 64) };
-        let mut mask = 0u64;
-        for chunk in 0..lanes.div_ceil(4).min(N / 4) {
-            let lanes = chunk * 4..chunk * 4 + 4;
+    ) -> (u32, [f32; 4]) {
+        #[cfg(target_arch = "x86_64")]
+        {
+            use std::arch::x86_64::*;
+            // SAFETY: SSE2 is part of the x86-64 baseline; every load and store addresses 4 lanes.
+            unsafe {
+                let mut near = _mm_set1_ps(lo_t);
+                let mut far = _mm_set1_ps(hi_t);
+                for a in 0..3 {
+                    // The face met first belongs to the box's lower metacell unless the ray runs
+                    // towards −axis (then `metacell_near` holds the upper face's offset).
+                    let (first, last) = if self.negative(a) { (hi, lo) } else { (lo, hi) };
+                    let first = _mm_cvtepi32_ps(_mm_loadu_si128(first[a].as_ptr().cast()));
+                    let last = _mm_cvtepi32_ps(_mm_loadu_si128(last[a].as_ptr().cast()));
+                    let scale = _mm_set1_ps(self.metacell_scale[a]);
+                    let n = _mm_set1_ps(self.metacell_near[a]);
+                    let f = _mm_set1_ps(self.metacell_far[a]);
+                    let n = _mm_add_ps(_mm_mul_ps(first, scale), n);
+                    let f = _mm_add_ps(_mm_mul_ps(last, scale), f);
+                    near = _mm_max_ps(near, n);
+                    far = _mm_min_ps(far, f);
+                }
+                let mut entry = [0f32; 4];
+                _mm_storeu_ps(entry.as_mut_ptr(), near);
+                (_mm_movemask_ps(_mm_cmple_ps(near, far)) as u32, entry)
+            }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        {
             let mut near = [lo_t; 4];
             let mut far = [hi_t; 4];
             for a in 0..3 {
-                // The face met first belongs to the box's lower metacell unless the ray runs
-                // towards −axis (then `metacell_near` already holds the upper face's offset).
                 let (first, last) = if self.negative(a) { (hi, lo) } else { (lo, hi) };
-                let (scale, n, f) = (
-                    self.metacell_scale[a],
-                    self.metacell_near[a],
-                    self.metacell_far[a],
-                );
-                for (k, i) in lanes.clone().enumerate() {
-                    near[k] = max(near[k], first[a][i] * scale + n);
-                    far[k] = min(far[k], last[a][i] * scale + f);
+                for k in 0..4 {
+                    let scale = self.metacell_scale[a];
+                    near[k] = max(near[k], first[a][k] as f32 * scale + self.metacell_near[a]);
+                    far[k] = min(far[k], last[a][k] as f32 * scale + self.metacell_far[a]);
                 }
             }
-            entry[lanes].copy_from_slice(&near);
-            mask |= (lanes4_le(&near, &far) as u64) << (chunk * 4);
+            let mask = (0..4).fold(0, |m, k| m | ((near[k] <= far[k]) as u32) << k);
+            (mask, near)
         }
-        mask
     }
 
     /// The cells of the metacell whose lowest cell is `lo` (cell units) that the ray passes
@@ -193,27 +207,6 @@ pub(super) fn max<T: PartialOrd>(a: T, b: T) -> T {
         a
     } else {
         b
-    }
-}
-
-/// Bit `k` set when `a[k] <= b[k]`: one SSE2 compare and movemask on x86-64 (the compiler does not
-/// find it for a loop of shifts).
-#[inline(always)]
-fn lanes4_le(a: &[f32; 4], b: &[f32; 4]) -> u32 {
-    #[cfg(target_arch = "x86_64")]
-    {
-        use std::arch::x86_64::{_mm_cmple_ps, _mm_loadu_ps, _mm_movemask_ps};
-        // SAFETY: SSE2 is part of the x86-64 baseline; both pointers address 4 f32s.
-        unsafe {
-            _mm_movemask_ps(_mm_cmple_ps(
-                _mm_loadu_ps(a.as_ptr()),
-                _mm_loadu_ps(b.as_ptr()),
-            )) as u32
-        }
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        (0..4).fold(0, |m, k| m | ((a[k] <= b[k]) as u32) << k)
     }
 }
 

@@ -92,6 +92,30 @@ fn block_of(v: f64) -> i64 {
     }
 }
 
+/// Hints the CPU to load the cache lines of `data` (no-op off x86-64). Never faults.
+#[inline(always)]
+fn prefetch_slice<T>(data: &[T]) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+        let bytes = std::mem::size_of_val(data);
+        let base = data.as_ptr().cast::<i8>();
+        let mut offset = 0;
+        while offset < bytes {
+            // SAFETY: prefetch is a hint and never faults; the address lies inside `data`.
+            unsafe { _mm_prefetch::<_MM_HINT_T0>(base.add(offset)) };
+            offset += 64;
+        }
+        if bytes > 0 {
+            // The last line too when `data` does not start on a line boundary.
+            // SAFETY: as above.
+            unsafe { _mm_prefetch::<_MM_HINT_T0>(base.add(bytes - 1)) };
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = data;
+}
+
 /// `[tmin, tmax]` widened for the f32 lane tests (t itself is rounded to f32 there).
 #[inline(always)]
 fn widened_f32(tmin: f64, tmax: f64) -> (f32, f32) {
@@ -100,48 +124,53 @@ fn widened_f32(tmin: f64, tmax: f64) -> (f32, f32) {
     (lo, hi)
 }
 
-/// Bit `i` set when the ray may pass through metacell slot `i` (0–14) of `cluster` within
-/// `[tmin, tmax]` (see [`CellRay::metacell_boxes`]). Empty slots are not excluded.
+/// Bit `i` set when the ray may pass through metacell slot `i` (0–14) of `cluster` within the
+/// widened `t` range (see [`CellRay::metacell_boxes4`]). Empty slots are not excluded.
 #[inline(always)]
-fn metacell_hits(r: &CellRay, cluster: &[Metacell], tmin: f64, tmax: f64) -> u32 {
-    let mut positions = [[0f32; 16]; 3];
-    for (i, m) in cluster[..BOUND_SLOT].iter().enumerate() {
-        for a in 0..3 {
-            positions[a][i] = m.position[a] as f32;
+fn metacell_hits(r: &CellRay, cluster: &[Metacell], t: (f32, f32)) -> u32 {
+    let mut mask = 0;
+    for chunk in 0..CLUSTER_SLOTS / 4 {
+        let mut p = [[0i32; 4]; 3];
+        for k in 0..4 {
+            // Slot 15 is the bound, not a metacell: its lane repeats slot 14 and is masked off.
+            let m = &cluster[min(chunk * 4 + k, BOUND_SLOT - 1)];
+            for (a, lane) in p.iter_mut().enumerate() {
+                lane[k] = m.position[a] as i32;
+            }
         }
+        let (hits, _) = r.metacell_boxes4(&p, &p, t);
+        mask |= hits << (chunk * 4);
     }
-    let mut entry = [0f32; 16];
-    let t = widened_f32(tmin, tmax);
-    r.metacell_boxes(&positions, &positions, BOUND_SLOT, t, &mut entry) as u32 & 0x7fff
+    mask & 0x7fff
 }
 
-/// Bit `c` set when the ray may pass through the bound of cluster `c` of a block within
-/// `[tmin, tmax]`, with each bound's (conservative) entry `t` in `entry`.
+/// Bit `c` set when the ray may pass through the bound of cluster `c` of a block within the
+/// widened `t` range, with each bound's (conservative) entry `t` in `entry`.
 #[inline(always)]
 fn cluster_hits(
     r: &CellRay,
     slots: &[Metacell],
-    tmin: f64,
-    tmax: f64,
+    t: (f32, f32),
     entry: &mut [f32; CLUSTER_LANES],
 ) -> u64 {
     let clusters = (slots.len() / CLUSTER_SLOTS).min(MAX_BLOCK_CLUSTERS);
-    let mut lo = [[0f32; CLUSTER_LANES]; 3];
-    let mut hi = [[0f32; CLUSTER_LANES]; 3];
-    for c in 0..clusters.next_multiple_of(4) {
-        for a in 0..3 {
-            if c < clusters {
-                let bound = slots[c * CLUSTER_SLOTS + BOUND_SLOT].as_bound();
-                lo[a][c] = bound.lo[a] as f32;
-                hi[a][c] = bound.hi[a] as f32;
-            } else {
-                // Padding lanes get an inverted box, which no ray enters.
-                lo[a][c] = 1.0;
-                hi[a][c] = -1.0;
+    let mut mask = 0;
+    for chunk in 0..clusters.div_ceil(4) {
+        let mut lo = [[1i32; 4]; 3];
+        // Lanes past the last cluster keep an inverted box (lo > hi), which no ray enters.
+        let mut hi = [[-1i32; 4]; 3];
+        for k in 0..min(4, clusters - chunk * 4) {
+            let bound = slots[(chunk * 4 + k) * CLUSTER_SLOTS + BOUND_SLOT].as_bound();
+            for a in 0..3 {
+                lo[a][k] = bound.lo[a] as i32;
+                hi[a][k] = bound.hi[a] as i32;
             }
         }
+        let (hits, near) = r.metacell_boxes4(&lo, &hi, t);
+        entry[chunk * 4..chunk * 4 + 4].copy_from_slice(&near);
+        mask |= (hits as u64) << (chunk * 4);
     }
-    r.metacell_boxes(&lo, &hi, clusters, widened_f32(tmin, tmax), entry)
+    mask
 }
 
 impl<'g> Tracer<'g> {
@@ -321,7 +350,7 @@ impl<'g> Tracer<'g> {
         let mut order = [(0.0f32, 0u16); MAX_BLOCK_CLUSTERS];
         let mut count = 0;
         let mut entry = [0f32; CLUSTER_LANES];
-        let mut hits = cluster_hits(r, slots, tmin, best.t, &mut entry);
+        let mut hits = cluster_hits(r, slots, widened_f32(tmin, best.t), &mut entry);
         while hits != 0 {
             let ci = hits.trailing_zeros() as usize;
             hits &= hits - 1;
@@ -334,13 +363,28 @@ impl<'g> Tracer<'g> {
             order[k] = (near, ci as u16);
             count += 1;
         }
+        // The records are the tracer's cache misses; ask for them all before waiting on any.
+        for &(_, ci) in &order[..count] {
+            let cluster = &slots[ci as usize * CLUSTER_SLOTS..][..CLUSTER_SLOTS];
+            prefetch_slice(cluster);
+        }
         for &(near, ci) in &order[..count] {
-            if near > widened_f32(tmin, best.t).1 {
+            let t = widened_f32(tmin, best.t);
+            if near > t.1 {
                 break;
             }
             let ci = ci as usize;
             let cluster = &slots[ci * CLUSTER_SLOTS..(ci + 1) * CLUSTER_SLOTS];
-            let mut candidates = metacell_hits(r, cluster, tmin, best.t);
+            let mut candidates = metacell_hits(r, cluster, t);
+            let mut pending = candidates;
+            while pending != 0 {
+                let m = &cluster[pending.trailing_zeros() as usize];
+                pending &= pending - 1;
+                let n = self.precision.bytes_per_cell();
+                let start = (m.cell_pointer as usize * n).min(self.cells.len());
+                let end = (start + m.active_cells() as usize * n).min(self.cells.len());
+                prefetch_slice(&self.cells[start..end]);
+            }
             while candidates != 0 {
                 let m = &cluster[candidates.trailing_zeros() as usize];
                 candidates &= candidates - 1;
@@ -383,12 +427,12 @@ impl<'g> Tracer<'g> {
     fn any_box_in_block(&self, r: &CellRay, block: &Block, tmin: f64, tmax: f64) -> bool {
         let slots = &self.metacells[block.slots()];
         let mut entry = [0f32; CLUSTER_LANES];
-        let mut hits = cluster_hits(r, slots, tmin, tmax, &mut entry);
+        let mut hits = cluster_hits(r, slots, widened_f32(tmin, tmax), &mut entry);
         while hits != 0 {
             let ci = hits.trailing_zeros() as usize;
             hits &= hits - 1;
             let cluster = &slots[ci * CLUSTER_SLOTS..(ci + 1) * CLUSTER_SLOTS];
-            let mut candidates = metacell_hits(r, cluster, tmin, tmax);
+            let mut candidates = metacell_hits(r, cluster, widened_f32(tmin, tmax));
             while candidates != 0 {
                 let m = &cluster[candidates.trailing_zeros() as usize];
                 candidates &= candidates - 1;
