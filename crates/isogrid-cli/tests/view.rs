@@ -1,12 +1,15 @@
 //! `isogrid view` end to end: a scripted run in a real window under Xvfb must show the same
 //! isosurface as the headless renderer for the same camera, and bad inputs must end in one-line
-//! errors. Window tests skip with a message (they do not fail) when `xvfb-run` is not installed
-//! or the machine has no GPU adapter at all (Mesa lavapipe counts as one).
+//! errors, and files dropped on the window (a real XDND drag from `xdnd_drop.py`) must open, or
+//! show why they cannot. Window tests skip with a message (they do not fail) when `xvfb-run` is
+//! not installed or the machine has no GPU adapter at all (Mesa lavapipe counts as one); the drop
+//! tests also when python3 with python-xlib is missing.
 
 use isogrid::generate::{generate, Field};
 use isogrid::shading::BACKGROUND_SRGB;
 use isogrid::{extract, Camera, ExtractOptions, Iso};
 use isogrid_gpu::{GpuErrorKind, Mode, Renderer, Scene};
+use std::ffi::OsStr;
 use std::io::Read;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
@@ -40,13 +43,60 @@ fn renderer() -> Option<Renderer> {
     }
 }
 
+/// The XDND source that drops files on the viewer, when python3 can run it.
+fn xdnd_helper() -> Option<PathBuf> {
+    let has_xlib = Command::new("python3")
+        .args(["-c", "import Xlib"])
+        .output()
+        .is_ok_and(|o| o.status.success());
+    if !has_xlib {
+        eprintln!(
+            "skipping drag-and-drop test: python3 with python-xlib is not installed \
+             (pip install python-xlib)"
+        );
+        return None;
+    }
+    Some(Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/xdnd_drop.py"))
+}
+
 /// Runs `isogrid ARGS` on a fresh Xvfb screen (24-bit: Vulkan surfaces need a true-colour
 /// visual, and xvfb-run's default screen is 8-bit), killing it after `limit`.
 fn isogrid_in_xvfb(xvfb: &Path, args: &[&str], limit: Duration) -> Output {
+    let mut command: Vec<&OsStr> = vec![OsStr::new(env!("CARGO_BIN_EXE_isogrid"))];
+    command.extend(args.iter().map(OsStr::new));
+    in_xvfb(xvfb, &command, limit)
+}
+
+/// Runs `isogrid ARGS` on a fresh Xvfb screen and drops `file` on its window once it shows.
+/// The exit status is the viewer's, or 100 + the helper's when the drop itself failed.
+fn isogrid_in_xvfb_with_drop(
+    xvfb: &Path,
+    helper: &Path,
+    file: &Path,
+    args: &[&str],
+    limit: Duration,
+) -> Output {
+    const SCRIPT: &str = r#"
+helper=$1; file=$2; shift 2
+"$@" & viewer=$!
+python3 "$helper" "$file"; dropped=$?
+if [ "$dropped" -ne 0 ]; then kill "$viewer"; wait "$viewer"; exit $((100 + dropped)); fi
+wait "$viewer"
+"#;
+    let mut command: Vec<&OsStr> = ["bash", "-c", SCRIPT, "bash"]
+        .into_iter()
+        .map(OsStr::new)
+        .collect();
+    command.extend([helper.as_os_str(), file.as_os_str()]);
+    command.push(OsStr::new(env!("CARGO_BIN_EXE_isogrid")));
+    command.extend(args.iter().map(OsStr::new));
+    in_xvfb(xvfb, &command, limit)
+}
+
+fn in_xvfb(xvfb: &Path, command: &[&OsStr], limit: Duration) -> Output {
     let mut child = Command::new(xvfb)
         .args(["-a", "-s", "-screen 0 1280x1024x24 -nolisten tcp"])
-        .arg(env!("CARGO_BIN_EXE_isogrid"))
-        .args(args)
+        .args(command)
         .env("NODEVICE_SELECT", "1")
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
@@ -63,7 +113,7 @@ fn isogrid_in_xvfb(xvfb: &Path, args: &[&str], limit: Duration) -> Output {
             if let Some(mut e) = child.stderr.take() {
                 let _ = e.read_to_string(&mut err);
             }
-            panic!("isogrid {args:?} did not finish within {limit:?}; stderr: {err}");
+            panic!("{command:?} did not finish within {limit:?}; stderr: {err}");
         }
         std::thread::sleep(Duration::from_millis(100));
     }
@@ -128,15 +178,29 @@ fn scripted_window_shows_the_headless_image() {
     let stdout = String::from_utf8_lossy(&out.stdout);
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "view failed: {stderr}\n{stdout}");
+    assert_window_shows(&renderer, &volume, &shot, &stdout, [w, h]);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// The rendered image region of screenshot `shot` (located from the viewer's `stdout`) shows what
+/// the headless renderer draws for `volume` at normalised isovalue 0.5, camera view 2, `[w, h]`
+/// pixels, CGC mode.
+fn assert_window_shows(
+    renderer: &Renderer,
+    volume: &isogrid::Volume,
+    shot: &Path,
+    stdout: &str,
+    [w, h]: [u32; 2],
+) {
     let [x, y, rw, rh] =
-        image_region(&stdout).unwrap_or_else(|| panic!("no image region in the output: {stdout}"));
+        image_region(stdout).unwrap_or_else(|| panic!("no image region in the output: {stdout}"));
     assert_eq!(
         [rw, rh],
         [w, h],
         "the image is shown at one texel per pixel"
     );
 
-    let (sw, sh, pixels) = read_png(&shot);
+    let (sw, sh, pixels) = read_png(shot);
     assert!(
         x + w <= sw && y + h <= sh,
         "{x},{y} {w}x{h} outside {sw}x{sh}"
@@ -186,7 +250,6 @@ fn scripted_window_shows_the_headless_image() {
         mean_diff < 4.0,
         "mean colour difference {mean_diff:.2} on shared hits"
     );
-    std::fs::remove_dir_all(&dir).unwrap();
 }
 
 /// Runs a scripted view that must fail: non-zero exit, the last stderr line names `mention`.
@@ -265,4 +328,122 @@ fn arguments_are_checked_before_any_window_opens() {
             "{args:?}: {stderr} should mention {mention}"
         );
     }
+}
+
+/// Pixels of the image region in pure error red (egui's `error_fg_color`, text of an error
+/// drawn where the image would be); the isosurface's shading never comes close to it.
+fn error_red_pixels(shot: &Path, stdout: &str) -> usize {
+    let [x, y, w, h] =
+        image_region(stdout).unwrap_or_else(|| panic!("no image region in the output: {stdout}"));
+    let (sw, sh, pixels) = read_png(shot);
+    assert!(x + w <= sw && y + h <= sh);
+    (y..y + h)
+        .flat_map(|py| (x..x + w).map(move |px| ((py * sw + px) * 3) as usize))
+        .filter(|&s| pixels[s] >= 200 && pixels[s + 1] <= 60 && pixels[s + 2] <= 60)
+        .count()
+}
+
+#[test]
+fn a_volume_dropped_on_the_window_replaces_the_open_one() {
+    let Some(xvfb) = xvfb_run() else { return };
+    let Some(helper) = xdnd_helper() else { return };
+    let Some(renderer) = renderer() else { return };
+    let dir = temp_dir("drop");
+    let first = dir.join("torus.nrrd");
+    isogrid_io::write_nrrd(&first, &generate(Field::Torus, 32, 1)).unwrap();
+    // A file name that needs percent-encoding in the URI list.
+    let dropped = dir.join("dropped sphere.nrrd");
+    let sphere = generate(Field::Sphere, 32, 1);
+    isogrid_io::write_nrrd(&dropped, &sphere).unwrap();
+    let shot = dir.join("window.png");
+    let (w, h) = (240u32, 180u32);
+    let out = isogrid_in_xvfb_with_drop(
+        &xvfb,
+        &helper,
+        &dropped,
+        &[
+            "view",
+            first.to_str().unwrap(),
+            "--size",
+            &format!("{w}x{h}"),
+            "--frames",
+            "2",
+            "--screenshot",
+            shot.to_str().unwrap(),
+            "--wait-for-drop",
+        ],
+        Duration::from_secs(240),
+    );
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "view failed: {stderr}\n{stdout}");
+    assert!(
+        stdout.contains(&format!("dropped {}", dropped.display())),
+        "the viewer did not get the dropped file: {stdout}"
+    );
+    assert_window_shows(&renderer, &sphere, &shot, &stdout, [w, h]);
+    // The control for the error test below: an image has no error text.
+    assert_eq!(error_red_pixels(&shot, &stdout), 0);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn a_corrupt_file_dropped_on_the_window_shows_its_error_without_ending_the_viewer() {
+    let Some(xvfb) = xvfb_run() else { return };
+    let Some(helper) = xdnd_helper() else { return };
+    if renderer().is_none() {
+        return;
+    }
+    let dir = temp_dir("drop-corrupt");
+    let first = dir.join("torus.nrrd");
+    let volume = generate(Field::Torus, 32, 1);
+    isogrid_io::write_nrrd(&first, &volume).unwrap();
+    // A .cgc file cut off in the middle of its cells.
+    let grid = extract(&volume.view(), &ExtractOptions::new(Iso::Normalized(0.5))).unwrap();
+    let whole = dir.join("whole.cgc");
+    isogrid::cgc::write(&whole, &grid).unwrap();
+    let bytes = std::fs::read(&whole).unwrap();
+    let corrupt = dir.join("cut.cgc");
+    std::fs::write(&corrupt, &bytes[..bytes.len() / 2]).unwrap();
+    let shot = dir.join("window.png");
+    let out = isogrid_in_xvfb_with_drop(
+        &xvfb,
+        &helper,
+        &corrupt,
+        &[
+            "view",
+            first.to_str().unwrap(),
+            "--size",
+            "240x180",
+            "--frames",
+            "1",
+            "--screenshot",
+            shot.to_str().unwrap(),
+            "--wait-for-drop",
+        ],
+        Duration::from_secs(240),
+    );
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        out.status.success(),
+        "a bad dropped file must not end the viewer: {stderr}\n{stdout}"
+    );
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    let errors: Vec<&str> = stderr.lines().filter(|l| l.contains("cut.cgc")).collect();
+    assert_eq!(errors.len(), 1, "one error line for the file: {stderr}");
+    assert!(
+        errors[0].starts_with(&format!("isogrid view: {}: ", corrupt.display())),
+        "{errors:?}"
+    );
+    assert!(
+        stdout.contains("showed why the dropped file cannot be opened"),
+        "{stdout}"
+    );
+    let red = error_red_pixels(&shot, &stdout);
+    assert!(
+        red >= 20,
+        "the error is not shown in the image area ({red} red pixels)"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -12,7 +12,8 @@
 //!   which the UI shows as a texture. The window's own wgpu device (eframe's) is a separate one.
 //!
 //! Scripted runs (`frames` with an optional `screenshot`) render a fixed number of full-quality
-//! frames, save a screenshot of the whole window and close; tests use them under Xvfb.
+//! frames, save a screenshot of the whole window and close; tests use them under Xvfb, and with
+//! `wait_for_drop` to test dropping files on the window.
 
 mod app;
 mod cost;
@@ -129,6 +130,10 @@ pub struct ViewerOptions {
     /// Scripted run: save a PNG of the window (or, where the window cannot be captured, of the
     /// rendered image) after the last frame.
     pub screenshot: Option<PathBuf>,
+    /// Scripted run, for tests of drag and drop: nothing counts until a file is dropped on the
+    /// window; then the dropped file's frames are rendered, or, when it cannot be opened, its
+    /// error is shown in the window (not a failure of the run) and captured.
+    pub wait_for_drop: bool,
 }
 
 impl Default for ViewerOptions {
@@ -143,6 +148,7 @@ impl Default for ViewerOptions {
             size: None,
             frames: None,
             screenshot: None,
+            wait_for_drop: false,
         }
     }
 }

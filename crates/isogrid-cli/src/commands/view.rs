@@ -40,6 +40,10 @@ pub struct Args {
     /// Scripted run: save a PNG of the window after the last frame (needs --frames).
     #[arg(long, value_name = "OUT.png", requires = "frames")]
     pub screenshot: Option<PathBuf>,
+    /// For tests of drag and drop: the scripted run waits for a file dropped on the window and
+    /// renders it, or captures the window showing why it cannot be opened (exit status 0).
+    #[arg(long, hide = true, requires = "frames")]
+    pub wait_for_drop: bool,
     #[command(flatten)]
     pub input_args: InputArgs,
 }
@@ -51,7 +55,7 @@ pub fn run(args: Args) -> Result<()> {
         (None, Some(t)) => bail!("--iso-normalized {t} is outside [0, 1]"),
         (None, None) => Iso::Normalized(0.5),
     };
-    if args.frames.is_some() && args.input.is_none() {
+    if args.frames.is_some() && args.input.is_none() && !args.wait_for_drop {
         bail!("--frames needs an INPUT to render");
     }
     let mode: ViewMode = args.mode.parse()?;
@@ -65,6 +69,7 @@ pub fn run(args: Args) -> Result<()> {
         size: args.size,
         frames: args.frames,
         screenshot: args.screenshot,
+        wait_for_drop: args.wait_for_drop,
     })?;
     Ok(())
 }

@@ -1,0 +1,100 @@
+//! Which view to render next and at what size: reduced while the camera moves, a preview and
+//! then the full size when it rests, refined sample by sample in path-tracing mode.
+
+use super::App;
+use crate::render_worker::{RenderMsg, RenderRequest};
+use crate::ViewMode;
+use isogrid::Camera;
+use std::time::Duration;
+
+/// Samples per pixel the viewer accumulates while the camera rests in path-tracing mode.
+const PATH_TRACE_SAMPLES: u32 = 256;
+/// Render time aimed at while the view moves.
+const INTERACTIVE_MS: f64 = 70.0;
+/// Render time aimed at for the first image after the view stops; the full size follows.
+const PREVIEW_MS: f64 = 500.0;
+/// The view counts as moving for this long after the last drag or wheel event.
+const SETTLE: Duration = Duration::from_millis(250);
+
+/// What a frame shows: a different key means the frame on screen is out of date.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) struct ViewKey {
+    pub(super) camera: Camera,
+    pub(super) mode: ViewMode,
+    /// Grid (or, in MC mode, mesh) uploads so far.
+    pub(super) scene: u64,
+}
+
+impl App {
+    /// Whether the extraction worker should also run Marching Cubes.
+    pub(super) fn wants_mesh(&self) -> bool {
+        self.compare_mc || self.mode == ViewMode::Mc
+    }
+
+    /// Sends the next render request when the frame on screen is out of date and none is
+    /// rendering; returns when to look again if the view is still settling.
+    pub(super) fn schedule_render(&mut self, full_size: [u32; 2]) -> Option<Duration> {
+        if !self.has_view || self.renderer_error.is_some() || self.in_flight.is_some() {
+            return None;
+        }
+        let settling = self
+            .last_interaction
+            .map(|t| t.elapsed())
+            .filter(|&e| e < SETTLE);
+        let scene = match self.mode {
+            ViewMode::Mc => self.mesh_version,
+            _ => self.grid_version,
+        };
+        let shown_width = self
+            .shown
+            .filter(|k| k.mode == self.mode && k.scene == scene)
+            .filter(|k| same_view(&k.camera, &self.orbit.camera(1, 1)))
+            .map(|k| k.camera.width);
+        // Moving: a size rendered within the interactive budget. Still: a preview within a
+        // larger budget, then the full size. Scripted runs go straight to the full size.
+        let size = if self.script.is_some() {
+            full_size
+        } else if settling.is_some() {
+            self.cost.size_for(full_size, INTERACTIVE_MS)
+        } else {
+            let preview = self.cost.size_for(full_size, PREVIEW_MS);
+            match (shown_width, self.shown) {
+                (Some(w), _) if w >= preview[0] && self.full_when_idle => full_size,
+                (Some(w), Some(k)) if w >= preview[0] => [w, k.camera.height],
+                _ => preview,
+            }
+        };
+        let key = ViewKey {
+            camera: self.orbit.camera(size[0], size[1]),
+            mode: self.mode,
+            scene,
+        };
+        let recheck = settling.map(|e| SETTLE - e);
+        // Path tracing refines while the camera rests: the same view is asked for again, each
+        // call adding a sample, until PATH_TRACE_SAMPLES.
+        let refining = key.mode == ViewMode::PathTrace && self.shown_samples < PATH_TRACE_SAMPLES;
+        if (self.shown == Some(key) && !refining)
+            || self.refused == Some(key)
+            || key.mode.gpu_mode().is_none()
+        {
+            return recheck;
+        }
+        self.refused = None;
+        self.next_request += 1;
+        let id = self.next_request;
+        let request = RenderRequest {
+            id,
+            camera: key.camera,
+            mode: key.mode,
+        };
+        if self.render.send(RenderMsg::Render(request)).is_ok() {
+            self.in_flight = Some((id, key));
+        }
+        recheck
+    }
+}
+
+/// Whether two cameras show the same view (image size aside).
+fn same_view(a: &Camera, b: &Camera) -> bool {
+    (a.eye, a.target, a.up, a.fovy_degrees) == (b.eye, b.target, b.up, b.fovy_degrees)
+}

@@ -1,0 +1,116 @@
+//! The image area: where the frame sits (one texel per pixel where possible), and what it shows
+//! instead before the first frame or when the input cannot be opened or drawn.
+
+use super::App;
+use eframe::egui;
+
+impl App {
+    /// The image area: mouse interaction and the frame texture.
+    pub(super) fn viewport(&mut self, ui: &mut egui::Ui, full_size: [u32; 2]) {
+        let area = ui.available_rect_before_wrap();
+        let response = ui.interact(
+            area,
+            ui.scope_id().with("view"),
+            egui::Sense::click_and_drag(),
+        );
+        let ppp = ui.ctx().pixels_per_point();
+        let rect = image_rect(area, full_size, self.options.size.is_some(), ppp);
+        self.image_rect_px = Some(egui::Rect::from_min_max(
+            (rect.min.to_vec2() * ppp).to_pos2(),
+            (rect.max.to_vec2() * ppp).to_pos2(),
+        ));
+
+        self.orbit_with_pointer(ui, &response, rect);
+
+        let painter = ui.painter_at(area);
+        painter.rect_filled(area, 0.0, background());
+        if let Some(texture) = &self.texture {
+            let uv = egui::Rect::from_min_max(egui::pos2(0.0, 0.0), egui::pos2(1.0, 1.0));
+            painter.image(texture.id(), rect, uv, egui::Color32::WHITE);
+        } else {
+            let error = self.renderer_error.as_ref().or(self.open_error.as_ref());
+            let text = if let Some(e) = error {
+                e.clone()
+            } else if self.source.is_none() && self.busy.is_none() {
+                "Drop a volume or .cgc file here, or type its path on the left".to_string()
+            } else if self.mode.gpu_mode().is_some() {
+                "waiting for the first frame…".to_string()
+            } else {
+                String::new()
+            };
+            let colour = match error {
+                Some(_) => ui.visuals().error_fg_color,
+                None => ui.visuals().text_color(),
+            };
+            // Wrapped, because an error names a path of any length.
+            let galley = painter.layout(
+                text,
+                egui::FontId::proportional(16.0),
+                colour,
+                (area.width() - 32.0).max(64.0),
+            );
+            let corner = area.center() - galley.size() * 0.5;
+            painter.galley(corner, galley, colour);
+        }
+    }
+
+    /// Render size in pixels: fixed, or the image area of the last frame.
+    pub(super) fn full_size(&self, ctx: &egui::Context) -> [u32; 2] {
+        if let Some(size) = self.options.size {
+            return size;
+        }
+        let ppp = ctx.pixels_per_point();
+        let area: Option<egui::Rect> =
+            ctx.data(|d| d.get_temp(egui::Id::unique("isogrid-view-area")));
+        match area {
+            Some(a) => [
+                ((a.width() * ppp).floor() as u32).clamp(1, 4096),
+                ((a.height() * ppp).floor() as u32).clamp(1, 4096),
+            ],
+            None => [640, 480],
+        }
+    }
+}
+
+/// The renderer's background, so that the image blends with the area around it.
+fn background() -> egui::Color32 {
+    let [r, g, b] = isogrid::shading::BACKGROUND_SRGB;
+    egui::Color32::from_rgb(r, g, b)
+}
+
+/// Where the image goes in `area` (points): at one texel per pixel for a fixed render size when
+/// it fits (scaled down to fit otherwise), centred, with its corner on the pixel grid.
+fn image_rect(area: egui::Rect, size: [u32; 2], fixed: bool, ppp: f32) -> egui::Rect {
+    if !fixed {
+        // The render size is the area's size floored to whole pixels: show it texel for pixel.
+        let min = (area.min.to_vec2() * ppp).round() / ppp;
+        let size = egui::vec2(size[0] as f32, size[1] as f32) / ppp;
+        return egui::Rect::from_min_size(min.to_pos2(), size);
+    }
+    let natural = egui::vec2(size[0] as f32, size[1] as f32) / ppp;
+    let scale = (area.width() / natural.x)
+        .min(area.height() / natural.y)
+        .min(1.0);
+    let shown = natural * scale;
+    let min = area.center() - shown * 0.5;
+    let min = (min.to_vec2() * ppp).round() / ppp;
+    egui::Rect::from_min_size(min.to_pos2(), shown)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fixed_images_sit_on_the_pixel_grid_at_one_texel_per_pixel() {
+        let area = egui::Rect::from_min_size(egui::pos2(300.5, 0.0), egui::vec2(700.0, 600.0));
+        let r = image_rect(area, [320, 240], true, 1.0);
+        assert_eq!(r.size(), egui::vec2(320.0, 240.0));
+        assert_eq!(r.min.x, r.min.x.round());
+        assert!(area.contains_rect(r));
+        // Too big: scaled down to fit, aspect kept.
+        let r = image_rect(area, [1400, 600], true, 1.0);
+        assert!((r.width() / r.height() - 1400.0 / 600.0).abs() < 1e-3);
+        assert!(r.width() <= 700.0 + 1e-3);
+    }
+}

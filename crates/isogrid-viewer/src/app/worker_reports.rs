@@ -1,0 +1,186 @@
+//! Applying the extraction and render workers' reports to the window's state: opened inputs,
+//! new grids and meshes, finished frames (shown as the texture) and errors.
+
+use super::script::ScriptState;
+use super::App;
+use crate::events::{Event, Failure, RenderedFrame, SourceInfo};
+use crate::panel::{FrameFacts, GridFacts, MeshFacts};
+use crate::ViewMode;
+use eframe::egui;
+use isogrid::Iso;
+
+impl App {
+    pub(super) fn handle_events(&mut self, ctx: &egui::Context, full_size: [u32; 2]) {
+        while let Ok(event) = self.events.try_recv() {
+            match event {
+                Event::RendererReady { adapter } => self.measurements.adapter = Some(adapter),
+                Event::Opened { generation, info } if generation == self.generation => {
+                    self.on_opened(info, full_size)
+                }
+                Event::Opened { .. } => {}
+                Event::Busy(what) => self.busy = what,
+                Event::GridShown {
+                    generation,
+                    iso,
+                    precision,
+                    stats,
+                    extract_seconds,
+                } if generation == self.generation => {
+                    self.measurements.grid = Some(GridFacts {
+                        iso,
+                        precision,
+                        stats,
+                        extract_seconds,
+                    });
+                    self.grid_version += 1;
+                }
+                Event::MeshShown {
+                    generation,
+                    iso,
+                    triangles,
+                    vertices,
+                    bytes,
+                    seconds,
+                } if generation == self.generation => {
+                    self.measurements.mesh = Some(MeshFacts {
+                        iso,
+                        triangles,
+                        vertices,
+                        bytes,
+                        seconds,
+                    });
+                    self.mesh_version += 1;
+                }
+                Event::GridShown { .. } | Event::MeshShown { .. } => {}
+                Event::Frame(frame) => self.on_frame(ctx, *frame, full_size),
+                Event::NotRendered { request } => {
+                    if let Some((id, key)) = self.in_flight {
+                        if id == request {
+                            self.in_flight = None;
+                            self.refused = Some(key);
+                        }
+                    }
+                }
+                Event::Error { failure, message } => {
+                    if failure == Failure::Renderer {
+                        self.renderer_error = Some(message.clone());
+                    }
+                    if failure == Failure::Open {
+                        self.on_open_failed(message.clone());
+                    }
+                    // Not fatal to a scripted run: without a mesh only the memory comparison is
+                    // missing (MC mode needs it), and a dropped file's error is what a drop test
+                    // expects to see.
+                    let shown_only = (failure == Failure::Mesh && self.mode != ViewMode::Mc)
+                        || (failure == Failure::Open && self.script_expects_open_error());
+                    if shown_only {
+                        self.note(message, true);
+                    } else {
+                        self.fail(message);
+                    }
+                }
+            }
+        }
+    }
+
+    fn on_opened(&mut self, info: SourceInfo, full_size: [u32; 2]) {
+        self.iso_value = match (&info.grid_info, info.value_range) {
+            (Some(grid), _) => grid.iso,
+            (None, Some((lo, hi))) => match self.options.iso {
+                Iso::Value(v) if self.generation == 1 => v,
+                // Later inputs keep the normalised position of the slider.
+                _ => {
+                    let t = match self.options.iso {
+                        Iso::Normalized(t) => t,
+                        Iso::Value(_) => 0.5,
+                    };
+                    lo + t * (hi - lo)
+                }
+            },
+            (None, None) => 0.0,
+        };
+        if !info.has_volume() && self.mode.needs_volume() {
+            self.fail_or_note(format!(
+                "mode {} needs the original volume; a .cgc file holds only the cells: showing cgc",
+                self.mode
+            ));
+            self.mode = ViewMode::Cgc;
+        }
+        self.note(format!("opened {}", info.path.display()), false);
+        self.source = Some(info);
+        self.texture = None;
+        self.shown = None;
+        self.shown_pixels = None;
+        self.set_view(self.options.view, full_size);
+        self.script_on_opened();
+    }
+
+    /// The image of the previous input goes: it would pass for the file that failed.
+    fn on_open_failed(&mut self, message: String) {
+        self.open_error = Some(message);
+        self.texture = None;
+        self.shown = None;
+        self.shown_pixels = None;
+    }
+
+    fn on_frame(&mut self, ctx: &egui::Context, rendered: RenderedFrame, full_size: [u32; 2]) {
+        let RenderedFrame {
+            request,
+            camera,
+            mode,
+            frame,
+            seconds,
+        } = rendered;
+        let Some((id, key)) = self.in_flight else {
+            return;
+        };
+        if id != request {
+            return;
+        }
+        self.in_flight = None;
+        if self.cost_of != Some((key.mode, key.scene)) {
+            self.cost.reset();
+            self.cost_of = Some((key.mode, key.scene));
+        }
+        self.cost
+            .record(frame.width as u64 * frame.height as u64, seconds * 1e3);
+        let full = [frame.width, frame.height] == full_size;
+        let image = egui::ColorImage::from_rgba_unmultiplied(
+            [frame.width as usize, frame.height as usize],
+            &frame.rgba8,
+        );
+        // One texel per pixel at full size; smooth magnification of reduced frames.
+        let filter = if full {
+            egui::TextureOptions::NEAREST
+        } else {
+            egui::TextureOptions::LINEAR
+        };
+        match &mut self.texture {
+            Some(t) => t.set(image, filter),
+            None => self.texture = Some(ctx.load_texture("isosurface", image, filter)),
+        }
+        self.measurements.frame = Some(FrameFacts {
+            width: frame.width,
+            height: frame.height,
+            timings: frame.timings,
+            drawn_cells: frame.drawn_cells,
+            probed_cells: frame.probed_cells,
+            seconds,
+        });
+        debug_assert_eq!((key.camera, key.mode), (camera, mode));
+        self.shown = Some(key);
+        self.shown_samples = frame.samples;
+        self.shown_pixels = Some((frame.width, frame.height, frame.rgba8));
+        if let Some(script) = &mut self.script {
+            if let ScriptState::Rendering { done } = &mut script.state {
+                if full {
+                    *done += 1;
+                    if *done < script.frames {
+                        // The same view again: the visibility buffer carries over (paper §3.3).
+                        self.shown = None;
+                    }
+                }
+            }
+        }
+    }
+}
