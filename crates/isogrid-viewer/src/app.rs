@@ -160,13 +160,6 @@ impl App {
             failure,
             options,
         };
-        if app.mode.gpu_mode().is_none() {
-            app.fail_or_note(format!(
-                "mode {} is not available in this build; showing cgc",
-                app.mode
-            ));
-            app.mode = ViewMode::Cgc;
-        }
         match app.options.input.clone() {
             Some(path) => {
                 let read_options = app.options.read_options.clone();

@@ -44,7 +44,7 @@ pub enum ViewMode {
     Mc,
     /// Cell rasterisation sampling the original volume (needs the volume, not a .cgc file).
     Cr,
-    /// GPU path tracing; a placeholder until the renderer has the mode, never selectable now.
+    /// Hybrid GPU path tracing, refined while the camera rests.
     PathTrace,
 }
 
@@ -70,15 +70,15 @@ impl ViewMode {
     }
 
     /// The renderer's mode, `None` where the renderer does not have it yet.
-    pub fn gpu_mode(self) -> Option<isogrid_gpu::Mode> {
+    pub fn gpu_mode(self) -> isogrid_gpu::Mode {
         match self {
-            ViewMode::Cgc => Some(isogrid_gpu::Mode::Cgc),
-            ViewMode::CgcNoEwa => Some(isogrid_gpu::Mode::CgcNoEwa),
-            ViewMode::Mc => Some(isogrid_gpu::Mode::Mc),
-            ViewMode::Cr => Some(isogrid_gpu::Mode::Cr),
+            ViewMode::Cgc => isogrid_gpu::Mode::Cgc,
+            ViewMode::CgcNoEwa => isogrid_gpu::Mode::CgcNoEwa,
+            ViewMode::Mc => isogrid_gpu::Mode::Mc,
+            ViewMode::Cr => isogrid_gpu::Mode::Cr,
             // Hybrid path tracing: one sample per render call, accumulated by the renderer while
             // the camera rests (the app keeps asking until PATH_TRACE_SAMPLES).
-            ViewMode::PathTrace => Some(isogrid_gpu::Mode::PathTrace),
+            ViewMode::PathTrace => isogrid_gpu::Mode::PathTrace,
         }
     }
 

@@ -177,12 +177,7 @@ fn apply(renderer: &Renderer, scene: &mut Uploaded, msg: RenderMsg, notify: &Not
 }
 
 fn render(renderer: &Renderer, scene: &mut Uploaded, request: RenderRequest, notify: &Notifier) {
-    let Some(mode) = request.mode.gpu_mode() else {
-        notify.send(Event::NotRendered {
-            request: request.id,
-        });
-        return;
-    };
+    let mode = request.mode.gpu_mode();
     // CR samples the original volume: upload it the first time CR is drawn for this input.
     if request.mode == ViewMode::Cr && scene.gpu_volume.is_none() {
         if let (Some(volume), Some(grid)) = (&scene.volume, &scene.grid) {
@@ -201,7 +196,6 @@ fn render(renderer: &Renderer, scene: &mut Uploaded, request: RenderRequest, not
     let target = match (request.mode, &scene.grid, &scene.gpu_volume, &scene.mesh) {
         (ViewMode::Mc, _, _, Some(mesh)) => Scene::Mesh(mesh),
         (ViewMode::Cr, Some(grid), Some(volume), _) => Scene::Volume { grid, volume },
-        // Path tracing will draw the same grid once the renderer has it (gpu_mode() is None now).
         (ViewMode::Cgc | ViewMode::CgcNoEwa | ViewMode::PathTrace, Some(grid), _, _) => {
             Scene::Grid(grid)
         }

@@ -49,9 +49,7 @@ impl App {
         let has_volume = self.source.as_ref().is_none_or(|s| s.has_volume());
         ui.horizontal_wrapped(|ui| {
             for mode in ViewMode::ALL {
-                let reason = if mode.gpu_mode().is_none() {
-                    Some("path tracing is not in the GPU renderer yet (it is being added)")
-                } else if mode.needs_volume() && !has_volume {
+                let reason = if mode.needs_volume() && !has_volume {
                     Some("needs the original volume; a .cgc file holds only the cells")
                 } else {
                     None

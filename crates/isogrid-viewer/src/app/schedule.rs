@@ -73,10 +73,7 @@ impl App {
         // Path tracing refines while the camera rests: the same view is asked for again, each
         // call adding a sample, until PATH_TRACE_SAMPLES.
         let refining = key.mode == ViewMode::PathTrace && self.shown_samples < PATH_TRACE_SAMPLES;
-        if (self.shown == Some(key) && !refining)
-            || self.refused == Some(key)
-            || key.mode.gpu_mode().is_none()
-        {
+        if (self.shown == Some(key) && !refining) || self.refused == Some(key) {
             return recheck;
         }
         self.refused = None;

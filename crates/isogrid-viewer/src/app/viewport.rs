@@ -33,10 +33,8 @@ impl App {
                 e.clone()
             } else if self.source.is_none() && self.busy.is_none() {
                 "Drop a volume or .cgc file here, or type its path on the left".to_string()
-            } else if self.mode.gpu_mode().is_some() {
-                "waiting for the first frame…".to_string()
             } else {
-                String::new()
+                "waiting for the first frame…".to_string()
             };
             let colour = match error {
                 Some(_) => ui.visuals().error_fg_color,
