@@ -84,8 +84,8 @@ impl CellRay {
     #[inline(always)]
     pub fn metacell_boxes4(
         &self,
-        lo: &[[i32; 4]; 3],
-        hi: &[[i32; 4]; 3],
+        lo: &[[f32; 4]; 3],
+        hi: &[[f32; 4]; 3],
         (lo_t, hi_t): (f32, f32),
     ) -> (u32, [f32; 4]) {
         #[cfg(target_arch = "x86_64")]
@@ -99,8 +99,8 @@ impl CellRay {
                     // The face met first belongs to the box's lower metacell unless the ray runs
                     // towards −axis (then `metacell_near` holds the upper face's offset).
                     let (first, last) = if self.negative(a) { (hi, lo) } else { (lo, hi) };
-                    let first = _mm_cvtepi32_ps(_mm_loadu_si128(first[a].as_ptr().cast()));
-                    let last = _mm_cvtepi32_ps(_mm_loadu_si128(last[a].as_ptr().cast()));
+                    let first = _mm_loadu_ps(first[a].as_ptr());
+                    let last = _mm_loadu_ps(last[a].as_ptr());
                     let scale = _mm_set1_ps(self.metacell_scale[a]);
                     let n = _mm_set1_ps(self.metacell_near[a]);
                     let f = _mm_set1_ps(self.metacell_far[a]);
@@ -122,8 +122,8 @@ impl CellRay {
                 let (first, last) = if self.negative(a) { (hi, lo) } else { (lo, hi) };
                 for k in 0..4 {
                     let scale = self.metacell_scale[a];
-                    near[k] = max(near[k], first[a][k] as f32 * scale + self.metacell_near[a]);
-                    far[k] = min(far[k], last[a][k] as f32 * scale + self.metacell_far[a]);
+                    near[k] = max(near[k], first[a][k] * scale + self.metacell_near[a]);
+                    far[k] = min(far[k], last[a][k] * scale + self.metacell_far[a]);
                 }
             }
             let mask = (0..4).fold(0, |m, k| m | ((near[k] <= far[k]) as u32) << k);

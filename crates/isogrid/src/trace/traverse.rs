@@ -128,20 +128,51 @@ fn widened_f32(tmin: f64, tmax: f64) -> (f32, f32) {
 /// widened `t` range (see [`CellRay::metacell_boxes4`]). Empty slots are not excluded.
 #[inline(always)]
 fn metacell_hits(r: &CellRay, cluster: &[Metacell], t: (f32, f32)) -> u32 {
+    let cluster: &[Metacell; CLUSTER_SLOTS] = cluster.try_into().expect("a whole cluster");
     let mut mask = 0;
     for chunk in 0..CLUSTER_SLOTS / 4 {
-        let mut p = [[0i32; 4]; 3];
-        for k in 0..4 {
-            // Slot 15 is the bound, not a metacell: its lane repeats slot 14 and is masked off.
-            let m = &cluster[min(chunk * 4 + k, BOUND_SLOT - 1)];
-            for (a, lane) in p.iter_mut().enumerate() {
-                lane[k] = m.position[a] as i32;
-            }
-        }
+        let p = metacell_positions4(cluster, chunk * 4);
         let (hits, _) = r.metacell_boxes4(&p, &p, t);
         mask |= hits << (chunk * 4);
     }
     mask & 0x7fff
+}
+
+/// Positions of metacell slots `first..first + 4` as f32 lanes per axis. Slot 15 is the
+/// cluster's bound, not a metacell: its lane holds the bound's fields and must be masked off.
+#[inline(always)]
+fn metacell_positions4(cluster: &[Metacell; CLUSTER_SLOTS], first: usize) -> [[f32; 4]; 3] {
+    let slots = &cluster[first..first + 4];
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::*;
+        // SAFETY: SSE2 is part of the x86-64 baseline. Each 8-byte load reads the first 8 of a
+        // 12-byte record of `slots` (position x, y, z and the cell mask), inside the slice.
+        unsafe {
+            let record = |k: usize| _mm_loadl_epi64(slots.as_ptr().add(k).cast());
+            // Transpose four (x, y, z, mask) u16 quadruples into one u16 lane group per field,
+            // then widen to i32 and convert: 14 instructions instead of twelve scalar loads,
+            // conversions and stores.
+            let xy01_z01 = _mm_unpacklo_epi16(record(0), record(1));
+            let xy23_z23 = _mm_unpacklo_epi16(record(2), record(3));
+            let xy = _mm_unpacklo_epi32(xy01_z01, xy23_z23);
+            let zm = _mm_unpackhi_epi32(xy01_z01, xy23_z23);
+            let zero = _mm_setzero_si128();
+            let mut lanes = [[0f32; 4]; 3];
+            for (lane, v) in lanes.iter_mut().zip([
+                _mm_unpacklo_epi16(xy, zero),
+                _mm_unpackhi_epi16(xy, zero),
+                _mm_unpacklo_epi16(zm, zero),
+            ]) {
+                _mm_storeu_ps(lane.as_mut_ptr(), _mm_cvtepi32_ps(v));
+            }
+            lanes
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        xyz(|a| std::array::from_fn(|k| slots[k].position[a] as f32))
+    }
 }
 
 /// Bit `c` set when the ray may pass through the bound of cluster `c` of a block within the
@@ -156,14 +187,14 @@ fn cluster_hits(
     let clusters = (slots.len() / CLUSTER_SLOTS).min(MAX_BLOCK_CLUSTERS);
     let mut mask = 0;
     for chunk in 0..clusters.div_ceil(4) {
-        let mut lo = [[1i32; 4]; 3];
+        let mut lo = [[1f32; 4]; 3];
         // Lanes past the last cluster keep an inverted box (lo > hi), which no ray enters.
-        let mut hi = [[-1i32; 4]; 3];
+        let mut hi = [[-1f32; 4]; 3];
         for k in 0..min(4, clusters - chunk * 4) {
             let bound = slots[(chunk * 4 + k) * CLUSTER_SLOTS + BOUND_SLOT].as_bound();
             for a in 0..3 {
-                lo[a][k] = bound.lo[a] as i32;
-                hi[a][k] = bound.hi[a] as i32;
+                lo[a][k] = bound.lo[a] as f32;
+                hi[a][k] = bound.hi[a] as f32;
             }
         }
         let (hits, near) = r.metacell_boxes4(&lo, &hi, t);
