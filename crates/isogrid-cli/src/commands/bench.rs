@@ -66,7 +66,7 @@ struct RaysReport {
     hits: u64,
     seconds: f64,
     rays_per_second: f64,
-    /// Grid memory: blocks + metacell slots + corner records.
+    /// Memory the tracer reads: blocks + metacell slots + corner records + its empty-space map.
     bytes: u64,
     active_cells: u64,
     /// World box the random rays start in: [lo, hi].
@@ -156,7 +156,7 @@ fn rays(args: RaysArgs) -> Result<()> {
         hits: hits.iter().filter(|h| h.is_some()).count() as u64,
         seconds,
         rays_per_second: rays.len() as f64 / seconds.max(1e-9),
-        bytes: stats.bytes.blocks + stats.bytes.paper_total,
+        bytes: stats.bytes.blocks + stats.bytes.paper_total + tracer.extra_bytes() as u64,
         active_cells: stats.active_cells,
         world_bounds: {
             let (lo, hi) = grid.info().world_bounds();
@@ -172,7 +172,7 @@ fn rays(args: RaysArgs) -> Result<()> {
         );
         println!("rays/second   {:.0}", report.rays_per_second);
         println!(
-            "memory        {:.2} MB (blocks + metacells + cells)",
+            "memory        {:.2} MB (blocks + metacells + cells + empty-space map)",
             report.bytes as f64 / 1e6
         );
         Ok(())
