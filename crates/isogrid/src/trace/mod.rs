@@ -19,6 +19,7 @@
 //! ```
 
 mod cell_ray;
+pub mod cluster_bounds;
 pub mod crossing;
 pub mod empty_space;
 pub mod env;

@@ -13,12 +13,13 @@
 //! hit lies before the exit of the current block — all later blocks start after it.
 
 use super::cell_ray::{max, min, xyz, CellRay};
+use super::cluster_bounds::{unpack4, PackedClusterBounds};
 use super::crossing::{Crossing, Trilinear};
 use super::empty_space::EmptySpaceMap;
 use crate::camera::Ray;
 use crate::grid::CellGrid;
 use crate::layout::{
-    read_corners, Block, Metacell, Precision, BLOCK_CELLS, BOUND_SLOT, CLUSTER_SLOTS,
+    read_corners, Block, Metacell, Precision, BLOCK_CELLS, BLOCK_METACELLS, CLUSTER_SLOTS,
 };
 
 /// The closest intersection of a ray with the isosurface.
@@ -65,6 +66,7 @@ pub struct Tracer<'g> {
     crossing: Crossing,
     margin: f64,
     empty_space: EmptySpaceMap,
+    cluster_bounds: PackedClusterBounds,
 }
 
 /// Clusters a block can hold: 16³ cells = 512 metacells in clusters of 15.
@@ -175,28 +177,21 @@ fn metacell_positions4(cluster: &[Metacell; CLUSTER_SLOTS], first: usize) -> [[f
     }
 }
 
-/// Bit `c` set when the ray may pass through the bound of cluster `c` of a block within the
-/// widened `t` range, with each bound's (conservative) entry `t` in `entry`.
+/// Bit `c` set when the ray may pass through the bound of cluster `c` of a block (`packed`, the
+/// block's first metacell at `origin`) within the widened `t` range, with each bound's
+/// (conservative) entry `t` in `entry`.
 #[inline(always)]
 fn cluster_hits(
     r: &CellRay,
-    slots: &[Metacell],
+    packed: &[u32],
+    origin: [f32; 3],
     t: (f32, f32),
     entry: &mut [f32; CLUSTER_LANES],
 ) -> u64 {
-    let clusters = (slots.len() / CLUSTER_SLOTS).min(MAX_BLOCK_CLUSTERS);
+    let clusters = packed.len().min(MAX_BLOCK_CLUSTERS);
     let mut mask = 0;
     for chunk in 0..clusters.div_ceil(4) {
-        let mut lo = [[1f32; 4]; 3];
-        // Lanes past the last cluster keep an inverted box (lo > hi), which no ray enters.
-        let mut hi = [[-1f32; 4]; 3];
-        for k in 0..min(4, clusters - chunk * 4) {
-            let bound = slots[(chunk * 4 + k) * CLUSTER_SLOTS + BOUND_SLOT].as_bound();
-            for a in 0..3 {
-                lo[a][k] = bound.lo[a] as f32;
-                hi[a][k] = bound.hi[a] as f32;
-            }
-        }
+        let (lo, hi) = unpack4(packed, chunk * 4, origin);
         let (hits, near) = r.metacell_boxes4(&lo, &hi, t);
         entry[chunk * 4..chunk * 4 + 4].copy_from_slice(&near);
         mask |= (hits as u64) << (chunk * 4);
@@ -220,6 +215,11 @@ impl<'g> Tracer<'g> {
             crossing,
             margin: metacell_margin(info.cell_dims().map(|c| c as f64)),
             empty_space: EmptySpaceMap::new(grid.blocks(), bd.map(|b| b as usize)),
+            cluster_bounds: PackedClusterBounds::new(
+                grid.blocks(),
+                grid.metacells(),
+                bd.map(|b| b as usize),
+            ),
         }
     }
 
@@ -227,9 +227,10 @@ impl<'g> Tracer<'g> {
         self.crossing
     }
 
-    /// Bytes the tracer adds to the grid's own buffers (its [`EmptySpaceMap`]).
+    /// Bytes the tracer adds to the grid's own buffers (its [`EmptySpaceMap`] and
+    /// [`PackedClusterBounds`]).
     pub fn extra_bytes(&self) -> usize {
-        self.empty_space.bytes()
+        self.empty_space.bytes() + self.cluster_bounds.bytes()
     }
 
     fn cell_ray(&self, ray: &Ray) -> CellRay {
@@ -243,8 +244,8 @@ impl<'g> Tracer<'g> {
             t: tmax,
             found: None,
         };
-        self.walk_blocks(&r, tmin, tmax, |block| {
-            self.closest_in_block(&r, block, tmin, &mut best);
+        self.walk_blocks(&r, tmin, tmax, |block, origin| {
+            self.closest_in_block(&r, block, origin, tmin, &mut best);
             best.t
         });
         let (t, cell, position, cluster, tri, u) = best.found?;
@@ -272,8 +273,8 @@ impl<'g> Tracer<'g> {
         }
         let r = self.cell_ray(ray);
         let mut hit = false;
-        self.walk_blocks(&r, tmin, tmax, |block| {
-            if self.any_box_in_block(&r, block, tmin, tmax) {
+        self.walk_blocks(&r, tmin, tmax, |block, origin| {
+            if self.any_box_in_block(&r, block, origin, tmin, tmax) {
                 hit = true;
                 f64::NEG_INFINITY
             } else {
@@ -284,10 +285,16 @@ impl<'g> Tracer<'g> {
     }
 
     /// Amanatides–Woo over blocks in `[tmin, tmax]`, leaping across empty space with the
-    /// [`EmptySpaceMap`]. `visit(block)` handles a non-empty block and returns the best hit `t` so
+    /// [`EmptySpaceMap`]. `visit(block, its first metacell)` handles a non-empty block and returns the best hit `t` so
     /// far; traversal stops once it is no later than the block's exit.
     #[inline(always)]
-    fn walk_blocks(&self, r: &CellRay, tmin: f64, tmax: f64, mut visit: impl FnMut(&Block) -> f64) {
+    fn walk_blocks(
+        &self,
+        r: &CellRay,
+        tmin: f64,
+        tmax: f64,
+        mut visit: impl FnMut(&Block, [f32; 3]) -> f64,
+    ) {
         let (near, far) = r.slab([0.0; 3], self.cell_dims);
         let t_enter = max(near, tmin);
         let t_exit = min(far, tmax);
@@ -349,7 +356,8 @@ impl<'g> Tracer<'g> {
             }
             let exit = min(min(t_next[0], t_next[1]), t_next[2]);
             if distance == 0 {
-                let best = visit(&self.blocks[index]);
+                let origin = xyz(|a| (block[a] * BLOCK_METACELLS as i64) as f32);
+                let best = visit(&self.blocks[index], origin);
                 if best <= exit {
                     return;
                 }
@@ -372,7 +380,14 @@ impl<'g> Tracer<'g> {
         }
     }
 
-    fn closest_in_block(&self, r: &CellRay, block: &Block, tmin: f64, best: &mut Best) {
+    fn closest_in_block(
+        &self,
+        r: &CellRay,
+        block: &Block,
+        origin: [f32; 3],
+        tmin: f64,
+        best: &mut Best,
+    ) {
         let slots = &self.metacells[block.slots()];
         let first_cluster = block.metacell_pointer as usize / CLUSTER_SLOTS;
         // Clusters whose bound the ray enters, nearest first, so that the search can stop at the
@@ -381,7 +396,8 @@ impl<'g> Tracer<'g> {
         let mut order = [(0.0f32, 0u16); MAX_BLOCK_CLUSTERS];
         let mut count = 0;
         let mut entry = [0f32; CLUSTER_LANES];
-        let mut hits = cluster_hits(r, slots, widened_f32(tmin, best.t), &mut entry);
+        let packed = self.cluster_bounds.of_block(block);
+        let mut hits = cluster_hits(r, packed, origin, widened_f32(tmin, best.t), &mut entry);
         while hits != 0 {
             let ci = hits.trailing_zeros() as usize;
             hits &= hits - 1;
@@ -455,10 +471,18 @@ impl<'g> Tracer<'g> {
         }
     }
 
-    fn any_box_in_block(&self, r: &CellRay, block: &Block, tmin: f64, tmax: f64) -> bool {
+    fn any_box_in_block(
+        &self,
+        r: &CellRay,
+        block: &Block,
+        origin: [f32; 3],
+        tmin: f64,
+        tmax: f64,
+    ) -> bool {
         let slots = &self.metacells[block.slots()];
         let mut entry = [0f32; CLUSTER_LANES];
-        let mut hits = cluster_hits(r, slots, widened_f32(tmin, tmax), &mut entry);
+        let packed = self.cluster_bounds.of_block(block);
+        let mut hits = cluster_hits(r, packed, origin, widened_f32(tmin, tmax), &mut entry);
         while hits != 0 {
             let ci = hits.trailing_zeros() as usize;
             hits &= hits - 1;
