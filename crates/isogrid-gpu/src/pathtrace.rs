@@ -31,7 +31,13 @@
 //!
 //! One-page grids (the common case) keep their own pipelines compiled over `cell_data.wgsl`,
 //! where the page lookup is the constant 0 and every read is a plain array access, exactly the
-//! code before paging; the several-pages pipelines are compiled on first use.
+//! code before paging; the several-pages pipelines are compiled on first use. Measured on
+//! lavapipe (100k random rays in a 96³ gyroid, old and new renderer interleaved in one process):
+//! one page traces as fast as before paging (1.96 s vs 1.95 s best of 12); the same grid in six
+//! pages gives bit-identical hits but takes about 5× as long, because a CPU SIMD driver runs
+//! every case of the per-read `switch` under a lane mask. On a GPU only the lanes of a warp that
+//! read different pages diverge. Binding arrays (`metacells[page][i]`, a native-only wgpu
+//! feature) would remove the switch where available; not done.
 
 use crate::error::GpuError;
 use crate::gpu_types::{FrameUniforms, TracePages, TraceUniforms, SOURCE_RECORDS, TRACE_PAGES};
