@@ -1,9 +1,10 @@
-// Access to the clustered grid cells of one page (paper §3.1, Table 1), byte for byte the core's
-// packed layout (`isogrid::layout`): metacell slot = 3 words (x | y << 16, z | mask << 16,
-// cell_pointer), corner records at the grid's precision. Prepended after common.wgsl to the
-// shaders that read cells (expand, cells, probe, ewa).
+// The cells of one page per bind group: the storage behind cell_decode.wgsl for the raster
+// passes (expand, cells, probe, ewa), which draw page by page, and for the path tracer when the
+// whole grid is one page. trace_pages.wgsl is the several-pages twin of the `trace_page_*`
+// functions and of `slot_word` / `record_word`; keep their signatures in sync.
+//
+// Prepended after common.wgsl and cell_decode.wgsl.
 
-@group(0) @binding(0) var<uniform> frame: FrameUniforms;
 // The original samples (data units) for the CR baseline; a 1×1×1 dummy otherwise.
 @group(0) @binding(2) var volume: texture_3d<f32>;
 
@@ -11,61 +12,41 @@
 @group(1) @binding(1) var<storage, read> metacells: array<u32>;
 @group(1) @binding(2) var<storage, read> cells: array<u32>;
 
-struct Metacell {
-    origin: vec3<u32>, // cell index of its cell 0 (cell units)
-    mask: u32,         // active cells, bit b = cell (b&1, b>>1&1, b>>2&1)
-    cell_pointer: u32, // global index of the record of its first active cell
+// Word i of the bound page's metacell slots / corner records; there is only page 0.
+fn slot_word(page_index: u32, i: u32) -> u32 {
+    return metacells[i];
+}
+
+fn record_word(page_index: u32, i: u32) -> u32 {
+    return cells[i];
+}
+
+// The tracer's view of the pages (see trace_pages.wgsl): one page, holding every cluster.
+fn trace_page_of_slot(global_slot: u32) -> u32 {
+    return 0u;
+}
+
+fn trace_page_first_slot(page_index: u32) -> u32 {
+    return page.first_slot;
+}
+
+fn trace_page_first_cell(page_index: u32) -> u32 {
+    return page.first_cell;
 }
 
 fn read_metacell(local_slot: u32) -> Metacell {
-    let w0 = metacells[3u * local_slot];
-    let w1 = metacells[3u * local_slot + 1u];
-    let w2 = metacells[3u * local_slot + 2u];
-    let position = vec3<u32>(w0 & 0xffffu, w0 >> 16u, w1 & 0xffffu);
-    return Metacell(2u * position, (w1 >> 16u) & 0xffu, w2);
-}
-
-fn cell_offset(bit: u32) -> vec3<u32> {
-    return vec3<u32>(bit & 1u, (bit >> 1u) & 1u, (bit >> 2u) & 1u);
-}
-
-// Corner c of a packed record, exactly `isogrid::layout::read_corner`.
-fn record_corner(local_record: u32, c: u32) -> f32 {
-    switch frame.params.x {
-        case 4u: {
-            return f32((cells[local_record] >> (4u * c)) & 0xfu);
-        }
-        case 8u: {
-            return f32((cells[2u * local_record + c / 4u] >> (8u * (c % 4u))) & 0xffu);
-        }
-        case 16u: {
-            return f32((cells[4u * local_record + c / 2u] >> (16u * (c % 2u))) & 0xffffu);
-        }
-        default: {
-            return bitcast<f32>(cells[8u * local_record + c]);
-        }
-    }
-}
-
-// The 8 corner values of a cell as two vec4 (corners 0-3, 4-7), in the units of `frame.cell_to_world.w`.
-struct Corners {
-    lo: vec4<f32>,
-    hi: vec4<f32>,
+    return metacell_in(0u, local_slot);
 }
 
 fn cell_corners(cell: vec3<u32>, global_record: u32) -> Corners {
-    var v: array<f32, 8>;
     if frame.params.y == SOURCE_VOLUME {
+        var v: array<f32, 8>;
         for (var c = 0u; c < 8u; c++) {
             v[c] = textureLoad(volume, vec3<i32>(cell + cell_offset(c)), 0).r;
         }
-    } else {
-        let local = global_record - page.first_cell;
-        for (var c = 0u; c < 8u; c++) {
-            v[c] = record_corner(local, c);
-        }
+        return Corners(vec4<f32>(v[0], v[1], v[2], v[3]), vec4<f32>(v[4], v[5], v[6], v[7]));
     }
-    return Corners(vec4<f32>(v[0], v[1], v[2], v[3]), vec4<f32>(v[4], v[5], v[6], v[7]));
+    return record_corners_in(0u, global_record - page.first_cell);
 }
 
 // One drawn cell: an instance is `local_slot * 8 + bit`.

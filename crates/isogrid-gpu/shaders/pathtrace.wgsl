@@ -6,7 +6,7 @@
 // is written as sRGB 8-bit. Keep `sky` and `environment` in sync with
 // `src/pathtrace.rs` (`sky_radiance`, `EnvMap`); `to_srgb8` is shared, in common.wgsl.
 //
-// Prepended: common.wgsl, cell_data.wgsl, trace.wgsl.
+// Prepended: common.wgsl, cell_decode.wgsl, cell_data.wgsl or trace_pages.wgsl, trace.wgsl.
 
 // Final world normal (xyz; zero on a miss) and eye distance (w) from the shading pass.
 @group(2) @binding(0) var gbuffer: texture_2d<f32>;

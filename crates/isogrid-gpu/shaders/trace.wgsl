@@ -6,7 +6,13 @@
 // refined like the cell raster (`cells.wgsl`). The first block with a hit holds the nearest one:
 // its cells lie inside its box, and later blocks start where it ends.
 //
-// Prepended: common.wgsl, cell_data.wgsl (for `frame`, `page`, `read_metacell`, `record_corner`).
+// Grids split into pages (a contiguous run of whole clusters each) are traced with all pages
+// bound at once: a block's clusters may straddle a page boundary, so the page is looked up per
+// cluster (`trace_page_of_slot`), and slots and records are read page-locally through
+// cell_decode.wgsl.
+//
+// Prepended: common.wgsl, cell_decode.wgsl, then cell_data.wgsl (one page) or trace_pages.wgsl
+// (several), which provide `trace_page_of_slot`, `trace_page_first_slot` and `trace_page_first_cell`.
 // Rays are in world space (unit direction, t = world distance); traversal runs in cell space
 // (world / spacing), where the same t applies to the scaled direction.
 
@@ -40,14 +46,6 @@ fn box_span(o: vec3<f32>, inv: vec3<f32>, lo: vec3<f32>, hi: vec3<f32>) -> vec2<
     return vec2<f32>(max(max(a.x, a.y), a.z), min(min(b.x, b.y), b.z));
 }
 
-fn record_corners(local_record: u32) -> Corners {
-    var v: array<f32, 8>;
-    for (var c = 0u; c < 8u; c++) {
-        v[c] = record_corner(local_record, c);
-    }
-    return Corners(vec4<f32>(v[0], v[1], v[2], v[3]), vec4<f32>(v[4], v[5], v[6], v[7]));
-}
-
 // First crossing of the isovalue on [ta, tb] inside one cell (o is cell-local), or NO_HIT: the
 // side at ta against three samples, bisection of the first change and a secant step, as fs_cell.
 fn cell_crossing(k: Corners, o: vec3<f32>, d: vec3<f32>, t_enter: f32, t_exit: f32) -> f32 {
@@ -70,10 +68,11 @@ fn cell_crossing(k: Corners, o: vec3<f32>, d: vec3<f32>, t_enter: f32, t_exit: f
     return refine_crossing(k.lo, k.hi, o, d, ta, tb, iso, inside_at_entry);
 }
 
-// Nearest crossing so far: t, and the cell and page-local record it lies in.
+// Nearest crossing so far: t, and the cell, page and page-local record it lies in.
 struct Nearest {
     t: f32,
     cell: vec3<u32>,
+    page: u32,
     record: u32,
 }
 
@@ -81,19 +80,15 @@ struct Nearest {
 fn trace_block(first: u32, count: u32, o: vec3<f32>, d: vec3<f32>, inv: vec3<f32>, t_lo: f32, t_hi: f32, best_in: Nearest) -> Nearest {
     var best = best_in;
     for (var c = 0u; c < count; c += 16u) {
-        let cluster = first + c - page.first_slot;
-        let b = 3u * (cluster + 15u);
-        let w0 = metacells[b];
-        let w1 = metacells[b + 1u];
-        let w2 = metacells[b + 2u];
-        let lo = 2.0 * vec3<f32>(vec3<u32>(w0 & 0xffffu, w0 >> 16u, w1 & 0xffffu));
-        let hi = 2.0 * vec3<f32>(vec3<u32>(w1 >> 16u, w2 & 0xffffu, w2 >> 16u)) + 2.0;
-        let cs = box_span(o, inv, lo, hi);
+        let p = trace_page_of_slot(first + c);
+        let cluster = first + c - trace_page_first_slot(p);
+        let bound = cluster_bound_in(p, cluster + 15u);
+        let cs = box_span(o, inv, bound[0], bound[1]);
         if max(cs.x, t_lo) > min(cs.y, t_hi) || max(cs.x, t_lo) >= best.t {
             continue;
         }
         for (var s = 0u; s < 15u; s++) {
-            let m = read_metacell(cluster + s);
+            let m = metacell_in(p, cluster + s);
             if m.mask == 0u {
                 continue;
             }
@@ -114,10 +109,10 @@ fn trace_block(first: u32, count: u32, o: vec3<f32>, d: vec3<f32>, inv: vec3<f32
                 if enter > exit || enter >= best.t {
                     continue;
                 }
-                let record = m.cell_pointer + countOneBits(m.mask & ((1u << bit) - 1u)) - page.first_cell;
-                let t = cell_crossing(record_corners(record), o - co, d, enter, exit);
+                let record = m.cell_pointer + countOneBits(m.mask & ((1u << bit) - 1u)) - trace_page_first_cell(p);
+                let t = cell_crossing(record_corners_in(p, record), o - co, d, enter, exit);
                 if t < best.t {
-                    best = Nearest(t, cell, record);
+                    best = Nearest(t, cell, p, record);
                 }
             }
         }
@@ -151,7 +146,7 @@ fn trace_ray(origin: vec3<f32>, dir: vec3<f32>, t_min: f32, t_max: f32) -> Trace
     let boundary = vec3<f32>(b + select(vec3<i32>(0), vec3<i32>(1), positive)) * BLOCK_CELLS;
     var t_next = (boundary - o) * inv;
     let t_delta = abs(BLOCK_CELLS * inv);
-    var best = Nearest(NO_HIT, vec3<u32>(0u), 0u);
+    var best = Nearest(NO_HIT, vec3<u32>(0u), 0u, 0u);
     let max_steps = nb.x + nb.y + nb.z + 3;
     for (var i = 0; i < max_steps; i++) {
         let block = 4u * (u32(b.x) + trace.block_dims.x * (u32(b.y) + trace.block_dims.y * u32(b.z)));
@@ -183,7 +178,7 @@ fn trace_ray(origin: vec3<f32>, dir: vec3<f32>, t_min: f32, t_max: f32) -> Trace
     if best.t >= NO_HIT {
         return miss;
     }
-    let k = record_corners(best.record);
+    let k = record_corners_in(best.page, best.record);
     let local = clamp(o + best.t * d - vec3<f32>(best.cell), vec3<f32>(0.0), vec3<f32>(1.0));
     var n = -trilinear_gradient(k.lo, k.hi, local) / s;
     let len = length(n);

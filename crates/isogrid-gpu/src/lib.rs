@@ -24,7 +24,8 @@
 //! top-left and every pixel's ray passes through its centre, as `Camera::ray`.
 //!
 //! Structures larger than one storage binding (`max_storage_buffer_binding_size`) are split into
-//! pages of whole clusters, each with its own buffers and draws.
+//! pages of whole clusters, each with its own buffers and draws; the path tracer binds up to six
+//! pages at once (see `pathtrace.rs`).
 
 mod error;
 mod gpu_types;

@@ -1,5 +1,6 @@
 //! Bind group layouts and pipelines of every pass, built once per [`crate::Renderer`]. Shader
-//! modules are `common.wgsl` (+ `cell_data.wgsl` for passes that read cells) + the role's file.
+//! modules are `common.wgsl` (+ `cell_decode.wgsl` and the page storage, `cell_data.wgsl` or the
+//! tracer's `trace_pages.wgsl`, for passes that read cells) + the role's file.
 
 use wgpu::{BindGroupLayout, ComputePipeline, Device, RenderPipeline, ShaderStages};
 
@@ -15,7 +16,16 @@ pub(crate) const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8U
 pub(crate) const FINAL_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
 
 pub(crate) const COMMON: &str = include_str!("../shaders/common.wgsl");
-pub(crate) const CELL_DATA: &str = include_str!("../shaders/cell_data.wgsl");
+/// Cell decoding over one page per bind group (the raster passes, the single-page tracer).
+pub(crate) const CELL_DATA: &str = concat!(
+    include_str!("../shaders/cell_decode.wgsl"),
+    include_str!("../shaders/cell_data.wgsl")
+);
+/// Cell decoding over up to [`crate::gpu_types::TRACE_PAGES`] pages bound at once (the tracer).
+pub(crate) const TRACE_PAGES_DATA: &str = concat!(
+    include_str!("../shaders/cell_decode.wgsl"),
+    include_str!("../shaders/trace_pages.wgsl")
+);
 
 pub(crate) struct Pipelines {
     pub scene_compute: BindGroupLayout,

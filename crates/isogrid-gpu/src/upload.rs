@@ -17,6 +17,9 @@ pub(crate) const MIN_VISIBILITY_CLUSTERS: u64 = 1 << 20;
 
 /// One binding's worth of a grid: a contiguous range of whole clusters.
 pub(crate) struct Page {
+    /// Global index of the page's first metacell slot and first corner record.
+    pub first_slot: u32,
+    pub first_cell: u32,
     pub slot_count: u32,
     /// Page uniforms, metacell slots and corner records, bound again by the ray tracer.
     pub uniforms: wgpu::Buffer,
@@ -293,6 +296,8 @@ impl Renderer {
                 })
             });
             pages.push(Page {
+                first_slot: slots.start as u32,
+                first_cell: first_cell as u32,
                 slot_count: slots.len() as u32,
                 uniforms,
                 metacells: metacell_buffer,

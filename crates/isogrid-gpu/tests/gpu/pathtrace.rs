@@ -3,7 +3,7 @@
 //! misses, progressive accumulation and its reset, and bad requests.
 
 use crate::reference::Reference;
-use crate::{new_renderer, renderer, scene};
+use crate::{renderer, scene};
 use isogrid::generate::Field;
 use isogrid::shading::{to_srgb8, ALBEDO};
 use isogrid::{extract, Camera, ExtractOptions, Iso, Precision, Ray, Volume, VolumeData};
@@ -36,7 +36,7 @@ fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
 
 /// Random rays from the grid box grown by 4 voxels, in random directions: about half start inside
 /// the solid (their first crossing is an exit), some miss the box.
-fn random_rays(hi: [f64; 3], count: usize, seed: u64) -> Vec<Ray> {
+pub fn random_rays(hi: [f64; 3], count: usize, seed: u64) -> Vec<Ray> {
     let mut rng = Rng(seed);
     (0..count)
         .map(|_| Ray {
@@ -466,20 +466,6 @@ fn bad_path_trace_requests_fail_cleanly() {
         r.trace_rays(&gpu, &[zero]).unwrap_err().kind(),
         GpuErrorKind::InvalidInput
     );
-    // A paged grid can be rasterised but not traced (yet): a clear error, not a wrong image.
-    let Some(mut paged) = new_renderer() else {
-        return;
-    };
-    paged.set_page_bytes(4096);
-    let gpu = paged.upload_grid(&grid).unwrap();
-    assert!(gpu.page_count() > 1);
-    let e = paged
-        .path_trace(&gpu, &cam, &Default::default())
-        .unwrap_err();
-    assert_eq!(e.kind(), GpuErrorKind::TooLarge, "{e}");
-    assert!(e.to_string().contains("pages"), "{e}");
-    // The renderer still works after the failure.
-    paged.render(Scene::Grid(&gpu), &cam, Mode::Cgc, 1).unwrap();
 }
 
 /// A grid without active cells: every pixel sees the sky, no sample is lost.
