@@ -72,7 +72,10 @@ impl PackedClusterBounds {
 /// metacell positions per axis in f32 lanes, `origin` being the block's first metacell.
 #[inline(always)]
 pub fn unpack4(packed: &[u32], first: usize, origin: [f32; 3]) -> ([[f32; 4]; 3], [[f32; 4]; 3]) {
-    let lanes: [u32; 4] = std::array::from_fn(|k| packed.get(first + k).copied().unwrap_or(EMPTY));
+    let lanes: [u32; 4] = match packed.get(first..first + 4) {
+        Some(whole) => whole.try_into().unwrap_or([EMPTY; 4]),
+        None => std::array::from_fn(|k| packed.get(first + k).copied().unwrap_or(EMPTY)),
+    };
     let mut lo = [[0f32; 4]; 3];
     let mut hi = [[0f32; 4]; 3];
     for a in 0..3 {

@@ -130,21 +130,20 @@ fn widened_f32(tmin: f64, tmax: f64) -> (f32, f32) {
 /// widened `t` range (see [`CellRay::metacell_boxes4`]). Empty slots are not excluded.
 #[inline(always)]
 fn metacell_hits(r: &CellRay, cluster: &[Metacell], t: (f32, f32)) -> u32 {
-    let cluster: &[Metacell; CLUSTER_SLOTS] = cluster.try_into().expect("a whole cluster");
+    let (quads, _) = cluster.as_chunks::<4>();
     let mut mask = 0;
-    for chunk in 0..CLUSTER_SLOTS / 4 {
-        let p = metacell_positions4(cluster, chunk * 4);
+    for (chunk, quad) in quads.iter().take(CLUSTER_SLOTS / 4).enumerate() {
+        let p = metacell_positions4(quad);
         let (hits, _) = r.metacell_boxes4(&p, &p, t);
         mask |= hits << (chunk * 4);
     }
     mask & 0x7fff
 }
 
-/// Positions of metacell slots `first..first + 4` as f32 lanes per axis. Slot 15 is the
-/// cluster's bound, not a metacell: its lane holds the bound's fields and must be masked off.
+/// Positions of four metacell slots as f32 lanes per axis. Slot 15 of a cluster is its bound,
+/// not a metacell: its lane holds the bound's fields and must be masked off.
 #[inline(always)]
-fn metacell_positions4(cluster: &[Metacell; CLUSTER_SLOTS], first: usize) -> [[f32; 4]; 3] {
-    let slots = &cluster[first..first + 4];
+fn metacell_positions4(slots: &[Metacell; 4]) -> [[f32; 4]; 3] {
     #[cfg(target_arch = "x86_64")]
     {
         use std::arch::x86_64::*;
