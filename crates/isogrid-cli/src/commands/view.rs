@@ -25,7 +25,8 @@ pub struct Args {
     /// Bits per stored corner value: 4, 8, 16 or 32 (default: by sample type).
     #[arg(long, value_name = "BITS", value_parser = parse_precision)]
     pub precision: Option<Precision>,
-    /// What to draw: cgc, cgc-noewa, mc (Marching Cubes mesh) or cr (needs the volume).
+    /// What to draw: cgc, cgc-noewa, mc (Marching Cubes mesh), cr (needs the volume) or pathtrace
+    /// (GPU hybrid path tracing, refined while the camera rests).
     #[arg(long, default_value = "cgc", value_parser = ["cgc", "cgc-noewa", "mc", "cr", "pathtrace"])]
     pub mode: String,
     /// Initial camera: the paper's view 1 (front) or 2 (oblique).
