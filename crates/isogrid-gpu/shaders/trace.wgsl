@@ -1,5 +1,7 @@
 // Hierarchical ray traversal of the clustered grid cells (paper §3.6): a 3D DDA over the dense
-// 16³-cell block grid visits blocks front to back, skipping blocks without slots; inside a block,
+// 16³-cell block grid visits blocks front to back, leaping across empty space by the blocks'
+// Chebyshev distance to the nearest block with slots (`isogrid::trace::empty_space`, as the CPU
+// tracer does) and skipping blocks without slots; inside a block,
 // each cluster's bound (slot 15, Table 1 / `isogrid::layout::ClusterBound`) is slab-tested, then
 // the 2×2×2 boxes of its metacells, then each active cell's unit box, and finally the cell's
 // trilinear interpolant of its 8 stored corner codes is sampled three times along the segment and
@@ -25,8 +27,17 @@ struct TraceUniforms {
 }
 
 @group(0) @binding(1) var<uniform> trace: TraceUniforms;
-// Dense block records, 4 words each: slot count, first slot, min, max (`isogrid::layout::Block`).
+// Dense block records, 4 words each: slot count, first slot, min, max (`isogrid::layout::Block`),
+// followed by the empty-space map, one byte per block (keep in sync with upload.rs).
 @group(0) @binding(3) var<storage, read> blocks: array<u32>;
+
+// Chebyshev distance in blocks from block `index` to the nearest block with slots: every block
+// closer than that is empty.
+fn block_distance(index: u32) -> u32 {
+    let count = trace.block_dims.x * trace.block_dims.y * trace.block_dims.z;
+    let word = blocks[4u * count + index / 4u];
+    return (word >> (8u * (index % 4u))) & 0xffu;
+}
 
 const NO_HIT: f32 = 3.0e38;
 const BLOCK_CELLS: f32 = 16.0;
@@ -148,13 +159,45 @@ fn trace_ray(origin: vec3<f32>, dir: vec3<f32>, t_min: f32, t_max: f32) -> Trace
     let t_delta = abs(BLOCK_CELLS * inv);
     var best = Nearest(NO_HIT, vec3<u32>(0u), 0u, 0u);
     let max_steps = nb.x + nb.y + nb.z + 3;
+    let upper = select(vec3<i32>(0), vec3<i32>(1), positive);
     for (var i = 0; i < max_steps; i++) {
-        let block = 4u * (u32(b.x) + trace.block_dims.x * (u32(b.y) + trace.block_dims.y * u32(b.z)));
-        let count = blocks[block];
+        let index = u32(b.x) + trace.block_dims.x * (u32(b.y) + trace.block_dims.y * u32(b.z));
+        let count = blocks[4u * index];
         if count > 0u {
-            best = trace_block(blocks[block + 1u], count, o, d, inv, t_min, t_max, best);
+            best = trace_block(blocks[4u * index + 1u], count, o, d, inv, t_min, t_max, best);
             if best.t < NO_HIT {
                 break;
+            }
+        } else {
+            let distance = i32(block_distance(index));
+            if distance > 1 {
+                // Leave the cube of empty blocks within distance − 1 at once, entering the block
+                // past its far side on the axis the ray leaves through (inside it, up to
+                // rounding, on the others, and never backwards).
+                let far_side = b + dda_step * (distance - 1);
+                let leaves = (vec3<f32>(far_side + upper) * BLOCK_CELLS - o) * inv;
+                let t = min(min(leaves.x, leaves.y), leaves.z);
+                if t >= t_end {
+                    break;
+                }
+                var next = clamp(
+                    vec3<i32>(floor((o + t * d) / BLOCK_CELLS)),
+                    select(far_side, b, positive),
+                    select(b, far_side, positive),
+                );
+                if leaves.x <= leaves.y && leaves.x <= leaves.z {
+                    next.x = far_side.x + dda_step.x;
+                } else if leaves.y <= leaves.z {
+                    next.y = far_side.y + dda_step.y;
+                } else {
+                    next.z = far_side.z + dda_step.z;
+                }
+                b = next;
+                if any(b < vec3<i32>(0)) || any(b >= nb) {
+                    break;
+                }
+                t_next = (vec3<f32>(b + upper) * BLOCK_CELLS - o) * inv;
+                continue;
             }
         }
         let t_leave = min(min(t_next.x, t_next.y), t_next.z);

@@ -7,6 +7,7 @@ use crate::gpu_types::{MeshUniforms, PageDrawArgs, PageUniforms};
 use crate::render::buffer_entry as entry;
 use crate::Renderer;
 use isogrid::layout::{BOUND_SLOT, CLUSTER_SLOTS};
+use isogrid::trace::empty_space::EmptySpaceMap;
 use isogrid::{CellGrid, GridInfo, Metacell};
 use std::sync::atomic::AtomicU32;
 use std::sync::Mutex;
@@ -310,7 +311,14 @@ impl Renderer {
         let blocks = if grid.blocks().is_empty() {
             None
         } else {
-            Some(self.buffer_init("blocks", bytemuck::cast_slice(grid.blocks()), storage)?)
+            // The block records byte for byte, then the tracer's empty-space map, one byte per
+            // block padded to a whole word. Keep in sync with `block_distance` in trace.wgsl.
+            let block_dims = grid.info().block_dims().map(|b| b as usize);
+            let map = EmptySpaceMap::new(grid.blocks(), block_dims);
+            let mut bytes = bytemuck::cast_slice::<_, u8>(grid.blocks()).to_vec();
+            bytes.extend((0..grid.blocks().len()).map(|i| map.distance(i)));
+            bytes.resize(bytes.len().next_multiple_of(4), 0);
+            Some(self.buffer_init("blocks and empty-space map", &bytes, storage)?)
         };
         let clusters = grid.clusters() as u64;
         let visibility_bytes = clusters.max(MIN_VISIBILITY_CLUSTERS).div_ceil(32) * 4;

@@ -4,6 +4,7 @@
 mod accuracy;
 mod culling;
 mod edges;
+mod empty_space;
 mod paged_trace;
 mod pathtrace;
 mod reference;

@@ -1,0 +1,96 @@
+//! The GPU tracer leaps across empty blocks with the empty-space map uploaded after the block
+//! records (`isogrid::trace::empty_space`): two small balls in opposite corners of a mostly empty
+//! grid, so that rays cross cubes of several empty blocks before they meet one. The hits must be
+//! the CPU tracer's, whose leaps are tested against brute force in the core.
+
+use crate::pathtrace::random_rays;
+use crate::renderer;
+use isogrid::camera::Ray;
+use isogrid::layout::BLOCK_CELLS;
+use isogrid::trace::empty_space::EmptySpaceMap;
+use isogrid::trace::{Crossing, Tracer};
+use isogrid::{extract, ExtractOptions, Iso, Volume, VolumeData};
+
+/// 112³ samples (7³ blocks) with balls of radius 6 around `CENTRES`; inside is 200, outside 0.
+const SIZE: usize = 112;
+const CENTRES: [[f64; 3]; 2] = [[18.0, 22.0, 20.0], [92.0, 88.0, 95.0]];
+
+fn two_balls() -> Volume {
+    let mut data = vec![0u8; SIZE * SIZE * SIZE];
+    for (i, v) in data.iter_mut().enumerate() {
+        let p = [i % SIZE, i / SIZE % SIZE, i / (SIZE * SIZE)].map(|c| c as f64);
+        let inside = CENTRES.iter().any(|c| {
+            let d2: f64 = (0..3).map(|a| (p[a] - c[a]).powi(2)).sum();
+            d2 <= 36.0
+        });
+        *v = if inside { 200 } else { 0 };
+    }
+    Volume::new([SIZE; 3], VolumeData::U8(data)).unwrap()
+}
+
+#[test]
+fn secondary_rays_leap_across_empty_blocks_like_the_cpu_tracer() {
+    let Some(r) = renderer() else { return };
+    let volume = two_balls();
+    let grid = extract(&volume.view(), &ExtractOptions::new(Iso::Value(100.0))).unwrap();
+    let blocks = (SIZE - 1).div_ceil(BLOCK_CELLS);
+    let map = EmptySpaceMap::new(grid.blocks(), grid.info().block_dims().map(|b| b as usize));
+    let longest = (0..grid.blocks().len()).map(|i| map.distance(i)).max();
+    assert!(
+        longest >= Some(4),
+        "{blocks}³ blocks, longest leap {longest:?}"
+    );
+
+    // Random rays through the box, and rays from the far corners aimed at each ball, which cross
+    // the empty middle of the grid and must hit.
+    let (_, hi) = grid.info().world_bounds();
+    let mut rays = random_rays(hi, 1500, 5);
+    let corners = [
+        [0.5, 0.5, 0.5],
+        [110.5, 110.5, 110.5],
+        [0.5, 110.5, 0.5],
+        [110.5, 0.5, 110.5],
+    ];
+    for (k, corner) in corners.iter().enumerate() {
+        for target in CENTRES {
+            for j in 0..50 {
+                // Spread the aim over the ball's central disc.
+                let jitter = [(j % 7) as f64 - 3.0, (j / 7) as f64 - 3.0, (k as f64) - 1.5];
+                let aim: [f64; 3] = std::array::from_fn(|a| target[a] + 0.6 * jitter[a]);
+                let d: [f64; 3] = std::array::from_fn(|a| aim[a] - corner[a]);
+                let n = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+                rays.push(Ray {
+                    origin: *corner,
+                    direction: d.map(|c| c / n),
+                });
+            }
+        }
+    }
+    let gpu_grid = r.upload_grid(&grid).unwrap();
+    let gpu = r.trace_rays(&gpu_grid, &rays).unwrap();
+    let cpu = Tracer::new(&grid, Crossing::Samples3);
+    let (mut agree, mut both, mut close) = (0, 0, 0);
+    for (i, ray) in rays.iter().enumerate() {
+        let want = cpu.closest_hit(ray, 0.0, f64::INFINITY);
+        if want.is_some() == gpu[i].is_some() {
+            agree += 1;
+        }
+        if let (Some(want), Some(got)) = (want, gpu[i]) {
+            both += 1;
+            if (got.t as f64 - want.t).abs() <= 0.05 {
+                close += 1;
+            }
+        }
+    }
+    eprintln!(
+        "empty space: longest leap {longest:?} blocks; {} rays, hit/miss agree {agree}, both hit {both}, within 0.05 {close}",
+        rays.len()
+    );
+    assert!(both >= 350, "too few hits ({both})");
+    assert!(
+        agree as f64 >= 0.99 * rays.len() as f64,
+        "{agree} of {}",
+        rays.len()
+    );
+    assert!(close as f64 >= 0.99 * both as f64, "{close} of {both}");
+}
