@@ -4,7 +4,7 @@
 //! the CPU tracer's, whose leaps are tested against brute force in the core.
 
 use crate::pathtrace::random_rays;
-use crate::renderer;
+use crate::{renderer, HitAgreement};
 use isogrid::camera::Ray;
 use isogrid::layout::BLOCK_CELLS;
 use isogrid::trace::empty_space::EmptySpaceMap;
@@ -69,28 +69,6 @@ fn secondary_rays_leap_across_empty_blocks_like_the_cpu_tracer() {
     let gpu_grid = r.upload_grid(&grid).unwrap();
     let gpu = r.trace_rays(&gpu_grid, &rays).unwrap();
     let cpu = Tracer::new(&grid, Crossing::Samples3);
-    let (mut agree, mut both, mut close) = (0, 0, 0);
-    for (i, ray) in rays.iter().enumerate() {
-        let want = cpu.closest_hit(ray, 0.0, f64::INFINITY);
-        if want.is_some() == gpu[i].is_some() {
-            agree += 1;
-        }
-        if let (Some(want), Some(got)) = (want, gpu[i]) {
-            both += 1;
-            if (got.t as f64 - want.t).abs() <= 0.05 {
-                close += 1;
-            }
-        }
-    }
-    eprintln!(
-        "empty space: longest leap {longest:?} blocks; {} rays, hit/miss agree {agree}, both hit {both}, within 0.05 {close}",
-        rays.len()
-    );
-    assert!(both >= 350, "too few hits ({both})");
-    assert!(
-        agree as f64 >= 0.99 * rays.len() as f64,
-        "{agree} of {}",
-        rays.len()
-    );
-    assert!(close as f64 >= 0.99 * both as f64, "{close} of {both}");
+    let label = format!("two balls, longest leap {longest:?} blocks");
+    HitAgreement::of(&cpu, &rays, &gpu).assert_close(&label, 350);
 }

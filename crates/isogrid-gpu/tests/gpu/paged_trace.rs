@@ -4,7 +4,7 @@
 //! binds at once is a clear error.
 
 use crate::pathtrace::random_rays;
-use crate::{new_renderer, renderer, scene};
+use crate::{new_renderer, renderer, scene, HitAgreement};
 use isogrid::generate::Field;
 use isogrid::layout::CLUSTER_SLOTS;
 use isogrid::trace::{Crossing, Tracer};
@@ -84,10 +84,9 @@ fn trace_rays_finds_the_same_hits_in_one_page_and_in_several() {
         let rays = random_rays(hi, 2000, 91);
         let one = one_page.trace_rays(&a, &rays).unwrap();
         let many = paged.trace_rays(&b, &rays).unwrap();
-        let cpu = Tracer::new(&grid, Crossing::Samples3);
-        let (mut identical, mut agree, mut both, mut close) = (0, 0, 0, 0);
-        for (i, ray) in rays.iter().enumerate() {
-            match (one[i], many[i]) {
+        let mut identical = 0;
+        for (i, (x, y)) in one.iter().zip(&many).enumerate() {
+            match (x, y) {
                 (None, None) => identical += 1,
                 (Some(x), Some(y)) => {
                     let dn = (0..3).map(|c| (x.normal[c] - y.normal[c]).abs());
@@ -103,29 +102,14 @@ fn trace_rays_finds_the_same_hits_in_one_page_and_in_several() {
                     b.page_count()
                 ),
             }
-            let want = cpu.closest_hit(ray, 0.0, f64::INFINITY);
-            if want.is_some() != many[i].is_some() {
-                continue;
-            }
-            agree += 1;
-            if let (Some(want), Some(got)) = (want, many[i]) {
-                both += 1;
-                if (got.t as f64 - want.t).abs() <= 0.05 {
-                    close += 1;
-                }
-            }
         }
         eprintln!(
-            "{label}: {} pages, {identical} of {} rays as one page; CPU tracer: hit/miss agree {agree}, both hit {both}, within 0.05 {close}",
+            "{label}: {} pages, {identical} of {} rays as one page",
             b.page_count(),
             rays.len()
         );
-        assert!(both >= 300, "{label}: too few hits ({both})");
-        assert!(agree as f64 >= 0.99 * rays.len() as f64, "{label}: {agree}");
-        assert!(
-            close as f64 >= 0.99 * both as f64,
-            "{label}: {close} of {both}"
-        );
+        let cpu = Tracer::new(&grid, Crossing::Samples3);
+        HitAgreement::of(&cpu, &rays, &many).assert_close(&label, 300);
     }
 }
 
