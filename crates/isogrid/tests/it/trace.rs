@@ -289,6 +289,56 @@ fn exact_matches_brute_force_on_blobs_at_every_precision() {
     }
 }
 
+/// Two small balls in opposite corners of a mostly empty, anisotropic grid: rays leap across
+/// cubes of empty blocks (the tracer's empty-space map) before they meet a ball, and must find the
+/// reference's crossings all the same, whichever side they come from.
+#[test]
+fn exact_matches_brute_force_after_long_leaps_across_empty_space() {
+    const SPACING: [f64; 3] = [0.8, 1.25, 1.0];
+    let dims = [120, 100, 130];
+    let centres = [[16.0, 20.0, 18.0], [100.0, 80.0, 110.0]];
+    let values = field(dims, |x, y, z| {
+        let d = centres
+            .iter()
+            .map(|c| ((x - c[0]).powi(2) + (y - c[1]).powi(2) + (z - c[2]).powi(2)).sqrt())
+            .fold(f64::INFINITY, f64::min);
+        (255.0 * (7.0 - d).clamp(0.0, 1.0)).round()
+    });
+    let mut geometry = isogrid::Geometry::new(dims);
+    geometry.spacing = SPACING;
+    let data = VolumeData::U8(values.iter().map(|&v| v as u8).collect());
+    let volume = Volume::with_geometry(geometry, data).unwrap();
+    let grid = grid_of(&volume, Iso::Value(127.5), Precision::Bits8);
+    let block_dims = grid.info().block_dims().map(|b| b as usize);
+    let map = isogrid::trace::empty_space::EmptySpaceMap::new(grid.blocks(), block_dims);
+    let longest = (0..grid.blocks().len()).map(|i| map.distance(i)).max();
+    assert!(longest >= Some(4), "longest leap {longest:?} blocks");
+
+    // From anywhere around the box towards a point near either ball's centre.
+    let (lo, hi) = world_box(&grid);
+    let mut rng = Rng::new(77);
+    let rays: Vec<Ray> = (0..240)
+        .map(|i| {
+            let origin: [f64; 3] = std::array::from_fn(|a| {
+                let size = hi[a] - lo[a];
+                lo[a] - 0.2 * size + 1.4 * size * rng.unit()
+            });
+            let c = centres[i % 2];
+            let target: [f64; 3] =
+                std::array::from_fn(|a| (c[a] + 8.0 * (rng.unit() - 0.5)) * SPACING[a]);
+            let d: [f64; 3] = std::array::from_fn(|a| target[a] - origin[a]);
+            let n = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+            Ray {
+                origin,
+                direction: d.map(|v| v / n),
+            }
+        })
+        .collect();
+    let t = check_against_reference(&grid, &rays, "two balls");
+    eprintln!("two balls, longest leap {longest:?} blocks: {t:?}");
+    assert!(t.reference_hits >= 120, "{t:?}");
+}
+
 #[test]
 fn exact_matches_brute_force_on_an_anisotropic_sphere() {
     let dims = [21, 17, 13];
