@@ -5,7 +5,7 @@
 //! metacells, clusters of 16 metacell slots and 16³-cell blocks (§3.1), each cell keeping its eight
 //! corner values so that rendering never needs the volume again.
 //!
-//! Data flows one way: [`Volume`] → [`extract`] → [`CellGrid`] → (file | renderer | tracer | stats).
+//! Data flows one way: [`Volume`] → [`extract`](fn@extract) → [`CellGrid`] → (file | renderer | tracer | stats).
 //!
 //! ```
 //! use isogrid::{extract, ExtractOptions, Iso, Volume, VolumeData};

@@ -1,8 +1,8 @@
 //! Isosurface extraction into clustered grid cells (paper §3.1).
 //!
 //! Two passes over 16³ blocks, both parallel (rayon) and deterministic for any thread count:
-//! [`scan`] sweeps the whole volume once and counts, per block, active cells and occupied
-//! metacells; prefix sums then give every block a disjoint part of the exactly-sized output; [`emit`]
+//! `scan` sweeps the whole volume once and counts, per block, active cells and occupied
+//! metacells; prefix sums then give every block a disjoint part of the exactly-sized output; `emit`
 //! revisits only blocks that hold active cells and writes their records. Memory beyond the volume
 //! and the output is O(blocks) plus per-thread scratch for one block row.
 

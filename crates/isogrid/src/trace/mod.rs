@@ -1,6 +1,6 @@
 //! Ray tracing of clustered grid cells on the CPU (paper §3.6): hierarchical traversal of blocks,
 //! clusters, metacells and cells ([`traverse`]), the isosurface crossing inside a cell
-//! ([`crossing`]), and a renderer with Blinn–Phong or path-traced shading ([`render`]).
+//! ([`crossing`]), and a renderer with Blinn–Phong or path-traced shading ([`render`](mod@render)).
 //!
 //! World space is the camera's: sample (i, j, k) at (i·sx, j·sy, k·sz); `t` is world distance along
 //! unit-direction rays.
