@@ -153,23 +153,23 @@ impl CellRay {
         if !(t_in < t_out) {
             return 0;
         }
-        let mid = xyz(|a| (lo[a] + 1.0 - self.origin[a]) * self.inv[a]);
-        // Segment boundaries: entry, the mid-planes crossed in between (sorted), exit.
-        let mut bounds = [t_in, t_out, t_out, t_out, t_out];
-        let mut n = 1;
-        for t in mid {
-            if t > t_in && t < t_out {
-                let mut k = n;
-                while k > 1 && bounds[k - 1] > t {
-                    bounds[k] = bounds[k - 1];
-                    k -= 1;
-                }
-                bounds[k] = t;
-                n += 1;
-            }
-        }
+        // Segment boundaries: entry, the mid-plane crossings clamped into [entry, exit] and
+        // sorted, exit. Without branches (a sorting network, and segments kept by advancing the
+        // output index): which planes a random ray crosses, and in which order, is a coin toss
+        // that a branch predictor keeps getting wrong. Empty segments (a plane outside the
+        // metacell's span, or two planes crossed at once) are dropped.
+        let mid = xyz(|a| {
+            min(
+                max((lo[a] + 1.0 - self.origin[a]) * self.inv[a], t_in),
+                t_out,
+            )
+        });
+        let (a, b) = (min(mid[0], mid[1]), max(mid[0], mid[1]));
+        let (b, c) = (min(b, mid[2]), max(b, mid[2]));
+        let (a, b) = (min(a, b), max(a, b));
+        let bounds = [t_in, a, b, c, t_out];
         let mut count = 0;
-        for k in 0..n {
+        for k in 0..4 {
             let (t0, t1) = (bounds[k], bounds[k + 1]);
             // Which cell: the side of each mid-plane at the segment's middle.
             let t = 0.5 * (t0 + t1);
@@ -177,10 +177,8 @@ impl CellRay {
                 let upper = self.origin[a] + t * self.direction[a] >= lo[a] + 1.0;
                 bit | (upper as u32) << a
             });
-            if mask >> bit & 1 == 1 {
-                out[count] = (t0, t1, bit);
-                count += 1;
-            }
+            out[count] = (t0, t1, bit);
+            count += ((t0 < t1) & (mask >> bit & 1 == 1)) as usize;
         }
         count
     }

@@ -99,6 +99,17 @@ fn block_of(v: f64) -> i64 {
     }
 }
 
+/// The axis whose boundary the ray reaches first (the lowest axis on ties).
+#[inline(always)]
+fn first_to_leave(t: [f64; 3]) -> usize {
+    let a01 = (t[1] < t[0]) as usize;
+    if t[2] < min(t[0], t[1]) {
+        2
+    } else {
+        a01
+    }
+}
+
 /// Hints the CPU to load the cache lines of `data` (no-op off x86-64). Never faults.
 #[inline(always)]
 fn prefetch_slice<T>(data: &[T]) {
@@ -326,13 +337,7 @@ impl<'g> Tracer<'g> {
                 let reach = distance - 1;
                 let far_side = xyz(|a| block[a] + step[a] * reach);
                 let leaves = xyz(|a| leave(a, far_side[a]));
-                let axis = if leaves[0] <= leaves[1] && leaves[0] <= leaves[2] {
-                    0
-                } else if leaves[1] <= leaves[2] {
-                    1
-                } else {
-                    2
-                };
+                let axis = first_to_leave(leaves);
                 let t = leaves[axis];
                 if t >= t_exit {
                     return;
@@ -369,13 +374,7 @@ impl<'g> Tracer<'g> {
             if exit >= t_exit {
                 return;
             }
-            let a = if t_next[0] <= t_next[1] && t_next[0] <= t_next[2] {
-                0
-            } else if t_next[1] <= t_next[2] {
-                1
-            } else {
-                2
-            };
+            let a = first_to_leave(t_next);
             block[a] += step[a];
             if block[a] < 0 || block[a] >= self.block_dims[a] {
                 return;

@@ -339,6 +339,38 @@ fn exact_matches_brute_force_after_long_leaps_across_empty_space() {
     assert!(t.reference_hits >= 120, "{t:?}");
 }
 
+/// Rays along exact diagonals cross two or three of a metacell's mid-planes at the same `t`: the
+/// walk through its cells must neither stop nor skip a cell there.
+#[test]
+fn diagonal_rays_through_metacell_centres_match_brute_force() {
+    let volume = blobs_u8([30, 26, 34]);
+    let grid = grid_of(&volume, Iso::Value(127.5), Precision::Bits8);
+    let s2 = std::f64::consts::FRAC_1_SQRT_2;
+    let s3 = 1.0 / 3f64.sqrt();
+    let mut rays = Vec::new();
+    for i in 0..24 {
+        for j in 0..12 {
+            // Origins on even (metacell-corner) coordinates, so the mid-planes line up.
+            let (u, v) = (2.0 * i as f64 - 10.0, 2.0 * j as f64);
+            rays.push(Ray {
+                origin: [u, u - 2.0 * (j % 3) as f64, v + 1.0],
+                direction: [s2, s2, 0.0],
+            });
+            rays.push(Ray {
+                origin: [v + 1.0, u, u],
+                direction: [0.0, s2, s2],
+            });
+            rays.push(Ray {
+                origin: [u, u, u + v - 12.0],
+                direction: [s3, s3, s3],
+            });
+        }
+    }
+    let t = check_against_reference(&grid, &rays, "diagonals");
+    eprintln!("diagonals: {t:?}");
+    assert!(t.reference_hits > 200, "{t:?}");
+}
+
 #[test]
 fn exact_matches_brute_force_on_an_anisotropic_sphere() {
     let dims = [21, 17, 13];
