@@ -52,6 +52,28 @@ fn append(list_kind: u32, count: u32) -> u32 {
     return atomicAdd(&draw_args[4u * list_kind + 1u], count);
 }
 
+// The instances (local slot · 8 + cell bit) of a metacell's cells that pass `cell_is_drawable`,
+// for the full list and for the list of newly visible clusters alike.
+struct DrawableCells {
+    instances: array<u32, 8>,
+    count: u32,
+}
+
+fn drawable_cells(m: Metacell, local_slot: u32) -> DrawableCells {
+    var drawn: DrawableCells;
+    var record = m.cell_pointer;
+    for (var bit = 0u; bit < 8u; bit++) {
+        if (m.mask & (1u << bit)) != 0u {
+            if cell_is_drawable(m.origin + cell_offset(bit), record) {
+                drawn.instances[drawn.count] = local_slot * 8u + bit;
+                drawn.count++;
+            }
+            record++;
+        }
+    }
+    return drawn;
+}
+
 @compute @workgroup_size(64)
 fn expand_visible(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let local_slot = gid.x + gid.y * groups.x * 64u;
@@ -66,22 +88,11 @@ fn expand_visible(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wo
     let cluster = cluster_bit(global_slot / 16u);
     let occlusion = (frame.params.z & FLAG_OCCLUSION) != 0u;
     if !occlusion || (atomicLoad(&visible_last_frame[cluster.x]) & cluster.y) != 0u {
-        var drawn: array<u32, 8>;
-        var n = 0u;
-        var record = m.cell_pointer;
-        for (var bit = 0u; bit < 8u; bit++) {
-            if (m.mask & (1u << bit)) != 0u {
-                if cell_is_drawable(m.origin + cell_offset(bit), record) {
-                    drawn[n] = local_slot * 8u + bit;
-                    n++;
-                }
-                record++;
-            }
-        }
-        if n > 0u {
-            let at = append(0u, n);
-            for (var i = 0u; i < n; i++) {
-                full_list[at + i] = drawn[i];
+        let drawn = drawable_cells(m, local_slot);
+        if drawn.count > 0u {
+            let at = append(0u, drawn.count);
+            for (var i = 0u; i < drawn.count; i++) {
+                full_list[at + i] = drawn.instances[i];
             }
         }
     } else {
@@ -105,23 +116,11 @@ fn expand_new(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
     if (atomicLoad(&visible_new[cluster.x]) & cluster.y) == 0u {
         return;
     }
-    let m = read_metacell(local_slot);
-    var drawn: array<u32, 8>;
-    var n = 0u;
-    var record = m.cell_pointer;
-    for (var bit = 0u; bit < 8u; bit++) {
-        if (m.mask & (1u << bit)) != 0u {
-            if cell_is_drawable(m.origin + cell_offset(bit), record) {
-                drawn[n] = local_slot * 8u + bit;
-                n++;
-            }
-            record++;
-        }
-    }
-    if n > 0u {
-        let at = append(2u, n);
-        for (var i = 0u; i < n; i++) {
-            new_list[at + i] = drawn[i];
+    let drawn = drawable_cells(read_metacell(local_slot), local_slot);
+    if drawn.count > 0u {
+        let at = append(2u, drawn.count);
+        for (var i = 0u; i < drawn.count; i++) {
+            new_list[at + i] = drawn.instances[i];
         }
     }
 }
