@@ -42,6 +42,16 @@ pub struct GpuRender {
     pub times: GpuTimes,
 }
 
+impl GpuRender {
+    fn new(renderer: &Renderer, frame: Frame) -> Self {
+        GpuRender {
+            adapter: renderer.adapter_info(),
+            times: GpuTimes::from(frame.timings),
+            frame,
+        }
+    }
+}
+
 /// The renderer, or `None` when the machine has no adapter at all (callers may fall back).
 pub fn renderer() -> Result<Option<Renderer>> {
     match Renderer::new() {
@@ -79,12 +89,7 @@ pub fn path_trace(
     let frame = renderer
         .path_trace(&gpu_grid, camera, &options)
         .map_err(isogrid::Error::from)?;
-    let times = GpuTimes::from(frame.timings);
-    Ok(GpuRender {
-        adapter: renderer.adapter_info(),
-        frame,
-        times,
-    })
+    Ok(GpuRender::new(renderer, frame))
 }
 
 /// Renders `mode` of `grid` (with `volume` for `mc` and `cr`) for `frames` frames.
@@ -134,10 +139,5 @@ pub fn render(
         }
     }
     .map_err(isogrid::Error::from)?;
-    let times = GpuTimes::from(frame.timings);
-    Ok(GpuRender {
-        adapter: renderer.adapter_info(),
-        frame,
-        times,
-    })
+    Ok(GpuRender::new(renderer, frame))
 }

@@ -40,30 +40,20 @@ impl App {
         let rgba: Vec<u8> = image.pixels.iter().flat_map(|c| c.to_array()).collect();
         let rgb = screenshot::rgba_to_rgb(&rgba);
         let [w, h] = image.size;
-        match screenshot::write_png(&path, w as u32, h as u32, &rgb) {
-            Ok(()) => {
-                let region = match self.image_rect_px {
-                    Some(r) => format!(
-                        "rendered image at {},{} size {}x{} px",
-                        r.min.x.round(),
-                        r.min.y.round(),
-                        r.width().round(),
-                        r.height().round()
-                    ),
-                    None => "no rendered image".into(),
-                };
-                let text = format!("saved {} ({w}x{h} px window); {region}", path.display());
-                if self.script.is_some() {
-                    println!("isogrid view: {text}");
-                }
-                self.note(text, false);
-                true
-            }
-            Err(e) => {
-                self.fail(format!("screenshot: {e}"));
-                false
-            }
-        }
+        let region = match self.image_rect_px {
+            Some(r) => format!(
+                "rendered image at {},{} size {}x{} px",
+                r.min.x.round(),
+                r.min.y.round(),
+                r.width().round(),
+                r.height().round()
+            ),
+            None => "no rendered image".into(),
+        };
+        let saved = screenshot::write_png(&path, w as u32, h as u32, &rgb);
+        self.report_saved(saved, || {
+            format!("saved {} ({w}x{h} px window); {region}", path.display())
+        })
     }
 
     /// Saves the rendered image alone (the button, and scripted runs whose capture never came).
@@ -73,12 +63,25 @@ impl App {
             return false;
         };
         let (w, h) = (*w, *h);
-        match screenshot::write_png(&path, w, h, &screenshot::rgba_to_rgb(rgba)) {
+        let saved = screenshot::write_png(&path, w, h, &screenshot::rgba_to_rgb(rgba));
+        self.report_saved(saved, || {
+            format!(
+                "saved {} (rendered image only); rendered image at 0,0 size {w}x{h} px",
+                path.display()
+            )
+        })
+    }
+
+    /// Says in the window (and on stdout in scripted runs, where tests read it) what a screenshot
+    /// write did; returns whether it succeeded.
+    fn report_saved<E: std::fmt::Display>(
+        &mut self,
+        saved: Result<(), E>,
+        text: impl FnOnce() -> String,
+    ) -> bool {
+        match saved {
             Ok(()) => {
-                let text = format!(
-                    "saved {} (rendered image only); rendered image at 0,0 size {w}x{h} px",
-                    path.display()
-                );
+                let text = text();
                 if self.script.is_some() {
                     println!("isogrid view: {text}");
                 }
