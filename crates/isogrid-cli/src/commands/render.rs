@@ -331,9 +331,10 @@ pub fn run(args: Args) -> Result<()> {
         }
         _ => None,
     };
-    let renderer = choose_renderer(args.backend, args.mode)?;
-
+    // The input before the GPU: a bad file or a missing --iso fails without starting a device
+    // (whose drivers may print their own lines).
     let (grid, volume) = args.threads.install(|| args.source.load_with_volume())??;
+    let renderer = choose_renderer(args.backend, args.mode)?;
     let camera = match &args.camera {
         Some(spec) => Camera::parse(spec, width, height)?,
         None => {
