@@ -27,6 +27,7 @@
 //! pages of whole clusters, each with its own buffers and draws; the path tracer binds up to six
 //! pages at once (see `pathtrace.rs`).
 
+mod backends;
 mod error;
 mod gpu_types;
 mod pathtrace;
@@ -34,6 +35,7 @@ mod pipelines;
 mod render;
 mod upload;
 
+pub use backends::preferred_backends;
 pub use error::{GpuError, GpuErrorKind};
 pub use pathtrace::{
     sky_radiance, EnvMap, GpuEnvMap, PathTraceOptions, RayHit, DEFAULT_BOUNCES, MAX_BOUNCES,
@@ -59,14 +61,16 @@ pub struct Renderer {
 }
 
 impl Renderer {
-    /// Opens the default adapter headlessly (`WGPU_BACKEND=vulkan|gl|...` picks the backend) with
-    /// the adapter's own limits, and builds all pipelines.
+    /// Opens the default adapter of [`preferred_backends`] headlessly (`WGPU_BACKEND=vulkan|gl|...`
+    /// picks the backend) with the adapter's own limits, and builds all pipelines.
     ///
     /// Fails with [`GpuErrorKind::NoAdapter`] when there is no adapter or it cannot run compute
     /// and fragment-storage shaders; callers may fall back to a CPU renderer then.
     pub fn new() -> Result<Renderer, GpuError> {
-        let instance =
-            wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
+        let instance = wgpu::Instance::new(wgpu::InstanceDescriptor {
+            backends: preferred_backends(),
+            ..wgpu::InstanceDescriptor::new_without_display_handle_from_env()
+        });
         let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
             power_preference: wgpu::PowerPreference::HighPerformance,
             force_fallback_adapter: false,

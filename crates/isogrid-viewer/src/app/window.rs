@@ -24,6 +24,7 @@ pub fn run(options: ViewerOptions) -> isogrid::Result<()> {
             .with_inner_size(inner_size)
             .with_drag_and_drop(true),
         renderer: eframe::Renderer::Wgpu,
+        wgpu_options: window_wgpu_options(),
         ..Default::default()
     };
     let app_failure = failure.clone();
@@ -37,5 +38,17 @@ pub fn run(options: ViewerOptions) -> isogrid::Result<()> {
     match failed {
         Some(message) => Err(Error::invalid(message)),
         None => Ok(()),
+    }
+}
+
+/// egui's defaults, but on the same backends as the renderer ([`isogrid_gpu::preferred_backends`]):
+/// egui alone would also open GL, whose Mesa driver can crash the process at exit.
+fn window_wgpu_options() -> eframe::egui_wgpu::WgpuConfiguration {
+    use eframe::egui_wgpu::{WgpuConfiguration, WgpuSetup, WgpuSetupCreateNew};
+    let mut setup = WgpuSetupCreateNew::without_display_handle();
+    setup.instance_descriptor.backends = isogrid_gpu::preferred_backends();
+    WgpuConfiguration {
+        wgpu_setup: WgpuSetup::CreateNew(setup),
+        ..Default::default()
     }
 }
