@@ -18,6 +18,7 @@
 //! assert!(hit.normal[2] < -0.9); // facing the ray
 //! ```
 
+mod block_walk;
 mod cell_ray;
 pub mod cluster_bounds;
 pub mod crossing;

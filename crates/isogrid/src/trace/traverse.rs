@@ -1,6 +1,6 @@
-//! Hierarchical ray traversal of clustered grid cells (paper §3.6): a 3D DDA (Amanatides & Woo,
-//! 1987) over the dense 16³-cell block grid, which leaps across empty space with an
-//! [`EmptySpaceMap`]; inside a non-empty block every cluster bound (slot 15, read from a packed
+//! Hierarchical ray traversal of clustered grid cells (paper §3.6): a 3D DDA over the dense
+//! 16³-cell block grid, which leaps across empty space with an [`EmptySpaceMap`]
+//! ([`super::block_walk`]); inside a non-empty block every cluster bound (slot 15, read from a packed
 //! copy, [`PackedClusterBounds`]), then each entered cluster's metacell boxes (four at a time in
 //! f32 lanes), are tested with the slab test (as §3.2); a candidate metacell's active cells are
 //! visited nearest first by crossing its three mid-planes, and searched for the isosurface
@@ -17,15 +17,14 @@
 //! the minimum kept; a block is finished before the DDA moves on, and traversal stops once the best
 //! hit lies before the exit of the current block — all later blocks start after it.
 
-use super::cell_ray::{max, min, xyz, CellRay};
+use super::block_walk::BlockWalk;
+use super::cell_ray::{min, xyz, CellRay};
 use super::cluster_bounds::{unpack4, PackedClusterBounds};
 use super::crossing::{Crossing, Trilinear};
 use super::empty_space::EmptySpaceMap;
 use crate::camera::Ray;
 use crate::grid::CellGrid;
-use crate::layout::{
-    read_corners, Block, Metacell, Precision, BLOCK_CELLS, BLOCK_METACELLS, CLUSTER_SLOTS,
-};
+use crate::layout::{read_corners, Block, Metacell, Precision, BLOCK_CELLS, CLUSTER_SLOTS};
 
 /// The closest intersection of a ray with the isosurface.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -84,30 +83,6 @@ const CLUSTER_LANES: usize = MAX_BLOCK_CLUSTERS.div_ceil(4) * 4;
 fn metacell_margin(cell_dims: [f64; 3]) -> f64 {
     let largest = cell_dims[0].max(cell_dims[1]).max(cell_dims[2]);
     (1e-3f64).max(largest * 1e-5)
-}
-
-/// `floor(v / BLOCK_CELLS)` for the block index of a coordinate: a truncating cast, which agrees
-/// with `floor` for `v ≥ 0` and the callers clamp negative results anyway (no libm `floor` call,
-/// which the x86-64 baseline lacks an instruction for).
-#[inline(always)]
-fn block_of(v: f64) -> i64 {
-    let b = v * (1.0 / BLOCK_CELLS as f64);
-    if b < 0.0 {
-        -1
-    } else {
-        b as i64
-    }
-}
-
-/// The axis whose boundary the ray reaches first (the lowest axis on ties).
-#[inline(always)]
-fn first_to_leave(t: [f64; 3]) -> usize {
-    let a01 = (t[1] < t[0]) as usize;
-    if t[2] < min(t[0], t[1]) {
-        2
-    } else {
-        a01
-    }
 }
 
 /// Hints the CPU to load the cache lines of `data` (no-op off x86-64). Never faults.
@@ -263,6 +238,11 @@ impl<'g> Tracer<'g> {
             self.closest_in_block(&r, block, origin, tmin, &mut best);
             best.t
         });
+        self.hit(ray, best)
+    }
+
+    /// The hit `best` holds, with its normal.
+    fn hit(&self, ray: &Ray, best: Best) -> Option<Hit> {
         let (t, cell, position, cluster, tri, u) = best.found?;
         let g = tri.gradient(u);
         let gw = xyz(|a| g[a] / self.spacing[a]);
@@ -299,9 +279,9 @@ impl<'g> Tracer<'g> {
         hit
     }
 
-    /// Amanatides–Woo over blocks in `[tmin, tmax]`, leaping across empty space with the
-    /// [`EmptySpaceMap`]. `visit(block, its first metacell)` handles a non-empty block and returns the best hit `t` so
-    /// far; traversal stops once it is no later than the block's exit.
+    /// Walks the blocks of `[tmin, tmax]` in order ([`BlockWalk`]). `visit(block, its first
+    /// metacell)` handles a non-empty block and returns the best hit `t` so far; the walk stops
+    /// once that is no later than the block's exit.
     #[inline(always)]
     fn walk_blocks(
         &self,
@@ -310,77 +290,30 @@ impl<'g> Tracer<'g> {
         tmax: f64,
         mut visit: impl FnMut(&Block, [f32; 3]) -> f64,
     ) {
-        let (near, far) = r.slab([0.0; 3], self.cell_dims);
-        let t_enter = max(near, tmin);
-        let t_exit = min(far, tmax);
-        if !(t_enter <= t_exit) || self.block_dims.contains(&0) {
+        let Some(mut walk) = BlockWalk::new(r, self.cell_dims, self.block_dims, tmin, tmax) else {
             return;
-        }
-        let p = r.at(t_enter);
-        let bc = BLOCK_CELLS as f64;
-        let mut block = xyz(|a| block_of(p[a]).clamp(0, self.block_dims[a] - 1));
-        let forward = xyz(|a| r.direction[a] >= 0.0);
-        let step = xyz(|a| if forward[a] { 1i64 } else { -1 });
-        // `t` where the ray leaves the slab of blocks ending at `last` along axis `a`.
-        let leave = |a: usize, last: i64| {
-            let boundary = if forward[a] { last + 1 } else { last } as f64 * bc;
-            (boundary - r.origin[a]) * r.inv[a]
         };
-        let mut t_next = xyz(|a| leave(a, block[a]));
-        let t_delta = xyz(|a| bc * r.inv[a].abs());
-        let [nx, ny, _] = self.block_dims;
-        loop {
-            let index = (block[0] + nx * (block[1] + ny * block[2])) as usize;
-            let distance = self.empty_space.distance(index) as i64;
-            if distance > 1 {
-                // Every block within `distance − 1` of this one is empty: leave that cube at once.
-                let reach = distance - 1;
-                let far_side = xyz(|a| block[a] + step[a] * reach);
-                let leaves = xyz(|a| leave(a, far_side[a]));
-                let axis = first_to_leave(leaves);
-                let t = leaves[axis];
-                if t >= t_exit {
-                    return;
-                }
-                let p = r.at(t);
-                for a in 0..3 {
-                    block[a] = if a == axis {
-                        far_side[a] + step[a]
-                    } else {
-                        // Inside the cube on this axis (up to rounding), and never backwards.
-                        let here = block_of(p[a]);
-                        let (lo, hi) = if forward[a] {
-                            (block[a], far_side[a])
-                        } else {
-                            (far_side[a], block[a])
-                        };
-                        here.clamp(lo, hi)
-                    };
-                    if block[a] < 0 || block[a] >= self.block_dims[a] {
-                        return;
-                    }
-                    t_next[a] = leave(a, block[a]);
-                }
-                continue;
-            }
-            let exit = min(min(t_next[0], t_next[1]), t_next[2]);
-            if distance == 0 {
-                let origin = xyz(|a| (block[a] * BLOCK_METACELLS as i64) as f32);
-                let best = visit(&self.blocks[index], origin);
-                if best <= exit {
-                    return;
-                }
-            }
-            if exit >= t_exit {
-                return;
-            }
-            let a = first_to_leave(t_next);
-            block[a] += step[a];
-            if block[a] < 0 || block[a] >= self.block_dims[a] {
-                return;
-            }
-            t_next[a] += t_delta[a];
+        while self.walk_once(r, &mut walk, &mut visit) {}
+    }
+
+    /// One move of `walk`: a leap across empty space, or a visit of the current block (when it
+    /// holds active cells) followed by a step. False when the walk is over.
+    #[inline(always)]
+    fn walk_once(
+        &self,
+        r: &CellRay,
+        walk: &mut BlockWalk,
+        visit: &mut impl FnMut(&Block, [f32; 3]) -> f64,
+    ) -> bool {
+        let index = walk.index();
+        let distance = self.empty_space.distance(index);
+        if distance > 1 {
+            return walk.leap(r, distance);
         }
+        if distance == 0 && visit(&self.blocks[index], walk.first_metacell()) <= walk.exit() {
+            return false;
+        }
+        walk.step()
     }
 
     fn closest_in_block(
