@@ -1,7 +1,7 @@
 //! The block level of the tracer's traversal (paper §3.6): a 3D DDA (Amanatides & Woo, 1987) over
 //! the dense grid of 16³-cell blocks, which leaps across empty space with the [`EmptySpaceMap`]
-//! (distance-map skipping in the manner of Cohen & Sheffer 1994). A resumable state, so that the
-//! tracer can walk several rays in turn.
+//! (distance-map skipping in the manner of Cohen & Sheffer 1994), kept as a state that the tracer
+//! moves one block (or one leap) at a time.
 //!
 //! A block at Chebyshev distance `d ≥ 2` from the nearest non-empty block is the centre of a cube
 //! of `(2d − 1)³` empty blocks: [`BlockWalk::leap`] takes the ray straight to where it leaves that

@@ -1,6 +1,6 @@
 //! Hierarchical ray traversal of clustered grid cells (paper §3.6): a 3D DDA over the dense
 //! 16³-cell block grid, which leaps across empty space with an [`EmptySpaceMap`]
-//! ([`super::block_walk`]); inside a non-empty block every cluster bound (slot 15, read from a packed
+//! (`block_walk.rs`); inside a non-empty block every cluster bound (slot 15, read from a packed
 //! copy, [`PackedClusterBounds`]), then each entered cluster's metacell boxes (four at a time in
 //! f32 lanes), are tested with the slab test (as §3.2); a candidate metacell's active cells are
 //! visited nearest first by crossing its three mid-planes, and searched for the isosurface
