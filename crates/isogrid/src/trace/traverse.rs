@@ -238,11 +238,6 @@ impl<'g> Tracer<'g> {
             self.closest_in_block(&r, block, origin, tmin, &mut best);
             best.t
         });
-        self.hit(ray, best)
-    }
-
-    /// The hit `best` holds, with its normal.
-    fn hit(&self, ray: &Ray, best: Best) -> Option<Hit> {
         let (t, cell, position, cluster, tri, u) = best.found?;
         let g = tri.gradient(u);
         let gw = xyz(|a| g[a] / self.spacing[a]);
