@@ -17,6 +17,14 @@
 // Three DrawIndirectArgs (vertex_count, instance_count, first_vertex, first_instance): full, probe, new.
 @group(1) @binding(6) var<storage, read_write> draw_args: array<atomic<u32>, 12>;
 
+// Keep in sync with `PageDispatchArgs` in src/gpu_types.rs: DispatchIndirectArgs (x, y, z) of the
+// compute raster (cells_compute.wgsl) over the full, probe and new lists.
+@group(2) @binding(0) var<storage, read_write> dispatch_args: array<u32, 9>;
+
+// Threads per workgroup of the compute raster; keep in sync with cells_compute.wgsl.
+const RASTER_GROUP_SIZE: u32 = 64u;
+const MAX_GROUPS_X: u32 = 65535u;
+
 fn cluster_bit(bits_index: u32) -> vec2<u32> {
     return vec2<u32>(bits_index >> 5u, 1u << (bits_index & 31u));
 }
@@ -122,5 +130,17 @@ fn expand_new(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
         for (var i = 0u; i < drawn.count; i++) {
             new_list[at + i] = drawn.instances[i];
         }
+    }
+}
+
+// Workgroup counts of the compute raster from the instance counts of the lists, split over y beyond
+// the 65535 workgroups allowed per dimension; run after each expansion.
+@compute @workgroup_size(1)
+fn size_dispatches() {
+    for (var list = 0u; list < 3u; list++) {
+        let groups = (atomicLoad(&draw_args[4u * list + 1u]) + RASTER_GROUP_SIZE - 1u) / RASTER_GROUP_SIZE;
+        dispatch_args[3u * list] = min(groups, MAX_GROUPS_X);
+        dispatch_args[3u * list + 1u] = max((groups + MAX_GROUPS_X - 1u) / MAX_GROUPS_X, 1u);
+        dispatch_args[3u * list + 2u] = 1u;
     }
 }

@@ -59,6 +59,21 @@ pub(crate) struct PageDrawArgs {
     pub lists: [[u32; 4]; 3],
 }
 
+/// `wgpu::util::DispatchIndirectArgs` of the compute raster over the full, probe and new lists of a
+/// page, written by `size_dispatches`. Keep in sync with `dispatch_args` in `shaders/expand.wgsl`.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Default, Pod, Zeroable)]
+pub(crate) struct PageDispatchArgs {
+    pub lists: [[u32; 3]; 3],
+}
+
+impl PageDispatchArgs {
+    /// Byte offset of a list's arguments.
+    pub fn offset(list: u64) -> u64 {
+        list * 12
+    }
+}
+
 pub(crate) const LIST_FULL: u64 = 0;
 pub(crate) const LIST_PROBE: u64 = 1;
 pub(crate) const LIST_NEW: u64 = 2;
@@ -78,6 +93,7 @@ impl PageDrawArgs {
 
 const _: () = assert!(std::mem::size_of::<FrameUniforms>() == 112);
 const _: () = assert!(std::mem::size_of::<PageDrawArgs>() == 48);
+const _: () = assert!(std::mem::size_of::<PageDispatchArgs>() == 36);
 
 /// Path tracing and ray traversal uniforms (group 0, binding 1 of the trace passes). Keep in sync
 /// with `TraceUniforms` in `shaders/trace.wgsl`.

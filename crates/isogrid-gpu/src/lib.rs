@@ -28,6 +28,7 @@
 //! pages at once (see `pathtrace.rs`).
 
 mod backends;
+mod compute_raster;
 mod error;
 mod gpu_types;
 mod pathtrace;
@@ -36,6 +37,7 @@ mod render;
 mod upload;
 
 pub use backends::preferred_backends;
+pub use compute_raster::{CellRaster, MAX_COMPUTE_CELL_PIXELS};
 pub use error::{GpuError, GpuErrorKind};
 pub use pathtrace::{
     sky_radiance, EnvMap, GpuEnvMap, PathTraceOptions, RayHit, DEFAULT_BOUNCES, MAX_BOUNCES,
@@ -109,11 +111,10 @@ impl Renderer {
             }
         }
         let timestamps = adapter.features().contains(wgpu::Features::TIMESTAMP_QUERY);
-        let features = if timestamps {
-            wgpu::Features::TIMESTAMP_QUERY
-        } else {
-            wgpu::Features::empty()
-        };
+        // Optional: timestamps for pass timings; early depth tests in spite of the cell raster's
+        // depth writes (conservative depth, see `pipelines.rs`).
+        let features = adapter.features()
+            & (wgpu::Features::TIMESTAMP_QUERY | wgpu::Features::SHADER_EARLY_DEPTH_TEST);
         let limits = adapter.limits();
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("isogrid-gpu device"),

@@ -455,6 +455,7 @@ impl Renderer {
             frames: options.frames,
             occlusion_culling: options.occlusion_culling,
             backface_culling: options.backface_culling,
+            ..Default::default()
         };
         self.render_checked(
             crate::Scene::Grid(grid),

@@ -2,6 +2,7 @@
 //! modules are `common.wgsl` (+ `cell_decode.wgsl` and the page storage, `cell_data.wgsl` or the
 //! tracer's `trace_pages.wgsl`, for passes that read cells) + the role's file.
 
+use crate::gpu_types::{LIST_FULL, LIST_NEW, LIST_PROBE};
 use wgpu::{BindGroupLayout, ComputePipeline, Device, RenderPipeline, ShaderStages};
 
 pub(crate) const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
@@ -21,6 +22,8 @@ pub(crate) const CELL_DATA: &str = concat!(
     include_str!("../shaders/cell_decode.wgsl"),
     include_str!("../shaders/cell_data.wgsl")
 );
+/// The per-pixel cell test shared by the hardware and the compute cell raster.
+pub(crate) const CELL_HIT: &str = include_str!("../shaders/cell_hit.wgsl");
 /// Cell decoding over up to [`crate::gpu_types::TRACE_PAGES`] pages bound at once (the tracer).
 pub(crate) const TRACE_PAGES_DATA: &str = concat!(
     include_str!("../shaders/cell_decode.wgsl"),
@@ -37,8 +40,12 @@ pub(crate) struct Pipelines {
     pub ids_input: BindGroupLayout,
     pub shade_inputs: BindGroupLayout,
     pub mesh: BindGroupLayout,
+    pub dispatch_args: BindGroupLayout,
+    pub raster_targets: BindGroupLayout,
     pub expand_visible: ComputePipeline,
     pub expand_new: ComputePipeline,
+    pub size_dispatches: ComputePipeline,
+    pub compute_raster: ComputeRasterPipelines,
     pub visibility: ComputePipeline,
     pub cells: RenderPipeline,
     pub probe: RenderPipeline,
@@ -46,6 +53,15 @@ pub(crate) struct Pipelines {
     pub shade: RenderPipeline,
     pub mesh_pipeline: RenderPipeline,
     pub trace: crate::pathtrace::TracePipelines,
+}
+
+/// The compute cell raster's passes (`shaders/cells_compute.wgsl`).
+pub(crate) struct ComputeRasterPipelines {
+    pub depth_full: ComputePipeline,
+    pub depth_new: ComputePipeline,
+    pub resolve_full: ComputePipeline,
+    pub resolve_new: ComputePipeline,
+    pub probe: ComputePipeline,
 }
 
 pub(crate) fn uniform(binding: u32, visibility: ShaderStages) -> wgpu::BindGroupLayoutEntry {
@@ -274,6 +290,26 @@ impl Pipelines {
             ],
         );
         let mesh = layout(device, "mc mesh", &[uniform(0, v), storage(1, v, true)]);
+        let dispatch_args = layout(device, "dispatch arguments", &[storage(0, c, false)]);
+        let write_only = |binding, format| wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility: c,
+            ty: wgpu::BindingType::StorageTexture {
+                access: wgpu::StorageTextureAccess::WriteOnly,
+                format,
+                view_dimension: D2,
+            },
+            count: None,
+        };
+        let raster_targets = layout(
+            device,
+            "compute raster targets",
+            &[
+                storage(0, c, false),
+                write_only(1, SURFACE_FORMAT),
+                write_only(2, IDS_FORMAT),
+            ],
+        );
 
         let expand_module = module(
             device,
@@ -296,6 +332,62 @@ impl Pipelines {
             "expand_new",
         );
 
+        let size_dispatches = compute(
+            device,
+            "size compute raster dispatches",
+            &pipeline_layout(
+                device,
+                "size dispatches",
+                &[&scene_compute, &page_compute, &dispatch_args],
+            ),
+            &expand_module,
+            "size_dispatches",
+        );
+
+        let compute_raster_module = module(
+            device,
+            "cells_compute.wgsl",
+            &[
+                COMMON,
+                CELL_DATA,
+                CELL_HIT,
+                include_str!("../shaders/cells_compute.wgsl"),
+            ],
+        );
+        let compute_raster_layout = pipeline_layout(
+            device,
+            "compute raster",
+            &[&scene_compute, &page_compute, &raster_targets],
+        );
+        let raster_pass = |label: &str, entry: &str, list: u64| {
+            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(label),
+                layout: Some(&compute_raster_layout),
+                module: &compute_raster_module,
+                entry_point: Some(entry),
+                compilation_options: wgpu::PipelineCompilationOptions {
+                    constants: &[("RASTER_LIST", list as f64)],
+                    ..Default::default()
+                },
+                cache: None,
+            })
+        };
+        let compute_raster = ComputeRasterPipelines {
+            depth_full: raster_pass("compute raster depth (full list)", "depth_pass", LIST_FULL),
+            depth_new: raster_pass("compute raster depth (new list)", "depth_pass", LIST_NEW),
+            resolve_full: raster_pass(
+                "compute raster resolve (full list)",
+                "resolve_pass",
+                LIST_FULL,
+            ),
+            resolve_new: raster_pass(
+                "compute raster resolve (new list)",
+                "resolve_pass",
+                LIST_NEW,
+            ),
+            probe: raster_pass("compute raster probes", "probe_cells", LIST_PROBE),
+        };
+
         let visibility_module = module(
             device,
             "visibility.wgsl",
@@ -311,10 +403,25 @@ impl Pipelines {
             "update_visibility",
         );
 
+        // The fragment shader writes the crossing's depth, which is never nearer than the
+        // rectangle's (the box's nearest corner): declaring that (conservative depth) keeps the
+        // early depth test, which rejects cells behind what is already drawn before any sampling.
+        let cells_source = include_str!("../shaders/cells.wgsl");
+        let cells_source = if device
+            .features()
+            .contains(wgpu::Features::SHADER_EARLY_DEPTH_TEST)
+        {
+            cells_source.replace(
+                "@fragment\nfn fs_cell",
+                "@fragment @early_depth_test(less_equal)\nfn fs_cell",
+            )
+        } else {
+            cells_source.to_string()
+        };
         let cells_module = module(
             device,
             "cells.wgsl",
-            &[COMMON, CELL_DATA, include_str!("../shaders/cells.wgsl")],
+            &[COMMON, CELL_DATA, CELL_HIT, &cells_source],
         );
         let cells_layout = pipeline_layout(device, "cells", &[&scene_render, &page_render]);
         let cells = render(
@@ -441,8 +548,12 @@ impl Pipelines {
             ids_input,
             shade_inputs,
             mesh,
+            dispatch_args,
+            raster_targets,
             expand_visible,
             expand_new,
+            size_dispatches,
+            compute_raster,
             visibility,
             cells,
             probe,

@@ -1,6 +1,7 @@
 //! One rendered image: per-frame pass sequence (see the crate docs), timestamp queries around each
 //! pass, and read-back of colour, depth, normal and cluster AOVs.
 
+use crate::compute_raster::{CellRaster, ComputeRaster, RasterStep};
 use crate::error::GpuError;
 use crate::gpu_types::*;
 use crate::pathtrace::PathTraceOptions;
@@ -51,6 +52,8 @@ pub struct RenderOptions {
     /// Skips cells whose surface faces away from the eye, where that cannot change the image (the
     /// grid's border is outside the surface and the eye is outside the grid box).
     pub backface_culling: bool,
+    /// Which raster draws the cells; see [`CellRaster`].
+    pub cell_raster: CellRaster,
 }
 
 impl Default for RenderOptions {
@@ -59,6 +62,7 @@ impl Default for RenderOptions {
             frames: 1,
             occlusion_culling: true,
             backface_culling: true,
+            cell_raster: CellRaster::Auto,
         }
     }
 }
@@ -106,6 +110,8 @@ pub struct Frame {
     pub linear: Vec<[f32; 3]>,
     /// [`Mode::PathTrace`]: samples per pixel accumulated so far for this view; 0 in other modes.
     pub samples: u32,
+    /// The raster that drew the cells ([`CellRaster::Auto`] resolved); `None` for the MC mesh.
+    pub cell_raster: Option<CellRaster>,
 }
 
 impl Frame {
@@ -133,6 +139,8 @@ const TIMED_FRAMES: u32 = 64;
 /// Render targets of one image size.
 struct Targets {
     depth: wgpu::Texture,
+    /// The compute raster's depth: reversed-Z bits per pixel, row-major.
+    raster_depth: wgpu::Buffer,
     surface: wgpu::Texture,
     ids: wgpu::Texture,
     ewa: wgpu::Texture,
@@ -288,8 +296,25 @@ impl Renderer {
         let rt = U::RENDER_ATTACHMENT | U::TEXTURE_BINDING;
         Targets {
             depth: self.texture("raster depth (reversed-Z)", camera, DEPTH_FORMAT, rt),
-            surface: self.texture("raster normal + distance", camera, SURFACE_FORMAT, rt),
-            ids: self.texture("cluster ids", camera, IDS_FORMAT, rt | U::COPY_SRC),
+            raster_depth: self.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("compute raster depth (reversed-Z bits)"),
+                size: 4 * camera.width as u64 * camera.height as u64,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            }),
+            // Storage: the compute raster writes these two.
+            surface: self.texture(
+                "raster normal + distance",
+                camera,
+                SURFACE_FORMAT,
+                rt | U::STORAGE_BINDING,
+            ),
+            ids: self.texture(
+                "cluster ids",
+                camera,
+                IDS_FORMAT,
+                rt | U::COPY_SRC | U::STORAGE_BINDING,
+            ),
             ewa: self.texture("ewa normal accumulation", camera, EWA_FORMAT, rt),
             color: self.texture(
                 "shaded colour",
@@ -396,6 +421,8 @@ impl Renderer {
         let eye_outside =
             (0..3).any(|a| camera.eye[a] < bounds.0[a] || camera.eye[a] > bounds.1[a]);
         let occlusion = options.occlusion_culling && grid.is_some();
+        let cell_raster = grid.map(|g| options.cell_raster.resolve(camera, &g.info));
+        let compute_raster = cell_raster == Some(CellRaster::Compute);
         let backface =
             options.backface_culling && grid.is_some_and(|g| g.border_outside) && eye_outside;
         let mut flags = 0;
@@ -492,6 +519,15 @@ impl Renderer {
             label: Some("raster surface input"),
             layout: &p.surface_input,
             entries: &[texture_entry(0, &surface_view)],
+        });
+        let raster_targets = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("compute raster targets"),
+            layout: &p.raster_targets,
+            entries: &[
+                buffer_entry(0, &targets.raster_depth),
+                texture_entry(1, &surface_view),
+                texture_entry(2, &ids_view),
+            ],
         });
         let ids_input = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("cluster id input"),
@@ -678,10 +714,36 @@ impl Renderer {
                         pass.dispatch_workgroups(x, y, 1);
                     }
                 }
-                {
+                let compute = ComputeRaster {
+                    pipelines: p,
+                    scene: &scene_compute,
+                    targets: &raster_targets,
+                    pages: &g.pages,
+                };
+                ran[(TS_RASTER / 2) as usize] = true;
+                if compute_raster {
+                    compute.size_dispatches(&mut encoder);
+                    drop(clear_targets(
+                        &mut encoder,
+                        "clear cell raster targets",
+                        None,
+                        views,
+                    ));
+                    encoder.clear_buffer(&targets.raster_depth, 0, None);
+                    let steps: &[RasterStep] = if occlusion {
+                        &[RasterStep::DepthFull]
+                    } else {
+                        &[RasterStep::DepthFull, RasterStep::ResolveFull]
+                    };
+                    compute.pass(
+                        &mut encoder,
+                        "compute cell raster",
+                        compute_ts(TS_RASTER),
+                        steps,
+                    );
+                } else {
                     let mut pass =
                         clear_targets(&mut encoder, "cell raster", render_ts(TS_RASTER), views);
-                    ran[(TS_RASTER / 2) as usize] = true;
                     pass.set_pipeline(&p.cells);
                     pass.set_bind_group(0, &scene_render, &[]);
                     for page in &g.pages {
@@ -690,7 +752,16 @@ impl Renderer {
                     }
                 }
                 if occlusion {
-                    {
+                    ran[(TS_PROBE / 2) as usize] = true;
+                    if compute_raster {
+                        let probes = [RasterStep::Probe];
+                        compute.pass(
+                            &mut encoder,
+                            "compute probes",
+                            compute_ts(TS_PROBE),
+                            &probes,
+                        );
+                    } else {
                         let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                             label: Some("visibility probes"),
                             color_attachments: &[color_attachment(&ids_view, None)],
@@ -699,7 +770,6 @@ impl Renderer {
                             occlusion_query_set: None,
                             multiview_mask: None,
                         });
-                        ran[(TS_PROBE / 2) as usize] = true;
                         pass.set_pipeline(&p.probe);
                         pass.set_bind_group(0, &scene_render, &[]);
                         pass.set_bind_group(2, &depth_input, &[]);
@@ -722,7 +792,17 @@ impl Renderer {
                             pass.dispatch_workgroups(x, y, 1);
                         }
                     }
-                    {
+                    ran[(TS_RASTER_NEW / 2) as usize] = true;
+                    if compute_raster {
+                        compute.size_dispatches(&mut encoder);
+                        let steps = [
+                            RasterStep::DepthNew,
+                            RasterStep::ResolveFull,
+                            RasterStep::ResolveNew,
+                        ];
+                        let label = "compute cell raster (newly visible) and resolve";
+                        compute.pass(&mut encoder, label, compute_ts(TS_RASTER_NEW), &steps);
+                    } else {
                         let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                             label: Some("cell raster (newly visible)"),
                             color_attachments: &[
@@ -743,7 +823,6 @@ impl Renderer {
                             occlusion_query_set: None,
                             multiview_mask: None,
                         });
-                        ran[(TS_RASTER_NEW / 2) as usize] = true;
                         pass.set_pipeline(&p.cells);
                         pass.set_bind_group(0, &scene_render, &[]);
                         for page in &g.pages {
@@ -901,6 +980,7 @@ impl Renderer {
             probed_cells: if occlusion { count(LIST_PROBE) } else { 0 },
             linear: Vec::new(),
             samples: 0,
+            cell_raster,
         };
         let rows = |i: usize| mapped[i].chunks(readbacks[i].1 as usize);
         for ((color, normal), ids) in rows(0).zip(rows(1)).zip(rows(2)) {

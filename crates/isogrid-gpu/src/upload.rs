@@ -3,7 +3,7 @@
 //! volume as a 3D texture for the CR baseline.
 
 use crate::error::GpuError;
-use crate::gpu_types::{MeshUniforms, PageDrawArgs, PageUniforms};
+use crate::gpu_types::{MeshUniforms, PageDispatchArgs, PageDrawArgs, PageUniforms};
 use crate::render::buffer_entry as entry;
 use crate::Renderer;
 use isogrid::layout::{BOUND_SLOT, CLUSTER_SLOTS};
@@ -28,6 +28,10 @@ pub(crate) struct Page {
     pub cells: wgpu::Buffer,
     pub args: wgpu::Buffer,
     pub compute_group: wgpu::BindGroup,
+    /// Workgroup counts of the compute raster over the three lists ([`PageDispatchArgs`]), and
+    /// the bind group through which `size_dispatches` writes them.
+    pub dispatch_args: wgpu::Buffer,
+    pub dispatch_group: wgpu::BindGroup,
     /// Render bind groups reading the full, probe and new instance list.
     pub render_groups: [wgpu::BindGroup; 3],
 }
@@ -284,6 +288,16 @@ impl Renderer {
                     entry(6, &args),
                 ],
             });
+            let dispatch_args = self.buffer_init(
+                &format!("page {p} compute raster dispatch arguments"),
+                bytemuck::bytes_of(&PageDispatchArgs::default()),
+                storage | wgpu::BufferUsages::INDIRECT,
+            )?;
+            let dispatch_group = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some(&format!("page {p} dispatch arguments (compute)")),
+                layout: &self.pipelines.dispatch_args,
+                entries: &[entry(0, &dispatch_args)],
+            });
             let render_groups = std::array::from_fn(|l| {
                 self.device.create_bind_group(&wgpu::BindGroupDescriptor {
                     label: Some(&format!("page {p} list {l} (render)")),
@@ -305,6 +319,8 @@ impl Renderer {
                 cells: cell_buffer,
                 args,
                 compute_group,
+                dispatch_args,
+                dispatch_group,
                 render_groups,
             });
         }

@@ -67,6 +67,7 @@ fn picture(
             isogrid_gpu::Mode::Cgc,
             2,
             true,
+            isogrid_gpu::CellRaster::Auto,
         )?;
         isogrid_io::image::write_png(path, w, h, 4, &out.frame.rgba8)?;
         return Ok(("gpu", out.adapter));

@@ -103,6 +103,23 @@ pub enum Mode {
 }
 
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CellRasterArg {
+    Auto,
+    Hardware,
+    Compute,
+}
+
+impl From<CellRasterArg> for isogrid_gpu::CellRaster {
+    fn from(arg: CellRasterArg) -> Self {
+        match arg {
+            CellRasterArg::Auto => isogrid_gpu::CellRaster::Auto,
+            CellRasterArg::Hardware => isogrid_gpu::CellRaster::Hardware,
+            CellRasterArg::Compute => isogrid_gpu::CellRaster::Compute,
+        }
+    }
+}
+
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Backend {
     Auto,
     Cpu,
@@ -127,6 +144,11 @@ pub struct Args {
     /// what culling saves.
     #[arg(long)]
     pub no_occlusion_culling: bool,
+    /// GPU: which raster draws the cells: `compute` (one thread per cell), `hardware` (the
+    /// paper's screen rectangles through the graphics pipeline) or `auto` (compute unless cells
+    /// can cover more than 32 pixels across, as when the eye is inside the volume).
+    #[arg(long, value_enum, default_value = "auto")]
+    pub cell_raster: CellRasterArg,
     /// Image size in pixels.
     #[arg(long, value_name = "WxH", default_value = "1280x720", value_parser = parse_size)]
     pub size: (u32, u32),
@@ -233,6 +255,8 @@ struct RenderReport {
     gpu_ms: Option<render_gpu::GpuTimes>,
     drawn_cells: Option<u64>,
     probed_cells: Option<u64>,
+    /// GPU: the raster that drew the cells, `compute` or `hardware`.
+    cell_raster: Option<&'static str>,
     output: Option<PathBuf>,
 }
 
@@ -361,6 +385,7 @@ pub fn run(args: Args) -> Result<()> {
         gpu_ms: None,
         drawn_cells: None,
         probed_cells: None,
+        cell_raster: None,
         output: args.output.clone(),
     };
 
@@ -393,9 +418,14 @@ pub fn run(args: Args) -> Result<()> {
                 mode,
                 args.frames,
                 !args.no_occlusion_culling,
+                args.cell_raster.into(),
             )?;
             report.seconds = start.elapsed().as_secs_f64();
             spinner.finish_and_clear();
+            report.cell_raster = out.frame.cell_raster.map(|r| match r {
+                isogrid_gpu::CellRaster::Hardware => "hardware",
+                _ => "compute",
+            });
             report.drawn_cells = Some(out.frame.drawn_cells);
             report.probed_cells = Some(out.frame.probed_cells);
             gpu_rendered(&mut report, out, args.frames)

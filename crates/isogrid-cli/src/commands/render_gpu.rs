@@ -101,10 +101,12 @@ pub fn render(
     mode: Mode,
     frames: u32,
     occlusion_culling: bool,
+    cell_raster: isogrid_gpu::CellRaster,
 ) -> Result<GpuRender> {
     let options = RenderOptions {
         frames,
         occlusion_culling,
+        cell_raster,
         ..RenderOptions::default()
     };
     let need_volume = |what: &str| {

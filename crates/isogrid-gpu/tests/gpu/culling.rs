@@ -24,6 +24,7 @@ fn converged_culling_changes_no_pixel_and_draws_fewer_cells() {
             frames: 1,
             occlusion_culling: false,
             backface_culling: false,
+            ..Default::default()
         };
         let on = RenderOptions {
             frames: 12,
@@ -91,6 +92,7 @@ fn converged_culling_keeps_ewa_images() {
         frames: 1,
         occlusion_culling: false,
         backface_culling: false,
+        ..Default::default()
     };
     let plain = r
         .render_with(Scene::Grid(&gpu), &cam, Mode::Cgc, &off)

@@ -60,6 +60,7 @@ fn a_grid_larger_than_one_binding_renders_in_pages() {
             frames: 1,
             occlusion_culling: false,
             backface_culling: false,
+            ..Default::default()
         },
         RenderOptions {
             frames: 10,

@@ -7,6 +7,7 @@ mod edges;
 mod empty_space;
 mod paged_trace;
 mod pathtrace;
+mod rasters;
 mod reference;
 
 use isogrid::generate::{generate, Field};
