@@ -21,7 +21,7 @@
 // compute raster (cells_compute.wgsl) over the full, probe and new lists.
 @group(2) @binding(0) var<storage, read_write> dispatch_args: array<u32, 9>;
 
-// Threads per workgroup of the compute raster; keep in sync with cells_compute.wgsl.
+// Threads per workgroup of the compute raster and splats; keep in sync with compute_lists.wgsl.
 const RASTER_GROUP_SIZE: u32 = 64u;
 const MAX_GROUPS_X: u32 = 65535u;
 

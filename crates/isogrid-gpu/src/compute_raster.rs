@@ -1,5 +1,6 @@
-//! Cell rasterisation in compute passes (paper §3.2 and the probes of §3.3,
-//! `shaders/cells_compute.wgsl`): which raster a frame uses, and how the compute one is recorded.
+//! Cell rasterisation in compute passes (paper §3.2, the probes of §3.3 and the EWA splats of §3.4;
+//! `shaders/cells_compute.wgsl`, `shaders/ewa_compute.wgsl`): which raster a frame uses, and how
+//! the compute one is recorded.
 //!
 //! Both rasters run the same per-pixel test (`shaders/cell_hit.wgsl`) on the same instance lists,
 //! so they find the same crossings; they differ in who walks a cell's pixels. The hardware raster
@@ -10,7 +11,7 @@
 //! the compute units (datacenter GPUs such as the H100, see `docs/benchmarks-gpu.md`), and loses
 //! where cells grow large on screen: one thread then walks many pixels.
 
-use crate::gpu_types::{PageDispatchArgs, LIST_FULL, LIST_NEW};
+use crate::gpu_types::{PageDispatchArgs, LIST_FULL, LIST_NEW, LIST_PROBE};
 use crate::pipelines::Pipelines;
 use crate::upload::Page;
 use isogrid::{Camera, GridInfo};
@@ -74,7 +75,11 @@ pub(crate) struct ComputeRaster<'a> {
     pub scene: &'a wgpu::BindGroup,
     /// Group 2 of `cells_compute.wgsl`: the depth words and the G-buffer storage views.
     pub targets: &'a wgpu::BindGroup,
+    /// Group 2 of `ewa_compute.wgsl`: the splat sums, the G-buffer and the EWA target.
+    pub ewa_targets: &'a wgpu::BindGroup,
     pub pages: &'a [Page],
+    /// Image size in pixels.
+    pub size: (u32, u32),
 }
 
 /// One compute raster pass over one list of every page.
@@ -85,6 +90,10 @@ pub(crate) enum RasterStep {
     ResolveFull,
     ResolveNew,
     Probe,
+    SplatFull,
+    SplatNew,
+    /// Per pixel, not per list: the splat sums into the EWA target.
+    ResolveSplats,
 }
 
 impl ComputeRaster<'_> {
@@ -117,15 +126,36 @@ impl ComputeRaster<'_> {
         });
         let p = &self.pipelines.compute_raster;
         pass.set_bind_group(0, self.scene, &[]);
-        pass.set_bind_group(2, self.targets, &[]);
         for step in steps {
             let (pipeline, list) = match step {
                 RasterStep::DepthFull => (&p.depth_full, LIST_FULL),
                 RasterStep::DepthNew => (&p.depth_new, LIST_NEW),
                 RasterStep::ResolveFull => (&p.resolve_full, LIST_FULL),
                 RasterStep::ResolveNew => (&p.resolve_new, LIST_NEW),
-                RasterStep::Probe => (&p.probe, crate::gpu_types::LIST_PROBE),
+                RasterStep::Probe => (&p.probe, LIST_PROBE),
+                RasterStep::SplatFull => (&p.splat_full, LIST_FULL),
+                RasterStep::SplatNew => (&p.splat_new, LIST_NEW),
+                RasterStep::ResolveSplats => {
+                    pass.set_pipeline(&p.resolve_splats);
+                    pass.set_bind_group(2, self.ewa_targets, &[]);
+                    // Group 1 is in the layout, unused by this entry point.
+                    if let Some(page) = self.pages.first() {
+                        pass.set_bind_group(1, &page.compute_group, &[]);
+                    }
+                    pass.dispatch_workgroups(self.size.0.div_ceil(8), self.size.1.div_ceil(8), 1);
+                    continue;
+                }
             };
+            let splats = matches!(step, RasterStep::SplatFull | RasterStep::SplatNew);
+            pass.set_bind_group(
+                2,
+                if splats {
+                    self.ewa_targets
+                } else {
+                    self.targets
+                },
+                &[],
+            );
             pass.set_pipeline(pipeline);
             for page in self.pages {
                 pass.set_bind_group(1, &page.compute_group, &[]);

@@ -2,7 +2,7 @@
 //! modules are `common.wgsl` (+ `cell_decode.wgsl` and the page storage, `cell_data.wgsl` or the
 //! tracer's `trace_pages.wgsl`, for passes that read cells) + the role's file.
 
-use crate::gpu_types::{LIST_FULL, LIST_NEW, LIST_PROBE};
+use crate::gpu_types::{LIST_FULL, LIST_NEW};
 use wgpu::{BindGroupLayout, ComputePipeline, Device, RenderPipeline, ShaderStages};
 
 pub(crate) const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
@@ -24,6 +24,10 @@ pub(crate) const CELL_DATA: &str = concat!(
 );
 /// The per-pixel cell test shared by the hardware and the compute cell raster.
 pub(crate) const CELL_HIT: &str = include_str!("../shaders/cell_hit.wgsl");
+/// The instance lists and pixel spans of the compute raster and splat passes.
+pub(crate) const COMPUTE_LISTS: &str = include_str!("../shaders/compute_lists.wgsl");
+/// EWA splat setup and per-pixel weight, shared by the hardware and the compute splats.
+pub(crate) const EWA_SPLAT: &str = include_str!("../shaders/ewa_splat.wgsl");
 /// Cell decoding over up to [`crate::gpu_types::TRACE_PAGES`] pages bound at once (the tracer).
 pub(crate) const TRACE_PAGES_DATA: &str = concat!(
     include_str!("../shaders/cell_decode.wgsl"),
@@ -42,6 +46,7 @@ pub(crate) struct Pipelines {
     pub mesh: BindGroupLayout,
     pub dispatch_args: BindGroupLayout,
     pub raster_targets: BindGroupLayout,
+    pub ewa_targets: BindGroupLayout,
     pub expand_visible: ComputePipeline,
     pub expand_new: ComputePipeline,
     pub size_dispatches: ComputePipeline,
@@ -62,6 +67,9 @@ pub(crate) struct ComputeRasterPipelines {
     pub resolve_full: ComputePipeline,
     pub resolve_new: ComputePipeline,
     pub probe: ComputePipeline,
+    pub splat_full: ComputePipeline,
+    pub splat_new: ComputePipeline,
+    pub resolve_splats: ComputePipeline,
 }
 
 pub(crate) fn uniform(binding: u32, visibility: ShaderStages) -> wgpu::BindGroupLayoutEntry {
@@ -310,6 +318,15 @@ impl Pipelines {
                 write_only(2, IDS_FORMAT),
             ],
         );
+        let ewa_targets = layout(
+            device,
+            "compute ewa targets",
+            &[
+                storage(0, c, false),
+                texture(1, c, FLOAT, D2),
+                write_only(2, EWA_FORMAT),
+            ],
+        );
 
         let expand_module = module(
             device,
@@ -350,6 +367,7 @@ impl Pipelines {
             &[
                 COMMON,
                 CELL_DATA,
+                COMPUTE_LISTS,
                 CELL_HIT,
                 include_str!("../shaders/cells_compute.wgsl"),
             ],
@@ -359,33 +377,82 @@ impl Pipelines {
             "compute raster",
             &[&scene_compute, &page_compute, &raster_targets],
         );
-        let raster_pass = |label: &str, entry: &str, list: u64| {
+        let ewa_compute_module = module(
+            device,
+            "ewa_compute.wgsl",
+            &[
+                COMMON,
+                CELL_DATA,
+                COMPUTE_LISTS,
+                EWA_SPLAT,
+                include_str!("../shaders/ewa_compute.wgsl"),
+            ],
+        );
+        let ewa_compute_layout = pipeline_layout(
+            device,
+            "compute ewa",
+            &[&scene_compute, &page_compute, &ewa_targets],
+        );
+        let specialised = |label: &str,
+                           layout: &wgpu::PipelineLayout,
+                           module: &wgpu::ShaderModule,
+                           entry: &str,
+                           constants: &[(&str, f64)]| {
             device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
                 label: Some(label),
-                layout: Some(&compute_raster_layout),
-                module: &compute_raster_module,
+                layout: Some(layout),
+                module,
                 entry_point: Some(entry),
                 compilation_options: wgpu::PipelineCompilationOptions {
-                    constants: &[("RASTER_LIST", list as f64)],
+                    constants,
                     ..Default::default()
                 },
                 cache: None,
             })
         };
+        let raster = |label: &str, list: u64, resolve: bool| {
+            let constants = [
+                ("RASTER_LIST", list as f64),
+                ("RASTER_RESOLVE", resolve as u8 as f64),
+            ];
+            specialised(
+                label,
+                &compute_raster_layout,
+                &compute_raster_module,
+                "raster_cells",
+                &constants,
+            )
+        };
+        let splat = |label: &str, list: u64| {
+            specialised(
+                label,
+                &ewa_compute_layout,
+                &ewa_compute_module,
+                "splat_cells",
+                &[("EWA_LIST", list as f64)],
+            )
+        };
         let compute_raster = ComputeRasterPipelines {
-            depth_full: raster_pass("compute raster depth (full list)", "depth_pass", LIST_FULL),
-            depth_new: raster_pass("compute raster depth (new list)", "depth_pass", LIST_NEW),
-            resolve_full: raster_pass(
-                "compute raster resolve (full list)",
-                "resolve_pass",
-                LIST_FULL,
+            depth_full: raster("compute raster depth (full list)", LIST_FULL, false),
+            depth_new: raster("compute raster depth (new list)", LIST_NEW, false),
+            resolve_full: raster("compute raster resolve (full list)", LIST_FULL, true),
+            resolve_new: raster("compute raster resolve (new list)", LIST_NEW, true),
+            probe: compute(
+                device,
+                "compute raster probes",
+                &compute_raster_layout,
+                &compute_raster_module,
+                "probe_cells",
             ),
-            resolve_new: raster_pass(
-                "compute raster resolve (new list)",
-                "resolve_pass",
-                LIST_NEW,
+            splat_full: splat("compute ewa splats (full list)", LIST_FULL),
+            splat_new: splat("compute ewa splats (new list)", LIST_NEW),
+            resolve_splats: compute(
+                device,
+                "compute ewa resolve",
+                &ewa_compute_layout,
+                &ewa_compute_module,
+                "resolve_splats",
             ),
-            probe: raster_pass("compute raster probes", "probe_cells", LIST_PROBE),
         };
 
         let visibility_module = module(
@@ -468,7 +535,12 @@ impl Pipelines {
         let ewa_module = module(
             device,
             "ewa.wgsl",
-            &[COMMON, CELL_DATA, include_str!("../shaders/ewa.wgsl")],
+            &[
+                COMMON,
+                CELL_DATA,
+                EWA_SPLAT,
+                include_str!("../shaders/ewa.wgsl"),
+            ],
         );
         let ewa_layout = pipeline_layout(
             device,
@@ -550,6 +622,7 @@ impl Pipelines {
             mesh,
             dispatch_args,
             raster_targets,
+            ewa_targets,
             expand_visible,
             expand_new,
             size_dispatches,

@@ -315,7 +315,13 @@ impl Renderer {
                 IDS_FORMAT,
                 rt | U::COPY_SRC | U::STORAGE_BINDING,
             ),
-            ewa: self.texture("ewa normal accumulation", camera, EWA_FORMAT, rt),
+            // Storage: the compute splats' resolve writes it.
+            ewa: self.texture(
+                "ewa normal accumulation",
+                camera,
+                EWA_FORMAT,
+                rt | U::STORAGE_BINDING,
+            ),
             color: self.texture(
                 "shaded colour",
                 camera,
@@ -529,6 +535,26 @@ impl Renderer {
                 texture_entry(2, &ids_view),
             ],
         });
+        // The compute splats' integer sums: 4 words per pixel, only when they run.
+        let ewa_sum = self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("compute ewa sums"),
+            size: if ewa && compute_raster {
+                16 * camera.width as u64 * camera.height as u64
+            } else {
+                16
+            },
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let ewa_targets = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("compute ewa targets"),
+            layout: &p.ewa_targets,
+            entries: &[
+                buffer_entry(0, &ewa_sum),
+                texture_entry(1, &surface_view),
+                texture_entry(2, &ewa_view),
+            ],
+        });
         let ids_input = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("cluster id input"),
             layout: &p.ids_input,
@@ -718,7 +744,9 @@ impl Renderer {
                     pipelines: p,
                     scene: &scene_compute,
                     targets: &raster_targets,
+                    ewa_targets: &ewa_targets,
                     pages: &g.pages,
+                    size: (camera.width, camera.height),
                 };
                 ran[(TS_RASTER / 2) as usize] = true;
                 if compute_raster {
@@ -831,7 +859,25 @@ impl Renderer {
                         }
                     }
                 }
-                {
+                if ewa && compute_raster && !g.pages.is_empty() {
+                    ran[(TS_EWA / 2) as usize] = true;
+                    encoder.clear_buffer(&ewa_sum, 0, None);
+                    let steps: &[RasterStep] = if occlusion {
+                        &[
+                            RasterStep::SplatFull,
+                            RasterStep::SplatNew,
+                            RasterStep::ResolveSplats,
+                        ]
+                    } else {
+                        &[RasterStep::SplatFull, RasterStep::ResolveSplats]
+                    };
+                    compute.pass(
+                        &mut encoder,
+                        "compute ewa splats",
+                        compute_ts(TS_EWA),
+                        steps,
+                    );
+                } else {
                     // Cleared in every mode so that the shading pass can always read it.
                     let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                         label: Some("ewa normal splats"),
