@@ -15,7 +15,9 @@
 //!
 //! [`Mode::PathTrace`] (§3.6, `pathtrace.rs`) runs the [`Mode::Cgc`] passes for primary hits, then
 //! `trace.wgsl` + `pathtrace.wgsl` (compute) trace secondary rays through blocks, clusters,
-//! metacells and cells and accumulate diffuse path-traced samples over frames.
+//! metacells and cells and accumulate diffuse path-traced samples over frames. With
+//! [`PrimaryRays::Traced`] the primary rays are traced in that compute pass too and no raster pass
+//! runs (for GPUs whose graphics pipeline is slow next to their compute).
 //!
 //! Baselines: [`Mode::Mc`] draws a Marching Cubes mesh (`mesh.wgsl`), [`Mode::Cr`] runs the same
 //! cell passes with corner values read from a 3D texture of the original samples.
@@ -38,7 +40,8 @@ mod upload;
 pub use backends::preferred_backends;
 pub use error::{GpuError, GpuErrorKind};
 pub use pathtrace::{
-    sky_radiance, EnvMap, GpuEnvMap, PathTraceOptions, RayHit, DEFAULT_BOUNCES, MAX_BOUNCES,
+    sky_radiance, EnvMap, GpuEnvMap, PathTraceOptions, PrimaryRays, RayHit, DEFAULT_BOUNCES,
+    MAX_BOUNCES,
 };
 pub use render::{Frame, Mode, PassTimings, RenderOptions, Scene};
 pub use upload::{GpuGrid, GpuMesh, GpuVolume};

@@ -3,7 +3,7 @@
 
 use crate::error::GpuError;
 use crate::gpu_types::*;
-use crate::pathtrace::PathTraceOptions;
+use crate::pathtrace::{PathTraceOptions, PrimaryRays};
 use crate::pipelines::*;
 use crate::upload::{GpuGrid, GpuMesh, GpuVolume};
 use crate::Renderer;
@@ -24,7 +24,8 @@ pub enum Mode {
     Cr,
     /// Hybrid path tracing (§3.6): the [`Mode::Cgc`] G-buffer gives primary hits, secondary rays
     /// are traced through the blocks, clusters, metacells and cells in a compute pass, and the
-    /// samples accumulate while the view rests. See [`Renderer::path_trace`] for the options.
+    /// samples accumulate while the view rests. See [`Renderer::path_trace`] for the options,
+    /// among them tracing the primary rays too ([`crate::PrimaryRays::Traced`]).
     PathTrace,
 }
 
@@ -78,7 +79,8 @@ pub struct PassTimings {
     pub cull_ms: Option<f64>,
     /// First to last timestamp of the frame.
     pub frame_ms: Option<f64>,
-    /// The path tracing pass ([`Mode::PathTrace`]): secondary rays, accumulation, tone mapping.
+    /// The path tracing pass ([`Mode::PathTrace`]): secondary rays (and primary ones with
+    /// [`crate::PrimaryRays::Traced`]), accumulation, tone mapping.
     pub trace_ms: Option<f64>,
 }
 
@@ -283,13 +285,26 @@ impl Renderer {
         })
     }
 
-    fn targets(&self, camera: &Camera) -> Targets {
+    /// `traced_primaries`: the path tracer writes the G-buffer (final normal, cluster ids) as
+    /// storage textures, a usage the raster passes do not get by default (it can cost render
+    /// targets their compression).
+    fn targets(&self, camera: &Camera, traced_primaries: bool) -> Targets {
         use wgpu::TextureUsages as U;
         let rt = U::RENDER_ATTACHMENT | U::TEXTURE_BINDING;
+        let written = if traced_primaries {
+            U::STORAGE_BINDING
+        } else {
+            U::empty()
+        };
         Targets {
             depth: self.texture("raster depth (reversed-Z)", camera, DEPTH_FORMAT, rt),
             surface: self.texture("raster normal + distance", camera, SURFACE_FORMAT, rt),
-            ids: self.texture("cluster ids", camera, IDS_FORMAT, rt | U::COPY_SRC),
+            ids: self.texture(
+                "cluster ids",
+                camera,
+                IDS_FORMAT,
+                rt | U::COPY_SRC | written,
+            ),
             ewa: self.texture("ewa normal accumulation", camera, EWA_FORMAT, rt),
             color: self.texture(
                 "shaded colour",
@@ -303,7 +318,7 @@ impl Renderer {
                 camera,
                 FINAL_FORMAT,
                 // Texture binding: the path tracer's primary hits.
-                U::RENDER_ATTACHMENT | U::COPY_SRC | U::TEXTURE_BINDING,
+                U::RENDER_ATTACHMENT | U::COPY_SRC | U::TEXTURE_BINDING | written,
             ),
         }
     }
@@ -387,7 +402,10 @@ impl Renderer {
     ) -> Result<Frame, GpuError> {
         let frames = options.frames.max(1);
         let ewa = matches!(mode, Mode::Cgc | Mode::PathTrace);
-        let targets = self.targets(camera);
+        // Traced primaries: the path-trace pass alone fills the image and the G-buffer.
+        let traced = path_trace.is_some_and(|o| o.primary == PrimaryRays::Traced);
+        let raster_grid = grid.filter(|_| !traced);
+        let targets = self.targets(camera, traced);
         let bounds = match (grid, mesh) {
             (Some(g), _) => g.info.world_bounds(),
             (None, Some(m)) => m.bounds,
@@ -571,7 +589,7 @@ impl Renderer {
                 g,
                 camera,
                 o,
-                [&targets.final_normal, &targets.color],
+                [&targets.final_normal, &targets.color, &targets.ids],
                 &uniform_buffer,
             )?),
             _ => None,
@@ -654,7 +672,7 @@ impl Renderer {
                     pass.draw_indexed(0..m.index_count, 0, 0..1);
                 }
             }
-            if let Some(g) = grid {
+            if let Some(g) = raster_grid {
                 for page in &g.pages {
                     encoder.copy_buffer_to_buffer(
                         &args_template,
@@ -815,7 +833,7 @@ impl Renderer {
                     multiview_mask: None,
                 });
             }
-            {
+            if !traced {
                 let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                     label: Some("deferred shading"),
                     color_attachments: &[
@@ -842,7 +860,7 @@ impl Renderer {
                     encoder.resolve_query_set(set, 0..TS_PER_FRAME * timed_frames, resolve, 0);
                     encoder.copy_buffer_to_buffer(resolve, 0, readback, 0, resolve.size());
                 }
-                for (i, page) in grid.iter().flat_map(|g| &g.pages).enumerate() {
+                for (i, page) in raster_grid.iter().flat_map(|g| &g.pages).enumerate() {
                     encoder.copy_buffer_to_buffer(
                         &page.args,
                         0,

@@ -8,6 +8,7 @@ mod empty_space;
 mod paged_trace;
 mod pathtrace;
 mod reference;
+mod traced_primary;
 
 use isogrid::generate::{generate, Field};
 use isogrid::{extract, CellGrid, ExtractOptions, Iso, Precision, Volume};

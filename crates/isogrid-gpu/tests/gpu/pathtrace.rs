@@ -8,7 +8,7 @@ use isogrid::generate::Field;
 use isogrid::shading::{to_srgb8, ALBEDO};
 use isogrid::{extract, Camera, ExtractOptions, Iso, Precision, Ray, Volume, VolumeData};
 use isogrid_gpu::{
-    sky_radiance, EnvMap, GpuErrorKind, Mode, PathTraceOptions, RenderOptions, Scene,
+    sky_radiance, EnvMap, GpuErrorKind, Mode, PathTraceOptions, PrimaryRays, RenderOptions, Scene,
 };
 
 /// Small deterministic generator (SplitMix64) for test rays.
@@ -133,6 +133,16 @@ fn camera(size: usize, view: u8, width: u32, height: u32) -> Camera {
 /// The mean must be within 1 % of 1: a tracer that let paths leak into the solid would trap them.
 #[test]
 fn white_furnace_stays_white() {
+    white_furnace(PrimaryRays::Raster);
+}
+
+/// The same furnace with primary rays traced rather than rasterised.
+#[test]
+fn white_furnace_stays_white_with_traced_primaries() {
+    white_furnace(PrimaryRays::Traced);
+}
+
+fn white_furnace(primary: PrimaryRays) {
     let Some(r) = renderer() else { return };
     let white = r.upload_env(&EnvMap::constant([1.0; 3]).unwrap()).unwrap();
     for (field, size, bounces, pixels, frames, lost_per_pixel) in [
@@ -153,6 +163,7 @@ fn white_furnace_stays_white() {
                     bounces,
                     env: Some(&white),
                     albedo: [1.0; 3],
+                    primary,
                     ..Default::default()
                 },
             )
@@ -165,7 +176,7 @@ fn white_furnace_stays_white() {
         let min = values.iter().cloned().fold(f32::INFINITY, f32::min);
         let max = values.iter().cloned().fold(0.0f32, f32::max);
         eprintln!(
-            "{field} furnace: mean {mean:.5}, min {min}, max {max}, {hits} hit pixels, {:.2} s",
+            "{field} furnace ({primary:?} primaries): mean {mean:.5}, min {min}, max {max}, {hits} hit pixels, {:.2} s",
             started.elapsed().as_secs_f64()
         );
         assert!(
