@@ -4,7 +4,7 @@
 //! raster, culling or shading pass runs.
 
 use crate::paged_trace::quarter_binding;
-use crate::{new_renderer, renderer, scene};
+use crate::{interior_pixels, new_renderer, renderer, scene, MeanEstimate};
 use isogrid::generate::Field;
 use isogrid::trace::{Crossing, Tracer};
 use isogrid::{extract, Camera, CellGrid, ExtractOptions, Iso, Precision};
@@ -169,22 +169,6 @@ fn traced_primaries_record_only_the_trace_pass() {
     }
 }
 
-struct Stats {
-    mean: f64,
-    standard_error: f64,
-}
-
-fn stats(values: impl Iterator<Item = f64>) -> Stats {
-    let values: Vec<f64> = values.collect();
-    let n = values.len() as f64;
-    let mean = values.iter().sum::<f64>() / n;
-    let var = values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0);
-    Stats {
-        mean,
-        standard_error: (var / n).sqrt(),
-    }
-}
-
 fn path_trace(
     r: &Renderer,
     grid: &GpuGrid,
@@ -238,23 +222,14 @@ fn traced_and_raster_primaries_agree_on_the_mean() {
             ..RenderOptions::default()
         };
         let cpu = isogrid::trace::render(&grid, &camera, &options).unwrap();
-        let w = pixels as usize;
-        let hit = |i: usize| raster.is_hit(i) && traced.is_hit(i) && cpu.cluster[i] != u32::MAX;
-        let interior: Vec<usize> = (0..w * w)
-            .filter(|&i| {
-                let (x, y) = (i % w, i / w);
-                x > 0
-                    && y > 0
-                    && x + 1 < w
-                    && y + 1 < w
-                    && [i, i - 1, i + 1, i - w, i + w].into_iter().all(hit)
-            })
-            .collect();
+        let interior = interior_pixels(pixels as usize, cpu.radiance.len(), |i| {
+            raster.is_hit(i) && traced.is_hit(i) && cpu.cluster[i] != u32::MAX
+        });
         assert!(interior.len() > 150, "{field}: {} pixels", interior.len());
         for c in 0..3 {
-            let t = stats(interior.iter().map(|&i| traced.linear[i][c] as f64));
-            let k = stats(interior.iter().map(|&i| cpu.radiance[i][c] as f64));
-            let d = stats(
+            let t = MeanEstimate::of(interior.iter().map(|&i| traced.linear[i][c] as f64));
+            let k = MeanEstimate::of(interior.iter().map(|&i| cpu.radiance[i][c] as f64));
+            let d = MeanEstimate::of(
                 interior
                     .iter()
                     .map(|&i| (traced.linear[i][c] - raster.linear[i][c]) as f64),
