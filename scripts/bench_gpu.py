@@ -3,7 +3,8 @@
 
 For each dataset and view (`--view 1|2`) renders `--frames N` frames at --size (default 1920x1080)
 with `isogrid render --json` in modes cgc, cgc-noewa, mc and cr, plus cgc without the visibility
-buffer, and writes docs/benchmarks-gpu.md with the median per-pass GPU times (timestamp queries,
+buffer, and path tracing (1 spp, 3 bounces) with raster and with traced primary rays, and writes
+docs/benchmarks-gpu.md with the median per-pass GPU times (timestamp queries,
 median over frames after the first) and the ratios to mc, beside the paper's Table 4.
 
 Runs on whatever adapter wgpu finds: on the lent NVIDIA machine (carry the release binary and the
@@ -87,6 +88,9 @@ def main():
                                                       "--no-occlusion-culling"])
             # Issue 4: hybrid path tracing, 1 spp per frame, 3 bounces, sky environment.
             res["pathtrace"] = run(exe, common + ["--mode", "pathtrace", "--bounces", "3"])
+            # The same with primary rays traced in the compute pass too (no raster pass at all).
+            res["pathtrace-traced"] = run(exe, common + ["--mode", "pathtrace", "--bounces", "3",
+                                                         "--primary", "traced"])
             adapter = res["cgc"]["adapter"]
             rows.append((f"{name} {view}", path, res))
             print(f"{name} {view}: " + ", ".join(f"{m} {fmt(r['gpu_ms']['raster_ms'])} ms" for m, r in res.items()),
@@ -125,14 +129,17 @@ def main():
     L.append("")
     L.append("## Hybrid path tracing (issue 4, paper §3.6)")
     L.append("")
-    L.append("Raster primary rays, 3 bounces traced in a compute shader through blocks → clusters → metacells → cells,")
-    L.append("1 sample per pixel per frame, sky environment. `frame` spans the whole frame (first to last timestamp).")
+    L.append("3 bounces traced in a compute shader through blocks → clusters → metacells → cells, 1 sample per pixel")
+    L.append("per frame, sky environment. Primary rays either rasterised (the paper's hybrid: cell raster, EWA, shading)")
+    L.append("or traced in the same compute pass (`--primary traced`, no raster pass). `frame` spans the whole frame")
+    L.append("(first to last timestamp); with traced primaries the frame is the tracing pass.")
     L.append("")
-    L.append("| scene | frame (1 spp, 3 bounces) | of which tracing |")
-    L.append("|---|---:|---:|")
+    L.append("| scene | raster primaries: frame | of which tracing | traced primaries: frame | of which tracing |")
+    L.append("|---|---:|---:|---:|---:|")
     for scene, _, r in rows:
-        pt = r["pathtrace"]["gpu_ms"]
-        L.append(f"| {scene} | {fmt(pt['frame_ms'])} | {fmt(pt['trace_ms'])} |")
+        pt, tr = r["pathtrace"]["gpu_ms"], r["pathtrace-traced"]["gpu_ms"]
+        L.append(f"| {scene} | {fmt(pt['frame_ms'])} | {fmt(pt['trace_ms'])} | {fmt(tr['frame_ms'])} | "
+                 f"{fmt(tr['trace_ms'])} |")
     L.append("")
     L.append("## The paper's Table 4 (GTX 1070, ms)")
     L.append("")
@@ -157,12 +164,17 @@ def main():
             L.append(f"- {scene}: CGC / MC = {cgc / mc:.2f} (target ≤ {bound:g}): **{verdict}**; "
                      f"culling saves {nocull / cgc:.2f}×.")
         L.append("")
-        L.append("Issue 4's target, hybrid path tracing of a 512³-scale volume at 1080p, 1 spp, 3 bounces under 5 ms on an H100:")
+        L.append("Issue 4's target, path tracing of a 512³-scale volume at 1080p, 1 spp, 3 bounces under 5 ms per frame on an")
+        L.append("H100, judged separately for each variant: raster primaries (the paper's hybrid) and traced primaries.")
         L.append("")
         for scene, _, r in rows:
-            frame = r["pathtrace"]["gpu_ms"]["frame_ms"]
-            if frame is not None:
-                L.append(f"- {scene}: {frame:.2f} ms: **{'met' if frame < 5.0 else 'not met'}**.")
+            verdicts = []
+            for label, key in (("raster primaries", "pathtrace"), ("traced primaries", "pathtrace-traced")):
+                frame = r[key]["gpu_ms"]["frame_ms"]
+                if frame is not None:
+                    verdicts.append(f"{label} {frame:.2f} ms: **{'met' if frame < 5.0 else 'not met'}**")
+            if verdicts:
+                L.append(f"- {scene}: " + "; ".join(verdicts) + ".")
     L.append("")
     with open(args.out, "w") as f:
         f.write("\n".join(L))

@@ -258,6 +258,48 @@ fn render_and_bench_fail_in_one_line() {
         &["render", i, "--iso", "100", "-o", s(&dir.join("x.jpg"))],
         ".png",
     );
+    // Primary rays are a choice of the GPU path tracer only.
+    fails(
+        &[
+            "render",
+            i,
+            "--iso",
+            "100",
+            "--mode",
+            "cgc",
+            "--primary",
+            "traced",
+        ],
+        "--primary",
+    );
+    fails(
+        &[
+            "render",
+            i,
+            "--iso",
+            "100",
+            "--mode",
+            "pathtrace",
+            "--backend",
+            "cpu",
+            "--primary",
+            "traced",
+        ],
+        "--primary",
+    );
+    rejected(
+        &[
+            "render",
+            i,
+            "--iso",
+            "100",
+            "--mode",
+            "pathtrace",
+            "--primary",
+            "eye",
+        ],
+        "eye",
+    );
     rejected(&["render", i, "--iso", "100", "--size", "0x10"], "WxH");
     rejected(
         &["render", i, "--iso", "100", "--aov", "albedo=a.npy"],
@@ -333,14 +375,17 @@ fn bench_rays_reports_the_same_hits_for_both_crossings_and_any_thread_count() {
 }
 
 /// The GPU renderer and the CPU tracer draw the same isosurface: same hit pixels and depths
-/// (both solve the paper's 3-sample crossing of the same stored corners).
+/// (both solve the paper's 3-sample crossing of the same stored corners). GPU path tracing with
+/// traced primaries runs that very search on the same pixel-centre rays, so its depth AOV matches
+/// the CPU's to rounding (1e-3 voxel; misses are inf in both).
 #[test]
 fn gpu_and_cpu_backends_agree_on_depth() {
     let dir = temp_dir("backends");
     let input = volume(&dir);
-    let depth = |backend: &str| -> Option<Vec<f32>> {
-        let path = dir.join(format!("depth-{backend}.npy"));
-        let out = isogrid(&[
+    let depth = |backend: &str, extra: &[&str]| -> Option<Vec<f32>> {
+        let path = dir.join(format!("depth-{backend}-{}.npy", extra.len()));
+        let aov = format!("depth={}", s(&path));
+        let mut args = vec![
             "render",
             s(&input),
             "--iso-normalized",
@@ -352,13 +397,20 @@ fn gpu_and_cpu_backends_agree_on_depth() {
             "--backend",
             backend,
             "--aov",
-            &format!("depth={}", s(&path)),
+            &aov,
             "--json",
-        ]);
+        ];
+        args.extend(extra);
+        let out = isogrid(&args);
         if !out.status.success() {
             let err = String::from_utf8_lossy(&out.stderr);
             assert!(err.contains("no GPU adapter"), "{backend}: {err}");
             return None;
+        }
+        if !extra.is_empty() {
+            let report: Value = serde_json::from_slice(&out.stdout).unwrap();
+            assert_eq!(report["primary"], "traced");
+            assert_eq!(report["drawn_cells"], Value::Null);
         }
         let bytes = std::fs::read(&path).unwrap();
         let header_len = u16::from_le_bytes([bytes[8], bytes[9]]) as usize;
@@ -369,11 +421,35 @@ fn gpu_and_cpu_backends_agree_on_depth() {
                 .collect(),
         )
     };
-    let Some(gpu) = depth("gpu") else {
+    let Some(gpu) = depth("gpu", &[]) else {
         eprintln!("skipped: no GPU adapter (install mesa-vulkan-drivers for lavapipe)");
         return;
     };
-    let cpu = depth("cpu").unwrap();
+    let cpu = depth("cpu", &[]).unwrap();
+    // GPU path tracing with traced primaries fills the depth AOV from the same crossing search.
+    let traced = depth(
+        "gpu",
+        &[
+            "--mode",
+            "pathtrace",
+            "--primary",
+            "traced",
+            "--bounces",
+            "0",
+        ],
+    )
+    .unwrap();
+    assert_eq!(traced.len(), cpu.len());
+    let traced_close = traced
+        .iter()
+        .zip(&cpu)
+        .filter(|(t, c)| t == c || (*t - *c).abs() <= 1e-3)
+        .count();
+    assert!(
+        traced_close as f64 >= 0.99 * cpu.len() as f64,
+        "traced primaries: {traced_close} of {} depths within 1e-3 of the CPU's",
+        cpu.len()
+    );
     assert_eq!(gpu.len(), cpu.len());
     let same_side = gpu
         .iter()

@@ -6,6 +6,11 @@
 // is written as sRGB 8-bit. Keep `sky` and `environment` in sync with
 // `src/pathtrace.rs` (`sky_radiance`, `EnvMap`); `to_srgb8` is shared, in common.wgsl.
 //
+// `path_trace_traced_primary` (`PrimaryRays::Traced`) is the same path tracer with the primary
+// ray from the eye through the pixel centre traced by `trace_ray` too, for devices whose graphics
+// pipeline is slow next to their compute (no raster pass runs then); it writes the primary hit
+// where the raster passes would have, so the frame's AOVs read back alike.
+//
 // Prepended: common.wgsl, cell_decode.wgsl, cell_data.wgsl or trace_pages.wgsl, trace.wgsl.
 
 // Final world normal (xyz; zero on a miss) and eye distance (w) from the shading pass.
@@ -15,6 +20,11 @@
 @group(2) @binding(2) var output: texture_storage_2d<rgba8unorm, write>;
 // Equirectangular RGB radiance (rgba32float, a unused); a 1×1 dummy when the built-in sky is used.
 @group(2) @binding(3) var env: texture_2d<f32>;
+// Traced primaries only, instead of `gbuffer`: the primary hit's world normal (xyz; zero on a
+// miss) and eye distance (w), and its cluster (x; NO_CLUSTER on a miss; y unused). Bindings 4
+// and 5 are trace.wgsl's `rays` and `hits`.
+@group(2) @binding(6) var primary_surface: texture_storage_2d<rgba32float, write>;
+@group(2) @binding(7) var primary_ids: texture_storage_2d<rg32uint, write>;
 
 const PI: f32 = 3.14159265358979;
 
@@ -85,22 +95,18 @@ fn cosine_direction(n: vec3<f32>, u1: f32, u2: f32) -> vec3<f32> {
     return normalize(r * cos(phi) * tangent + r * sin(phi) * bitangent + sqrt(max(1.0 - u1, 0.0)) * n);
 }
 
-@compute @workgroup_size(8, 8)
-fn path_trace(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let width = u32(frame.viewport.x);
-    if gid.x >= width || gid.y >= u32(frame.viewport.y) {
-        return;
-    }
-    let index = gid.x + gid.y * width;
+// Follows the path of pixel `pixel` (ray direction `dir` from the eye) from its primary hit
+// `primary` (world normal xyz, zero on a miss; eye distance w), and adds its radiance to the
+// pixel's sum and tone-mapped mean.
+fn follow_path(pixel: vec2<u32>, dir: vec3<f32>, primary: vec4<f32>) {
+    let index = pixel.x + pixel.y * u32(frame.viewport.x);
     var rng = pcg(index ^ pcg(trace.sample.x));
-    let g = textureLoad(gbuffer, vec2<i32>(gid.xy), 0);
-    let dir = ray_direction(frame, vec2<f32>(gid.xy) + 0.5);
     var radiance = vec3<f32>(0.0);
-    if dot(g.xyz, g.xyz) == 0.0 {
+    if dot(primary.xyz, primary.xyz) == 0.0 {
         radiance = environment(dir);
     } else {
-        var p = frame.eye.xyz + g.w * dir;
-        var n = select(g.xyz, -g.xyz, dot(g.xyz, dir) > 0.0);
+        var p = frame.eye.xyz + primary.w * dir;
+        var n = select(primary.xyz, -primary.xyz, dot(primary.xyz, dir) > 0.0);
         var throughput = trace.albedo.rgb;
         for (var bounce = 0u; bounce < trace.block_dims.w; bounce++) {
             let u1 = random(&rng);
@@ -120,5 +126,33 @@ fn path_trace(@builtin(global_invocation_id) gid: vec3<u32>) {
     let sum = accumulation[index] + vec4<f32>(radiance, 1.0);
     accumulation[index] = sum;
     let mean = sum.rgb / sum.a;
-    textureStore(output, vec2<i32>(gid.xy), vec4<f32>(to_srgb8(mean.r), to_srgb8(mean.g), to_srgb8(mean.b), 1.0));
+    textureStore(output, vec2<i32>(pixel), vec4<f32>(to_srgb8(mean.r), to_srgb8(mean.g), to_srgb8(mean.b), 1.0));
+}
+
+fn outside_image(gid: vec3<u32>) -> bool {
+    return gid.x >= u32(frame.viewport.x) || gid.y >= u32(frame.viewport.y);
+}
+
+// Raster primaries: the shading pass's G-buffer.
+@compute @workgroup_size(8, 8)
+fn path_trace(@builtin(global_invocation_id) gid: vec3<u32>) {
+    if outside_image(gid) {
+        return;
+    }
+    let dir = ray_direction(frame, vec2<f32>(gid.xy) + 0.5);
+    follow_path(gid.xy, dir, textureLoad(gbuffer, vec2<i32>(gid.xy), 0));
+}
+
+// Traced primaries: from the eye through the pixel centre, exactly the raster's ray.
+@compute @workgroup_size(8, 8)
+fn path_trace_traced_primary(@builtin(global_invocation_id) gid: vec3<u32>) {
+    if outside_image(gid) {
+        return;
+    }
+    let dir = ray_direction(frame, vec2<f32>(gid.xy) + 0.5);
+    let hit = trace_ray(frame.eye.xyz, dir, 0.0, NO_HIT);
+    let primary = select(vec4<f32>(0.0), vec4<f32>(hit.normal, hit.t), hit.t < NO_HIT);
+    textureStore(primary_surface, vec2<i32>(gid.xy), primary);
+    textureStore(primary_ids, vec2<i32>(gid.xy), vec4<u32>(hit.cluster, 0u, 0u, 0u));
+    follow_path(gid.xy, dir, primary);
 }

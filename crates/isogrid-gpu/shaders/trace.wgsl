@@ -46,6 +46,7 @@ const TRACE_SAMPLES: u32 = 3u;
 struct TraceHit {
     t: f32,              // world distance, NO_HIT on a miss
     normal: vec3<f32>,   // unit world −∇f at the hit (out of the solid)
+    cluster: u32,        // global cluster index (slot / 16) of the hit cell, NO_CLUSTER on a miss
 }
 
 // Entry and exit t of the box [lo, hi] (cell units) for a ray with origin o and 1/direction inv.
@@ -79,12 +80,13 @@ fn cell_crossing(k: Corners, o: vec3<f32>, d: vec3<f32>, t_enter: f32, t_exit: f
     return refine_crossing(k.lo, k.hi, o, d, ta, tb, iso, inside_at_entry);
 }
 
-// Nearest crossing so far: t, and the cell, page and page-local record it lies in.
+// Nearest crossing so far: t, and the cell, page, page-local record and global cluster it lies in.
 struct Nearest {
     t: f32,
     cell: vec3<u32>,
     page: u32,
     record: u32,
+    cluster: u32,
 }
 
 // Tests the clusters of one block (global slots [first, first + count)) on [t_lo, t_hi].
@@ -123,7 +125,7 @@ fn trace_block(first: u32, count: u32, o: vec3<f32>, d: vec3<f32>, inv: vec3<f32
                 let record = m.cell_pointer + countOneBits(m.mask & ((1u << bit) - 1u)) - trace_page_first_cell(p);
                 let t = cell_crossing(record_corners_in(p, record), o - co, d, enter, exit);
                 if t < best.t {
-                    best = Nearest(t, cell, p, record);
+                    best = Nearest(t, cell, p, record, (first + c) / 16u);
                 }
             }
         }
@@ -133,7 +135,7 @@ fn trace_block(first: u32, count: u32, o: vec3<f32>, d: vec3<f32>, inv: vec3<f32
 
 // Nearest crossing of the world ray origin + t·dir (unit dir) with t in [t_min, t_max].
 fn trace_ray(origin: vec3<f32>, dir: vec3<f32>, t_min: f32, t_max: f32) -> TraceHit {
-    let miss = TraceHit(NO_HIT, vec3<f32>(0.0));
+    let miss = TraceHit(NO_HIT, vec3<f32>(0.0), NO_CLUSTER);
     if trace.block_dims.x == 0u {
         return miss;
     }
@@ -157,7 +159,7 @@ fn trace_ray(origin: vec3<f32>, dir: vec3<f32>, t_min: f32, t_max: f32) -> Trace
     let boundary = vec3<f32>(b + select(vec3<i32>(0), vec3<i32>(1), positive)) * BLOCK_CELLS;
     var t_next = (boundary - o) * inv;
     let t_delta = abs(BLOCK_CELLS * inv);
-    var best = Nearest(NO_HIT, vec3<u32>(0u), 0u, 0u);
+    var best = Nearest(NO_HIT, vec3<u32>(0u), 0u, 0u, NO_CLUSTER);
     let max_steps = nb.x + nb.y + nb.z + 3;
     let upper = select(vec3<i32>(0), vec3<i32>(1), positive);
     for (var i = 0; i < max_steps; i++) {
@@ -226,7 +228,7 @@ fn trace_ray(origin: vec3<f32>, dir: vec3<f32>, t_min: f32, t_max: f32) -> Trace
     var n = -trilinear_gradient(k.lo, k.hi, local) / s;
     let len = length(n);
     n = select(-dir, n / len, len > 0.0);
-    return TraceHit(best.t, n);
+    return TraceHit(best.t, n, best.cluster);
 }
 
 // Test entry point: one thread per ray. Rays: origin (xyz, w = t_min), direction (xyz, unit;

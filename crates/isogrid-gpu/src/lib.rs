@@ -15,7 +15,9 @@
 //!
 //! [`Mode::PathTrace`] (§3.6, `pathtrace.rs`) runs the [`Mode::Cgc`] passes for primary hits, then
 //! `trace.wgsl` + `pathtrace.wgsl` (compute) trace secondary rays through blocks, clusters,
-//! metacells and cells and accumulate diffuse path-traced samples over frames.
+//! metacells and cells and accumulate diffuse path-traced samples over frames. With
+//! [`PrimaryRays::Traced`] the primary rays are traced in that compute pass too and no raster pass
+//! runs (for GPUs whose graphics pipeline is slow next to their compute).
 //!
 //! Baselines: [`Mode::Mc`] draws a Marching Cubes mesh (`mesh.wgsl`), [`Mode::Cr`] runs the same
 //! cell passes with corner values read from a 3D texture of the original samples.
@@ -40,7 +42,8 @@ pub use backends::preferred_backends;
 pub use compute_raster::{CellRaster, MAX_COMPUTE_CELL_PIXELS};
 pub use error::{GpuError, GpuErrorKind};
 pub use pathtrace::{
-    sky_radiance, EnvMap, GpuEnvMap, PathTraceOptions, RayHit, DEFAULT_BOUNCES, MAX_BOUNCES,
+    sky_radiance, EnvMap, GpuEnvMap, PathTraceOptions, PrimaryRays, RayHit, DEFAULT_BOUNCES,
+    MAX_BOUNCES,
 };
 pub use render::{Frame, Mode, PassTimings, RenderOptions, Scene};
 pub use upload::{GpuGrid, GpuMesh, GpuVolume};

@@ -3,6 +3,19 @@
 //! a compute pass through blocks → clusters → metacells → cells (`shaders/trace.wgsl`), with
 //! Lambertian bounces, cosine-weighted sampling and an HDR environment (`shaders/pathtrace.wgsl`).
 //!
+//! # Traced primary rays
+//!
+//! [`PrimaryRays::Traced`] traces the primary rays too, from the eye through each pixel centre,
+//! with the same `trace_ray` as the secondaries, in the same compute pass
+//! (`path_trace_traced_primary`): no raster, EWA, culling or shading pass runs. It exists because
+//! some GPUs' graphics pipelines are slow next to their compute: on an NVIDIA H100 a full-screen
+//! fragment pass at 1080p took 1.47 ms and the raster passes of a 512³ grid about 12 ms, while
+//! the 3 traced bounces took about 2 ms (docs/benchmarks-gpu.md). It also makes a path tracer
+//! that needs compute only. The pass writes the primary hit (normal, eye distance, cluster) into
+//! the G-buffer targets as storage textures, so the frame's AOVs read back as in the hybrid.
+//! Primary normals are then the trilinear gradient, not the EWA-smoothed ones, so the two modes
+//! converge to slightly different images and each keeps its own accumulation.
+//!
 //! One sample per pixel per frame; samples accumulate in a per-pixel `vec4<f32>` sum (the
 //! Rgba32Float texel layout) kept with the [`GpuGrid`] and reset whenever the view, bounces,
 //! albedo or environment change. World space and rays are `isogrid::camera`'s; the environment's
@@ -42,15 +55,15 @@
 use crate::error::GpuError;
 use crate::gpu_types::{FrameUniforms, TracePages, TraceUniforms, SOURCE_RECORDS, TRACE_PAGES};
 use crate::pipelines::{
-    compute, layout, module, pipeline_layout, storage, texture, uniform, CELL_DATA, COMMON, D2,
-    FLOAT, TRACE_PAGES_DATA,
+    compute, layout, module, pipeline_layout, storage, texture, uniform, CELL_DATA, COLOR_FORMAT,
+    COMMON, D2, FINAL_FORMAT, FLOAT, IDS_FORMAT, TRACE_PAGES_DATA,
 };
 use crate::render::{buffer_entry, dispatch_size, texture_entry, Frame};
 use crate::upload::GpuGrid;
 use crate::Renderer;
 use isogrid::{Camera, Ray};
 use std::sync::atomic::{AtomicU64, Ordering};
-use std::sync::OnceLock;
+use std::sync::{Arc, OnceLock};
 use wgpu::util::DeviceExt;
 
 /// Bounces of [`PathTraceOptions::default`] (the paper's Figure 6).
@@ -170,6 +183,22 @@ pub fn sky_radiance(d: [f32; 3]) -> [f32; 3] {
     std::array::from_fn(|a| SKY_HORIZON[a] + (far[a] - SKY_HORIZON[a]) * t + SUN_RADIANCE[a] * sun)
 }
 
+/// Where the path tracer's primary hits come from ([`PathTraceOptions::primary`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Hash)]
+pub enum PrimaryRays {
+    /// The paper's hybrid (§3.6): the [`crate::Mode::Cgc`] raster passes (cell raster with the
+    /// visibility buffer, EWA normals, deferred shading) give the primary hits.
+    #[default]
+    Raster,
+    /// Primary rays from the eye through each pixel centre are traced through the hierarchy like
+    /// the secondaries, in the same compute pass, and no raster pass runs: for GPUs whose
+    /// graphics pipeline is weak next to their compute (an H100 shades a 1080p full-screen
+    /// fragment pass in 1.47 ms but traces 3 bounces of a 512³ grid in about 2 ms), or to path
+    /// trace with compute only. Normals are the trilinear gradient's (no EWA smoothing); culling
+    /// options do not apply.
+    Traced,
+}
+
 /// How to path trace ([`Renderer::path_trace`]).
 #[derive(Debug, Clone, Copy)]
 pub struct PathTraceOptions<'a> {
@@ -185,6 +214,8 @@ pub struct PathTraceOptions<'a> {
     /// Culling of the primary raster passes ([`crate::RenderOptions`]); does not change the image.
     pub occlusion_culling: bool,
     pub backface_culling: bool,
+    /// Rasterised (the paper's hybrid, the default) or traced primary rays.
+    pub primary: PrimaryRays,
 }
 
 impl Default for PathTraceOptions<'_> {
@@ -196,6 +227,7 @@ impl Default for PathTraceOptions<'_> {
             albedo: isogrid::shading::ALBEDO,
             occlusion_culling: true,
             backface_culling: true,
+            primary: PrimaryRays::Raster,
         }
     }
 }
@@ -209,11 +241,32 @@ pub struct RayHit {
     pub normal: [f32; 3],
 }
 
-/// The two trace entry points compiled against one way of binding the grid's cells.
+/// The trace entry points compiled against one way of binding the grid's cells.
 #[derive(Clone)]
 pub(crate) struct TraceEntryPoints {
     path_trace: wgpu::ComputePipeline,
     trace_rays: wgpu::ComputePipeline,
+    /// `path_trace_traced_primary`, compiled on first use: most renderers never trace primary
+    /// rays, and each compile of the tracer slows the renderer's start.
+    traced_primary: Arc<OnceLock<wgpu::ComputePipeline>>,
+    shader: wgpu::ShaderModule,
+    traced_primary_layout: wgpu::PipelineLayout,
+}
+
+impl TraceEntryPoints {
+    fn traced_primary(&self, device: &wgpu::Device) -> wgpu::ComputePipeline {
+        self.traced_primary
+            .get_or_init(|| {
+                compute(
+                    device,
+                    "path trace, traced primaries",
+                    &self.traced_primary_layout,
+                    &self.shader,
+                    "path_trace_traced_primary",
+                )
+            })
+            .clone()
+    }
 }
 
 /// The several-pages variant: its group 1 layout (page table, then [`TRACE_PAGES`] metacell and
@@ -230,6 +283,7 @@ pub(crate) struct TracePipelines {
     grid: wgpu::BindGroupLayout,
     page: wgpu::BindGroupLayout,
     path_io: wgpu::BindGroupLayout,
+    traced_primary_io: wgpu::BindGroupLayout,
     ray_io: wgpu::BindGroupLayout,
     one_page: TraceEntryPoints,
     paged: OnceLock<PagedTrace>,
@@ -250,23 +304,27 @@ impl TracePipelines {
             "trace page",
             &[uniform(0, c), storage(1, c, true), storage(2, c, true)],
         );
+        // The G-buffer (read, raster primaries; or written, traced primaries), accumulation,
+        // output and environment.
         let path_io = layout(
             device,
             "path trace io",
             &[
                 texture(0, c, FLOAT, D2),
                 storage(1, c, false),
-                wgpu::BindGroupLayoutEntry {
-                    binding: 2,
-                    visibility: c,
-                    ty: wgpu::BindingType::StorageTexture {
-                        access: wgpu::StorageTextureAccess::WriteOnly,
-                        format: crate::pipelines::COLOR_FORMAT,
-                        view_dimension: D2,
-                    },
-                    count: None,
-                },
+                written_texture(2, COLOR_FORMAT),
                 texture(3, c, FLOAT, D2),
+            ],
+        );
+        let traced_primary_io = layout(
+            device,
+            "path trace io (traced primaries)",
+            &[
+                storage(1, c, false),
+                written_texture(2, COLOR_FORMAT),
+                texture(3, c, FLOAT, D2),
+                written_texture(6, FINAL_FORMAT),
+                written_texture(7, IDS_FORMAT),
             ],
         );
         let ray_io = layout(
@@ -278,13 +336,14 @@ impl TracePipelines {
             device,
             "one page",
             CELL_DATA,
-            [&grid, &page, &path_io, &ray_io],
+            [&grid, &page, &path_io, &traced_primary_io, &ray_io],
         );
         TracePipelines {
             one_page,
             grid,
             page,
             path_io,
+            traced_primary_io,
             ray_io,
             paged: OnceLock::new(),
         }
@@ -303,20 +362,41 @@ impl TracePipelines {
                 device,
                 "several pages",
                 TRACE_PAGES_DATA,
-                [&self.grid, &pages, &self.path_io, &self.ray_io],
+                [
+                    &self.grid,
+                    &pages,
+                    &self.path_io,
+                    &self.traced_primary_io,
+                    &self.ray_io,
+                ],
             );
             PagedTrace { pages, entry }
         })
     }
 }
 
+/// A write-only storage texture of the compute stage.
+fn written_texture(binding: u32, format: wgpu::TextureFormat) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::StorageTexture {
+            access: wgpu::StorageTextureAccess::WriteOnly,
+            format,
+            view_dimension: D2,
+        },
+        count: None,
+    }
+}
+
 /// Compiles trace.wgsl + pathtrace.wgsl over `cell_storage` (the cell decoding and the page
-/// bindings it reads) with layouts [grid, pages, path trace io, trace rays io].
+/// bindings it reads) with layouts [grid, pages, path trace io, traced primaries io, trace rays
+/// io]; the traced-primaries entry point only on first use.
 fn entry_points(
     device: &wgpu::Device,
     variant: &str,
     cell_storage: &str,
-    [grid, pages, path_io, ray_io]: [&wgpu::BindGroupLayout; 4],
+    [grid, pages, path_io, traced_primary_io, ray_io]: [&wgpu::BindGroupLayout; 5],
 ) -> TraceEntryPoints {
     let shader = module(
         device,
@@ -353,6 +433,13 @@ fn entry_points(
             &shader,
             "trace_rays",
         ),
+        traced_primary: Arc::default(),
+        traced_primary_layout: pipeline_layout(
+            device,
+            &format!("path trace, traced primaries ({variant})"),
+            &[grid, pages, traced_primary_io],
+        ),
+        shader,
     }
 }
 
@@ -438,9 +525,11 @@ impl Renderer {
     }
 
     /// Path traces `options.frames` frames of one view (hybrid: raster primaries, traced
-    /// secondaries) and reads back the accumulated image: `rgba8` is the sRGB mean, `linear` the
-    /// linear mean and `samples` the samples per pixel so far. Calls with the same camera,
-    /// bounces, albedo and environment keep accumulating; anything else starts afresh.
+    /// secondaries; or everything traced with [`PrimaryRays::Traced`], which records only the
+    /// trace pass) and reads back the accumulated image: `rgba8` is the sRGB mean, `linear` the
+    /// linear mean and `samples` the samples per pixel so far. The depth, normal and cluster AOVs
+    /// are the primary hits. Calls with the same camera, bounces, albedo, environment and
+    /// primary rays keep accumulating; anything else starts afresh.
     ///
     /// Grids split into several pages (larger than one storage binding) are traced with up to
     /// six pages bound at once; a grid of more pages fails with
@@ -731,13 +820,14 @@ impl Renderer {
     }
 
     /// Validates the options, finds or restarts the grid's accumulation for this view, and binds
-    /// the G-buffer (`targets[0]`, final normal + distance) and output (`targets[1]`, colour).
+    /// the G-buffer (`targets[0]`, final normal + distance; `targets[2]`, cluster ids), read for
+    /// raster primaries and written for traced ones, and the output (`targets[1]`, colour).
     pub(crate) fn prepare_path_trace(
         &self,
         grid: &GpuGrid,
         camera: &Camera,
         options: &PathTraceOptions<'_>,
-        targets: [&wgpu::Texture; 2],
+        targets: [&wgpu::Texture; 3],
         frame_uniforms: &wgpu::Buffer,
     ) -> Result<PathTracePass, GpuError> {
         if options.bounces > MAX_BOUNCES {
@@ -768,10 +858,11 @@ impl Renderer {
             )));
         }
         let key = format!(
-            "{camera:?} bounces {} albedo {:?} env {}",
+            "{camera:?} bounces {} albedo {:?} env {} primary {:?}",
             options.bounces,
             options.albedo,
-            options.env.map_or(0, |e| e.id)
+            options.env.map_or(0, |e| e.id),
+            options.primary
         );
         let (sum, first_sample) = {
             let mut acc = grid
@@ -805,24 +896,38 @@ impl Renderer {
                 &dummy_env
             }
         };
-        let gbuffer = targets[0].create_view(&wgpu::TextureViewDescriptor::default());
-        let output = targets[1].create_view(&wgpu::TextureViewDescriptor::default());
+        let [gbuffer, output, ids] =
+            targets.map(|t| t.create_view(&wgpu::TextureViewDescriptor::default()));
+        let mut entries = vec![
+            buffer_entry(1, &sum),
+            texture_entry(2, &output),
+            texture_entry(3, env_view),
+        ];
+        let t = &self.pipelines.trace;
+        let (io_layout, pipeline) = match options.primary {
+            PrimaryRays::Raster => {
+                entries.push(texture_entry(0, &gbuffer));
+                (&t.path_io, binding.entry.path_trace.clone())
+            }
+            PrimaryRays::Traced => {
+                entries.extend([texture_entry(6, &gbuffer), texture_entry(7, &ids)]);
+                (
+                    &t.traced_primary_io,
+                    binding.entry.traced_primary(&self.device),
+                )
+            }
+        };
         let io = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("path trace io"),
-            layout: &self.pipelines.trace.path_io,
-            entries: &[
-                texture_entry(0, &gbuffer),
-                buffer_entry(1, &sum),
-                texture_entry(2, &output),
-                texture_entry(3, env_view),
-            ],
+            layout: io_layout,
+            entries: &entries,
         });
         let [group0, group1] = binding.groups;
         Ok(PathTracePass {
             uniforms,
             base,
             groups: [group0, group1, io],
-            pipeline: binding.entry.path_trace,
+            pipeline,
             readback: self.readback_buffer("accumulation readback", sum_bytes),
             sum,
             first_sample,

@@ -4,7 +4,7 @@
 use crate::compute_raster::{CellRaster, ComputeRaster, RasterStep};
 use crate::error::GpuError;
 use crate::gpu_types::*;
-use crate::pathtrace::PathTraceOptions;
+use crate::pathtrace::{PathTraceOptions, PrimaryRays};
 use crate::pipelines::*;
 use crate::upload::{GpuGrid, GpuMesh, GpuVolume};
 use crate::Renderer;
@@ -25,7 +25,8 @@ pub enum Mode {
     Cr,
     /// Hybrid path tracing (§3.6): the [`Mode::Cgc`] G-buffer gives primary hits, secondary rays
     /// are traced through the blocks, clusters, metacells and cells in a compute pass, and the
-    /// samples accumulate while the view rests. See [`Renderer::path_trace`] for the options.
+    /// samples accumulate while the view rests. See [`Renderer::path_trace`] for the options,
+    /// among them tracing the primary rays too ([`crate::PrimaryRays::Traced`]).
     PathTrace,
 }
 
@@ -82,7 +83,8 @@ pub struct PassTimings {
     pub cull_ms: Option<f64>,
     /// First to last timestamp of the frame.
     pub frame_ms: Option<f64>,
-    /// The path tracing pass ([`Mode::PathTrace`]): secondary rays, accumulation, tone mapping.
+    /// The path tracing pass ([`Mode::PathTrace`]): secondary rays (and primary ones with
+    /// [`crate::PrimaryRays::Traced`]), accumulation, tone mapping.
     pub trace_ms: Option<f64>,
 }
 
@@ -291,9 +293,17 @@ impl Renderer {
         })
     }
 
-    fn targets(&self, camera: &Camera) -> Targets {
+    /// `traced_primaries`: the path tracer writes the final normal as a storage texture, a usage
+    /// the raster passes do not need (it can cost render targets their compression). The raster
+    /// G-buffer (surface, ids, EWA) is always storage: the compute raster writes it.
+    fn targets(&self, camera: &Camera, traced_primaries: bool) -> Targets {
         use wgpu::TextureUsages as U;
         let rt = U::RENDER_ATTACHMENT | U::TEXTURE_BINDING;
+        let written = if traced_primaries {
+            U::STORAGE_BINDING
+        } else {
+            U::empty()
+        };
         Targets {
             depth: self.texture("raster depth (reversed-Z)", camera, DEPTH_FORMAT, rt),
             raster_depth: self.device.create_buffer(&wgpu::BufferDescriptor {
@@ -334,7 +344,7 @@ impl Renderer {
                 camera,
                 FINAL_FORMAT,
                 // Texture binding: the path tracer's primary hits.
-                U::RENDER_ATTACHMENT | U::COPY_SRC | U::TEXTURE_BINDING,
+                U::RENDER_ATTACHMENT | U::COPY_SRC | U::TEXTURE_BINDING | written,
             ),
         }
     }
@@ -418,7 +428,10 @@ impl Renderer {
     ) -> Result<Frame, GpuError> {
         let frames = options.frames.max(1);
         let ewa = matches!(mode, Mode::Cgc | Mode::PathTrace);
-        let targets = self.targets(camera);
+        // Traced primaries: the path-trace pass alone fills the image and the G-buffer.
+        let traced = path_trace.is_some_and(|o| o.primary == PrimaryRays::Traced);
+        let raster_grid = grid.filter(|_| !traced);
+        let targets = self.targets(camera, traced);
         let bounds = match (grid, mesh) {
             (Some(g), _) => g.info.world_bounds(),
             (None, Some(m)) => m.bounds,
@@ -427,7 +440,7 @@ impl Renderer {
         let eye_outside =
             (0..3).any(|a| camera.eye[a] < bounds.0[a] || camera.eye[a] > bounds.1[a]);
         let occlusion = options.occlusion_culling && grid.is_some();
-        let cell_raster = grid.map(|g| options.cell_raster.resolve(camera, &g.info));
+        let cell_raster = raster_grid.map(|g| options.cell_raster.resolve(camera, &g.info));
         let compute_raster = cell_raster == Some(CellRaster::Compute);
         let backface =
             options.backface_culling && grid.is_some_and(|g| g.border_outside) && eye_outside;
@@ -633,7 +646,7 @@ impl Renderer {
                 g,
                 camera,
                 o,
-                [&targets.final_normal, &targets.color],
+                [&targets.final_normal, &targets.color, &targets.ids],
                 &uniform_buffer,
             )?),
             _ => None,
@@ -716,7 +729,7 @@ impl Renderer {
                     pass.draw_indexed(0..m.index_count, 0, 0..1);
                 }
             }
-            if let Some(g) = grid {
+            if let Some(g) = raster_grid {
                 for page in &g.pages {
                     encoder.copy_buffer_to_buffer(
                         &args_template,
@@ -940,7 +953,7 @@ impl Renderer {
                     multiview_mask: None,
                 });
             }
-            {
+            if !traced {
                 let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                     label: Some("deferred shading"),
                     color_attachments: &[
@@ -967,7 +980,7 @@ impl Renderer {
                     encoder.resolve_query_set(set, 0..TS_PER_FRAME * timed_frames, resolve, 0);
                     encoder.copy_buffer_to_buffer(resolve, 0, readback, 0, resolve.size());
                 }
-                for (i, page) in grid.iter().flat_map(|g| &g.pages).enumerate() {
+                for (i, page) in raster_grid.iter().flat_map(|g| &g.pages).enumerate() {
                     encoder.copy_buffer_to_buffer(
                         &page.args,
                         0,

@@ -97,9 +97,29 @@ pub enum Mode {
     Mc,
     /// GPU only: cell rasterisation sampling the original volume.
     Cr,
-    /// Path tracing under an environment: hybrid on the GPU (raster primaries, traced secondaries,
-    /// one sample per pixel per frame, so --frames is the sample count), or on the CPU (--spp).
+    /// Path tracing under an environment: on the GPU hybrid (raster primaries, traced secondaries)
+    /// or fully traced (--primary traced), one sample per pixel per frame, so --frames is the
+    /// sample count; or on the CPU (--spp).
     Pathtrace,
+}
+
+/// Where GPU path tracing gets its primary hits.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Primary {
+    /// The paper's hybrid: rasterised (cell raster, EWA normals, deferred shading).
+    Raster,
+    /// Traced from the eye like the secondary rays, in the same compute pass, with no raster
+    /// pass (faster on GPUs whose graphics pipeline is slow next to their compute).
+    Traced,
+}
+
+impl Primary {
+    fn name(self) -> &'static str {
+        match self {
+            Primary::Raster => "raster",
+            Primary::Traced => "traced",
+        }
+    }
 }
 
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
@@ -176,6 +196,9 @@ pub struct Args {
     /// Path tracing: environment, `sky` or an equirectangular .hdr/.exr map (+y up).
     #[arg(long, value_name = "sky|FILE", default_value = "sky")]
     pub env: String,
+    /// GPU path tracing: primary rays `raster` (the hybrid, default) or `traced`.
+    #[arg(long, value_enum, value_name = "raster|traced")]
+    pub primary: Option<Primary>,
     /// Path tracing: random seed.
     #[arg(long, value_name = "S", default_value_t = 0)]
     pub seed: u64,
@@ -250,6 +273,8 @@ struct RenderReport {
     rays_per_second: Option<f64>,
     spp: Option<u32>,
     bounces: Option<u32>,
+    /// GPU path tracing: where primary hits come from, "raster" or "traced".
+    primary: Option<&'static str>,
     /// GPU: frames rendered, per-pass GPU times, cells drawn and probed in the last frame.
     frames: Option<u32>,
     gpu_ms: Option<render_gpu::GpuTimes>,
@@ -290,7 +315,29 @@ fn gpu_mode(mode: Mode) -> Option<isogrid_gpu::Mode> {
 }
 
 /// Picks the backend before any data is read, so impossible requests fail fast.
-fn choose_renderer(backend: Backend, mode: Mode) -> Result<Option<isogrid_gpu::Renderer>> {
+fn choose_renderer(
+    backend: Backend,
+    mode: Mode,
+    primary: Option<Primary>,
+) -> Result<Option<isogrid_gpu::Renderer>> {
+    if primary.is_some() && mode != Mode::Pathtrace {
+        bail!(
+            "--primary applies to --mode pathtrace on the GPU only, not to --mode {}",
+            mode_name(mode)
+        );
+    }
+    if primary.is_some() && backend == Backend::Cpu {
+        bail!("--primary applies to GPU path tracing only; drop it or use --backend gpu");
+    }
+    if let (Some(p), Backend::Auto) = (primary, backend) {
+        // Naming the primaries asks for the GPU path tracer; falling back would ignore it.
+        return render_gpu::renderer()?.map(Some).ok_or_else(|| {
+            anyhow::anyhow!(
+                "--primary {} needs a GPU adapter and none was found",
+                p.name()
+            )
+        });
+    }
     let gpu_only = matches!(mode, Mode::CgcNoewa | Mode::Mc | Mode::Cr);
     match backend {
         Backend::Cpu if gpu_only => bail!(
@@ -358,7 +405,7 @@ pub fn run(args: Args) -> Result<()> {
     // The input before the GPU: a bad file or a missing --iso fails without starting a device
     // (whose drivers may print their own lines).
     let (grid, volume) = args.threads.install(|| args.source.load_with_volume())??;
-    let renderer = choose_renderer(args.backend, args.mode)?;
+    let renderer = choose_renderer(args.backend, args.mode, args.primary)?;
     let camera = match &args.camera {
         Some(spec) => Camera::parse(spec, width, height)?,
         None => {
@@ -381,6 +428,7 @@ pub fn run(args: Args) -> Result<()> {
         rays_per_second: None,
         spp: None,
         bounces: None,
+        primary: None,
         frames: None,
         gpu_ms: None,
         drawn_cells: None,
@@ -393,6 +441,7 @@ pub fn run(args: Args) -> Result<()> {
         (Some(renderer), None) => {
             let spinner = progress::spinner("path tracing on the GPU".into());
             let start = Instant::now();
+            let primary = args.primary.unwrap_or(Primary::Raster);
             let out = render_gpu::path_trace(
                 renderer,
                 &grid,
@@ -400,11 +449,16 @@ pub fn run(args: Args) -> Result<()> {
                 args.frames,
                 args.bounces,
                 env_map.as_ref(),
+                match primary {
+                    Primary::Raster => isogrid_gpu::PrimaryRays::Raster,
+                    Primary::Traced => isogrid_gpu::PrimaryRays::Traced,
+                },
             )?;
             report.seconds = start.elapsed().as_secs_f64();
             spinner.finish_and_clear();
             report.spp = Some(out.frame.samples);
             report.bounces = Some(args.bounces);
+            report.primary = Some(primary.name());
             gpu_rendered(&mut report, out, args.frames)
         }
         (Some(renderer), Some(mode)) => {
@@ -507,11 +561,12 @@ pub fn run(args: Args) -> Result<()> {
     if let Some(t) = &report.gpu_ms {
         let ms = |v: Option<f64>| v.map_or("n/a".to_string(), |v| format!("{v:.2} ms"));
         println!(
-            "gpu passes    raster {} (without EWA {}), shade {}, cull {}, frame {}",
+            "gpu passes    raster {} (without EWA {}), shade {}, cull {}, trace {}, frame {}",
             ms(t.raster_ms),
             ms(t.raster_no_ewa_ms),
             ms(t.shade_ms),
             ms(t.cull_ms),
+            ms(t.trace_ms),
             ms(t.frame_ms)
         );
     }

@@ -18,7 +18,7 @@ pub struct GpuTimes {
     pub shade_ms: Option<f64>,
     pub cull_ms: Option<f64>,
     pub frame_ms: Option<f64>,
-    /// Path tracing: the secondary-ray compute pass.
+    /// Path tracing: the compute pass tracing secondary rays (and primary ones when traced).
     pub trace_ms: Option<f64>,
 }
 
@@ -61,7 +61,8 @@ pub fn renderer() -> Result<Option<Renderer>> {
     }
 }
 
-/// Hybrid path tracing (§3.6): raster primaries, traced secondaries; `frames` samples per pixel.
+/// Path tracing (§3.6): raster (hybrid) or traced primaries, traced secondaries; `frames`
+/// samples per pixel.
 pub fn path_trace(
     renderer: &Renderer,
     grid: &CellGrid,
@@ -69,6 +70,7 @@ pub fn path_trace(
     frames: u32,
     bounces: u32,
     env: Option<&isogrid::trace::EnvMap>,
+    primary: isogrid_gpu::PrimaryRays,
 ) -> Result<GpuRender> {
     let gpu_grid = renderer.upload_grid(grid).map_err(isogrid::Error::from)?;
     let gpu_env = match env {
@@ -84,6 +86,7 @@ pub fn path_trace(
         frames,
         bounces,
         env: gpu_env.as_ref(),
+        primary,
         ..Default::default()
     };
     let frame = renderer

@@ -9,6 +9,7 @@ mod paged_trace;
 mod pathtrace;
 mod rasters;
 mod reference;
+mod traced_primary;
 
 use isogrid::generate::{generate, Field};
 use isogrid::{extract, CellGrid, ExtractOptions, Iso, Precision, Volume};
@@ -39,6 +40,44 @@ pub fn scene(field: Field, size: usize, precision: Option<Precision>) -> (Volume
     options.precision = precision;
     let grid = extract(&volume.view(), &options).unwrap();
     (volume, grid)
+}
+
+/// Pixels of a `width`-wide image where the pixel and its 4 neighbours are all `hit`: interior
+/// surface pixels. Path tracers are compared there because at silhouettes the CPU's jittered
+/// primaries mix in the environment and the GPU's pixel-centre primaries do not.
+pub fn interior_pixels(width: usize, pixels: usize, hit: impl Fn(usize) -> bool) -> Vec<usize> {
+    let height = pixels / width;
+    (0..pixels)
+        .filter(|&i| {
+            let (x, y) = (i % width, i / width);
+            x > 0
+                && y > 0
+                && x + 1 < width
+                && y + 1 < height
+                && [i, i - 1, i + 1, i - width, i + width]
+                    .into_iter()
+                    .all(&hit)
+        })
+        .collect()
+}
+
+/// The mean of independent samples and its standard error.
+pub struct MeanEstimate {
+    pub mean: f64,
+    pub standard_error: f64,
+}
+
+impl MeanEstimate {
+    pub fn of(values: impl Iterator<Item = f64>) -> Self {
+        let values: Vec<f64> = values.collect();
+        let n = values.len() as f64;
+        let mean = values.iter().sum::<f64>() / n;
+        let var = values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0);
+        MeanEstimate {
+            mean,
+            standard_error: (var / n).sqrt(),
+        }
+    }
 }
 
 /// How the GPU tracer's hits agree with the CPU tracer's on the same rays.

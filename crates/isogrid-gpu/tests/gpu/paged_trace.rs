@@ -13,7 +13,7 @@ use isogrid_gpu::{GpuErrorKind, PathTraceOptions};
 
 /// A binding size that splits `grid` into about four pages: pages are cut where the metacell
 /// slots or the corner records (or the instance lists, 4 bytes per cell) outgrow it.
-fn quarter_binding(grid: &CellGrid) -> u64 {
+pub fn quarter_binding(grid: &CellGrid) -> u64 {
     let slots = std::mem::size_of_val(grid.metacells()) as u64;
     let per_cell = grid.info().precision.bytes_per_cell().max(4) as u64;
     let cells = grid.active_cells() as u64 * per_cell;

@@ -3,12 +3,12 @@
 //! misses, progressive accumulation and its reset, and bad requests.
 
 use crate::reference::Reference;
-use crate::{renderer, scene};
+use crate::{interior_pixels, renderer, scene, MeanEstimate};
 use isogrid::generate::Field;
 use isogrid::shading::{to_srgb8, ALBEDO};
 use isogrid::{extract, Camera, ExtractOptions, Iso, Precision, Ray, Volume, VolumeData};
 use isogrid_gpu::{
-    sky_radiance, EnvMap, GpuErrorKind, Mode, PathTraceOptions, RenderOptions, Scene,
+    sky_radiance, EnvMap, GpuErrorKind, Mode, PathTraceOptions, PrimaryRays, RenderOptions, Scene,
 };
 
 /// Small deterministic generator (SplitMix64) for test rays.
@@ -133,6 +133,16 @@ fn camera(size: usize, view: u8, width: u32, height: u32) -> Camera {
 /// The mean must be within 1 % of 1: a tracer that let paths leak into the solid would trap them.
 #[test]
 fn white_furnace_stays_white() {
+    white_furnace(PrimaryRays::Raster);
+}
+
+/// The same furnace with primary rays traced rather than rasterised.
+#[test]
+fn white_furnace_stays_white_with_traced_primaries() {
+    white_furnace(PrimaryRays::Traced);
+}
+
+fn white_furnace(primary: PrimaryRays) {
     let Some(r) = renderer() else { return };
     let white = r.upload_env(&EnvMap::constant([1.0; 3]).unwrap()).unwrap();
     for (field, size, bounces, pixels, frames, lost_per_pixel) in [
@@ -153,6 +163,7 @@ fn white_furnace_stays_white() {
                     bounces,
                     env: Some(&white),
                     albedo: [1.0; 3],
+                    primary,
                     ..Default::default()
                 },
             )
@@ -165,7 +176,7 @@ fn white_furnace_stays_white() {
         let min = values.iter().cloned().fold(f32::INFINITY, f32::min);
         let max = values.iter().cloned().fold(0.0f32, f32::max);
         eprintln!(
-            "{field} furnace: mean {mean:.5}, min {min}, max {max}, {hits} hit pixels, {:.2} s",
+            "{field} furnace ({primary:?} primaries): mean {mean:.5}, min {min}, max {max}, {hits} hit pixels, {:.2} s",
             started.elapsed().as_secs_f64()
         );
         assert!(
@@ -524,35 +535,24 @@ fn gpu_and_cpu_path_tracers_agree_on_the_mean() {
             ..RenderOptions::default()
         };
         let cpu = isogrid::trace::render(&grid, &cam, &options).unwrap();
-        // Interior surface pixels: the pixel and its 4 neighbours hit in both images. At
-        // silhouettes the CPU's jittered primaries mix in the environment, the GPU's pixel-centre
-        // primaries do not, which would bias the comparison.
-        let w = pixels as usize;
-        let hit = |i: usize| gpu.is_hit(i) && cpu.cluster[i] != u32::MAX;
-        let both: Vec<usize> = (0..gpu.linear.len())
-            .filter(|&i| {
-                let (x, y) = (i % w, i / w);
-                x > 0
-                    && y > 0
-                    && x + 1 < w
-                    && y + 1 < w
-                    && [i, i - 1, i + 1, i - w, i + w].into_iter().all(hit)
-            })
-            .collect();
+        // Interior surface pixels of both images (silhouettes would bias the comparison).
+        let both = interior_pixels(pixels as usize, gpu.linear.len(), |i| {
+            gpu.is_hit(i) && cpu.cluster[i] != u32::MAX
+        });
         assert!(
             both.len() > 150,
             "{field}: {} common surface pixels",
             both.len()
         );
         for c in 0..3 {
-            let stats = |values: Vec<f64>| {
-                let n = values.len() as f64;
-                let mean = values.iter().sum::<f64>() / n;
-                let var = values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0);
-                (mean, (var / n).sqrt())
-            };
-            let (g, g_err) = stats(both.iter().map(|&i| gpu.linear[i][c] as f64).collect());
-            let (k, k_err) = stats(both.iter().map(|&i| cpu.radiance[i][c] as f64).collect());
+            let MeanEstimate {
+                mean: g,
+                standard_error: g_err,
+            } = MeanEstimate::of(both.iter().map(|&i| gpu.linear[i][c] as f64));
+            let MeanEstimate {
+                mean: k,
+                standard_error: k_err,
+            } = MeanEstimate::of(both.iter().map(|&i| cpu.radiance[i][c] as f64));
             // 5 standard errors of the difference of two independent estimates.
             let tolerance = 5.0 * (g_err * g_err + k_err * k_err).sqrt();
             eprintln!("{field} channel {c}: GPU {g:.4} ± {g_err:.4}, CPU {k:.4} ± {k_err:.4}");
