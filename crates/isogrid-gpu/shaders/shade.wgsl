@@ -1,11 +1,16 @@
 // Deferred normalised Blinn–Phong shading (paper §3.2) of the G-buffer, with the EWA-accumulated
-// normals (§3.4) when present. Keep the constants and the formula in sync with
+// normals (§3.4) when present: a full-screen fragment pass after the hardware raster, a compute
+// pass after the compute raster (the same `shade_pixel`; on GPUs with a weak graphics pipeline
+// the fragment pass alone costs more than the whole compute raster). Keep the constants and the formula in sync with
 // `crates/isogrid/src/shading.rs` (`shade`, `to_srgb8`, `BACKGROUND_SRGB`).
 
 @group(0) @binding(0) var<uniform> frame: FrameUniforms;
 @group(1) @binding(0) var raster_surface: texture_2d<f32>;
 @group(1) @binding(1) var ewa_normals: texture_2d<f32>;
 @group(1) @binding(2) var cluster_ids: texture_2d<u32>;
+// The compute pass's outputs (the fragment pass writes the same as render targets).
+@group(2) @binding(0) var shaded_color: texture_storage_2d<rgba8unorm, write>;
+@group(2) @binding(1) var shaded_normal: texture_storage_2d<rgba32float, write>;
 
 const KEY_LIGHT_DIR: vec3<f32> = vec3<f32>(-0.40, 0.55, 0.73);
 const KEY_LIGHT_RADIANCE: f32 = 2.6;
@@ -47,9 +52,8 @@ fn vs_fullscreen(@builtin(vertex_index) vertex: u32) -> @builtin(position) vec4<
     return vec4<f32>(uv * 2.0 - 1.0, 0.0, 1.0);
 }
 
-@fragment
-fn fs_shade(@builtin(position) position: vec4<f32>) -> ShadeOut {
-    let pixel = vec2<i32>(position.xy);
+fn shade_pixel(position: vec2<f32>) -> ShadeOut {
+    let pixel = vec2<i32>(position);
     var out: ShadeOut;
     if textureLoad(cluster_ids, pixel, 0).r == NO_CLUSTER {
         out.color = vec4<f32>(BACKGROUND_SRGB / 255.0, 1.0);
@@ -65,7 +69,7 @@ fn fs_shade(@builtin(position) position: vec4<f32>) -> ShadeOut {
             n = acc.xyz / len;
         }
     }
-    let dir = ray_direction(frame, position.xy);
+    let dir = ray_direction(frame, position);
     // Camera space: x right, y up, z towards the viewer.
     let n_cam = vec3<f32>(dot(n, frame.right.xyz), dot(n, frame.up.xyz), -dot(n, frame.forward.xyz));
     let view = -vec3<f32>(dot(dir, frame.right.xyz), dot(dir, frame.up.xyz), -dot(dir, frame.forward.xyz));
@@ -73,4 +77,19 @@ fn fs_shade(@builtin(position) position: vec4<f32>) -> ShadeOut {
     out.color = vec4<f32>(to_srgb8(rgb.x), to_srgb8(rgb.y), to_srgb8(rgb.z), 1.0);
     out.normal = vec4<f32>(n, surface.w);
     return out;
+}
+
+@fragment
+fn fs_shade(@builtin(position) position: vec4<f32>) -> ShadeOut {
+    return shade_pixel(position.xy);
+}
+
+@compute @workgroup_size(8, 8)
+fn shade_pixels(@builtin(global_invocation_id) gid: vec3<u32>) {
+    if gid.x >= u32(frame.viewport.x) || gid.y >= u32(frame.viewport.y) {
+        return;
+    }
+    let out = shade_pixel(vec2<f32>(gid.xy) + 0.5);
+    textureStore(shaded_color, vec2<i32>(gid.xy), out.color);
+    textureStore(shaded_normal, vec2<i32>(gid.xy), out.normal);
 }

@@ -56,6 +56,8 @@ pub(crate) struct Pipelines {
     pub probe: RenderPipeline,
     pub ewa: RenderPipeline,
     pub shade: RenderPipeline,
+    pub shade_outputs: BindGroupLayout,
+    pub shade_compute: ComputePipeline,
     pub mesh_pipeline: RenderPipeline,
     pub trace: crate::pathtrace::TracePipelines,
 }
@@ -292,9 +294,9 @@ impl Pipelines {
             device,
             "shading inputs",
             &[
-                texture(0, f, FLOAT, D2),
-                texture(1, f, FLOAT, D2),
-                texture(2, f, wgpu::TextureSampleType::Uint, D2),
+                texture(0, f | c, FLOAT, D2),
+                texture(1, f | c, FLOAT, D2),
+                texture(2, f | c, wgpu::TextureSampleType::Uint, D2),
             ],
         );
         let mesh = layout(device, "mc mesh", &[uniform(0, v), storage(1, v, true)]);
@@ -326,6 +328,11 @@ impl Pipelines {
                 texture(1, c, FLOAT, D2),
                 write_only(2, EWA_FORMAT),
             ],
+        );
+        let shade_outputs = layout(
+            device,
+            "compute shading outputs",
+            &[write_only(0, COLOR_FORMAT), write_only(1, FINAL_FORMAT)],
         );
 
         let expand_module = module(
@@ -590,6 +597,17 @@ impl Pipelines {
                 depth: false,
             },
         );
+        let shade_compute = compute(
+            device,
+            "deferred shading (compute)",
+            &pipeline_layout(
+                device,
+                "shade (compute)",
+                &[&scene_compute, &shade_inputs, &shade_outputs],
+            ),
+            &shade_module,
+            "shade_pixels",
+        );
 
         let mesh_module = module(
             device,
@@ -632,6 +650,8 @@ impl Pipelines {
             probe,
             ewa,
             shade,
+            shade_outputs,
+            shade_compute,
             mesh_pipeline,
             trace: crate::pathtrace::TracePipelines::new(device),
         }

@@ -293,13 +293,14 @@ impl Renderer {
         })
     }
 
-    /// `traced_primaries`: the path tracer writes the final normal as a storage texture, a usage
-    /// the raster passes do not need (it can cost render targets their compression). The raster
-    /// G-buffer (surface, ids, EWA) is always storage: the compute raster writes it.
-    fn targets(&self, camera: &Camera, traced_primaries: bool) -> Targets {
+    /// `final_in_compute`: the final normal is written as a storage texture (by the compute
+    /// shading pass or the path tracer's traced primaries), a usage the fragment shading pass does
+    /// not need (it can cost render targets their compression). The raster G-buffer (surface, ids,
+    /// EWA) is always storage: the compute raster writes it.
+    fn targets(&self, camera: &Camera, final_in_compute: bool) -> Targets {
         use wgpu::TextureUsages as U;
         let rt = U::RENDER_ATTACHMENT | U::TEXTURE_BINDING;
-        let written = if traced_primaries {
+        let written = if final_in_compute {
             U::STORAGE_BINDING
         } else {
             U::empty()
@@ -431,7 +432,6 @@ impl Renderer {
         // Traced primaries: the path-trace pass alone fills the image and the G-buffer.
         let traced = path_trace.is_some_and(|o| o.primary == PrimaryRays::Traced);
         let raster_grid = grid.filter(|_| !traced);
-        let targets = self.targets(camera, traced);
         let bounds = match (grid, mesh) {
             (Some(g), _) => g.info.world_bounds(),
             (None, Some(m)) => m.bounds,
@@ -442,6 +442,7 @@ impl Renderer {
         let occlusion = options.occlusion_culling && grid.is_some();
         let cell_raster = raster_grid.map(|g| options.cell_raster.resolve(camera, &g.info));
         let compute_raster = cell_raster == Some(CellRaster::Compute);
+        let targets = self.targets(camera, traced || compute_raster);
         let backface =
             options.backface_culling && grid.is_some_and(|g| g.border_outside) && eye_outside;
         let mut flags = 0;
@@ -581,6 +582,15 @@ impl Renderer {
                 texture_entry(1, &ewa_view),
                 texture_entry(2, &ids_view),
             ],
+        });
+
+        // Only the compute shading pass binds its outputs as storage (see `targets`).
+        let shade_outputs = compute_raster.then(|| {
+            self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("compute shading outputs"),
+                layout: &p.shade_outputs,
+                entries: &[texture_entry(0, &color_view), texture_entry(1, &final_view)],
+            })
         });
 
         let timed_frames = frames.min(TIMED_FRAMES);
@@ -953,7 +963,18 @@ impl Renderer {
                     multiview_mask: None,
                 });
             }
-            if !traced {
+            if let Some(outputs) = &shade_outputs {
+                let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                    label: Some("deferred shading (compute)"),
+                    timestamp_writes: compute_ts(TS_SHADE),
+                });
+                ran[(TS_SHADE / 2) as usize] = true;
+                pass.set_pipeline(&p.shade_compute);
+                pass.set_bind_group(0, &scene_compute, &[]);
+                pass.set_bind_group(1, &shade_inputs, &[]);
+                pass.set_bind_group(2, outputs, &[]);
+                pass.dispatch_workgroups(camera.width.div_ceil(8), camera.height.div_ceil(8), 1);
+            } else if !traced {
                 let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                     label: Some("deferred shading"),
                     color_attachments: &[
