@@ -58,31 +58,29 @@ fn box_span(o: vec3<f32>, inv: vec3<f32>, lo: vec3<f32>, hi: vec3<f32>) -> vec2<
     return vec2<f32>(max(max(a.x, a.y), a.z), min(min(b.x, b.y), b.z));
 }
 
-// First crossing of the isovalue on [ta, tb] inside one cell (o is cell-local), or NO_HIT: the
-// side at ta against three samples, bisection of the first change and a secant step, as fs_cell.
-fn cell_crossing(k: Corners, o: vec3<f32>, d: vec3<f32>, t_enter: f32, t_exit: f32) -> f32 {
+// The first sample interval [ta, tb] of the three along [t_enter, t_exit] inside one cell (o is
+// cell-local) whose ends lie on opposite sides of the isovalue, as fs_cell finds it; x = NO_HIT
+// when the samples find none; z = 1 when the entry point is inside.
+fn cell_bracket(k: Corners, o: vec3<f32>, d: vec3<f32>, t_enter: f32, t_exit: f32) -> vec3<f32> {
     let iso = frame.cell_to_world.w;
     let inside_at_entry = trilinear(k.lo, k.hi, o + t_enter * d) >= iso;
     var ta = t_enter;
     var tb = t_enter;
-    var found = false;
     for (var s = 1u; s <= TRACE_SAMPLES; s++) {
         ta = tb;
         tb = mix(t_enter, t_exit, f32(s) / f32(TRACE_SAMPLES));
         if (trilinear(k.lo, k.hi, o + tb * d) >= iso) != inside_at_entry {
-            found = true;
-            break;
+            return vec3<f32>(ta, tb, select(0.0, 1.0, inside_at_entry));
         }
     }
-    if !found {
-        return NO_HIT;
-    }
-    return refine_crossing(k.lo, k.hi, o, d, ta, tb, iso, inside_at_entry);
+    return vec3<f32>(NO_HIT, NO_HIT, 0.0);
 }
 
-// Nearest crossing so far: t, and the cell, page, page-local record and global cluster it lies in.
+// Nearest crossing so far, as the bracket that holds it (cells along a ray are disjoint intervals,
+// so the cell with the nearest bracket holds the nearest crossing, and only that one is refined,
+// after the traversal), and the cell, page, page-local record and global cluster it lies in.
 struct Nearest {
-    t: f32,
+    bracket: vec3<f32>, // ta (NO_HIT until found), tb, inside at entry (1) or not (0)
     cell: vec3<u32>,
     page: u32,
     record: u32,
@@ -97,7 +95,7 @@ fn trace_block(first: u32, count: u32, o: vec3<f32>, d: vec3<f32>, inv: vec3<f32
         let cluster = first + c - trace_page_first_slot(p);
         let bound = cluster_bound_in(p, cluster + 15u);
         let cs = box_span(o, inv, bound[0], bound[1]);
-        if max(cs.x, t_lo) > min(cs.y, t_hi) || max(cs.x, t_lo) >= best.t {
+        if max(cs.x, t_lo) > min(cs.y, t_hi) || max(cs.x, t_lo) >= best.bracket.y {
             continue;
         }
         for (var s = 0u; s < 15u; s++) {
@@ -107,7 +105,7 @@ fn trace_block(first: u32, count: u32, o: vec3<f32>, d: vec3<f32>, inv: vec3<f32
             }
             let mo = vec3<f32>(m.origin);
             let ms = box_span(o, inv, mo, mo + 2.0);
-            if max(ms.x, t_lo) > min(ms.y, t_hi) || max(ms.x, t_lo) >= best.t {
+            if max(ms.x, t_lo) > min(ms.y, t_hi) || max(ms.x, t_lo) >= best.bracket.y {
                 continue;
             }
             for (var bit = 0u; bit < 8u; bit++) {
@@ -119,13 +117,13 @@ fn trace_block(first: u32, count: u32, o: vec3<f32>, d: vec3<f32>, inv: vec3<f32
                 let span = box_span(o, inv, co, co + 1.0);
                 let enter = max(span.x, t_lo);
                 let exit = min(span.y, t_hi);
-                if enter > exit || enter >= best.t {
+                if enter > exit || enter >= best.bracket.y {
                     continue;
                 }
                 let record = m.cell_pointer + countOneBits(m.mask & ((1u << bit) - 1u)) - trace_page_first_cell(p);
-                let t = cell_crossing(record_corners_in(p, record), o - co, d, enter, exit);
-                if t < best.t {
-                    best = Nearest(t, cell, p, record, (first + c) / 16u);
+                let bracket = cell_bracket(record_corners_in(p, record), o - co, d, enter, exit);
+                if bracket.x < best.bracket.x {
+                    best = Nearest(bracket, cell, p, record, (first + c) / 16u);
                 }
             }
         }
@@ -159,7 +157,7 @@ fn trace_ray(origin: vec3<f32>, dir: vec3<f32>, t_min: f32, t_max: f32) -> Trace
     let boundary = vec3<f32>(b + select(vec3<i32>(0), vec3<i32>(1), positive)) * BLOCK_CELLS;
     var t_next = (boundary - o) * inv;
     let t_delta = abs(BLOCK_CELLS * inv);
-    var best = Nearest(NO_HIT, vec3<u32>(0u), 0u, 0u, NO_CLUSTER);
+    var best = Nearest(vec3<f32>(NO_HIT, NO_HIT, 0.0), vec3<u32>(0u), 0u, 0u, NO_CLUSTER);
     let max_steps = nb.x + nb.y + nb.z + 3;
     let upper = select(vec3<i32>(0), vec3<i32>(1), positive);
     for (var i = 0; i < max_steps; i++) {
@@ -167,7 +165,7 @@ fn trace_ray(origin: vec3<f32>, dir: vec3<f32>, t_min: f32, t_max: f32) -> Trace
         let count = blocks[4u * index];
         if count > 0u {
             best = trace_block(blocks[4u * index + 1u], count, o, d, inv, t_min, t_max, best);
-            if best.t < NO_HIT {
+            if best.bracket.x < NO_HIT {
                 break;
             }
         } else {
@@ -220,15 +218,18 @@ fn trace_ray(origin: vec3<f32>, dir: vec3<f32>, t_min: f32, t_max: f32) -> Trace
             break;
         }
     }
-    if best.t >= NO_HIT {
+    if best.bracket.x >= NO_HIT {
         return miss;
     }
     let k = record_corners_in(best.page, best.record);
-    let local = clamp(o + best.t * d - vec3<f32>(best.cell), vec3<f32>(0.0), vec3<f32>(1.0));
+    let co = vec3<f32>(best.cell);
+    let inside = best.bracket.z > 0.5;
+    let t = refine_crossing(k.lo, k.hi, o - co, d, best.bracket.x, best.bracket.y, frame.cell_to_world.w, inside);
+    let local = clamp(o + t * d - co, vec3<f32>(0.0), vec3<f32>(1.0));
     var n = -trilinear_gradient(k.lo, k.hi, local) / s;
     let len = length(n);
     n = select(-dir, n / len, len > 0.0);
-    return TraceHit(best.t, n, best.cluster);
+    return TraceHit(t, n, best.cluster);
 }
 
 // Test entry point: one thread per ray. Rays: origin (xyz, w = t_min), direction (xyz, unit;
