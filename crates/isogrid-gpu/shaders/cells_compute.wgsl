@@ -10,6 +10,9 @@
 // - `raster_cells`, resolve pass (after every depth pass): the cell whose depth equals the pixel's
 //   word writes the G-buffer (normal + distance) and the IDs. The depth is recomputed by the same
 //   code from the same inputs, so equality is exact; of cells that tie to the bit, any one wins;
+// - `clear_targets`: per pixel, the depth word, the G-buffer and the IDs start empty (a compute
+//   pass: on GPUs with a weak graphics pipeline, render-pass clears of these targets cost more
+//   than the whole raster);
 // - `probe_cells`: a probe marks its cluster newly visible where the box's nearest depth is not
 //   behind the first depth pass, as probe.wgsl does with fragments.
 //
@@ -83,4 +86,15 @@ fn probe_cells(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workg
             }
         }
     }
+}
+
+@compute @workgroup_size(8, 8)
+fn clear_targets(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let width = u32(frame.viewport.x);
+    if gid.x >= width || gid.y >= u32(frame.viewport.y) {
+        return;
+    }
+    atomicStore(&raster_depth[gid.x + gid.y * width], 0u);
+    textureStore(raster_surface, vec2<i32>(gid.xy), vec4<f32>(0.0));
+    textureStore(raster_ids, vec2<i32>(gid.xy), vec4<u32>(NO_CLUSTER, NO_CLUSTER, 0u, 0u));
 }

@@ -94,6 +94,8 @@ pub(crate) enum RasterStep {
     SplatNew,
     /// Per pixel, not per list: the splat sums into the EWA target.
     ResolveSplats,
+    /// Per pixel, not per list: empty depth words, G-buffer and IDs.
+    Clear,
 }
 
 impl ComputeRaster<'_> {
@@ -135,10 +137,14 @@ impl ComputeRaster<'_> {
                 RasterStep::Probe => (&p.probe, LIST_PROBE),
                 RasterStep::SplatFull => (&p.splat_full, LIST_FULL),
                 RasterStep::SplatNew => (&p.splat_new, LIST_NEW),
-                RasterStep::ResolveSplats => {
-                    pass.set_pipeline(&p.resolve_splats);
-                    pass.set_bind_group(2, self.ewa_targets, &[]);
-                    // Group 1 is in the layout, unused by this entry point.
+                RasterStep::ResolveSplats | RasterStep::Clear => {
+                    let (pipeline, targets) = match step {
+                        RasterStep::Clear => (&p.clear, self.targets),
+                        _ => (&p.resolve_splats, self.ewa_targets),
+                    };
+                    pass.set_pipeline(pipeline);
+                    pass.set_bind_group(2, targets, &[]);
+                    // Group 1 is in the layout, unused by these per-pixel entry points.
                     if let Some(page) = self.pages.first() {
                         pass.set_bind_group(1, &page.compute_group, &[]);
                     }

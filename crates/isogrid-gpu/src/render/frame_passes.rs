@@ -147,15 +147,23 @@ impl FramePasses<'_> {
         let b = self.bindings;
         if self.plan.compute_raster {
             compute.size_dispatches(encoder);
-            drop(self.clear_targets(encoder, "clear cell raster targets", None));
-            encoder.clear_buffer(&b.targets.raster_depth, 0, None);
-            let steps: &[RasterStep] = if self.plan.occlusion {
+            // The clear is part of the timed raster, as the hardware path's load op is. A grid
+            // without pages has nothing to bind for the compute clear.
+            let clear: &[RasterStep] = if g.pages.is_empty() {
+                drop(self.clear_targets(encoder, "clear cell raster targets", None));
+                encoder.clear_buffer(&b.targets.raster_depth, 0, None);
+                &[]
+            } else {
+                &[RasterStep::Clear]
+            };
+            let draw: &[RasterStep] = if self.plan.occlusion {
                 &[RasterStep::DepthFull]
             } else {
                 &[RasterStep::DepthFull, RasterStep::ResolveFull]
             };
+            let steps = [clear, draw].concat();
             let ts = self.clock.compute(TS_RASTER);
-            compute.pass(encoder, "compute cell raster", ts, steps);
+            compute.pass(encoder, "compute cell raster", ts, &steps);
         } else {
             let mut pass = self.clear_targets(encoder, "cell raster", self.clock.render(TS_RASTER));
             pass.set_pipeline(&self.pipelines.cells);
