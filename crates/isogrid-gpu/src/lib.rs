@@ -13,6 +13,12 @@
 //! 5. `visibility.wgsl` (compute): rebuilds the per-cluster visibility bits from the ID target.
 //! 6. `shade.wgsl`: deferred normalised Blinn–Phong (`isogrid::shading`), sRGB output.
 //!
+//! Steps 2–4 and 6 have two implementations with the same per-pixel code ([`CellRaster`]): the
+//! paper's, through the graphics pipeline (rectangles and fragments), and compute passes in which
+//! one thread per cell walks its pixels (`cells_compute.wgsl`, `ewa_compute.wgsl`, atomics for
+//! depth and splat sums) and shading runs per pixel. The default picks the compute one unless cells
+//! can grow large on screen; on an H100 it is 30× faster (`docs/gpu-performance.md`).
+//!
 //! [`Mode::PathTrace`] (§3.6, `pathtrace.rs`) runs the [`Mode::Cgc`] passes for primary hits, then
 //! `trace.wgsl` + `pathtrace.wgsl` (compute) trace secondary rays through blocks, clusters,
 //! metacells and cells and accumulate diffuse path-traced samples over frames. With

@@ -35,7 +35,7 @@ pub enum Mode {
     CgcNoEwa,
     /// The Marching Cubes mesh baseline.
     Mc,
-    /// Cell rasterisation sampling the original volume (the paper's CR [13] baseline), with the
+    /// Cell rasterisation sampling the original volume (the paper's CR \[13\] baseline), with the
     /// same clusters and visibility buffer.
     Cr,
     /// Hybrid path tracing (§3.6): the [`Mode::Cgc`] G-buffer gives primary hits, secondary rays
