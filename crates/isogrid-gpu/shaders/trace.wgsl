@@ -90,7 +90,13 @@ struct Nearest {
 // Tests the clusters of one block (global slots [first, first + count)) on [t_lo, t_hi].
 fn trace_block(first: u32, count: u32, o: vec3<f32>, d: vec3<f32>, inv: vec3<f32>, t_lo: f32, t_hi: f32, best_in: Nearest) -> Nearest {
     var best = best_in;
-    for (var c = 0u; c < count; c += 16u) {
+    // A block's clusters follow the Morton order of their metacells, whose top bit is z: for rays
+    // going down in z, the last clusters tend to be the nearest. Visiting them first lets the
+    // nearest bracket found prune more of the others (the nearest bracket wins in any order).
+    let clusters = count / 16u;
+    let reverse = d.z < 0.0;
+    for (var i = 0u; i < clusters; i++) {
+        let c = 16u * select(i, clusters - 1u - i, reverse);
         let p = trace_page_of_slot(first + c);
         let cluster = first + c - trace_page_first_slot(p);
         let bound = cluster_bound_in(p, cluster + 15u);
