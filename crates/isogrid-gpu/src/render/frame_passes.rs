@@ -148,10 +148,9 @@ impl FramePasses<'_> {
         if self.plan.compute_raster {
             compute.size_dispatches(encoder);
             // The clear is part of the timed raster, as the hardware path's load op is. A grid
-            // without pages has nothing to bind for the compute clear.
+            // without pages has nothing to bind for the compute clear, nor any cell to draw.
             let clear: &[RasterStep] = if g.pages.is_empty() {
                 drop(self.clear_targets(encoder, "clear cell raster targets", None));
-                encoder.clear_buffer(&b.targets.raster_depth, 0, None);
                 &[]
             } else {
                 &[RasterStep::Clear]

@@ -13,8 +13,6 @@ use isogrid::Camera;
 /// Render targets of one image size.
 pub(super) struct Targets {
     pub depth: wgpu::Texture,
-    /// The compute raster's depth: reversed-Z bits per pixel, row-major.
-    pub raster_depth: wgpu::Buffer,
     pub surface: wgpu::Texture,
     pub ids: wgpu::Texture,
     pub ewa: wgpu::Texture,
@@ -91,12 +89,6 @@ impl Renderer {
         };
         Targets {
             depth: self.texture("raster depth (reversed-Z)", camera, DEPTH_FORMAT, rt),
-            raster_depth: self.device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("compute raster depth (reversed-Z bits)"),
-                size: 4 * camera.width as u64 * camera.height as u64,
-                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
-                mapped_at_creation: false,
-            }),
             // Storage: the compute raster writes these two.
             surface: self.texture(
                 "raster normal + distance",
@@ -213,25 +205,35 @@ impl Renderer {
             &p.surface_input,
             &[texture_entry(0, &surface_view)],
         );
+        // The compute passes' per-pixel words, full size only when those passes run.
+        let pixel_words = |label: &str, words: u64, used: bool| {
+            self.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: if used {
+                    4 * words * camera.width as u64 * camera.height as u64
+                } else {
+                    16
+                },
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            })
+        };
+        // Reversed-Z depth bits per pixel, row-major.
+        let raster_depth = pixel_words(
+            "compute raster depth (reversed-Z bits)",
+            1,
+            plan.compute_raster,
+        );
         let raster_targets = group(
             "compute raster targets",
             &p.raster_targets,
             &[
-                buffer_entry(0, &targets.raster_depth),
+                buffer_entry(0, &raster_depth),
                 texture_entry(1, &surface_view),
                 texture_entry(2, &ids_view),
             ],
         );
-        let ewa_sum = self.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("compute ewa sums"),
-            size: if plan.ewa && plan.compute_raster {
-                16 * camera.width as u64 * camera.height as u64
-            } else {
-                16
-            },
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
+        let ewa_sum = pixel_words("compute ewa sums", 4, plan.ewa && plan.compute_raster);
         let ewa_targets = group(
             "compute ewa targets",
             &p.ewa_targets,
