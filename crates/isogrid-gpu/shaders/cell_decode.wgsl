@@ -25,17 +25,6 @@ fn metacell_in(page: u32, local_slot: u32) -> Metacell {
     return Metacell(2u * position, (w1 >> 16u) & 0xffu, w2);
 }
 
-// The cell-space box [lo, hi] of the cluster bound in `local_slot` (slot 15 of a cluster,
-// `isogrid::layout::ClusterBound`: metacell positions of the lowest and highest corner).
-fn cluster_bound_in(page: u32, local_slot: u32) -> array<vec3<f32>, 2> {
-    let w0 = slot_word(page, 3u * local_slot);
-    let w1 = slot_word(page, 3u * local_slot + 1u);
-    let w2 = slot_word(page, 3u * local_slot + 2u);
-    let lo = 2.0 * vec3<f32>(vec3<u32>(w0 & 0xffffu, w0 >> 16u, w1 & 0xffffu));
-    let hi = 2.0 * vec3<f32>(vec3<u32>(w1 >> 16u, w2 & 0xffffu, w2 >> 16u)) + 2.0;
-    return array<vec3<f32>, 2>(lo, hi);
-}
-
 fn cell_offset(bit: u32) -> vec3<u32> {
     return vec3<u32>(bit & 1u, (bit >> 1u) & 1u, (bit >> 2u) & 1u);
 }

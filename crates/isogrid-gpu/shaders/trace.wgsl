@@ -1,16 +1,17 @@
 // Hierarchical ray traversal of the clustered grid cells (paper §3.6): a 3D DDA over the dense
 // 16³-cell block grid visits blocks front to back, leaping across empty space by the blocks'
 // Chebyshev distance to the nearest block with slots (`isogrid::trace::empty_space`, as the CPU
-// tracer does) and skipping blocks without slots; inside a block,
-// each cluster's bound (slot 15, Table 1 / `isogrid::layout::ClusterBound`) is slab-tested, then
-// the 2×2×2 boxes of its metacells, then each active cell's unit box, and finally the cell's
-// trilinear interpolant of its 8 stored corner codes is sampled three times along the segment and
-// refined like the cell raster (`cells.wgsl`). The first block with a hit holds the nearest one:
-// its cells lie inside its box, and later blocks start where it ends.
+// tracer does) and skipping blocks without slots; inside a block, a second DDA visits its occupied
+// metacells front to back (`isogrid::trace::occupancy`; where the paper slab-tests each cluster
+// bound and then each metacell box), then each active cell's unit box is slab-tested, and
+// finally the cell's trilinear interpolant of its 8 stored corner codes is sampled three times
+// along the segment and refined like the cell raster (`cells.wgsl`). The first metacell with a
+// hit holds the nearest one: its cells lie inside its box, and later metacells and blocks start
+// where it ends.
 //
 // Grids split into pages (a contiguous run of whole clusters each) are traced with all pages
 // bound at once: a block's clusters may straddle a page boundary, so the page is looked up per
-// cluster (`trace_page_of_slot`), and slots and records are read page-locally through
+// metacell (`trace_page_of_slot`), and slots and records are read page-locally through
 // cell_decode.wgsl.
 //
 // Prepended: common.wgsl, cell_decode.wgsl, then cell_data.wgsl (one page) or trace_pages.wgsl
@@ -87,51 +88,109 @@ struct Nearest {
     cluster: u32,
 }
 
-// Tests the clusters of one block (global slots [first, first + count)) on [t_lo, t_hi].
-fn trace_block(first: u32, count: u32, o: vec3<f32>, d: vec3<f32>, inv: vec3<f32>, t_lo: f32, t_hi: f32, best_in: Nearest) -> Nearest {
+// Where the metacell occupancy starts in `blocks`: one word per block, the word offset of the
+// block's occupancy record (keep in sync with upload.rs). A record is 25 words: the 512-bit
+// Morton-order mask of the block's occupied metacells (words 0–15, code c at word c / 32, bit
+// c % 32), the number of occupied metacells before each mask word (words 16–23, two 16-bit
+// counts each, word w's in half w % 2 of word 16 + w / 2), and the box of the occupied metacells
+// (word 24: lowest x, y, z at bits 0, 3, 6, highest at bits 9, 12, 15; metacells within the block).
+fn occupancy_index(index: u32) -> u32 {
+    let count = trace.block_dims.x * trace.block_dims.y * trace.block_dims.z;
+    return blocks[4u * count + (count + 3u) / 4u + index];
+}
+
+// Morton code of a metacell position (0–7 per axis) within its block, `isogrid::morton`.
+fn spread_bits3(v: u32) -> u32 {
+    return (v & 1u) | ((v & 2u) << 2u) | ((v & 4u) << 4u);
+}
+
+// How far (metacells) the walk's start point moves back along the ray, so that rounding can only
+// start it one metacell early (it then leaves that one at once, one wasted move), never one late
+// (which would skip a metacell). f32 cell positions near the 128K-cell grid edge are 1/64 cell
+// apart; 0.05 metacell leaves several times that.
+const METACELL_NUDGE: f32 = 0.05;
+
+// Tests the active cells of the metacell in global slot `slot` on [t_lo, t_hi].
+fn trace_metacell(slot: u32, o: vec3<f32>, d: vec3<f32>, inv: vec3<f32>, t_lo: f32, t_hi: f32, best_in: Nearest) -> Nearest {
     var best = best_in;
-    // A block's clusters follow the Morton order of their metacells, whose top bit is z: for rays
-    // going down in z, the last clusters tend to be the nearest. Visiting them first lets the
-    // nearest bracket found prune more of the others (the nearest bracket wins in any order).
-    let clusters = count / 16u;
-    let reverse = d.z < 0.0;
-    for (var i = 0u; i < clusters; i++) {
-        let c = 16u * select(i, clusters - 1u - i, reverse);
-        let p = trace_page_of_slot(first + c);
-        let cluster = first + c - trace_page_first_slot(p);
-        let bound = cluster_bound_in(p, cluster + 15u);
-        let cs = box_span(o, inv, bound[0], bound[1]);
-        if max(cs.x, t_lo) > min(cs.y, t_hi) || max(cs.x, t_lo) >= best.bracket.y {
+    let p = trace_page_of_slot(slot);
+    let m = metacell_in(p, slot - trace_page_first_slot(p));
+    for (var bit = 0u; bit < 8u; bit++) {
+        if (m.mask & (1u << bit)) == 0u {
             continue;
         }
-        for (var s = 0u; s < 15u; s++) {
-            let m = metacell_in(p, cluster + s);
-            if m.mask == 0u {
-                continue;
+        let cell = m.origin + cell_offset(bit);
+        let co = vec3<f32>(cell);
+        let span = box_span(o, inv, co, co + 1.0);
+        let enter = max(span.x, t_lo);
+        let exit = min(span.y, t_hi);
+        if enter > exit || enter >= best.bracket.y {
+            continue;
+        }
+        let record = m.cell_pointer + countOneBits(m.mask & ((1u << bit) - 1u)) - trace_page_first_cell(p);
+        let bracket = cell_bracket(record_corners_in(p, record), o - co, d, enter, exit);
+        if bracket.x < best.bracket.x {
+            best = Nearest(bracket, cell, p, record, slot / 16u);
+        }
+    }
+    return best;
+}
+
+// Nearest crossing in block `index` (at block position `block`) on [t_lo, t_hi]: a 3D DDA
+// (Amanatides & Woo 1987) over the box of the block's occupied metacells visits them front to
+// back, each found at slot `first + k + k / 15` by its rank k in the Morton-order mask (the
+// extraction's order, paper §3.1), and the first metacell with a crossing holds the block's
+// nearest one. This replaces the paper's tests of every cluster bound and metacell box (§3.6):
+// in a dense block those read and test dozens of boxes a ray never comes near.
+fn trace_block(index: u32, block: vec3<i32>, o: vec3<f32>, d: vec3<f32>, inv: vec3<f32>, positive: vec3<bool>, t_lo: f32, t_hi: f32, best_in: Nearest) -> Nearest {
+    var best = best_in;
+    let first = blocks[4u * index + 1u];
+    let record = occupancy_index(index);
+    let packed = blocks[record + 24u];
+    let lowest = vec3<i32>(vec3<u32>(packed, packed >> 3u, packed >> 6u) & vec3<u32>(7u));
+    let highest = vec3<i32>(vec3<u32>(packed >> 9u, packed >> 12u, packed >> 15u) & vec3<u32>(7u));
+    if any(lowest > highest) {
+        return best; // no metacell kept its layout (a corrupt grid): nothing to walk
+    }
+    let c0 = vec3<f32>(block) * BLOCK_CELLS;
+    let span = box_span(o, inv, c0 + 2.0 * vec3<f32>(lowest), c0 + 2.0 * vec3<f32>(highest + 1));
+    let t_in = max(span.x, t_lo);
+    let t_out = min(span.y, t_hi);
+    if t_in > t_out {
+        return best;
+    }
+    let back = select(vec3<f32>(METACELL_NUDGE), vec3<f32>(-METACELL_NUDGE), positive);
+    var m = clamp(vec3<i32>(floor((o + t_in * d - c0) * 0.5 + back)), lowest, highest);
+    let step = select(vec3<i32>(-1), vec3<i32>(1), positive);
+    let upper = select(vec3<i32>(0), vec3<i32>(1), positive);
+    // At most 22 moves cross an 8³ box; the bound also ends the loop on NaN input.
+    for (var moves = 0; moves < 24; moves++) {
+        let code = spread_bits3(u32(m.x)) | (spread_bits3(u32(m.y)) << 1u) | (spread_bits3(u32(m.z)) << 2u);
+        let word = blocks[record + (code >> 5u)];
+        let bit = code & 31u;
+        if ((word >> bit) & 1u) != 0u {
+            let before = (blocks[record + 16u + (code >> 6u)] >> (16u * ((code >> 5u) & 1u))) & 0xffffu;
+            let rank = before + countOneBits(word & ((1u << bit) - 1u));
+            best = trace_metacell(first + rank + rank / 15u, o, d, inv, t_lo, t_hi, best);
+            if best.bracket.x < NO_HIT {
+                break;
             }
-            let mo = vec3<f32>(m.origin);
-            let ms = box_span(o, inv, mo, mo + 2.0);
-            if max(ms.x, t_lo) > min(ms.y, t_hi) || max(ms.x, t_lo) >= best.bracket.y {
-                continue;
-            }
-            for (var bit = 0u; bit < 8u; bit++) {
-                if (m.mask & (1u << bit)) == 0u {
-                    continue;
-                }
-                let cell = m.origin + cell_offset(bit);
-                let co = vec3<f32>(cell);
-                let span = box_span(o, inv, co, co + 1.0);
-                let enter = max(span.x, t_lo);
-                let exit = min(span.y, t_hi);
-                if enter > exit || enter >= best.bracket.y {
-                    continue;
-                }
-                let record = m.cell_pointer + countOneBits(m.mask & ((1u << bit) - 1u)) - trace_page_first_cell(p);
-                let bracket = cell_bracket(record_corners_in(p, record), o - co, d, enter, exit);
-                if bracket.x < best.bracket.x {
-                    best = Nearest(bracket, cell, p, record, (first + c) / 16u);
-                }
-            }
+        }
+        // Face times afresh from the planes (no accumulated increments), so that one metacell's
+        // exit is exactly the next one's entry.
+        let t_next = (c0 + 2.0 * vec3<f32>(m + upper) - o) * inv;
+        if !(min(min(t_next.x, t_next.y), t_next.z) < t_out) {
+            break;
+        }
+        if t_next.x <= t_next.y && t_next.x <= t_next.z {
+            m.x += step.x;
+        } else if t_next.y <= t_next.z {
+            m.y += step.y;
+        } else {
+            m.z += step.z;
+        }
+        if any(m < lowest) || any(m > highest) {
+            break;
         }
     }
     return best;
@@ -170,7 +229,7 @@ fn trace_ray(origin: vec3<f32>, dir: vec3<f32>, t_min: f32, t_max: f32) -> Trace
         let index = u32(b.x) + trace.block_dims.x * (u32(b.y) + trace.block_dims.y * u32(b.z));
         let count = blocks[4u * index];
         if count > 0u {
-            best = trace_block(blocks[4u * index + 1u], count, o, d, inv, t_min, t_max, best);
+            best = trace_block(index, b, o, d, inv, positive, t_min, t_max, best);
             if best.bracket.x < NO_HIT {
                 break;
             }

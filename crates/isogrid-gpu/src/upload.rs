@@ -8,6 +8,7 @@ use crate::render::buffer_entry as entry;
 use crate::Renderer;
 use isogrid::layout::{BOUND_SLOT, CLUSTER_SLOTS};
 use isogrid::trace::empty_space::EmptySpaceMap;
+use isogrid::trace::occupancy::MetacellOccupancy;
 use isogrid::{CellGrid, GridInfo, Metacell};
 use std::sync::atomic::AtomicU32;
 use std::sync::Mutex;
@@ -327,14 +328,12 @@ impl Renderer {
         let blocks = if grid.blocks().is_empty() {
             None
         } else {
-            // The block records byte for byte, then the tracer's empty-space map, one byte per
-            // block padded to a whole word. Keep in sync with `block_distance` in trace.wgsl.
-            let block_dims = grid.info().block_dims().map(|b| b as usize);
-            let map = EmptySpaceMap::new(grid.blocks(), block_dims);
-            let mut bytes = bytemuck::cast_slice::<_, u8>(grid.blocks()).to_vec();
-            bytes.extend((0..grid.blocks().len()).map(|i| map.distance(i)));
-            bytes.resize(bytes.len().next_multiple_of(4), 0);
-            Some(self.buffer_init("blocks and empty-space map", &bytes, storage)?)
+            let words = tracer_block_words(grid);
+            Some(self.buffer_init(
+                "blocks, empty-space map and metacell occupancy",
+                bytemuck::cast_slice(&words),
+                storage,
+            )?)
         };
         let clusters = grid.clusters() as u64;
         let visibility_bytes = clusters.max(MIN_VISIBILITY_CLUSTERS).div_ceil(32) * 4;
@@ -505,6 +504,61 @@ impl Renderer {
 /// with an inside border corner. So with no such corner all border samples share one side, which
 /// is "outside" once one border sample is known to be outside: a border corner of an active cell,
 /// or a border block whose largest sample is below the isovalue.
+/// Words of occupancy record per non-empty block: see [`tracer_block_words`].
+const OCCUPANCY_RECORD_WORDS: usize = 25;
+
+/// What the tracer reads per block, as one array of words (keep in sync with `block_distance`
+/// and `occupancy_index` in trace.wgsl):
+/// - the block records byte for byte (4 words each, `isogrid::layout::Block`);
+/// - the empty-space map, one byte per block, padded to a whole word;
+/// - per block, the word offset of its occupancy record in this array (`u32::MAX` when empty);
+/// - per non-empty block, a record of [`OCCUPANCY_RECORD_WORDS`]: the 512-bit Morton-order mask
+///   of its occupied metacells (16 words), the count of occupied metacells before each mask word
+///   (8 words of two 16-bit counts) and the box of the occupied metacells (1 word: lowest x, y,
+///   z at bits 0, 3, 6, highest at 9, 12, 15).
+fn tracer_block_words(grid: &CellGrid) -> Vec<u32> {
+    let blocks = grid.blocks();
+    let block_dims = grid.info().block_dims().map(|b| b as usize);
+    let map = EmptySpaceMap::new(blocks, block_dims);
+    let occupancy = MetacellOccupancy::new(blocks, grid.metacells(), block_dims);
+    let mut words: Vec<u32> = bytemuck::cast_slice(blocks).to_vec();
+    let distances: Vec<u8> = (0..blocks.len()).map(|i| map.distance(i)).collect();
+    words.extend(
+        distances
+            .chunks(4)
+            .map(|c| c.iter().rev().fold(0u32, |w, &d| w << 8 | d as u32)),
+    );
+    let index_start = words.len();
+    words.resize(index_start + blocks.len(), u32::MAX);
+    for index in 0..blocks.len() {
+        let Some(record) = occupancy.of_block(index) else {
+            continue;
+        };
+        let start = words.len();
+        words[index_start + index] = start as u32;
+        let mask: Vec<u32> = record
+            .mask()
+            .iter()
+            .flat_map(|&w| [w as u32, (w >> 32) as u32])
+            .collect();
+        let mut before = 0u32;
+        let mut counts = [0u32; 8];
+        for (w, &m) in mask.iter().enumerate() {
+            counts[w / 2] |= before << (16 * (w % 2));
+            before += m.count_ones();
+        }
+        let (lo, hi) = record.bounds();
+        let pack = |v: [i64; 3], shift: u32| {
+            (0..3).fold(0u32, |p, a| p | (v[a] as u32) << (shift + 3 * a as u32))
+        };
+        words.extend(mask);
+        words.extend(counts);
+        words.push(pack(lo, 0) | pack(hi, 9));
+        debug_assert_eq!(words.len() - start, OCCUPANCY_RECORD_WORDS);
+    }
+    words
+}
+
 fn border_is_outside(grid: &CellGrid) -> bool {
     let info = grid.info();
     let iso_code = info.mapping.iso_code;

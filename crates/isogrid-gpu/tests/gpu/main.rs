@@ -5,6 +5,7 @@ mod accuracy;
 mod culling;
 mod edges;
 mod empty_space;
+mod metacell_walk;
 mod paged_trace;
 mod pathtrace;
 mod rasters;
