@@ -52,7 +52,7 @@ fn brute_force(volume: &Volume, iso: f64) -> Expected {
                             let mut inside = 0;
                             for c in 0..8 {
                                 let v = volume.get(x + (c & 1), y + (c >> 1 & 1), z + (c >> 2 & 1));
-                                if v == v {
+                                if !v.is_nan() {
                                     min = min.min(v);
                                     max = max.max(v);
                                 }
@@ -178,7 +178,7 @@ fn check(volume: &Volume, grid: &CellGrid, iso: f64, exact: bool) {
                         decoded == v || (v.is_nan() && code.is_nan()),
                         "cell {p:?} corner {c}: {decoded} != {v}"
                     );
-                } else if v == v {
+                } else if !v.is_nan() {
                     assert!(
                         (decoded - v).abs() <= mapping.step * 1.0000001,
                         "cell {p:?} corner {c}: {decoded} vs {v}"
