@@ -129,7 +129,7 @@ def main():
     L.append("")
     L.append("## Hybrid path tracing (issue 4, paper §3.6)")
     L.append("")
-    L.append("3 bounces traced in a compute shader through blocks → clusters → metacells → cells, 1 sample per pixel")
+    L.append("3 bounces traced in a compute shader through blocks → occupied metacells (a DDA per block) → cells, 1 sample per pixel")
     L.append("per frame, sky environment. Primary rays either rasterised (the paper's hybrid: cell raster, EWA, shading)")
     L.append("or traced in the same compute pass (`--primary traced`, no raster pass). `frame` spans the whole frame")
     L.append("(first to last timestamp); with traced primaries the frame is the tracing pass.")

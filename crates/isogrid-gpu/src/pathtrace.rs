@@ -1,6 +1,6 @@
 //! Hybrid path tracing of clustered grid cells (paper §3.6, Figure 6): primary hits come from the
 //! cell raster's G-buffer ([`crate::Mode::Cgc`] passes, EWA normals), secondary rays are traced in
-//! a compute pass through blocks → clusters → metacells → cells (`shaders/trace.wgsl`), with
+//! a compute pass through blocks → occupied metacells → cells (`shaders/trace.wgsl`), with
 //! Lambertian bounces, cosine-weighted sampling and an HDR environment (`shaders/pathtrace.wgsl`).
 //!
 //! # Traced primary rays

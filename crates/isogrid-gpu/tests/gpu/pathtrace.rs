@@ -46,7 +46,7 @@ pub fn random_rays(hi: [f64; 3], count: usize, seed: u64) -> Vec<Ray> {
         .collect()
 }
 
-/// The GPU traversal (blocks → clusters → metacells → cells, 3 samples + bisection per cell) finds
+/// The GPU traversal (blocks → occupied metacells → cells, 3 samples + bisection per cell) finds
 /// the same first crossing as fine stepping (1/32 voxel) + bisection over the whole grid. They can
 /// differ only where a ray grazes a double crossing thinner than a third of a cell, hence 99 %;
 /// where both hit the crossing is the same one up to bisection precision, so 0.05 voxel, and the
