@@ -24,6 +24,7 @@ pub mod cluster_bounds;
 pub mod crossing;
 pub mod empty_space;
 pub mod env;
+pub mod octant_space;
 pub mod render;
 pub mod sample;
 pub mod traverse;
