@@ -1,13 +1,13 @@
 //! The block level of the tracer's traversal (paper §3.6): a 3D DDA (Amanatides & Woo, 1987) over
-//! the dense grid of 16³-cell blocks, which leaps across empty space with the [`EmptySpaceMap`]
+//! the dense grid of 16³-cell blocks, which leaps across empty space with the [`OctantSpaceMap`]
 //! (distance-map skipping in the manner of Cohen & Sheffer 1994), kept as a state that the tracer
 //! moves one block (or one leap) at a time.
 //!
-//! A block at Chebyshev distance `d ≥ 2` from the nearest non-empty block is the centre of a cube
-//! of `(2d − 1)³` empty blocks: [`BlockWalk::leap`] takes the ray straight to where it leaves that
+//! When the cube of `s ≥ 2` blocks per side that starts at the current block and extends towards
+//! the ray's octant is empty, [`BlockWalk::leap`] takes the ray straight to where it leaves that
 //! cube. Elsewhere [`BlockWalk::step`] moves one block.
 //!
-//! [`EmptySpaceMap`]: super::empty_space::EmptySpaceMap
+//! [`OctantSpaceMap`]: super::octant_space::OctantSpaceMap
 
 use super::cell_ray::{max, min, xyz, CellRay};
 use crate::layout::{BLOCK_CELLS, BLOCK_METACELLS};
@@ -128,11 +128,12 @@ impl BlockWalk {
         true
     }
 
-    /// Leaves the cube of blocks within `distance − 1` of the current one, which the caller knows
-    /// to be empty (`distance ≥ 2`); false once the ray leaves the grid or `tmax`.
+    /// Leaves the cube of `side³` blocks that starts at the current one and extends in the ray's
+    /// direction on every axis, which the caller knows to be empty (`side ≥ 2`); false once the
+    /// ray leaves the grid or `tmax`.
     #[inline(always)]
-    pub fn leap(&mut self, r: &CellRay, distance: u8) -> bool {
-        let reach = distance as i64 - 1;
+    pub fn leap(&mut self, r: &CellRay, side: u8) -> bool {
+        let reach = side as i64 - 1;
         let far_side = xyz(|a| self.block[a] + self.step_of(a) * reach);
         let leaves = xyz(|a| leave(r, self.forward[a], a, far_side[a]));
         let axis = first_to_leave(leaves);

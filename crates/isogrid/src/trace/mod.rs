@@ -25,6 +25,7 @@ pub mod crossing;
 pub mod empty_space;
 pub mod env;
 pub mod occupancy;
+pub mod octant_space;
 pub mod render;
 pub mod sample;
 pub mod traverse;

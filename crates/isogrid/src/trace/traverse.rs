@@ -1,13 +1,13 @@
 //! Hierarchical ray traversal of clustered grid cells (paper §3.6): a 3D DDA over the dense
-//! 16³-cell block grid, which leaps across empty space with an [`EmptySpaceMap`]
+//! 16³-cell block grid, which leaps across empty space with an [`OctantSpaceMap`]
 //! (`block_walk.rs`); inside a non-empty block every cluster bound (slot 15, read from a packed
 //! copy, [`PackedClusterBounds`]), then each entered cluster's metacell boxes (four at a time in
 //! f32 lanes), are tested with the slab test (as §3.2); a candidate metacell's active cells are
 //! visited nearest first by crossing its three mid-planes, and searched for the isosurface
 //! crossing ([`super::crossing`]).
 //!
-//! Beyond the paper's records the tracer holds 1 byte per block and 4 bytes per cluster (about
-//! 1 % of the grid; [`Tracer::extra_bytes`]), both built in [`Tracer::new`].
+//! Beyond the paper's records the tracer holds 8 bytes per block and 4 bytes per cluster (about
+//! 4 % of the grid; [`Tracer::extra_bytes`]), both built in [`Tracer::new`].
 //!
 //! Units: rays are in world space (sample (i, j, k) at (i·sx, j·sy, k·sz)) with unit directions,
 //! and `t` is the world distance along the ray. Internally the ray is rescaled into cell units
@@ -21,7 +21,7 @@ use super::block_walk::BlockWalk;
 use super::cell_ray::{min, xyz, CellRay};
 use super::cluster_bounds::{unpack4, PackedClusterBounds};
 use super::crossing::{Crossing, Trilinear};
-use super::empty_space::EmptySpaceMap;
+use super::octant_space::OctantSpaceMap;
 use crate::camera::Ray;
 use crate::grid::CellGrid;
 use crate::layout::{read_corners, Block, Metacell, Precision, BLOCK_CELLS, CLUSTER_SLOTS};
@@ -55,8 +55,9 @@ pub enum Occlusion {
     Surface,
 }
 
-/// Traces rays through one grid. Shares the grid's buffers and adds one byte per block (an
-/// [`EmptySpaceMap`], built in `new` in time linear in the block count); `Sync`.
+/// Traces rays through one grid. Shares the grid's buffers and adds 8 bytes per block (an
+/// [`OctantSpaceMap`]) and 4 per cluster ([`PackedClusterBounds`]), built in `new` in time linear
+/// in the grid's size; `Sync`.
 #[derive(Debug, Clone)]
 pub struct Tracer<'g> {
     blocks: &'g [Block],
@@ -69,7 +70,7 @@ pub struct Tracer<'g> {
     block_dims: [i64; 3],
     crossing: Crossing,
     margin: f64,
-    empty_space: EmptySpaceMap,
+    empty_space: OctantSpaceMap,
     cluster_bounds: PackedClusterBounds,
 }
 
@@ -204,7 +205,7 @@ impl<'g> Tracer<'g> {
             block_dims: bd.map(|b| b as i64),
             crossing,
             margin: metacell_margin(info.cell_dims().map(|c| c as f64)),
-            empty_space: EmptySpaceMap::new(grid.blocks(), bd.map(|b| b as usize)),
+            empty_space: OctantSpaceMap::new(grid.blocks(), bd.map(|b| b as usize)),
             cluster_bounds: PackedClusterBounds::new(
                 grid.blocks(),
                 grid.metacells(),
@@ -217,7 +218,7 @@ impl<'g> Tracer<'g> {
         self.crossing
     }
 
-    /// Bytes the tracer adds to the grid's own buffers (its [`EmptySpaceMap`] and
+    /// Bytes the tracer adds to the grid's own buffers (its [`OctantSpaceMap`] and
     /// [`PackedClusterBounds`]).
     pub fn extra_bytes(&self) -> usize {
         self.empty_space.bytes() + self.cluster_bounds.bytes()
@@ -288,24 +289,29 @@ impl<'g> Tracer<'g> {
         let Some(mut walk) = BlockWalk::new(r, self.cell_dims, self.block_dims, tmin, tmax) else {
             return;
         };
-        while self.walk_once(r, &mut walk, &mut visit) {}
+        // The walk moves towards +axis `a` where the direction is ≥ 0 (as in `BlockWalk`).
+        let octant = (0..3).fold(0, |o, a| o | ((r.direction[a] >= 0.0) as usize) << a);
+        let sides = self.empty_space.octant(octant);
+        while self.walk_once(r, &mut walk, sides, &mut visit) {}
     }
 
     /// One move of `walk`: a leap across empty space, or a visit of the current block (when it
-    /// holds active cells) followed by a step. False when the walk is over.
+    /// holds active cells) followed by a step. `sides` is the [`OctantSpaceMap`] of the ray's
+    /// octant. False when the walk is over.
     #[inline(always)]
     fn walk_once(
         &self,
         r: &CellRay,
         walk: &mut BlockWalk,
+        sides: &[u8],
         visit: &mut impl FnMut(&Block, [f32; 3]) -> f64,
     ) -> bool {
         let index = walk.index();
-        let distance = self.empty_space.distance(index);
-        if distance > 1 {
-            return walk.leap(r, distance);
+        let side = sides[index];
+        if side > 1 {
+            return walk.leap(r, side);
         }
-        if distance == 0 && visit(&self.blocks[index], walk.first_metacell()) <= walk.exit() {
+        if side == 0 && visit(&self.blocks[index], walk.first_metacell()) <= walk.exit() {
             return false;
         }
         walk.step()

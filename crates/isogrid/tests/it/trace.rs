@@ -290,7 +290,7 @@ fn exact_matches_brute_force_on_blobs_at_every_precision() {
 }
 
 /// Two small balls in opposite corners of a mostly empty, anisotropic grid: rays leap across
-/// cubes of empty blocks (the tracer's empty-space map) before they meet a ball, and must find the
+/// cubes of empty blocks (the tracer's octant empty-space map) before they meet a ball, and must find the
 /// reference's crossings all the same, whichever side they come from.
 #[test]
 fn exact_matches_brute_force_after_long_leaps_across_empty_space() {
@@ -313,6 +313,13 @@ fn exact_matches_brute_force_after_long_leaps_across_empty_space() {
     let map = isogrid::trace::empty_space::EmptySpaceMap::new(grid.blocks(), block_dims);
     let longest = (0..grid.blocks().len()).map(|i| map.distance(i)).max();
     assert!(longest >= Some(4), "longest leap {longest:?} blocks");
+    // The CPU tracer leaps across cubes that grow towards the ray's octant only: from blocks
+    // beside a ball too (symmetric distance 1), when the ray moves away from it.
+    let octants = isogrid::trace::octant_space::OctantSpaceMap::new(grid.blocks(), block_dims);
+    let beside = (0..grid.blocks().len())
+        .filter(|&i| map.distance(i) == 1 && (0..8).any(|o| octants.octant(o)[i] >= 4))
+        .count();
+    assert!(beside > 0, "no long octant leap beside a ball");
 
     // From anywhere around the box towards a point near either ball's centre.
     let (lo, hi) = world_box(&grid);
