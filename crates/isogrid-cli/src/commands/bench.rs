@@ -79,6 +79,12 @@ struct RaysReport {
     hits: u64,
     seconds: f64,
     rays_per_second: f64,
+    /// CPU time of the whole process while tracing (Linux only), and rays per CPU second: on a
+    /// core shared with other work these are steadier than the wall-clock figures.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    cpu_seconds: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    rays_per_cpu_second: Option<f64>,
     /// Memory the tracer reads: blocks + metacell slots + corner records + what the traversal
     /// adds (the block walk's empty-space map and packed cluster bounds, or the hierarchy).
     bytes: u64,
@@ -125,6 +131,17 @@ fn read_rays(path: &PathBuf) -> Result<Vec<Ray>> {
     Ok(rays)
 }
 
+/// Nanoseconds all threads of this process have run (the sum of `/proc/self/task/*/schedstat`'s
+/// first field), or `None` where that is not available.
+fn process_cpu_ns() -> Option<u64> {
+    let mut total = 0;
+    for task in std::fs::read_dir("/proc/self/task").ok()? {
+        let stat = std::fs::read_to_string(task.ok()?.path().join("schedstat")).ok()?;
+        total += stat.split_whitespace().next()?.parse::<u64>().ok()?;
+    }
+    Some(total)
+}
+
 fn rays(args: RaysArgs) -> Result<()> {
     let grid = args.threads.install(|| args.source.load())??;
     let rays = match &args.rays_file {
@@ -150,10 +167,12 @@ fn rays(args: RaysArgs) -> Result<()> {
     };
     let mut hits: Vec<Option<Hit>> = vec![None; rays.len()];
     // Built before the clock starts, as the grid is.
+    let mut cpu_start = None;
     let (seconds, threads, extra_bytes) = match args.traversal {
         Traversal::Blocks => {
             let tracer = Tracer::new(&grid, crossing);
             args.threads.install(|| {
+                cpu_start = process_cpu_ns();
                 let start = Instant::now();
                 closest_hits(&tracer, &rays, &mut hits);
                 let seconds = start.elapsed().as_secs_f64();
@@ -163,6 +182,7 @@ fn rays(args: RaysArgs) -> Result<()> {
         Traversal::Bvh => {
             let tracer = args.threads.install(|| BvhTracer::new(&grid, crossing))?;
             args.threads.install(|| {
+                cpu_start = process_cpu_ns();
                 let start = Instant::now();
                 tracer.closest_hits(&rays, &mut hits);
                 let seconds = start.elapsed().as_secs_f64();
@@ -170,6 +190,9 @@ fn rays(args: RaysArgs) -> Result<()> {
             })?
         }
     };
+    let cpu_seconds = cpu_start
+        .zip(process_cpu_ns())
+        .map(|(a, b)| b.saturating_sub(a) as f64 * 1e-9);
     if let Some(out) = &args.t_out {
         let t: Vec<f32> = hits
             .iter()
@@ -189,6 +212,8 @@ fn rays(args: RaysArgs) -> Result<()> {
         hits: hits.iter().filter(|h| h.is_some()).count() as u64,
         seconds,
         rays_per_second: rays.len() as f64 / seconds.max(1e-9),
+        cpu_seconds,
+        rays_per_cpu_second: cpu_seconds.map(|c| rays.len() as f64 / c.max(1e-9)),
         bytes: stats.bytes.blocks + stats.bytes.paper_total + extra_bytes as u64,
         active_cells: stats.active_cells,
         world_bounds: {

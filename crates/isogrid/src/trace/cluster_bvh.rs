@@ -20,6 +20,7 @@ use super::traverse::{Best, Hit, Occlusion, Tracer};
 use crate::camera::Ray;
 use crate::grid::CellGrid;
 use crate::layout::{Block, Metacell, BOUND_SLOT, CLUSTER_SLOTS};
+use std::mem::MaybeUninit;
 
 /// Children per node.
 const WIDTH: usize = 4;
@@ -36,32 +37,35 @@ const SAH_DEPTH: usize = 40;
 /// Bins of the surface-area heuristic per split.
 const BINS: usize = 16;
 
-/// One 4-wide node, 128 bytes (two cache lines).
+/// One 4-wide node: 64 bytes, one cache line. Boxes are whole metacells, as cluster bounds are,
+/// so 16-bit positions hold them exactly and the node stays half the size of f32 faces.
 #[repr(C, align(64))]
 #[derive(Debug, Clone, Copy)]
 struct Node {
-    /// Child boxes in cell units: `faces[a]` the lower faces on axis `a` of the four children,
-    /// `faces[3 + a]` the upper faces. Empty lanes have lower > upper.
-    faces: [[f32; WIDTH]; 6],
+    /// Child boxes in metacell units, inclusive as in [`crate::layout::ClusterBound`]: `mc[a]`
+    /// the lowest metacell on axis `a` of the four children, `mc[3 + a]` the highest. Empty lanes
+    /// have lowest > highest.
+    mc: [[u16; WIDTH]; 6],
     /// Per lane: an inner node's index, `LEAF | cluster`, or [`NO_CHILD`].
     child: [u32; WIDTH],
 }
+const _: () = assert!(std::mem::size_of::<Node>() == 64);
 
 const EMPTY_NODE: Node = Node {
-    faces: [
-        [f32::MAX; WIDTH],
-        [f32::MAX; WIDTH],
-        [f32::MAX; WIDTH],
-        [-f32::MAX; WIDTH],
-        [-f32::MAX; WIDTH],
-        [-f32::MAX; WIDTH],
+    mc: [
+        [u16::MAX; WIDTH],
+        [u16::MAX; WIDTH],
+        [u16::MAX; WIDTH],
+        [0; WIDTH],
+        [0; WIDTH],
+        [0; WIDTH],
     ],
     child: [NO_CHILD; WIDTH],
 };
 
-/// Margin (cells) by which node boxes are grown: more than the f32 rounding of a box face, of
-/// the re-based ray origin and of the slab test's subtraction and product, all of which are
-/// relative errors (2⁻²⁴) of coordinates no larger than the grid.
+/// Margin (cells) by which the node test grows every box: more than the f32 rounding of the
+/// re-based ray origin and of the slab test's products and sums, all of which are relative
+/// errors (2⁻²⁴) of coordinates no larger than the grid.
 pub fn node_margin(cell_dims: [u32; 3]) -> f64 {
     let largest = cell_dims.iter().copied().max().unwrap_or(0) as f64;
     (1e-3f64).max(largest * 4e-6)
@@ -79,7 +83,7 @@ fn round_f32(v: f64, down: bool) -> f32 {
     }
 }
 
-/// A cluster as the build sees it: its grown box (cell units) and its global index.
+/// A cluster as the build sees it: its box (cell units, whole metacells) and its global index.
 #[derive(Debug, Clone, Copy)]
 struct Item {
     lo: [f32; 3],
@@ -137,17 +141,13 @@ pub struct ClusterBvh {
 impl ClusterBvh {
     /// The hierarchy over every cluster of `grid`.
     pub fn new(grid: &CellGrid) -> Self {
-        Self::build(
-            grid.blocks(),
-            grid.metacells(),
-            node_margin(grid.info().cell_dims()),
-        )
+        Self::build(grid.blocks(), grid.metacells())
     }
 
-    /// The hierarchy over the clusters that `blocks` own in `metacells`, boxes grown by `margin`
-    /// cells. Clusters whose bound is empty (lo > hi on some axis) or out of range are left out:
-    /// the block walk finds nothing in them either.
-    fn build(blocks: &[Block], metacells: &[Metacell], margin: f64) -> Self {
+    /// The hierarchy over the clusters that `blocks` own in `metacells`. Clusters whose bound is
+    /// empty (lo > hi on some axis) or out of range are left out: the block walk finds nothing
+    /// in them either.
+    fn build(blocks: &[Block], metacells: &[Metacell]) -> Self {
         let mut items = Vec::new();
         for block in blocks {
             let Some(slots) = metacells.get(block.slots()) else {
@@ -167,8 +167,8 @@ impl ClusterBvh {
                 }
                 let (lo, hi) = bound.cell_box();
                 items.push(Item {
-                    lo: xyz(|a| round_f32(lo[a] as f64 - margin, true)),
-                    hi: xyz(|a| round_f32(hi[a] as f64 + margin, false)),
+                    lo: lo.map(|v| v as f32),
+                    hi: hi.map(|v| v as f32),
                     cluster: index,
                 });
             }
@@ -189,15 +189,18 @@ impl ClusterBvh {
         self.depth = self.depth.max(depth);
         let index = self.nodes.len();
         self.nodes.push(EMPTY_NODE);
-        // Split into at most four groups: the largest group is split again, so a node over four
-        // or fewer clusters has them all as leaves.
-        let mut groups: Vec<std::ops::Range<usize>> = vec![0..items.len()];
+        // Split into at most four groups, as collapsing a binary tree would: the group of largest
+        // surface area (the likeliest to be entered) is split again, so a node over four or fewer
+        // clusters has them all as leaves.
+        let mut groups: Vec<std::ops::Range<usize>> = Vec::with_capacity(WIDTH);
+        groups.push(0..items.len());
         while groups.len() < WIDTH {
             let Some((g, _)) = groups
                 .iter()
                 .enumerate()
                 .filter(|(_, r)| r.len() > 1)
-                .max_by_key(|(_, r)| r.len())
+                .map(|(g, r)| (g, Aabb::of(&items[r.clone()]).half_area()))
+                .max_by(|a, b| a.1.total_cmp(&b.1))
             else {
                 break;
             };
@@ -210,9 +213,10 @@ impl ClusterBvh {
         let mut node = EMPTY_NODE;
         for (lane, range) in groups.into_iter().enumerate() {
             let b = Aabb::of(&items[range.clone()]);
+            // Back to metacells: the box is [2·lo, 2·hi + 2] in cells, exact in f32.
             for a in 0..3 {
-                node.faces[a][lane] = b.lo[a];
-                node.faces[3 + a][lane] = b.hi[a];
+                node.mc[a][lane] = (b.lo[a] / 2.0) as u16;
+                node.mc[3 + a][lane] = (b.hi[a] / 2.0 - 1.0) as u16;
             }
             node.child[lane] = if range.len() == 1 {
                 LEAF | items[range.start].cluster
@@ -245,10 +249,9 @@ impl ClusterBvh {
     }
 
     /// Checks that every cluster of `grid` with a non-empty bound sits in exactly one leaf, and
-    /// that every box holds the boxes below it and its clusters' cell boxes grown by the margin.
-    /// A one-line description of the first fault otherwise.
+    /// that every box holds the boxes below it and its clusters' bounds. A one-line description
+    /// of the first fault otherwise.
     pub fn validate(&self, grid: &CellGrid) -> Result<(), String> {
-        let margin = node_margin(grid.info().cell_dims());
         let metacells = grid.metacells();
         let mut seen = vec![false; metacells.len() / CLUSTER_SLOTS];
         let mut expected = 0;
@@ -265,10 +268,8 @@ impl ClusterBvh {
                 Err(format!("no nodes for {expected} clusters"))
             };
         }
-        let contains = |node: &Node, lane: usize, lo: [f64; 3], hi: [f64; 3]| {
-            (0..3).all(|a| {
-                node.faces[a][lane] as f64 <= lo[a] && node.faces[3 + a][lane] as f64 >= hi[a]
-            })
+        let contains = |node: &Node, lane: usize, lo: [u16; 3], hi: [u16; 3]| {
+            (0..3).all(|a| node.mc[a][lane] <= lo[a] && node.mc[3 + a][lane] >= hi[a])
         };
         let mut stack = vec![0u32];
         let mut found = 0;
@@ -289,10 +290,7 @@ impl ClusterBvh {
                         .get(slot)
                         .ok_or(format!("cluster {c} out of range"))?
                         .as_bound();
-                    let (lo, hi) = bound.cell_box();
-                    let lo = xyz(|a| lo[a] as f64 - margin);
-                    let hi = xyz(|a| hi[a] as f64 + margin);
-                    if !contains(node, lane, lo, hi) {
+                    if !contains(node, lane, bound.lo, bound.hi) {
                         return Err(format!("node {n} lane {lane} does not hold cluster {c}"));
                     }
                     if std::mem::replace(&mut seen[c], true) {
@@ -308,8 +306,8 @@ impl ClusterBvh {
                         if child.child[k] == NO_CHILD {
                             continue;
                         }
-                        let lo = xyz(|a| child.faces[a][k] as f64);
-                        let hi = xyz(|a| child.faces[3 + a][k] as f64);
+                        let lo = xyz(|a| child.mc[a][k]);
+                        let hi = xyz(|a| child.mc[3 + a][k]);
                         if !contains(node, lane, lo, hi) {
                             return Err(format!("node {n} lane {lane} does not hold node {id}"));
                         }
@@ -325,7 +323,8 @@ impl ClusterBvh {
     }
 
     /// Test support: a copy with cluster `cluster` removed from its leaf, or (`shrink`) with its
-    /// leaf box one cell smaller on the upper x face. `None` when the cluster is in no leaf.
+    /// leaf box one metacell (two cells, the finest step of a node box) smaller on the upper x
+    /// face. `None` when the cluster is in no leaf.
     #[doc(hidden)]
     pub fn mutated(&self, cluster: u32, shrink: bool) -> Option<Self> {
         let mut copy = self.clone();
@@ -333,12 +332,12 @@ impl ClusterBvh {
             for lane in 0..WIDTH {
                 if node.child[lane] == LEAF | cluster {
                     if shrink {
-                        node.faces[3][lane] -= 1.0;
+                        node.mc[3][lane] = node.mc[3][lane].wrapping_sub(1);
                     } else {
                         node.child[lane] = NO_CHILD;
                         for a in 0..3 {
-                            node.faces[a][lane] = f32::MAX;
-                            node.faces[3 + a][lane] = -f32::MAX;
+                            node.mc[a][lane] = EMPTY_NODE.mc[a][lane];
+                            node.mc[3 + a][lane] = EMPTY_NODE.mc[3 + a][lane];
                         }
                     }
                     return Some(copy);
@@ -419,44 +418,54 @@ fn split(items: &mut [Item], median: bool) -> usize {
     first
 }
 
-/// What one ray's node tests need: the ray re-based to `t_base` in f32, and per axis which face
-/// lane row (`faces[near[a]]`) it meets first.
+/// What one ray's node tests need, for the ray re-based to `t_base`: the `t` of a box face at
+/// metacell `p` on axis `a` is `p·scale[a] + near[a]` (the face met first, grown by the margin)
+/// or `p·scale[a] + far[a]`, and `near_row[a]` is the row of `Node::mc` holding that face.
 struct NodeRay {
-    origin: [f32; 3],
-    inv: [f32; 3],
-    near: [usize; 3],
-    far: [usize; 3],
+    scale: [f32; 3],
+    near: [f32; 3],
+    far: [f32; 3],
+    near_row: [usize; 3],
+    far_row: [usize; 3],
     t_base: f64,
 }
 
 impl NodeRay {
     /// `r` re-based to where it enters the grid's box (grown by one cell) within `[tmin, tmax]`;
-    /// `None` when it never does, or when that point is not finite.
+    /// `None` when it never does, or when that point is not finite. Boxes grown by `margin`.
     #[inline(always)]
-    fn new(r: &CellRay, cell_dims: [f64; 3], tmin: f64, tmax: f64) -> Option<Self> {
+    fn new(r: &CellRay, cell_dims: [f64; 3], margin: f64, tmin: f64, tmax: f64) -> Option<Self> {
         let (near, far) = r.slab([-1.0; 3], xyz(|a| cell_dims[a] + 1.0));
         let t_base = max(near, tmin);
         if !(t_base <= min(far, tmax)) || !t_base.is_finite() {
             return None;
         }
-        let p = r.at(t_base);
+        let origin = r.at(t_base);
+        // f32 keeps the reciprocal finite; the margin absorbs the rounding of these constants.
+        let inv = xyz(|a| r.inv[a].clamp(-1e30, 1e30));
+        // Offset of a box's lower face from 2·lo, and of its upper face from 2·hi.
+        let face = |a: usize, upper: bool| {
+            let offset = if upper { 2.0 + margin } else { -margin };
+            ((offset - origin[a]) * inv[a]) as f32
+        };
         Some(NodeRay {
-            origin: xyz(|a| p[a] as f32),
-            inv: xyz(|a| r.inv[a].clamp(-1e30, 1e30) as f32),
-            near: xyz(|a| if r.negative(a) { 3 + a } else { a }),
-            far: xyz(|a| if r.negative(a) { a } else { 3 + a }),
+            scale: xyz(|a| (2.0 * inv[a]) as f32),
+            near: xyz(|a| face(a, r.negative(a))),
+            far: xyz(|a| face(a, !r.negative(a))),
+            near_row: xyz(|a| if r.negative(a) { 3 + a } else { a }),
+            far_row: xyz(|a| if r.negative(a) { a } else { 3 + a }),
             t_base,
         })
     }
 
     /// The window `[tmin, tmax]` relative to `t_base` in f32, rounded outward and widened a
-    /// little more.
+    /// little more (the slab times' own rounding is covered by the boxes' margin).
     #[inline(always)]
     fn window(&self, tmin: f64, tmax: f64) -> (f32, f32) {
         let lo = tmin - self.t_base;
         let hi = tmax - self.t_base;
-        let lo = lo - 1e-4 - 1e-6 * lo.abs();
-        let hi = min(hi + 1e-4 + 1e-6 * hi.abs(), f32::MAX as f64);
+        let lo = lo - 1e-6 * lo.abs();
+        let hi = min(hi + 1e-6 * hi.abs(), f32::MAX as f64);
         (round_f32(lo, true), round_f32(hi, false))
     }
 
@@ -467,18 +476,28 @@ impl NodeRay {
         #[cfg(target_arch = "x86_64")]
         {
             use std::arch::x86_64::*;
-            // SAFETY: SSE2 is part of the x86-64 baseline; `Node` is 64-byte aligned, so every
-            // 16-byte row of `faces` is aligned for `_mm_load_ps`.
+            // SAFETY: SSE2 is part of the x86-64 baseline; each 8-byte load reads one row of
+            // four u16 in `node.mc`.
             unsafe {
+                let zero = _mm_setzero_si128();
+                let row = |r: usize| {
+                    let v = _mm_loadl_epi64(node.mc[r].as_ptr().cast());
+                    _mm_cvtepi32_ps(_mm_unpacklo_epi16(v, zero))
+                };
                 let mut near = _mm_set1_ps(lo);
                 let mut far = _mm_set1_ps(hi);
                 for a in 0..3 {
-                    let o = _mm_set1_ps(self.origin[a]);
-                    let inv = _mm_set1_ps(self.inv[a]);
-                    let n = _mm_load_ps(node.faces[self.near[a]].as_ptr());
-                    let f = _mm_load_ps(node.faces[self.far[a]].as_ptr());
-                    near = _mm_max_ps(near, _mm_mul_ps(_mm_sub_ps(n, o), inv));
-                    far = _mm_min_ps(far, _mm_mul_ps(_mm_sub_ps(f, o), inv));
+                    let scale = _mm_set1_ps(self.scale[a]);
+                    let n = _mm_add_ps(
+                        _mm_mul_ps(row(self.near_row[a]), scale),
+                        _mm_set1_ps(self.near[a]),
+                    );
+                    let f = _mm_add_ps(
+                        _mm_mul_ps(row(self.far_row[a]), scale),
+                        _mm_set1_ps(self.far[a]),
+                    );
+                    near = _mm_max_ps(near, n);
+                    far = _mm_min_ps(far, f);
                 }
                 let mut entry = [0f32; WIDTH];
                 _mm_storeu_ps(entry.as_mut_ptr(), near);
@@ -491,8 +510,8 @@ impl NodeRay {
             let mut far = [hi; WIDTH];
             for a in 0..3 {
                 for k in 0..WIDTH {
-                    let n = (node.faces[self.near[a]][k] - self.origin[a]) * self.inv[a];
-                    let f = (node.faces[self.far[a]][k] - self.origin[a]) * self.inv[a];
+                    let n = node.mc[self.near_row[a]][k] as f32 * self.scale[a] + self.near[a];
+                    let f = node.mc[self.far_row[a]][k] as f32 * self.scale[a] + self.far[a];
                     near[k] = max(near[k], n);
                     far[k] = min(far[k], f);
                 }
@@ -529,6 +548,7 @@ pub struct BvhTracer<'g> {
     tracer: Tracer<'g>,
     metacells: &'g [Metacell],
     cell_dims: [f64; 3],
+    margin: f64,
     bvh: ClusterBvh,
 }
 
@@ -543,6 +563,7 @@ impl<'g> BvhTracer<'g> {
             tracer: Tracer::new(grid, crossing),
             metacells: grid.metacells(),
             cell_dims: grid.info().cell_dims().map(|c| c as f64),
+            margin: node_margin(grid.info().cell_dims()),
             bvh,
         }
     }
@@ -568,22 +589,34 @@ impl<'g> BvhTracer<'g> {
     /// [`Tracer::closest_hit`].
     pub fn closest_hit(&self, ray: &Ray, tmin: f64, tmax: f64) -> Option<Hit> {
         let r = self.tracer.cell_ray(ray);
-        let nr = NodeRay::new(&r, self.cell_dims, tmin, tmax)?;
+        let nr = NodeRay::new(&r, self.cell_dims, self.margin, tmin, tmax)?;
         let nodes = &self.bvh.nodes[..];
         if nodes.is_empty() {
             return None;
         }
         let mut best = Best::new(tmax);
-        let mut stack = [(0u32, 0f32); STACK];
+        // Only entries below `sp` are ever read, and each was written first.
+        let mut stack = [const { MaybeUninit::<(u32, f32)>::uninit() }; STACK];
+        let mut sp = 0;
         let mut window = nr.window(tmin, best.t);
-        stack[0] = (0, window.0);
-        let mut sp = 1;
-        while sp > 0 {
-            sp -= 1;
-            let (id, entry) = stack[sp];
-            if entry > window.1 {
-                continue;
-            }
+        let mut next = Some(0u32);
+        loop {
+            // The nearest child of the last node goes next without a trip through the stack.
+            let id = match next.take() {
+                Some(id) => id,
+                None => {
+                    if sp == 0 {
+                        break;
+                    }
+                    sp -= 1;
+                    // SAFETY: entries below `sp` were written (see above).
+                    let (id, entry) = unsafe { stack[sp].assume_init() };
+                    if entry > window.1 {
+                        continue;
+                    }
+                    id
+                }
+            };
             if id & LEAF != 0 {
                 let c = (id & !LEAF) as usize;
                 let cluster = self.cluster(c);
@@ -598,7 +631,7 @@ impl<'g> BvhTracer<'g> {
                 continue;
             };
             let (mut mask, near) = nr.test(node, window);
-            // Push the children far to near, so the nearest is popped first.
+            // Children far to near, so that the nearest is taken first.
             let mut order = [(0f32, 0u32); WIDTH];
             let mut count = 0;
             while mask != 0 {
@@ -607,6 +640,8 @@ impl<'g> BvhTracer<'g> {
                 let child = node.child[k];
                 if child & LEAF != 0 {
                     prefetch(self.cluster((child & !LEAF) as usize));
+                } else if let Some(n) = nodes.get(child as usize) {
+                    prefetch(std::slice::from_ref(n));
                 }
                 let mut j = count;
                 while j > 0 && order[j - 1].0 < near[k] {
@@ -616,10 +651,13 @@ impl<'g> BvhTracer<'g> {
                 order[j] = (near[k], child);
                 count += 1;
             }
-            for &(t, child) in &order[..count] {
-                if sp < STACK {
-                    stack[sp] = (child, t);
-                    sp += 1;
+            if count > 0 {
+                next = Some(order[count - 1].1);
+                for &(t, child) in &order[..count - 1] {
+                    if sp < STACK {
+                        stack[sp].write((child, t));
+                        sp += 1;
+                    }
                 }
             }
         }
@@ -632,18 +670,22 @@ impl<'g> BvhTracer<'g> {
             return self.closest_hit(ray, tmin, tmax).is_some();
         }
         let r = self.tracer.cell_ray(ray);
-        let Some(nr) = NodeRay::new(&r, self.cell_dims, tmin, tmax) else {
+        let Some(nr) = NodeRay::new(&r, self.cell_dims, self.margin, tmin, tmax) else {
             return false;
         };
         if self.bvh.nodes.is_empty() {
             return false;
         }
         let window = nr.window(tmin, tmax);
-        let mut stack = [0u32; STACK];
+        // Only entries below `sp` are ever read, and each was written first.
+        let mut stack = [const { MaybeUninit::<u32>::uninit() }; STACK];
+        stack[0].write(0);
         let mut sp = 1;
         while sp > 0 {
             sp -= 1;
-            let Some(node) = self.bvh.nodes.get(stack[sp] as usize) else {
+            // SAFETY: entries below `sp` were written (see above).
+            let id = unsafe { stack[sp].assume_init() };
+            let Some(node) = self.bvh.nodes.get(id as usize) else {
                 continue;
             };
             let (mut mask, _) = nr.test(node, window);
@@ -659,7 +701,7 @@ impl<'g> BvhTracer<'g> {
                         return true;
                     }
                 } else if sp < STACK {
-                    stack[sp] = child;
+                    stack[sp].write(child);
                     sp += 1;
                 }
             }
