@@ -10,7 +10,7 @@ use crate::args::ThreadArgs;
 use crate::report::print_json;
 use anyhow::{bail, Context, Result};
 use isogrid::trace::sample::{uniform_sphere, Rng};
-use isogrid::trace::{closest_hits, Crossing, Hit, Tracer};
+use isogrid::trace::{closest_hits, BvhTracer, Crossing, Hit, Tracer};
 use isogrid::{GridStats, Ray};
 use serde::Serialize;
 use std::path::PathBuf;
@@ -51,6 +51,9 @@ pub struct RaysArgs {
     /// Solve the exact crossing (cubic roots) instead of three samples per cell.
     #[arg(long)]
     pub exact: bool,
+    /// How rays find candidate clusters: the block walk, or a hierarchy over the clusters.
+    #[arg(long, value_enum, default_value_t = Traversal::Blocks)]
+    pub traversal: Traversal,
     #[command(flatten)]
     pub threads: ThreadArgs,
     /// Print one JSON object.
@@ -58,15 +61,32 @@ pub struct RaysArgs {
     pub json: bool,
 }
 
+/// See [`RaysArgs::traversal`].
+#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Traversal {
+    /// 3D DDA over blocks with empty-space leaps ([`Tracer`]).
+    Blocks,
+    /// Bounding volume hierarchy over the clusters ([`BvhTracer`]).
+    Bvh,
+}
+
 #[derive(Serialize)]
 struct RaysReport {
     crossing: &'static str,
+    traversal: &'static str,
     threads: usize,
     rays: u64,
     hits: u64,
     seconds: f64,
     rays_per_second: f64,
-    /// Memory the tracer reads: blocks + metacell slots + corner records + its empty-space map.
+    /// CPU time of the whole process while tracing (Linux only), and rays per CPU second: on a
+    /// core shared with other work these are steadier than the wall-clock figures.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    cpu_seconds: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    rays_per_cpu_second: Option<f64>,
+    /// Memory the tracer reads: blocks + metacell slots + corner records + what the traversal
+    /// adds (the block walk's empty-space map and packed cluster bounds, or the hierarchy).
     bytes: u64,
     active_cells: u64,
     /// World box the random rays start in: [lo, hi].
@@ -111,6 +131,17 @@ fn read_rays(path: &PathBuf) -> Result<Vec<Ray>> {
     Ok(rays)
 }
 
+/// Nanoseconds all threads of this process have run (the sum of `/proc/self/task/*/schedstat`'s
+/// first field), or `None` where that is not available.
+fn process_cpu_ns() -> Option<u64> {
+    let mut total = 0;
+    for task in std::fs::read_dir("/proc/self/task").ok()? {
+        let stat = std::fs::read_to_string(task.ok()?.path().join("schedstat")).ok()?;
+        total += stat.split_whitespace().next()?.parse::<u64>().ok()?;
+    }
+    Some(total)
+}
+
 fn rays(args: RaysArgs) -> Result<()> {
     let grid = args.threads.install(|| args.source.load())??;
     let rays = match &args.rays_file {
@@ -134,13 +165,34 @@ fn rays(args: RaysArgs) -> Result<()> {
     } else {
         Crossing::Samples3
     };
-    let tracer = Tracer::new(&grid, crossing);
     let mut hits: Vec<Option<Hit>> = vec![None; rays.len()];
-    let (seconds, threads) = args.threads.install(|| {
-        let start = Instant::now();
-        closest_hits(&tracer, &rays, &mut hits);
-        (start.elapsed().as_secs_f64(), rayon::current_num_threads())
-    })?;
+    // Built before the clock starts, as the grid is.
+    let mut cpu_start = None;
+    let (seconds, threads, extra_bytes) = match args.traversal {
+        Traversal::Blocks => {
+            let tracer = Tracer::new(&grid, crossing);
+            args.threads.install(|| {
+                cpu_start = process_cpu_ns();
+                let start = Instant::now();
+                closest_hits(&tracer, &rays, &mut hits);
+                let seconds = start.elapsed().as_secs_f64();
+                (seconds, rayon::current_num_threads(), tracer.extra_bytes())
+            })?
+        }
+        Traversal::Bvh => {
+            let tracer = args.threads.install(|| BvhTracer::new(&grid, crossing))?;
+            args.threads.install(|| {
+                cpu_start = process_cpu_ns();
+                let start = Instant::now();
+                tracer.closest_hits(&rays, &mut hits);
+                let seconds = start.elapsed().as_secs_f64();
+                (seconds, rayon::current_num_threads(), tracer.extra_bytes())
+            })?
+        }
+    };
+    let cpu_seconds = cpu_start
+        .zip(process_cpu_ns())
+        .map(|(a, b)| b.saturating_sub(a) as f64 * 1e-9);
     if let Some(out) = &args.t_out {
         let t: Vec<f32> = hits
             .iter()
@@ -151,12 +203,18 @@ fn rays(args: RaysArgs) -> Result<()> {
     let stats = GridStats::of(&grid);
     let report = RaysReport {
         crossing: if args.exact { "exact" } else { "samples3" },
+        traversal: match args.traversal {
+            Traversal::Blocks => "blocks",
+            Traversal::Bvh => "bvh",
+        },
         threads,
         rays: rays.len() as u64,
         hits: hits.iter().filter(|h| h.is_some()).count() as u64,
         seconds,
         rays_per_second: rays.len() as f64 / seconds.max(1e-9),
-        bytes: stats.bytes.blocks + stats.bytes.paper_total + tracer.extra_bytes() as u64,
+        cpu_seconds,
+        rays_per_cpu_second: cpu_seconds.map(|c| rays.len() as f64 / c.max(1e-9)),
+        bytes: stats.bytes.blocks + stats.bytes.paper_total + extra_bytes as u64,
         active_cells: stats.active_cells,
         world_bounds: {
             let (lo, hi) = grid.info().world_bounds();
@@ -167,12 +225,17 @@ fn rays(args: RaysArgs) -> Result<()> {
         print_json(&report)
     } else {
         println!(
-            "traced        {} rays ({} hits) in {:.3} s on {} threads, {} crossing",
-            report.rays, report.hits, report.seconds, report.threads, report.crossing
+            "traced        {} rays ({} hits) in {:.3} s on {} threads, {} crossing, {} traversal",
+            report.rays,
+            report.hits,
+            report.seconds,
+            report.threads,
+            report.crossing,
+            report.traversal
         );
         println!("rays/second   {:.0}", report.rays_per_second);
         println!(
-            "memory        {:.2} MB (blocks + metacells + cells + empty-space map)",
+            "memory        {:.2} MB (blocks + metacells + cells + traversal)",
             report.bytes as f64 / 1e6
         );
         Ok(())

@@ -21,6 +21,7 @@
 mod block_walk;
 mod cell_ray;
 pub mod cluster_bounds;
+pub mod cluster_bvh;
 pub mod crossing;
 pub mod empty_space;
 pub mod env;
@@ -30,6 +31,7 @@ pub mod render;
 pub mod sample;
 pub mod traverse;
 
+pub use cluster_bvh::{BvhTracer, ClusterBvh};
 pub use crossing::Crossing;
 pub use env::{EnvMap, Environment};
 pub use render::{render, render_with_progress, Image, PathTraceOptions, RenderOptions, Shading};

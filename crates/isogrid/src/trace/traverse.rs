@@ -224,21 +224,24 @@ impl<'g> Tracer<'g> {
         self.empty_space.bytes() + self.cluster_bounds.bytes()
     }
 
-    fn cell_ray(&self, ray: &Ray) -> CellRay {
+    pub(super) fn cell_ray(&self, ray: &Ray) -> CellRay {
         CellRay::new(ray, self.spacing, self.margin)
     }
 
     /// The closest crossing of the isosurface with `t ∈ [tmin, tmax]`, or `None`.
     pub fn closest_hit(&self, ray: &Ray, tmin: f64, tmax: f64) -> Option<Hit> {
         let r = self.cell_ray(ray);
-        let mut best = Best {
-            t: tmax,
-            found: None,
-        };
+        let mut best = Best::new(tmax);
         self.walk_blocks(&r, tmin, tmax, |block, origin| {
             self.closest_in_block(&r, block, origin, tmin, &mut best);
             best.t
         });
+        self.hit_of(ray, &best)
+    }
+
+    /// The [`Hit`] (with its normal) of the search result `best` of `ray`.
+    #[inline(always)]
+    pub(super) fn hit_of(&self, ray: &Ray, best: &Best) -> Option<Hit> {
         let (t, cell, position, cluster, tri, u) = best.found?;
         let g = tri.gradient(u);
         let gw = xyz(|a| g[a] / self.spacing[a]);
@@ -353,56 +356,71 @@ impl<'g> Tracer<'g> {
             prefetch_slice(cluster);
         }
         for &(near, ci) in &order[..count] {
-            let t = widened_f32(tmin, best.t);
-            if near > t.1 {
+            if near > widened_f32(tmin, best.t).1 {
                 break;
             }
             let ci = ci as usize;
             let cluster = &slots[ci * CLUSTER_SLOTS..(ci + 1) * CLUSTER_SLOTS];
-            let mut candidates = metacell_hits(r, cluster, t);
-            let mut pending = candidates;
-            while pending != 0 {
-                let m = &cluster[pending.trailing_zeros() as usize];
-                pending &= pending - 1;
-                let n = self.precision.bytes_per_cell();
-                let start = (m.cell_pointer as usize * n).min(self.cells.len());
-                let end = (start + m.active_cells() as usize * n).min(self.cells.len());
-                prefetch_slice(&self.cells[start..end]);
+            self.closest_in_cluster(r, cluster, (first_cluster + ci) as u32, tmin, best);
+        }
+    }
+
+    /// The closest-hit search inside one cluster (`cluster`: its 16 slots, `cluster_index`: its global
+    /// cluster index): its metacell boxes, then the cells of each candidate metacell nearest
+    /// first, keeping the closest crossing before `best.t` in `best`.
+    #[inline(always)]
+    pub(super) fn closest_in_cluster(
+        &self,
+        r: &CellRay,
+        cluster: &[Metacell],
+        cluster_index: u32,
+        tmin: f64,
+        best: &mut Best,
+    ) {
+        let t = widened_f32(tmin, best.t);
+        let mut candidates = metacell_hits(r, cluster, t);
+        let mut pending = candidates;
+        while pending != 0 {
+            let m = &cluster[pending.trailing_zeros() as usize];
+            pending &= pending - 1;
+            let n = self.precision.bytes_per_cell();
+            let start = (m.cell_pointer as usize * n).min(self.cells.len());
+            let end = (start + m.active_cells() as usize * n).min(self.cells.len());
+            prefetch_slice(&self.cells[start..end]);
+        }
+        while candidates != 0 {
+            let m = &cluster[candidates.trailing_zeros() as usize];
+            candidates &= candidates - 1;
+            if m.cell_mask == 0 {
+                continue;
             }
-            while candidates != 0 {
-                let m = &cluster[candidates.trailing_zeros() as usize];
-                candidates &= candidates - 1;
-                if m.cell_mask == 0 {
-                    continue;
+            let mask = m.cell_mask & 0xff;
+            let lo = xyz(|a| 2.0 * m.position[a] as f64);
+            let mut cells = [(0.0, 0.0, 0); 4];
+            let n = r.metacell_cells(lo, mask, tmin, best.t, &mut cells);
+            for &(t0, t1, bit) in &cells[..n] {
+                // Cells come nearest first, so the first crossing is this metacell's closest.
+                let t1 = min(t1, best.t);
+                if !(t0 < t1) {
+                    break;
                 }
-                let mask = m.cell_mask & 0xff;
-                let lo = xyz(|a| 2.0 * m.position[a] as f64);
-                let mut cells = [(0.0, 0.0, 0); 4];
-                let n = r.metacell_cells(lo, mask, tmin, best.t, &mut cells);
-                for &(t0, t1, bit) in &cells[..n] {
-                    // Cells come nearest first, so the first crossing is this metacell's closest.
-                    let t1 = min(t1, best.t);
-                    if !(t0 < t1) {
-                        break;
+                let pos = m.cell_position(bit);
+                let cell_lo = xyz(|a| pos[a] as f64);
+                let index = m.cell_pointer + (mask & ((1u16 << bit) - 1)).count_ones();
+                let tri = Trilinear::new(&self.corners(index));
+                let start = r.at(t0);
+                let end = r.at(t1);
+                let start_local = xyz(|a| start[a] - cell_lo[a]);
+                let delta = xyz(|a| end[a] - start[a]);
+                let cubic = tri.along(start_local, delta, self.iso_code);
+                if let Some(s) = cubic.first_crossing(self.crossing) {
+                    let t = t0 + s * (t1 - t0);
+                    if t < best.t || best.found.is_none() {
+                        let u = xyz(|a| (start_local[a] + s * delta[a]).clamp(0.0, 1.0));
+                        best.t = t;
+                        best.found = Some((t, index, pos, cluster_index, tri, u));
                     }
-                    let pos = m.cell_position(bit);
-                    let cell_lo = xyz(|a| pos[a] as f64);
-                    let index = m.cell_pointer + (mask & ((1u16 << bit) - 1)).count_ones();
-                    let tri = Trilinear::new(&self.corners(index));
-                    let start = r.at(t0);
-                    let end = r.at(t1);
-                    let start_local = xyz(|a| start[a] - cell_lo[a]);
-                    let delta = xyz(|a| end[a] - start[a]);
-                    let cubic = tri.along(start_local, delta, self.iso_code);
-                    if let Some(s) = cubic.first_crossing(self.crossing) {
-                        let t = t0 + s * (t1 - t0);
-                        if t < best.t || best.found.is_none() {
-                            let u = xyz(|a| (start_local[a] + s * delta[a]).clamp(0.0, 1.0));
-                            best.t = t;
-                            best.found = Some((t, index, pos, (first_cluster + ci) as u32, tri, u));
-                        }
-                        break;
-                    }
+                    break;
                 }
             }
         }
@@ -424,18 +442,34 @@ impl<'g> Tracer<'g> {
             let ci = hits.trailing_zeros() as usize;
             hits &= hits - 1;
             let cluster = &slots[ci * CLUSTER_SLOTS..(ci + 1) * CLUSTER_SLOTS];
-            let mut candidates = metacell_hits(r, cluster, widened_f32(tmin, tmax));
-            while candidates != 0 {
-                let m = &cluster[candidates.trailing_zeros() as usize];
-                candidates &= candidates - 1;
-                if m.cell_mask == 0 {
-                    continue;
-                }
-                let lo = xyz(|a| 2.0 * m.position[a] as f64);
-                let mut cells = [(0.0, 0.0, 0); 4];
-                if r.metacell_cells(lo, m.cell_mask & 0xff, tmin, tmax, &mut cells) > 0 {
-                    return true;
-                }
+            if self.any_box_in_cluster(r, cluster, tmin, tmax) {
+                return true;
+            }
+        }
+        false
+    }
+
+    /// Whether the ray passes through an active cell box of `cluster` (its 16 slots) within
+    /// `[tmin, tmax]`.
+    #[inline(always)]
+    pub(super) fn any_box_in_cluster(
+        &self,
+        r: &CellRay,
+        cluster: &[Metacell],
+        tmin: f64,
+        tmax: f64,
+    ) -> bool {
+        let mut candidates = metacell_hits(r, cluster, widened_f32(tmin, tmax));
+        while candidates != 0 {
+            let m = &cluster[candidates.trailing_zeros() as usize];
+            candidates &= candidates - 1;
+            if m.cell_mask == 0 {
+                continue;
+            }
+            let lo = xyz(|a| 2.0 * m.position[a] as f64);
+            let mut cells = [(0.0, 0.0, 0); 4];
+            if r.metacell_cells(lo, m.cell_mask & 0xff, tmin, tmax, &mut cells) > 0 {
+                return true;
             }
         }
         false
@@ -451,7 +485,18 @@ impl<'g> Tracer<'g> {
 
 type Found = (f64, u32, [u32; 3], u32, Trilinear, [f64; 3]);
 
-struct Best {
-    t: f64,
+/// A closest-hit search in progress: the best `t` so far (the search window's end until something
+/// is found) and what was found there.
+pub(super) struct Best {
+    pub t: f64,
     found: Option<Found>,
+}
+
+impl Best {
+    pub(super) fn new(tmax: f64) -> Self {
+        Best {
+            t: tmax,
+            found: None,
+        }
+    }
 }

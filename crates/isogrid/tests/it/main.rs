@@ -5,3 +5,4 @@ mod common;
 mod extract;
 mod mc;
 mod trace;
+mod trace_bvh;
