@@ -19,6 +19,7 @@
 //! ```
 
 mod block_walk;
+pub mod bvh_traverse;
 mod cell_ray;
 pub mod cluster_bounds;
 pub mod cluster_bvh;
@@ -31,7 +32,8 @@ pub mod render;
 pub mod sample;
 pub mod traverse;
 
-pub use cluster_bvh::{BvhTracer, ClusterBvh};
+pub use bvh_traverse::BvhTracer;
+pub use cluster_bvh::ClusterBvh;
 pub use crossing::Crossing;
 pub use env::{EnvMap, Environment};
 pub use render::{render, render_with_progress, Image, PathTraceOptions, RenderOptions, Shading};

@@ -1,4 +1,4 @@
-//! Directional empty-space skipping for the CPU tracer's block DDA ([`super::block_walk`]): for
+//! Directional empty-space skipping for the CPU tracer's block DDA (`block_walk.rs`): for
 //! every 16³-cell block and each of the eight ray octants, the side (in blocks) of the largest cube
 //! of empty blocks that has the block as its corner and extends towards that octant.
 //!

@@ -88,7 +88,7 @@ fn metacell_margin(cell_dims: [f64; 3]) -> f64 {
 
 /// Hints the CPU to load the cache lines of `data` (no-op off x86-64). Never faults.
 #[inline(always)]
-fn prefetch_slice<T>(data: &[T]) {
+pub(super) fn prefetch_slice<T>(data: &[T]) {
     #[cfg(target_arch = "x86_64")]
     {
         use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};

@@ -1,0 +1,376 @@
+//! Closest-hit and any-hit traversal of a [`ClusterBvh`] (the paper's future work, §3.6): ordered,
+//! nearest child first, one SSE slab test per 4-wide node, and the block tracer's own search inside
+//! each leaf cluster (`Tracer::closest_in_cluster`), so hits are those of the block walk.
+//!
+//! Units: as [`super::cluster_bvh`]: node boxes in cell units grown by [`node_margin`], the ray
+//! re-based to where it enters the grid's box so that f32 `t` values stay small.
+
+use super::cell_ray::{max, min, xyz, CellRay};
+use super::cluster_bvh::{node_margin, round_f32, ClusterBvh, Node, LEAF, STACK, WIDTH};
+use super::crossing::Crossing;
+use super::traverse::{prefetch_slice, Best, Hit, Occlusion, Tracer};
+use crate::camera::Ray;
+use crate::grid::CellGrid;
+use crate::layout::{Metacell, CLUSTER_SLOTS};
+use std::mem::MaybeUninit;
+
+/// What one ray's node tests need, for the ray re-based to `t_base`: the `t` of a box face at
+/// metacell `p` on axis `a` is `p·scale[a] + near[a]` (the face met first, grown by the margin)
+/// or `p·scale[a] + far[a]`, and `near_row[a]` is the row of `Node::mc` holding that face.
+struct NodeRay {
+    scale: [f32; 3],
+    near: [f32; 3],
+    far: [f32; 3],
+    near_row: [usize; 3],
+    far_row: [usize; 3],
+    t_base: f64,
+}
+
+impl NodeRay {
+    /// `r` re-based to where it enters the grid's box (grown by one cell) within `[tmin, tmax]`;
+    /// `None` when it never does, or when that point is not finite. Boxes grown by `margin`.
+    #[inline(always)]
+    fn new(r: &CellRay, cell_dims: [f64; 3], margin: f64, tmin: f64, tmax: f64) -> Option<Self> {
+        let (near, far) = r.slab([-1.0; 3], xyz(|a| cell_dims[a] + 1.0));
+        let t_base = max(near, tmin);
+        if !(t_base <= min(far, tmax)) || !t_base.is_finite() {
+            return None;
+        }
+        let origin = r.at(t_base);
+        // f32 keeps the reciprocal finite; the margin absorbs the rounding of these constants.
+        let inv = xyz(|a| r.inv[a].clamp(-1e30, 1e30));
+        // Offset of a box's lower face from 2·lo, and of its upper face from 2·hi.
+        let face = |a: usize, upper: bool| {
+            let offset = if upper { 2.0 + margin } else { -margin };
+            ((offset - origin[a]) * inv[a]) as f32
+        };
+        Some(NodeRay {
+            scale: xyz(|a| (2.0 * inv[a]) as f32),
+            near: xyz(|a| face(a, r.negative(a))),
+            far: xyz(|a| face(a, !r.negative(a))),
+            near_row: xyz(|a| if r.negative(a) { 3 + a } else { a }),
+            far_row: xyz(|a| if r.negative(a) { a } else { 3 + a }),
+            t_base,
+        })
+    }
+
+    /// The window `[tmin, tmax]` relative to `t_base` in f32, rounded outward and widened a
+    /// little more (the slab times' own rounding is covered by the boxes' margin).
+    #[inline(always)]
+    fn window(&self, tmin: f64, tmax: f64) -> (f32, f32) {
+        let lo = tmin - self.t_base;
+        let hi = tmax - self.t_base;
+        let lo = lo - 1e-6 * lo.abs();
+        let hi = min(hi + 1e-6 * hi.abs(), f32::MAX as f64);
+        (round_f32(lo, true), round_f32(hi, false))
+    }
+
+    /// Slab tests of a node's four child boxes within `(lo, hi)`: bit `k` set when the ray may
+    /// pass through child `k`, and each child's entry `t` (relative to `t_base`).
+    #[inline(always)]
+    fn test(&self, node: &Node, (lo, hi): (f32, f32)) -> (u32, [f32; WIDTH]) {
+        #[cfg(target_arch = "x86_64")]
+        {
+            use std::arch::x86_64::*;
+            // SAFETY: SSE2 is part of the x86-64 baseline; each 8-byte load reads one row of
+            // four u16 in `node.mc`.
+            unsafe {
+                let zero = _mm_setzero_si128();
+                let row = |r: usize| {
+                    let v = _mm_loadl_epi64(node.mc[r].as_ptr().cast());
+                    _mm_cvtepi32_ps(_mm_unpacklo_epi16(v, zero))
+                };
+                let mut near = _mm_set1_ps(lo);
+                let mut far = _mm_set1_ps(hi);
+                for a in 0..3 {
+                    let scale = _mm_set1_ps(self.scale[a]);
+                    let n = _mm_add_ps(
+                        _mm_mul_ps(row(self.near_row[a]), scale),
+                        _mm_set1_ps(self.near[a]),
+                    );
+                    let f = _mm_add_ps(
+                        _mm_mul_ps(row(self.far_row[a]), scale),
+                        _mm_set1_ps(self.far[a]),
+                    );
+                    near = _mm_max_ps(near, n);
+                    far = _mm_min_ps(far, f);
+                }
+                let mut entry = [0f32; WIDTH];
+                _mm_storeu_ps(entry.as_mut_ptr(), near);
+                (_mm_movemask_ps(_mm_cmple_ps(near, far)) as u32, entry)
+            }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        {
+            let mut near = [lo; WIDTH];
+            let mut far = [hi; WIDTH];
+            for a in 0..3 {
+                for k in 0..WIDTH {
+                    let n = node.mc[self.near_row[a]][k] as f32 * self.scale[a] + self.near[a];
+                    let f = node.mc[self.far_row[a]][k] as f32 * self.scale[a] + self.far[a];
+                    near[k] = max(near[k], n);
+                    far[k] = min(far[k], f);
+                }
+            }
+            let mask = (0..WIDTH).fold(0, |m, k| m | ((near[k] <= far[k]) as u32) << k);
+            (mask, near)
+        }
+    }
+}
+
+/// A [`Tracer`] that finds candidate clusters with a [`ClusterBvh`] instead of walking blocks.
+/// Same hits (it runs the same search inside each cluster); `Sync`.
+#[derive(Debug, Clone)]
+pub struct BvhTracer<'g> {
+    tracer: Tracer<'g>,
+    metacells: &'g [Metacell],
+    cell_dims: [f64; 3],
+    margin: f64,
+    bvh: ClusterBvh,
+}
+
+impl<'g> BvhTracer<'g> {
+    pub fn new(grid: &'g CellGrid, crossing: Crossing) -> Self {
+        Self::with_bvh(grid, crossing, ClusterBvh::new(grid))
+    }
+
+    /// With a given hierarchy (which should be [`ClusterBvh::new`] of `grid`).
+    pub fn with_bvh(grid: &'g CellGrid, crossing: Crossing, bvh: ClusterBvh) -> Self {
+        BvhTracer {
+            tracer: Tracer::new(grid, crossing),
+            metacells: grid.metacells(),
+            cell_dims: grid.info().cell_dims().map(|c| c as f64),
+            margin: node_margin(grid.info().cell_dims()),
+            bvh,
+        }
+    }
+
+    pub fn bvh(&self) -> &ClusterBvh {
+        &self.bvh
+    }
+
+    /// Bytes the hierarchy adds to the grid's own buffers.
+    pub fn extra_bytes(&self) -> usize {
+        self.bvh.bytes()
+    }
+
+    /// The 16 slots of global cluster `c` (empty when out of range).
+    #[inline(always)]
+    fn cluster(&self, c: usize) -> &'g [Metacell] {
+        self.metacells
+            .get(c * CLUSTER_SLOTS..(c + 1) * CLUSTER_SLOTS)
+            .unwrap_or(&[])
+    }
+
+    /// The closest crossing of the isosurface with `t ∈ [tmin, tmax]`, or `None`; as
+    /// [`Tracer::closest_hit`].
+    pub fn closest_hit(&self, ray: &Ray, tmin: f64, tmax: f64) -> Option<Hit> {
+        let r = self.tracer.cell_ray(ray);
+        let nr = NodeRay::new(&r, self.cell_dims, self.margin, tmin, tmax)?;
+        let nodes = &self.bvh.nodes[..];
+        if nodes.is_empty() {
+            return None;
+        }
+        let mut best = Best::new(tmax);
+        // Only entries below `sp` are ever read, and each was written first.
+        let mut stack = [const { MaybeUninit::<(u32, f32)>::uninit() }; STACK];
+        let mut sp = 0;
+        let mut window = nr.window(tmin, best.t);
+        let mut next = Some(0u32);
+        loop {
+            // The nearest child of the last node goes next without a trip through the stack.
+            let id = match next.take() {
+                Some(id) => id,
+                None => {
+                    if sp == 0 {
+                        break;
+                    }
+                    sp -= 1;
+                    // SAFETY: entries below `sp` were written (see above).
+                    let (id, entry) = unsafe { stack[sp].assume_init() };
+                    if entry > window.1 {
+                        continue;
+                    }
+                    id
+                }
+            };
+            if id & LEAF != 0 {
+                let c = (id & !LEAF) as usize;
+                let cluster = self.cluster(c);
+                if cluster.len() == CLUSTER_SLOTS {
+                    self.tracer
+                        .closest_in_cluster(&r, cluster, c as u32, tmin, &mut best);
+                    window = nr.window(tmin, best.t);
+                }
+                continue;
+            }
+            let Some(node) = nodes.get(id as usize) else {
+                continue;
+            };
+            let (mut mask, near) = nr.test(node, window);
+            // Children far to near, so that the nearest is taken first.
+            let mut order = [(0f32, 0u32); WIDTH];
+            let mut count = 0;
+            while mask != 0 {
+                let k = mask.trailing_zeros() as usize;
+                mask &= mask - 1;
+                let child = node.child[k];
+                if child & LEAF != 0 {
+                    prefetch_slice(self.cluster((child & !LEAF) as usize));
+                } else if let Some(n) = nodes.get(child as usize) {
+                    prefetch_slice(std::slice::from_ref(n));
+                }
+                let mut j = count;
+                while j > 0 && order[j - 1].0 < near[k] {
+                    order[j] = order[j - 1];
+                    j -= 1;
+                }
+                order[j] = (near[k], child);
+                count += 1;
+            }
+            if count > 0 {
+                next = Some(order[count - 1].1);
+                for &(t, child) in &order[..count - 1] {
+                    if sp < STACK {
+                        stack[sp].write((child, t));
+                        sp += 1;
+                    }
+                }
+            }
+        }
+        self.tracer.hit_of(ray, &best)
+    }
+
+    /// Whether anything blocks the ray within `[tmin, tmax]`; as [`Tracer::any_hit`].
+    pub fn any_hit(&self, ray: &Ray, tmin: f64, tmax: f64, occlusion: Occlusion) -> bool {
+        if occlusion == Occlusion::Surface {
+            return self.closest_hit(ray, tmin, tmax).is_some();
+        }
+        let r = self.tracer.cell_ray(ray);
+        let Some(nr) = NodeRay::new(&r, self.cell_dims, self.margin, tmin, tmax) else {
+            return false;
+        };
+        if self.bvh.nodes.is_empty() {
+            return false;
+        }
+        let window = nr.window(tmin, tmax);
+        // Only entries below `sp` are ever read, and each was written first.
+        let mut stack = [const { MaybeUninit::<u32>::uninit() }; STACK];
+        stack[0].write(0);
+        let mut sp = 1;
+        while sp > 0 {
+            sp -= 1;
+            // SAFETY: entries below `sp` were written (see above).
+            let id = unsafe { stack[sp].assume_init() };
+            let Some(node) = self.bvh.nodes.get(id as usize) else {
+                continue;
+            };
+            let (mut mask, _) = nr.test(node, window);
+            while mask != 0 {
+                let k = mask.trailing_zeros() as usize;
+                mask &= mask - 1;
+                let child = node.child[k];
+                if child & LEAF != 0 {
+                    let cluster = self.cluster((child & !LEAF) as usize);
+                    if cluster.len() == CLUSTER_SLOTS
+                        && self.tracer.any_box_in_cluster(&r, cluster, tmin, tmax)
+                    {
+                        return true;
+                    }
+                } else if sp < STACK {
+                    stack[sp].write(child);
+                    sp += 1;
+                }
+            }
+        }
+        false
+    }
+
+    /// Closest hits of many rays in parallel (`t ∈ [0, ∞)`), as [`super::closest_hits`].
+    ///
+    /// # Panics
+    /// When `out` and `rays` differ in length.
+    pub fn closest_hits(&self, rays: &[Ray], out: &mut [Option<Hit>]) {
+        use rayon::prelude::*;
+        assert_eq!(rays.len(), out.len(), "one output per ray");
+        out.par_iter_mut()
+            .zip(rays.par_iter())
+            .with_min_len(256)
+            .for_each(|(o, r)| *o = self.closest_hit(r, 0.0, f64::INFINITY));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::camera::Ray;
+    use crate::generate::{generate, Field};
+    use crate::trace::bvh_traverse::BvhTracer;
+    use crate::trace::cell_ray::xyz;
+    use crate::trace::crossing::Crossing;
+    use crate::trace::traverse::{Best, Tracer};
+    use crate::{extract, ExtractOptions, Iso};
+
+    /// Brute force: every cluster of the grid searched with the tracer's own cluster search, in
+    /// index order; the closest hit's `t`, and whether any cell box is passed.
+    fn every_cluster(tracer: &Tracer, grid: &CellGrid, ray: &Ray) -> (Option<f64>, bool) {
+        let r = tracer.cell_ray(ray);
+        let mut best = Best::new(f64::INFINITY);
+        let mut any = false;
+        for (c, cluster) in grid.metacells().chunks_exact(CLUSTER_SLOTS).enumerate() {
+            tracer.closest_in_cluster(&r, cluster, c as u32, 0.0, &mut best);
+            any |= tracer.any_box_in_cluster(&r, cluster, 0.0, f64::INFINITY);
+        }
+        (tracer.hit_of(ray, &best).map(|h| h.t), any)
+    }
+
+    #[test]
+    fn finds_what_searching_every_cluster_finds() {
+        let mut seed = 0x2545_f491_4f6c_dd1du64;
+        let mut unit = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let mut hits = 0;
+        for (field, size) in [(Field::Hairball, 40), (Field::MarschnerLobb, 33)] {
+            let volume = generate(field, size, 1);
+            let options = ExtractOptions::new(Iso::Normalized(0.5));
+            let grid = extract(&volume.view(), &options).unwrap();
+            let bvh = BvhTracer::new(&grid, Crossing::Exact);
+            assert!(bvh.bvh().depth() >= 3, "{:?}", bvh.bvh());
+            let n = size as f64;
+            for _ in 0..250 {
+                let origin: [f64; 3] = std::array::from_fn(|_| -0.3 * n + 1.6 * n * unit());
+                let target: [f64; 3] = std::array::from_fn(|_| n * unit());
+                let d = xyz(|a| target[a] - origin[a]);
+                let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+                let ray = Ray {
+                    origin,
+                    direction: d.map(|v| v / len),
+                };
+                let (t, any) = every_cluster(&bvh.tracer, &grid, &ray);
+                let got = bvh.closest_hit(&ray, 0.0, f64::INFINITY).map(|h| h.t);
+                match (t, got) {
+                    (None, None) => {}
+                    (Some(a), Some(b)) if (a - b).abs() <= 1e-9 * a.max(1.0) => hits += 1,
+                    _ => panic!("{field} {ray:?}: every cluster {t:?}, hierarchy {got:?}"),
+                }
+                assert_eq!(
+                    bvh.any_hit(&ray, 0.0, f64::INFINITY, Occlusion::CellBoxes),
+                    any,
+                    "{field} {ray:?}"
+                );
+            }
+        }
+        assert!(hits > 150, "{hits} hits");
+    }
+
+    #[test]
+    fn rounding_goes_outward() {
+        for v in [0.1, -0.1, 1e-3, 16777217.0, -3.3e7, 2.0] {
+            assert!(round_f32(v, true) as f64 <= v && round_f32(v, false) as f64 >= v);
+        }
+    }
+}
