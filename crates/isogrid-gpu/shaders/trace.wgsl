@@ -1,7 +1,7 @@
 // Hierarchical ray traversal of the clustered grid cells (paper §3.6): a 3D DDA over the dense
-// 16³-cell block grid visits blocks front to back, leaping across empty space by the blocks'
-// Chebyshev distance to the nearest block with slots (`isogrid::trace::empty_space`, as the CPU
-// tracer does) and skipping blocks without slots; inside a block, a second DDA visits its occupied
+// 16³-cell block grid visits blocks front to back, leaping across the largest cube of empty
+// blocks that starts at the current block and grows towards the ray's octant
+// (`isogrid::trace::octant_space`, as the CPU tracer does) and skipping blocks without slots; inside a block, a second DDA visits its occupied
 // metacells front to back (`isogrid::trace::occupancy`; where the paper slab-tests each cluster
 // bound and then each metacell box), then each active cell's unit box is slab-tested, and
 // finally the cell's trilinear interpolant of its 8 stored corner codes is sampled three times
@@ -29,15 +29,17 @@ struct TraceUniforms {
 
 @group(0) @binding(1) var<uniform> trace: TraceUniforms;
 // Dense block records, 4 words each: slot count, first slot, min, max (`isogrid::layout::Block`),
-// followed by the empty-space map, one byte per block (keep in sync with upload.rs).
+// followed by the octant empty-space map, one byte per block for each of the 8 octants in turn
+// (keep in sync with `tracer_block_words` in upload.rs).
 @group(0) @binding(3) var<storage, read> blocks: array<u32>;
 
-// Chebyshev distance in blocks from block `index` to the nearest block with slots: every block
-// closer than that is empty.
-fn block_distance(index: u32) -> u32 {
+// Side (blocks) of the largest cube of empty blocks with block `index` at its corner, growing
+// towards `octant` (bit a set for rays running towards +axis a); 0 for a block with slots.
+fn block_side(octant: u32, index: u32) -> u32 {
     let count = trace.block_dims.x * trace.block_dims.y * trace.block_dims.z;
-    let word = blocks[4u * count + index / 4u];
-    return (word >> (8u * (index % 4u))) & 0xffu;
+    let byte = octant * count + index;
+    let word = blocks[4u * count + byte / 4u];
+    return (word >> (8u * (byte % 4u))) & 0xffu;
 }
 
 const NO_HIT: f32 = 3.0e38;
@@ -96,7 +98,7 @@ struct Nearest {
 // (word 24: lowest x, y, z at bits 0, 3, 6, highest at bits 9, 12, 15; metacells within the block).
 fn occupancy_index(index: u32) -> u32 {
     let count = trace.block_dims.x * trace.block_dims.y * trace.block_dims.z;
-    return blocks[4u * count + (count + 3u) / 4u + index];
+    return blocks[4u * count + (8u * count + 3u) / 4u + index];
 }
 
 // Morton code of a metacell position (0–7 per axis) within its block, `isogrid::morton`.
@@ -225,6 +227,7 @@ fn trace_ray(origin: vec3<f32>, dir: vec3<f32>, t_min: f32, t_max: f32) -> Trace
     var best = Nearest(vec3<f32>(NO_HIT, NO_HIT, 0.0), vec3<u32>(0u), 0u, 0u, NO_CLUSTER);
     let max_steps = nb.x + nb.y + nb.z + 3;
     let upper = select(vec3<i32>(0), vec3<i32>(1), positive);
+    let octant = dot(vec3<u32>(upper), vec3<u32>(1u, 2u, 4u));
     for (var i = 0; i < max_steps; i++) {
         let index = u32(b.x) + trace.block_dims.x * (u32(b.y) + trace.block_dims.y * u32(b.z));
         let count = blocks[4u * index];
@@ -234,12 +237,12 @@ fn trace_ray(origin: vec3<f32>, dir: vec3<f32>, t_min: f32, t_max: f32) -> Trace
                 break;
             }
         } else {
-            let distance = i32(block_distance(index));
-            if distance > 1 {
-                // Leave the cube of empty blocks within distance − 1 at once, entering the block
-                // past its far side on the axis the ray leaves through (inside it, up to
-                // rounding, on the others, and never backwards).
-                let far_side = b + dda_step * (distance - 1);
+            let side = i32(block_side(octant, index));
+            if side > 1 {
+                // Leave the cube of empty blocks ahead at once, entering the block past its far
+                // side on the axis the ray leaves through (inside it, up to rounding, on the
+                // others, and never backwards).
+                let far_side = b + dda_step * (side - 1);
                 let leaves = (vec3<f32>(far_side + upper) * BLOCK_CELLS - o) * inv;
                 let t = min(min(leaves.x, leaves.y), leaves.z);
                 if t >= t_end {

@@ -7,8 +7,8 @@ use crate::gpu_types::{MeshUniforms, PageDispatchArgs, PageDrawArgs, PageUniform
 use crate::render::buffer_entry as entry;
 use crate::Renderer;
 use isogrid::layout::{BOUND_SLOT, CLUSTER_SLOTS};
-use isogrid::trace::empty_space::EmptySpaceMap;
 use isogrid::trace::occupancy::MetacellOccupancy;
+use isogrid::trace::octant_space::OctantSpaceMap;
 use isogrid::{CellGrid, GridInfo, Metacell};
 use std::sync::atomic::AtomicU32;
 use std::sync::Mutex;
@@ -498,19 +498,14 @@ impl Renderer {
     }
 }
 
-/// Whether no sample on the grid's border is inside. Border samples of active cells are checked
-/// from their corner records; the remaining border samples lie in inactive cells only, and since
-/// the border is connected, a border sample inside next to one outside would make an active cell
-/// with an inside border corner. So with no such corner all border samples share one side, which
-/// is "outside" once one border sample is known to be outside: a border corner of an active cell,
-/// or a border block whose largest sample is below the isovalue.
 /// Words of occupancy record per non-empty block: see [`tracer_block_words`].
 const OCCUPANCY_RECORD_WORDS: usize = 25;
 
-/// What the tracer reads per block, as one array of words (keep in sync with `block_distance`
+/// What the tracer reads per block, as one array of words (keep in sync with `block_side`
 /// and `occupancy_index` in trace.wgsl):
 /// - the block records byte for byte (4 words each, `isogrid::layout::Block`);
-/// - the empty-space map, one byte per block, padded to a whole word;
+/// - the octant empty-space map (`isogrid::trace::octant_space`, as the CPU tracer leaps): for
+///   each of the 8 ray octants in turn, one byte per block, the whole padded to a whole word;
 /// - per block, the word offset of its occupancy record in this array (`u32::MAX` when empty);
 /// - per non-empty block, a record of [`OCCUPANCY_RECORD_WORDS`]: the 512-bit Morton-order mask
 ///   of its occupied metacells (16 words), the count of occupied metacells before each mask word
@@ -519,12 +514,12 @@ const OCCUPANCY_RECORD_WORDS: usize = 25;
 fn tracer_block_words(grid: &CellGrid) -> Vec<u32> {
     let blocks = grid.blocks();
     let block_dims = grid.info().block_dims().map(|b| b as usize);
-    let map = EmptySpaceMap::new(blocks, block_dims);
+    let map = OctantSpaceMap::new(blocks, block_dims);
     let occupancy = MetacellOccupancy::new(blocks, grid.metacells(), block_dims);
     let mut words: Vec<u32> = bytemuck::cast_slice(blocks).to_vec();
-    let distances: Vec<u8> = (0..blocks.len()).map(|i| map.distance(i)).collect();
+    let sides: Vec<u8> = (0..8).flat_map(|o| map.octant(o).iter().copied()).collect();
     words.extend(
-        distances
+        sides
             .chunks(4)
             .map(|c| c.iter().rev().fold(0u32, |w, &d| w << 8 | d as u32)),
     );
@@ -559,6 +554,12 @@ fn tracer_block_words(grid: &CellGrid) -> Vec<u32> {
     words
 }
 
+/// Whether no sample on the grid's border is inside. Border samples of active cells are checked
+/// from their corner records; the remaining border samples lie in inactive cells only, and since
+/// the border is connected, a border sample inside next to one outside would make an active cell
+/// with an inside border corner. So with no such corner all border samples share one side, which
+/// is "outside" once one border sample is known to be outside: a border corner of an active cell,
+/// or a border block whose largest sample is below the isovalue.
 fn border_is_outside(grid: &CellGrid) -> bool {
     let info = grid.info();
     let iso_code = info.mapping.iso_code;

@@ -1,5 +1,5 @@
-//! The GPU tracer leaps across empty blocks with the empty-space map uploaded after the block
-//! records (`isogrid::trace::empty_space`): two small balls in opposite corners of a mostly empty
+//! The GPU tracer leaps across empty blocks with the octant empty-space map uploaded after the
+//! block records (`isogrid::trace::octant_space`): two small balls in opposite corners of a mostly empty
 //! grid, so that rays cross cubes of several empty blocks before they meet one. The hits must be
 //! the CPU tracer's, whose leaps are tested against brute force in the core.
 
@@ -7,7 +7,7 @@ use crate::pathtrace::random_rays;
 use crate::{renderer, HitAgreement};
 use isogrid::camera::Ray;
 use isogrid::layout::BLOCK_CELLS;
-use isogrid::trace::empty_space::EmptySpaceMap;
+use isogrid::trace::octant_space::OctantSpaceMap;
 use isogrid::trace::{Crossing, Tracer};
 use isogrid::{extract, ExtractOptions, Iso, Volume, VolumeData};
 
@@ -34,8 +34,8 @@ fn secondary_rays_leap_across_empty_blocks_like_the_cpu_tracer() {
     let volume = two_balls();
     let grid = extract(&volume.view(), &ExtractOptions::new(Iso::Value(100.0))).unwrap();
     let blocks = (SIZE - 1).div_ceil(BLOCK_CELLS);
-    let map = EmptySpaceMap::new(grid.blocks(), grid.info().block_dims().map(|b| b as usize));
-    let longest = (0..grid.blocks().len()).map(|i| map.distance(i)).max();
+    let map = OctantSpaceMap::new(grid.blocks(), grid.info().block_dims().map(|b| b as usize));
+    let longest = (0..8).flat_map(|o| map.octant(o).iter().copied()).max();
     assert!(
         longest >= Some(4),
         "{blocks}³ blocks, longest leap {longest:?}"

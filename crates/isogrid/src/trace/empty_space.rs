@@ -1,15 +1,15 @@
-//! Empty-space skipping for the block DDA of [`super::traverse`]: for every 16³-cell block, the
-//! Chebyshev (L∞) distance, in blocks, to the nearest block that holds active cells.
+//! Symmetric empty-space distances for a block DDA: for every 16³-cell block, the Chebyshev (L∞)
+//! distance, in blocks, to the nearest block that holds active cells.
 //!
 //! A block at distance `d ≥ 1` sits at the centre of a cube of `(2d − 1)³` blocks that are all
 //! empty, so a ray inside it can leap straight to where it leaves that cube instead of stepping
 //! block by block (distance-map space skipping in the manner of Cohen & Sheffer 1994, "Proximity
-//! clouds"). This is the tracer's only structure beyond the paper's §3.1 records: one byte per
-//! block, 1/16 of the block array it summarises, built in two chamfer passes.
+//! clouds"): one byte per block, built in two chamfer passes.
 //!
-//! Why it matters: random rays spend most of their blocks in empty space (on the 512³ dragon,
-//! about 93 % of blocks are empty), and the block records are too large (16 B each, 512 KiB for
-//! 32³ blocks) to stay in L1, so the plain DDA stalled on a cache miss per empty block.
+//! Neither tracer leaps by it any more: both use [`super::octant_space`], whose cubes start at the
+//! block and grow towards the ray's octant only, so they reach further ahead (fewer block moves:
+//! `docs/tracer-performance.md`, `docs/gpu-performance.md`). This map stays as the reference the
+//! tests hold the octant map's leaps against.
 
 use crate::layout::Block;
 
