@@ -64,9 +64,9 @@ pub struct RaysArgs {
 /// See [`RaysArgs::traversal`].
 #[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum Traversal {
-    /// 3D DDA over blocks with empty-space leaps ([`Tracer`]).
+    /// 3D DDA over blocks with empty-space leaps (the default; isogrid::trace::Tracer).
     Blocks,
-    /// Bounding volume hierarchy over the clusters ([`BvhTracer`]).
+    /// Bounding volume hierarchy over the clusters (isogrid::trace::BvhTracer).
     Bvh,
 }
 
@@ -131,12 +131,18 @@ fn read_rays(path: &PathBuf) -> Result<Vec<Ray>> {
     Ok(rays)
 }
 
+/// Shortest tracing time for which `cpu_seconds` is reported: 10 scheduler ticks at 250 Hz.
+const MIN_CPU_TIMED_SECONDS: f64 = 0.04;
+
 /// Nanoseconds all threads of this process have run (the sum of `/proc/self/task/*/schedstat`'s
-/// first field), or `None` where that is not available.
+/// first field), or `None` where that is not available. A thread that exits while the tasks are
+/// listed (a finished thread pool's) is skipped rather than failing the whole reading.
 fn process_cpu_ns() -> Option<u64> {
     let mut total = 0;
-    for task in std::fs::read_dir("/proc/self/task").ok()? {
-        let stat = std::fs::read_to_string(task.ok()?.path().join("schedstat")).ok()?;
+    for task in std::fs::read_dir("/proc/self/task").ok()?.flatten() {
+        let Ok(stat) = std::fs::read_to_string(task.path().join("schedstat")) else {
+            continue;
+        };
         total += stat.split_whitespace().next()?.parse::<u64>().ok()?;
     }
     Some(total)
@@ -190,9 +196,12 @@ fn rays(args: RaysArgs) -> Result<()> {
             })?
         }
     };
+    // The kernel brings a running thread's total up to date only at scheduler ticks (a few ms),
+    // so a shorter run's CPU time would say nothing; omitted then.
     let cpu_seconds = cpu_start
         .zip(process_cpu_ns())
-        .map(|(a, b)| b.saturating_sub(a) as f64 * 1e-9);
+        .map(|(a, b)| b.saturating_sub(a) as f64 * 1e-9)
+        .filter(|_| seconds >= MIN_CPU_TIMED_SECONDS);
     if let Some(out) = &args.t_out {
         let t: Vec<f32> = hits
             .iter()
