@@ -137,7 +137,7 @@ impl<'g> BvhTracer<'g> {
     /// With a given hierarchy (which should be [`ClusterBvh::new`] of `grid`).
     pub fn with_bvh(grid: &'g CellGrid, crossing: Crossing, bvh: ClusterBvh) -> Self {
         BvhTracer {
-            tracer: Tracer::new(grid, crossing),
+            tracer: Tracer::for_clusters(grid, crossing),
             metacells: grid.metacells(),
             cell_dims: grid.info().cell_dims().map(|c| c as f64),
             margin: node_margin(grid.info().cell_dims()),

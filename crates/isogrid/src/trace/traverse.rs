@@ -192,25 +192,39 @@ fn cluster_hits(
 
 impl<'g> Tracer<'g> {
     pub fn new(grid: &'g CellGrid, crossing: Crossing) -> Self {
+        Self::build(grid, crossing, true)
+    }
+
+    /// A tracer for the per-cluster searches only (`closest_in_cluster`, `any_box_in_cluster`,
+    /// `cell_ray`, `hit_of`), without the block walk's empty-space map and packed cluster bounds:
+    /// what [`super::BvhTracer`] uses, so that it neither builds nor holds them.
+    /// [`Tracer::closest_hit`] and [`Tracer::any_hit`] of such a tracer find nothing.
+    pub(super) fn for_clusters(grid: &'g CellGrid, crossing: Crossing) -> Self {
+        Self::build(grid, crossing, false)
+    }
+
+    fn build(grid: &'g CellGrid, crossing: Crossing, block_walk: bool) -> Self {
         let info = grid.info();
         let bd = info.block_dims();
+        // Without the block walk, no blocks: the walk then ends before reading either structure.
+        let (blocks, walk_dims) = if block_walk {
+            (grid.blocks(), bd.map(|b| b as usize))
+        } else {
+            (&[][..], [0; 3])
+        };
         Tracer {
-            blocks: grid.blocks(),
+            blocks,
             metacells: grid.metacells(),
             cells: grid.cells(),
             precision: info.precision,
             iso_code: info.mapping.iso_code as f64,
             spacing: info.spacing,
             cell_dims: info.cell_dims().map(|c| c as f64),
-            block_dims: bd.map(|b| b as i64),
+            block_dims: walk_dims.map(|b| b as i64),
             crossing,
             margin: metacell_margin(info.cell_dims().map(|c| c as f64)),
-            empty_space: OctantSpaceMap::new(grid.blocks(), bd.map(|b| b as usize)),
-            cluster_bounds: PackedClusterBounds::new(
-                grid.blocks(),
-                grid.metacells(),
-                bd.map(|b| b as usize),
-            ),
+            empty_space: OctantSpaceMap::new(blocks, walk_dims),
+            cluster_bounds: PackedClusterBounds::new(blocks, grid.metacells(), walk_dims),
         }
     }
 
