@@ -120,11 +120,13 @@ const HALF_NEIGHBOURHOOD: [(isize, isize, isize); 13] = [
     (-1, 0, 0),
 ];
 
+/// Test support shared with `octant_space`'s tests: random block occupancies.
 #[cfg(test)]
-mod tests {
-    use super::*;
+pub(super) mod test_blocks {
+    use crate::layout::Block;
 
-    fn block(occupied: bool) -> Block {
+    /// A block with slots when `occupied`, else an empty one.
+    pub fn block(occupied: bool) -> Block {
         Block {
             metacell_count: if occupied { 16 } else { 0 },
             metacell_pointer: 0,
@@ -132,6 +134,31 @@ mod tests {
             max: 0.0,
         }
     }
+
+    /// Each of the `dims` blocks occupied with probability `density` (xorshift from `state`):
+    /// the occupancy and the blocks.
+    pub fn random_blocks(
+        dims: [usize; 3],
+        density: f64,
+        state: &mut u64,
+    ) -> (Vec<bool>, Vec<Block>) {
+        let occupied: Vec<bool> = (0..dims.iter().product())
+            .map(|_| {
+                *state ^= *state << 13;
+                *state ^= *state >> 7;
+                *state ^= *state << 17;
+                (*state % 1000) as f64 / 1000.0 < density
+            })
+            .collect();
+        let blocks = occupied.iter().map(|&o| block(o)).collect();
+        (occupied, blocks)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::test_blocks::{block, random_blocks};
+    use super::*;
 
     /// Brute force over all pairs, with the same saturation.
     fn brute_force(occupied: &[bool], dims: [usize; 3]) -> Vec<u8> {
@@ -158,15 +185,7 @@ mod tests {
     fn matches_brute_force_on_random_occupancy() {
         let mut state = 0x2545_f491_4f6c_dd1du64;
         for (dims, density) in [([7, 5, 9], 0.05), ([12, 3, 4], 0.2), ([6, 6, 6], 0.01)] {
-            let occupied: Vec<bool> = (0..dims.iter().product())
-                .map(|_| {
-                    state ^= state << 13;
-                    state ^= state >> 7;
-                    state ^= state << 17;
-                    (state % 1000) as f64 / 1000.0 < density
-                })
-                .collect();
-            let blocks: Vec<Block> = occupied.iter().map(|&o| block(o)).collect();
+            let (occupied, blocks) = random_blocks(dims, density, &mut state);
             let map = EmptySpaceMap::new(&blocks, dims);
             let expected = brute_force(&occupied, dims);
             for (i, &e) in expected.iter().enumerate() {

@@ -114,15 +114,7 @@ fn fill_octant(blocks: &[Block], dims: [usize; 3], octant: usize, map: &mut [u8]
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn block(occupied: bool) -> Block {
-        Block {
-            metacell_count: if occupied { 16 } else { 0 },
-            metacell_pointer: 0,
-            min: 0.0,
-            max: 0.0,
-        }
-    }
+    use crate::trace::empty_space::test_blocks::{block, random_blocks};
 
     /// Brute force over all pairs: an occupied block `q` ahead of `p` in the octant (offsets
     /// `≥ 0` on every axis) lies in every cube from `p` whose side exceeds its largest offset.
@@ -160,15 +152,7 @@ mod tests {
     fn matches_brute_force_on_random_occupancy() {
         let mut state = 0x9e37_79b9_7f4a_7c15u64;
         for (dims, density) in [([7, 5, 9], 0.05), ([12, 3, 4], 0.2), ([6, 6, 6], 0.01)] {
-            let occupied: Vec<bool> = (0..dims.iter().product())
-                .map(|_| {
-                    state ^= state << 13;
-                    state ^= state >> 7;
-                    state ^= state << 17;
-                    (state % 1000) as f64 / 1000.0 < density
-                })
-                .collect();
-            let blocks: Vec<Block> = occupied.iter().map(|&o| block(o)).collect();
+            let (occupied, blocks) = random_blocks(dims, density, &mut state);
             let map = OctantSpaceMap::new(&blocks, dims);
             for octant in 0..8 {
                 let expected = brute_force(&occupied, dims, octant);

@@ -21,6 +21,13 @@ impl Rng {
     pub fn unit(&mut self) -> f64 {
         (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
     }
+    /// Uniform in the box `[lo, hi]` grown by `grow` times its size on every side.
+    pub fn point_in(&mut self, lo: [f64; 3], hi: [f64; 3], grow: f64) -> [f64; 3] {
+        [0, 1, 2].map(|a| {
+            let size = hi[a] - lo[a];
+            lo[a] - grow * size + (1.0 + 2.0 * grow) * size * self.unit()
+        })
+    }
 }
 
 pub fn random_u8(dims: [usize; 3], seed: u64, levels: u64) -> Volume {

@@ -136,17 +136,11 @@ fn reference_hit(
 /// a random point of the box (to hit often), half in uniform random directions.
 fn random_rays(lo: [f64; 3], hi: [f64; 3], count: usize, seed: u64) -> Vec<Ray> {
     let mut rng = Rng::new(seed);
-    let point = |rng: &mut Rng, grow: f64| {
-        [0, 1, 2].map(|a| {
-            let size = hi[a] - lo[a];
-            lo[a] - grow * size + (1.0 + 2.0 * grow) * size * rng.unit()
-        })
-    };
     (0..count)
         .map(|i| {
-            let origin = point(&mut rng, 0.5);
+            let origin = rng.point_in(lo, hi, 0.5);
             let d = if i % 2 == 0 {
-                let target = point(&mut rng, 0.0);
+                let target = rng.point_in(lo, hi, 0.0);
                 [0, 1, 2].map(|a| target[a] - origin[a])
             } else {
                 let z = 2.0 * rng.unit() - 1.0;

@@ -27,18 +27,12 @@ fn unit(d: [f64; 3]) -> [f64; 3] {
 fn random_rays(grid: &CellGrid, count: usize, seed: u64) -> Vec<Ray> {
     let (lo, hi) = grid.info().world_bounds();
     let mut rng = Rng::new(seed);
-    let point = |rng: &mut Rng, grow: f64| {
-        [0, 1, 2].map(|a| {
-            let size = hi[a] - lo[a];
-            lo[a] - grow * size + (1.0 + 2.0 * grow) * size * rng.unit()
-        })
-    };
     (0..count)
         .map(|i| {
-            let origin = point(&mut rng, 0.33);
+            let origin = rng.point_in(lo, hi, 0.33);
             let direction = match i % 4 {
                 0 | 1 => {
-                    let target = point(&mut rng, 0.0);
+                    let target = rng.point_in(lo, hi, 0.0);
                     unit([0, 1, 2].map(|a| target[a] - origin[a]))
                 }
                 2 => unit([0, 1, 2].map(|_| 2.0 * rng.unit() - 1.0)),
