@@ -68,18 +68,6 @@ pub fn node_margin(cell_dims: [u32; 3]) -> f64 {
     (1e-3f64).max(largest * 4e-6)
 }
 
-/// `v` rounded to an f32 no greater (`down`) or no smaller than it.
-pub(super) fn round_f32(v: f64, down: bool) -> f32 {
-    let r = v as f32;
-    if down && r as f64 > v {
-        r.next_down()
-    } else if !down && (r as f64) < v {
-        r.next_up()
-    } else {
-        r
-    }
-}
-
 /// A cluster as the build sees it: its box (cell units, whole metacells) and its global index.
 #[derive(Debug, Clone, Copy)]
 struct Item {

@@ -405,37 +405,51 @@ impl<'g> Tracer<'g> {
         while candidates != 0 {
             let m = &cluster[candidates.trailing_zeros() as usize];
             candidates &= candidates - 1;
-            if m.cell_mask == 0 {
-                continue;
+            self.closest_in_metacell(r, m, cluster_index, tmin, best);
+        }
+    }
+
+    /// The closest-hit search inside one metacell `m` of cluster `cluster_index`: its cells
+    /// nearest first, keeping the first crossing before `best.t` in `best`.
+    #[inline(always)]
+    pub(super) fn closest_in_metacell(
+        &self,
+        r: &CellRay,
+        m: &Metacell,
+        cluster_index: u32,
+        tmin: f64,
+        best: &mut Best,
+    ) {
+        if m.cell_mask == 0 {
+            return;
+        }
+        let mask = m.cell_mask & 0xff;
+        let lo = xyz(|a| 2.0 * m.position[a] as f64);
+        let mut cells = [(0.0, 0.0, 0); 4];
+        let n = r.metacell_cells(lo, mask, tmin, best.t, &mut cells);
+        for &(t0, t1, bit) in &cells[..n] {
+            // Cells come nearest first, so the first crossing is this metacell's closest.
+            let t1 = min(t1, best.t);
+            if !(t0 < t1) {
+                break;
             }
-            let mask = m.cell_mask & 0xff;
-            let lo = xyz(|a| 2.0 * m.position[a] as f64);
-            let mut cells = [(0.0, 0.0, 0); 4];
-            let n = r.metacell_cells(lo, mask, tmin, best.t, &mut cells);
-            for &(t0, t1, bit) in &cells[..n] {
-                // Cells come nearest first, so the first crossing is this metacell's closest.
-                let t1 = min(t1, best.t);
-                if !(t0 < t1) {
-                    break;
+            let pos = m.cell_position(bit);
+            let cell_lo = xyz(|a| pos[a] as f64);
+            let index = m.cell_pointer + (mask & ((1u16 << bit) - 1)).count_ones();
+            let tri = Trilinear::new(&self.corners(index));
+            let start = r.at(t0);
+            let end = r.at(t1);
+            let start_local = xyz(|a| start[a] - cell_lo[a]);
+            let delta = xyz(|a| end[a] - start[a]);
+            let cubic = tri.along(start_local, delta, self.iso_code);
+            if let Some(s) = cubic.first_crossing(self.crossing) {
+                let t = t0 + s * (t1 - t0);
+                if t < best.t || best.found.is_none() {
+                    let u = xyz(|a| (start_local[a] + s * delta[a]).clamp(0.0, 1.0));
+                    best.t = t;
+                    best.found = Some((t, index, pos, cluster_index, tri, u));
                 }
-                let pos = m.cell_position(bit);
-                let cell_lo = xyz(|a| pos[a] as f64);
-                let index = m.cell_pointer + (mask & ((1u16 << bit) - 1)).count_ones();
-                let tri = Trilinear::new(&self.corners(index));
-                let start = r.at(t0);
-                let end = r.at(t1);
-                let start_local = xyz(|a| start[a] - cell_lo[a]);
-                let delta = xyz(|a| end[a] - start[a]);
-                let cubic = tri.along(start_local, delta, self.iso_code);
-                if let Some(s) = cubic.first_crossing(self.crossing) {
-                    let t = t0 + s * (t1 - t0);
-                    if t < best.t || best.found.is_none() {
-                        let u = xyz(|a| (start_local[a] + s * delta[a]).clamp(0.0, 1.0));
-                        best.t = t;
-                        best.found = Some((t, index, pos, cluster_index, tri, u));
-                    }
-                    break;
-                }
+                break;
             }
         }
     }
