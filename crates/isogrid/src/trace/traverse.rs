@@ -412,7 +412,7 @@ impl<'g> Tracer<'g> {
     /// The closest-hit search inside one metacell `m` of cluster `cluster_index`: its cells
     /// nearest first, keeping the first crossing before `best.t` in `best`.
     #[inline(always)]
-    pub(super) fn closest_in_metacell(
+    fn closest_in_metacell(
         &self,
         r: &CellRay,
         m: &Metacell,
