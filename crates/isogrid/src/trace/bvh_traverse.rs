@@ -220,7 +220,9 @@ impl<'g> BvhTracer<'g> {
             let (mask, near) = nr.test(node, window);
             let prefetch = |child: u32| {
                 if child & LEAF != 0 {
-                    prefetch_slice(self.cluster((child & !LEAF) as usize));
+                    let c = (child & !LEAF) as usize;
+                    self.tracer.prefetch_cluster(c);
+                    prefetch_slice(self.cluster(c));
                 } else if let Some(n) = nodes.get(child as usize) {
                     prefetch_slice(std::slice::from_ref(n));
                 }
@@ -311,9 +313,10 @@ impl<'g> BvhTracer<'g> {
                 mask &= mask - 1;
                 let child = node.child[k];
                 if child & LEAF != 0 {
-                    let cluster = self.cluster((child & !LEAF) as usize);
+                    let c = child & !LEAF;
+                    let cluster = self.cluster(c as usize);
                     if cluster.len() == CLUSTER_SLOTS
-                        && self.tracer.any_box_in_cluster(&r, cluster, tmin, tmax)
+                        && self.tracer.any_box_in_cluster(&r, cluster, c, tmin, tmax)
                     {
                         return true;
                     }
@@ -359,7 +362,7 @@ mod tests {
         let mut any = false;
         for (c, cluster) in grid.metacells().chunks_exact(CLUSTER_SLOTS).enumerate() {
             tracer.closest_in_cluster(&r, cluster, c as u32, 0.0, &mut best);
-            any |= tracer.any_box_in_cluster(&r, cluster, 0.0, f64::INFINITY);
+            any |= tracer.any_box_in_cluster(&r, cluster, c as u32, 0.0, f64::INFINITY);
         }
         (tracer.hit_of(ray, &best).map(|h| h.t), any)
     }

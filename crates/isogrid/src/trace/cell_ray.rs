@@ -70,6 +70,14 @@ impl CellRay {
         (near, far)
     }
 
+    /// Per axis `(scale, near, far)`: the `t` of the face met first of the metacell at position
+    /// `p` (metacell units), grown by the margin, is `p·scale + near`, of the face met last
+    /// `p·scale + far` (f32).
+    #[inline(always)]
+    pub fn metacell_faces(&self) -> ([f32; 3], [f32; 3], [f32; 3]) {
+        (self.metacell_scale, self.metacell_near, self.metacell_far)
+    }
+
     /// Whether the ray runs towards −axis `a`.
     #[inline(always)]
     pub fn negative(&self, a: usize) -> bool {

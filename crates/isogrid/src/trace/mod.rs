@@ -22,6 +22,7 @@ mod block_walk;
 pub mod bvh_traverse;
 mod cell_ray;
 pub mod cluster_bounds;
+mod cluster_boxes;
 pub mod cluster_bvh;
 pub mod crossing;
 pub mod empty_space;

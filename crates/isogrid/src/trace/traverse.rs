@@ -20,6 +20,7 @@
 use super::block_walk::BlockWalk;
 use super::cell_ray::{min, xyz, CellRay};
 use super::cluster_bounds::{unpack4, PackedClusterBounds};
+use super::cluster_boxes::AllClusterBoxes;
 use super::crossing::{Crossing, Trilinear};
 use super::octant_space::OctantSpaceMap;
 use crate::camera::Ray;
@@ -72,6 +73,7 @@ pub struct Tracer<'g> {
     margin: f64,
     empty_space: OctantSpaceMap,
     cluster_bounds: PackedClusterBounds,
+    cluster_boxes: AllClusterBoxes,
 }
 
 /// Clusters a block can hold: 16³ cells = 512 metacells in clusters of 15.
@@ -225,6 +227,7 @@ impl<'g> Tracer<'g> {
             margin: metacell_margin(info.cell_dims().map(|c| c as f64)),
             empty_space: OctantSpaceMap::new(blocks, walk_dims),
             cluster_bounds: PackedClusterBounds::new(blocks, grid.metacells(), walk_dims),
+            cluster_boxes: AllClusterBoxes::new(grid.metacells()),
         }
     }
 
@@ -235,7 +238,7 @@ impl<'g> Tracer<'g> {
     /// Bytes the tracer adds to the grid's own buffers (its [`OctantSpaceMap`] and
     /// [`PackedClusterBounds`]).
     pub fn extra_bytes(&self) -> usize {
-        self.empty_space.bytes() + self.cluster_bounds.bytes()
+        self.empty_space.bytes() + self.cluster_bounds.bytes() + self.cluster_boxes.bytes()
     }
 
     pub(super) fn cell_ray(&self, ray: &Ray) -> CellRay {
@@ -367,6 +370,7 @@ impl<'g> Tracer<'g> {
         // The records are the tracer's cache misses; ask for them all before waiting on any.
         for &(_, ci) in &order[..count] {
             let cluster = &slots[ci as usize * CLUSTER_SLOTS..][..CLUSTER_SLOTS];
+            self.prefetch_cluster(first_cluster + ci as usize);
             prefetch_slice(cluster);
         }
         for &(near, ci) in &order[..count] {
@@ -392,7 +396,7 @@ impl<'g> Tracer<'g> {
         best: &mut Best,
     ) {
         let t = widened_f32(tmin, best.t);
-        let mut candidates = metacell_hits(r, cluster, t);
+        let mut candidates = self.metacell_candidates(r, cluster, cluster_index, t);
         let mut pending = candidates;
         while pending != 0 {
             let m = &cluster[pending.trailing_zeros() as usize];
@@ -470,24 +474,28 @@ impl<'g> Tracer<'g> {
             let ci = hits.trailing_zeros() as usize;
             hits &= hits - 1;
             let cluster = &slots[ci * CLUSTER_SLOTS..(ci + 1) * CLUSTER_SLOTS];
-            if self.any_box_in_cluster(r, cluster, tmin, tmax) {
+            let index = (block.metacell_pointer as usize / CLUSTER_SLOTS + ci) as u32;
+            if self.any_box_in_cluster(r, cluster, index, tmin, tmax) {
                 return true;
             }
         }
         false
     }
 
-    /// Whether the ray passes through an active cell box of `cluster` (its 16 slots) within
+    /// Whether the ray passes through an active cell box of `cluster` (its 16 slots, global index
+    /// `cluster_index`) within
     /// `[tmin, tmax]`.
     #[inline(always)]
     pub(super) fn any_box_in_cluster(
         &self,
         r: &CellRay,
         cluster: &[Metacell],
+        cluster_index: u32,
         tmin: f64,
         tmax: f64,
     ) -> bool {
-        let mut candidates = metacell_hits(r, cluster, widened_f32(tmin, tmax));
+        let mut candidates =
+            self.metacell_candidates(r, cluster, cluster_index, widened_f32(tmin, tmax));
         while candidates != 0 {
             let m = &cluster[candidates.trailing_zeros() as usize];
             candidates &= candidates - 1;
@@ -501,6 +509,31 @@ impl<'g> Tracer<'g> {
             }
         }
         false
+    }
+
+    /// Bit `k` set when the ray may pass through metacell slot `k` of `cluster` (global index
+    /// `cluster_index`) within the widened `t` range; empty slots are left out when the packed
+    /// copy ([`AllClusterBoxes`]) answers.
+    #[inline(always)]
+    fn metacell_candidates(
+        &self,
+        r: &CellRay,
+        cluster: &[Metacell],
+        cluster_index: u32,
+        t: (f32, f32),
+    ) -> u32 {
+        match self.cluster_boxes.get(cluster_index as usize) {
+            Some(boxes) if boxes.usable() => boxes.hits(r, t),
+            _ => metacell_hits(r, cluster, t),
+        }
+    }
+
+    /// Hints the CPU to load what the search of global cluster `c` reads first.
+    #[inline(always)]
+    pub(super) fn prefetch_cluster(&self, c: usize) {
+        if let Some(boxes) = self.cluster_boxes.get(c) {
+            prefetch_slice(std::slice::from_ref(boxes));
+        }
     }
 
     #[inline(always)]
