@@ -8,6 +8,9 @@
 use super::cell_ray::{max, min, xyz, CellRay};
 use super::cluster_bvh::{node_margin, ClusterBvh, Node, LEAF, STACK, WIDTH};
 use super::crossing::Crossing;
+#[cfg(target_arch = "x86_64")]
+use super::lanes::Avx2;
+use super::lanes::{Baseline, Lanes};
 use super::traverse::{prefetch_slice, Best, Hit, Occlusion, Tracer};
 use crate::camera::Ray;
 use crate::grid::CellGrid;
@@ -31,7 +34,7 @@ fn widen_f32(lo: f64, hi: f64) -> (f32, f32) {
 /// What one ray's node tests need, for the ray re-based to `t_base`: the `t` of a box face at
 /// metacell `p` on axis `a` is `p·scale[a] + near[a]` (the face met first, grown by the margin)
 /// or `p·scale[a] + far[a]`, and `near_row[a]` is the row of `Node::mc` holding that face.
-struct NodeRay {
+pub(super) struct NodeRay {
     scale: [f32; 3],
     near: [f32; 3],
     far: [f32; 3],
@@ -75,10 +78,11 @@ impl NodeRay {
         widen_f32(tmin - self.t_base, tmax - self.t_base)
     }
 
-    /// Slab tests of a node's four child boxes within `(lo, hi)`: bit `k` set when the ray may
-    /// pass through child `k`, and each child's entry `t` (relative to `t_base`).
+    /// Slab tests of a node's child boxes within `(lo, hi)`: bit `k` set when the ray may pass
+    /// through child `k`, and each child's entry `t` (relative to `t_base`). SSE2, four lanes at
+    /// a time (scalar off x86-64).
     #[inline(always)]
-    fn test(&self, node: &Node, (lo, hi): (f32, f32)) -> (u32, [f32; WIDTH]) {
+    pub(super) fn test_baseline(&self, node: &Node, (lo, hi): (f32, f32)) -> (u32, [f32; WIDTH]) {
         #[cfg(target_arch = "x86_64")]
         {
             use std::arch::x86_64::*;
@@ -86,28 +90,32 @@ impl NodeRay {
             // four u16 in `node.mc`.
             unsafe {
                 let zero = _mm_setzero_si128();
-                let row = |r: usize| {
-                    let v = _mm_loadl_epi64(node.mc[r].as_ptr().cast());
-                    _mm_cvtepi32_ps(_mm_unpacklo_epi16(v, zero))
-                };
-                let mut near = _mm_set1_ps(lo);
-                let mut far = _mm_set1_ps(hi);
-                for a in 0..3 {
-                    let scale = _mm_set1_ps(self.scale[a]);
-                    let n = _mm_add_ps(
-                        _mm_mul_ps(row(self.near_row[a]), scale),
-                        _mm_set1_ps(self.near[a]),
-                    );
-                    let f = _mm_add_ps(
-                        _mm_mul_ps(row(self.far_row[a]), scale),
-                        _mm_set1_ps(self.far[a]),
-                    );
-                    near = _mm_max_ps(near, n);
-                    far = _mm_min_ps(far, f);
-                }
                 let mut entry = [0f32; WIDTH];
-                _mm_storeu_ps(entry.as_mut_ptr(), near);
-                (_mm_movemask_ps(_mm_cmple_ps(near, far)) as u32, entry)
+                let mut mask = 0;
+                for h in 0..WIDTH / 4 {
+                    let row = |r: usize| {
+                        let v = _mm_loadl_epi64(node.mc[r].as_ptr().add(4 * h).cast());
+                        _mm_cvtepi32_ps(_mm_unpacklo_epi16(v, zero))
+                    };
+                    let mut near = _mm_set1_ps(lo);
+                    let mut far = _mm_set1_ps(hi);
+                    for a in 0..3 {
+                        let scale = _mm_set1_ps(self.scale[a]);
+                        let n = _mm_add_ps(
+                            _mm_mul_ps(row(self.near_row[a]), scale),
+                            _mm_set1_ps(self.near[a]),
+                        );
+                        let f = _mm_add_ps(
+                            _mm_mul_ps(row(self.far_row[a]), scale),
+                            _mm_set1_ps(self.far[a]),
+                        );
+                        near = _mm_max_ps(near, n);
+                        far = _mm_min_ps(far, f);
+                    }
+                    _mm_storeu_ps(entry.as_mut_ptr().add(4 * h), near);
+                    mask |= (_mm_movemask_ps(_mm_cmple_ps(near, far)) as u32) << (4 * h);
+                }
+                (mask, entry)
             }
         }
         #[cfg(not(target_arch = "x86_64"))]
@@ -125,6 +133,45 @@ impl NodeRay {
             let mask = (0..WIDTH).fold(0, |m, k| m | ((near[k] <= far[k]) as u32) << k);
             (mask, near)
         }
+    }
+
+    /// As [`Self::test_baseline`], all eight lanes in one AVX2 test.
+    ///
+    /// # Safety
+    /// The CPU must run AVX2 and FMA.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    #[inline]
+    pub(super) unsafe fn test_avx2(
+        &self,
+        node: &Node,
+        (lo, hi): (f32, f32),
+    ) -> (u32, [f32; WIDTH]) {
+        use std::arch::x86_64::*;
+        const _: () = assert!(WIDTH == 8);
+        let mut near = _mm256_set1_ps(lo);
+        let mut far = _mm256_set1_ps(hi);
+        for a in 0..3 {
+            // SAFETY: each 16-byte load reads one row of eight u16 in `node.mc`.
+            let (first, last) = unsafe {
+                (
+                    _mm_loadu_si128(node.mc[self.near_row[a]].as_ptr().cast()),
+                    _mm_loadu_si128(node.mc[self.far_row[a]].as_ptr().cast()),
+                )
+            };
+            let first = _mm256_cvtepi32_ps(_mm256_cvtepu16_epi32(first));
+            let last = _mm256_cvtepi32_ps(_mm256_cvtepu16_epi32(last));
+            let scale = _mm256_set1_ps(self.scale[a]);
+            let n = _mm256_fmadd_ps(first, scale, _mm256_set1_ps(self.near[a]));
+            let f = _mm256_fmadd_ps(last, scale, _mm256_set1_ps(self.far[a]));
+            near = _mm256_max_ps(near, n);
+            far = _mm256_min_ps(far, f);
+        }
+        let mut entry = [0f32; WIDTH];
+        // SAFETY: `entry` holds eight f32.
+        unsafe { _mm256_storeu_ps(entry.as_mut_ptr(), near) };
+        let mask = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(near, far)) as u32;
+        (mask, entry)
     }
 }
 
@@ -175,6 +222,31 @@ impl<'g> BvhTracer<'g> {
     /// The closest crossing of the isosurface with `t ∈ [tmin, tmax]`, or `None`; as
     /// [`Tracer::closest_hit`].
     pub fn closest_hit(&self, ray: &Ray, tmin: f64, tmax: f64) -> Option<Hit> {
+        #[cfg(target_arch = "x86_64")]
+        if let Some(avx2) = self.tracer.lanes().avx2 {
+            // SAFETY: an `Avx2` exists only where the CPU runs AVX2 and FMA.
+            return unsafe { self.closest_hit_avx2(avx2, ray, tmin, tmax) };
+        }
+        self.closest_hit_with(Baseline, ray, tmin, tmax)
+    }
+
+    /// [`Self::closest_hit`] compiled for AVX2.
+    ///
+    /// # Safety
+    /// The CPU must run AVX2 and FMA.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn closest_hit_avx2(&self, avx2: Avx2, ray: &Ray, tmin: f64, tmax: f64) -> Option<Hit> {
+        self.closest_hit_with(avx2, ray, tmin, tmax)
+    }
+
+    /// The SIMD set in use: "avx2" or "baseline" (see [`super::lanes`]).
+    pub fn simd(&self) -> &'static str {
+        self.tracer.simd()
+    }
+
+    #[inline(always)]
+    fn closest_hit_with<L: Lanes>(&self, lanes: L, ray: &Ray, tmin: f64, tmax: f64) -> Option<Hit> {
         let r = self.tracer.cell_ray(ray);
         let nr = NodeRay::new(&r, self.cell_dims, self.margin, tmin, tmax)?;
         let nodes = &self.bvh.nodes[..];
@@ -209,7 +281,7 @@ impl<'g> BvhTracer<'g> {
                 let cluster = self.cluster(c);
                 if cluster.len() == CLUSTER_SLOTS {
                     self.tracer
-                        .closest_in_cluster(&r, cluster, c as u32, tmin, &mut best);
+                        .closest_in_cluster(lanes, &r, cluster, c as u32, tmin, &mut best);
                     window = nr.window(tmin, best.t);
                 }
                 continue;
@@ -217,7 +289,7 @@ impl<'g> BvhTracer<'g> {
             let Some(node) = nodes.get(id as usize) else {
                 continue;
             };
-            let (mask, near) = nr.test(node, window);
+            let (mask, near) = lanes.node_test(&nr, node, window);
             let prefetch = |child: u32| {
                 if child & LEAF != 0 {
                     let c = (child & !LEAF) as usize;
@@ -307,7 +379,7 @@ impl<'g> BvhTracer<'g> {
             let Some(node) = self.bvh.nodes.get(id as usize) else {
                 continue;
             };
-            let (mut mask, _) = nr.test(node, window);
+            let (mut mask, _) = Baseline.node_test(&nr, node, window);
             while mask != 0 {
                 let k = mask.trailing_zeros() as usize;
                 mask &= mask - 1;
@@ -316,7 +388,9 @@ impl<'g> BvhTracer<'g> {
                     let c = child & !LEAF;
                     let cluster = self.cluster(c as usize);
                     if cluster.len() == CLUSTER_SLOTS
-                        && self.tracer.any_box_in_cluster(&r, cluster, c, tmin, tmax)
+                        && self
+                            .tracer
+                            .any_box_in_cluster(Baseline, &r, cluster, c, tmin, tmax)
                     {
                         return true;
                     }
@@ -361,8 +435,8 @@ mod tests {
         let mut best = Best::new(f64::INFINITY);
         let mut any = false;
         for (c, cluster) in grid.metacells().chunks_exact(CLUSTER_SLOTS).enumerate() {
-            tracer.closest_in_cluster(&r, cluster, c as u32, 0.0, &mut best);
-            any |= tracer.any_box_in_cluster(&r, cluster, c as u32, 0.0, f64::INFINITY);
+            tracer.closest_in_cluster(Baseline, &r, cluster, c as u32, 0.0, &mut best);
+            any |= tracer.any_box_in_cluster(Baseline, &r, cluster, c as u32, 0.0, f64::INFINITY);
         }
         (tracer.hit_of(ray, &best).map(|h| h.t), any)
     }
@@ -408,6 +482,55 @@ mod tests {
             }
         }
         assert!(hits > 150, "{hits} hits");
+    }
+
+    /// The AVX2 and the baseline box tests find the same hits (they differ only in f32 rounding,
+    /// inside the boxes' margins), with the hierarchy and with the block walk.
+    #[test]
+    fn both_sets_find_the_same_hits() {
+        #[cfg(target_arch = "x86_64")]
+        {
+            let Some(avx2) = crate::trace::lanes::Avx2::detect() else {
+                eprintln!("skipped: this CPU has no AVX2 and FMA");
+                return;
+            };
+            let mut seed = 0x0123_4567_89ab_cdefu64;
+            let mut unit = move || {
+                seed ^= seed << 13;
+                seed ^= seed >> 7;
+                seed ^= seed << 17;
+                (seed >> 11) as f64 / (1u64 << 53) as f64
+            };
+            let mut hits = 0;
+            for (field, size) in [(Field::Hairball, 48), (Field::MarschnerLobb, 41)] {
+                let volume = generate(field, size, 1);
+                let grid =
+                    extract(&volume.view(), &ExtractOptions::new(Iso::Normalized(0.5))).unwrap();
+                let bvh = BvhTracer::new(&grid, Crossing::Samples3);
+                let blocks = Tracer::new(&grid, Crossing::Samples3);
+                let n = size as f64;
+                for _ in 0..2000 {
+                    let origin: [f64; 3] = std::array::from_fn(|_| -0.2 * n + 1.4 * n * unit());
+                    let d: [f64; 3] = std::array::from_fn(|_| 2.0 * unit() - 1.0);
+                    let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+                    let ray = Ray {
+                        origin,
+                        direction: d.map(|v| v / len),
+                    };
+                    let base = bvh.closest_hit_with(Baseline, &ray, 0.0, f64::INFINITY);
+                    // SAFETY: `avx2` was detected above.
+                    let wide = unsafe { bvh.closest_hit_avx2(avx2, &ray, 0.0, f64::INFINITY) };
+                    assert_eq!(base, wide, "{field} {ray:?}");
+                    let base = blocks.closest_hit_with(Baseline, &ray, 0.0, f64::INFINITY);
+                    // SAFETY: as above.
+                    let walk = unsafe { blocks.closest_hit_avx2(avx2, &ray, 0.0, f64::INFINITY) };
+                    assert_eq!(base, walk, "block walk, {field} {ray:?}");
+                    assert_eq!(base.map(|h| h.t), wide.map(|h| h.t), "{field} {ray:?}");
+                    hits += wide.is_some() as usize;
+                }
+            }
+            assert!(hits > 500, "{hits} hits");
+        }
     }
 
     #[test]

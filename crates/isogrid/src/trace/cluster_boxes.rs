@@ -43,8 +43,8 @@ impl AllClusterBoxes {
                 for (k, m) in slots.iter().enumerate() {
                     if m.cell_mask & 0xff != 0 {
                         occupied |= 1 << k;
-                        for a in 0..3 {
-                            origin[a] = origin[a].min(m.position[a]);
+                        for (o, &p) in origin.iter_mut().zip(&m.position) {
+                            *o = (*o).min(p);
                         }
                     }
                 }
@@ -83,6 +83,48 @@ impl AllClusterBoxes {
 }
 
 impl ClusterBoxes {
+    /// Per axis: the f32 scale and the `t` of the near and far faces of the cluster's origin
+    /// metacell; slot `k`'s faces are `local·scale` further.
+    #[inline(always)]
+    fn origin_faces(&self, r: &CellRay) -> ([f32; 3], [f32; 3], [f32; 3]) {
+        let (scale, near, far) = r.metacell_faces();
+        let near0 = std::array::from_fn(|a| self.origin[a] * scale[a] + near[a]);
+        let far0 = std::array::from_fn(|a| self.origin[a] * scale[a] + far[a]);
+        (scale, near0, far0)
+    }
+
+    /// As [`Self::hits_baseline`], eight slots per AVX2 test.
+    ///
+    /// # Safety
+    /// The CPU must run AVX2 and FMA.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    #[inline]
+    pub(super) unsafe fn hits_avx2(&self, r: &CellRay, t: (f32, f32)) -> u32 {
+        use std::arch::x86_64::*;
+        let (scale, near0, far0) = self.origin_faces(r);
+        let mut near_t = [_mm256_set1_ps(t.0); 2];
+        let mut far_t = [_mm256_set1_ps(t.1); 2];
+        for a in 0..3 {
+            let s = _mm256_set1_ps(scale[a]);
+            let n = _mm256_set1_ps(near0[a]);
+            let f = _mm256_set1_ps(far0[a]);
+            for g in 0..2 {
+                // SAFETY: each 8-byte load reads half of one axis row of `local`.
+                let bytes = unsafe { _mm_loadl_epi64(self.local[a].as_ptr().add(8 * g).cast()) };
+                let p = _mm256_cvtepi32_ps(_mm256_cvtepu8_epi32(bytes));
+                near_t[g] = _mm256_max_ps(near_t[g], _mm256_fmadd_ps(p, s, n));
+                far_t[g] = _mm256_min_ps(far_t[g], _mm256_fmadd_ps(p, s, f));
+            }
+        }
+        let mut mask = 0;
+        for g in 0..2 {
+            let inside = _mm256_cmp_ps::<_CMP_LE_OQ>(near_t[g], far_t[g]);
+            mask |= (_mm256_movemask_ps(inside) as u32) << (8 * g);
+        }
+        mask & self.occupied as u32
+    }
+
     /// Whether [`Self::hits`] can answer for this cluster (false only for a damaged file's
     /// cluster spanning 256 metacells or more; test the slots themselves then).
     #[inline(always)]
@@ -93,13 +135,10 @@ impl ClusterBoxes {
     /// Bit `k` set when the ray may pass through the box of occupied metacell slot `k` within the
     /// widened `t` range; as [`CellRay::metacell_boxes4`] on the slots' positions, with the boxes
     /// grown by the same margin (the one extra f32 rounding, of the origin's face, is far inside
-    /// it).
+    /// it). SSE2, four slots at a time (scalar off x86-64).
     #[inline(always)]
-    pub(super) fn hits(&self, r: &CellRay, t: (f32, f32)) -> u32 {
-        let (scale, near, far) = r.metacell_faces();
-        // The faces of the cluster's origin metacell; slot k's are `local·scale` further.
-        let near0: [f32; 3] = std::array::from_fn(|a| self.origin[a] * scale[a] + near[a]);
-        let far0: [f32; 3] = std::array::from_fn(|a| self.origin[a] * scale[a] + far[a]);
+    pub(super) fn hits_baseline(&self, r: &CellRay, t: (f32, f32)) -> u32 {
+        let (scale, near0, far0) = self.origin_faces(r);
         #[cfg(target_arch = "x86_64")]
         {
             use std::arch::x86_64::*;
@@ -205,7 +244,21 @@ mod tests {
                 };
                 let r = CellRay::new(&ray, [1.0; 3], margin);
                 let (tmin, tmax) = (0.0, len * (0.5 + unit(next())));
-                let hits = record.hits(&r, (tmin as f32, tmax as f32));
+                let window = (tmin as f32, tmax as f32);
+                let hits = record.hits_baseline(&r, window);
+                #[cfg(target_arch = "x86_64")]
+                if crate::trace::lanes::Avx2::detect().is_some() {
+                    // SAFETY: the CPU runs AVX2 and FMA (detected just above).
+                    let wide = unsafe { record.hits_avx2(&r, window) };
+                    for (k, m) in cluster.iter().enumerate().take(BOUND_SLOT) {
+                        let lo = m.position.map(|p| 2.0 * p as f64);
+                        let (near, far) = r.slab(lo, lo.map(|v| v + 2.0));
+                        if m.cell_mask != 0 && near.max(tmin) <= far.min(tmax) {
+                            assert!(wide >> k & 1 == 1, "AVX2: slot {k} missed by {ray:?}");
+                        }
+                    }
+                    assert_eq!(wide & !hits & !0x7fff, 0);
+                }
                 for (k, m) in cluster.iter().enumerate().take(BOUND_SLOT) {
                     let lo = m.position.map(|p| 2.0 * p as f64);
                     let exact = |grow: f64| {

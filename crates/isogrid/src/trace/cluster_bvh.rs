@@ -20,7 +20,7 @@ use crate::grid::CellGrid;
 use crate::layout::{Block, Metacell, BOUND_SLOT, CLUSTER_SLOTS};
 
 /// Children per node.
-pub(super) const WIDTH: usize = 4;
+pub(super) const WIDTH: usize = 8;
 /// A child that is a leaf: the low 31 bits are a global cluster index.
 pub(super) const LEAF: u32 = 1 << 31;
 /// An unused child lane (its box is empty).
@@ -46,7 +46,7 @@ pub(super) struct Node {
     /// Per lane: an inner node's index, `LEAF | cluster`, or [`NO_CHILD`].
     pub(super) child: [u32; WIDTH],
 }
-const _: () = assert!(std::mem::size_of::<Node>() == 64);
+const _: () = assert!(std::mem::size_of::<Node>() == 128);
 
 const EMPTY_NODE: Node = Node {
     mc: [

@@ -27,6 +27,7 @@ pub mod cluster_bvh;
 pub mod crossing;
 pub mod empty_space;
 pub mod env;
+mod lanes;
 pub mod occupancy;
 pub mod octant_space;
 pub mod render;

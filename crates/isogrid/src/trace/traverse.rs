@@ -22,6 +22,7 @@ use super::cell_ray::{min, xyz, CellRay};
 use super::cluster_bounds::{unpack4, PackedClusterBounds};
 use super::cluster_boxes::AllClusterBoxes;
 use super::crossing::{Crossing, Trilinear};
+use super::lanes::{Baseline, Chosen, Lanes};
 use super::octant_space::OctantSpaceMap;
 use crate::camera::Ray;
 use crate::grid::CellGrid;
@@ -74,6 +75,7 @@ pub struct Tracer<'g> {
     empty_space: OctantSpaceMap,
     cluster_bounds: PackedClusterBounds,
     cluster_boxes: AllClusterBoxes,
+    lanes: Chosen,
 }
 
 /// Clusters a block can hold: 16³ cells = 512 metacells in clusters of 15.
@@ -228,6 +230,7 @@ impl<'g> Tracer<'g> {
             empty_space: OctantSpaceMap::new(blocks, walk_dims),
             cluster_bounds: PackedClusterBounds::new(blocks, grid.metacells(), walk_dims),
             cluster_boxes: AllClusterBoxes::new(grid.metacells()),
+            lanes: Chosen::detect(),
         }
     }
 
@@ -247,10 +250,51 @@ impl<'g> Tracer<'g> {
 
     /// The closest crossing of the isosurface with `t ∈ [tmin, tmax]`, or `None`.
     pub fn closest_hit(&self, ray: &Ray, tmin: f64, tmax: f64) -> Option<Hit> {
+        #[cfg(target_arch = "x86_64")]
+        if let Some(avx2) = self.lanes.avx2 {
+            // SAFETY: an `Avx2` exists only where the CPU runs AVX2 and FMA.
+            return unsafe { self.closest_hit_avx2(avx2, ray, tmin, tmax) };
+        }
+        self.closest_hit_with(Baseline, ray, tmin, tmax)
+    }
+
+    /// [`Self::closest_hit`] compiled for AVX2.
+    ///
+    /// # Safety
+    /// The CPU must run AVX2 and FMA.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    pub(super) unsafe fn closest_hit_avx2(
+        &self,
+        avx2: super::lanes::Avx2,
+        ray: &Ray,
+        tmin: f64,
+        tmax: f64,
+    ) -> Option<Hit> {
+        self.closest_hit_with(avx2, ray, tmin, tmax)
+    }
+
+    /// The SIMD set in use: "avx2" or "baseline" (see [`super::lanes`]).
+    pub fn simd(&self) -> &'static str {
+        self.lanes.name()
+    }
+
+    pub(super) fn lanes(&self) -> Chosen {
+        self.lanes
+    }
+
+    #[inline(always)]
+    pub(super) fn closest_hit_with<L: Lanes>(
+        &self,
+        lanes: L,
+        ray: &Ray,
+        tmin: f64,
+        tmax: f64,
+    ) -> Option<Hit> {
         let r = self.cell_ray(ray);
         let mut best = Best::new(tmax);
         self.walk_blocks(&r, tmin, tmax, |block, origin| {
-            self.closest_in_block(&r, block, origin, tmin, &mut best);
+            self.closest_in_block(lanes, &r, block, origin, tmin, &mut best);
             best.t
         });
         self.hit_of(ray, &best)
@@ -285,7 +329,7 @@ impl<'g> Tracer<'g> {
         let r = self.cell_ray(ray);
         let mut hit = false;
         self.walk_blocks(&r, tmin, tmax, |block, origin| {
-            if self.any_box_in_block(&r, block, origin, tmin, tmax) {
+            if self.any_box_in_block(Baseline, &r, block, origin, tmin, tmax) {
                 hit = true;
                 f64::NEG_INFINITY
             } else {
@@ -337,8 +381,10 @@ impl<'g> Tracer<'g> {
         walk.step()
     }
 
-    fn closest_in_block(
+    #[inline(always)]
+    fn closest_in_block<L: Lanes>(
         &self,
+        lanes: L,
         r: &CellRay,
         block: &Block,
         origin: [f32; 3],
@@ -379,7 +425,8 @@ impl<'g> Tracer<'g> {
             }
             let ci = ci as usize;
             let cluster = &slots[ci * CLUSTER_SLOTS..(ci + 1) * CLUSTER_SLOTS];
-            self.closest_in_cluster(r, cluster, (first_cluster + ci) as u32, tmin, best);
+            let index = (first_cluster + ci) as u32;
+            self.closest_in_cluster(lanes, r, cluster, index, tmin, best);
         }
     }
 
@@ -387,8 +434,9 @@ impl<'g> Tracer<'g> {
     /// cluster index): its metacell boxes, then the cells of each candidate metacell nearest
     /// first, keeping the closest crossing before `best.t` in `best`.
     #[inline(always)]
-    pub(super) fn closest_in_cluster(
+    pub(super) fn closest_in_cluster<L: Lanes>(
         &self,
+        lanes: L,
         r: &CellRay,
         cluster: &[Metacell],
         cluster_index: u32,
@@ -396,7 +444,7 @@ impl<'g> Tracer<'g> {
         best: &mut Best,
     ) {
         let t = widened_f32(tmin, best.t);
-        let mut candidates = self.metacell_candidates(r, cluster, cluster_index, t);
+        let mut candidates = self.metacell_candidates(lanes, r, cluster, cluster_index, t);
         let mut pending = candidates;
         while pending != 0 {
             let m = &cluster[pending.trailing_zeros() as usize];
@@ -458,8 +506,9 @@ impl<'g> Tracer<'g> {
         }
     }
 
-    fn any_box_in_block(
+    fn any_box_in_block<L: Lanes>(
         &self,
+        lanes: L,
         r: &CellRay,
         block: &Block,
         origin: [f32; 3],
@@ -475,7 +524,7 @@ impl<'g> Tracer<'g> {
             hits &= hits - 1;
             let cluster = &slots[ci * CLUSTER_SLOTS..(ci + 1) * CLUSTER_SLOTS];
             let index = (block.metacell_pointer as usize / CLUSTER_SLOTS + ci) as u32;
-            if self.any_box_in_cluster(r, cluster, index, tmin, tmax) {
+            if self.any_box_in_cluster(lanes, r, cluster, index, tmin, tmax) {
                 return true;
             }
         }
@@ -486,8 +535,9 @@ impl<'g> Tracer<'g> {
     /// `cluster_index`) within
     /// `[tmin, tmax]`.
     #[inline(always)]
-    pub(super) fn any_box_in_cluster(
+    pub(super) fn any_box_in_cluster<L: Lanes>(
         &self,
+        lanes: L,
         r: &CellRay,
         cluster: &[Metacell],
         cluster_index: u32,
@@ -495,7 +545,7 @@ impl<'g> Tracer<'g> {
         tmax: f64,
     ) -> bool {
         let mut candidates =
-            self.metacell_candidates(r, cluster, cluster_index, widened_f32(tmin, tmax));
+            self.metacell_candidates(lanes, r, cluster, cluster_index, widened_f32(tmin, tmax));
         while candidates != 0 {
             let m = &cluster[candidates.trailing_zeros() as usize];
             candidates &= candidates - 1;
@@ -515,15 +565,16 @@ impl<'g> Tracer<'g> {
     /// `cluster_index`) within the widened `t` range; empty slots are left out when the packed
     /// copy ([`AllClusterBoxes`]) answers.
     #[inline(always)]
-    fn metacell_candidates(
+    fn metacell_candidates<L: Lanes>(
         &self,
+        lanes: L,
         r: &CellRay,
         cluster: &[Metacell],
         cluster_index: u32,
         t: (f32, f32),
     ) -> u32 {
         match self.cluster_boxes.get(cluster_index as usize) {
-            Some(boxes) if boxes.usable() => boxes.hits(r, t),
+            Some(boxes) if boxes.usable() => lanes.metacell_boxes(boxes, r, t),
             _ => metacell_hits(r, cluster, t),
         }
     }
