@@ -199,7 +199,7 @@ pub fn read_corner(record: &[u8], precision: Precision, c: usize) -> f32 {
 ///
 /// # Panics
 /// When `record` is shorter than [`Precision::bytes_per_cell`].
-#[inline]
+#[inline(always)]
 pub fn read_corners(record: &[u8], precision: Precision) -> [f32; 8] {
     match precision {
         Precision::Bits4 => {
