@@ -203,6 +203,12 @@ def main():
 
 def write_report(args, results):
     model, cpus = machine()
+    simd = {r["bvh"].get("simd", "?") for r in results}
+
+    def simd_note():
+        names = {"avx2": "AVX2 with FMA", "baseline": "SSE2 (the x86-64 baseline)"}
+        return " / ".join(sorted(names.get(s, s) for s in simd))
+
     git = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True,
                          text=True).stdout.strip()
     lines = [
@@ -219,13 +225,15 @@ def write_report(args, results):
         f"embreex {version('embreex')} (Embree 4), numpy {version('numpy')}, Python {platform.python_version()}",
         "- isogrid: `isogrid bench rays GRID.cgc --rays-file RAYS --threads 1` — `Samples3` (the paper's three",
         "  samples per cell: entry, middle, exit, then refined) and `Exact` (first root of the cubic), both",
-        "  through the block DDA (the default); `BVH` = `Samples3` with `--traversal bvh`, a 4-wide BVH over",
-        "  the cluster bounds (the paper's future work, §3.6) in place of the block DDA.",
+        "  through the block DDA (the default); `BVH` = `Samples3` with `--traversal bvh`, an 8-wide BVH over",
+        "  the cluster bounds (the paper's future work, §3.6) in place of the block DDA. Box tests in",
+        f"  {simd_note()} (picked at run time, as Embree picks its own).",
         "- Embree: `embreex` `EmbreeScene.run` (a loop of `rtcIntersect1`, default build quality) over an",
         "  indexed `TriangleMesh` of the `isogrid mc` output (float32 vertices).",
         "- Memory: CGC = blocks + metacell slots + corner records + the tracer's own octant empty-space",
         "  map (8 B per block) and packed cluster bounds (4 B per cluster): all that tracing reads (the",
-        "  BVH traversal reads its 64 B nodes instead of the empty-space map). Embree = growth",
+        "  BVH traversal reads its 128 B nodes instead of the empty-space map; both read a 64 B record",
+        "  per cluster of its metacells' positions). Embree = growth",
         "  of the process RSS while the mesh is handed to Embree and the scene committed (Embree's copy of",
         "  the vertex and index buffers plus the BVH); the buffers alone are 12 B/vertex + 12 B/triangle.",
         "",
@@ -271,14 +279,17 @@ def write_report(args, results):
         )
     lines += [
         "",
-        "Notes: the CGC traversal is a block DDA that leaps across empty space with an octant distance",
-        "map (per block and ray octant, the largest empty cube growing that way); per non-empty block it tests the cluster bounds (a packed copy of slot 15, contiguous per",
-        "block) and then each entered cluster's 15",
-        "metacell boxes four at a time in SSE2 f32 lanes (SSE2 baseline build), walks a candidate",
-        "metacell's cells nearest first by its mid-planes, and reads one corner record per cell it",
-        "crosses (prefetched). On the dragon a ray that hits executes about five times the instructions",
-        "of one that misses (cachegrind): near the surface it passes through about three active cells",
-        "before it crosses. Embree traverses a SIMD BVH over the mesh.",
+        "Notes: the default CGC traversal is a block DDA that leaps across empty space with an octant",
+        "distance map (per block and ray octant, the largest empty cube growing that way); per non-empty",
+        "block it tests the cluster bounds (a packed copy of slot 15, contiguous per block). The BVH",
+        "traversal finds the same clusters through an 8-wide hierarchy over their bounds instead. Either",
+        "way, an entered cluster's 15 metacell boxes are tested from a 64 B per-cluster record of their",
+        "positions (8 lanes at a time with AVX2, 4 with SSE2), a candidate metacell's cells are walked",
+        "nearest first by its mid-planes, and one corner record is read per cell the ray crosses",
+        "(prefetched). On the dragon a ray that hits executes about seven times the instructions of one",
+        "that misses (cachegrind): near the surface it passes through about three active cells before",
+        "it crosses. Embree traverses a SIMD BVH over the mesh. `docs/tracer-performance.md` has the",
+        "measurements behind these choices.",
         "Hit/miss agreement with Embree is limited by the MC mesh",
         "approximating the trilinear surface, not by the tracer (the tests compare `Exact` with a",
         "brute-force reference to 1e-4 voxel).",

@@ -74,6 +74,8 @@ pub enum Traversal {
 struct RaysReport {
     crossing: &'static str,
     traversal: &'static str,
+    /// SIMD set of the box tests: "avx2" where the CPU has AVX2 and FMA, else "baseline".
+    simd: &'static str,
     threads: usize,
     rays: u64,
     hits: u64,
@@ -174,7 +176,7 @@ fn rays(args: RaysArgs) -> Result<()> {
     let mut hits: Vec<Option<Hit>> = vec![None; rays.len()];
     // Built before the clock starts, as the grid is.
     let mut cpu_start = None;
-    let (seconds, threads, extra_bytes) = match args.traversal {
+    let (seconds, threads, extra_bytes, simd) = match args.traversal {
         Traversal::Blocks => {
             let tracer = Tracer::new(&grid, crossing);
             args.threads.install(|| {
@@ -182,7 +184,8 @@ fn rays(args: RaysArgs) -> Result<()> {
                 let start = Instant::now();
                 closest_hits(&tracer, &rays, &mut hits);
                 let seconds = start.elapsed().as_secs_f64();
-                (seconds, rayon::current_num_threads(), tracer.extra_bytes())
+                let threads = rayon::current_num_threads();
+                (seconds, threads, tracer.extra_bytes(), tracer.simd())
             })?
         }
         Traversal::Bvh => {
@@ -192,7 +195,8 @@ fn rays(args: RaysArgs) -> Result<()> {
                 let start = Instant::now();
                 tracer.closest_hits(&rays, &mut hits);
                 let seconds = start.elapsed().as_secs_f64();
-                (seconds, rayon::current_num_threads(), tracer.extra_bytes())
+                let threads = rayon::current_num_threads();
+                (seconds, threads, tracer.extra_bytes(), tracer.simd())
             })?
         }
     };
@@ -216,6 +220,7 @@ fn rays(args: RaysArgs) -> Result<()> {
             Traversal::Blocks => "blocks",
             Traversal::Bvh => "bvh",
         },
+        simd,
         threads,
         rays: rays.len() as u64,
         hits: hits.iter().filter(|h| h.is_some()).count() as u64,
@@ -234,13 +239,14 @@ fn rays(args: RaysArgs) -> Result<()> {
         print_json(&report)
     } else {
         println!(
-            "traced        {} rays ({} hits) in {:.3} s on {} threads, {} crossing, {} traversal",
+            "traced        {} rays ({} hits) in {:.3} s on {} threads, {} crossing, {} traversal, {} box tests",
             report.rays,
             report.hits,
             report.seconds,
             report.threads,
             report.crossing,
-            report.traversal
+            report.traversal,
+            report.simd
         );
         println!("rays/second   {:.0}", report.rays_per_second);
         println!(
