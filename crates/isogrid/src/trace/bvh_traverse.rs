@@ -1,5 +1,6 @@
 //! Closest-hit and any-hit traversal of a [`ClusterBvh`] (the paper's future work, §3.6): ordered,
-//! nearest child first, one SSE slab test per 4-wide node, and the block tracer's own search inside
+//! nearest child first, one slab test per 8-wide node (AVX2, or two SSE2 halves; `lanes.rs`),
+//! and the block tracer's own search inside
 //! each leaf cluster (`Tracer::closest_in_cluster`), so hits are those of the block walk.
 //!
 //! Units: as [`super::cluster_bvh`]: node boxes in cell units grown by [`node_margin`], the ray
@@ -240,7 +241,8 @@ impl<'g> BvhTracer<'g> {
         self.closest_hit_with(avx2, ray, tmin, tmax)
     }
 
-    /// The SIMD set in use: "avx2" or "baseline" (see [`super::lanes`]).
+    /// The SIMD set of the box tests: "avx2" where the CPU runs AVX2 and FMA, else "baseline"
+    /// (SSE2 on x86-64); `ISOGRID_NO_AVX2=1` forces the baseline.
     pub fn simd(&self) -> &'static str {
         self.tracer.simd()
     }

@@ -5,7 +5,7 @@
 //!
 //! Leaves are single clusters, bounded by their slot 15 ([`crate::layout::ClusterBound`]); the hierarchy is built
 //! once, top down, with a binned surface-area heuristic on the clusters' centroids, and stored as
-//! 4-wide nodes whose child boxes are f32 lanes per face, so that one node is one SSE slab test
+//! 8-wide nodes whose child boxes are lanes per face, so that one node is one AVX2 slab test
 //! (Wald et al. 2008, "Getting rid of packets"; Dammertz et al. 2008, "Shallow bounding volume
 //! hierarchies"). Inside a leaf the tracer's own cluster search runs
 //! (`Tracer::closest_in_cluster`), so hits are those of the block walk.
@@ -34,7 +34,7 @@ const SAH_DEPTH: usize = 40;
 /// Bins of the surface-area heuristic per split.
 const BINS: usize = 16;
 
-/// One 4-wide node: 64 bytes, one cache line. Boxes are whole metacells, as cluster bounds are,
+/// One 8-wide node: 128 bytes, two cache lines. Boxes are whole metacells, as cluster bounds are,
 /// so 16-bit positions hold them exactly and the node stays half the size of f32 faces.
 #[repr(C, align(64))]
 #[derive(Debug, Clone, Copy)]

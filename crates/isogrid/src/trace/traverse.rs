@@ -1,13 +1,14 @@
 //! Hierarchical ray traversal of clustered grid cells (paper §3.6): a 3D DDA over the dense
 //! 16³-cell block grid, which leaps across empty space with an [`OctantSpaceMap`]
 //! (`block_walk.rs`); inside a non-empty block every cluster bound (slot 15, read from a packed
-//! copy, [`PackedClusterBounds`]), then each entered cluster's metacell boxes (four at a time in
-//! f32 lanes), are tested with the slab test (as §3.2); a candidate metacell's active cells are
+//! copy, [`PackedClusterBounds`]), then each entered cluster's metacell boxes (from a 64-byte
+//! record per cluster, eight at a time with AVX2 or four with SSE2, `cluster_boxes.rs` and
+//! `lanes.rs`), are tested with the slab test (as §3.2); a candidate metacell's active cells are
 //! visited nearest first by crossing its three mid-planes, and searched for the isosurface
 //! crossing ([`super::crossing`]).
 //!
-//! Beyond the paper's records the tracer holds 8 bytes per block and 4 bytes per cluster (about
-//! 4 % of the grid; [`Tracer::extra_bytes`]), both built in [`Tracer::new`].
+//! Beyond the paper's records the tracer holds 8 bytes per block and 68 bytes per cluster (about
+//! an eighth of the grid on the dragon and MNI; [`Tracer::extra_bytes`]), all built in [`Tracer::new`].
 //!
 //! Units: rays are in world space (sample (i, j, k) at (i·sx, j·sy, k·sz)) with unit directions,
 //! and `t` is the world distance along the ray. Internally the ray is rescaled into cell units
@@ -58,8 +59,8 @@ pub enum Occlusion {
 }
 
 /// Traces rays through one grid. Shares the grid's buffers and adds 8 bytes per block (an
-/// [`OctantSpaceMap`]) and 4 per cluster ([`PackedClusterBounds`]), built in `new` in time linear
-/// in the grid's size; `Sync`.
+/// [`OctantSpaceMap`]) and 68 per cluster ([`PackedClusterBounds`] and the metacell records of
+/// `cluster_boxes.rs`), built in `new` in time linear in the grid's size; `Sync`.
 #[derive(Debug, Clone)]
 pub struct Tracer<'g> {
     blocks: &'g [Block],
@@ -274,7 +275,8 @@ impl<'g> Tracer<'g> {
         self.closest_hit_with(avx2, ray, tmin, tmax)
     }
 
-    /// The SIMD set in use: "avx2" or "baseline" (see [`super::lanes`]).
+    /// The SIMD set of the box tests: "avx2" where the CPU runs AVX2 and FMA, else "baseline"
+    /// (SSE2 on x86-64); `ISOGRID_NO_AVX2=1` forces the baseline.
     pub fn simd(&self) -> &'static str {
         self.lanes.name()
     }
