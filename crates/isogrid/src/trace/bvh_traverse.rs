@@ -496,13 +496,7 @@ mod tests {
                 eprintln!("skipped: this CPU has no AVX2 and FMA");
                 return;
             };
-            let mut seed = 0x0123_4567_89ab_cdefu64;
-            let mut unit = move || {
-                seed ^= seed << 13;
-                seed ^= seed >> 7;
-                seed ^= seed << 17;
-                (seed >> 11) as f64 / (1u64 << 53) as f64
-            };
+            let mut rng = crate::trace::sample::Rng::for_sample(11, 0, 0);
             let mut hits = 0;
             for (field, size) in [(Field::Hairball, 48), (Field::MarschnerLobb, 41)] {
                 let volume = generate(field, size, 1);
@@ -512,13 +506,9 @@ mod tests {
                 let blocks = Tracer::new(&grid, Crossing::Samples3);
                 let n = size as f64;
                 for _ in 0..2000 {
-                    let origin: [f64; 3] = std::array::from_fn(|_| -0.2 * n + 1.4 * n * unit());
-                    let d: [f64; 3] = std::array::from_fn(|_| 2.0 * unit() - 1.0);
-                    let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
-                    let ray = Ray {
-                        origin,
-                        direction: d.map(|v| v / len),
-                    };
+                    let origin: [f64; 3] = std::array::from_fn(|_| -0.2 * n + 1.4 * n * rng.unit());
+                    let direction = crate::trace::sample::uniform_sphere(&mut rng);
+                    let ray = Ray { origin, direction };
                     let base = bvh.closest_hit_with(Baseline, &ray, 0.0, f64::INFINITY);
                     // SAFETY: `avx2` was detected above.
                     let wide = unsafe { bvh.closest_hit_avx2(avx2, &ray, 0.0, f64::INFINITY) };

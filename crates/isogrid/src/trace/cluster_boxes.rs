@@ -125,7 +125,7 @@ impl ClusterBoxes {
         mask & self.occupied as u32
     }
 
-    /// Whether [`Self::hits`] can answer for this cluster (false only for a damaged file's
+    /// Whether [`Self::hits_baseline`] and `hits_avx2` can answer for this cluster (false only for a damaged file's
     /// cluster spanning 256 metacells or more; test the slots themselves then).
     #[inline(always)]
     pub(super) fn usable(&self) -> bool {
@@ -196,33 +196,33 @@ impl ClusterBoxes {
 mod tests {
     use super::*;
     use crate::camera::Ray;
+    use crate::trace::sample::Rng;
 
-    /// Random clusters of a 128K³-cell grid (metacell positions up to 65535) and random rays: the
-    /// packed test reports every occupied metacell box that the exact f64 slab test finds the ray
-    /// passing through, and no box that the exact test, on the box grown by twice the margin,
-    /// finds it missing; empty slots are never reported.
+    /// Random clusters of a 128K³-cell grid (metacell positions up to 65535) and random rays: each
+    /// packed test (the baseline, and AVX2 where the CPU has it) reports every occupied metacell
+    /// box that the exact f64 slab test finds the ray passing through, and no box that the exact
+    /// test, on the box grown by twice the margin, finds it missing; empty slots are never
+    /// reported.
     #[test]
     fn agrees_with_the_exact_slab_test() {
-        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
-        let mut next = move || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            seed
-        };
+        let mut rng = Rng::for_sample(7, 0, 0);
+        let mut below = |n: u64| rng.next_u64() % n;
+        let mut unit = Rng::for_sample(7, 1, 0);
         let largest = 131072.0f64;
         let margin = (1e-3f64).max(largest * 1e-5);
+        #[cfg(target_arch = "x86_64")]
+        let avx2 = crate::trace::lanes::Avx2::detect();
         let (mut inside, mut outside) = (0, 0);
         for _ in 0..400 {
             // A cluster in one 8³-metacell block, some slots empty.
-            let block = [0; 3].map(|_: i32| (next() % 8192) as u16 * 8);
+            let block = [0; 3].map(|_: i32| below(8192) as u16 * 8);
             let mut cluster = [<Metacell as bytemuck::Zeroable>::zeroed(); CLUSTER_SLOTS];
             for m in cluster.iter_mut().take(BOUND_SLOT) {
-                m.position = std::array::from_fn(|a| block[a] + (next() % 8) as u16);
-                m.cell_mask = if next() % 4 == 0 {
+                m.position = std::array::from_fn(|a| block[a] + below(8) as u16);
+                m.cell_mask = if below(4) == 0 {
                     0
                 } else {
-                    1 + (next() % 255) as u16
+                    1 + below(255) as u16
                 };
             }
             let boxes = AllClusterBoxes::new(&cluster);
@@ -230,12 +230,11 @@ mod tests {
             assert!(record.usable());
             for _ in 0..20 {
                 // Rays from near the block, or from far away, towards a point of the block.
-                let spread = if next() % 2 == 0 { 40.0 } else { 1e5 };
-                let unit = |v: u64| (v >> 11) as f64 / (1u64 << 53) as f64;
+                let spread = if below(2) == 0 { 40.0 } else { 1e5 };
                 let target: [f64; 3] =
-                    std::array::from_fn(|a| 2.0 * block[a] as f64 + 16.0 * unit(next()));
+                    std::array::from_fn(|a| 2.0 * block[a] as f64 + 16.0 * unit.unit());
                 let origin: [f64; 3] =
-                    std::array::from_fn(|a| target[a] + spread * (2.0 * unit(next()) - 1.0));
+                    std::array::from_fn(|a| target[a] + spread * (2.0 * unit.unit() - 1.0));
                 let d: [f64; 3] = std::array::from_fn(|a| target[a] - origin[a]);
                 let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
                 let ray = Ray {
@@ -243,21 +242,13 @@ mod tests {
                     direction: d.map(|v| v / len),
                 };
                 let r = CellRay::new(&ray, [1.0; 3], margin);
-                let (tmin, tmax) = (0.0, len * (0.5 + unit(next())));
+                let (tmin, tmax) = (0.0, len * (0.5 + unit.unit()));
                 let window = (tmin as f32, tmax as f32);
-                let hits = record.hits_baseline(&r, window);
+                let mut results = vec![("baseline", record.hits_baseline(&r, window))];
                 #[cfg(target_arch = "x86_64")]
-                if crate::trace::lanes::Avx2::detect().is_some() {
-                    // SAFETY: the CPU runs AVX2 and FMA (detected just above).
-                    let wide = unsafe { record.hits_avx2(&r, window) };
-                    for (k, m) in cluster.iter().enumerate().take(BOUND_SLOT) {
-                        let lo = m.position.map(|p| 2.0 * p as f64);
-                        let (near, far) = r.slab(lo, lo.map(|v| v + 2.0));
-                        if m.cell_mask != 0 && near.max(tmin) <= far.min(tmax) {
-                            assert!(wide >> k & 1 == 1, "AVX2: slot {k} missed by {ray:?}");
-                        }
-                    }
-                    assert_eq!(wide & !hits & !0x7fff, 0);
+                if avx2.is_some() {
+                    // SAFETY: the CPU runs AVX2 and FMA (detected above).
+                    results.push(("AVX2", unsafe { record.hits_avx2(&r, window) }));
                 }
                 for (k, m) in cluster.iter().enumerate().take(BOUND_SLOT) {
                     let lo = m.position.map(|p| 2.0 * p as f64);
@@ -265,16 +256,29 @@ mod tests {
                         let (near, far) = r.slab(lo.map(|v| v - grow), lo.map(|v| v + 2.0 + grow));
                         near.max(tmin) <= far.min(tmax)
                     };
-                    let got = hits >> k & 1 == 1;
-                    if m.cell_mask == 0 {
-                        assert!(!got, "empty slot {k} reported");
-                    } else if exact(0.0) {
-                        assert!(got, "slot {k} at {:?} missed by {ray:?}", m.position);
-                        inside += 1;
-                    } else if !exact(2.0 * margin) {
-                        assert!(!got, "slot {k} at {:?} reported for {ray:?}", m.position);
-                        outside += 1;
+                    for &(set, hits) in &results {
+                        let got = hits >> k & 1 == 1;
+                        if m.cell_mask == 0 {
+                            assert!(!got, "{set}: empty slot {k} reported");
+                        } else if exact(0.0) {
+                            assert!(got, "{set}: slot {k} at {:?} missed by {ray:?}", m.position);
+                            inside += 1;
+                        } else if !exact(2.0 * margin) {
+                            assert!(
+                                !got,
+                                "{set}: slot {k} at {:?} reported for {ray:?}",
+                                m.position
+                            );
+                            outside += 1;
+                        }
                     }
+                }
+                for &(set, hits) in &results {
+                    assert_eq!(
+                        hits & !0x7fff,
+                        0,
+                        "{set}: slot 15 is the bound, not a metacell"
+                    );
                 }
             }
         }

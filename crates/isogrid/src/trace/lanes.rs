@@ -5,9 +5,12 @@
 //! The traversal functions are generic over [`Lanes`] and marked `#[inline(always)]`; each tracer
 //! calls them through one `#[target_feature(enable = "avx2,fma")]` entry point per query, so the
 //! whole traversal is compiled for AVX2 there and the kernels inline into it. On the dragon and
-//! the MNI head this took about 15 % off the cluster hierarchy's time per ray
+//! the MNI head this took about 14 % off the cluster hierarchy's time per ray
 //! (`docs/tracer-performance.md`). Both sets find the same hits: the tests differ only in f32
 //! rounding, which the boxes' margins absorb (`bvh_traverse::tests::both_sets_find_the_same_hits`).
+//!
+//! Any-hit queries stay on the baseline set: nothing traces them in bulk (the renderers and the
+//! benchmark ask for closest hits).
 
 use super::bvh_traverse::NodeRay;
 use super::cell_ray::CellRay;

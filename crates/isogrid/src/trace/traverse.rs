@@ -534,8 +534,7 @@ impl<'g> Tracer<'g> {
     }
 
     /// Whether the ray passes through an active cell box of `cluster` (its 16 slots, global index
-    /// `cluster_index`) within
-    /// `[tmin, tmax]`.
+    /// `cluster_index`) within `[tmin, tmax]`.
     #[inline(always)]
     pub(super) fn any_box_in_cluster<L: Lanes>(
         &self,
