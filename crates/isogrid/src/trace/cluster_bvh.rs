@@ -174,9 +174,9 @@ impl ClusterBvh {
         self.depth = self.depth.max(depth);
         let index = self.nodes.len();
         self.nodes.push(EMPTY_NODE);
-        // Split into at most four groups, as collapsing a binary tree would: the group of largest
-        // surface area (the likeliest to be entered) is split again, so a node over four or fewer
-        // clusters has them all as leaves.
+        // Split into at most `WIDTH` groups, as collapsing a binary tree would: the group of
+        // largest surface area (the likeliest to be entered) is split again, so a node over
+        // `WIDTH` or fewer clusters has them all as leaves.
         let mut groups: Vec<std::ops::Range<usize>> = Vec::with_capacity(WIDTH);
         groups.push(0..items.len());
         while groups.len() < WIDTH {
