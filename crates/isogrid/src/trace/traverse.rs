@@ -239,8 +239,8 @@ impl<'g> Tracer<'g> {
         self.crossing
     }
 
-    /// Bytes the tracer adds to the grid's own buffers (its [`OctantSpaceMap`] and
-    /// [`PackedClusterBounds`]).
+    /// Bytes the tracer adds to the grid's own buffers (its [`OctantSpaceMap`],
+    /// [`PackedClusterBounds`] and per-cluster metacell records).
     pub fn extra_bytes(&self) -> usize {
         self.empty_space.bytes() + self.cluster_bounds.bytes() + self.cluster_boxes.bytes()
     }
