@@ -49,12 +49,24 @@ impl NodeRay {
     /// `None` when it never does, or when that point is not finite. Boxes grown by `margin`.
     #[inline(always)]
     fn new(r: &CellRay, cell_dims: [f64; 3], margin: f64, tmin: f64, tmax: f64) -> Option<Self> {
-        let (near, far) = r.slab([-1.0; 3], xyz(|a| cell_dims[a] + 1.0));
-        let t_base = max(near, tmin);
-        if !(t_base <= min(far, tmax)) || !t_base.is_finite() {
-            return None;
-        }
-        let origin = r.at(t_base);
+        // Where the window starts inside the grid's box (every ray of `bench rays`, and every
+        // secondary ray of the renderers), that is where the ray is re-based, without waiting on
+        // the slab test's divisions and products: the point at `tmin` lies in the box exactly
+        // when `tmin` lies between the box's entry and exit.
+        let start = r.at(tmin);
+        let inside = (0..3).fold(tmin <= tmax, |inside, a| {
+            inside & (start[a] >= -1.0) & (start[a] <= cell_dims[a] + 1.0)
+        });
+        let (t_base, origin) = if inside {
+            (tmin, start)
+        } else {
+            let (near, far) = r.slab([-1.0; 3], xyz(|a| cell_dims[a] + 1.0));
+            let t_base = max(near, tmin);
+            if !(t_base <= min(far, tmax)) || !t_base.is_finite() {
+                return None;
+            }
+            (t_base, r.at(t_base))
+        };
         // f32 keeps the reciprocal finite; the margin absorbs the rounding of these constants.
         let inv = xyz(|a| r.inv[a].clamp(-1e30, 1e30));
         // Offset of a box's lower face from 2·lo, and of its upper face from 2·hi.

@@ -26,13 +26,16 @@ pub(super) struct CellRay {
 impl CellRay {
     /// `ray` (world space) rescaled by `spacing`; metacell boxes grown by `margin` cells.
     pub fn new(ray: &Ray, spacing: [f64; 3], margin: f64) -> Self {
-        let direction: [f64; 3] = xyz(|a| ray.direction[a] / spacing[a]);
-        let origin = xyz(|a| ray.origin[a] / spacing[a]);
+        // One division between the ray and the reciprocals (spacing / direction, not
+        // 1 / (direction / spacing)): the per-ray setup is a chain that every ray waits on.
+        let to_cells = xyz(|a| 1.0 / spacing[a]);
+        let direction: [f64; 3] = xyz(|a| ray.direction[a] * to_cells[a]);
+        let origin = xyz(|a| ray.origin[a] * to_cells[a]);
         let inv = xyz(|a| {
-            1.0 / if direction[a] == 0.0 {
-                1e-300
+            if ray.direction[a] == 0.0 {
+                1e300
             } else {
-                direction[a]
+                spacing[a] / ray.direction[a]
             }
         });
         let near_face = xyz(|a| if inv[a] < 0.0 { 1.0 } else { 0.0 });
