@@ -69,15 +69,14 @@ impl NodeRay {
         };
         // f32 keeps the reciprocal finite; the margin absorbs the rounding of these constants.
         let inv = xyz(|a| r.inv[a].clamp(-1e30, 1e30));
-        // Offset of a box's lower face from 2·lo, and of its upper face from 2·hi.
-        let face = |a: usize, upper: bool| {
-            let offset = if upper { 2.0 + margin } else { -margin };
-            ((offset - origin[a]) * inv[a]) as f32
-        };
+        // Offset of a box's lower face from 2·lo, and of its upper face from 2·hi; the face met
+        // first has the smaller time (no branch on the sign, as in `CellRay::slab`).
+        let lower = xyz(|a| ((-margin - origin[a]) * inv[a]) as f32);
+        let upper = xyz(|a| ((2.0 + margin - origin[a]) * inv[a]) as f32);
         Some(NodeRay {
             scale: xyz(|a| (2.0 * inv[a]) as f32),
-            near: xyz(|a| face(a, r.negative(a))),
-            far: xyz(|a| face(a, !r.negative(a))),
+            near: xyz(|a| min(lower[a], upper[a])),
+            far: xyz(|a| max(lower[a], upper[a])),
             near_row: xyz(|a| if r.negative(a) { 3 + a } else { a }),
             far_row: xyz(|a| if r.negative(a) { a } else { 3 + a }),
             t_base,

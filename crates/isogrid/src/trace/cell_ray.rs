@@ -41,18 +41,17 @@ impl CellRay {
         let near_face = xyz(|a| if inv[a] < 0.0 { 1.0 } else { 0.0 });
         // f32 keeps the reciprocal finite; the margin absorbs the rounding of these constants.
         let inv32 = xyz(|a| inv[a].clamp(-1e30, 1e30));
-        let face = |a: usize, upper: bool| {
-            let plane = if upper { 2.0 + margin } else { -margin };
-            ((plane - origin[a]) * inv32[a]) as f32
-        };
+        // The face met first has the smaller time (no branch on the sign, as in `slab`).
+        let lower = xyz(|a| ((-margin - origin[a]) * inv32[a]) as f32);
+        let upper = xyz(|a| ((2.0 + margin - origin[a]) * inv32[a]) as f32);
         CellRay {
             origin,
             direction,
             inv,
             near_face,
             metacell_scale: xyz(|a| (2.0 * inv32[a]) as f32),
-            metacell_near: xyz(|a| face(a, near_face[a] == 1.0)),
-            metacell_far: xyz(|a| face(a, near_face[a] == 0.0)),
+            metacell_near: xyz(|a| min(lower[a], upper[a])),
+            metacell_far: xyz(|a| max(lower[a], upper[a])),
         }
     }
 
@@ -62,13 +61,13 @@ impl CellRay {
         let mut near = f64::NEG_INFINITY;
         let mut far = f64::INFINITY;
         for a in 0..3 {
-            let (n, f) = if self.near_face[a] == 1.0 {
-                (hi[a], lo[a])
-            } else {
-                (lo[a], hi[a])
-            };
-            near = max(near, (n - self.origin[a]) * self.inv[a]);
-            far = min(far, (f - self.origin[a]) * self.inv[a]);
+            // The face met first is the one with the smaller time: a minimum and a maximum
+            // instead of choosing the face by the direction's sign, which compiled to a branch
+            // that a random ray's sign makes unpredictable (the times are the same products).
+            let t_lo = (lo[a] - self.origin[a]) * self.inv[a];
+            let t_hi = (hi[a] - self.origin[a]) * self.inv[a];
+            near = max(near, min(t_lo, t_hi));
+            far = min(far, max(t_lo, t_hi));
         }
         (near, far)
     }
