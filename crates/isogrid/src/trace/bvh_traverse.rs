@@ -6,7 +6,7 @@
 //! Units: as [`super::cluster_bvh`]: node boxes in cell units grown by [`node_margin`], the ray
 //! re-based to where it enters the grid's box so that f32 `t` values stay small.
 
-use super::cell_ray::{max, min, xyz, CellRay};
+use super::cell_ray::{cell_units, max, min, xyz, CellRay};
 use super::cluster_bvh::{node_margin, ClusterBvh, Node, LEAF, STACK, WIDTH};
 use super::crossing::Crossing;
 #[cfg(target_arch = "x86_64")]
@@ -47,13 +47,24 @@ pub(super) struct NodeRay {
 impl NodeRay {
     /// `r` re-based to where it enters the grid's box (grown by one cell) within `[tmin, tmax]`;
     /// `None` when it never does, or when that point is not finite. Boxes grown by `margin`.
+    ///
+    /// `units` are `r`'s origin, direction and reciprocals ([`cell_units`]), computed in place
+    /// by the caller: `r` is built out of line, and reading it back stalls on store forwarding.
     #[inline(always)]
-    fn new(r: &CellRay, cell_dims: [f64; 3], margin: f64, tmin: f64, tmax: f64) -> Option<Self> {
+    fn new(
+        r: &CellRay,
+        units: ([f64; 3], [f64; 3], [f64; 3]),
+        cell_dims: [f64; 3],
+        margin: f64,
+        tmin: f64,
+        tmax: f64,
+    ) -> Option<Self> {
+        let (origin, direction, inv) = units;
         // Where the window starts inside the grid's box (every ray of `bench rays`, and every
         // secondary ray of the renderers), that is where the ray is re-based, without waiting on
         // the slab test's divisions and products: the point at `tmin` lies in the box exactly
         // when `tmin` lies between the box's entry and exit.
-        let start = r.at(tmin);
+        let start = xyz(|a| origin[a] + tmin * direction[a]);
         let inside = (0..3).fold(tmin <= tmax, |inside, a| {
             inside & (start[a] >= -1.0) & (start[a] <= cell_dims[a] + 1.0)
         });
@@ -68,7 +79,7 @@ impl NodeRay {
             (t_base, r.at(t_base))
         };
         // f32 keeps the reciprocal finite; the margin absorbs the rounding of these constants.
-        let inv = xyz(|a| r.inv[a].clamp(-1e30, 1e30));
+        let inv = xyz(|a| inv[a].clamp(-1e30, 1e30));
         // Offset of a box's lower face from 2·lo, and of its upper face from 2·hi; the face met
         // first has the smaller time (no branch on the sign, as in `CellRay::slab`).
         let lower = xyz(|a| ((-margin - origin[a]) * inv[a]) as f32);
@@ -77,8 +88,8 @@ impl NodeRay {
             scale: xyz(|a| (2.0 * inv[a]) as f32),
             near: xyz(|a| min(lower[a], upper[a])),
             far: xyz(|a| max(lower[a], upper[a])),
-            near_row: xyz(|a| if r.negative(a) { 3 + a } else { a }),
-            far_row: xyz(|a| if r.negative(a) { a } else { 3 + a }),
+            near_row: xyz(|a| if inv[a] < 0.0 { 3 + a } else { a }),
+            far_row: xyz(|a| if inv[a] < 0.0 { a } else { 3 + a }),
             t_base,
         })
     }
@@ -261,7 +272,8 @@ impl<'g> BvhTracer<'g> {
     #[inline(always)]
     fn closest_hit_with<L: Lanes>(&self, lanes: L, ray: &Ray, tmin: f64, tmax: f64) -> Option<Hit> {
         let r = self.tracer.cell_ray(ray);
-        let nr = NodeRay::new(&r, self.cell_dims, self.margin, tmin, tmax)?;
+        let units = cell_units(ray, self.tracer.spacing());
+        let nr = NodeRay::new(&r, units, self.cell_dims, self.margin, tmin, tmax)?;
         let nodes = &self.bvh.nodes[..];
         if nodes.is_empty() {
             return None;
@@ -374,7 +386,8 @@ impl<'g> BvhTracer<'g> {
             return self.closest_hit(ray, tmin, tmax).is_some();
         }
         let r = self.tracer.cell_ray(ray);
-        let Some(nr) = NodeRay::new(&r, self.cell_dims, self.margin, tmin, tmax) else {
+        let units = cell_units(ray, self.tracer.spacing());
+        let Some(nr) = NodeRay::new(&r, units, self.cell_dims, self.margin, tmin, tmax) else {
             return false;
         };
         if self.bvh.nodes.is_empty() {

@@ -26,18 +26,7 @@ pub(super) struct CellRay {
 impl CellRay {
     /// `ray` (world space) rescaled by `spacing`; metacell boxes grown by `margin` cells.
     pub fn new(ray: &Ray, spacing: [f64; 3], margin: f64) -> Self {
-        // One division between the ray and the reciprocals (spacing / direction, not
-        // 1 / (direction / spacing)): the per-ray setup is a chain that every ray waits on.
-        let to_cells = xyz(|a| 1.0 / spacing[a]);
-        let direction: [f64; 3] = xyz(|a| ray.direction[a] * to_cells[a]);
-        let origin = xyz(|a| ray.origin[a] * to_cells[a]);
-        let inv = xyz(|a| {
-            if ray.direction[a] == 0.0 {
-                1e300
-            } else {
-                spacing[a] / ray.direction[a]
-            }
-        });
+        let (origin, direction, inv) = cell_units(ray, spacing);
         let near_face = xyz(|a| if inv[a] < 0.0 { 1.0 } else { 0.0 });
         // f32 keeps the reciprocal finite; the margin absorbs the rounding of these constants.
         let inv32 = xyz(|a| inv[a].clamp(-1e30, 1e30));
@@ -199,6 +188,26 @@ impl CellRay {
     pub fn at(&self, t: f64) -> [f64; 3] {
         xyz(|a| self.origin[a] + t * self.direction[a])
     }
+}
+
+/// `ray`'s origin, direction and the direction's reciprocals in cell units (world / `spacing`),
+/// as [`CellRay`] holds them; for callers that need them in registers before a `CellRay`,
+/// which is built out of line, can be read back (its fields come back through memory).
+#[inline(always)]
+pub(super) fn cell_units(ray: &Ray, spacing: [f64; 3]) -> ([f64; 3], [f64; 3], [f64; 3]) {
+    // One division between the ray and the reciprocals (spacing / direction, not
+    // 1 / (direction / spacing)): the per-ray setup is a chain that every ray waits on.
+    let to_cells = xyz(|a| 1.0 / spacing[a]);
+    let direction: [f64; 3] = xyz(|a| ray.direction[a] * to_cells[a]);
+    let origin = xyz(|a| ray.origin[a] * to_cells[a]);
+    let inv = xyz(|a| {
+        if ray.direction[a] == 0.0 {
+            1e300
+        } else {
+            spacing[a] / ray.direction[a]
+        }
+    });
+    (origin, direction, inv)
 }
 
 /// `min` and `max` without `f64::min`'s NaN handling (a few instructions more per call on the

@@ -245,6 +245,11 @@ impl<'g> Tracer<'g> {
         self.empty_space.bytes() + self.cluster_bounds.bytes() + self.cluster_boxes.bytes()
     }
 
+    /// Sample spacing (world units per cell) per axis.
+    pub(super) fn spacing(&self) -> [f64; 3] {
+        self.spacing
+    }
+
     pub(super) fn cell_ray(&self, ray: &Ray) -> CellRay {
         CellRay::new(ray, self.spacing, self.margin)
     }
