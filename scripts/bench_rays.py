@@ -10,8 +10,9 @@ For each dataset at normalised isovalue 0.5:
   4. Embree 4 through embreex (rtcIntersect1 per ray, scene flags default), in a child process
      pinned to one core; memory = growth of the process RSS while the scene is built and committed
      (vertex + index buffers Embree holds, plus its BVH).
-Best of --repeat rounds, interleaved; each round times one pass of every tracer, each in its own
-process. Writes a Markdown report (and JSON) with the machine and versions.
+Best of --repeat rounds (15 by default: Embree's rays/s on this shared host moves by up to 40 %
+within minutes, and a run of five rounds once fell wholly inside one of its slow spells),
+interleaved; each round times one pass of every tracer, each in its own process. Writes a Markdown report (and JSON) with the machine and versions.
 
 Usage: python3 scripts/bench_rays.py [--rays 1000000] [--seed 1] [--out docs/benchmarks-rays.md]
 Needs: pip install embreex trimesh numpy; a release build (cargo build --release -p isogrid-cli);
@@ -151,7 +152,7 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--rays", type=int, default=1_000_000)
     ap.add_argument("--seed", type=int, default=1)
-    ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--repeat", type=int, default=15)
     ap.add_argument("--binary", default=os.path.join(ROOT, "target/release/isogrid"))
     ap.add_argument("--out", default=os.path.join(ROOT, "docs/benchmarks-rays.md"))
     args = ap.parse_args()
