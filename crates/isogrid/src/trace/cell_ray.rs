@@ -44,7 +44,8 @@ impl CellRay {
         }
     }
 
-    /// Entry and exit `t` of the box `[lo, hi]` (cell units); empty when entry > exit.
+    /// Entry and exit `t` of the box `[lo, hi]` (cell units, `lo ≤ hi` on every axis); empty when
+    /// entry > exit.
     #[inline(always)]
     pub fn slab(&self, lo: [f64; 3], hi: [f64; 3]) -> (f64, f64) {
         let mut near = f64::NEG_INFINITY;
