@@ -229,9 +229,10 @@ impl<'g> BvhTracer<'g> {
         &self.bvh
     }
 
-    /// Bytes the hierarchy adds to the grid's own buffers.
+    /// Bytes the tracer adds to the grid's own buffers: the hierarchy's nodes and the per-cluster
+    /// metacell records its leaf searches read ([`Tracer::extra_bytes`] of its cluster tracer).
     pub fn extra_bytes(&self) -> usize {
-        self.bvh.bytes()
+        self.bvh.bytes() + self.tracer.extra_bytes()
     }
 
     /// The 16 slots of global cluster `c` (empty when out of range).
@@ -547,6 +548,18 @@ mod tests {
             }
             assert!(hits > 500, "{hits} hits");
         }
+    }
+
+    /// The reported memory holds the nodes and one 64-byte metacell record per cluster; the
+    /// block walk's own structures are not built for the hierarchy.
+    #[test]
+    fn extra_bytes_count_nodes_and_cluster_records() {
+        let volume = generate(Field::Hairball, 40, 1);
+        let grid = extract(&volume.view(), &ExtractOptions::new(Iso::Normalized(0.5))).unwrap();
+        let bvh = BvhTracer::new(&grid, Crossing::Samples3);
+        let clusters = grid.metacells().len() / CLUSTER_SLOTS;
+        assert!(clusters > 10, "{clusters} clusters");
+        assert_eq!(bvh.extra_bytes(), bvh.bvh().bytes() + 64 * clusters);
     }
 
     #[test]

@@ -229,7 +229,12 @@ impl<'g> Tracer<'g> {
             crossing,
             margin: metacell_margin(info.cell_dims().map(|c| c as f64)),
             empty_space: OctantSpaceMap::new(blocks, walk_dims),
-            cluster_bounds: PackedClusterBounds::new(blocks, grid.metacells(), walk_dims),
+            // Sized by the metacells it is given: none without the block walk, its only reader.
+            cluster_bounds: PackedClusterBounds::new(
+                blocks,
+                if block_walk { grid.metacells() } else { &[] },
+                walk_dims,
+            ),
             cluster_boxes: AllClusterBoxes::new(grid.metacells()),
             lanes: Chosen::detect(),
         }
