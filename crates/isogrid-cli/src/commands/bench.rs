@@ -51,7 +51,8 @@ pub struct RaysArgs {
     /// Solve the exact crossing (cubic roots) instead of three samples per cell.
     #[arg(long)]
     pub exact: bool,
-    /// How rays find candidate clusters: the block walk, or a hierarchy over the clusters.
+    /// How rays find candidate metacells: the block walk over the grid's clusters, or a hierarchy
+    /// over the metacells regrouped into leaf clusters.
     #[arg(long, value_enum, default_value_t = Traversal::Blocks)]
     pub traversal: Traversal,
     #[command(flatten)]
@@ -66,7 +67,7 @@ pub struct RaysArgs {
 pub enum Traversal {
     /// 3D DDA over blocks with empty-space leaps (the default; isogrid::trace::Tracer).
     Blocks,
-    /// Bounding volume hierarchy over the clusters (isogrid::trace::BvhTracer).
+    /// Bounding volume hierarchy over regrouped metacells (isogrid::trace::BvhTracer).
     Bvh,
 }
 

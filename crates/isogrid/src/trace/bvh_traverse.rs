@@ -1,7 +1,7 @@
 //! Closest-hit and any-hit traversal of a [`ClusterBvh`] (the paper's future work, §3.6): ordered,
 //! nearest child first, one slab test per 8-wide node (AVX2, or two SSE2 halves; `lanes.rs`),
-//! and the block tracer's own search inside
-//! each leaf cluster (`Tracer::closest_in_cluster`), so hits are those of the block walk.
+//! and the block tracer's own search inside each leaf cluster (`Tracer::closest_in_cluster`), so
+//! hits are those of the block walk.
 //!
 //! Units: as [`super::cluster_bvh`]: node boxes in cell units grown by [`node_margin`], the ray
 //! re-based to where it enters the grid's box so that f32 `t` values stay small.
@@ -198,12 +198,12 @@ impl NodeRay {
     }
 }
 
-/// A [`Tracer`] that finds candidate clusters with a [`ClusterBvh`] instead of walking blocks.
+/// A [`Tracer`] that finds candidate metacells with a [`ClusterBvh`] (leaf clusters of regrouped
+/// metacells) instead of walking blocks.
 /// Same hits (it runs the same search inside each cluster); `Sync`.
 #[derive(Debug, Clone)]
 pub struct BvhTracer<'g> {
     tracer: Tracer<'g>,
-    metacells: &'g [Metacell],
     cell_dims: [f64; 3],
     margin: f64,
     bvh: ClusterBvh,
@@ -217,8 +217,7 @@ impl<'g> BvhTracer<'g> {
     /// With a given hierarchy (which should be [`ClusterBvh::new`] of `grid`).
     pub fn with_bvh(grid: &'g CellGrid, crossing: Crossing, bvh: ClusterBvh) -> Self {
         BvhTracer {
-            tracer: Tracer::for_clusters(grid, crossing),
-            metacells: grid.metacells(),
+            tracer: Tracer::for_leaves(grid, crossing, &bvh.leaves),
             cell_dims: grid.info().cell_dims().map(|c| c as f64),
             margin: node_margin(grid.info().cell_dims()),
             bvh,
@@ -229,18 +228,17 @@ impl<'g> BvhTracer<'g> {
         &self.bvh
     }
 
-    /// Bytes the tracer adds to the grid's own buffers: the hierarchy's nodes and the per-cluster
-    /// metacell records its leaf searches read ([`Tracer::extra_bytes`] of its cluster tracer).
+    /// Bytes the tracer adds to the grid's own buffers: the hierarchy ([`ClusterBvh::bytes`]) and
+    /// the per-leaf metacell records its leaf searches read ([`Tracer::extra_bytes`] of its
+    /// cluster tracer).
     pub fn extra_bytes(&self) -> usize {
         self.bvh.bytes() + self.tracer.extra_bytes()
     }
 
-    /// The 16 slots of global cluster `c` (empty when out of range).
+    /// The 16 slots of leaf cluster `c` (empty when out of range).
     #[inline(always)]
-    fn cluster(&self, c: usize) -> &'g [Metacell] {
-        self.metacells
-            .get(c * CLUSTER_SLOTS..(c + 1) * CLUSTER_SLOTS)
-            .unwrap_or(&[])
+    fn cluster(&self, c: usize) -> &[Metacell] {
+        self.bvh.leaf(c)
     }
 
     /// The closest crossing of the isosurface with `t ∈ [tmin, tmax]`, or `None`; as
@@ -378,7 +376,9 @@ impl<'g> BvhTracer<'g> {
                 }
             }
         }
-        self.tracer.hit_of(ray, &best)
+        // The search knows the leaf slot; the hit reports the grid's cluster, as the block walk does.
+        self.tracer
+            .hit_of(ray, &best, |slot| self.bvh.grid_cluster(slot))
     }
 
     /// Whether anything blocks the ray within `[tmin, tmax]`; as [`Tracer::any_hit`].
@@ -455,9 +455,10 @@ mod tests {
     use crate::trace::traverse::{Best, Tracer};
     use crate::{extract, ExtractOptions, Iso};
 
-    /// Brute force: every cluster of the grid searched with the tracer's own cluster search, in
+    /// Brute force: every cluster of the grid searched with the block tracer's cluster search, in
     /// index order; the closest hit's `t`, and whether any cell box is passed.
-    fn every_cluster(tracer: &Tracer, grid: &CellGrid, ray: &Ray) -> (Option<f64>, bool) {
+    fn every_cluster(grid: &CellGrid, ray: &Ray) -> (Option<f64>, bool) {
+        let tracer = Tracer::new(grid, Crossing::Exact);
         let r = tracer.cell_ray(ray);
         let mut best = Best::new(f64::INFINITY);
         let mut any = false;
@@ -465,7 +466,7 @@ mod tests {
             tracer.closest_in_cluster(Baseline, &r, cluster, c as u32, 0.0, &mut best);
             any |= tracer.any_box_in_cluster(Baseline, &r, cluster, c as u32, 0.0, f64::INFINITY);
         }
-        (tracer.hit_of(ray, &best).map(|h| h.t), any)
+        (tracer.hit_of(ray, &best, |s| s).map(|h| h.t), any)
     }
 
     #[test]
@@ -494,7 +495,7 @@ mod tests {
                     origin,
                     direction: d.map(|v| v / len),
                 };
-                let (t, any) = every_cluster(&bvh.tracer, &grid, &ray);
+                let (t, any) = every_cluster(&grid, &ray);
                 let got = bvh.closest_hit(&ray, 0.0, f64::INFINITY).map(|h| h.t);
                 match (t, got) {
                     (None, None) => {}
@@ -550,16 +551,18 @@ mod tests {
         }
     }
 
-    /// The reported memory holds the nodes and one 64-byte metacell record per cluster; the
-    /// block walk's own structures are not built for the hierarchy.
+    /// The reported memory holds the nodes, the leaf clusters (16 slots of 12 bytes and a 4-byte
+    /// grid cluster per slot) and one 64-byte metacell record per leaf; the block walk's own
+    /// structures are not built for the hierarchy.
     #[test]
-    fn extra_bytes_count_nodes_and_cluster_records() {
+    fn extra_bytes_count_nodes_leaves_and_records() {
         let volume = generate(Field::Hairball, 40, 1);
         let grid = extract(&volume.view(), &ExtractOptions::new(Iso::Normalized(0.5))).unwrap();
         let bvh = BvhTracer::new(&grid, Crossing::Samples3);
-        let clusters = grid.metacells().len() / CLUSTER_SLOTS;
-        assert!(clusters > 10, "{clusters} clusters");
-        assert_eq!(bvh.extra_bytes(), bvh.bvh().bytes() + 64 * clusters);
+        let (nodes, leaves) = (bvh.bvh().nodes(), bvh.bvh().leaves());
+        assert!(leaves > 10 && nodes > 2, "{leaves} leaves, {nodes} nodes");
+        assert_eq!(bvh.bvh().bytes(), 128 * nodes + 16 * (12 + 4) * leaves);
+        assert_eq!(bvh.extra_bytes(), bvh.bvh().bytes() + 64 * leaves);
     }
 
     #[test]

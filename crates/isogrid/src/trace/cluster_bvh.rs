@@ -1,34 +1,45 @@
-//! A bounding volume hierarchy over the grid's clusters, the paper's future work (§3.6 and the
-//! conclusion: "re-arranging the clusters of min-max blocks into bounding volume hierarchies"),
-//! as an alternative to the block walk of [`super::traverse`]. This file builds it; the traversal is
-//! in [`super::bvh_traverse`].
+//! A bounding volume hierarchy over the grid's metacells, re-clustered: the paper's future work
+//! (§3.6 and the conclusion: "re-arranging the clusters of min-max blocks into bounding volume
+//! hierarchies"), as an alternative to the block walk of [`super::traverse`]. This file builds
+//! it; the traversal is in [`super::bvh_traverse`].
 //!
-//! Leaves are single clusters, bounded by their slot 15 ([`crate::layout::ClusterBound`]); the hierarchy is built
-//! once, top down, with a binned surface-area heuristic on the clusters' centroids, and stored as
-//! 8-wide nodes whose child boxes are lanes per face, so that one node is one AVX2 slab test
-//! (Wald et al. 2008, "Getting rid of packets"; Dammertz et al. 2008, "Shallow bounding volume
-//! hierarchies"). Inside a leaf the tracer's own cluster search runs
-//! (`Tracer::closest_in_cluster`), so hits are those of the block walk.
+//! Leaves are *leaf clusters*: up to 15 metacells that the build groups by space, stored as the
+//! grid stores a cluster (16 slots of [`Metacell`], the bound in slot 15), so the tracer's own
+//! cluster search runs inside each leaf (`Tracer::closest_in_cluster`) and hits are those of the
+//! block walk. A grid cluster holds 15 metacells consecutive in Morton order inside one block,
+//! which can lie far apart; grouped by the build, the same metacells have boxes of about half the
+//! surface area (the sum over leaves, relative to the grid's box: 11.7 → 6.6 on the MNI head,
+//! 5.7 → 3.3 on the dragon), so a ray enters about half as many leaves that hold nothing it meets.
+//! The copy costs 256 bytes per leaf (its slots, and the grid cluster of each for a hit's
+//! report), about one and a half times the grid's own metacell slots.
+//!
+//! The hierarchy is built once, top down, with a binned surface-area heuristic on the metacells'
+//! centroids, and stored as 8-wide nodes whose child boxes are lanes per face, so that one node
+//! is one AVX2 slab test (Wald et al. 2008, "Getting rid of packets"; Dammertz et al. 2008,
+//! "Shallow bounding volume hierarchies").
 //!
 //! Units: node boxes are in cell units (world / spacing), grown outward by a margin
-//! ([`node_margin`]) that covers every rounding of the f32 test, so no cluster the ray really
+//! ([`node_margin`]) that covers every rounding of the f32 test, so no metacell the ray really
 //! passes through is culled. The ray is re-based to where it enters the grid's box, so that the
 //! f32 `t` values stay small and their rounding stays within that margin.
 
 use super::cell_ray::xyz;
 use crate::grid::CellGrid;
-use crate::layout::{Block, Metacell, BOUND_SLOT, CLUSTER_SLOTS};
+use crate::layout::{Block, ClusterBound, Metacell, BOUND_SLOT, CLUSTER_SLOTS};
+use bytemuck::Zeroable;
 
 /// Children per node.
 pub(super) const WIDTH: usize = 8;
-/// A child that is a leaf: the low 31 bits are a global cluster index.
+/// A child that is a leaf: the low 31 bits are a leaf cluster's index.
 pub(super) const LEAF: u32 = 1 << 31;
 /// An unused child lane (its box is empty).
 pub(super) const NO_CHILD: u32 = u32::MAX;
+/// Metacells per leaf cluster at most: the 15 metacell slots of a cluster.
+pub(super) const LEAF_METACELLS: usize = BOUND_SLOT;
 /// Traversal stack entries: at most `WIDTH − 1` per level plus one, and the build keeps the depth
 /// at most [`MAX_DEPTH`].
 pub(super) const STACK: usize = (WIDTH - 1) * MAX_DEPTH + 1;
-/// Levels at most; past [`SAH_DEPTH`] the build splits at the median, which halves the clusters.
+/// Levels at most; past [`SAH_DEPTH`] the build splits at the median, which halves the metacells.
 const MAX_DEPTH: usize = 64;
 const SAH_DEPTH: usize = 40;
 /// Bins of the surface-area heuristic per split.
@@ -43,7 +54,7 @@ pub(super) struct Node {
     /// the lowest metacell on axis `a` of the four children, `mc[3 + a]` the highest. Empty lanes
     /// have lowest > highest.
     pub(super) mc: [[u16; WIDTH]; 6],
-    /// Per lane: an inner node's index, `LEAF | cluster`, or [`NO_CHILD`].
+    /// Per lane: an inner node's index, `LEAF | leaf cluster`, or [`NO_CHILD`].
     pub(super) child: [u32; WIDTH],
 }
 const _: () = assert!(std::mem::size_of::<Node>() == 128);
@@ -68,12 +79,12 @@ pub fn node_margin(cell_dims: [u32; 3]) -> f64 {
     (1e-3f64).max(largest * 4e-6)
 }
 
-/// A cluster as the build sees it: its box (cell units, whole metacells) and its global index.
+/// A metacell as the build sees it: its box (cell units) and its slot in the grid.
 #[derive(Debug, Clone, Copy)]
 struct Item {
     lo: [f32; 3],
     hi: [f32; 3],
-    cluster: u32,
+    slot: u32,
 }
 
 impl Item {
@@ -114,76 +125,82 @@ impl Aabb {
     }
 }
 
-/// See the module docs. Built by [`ClusterBvh::new`]; nodes only, no copy of the clusters.
+/// See the module docs. Built by [`ClusterBvh::new`].
 #[derive(Debug, Clone)]
 pub struct ClusterBvh {
-    /// Node 0 is the root (when there is any cluster).
+    /// Node 0 is the root (when there is any metacell).
     pub(super) nodes: Vec<Node>,
-    clusters: usize,
+    /// The leaf clusters, [`CLUSTER_SLOTS`] slots each in the grid's own cluster format: copies
+    /// of up to [`LEAF_METACELLS`] of the grid's metacells, then empty (all-zero) slots, and their
+    /// bound in slot [`BOUND_SLOT`].
+    pub(super) leaves: Vec<Metacell>,
+    /// Per slot of `leaves`, the grid cluster its metacell came from, for a hit's
+    /// [`crate::trace::Hit::cluster`] (read once per hit ray; a binary search over the clusters'
+    /// first cells instead cost about 40–75 ns per hit ray).
+    grid_clusters: Vec<u32>,
+    metacells: usize,
     depth: usize,
 }
 
 impl ClusterBvh {
-    /// The hierarchy over every cluster of `grid`.
+    /// The hierarchy over every metacell of `grid`.
     pub fn new(grid: &CellGrid) -> Self {
         Self::build(grid.blocks(), grid.metacells())
     }
 
-    /// The hierarchy over the clusters that `blocks` own in `metacells`. Clusters whose bound is
-    /// empty (lo > hi on some axis) or out of range are left out: the block walk finds nothing
-    /// in them either.
+    /// The hierarchy over the occupied metacells of the clusters that `blocks` own in
+    /// `metacells` (slots outside every block, bound slots and empty slots are left out: the
+    /// block walk finds nothing in them either).
     fn build(blocks: &[Block], metacells: &[Metacell]) -> Self {
         let mut items = Vec::new();
         for block in blocks {
             let Some(slots) = metacells.get(block.slots()) else {
                 continue;
             };
-            let first = block.metacell_pointer as usize / CLUSTER_SLOTS;
-            for (c, cluster) in slots.chunks_exact(CLUSTER_SLOTS).enumerate() {
-                let bound = cluster[BOUND_SLOT].as_bound();
-                if (0..3).any(|a| bound.lo[a] > bound.hi[a]) {
+            for (k, m) in slots.iter().enumerate() {
+                let slot = block.metacell_pointer as usize + k;
+                if slot % CLUSTER_SLOTS == BOUND_SLOT || m.cell_mask & 0xff == 0 {
                     continue;
                 }
-                let Ok(index) = u32::try_from(first + c) else {
+                let Ok(slot) = u32::try_from(slot) else {
                     continue;
                 };
-                if index & LEAF != 0 {
-                    continue;
-                }
-                let (lo, hi) = bound.cell_box();
+                let lo = m.position.map(|p| 2.0 * p as f32);
                 items.push(Item {
-                    lo: lo.map(|v| v as f32),
-                    hi: hi.map(|v| v as f32),
-                    cluster: index,
+                    lo,
+                    hi: lo.map(|v| v + 2.0),
+                    slot,
                 });
             }
         }
         let mut bvh = ClusterBvh {
-            nodes: Vec::with_capacity(items.len() / 2 + 1),
-            clusters: items.len(),
+            nodes: Vec::with_capacity(items.len() / 16 + 1),
+            leaves: Vec::with_capacity(items.len() * 3 / 2),
+            grid_clusters: Vec::with_capacity(items.len() * 3 / 2),
+            metacells: items.len(),
             depth: 0,
         };
         if !items.is_empty() {
-            bvh.build_node(&mut items, 1);
+            bvh.build_node(&mut items, 1, metacells);
         }
         bvh
     }
 
     /// Builds the node over `items` (at least one) at `depth` (root: 1); returns its index.
-    fn build_node(&mut self, items: &mut [Item], depth: usize) -> u32 {
+    fn build_node(&mut self, items: &mut [Item], depth: usize, metacells: &[Metacell]) -> u32 {
         self.depth = self.depth.max(depth);
         let index = self.nodes.len();
         self.nodes.push(EMPTY_NODE);
         // Split into at most `WIDTH` groups, as collapsing a binary tree would: the group of
-        // largest surface area (the likeliest to be entered) is split again, so a node over
-        // `WIDTH` or fewer clusters has them all as leaves.
+        // largest surface area (the likeliest to be entered) is split again; a group that fits
+        // one leaf cluster stays whole.
         let mut groups: Vec<std::ops::Range<usize>> = Vec::with_capacity(WIDTH);
         groups.push(0..items.len());
         while groups.len() < WIDTH {
             let Some((g, _)) = groups
                 .iter()
                 .enumerate()
-                .filter(|(_, r)| r.len() > 1)
+                .filter(|(_, r)| r.len() > LEAF_METACELLS)
                 .map(|(g, r)| (g, Aabb::of(&items[r.clone()]).half_area()))
                 .max_by(|a, b| a.1.total_cmp(&b.1))
             else {
@@ -199,23 +216,60 @@ impl ClusterBvh {
         for (lane, range) in groups.into_iter().enumerate() {
             let b = Aabb::of(&items[range.clone()]);
             // Back to metacells: the box is [2·lo, 2·hi + 2] in cells, exact in f32.
+            let lo = b.lo.map(|v| (v / 2.0) as u16);
+            let hi = b.hi.map(|v| (v / 2.0 - 1.0) as u16);
             for a in 0..3 {
-                node.mc[a][lane] = (b.lo[a] / 2.0) as u16;
-                node.mc[3 + a][lane] = (b.hi[a] / 2.0 - 1.0) as u16;
+                node.mc[a][lane] = lo[a];
+                node.mc[3 + a][lane] = hi[a];
             }
-            node.child[lane] = if range.len() == 1 {
-                LEAF | items[range.start].cluster
+            node.child[lane] = if range.len() <= LEAF_METACELLS {
+                self.push_leaf(&items[range], metacells, ClusterBound { lo, hi })
             } else {
-                self.build_node(&mut items[range], depth + 1)
+                self.build_node(&mut items[range], depth + 1, metacells)
             };
         }
         self.nodes[index] = node;
         index as u32
     }
 
-    /// Clusters in the hierarchy.
-    pub fn clusters(&self) -> usize {
-        self.clusters
+    /// Appends a leaf cluster of `items` (at most [`LEAF_METACELLS`]) with `bound`; its child id.
+    fn push_leaf(&mut self, items: &[Item], metacells: &[Metacell], bound: ClusterBound) -> u32 {
+        let leaf = self.leaves.len() / CLUSTER_SLOTS;
+        self.leaves
+            .extend(items.iter().map(|item| metacells[item.slot as usize]));
+        self.grid_clusters
+            .extend(items.iter().map(|item| item.slot / CLUSTER_SLOTS as u32));
+        self.leaves
+            .resize(leaf * CLUSTER_SLOTS + BOUND_SLOT, Metacell::zeroed());
+        self.leaves.push(bound.into_slot());
+        self.grid_clusters.resize(self.leaves.len(), u32::MAX);
+        LEAF | leaf as u32
+    }
+
+    /// The grid cluster of the metacell in slot `slot` of the leaf clusters.
+    #[inline]
+    pub(super) fn grid_cluster(&self, slot: u32) -> u32 {
+        self.grid_clusters
+            .get(slot as usize)
+            .copied()
+            .unwrap_or(u32::MAX)
+    }
+
+    /// Occupied metacells in the hierarchy's leaves.
+    pub fn metacells(&self) -> usize {
+        self.metacells
+    }
+
+    /// Leaf clusters.
+    pub fn leaves(&self) -> usize {
+        self.leaves.len() / CLUSTER_SLOTS
+    }
+
+    /// The [`CLUSTER_SLOTS`] slots of leaf cluster `leaf` (empty when out of range).
+    pub fn leaf(&self, leaf: usize) -> &[Metacell] {
+        self.leaves
+            .get(leaf * CLUSTER_SLOTS..(leaf + 1) * CLUSTER_SLOTS)
+            .unwrap_or(&[])
     }
 
     /// Nodes in the hierarchy.
@@ -228,36 +282,73 @@ impl ClusterBvh {
         self.depth
     }
 
-    /// Bytes the hierarchy occupies.
+    /// Bytes the hierarchy occupies: nodes, leaf clusters and the grid cluster per leaf slot.
     pub fn bytes(&self) -> usize {
-        self.nodes.len() * std::mem::size_of::<Node>()
+        std::mem::size_of_val(&self.nodes[..])
+            + std::mem::size_of_val(&self.leaves[..])
+            + std::mem::size_of_val(&self.grid_clusters[..])
     }
 
-    /// Checks that every cluster of `grid` with a non-empty bound sits in exactly one leaf, and
-    /// that every box holds the boxes below it and its clusters' bounds. A one-line description
-    /// of the first fault otherwise.
+    /// Checks that every occupied metacell of `grid` is copied into exactly one leaf slot (with
+    /// the grid cluster it came from), that each leaf's slot 15 bounds its metacells, and that
+    /// every node box holds the boxes below it, and every leaf sits under one node. A one-line description of the first fault otherwise.
     pub fn validate(&self, grid: &CellGrid) -> Result<(), String> {
-        let metacells = grid.metacells();
-        let mut seen = vec![false; metacells.len() / CLUSTER_SLOTS];
-        let mut expected = 0;
+        let mut expected = std::collections::HashMap::new();
         for block in grid.blocks() {
-            for c in block.slots().step_by(CLUSTER_SLOTS) {
-                let b = metacells[c + BOUND_SLOT].as_bound();
-                expected += (0..3).all(|a| b.lo[a] <= b.hi[a]) as usize;
+            for slot in block.slots() {
+                let m = grid.metacells()[slot];
+                if slot % CLUSTER_SLOTS != BOUND_SLOT && m.cell_mask & 0xff != 0 {
+                    expected.insert(m.position, (m, false));
+                }
             }
         }
+        for leaf in 0..self.leaves() {
+            let slots = self.leaf(leaf);
+            let (mut lo, mut hi) = ([u16::MAX; 3], [0u16; 3]);
+            for (k, m) in slots[..BOUND_SLOT].iter().enumerate() {
+                if m.is_empty() {
+                    continue;
+                }
+                let Some((want, seen)) = expected.get_mut(&m.position) else {
+                    return Err(format!(
+                        "leaf {leaf} slot {k}: no such metacell in the grid"
+                    ));
+                };
+                if *want != *m || std::mem::replace(seen, true) {
+                    return Err(format!("leaf {leaf} slot {k}: differs or repeats"));
+                }
+                let cluster = self.grid_cluster((leaf * CLUSTER_SLOTS + k) as u32) as usize;
+                let home = grid
+                    .metacells()
+                    .get(cluster * CLUSTER_SLOTS..cluster * CLUSTER_SLOTS + BOUND_SLOT);
+                if !home.is_some_and(|slots| slots.contains(m)) {
+                    return Err(format!(
+                        "leaf {leaf} slot {k}: not from grid cluster {cluster}"
+                    ));
+                }
+                for a in 0..3 {
+                    lo[a] = lo[a].min(m.position[a]);
+                    hi[a] = hi[a].max(m.position[a]);
+                }
+            }
+            if slots[BOUND_SLOT].as_bound() != (ClusterBound { lo, hi }) {
+                return Err(format!("leaf {leaf}: slot 15 does not bound its metacells"));
+            }
+        }
+        if let Some((p, _)) = expected.iter().find(|(_, (_, seen))| !seen) {
+            return Err(format!("metacell at {p:?} in no leaf"));
+        }
         if self.nodes.is_empty() {
-            return if expected == 0 {
-                Ok(())
-            } else {
-                Err(format!("no nodes for {expected} clusters"))
+            return match self.leaves() {
+                0 => Ok(()),
+                n => Err(format!("{n} leaves without nodes")),
             };
         }
         let contains = |node: &Node, lane: usize, lo: [u16; 3], hi: [u16; 3]| {
             (0..3).all(|a| node.mc[a][lane] <= lo[a] && node.mc[3 + a][lane] >= hi[a])
         };
         let mut stack = vec![0u32];
-        let mut found = 0;
+        let mut reached = vec![false; self.leaves()];
         while let Some(n) = stack.pop() {
             let node = self
                 .nodes
@@ -269,19 +360,18 @@ impl ClusterBvh {
                     continue;
                 }
                 if id & LEAF != 0 {
-                    let c = (id & !LEAF) as usize;
-                    let slot = c * CLUSTER_SLOTS + BOUND_SLOT;
-                    let bound = metacells
-                        .get(slot)
-                        .ok_or(format!("cluster {c} out of range"))?
+                    let leaf = (id & !LEAF) as usize;
+                    let bound = self
+                        .leaf(leaf)
+                        .get(BOUND_SLOT)
+                        .ok_or(format!("leaf {leaf} out of range"))?
                         .as_bound();
                     if !contains(node, lane, bound.lo, bound.hi) {
-                        return Err(format!("node {n} lane {lane} does not hold cluster {c}"));
+                        return Err(format!("node {n} lane {lane} does not hold leaf {leaf}"));
                     }
-                    if std::mem::replace(&mut seen[c], true) {
-                        return Err(format!("cluster {c} in two leaves"));
+                    if std::mem::replace(&mut reached[leaf], true) {
+                        return Err(format!("leaf {leaf} under two lanes"));
                     }
-                    found += 1;
                 } else {
                     let child = self
                         .nodes
@@ -301,21 +391,21 @@ impl ClusterBvh {
                 }
             }
         }
-        if found != expected {
-            return Err(format!("{found} of {expected} clusters in leaves"));
+        match reached.iter().position(|&r| !r) {
+            Some(leaf) => Err(format!("leaf {leaf} under no node")),
+            None => Ok(()),
         }
-        Ok(())
     }
 
-    /// Test support: a copy with cluster `cluster` removed from its leaf, or (`shrink`) with its
-    /// leaf box one metacell (two cells, the finest step of a node box) smaller on the upper x
-    /// face. `None` when the cluster is in no leaf.
+    /// Test support: a copy with leaf cluster `leaf` removed from its node, or (`shrink`) with its
+    /// box one metacell (two cells, the finest step of a node box) smaller on the upper x face.
+    /// `None` when no node holds the leaf.
     #[doc(hidden)]
-    pub fn mutated(&self, cluster: u32, shrink: bool) -> Option<Self> {
+    pub fn mutated(&self, leaf: u32, shrink: bool) -> Option<Self> {
         let mut copy = self.clone();
         for node in &mut copy.nodes {
             for lane in 0..WIDTH {
-                if node.child[lane] == LEAF | cluster {
+                if node.child[lane] == LEAF | leaf {
                     if shrink {
                         node.mc[3][lane] = node.mc[3][lane].wrapping_sub(1);
                     } else {
@@ -335,7 +425,8 @@ impl ClusterBvh {
 
 /// Reorders `items` (at least two) into two non-empty groups and returns the first group's
 /// length: a binned surface-area split on the longest axis of the centroids (`median`: split
-/// there at the median instead, which halves the items).
+/// there at the median instead, which halves the items). A side's cost is its area times the
+/// leaf clusters its metacells fill at least, so that splits leave fewer part-empty leaves.
 fn split(items: &mut [Item], median: bool) -> usize {
     let n = items.len();
     let mut lo = [f32::MAX; 3];
@@ -373,7 +464,7 @@ fn split(items: &mut [Item], median: bool) -> usize {
     for k in (1..BINS).rev() {
         acc.grow(boxes[k].lo, boxes[k].hi);
         count += counts[k];
-        right_area[k] = acc.half_area() * count as f64;
+        right_area[k] = acc.half_area() * count.div_ceil(LEAF_METACELLS) as f64;
     }
     let mut best = (f64::INFINITY, 0);
     let mut acc = Aabb::EMPTY;
@@ -384,7 +475,7 @@ fn split(items: &mut [Item], median: bool) -> usize {
         if count == 0 || count == n {
             continue;
         }
-        let cost = acc.half_area() * count as f64 + right_area[k + 1];
+        let cost = acc.half_area() * count.div_ceil(LEAF_METACELLS) as f64 + right_area[k + 1];
         if cost < best.0 {
             best = (cost, k);
         }
@@ -401,4 +492,67 @@ fn split(items: &mut [Item], median: bool) -> usize {
         }
     }
     first
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::generate::{generate, Field};
+    use crate::{extract, ExtractOptions, Iso};
+
+    fn gyroid() -> CellGrid {
+        let volume = generate(Field::Gyroid, 36, 0);
+        extract(&volume.view(), &ExtractOptions::new(Iso::Normalized(0.5))).unwrap()
+    }
+
+    /// Leaves hold up to 15 metacells each, mostly near that many, from several grid clusters.
+    #[test]
+    fn leaves_are_full_and_regroup_the_grid_clusters() {
+        let grid = gyroid();
+        let bvh = ClusterBvh::new(&grid);
+        bvh.validate(&grid).unwrap();
+        assert_eq!(bvh.metacells(), grid.occupied_metacells());
+        assert!(bvh.leaves() * LEAF_METACELLS >= bvh.metacells());
+        // The surface-area split keeps most leaves at least two thirds full.
+        assert!(
+            bvh.leaves() * 10 <= bvh.metacells(),
+            "{} leaves",
+            bvh.leaves()
+        );
+        let mixed = (0..bvh.leaves())
+            .filter(|&leaf| {
+                let first = bvh.grid_cluster((leaf * CLUSTER_SLOTS) as u32);
+                (0..BOUND_SLOT).any(|k| {
+                    let c = bvh.grid_cluster((leaf * CLUSTER_SLOTS + k) as u32);
+                    !bvh.leaf(leaf)[k].is_empty() && c != first
+                })
+            })
+            .count();
+        assert!(
+            mixed * 2 > bvh.leaves(),
+            "{mixed} of {} leaves",
+            bvh.leaves()
+        );
+    }
+
+    #[test]
+    fn validate_notices_a_wrong_grid_cluster_or_leaf_bound() {
+        let grid = gyroid();
+        let bvh = ClusterBvh::new(&grid);
+        let mut wrong_cluster = bvh.clone();
+        wrong_cluster.grid_clusters[3] ^= 1;
+        let err = wrong_cluster.validate(&grid).unwrap_err();
+        assert!(err.contains("not from grid cluster"), "{err}");
+        let mut wrong_bound = bvh.clone();
+        wrong_bound.leaves[BOUND_SLOT].position[1] += 1;
+        let err = wrong_bound.validate(&grid).unwrap_err();
+        assert!(err.contains("does not bound"), "{err}");
+        let mut lost = bvh.clone();
+        lost.leaves[2] = Metacell::zeroed();
+        let err = lost.validate(&grid).unwrap_err();
+        assert!(
+            err.contains("in no leaf") || err.contains("does not bound"),
+            "{err}"
+        );
+    }
 }

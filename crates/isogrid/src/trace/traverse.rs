@@ -197,18 +197,21 @@ fn cluster_hits(
 
 impl<'g> Tracer<'g> {
     pub fn new(grid: &'g CellGrid, crossing: Crossing) -> Self {
-        Self::build(grid, crossing, true)
+        Self::build(grid, crossing, None)
     }
 
     /// A tracer for the per-cluster searches only (`closest_in_cluster`, `any_box_in_cluster`,
-    /// `cell_ray`, `hit_of`), without the block walk's empty-space map and packed cluster bounds:
-    /// what [`super::BvhTracer`] uses, so that it neither builds nor holds them.
-    /// [`Tracer::closest_hit`] and [`Tracer::any_hit`] of such a tracer find nothing.
-    pub(super) fn for_clusters(grid: &'g CellGrid, crossing: Crossing) -> Self {
-        Self::build(grid, crossing, false)
+    /// `cell_ray`, `hit_of`) in the clusters `leaves` (16 slots each, as in the grid; cluster
+    /// indices are then indices into `leaves`), without the block walk's empty-space map and
+    /// packed cluster bounds: what [`super::BvhTracer`] uses, so that it neither builds nor holds
+    /// them. [`Tracer::closest_hit`] and [`Tracer::any_hit`] of such a tracer find nothing.
+    pub(super) fn for_leaves(grid: &'g CellGrid, crossing: Crossing, leaves: &[Metacell]) -> Self {
+        Self::build(grid, crossing, Some(leaves))
     }
 
-    fn build(grid: &'g CellGrid, crossing: Crossing, block_walk: bool) -> Self {
+    /// `leaves`: see [`Self::for_leaves`]; `None` for the block walk over the grid's clusters.
+    fn build(grid: &'g CellGrid, crossing: Crossing, leaves: Option<&[Metacell]>) -> Self {
+        let block_walk = leaves.is_none();
         let info = grid.info();
         let bd = info.block_dims();
         // Without the block walk, no blocks: the walk then ends before reading either structure.
@@ -235,7 +238,7 @@ impl<'g> Tracer<'g> {
                 if block_walk { grid.metacells() } else { &[] },
                 walk_dims,
             ),
-            cluster_boxes: AllClusterBoxes::new(grid.metacells()),
+            cluster_boxes: AllClusterBoxes::new(leaves.unwrap_or(grid.metacells())),
             lanes: Chosen::detect(),
         }
     }
@@ -309,13 +312,20 @@ impl<'g> Tracer<'g> {
             self.closest_in_block(lanes, &r, block, origin, tmin, &mut best);
             best.t
         });
-        self.hit_of(ray, &best)
+        self.hit_of(ray, &best, |slot| slot / CLUSTER_SLOTS as u32)
     }
 
-    /// The [`Hit`] (with its normal) of the search result `best` of `ray`.
+    /// The [`Hit`] (with its normal) of the search result `best` of `ray`; `cluster_of` maps the
+    /// slot of the hit metacell (cluster index · 16 + slot in the searched clusters) to the grid's
+    /// cluster.
     #[inline(always)]
-    pub(super) fn hit_of(&self, ray: &Ray, best: &Best) -> Option<Hit> {
-        let (t, cell, position, cluster, tri, u) = best.found?;
+    pub(super) fn hit_of(
+        &self,
+        ray: &Ray,
+        best: &Best,
+        cluster_of: impl FnOnce(u32) -> u32,
+    ) -> Option<Hit> {
+        let (t, cell, position, slot, tri, u) = best.found?;
         let g = tri.gradient(u);
         let gw = xyz(|a| g[a] / self.spacing[a]);
         let len = (gw[0] * gw[0] + gw[1] * gw[1] + gw[2] * gw[2]).sqrt();
@@ -328,7 +338,7 @@ impl<'g> Tracer<'g> {
             t,
             cell,
             position,
-            cluster,
+            cluster: cluster_of(slot),
             normal,
         })
     }
@@ -467,20 +477,22 @@ impl<'g> Tracer<'g> {
             prefetch_slice(&self.cells[start..end]);
         }
         while candidates != 0 {
-            let m = &cluster[candidates.trailing_zeros() as usize];
+            let k = candidates.trailing_zeros();
             candidates &= candidates - 1;
-            self.closest_in_metacell(r, m, cluster_index, tmin, best);
+            let slot = cluster_index * CLUSTER_SLOTS as u32 + k;
+            self.closest_in_metacell(r, &cluster[k as usize], slot, tmin, best);
         }
     }
 
-    /// The closest-hit search inside one metacell `m` of cluster `cluster_index`: its cells
-    /// nearest first, keeping the first crossing before `best.t` in `best`.
+    /// The closest-hit search inside one metacell `m` (in `slot`: cluster index · 16 + slot in the
+    /// searched clusters): its cells nearest first, keeping the first crossing before `best.t` in
+    /// `best`.
     #[inline(always)]
     fn closest_in_metacell(
         &self,
         r: &CellRay,
         m: &Metacell,
-        cluster_index: u32,
+        slot: u32,
         tmin: f64,
         best: &mut Best,
     ) {
@@ -511,7 +523,7 @@ impl<'g> Tracer<'g> {
                 if t < best.t || best.found.is_none() {
                     let u = xyz(|a| (start_local[a] + s * delta[a]).clamp(0.0, 1.0));
                     best.t = t;
-                    best.found = Some((t, index, pos, cluster_index, tri, u));
+                    best.found = Some((t, index, pos, slot, tri, u));
                 }
                 break;
             }

@@ -1,11 +1,12 @@
-//! The cluster hierarchy ([`BvhTracer`], the paper's §3.6 future work) against the block walk
-//! ([`Tracer`], itself checked against brute force in `trace.rs`): same hits on random rays
-//! through several generated fields, same occlusion, a hierarchy that holds every cluster, and
-//! proof that these comparisons notice a dropped cluster or a box one cell too small.
+//! The hierarchy over re-clustered metacells ([`BvhTracer`], the paper's §3.6 future work)
+//! against the block walk ([`Tracer`], itself checked against brute force in `trace.rs`): same
+//! hits (same cells and grid clusters) on random rays through several generated fields, same
+//! occlusion, a hierarchy that holds every metacell, and proof that these comparisons notice a
+//! dropped leaf or a leaf box one cell too small.
 
 use crate::common::{blobs_u8, random_u8, Rng};
 use isogrid::generate::{generate, Field};
-use isogrid::layout::{BOUND_SLOT, CLUSTER_SLOTS};
+use isogrid::layout::{Metacell, BOUND_SLOT};
 use isogrid::trace::{BvhTracer, ClusterBvh, Crossing, Occlusion, Tracer};
 use isogrid::{extract, CellGrid, ExtractOptions, Iso, Precision, Ray, Volume, VolumeData};
 
@@ -48,15 +49,16 @@ fn random_rays(grid: &CellGrid, count: usize, seed: u64) -> Vec<Ray> {
 }
 
 /// Compares the two tracers on `rays` with random `[tmin, tmax]` windows on every third ray;
-/// returns (hits, hits whose `t` differs in any bit). Hit/miss must agree, and `t` within
-/// rounding: the two visit cells in different orders, and a cell searched after a farther hit
-/// was found searches a shorter segment.
+/// returns (hits, hits whose `t` differs in any bit). Hit/miss must agree, `t` within rounding
+/// (the two visit cells in different orders, and a cell searched after a farther hit was found
+/// searches a shorter segment), and the hit cell, its position and its grid cluster exactly but
+/// for rays that meet the surface where two cells share a face (`t` then agrees, the cell may not).
 fn compare(grid: &CellGrid, crossing: Crossing, rays: &[Ray], what: &str) -> (usize, usize) {
     let blocks = Tracer::new(grid, crossing);
     let bvh = BvhTracer::new(grid, crossing);
     bvh.bvh().validate(grid).unwrap();
     let mut rng = Rng::new(5);
-    let (mut hits, mut inexact) = (0, 0);
+    let (mut hits, mut inexact, mut same_cell) = (0, 0, 0);
     for (i, ray) in rays.iter().enumerate() {
         let (tmin, tmax) = if i % 3 == 2 {
             let tmin = 30.0 * rng.unit();
@@ -77,6 +79,14 @@ fn compare(grid: &CellGrid, crossing: Crossing, rays: &[Ray], what: &str) -> (us
                     b.t
                 );
                 inexact += (a.t != b.t) as usize;
+                if a.cell == b.cell {
+                    assert_eq!(
+                        (a.position, a.cluster),
+                        (b.position, b.cluster),
+                        "{what} ray {i} {ray:?}"
+                    );
+                    same_cell += 1;
+                }
             }
             (a, b) => panic!(
                 "{what} ray {i} {ray:?} in [{tmin}, {tmax}]: blocks {:?} bvh {:?}",
@@ -92,6 +102,10 @@ fn compare(grid: &CellGrid, crossing: Crossing, rays: &[Ray], what: &str) -> (us
             );
         }
     }
+    assert!(
+        same_cell * 100 >= hits * 99,
+        "{what}: same cell in {same_cell} of {hits} hits"
+    );
     (hits, inexact)
 }
 
@@ -153,7 +167,8 @@ fn empty_grid_has_an_empty_hierarchy_and_no_hits() {
     let volume = Volume::new([20, 20, 20], VolumeData::U8(vec![10; 8000])).unwrap();
     let grid = grid_of(&volume, Iso::Value(127.5), Precision::Bits8);
     let tracer = BvhTracer::new(&grid, Crossing::Exact);
-    assert_eq!(tracer.bvh().clusters(), 0);
+    assert_eq!(tracer.bvh().metacells(), 0);
+    assert_eq!(tracer.bvh().leaves(), 0);
     assert_eq!(tracer.bvh().nodes(), 0);
     tracer.bvh().validate(&grid).unwrap();
     for ray in random_rays(&grid, 50, 1) {
@@ -162,14 +177,13 @@ fn empty_grid_has_an_empty_hierarchy_and_no_hits() {
     }
 }
 
-/// Rays through the centre of every active cell of `cluster`, along each axis both ways from
-/// outside the grid: they pass through the cluster's box only in that cell's row.
-fn rays_through_cluster(grid: &CellGrid, cluster: usize) -> Vec<Ray> {
+/// Rays through the centre of every active cell of `slots` (a leaf cluster), along each axis
+/// both ways from outside the grid: they pass through the leaf's box only in that cell's row.
+fn rays_through_leaf(grid: &CellGrid, slots: &[Metacell]) -> Vec<Ray> {
     let spacing = grid.info().spacing;
     let (lo, hi) = grid.info().world_bounds();
-    let slots = &grid.metacells()[cluster * CLUSTER_SLOTS..][..BOUND_SLOT];
     let mut rays = Vec::new();
-    for m in slots {
+    for m in &slots[..BOUND_SLOT] {
         for bit in 0..8 {
             if m.cell_mask >> bit & 1 == 0 {
                 continue;
@@ -190,36 +204,34 @@ fn rays_through_cluster(grid: &CellGrid, cluster: usize) -> Vec<Ray> {
     rays
 }
 
-/// A dropped cluster or a leaf box one cell short on its upper x face: `validate` reports it, and
-/// rays through the cluster's cells find different hits than the block walk for most clusters.
+/// A dropped leaf or a leaf box one cell short on its upper x face: `validate` reports it, and
+/// rays through the leaf's cells find different hits than the block walk for most leaves.
 #[test]
-fn a_dropped_cluster_or_a_box_one_cell_short_is_caught() {
+fn a_dropped_leaf_or_a_box_one_cell_short_is_caught() {
     let volume = generate(Field::Torus, 40, 0);
     let grid = grid_of(&volume, Iso::Normalized(0.5), Precision::Bits8);
     let bvh = ClusterBvh::new(&grid);
     bvh.validate(&grid).unwrap();
     let blocks = Tracer::new(&grid, Crossing::Exact);
-    let clusters = grid.clusters();
-    assert!(clusters > 40, "{clusters} clusters");
+    let leaves = bvh.leaves();
+    assert!(leaves > 40, "{leaves} leaves");
     for shrink in [false, true] {
         let mut caught = 0;
         let mut tried = 0;
-        for c in (0..clusters).step_by(clusters / 20) {
+        for leaf in (0..leaves).step_by(leaves / 20) {
             let broken = bvh
-                .mutated(c as u32, shrink)
-                .expect("every cluster is a leaf");
+                .mutated(leaf as u32, shrink)
+                .expect("every leaf sits under a node");
             assert!(
                 broken.validate(&grid).is_err(),
-                "cluster {c} shrink {shrink}"
+                "leaf {leaf} shrink {shrink}"
             );
+            let slots = bvh.leaf(leaf);
             let tracer = BvhTracer::with_bvh(&grid, Crossing::Exact, broken);
             tried += 1;
             // Shrunk: only rays inside the lost layer (upper x cells of the box) can notice.
-            let top = {
-                let b = grid.cluster_bound(c);
-                2 * b.hi[0] as u32 + 1
-            };
-            let differs = rays_through_cluster(&grid, c).iter().any(|ray| {
+            let top = 2 * slots[BOUND_SLOT].as_bound().hi[0] as u32 + 1;
+            let differs = rays_through_leaf(&grid, slots).iter().any(|ray| {
                 let x = (ray.origin[0] / grid.info().spacing[0]).floor() as u32;
                 if shrink && (ray.direction[0] != 0.0 || x != top) {
                     return false;
@@ -230,7 +242,7 @@ fn a_dropped_cluster_or_a_box_one_cell_short_is_caught() {
             });
             caught += differs as usize;
         }
-        eprintln!("shrink {shrink}: rays notice {caught} of {tried} broken clusters");
+        eprintln!("shrink {shrink}: rays notice {caught} of {tried} broken leaves");
         assert!(caught * 2 > tried, "shrink {shrink}: {caught} of {tried}");
     }
 }
