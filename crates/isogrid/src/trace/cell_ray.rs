@@ -26,7 +26,13 @@ pub(super) struct CellRay {
 impl CellRay {
     /// `ray` (world space) rescaled by `spacing`; metacell boxes grown by `margin` cells.
     pub fn new(ray: &Ray, spacing: [f64; 3], margin: f64) -> Self {
-        let (origin, direction, inv) = cell_units(ray, spacing);
+        Self::from_units(cell_units(ray, spacing, spacing.map(|s| 1.0 / s)), margin)
+    }
+
+    /// As [`Self::new`], from the ray's [`cell_units`].
+    #[inline(always)]
+    pub fn from_units(units: ([f64; 3], [f64; 3], [f64; 3]), margin: f64) -> Self {
+        let (origin, direction, inv) = units;
         let near_face = xyz(|a| if inv[a] < 0.0 { 1.0 } else { 0.0 });
         // f32 keeps the reciprocal finite; the margin absorbs the rounding of these constants.
         let inv32 = xyz(|a| inv[a].clamp(-1e30, 1e30));
@@ -195,10 +201,13 @@ impl CellRay {
 /// as [`CellRay`] holds them; for callers that need them in registers before a `CellRay`,
 /// which is built out of line, can be read back (its fields come back through memory).
 #[inline(always)]
-pub(super) fn cell_units(ray: &Ray, spacing: [f64; 3]) -> ([f64; 3], [f64; 3], [f64; 3]) {
+pub(super) fn cell_units(
+    ray: &Ray,
+    spacing: [f64; 3],
+    to_cells: [f64; 3],
+) -> ([f64; 3], [f64; 3], [f64; 3]) {
     // One division between the ray and the reciprocals (spacing / direction, not
     // 1 / (direction / spacing)): the per-ray setup is a chain that every ray waits on.
-    let to_cells = xyz(|a| 1.0 / spacing[a]);
     let direction: [f64; 3] = xyz(|a| ray.direction[a] * to_cells[a]);
     let origin = xyz(|a| ray.origin[a] * to_cells[a]);
     let inv = xyz(|a| {

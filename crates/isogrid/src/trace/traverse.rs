@@ -262,6 +262,12 @@ impl<'g> Tracer<'g> {
         CellRay::new(ray, self.spacing, self.margin)
     }
 
+    /// As [`Self::cell_ray`], from the ray's [`super::cell_ray::cell_units`].
+    #[inline(always)]
+    pub(super) fn cell_ray_of_units(&self, units: ([f64; 3], [f64; 3], [f64; 3])) -> CellRay {
+        CellRay::from_units(units, self.margin)
+    }
+
     /// The closest crossing of the isosurface with `t ∈ [tmin, tmax]`, or `None`.
     pub fn closest_hit(&self, ray: &Ray, tmin: f64, tmax: f64) -> Option<Hit> {
         #[cfg(target_arch = "x86_64")]
