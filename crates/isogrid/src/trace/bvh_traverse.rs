@@ -6,7 +6,7 @@
 //! Units: as [`super::cluster_bvh`]: node boxes in cell units grown by [`node_margin`], the ray
 //! re-based to where it enters the grid's box so that f32 `t` values stay small.
 
-use super::cell_ray::{cell_units, max, min, xyz};
+use super::cell_ray::{cell_units, max, min, xyz, CellUnits};
 use super::cluster_bvh::{node_margin, ClusterBvh, Node, LEAF, STACK, WIDTH};
 use super::crossing::Crossing;
 #[cfg(target_arch = "x86_64")]
@@ -54,7 +54,7 @@ impl NodeRay {
     fn new(
         ray: &Ray,
         tracer: &Tracer,
-        units: ([f64; 3], [f64; 3], [f64; 3]),
+        units: CellUnits,
         cell_dims: [f64; 3],
         margin: f64,
         tmin: f64,
@@ -273,8 +273,9 @@ impl<'g> BvhTracer<'g> {
         self.tracer.simd()
     }
 
+    /// The ray's [`cell_units`] and its [`NodeRay`] for the window `[tmin, tmax]`.
     #[inline(always)]
-    fn closest_hit_with<L: Lanes>(&self, lanes: L, ray: &Ray, tmin: f64, tmax: f64) -> Option<Hit> {
+    fn node_ray(&self, ray: &Ray, tmin: f64, tmax: f64) -> Option<(CellUnits, NodeRay)> {
         let units = cell_units(ray, self.tracer.spacing(), self.to_cells);
         let nr = NodeRay::new(
             ray,
@@ -285,6 +286,12 @@ impl<'g> BvhTracer<'g> {
             tmin,
             tmax,
         )?;
+        Some((units, nr))
+    }
+
+    #[inline(always)]
+    fn closest_hit_with<L: Lanes>(&self, lanes: L, ray: &Ray, tmin: f64, tmax: f64) -> Option<Hit> {
+        let (units, nr) = self.node_ray(ray, tmin, tmax)?;
         // Built at the first leaf, from the units computed above: most rays that miss never reach
         // one (on the dragon 7 % of them do), and those that do need no divisions again.
         let mut cell_ray = None;
@@ -403,16 +410,7 @@ impl<'g> BvhTracer<'g> {
             return self.closest_hit(ray, tmin, tmax).is_some();
         }
         let r = self.tracer.cell_ray(ray);
-        let units = cell_units(ray, self.tracer.spacing(), self.to_cells);
-        let Some(nr) = NodeRay::new(
-            ray,
-            &self.tracer,
-            units,
-            self.cell_dims,
-            self.margin,
-            tmin,
-            tmax,
-        ) else {
+        let Some((_, nr)) = self.node_ray(ray, tmin, tmax) else {
             return false;
         };
         if self.bvh.nodes.is_empty() {

@@ -31,7 +31,7 @@ impl CellRay {
 
     /// As [`Self::new`], from the ray's [`cell_units`].
     #[inline(always)]
-    pub fn from_units(units: ([f64; 3], [f64; 3], [f64; 3]), margin: f64) -> Self {
+    pub fn from_units(units: CellUnits, margin: f64) -> Self {
         let (origin, direction, inv) = units;
         let near_face = xyz(|a| if inv[a] < 0.0 { 1.0 } else { 0.0 });
         // f32 keeps the reciprocal finite; the margin absorbs the rounding of these constants.
@@ -197,15 +197,11 @@ impl CellRay {
     }
 }
 
-/// `ray`'s origin, direction and the direction's reciprocals in cell units (world / `spacing`),
-/// as [`CellRay`] holds them; for callers that need them in registers before a `CellRay`,
-/// which is built out of line, can be read back (its fields come back through memory).
+/// `ray`'s origin, direction and the direction's reciprocals in cell units (world / `spacing`;
+/// `to_cells` is `1 / spacing`, which callers keep per tracer), as [`CellRay`] holds them; for
+/// callers that need them in registers before, or instead of, a whole `CellRay`.
 #[inline(always)]
-pub(super) fn cell_units(
-    ray: &Ray,
-    spacing: [f64; 3],
-    to_cells: [f64; 3],
-) -> ([f64; 3], [f64; 3], [f64; 3]) {
+pub(super) fn cell_units(ray: &Ray, spacing: [f64; 3], to_cells: [f64; 3]) -> CellUnits {
     // One division between the ray and the reciprocals (spacing / direction, not
     // 1 / (direction / spacing)): the per-ray setup is a chain that every ray waits on.
     let direction: [f64; 3] = xyz(|a| ray.direction[a] * to_cells[a]);
@@ -219,6 +215,9 @@ pub(super) fn cell_units(
     });
     (origin, direction, inv)
 }
+
+/// A ray's origin, direction and per-axis reciprocal of the direction, in cell units.
+pub(super) type CellUnits = ([f64; 3], [f64; 3], [f64; 3]);
 
 /// `min` and `max` without `f64::min`'s NaN handling (a few instructions more per call on the
 /// hottest path): no NaN reaches them, since directions are finite and reciprocals are finite.

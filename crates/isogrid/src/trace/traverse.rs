@@ -264,7 +264,7 @@ impl<'g> Tracer<'g> {
 
     /// As [`Self::cell_ray`], from the ray's [`super::cell_ray::cell_units`].
     #[inline(always)]
-    pub(super) fn cell_ray_of_units(&self, units: ([f64; 3], [f64; 3], [f64; 3])) -> CellRay {
+    pub(super) fn cell_ray_of_units(&self, units: super::cell_ray::CellUnits) -> CellRay {
         CellRay::from_units(units, self.margin)
     }
 
