@@ -399,9 +399,10 @@ impl<'g> BvhTracer<'g> {
                 }
             }
         }
-        // The search knows the leaf slot; the hit reports the grid's cluster, as the block walk does.
+        // The search knows the leaf and slot; the hit reports the grid's cluster, as the block walk
+        // does.
         self.tracer
-            .hit_of(ray, &best, |slot| self.bvh.grid_cluster(slot))
+            .hit_of(ray, &best, |leaf, slot| self.bvh.grid_cluster(leaf, slot))
     }
 
     /// Whether anything blocks the ray within `[tmin, tmax]`; as [`Tracer::any_hit`].
@@ -409,10 +410,10 @@ impl<'g> BvhTracer<'g> {
         if occlusion == Occlusion::Surface {
             return self.closest_hit(ray, tmin, tmax).is_some();
         }
-        let r = self.tracer.cell_ray(ray);
-        let Some((_, nr)) = self.node_ray(ray, tmin, tmax) else {
+        let Some((units, nr)) = self.node_ray(ray, tmin, tmax) else {
             return false;
         };
+        let r = self.tracer.cell_ray_of_units(units);
         if self.bvh.nodes.is_empty() {
             return false;
         }
@@ -488,7 +489,7 @@ mod tests {
             tracer.closest_in_cluster(Baseline, &r, cluster, c as u32, 0.0, &mut best);
             any |= tracer.any_box_in_cluster(Baseline, &r, cluster, c as u32, 0.0, f64::INFINITY);
         }
-        (tracer.hit_of(ray, &best, |s| s).map(|h| h.t), any)
+        (tracer.hit_of(ray, &best, |c, _| c).map(|h| h.t), any)
     }
 
     #[test]

@@ -246,11 +246,11 @@ impl ClusterBvh {
         LEAF | leaf as u32
     }
 
-    /// The grid cluster of the metacell in slot `slot` of the leaf clusters.
+    /// The grid cluster of the metacell in slot `slot` of leaf cluster `leaf`.
     #[inline]
-    pub(super) fn grid_cluster(&self, slot: u32) -> u32 {
+    pub(super) fn grid_cluster(&self, leaf: u32, slot: u32) -> u32 {
         self.grid_clusters
-            .get(slot as usize)
+            .get(leaf as usize * CLUSTER_SLOTS + slot as usize)
             .copied()
             .unwrap_or(u32::MAX)
     }
@@ -290,8 +290,9 @@ impl ClusterBvh {
     }
 
     /// Checks that every occupied metacell of `grid` is copied into exactly one leaf slot (with
-    /// the grid cluster it came from), that each leaf's slot 15 bounds its metacells, and that
-    /// every node box holds the boxes below it, and every leaf sits under one node. A one-line description of the first fault otherwise.
+    /// the grid cluster it came from), that each leaf's slot 15 bounds its metacells, that every
+    /// node box holds the boxes below it, and that every leaf sits under one node. A one-line
+    /// description of the first fault otherwise.
     pub fn validate(&self, grid: &CellGrid) -> Result<(), String> {
         let mut expected = std::collections::HashMap::new();
         for block in grid.blocks() {
@@ -317,7 +318,7 @@ impl ClusterBvh {
                 if *want != *m || std::mem::replace(seen, true) {
                     return Err(format!("leaf {leaf} slot {k}: differs or repeats"));
                 }
-                let cluster = self.grid_cluster((leaf * CLUSTER_SLOTS + k) as u32) as usize;
+                let cluster = self.grid_cluster(leaf as u32, k as u32) as usize;
                 let home = grid
                     .metacells()
                     .get(cluster * CLUSTER_SLOTS..cluster * CLUSTER_SLOTS + BOUND_SLOT);
@@ -521,9 +522,9 @@ mod tests {
         );
         let mixed = (0..bvh.leaves())
             .filter(|&leaf| {
-                let first = bvh.grid_cluster((leaf * CLUSTER_SLOTS) as u32);
+                let first = bvh.grid_cluster(leaf as u32, 0);
                 (0..BOUND_SLOT).any(|k| {
-                    let c = bvh.grid_cluster((leaf * CLUSTER_SLOTS + k) as u32);
+                    let c = bvh.grid_cluster(leaf as u32, k as u32);
                     !bvh.leaf(leaf)[k].is_empty() && c != first
                 })
             })

@@ -318,20 +318,20 @@ impl<'g> Tracer<'g> {
             self.closest_in_block(lanes, &r, block, origin, tmin, &mut best);
             best.t
         });
-        self.hit_of(ray, &best, |slot| slot / CLUSTER_SLOTS as u32)
+        self.hit_of(ray, &best, |cluster, _| cluster)
     }
 
-    /// The [`Hit`] (with its normal) of the search result `best` of `ray`; `cluster_of` maps the
-    /// slot of the hit metacell (cluster index · 16 + slot in the searched clusters) to the grid's
+    /// The [`Hit`] (with its normal) of the search result `best` of `ray`; `cluster_of` maps where
+    /// the hit metacell was found (index of the searched cluster, slot in it) to the grid's
     /// cluster.
     #[inline(always)]
     pub(super) fn hit_of(
         &self,
         ray: &Ray,
         best: &Best,
-        cluster_of: impl FnOnce(u32) -> u32,
+        cluster_of: impl FnOnce(u32, u32) -> u32,
     ) -> Option<Hit> {
-        let (t, cell, position, slot, tri, u) = best.found?;
+        let (t, cell, position, (cluster, slot), tri, u) = best.found?;
         let g = tri.gradient(u);
         let gw = xyz(|a| g[a] / self.spacing[a]);
         let len = (gw[0] * gw[0] + gw[1] * gw[1] + gw[2] * gw[2]).sqrt();
@@ -344,7 +344,7 @@ impl<'g> Tracer<'g> {
             t,
             cell,
             position,
-            cluster: cluster_of(slot),
+            cluster: cluster_of(cluster, slot),
             normal,
         })
     }
@@ -485,20 +485,20 @@ impl<'g> Tracer<'g> {
         while candidates != 0 {
             let k = candidates.trailing_zeros();
             candidates &= candidates - 1;
-            let slot = cluster_index * CLUSTER_SLOTS as u32 + k;
-            self.closest_in_metacell(r, &cluster[k as usize], slot, tmin, best);
+            let found_in = (cluster_index, k);
+            self.closest_in_metacell(r, &cluster[k as usize], found_in, tmin, best);
         }
     }
 
-    /// The closest-hit search inside one metacell `m` (in `slot`: cluster index · 16 + slot in the
-    /// searched clusters): its cells nearest first, keeping the first crossing before `best.t` in
-    /// `best`.
+    /// The closest-hit search inside one metacell `m` (found in `found_in`: index of the searched
+    /// cluster, slot in it): its cells nearest first, keeping the first crossing before `best.t`
+    /// in `best`.
     #[inline(always)]
     fn closest_in_metacell(
         &self,
         r: &CellRay,
         m: &Metacell,
-        slot: u32,
+        found_in: (u32, u32),
         tmin: f64,
         best: &mut Best,
     ) {
@@ -529,7 +529,7 @@ impl<'g> Tracer<'g> {
                 if t < best.t || best.found.is_none() {
                     let u = xyz(|a| (start_local[a] + s * delta[a]).clamp(0.0, 1.0));
                     best.t = t;
-                    best.found = Some((t, index, pos, slot, tri, u));
+                    best.found = Some((t, index, pos, found_in, tri, u));
                 }
                 break;
             }
@@ -624,7 +624,7 @@ impl<'g> Tracer<'g> {
     }
 }
 
-type Found = (f64, u32, [u32; 3], u32, Trilinear, [f64; 3]);
+type Found = (f64, u32, [u32; 3], (u32, u32), Trilinear, [f64; 3]);
 
 /// A closest-hit search in progress: the best `t` so far (the search window's end until something
 /// is found) and what was found there.
