@@ -374,7 +374,7 @@ impl<'g> BvhTracer<'g> {
                 }
                 continue;
             }
-            // Three or four: children far to near, so that the nearest is taken first.
+            // Three or more: children far to near, so that the nearest is taken first.
             let mut mask = mask;
             let mut order = [(0f32, 0u32); WIDTH];
             let mut count = 0;

@@ -51,7 +51,7 @@ const BINS: usize = 16;
 #[derive(Debug, Clone, Copy)]
 pub(super) struct Node {
     /// Child boxes in metacell units, inclusive as in [`crate::layout::ClusterBound`]: `mc[a]`
-    /// the lowest metacell on axis `a` of the four children, `mc[3 + a]` the highest. Empty lanes
+    /// the lowest metacell on axis `a` of the eight children, `mc[3 + a]` the highest. Empty lanes
     /// have lowest > highest.
     pub(super) mc: [[u16; WIDTH]; 6],
     /// Per lane: an inner node's index, `LEAF | leaf cluster`, or [`NO_CHILD`].
