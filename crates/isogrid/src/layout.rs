@@ -194,6 +194,26 @@ pub fn read_corner(record: &[u8], precision: Precision, c: usize) -> f32 {
     }
 }
 
+/// Eight u16 lanes as f32 (`zero`: all bits clear).
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn widen_u16x8(words: std::arch::x86_64::__m128i, zero: std::arch::x86_64::__m128i) -> [f32; 8] {
+    use std::arch::x86_64::*;
+    let mut out = [0f32; 8];
+    // SAFETY: SSE2 is part of the x86-64 baseline; the stores write the 8 lanes of `out`.
+    unsafe {
+        _mm_storeu_ps(
+            out.as_mut_ptr(),
+            _mm_cvtepi32_ps(_mm_unpacklo_epi16(words, zero)),
+        );
+        _mm_storeu_ps(
+            out.as_mut_ptr().add(4),
+            _mm_cvtepi32_ps(_mm_unpackhi_epi16(words, zero)),
+        );
+    }
+    out
+}
+
 /// All eight corners of a packed record, in corner order. One branch on the precision for all
 /// eight (the ray tracer reads a record per candidate cell).
 ///
@@ -208,10 +228,32 @@ pub fn read_corners(record: &[u8], precision: Precision) -> [f32; 8] {
         }
         Precision::Bits8 => {
             let r: [u8; 8] = record[..8].try_into().unwrap();
+            #[cfg(target_arch = "x86_64")]
+            {
+                // Widened in two steps and converted four at a time: LLVM's own code for the
+                // map below took some 35 instructions, a tenth of a traced cell.
+                use std::arch::x86_64::*;
+                // SAFETY: SSE2 is part of the x86-64 baseline; the load reads the 8 bytes of `r`,
+                // the stores write the 8 lanes of `out`.
+                unsafe {
+                    let zero = _mm_setzero_si128();
+                    let words = _mm_unpacklo_epi8(_mm_loadl_epi64(r.as_ptr().cast()), zero);
+                    widen_u16x8(words, zero)
+                }
+            }
+            #[cfg(not(target_arch = "x86_64"))]
             r.map(|v| v as f32)
         }
         Precision::Bits16 => {
             let r: [u8; 16] = record[..16].try_into().unwrap();
+            #[cfg(target_arch = "x86_64")]
+            {
+                use std::arch::x86_64::*;
+                // SAFETY: as above; the load reads the 16 bytes of `r` (x86-64 is little-endian,
+                // as the record is).
+                unsafe { widen_u16x8(_mm_loadu_si128(r.as_ptr().cast()), _mm_setzero_si128()) }
+            }
+            #[cfg(not(target_arch = "x86_64"))]
             std::array::from_fn(|c| u16::from_le_bytes([r[2 * c], r[2 * c + 1]]) as f32)
         }
         Precision::Float32 => {

@@ -6,7 +6,7 @@
 //! Units: as [`super::cluster_bvh`]: node boxes in cell units grown by [`node_margin`], the ray
 //! re-based to where it enters the grid's box so that f32 `t` values stay small.
 
-use super::cell_ray::{cell_units, max, min, xyz, CellUnits};
+use super::cell_ray::{cell_units, max, min, xyz, BoxFaces, CellUnits};
 use super::cluster_bvh::{node_margin, ClusterBvh, Node, LEAF, STACK, WIDTH};
 use super::crossing::Crossing;
 #[cfg(target_arch = "x86_64")]
@@ -32,13 +32,12 @@ fn widen_f32(lo: f64, hi: f64) -> (f32, f32) {
     (lo as f32, hi as f32)
 }
 
-/// What one ray's node tests need, for the ray re-based to `t_base`: the `t` of a box face at
-/// metacell `p` on axis `a` is `p·scale[a] + near[a]` (the face met first, grown by the margin)
-/// or `p·scale[a] + far[a]`, and `near_row[a]` is the row of `Node::mc` holding that face.
+/// What one ray's node tests need, for the ray re-based to `t_base`: the faces of boxes made of
+/// metacells ([`BoxFaces`], grown by the node margin), and `near_row[a]`, the row of `Node::mc`
+/// holding the face met first on axis `a`. The leaf searches test metacell boxes with the same
+/// faces, in the same window.
 pub(super) struct NodeRay {
-    scale: [f32; 3],
-    near: [f32; 3],
-    far: [f32; 3],
+    faces: BoxFaces,
     near_row: [usize; 3],
     far_row: [usize; 3],
     t_base: f64,
@@ -80,16 +79,8 @@ impl NodeRay {
             }
             (t_base, r.at(t_base))
         };
-        // f32 keeps the reciprocal finite; the margin absorbs the rounding of these constants.
-        let inv = xyz(|a| inv[a].clamp(-1e30, 1e30));
-        // Offset of a box's lower face from 2·lo, and of its upper face from 2·hi; the face met
-        // first has the smaller time (no branch on the sign, as in `CellRay::slab`).
-        let lower = xyz(|a| ((-margin - origin[a]) * inv[a]) as f32);
-        let upper = xyz(|a| ((2.0 + margin - origin[a]) * inv[a]) as f32);
         Some(NodeRay {
-            scale: xyz(|a| (2.0 * inv[a]) as f32),
-            near: xyz(|a| min(lower[a], upper[a])),
-            far: xyz(|a| max(lower[a], upper[a])),
+            faces: BoxFaces::new(origin, inv, margin),
             near_row: xyz(|a| if inv[a] < 0.0 { 3 + a } else { a }),
             far_row: xyz(|a| if inv[a] < 0.0 { a } else { 3 + a }),
             t_base,
@@ -125,14 +116,14 @@ impl NodeRay {
                     let mut near = _mm_set1_ps(lo);
                     let mut far = _mm_set1_ps(hi);
                     for a in 0..3 {
-                        let scale = _mm_set1_ps(self.scale[a]);
+                        let scale = _mm_set1_ps(self.faces.scale[a]);
                         let n = _mm_add_ps(
                             _mm_mul_ps(row(self.near_row[a]), scale),
-                            _mm_set1_ps(self.near[a]),
+                            _mm_set1_ps(self.faces.near[a]),
                         );
                         let f = _mm_add_ps(
                             _mm_mul_ps(row(self.far_row[a]), scale),
-                            _mm_set1_ps(self.far[a]),
+                            _mm_set1_ps(self.faces.far[a]),
                         );
                         near = _mm_max_ps(near, n);
                         far = _mm_min_ps(far, f);
@@ -149,8 +140,10 @@ impl NodeRay {
             let mut far = [hi; WIDTH];
             for a in 0..3 {
                 for k in 0..WIDTH {
-                    let n = node.mc[self.near_row[a]][k] as f32 * self.scale[a] + self.near[a];
-                    let f = node.mc[self.far_row[a]][k] as f32 * self.scale[a] + self.far[a];
+                    let n = node.mc[self.near_row[a]][k] as f32 * self.faces.scale[a]
+                        + self.faces.near[a];
+                    let f = node.mc[self.far_row[a]][k] as f32 * self.faces.scale[a]
+                        + self.faces.far[a];
                     near[k] = max(near[k], n);
                     far[k] = min(far[k], f);
                 }
@@ -163,9 +156,9 @@ impl NodeRay {
     /// As [`Self::test_baseline`], all eight lanes in one AVX2 test.
     ///
     /// # Safety
-    /// The CPU must run AVX2 and FMA.
+    /// The CPU must run what `Avx2::detect` checks (AVX2, FMA and bit instructions).
     #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,fma")]
+    #[target_feature(enable = "avx2,fma,popcnt,bmi1,bmi2,lzcnt")]
     #[inline]
     pub(super) unsafe fn test_avx2(
         &self,
@@ -186,9 +179,9 @@ impl NodeRay {
             };
             let first = _mm256_cvtepi32_ps(_mm256_cvtepu16_epi32(first));
             let last = _mm256_cvtepi32_ps(_mm256_cvtepu16_epi32(last));
-            let scale = _mm256_set1_ps(self.scale[a]);
-            let n = _mm256_fmadd_ps(first, scale, _mm256_set1_ps(self.near[a]));
-            let f = _mm256_fmadd_ps(last, scale, _mm256_set1_ps(self.far[a]));
+            let scale = _mm256_set1_ps(self.faces.scale[a]);
+            let n = _mm256_fmadd_ps(first, scale, _mm256_set1_ps(self.faces.near[a]));
+            let f = _mm256_fmadd_ps(last, scale, _mm256_set1_ps(self.faces.far[a]));
             near = _mm256_max_ps(near, n);
             far = _mm256_min_ps(far, f);
         }
@@ -251,7 +244,7 @@ impl<'g> BvhTracer<'g> {
     pub fn closest_hit(&self, ray: &Ray, tmin: f64, tmax: f64) -> Option<Hit> {
         #[cfg(target_arch = "x86_64")]
         if let Some(avx2) = self.tracer.lanes().avx2 {
-            // SAFETY: an `Avx2` exists only where the CPU runs AVX2 and FMA.
+            // SAFETY: an `Avx2` exists only where the CPU runs all of its set (`Avx2::detect`).
             return unsafe { self.closest_hit_avx2(avx2, ray, tmin, tmax) };
         }
         self.closest_hit_with(Baseline, ray, tmin, tmax)
@@ -260,15 +253,15 @@ impl<'g> BvhTracer<'g> {
     /// [`Self::closest_hit`] compiled for AVX2.
     ///
     /// # Safety
-    /// The CPU must run AVX2 and FMA.
+    /// The CPU must run what `Avx2::detect` checks (AVX2, FMA and bit instructions).
     #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,fma")]
+    #[target_feature(enable = "avx2,fma,popcnt,bmi1,bmi2,lzcnt")]
     unsafe fn closest_hit_avx2(&self, avx2: Avx2, ray: &Ray, tmin: f64, tmax: f64) -> Option<Hit> {
         self.closest_hit_with(avx2, ray, tmin, tmax)
     }
 
-    /// The SIMD set of the box tests: "avx2" where the CPU runs AVX2 and FMA, else "baseline"
-    /// (SSE2 on x86-64); `ISOGRID_NO_AVX2=1` forces the baseline.
+    /// The SIMD set of the box tests: "avx2" where the CPU runs AVX2, FMA and the bit
+    /// instructions, else "baseline" (SSE2 on x86-64); `ISOGRID_NO_AVX2=1` forces the baseline.
     pub fn simd(&self) -> &'static str {
         self.tracer.simd()
     }
@@ -327,8 +320,11 @@ impl<'g> BvhTracer<'g> {
                 let cluster = self.cluster(c);
                 if cluster.len() == CLUSTER_SLOTS {
                     let r = cell_ray.get_or_insert_with(|| self.tracer.cell_ray_of_units(units));
-                    self.tracer
-                        .closest_in_cluster(lanes, r, cluster, c as u32, tmin, &mut best);
+                    let c = c as u32;
+                    let faces = &nr.faces;
+                    self.tracer.closest_in_cluster_by(
+                        lanes, faces, window, r, cluster, c, tmin, &mut best,
+                    );
                     window = nr.window(tmin, best.t);
                 }
                 continue;
@@ -542,7 +538,7 @@ mod tests {
         #[cfg(target_arch = "x86_64")]
         {
             let Some(avx2) = crate::trace::lanes::Avx2::detect() else {
-                eprintln!("skipped: this CPU has no AVX2 and FMA");
+                eprintln!("skipped: this CPU lacks AVX2, FMA or the bit instructions");
                 return;
             };
             let mut rng = crate::trace::sample::Rng::for_sample(11, 0, 0);

@@ -14,13 +14,8 @@ pub(super) struct CellRay {
     pub origin: [f64; 3],
     pub direction: [f64; 3],
     pub inv: [f64; 3],
-    /// Per axis, 1 when the ray runs towards −axis (then a box's upper face is met first).
-    near_face: [f64; 3],
-    /// `t = position · scale + near/far` in f32 for the faces of a metacell's 2×2×2-cell box at
-    /// metacell `position`, grown by the tracer's margin.
-    metacell_scale: [f32; 3],
-    metacell_near: [f32; 3],
-    metacell_far: [f32; 3],
+    /// Metacell boxes grown by the tracer's margin, `t` as the ray's own.
+    faces: BoxFaces,
 }
 
 impl CellRay {
@@ -33,20 +28,11 @@ impl CellRay {
     #[inline(always)]
     pub fn from_units(units: CellUnits, margin: f64) -> Self {
         let (origin, direction, inv) = units;
-        let near_face = xyz(|a| if inv[a] < 0.0 { 1.0 } else { 0.0 });
-        // f32 keeps the reciprocal finite; the margin absorbs the rounding of these constants.
-        let inv32 = xyz(|a| inv[a].clamp(-1e30, 1e30));
-        // The face met first has the smaller time (no branch on the sign, as in `slab`).
-        let lower = xyz(|a| ((-margin - origin[a]) * inv32[a]) as f32);
-        let upper = xyz(|a| ((2.0 + margin - origin[a]) * inv32[a]) as f32);
         CellRay {
             origin,
             direction,
             inv,
-            near_face,
-            metacell_scale: xyz(|a| (2.0 * inv32[a]) as f32),
-            metacell_near: xyz(|a| min(lower[a], upper[a])),
-            metacell_far: xyz(|a| max(lower[a], upper[a])),
+            faces: BoxFaces::new(origin, inv, margin),
         }
     }
 
@@ -68,18 +54,135 @@ impl CellRay {
         (near, far)
     }
 
-    /// Per axis `(scale, near, far)`: the `t` of the face met first of the metacell at position
-    /// `p` (metacell units), grown by the margin, is `p·scale + near`, of the face met last
-    /// `p·scale + far` (f32).
+    /// The f32 slab-test constants of metacell boxes for this ray.
     #[inline(always)]
-    pub fn metacell_faces(&self) -> ([f32; 3], [f32; 3], [f32; 3]) {
-        (self.metacell_scale, self.metacell_near, self.metacell_far)
+    pub fn faces(&self) -> &BoxFaces {
+        &self.faces
     }
 
     /// Whether the ray runs towards −axis `a`.
     #[inline(always)]
     pub fn negative(&self, a: usize) -> bool {
-        self.near_face[a] == 1.0
+        self.faces.negative[a]
+    }
+
+    /// The cells of the metacell whose lowest cell is `lo` (cell units) that the ray passes
+    /// through within `[tmin, tmax]`, nearest first: at most four `(entry, exit, cell bit)` with
+    /// bit = x + 2y + 4z inside the metacell, and only cells whose bit is set in `mask`.
+    ///
+    /// One slab test for the metacell and the three mid-planes replace eight cell slab tests, and
+    /// the order lets the closest-hit search stop at the first crossing. Every face time is
+    /// `(plane − origin)·inv` as in [`Self::slab`], so neighbouring cells and metacells agree
+    /// exactly on shared faces.
+    #[inline(always)]
+    pub fn metacell_cells(&self, lo: [f64; 3], mask: u16, tmin: f64, tmax: f64) -> MetacellCells {
+        let (near, far) = self.slab(lo, xyz(|a| lo[a] + 2.0));
+        let (t_in, t_out) = (max(near, tmin), min(far, tmax));
+        if !(t_in < t_out) {
+            return MetacellCells {
+                bounds: [0.0; 5],
+                bits: 0,
+                listed: 0,
+            };
+        }
+        // Segment boundaries: entry, the mid-plane crossings clamped into [entry, exit] and
+        // sorted, exit. Without branches (a sorting network, and the cells kept as a bit set):
+        // which planes a random ray crosses, and in which order, is a coin toss that a branch
+        // predictor keeps getting wrong. Empty segments (a plane outside the metacell's span, or
+        // two planes crossed at once) are dropped.
+        let mid = xyz(|a| {
+            min(
+                max((lo[a] + 1.0 - self.origin[a]) * self.inv[a], t_in),
+                t_out,
+            )
+        });
+        let (a, b) = (min(mid[0], mid[1]), max(mid[0], mid[1]));
+        let (b, c) = (min(b, mid[2]), max(b, mid[2]));
+        let (a, b) = (min(a, b), max(a, b));
+        let bounds = [t_in, a, b, c, t_out];
+        // Which cell a segment lies in, from the face times alone: every mid-plane time is one of
+        // the bounds, so a segment lies wholly past a plane's crossing (time ≤ its start) or
+        // wholly before it; past it, a ray running towards +axis is on the upper side. Per axis,
+        // bit k of `upper` is segment k's side; spread to bit 8k and merged, byte k is its cell.
+        let spread = |four: u32| four.wrapping_mul(0x0020_4081) & 0x0101_0101;
+        let bits = (0..3).fold(0u32, |bits, a| {
+            let past = (0..4).fold(0u32, |m, k| m | ((mid[a] <= bounds[k]) as u32) << k);
+            let upper = past ^ (self.negative(a) as u32 * 0xf);
+            bits | spread(upper) << a
+        });
+        let listed = (0..4).fold(0u32, |m, k| {
+            let cell = bits >> (8 * k) & 7;
+            let keep = (bounds[k] < bounds[k + 1]) & (mask >> cell & 1 == 1);
+            m | (keep as u32) << k
+        });
+        MetacellCells {
+            bounds,
+            bits,
+            listed,
+        }
+    }
+
+    #[inline(always)]
+    pub fn at(&self, t: f64) -> [f64; 3] {
+        xyz(|a| self.origin[a] + t * self.direction[a])
+    }
+}
+
+/// The cells of one metacell a ray passes through ([`CellRay::metacell_cells`]), nearest first,
+/// as `(entry, exit, cell bit)`: segment `k` runs from `bounds[k]` to `bounds[k + 1]` in the cell
+/// whose bit is byte `k` of `bits`, and is listed when bit `k` of `listed` is set.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct MetacellCells {
+    bounds: [f64; 5],
+    bits: u32,
+    listed: u32,
+}
+
+impl Iterator for MetacellCells {
+    type Item = (f64, f64, u32);
+
+    #[inline(always)]
+    fn next(&mut self) -> Option<Self::Item> {
+        if self.listed == 0 {
+            return None;
+        }
+        let k = self.listed.trailing_zeros() as usize;
+        self.listed &= self.listed - 1;
+        Some((self.bounds[k], self.bounds[k + 1], self.bits >> (8 * k) & 7))
+    }
+}
+
+/// A ray's f32 slab-test constants for boxes made of whole metacells (2×2×2 cells), in cell units:
+/// on axis `a` the face met first of the metacell at position `p` (metacell units) lies at
+/// `t = p·scale[a] + near[a]`, the face met last at `p·scale[a] + far[a]`, every box grown by a
+/// margin, with `t` measured from the origin the constants were made for. The hierarchy's nodes,
+/// the cluster bounds and the metacells inside a cluster are all such boxes.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct BoxFaces {
+    pub scale: [f32; 3],
+    pub near: [f32; 3],
+    pub far: [f32; 3],
+    /// Per axis, whether the ray runs towards −axis (then a box's upper face is met first).
+    pub negative: [bool; 3],
+}
+
+impl BoxFaces {
+    /// For the ray from `origin` with reciprocal direction `inv` (cell units), boxes grown by
+    /// `margin` cells.
+    #[inline(always)]
+    pub fn new(origin: [f64; 3], inv: [f64; 3], margin: f64) -> Self {
+        // f32 keeps the reciprocal finite; the margin absorbs the rounding of these constants.
+        let inv = xyz(|a| inv[a].clamp(-1e30, 1e30));
+        // Offset of a box's lower face from 2·lo, and of its upper face from 2·hi; the face met
+        // first has the smaller time (no branch on the sign, as in `CellRay::slab`).
+        let lower = xyz(|a| ((-margin - origin[a]) * inv[a]) as f32);
+        let upper = xyz(|a| ((2.0 + margin - origin[a]) * inv[a]) as f32);
+        BoxFaces {
+            scale: xyz(|a| (2.0 * inv[a]) as f32),
+            near: xyz(|a| min(lower[a], upper[a])),
+            far: xyz(|a| max(lower[a], upper[a])),
+            negative: xyz(|a| inv[a] < 0.0),
+        }
     }
 
     /// Slab tests of four boxes made of metacells, in f32 lanes, on boxes grown by the margin.
@@ -88,7 +191,7 @@ impl CellRay {
     /// is an empty box. Returns bit `k` set when the ray passes through box `k` within
     /// `[lo_t, hi_t]`, and each box's entry `t` (≤ the true entry: the box is grown).
     #[inline(always)]
-    pub fn metacell_boxes4(
+    pub fn boxes4(
         &self,
         lo: &[[f32; 4]; 3],
         hi: &[[f32; 4]; 3],
@@ -103,13 +206,13 @@ impl CellRay {
                 let mut far = _mm_set1_ps(hi_t);
                 for a in 0..3 {
                     // The face met first belongs to the box's lower metacell unless the ray runs
-                    // towards −axis (then `metacell_near` holds the upper face's offset).
-                    let (first, last) = if self.negative(a) { (hi, lo) } else { (lo, hi) };
+                    // towards −axis (then `near` holds the upper face's offset).
+                    let (first, last) = if self.negative[a] { (hi, lo) } else { (lo, hi) };
                     let first = _mm_loadu_ps(first[a].as_ptr());
                     let last = _mm_loadu_ps(last[a].as_ptr());
-                    let scale = _mm_set1_ps(self.metacell_scale[a]);
-                    let n = _mm_set1_ps(self.metacell_near[a]);
-                    let f = _mm_set1_ps(self.metacell_far[a]);
+                    let scale = _mm_set1_ps(self.scale[a]);
+                    let n = _mm_set1_ps(self.near[a]);
+                    let f = _mm_set1_ps(self.far[a]);
                     let n = _mm_add_ps(_mm_mul_ps(first, scale), n);
                     let f = _mm_add_ps(_mm_mul_ps(last, scale), f);
                     near = _mm_max_ps(near, n);
@@ -125,75 +228,16 @@ impl CellRay {
             let mut near = [lo_t; 4];
             let mut far = [hi_t; 4];
             for a in 0..3 {
-                let (first, last) = if self.negative(a) { (hi, lo) } else { (lo, hi) };
+                let (first, last) = if self.negative[a] { (hi, lo) } else { (lo, hi) };
                 for k in 0..4 {
-                    let scale = self.metacell_scale[a];
-                    near[k] = max(near[k], first[a][k] * scale + self.metacell_near[a]);
-                    far[k] = min(far[k], last[a][k] * scale + self.metacell_far[a]);
+                    let scale = self.scale[a];
+                    near[k] = max(near[k], first[a][k] * scale + self.near[a]);
+                    far[k] = min(far[k], last[a][k] * scale + self.far[a]);
                 }
             }
             let mask = (0..4).fold(0, |m, k| m | ((near[k] <= far[k]) as u32) << k);
             (mask, near)
         }
-    }
-
-    /// The cells of the metacell whose lowest cell is `lo` (cell units) that the ray passes
-    /// through within `[tmin, tmax]`, nearest first: at most four `(entry, exit, cell bit)` with
-    /// bit = x + 2y + 4z inside the metacell, and only cells whose bit is set in `mask`.
-    ///
-    /// One slab test for the metacell and the three mid-planes replace eight cell slab tests, and
-    /// the order lets the closest-hit search stop at the first crossing. Every face time is
-    /// `(plane − origin)·inv` as in [`Self::slab`], so neighbouring cells and metacells agree
-    /// exactly on shared faces.
-    #[inline(always)]
-    pub fn metacell_cells(
-        &self,
-        lo: [f64; 3],
-        mask: u16,
-        tmin: f64,
-        tmax: f64,
-        out: &mut [(f64, f64, u32); 4],
-    ) -> usize {
-        let (near, far) = self.slab(lo, xyz(|a| lo[a] + 2.0));
-        let (t_in, t_out) = (max(near, tmin), min(far, tmax));
-        if !(t_in < t_out) {
-            return 0;
-        }
-        // Segment boundaries: entry, the mid-plane crossings clamped into [entry, exit] and
-        // sorted, exit. Without branches (a sorting network, and segments kept by advancing the
-        // output index): which planes a random ray crosses, and in which order, is a coin toss
-        // that a branch predictor keeps getting wrong. Empty segments (a plane outside the
-        // metacell's span, or two planes crossed at once) are dropped.
-        let mid = xyz(|a| {
-            min(
-                max((lo[a] + 1.0 - self.origin[a]) * self.inv[a], t_in),
-                t_out,
-            )
-        });
-        let (a, b) = (min(mid[0], mid[1]), max(mid[0], mid[1]));
-        let (b, c) = (min(b, mid[2]), max(b, mid[2]));
-        let (a, b) = (min(a, b), max(a, b));
-        let bounds = [t_in, a, b, c, t_out];
-        // Which cell a segment lies in, from the face times alone: every mid-plane time is one
-        // of the bounds, so a segment lies wholly past a plane's crossing (time ≤ its start) or
-        // wholly before it; past it, a ray running towards +axis is on the upper side.
-        let positive = xyz(|a| !self.negative(a));
-        let mut count = 0;
-        for k in 0..4 {
-            let (t0, t1) = (bounds[k], bounds[k + 1]);
-            let bit = (0..3).fold(0u32, |bit, a| {
-                let upper = (mid[a] <= t0) == positive[a];
-                bit | (upper as u32) << a
-            });
-            out[count] = (t0, t1, bit);
-            count += ((t0 < t1) & (mask >> bit & 1 == 1)) as usize;
-        }
-        count
-    }
-
-    #[inline(always)]
-    pub fn at(&self, t: f64) -> [f64; 3] {
-        xyz(|a| self.origin[a] + t * self.direction[a])
     }
 }
 
@@ -275,8 +319,7 @@ mod tests {
             let r = CellRay::new(&ray, [1.0; 3], 0.0);
             let mask = (rng.unit() * 256.0) as u16 | 1;
             let (tmin, tmax) = (0.0, 2.0 + 6.0 * rng.unit());
-            let mut out = [(0.0, 0.0, 0); 4];
-            let n = r.metacell_cells(lo, mask, tmin, tmax, &mut out);
+            let cells: Vec<_> = r.metacell_cells(lo, mask, tmin, tmax).collect();
             let mut expected: Vec<(f64, f64, u32)> = (0..8u32)
                 .filter(|&bit| mask >> bit & 1 == 1)
                 .filter_map(|bit| {
@@ -287,11 +330,11 @@ mod tests {
                 })
                 .collect();
             expected.sort_by(|a, b| a.0.total_cmp(&b.0));
-            let got: Vec<_> = out[..n]
-                .iter()
-                .filter(|s| s.1 - s.0 > 1e-9)
-                .copied()
-                .collect();
+            // Every listed segment is non-empty and in a cell of the mask.
+            for &(t0, t1, bit) in &cells {
+                assert!(t0 < t1 && mask >> bit & 1 == 1, "{ray:?}: {cells:?}");
+            }
+            let got: Vec<_> = cells.iter().filter(|s| s.1 - s.0 > 1e-9).copied().collect();
             assert_eq!(
                 got.len(),
                 expected.len(),

@@ -12,7 +12,7 @@
 //! | 60 | 2 | `occupied`: bit `k` set when slot `k` (0–14) holds active cells |
 //! | 62 | 2 | `far_apart`: 1 when some slot lies 256 or more metacells from `origin` (only a damaged file) |
 
-use super::cell_ray::CellRay;
+use super::cell_ray::BoxFaces;
 use crate::layout::{Metacell, BOUND_SLOT, CLUSTER_SLOTS};
 
 /// See the module docs.
@@ -86,8 +86,10 @@ impl ClusterBoxes {
     /// Per axis: the f32 scale and the `t` of the near and far faces of the cluster's origin
     /// metacell; slot `k`'s faces are `local·scale` further.
     #[inline(always)]
-    fn origin_faces(&self, r: &CellRay) -> ([f32; 3], [f32; 3], [f32; 3]) {
-        let (scale, near, far) = r.metacell_faces();
+    fn origin_faces(&self, faces: &BoxFaces) -> ([f32; 3], [f32; 3], [f32; 3]) {
+        let BoxFaces {
+            scale, near, far, ..
+        } = *faces;
         let near0 = std::array::from_fn(|a| self.origin[a] * scale[a] + near[a]);
         let far0 = std::array::from_fn(|a| self.origin[a] * scale[a] + far[a]);
         (scale, near0, far0)
@@ -96,13 +98,13 @@ impl ClusterBoxes {
     /// As [`Self::hits_baseline`], eight slots per AVX2 test.
     ///
     /// # Safety
-    /// The CPU must run AVX2 and FMA.
+    /// The CPU must run what `Avx2::detect` checks (AVX2, FMA and bit instructions).
     #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,fma")]
+    #[target_feature(enable = "avx2,fma,popcnt,bmi1,bmi2,lzcnt")]
     #[inline]
-    pub(super) unsafe fn hits_avx2(&self, r: &CellRay, t: (f32, f32)) -> u32 {
+    pub(super) unsafe fn hits_avx2(&self, faces: &BoxFaces, t: (f32, f32)) -> u32 {
         use std::arch::x86_64::*;
-        let (scale, near0, far0) = self.origin_faces(r);
+        let (scale, near0, far0) = self.origin_faces(faces);
         let mut near_t = [_mm256_set1_ps(t.0); 2];
         let mut far_t = [_mm256_set1_ps(t.1); 2];
         for a in 0..3 {
@@ -133,12 +135,12 @@ impl ClusterBoxes {
     }
 
     /// Bit `k` set when the ray may pass through the box of occupied metacell slot `k` within the
-    /// widened `t` range; as [`CellRay::metacell_boxes4`] on the slots' positions, with the boxes
+    /// widened `t` range; as [`BoxFaces::boxes4`] on the slots' positions, with the boxes
     /// grown by the same margin (the one extra f32 rounding, of the origin's face, is far inside
     /// it). SSE2, four slots at a time (scalar off x86-64).
     #[inline(always)]
-    pub(super) fn hits_baseline(&self, r: &CellRay, t: (f32, f32)) -> u32 {
-        let (scale, near0, far0) = self.origin_faces(r);
+    pub(super) fn hits_baseline(&self, faces: &BoxFaces, t: (f32, f32)) -> u32 {
+        let (scale, near0, far0) = self.origin_faces(faces);
         #[cfg(target_arch = "x86_64")]
         {
             use std::arch::x86_64::*;
@@ -196,6 +198,7 @@ impl ClusterBoxes {
 mod tests {
     use super::*;
     use crate::camera::Ray;
+    use crate::trace::cell_ray::CellRay;
     use crate::trace::sample::Rng;
 
     /// Random clusters of a 128K³-cell grid (metacell positions up to 65535) and random rays: each
@@ -244,11 +247,11 @@ mod tests {
                 let r = CellRay::new(&ray, [1.0; 3], margin);
                 let (tmin, tmax) = (0.0, len * (0.5 + unit.unit()));
                 let window = (tmin as f32, tmax as f32);
-                let mut results = vec![("baseline", record.hits_baseline(&r, window))];
+                let mut results = vec![("baseline", record.hits_baseline(r.faces(), window))];
                 #[cfg(target_arch = "x86_64")]
                 if avx2.is_some() {
-                    // SAFETY: the CPU runs AVX2 and FMA (detected above).
-                    results.push(("AVX2", unsafe { record.hits_avx2(&r, window) }));
+                    // SAFETY: the CPU runs the `Avx2` set (detected above).
+                    results.push(("AVX2", unsafe { record.hits_avx2(r.faces(), window) }));
                 }
                 for (k, m) in cluster.iter().enumerate().take(BOUND_SLOT) {
                     let lo = m.position.map(|p| 2.0 * p as f64);

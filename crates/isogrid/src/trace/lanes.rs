@@ -3,17 +3,18 @@
 //! where the CPU has them, else the x86-64 baseline SSE2 (4 lanes; scalar code off x86-64).
 //!
 //! The traversal functions are generic over [`Lanes`] and marked `#[inline(always)]`; each tracer
-//! calls them through one `#[target_feature(enable = "avx2,fma")]` entry point per query, so the
-//! whole traversal is compiled for AVX2 there and the kernels inline into it. On the dragon and
-//! the MNI head this took about 14 % off the cluster hierarchy's time per ray
-//! (`docs/tracer-performance.md`). Both sets find the same hits: the tests differ only in f32
+//! calls them through one `#[target_feature(enable = "avx2,fma,popcnt,bmi1,bmi2,lzcnt")]` entry
+//! point per query, so the whole traversal is compiled for AVX2 there and the kernels inline into
+//! it. On the dragon and the MNI head this took about 14 % off the cluster hierarchy's time per
+//! ray (`docs/tracer-performance.md`). The bit instructions come with every AVX2 CPU; with them a
+//! cell's record index is one `popcnt` instead of a dozen instructions, and bit scans one `tzcnt`. Both sets find the same hits: the tests differ only in f32
 //! rounding, which the boxes' margins absorb (`bvh_traverse::tests::both_sets_find_the_same_hits`).
 //!
 //! Any-hit queries stay on the baseline set: nothing traces them in bulk (the renderers and the
 //! benchmark ask for closest hits).
 
 use super::bvh_traverse::NodeRay;
-use super::cell_ray::CellRay;
+use super::cell_ray::BoxFaces;
 use super::cluster_boxes::ClusterBoxes;
 use super::cluster_bvh::{Node, WIDTH};
 
@@ -25,7 +26,7 @@ pub(super) trait Lanes: Copy {
     fn node_test(self, ray: &NodeRay, node: &Node, window: (f32, f32)) -> (u32, [f32; WIDTH]);
     /// Bit `k` set when the ray may pass through occupied metacell slot `k` of a cluster
     /// ([`ClusterBoxes::hits_baseline`]).
-    fn metacell_boxes(self, boxes: &ClusterBoxes, ray: &CellRay, t: (f32, f32)) -> u32;
+    fn metacell_boxes(self, boxes: &ClusterBoxes, faces: &BoxFaces, t: (f32, f32)) -> u32;
 }
 
 /// SSE2 on x86-64 (part of its baseline), scalar elsewhere: always available.
@@ -38,12 +39,13 @@ impl Lanes for Baseline {
         ray.test_baseline(node, window)
     }
     #[inline(always)]
-    fn metacell_boxes(self, boxes: &ClusterBoxes, ray: &CellRay, t: (f32, f32)) -> u32 {
-        boxes.hits_baseline(ray, t)
+    fn metacell_boxes(self, boxes: &ClusterBoxes, faces: &BoxFaces, t: (f32, f32)) -> u32 {
+        boxes.hits_baseline(faces, t)
     }
 }
 
-/// AVX2 and FMA; only [`Avx2::detect`] makes one, and only on a CPU that has both.
+/// AVX2, FMA and the bit instructions (POPCNT, BMI1, BMI2, LZCNT); only [`Avx2::detect`] makes
+/// one, and only on a CPU that has them all.
 #[cfg(target_arch = "x86_64")]
 #[derive(Debug, Clone, Copy)]
 pub(super) struct Avx2 {
@@ -52,12 +54,19 @@ pub(super) struct Avx2 {
 
 #[cfg(target_arch = "x86_64")]
 impl Avx2 {
-    /// `Some` when this CPU runs AVX2 and FMA, unless the environment variable
+    /// `Some` when this CPU runs AVX2, FMA and the bit instructions, unless the environment variable
     /// `ISOGRID_NO_AVX2` is set (to compare the two sets in one run).
     pub(super) fn detect() -> Option<Self> {
         let forced_off = std::env::var_os("ISOGRID_NO_AVX2").is_some();
-        (!forced_off && is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma"))
-            .then_some(Avx2 { _detected: () })
+        // Every CPU with AVX2 has these too (Haswell, Excavator and later); the traversal's bit
+        // counts and scans compile to single instructions with them.
+        let all = is_x86_feature_detected!("avx2")
+            && is_x86_feature_detected!("fma")
+            && is_x86_feature_detected!("popcnt")
+            && is_x86_feature_detected!("bmi1")
+            && is_x86_feature_detected!("bmi2")
+            && is_x86_feature_detected!("lzcnt");
+        (!forced_off && all).then_some(Avx2 { _detected: () })
     }
 }
 
@@ -65,13 +74,13 @@ impl Avx2 {
 impl Lanes for Avx2 {
     #[inline(always)]
     fn node_test(self, ray: &NodeRay, node: &Node, window: (f32, f32)) -> (u32, [f32; WIDTH]) {
-        // SAFETY: an `Avx2` exists only where the CPU runs AVX2 and FMA (`Avx2::detect`).
+        // SAFETY: an `Avx2` exists only where the CPU runs all of its set (`Avx2::detect`).
         unsafe { ray.test_avx2(node, window) }
     }
     #[inline(always)]
-    fn metacell_boxes(self, boxes: &ClusterBoxes, ray: &CellRay, t: (f32, f32)) -> u32 {
+    fn metacell_boxes(self, boxes: &ClusterBoxes, faces: &BoxFaces, t: (f32, f32)) -> u32 {
         // SAFETY: as above.
-        unsafe { boxes.hits_avx2(ray, t) }
+        unsafe { boxes.hits_avx2(faces, t) }
     }
 }
 

@@ -19,7 +19,7 @@
 //! hit lies before the exit of the current block — all later blocks start after it.
 
 use super::block_walk::BlockWalk;
-use super::cell_ray::{min, xyz, CellRay};
+use super::cell_ray::{min, xyz, BoxFaces, CellRay};
 use super::cluster_bounds::{unpack4, PackedClusterBounds};
 use super::cluster_boxes::AllClusterBoxes;
 use super::crossing::{Crossing, Trilinear};
@@ -67,6 +67,8 @@ pub struct Tracer<'g> {
     metacells: &'g [Metacell],
     cells: &'g [u8],
     precision: Precision,
+    /// [`Precision::bytes_per_cell`], read per traced cell.
+    cell_bytes: usize,
     iso_code: f64,
     spacing: [f64; 3],
     cell_dims: [f64; 3],
@@ -124,14 +126,14 @@ fn widened_f32(tmin: f64, tmax: f64) -> (f32, f32) {
 }
 
 /// Bit `i` set when the ray may pass through metacell slot `i` (0–14) of `cluster` within the
-/// widened `t` range (see [`CellRay::metacell_boxes4`]). Empty slots are not excluded.
+/// widened `t` range (see [`BoxFaces::boxes4`]). Empty slots are not excluded.
 #[inline(always)]
-fn metacell_hits(r: &CellRay, cluster: &[Metacell], t: (f32, f32)) -> u32 {
+fn metacell_hits(faces: &BoxFaces, cluster: &[Metacell], t: (f32, f32)) -> u32 {
     let (quads, _) = cluster.as_chunks::<4>();
     let mut mask = 0;
     for (chunk, quad) in quads.iter().take(CLUSTER_SLOTS / 4).enumerate() {
         let p = metacell_positions4(quad);
-        let (hits, _) = r.metacell_boxes4(&p, &p, t);
+        let (hits, _) = faces.boxes4(&p, &p, t);
         mask |= hits << (chunk * 4);
     }
     mask & 0x7fff
@@ -188,7 +190,7 @@ fn cluster_hits(
     let mut mask = 0;
     for chunk in 0..clusters.div_ceil(4) {
         let (lo, hi) = unpack4(packed, chunk * 4, origin);
-        let (hits, near) = r.metacell_boxes4(&lo, &hi, t);
+        let (hits, near) = r.faces().boxes4(&lo, &hi, t);
         entry[chunk * 4..chunk * 4 + 4].copy_from_slice(&near);
         mask |= (hits as u64) << (chunk * 4);
     }
@@ -225,6 +227,7 @@ impl<'g> Tracer<'g> {
             metacells: grid.metacells(),
             cells: grid.cells(),
             precision: info.precision,
+            cell_bytes: info.precision.bytes_per_cell(),
             iso_code: info.mapping.iso_code as f64,
             spacing: info.spacing,
             cell_dims: info.cell_dims().map(|c| c as f64),
@@ -272,7 +275,7 @@ impl<'g> Tracer<'g> {
     pub fn closest_hit(&self, ray: &Ray, tmin: f64, tmax: f64) -> Option<Hit> {
         #[cfg(target_arch = "x86_64")]
         if let Some(avx2) = self.lanes.avx2 {
-            // SAFETY: an `Avx2` exists only where the CPU runs AVX2 and FMA.
+            // SAFETY: an `Avx2` exists only where the CPU runs all of its set (`Avx2::detect`).
             return unsafe { self.closest_hit_avx2(avx2, ray, tmin, tmax) };
         }
         self.closest_hit_with(Baseline, ray, tmin, tmax)
@@ -281,9 +284,9 @@ impl<'g> Tracer<'g> {
     /// [`Self::closest_hit`] compiled for AVX2.
     ///
     /// # Safety
-    /// The CPU must run AVX2 and FMA.
+    /// The CPU must run what `Avx2::detect` checks (AVX2, FMA and bit instructions).
     #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,fma")]
+    #[target_feature(enable = "avx2,fma,popcnt,bmi1,bmi2,lzcnt")]
     pub(super) unsafe fn closest_hit_avx2(
         &self,
         avx2: super::lanes::Avx2,
@@ -294,8 +297,8 @@ impl<'g> Tracer<'g> {
         self.closest_hit_with(avx2, ray, tmin, tmax)
     }
 
-    /// The SIMD set of the box tests: "avx2" where the CPU runs AVX2 and FMA, else "baseline"
-    /// (SSE2 on x86-64); `ISOGRID_NO_AVX2=1` forces the baseline.
+    /// The SIMD set of the box tests: "avx2" where the CPU runs AVX2, FMA and the bit
+    /// instructions, else "baseline" (SSE2 on x86-64); `ISOGRID_NO_AVX2=1` forces the baseline.
     pub fn simd(&self) -> &'static str {
         self.lanes.name()
     }
@@ -472,16 +475,56 @@ impl<'g> Tracer<'g> {
         best: &mut Best,
     ) {
         let t = widened_f32(tmin, best.t);
-        let mut candidates = self.metacell_candidates(lanes, r, cluster, cluster_index, t);
-        let mut pending = candidates;
-        while pending != 0 {
-            let m = &cluster[pending.trailing_zeros() as usize];
-            pending &= pending - 1;
-            let n = self.precision.bytes_per_cell();
+        self.closest_in_cluster_by(lanes, r.faces(), t, r, cluster, cluster_index, tmin, best);
+    }
+
+    /// As [`Self::closest_in_cluster`], with the metacell boxes tested by `faces` within `t`
+    /// (widened for f32 lanes, and measured as `faces` measure it): the hierarchy tests them with
+    /// the constants and the window of its node tests, which it holds already.
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn closest_in_cluster_by<L: Lanes>(
+        &self,
+        lanes: L,
+        faces: &BoxFaces,
+        t: (f32, f32),
+        r: &CellRay,
+        cluster: &[Metacell],
+        cluster_index: u32,
+        tmin: f64,
+        best: &mut Best,
+    ) {
+        let candidates = self.metacell_candidates(lanes, faces, cluster, cluster_index, t);
+        self.prefetch_cells(cluster, candidates);
+        self.closest_in_candidates(r, cluster, cluster_index, candidates, tmin, best);
+    }
+
+    /// Hints the CPU to load the corner records of the metacells `candidates` (bit `k`: slot `k`)
+    /// of `cluster`.
+    #[inline(always)]
+    fn prefetch_cells(&self, cluster: &[Metacell], mut candidates: u32) {
+        while candidates != 0 {
+            let m = &cluster[candidates.trailing_zeros() as usize];
+            candidates &= candidates - 1;
+            let n = self.cell_bytes;
             let start = (m.cell_pointer as usize * n).min(self.cells.len());
             let end = (start + m.active_cells() as usize * n).min(self.cells.len());
             prefetch_slice(&self.cells[start..end]);
         }
+    }
+
+    /// The closest-hit search in the metacells `candidates` (bit `k`: slot `k`) of `cluster`
+    /// (global index `cluster_index`), in slot order.
+    #[inline(always)]
+    fn closest_in_candidates(
+        &self,
+        r: &CellRay,
+        cluster: &[Metacell],
+        cluster_index: u32,
+        mut candidates: u32,
+        tmin: f64,
+        best: &mut Best,
+    ) {
         while candidates != 0 {
             let k = candidates.trailing_zeros();
             candidates &= candidates - 1;
@@ -507,9 +550,7 @@ impl<'g> Tracer<'g> {
         }
         let mask = m.cell_mask & 0xff;
         let lo = xyz(|a| 2.0 * m.position[a] as f64);
-        let mut cells = [(0.0, 0.0, 0); 4];
-        let n = r.metacell_cells(lo, mask, tmin, best.t, &mut cells);
-        for &(t0, t1, bit) in &cells[..n] {
+        for (t0, t1, bit) in r.metacell_cells(lo, mask, tmin, best.t) {
             // Cells come nearest first, so the first crossing is this metacell's closest.
             let t1 = min(t1, best.t);
             if !(t0 < t1) {
@@ -573,8 +614,13 @@ impl<'g> Tracer<'g> {
         tmin: f64,
         tmax: f64,
     ) -> bool {
-        let mut candidates =
-            self.metacell_candidates(lanes, r, cluster, cluster_index, widened_f32(tmin, tmax));
+        let mut candidates = self.metacell_candidates(
+            lanes,
+            r.faces(),
+            cluster,
+            cluster_index,
+            widened_f32(tmin, tmax),
+        );
         while candidates != 0 {
             let m = &cluster[candidates.trailing_zeros() as usize];
             candidates &= candidates - 1;
@@ -582,8 +628,10 @@ impl<'g> Tracer<'g> {
                 continue;
             }
             let lo = xyz(|a| 2.0 * m.position[a] as f64);
-            let mut cells = [(0.0, 0.0, 0); 4];
-            if r.metacell_cells(lo, m.cell_mask & 0xff, tmin, tmax, &mut cells) > 0 {
+            if r.metacell_cells(lo, m.cell_mask & 0xff, tmin, tmax)
+                .next()
+                .is_some()
+            {
                 return true;
             }
         }
@@ -597,14 +645,14 @@ impl<'g> Tracer<'g> {
     fn metacell_candidates<L: Lanes>(
         &self,
         lanes: L,
-        r: &CellRay,
+        faces: &BoxFaces,
         cluster: &[Metacell],
         cluster_index: u32,
         t: (f32, f32),
     ) -> u32 {
         match self.cluster_boxes.get(cluster_index as usize) {
-            Some(boxes) if boxes.usable() => lanes.metacell_boxes(boxes, r, t),
-            _ => metacell_hits(r, cluster, t),
+            Some(boxes) if boxes.usable() => lanes.metacell_boxes(boxes, faces, t),
+            _ => metacell_hits(faces, cluster, t),
         }
     }
 
@@ -618,7 +666,7 @@ impl<'g> Tracer<'g> {
 
     #[inline(always)]
     fn corners(&self, index: u32) -> [f32; 8] {
-        let n = self.precision.bytes_per_cell();
+        let n = self.cell_bytes;
         let start = index as usize * n;
         read_corners(&self.cells[start..start + n], self.precision)
     }
