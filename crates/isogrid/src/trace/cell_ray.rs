@@ -152,8 +152,8 @@ impl Iterator for MetacellCells {
     }
 }
 
-/// A ray's f32 slab-test constants for boxes made of whole metacells (2×2×2 cells), in cell units:
-/// on axis `a` the face met first of the metacell at position `p` (metacell units) lies at
+/// A ray's f32 slab-test constants for boxes made of whole metacells (2×2×2 cells), in cell
+/// units: on axis `a` the face met first of the metacell at position `p` (metacell units) lies at
 /// `t = p·scale[a] + near[a]`, the face met last at `p·scale[a] + far[a]`, every box grown by a
 /// margin, with `t` measured from the origin the constants were made for. The hierarchy's nodes,
 /// the cluster bounds and the metacells inside a cluster are all such boxes.

@@ -7,8 +7,9 @@
 //! point per query, so the whole traversal is compiled for AVX2 there and the kernels inline into
 //! it. On the dragon and the MNI head this took about 14 % off the cluster hierarchy's time per
 //! ray (`docs/tracer-performance.md`). The bit instructions come with every AVX2 CPU; with them a
-//! cell's record index is one `popcnt` instead of a dozen instructions, and bit scans one `tzcnt`. Both sets find the same hits: the tests differ only in f32
-//! rounding, which the boxes' margins absorb (`bvh_traverse::tests::both_sets_find_the_same_hits`).
+//! cell's record index is one `popcnt` instead of a dozen instructions, and bit scans one `tzcnt`.
+//! Both sets find the same hits: the tests differ only in f32 rounding, which the boxes' margins
+//! absorb (`bvh_traverse::tests::both_sets_find_the_same_hits`).
 //!
 //! Any-hit queries stay on the baseline set: nothing traces them in bulk (the renderers and the
 //! benchmark ask for closest hits).
@@ -54,8 +55,8 @@ pub(super) struct Avx2 {
 
 #[cfg(target_arch = "x86_64")]
 impl Avx2 {
-    /// `Some` when this CPU runs AVX2, FMA and the bit instructions, unless the environment variable
-    /// `ISOGRID_NO_AVX2` is set (to compare the two sets in one run).
+    /// `Some` when this CPU runs AVX2, FMA and the bit instructions, unless the environment
+    /// variable `ISOGRID_NO_AVX2` is set (to compare the two sets in one run).
     pub(super) fn detect() -> Option<Self> {
         let forced_off = std::env::var_os("ISOGRID_NO_AVX2").is_some();
         // Every CPU with AVX2 has these too (Haswell, Excavator and later); the traversal's bit

@@ -494,37 +494,17 @@ impl<'g> Tracer<'g> {
         tmin: f64,
         best: &mut Best,
     ) {
-        let candidates = self.metacell_candidates(lanes, faces, cluster, cluster_index, t);
-        self.prefetch_cells(cluster, candidates);
-        self.closest_in_candidates(r, cluster, cluster_index, candidates, tmin, best);
-    }
-
-    /// Hints the CPU to load the corner records of the metacells `candidates` (bit `k`: slot `k`)
-    /// of `cluster`.
-    #[inline(always)]
-    fn prefetch_cells(&self, cluster: &[Metacell], mut candidates: u32) {
-        while candidates != 0 {
-            let m = &cluster[candidates.trailing_zeros() as usize];
-            candidates &= candidates - 1;
+        let mut candidates = self.metacell_candidates(lanes, faces, cluster, cluster_index, t);
+        // The corner records are the search's cache misses; ask for them all before waiting on any.
+        let mut pending = candidates;
+        while pending != 0 {
+            let m = &cluster[pending.trailing_zeros() as usize];
+            pending &= pending - 1;
             let n = self.cell_bytes;
             let start = (m.cell_pointer as usize * n).min(self.cells.len());
             let end = (start + m.active_cells() as usize * n).min(self.cells.len());
             prefetch_slice(&self.cells[start..end]);
         }
-    }
-
-    /// The closest-hit search in the metacells `candidates` (bit `k`: slot `k`) of `cluster`
-    /// (global index `cluster_index`), in slot order.
-    #[inline(always)]
-    fn closest_in_candidates(
-        &self,
-        r: &CellRay,
-        cluster: &[Metacell],
-        cluster_index: u32,
-        mut candidates: u32,
-        tmin: f64,
-        best: &mut Best,
-    ) {
         while candidates != 0 {
             let k = candidates.trailing_zeros();
             candidates &= candidates - 1;
