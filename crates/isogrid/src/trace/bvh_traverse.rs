@@ -12,6 +12,7 @@ use super::crossing::Crossing;
 #[cfg(target_arch = "x86_64")]
 use super::lanes::Avx2;
 use super::lanes::{Baseline, Lanes};
+use super::root_gate::RootGate;
 use super::traverse::{prefetch_slice, Best, Hit, Occlusion, Tracer};
 use crate::camera::Ray;
 use crate::grid::CellGrid;
@@ -24,7 +25,7 @@ use std::mem::MaybeUninit;
 /// `next_up`/`next_down` took about 100 instructions per ray): this runs once per ray and once
 /// per leaf entered.
 #[inline(always)]
-fn widen_f32(lo: f64, hi: f64) -> (f32, f32) {
+pub(super) fn widen_f32(lo: f64, hi: f64) -> (f32, f32) {
     const RELATIVE: f64 = 1e-6;
     const ABSOLUTE: f64 = 1e-30;
     let lo = max(lo - RELATIVE * lo.abs() - ABSOLUTE, -(f32::MAX as f64));
@@ -204,6 +205,7 @@ pub struct BvhTracer<'g> {
     /// `1 / spacing` per axis, once per tracer.
     to_cells: [f64; 3],
     bvh: ClusterBvh,
+    gate: RootGate,
 }
 
 impl<'g> BvhTracer<'g> {
@@ -213,12 +215,17 @@ impl<'g> BvhTracer<'g> {
 
     /// With a given hierarchy (which should be [`ClusterBvh::new`] of `grid`).
     pub fn with_bvh(grid: &'g CellGrid, crossing: Crossing, bvh: ClusterBvh) -> Self {
+        let spacing = grid.info().spacing;
+        let cell_dims = grid.info().cell_dims().map(|c| c as f64);
+        let margin = node_margin(grid.info().cell_dims());
+        let to_cells = spacing.map(|s| 1.0 / s);
         BvhTracer {
             tracer: Tracer::for_leaves(grid, crossing, &bvh.leaves),
-            cell_dims: grid.info().cell_dims().map(|c| c as f64),
-            margin: node_margin(grid.info().cell_dims()),
-            to_cells: grid.info().spacing.map(|s| 1.0 / s),
+            cell_dims,
+            margin,
+            to_cells,
             bvh,
+            gate: RootGate::new(spacing, to_cells, cell_dims, margin),
         }
     }
 
@@ -257,6 +264,24 @@ impl<'g> BvhTracer<'g> {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma,popcnt,bmi1,bmi2,lzcnt")]
     unsafe fn closest_hit_avx2(&self, avx2: Avx2, ray: &Ray, tmin: f64, tmax: f64) -> Option<Hit> {
+        let root = self.bvh.nodes.first()?;
+        // SAFETY: as this function's (`Avx2` includes AVX2 and FMA).
+        if !unsafe { self.gate.passes_avx2(ray, root, tmin, tmax) } {
+            return None;
+        }
+        // SAFETY: as this function's.
+        unsafe { self.traverse_avx2(avx2, ray, tmin, tmax) }
+    }
+
+    /// The traversal for rays the root gate lets through, out of line so that the rays it stops
+    /// never run the traversal's setup.
+    ///
+    /// # Safety
+    /// As [`Self::closest_hit_avx2`].
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma,popcnt,bmi1,bmi2,lzcnt")]
+    #[inline(never)]
+    unsafe fn traverse_avx2(&self, avx2: Avx2, ray: &Ray, tmin: f64, tmax: f64) -> Option<Hit> {
         self.closest_hit_with(avx2, ray, tmin, tmax)
     }
 
@@ -533,6 +558,88 @@ mod tests {
 
     /// The AVX2 and the baseline box tests find the same hits (they differ only in f32 rounding,
     /// inside the boxes' margins), with the hierarchy and with the block walk.
+    /// The gate stops a ray only where the traversal's own test of the root (same set) passes
+    /// no child, and stops exactly those among rays whose window starts in the grid's box.
+    #[test]
+    fn the_root_gate_stops_only_rays_the_root_test_stops() {
+        #[cfg(target_arch = "x86_64")]
+        {
+            let Some(avx2) = crate::trace::lanes::Avx2::detect() else {
+                eprintln!("skipped: this CPU lacks AVX2, FMA or the bit instructions");
+                return;
+            };
+            let mut rng = crate::trace::sample::Rng::for_sample(13, 0, 0);
+            let (mut stopped, mut passed, mut outside) = (0, 0, 0);
+            for (field, size, spacing) in [
+                (Field::Hairball, 48, [1.0; 3]),
+                (Field::MarschnerLobb, 41, [0.3, 1.0, 2.5]),
+            ] {
+                let volume = generate(field, size, 1).with_spacing(spacing).unwrap();
+                let grid =
+                    extract(&volume.view(), &ExtractOptions::new(Iso::Normalized(0.5))).unwrap();
+                let bvh = BvhTracer::new(&grid, Crossing::Samples3);
+                let root = &bvh.bvh.nodes[0];
+                let extent = xyz(|a| size as f64 * spacing[a]);
+                for i in 0..20_000 {
+                    let origin: [f64; 3] =
+                        std::array::from_fn(|a| extent[a] * (1.4 * rng.unit() - 0.2));
+                    let mut direction = crate::trace::sample::uniform_sphere(&mut rng);
+                    // Rays parallel to one or two axes take the reciprocal's special case.
+                    match i % 7 {
+                        1 => direction[0] = 0.0,
+                        2 => (direction[1], direction[2]) = (0.0, 0.0),
+                        _ => {}
+                    }
+                    let ray = Ray { origin, direction };
+                    let tmin = if i % 3 == 0 {
+                        0.0
+                    } else {
+                        rng.unit() * extent[0]
+                    };
+                    let tmax = match i % 5 {
+                        0 => f64::INFINITY,
+                        1 => tmin - 1.0,
+                        _ => tmin + rng.unit() * extent[0],
+                    };
+                    // SAFETY: `avx2` was detected, and it includes AVX2 and FMA.
+                    let (gate, passes) = unsafe {
+                        (
+                            bvh.gate.root_test_avx2(&ray, root, tmin, tmax),
+                            bvh.gate.passes_avx2(&ray, root, tmin, tmax),
+                        )
+                    };
+                    let test = bvh
+                        .node_ray(&ray, tmin, tmax)
+                        .map(|(_, nr)| avx2.node_test(&nr, root, nr.window(tmin, tmax)));
+                    assert!(passes || test.is_none_or(|(mask, _)| mask == 0), "{ray:?}");
+                    let units = cell_units(&ray, spacing, bvh.to_cells);
+                    let starts_inside = tmin <= tmax
+                        && (0..3).all(|a| {
+                            let start = units.0[a] + tmin * units.1[a];
+                            start >= -1.0 && start <= bvh.cell_dims[a] + 1.0
+                        });
+                    assert_eq!(gate.is_some(), starts_inside, "{ray:?} {tmin} {tmax}");
+                    if let Some((mask, entries)) = gate {
+                        // The same constants and operations: the same mask and entry times,
+                        // to the bit.
+                        let (test_mask, test_entries) = test.unwrap();
+                        assert_eq!(mask, test_mask, "{field} {ray:?} {tmin} {tmax}");
+                        assert_eq!(entries.map(f32::to_bits), test_entries.map(f32::to_bits));
+                        assert_eq!(passes, mask != 0);
+                        stopped += (mask == 0) as usize;
+                        passed += (mask != 0) as usize;
+                    } else {
+                        outside += 1;
+                    }
+                }
+            }
+            assert!(
+                stopped > 2000 && passed > 2000 && outside > 2000,
+                "{stopped} stopped, {passed} passed, {outside} outside"
+            );
+        }
+    }
+
     #[test]
     fn both_sets_find_the_same_hits() {
         #[cfg(target_arch = "x86_64")]

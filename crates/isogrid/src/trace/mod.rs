@@ -31,6 +31,7 @@ mod lanes;
 pub mod occupancy;
 pub mod octant_space;
 pub mod render;
+mod root_gate;
 pub mod sample;
 pub mod traverse;
 
