@@ -371,6 +371,20 @@ fn bench_rays_reports_the_same_hits_for_both_crossings_and_any_thread_count() {
     // A smooth sphere: the three samples find what the exact solver finds.
     assert_eq!(a["hits"], b["hits"]);
     assert!(a["bytes"].as_u64().unwrap() > 0);
+    // CPU time is read where the clock exists, and a trace of a few milliseconds still shows:
+    // no thread ran longer than the wall clock, and no CPU time is zero.
+    #[cfg(unix)]
+    for r in [&a, &b] {
+        let (cpu, wall) = (
+            r["cpu_seconds"].as_f64().unwrap(),
+            r["seconds"].as_f64().unwrap(),
+        );
+        let threads = r["threads"].as_f64().unwrap();
+        assert!(
+            cpu > 0.0 && cpu <= threads * wall + 1e-3,
+            "{cpu} s CPU, {wall} s"
+        );
+    }
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

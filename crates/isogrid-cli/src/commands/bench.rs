@@ -82,7 +82,7 @@ struct RaysReport {
     hits: u64,
     seconds: f64,
     rays_per_second: f64,
-    /// CPU time of the whole process while tracing (Linux only), and rays per CPU second: on a
+    /// CPU time of the whole process while tracing (Unix only), and rays per CPU second: on a
     /// core shared with other work these are steadier than the wall-clock figures.
     #[serde(skip_serializing_if = "Option::is_none")]
     cpu_seconds: Option<f64>,
@@ -134,21 +134,25 @@ fn read_rays(path: &PathBuf) -> Result<Vec<Ray>> {
     Ok(rays)
 }
 
-/// Shortest tracing time for which `cpu_seconds` is reported: 10 scheduler ticks at 250 Hz.
-const MIN_CPU_TIMED_SECONDS: f64 = 0.04;
-
-/// Nanoseconds all threads of this process have run (the sum of `/proc/self/task/*/schedstat`'s
-/// first field), or `None` where that is not available. A thread that exits while the tasks are
-/// listed (a finished thread pool's) is skipped rather than failing the whole reading.
+/// Nanoseconds all threads of this process have run (`CLOCK_PROCESS_CPUTIME_ID`, which brings the
+/// running threads' totals up to date when read), or `None` off Unix. The per-thread counts in
+/// `/proc/self/task/*/schedstat` read earlier could lag a busy thread by its whole run (0 ns for
+/// a 0.4 s trace on a tickless kernel).
 fn process_cpu_ns() -> Option<u64> {
-    let mut total = 0;
-    for task in std::fs::read_dir("/proc/self/task").ok()?.flatten() {
-        let Ok(stat) = std::fs::read_to_string(task.path().join("schedstat")) else {
-            continue;
+    #[cfg(unix)]
+    {
+        let mut now = libc::timespec {
+            tv_sec: 0,
+            tv_nsec: 0,
         };
-        total += stat.split_whitespace().next()?.parse::<u64>().ok()?;
+        // SAFETY: `now` is a valid timespec to write; the call only writes it.
+        if unsafe { libc::clock_gettime(libc::CLOCK_PROCESS_CPUTIME_ID, &mut now) } != 0 {
+            return None;
+        }
+        Some(now.tv_sec as u64 * 1_000_000_000 + now.tv_nsec as u64)
     }
-    Some(total)
+    #[cfg(not(unix))]
+    None
 }
 
 fn rays(args: RaysArgs) -> Result<()> {
@@ -201,12 +205,9 @@ fn rays(args: RaysArgs) -> Result<()> {
             })?
         }
     };
-    // The kernel brings a running thread's total up to date only at scheduler ticks (a few ms),
-    // so a shorter run's CPU time would say nothing; omitted then.
     let cpu_seconds = cpu_start
         .zip(process_cpu_ns())
-        .map(|(a, b)| b.saturating_sub(a) as f64 * 1e-9)
-        .filter(|_| seconds >= MIN_CPU_TIMED_SECONDS);
+        .map(|(a, b)| b.saturating_sub(a) as f64 * 1e-9);
     if let Some(out) = &args.t_out {
         let t: Vec<f32> = hits
             .iter()
