@@ -556,8 +556,6 @@ mod tests {
         assert!(hits > 150, "{hits} hits");
     }
 
-    /// The AVX2 and the baseline box tests find the same hits (they differ only in f32 rounding,
-    /// inside the boxes' margins), with the hierarchy and with the block walk.
     /// The gate stops a ray only where the traversal's own test of the root (same set) passes
     /// no child, and stops exactly those among rays whose window starts in the grid's box.
     #[test]
@@ -640,6 +638,8 @@ mod tests {
         }
     }
 
+    /// The AVX2 and the baseline box tests find the same hits (they differ only in f32 rounding,
+    /// inside the boxes' margins), with the hierarchy and with the block walk.
     #[test]
     fn both_sets_find_the_same_hits() {
         #[cfg(target_arch = "x86_64")]
