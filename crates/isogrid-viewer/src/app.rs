@@ -25,7 +25,7 @@ use crate::events::{Event, Notifier, SourceInfo};
 use crate::extract_worker::{ExtractWorker, Wanted};
 use crate::orbit::Orbit;
 use crate::panel::{self, Measurements};
-use crate::render_worker::{self, RenderMsg};
+use crate::render_worker::RenderWorker;
 use crate::{ViewMode, ViewerOptions};
 use capture::Capture;
 use eframe::egui;
@@ -34,7 +34,7 @@ use messages::Message;
 use schedule::ViewKey;
 use script::{Script, ScriptState};
 use std::path::PathBuf;
-use std::sync::mpsc::{Receiver, Sender};
+use std::sync::mpsc::Receiver;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
@@ -46,8 +46,8 @@ const MEASUREMENTS_WIDTH: f32 = 270.0;
 struct App {
     options: ViewerOptions,
     events: Receiver<Event>,
-    render: Sender<RenderMsg>,
     extractor: ExtractWorker,
+    render: RenderWorker,
 
     generation: u64,
     source: Option<SourceInfo>,
@@ -99,7 +99,7 @@ impl App {
     ) -> App {
         let (tx, events) = std::sync::mpsc::channel();
         let notify = Notifier::new(tx, ctx.clone());
-        let render = render_worker::spawn(notify.clone());
+        let render = RenderWorker::spawn(notify.clone());
         let compare_mc = true;
         let extractor = ExtractWorker::spawn(
             Wanted {
@@ -109,7 +109,7 @@ impl App {
                 mesh: compare_mc || options.mode == ViewMode::Mc,
                 shutdown: false,
             },
-            render.clone(),
+            render.sender().clone(),
             notify,
         );
         let script = options.frames.map(|frames| Script {
@@ -130,8 +130,8 @@ impl App {
             compare_mc,
             full_when_idle: true,
             events,
-            render,
             extractor,
+            render,
             generation: 0,
             source: None,
             orbit: Orbit::default(),

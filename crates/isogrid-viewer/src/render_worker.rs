@@ -2,6 +2,11 @@
 //! and renders the most recent view the UI asked for. Rendering on a CPU adapter (lavapipe) takes
 //! hundreds of milliseconds, so it must not run on the UI thread; requests that arrive while a
 //! frame renders replace each other, and only the newest is drawn.
+//!
+//! Dropping the [`RenderWorker`] stops the thread and waits for it: its wgpu instance must be
+//! destroyed before the process exits. Destroying a Vulkan instance unloads the driver libraries,
+//! and doing that while `exit` runs their finalisers on the main thread crashed the viewer with
+//! SIGSEGV at exit (about one scripted run in 25 on lavapipe).
 
 use crate::events::{guarded, Event, Failure, Notifier, RenderedFrame};
 use crate::ViewMode;
@@ -10,7 +15,8 @@ use isogrid::{Camera, CellGrid, GridStats, Volume};
 use isogrid_gpu::{GpuGrid, GpuMesh, GpuVolume, RenderOptions, Renderer, Scene};
 use std::sync::mpsc::{Receiver, Sender};
 use std::sync::Arc;
-use std::time::Instant;
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
 
 /// A view to render.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -37,18 +43,64 @@ pub enum RenderMsg {
         seconds: f64,
     },
     Render(RenderRequest),
+    /// Free the scene and the renderer and end the thread, whoever else still holds a sender.
+    Shutdown,
 }
 
-/// Starts the worker; it ends when every sender is dropped.
-pub fn spawn(notify: Notifier) -> Sender<RenderMsg> {
-    let (tx, rx) = std::sync::mpsc::channel();
-    let spawned = std::thread::Builder::new()
-        .name("isogrid-render".into())
-        .spawn(move || run(rx, notify));
-    if let Err(e) = spawned {
-        eprintln!("isogrid view: cannot start the render thread: {e}");
+/// How long closing the viewer waits for the render thread to finish the frame or upload in
+/// progress. A frame on lavapipe takes well under a second; a thread still busy after this is
+/// taken to be stuck, and the viewer exits without it rather than hang.
+const SHUTDOWN_WAIT: Duration = Duration::from_secs(20);
+
+/// The render thread: messages go in through [`RenderWorker::sender`]; dropping this stops the
+/// thread and waits for it (up to [`SHUTDOWN_WAIT`]).
+pub struct RenderWorker {
+    tx: Sender<RenderMsg>,
+    thread: Option<JoinHandle<()>>,
+}
+
+impl RenderWorker {
+    pub fn spawn(notify: Notifier) -> RenderWorker {
+        let (tx, rx) = std::sync::mpsc::channel();
+        let spawned = std::thread::Builder::new()
+            .name("isogrid-render".into())
+            .spawn(move || run(rx, notify));
+        let thread = match spawned {
+            Ok(thread) => Some(thread),
+            Err(e) => {
+                eprintln!("isogrid view: cannot start the render thread: {e}");
+                None
+            }
+        };
+        RenderWorker { tx, thread }
     }
-    tx
+
+    pub fn sender(&self) -> &Sender<RenderMsg> {
+        &self.tx
+    }
+}
+
+impl Drop for RenderWorker {
+    fn drop(&mut self) {
+        let Some(thread) = self.thread.take() else {
+            return;
+        };
+        // A thread that already ended (its receiver gone) makes this send fail, which is fine.
+        let _ = self.tx.send(RenderMsg::Shutdown);
+        let deadline = Instant::now() + SHUTDOWN_WAIT;
+        while !thread.is_finished() {
+            if Instant::now() > deadline {
+                eprintln!(
+                    "isogrid view: the render thread did not stop within {} s; exiting without it",
+                    SHUTDOWN_WAIT.as_secs()
+                );
+                return;
+            }
+            std::thread::sleep(Duration::from_millis(5));
+        }
+        // The thread's panics were already reported through `guarded`.
+        let _ = thread.join();
+    }
 }
 
 /// What is uploaded.
@@ -82,6 +134,8 @@ fn run(rx: Receiver<RenderMsg>, notify: Notifier) {
         let mut request = None;
         for msg in std::iter::once(first).chain(rx.try_iter()) {
             match msg {
+                // The scene is dropped before the renderer (reverse declaration order).
+                RenderMsg::Shutdown => return,
                 RenderMsg::Render(r) => {
                     if let Some(old) = request.replace(r) {
                         notify.send(Event::NotRendered { request: old.id });
@@ -172,7 +226,7 @@ fn apply(renderer: &Renderer, scene: &mut Uploaded, msg: RenderMsg, notify: &Not
                 Err(e) => notify.error(Failure::Render, format!("uploading the mesh: {e}")),
             }
         }
-        RenderMsg::Render(_) => {}
+        RenderMsg::Render(_) | RenderMsg::Shutdown => {}
     }
 }
 
@@ -226,5 +280,33 @@ fn render(renderer: &Renderer, scene: &mut Uploaded, request: RenderRequest, not
                 request: request.id,
             });
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use eframe::egui;
+
+    /// The extraction worker holds a sender of its own, so the channel closing cannot be what ends
+    /// the thread: dropping the worker must, and must wait for it.
+    #[test]
+    fn dropping_the_worker_ends_its_thread_while_another_sender_lives() {
+        let (tx, events) = std::sync::mpsc::channel();
+        let worker = RenderWorker::spawn(Notifier::new(tx, egui::Context::default()));
+        // Once this arrives the thread owns a renderer (or knows it has none).
+        let first = events
+            .recv_timeout(Duration::from_secs(300))
+            .expect("the render thread reports its renderer");
+        assert!(matches!(
+            first,
+            Event::RendererReady { .. } | Event::Error { .. }
+        ));
+        let extractors_sender = worker.sender().clone();
+        drop(worker);
+        assert!(
+            extractors_sender.send(RenderMsg::Shutdown).is_err(),
+            "the render thread outlived the dropped worker"
+        );
     }
 }

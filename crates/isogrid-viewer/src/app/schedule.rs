@@ -84,7 +84,12 @@ impl App {
             camera: key.camera,
             mode: key.mode,
         };
-        if self.render.send(RenderMsg::Render(request)).is_ok() {
+        if self
+            .render
+            .sender()
+            .send(RenderMsg::Render(request))
+            .is_ok()
+        {
             self.in_flight = Some((id, key));
         }
         recheck
