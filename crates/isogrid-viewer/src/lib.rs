@@ -10,6 +10,8 @@
 //! - the render worker (`render_worker.rs`) owns the headless renderer and its uploaded scene,
 //!   renders the latest requested view offscreen and sends back the read-back [`isogrid_gpu::Frame`],
 //!   which the UI shows as a texture. The window's own wgpu device (eframe's) is a separate one.
+//!   Closing the window stops this thread and waits for it, so that its wgpu instance is gone
+//!   before the process exits.
 //!
 //! Scripted runs (`frames` with an optional `screenshot`) render a fixed number of full-quality
 //! frames, save a screenshot of the whole window and close; tests use them under Xvfb, and with
