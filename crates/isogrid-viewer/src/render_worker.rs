@@ -98,7 +98,7 @@ impl Drop for RenderWorker {
             }
             std::thread::sleep(Duration::from_millis(5));
         }
-        // The thread's panics were already reported through `guarded`.
+        // A panic in the thread was already reported (by `guarded` or the panic hook).
         let _ = thread.join();
     }
 }
