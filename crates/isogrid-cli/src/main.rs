@@ -39,6 +39,23 @@ enum Command {
     View(commands::view::Args),
 }
 
+/// The error and its causes joined by ": ", each cause once: a library error whose message is
+/// its source's own text (an I/O error's) would otherwise print that text twice.
+fn one_line(err: &anyhow::Error) -> String {
+    let mut line = String::new();
+    for cause in err.chain() {
+        let text = cause.to_string();
+        if line.ends_with(&text) {
+            continue;
+        }
+        if !line.is_empty() {
+            line.push_str(": ");
+        }
+        line.push_str(&text);
+    }
+    line
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
@@ -56,7 +73,7 @@ fn main() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(err) => {
             // One line: the outermost context and its causes, never a backtrace.
-            eprintln!("isogrid: error: {err:#}");
+            eprintln!("isogrid: error: {}", one_line(&err));
             ExitCode::FAILURE
         }
     }

@@ -44,6 +44,11 @@ fn fails(args: &[&str], mention: &str) -> String {
         stderr.contains(mention),
         "{args:?}: {stderr} should mention {mention}"
     );
+    let parts: Vec<&str> = stderr.trim_end().split(": ").collect();
+    assert!(
+        parts.windows(2).all(|w| w[0] != w[1]),
+        "{args:?}: a cause is printed twice in {stderr}"
+    );
     stderr
 }
 

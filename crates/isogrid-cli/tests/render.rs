@@ -193,6 +193,11 @@ fn fails(args: &[&str], mention: &str) {
         stderr.contains(mention),
         "{args:?}: {stderr} should mention {mention}"
     );
+    let parts: Vec<&str> = stderr.trim_end().split(": ").collect();
+    assert!(
+        parts.windows(2).all(|w| w[0] != w[1]),
+        "{args:?}: a cause is printed twice in {stderr}"
+    );
 }
 
 /// Rejected by the argument parser: clap adds its usage hint after the one-line reason.
