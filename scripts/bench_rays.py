@@ -23,6 +23,7 @@ import datetime
 import json
 import os
 import platform
+import statistics
 import subprocess
 import sys
 import tempfile
@@ -188,6 +189,9 @@ def main():
             ]
             s3, ex, bvh, em = (min((r[k] for r in rounds), key=lambda x: x["seconds"])
                                for k in range(4))
+            # Each round's BVH and Embree passes run back to back, so their ratio shares that
+            # moment's load; best-of ratios can pair a quiet spell of one with a busy one of the other.
+            paired = sorted(r[3]["seconds"] / r[2]["seconds"] for r in rounds)
             row = {
                 "dataset": name,
                 "dims": grid["dims"],
@@ -199,6 +203,7 @@ def main():
                 "exact": ex,
                 "bvh": bvh,
                 "embree": em,
+                "bvh_vs_embree_per_round": paired,
                 "cgc_bytes": s3["bytes"],
                 "embree_buffers_estimate": 12 * mesh["vertices"] + 12 * mesh["triangles"],
                 "exact_vs_embree": agreement(t["exact"], t["embree"]),
@@ -280,14 +285,23 @@ def write_report(args, results):
         "Target (issue 4): CPU closest-hit rays/s at 1 thread ≥ Embree's on the MC mesh, with ≤ 1/3 of its memory.",
         "",
     ]
+    lines += [
+        "Speed is read two ways, and counts as met only when both reach 1: the best rays/s of each",
+        "tracer over all rounds, and the median over rounds of the BVH's rays/s over Embree's in the same",
+        "round (the two passes run back to back, so they share the host's load; the range is the lowest",
+        "and highest round).",
+        "",
+    ]
     for r in results:
         best = max(r["rays"] / r[k]["seconds"] for k in ("samples3", "exact", "bvh"))
         em = r["rays"] / r["embree"]["seconds"]
+        paired = r["bvh_vs_embree_per_round"]
+        median = statistics.median(paired)
         mem = max(r["cgc_bytes"], r["bvh"]["bytes"]) / max(r["embree"]["rss_bytes"], 1)
         lines.append(
-            f"- {r['dataset']}: speed {'met' if best >= em else 'NOT met'} "
-            f"(best ours {best / em:.2f}× Embree), memory {'met' if mem <= 1 / 3 else 'NOT met'} "
-            f"({mem:.2f}× Embree's)."
+            f"- {r['dataset']}: speed {'met' if best >= em and median >= 1 else 'NOT met'} "
+            f"(best ours {best / em:.2f}× Embree; per round {median:.2f}×, {paired[0]:.2f}–{paired[-1]:.2f}×), "
+            f"memory {'met' if mem <= 1 / 3 else 'NOT met'} ({mem:.2f}× Embree's)."
         )
     lines += [
         "",
