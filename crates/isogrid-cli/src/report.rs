@@ -5,8 +5,33 @@
 //! `metacells`, `cells`, `paper_total`}, `bytes_per_cell`, `seconds` {`read`, `extract`, `write`};
 //! Marching Cubes: `vertices`, `triangles`, `bytes`, `seconds`.
 
-use isogrid::GridStats;
+use isogrid::{CellGrid, GridStats};
 use serde::Serialize;
+use std::path::Path;
+
+/// One line on stderr when `grid` (from `source`) has no active cell, saying why: an empty
+/// surface is a valid result, but a blank image or zero hits alone look like a failure elsewhere.
+pub fn note_if_empty(source: &Path, grid: &CellGrid) {
+    if grid.active_cells() != 0 {
+        return;
+    }
+    let info = grid.info();
+    let [lo, hi] = info.value_range;
+    let why = if info.cell_dims().contains(&0) {
+        "the volume is one sample thick, so it has no cells".to_string()
+    } else if info.iso > hi {
+        format!("every sample is below it: they lie in [{lo}, {hi}]")
+    } else if info.iso <= lo {
+        format!("every sample is at or above it: they lie in [{lo}, {hi}]")
+    } else {
+        format!("the samples lie in [{lo}, {hi}]")
+    };
+    eprintln!(
+        "isogrid: note: {}: no cell crosses the isovalue {} ({why}); the surface is empty",
+        source.display(),
+        info.iso
+    );
+}
 
 #[derive(Serialize, Default, Clone, Copy)]
 pub struct Seconds {

@@ -62,16 +62,83 @@ fn s(p: &Path) -> &str {
     p.to_str().unwrap()
 }
 
-#[test]
-fn extract_info_and_mc_report_consistent_numbers() {
-    let dir = temp_dir("flow");
-    let volume = dir.join("torus.nrrd");
-    let out = isogrid(&["generate", "torus", "--size", "40", "-o", s(&volume)]);
+/// `isogrid generate FIELD --size SIZE` into `dir`; the volume's path.
+fn generated(dir: &Path, field: &str, size: u32) -> PathBuf {
+    let volume = dir.join(format!("{field}.nrrd"));
+    let out = isogrid(&[
+        "generate",
+        field,
+        "--size",
+        &size.to_string(),
+        "-o",
+        s(&volume),
+    ]);
     assert!(
         out.status.success(),
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
+    volume
+}
+
+/// An isovalue outside the samples gives an empty grid: a success, with one note on stderr that
+/// says why (extract, info and a CPU render of it), and none where the surface is not empty.
+#[test]
+fn an_empty_surface_is_noted_once_with_the_sample_range() {
+    let dir = temp_dir("empty");
+    let volume = generated(&dir, "sphere", 24);
+    let cgc = dir.join("empty.cgc");
+    let png = dir.join("empty.png");
+    let runs: [(&[&str], &str); 4] = [
+        (
+            &["extract", s(&volume), "--iso", "300", "-o", s(&cgc)],
+            "every sample is below it",
+        ),
+        (&["info", s(&cgc)], "every sample is below it"),
+        (
+            &[
+                "render",
+                s(&cgc),
+                "--backend",
+                "cpu",
+                "--size",
+                "64x48",
+                "-o",
+                s(&png),
+            ],
+            "every sample is below it",
+        ),
+        (
+            &["extract", s(&volume), "--iso", "0"],
+            "every sample is at or above it",
+        ),
+    ];
+    for (args, why) in runs {
+        let out = isogrid(args);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success(), "{args:?}: {stderr}");
+        let notes: Vec<&str> = stderr.lines().filter(|l| l.contains("note:")).collect();
+        assert_eq!(notes.len(), 1, "{args:?}: {stderr}");
+        assert!(
+            notes[0].contains("no cell crosses the isovalue") && notes[0].contains(why),
+            "{args:?}: {}",
+            notes[0]
+        );
+        assert!(notes[0].contains("[0, 255]"), "{args:?}: {}", notes[0]);
+    }
+    let out = isogrid(&["extract", s(&volume), "--iso-normalized", "0.5"]);
+    assert!(out.status.success());
+    assert!(
+        !String::from_utf8_lossy(&out.stderr).contains("note:"),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+#[test]
+fn extract_info_and_mc_report_consistent_numbers() {
+    let dir = temp_dir("flow");
+    let volume = generated(&dir, "torus", 40);
 
     let cgc = dir.join("torus.cgc");
     let e = ok_json(&[

@@ -44,6 +44,7 @@ pub fn run(args: Args) -> Result<()> {
         .with_context(|| format!("{}: extraction failed", args.input.display()))?;
     let extract_seconds = start.elapsed().as_secs_f64();
     spinner.finish_and_clear();
+    crate::report::note_if_empty(&args.input, &grid);
     let mut write = 0.0;
     if let Some(out) = &args.output {
         let start = Instant::now();

@@ -18,6 +18,7 @@ pub struct Args {
 pub fn run(args: Args) -> Result<()> {
     let start = Instant::now();
     let grid = isogrid::cgc::open(&args.file)?;
+    crate::report::note_if_empty(&args.file, &grid);
     let read = start.elapsed().as_secs_f64();
     let report = GridReport::new(
         &GridStats::of(&grid),

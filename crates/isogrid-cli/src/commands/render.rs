@@ -63,7 +63,9 @@ impl GridSource {
                     self.input.display()
                 );
             }
-            return Ok((isogrid::cgc::open(&self.input)?, None));
+            let grid = isogrid::cgc::open(&self.input)?;
+            crate::report::note_if_empty(&self.input, &grid);
+            return Ok((grid, None));
         }
         let iso = match (self.iso.iso, self.iso.iso_normalized) {
             (Some(v), _) => Iso::Value(v),
@@ -82,6 +84,7 @@ impl GridSource {
         let grid = extract(&volume.view(), &options)
             .with_context(|| format!("{}: extraction failed", self.input.display()))?;
         spinner.finish_and_clear();
+        crate::report::note_if_empty(&self.input, &grid);
         Ok((grid, Some(volume)))
     }
 }
