@@ -223,6 +223,32 @@ fn fill<R: Read + ?Sized>(reader: &mut R, buf: &mut [u8]) -> Result<usize> {
     Ok(filled)
 }
 
+/// `b`'s samples after `a`'s (slices of a stack, pieces of a file); both back when the types differ.
+pub(crate) fn append(
+    a: VolumeData,
+    b: VolumeData,
+) -> std::result::Result<VolumeData, (VolumeData, VolumeData)> {
+    Ok(match (a, b) {
+        (VolumeData::U8(mut a), VolumeData::U8(b)) => {
+            a.extend(b);
+            VolumeData::U8(a)
+        }
+        (VolumeData::U16(mut a), VolumeData::U16(b)) => {
+            a.extend(b);
+            VolumeData::U16(a)
+        }
+        (VolumeData::I16(mut a), VolumeData::I16(b)) => {
+            a.extend(b);
+            VolumeData::I16(a)
+        }
+        (VolumeData::F32(mut a), VolumeData::F32(b)) => {
+            a.extend(b);
+            VolumeData::F32(a)
+        }
+        (a, b) => return Err((a, b)),
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -258,30 +284,4 @@ mod tests {
         assert_eq!(err.kind(), isogrid::ErrorKind::TooLarge);
         assert_eq!(sample_count([7, 5, 3]).unwrap(), 105);
     }
-}
-
-/// `b`'s samples after `a`'s (slices of a stack, pieces of a file); both back when the types differ.
-pub(crate) fn append(
-    a: VolumeData,
-    b: VolumeData,
-) -> std::result::Result<VolumeData, (VolumeData, VolumeData)> {
-    Ok(match (a, b) {
-        (VolumeData::U8(mut a), VolumeData::U8(b)) => {
-            a.extend(b);
-            VolumeData::U8(a)
-        }
-        (VolumeData::U16(mut a), VolumeData::U16(b)) => {
-            a.extend(b);
-            VolumeData::U16(a)
-        }
-        (VolumeData::I16(mut a), VolumeData::I16(b)) => {
-            a.extend(b);
-            VolumeData::I16(a)
-        }
-        (VolumeData::F32(mut a), VolumeData::F32(b)) => {
-            a.extend(b);
-            VolumeData::F32(a)
-        }
-        (a, b) => return Err((a, b)),
-    })
 }

@@ -65,9 +65,10 @@ fn picture(
             None,
             &camera,
             isogrid_gpu::Mode::Cgc,
-            2,
-            true,
-            isogrid_gpu::CellRaster::Auto,
+            &isogrid_gpu::RenderOptions {
+                frames: 2,
+                ..Default::default()
+            },
         )?;
         isogrid_io::image::write_png(path, w, h, 4, &out.frame.rgba8)?;
         return Ok(("gpu", out.adapter));

@@ -473,9 +473,12 @@ pub fn run(args: Args) -> Result<()> {
                 volume.as_ref(),
                 &camera,
                 mode,
-                args.frames,
-                !args.no_occlusion_culling,
-                args.cell_raster.into(),
+                &isogrid_gpu::RenderOptions {
+                    frames: args.frames,
+                    occlusion_culling: !args.no_occlusion_culling,
+                    cell_raster: args.cell_raster.into(),
+                    ..Default::default()
+                },
             )?;
             report.seconds = start.elapsed().as_secs_f64();
             spinner.finish_and_clear();

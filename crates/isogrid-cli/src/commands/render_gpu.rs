@@ -95,23 +95,15 @@ pub fn path_trace(
     Ok(GpuRender::new(renderer, frame))
 }
 
-/// Renders `mode` of `grid` (with `volume` for `mc` and `cr`) for `frames` frames.
+/// Renders `mode` of `grid` (with `volume` for `mc` and `cr`) with `options`.
 pub fn render(
     renderer: &Renderer,
     grid: &CellGrid,
     volume: Option<&Volume>,
     camera: &Camera,
     mode: Mode,
-    frames: u32,
-    occlusion_culling: bool,
-    cell_raster: isogrid_gpu::CellRaster,
+    options: &RenderOptions,
 ) -> Result<GpuRender> {
-    let options = RenderOptions {
-        frames,
-        occlusion_culling,
-        cell_raster,
-        ..RenderOptions::default()
-    };
     let need_volume = |what: &str| {
         anyhow::anyhow!("mode {what} needs the volume: give a volume file, not a .cgc file")
     };
@@ -120,7 +112,7 @@ pub fn render(
             let volume = volume.ok_or_else(|| need_volume("mc"))?;
             let mesh = marching_cubes(&volume.view(), grid.info().iso);
             let gpu_mesh = renderer.upload_mesh(&mesh).map_err(isogrid::Error::from)?;
-            renderer.render_with(Scene::Mesh(&gpu_mesh), camera, mode, &options)
+            renderer.render_with(Scene::Mesh(&gpu_mesh), camera, mode, options)
         }
         Mode::Cr => {
             let volume = volume.ok_or_else(|| need_volume("cr"))?;
@@ -135,12 +127,12 @@ pub fn render(
                 },
                 camera,
                 mode,
-                &options,
+                options,
             )
         }
         _ => {
             let gpu_grid = renderer.upload_grid(grid).map_err(isogrid::Error::from)?;
-            renderer.render_with(Scene::Grid(&gpu_grid), camera, mode, &options)
+            renderer.render_with(Scene::Grid(&gpu_grid), camera, mode, options)
         }
     }
     .map_err(isogrid::Error::from)?;

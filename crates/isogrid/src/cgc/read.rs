@@ -187,7 +187,7 @@ fn validate(header: &Header, blocks: &[Block], metacells: &[Metacell], cells: &[
     let (mut next_slot, mut next_cell, mut occupied) = (0usize, 0usize, 0u64);
     for (b, block) in blocks.iter().enumerate() {
         let fail = |what: String| Error::corrupt(format!("block {b}: {what}"));
-        if block.metacell_count as usize % CLUSTER_SLOTS != 0
+        if !(block.metacell_count as usize).is_multiple_of(CLUSTER_SLOTS)
             || block.metacell_pointer as usize != next_slot
         {
             return Err(fail(format!(

@@ -149,9 +149,9 @@ pub(crate) fn emit_block<T: ExtractScalar>(
             cell_mask: mask as u16,
             cell_pointer: out.first_cell + cell as u32,
         };
-        for a in 0..3 {
-            bound.lo[a] = bound.lo[a].min(position[a]);
-            bound.hi[a] = bound.hi[a].max(position[a]);
+        for (a, &p) in position.iter().enumerate() {
+            bound.lo[a] = bound.lo[a].min(p);
+            bound.hi[a] = bound.hi[a].max(p);
         }
         slot += 1;
 
@@ -193,7 +193,7 @@ pub(crate) fn emit_block<T: ExtractScalar>(
             close_cluster(out.slots, &mut slot, &mut bound);
         }
     }
-    if slot % CLUSTER_SLOTS != 0 {
+    if !slot.is_multiple_of(CLUSTER_SLOTS) {
         // Padding slots were zeroed when the output was allocated.
         close_cluster(out.slots, &mut slot, &mut bound);
     }

@@ -241,8 +241,8 @@ fn trace_path(
             direction: cosine_hemisphere(n, rng),
         };
         // Cosine-weighted sampling cancels cos θ / π of the Lambertian BRDF: only albedo remains.
-        for c in 0..3 {
-            throughput[c] *= p.albedo[c];
+        for (t, albedo) in throughput.iter_mut().zip(p.albedo) {
+            *t *= albedo;
         }
     }
     ([0.0; 3], p.bounces as u64 + 1)

@@ -8,7 +8,7 @@ use std::path::PathBuf;
 
 fn tiny_grid() -> CellGrid {
     let mut data = vec![0u8; 18];
-    data[1 + 3 * 1] = 200; // sample (1,1,0)
+    data[1 + 3] = 200; // sample (1,1,0)
     data[2 + 3 * 2 + 9] = 90; // sample (2,2,1)
     let volume = Volume::new([3, 3, 2], VolumeData::U8(data))
         .unwrap()

@@ -98,7 +98,7 @@ fn reference_hit(
             t0 = t0.max(ta.min(tb));
             t1 = t1.min(ta.max(tb));
         }
-        if !(t0 < t1) {
+        if t0 >= t1 || t0.is_nan() || t1.is_nan() {
             continue;
         }
         let local =
