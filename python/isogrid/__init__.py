@@ -32,12 +32,15 @@ becomes uint8 and other numeric types become float32 (a copy). A sample is *insi
 
 Errors: bad arguments raise ``ValueError``; files that cannot be opened raise ``OSError`` (e.g.
 ``FileNotFoundError``); malformed or unsupported files raise :class:`IsogridError`, a ``ValueError``.
+An isovalue that no cell crosses gives an empty grid and an :class:`EmptySurfaceWarning` that says
+why (as the command line's one-line note does).
 """
 
 from __future__ import annotations
 
 import operator
 import os
+import warnings
 from typing import Any, Optional, Sequence, Tuple, Union
 
 import numpy as np
@@ -51,6 +54,7 @@ __version__: str = _isogrid.__version__
 # calls the native function of the same name, plus an entry in __all__ and in _isogrid.pyi.
 __all__ = [
     "CellGrid",
+    "EmptySurfaceWarning",
     "IsogridError",
     "Volume",
     "extract",
@@ -62,6 +66,31 @@ __all__ = [
 ]
 
 Triple = Tuple[float, float, float]
+
+
+class EmptySurfaceWarning(RuntimeWarning):
+    """:func:`extract` found no cell that crosses the isovalue: the grid, and its surface, are empty."""
+
+
+def _warn_if_empty(grid: CellGrid) -> None:
+    if grid.active_cells != 0:
+        return
+    info = grid.info
+    lo, hi = info["value_range"]
+    iso = info["iso"]
+    if min(info["dims"]) < 2:
+        why = "the volume is one sample thick, so it has no cells"
+    elif iso > hi:
+        why = f"every sample is below it: they lie in [{lo:g}, {hi:g}]"
+    elif iso <= lo:
+        why = f"every sample is at or above it: they lie in [{lo:g}, {hi:g}]"
+    else:
+        why = f"the samples lie in [{lo:g}, {hi:g}]"
+    warnings.warn(
+        f"no cell crosses the isovalue {iso:g} ({why}); the surface is empty",
+        EmptySurfaceWarning,
+        stacklevel=3,
+    )
 PathLike = Union[str, "os.PathLike[str]"]
 
 
@@ -134,12 +163,13 @@ def extract(
     The GIL is released while extracting; do not modify ``array`` from another thread meanwhile.
 
     Returns:
-        The :class:`CellGrid`.
+        The :class:`CellGrid`; where it has no active cell, an :class:`EmptySurfaceWarning` says
+        why (the isovalue outside the samples' range, or a volume one sample thick).
     """
     iso, iso_normalized = _iso_pair(iso, iso_normalized)
     spacing3 = _spacing_of(array, spacing)
     prepared, fortran = _prepare(array)
-    return _isogrid.extract(
+    grid = _isogrid.extract(
         prepared,
         fortran,
         spacing3,
@@ -148,6 +178,8 @@ def extract(
         precision=None if precision is None else _int(precision, "precision"),
         threads=None if threads is None else _int(threads, "threads", 1),
     )
+    _warn_if_empty(grid)
+    return grid
 
 
 def load(path: PathLike) -> CellGrid:

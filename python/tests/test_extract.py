@@ -1,5 +1,7 @@
 """isogrid.extract: dtypes, memory orders, shapes, arguments and the axis convention."""
 
+import warnings
+
 import numpy as np
 import pytest
 
@@ -124,8 +126,25 @@ def test_arrays_that_are_not_3d_are_refused(shape):
 def test_empty_and_too_small_volumes():
     with pytest.raises(ValueError, match="outside 1..=131072"):
         isogrid.extract(np.zeros((0, 4, 4), dtype=np.uint8), iso=1)
-    grid = isogrid.extract(np.zeros((1, 1, 1), dtype=np.uint8), iso=1)
+    with pytest.warns(isogrid.EmptySurfaceWarning, match="one sample thick"):
+        grid = isogrid.extract(np.zeros((1, 1, 1), dtype=np.uint8), iso=1)
     assert grid.active_cells == 0 and grid.stats["blocks"] == 0 and len(grid.blocks) == 0
+
+
+def test_an_empty_surface_warns_with_the_reason_and_the_range():
+    a = sphere()
+    lo, hi = float(a.min()), float(a.max())
+    with pytest.warns(isogrid.EmptySurfaceWarning, match="every sample is below it") as caught:
+        grid = isogrid.extract(a, iso=hi + 1)
+    assert grid.active_cells == 0
+    assert f"[{lo:g}, {hi:g}]" in str(caught[0].message)
+    # Reported at the caller's line, not inside the package.
+    assert caught[0].filename == __file__
+    with pytest.warns(isogrid.EmptySurfaceWarning, match="at or above it"):
+        isogrid.extract(a, iso=lo)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert isogrid.extract(a, iso_normalized=0.5).active_cells > 0
 
 
 def test_iso_arguments():
