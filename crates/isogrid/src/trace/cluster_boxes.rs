@@ -77,6 +77,12 @@ impl AllClusterBoxes {
         self.records.get(c)
     }
 
+    /// Where record `c` lies (dangling past the end; for prefetching only).
+    #[inline(always)]
+    pub(super) fn record_ptr(&self, c: usize) -> *const i8 {
+        self.records.as_ptr().wrapping_add(c).cast()
+    }
+
     pub(super) fn bytes(&self) -> usize {
         std::mem::size_of_val(&self.records[..])
     }

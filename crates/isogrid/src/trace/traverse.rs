@@ -636,6 +636,12 @@ impl<'g> Tracer<'g> {
         }
     }
 
+    /// Where the box record of global cluster `c` lies (dangling past the end; for prefetching).
+    #[inline(always)]
+    pub(super) fn cluster_record_ptr(&self, c: usize) -> *const i8 {
+        self.cluster_boxes.record_ptr(c)
+    }
+
     /// Hints the CPU to load what the search of global cluster `c` reads first.
     #[inline(always)]
     pub(super) fn prefetch_cluster(&self, c: usize) {
