@@ -436,7 +436,11 @@ impl<'g> BvhTracer<'g> {
                 .wrapping_add(index * CLUSTER_SLOTS)
                 .cast::<i8>();
             let record = self.tracer.cluster_record_ptr(index);
-            let pick = |a: *const i8, b: *const i8| if leaf { a } else { b };
+            // A mask, not an `if`: LLVM compiled the `if` to a branch.
+            let leaf_mask = (leaf as usize).wrapping_neg();
+            let pick = |a: *const i8, b: *const i8| {
+                ((a as usize & leaf_mask) | (b as usize & !leaf_mask)) as *const i8
+            };
             // SAFETY: prefetching is a hint and never faults.
             unsafe {
                 _mm_prefetch::<_MM_HINT_T0>(pick(record, node));
