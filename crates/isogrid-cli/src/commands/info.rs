@@ -18,8 +18,8 @@ pub struct Args {
 pub fn run(args: Args) -> Result<()> {
     let start = Instant::now();
     let grid = isogrid::cgc::open(&args.file)?;
-    crate::report::note_if_empty(&args.file, &grid);
     let read = start.elapsed().as_secs_f64();
+    crate::report::note_if_empty(&args.file, &grid);
     let report = GridReport::new(
         &GridStats::of(&grid),
         Seconds {
