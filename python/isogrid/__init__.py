@@ -321,6 +321,7 @@ def render(
     spp: int = 16,
     bounces: int = 3,
     threads: Optional[int] = None,
+    traversal: str = "blocks",
 ) -> Any:
     """An image of the isosurface, as ``isogrid render`` draws it.
 
@@ -340,6 +341,9 @@ def render(
         aovs: any of ``"depth"`` (H×W float32 eye distance, +inf on misses), ``"normal"``
             (H×W×3 float32 unit world normal, NaN on misses), ``"cluster"`` (H×W uint32,
             4294967295 on misses), ``"backend"`` (which backend rendered).
+        traversal: on the CPU, how rays find the cells they may cross: ``"blocks"`` (the paper's
+            block walk) or ``"bvh"`` (a hierarchy over the metacells, faster for path-traced
+            bounces on some grids, slower for camera rays); the same image either way.
 
     Returns:
         The sRGB image as a uint8 array of shape (H, W, 3); with ``aovs``, ``(image, {name: value})``.
@@ -362,6 +366,7 @@ def render(
         spp=_int(spp, "spp", 1),
         bounces=_int(bounces, "bounces"),
         threads=None if threads is None else _int(threads, "threads", 1),
+        traversal=str(traversal),
     )
     if not names:
         return out["image"]

@@ -4,7 +4,7 @@
 use crate::errors::{invalid, to_py};
 use crate::grid::CellGrid;
 use crate::pool::run_detached;
-use isogrid::trace::{Environment, PathTraceOptions, RenderOptions, Shading};
+use isogrid::trace::{Environment, PathTraceOptions, RenderOptions, Shading, Traversal};
 use isogrid::Camera;
 use numpy::ndarray::{Array2, Array3};
 use numpy::IntoPyArray;
@@ -38,7 +38,7 @@ struct Rendered {
 
 /// Renders `grid`; see `isogrid.render` for the arguments.
 #[pyfunction]
-#[pyo3(signature = (grid, camera, width, height, mode, backend, frames=1, spp=16, bounces=3, threads=None))]
+#[pyo3(signature = (grid, camera, width, height, mode, backend, frames=1, spp=16, bounces=3, threads=None, traversal="blocks"))]
 #[allow(clippy::too_many_arguments)]
 pub fn render<'py>(
     py: Python<'py>,
@@ -52,8 +52,14 @@ pub fn render<'py>(
     spp: u32,
     bounces: u32,
     threads: Option<usize>,
+    traversal: &str,
 ) -> PyResult<Bound<'py, PyDict>> {
     let grid = grid.inner();
+    let traversal = match traversal {
+        "blocks" => Traversal::Blocks,
+        "bvh" => Traversal::Bvh,
+        _ => return Err(invalid(format!("traversal must be 'blocks' or 'bvh', not {traversal:?}"))),
+    };
     if width == 0 || height == 0 || width as u64 * height as u64 > 64 << 20 {
         return Err(invalid(format!("image size {width}x{height} is empty or too large")));
     }
@@ -103,7 +109,7 @@ pub fn render<'py>(
             }),
             Some(_) => Shading::Phong,
         };
-        let options = RenderOptions { shading, ..RenderOptions::default() };
+        let options = RenderOptions { shading, traversal, ..RenderOptions::default() };
         let image = isogrid::trace::render(grid, &camera, &options)?;
         Ok(Rendered {
             rgb: image.rgb8,

@@ -28,6 +28,17 @@ def test_cpu_render_has_image_and_aovs_with_miss_conventions(grid):
     assert image[~miss].mean() > image[miss].mean()
 
 
+def test_both_traversals_draw_the_same_depth(grid):
+    depth = {t: isogrid.render(grid, camera=2, size=(64, 48), backend="cpu", traversal=t, aovs=("depth",))[1]["depth"]
+             for t in ("blocks", "bvh")}
+    hit = np.isfinite(depth["blocks"])
+    assert 100 < hit.sum() < hit.size
+    assert np.array_equal(hit, np.isfinite(depth["bvh"]))
+    assert np.allclose(depth["blocks"][hit], depth["bvh"][hit], rtol=1e-6, atol=0)
+    with pytest.raises(ValueError, match="traversal"):
+        isogrid.render(grid, size=(4, 4), backend="cpu", traversal="octree")
+
+
 def test_explicit_camera_looks_where_it_is_told(grid):
     eye, centre = (13.0, 11.0, 80.0), (13.0, 11.0, 9.0)
     toward = isogrid.render(grid, camera=(eye, centre, (0, 1, 0), 30.0), size=(16, 16), backend="cpu",

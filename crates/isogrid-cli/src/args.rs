@@ -104,3 +104,22 @@ fn parse_shape(s: &str) -> Result<[usize; 3], String> {
         .try_into()
         .map_err(|_| format!("shape must have three values X,Y,Z, not {s:?}"))
 }
+
+/// `--traversal`: how CPU rays find candidate metacells ([`isogrid::trace::Traversal`]).
+#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum TraversalArg {
+    /// 3D DDA over the blocks with empty-space leaps (the paper's §3.6; isogrid::trace::Tracer).
+    Blocks,
+    /// 8-wide bounding volume hierarchy over the metacells regrouped into leaf clusters
+    /// (isogrid::trace::BvhTracer): faster for rays that start inside the grid's box.
+    Bvh,
+}
+
+impl From<TraversalArg> for isogrid::trace::Traversal {
+    fn from(t: TraversalArg) -> Self {
+        match t {
+            TraversalArg::Blocks => isogrid::trace::Traversal::Blocks,
+            TraversalArg::Bvh => isogrid::trace::Traversal::Bvh,
+        }
+    }
+}

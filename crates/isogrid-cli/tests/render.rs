@@ -51,6 +51,25 @@ fn npy_header(path: &Path) -> (String, Vec<usize>, usize, usize) {
     (descr.to_string(), shape, 10 + len, bytes.len() - 10 - len)
 }
 
+/// The f32 values of a little-endian `<f4` .npy file.
+fn npy_f32(path: &Path) -> Vec<f32> {
+    let (_, _, off, _) = npy_header(path);
+    std::fs::read(path).unwrap()[off..]
+        .chunks_exact(4)
+        .map(|b| f32::from_le_bytes(b.try_into().unwrap()))
+        .collect()
+}
+
+/// The JSON a successful run printed (fails the test with its stderr otherwise).
+fn json_of(out: &Output) -> Value {
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).unwrap()
+}
+
 fn volume(dir: &Path) -> PathBuf {
     let path = dir.join("sphere.nrrd");
     let out = isogrid(&["generate", "sphere", "--size", "24", "-o", s(&path)]);
@@ -90,13 +109,8 @@ fn render_writes_png_and_aovs_of_the_right_shapes() {
         &aov,
         "--json",
     ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let json = json_of(&out);
     assert!(out.stderr.is_empty(), "no notice with --backend cpu");
-    let json: Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(json["backend"], "cpu");
     assert_eq!(
         (json["width"].as_u64(), json["height"].as_u64()),
@@ -126,11 +140,7 @@ fn render_writes_png_and_aovs_of_the_right_shapes() {
         assert_eq!(data, shape.iter().product::<usize>() * 4);
     }
     // Misses: depth +inf exactly where cluster is u32::MAX; as many hits as the JSON says.
-    let (_, _, off, _) = npy_header(&d);
-    let depth: Vec<f32> = std::fs::read(&d).unwrap()[off..]
-        .chunks(4)
-        .map(|b| f32::from_le_bytes(b.try_into().unwrap()))
-        .collect();
+    let depth = npy_f32(&d);
     let (_, _, off, _) = npy_header(&c);
     let cluster: Vec<u32> = std::fs::read(&c).unwrap()[off..]
         .chunks(4)
@@ -367,8 +377,15 @@ fn bench_rays_reports_the_same_hits_for_both_crossings_and_any_thread_count() {
     };
     let a = run(&["--threads", "1"]);
     let b = run(&["--threads", "2", "--exact"]);
+    let c = run(&["--threads", "2", "--traversal", "bvh"]);
     assert_eq!(a["rays"], 3000);
     assert_eq!(a["threads"], 1);
+    assert_eq!(
+        (&a["traversal"], &c["traversal"]),
+        (&"blocks".into(), &"bvh".into())
+    );
+    // The two traversals run the same search inside a cluster.
+    assert_eq!(a["hits"], c["hits"]);
     // Origins inside the box of a closed sphere: every ray starting outside the ball and aimed
     // at it hits, and every ray starting inside the ball hits; some miss.
     let hits = a["hits"].as_u64().unwrap();
@@ -388,6 +405,52 @@ fn bench_rays_reports_the_same_hits_for_both_crossings_and_any_thread_count() {
         assert!(
             cpu > 0.0 && cpu <= threads * wall + 1e-3,
             "{cpu} s CPU, {wall} s"
+        );
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// `--traversal bvh` draws the frame `--traversal blocks` draws: the same hit pixels, depths equal
+/// to rounding, and both name their traversal and its build time in the JSON.
+#[test]
+fn render_traversals_draw_the_same_depth_image() {
+    let dir = temp_dir("traversal");
+    let input = volume(&dir);
+    let render = |traversal: &str| -> (Value, Vec<f32>) {
+        let depth = dir.join(format!("d_{traversal}.npy"));
+        let aov = format!("depth={}", s(&depth));
+        let out = isogrid(&[
+            "render",
+            s(&input),
+            "--iso-normalized",
+            "0.5",
+            "--size",
+            "48x32",
+            "--view",
+            "2",
+            "--backend",
+            "cpu",
+            "--traversal",
+            traversal,
+            "--aov",
+            &aov,
+            "--json",
+        ]);
+        (json_of(&out), npy_f32(&depth))
+    };
+    let (a, da) = render("blocks");
+    let (b, db) = render("bvh");
+    for (json, name) in [(&a, "blocks"), (&b, "bvh")] {
+        assert_eq!(json["traversal"], name);
+        let build = json["tracer_build_seconds"].as_f64().unwrap();
+        assert!(build >= 0.0 && build <= json["seconds"].as_f64().unwrap());
+    }
+    assert_eq!(a["hits"], b["hits"]);
+    assert!(a["hits"].as_u64().unwrap() > 100, "{}", a["hits"]);
+    for (i, (x, y)) in da.iter().zip(&db).enumerate() {
+        assert!(
+            x == y || (x - y).abs() <= 1e-6 * x.abs(),
+            "pixel {i}: blocks {x}, bvh {y}"
         );
     }
     std::fs::remove_dir_all(&dir).unwrap();

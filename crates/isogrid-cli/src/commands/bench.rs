@@ -6,11 +6,11 @@
 //! timed; memory is the grid's three buffers (blocks, metacells, cells).
 
 use super::render::GridSource;
-use crate::args::ThreadArgs;
+use crate::args::{ThreadArgs, TraversalArg};
 use crate::report::print_json;
 use anyhow::{bail, Context, Result};
 use isogrid::trace::sample::{uniform_sphere, Rng};
-use isogrid::trace::{closest_hits, BvhTracer, Crossing, Hit, Tracer};
+use isogrid::trace::{Crossing, GridTracer, Hit};
 use isogrid::{GridStats, Ray};
 use serde::Serialize;
 use std::path::PathBuf;
@@ -51,24 +51,15 @@ pub struct RaysArgs {
     /// Solve the exact crossing (cubic roots) instead of three samples per cell.
     #[arg(long)]
     pub exact: bool,
-    /// How rays find candidate metacells: the block walk over the grid's clusters, or a hierarchy
-    /// over the metacells regrouped into leaf clusters.
-    #[arg(long, value_enum, default_value_t = Traversal::Blocks)]
-    pub traversal: Traversal,
+    /// How rays find candidate metacells: the paper's block walk over the grid's clusters, or a
+    /// hierarchy over the metacells regrouped into leaf clusters. Same hits either way.
+    #[arg(long, value_enum, default_value_t = TraversalArg::Blocks)]
+    pub traversal: TraversalArg,
     #[command(flatten)]
     pub threads: ThreadArgs,
     /// Print one JSON object.
     #[arg(long)]
     pub json: bool,
-}
-
-/// See [`RaysArgs::traversal`].
-#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum Traversal {
-    /// 3D DDA over blocks with empty-space leaps (the default; isogrid::trace::Tracer).
-    Blocks,
-    /// Bounding volume hierarchy over regrouped metacells (isogrid::trace::BvhTracer).
-    Bvh,
 }
 
 #[derive(Serialize)]
@@ -179,32 +170,18 @@ fn rays(args: RaysArgs) -> Result<()> {
         Crossing::Samples3
     };
     let mut hits: Vec<Option<Hit>> = vec![None; rays.len()];
-    // Built before the clock starts, as the grid is.
     let mut cpu_start = None;
-    let (seconds, threads, extra_bytes, simd) = match args.traversal {
-        Traversal::Blocks => {
-            let tracer = Tracer::new(&grid, crossing);
-            args.threads.install(|| {
-                cpu_start = process_cpu_ns();
-                let start = Instant::now();
-                closest_hits(&tracer, &rays, &mut hits);
-                let seconds = start.elapsed().as_secs_f64();
-                let threads = rayon::current_num_threads();
-                (seconds, threads, tracer.extra_bytes(), tracer.simd())
-            })?
-        }
-        Traversal::Bvh => {
-            let tracer = args.threads.install(|| BvhTracer::new(&grid, crossing))?;
-            args.threads.install(|| {
-                cpu_start = process_cpu_ns();
-                let start = Instant::now();
-                tracer.closest_hits(&rays, &mut hits);
-                let seconds = start.elapsed().as_secs_f64();
-                let threads = rayon::current_num_threads();
-                (seconds, threads, tracer.extra_bytes(), tracer.simd())
-            })?
-        }
-    };
+    // Built before the clock starts, as the grid is.
+    let tracer = args
+        .threads
+        .install(|| GridTracer::new(&grid, crossing, args.traversal.into()))?;
+    let (seconds, threads) = args.threads.install(|| {
+        cpu_start = process_cpu_ns();
+        let start = Instant::now();
+        tracer.closest_hits(&rays, &mut hits);
+        (start.elapsed().as_secs_f64(), rayon::current_num_threads())
+    })?;
+    let (extra_bytes, simd) = (tracer.extra_bytes(), tracer.simd());
     let cpu_seconds = cpu_start
         .zip(process_cpu_ns())
         .map(|(a, b)| b.saturating_sub(a) as f64 * 1e-9);
@@ -218,10 +195,7 @@ fn rays(args: RaysArgs) -> Result<()> {
     let stats = GridStats::of(&grid);
     let report = RaysReport {
         crossing: if args.exact { "exact" } else { "samples3" },
-        traversal: match args.traversal {
-            Traversal::Blocks => "blocks",
-            Traversal::Bvh => "bvh",
-        },
+        traversal: tracer.traversal().name(),
         simd,
         threads,
         rays: rays.len() as u64,

@@ -4,7 +4,7 @@
 //! environment. `--backend auto` prefers the GPU and falls back to the CPU with a notice.
 
 use super::render_gpu;
-use crate::args::{parse_precision, InputArgs, ThreadArgs};
+use crate::args::{parse_precision, InputArgs, ThreadArgs, TraversalArg};
 use crate::report::print_json;
 use crate::{input, progress};
 use anyhow::{bail, Context, Result};
@@ -208,6 +208,11 @@ pub struct Args {
     /// Solve the exact crossing (cubic roots) instead of the paper's three samples per cell.
     #[arg(long)]
     pub exact: bool,
+    /// CPU: how rays find candidate metacells, the same image either way (`bvh` is faster for
+    /// path-traced bounces on some grids and slower for camera rays; see
+    /// docs/benchmarks-render-cpu.md).
+    #[arg(long, value_enum, default_value_t = TraversalArg::Blocks)]
+    pub traversal: TraversalArg,
     #[command(flatten)]
     pub threads: ThreadArgs,
     /// Print one JSON object.
@@ -263,6 +268,9 @@ struct RenderReport {
     mode: &'static str,
     /// CPU: the crossing solver.
     crossing: Option<&'static str>,
+    /// CPU: the traversal, and the part of `seconds` spent building it.
+    traversal: Option<&'static str>,
+    tracer_build_seconds: Option<f64>,
     width: u32,
     height: u32,
     /// Rendering only (not reading, extracting, uploading or writing), wall clock.
@@ -421,6 +429,8 @@ pub fn run(args: Args) -> Result<()> {
         adapter: None,
         mode: mode_name(args.mode),
         crossing: None,
+        traversal: None,
+        tracer_build_seconds: None,
         width,
         height,
         seconds: 0.0,
@@ -506,7 +516,11 @@ pub fn run(args: Args) -> Result<()> {
             } else {
                 Crossing::Samples3
             };
-            let options = RenderOptions { crossing, shading };
+            let options = RenderOptions {
+                crossing,
+                traversal: args.traversal.into(),
+                shading,
+            };
             let passes = match &options.shading {
                 Shading::PathTrace(p) => 1 + p.samples_per_pixel as u64,
                 Shading::Phong => 1,
@@ -519,6 +533,8 @@ pub fn run(args: Args) -> Result<()> {
             report.seconds = start.elapsed().as_secs_f64();
             bar.finish_and_clear();
             report.crossing = Some(if args.exact { "exact" } else { "samples3" });
+            report.traversal = Some(options.traversal.name());
+            report.tracer_build_seconds = Some(image.build_seconds);
             report.hits = image.hits() as u64;
             report.rays = Some(image.rays_traced);
             report.rays_per_second = Some(image.rays_traced as f64 / report.seconds.max(1e-9));

@@ -27,6 +27,7 @@ pub mod cluster_bvh;
 pub mod crossing;
 pub mod empty_space;
 pub mod env;
+pub mod grid_tracer;
 mod lanes;
 pub mod occupancy;
 pub mod octant_space;
@@ -39,6 +40,7 @@ pub use bvh_traverse::BvhTracer;
 pub use cluster_bvh::ClusterBvh;
 pub use crossing::Crossing;
 pub use env::{EnvMap, Environment};
+pub use grid_tracer::{GridTracer, Traversal};
 pub use render::{render, render_with_progress, Image, PathTraceOptions, RenderOptions, Shading};
 pub use traverse::{Hit, Occlusion, Tracer};
 

@@ -10,8 +10,8 @@
 
 use super::env::Environment;
 use super::sample::{cosine_hemisphere, Rng};
-use super::traverse::{Hit, Tracer};
-use super::Crossing;
+use super::traverse::Hit;
+use super::{Crossing, GridTracer, Traversal};
 use crate::camera::{dot, Camera, Ray};
 use crate::error::{Error, Result};
 use crate::grid::CellGrid;
@@ -54,6 +54,8 @@ impl Default for PathTraceOptions {
 #[derive(Debug, Clone, PartialEq)]
 pub struct RenderOptions {
     pub crossing: Crossing,
+    /// How rays find candidate metacells; the hits are the same either way.
+    pub traversal: Traversal,
     pub shading: Shading,
 }
 
@@ -61,6 +63,7 @@ impl Default for RenderOptions {
     fn default() -> Self {
         RenderOptions {
             crossing: Crossing::Samples3,
+            traversal: Traversal::default(),
             shading: Shading::Phong,
         }
     }
@@ -84,6 +87,9 @@ pub struct Image {
     pub cluster: Vec<u32>,
     /// Closest-hit queries made (primary rays plus every path segment).
     pub rays_traced: u64,
+    /// Wall-clock seconds spent building the tracer (its traversal's structures) before the
+    /// first ray.
+    pub build_seconds: f64,
 }
 
 impl Image {
@@ -117,7 +123,9 @@ pub fn render_with_progress(
             "image {w}x{h} has more than {MAX_PIXELS} pixels"
         )));
     }
-    let tracer = Tracer::new(grid, options.crossing);
+    let build = std::time::Instant::now();
+    let tracer = GridTracer::new(grid, options.crossing, options.traversal);
+    let build_seconds = build.elapsed().as_secs_f64();
     let passes = match &options.shading {
         Shading::Phong => 1,
         Shading::PathTrace(p) => {
@@ -208,12 +216,13 @@ pub fn render_with_progress(
         normal,
         cluster,
         rays_traced,
+        build_seconds,
     })
 }
 
 /// Radiance carried back along `ray` (one path, see the module docs) and the rays it took.
 fn trace_path(
-    tracer: &Tracer,
+    tracer: &GridTracer,
     mut ray: Ray,
     p: &PathTraceOptions,
     offset: f64,

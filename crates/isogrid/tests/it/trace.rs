@@ -7,7 +7,8 @@ use crate::common::{blobs_u8, field, random_u8, Rng};
 use isogrid::generate::{generate, Field};
 use isogrid::layout::{read_corners, BOUND_SLOT, CLUSTER_SLOTS};
 use isogrid::trace::{
-    render, Crossing, Environment, Occlusion, PathTraceOptions, RenderOptions, Shading, Tracer,
+    render, Crossing, Environment, GridTracer, Occlusion, PathTraceOptions, RenderOptions, Shading,
+    Tracer, Traversal,
 };
 use isogrid::{extract, Camera, CellGrid, ExtractOptions, Iso, Precision, Ray, Volume, VolumeData};
 
@@ -525,6 +526,13 @@ fn renderer_empty_grid_shows_background_and_miss_conventions() {
 
 #[test]
 fn renderer_aovs_match_the_tracer_and_the_analytic_sphere() {
+    for traversal in [Traversal::Blocks, Traversal::Bvh] {
+        renderer_aovs_match(traversal);
+    }
+}
+
+/// The renderer with `traversal` against closest hits of that traversal's own tracer.
+fn renderer_aovs_match(traversal: Traversal) {
     let size = 32;
     let volume = generate(Field::Sphere, size, 0);
     let grid = grid_of(&volume, Iso::Normalized(0.5), Precision::Bits8);
@@ -532,10 +540,12 @@ fn renderer_aovs_match_the_tracer_and_the_analytic_sphere() {
     let camera = Camera::preset(1, lo, hi, 40, 30).unwrap();
     let options = RenderOptions {
         crossing: Crossing::Exact,
+        traversal,
         shading: Shading::Phong,
     };
     let image = render(&grid, &camera, &options).unwrap();
-    let tracer = Tracer::new(&grid, Crossing::Exact);
+    let tracer = GridTracer::new(&grid, Crossing::Exact, traversal);
+    assert_eq!(tracer.traversal(), traversal);
     let centre = (size as f64 - 1.0) / 2.0;
     let radius = 0.4 * (size as f64 - 1.0);
     let mut hits = 0;
@@ -569,7 +579,7 @@ fn renderer_aovs_match_the_tracer_and_the_analytic_sphere() {
         }
     }
     assert_eq!(image.hits(), hits);
-    assert!(hits > 100, "{hits}");
+    assert!(hits > 100, "{traversal:?}: {hits}");
 }
 
 fn furnace(albedo: f32) -> (isogrid::trace::Image, f64) {
@@ -579,6 +589,7 @@ fn furnace(albedo: f32) -> (isogrid::trace::Image, f64) {
     let camera = Camera::preset(2, lo, hi, 32, 24).unwrap();
     let options = RenderOptions {
         crossing: Crossing::Samples3,
+        traversal: Traversal::default(),
         shading: Shading::PathTrace(PathTraceOptions {
             samples_per_pixel: 8,
             bounces: 3,
