@@ -24,19 +24,18 @@ use crate::grid::CellGrid;
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
 pub enum Traversal {
     /// 3D DDA over the 16³-cell blocks, leaping across empty space, then each block's cluster
-    /// bounds (the paper's §3.6). Builds little (8 bytes per block, 68 per cluster). The default:
-    /// it renders camera views faster (`docs/benchmarks-render-cpu.md`: in two runs the
-    /// hierarchy took 1.05–1.21× its time for a 1080p Phong frame of MNI and the dragon).
+    /// bounds (the paper's §3.6). Builds little (8 bytes per block, 68 per cluster) in next to no
+    /// time, which makes it the default: a rendered frame pays for its tracer's build, and over
+    /// three runs of `scripts/bench_render_cpu.py` (1080p Phong and 960×540 path-traced frames
+    /// of MNI and the dragon, `docs/benchmarks-render-cpu.md`) the hierarchy's frames took
+    /// 0.82–1.21× the block walk's time, mostly above 1.
     #[default]
     Blocks,
     /// An 8-wide bounding volume hierarchy over the metacells regrouped by space into leaf
-    /// clusters. Faster for random rays that start inside the grid's box (1.4–1.6×,
-    /// `docs/benchmarks-rays.md`); on rendered frames it gains little or loses: path-traced ones
-    /// took 0.82–0.98× the block walk's time on MNI and 1.02–1.10× on the dragon in the same two
-    /// runs. A likely reason, not measured apart: path bounces start on the surface next to
-    /// their hit, where the block walk begins in the right block while the hierarchy descends
-    /// from its root. It adds about 0.45× the grid's bytes and builds in 0.03 (MNI) to 0.08 s
-    /// (dragon) on one core.
+    /// clusters. Faster per ray: random rays from inside the grid's box 1.4–1.6×
+    /// (`docs/benchmarks-rays.md`), a rendered frame's camera rays and path bounces 0.90–0.99×
+    /// the block walk's time (tracing only). Its build, serial, takes 0.03 (MNI) to 0.08 s (the
+    /// 512³ dragon), which one frame does not win back; it adds about 0.45× the grid's bytes.
     Bvh,
 }
 
