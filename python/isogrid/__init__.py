@@ -342,8 +342,8 @@ def render(
             (H×W×3 float32 unit world normal, NaN on misses), ``"cluster"`` (H×W uint32,
             4294967295 on misses), ``"backend"`` (which backend rendered).
         traversal: on the CPU, how rays find the cells they may cross: ``"blocks"`` (the paper's
-            block walk) or ``"bvh"`` (a hierarchy over the metacells, faster for path-traced
-            bounces on some grids, slower for camera rays); the same image either way.
+            block walk) or ``"bvh"`` (a hierarchy over the metacells: each ray a little faster,
+            but slower to build); the same image either way.
 
     Returns:
         The sRGB image as a uint8 array of shape (H, W, 3); with ``aovs``, ``(image, {name: value})``.

@@ -111,7 +111,7 @@ pub enum TraversalArg {
     /// 3D DDA over the blocks with empty-space leaps (the paper's §3.6; isogrid::trace::Tracer).
     Blocks,
     /// 8-wide bounding volume hierarchy over the metacells regrouped into leaf clusters
-    /// (isogrid::trace::BvhTracer): faster for rays that start inside the grid's box.
+    /// (isogrid::trace::BvhTracer): faster per ray, slower to build.
     Bvh,
 }
 

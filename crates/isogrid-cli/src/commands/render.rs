@@ -208,8 +208,8 @@ pub struct Args {
     /// Solve the exact crossing (cubic roots) instead of the paper's three samples per cell.
     #[arg(long)]
     pub exact: bool,
-    /// CPU: how rays find candidate metacells, the same image either way (`bvh` is faster for
-    /// path-traced bounces on some grids and slower for camera rays; see
+    /// CPU: how rays find candidate metacells, the same image either way (`bvh` traces each ray
+    /// a little faster but takes longer to build, so one frame is rarely faster with it; see
     /// docs/benchmarks-render-cpu.md).
     #[arg(long, value_enum, default_value_t = TraversalArg::Blocks)]
     pub traversal: TraversalArg,
