@@ -66,6 +66,7 @@ __all__ = [
 ]
 
 Triple = Tuple[float, float, float]
+PathLike = Union[str, "os.PathLike[str]"]
 
 
 class EmptySurfaceWarning(RuntimeWarning):
@@ -91,7 +92,6 @@ def _warn_if_empty(grid: CellGrid) -> None:
         EmptySurfaceWarning,
         stacklevel=3,
     )
-PathLike = Union[str, "os.PathLike[str]"]
 
 
 class Volume:

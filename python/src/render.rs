@@ -55,11 +55,8 @@ pub fn render<'py>(
     traversal: &str,
 ) -> PyResult<Bound<'py, PyDict>> {
     let grid = grid.inner();
-    let traversal = match traversal {
-        "blocks" => Traversal::Blocks,
-        "bvh" => Traversal::Bvh,
-        _ => return Err(invalid(format!("traversal must be 'blocks' or 'bvh', not {traversal:?}"))),
-    };
+    let traversal = Traversal::from_name(traversal)
+        .ok_or_else(|| invalid(format!("traversal must be 'blocks' or 'bvh', not {traversal:?}")))?;
     if width == 0 || height == 0 || width as u64 * height as u64 > 64 << 20 {
         return Err(invalid(format!("image size {width}x{height} is empty or too large")));
     }

@@ -13,6 +13,8 @@
 //! let [blocks, bvh] = [Traversal::Blocks, Traversal::Bvh]
 //!     .map(|t| GridTracer::new(&grid, Crossing::Samples3, t).closest_hit(&ray, 0.0, f64::INFINITY));
 //! assert!((blocks.unwrap().t - bvh.unwrap().t).abs() < 1e-9);
+//! assert_eq!(Traversal::from_name("bvh"), Some(Traversal::Bvh));
+//! assert_eq!(Traversal::from_name("octree"), None);
 //! ```
 
 use super::traverse::{Hit, Occlusion, Tracer};
@@ -41,6 +43,13 @@ pub enum Traversal {
 }
 
 impl Traversal {
+    pub const ALL: [Traversal; 2] = [Traversal::Blocks, Traversal::Bvh];
+
+    /// The traversal [`Self::name`] spells `name`, if any.
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|t| t.name() == name)
+    }
+
     /// `"blocks"` or `"bvh"`, as the CLI and JSON reports spell it.
     pub fn name(self) -> &'static str {
         match self {
