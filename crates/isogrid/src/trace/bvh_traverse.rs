@@ -220,7 +220,7 @@ impl<'g> BvhTracer<'g> {
         let margin = node_margin(grid.info().cell_dims());
         let to_cells = spacing.map(|s| 1.0 / s);
         BvhTracer {
-            tracer: Tracer::for_leaves(grid, crossing, &bvh.leaves),
+            tracer: Tracer::for_leaves(grid, crossing, bvh.leaf_slots()),
             cell_dims,
             margin,
             to_cells,
@@ -429,12 +429,7 @@ impl<'g> BvhTracer<'g> {
             let leaf = child & LEAF != 0;
             let index = (child & !LEAF) as usize;
             let node = self.bvh.nodes.as_ptr().wrapping_add(index).cast::<i8>();
-            let slots = self
-                .bvh
-                .leaves
-                .as_ptr()
-                .wrapping_add(index * CLUSTER_SLOTS)
-                .cast::<i8>();
+            let slots = self.bvh.leaves.as_ptr().wrapping_add(index).cast::<i8>();
             let record = self.tracer.cluster_record_ptr(index);
             // A mask, not an `if`: LLVM compiled the `if` to a branch.
             let leaf_mask = (leaf as usize).wrapping_neg();
