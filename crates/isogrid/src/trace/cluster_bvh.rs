@@ -455,7 +455,7 @@ impl ClusterBvh {
 /// (`median`: the median of the longest axis instead, which halves the items). A side's cost is
 /// its area times the leaf clusters its metacells fill at least, so that splits leave fewer
 /// part-empty leaves. Binning all three axes rather than only the longest one takes the build of
-/// the dragon from about 0.07 to 0.10 s on one core, for about 5 % fewer instructions on the
+/// the dragon from about 0.065 to 0.11 s on one core (MNI: 0.025 to 0.04 s), for about 5 % fewer instructions on the
 /// MNI head's missing rays and about 0.6 % fewer on hitting rays (`docs/tracer-performance.md`,
 /// session 19).
 fn split(items: &mut [Item], median: bool) -> usize {

@@ -27,7 +27,7 @@ use crate::grid::CellGrid;
 pub enum Traversal {
     /// 3D DDA over the 16³-cell blocks, leaping across empty space, then each block's cluster
     /// bounds (the paper's §3.6). Builds little (8 bytes per block, 68 per cluster) in next to no
-    /// time. The default: over four runs of `scripts/bench_render_cpu.py` (1080p Phong and
+    /// time. The default: over five runs of `scripts/bench_render_cpu.py` (1080p Phong and
     /// 960×540 path-traced frames of MNI and the dragon, `docs/benchmarks-render-cpu.md`) the
     /// hierarchy's frames took 0.82–1.21× the block walk's time, neither side winning
     /// throughout.
@@ -36,8 +36,8 @@ pub enum Traversal {
     /// An 8-wide bounding volume hierarchy over the metacells regrouped by space into leaf
     /// clusters. Faster per ray: random rays from inside the grid's box 1.4–1.6×
     /// (`docs/benchmarks-rays.md`); a rendered frame's camera rays and path bounces in
-    /// 0.80–1.04× the block walk's time (tracing only, two runs). It builds, on one core, in
-    /// 0.02 (MNI) to 0.06 s (the 512³ dragon), which a frame pays for, and adds about 0.45× the
+    /// 0.76–1.04× the block walk's time (tracing only, three runs). It builds, on one core, in
+    /// about 0.04 (MNI) to 0.10 s (the 512³ dragon), which a frame pays for, and adds about 0.45× the
     /// grid's bytes.
     Bvh,
 }
