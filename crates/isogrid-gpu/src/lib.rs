@@ -19,7 +19,7 @@
 //! depth and splat sums) and shading runs per pixel. The default picks the compute one unless cells
 //! can grow large on screen; on an H100 it is 30× faster (`docs/gpu-performance.md`).
 //!
-//! [`Mode::PathTrace`] (§3.6, `pathtrace.rs`) runs the [`Mode::Cgc`] passes for primary hits, then
+//! [`Mode::PathTrace`] (§3.6, `pathtrace/`) runs the [`Mode::Cgc`] passes for primary hits, then
 //! `trace.wgsl` + `pathtrace.wgsl` (compute) trace secondary rays through blocks, clusters,
 //! metacells and cells and accumulate diffuse path-traced samples over frames. With
 //! [`PrimaryRays::Traced`] the primary rays are traced in that compute pass too and no raster pass
@@ -33,7 +33,7 @@
 //!
 //! Structures larger than one storage binding (`max_storage_buffer_binding_size`) are split into
 //! pages of whole clusters, each with its own buffers and draws; the path tracer binds up to six
-//! pages at once (see `pathtrace.rs`).
+//! pages at once (see `pathtrace/mod.rs`).
 
 mod backends;
 mod compute_raster;

@@ -1,0 +1,212 @@
+//! Layouts and compute pipelines of the trace passes (paper §3.6): `trace.wgsl` +
+//! `pathtrace.wgsl`, compiled once over a grid bound as one page and, on first use, over a grid
+//! bound as several pages.
+
+use crate::gpu_types::TRACE_PAGES;
+use crate::pipelines::{
+    compute, layout, module, pipeline_layout, storage, texture, uniform, CELL_DATA, COLOR_FORMAT,
+    COMMON, D2, FINAL_FORMAT, FLOAT, IDS_FORMAT, TRACE_PAGES_DATA,
+};
+use std::sync::{Arc, OnceLock};
+
+/// The trace entry points compiled against one way of binding the grid's cells.
+#[derive(Clone)]
+pub(crate) struct TraceEntryPoints {
+    pub(super) path_trace: wgpu::ComputePipeline,
+    pub(super) trace_rays: wgpu::ComputePipeline,
+    /// `path_trace_traced_primary`, compiled on first use: most renderers never trace primary
+    /// rays, and each compile of the tracer slows the renderer's start.
+    pub(super) traced_primary: Arc<OnceLock<wgpu::ComputePipeline>>,
+    pub(super) shader: wgpu::ShaderModule,
+    pub(super) traced_primary_layout: wgpu::PipelineLayout,
+}
+
+impl TraceEntryPoints {
+    pub(super) fn traced_primary(&self, device: &wgpu::Device) -> wgpu::ComputePipeline {
+        self.traced_primary
+            .get_or_init(|| {
+                compute(
+                    device,
+                    "path trace, traced primaries",
+                    &self.traced_primary_layout,
+                    &self.shader,
+                    "path_trace_traced_primary",
+                )
+            })
+            .clone()
+    }
+}
+
+/// The several-pages variant: its group 1 layout (page table, then [`TRACE_PAGES`] metacell and
+/// [`TRACE_PAGES`] record bindings) and pipelines.
+pub(super) struct PagedTrace {
+    pub(super) pages: wgpu::BindGroupLayout,
+    pub(super) entry: TraceEntryPoints,
+}
+
+/// Layouts and pipelines of the trace passes: the one-page variant built with the renderer, the
+/// several-pages one on the first trace of a paged grid (most grids fit one page, and compiling
+/// the tracer again would slow every renderer's start).
+pub(crate) struct TracePipelines {
+    pub(super) grid: wgpu::BindGroupLayout,
+    pub(super) page: wgpu::BindGroupLayout,
+    pub(super) path_io: wgpu::BindGroupLayout,
+    pub(super) traced_primary_io: wgpu::BindGroupLayout,
+    pub(super) ray_io: wgpu::BindGroupLayout,
+    pub(super) one_page: TraceEntryPoints,
+    pub(super) paged: OnceLock<PagedTrace>,
+}
+
+impl TracePipelines {
+    pub fn new(device: &wgpu::Device) -> Self {
+        let c = wgpu::ShaderStages::COMPUTE;
+        // Group 0: frame uniforms, trace uniforms, blocks.
+        let grid = layout(
+            device,
+            "trace grid",
+            &[uniform(0, c), uniform(1, c), storage(3, c, true)],
+        );
+        // Group 1: the (single) page's uniforms, metacell slots and corner records.
+        let page = layout(
+            device,
+            "trace page",
+            &[uniform(0, c), storage(1, c, true), storage(2, c, true)],
+        );
+        // The G-buffer (read, raster primaries; or written, traced primaries), accumulation,
+        // output and environment.
+        let path_io = layout(
+            device,
+            "path trace io",
+            &[
+                texture(0, c, FLOAT, D2),
+                storage(1, c, false),
+                written_texture(2, COLOR_FORMAT),
+                texture(3, c, FLOAT, D2),
+            ],
+        );
+        let traced_primary_io = layout(
+            device,
+            "path trace io (traced primaries)",
+            &[
+                storage(1, c, false),
+                written_texture(2, COLOR_FORMAT),
+                texture(3, c, FLOAT, D2),
+                written_texture(6, FINAL_FORMAT),
+                written_texture(7, IDS_FORMAT),
+            ],
+        );
+        let ray_io = layout(
+            device,
+            "trace rays io",
+            &[storage(4, c, true), storage(5, c, false)],
+        );
+        let one_page = entry_points(
+            device,
+            "one page",
+            CELL_DATA,
+            [&grid, &page, &path_io, &traced_primary_io, &ray_io],
+        );
+        TracePipelines {
+            one_page,
+            grid,
+            page,
+            path_io,
+            traced_primary_io,
+            ray_io,
+            paged: OnceLock::new(),
+        }
+    }
+
+    /// The several-pages variant, compiled on first use.
+    pub(super) fn paged(&self, device: &wgpu::Device) -> &PagedTrace {
+        self.paged.get_or_init(|| {
+            let c = wgpu::ShaderStages::COMPUTE;
+            // Binding 0: the page table; 1 + p: page p's metacell slots; 1 + TRACE_PAGES + p: its
+            // corner records (as trace_pages.wgsl declares them).
+            let mut entries = vec![uniform(0, c)];
+            entries.extend((1..=2 * TRACE_PAGES as u32).map(|b| storage(b, c, true)));
+            let pages = layout(device, "trace pages", &entries);
+            let entry = entry_points(
+                device,
+                "several pages",
+                TRACE_PAGES_DATA,
+                [
+                    &self.grid,
+                    &pages,
+                    &self.path_io,
+                    &self.traced_primary_io,
+                    &self.ray_io,
+                ],
+            );
+            PagedTrace { pages, entry }
+        })
+    }
+}
+
+/// A write-only storage texture of the compute stage.
+fn written_texture(binding: u32, format: wgpu::TextureFormat) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::StorageTexture {
+            access: wgpu::StorageTextureAccess::WriteOnly,
+            format,
+            view_dimension: D2,
+        },
+        count: None,
+    }
+}
+
+/// Compiles trace.wgsl + pathtrace.wgsl over `cell_storage` (the cell decoding and the page
+/// bindings it reads) with layouts [grid, pages, path trace io, traced primaries io, trace rays
+/// io]; the traced-primaries entry point only on first use.
+fn entry_points(
+    device: &wgpu::Device,
+    variant: &str,
+    cell_storage: &str,
+    [grid, pages, path_io, traced_primary_io, ray_io]: [&wgpu::BindGroupLayout; 5],
+) -> TraceEntryPoints {
+    let shader = module(
+        device,
+        &format!("trace.wgsl + pathtrace.wgsl ({variant})"),
+        &[
+            COMMON,
+            cell_storage,
+            include_str!("../../shaders/trace.wgsl"),
+            include_str!("../../shaders/pathtrace.wgsl"),
+        ],
+    );
+    let path_layout = pipeline_layout(
+        device,
+        &format!("path trace ({variant})"),
+        &[grid, pages, path_io],
+    );
+    let rays_layout = pipeline_layout(
+        device,
+        &format!("trace rays ({variant})"),
+        &[grid, pages, ray_io],
+    );
+    TraceEntryPoints {
+        path_trace: compute(
+            device,
+            &format!("path trace ({variant})"),
+            &path_layout,
+            &shader,
+            "path_trace",
+        ),
+        trace_rays: compute(
+            device,
+            &format!("trace rays ({variant})"),
+            &rays_layout,
+            &shader,
+            "trace_rays",
+        ),
+        traced_primary: Arc::default(),
+        traced_primary_layout: pipeline_layout(
+            device,
+            &format!("path trace, traced primaries ({variant})"),
+            &[grid, pages, traced_primary_io],
+        ),
+        shader,
+    }
+}
