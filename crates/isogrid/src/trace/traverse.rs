@@ -5,7 +5,8 @@
 //! record per cluster, eight at a time with AVX2 or four with SSE2, `cluster_boxes.rs` and
 //! `lanes.rs`), are tested with the slab test (as §3.2); a candidate metacell's active cells are
 //! visited nearest first by crossing its three mid-planes, and searched for the isosurface
-//! crossing ([`super::crossing`]).
+//! crossing ([`super::crossing`]). The search inside a cluster, shared with the cluster BVH, is in
+//! `traverse/cluster_search.rs`.
 //!
 //! Beyond the paper's records the tracer holds 8 bytes per block and 68 bytes per cluster (about
 //! an eighth of the grid on the dragon and MNI; [`Tracer::extra_bytes`]), all built in [`Tracer::new`].
