@@ -12,7 +12,7 @@
 //! | 9–17 | `hi` x, y, z: largest (inclusive), likewise |
 //! | 18–31 | zero |
 
-use crate::layout::{Block, Metacell, BLOCK_METACELLS, BOUND_SLOT, CLUSTER_SLOTS};
+use isogrid::layout::{Block, Metacell, BLOCK_METACELLS, BOUND_SLOT, CLUSTER_SLOTS};
 
 /// An empty box (`lo` = 7 > `hi` = 0 on every axis), for lanes past a block's last cluster.
 const EMPTY: u32 = 0o777;
@@ -99,7 +99,7 @@ mod tests {
         let bounds = [([9, 0, 17], [15, 3, 16]), ([8, 7, 23], [8, 7, 23])];
         for (c, (lo, hi)) in bounds.iter().enumerate() {
             metacells[c * CLUSTER_SLOTS + BOUND_SLOT] =
-                crate::layout::ClusterBound { lo: *lo, hi: *hi }.into_slot();
+                isogrid::layout::ClusterBound { lo: *lo, hi: *hi }.into_slot();
         }
         let mut blocks = vec![<Block as bytemuck::Zeroable>::zeroed(); 6];
         blocks[1 + 2 * 2] = Block {

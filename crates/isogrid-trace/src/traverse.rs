@@ -25,12 +25,12 @@ use super::cluster_bounds::{unpack4, PackedClusterBounds};
 use super::cluster_boxes::AllClusterBoxes;
 use super::crossing::Crossing;
 use super::lanes::{Baseline, Chosen, Lanes};
-use super::octant_space::OctantSpaceMap;
-use crate::camera::Ray;
-use crate::grid::CellGrid;
-use crate::layout::{Block, Metacell, Precision, BLOCK_CELLS, CLUSTER_SLOTS};
 pub(super) use cluster_search::Best;
 use cluster_search::{prefetch_slice, widened_f32};
+use isogrid::camera::Ray;
+use isogrid::grid::CellGrid;
+use isogrid::layout::{Block, Metacell, Precision, BLOCK_CELLS, CLUSTER_SLOTS};
+use isogrid::skip::octant_space::OctantSpaceMap;
 
 mod cluster_search;
 

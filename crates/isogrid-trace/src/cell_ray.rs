@@ -5,7 +5,7 @@
 //! Cell units: world / spacing per axis, so cell `(i, j, k)` is the box `[i, i+1]×[j, j+1]×[k, k+1]`;
 //! the ray parameter `t` stays the world distance along the unit-direction world ray.
 
-use crate::camera::Ray;
+use isogrid::camera::Ray;
 
 /// See the module docs. Zero direction components get a huge finite reciprocal (as if the
 /// direction were +1e−300) so that slab tests never compute 0·∞.
@@ -292,7 +292,7 @@ pub(super) fn xyz<T>(f: impl Fn(usize) -> T) -> [T; 3] {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::trace::sample::{uniform_sphere, Rng};
+    use crate::sample::{uniform_sphere, Rng};
 
     /// The cells `metacell_cells` lists, in its order, are those whose own slab test the ray
     /// passes with a segment longer than rounding, nearest first, with the same times.

@@ -13,7 +13,7 @@
 
 use super::bvh_traverse::widen_f32;
 use super::cluster_bvh::{Node, WIDTH};
-use crate::camera::Ray;
+use isogrid::camera::Ray;
 
 /// The tracer's constants of the gate, one f64 lane per axis and a fourth lane that never fails
 /// the box test.

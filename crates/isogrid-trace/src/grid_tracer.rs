@@ -5,7 +5,7 @@
 //! and in what they build before the first ray.
 //!
 //! ```
-//! use isogrid::trace::{Crossing, GridTracer, Traversal};
+//! use isogrid_trace::{Crossing, GridTracer, Traversal};
 //! use isogrid::{extract, generate::{generate, Field}, ExtractOptions, Iso, Ray};
 //! let volume = generate(Field::Sphere, 24, 0);
 //! let grid = extract(&volume.view(), &ExtractOptions::new(Iso::Normalized(0.5))).unwrap();
@@ -19,8 +19,8 @@
 
 use super::traverse::{Hit, Occlusion, Tracer};
 use super::{closest_hits, BvhTracer, Crossing};
-use crate::camera::Ray;
-use crate::grid::CellGrid;
+use isogrid::camera::Ray;
+use isogrid::grid::CellGrid;
 
 /// How rays find the metacells they may cross.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]

@@ -6,11 +6,11 @@
 //! Units as in [`super`]: cell units, with the world ray's parameter `t`.
 
 use super::{Hit, Tracer};
-use crate::camera::Ray;
-use crate::layout::{read_corners, Metacell, CLUSTER_SLOTS};
-use crate::trace::cell_ray::{min, xyz, BoxFaces, CellRay};
-use crate::trace::crossing::Trilinear;
-use crate::trace::lanes::Lanes;
+use crate::cell_ray::{min, xyz, BoxFaces, CellRay};
+use crate::crossing::Trilinear;
+use crate::lanes::Lanes;
+use isogrid::camera::Ray;
+use isogrid::layout::{read_corners, Metacell, CLUSTER_SLOTS};
 
 /// Hints the CPU to load the cache lines of `data` (no-op off x86-64). Never faults.
 #[inline(always)]
@@ -99,7 +99,7 @@ impl<'g> Tracer<'g> {
     /// the hit metacell was found (index of the searched cluster, slot in it) to the grid's
     /// cluster.
     #[inline(always)]
-    pub(in crate::trace) fn hit_of(
+    pub(crate) fn hit_of(
         &self,
         ray: &Ray,
         best: &Best,
@@ -127,7 +127,7 @@ impl<'g> Tracer<'g> {
     /// cluster index): its metacell boxes, then the cells of each candidate metacell nearest
     /// first, keeping the closest crossing before `best.t` in `best`.
     #[inline(always)]
-    pub(in crate::trace) fn closest_in_cluster<L: Lanes>(
+    pub(crate) fn closest_in_cluster<L: Lanes>(
         &self,
         lanes: L,
         r: &CellRay,
@@ -145,7 +145,7 @@ impl<'g> Tracer<'g> {
     /// the constants and the window of its node tests, which it holds already.
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
-    pub(in crate::trace) fn closest_in_cluster_by<L: Lanes>(
+    pub(crate) fn closest_in_cluster_by<L: Lanes>(
         &self,
         lanes: L,
         faces: &BoxFaces,
@@ -222,7 +222,7 @@ impl<'g> Tracer<'g> {
     /// Whether the ray passes through an active cell box of `cluster` (its 16 slots, global index
     /// `cluster_index`) within `[tmin, tmax]`.
     #[inline(always)]
-    pub(in crate::trace) fn any_box_in_cluster<L: Lanes>(
+    pub(crate) fn any_box_in_cluster<L: Lanes>(
         &self,
         lanes: L,
         r: &CellRay,
@@ -257,7 +257,7 @@ impl<'g> Tracer<'g> {
 
     /// Bit `k` set when the ray may pass through metacell slot `k` of `cluster` (global index
     /// `cluster_index`) within the widened `t` range; empty slots are left out when the packed
-    /// copy ([`AllClusterBoxes`](crate::trace::cluster_boxes::AllClusterBoxes)) answers.
+    /// copy ([`AllClusterBoxes`](crate::cluster_boxes::AllClusterBoxes)) answers.
     #[inline(always)]
     fn metacell_candidates<L: Lanes>(
         &self,
@@ -275,13 +275,13 @@ impl<'g> Tracer<'g> {
 
     /// Where the box record of global cluster `c` lies (dangling past the end; for prefetching).
     #[inline(always)]
-    pub(in crate::trace) fn cluster_record_ptr(&self, c: usize) -> *const i8 {
+    pub(crate) fn cluster_record_ptr(&self, c: usize) -> *const i8 {
         self.cluster_boxes.record_ptr(c)
     }
 
     /// Hints the CPU to load what the search of global cluster `c` reads first.
     #[inline(always)]
-    pub(in crate::trace) fn prefetch_cluster(&self, c: usize) {
+    pub(crate) fn prefetch_cluster(&self, c: usize) {
         if let Some(boxes) = self.cluster_boxes.get(c) {
             prefetch_slice(std::slice::from_ref(boxes));
         }
@@ -299,13 +299,13 @@ type Found = (f64, u32, [u32; 3], (u32, u32), Trilinear, [f64; 3]);
 
 /// A closest-hit search in progress: the best `t` so far (the search window's end until something
 /// is found) and what was found there.
-pub(in crate::trace) struct Best {
+pub(crate) struct Best {
     pub t: f64,
     found: Option<Found>,
 }
 
 impl Best {
-    pub(in crate::trace) fn new(tmax: f64) -> Self {
+    pub(crate) fn new(tmax: f64) -> Self {
         Best {
             t: tmax,
             found: None,

@@ -24,9 +24,9 @@
 //! f32 `t` values stay small and their rounding stays within that margin.
 
 use super::cell_ray::{max, min, xyz};
-use crate::grid::CellGrid;
-use crate::layout::{Block, ClusterBound, Metacell, BOUND_SLOT, CLUSTER_SLOTS};
 use bytemuck::Zeroable;
+use isogrid::grid::CellGrid;
+use isogrid::layout::{Block, ClusterBound, Metacell, BOUND_SLOT, CLUSTER_SLOTS};
 
 /// Children per node.
 pub(super) const WIDTH: usize = 8;
@@ -50,7 +50,7 @@ const BINS: usize = 16;
 #[repr(C, align(64))]
 #[derive(Debug, Clone, Copy)]
 pub(super) struct Node {
-    /// Child boxes in metacell units, inclusive as in [`crate::layout::ClusterBound`]: `mc[a]`
+    /// Child boxes in metacell units, inclusive as in [`isogrid::layout::ClusterBound`]: `mc[a]`
     /// the lowest metacell on axis `a` of the eight children, `mc[3 + a]` the highest. Empty lanes
     /// have lowest > highest.
     pub(super) mc: [[u16; WIDTH]; 6],
@@ -145,7 +145,7 @@ pub struct ClusterBvh {
     /// bound in slot [`BOUND_SLOT`].
     pub(super) leaves: Vec<LeafSlots>,
     /// Per slot of `leaves`, the grid cluster its metacell came from, for a hit's
-    /// [`crate::trace::Hit::cluster`] (read once per hit ray; a binary search over the clusters'
+    /// [`crate::Hit::cluster`] (read once per hit ray; a binary search over the clusters'
     /// first cells instead cost about 40–75 ns per hit ray).
     grid_clusters: Vec<u32>,
     metacells: usize,
@@ -560,8 +560,8 @@ impl Bins {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::generate::{generate, Field};
-    use crate::{extract, ExtractOptions, Iso};
+    use isogrid::generate::{generate, Field};
+    use isogrid::{extract, ExtractOptions, Iso};
 
     fn gyroid() -> CellGrid {
         let volume = generate(Field::Gyroid, 36, 0);

@@ -114,7 +114,7 @@ fn fill_octant(blocks: &[Block], dims: [usize; 3], octant: usize, map: &mut [u8]
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::trace::empty_space::test_blocks::{block, random_blocks};
+    use crate::skip::empty_space::test_blocks::{block, random_blocks};
 
     /// Brute force over all pairs: an occupied block `q` ahead of `p` in the octant (offsets
     /// `≥ 0` on every axis) lies in every cube from `p` whose side exceeds its largest offset.

@@ -14,9 +14,9 @@ use super::lanes::Avx2;
 use super::lanes::{Baseline, Lanes};
 use super::root_gate::RootGate;
 use super::traverse::{Best, Hit, Occlusion, Tracer};
-use crate::camera::Ray;
-use crate::grid::CellGrid;
-use crate::layout::{Metacell, CLUSTER_SLOTS};
+use isogrid::camera::Ray;
+use isogrid::grid::CellGrid;
+use isogrid::layout::{Metacell, CLUSTER_SLOTS};
 use std::mem::MaybeUninit;
 
 /// `[lo, hi]` in f32, no narrower than in f64: each end is pushed out by more than the rounding
