@@ -456,8 +456,7 @@ impl ClusterBvh {
 /// its area times the leaf clusters its metacells fill at least, so that splits leave fewer
 /// part-empty leaves. Binning all three axes rather than only the longest one takes the build of
 /// the dragon from about 0.065 to 0.11 s on one core (MNI: 0.025 to 0.04 s), for about 5 % fewer instructions on the
-/// MNI head's missing rays and about 0.6 % fewer on hitting rays (`docs/tracer-performance.md`,
-/// session 19).
+/// MNI head's missing rays and about 0.6 % fewer on hitting rays.
 fn split(items: &mut [Item], median: bool) -> usize {
     let n = items.len();
     let mut lo = [f32::MAX; 3];

@@ -17,8 +17,10 @@
 //! assert_eq!(Traversal::from_name("octree"), None);
 //! ```
 
-use super::traverse::{Hit, Occlusion, Tracer};
-use super::{closest_hits, BvhTracer, Crossing};
+use crate::block_traverse::{closest_hits, Tracer};
+use crate::bvh_traverse::BvhTracer;
+use crate::cluster_search::{Hit, Occlusion};
+use crate::crossing::Crossing;
 use isogrid::camera::Ray;
 use isogrid::grid::CellGrid;
 

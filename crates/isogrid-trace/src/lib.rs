@@ -1,6 +1,15 @@
-//! CPU ray tracing of clustered grid cells (paper §3.6): hierarchical traversal of blocks,
-//! clusters, metacells and cells ([`traverse`]), the isosurface crossing inside a cell
-//! ([`crossing`]), and a renderer with Blinn–Phong or path-traced shading ([`render`](mod@render)).
+//! CPU ray tracing of clustered grid cells (paper §3.6): two traversals that find candidate
+//! metacells, the block walk ([`Tracer`]) and a hierarchy over regrouped clusters
+//! ([`BvhTracer`]), one search inside a cluster that both share, the isosurface crossing inside
+//! a cell ([`crossing`]), and a renderer with Blinn–Phong or path-traced shading
+//! ([`render`](mod@render)). `docs/design/tracing.md` walks through a ray.
+//!
+//! The modules depend on each other in one direction only (no import cycles;
+//! `scripts/check_module_cycles.py`): ray setup (`cell_ray`, `node_ray`) and the records the
+//! traversals read (`cluster_bounds`, `cluster_boxes`, `cluster_bvh`) → SIMD lanes (`lanes`,
+//! `root_gate`) → the cluster search (`cluster_search`, with `crossing`) → the two traversals
+//! (`block_walk` + `block_traverse`, `bvh_traverse`) → either behind one type (`grid_tracer`) →
+//! the renderer and path tracer (`render`, `env`, `sample`).
 //!
 //! World space is the camera's: sample (i, j, k) at (i·sx, j·sy, k·sz); `t` is world distance along
 //! unit-direction rays.
@@ -22,40 +31,28 @@
 // comparison; `partial_cmp` would hide that behind a match.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+mod block_traverse;
 mod block_walk;
 pub mod bvh_traverse;
 mod cell_ray;
 pub mod cluster_bounds;
 mod cluster_boxes;
 pub mod cluster_bvh;
+mod cluster_search;
 pub mod crossing;
 pub mod env;
 pub mod grid_tracer;
 mod lanes;
+mod node_ray;
 pub mod render;
 mod root_gate;
 pub mod sample;
-pub mod traverse;
 
+pub use block_traverse::{closest_hits, Tracer};
 pub use bvh_traverse::BvhTracer;
 pub use cluster_bvh::ClusterBvh;
+pub use cluster_search::{Hit, Occlusion};
 pub use crossing::Crossing;
 pub use env::{EnvMap, Environment};
 pub use grid_tracer::{GridTracer, Traversal};
 pub use render::{render, render_with_progress, Image, PathTraceOptions, RenderOptions, Shading};
-pub use traverse::{Hit, Occlusion, Tracer};
-
-use isogrid::camera::Ray;
-use rayon::prelude::*;
-
-/// Closest hits of many rays in parallel (`t ∈ [0, ∞)`); `out[i]` answers `rays[i]`.
-///
-/// # Panics
-/// When `out` and `rays` differ in length.
-pub fn closest_hits(tracer: &Tracer, rays: &[Ray], out: &mut [Option<Hit>]) {
-    assert_eq!(rays.len(), out.len(), "one output per ray");
-    out.par_iter_mut()
-        .zip(rays.par_iter())
-        .with_min_len(256)
-        .for_each(|(o, r)| *o = tracer.closest_hit(r, 0.0, f64::INFINITY));
-}

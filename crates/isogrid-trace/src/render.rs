@@ -8,10 +8,11 @@
 //! its own random stream, so images do not depend on the thread count. Samples are accumulated in
 //! passes of one sample per pixel (progress is reported after each pass).
 
-use super::env::Environment;
-use super::sample::{cosine_hemisphere, Rng};
-use super::traverse::Hit;
-use super::{Crossing, GridTracer, Traversal};
+use crate::cluster_search::Hit;
+use crate::crossing::Crossing;
+use crate::env::Environment;
+use crate::grid_tracer::{GridTracer, Traversal};
+use crate::sample::{cosine_hemisphere, Rng};
 use isogrid::camera::{dot, Camera, Ray};
 use isogrid::error::{Error, Result};
 use isogrid::grid::CellGrid;

@@ -2,18 +2,19 @@
 //! single rays for batches, the root test for the root gate, the baseline lanes for AVX2.
 
 use super::*;
-use crate::bvh_traverse::BvhTracer;
-use crate::cell_ray::xyz;
+use crate::block_traverse::Tracer;
+use crate::cell_ray::{widen_f32, xyz};
+use crate::cluster_search::{Best, ClusterSearch};
 use crate::crossing::Crossing;
-use crate::traverse::{Best, Tracer};
 use isogrid::camera::Ray;
 use isogrid::generate::{generate, Field};
 use isogrid::{extract, ExtractOptions, Iso};
 
-/// Brute force: every cluster of the grid searched with the block tracer's cluster search, in
-/// index order; the closest hit's `t`, and whether any cell box is passed.
+/// Brute force: every cluster of the grid searched with the cluster search over the grid's
+/// clusters (the block walk's), in index order; the closest hit's `t`, and whether any cell box
+/// is passed.
 fn every_cluster(grid: &CellGrid, ray: &Ray) -> (Option<f64>, bool) {
-    let tracer = Tracer::new(grid, Crossing::Exact);
+    let tracer = ClusterSearch::new(grid, Crossing::Exact, grid.metacells());
     let r = tracer.cell_ray(ray);
     let mut best = Best::new(f64::INFINITY);
     let mut any = false;
