@@ -1,5 +1,5 @@
-//! A compact copy of the cluster bounds (paper §3.1: slot 15 of every cluster) for the tracer of
-//! [`super::traverse`]: 4 bytes per cluster, a block's clusters side by side.
+//! A compact copy of the cluster bounds (paper §3.1: slot 15 of every cluster) for the
+//! block walk ([`crate::Tracer`]): 4 bytes per cluster, a block's clusters side by side.
 //!
 //! In the packed layout a block's cluster bounds lie 192 bytes apart, so testing them all touched
 //! one cache line per cluster, and a ray near the surface tests a few blocks' worth. Packed, a

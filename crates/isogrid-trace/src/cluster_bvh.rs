@@ -1,11 +1,11 @@
 //! A bounding volume hierarchy over the grid's metacells, re-clustered: the paper's future work
 //! (§3.6 and the conclusion: "re-arranging the clusters of min-max blocks into bounding volume
-//! hierarchies"), as an alternative to the block walk of [`super::traverse`]. This file builds
+//! hierarchies"), as an alternative to the block walk ([`crate::Tracer`]). This file builds
 //! it; the traversal is in [`super::bvh_traverse`].
 //!
 //! Leaves are *leaf clusters*: up to 15 metacells that the build groups by space, stored as the
 //! grid stores a cluster (16 slots of [`Metacell`], the bound in slot 15), so the tracer's own
-//! cluster search runs inside each leaf (`Tracer::closest_in_cluster`) and hits are those of the
+//! cluster search runs inside each leaf (`cluster_search.rs`) and hits are those of the
 //! block walk. A grid cluster holds 15 metacells consecutive in Morton order inside one block,
 //! which can lie far apart; grouped by the build, the same metacells have boxes of about half the
 //! surface area (the sum over leaves, relative to the grid's box: 11.7 → 6.6 on the MNI head,
