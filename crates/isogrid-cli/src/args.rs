@@ -105,21 +105,21 @@ fn parse_shape(s: &str) -> Result<[usize; 3], String> {
         .map_err(|_| format!("shape must have three values X,Y,Z, not {s:?}"))
 }
 
-/// `--traversal`: how CPU rays find candidate metacells ([`isogrid::trace::Traversal`]).
+/// `--traversal`: how CPU rays find candidate metacells ([`isogrid_trace::Traversal`]).
 #[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum TraversalArg {
-    /// 3D DDA over the blocks with empty-space leaps (the paper's §3.6; isogrid::trace::Tracer).
+    /// 3D DDA over the blocks with empty-space leaps (the paper's §3.6; isogrid_trace::Tracer).
     Blocks,
     /// 8-wide bounding volume hierarchy over the metacells regrouped into leaf clusters
-    /// (isogrid::trace::BvhTracer): faster per ray, slower to build.
+    /// (isogrid_trace::BvhTracer): faster per ray, slower to build.
     Bvh,
 }
 
-impl From<TraversalArg> for isogrid::trace::Traversal {
+impl From<TraversalArg> for isogrid_trace::Traversal {
     fn from(t: TraversalArg) -> Self {
         match t {
-            TraversalArg::Blocks => isogrid::trace::Traversal::Blocks,
-            TraversalArg::Bvh => isogrid::trace::Traversal::Bvh,
+            TraversalArg::Blocks => isogrid_trace::Traversal::Blocks,
+            TraversalArg::Bvh => isogrid_trace::Traversal::Bvh,
         }
     }
 }

@@ -7,8 +7,8 @@ use crate::gpu_types::{MeshUniforms, PageDispatchArgs, PageDrawArgs, PageUniform
 use crate::render::buffer_entry as entry;
 use crate::Renderer;
 use isogrid::layout::{BOUND_SLOT, CLUSTER_SLOTS};
-use isogrid::trace::occupancy::MetacellOccupancy;
-use isogrid::trace::octant_space::OctantSpaceMap;
+use isogrid::skip::occupancy::MetacellOccupancy;
+use isogrid::skip::octant_space::OctantSpaceMap;
 use isogrid::{CellGrid, GridInfo, Metacell};
 use std::sync::atomic::AtomicU32;
 use std::sync::Mutex;
@@ -504,7 +504,7 @@ const OCCUPANCY_RECORD_WORDS: usize = 25;
 /// What the tracer reads per block, as one array of words (keep in sync with `block_side`
 /// and `occupancy_index` in trace.wgsl):
 /// - the block records byte for byte (4 words each, `isogrid::layout::Block`);
-/// - the octant empty-space map (`isogrid::trace::octant_space`, as the CPU tracer leaps): for
+/// - the octant empty-space map (`isogrid::skip::octant_space`, as the CPU tracer leaps): for
 ///   each of the 8 ray octants in turn, one byte per block, the whole padded to a whole word;
 /// - per block, the word offset of its occupancy record in this array (`u32::MAX` when empty);
 /// - per non-empty block, a record of [`OCCUPANCY_RECORD_WORDS`]: the 512-bit Morton-order mask

@@ -8,8 +8,8 @@
 //! Every writer goes through [`isogrid::fs::write_atomic`].
 
 use isogrid::fs::write_atomic;
-use isogrid::trace::EnvMap;
 use isogrid::{Error, Result, ResultExt};
+use isogrid_trace::EnvMap;
 use std::path::Path;
 
 /// Writes an 8-bit PNG of `width × height` pixels with `channels` (3 = RGB, 4 = RGBA) bytes each.

@@ -30,7 +30,9 @@ pub struct Camera {
 pub(crate) fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
 }
-pub(crate) fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+/// Dot product of two 3-vectors (the CPU renderer in `isogrid-trace` shades with it per pixel).
+#[inline]
+pub fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 pub(crate) fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {

@@ -73,8 +73,8 @@ fn picture(
         isogrid_io::image::write_png(path, w, h, 4, &out.frame.rgba8)?;
         return Ok(("gpu", out.adapter));
     }
-    let options = isogrid::trace::RenderOptions::default();
-    let image = isogrid::trace::render(grid, &camera, &options)?;
+    let options = isogrid_trace::RenderOptions::default();
+    let image = isogrid_trace::render(grid, &camera, &options)?;
     isogrid_io::image::write_png(path, w, h, 3, &image.rgb8)?;
     Ok(("cpu", "CPU ray tracer (no GPU adapter)".to_string()))
 }

@@ -8,10 +8,10 @@ use crate::args::{parse_precision, InputArgs, ThreadArgs, TraversalArg};
 use crate::report::print_json;
 use crate::{input, progress};
 use anyhow::{bail, Context, Result};
-use isogrid::trace::{
+use isogrid::{extract, Camera, CellGrid, ExtractOptions, Iso, Precision, Volume};
+use isogrid_trace::{
     render_with_progress, Crossing, Environment, PathTraceOptions, RenderOptions, Shading,
 };
-use isogrid::{extract, Camera, CellGrid, ExtractOptions, Iso, Precision, Volume};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -254,7 +254,7 @@ pub fn parse_size(s: &str) -> Result<(u32, u32), String> {
     let (w, h) = s.split_once(['x', 'X']).ok_or_else(bad)?;
     let w: u32 = w.trim().parse().map_err(|_| bad())?;
     let h: u32 = h.trim().parse().map_err(|_| bad())?;
-    if w == 0 || h == 0 || w as u64 * h as u64 > isogrid::trace::render::MAX_PIXELS {
+    if w == 0 || h == 0 || w as u64 * h as u64 > isogrid_trace::render::MAX_PIXELS {
         return Err(bad());
     }
     Ok((w, h))

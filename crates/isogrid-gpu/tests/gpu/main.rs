@@ -94,7 +94,7 @@ pub struct HitAgreement {
 
 impl HitAgreement {
     pub fn of(
-        cpu: &isogrid::trace::Tracer,
+        cpu: &isogrid_trace::Tracer,
         rays: &[isogrid::Ray],
         gpu: &[Option<isogrid_gpu::RayHit>],
     ) -> Self {

@@ -498,12 +498,12 @@ fn an_empty_grid_shows_only_the_environment() {
     }
 }
 
-/// The GPU hybrid path tracer and the CPU path tracer (`isogrid::trace`) estimate the same image:
+/// The GPU hybrid path tracer and the CPU path tracer (`isogrid_trace`) estimate the same image:
 /// same grid, camera, albedo, bounces and a uniform environment. Their random numbers differ, so
 /// only the means over the surface pixels are compared, against several standard errors.
 #[test]
 fn gpu_and_cpu_path_tracers_agree_on_the_mean() {
-    use isogrid::trace::{Environment, PathTraceOptions as CpuOptions, RenderOptions, Shading};
+    use isogrid_trace::{Environment, PathTraceOptions as CpuOptions, RenderOptions, Shading};
     let Some(r) = renderer() else { return };
     let radiance = [0.9f32, 0.7, 0.5];
     let env = r.upload_env(&EnvMap::constant(radiance).unwrap()).unwrap();
@@ -534,7 +534,7 @@ fn gpu_and_cpu_path_tracers_agree_on_the_mean() {
             }),
             ..RenderOptions::default()
         };
-        let cpu = isogrid::trace::render(&grid, &cam, &options).unwrap();
+        let cpu = isogrid_trace::render(&grid, &cam, &options).unwrap();
         // Interior surface pixels of both images (silhouettes would bias the comparison).
         let both = interior_pixels(pixels as usize, gpu.linear.len(), |i| {
             gpu.is_hit(i) && cpu.cluster[i] != u32::MAX

@@ -6,7 +6,7 @@
 //! down its height: row 0 looks straight up (+y), the last row straight down; the centre column
 //! looks along −z, a quarter of the width to the right along +x. Radiance is linear RGB.
 
-use crate::error::{Error, Result};
+use isogrid::error::{Error, Result};
 
 /// A linear-RGB equirectangular radiance map (see the module docs for its orientation).
 #[derive(Debug, Clone, PartialEq)]

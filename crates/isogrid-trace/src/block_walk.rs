@@ -7,10 +7,10 @@
 //! the ray's octant is empty, [`BlockWalk::leap`] takes the ray straight to where it leaves that
 //! cube. Elsewhere [`BlockWalk::step`] moves one block.
 //!
-//! [`OctantSpaceMap`]: super::octant_space::OctantSpaceMap
+//! [`OctantSpaceMap`]: isogrid::skip::octant_space::OctantSpaceMap
 
 use super::cell_ray::{max, min, xyz, CellRay};
-use crate::layout::{BLOCK_CELLS, BLOCK_METACELLS};
+use isogrid::layout::{BLOCK_CELLS, BLOCK_METACELLS};
 
 /// Where one ray is in the block grid (block indices per axis) and what moving it needs.
 #[derive(Debug, Clone)]

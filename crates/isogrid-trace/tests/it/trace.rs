@@ -6,11 +6,11 @@
 use crate::common::{blobs_u8, field, random_u8, Rng};
 use isogrid::generate::{generate, Field};
 use isogrid::layout::{read_corners, BOUND_SLOT, CLUSTER_SLOTS};
-use isogrid::trace::{
+use isogrid::{extract, Camera, CellGrid, ExtractOptions, Iso, Precision, Ray, Volume, VolumeData};
+use isogrid_trace::{
     render, Crossing, Environment, GridTracer, Occlusion, PathTraceOptions, RenderOptions, Shading,
     Tracer, Traversal,
 };
-use isogrid::{extract, Camera, CellGrid, ExtractOptions, Iso, Precision, Ray, Volume, VolumeData};
 
 /// One active cell as the reference sees it.
 struct RefCell {
@@ -305,12 +305,12 @@ fn exact_matches_brute_force_after_long_leaps_across_empty_space() {
     let volume = Volume::with_geometry(geometry, data).unwrap();
     let grid = grid_of(&volume, Iso::Value(127.5), Precision::Bits8);
     let block_dims = grid.info().block_dims().map(|b| b as usize);
-    let map = isogrid::trace::empty_space::EmptySpaceMap::new(grid.blocks(), block_dims);
+    let map = isogrid::skip::empty_space::EmptySpaceMap::new(grid.blocks(), block_dims);
     let longest = (0..grid.blocks().len()).map(|i| map.distance(i)).max();
     assert!(longest >= Some(4), "longest leap {longest:?} blocks");
     // The CPU tracer leaps across cubes that grow towards the ray's octant only: from blocks
     // beside a ball too (symmetric distance 1), when the ray moves away from it.
-    let octants = isogrid::trace::octant_space::OctantSpaceMap::new(grid.blocks(), block_dims);
+    let octants = isogrid::skip::octant_space::OctantSpaceMap::new(grid.blocks(), block_dims);
     let beside = (0..grid.blocks().len())
         .filter(|&i| map.distance(i) == 1 && (0..8).any(|o| octants.octant(o)[i] >= 4))
         .count();
@@ -582,7 +582,7 @@ fn renderer_aovs_match(traversal: Traversal) {
     assert!(hits > 100, "{traversal:?}: {hits}");
 }
 
-fn furnace(albedo: f32) -> (isogrid::trace::Image, f64) {
+fn furnace(albedo: f32) -> (isogrid_trace::Image, f64) {
     let volume = generate(Field::Sphere, 24, 0);
     let grid = grid_of(&volume, Iso::Normalized(0.5), Precision::Bits8);
     let (lo, hi) = world_box(&grid);

@@ -6,7 +6,7 @@
 //! calls them through one `#[target_feature(enable = "avx2,fma,popcnt,bmi1,bmi2,lzcnt")]` entry
 //! point per query, so the whole traversal is compiled for AVX2 there and the kernels inline into
 //! it. On the dragon and the MNI head this took about 14 % off the cluster hierarchy's time per
-//! ray (`docs/tracer-performance.md`). The bit instructions come with every AVX2 CPU; with them a
+//! ray. The bit instructions come with every AVX2 CPU; with them a
 //! cell's record index is one `popcnt` instead of a dozen instructions, and bit scans one `tzcnt`.
 //! Both sets find the same hits: the tests differ only in f32 rounding, which the boxes' margins
 //! absorb (`bvh_traverse::tests::both_sets_find_the_same_hits`).
@@ -14,10 +14,10 @@
 //! Any-hit queries stay on the baseline set: nothing traces them in bulk (the renderers and the
 //! benchmark ask for closest hits).
 
-use super::bvh_traverse::NodeRay;
-use super::cell_ray::BoxFaces;
-use super::cluster_boxes::ClusterBoxes;
-use super::cluster_bvh::{Node, WIDTH};
+use crate::cell_ray::BoxFaces;
+use crate::cluster_boxes::ClusterBoxes;
+use crate::cluster_bvh::{Node, WIDTH};
+use crate::node_ray::NodeRay;
 
 /// The two box tests the traversals need, in one instruction set. A value of the type is the
 /// proof that the CPU can run it.

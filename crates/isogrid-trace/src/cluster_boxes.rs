@@ -13,7 +13,7 @@
 //! | 62 | 2 | `far_apart`: 1 when some slot lies 256 or more metacells from `origin` (only a damaged file) |
 
 use super::cell_ray::BoxFaces;
-use crate::layout::{Metacell, BOUND_SLOT, CLUSTER_SLOTS};
+use isogrid::layout::{Metacell, BOUND_SLOT, CLUSTER_SLOTS};
 
 /// See the module docs.
 #[repr(C, align(64))]
@@ -203,9 +203,9 @@ impl ClusterBoxes {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::camera::Ray;
-    use crate::trace::cell_ray::CellRay;
-    use crate::trace::sample::Rng;
+    use crate::cell_ray::CellRay;
+    use crate::sample::Rng;
+    use isogrid::camera::Ray;
 
     /// Random clusters of a 128K³-cell grid (metacell positions up to 65535) and random rays: each
     /// packed test (the baseline, and AVX2 where the CPU has it) reports every occupied metacell
@@ -220,7 +220,7 @@ mod tests {
         let largest = 131072.0f64;
         let margin = (1e-3f64).max(largest * 1e-5);
         #[cfg(target_arch = "x86_64")]
-        let avx2 = crate::trace::lanes::Avx2::detect();
+        let avx2 = crate::lanes::Avx2::detect();
         let (mut inside, mut outside) = (0, 0);
         for _ in 0..400 {
             // A cluster in one 8³-metacell block, some slots empty.

@@ -7,8 +7,8 @@
 //! clouds"): one byte per block, built in two chamfer passes.
 //!
 //! Neither tracer leaps by it any more: both use [`super::octant_space`], whose cubes start at the
-//! block and grow towards the ray's octant only, so they reach further ahead (fewer block moves:
-//! `docs/tracer-performance.md`, `docs/gpu-performance.md`). This map stays as the reference the
+//! block and grow towards the ray's octant only, so they reach further ahead (a ray that misses
+//! the dragon makes 2.3 block moves instead of 4.2). This map stays as the reference the
 //! tests hold the octant map's leaps against.
 
 use crate::layout::Block;

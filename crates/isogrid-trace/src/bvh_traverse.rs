@@ -1,205 +1,32 @@
 //! Closest-hit and any-hit traversal of a [`ClusterBvh`] (the paper's future work, §3.6): ordered,
-//! nearest child first, one slab test per 8-wide node (AVX2, or two SSE2 halves; `lanes.rs`),
-//! and the block tracer's own search inside each leaf cluster (`Tracer::closest_in_cluster`), so
-//! hits are those of the block walk.
+//! nearest child first, one slab test per 8-wide node (`node_ray.rs`; AVX2, or two SSE2 halves,
+//! `lanes.rs`), and in each leaf cluster the search the block walk runs in its clusters
+//! (`cluster_search.rs`), so hits are those of the block walk.
 //!
-//! Units: as [`super::cluster_bvh`]: node boxes in cell units grown by [`node_margin`], the ray
+//! Units: as [`crate::cluster_bvh`]: node boxes in cell units grown by [`node_margin`], the ray
 //! re-based to where it enters the grid's box so that f32 `t` values stay small.
 
-use super::cell_ray::{cell_units, max, min, xyz, BoxFaces, CellUnits};
-use super::cluster_bvh::{node_margin, ClusterBvh, Node, LEAF, STACK, WIDTH};
-use super::crossing::Crossing;
+use crate::cell_ray::{cell_units, CellUnits};
+use crate::cluster_bvh::{node_margin, ClusterBvh, LEAF, STACK, WIDTH};
+use crate::cluster_search::{Best, ClusterSearch, Hit, Occlusion};
+use crate::crossing::Crossing;
 #[cfg(target_arch = "x86_64")]
-use super::lanes::Avx2;
-use super::lanes::{Baseline, Lanes};
-use super::root_gate::RootGate;
-use super::traverse::{Best, Hit, Occlusion, Tracer};
-use crate::camera::Ray;
-use crate::grid::CellGrid;
-use crate::layout::{Metacell, CLUSTER_SLOTS};
+use crate::lanes::Avx2;
+use crate::lanes::{Baseline, Lanes};
+use crate::node_ray::NodeRay;
+use crate::root_gate::RootGate;
+use isogrid::camera::Ray;
+use isogrid::grid::CellGrid;
+use isogrid::layout::{Metacell, CLUSTER_SLOTS};
 use std::mem::MaybeUninit;
 
-/// `[lo, hi]` in f32, no narrower than in f64: each end is pushed out by more than the rounding
-/// of the conversion (2⁻²⁴ relative, or half a subnormal step near 0), and clamped to the finite
-/// f32 range, which holds every node box's `t`. No branch (directed rounding with
-/// `next_up`/`next_down` took about 100 instructions per ray): this runs once per ray and once
-/// per leaf entered.
-#[inline(always)]
-pub(super) fn widen_f32(lo: f64, hi: f64) -> (f32, f32) {
-    const RELATIVE: f64 = 1e-6;
-    const ABSOLUTE: f64 = 1e-30;
-    let lo = max(lo - RELATIVE * lo.abs() - ABSOLUTE, -(f32::MAX as f64));
-    let hi = min(hi + RELATIVE * hi.abs() + ABSOLUTE, f32::MAX as f64);
-    (lo as f32, hi as f32)
-}
-
-/// What one ray's node tests need, for the ray re-based to `t_base`: the faces of boxes made of
-/// metacells ([`BoxFaces`], grown by the node margin), and `near_row[a]`, the row of `Node::mc`
-/// holding the face met first on axis `a`. The leaf searches test metacell boxes with the same
-/// faces, in the same window.
-pub(super) struct NodeRay {
-    faces: BoxFaces,
-    near_row: [usize; 3],
-    far_row: [usize; 3],
-    t_base: f64,
-}
-
-impl NodeRay {
-    /// The ray re-based to where it enters the grid's box (grown by one cell) within `[tmin, tmax]`;
-    /// `None` when it never does, or when that point is not finite. Boxes grown by `margin`.
-    ///
-    /// `units` are the ray's origin, direction and reciprocals ([`cell_units`]); a whole
-    /// [`super::cell_ray::CellRay`] is built only where the window starts outside the grid's box.
-    #[inline(always)]
-    fn new(
-        ray: &Ray,
-        tracer: &Tracer,
-        units: CellUnits,
-        cell_dims: [f64; 3],
-        margin: f64,
-        tmin: f64,
-        tmax: f64,
-    ) -> Option<Self> {
-        let (origin, direction, inv) = units;
-        // Where the window starts inside the grid's box (every ray of `bench rays`, and every
-        // secondary ray of the renderers), that is where the ray is re-based, without waiting on
-        // the slab test's divisions and products: the point at `tmin` lies in the box exactly
-        // when `tmin` lies between the box's entry and exit.
-        let start = xyz(|a| origin[a] + tmin * direction[a]);
-        let inside = (0..3).fold(tmin <= tmax, |inside, a| {
-            inside & (start[a] >= -1.0) & (start[a] <= cell_dims[a] + 1.0)
-        });
-        let (t_base, origin) = if inside {
-            (tmin, start)
-        } else {
-            let r = tracer.cell_ray(ray);
-            let (near, far) = r.slab([-1.0; 3], xyz(|a| cell_dims[a] + 1.0));
-            let t_base = max(near, tmin);
-            if !(t_base <= min(far, tmax)) || !t_base.is_finite() {
-                return None;
-            }
-            (t_base, r.at(t_base))
-        };
-        Some(NodeRay {
-            faces: BoxFaces::new(origin, inv, margin),
-            near_row: xyz(|a| if inv[a] < 0.0 { 3 + a } else { a }),
-            far_row: xyz(|a| if inv[a] < 0.0 { a } else { 3 + a }),
-            t_base,
-        })
-    }
-
-    /// The window `[tmin, tmax]` relative to `t_base` in f32, widened so that it holds the exact
-    /// window after rounding (the slab times' own rounding is covered by the boxes' margin).
-    #[inline(always)]
-    fn window(&self, tmin: f64, tmax: f64) -> (f32, f32) {
-        widen_f32(tmin - self.t_base, tmax - self.t_base)
-    }
-
-    /// Slab tests of a node's child boxes within `(lo, hi)`: bit `k` set when the ray may pass
-    /// through child `k`, and each child's entry `t` (relative to `t_base`). SSE2, four lanes at
-    /// a time (scalar off x86-64).
-    #[inline(always)]
-    pub(super) fn test_baseline(&self, node: &Node, (lo, hi): (f32, f32)) -> (u32, [f32; WIDTH]) {
-        #[cfg(target_arch = "x86_64")]
-        {
-            use std::arch::x86_64::*;
-            // SAFETY: SSE2 is part of the x86-64 baseline; each 8-byte load reads one row of
-            // four u16 in `node.mc`.
-            unsafe {
-                let zero = _mm_setzero_si128();
-                let mut entry = [0f32; WIDTH];
-                let mut mask = 0;
-                for h in 0..WIDTH / 4 {
-                    let row = |r: usize| {
-                        let v = _mm_loadl_epi64(node.mc[r].as_ptr().add(4 * h).cast());
-                        _mm_cvtepi32_ps(_mm_unpacklo_epi16(v, zero))
-                    };
-                    let mut near = _mm_set1_ps(lo);
-                    let mut far = _mm_set1_ps(hi);
-                    for a in 0..3 {
-                        let scale = _mm_set1_ps(self.faces.scale[a]);
-                        let n = _mm_add_ps(
-                            _mm_mul_ps(row(self.near_row[a]), scale),
-                            _mm_set1_ps(self.faces.near[a]),
-                        );
-                        let f = _mm_add_ps(
-                            _mm_mul_ps(row(self.far_row[a]), scale),
-                            _mm_set1_ps(self.faces.far[a]),
-                        );
-                        near = _mm_max_ps(near, n);
-                        far = _mm_min_ps(far, f);
-                    }
-                    _mm_storeu_ps(entry.as_mut_ptr().add(4 * h), near);
-                    mask |= (_mm_movemask_ps(_mm_cmple_ps(near, far)) as u32) << (4 * h);
-                }
-                (mask, entry)
-            }
-        }
-        #[cfg(not(target_arch = "x86_64"))]
-        {
-            let mut near = [lo; WIDTH];
-            let mut far = [hi; WIDTH];
-            for a in 0..3 {
-                for k in 0..WIDTH {
-                    let n = node.mc[self.near_row[a]][k] as f32 * self.faces.scale[a]
-                        + self.faces.near[a];
-                    let f = node.mc[self.far_row[a]][k] as f32 * self.faces.scale[a]
-                        + self.faces.far[a];
-                    near[k] = max(near[k], n);
-                    far[k] = min(far[k], f);
-                }
-            }
-            let mask = (0..WIDTH).fold(0, |m, k| m | ((near[k] <= far[k]) as u32) << k);
-            (mask, near)
-        }
-    }
-
-    /// As [`Self::test_baseline`], all eight lanes in one AVX2 test.
-    ///
-    /// # Safety
-    /// The CPU must run what `Avx2::detect` checks (AVX2, FMA and bit instructions).
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,fma,popcnt,bmi1,bmi2,lzcnt")]
-    #[inline]
-    pub(super) unsafe fn test_avx2(
-        &self,
-        node: &Node,
-        (lo, hi): (f32, f32),
-    ) -> (u32, [f32; WIDTH]) {
-        use std::arch::x86_64::*;
-        const _: () = assert!(WIDTH == 8);
-        let mut near = _mm256_set1_ps(lo);
-        let mut far = _mm256_set1_ps(hi);
-        for a in 0..3 {
-            // SAFETY: each 16-byte load reads one row of eight u16 in `node.mc`.
-            let (first, last) = unsafe {
-                (
-                    _mm_loadu_si128(node.mc[self.near_row[a]].as_ptr().cast()),
-                    _mm_loadu_si128(node.mc[self.far_row[a]].as_ptr().cast()),
-                )
-            };
-            let first = _mm256_cvtepi32_ps(_mm256_cvtepu16_epi32(first));
-            let last = _mm256_cvtepi32_ps(_mm256_cvtepu16_epi32(last));
-            let scale = _mm256_set1_ps(self.faces.scale[a]);
-            let n = _mm256_fmadd_ps(first, scale, _mm256_set1_ps(self.faces.near[a]));
-            let f = _mm256_fmadd_ps(last, scale, _mm256_set1_ps(self.faces.far[a]));
-            near = _mm256_max_ps(near, n);
-            far = _mm256_min_ps(far, f);
-        }
-        let mut entry = [0f32; WIDTH];
-        // SAFETY: `entry` holds eight f32.
-        unsafe { _mm256_storeu_ps(entry.as_mut_ptr(), near) };
-        let mask = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(near, far)) as u32;
-        (mask, entry)
-    }
-}
-
-/// A [`Tracer`] that finds candidate metacells with a [`ClusterBvh`] (leaf clusters of regrouped
-/// metacells) instead of walking blocks.
-/// Same hits (it runs the same search inside each cluster); `Sync`.
+/// A tracer that finds candidate metacells with a [`ClusterBvh`] (leaf clusters of regrouped
+/// metacells) instead of walking blocks ([`Tracer`](crate::Tracer)). Same hits (it runs the same
+/// search inside each cluster); `Sync`.
 #[derive(Debug, Clone)]
 pub struct BvhTracer<'g> {
-    tracer: Tracer<'g>,
+    /// The search inside a cluster, over the hierarchy's leaf clusters.
+    search: ClusterSearch<'g>,
     cell_dims: [f64; 3],
     margin: f64,
     /// `1 / spacing` per axis, once per tracer.
@@ -220,7 +47,7 @@ impl<'g> BvhTracer<'g> {
         let margin = node_margin(grid.info().cell_dims());
         let to_cells = spacing.map(|s| 1.0 / s);
         BvhTracer {
-            tracer: Tracer::for_leaves(grid, crossing, bvh.leaf_slots()),
+            search: ClusterSearch::new(grid, crossing, bvh.leaf_slots()),
             cell_dims,
             margin,
             to_cells,
@@ -234,10 +61,9 @@ impl<'g> BvhTracer<'g> {
     }
 
     /// Bytes the tracer adds to the grid's own buffers: the hierarchy ([`ClusterBvh::bytes`]) and
-    /// the per-leaf metacell records its leaf searches read ([`Tracer::extra_bytes`] of its
-    /// cluster tracer).
+    /// the per-leaf metacell records its leaf searches read.
     pub fn extra_bytes(&self) -> usize {
-        self.bvh.bytes() + self.tracer.extra_bytes()
+        self.bvh.bytes() + self.search.extra_bytes()
     }
 
     /// The 16 slots of leaf cluster `c` (empty when out of range).
@@ -247,10 +73,10 @@ impl<'g> BvhTracer<'g> {
     }
 
     /// The closest crossing of the isosurface with `t ∈ [tmin, tmax]`, or `None`; as
-    /// [`Tracer::closest_hit`].
+    /// [`Tracer::closest_hit`](crate::Tracer::closest_hit).
     pub fn closest_hit(&self, ray: &Ray, tmin: f64, tmax: f64) -> Option<Hit> {
         #[cfg(target_arch = "x86_64")]
-        if let Some(avx2) = self.tracer.lanes().avx2 {
+        if let Some(avx2) = self.search.lanes().avx2 {
             // SAFETY: an `Avx2` exists only where the CPU runs all of its set (`Avx2::detect`).
             return unsafe { self.closest_hit_avx2(avx2, ray, tmin, tmax) };
         }
@@ -288,22 +114,15 @@ impl<'g> BvhTracer<'g> {
     /// The SIMD set of the box tests: "avx2" where the CPU runs AVX2, FMA and the bit
     /// instructions, else "baseline" (SSE2 on x86-64); `ISOGRID_NO_AVX2=1` forces the baseline.
     pub fn simd(&self) -> &'static str {
-        self.tracer.simd()
+        self.search.lanes().name()
     }
 
     /// The ray's [`cell_units`] and its [`NodeRay`] for the window `[tmin, tmax]`.
     #[inline(always)]
     fn node_ray(&self, ray: &Ray, tmin: f64, tmax: f64) -> Option<(CellUnits, NodeRay)> {
-        let units = cell_units(ray, self.tracer.spacing(), self.to_cells);
-        let nr = NodeRay::new(
-            ray,
-            &self.tracer,
-            units,
-            self.cell_dims,
-            self.margin,
-            tmin,
-            tmax,
-        )?;
+        let units = cell_units(ray, self.search.spacing(), self.to_cells);
+        let cell_ray = || self.search.cell_ray(ray);
+        let nr = NodeRay::new(cell_ray, units, self.cell_dims, self.margin, tmin, tmax)?;
         Some((units, nr))
     }
 
@@ -344,10 +163,10 @@ impl<'g> BvhTracer<'g> {
                 let c = (id & !LEAF) as usize;
                 let cluster = self.cluster(c);
                 if cluster.len() == CLUSTER_SLOTS {
-                    let r = cell_ray.get_or_insert_with(|| self.tracer.cell_ray_of_units(units));
+                    let r = cell_ray.get_or_insert_with(|| self.search.cell_ray_of_units(units));
                     let c = c as u32;
                     let faces = &nr.faces;
-                    self.tracer.closest_in_cluster_by(
+                    self.search.closest_in_cluster_by(
                         lanes, faces, window, r, cluster, c, tmin, &mut best,
                     );
                     window = nr.window(tmin, best.t);
@@ -368,7 +187,7 @@ impl<'g> BvhTracer<'g> {
             // which: the second is the first again when there is none, and the stack pointer
             // moves past it only when it exists. Separate paths for one and for two children
             // branched on the count, the traversal's most mispredicted branch (cachegrind); one
-            // path took 4 % off the dragon's and MNI's rays (`docs/tracer-performance.md`).
+            // path took 4 % off the dragon's and MNI's rays.
             if rest & (rest.wrapping_sub(1)) == 0 {
                 let two = rest != 0;
                 // The highest child: the second of two, or the only one again.
@@ -413,7 +232,7 @@ impl<'g> BvhTracer<'g> {
         }
         // The search knows the leaf and slot; the hit reports the grid's cluster, as the block walk
         // does.
-        self.tracer
+        self.search
             .hit_of(ray, &best, |leaf, slot| self.bvh.grid_cluster(leaf, slot))
     }
 
@@ -430,7 +249,7 @@ impl<'g> BvhTracer<'g> {
             let index = (child & !LEAF) as usize;
             let node = self.bvh.nodes.as_ptr().wrapping_add(index).cast::<i8>();
             let slots = self.bvh.leaves.as_ptr().wrapping_add(index).cast::<i8>();
-            let record = self.tracer.cluster_record_ptr(index);
+            let record = self.search.cluster_record_ptr(index);
             // A mask, not an `if`: LLVM compiled the `if` to a branch.
             let leaf_mask = (leaf as usize).wrapping_neg();
             let pick = |a: *const i8, b: *const i8| {
@@ -448,7 +267,8 @@ impl<'g> BvhTracer<'g> {
         let _ = child;
     }
 
-    /// Whether anything blocks the ray within `[tmin, tmax]`; as [`Tracer::any_hit`].
+    /// Whether anything blocks the ray within `[tmin, tmax]`; as
+    /// [`Tracer::any_hit`](crate::Tracer::any_hit).
     pub fn any_hit(&self, ray: &Ray, tmin: f64, tmax: f64, occlusion: Occlusion) -> bool {
         if occlusion == Occlusion::Surface {
             return self.closest_hit(ray, tmin, tmax).is_some();
@@ -456,7 +276,7 @@ impl<'g> BvhTracer<'g> {
         let Some((units, nr)) = self.node_ray(ray, tmin, tmax) else {
             return false;
         };
-        let r = self.tracer.cell_ray_of_units(units);
+        let r = self.search.cell_ray_of_units(units);
         if self.bvh.nodes.is_empty() {
             return false;
         }
@@ -482,7 +302,7 @@ impl<'g> BvhTracer<'g> {
                     let cluster = self.cluster(c as usize);
                     if cluster.len() == CLUSTER_SLOTS
                         && self
-                            .tracer
+                            .search
                             .any_box_in_cluster(Baseline, &r, cluster, c, tmin, tmax)
                     {
                         return true;
@@ -496,7 +316,7 @@ impl<'g> BvhTracer<'g> {
         false
     }
 
-    /// Closest hits of many rays in parallel (`t ∈ [0, ∞)`), as [`super::closest_hits`].
+    /// Closest hits of many rays in parallel (`t ∈ [0, ∞)`), as [`crate::closest_hits`].
     ///
     /// # Panics
     /// When `out` and `rays` differ in length.
@@ -513,7 +333,7 @@ impl<'g> BvhTracer<'g> {
     /// those it lets through; the same hits as [`Self::closest_hit`] ray by ray.
     fn closest_hits_batch(&self, rays: &[Ray], out: &mut [Option<Hit>]) {
         #[cfg(target_arch = "x86_64")]
-        if let Some(avx2) = self.tracer.lanes().avx2 {
+        if let Some(avx2) = self.search.lanes().avx2 {
             // SAFETY: an `Avx2` exists only where the CPU runs all of its set (`Avx2::detect`).
             return unsafe { self.closest_hits_batch_avx2(avx2, rays, out) };
         }
@@ -549,8 +369,8 @@ impl<'g> BvhTracer<'g> {
 
 /// Rays whose root gates run back to back before any of them is traversed, so that their tests
 /// overlap, and the branch on each one's outcome is taken on a bit known in advance instead of at
-/// the end of its test (mispredicted for a mixed run of rays that miss and hit). Measured on the
-/// benchmark's rays (`docs/tracer-performance.md`, session 15): dragon −3 %, MNI within noise.
+/// the end of its test (mispredicted for a mixed run of rays that miss and hit). On the ray
+/// benchmark's random rays: dragon −3 %, MNI within noise.
 /// Any size up to 64 (one bit per ray) amortises the loop; 64 was not tuned further.
 const GATE_BATCH: usize = 64;
 

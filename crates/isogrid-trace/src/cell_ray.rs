@@ -1,11 +1,11 @@
-//! A ray in cell units with everything the slab tests of [`super::traverse`] need precomputed
+//! Ray setup: a ray in cell units with everything the traversals' slab tests need precomputed
 //! (the slab test of Kay & Kajiya 1986 as the paper's §3.2 uses it, with the near and far face of
 //! every box chosen once per ray from the direction's signs, Williams et al. 2005).
 //!
 //! Cell units: world / spacing per axis, so cell `(i, j, k)` is the box `[i, i+1]×[j, j+1]×[k, k+1]`;
 //! the ray parameter `t` stays the world distance along the unit-direction world ray.
 
-use crate::camera::Ray;
+use isogrid::camera::Ray;
 
 /// See the module docs. Zero direction components get a huge finite reciprocal (as if the
 /// direction were +1e−300) so that slab tests never compute 0·∞.
@@ -282,6 +282,22 @@ pub(super) fn max<T: PartialOrd>(a: T, b: T) -> T {
     }
 }
 
+/// `[lo, hi]` in f32 for the lanes' slab tests, never narrower than in f64: each end is pushed
+/// out by 10⁻³ + 10⁻⁵·|end| and clamped to the finite f32 range, which holds every box's `t`.
+/// That is far more than the conversion's rounding (2⁻²⁴ relative); the slack also covers the
+/// block walk's f32 box times, which are measured from the ray's origin rather than from a point
+/// near the boxes. Wider only costs a box test that the exact f64 cell test then rejects. No
+/// branch (directed rounding with `next_up`/`next_down` took about 100 instructions per ray):
+/// this runs once per ray and once per cluster searched.
+#[inline(always)]
+pub(crate) fn widen_f32(lo: f64, hi: f64) -> (f32, f32) {
+    const ABSOLUTE: f64 = 1e-3;
+    const RELATIVE: f64 = 1e-5;
+    let lo = max(lo - ABSOLUTE - RELATIVE * lo.abs(), -(f32::MAX as f64));
+    let hi = min(hi + ABSOLUTE + RELATIVE * hi.abs(), f32::MAX as f64);
+    (lo as f32, hi as f32)
+}
+
 /// `[f(0), f(1), f(2)]`. `<[T; 3]>::map` is not always inlined: its calls were a tenth of the
 /// tracer's instructions.
 #[inline(always)]
@@ -292,7 +308,7 @@ pub(super) fn xyz<T>(f: impl Fn(usize) -> T) -> [T; 3] {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::trace::sample::{uniform_sphere, Rng};
+    use crate::sample::{uniform_sphere, Rng};
 
     /// The cells `metacell_cells` lists, in its order, are those whose own slab test the ray
     /// passes with a segment longer than rounding, nearest first, with the same times.

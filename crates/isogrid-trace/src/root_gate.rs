@@ -1,6 +1,6 @@
 //! The first test of a [`super::BvhTracer`] ray, its hierarchy's root, in AVX2 registers alone:
 //! the exit for rays that pass through none of the root's children, where three in four of the
-//! dragon's missing rays end and half of MNI's (`docs/tracer-performance.md`, session 13).
+//! dragon's missing rays end and half of MNI's.
 //!
 //! The full traversal starts with the same test, but its setup (the ray in cell units, the
 //! [`super::cell_ray::BoxFaces`] constants, the window) is scalar f64 code that LLVM interleaves
@@ -11,9 +11,9 @@
 //! have said so too; rays whose window starts outside the grid's box go to the traversal
 //! untested (its re-basing needs a slab test the gate does not make).
 
-use super::bvh_traverse::widen_f32;
-use super::cluster_bvh::{Node, WIDTH};
-use crate::camera::Ray;
+use crate::cell_ray::widen_f32;
+use crate::cluster_bvh::{Node, WIDTH};
+use isogrid::camera::Ray;
 
 /// The tracer's constants of the gate, one f64 lane per axis and a fourth lane that never fails
 /// the box test.
@@ -22,7 +22,7 @@ use crate::camera::Ray;
 pub(super) struct RootGate {
     to_cells: [f64; 4],
     spacing: [f64; 4],
-    /// The grid's box grown by one cell, as [`super::bvh_traverse`]'s `NodeRay::new` tests it.
+    /// The grid's box grown by one cell, as `NodeRay::new` tests it.
     box_hi: [f64; 4],
     margin: f64,
 }

@@ -1,6 +1,7 @@
-//! Directional empty-space skipping for the CPU tracer's block DDA (`block_walk.rs`): for
-//! every 16³-cell block and each of the eight ray octants, the side (in blocks) of the largest cube
-//! of empty blocks that has the block as its corner and extends towards that octant.
+//! Directional empty-space skipping for the tracers' block DDAs (`block_walk.rs` in
+//! `isogrid-trace`, `trace.wgsl` in `isogrid-gpu`): for every 16³-cell block and each of the
+//! eight ray octants, the side (in blocks) of the largest cube of empty blocks that has the block
+//! as its corner and extends towards that octant.
 //!
 //! The symmetric [`EmptySpaceMap`] promises a cube centred on the block, so a ray can only leap
 //! `d − 1` blocks ahead however far the empty space reaches in its direction: a block just beside
@@ -10,8 +11,7 @@
 //! the surface. This is the 3D form of the largest-empty-square recurrence: the cube of side `s` at
 //! `p` is empty iff `p` is and the seven cubes of side `s − 1` at `p`'s forward neighbours are.
 //!
-//! CPU only: 8 bytes per block (the GPU tracer keeps the symmetric map). Blocks outside the grid
-//! count as empty, as in [`EmptySpaceMap`].
+//! 8 bytes per block. Blocks outside the grid count as empty, as in [`EmptySpaceMap`].
 //!
 //! [`EmptySpaceMap`]: super::empty_space::EmptySpaceMap
 
@@ -114,7 +114,7 @@ fn fill_octant(blocks: &[Block], dims: [usize; 3], octant: usize, map: &mut [u8]
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::trace::empty_space::test_blocks::{block, random_blocks};
+    use crate::skip::empty_space::test_blocks::{block, random_blocks};
 
     /// Brute force over all pairs: an occupied block `q` ahead of `p` in the octant (offsets
     /// `≥ 0` on every axis) lies in every cube from `p` whose side exceeds its largest offset.

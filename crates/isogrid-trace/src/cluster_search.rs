@@ -1,20 +1,83 @@
-//! The search inside one cluster, shared by the block walk ([`Tracer::closest_hit`]) and the
-//! cluster hierarchy ([`super::super::BvhTracer`]): the cluster's metacell boxes (paper §3.6), then
-//! each candidate metacell's active cells nearest first, each searched for the isosurface crossing
-//! ([`super::super::crossing`]), the closest kept in a [`Best`] that becomes the [`Hit`].
+//! The search inside one cluster, shared by both traversals: the block walk
+//! ([`Tracer`](crate::Tracer)) and the cluster hierarchy ([`BvhTracer`](crate::BvhTracer)). The
+//! cluster's metacell boxes are slab-tested in f32 lanes (paper §3.6), then each candidate
+//! metacell's active cells are walked nearest first and searched for the isosurface crossing
+//! ([`crate::crossing`]), the closest kept in a [`Best`] that becomes the [`Hit`].
 //!
-//! Units as in [`super`]: cell units, with the world ray's parameter `t`.
+//! A traversal hands this search a cluster (its 16 slots, as the grid stores one) and its index;
+//! a [`ClusterSearch`] holds what the search reads besides: the grid's corner records, the
+//! crossing mode and a 64-byte box record per cluster (`cluster_boxes.rs`). The block walk
+//! builds one over the grid's clusters, the hierarchy over its own leaf clusters, so both find
+//! the same crossings.
+//!
+//! Units: cell units (world / spacing per axis), with the world ray's parameter `t`.
 
-use super::{Hit, Tracer};
-use crate::camera::Ray;
-use crate::layout::{read_corners, Metacell, CLUSTER_SLOTS};
-use crate::trace::cell_ray::{min, xyz, BoxFaces, CellRay};
-use crate::trace::crossing::Trilinear;
-use crate::trace::lanes::Lanes;
+use crate::cell_ray::{min, widen_f32, xyz, BoxFaces, CellRay, CellUnits};
+use crate::cluster_boxes::AllClusterBoxes;
+use crate::crossing::{Crossing, Trilinear};
+use crate::lanes::{Chosen, Lanes};
+use isogrid::camera::Ray;
+use isogrid::grid::CellGrid;
+use isogrid::layout::{read_corners, Metacell, Precision, CLUSTER_SLOTS};
+
+/// The closest intersection of a ray with the isosurface.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Hit {
+    /// World distance along the (unit-direction) ray.
+    pub t: f64,
+    /// Index of the hit cell's corner record in [`CellGrid::cells`].
+    pub cell: u32,
+    /// Grid index (x, y, z) of the hit cell.
+    pub position: [u32; 3],
+    /// Index of the cluster holding the cell.
+    pub cluster: u32,
+    /// Unit world-space normal −∇f/|∇f| at the hit (f = the trilinear interpolant of the codes,
+    /// inside where f ≥ iso), so it points out of the solid. −direction where ∇f vanishes.
+    pub normal: [f64; 3],
+}
+
+/// What an any-hit (shadow / occlusion) query tests.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Occlusion {
+    /// Any active cell box the ray passes through counts as a hit: only block and metacell data
+    /// (masks and positions) are read, never corner records, as §3.6 suggests for shadow and AO
+    /// rays. Conservative: it reports occlusion a little early (up to one cell before the surface)
+    /// and for rays that graze an active cell without crossing the surface.
+    #[default]
+    CellBoxes,
+    /// The surface itself, with the tracer's crossing mode: agrees with
+    /// [`Tracer::closest_hit`](crate::Tracer::closest_hit).
+    Surface,
+}
+
+/// What the search inside a cluster reads besides the cluster's slots: the grid's corner records
+/// and isovalue, the crossing mode, the margin of the f32 metacell tests, a box record per
+/// cluster of the set it searches (the grid's clusters, or a hierarchy's leaf clusters), and the
+/// SIMD set chosen for this CPU. `Sync`.
+#[derive(Debug, Clone)]
+pub(crate) struct ClusterSearch<'g> {
+    cells: &'g [u8],
+    precision: Precision,
+    /// [`Precision::bytes_per_cell`], read per traced cell.
+    cell_bytes: usize,
+    iso_code: f64,
+    spacing: [f64; 3],
+    crossing: Crossing,
+    margin: f64,
+    cluster_boxes: AllClusterBoxes,
+    lanes: Chosen,
+}
+
+/// Margin (cells) by which the f32 metacell test grows each box so that rounding never culls a
+/// box the ray really touches; exact f64 tests follow for the cells.
+fn metacell_margin(cell_dims: [f64; 3]) -> f64 {
+    let largest = cell_dims[0].max(cell_dims[1]).max(cell_dims[2]);
+    (1e-3f64).max(largest * 1e-5)
+}
 
 /// Hints the CPU to load the cache lines of `data` (no-op off x86-64). Never faults.
 #[inline(always)]
-pub(super) fn prefetch_slice<T>(data: &[T]) {
+pub(crate) fn prefetch_slice<T>(data: &[T]) {
     #[cfg(target_arch = "x86_64")]
     {
         use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
@@ -34,14 +97,6 @@ pub(super) fn prefetch_slice<T>(data: &[T]) {
     }
     #[cfg(not(target_arch = "x86_64"))]
     let _ = data;
-}
-
-/// `[tmin, tmax]` widened for the f32 lane tests (t itself is rounded to f32 there).
-#[inline(always)]
-pub(super) fn widened_f32(tmin: f64, tmax: f64) -> (f32, f32) {
-    let lo = (tmin - 1e-3 - 1e-5 * tmin.abs()) as f32;
-    let hi = min(tmax + 1e-3 + 1e-5 * tmax.abs(), f32::MAX as f64) as f32;
-    (lo, hi)
 }
 
 /// Bit `i` set when the ray may pass through metacell slot `i` (0–14) of `cluster` within the
@@ -94,12 +149,59 @@ fn metacell_positions4(slots: &[Metacell; 4]) -> [[f32; 4]; 3] {
     }
 }
 
-impl<'g> Tracer<'g> {
+impl<'g> ClusterSearch<'g> {
+    /// The search over `clusters` (16 slots each, as the grid stores them; the clusters' indices
+    /// are indices into `clusters`) of `grid`'s cells.
+    pub(crate) fn new(grid: &'g CellGrid, crossing: Crossing, clusters: &[Metacell]) -> Self {
+        let info = grid.info();
+        ClusterSearch {
+            cells: grid.cells(),
+            precision: info.precision,
+            cell_bytes: info.precision.bytes_per_cell(),
+            iso_code: info.mapping.iso_code as f64,
+            spacing: info.spacing,
+            crossing,
+            margin: metacell_margin(info.cell_dims().map(|c| c as f64)),
+            cluster_boxes: AllClusterBoxes::new(clusters),
+            lanes: Chosen::detect(),
+        }
+    }
+
+    pub(crate) fn crossing(&self) -> Crossing {
+        self.crossing
+    }
+
+    /// Bytes the search adds to the grid's own buffers: a box record per cluster.
+    pub(crate) fn extra_bytes(&self) -> usize {
+        self.cluster_boxes.bytes()
+    }
+
+    /// Sample spacing (world units per cell) per axis.
+    pub(crate) fn spacing(&self) -> [f64; 3] {
+        self.spacing
+    }
+
+    /// The SIMD set of the box tests, chosen for this CPU.
+    pub(crate) fn lanes(&self) -> Chosen {
+        self.lanes
+    }
+
+    /// `ray` in cell units, with the metacell tests' constants.
+    pub(crate) fn cell_ray(&self, ray: &Ray) -> CellRay {
+        CellRay::new(ray, self.spacing, self.margin)
+    }
+
+    /// As [`Self::cell_ray`], from the ray's [`crate::cell_ray::cell_units`].
+    #[inline(always)]
+    pub(crate) fn cell_ray_of_units(&self, units: CellUnits) -> CellRay {
+        CellRay::from_units(units, self.margin)
+    }
+
     /// The [`Hit`] (with its normal) of the search result `best` of `ray`; `cluster_of` maps where
     /// the hit metacell was found (index of the searched cluster, slot in it) to the grid's
     /// cluster.
     #[inline(always)]
-    pub(in crate::trace) fn hit_of(
+    pub(crate) fn hit_of(
         &self,
         ray: &Ray,
         best: &Best,
@@ -127,7 +229,7 @@ impl<'g> Tracer<'g> {
     /// cluster index): its metacell boxes, then the cells of each candidate metacell nearest
     /// first, keeping the closest crossing before `best.t` in `best`.
     #[inline(always)]
-    pub(in crate::trace) fn closest_in_cluster<L: Lanes>(
+    pub(crate) fn closest_in_cluster<L: Lanes>(
         &self,
         lanes: L,
         r: &CellRay,
@@ -136,7 +238,7 @@ impl<'g> Tracer<'g> {
         tmin: f64,
         best: &mut Best,
     ) {
-        let t = widened_f32(tmin, best.t);
+        let t = widen_f32(tmin, best.t);
         self.closest_in_cluster_by(lanes, r.faces(), t, r, cluster, cluster_index, tmin, best);
     }
 
@@ -145,7 +247,7 @@ impl<'g> Tracer<'g> {
     /// the constants and the window of its node tests, which it holds already.
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
-    pub(in crate::trace) fn closest_in_cluster_by<L: Lanes>(
+    pub(crate) fn closest_in_cluster_by<L: Lanes>(
         &self,
         lanes: L,
         faces: &BoxFaces,
@@ -222,7 +324,7 @@ impl<'g> Tracer<'g> {
     /// Whether the ray passes through an active cell box of `cluster` (its 16 slots, global index
     /// `cluster_index`) within `[tmin, tmax]`.
     #[inline(always)]
-    pub(in crate::trace) fn any_box_in_cluster<L: Lanes>(
+    pub(crate) fn any_box_in_cluster<L: Lanes>(
         &self,
         lanes: L,
         r: &CellRay,
@@ -236,7 +338,7 @@ impl<'g> Tracer<'g> {
             r.faces(),
             cluster,
             cluster_index,
-            widened_f32(tmin, tmax),
+            widen_f32(tmin, tmax),
         );
         while candidates != 0 {
             let m = &cluster[candidates.trailing_zeros() as usize];
@@ -257,7 +359,7 @@ impl<'g> Tracer<'g> {
 
     /// Bit `k` set when the ray may pass through metacell slot `k` of `cluster` (global index
     /// `cluster_index`) within the widened `t` range; empty slots are left out when the packed
-    /// copy ([`AllClusterBoxes`](crate::trace::cluster_boxes::AllClusterBoxes)) answers.
+    /// copy ([`AllClusterBoxes`]) answers.
     #[inline(always)]
     fn metacell_candidates<L: Lanes>(
         &self,
@@ -275,13 +377,13 @@ impl<'g> Tracer<'g> {
 
     /// Where the box record of global cluster `c` lies (dangling past the end; for prefetching).
     #[inline(always)]
-    pub(in crate::trace) fn cluster_record_ptr(&self, c: usize) -> *const i8 {
+    pub(crate) fn cluster_record_ptr(&self, c: usize) -> *const i8 {
         self.cluster_boxes.record_ptr(c)
     }
 
     /// Hints the CPU to load what the search of global cluster `c` reads first.
     #[inline(always)]
-    pub(in crate::trace) fn prefetch_cluster(&self, c: usize) {
+    pub(crate) fn prefetch_cluster(&self, c: usize) {
         if let Some(boxes) = self.cluster_boxes.get(c) {
             prefetch_slice(std::slice::from_ref(boxes));
         }
@@ -299,13 +401,13 @@ type Found = (f64, u32, [u32; 3], (u32, u32), Trilinear, [f64; 3]);
 
 /// A closest-hit search in progress: the best `t` so far (the search window's end until something
 /// is found) and what was found there.
-pub(in crate::trace) struct Best {
+pub(crate) struct Best {
     pub t: f64,
     found: Option<Found>,
 }
 
 impl Best {
-    pub(in crate::trace) fn new(tmax: f64) -> Self {
+    pub(crate) fn new(tmax: f64) -> Self {
         Best {
             t: tmax,
             found: None,

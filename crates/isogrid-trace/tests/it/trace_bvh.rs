@@ -7,8 +7,8 @@
 use crate::common::{blobs_u8, random_u8, Rng};
 use isogrid::generate::{generate, Field};
 use isogrid::layout::{Metacell, BOUND_SLOT};
-use isogrid::trace::{BvhTracer, ClusterBvh, Crossing, Occlusion, Tracer};
 use isogrid::{extract, CellGrid, ExtractOptions, Iso, Precision, Ray, Volume, VolumeData};
+use isogrid_trace::{BvhTracer, ClusterBvh, Crossing, Occlusion, Tracer};
 
 fn grid_of(volume: &Volume, iso: Iso, precision: Precision) -> CellGrid {
     extract(

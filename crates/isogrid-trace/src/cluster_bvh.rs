@@ -1,11 +1,11 @@
 //! A bounding volume hierarchy over the grid's metacells, re-clustered: the paper's future work
 //! (§3.6 and the conclusion: "re-arranging the clusters of min-max blocks into bounding volume
-//! hierarchies"), as an alternative to the block walk of [`super::traverse`]. This file builds
+//! hierarchies"), as an alternative to the block walk ([`crate::Tracer`]). This file builds
 //! it; the traversal is in [`super::bvh_traverse`].
 //!
 //! Leaves are *leaf clusters*: up to 15 metacells that the build groups by space, stored as the
 //! grid stores a cluster (16 slots of [`Metacell`], the bound in slot 15), so the tracer's own
-//! cluster search runs inside each leaf (`Tracer::closest_in_cluster`) and hits are those of the
+//! cluster search runs inside each leaf (`cluster_search.rs`) and hits are those of the
 //! block walk. A grid cluster holds 15 metacells consecutive in Morton order inside one block,
 //! which can lie far apart; grouped by the build, the same metacells have boxes of about half the
 //! surface area (the sum over leaves, relative to the grid's box: 11.7 → 6.6 on the MNI head,
@@ -24,9 +24,9 @@
 //! f32 `t` values stay small and their rounding stays within that margin.
 
 use super::cell_ray::{max, min, xyz};
-use crate::grid::CellGrid;
-use crate::layout::{Block, ClusterBound, Metacell, BOUND_SLOT, CLUSTER_SLOTS};
 use bytemuck::Zeroable;
+use isogrid::grid::CellGrid;
+use isogrid::layout::{Block, ClusterBound, Metacell, BOUND_SLOT, CLUSTER_SLOTS};
 
 /// Children per node.
 pub(super) const WIDTH: usize = 8;
@@ -50,7 +50,7 @@ const BINS: usize = 16;
 #[repr(C, align(64))]
 #[derive(Debug, Clone, Copy)]
 pub(super) struct Node {
-    /// Child boxes in metacell units, inclusive as in [`crate::layout::ClusterBound`]: `mc[a]`
+    /// Child boxes in metacell units, inclusive as in [`isogrid::layout::ClusterBound`]: `mc[a]`
     /// the lowest metacell on axis `a` of the eight children, `mc[3 + a]` the highest. Empty lanes
     /// have lowest > highest.
     pub(super) mc: [[u16; WIDTH]; 6],
@@ -145,7 +145,7 @@ pub struct ClusterBvh {
     /// bound in slot [`BOUND_SLOT`].
     pub(super) leaves: Vec<LeafSlots>,
     /// Per slot of `leaves`, the grid cluster its metacell came from, for a hit's
-    /// [`crate::trace::Hit::cluster`] (read once per hit ray; a binary search over the clusters'
+    /// [`crate::Hit::cluster`] (read once per hit ray; a binary search over the clusters'
     /// first cells instead cost about 40–75 ns per hit ray).
     grid_clusters: Vec<u32>,
     metacells: usize,
@@ -456,8 +456,7 @@ impl ClusterBvh {
 /// its area times the leaf clusters its metacells fill at least, so that splits leave fewer
 /// part-empty leaves. Binning all three axes rather than only the longest one takes the build of
 /// the dragon from about 0.065 to 0.11 s on one core (MNI: 0.025 to 0.04 s), for about 5 % fewer instructions on the
-/// MNI head's missing rays and about 0.6 % fewer on hitting rays (`docs/tracer-performance.md`,
-/// session 19).
+/// MNI head's missing rays and about 0.6 % fewer on hitting rays.
 fn split(items: &mut [Item], median: bool) -> usize {
     let n = items.len();
     let mut lo = [f32::MAX; 3];
@@ -560,8 +559,8 @@ impl Bins {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::generate::{generate, Field};
-    use crate::{extract, ExtractOptions, Iso};
+    use isogrid::generate::{generate, Field};
+    use isogrid::{extract, ExtractOptions, Iso};
 
     fn gyroid() -> CellGrid {
         let volume = generate(Field::Gyroid, 36, 0);

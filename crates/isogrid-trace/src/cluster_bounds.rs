@@ -1,5 +1,5 @@
-//! A compact copy of the cluster bounds (paper §3.1: slot 15 of every cluster) for the tracer of
-//! [`super::traverse`]: 4 bytes per cluster, a block's clusters side by side.
+//! A compact copy of the cluster bounds (paper §3.1: slot 15 of every cluster) for the
+//! block walk ([`crate::Tracer`]): 4 bytes per cluster, a block's clusters side by side.
 //!
 //! In the packed layout a block's cluster bounds lie 192 bytes apart, so testing them all touched
 //! one cache line per cluster, and a ray near the surface tests a few blocks' worth. Packed, a
@@ -12,7 +12,7 @@
 //! | 9–17 | `hi` x, y, z: largest (inclusive), likewise |
 //! | 18–31 | zero |
 
-use crate::layout::{Block, Metacell, BLOCK_METACELLS, BOUND_SLOT, CLUSTER_SLOTS};
+use isogrid::layout::{Block, Metacell, BLOCK_METACELLS, BOUND_SLOT, CLUSTER_SLOTS};
 
 /// An empty box (`lo` = 7 > `hi` = 0 on every axis), for lanes past a block's last cluster.
 const EMPTY: u32 = 0o777;
@@ -99,7 +99,7 @@ mod tests {
         let bounds = [([9, 0, 17], [15, 3, 16]), ([8, 7, 23], [8, 7, 23])];
         for (c, (lo, hi)) in bounds.iter().enumerate() {
             metacells[c * CLUSTER_SLOTS + BOUND_SLOT] =
-                crate::layout::ClusterBound { lo: *lo, hi: *hi }.into_slot();
+                isogrid::layout::ClusterBound { lo: *lo, hi: *hi }.into_slot();
         }
         let mut blocks = vec![<Block as bytemuck::Zeroable>::zeroed(); 6];
         blocks[1 + 2 * 2] = Block {

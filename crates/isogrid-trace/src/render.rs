@@ -1,5 +1,5 @@
 //! CPU renderer of a clustered grid cell isosurface: one traced primary ray per pixel centre,
-//! shaded with the shared deferred Blinn–Phong model ([`crate::shading`]) like the GPU renderer, or
+//! shaded with the shared deferred Blinn–Phong model ([`isogrid::shading`]) like the GPU renderer, or
 //! a progressive Monte Carlo path tracer lit by an [`Environment`] (paper §3.6).
 //!
 //! Path tracing: Lambertian surfaces of a single albedo, cosine-weighted bounces, no light sources
@@ -8,14 +8,15 @@
 //! its own random stream, so images do not depend on the thread count. Samples are accumulated in
 //! passes of one sample per pixel (progress is reported after each pass).
 
-use super::env::Environment;
-use super::sample::{cosine_hemisphere, Rng};
-use super::traverse::Hit;
-use super::{Crossing, GridTracer, Traversal};
-use crate::camera::{dot, Camera, Ray};
-use crate::error::{Error, Result};
-use crate::grid::CellGrid;
-use crate::shading::{shade, to_srgb8, ALBEDO, BACKGROUND_SRGB};
+use crate::cluster_search::Hit;
+use crate::crossing::Crossing;
+use crate::env::Environment;
+use crate::grid_tracer::{GridTracer, Traversal};
+use crate::sample::{cosine_hemisphere, Rng};
+use isogrid::camera::{dot, Camera, Ray};
+use isogrid::error::{Error, Result};
+use isogrid::grid::CellGrid;
+use isogrid::shading::{shade, to_srgb8, ALBEDO, BACKGROUND_SRGB};
 use rayon::prelude::*;
 
 /// How pixels get their colour.

@@ -5,7 +5,7 @@
 //! and in what they build before the first ray.
 //!
 //! ```
-//! use isogrid::trace::{Crossing, GridTracer, Traversal};
+//! use isogrid_trace::{Crossing, GridTracer, Traversal};
 //! use isogrid::{extract, generate::{generate, Field}, ExtractOptions, Iso, Ray};
 //! let volume = generate(Field::Sphere, 24, 0);
 //! let grid = extract(&volume.view(), &ExtractOptions::new(Iso::Normalized(0.5))).unwrap();
@@ -17,10 +17,12 @@
 //! assert_eq!(Traversal::from_name("octree"), None);
 //! ```
 
-use super::traverse::{Hit, Occlusion, Tracer};
-use super::{closest_hits, BvhTracer, Crossing};
-use crate::camera::Ray;
-use crate::grid::CellGrid;
+use crate::block_traverse::{closest_hits, Tracer};
+use crate::bvh_traverse::BvhTracer;
+use crate::cluster_search::{Hit, Occlusion};
+use crate::crossing::Crossing;
+use isogrid::camera::Ray;
+use isogrid::grid::CellGrid;
 
 /// How rays find the metacells they may cross.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]

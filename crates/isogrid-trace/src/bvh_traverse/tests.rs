@@ -2,18 +2,19 @@
 //! single rays for batches, the root test for the root gate, the baseline lanes for AVX2.
 
 use super::*;
-use crate::camera::Ray;
-use crate::generate::{generate, Field};
-use crate::trace::bvh_traverse::BvhTracer;
-use crate::trace::cell_ray::xyz;
-use crate::trace::crossing::Crossing;
-use crate::trace::traverse::{Best, Tracer};
-use crate::{extract, ExtractOptions, Iso};
+use crate::block_traverse::Tracer;
+use crate::cell_ray::{widen_f32, xyz};
+use crate::cluster_search::{Best, ClusterSearch};
+use crate::crossing::Crossing;
+use isogrid::camera::Ray;
+use isogrid::generate::{generate, Field};
+use isogrid::{extract, ExtractOptions, Iso};
 
-/// Brute force: every cluster of the grid searched with the block tracer's cluster search, in
-/// index order; the closest hit's `t`, and whether any cell box is passed.
+/// Brute force: every cluster of the grid searched with the cluster search over the grid's
+/// clusters (the block walk's), in index order; the closest hit's `t`, and whether any cell box
+/// is passed.
 fn every_cluster(grid: &CellGrid, ray: &Ray) -> (Option<f64>, bool) {
-    let tracer = Tracer::new(grid, Crossing::Exact);
+    let tracer = ClusterSearch::new(grid, Crossing::Exact, grid.metacells());
     let r = tracer.cell_ray(ray);
     let mut best = Best::new(f64::INFINITY);
     let mut any = false;
@@ -77,7 +78,7 @@ fn closest_hits_match_closest_hit_ray_by_ray() {
         .unwrap();
     let grid = extract(&volume.view(), &ExtractOptions::new(Iso::Normalized(0.5))).unwrap();
     let bvh = BvhTracer::new(&grid, Crossing::Samples3);
-    let mut rng = crate::trace::sample::Rng::for_sample(29, 0, 0);
+    let mut rng = crate::sample::Rng::for_sample(29, 0, 0);
     let extent = xyz(|a| 40.0 * [0.5, 1.0, 1.5][a]);
     let rays: Vec<Ray> = (0..3 * GATE_BATCH + 17)
         .map(|i| {
@@ -85,7 +86,7 @@ fn closest_hits_match_closest_hit_ray_by_ray() {
             let spread = if i % 4 == 0 { 1.6 } else { 1.0 };
             let origin: [f64; 3] =
                 std::array::from_fn(|a| extent[a] * (spread * rng.unit() - (spread - 1.0) / 2.0));
-            let direction = crate::trace::sample::uniform_sphere(&mut rng);
+            let direction = crate::sample::uniform_sphere(&mut rng);
             Ray { origin, direction }
         })
         .collect();
@@ -124,11 +125,11 @@ fn closest_hits_match_closest_hit_ray_by_ray() {
 fn the_root_gate_stops_only_rays_the_root_test_stops() {
     #[cfg(target_arch = "x86_64")]
     {
-        let Some(avx2) = crate::trace::lanes::Avx2::detect() else {
+        let Some(avx2) = crate::lanes::Avx2::detect() else {
             eprintln!("skipped: this CPU lacks AVX2, FMA or the bit instructions");
             return;
         };
-        let mut rng = crate::trace::sample::Rng::for_sample(13, 0, 0);
+        let mut rng = crate::sample::Rng::for_sample(13, 0, 0);
         let (mut stopped, mut passed, mut outside) = (0, 0, 0);
         for (field, size, spacing) in [
             (Field::Hairball, 48, [1.0; 3]),
@@ -142,7 +143,7 @@ fn the_root_gate_stops_only_rays_the_root_test_stops() {
             for i in 0..20_000 {
                 let origin: [f64; 3] =
                     std::array::from_fn(|a| extent[a] * (1.4 * rng.unit() - 0.2));
-                let mut direction = crate::trace::sample::uniform_sphere(&mut rng);
+                let mut direction = crate::sample::uniform_sphere(&mut rng);
                 // Rays parallel to one or two axes take the reciprocal's special case.
                 match i % 7 {
                     1 => direction[0] = 0.0,
@@ -205,11 +206,11 @@ fn the_root_gate_stops_only_rays_the_root_test_stops() {
 fn both_sets_find_the_same_hits() {
     #[cfg(target_arch = "x86_64")]
     {
-        let Some(avx2) = crate::trace::lanes::Avx2::detect() else {
+        let Some(avx2) = crate::lanes::Avx2::detect() else {
             eprintln!("skipped: this CPU lacks AVX2, FMA or the bit instructions");
             return;
         };
-        let mut rng = crate::trace::sample::Rng::for_sample(11, 0, 0);
+        let mut rng = crate::sample::Rng::for_sample(11, 0, 0);
         let mut hits = 0;
         for (field, size) in [(Field::Hairball, 48), (Field::MarschnerLobb, 41)] {
             let volume = generate(field, size, 1);
@@ -219,7 +220,7 @@ fn both_sets_find_the_same_hits() {
             let n = size as f64;
             for _ in 0..2000 {
                 let origin: [f64; 3] = std::array::from_fn(|_| -0.2 * n + 1.4 * n * rng.unit());
-                let direction = crate::trace::sample::uniform_sphere(&mut rng);
+                let direction = crate::sample::uniform_sphere(&mut rng);
                 let ray = Ray { origin, direction };
                 let base = bvh.closest_hit_with(Baseline, &ray, 0.0, f64::INFINITY);
                 // SAFETY: `avx2` was detected above.
