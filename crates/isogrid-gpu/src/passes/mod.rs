@@ -2,7 +2,7 @@
 //! (as in rerun's `re_renderer`), all built once per [`crate::Renderer`]: group 0 shared by all
 //! ([`scene`]), cluster expansion, the hardware and the compute cell raster, EWA splats, the
 //! visibility update, deferred shading and the MC mesh. The path tracer's pipelines are in
-//! `crate::pathtrace`; the order in which a frame runs these passes is in `crate::frame`.
+//! `crate::pathtrace`; the order in which a frame runs these passes is in `crate::render`.
 
 mod cell_raster;
 mod compute_raster;
