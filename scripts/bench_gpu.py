@@ -108,7 +108,8 @@ def main():
         L.append("  relative cost of the passes, not GPU speed; compute-pass times on lavapipe are not trustworthy.")
         L.append("  The same command runs unchanged on a GPU machine (carry the release binary and the Vulkan loader).")
     L.append(f"- {args.size}, {args.frames} frames per render; GPU times are timestamp-query medians over frames after the first.")
-    L.append(f"- Datasets: the Stanford dragon voxelised into a 512³ cube (`scripts/fetch_data.sh`), the built-in hairball at "
+    dragon = "the Stanford dragon voxelised into a 512³ cube (`scripts/fetch_data.sh`), " if datasets[0][0] == "Dragon" else ""
+    L.append(f"- Datasets: {dragon}the built-in hairball at "
              f"{args.hairball_size}³ (the paper's is 1024³); normalised isovalue 0.5; views 1 (front) and 2 (oblique).")
     L.append("- Raster = depth + G-buffer passes (for CGC: both visibility passes plus EWA), the quantity of Table 4.")
     L.append("")
