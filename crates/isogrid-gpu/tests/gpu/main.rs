@@ -11,6 +11,7 @@ mod pathtrace;
 mod rasters;
 mod reference;
 mod traced_primary;
+mod views;
 
 use isogrid::generate::{generate, Field};
 use isogrid::{extract, CellGrid, ExtractOptions, Iso, Precision, Volume};

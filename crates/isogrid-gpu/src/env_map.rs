@@ -2,9 +2,8 @@
 //! built-in sky used without one, and their upload as a float texture.
 
 use crate::error::GpuError;
-use crate::Renderer;
+use crate::wgpu_util::Gpu;
 use std::sync::atomic::{AtomicU64, Ordering};
-use wgpu::util::DeviceExt;
 
 /// An equirectangular HDR environment: linear RGB radiance, `width × height` texels, row-major
 /// from the top. Texel (x, y) is centred on the direction with φ = 2π(x + ½)/width − π and
@@ -82,9 +81,9 @@ impl EnvMap {
 /// An [`EnvMap`] resident on the GPU (`Rgba32Float` texture).
 #[derive(Debug)]
 pub struct GpuEnvMap {
-    pub(super) view: wgpu::TextureView,
+    pub(crate) view: wgpu::TextureView,
     /// Identifies the map in the accumulation key: another map restarts accumulation.
-    pub(super) id: u64,
+    pub(crate) id: u64,
 }
 
 // The built-in sky; keep in sync with `sky` in shaders/pathtrace.wgsl.
@@ -117,56 +116,24 @@ pub fn sky_radiance(d: [f32; 3]) -> [f32; 3] {
 
 static NEXT_ENV_ID: AtomicU64 = AtomicU64::new(1);
 
-impl Renderer {
-    /// Uploads an environment map for [`super::PathTraceOptions::env`].
-    pub fn upload_env(&self, env: &EnvMap) -> Result<GpuEnvMap, GpuError> {
-        let max = self.limits.max_texture_dimension_2d;
-        if env.width > max || env.height > max {
-            return Err(GpuError::too_large(format!(
-                "environment map {}x{} exceeds the device's largest texture ({max} per side)",
-                env.width, env.height
-            )));
-        }
-        self.scoped("uploading the environment map", || {
-            let rgba: Vec<f32> = env
-                .rgb
-                .chunks_exact(3)
-                .flat_map(|c| [c[0], c[1], c[2], 0.0])
-                .collect();
-            Ok(GpuEnvMap {
-                view: self.float_texture("environment map", env.width, env.height, &rgba),
-                id: NEXT_ENV_ID.fetch_add(1, Ordering::Relaxed),
-            })
+/// Uploads an environment map for [`crate::PathTraceOptions::env`].
+pub(crate) fn upload_env(gpu: &Gpu, env: &EnvMap) -> Result<GpuEnvMap, GpuError> {
+    let max = gpu.limits.max_texture_dimension_2d;
+    if env.width > max || env.height > max {
+        return Err(GpuError::too_large(format!(
+            "environment map {}x{} exceeds the device's largest texture ({max} per side)",
+            env.width, env.height
+        )));
+    }
+    gpu.scoped("uploading the environment map", || {
+        let rgba: Vec<f32> = env
+            .rgb
+            .chunks_exact(3)
+            .flat_map(|c| [c[0], c[1], c[2], 0.0])
+            .collect();
+        Ok(GpuEnvMap {
+            view: gpu.float_texture("environment map", env.width, env.height, &rgba),
+            id: NEXT_ENV_ID.fetch_add(1, Ordering::Relaxed),
         })
-    }
-
-    pub(super) fn float_texture(
-        &self,
-        label: &str,
-        width: u32,
-        height: u32,
-        rgba: &[f32],
-    ) -> wgpu::TextureView {
-        self.device
-            .create_texture_with_data(
-                &self.queue,
-                &wgpu::TextureDescriptor {
-                    label: Some(label),
-                    size: wgpu::Extent3d {
-                        width,
-                        height,
-                        depth_or_array_layers: 1,
-                    },
-                    mip_level_count: 1,
-                    sample_count: 1,
-                    dimension: wgpu::TextureDimension::D2,
-                    format: wgpu::TextureFormat::Rgba32Float,
-                    usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
-                    view_formats: &[],
-                },
-                wgpu::util::TextureDataOrder::LayerMajor,
-                bytemuck::cast_slice(rgba),
-            )
-            .create_view(&wgpu::TextureViewDescriptor::default())
-    }
+    })
 }
