@@ -21,6 +21,7 @@ pub mod raw;
 pub mod tiff;
 pub mod voxelize;
 
+mod data_file;
 mod geometry;
 mod read;
 mod samples;

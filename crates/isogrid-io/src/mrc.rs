@@ -34,8 +34,8 @@
 //!   only warns). A file exactly one data block past the 1024-byte header whose `NSYMBT` promises
 //!   an extended header it lacks (some EMDB maps) is read from byte 1024, as ChimeraX does.
 
+use crate::data_file::open_regular;
 use crate::geometry::{geometry, normalized, Vec3};
-use crate::metaimage::open_regular;
 use crate::samples::{byte_count, read_samples, sample_count, ElemType};
 use isogrid::{Error, Result, ResultExt, Volume, VolumeData};
 use std::io::{BufReader, Read, Seek, SeekFrom};

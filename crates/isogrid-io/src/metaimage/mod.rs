@@ -24,6 +24,7 @@
 
 mod header;
 
+use crate::data_file::{open_regular, resolve};
 use crate::geometry::geometry;
 use crate::nrrd::clip;
 use crate::samples::{
@@ -34,7 +35,7 @@ use header::{DataFile, DataStart, Header};
 use isogrid::{Error, ErrorKind, Result, ResultExt, Volume, VolumeData};
 use std::fs::File;
 use std::io::{BufRead, BufReader, Read, Seek, SeekFrom};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 /// Headers (with their LIST of file names) longer than this are not MetaImage headers.
 const MAX_HEADER_BYTES: u64 = 1 << 20;
@@ -76,27 +77,6 @@ pub fn read_metaimage(path: &Path) -> Result<Volume> {
     };
     let g = geometry(header.dims, header.spacing, header.origin, header.direction);
     Volume::with_geometry(g, data).at_path(path)
-}
-
-/// Opens `path` for reading after checking it is a regular file: opening a FIFO would block and
-/// a folder cannot hold samples.
-pub(crate) fn open_regular(path: &Path) -> Result<File> {
-    let meta = std::fs::metadata(path).at_path(path)?;
-    if !meta.is_file() {
-        return Err(
-            Error::invalid("is not a regular file (a folder, FIFO or device)").with_path(path),
-        );
-    }
-    File::open(path).at_path(path)
-}
-
-fn resolve(base: &Path, name: &str) -> PathBuf {
-    let p = Path::new(name);
-    if p.is_absolute() {
-        p.to_path_buf()
-    } else {
-        base.join(p)
-    }
 }
 
 /// Reads header lines up to and including `ElementDataFile`; returns them and the byte offset

@@ -12,6 +12,7 @@
 //! (first axis fastest).
 
 use super::header::{self, clip, DataFiles, Encoding, Header};
+use crate::data_file::resolve;
 use crate::geometry::geometry;
 use crate::samples::{
     byte_count, check_available, check_deflate_budget, expect_end, gzip_error, read_samples,
@@ -20,7 +21,7 @@ use crate::samples::{
 use isogrid::{Error, Result, ResultExt, Volume, VolumeData};
 use std::fs::File;
 use std::io::{BufRead, BufReader, Read, Seek, SeekFrom};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 /// Headers longer than this are not NRRD headers (they are garbage or binary data).
 const MAX_HEADER_BYTES: u64 = 1 << 20;
@@ -66,15 +67,6 @@ pub fn read_nrrd(path: &Path) -> Result<Volume> {
     };
     let g = geometry(header.dims, header.spacing, header.origin, header.direction);
     Volume::with_geometry(g, data).at_path(path)
-}
-
-fn resolve(base: &Path, name: &str) -> PathBuf {
-    let p = Path::new(name);
-    if p.is_absolute() {
-        p.to_path_buf()
-    } else {
-        base.join(p)
-    }
 }
 
 /// Reads the magic line and the header lines. Returns the lines and, when a blank line ended the
