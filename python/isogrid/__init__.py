@@ -139,7 +139,7 @@ class Volume:
 
 
 def extract(
-    array: Union[np.ndarray, Volume, Any],
+    array: Union[np.ndarray, Volume, PathLike, Any],
     iso: Optional[float] = None,
     iso_normalized: Optional[float] = None,
     spacing: Optional[Sequence[float]] = None,
@@ -149,7 +149,8 @@ def extract(
     """Extracts the active cells of a 3-D volume into clustered grid cells.
 
     Args:
-        array: 3-D samples; a :class:`Volume` also supplies its spacing. The axis that varies
+        array: 3-D samples, a :class:`Volume` (which also supplies its spacing), or the path of a
+            volume file, read with :func:`load_volume`. The axis that varies
             fastest in memory is x: a C array of shape (nz, ny, nx) and a Fortran array of shape
             (nx, ny, nz) are read in place. uint8, uint16, int16 and float32 are not copied when
             contiguous; other types and layouts are converted first (see the module docs).
@@ -167,6 +168,7 @@ def extract(
         why (the isovalue outside the samples' range, or a volume one sample thick).
     """
     iso, iso_normalized = _iso_pair(iso, iso_normalized)
+    array = _volume_of(array)
     spacing3 = _spacing_of(array, spacing)
     prepared, fortran = _prepare(array)
     grid = _isogrid.extract(
@@ -198,11 +200,15 @@ def load_volume(
     big_endian: bool = False,
 ) -> Volume:
     """Reads a volume file: NIfTI-1 (``.nii``, ``.nii.gz``), NRRD (``.nrrd``, ``.nhdr``), NumPy
-    ``.npy``, TIFF stacks, a DICOM series (a folder), or headerless raw samples.
+    ``.npy``, TIFF stacks, a DICOM series (a folder), MetaImage (``.mha``, ``.mhd`` + data file;
+    raw or zlib), MRC/CCP4 maps (``.mrc``, ``.map``, ``.ccp4``, ``.mrcs``), or headerless raw
+    samples. Other names are recognised by their content.
 
     Samples keep the file's storage order (no reorientation or resampling) and come back as a
     :class:`Volume` whose ``array`` is C-ordered with shape ``(nz, ny, nx)`` — the reader's buffer
-    handed to NumPy without a copy — and whose ``spacing``/``origin`` are (x, y, z).
+    handed to NumPy without a copy — and whose ``spacing``/``origin`` are (x, y, z). MRC maps are
+    the one exception to the storage order: their columns, rows and sections are permuted to
+    x, y, z by the header's MAPC/MAPR/MAPS, as ChimeraX shows them.
     ``extract(load_volume(p), ...)`` therefore matches ``isogrid extract p`` on the command line.
 
     Args:
@@ -227,7 +233,7 @@ def load_volume(
 
 
 def marching_cubes(
-    array: Union[np.ndarray, Volume, Any],
+    array: Union[np.ndarray, Volume, PathLike, Any],
     iso: Optional[float] = None,
     iso_normalized: Optional[float] = None,
     spacing: Optional[Sequence[float]] = None,
@@ -244,6 +250,7 @@ def marching_cubes(
         seen from outside (where value < iso). One vertex per crossed edge, no duplicates.
     """
     iso, iso_normalized = _iso_pair(iso, iso_normalized)
+    array = _volume_of(array)
     spacing3 = _spacing_of(array, spacing)
     prepared, fortran = _prepare(array)
     return _isogrid.marching_cubes(
@@ -408,6 +415,13 @@ def _prepare(array: Any) -> Tuple[np.ndarray, bool]:
     _, fortran = _layout(a)
     order = "F" if fortran else "C"
     return np.require(a, dtype=_sample_dtype(a.dtype), requirements=[order, "A"]), fortran
+
+
+def _volume_of(array: Any) -> Any:
+    """A path is read with :func:`load_volume`; arrays and Volumes pass through."""
+    if isinstance(array, (str, os.PathLike)):
+        return load_volume(array)
+    return array
 
 
 def _spacing_of(array: Any, spacing: Optional[Sequence[float]]) -> Triple:

@@ -1,9 +1,9 @@
-//! Volume file formats for isogrid: NIfTI-1, NRRD, NumPy `.npy`, raw, DICOM series and TIFF
-//! stacks, read into an [`isogrid::Volume`], and NRRD written back; triangle meshes ([`mesh`]) and
+//! Volume file formats for isogrid: NIfTI-1, NRRD, NumPy `.npy`, raw, DICOM series, TIFF
+//! stacks, MetaImage and MRC/CCP4 maps, read into an [`isogrid::Volume`], and NRRD written back; triangle meshes ([`mesh`]) and
 //! their solid voxelisation into coverage volumes ([`voxelize`], paper §4).
 //!
 //! Every reader keeps the file's storage order (voxel (i, j, k), i fastest; no reorientation or
-//! resampling), keeps spacing and origin in physical file units in [`isogrid::Geometry`] and the
+//! resampling; MRC maps alone are permuted to x-fastest, see [`mrc`]), keeps spacing and origin in physical file units in [`isogrid::Geometry`] and the
 //! axis directions as metadata when the format has them. Sample types u8, u16, i16 and f32 are
 //! kept; i8 becomes i16, bool becomes u8, and u32/i32/u64/i64/f64 become f32 (integers above 2²⁴
 //! and f64 precision are rounded). Malformed or truncated files give one-line errors naming the
@@ -12,6 +12,8 @@
 pub mod dicom;
 pub mod image;
 pub mod mesh;
+pub mod metaimage;
+pub mod mrc;
 pub mod nifti;
 pub mod npy;
 pub mod nrrd;
@@ -19,11 +21,14 @@ pub mod raw;
 pub mod tiff;
 pub mod voxelize;
 
+mod data_file;
 mod geometry;
 mod read;
 mod samples;
 
 pub use dicom::read_dicom_series;
+pub use metaimage::read_metaimage;
+pub use mrc::read_mrc;
 pub use nifti::read_nifti;
 pub use npy::read_npy;
 pub use nrrd::{read_nrrd, write_nrrd};

@@ -14,7 +14,8 @@ pub struct ReadOptions {
 }
 
 /// Reads a volume, detecting the format from the path: a directory = DICOM series;
-/// `.nii`/`.nii.gz`; `.nrrd`/`.nhdr`; `.npy`; `.tif`/`.tiff`; any file when `opts.raw` is set
+/// `.nii`/`.nii.gz`; `.nrrd`/`.nhdr`; `.npy`; `.tif`/`.tiff`; `.mha`/`.mhd`;
+/// `.mrc`/`.map`/`.ccp4`/`.mrcs`; any file when `opts.raw` is set
 /// (`.raw`/`.bin` without it are an error asking for the spec). Other names are sniffed by
 /// their magic bytes. Errors name `path`.
 pub fn read_volume(path: &Path, opts: &ReadOptions) -> Result<Volume> {
@@ -40,6 +41,12 @@ pub fn read_volume(path: &Path, opts: &ReadOptions) -> Result<Volume> {
     }
     if ends(".tif") || ends(".tiff") {
         return crate::read_tiff(path);
+    }
+    if ends(".mha") || ends(".mhd") {
+        return crate::read_metaimage(path);
+    }
+    if ends(".mrc") || ends(".map") || ends(".ccp4") || ends(".mrcs") {
+        return crate::read_mrc(path);
     }
     if ends(".raw") || ends(".bin") {
         return Err(
@@ -73,9 +80,13 @@ fn sniff(path: &Path) -> Result<Volume> {
         crate::read_tiff(path)
     } else if head.len() == 348 && &head[344..347] == b"n+1" {
         crate::read_nifti(path)
+    } else if head.len() >= 212 && &head[208..211] == b"MAP" {
+        crate::read_mrc(path)
+    } else if head.starts_with(b"ObjectType") || head.starts_with(b"NDims") {
+        crate::read_metaimage(path)
     } else {
         Err(Error::unsupported(
-            "unknown volume format (expected .nii, .nii.gz, .nrrd, .nhdr, .npy, .tif, a DICOM folder, or a raw spec)",
+            "unknown volume format (expected .nii, .nii.gz, .nrrd, .nhdr, .npy, .tif, .mha, .mhd, .mrc, .map, a DICOM folder, or a raw spec)",
         )
         .with_path(path))
     }

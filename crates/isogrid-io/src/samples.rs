@@ -139,6 +139,46 @@ pub(crate) fn from_f64_values(values: &[f64], elem: ElemType) -> VolumeData {
     }
 }
 
+/// Reads `count` decimal values separated by whitespace or commas from the next `available` bytes
+/// (NRRD ascii, MetaImage text data) and converts them like [`read_samples`]. `what` names the data
+/// in errors.
+pub(crate) fn read_text_samples<R: Read>(
+    reader: R,
+    available: u64,
+    elem: ElemType,
+    count: usize,
+    what: &str,
+) -> Result<VolumeData> {
+    // Each value takes at least one character plus a separator.
+    if count as u64 > available / 2 + 1 {
+        return Err(Error::corrupt(format!(
+            "{what} of {available} bytes cannot hold {count} values"
+        )));
+    }
+    let mut text = String::new();
+    reader
+        .take(available)
+        .read_to_string(&mut text)
+        .map_err(|_| Error::corrupt(format!("{what} is not text")))?;
+    let values = text
+        .split(|c: char| c.is_whitespace() || c == ',')
+        .filter(|t| !t.is_empty())
+        .map(|t| {
+            t.parse::<f64>().map_err(|_| {
+                let shown: String = t.chars().filter(|c| !c.is_control()).take(60).collect();
+                Error::corrupt(format!("{what}: value '{shown}' is not a number"))
+            })
+        })
+        .collect::<Result<Vec<f64>>>()?;
+    if values.len() != count {
+        return Err(Error::corrupt(format!(
+            "{what} holds {} values, the header declares {count}",
+            values.len()
+        )));
+    }
+    Ok(from_f64_values(&values, elem))
+}
+
 /// Fails if `reader` has any byte left: a stream longer than declared is inconsistent.
 pub(crate) fn expect_end<R: Read + ?Sized>(reader: &mut R) -> Result<()> {
     let mut byte = [0u8; 1];

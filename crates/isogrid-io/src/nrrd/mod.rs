@@ -6,5 +6,6 @@ mod header;
 mod read;
 mod write;
 
+pub(crate) use header::clip;
 pub use read::read_nrrd;
 pub use write::write_nrrd;

@@ -12,15 +12,16 @@
 //! (first axis fastest).
 
 use super::header::{self, clip, DataFiles, Encoding, Header};
+use crate::data_file::resolve;
 use crate::geometry::geometry;
 use crate::samples::{
-    byte_count, check_available, check_deflate_budget, expect_end, from_f64_values, gzip_error,
-    read_samples, sample_count, skip_bytes,
+    byte_count, check_available, check_deflate_budget, expect_end, gzip_error, read_samples,
+    read_text_samples, sample_count, skip_bytes,
 };
 use isogrid::{Error, Result, ResultExt, Volume, VolumeData};
 use std::fs::File;
 use std::io::{BufRead, BufReader, Read, Seek, SeekFrom};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 /// Headers longer than this are not NRRD headers (they are garbage or binary data).
 const MAX_HEADER_BYTES: u64 = 1 << 20;
@@ -66,15 +67,6 @@ pub fn read_nrrd(path: &Path) -> Result<Volume> {
     };
     let g = geometry(header.dims, header.spacing, header.origin, header.direction);
     Volume::with_geometry(g, data).at_path(path)
-}
-
-fn resolve(base: &Path, name: &str) -> PathBuf {
-    let p = Path::new(name);
-    if p.is_absolute() {
-        p.to_path_buf()
-    } else {
-        base.join(p)
-    }
 }
 
 /// Reads the magic line and the header lines. Returns the lines and, when a blank line ended the
@@ -154,32 +146,13 @@ fn read_part(file: File, offset: u64, header: &Header, count: usize) -> Result<V
         }
         Encoding::Ascii => {
             skip_bytes(&mut reader, header.byte_skip.max(0) as u64)?;
-            // Each value takes at least one character plus a separator.
-            if count as u64 > available / 2 + 1 {
-                return Err(Error::corrupt(format!(
-                    "ascii data of {available} bytes cannot hold {count} values"
-                )));
-            }
-            let mut text = String::new();
-            reader
-                .read_to_string(&mut text)
-                .map_err(|_| Error::corrupt("ascii NRRD data is not text"))?;
-            let values = text
-                .split(|c: char| c.is_whitespace() || c == ',')
-                .filter(|t| !t.is_empty())
-                .map(|t| {
-                    t.parse::<f64>().map_err(|_| {
-                        Error::corrupt(format!("ascii NRRD value '{}' is not a number", clip(t)))
-                    })
-                })
-                .collect::<Result<Vec<f64>>>()?;
-            if values.len() != count {
-                return Err(Error::corrupt(format!(
-                    "ascii NRRD data holds {} values, the header declares {count}",
-                    values.len()
-                )));
-            }
-            Ok(from_f64_values(&values, header.elem))
+            read_text_samples(
+                &mut reader,
+                available,
+                header.elem,
+                count,
+                "ascii NRRD data",
+            )
         }
     }
 }

@@ -6,7 +6,7 @@ use isogrid::{ErrorKind, ScalarType};
 use isogrid_io::{read_volume, RawSpec, ReadOptions};
 use std::path::Path;
 
-fn expect_err(path: &Path, opts: &ReadOptions, kind: ErrorKind, needle: &str) {
+pub fn expect_err(path: &Path, opts: &ReadOptions, kind: ErrorKind, needle: &str) {
     let err = match read_volume(path, opts) {
         Ok(v) => panic!("{}: read {:?} instead of failing", path.display(), v.dims()),
         Err(e) => e,
