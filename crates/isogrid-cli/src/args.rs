@@ -10,10 +10,10 @@ use isogrid_io::{RawSpec, ReadOptions};
 #[group(required = true, multiple = false)]
 pub struct IsoArgs {
     /// Isovalue in data units: a sample is inside when value >= V.
-    #[arg(long, value_name = "V", allow_negative_numbers = true)]
+    #[arg(long, value_name = "V", allow_hyphen_values = true)]
     pub iso: Option<f64>,
     /// Isovalue as a fraction of the volume's value range (the paper uses 0.5).
-    #[arg(long, value_name = "V")]
+    #[arg(long, value_name = "V", allow_hyphen_values = true)]
     pub iso_normalized: Option<f64>,
 }
 
@@ -62,11 +62,15 @@ impl InputArgs {
     }
 }
 
+/// Most worker threads `--threads` accepts: far above any core count the work scales to, and
+/// below the per-user thread limits (`ulimit -u`) systems commonly set.
+pub const MAX_THREADS: i64 = 1024;
+
 /// `--threads N`.
 #[derive(Args, Debug, Clone, Default)]
 pub struct ThreadArgs {
-    /// Worker threads (default: all cores). Output is identical for any count.
-    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u16).range(1..))]
+    /// Worker threads, at most 1024 (default: all cores). Output is identical for any count.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u16).range(1..=MAX_THREADS))]
     pub threads: Option<u16>,
 }
 
@@ -77,7 +81,14 @@ impl ThreadArgs {
         if let Some(n) = self.threads {
             builder = builder.num_threads(n as usize);
         }
-        Ok(builder.build()?)
+        builder.build().map_err(|e| {
+            let n = self
+                .threads
+                .map_or_else(|| "the default number of".to_string(), |n| n.to_string());
+            anyhow::anyhow!(
+                "cannot start {n} worker threads ({e}): the system allows fewer; use a smaller --threads"
+            )
+        })
     }
 
     /// Runs `f` on a rayon pool of the requested size.

@@ -1,5 +1,8 @@
 //! The `isogrid` binary end to end: JSON names, files it writes, and how it fails on bad input.
 
+#[path = "cli/hostile.rs"]
+mod hostile;
+
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};

@@ -8,7 +8,7 @@
 //! Every writer goes through [`isogrid::fs::write_atomic`].
 
 use isogrid::fs::write_atomic;
-use isogrid::{Error, Result, ResultExt};
+use isogrid::{Error, Result};
 use isogrid_trace::EnvMap;
 use std::path::Path;
 
@@ -147,7 +147,7 @@ pub fn read_env_map(path: &Path) -> Result<EnvMap> {
             .with_path(path))
         }
     };
-    let file = std::fs::File::open(path).at_path(path)?;
+    let file = isogrid::fs::open_regular(path)?;
     let mut reader = ::image::ImageReader::with_format(std::io::BufReader::new(file), format);
     let mut limits = ::image::Limits::default();
     limits.max_alloc = Some(MAX_ENV_TEXELS * 16);

@@ -123,7 +123,7 @@ fn read(path: &Path) -> Result<Volume> {
     for f in 0..3 {
         dims[header.axis_of[f]] = header.crs[f];
     }
-    let g = geometry(dims, header.spacing, header.origin, header.direction);
+    let g = geometry(dims, header.spacing, header.origin, header.direction)?;
     Volume::with_geometry(g, data)
 }
 

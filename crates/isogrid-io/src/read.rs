@@ -59,7 +59,7 @@ pub fn read_volume(path: &Path, opts: &ReadOptions) -> Result<Volume> {
 
 fn sniff(path: &Path) -> Result<Volume> {
     let mut head = [0u8; 348];
-    let mut file = std::fs::File::open(path).at_path(path)?;
+    let mut file = isogrid::fs::open_regular(path)?;
     let mut len = 0;
     while len < head.len() {
         match file.read(&mut head[len..]).at_path(path)? {

@@ -33,6 +33,7 @@ pub mod generate;
 pub mod grid;
 pub mod layout;
 pub mod mc;
+pub mod memory;
 pub mod morton;
 pub mod quantize;
 pub mod shading;

@@ -80,6 +80,17 @@ fn picture(
 }
 
 pub fn run(args: Args) -> Result<()> {
+    let mut outs = vec![crate::outputs::Output {
+        role: "the picture",
+        path: &args.image,
+        extensions: &[".png"],
+    }];
+    outs.extend(args.output.as_deref().map(|path| crate::outputs::Output {
+        role: "the grid",
+        path,
+        extensions: &[".cgc"],
+    }));
+    crate::outputs::check(&[], &outs)?;
     let start = Instant::now();
     let volume = generate(args.field, args.size as usize, 1);
     let generated = start.elapsed().as_secs_f64();

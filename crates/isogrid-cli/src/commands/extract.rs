@@ -1,6 +1,7 @@
 //! `isogrid extract`: volume → clustered grid cells (paper §3.1) → `.cgc`.
 
 use crate::args::{parse_precision, InputArgs, IsoArgs, ThreadArgs};
+use crate::outputs::{self, Output};
 use crate::report::{print_json, GridReport, Seconds};
 use crate::{input, progress};
 use anyhow::{Context, Result};
@@ -31,6 +32,12 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> Result<()> {
+    let output = args.output.as_deref().map(|path| Output {
+        role: "the grid",
+        path,
+        extensions: &[".cgc"],
+    });
+    outputs::check(&[&args.input], output.as_slice())?;
     let (volume, read) = input::read_volume(&args.input, &args.input_args.read_options()?)?;
     let options = ExtractOptions {
         iso: args.iso.iso(),

@@ -75,7 +75,7 @@ pub fn read_metaimage(path: &Path) -> Result<Volume> {
             read_pieces(base, &names, &header, count)?
         }
     };
-    let g = geometry(header.dims, header.spacing, header.origin, header.direction);
+    let g = geometry(header.dims, header.spacing, header.origin, header.direction).at_path(path)?;
     Volume::with_geometry(g, data).at_path(path)
 }
 

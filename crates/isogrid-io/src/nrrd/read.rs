@@ -7,7 +7,9 @@
 //! checked against the file before allocating, and a gzip stream must decompress to exactly the
 //! declared byte count.
 //!
-//! Geometry: spacing from `space directions` (vector lengths) or else `spacings`; origin from
+//! Geometry: spacing from `space directions` (vector lengths) or else `spacings` (`nan` = no
+//! spacing for that axis, as the spec says, and becomes 1; 0 or a zero-length direction vector is
+//! an error; a negative spacing flips the axis, see `geometry.rs`); origin from
 //! `space origin`; directions (unit `space directions`) kept as metadata. Grid order is the file's
 //! (first axis fastest).
 
@@ -28,11 +30,13 @@ const MAX_HEADER_BYTES: u64 = 1 << 20;
 
 /// Reads an attached `.nrrd` or a detached `.nhdr` (+ data files). Errors name the file at fault.
 pub fn read_nrrd(path: &Path) -> Result<Volume> {
-    let file = File::open(path).at_path(path)?;
+    let file = isogrid::fs::open_regular(path)?;
     let mut reader = BufReader::new(file);
     let (lines, data_offset) = read_header_lines(&mut reader).at_path(path)?;
     let header = header::parse(&lines).at_path(path)?;
     let count = sample_count(header.dims).at_path(path)?;
+    // Before the data: a bad spacing fails without reading gigabytes.
+    let g = geometry(header.dims, header.spacing, header.origin, header.direction).at_path(path)?;
     let data = match &header.data {
         DataFiles::Attached => {
             let offset = data_offset.ok_or_else(|| {
@@ -54,7 +58,7 @@ pub fn read_nrrd(path: &Path) -> Result<Volume> {
             let mut data: Option<VolumeData> = None;
             for name in names {
                 let data_path = resolve(base, name);
-                let file = File::open(&data_path).at_path(&data_path)?;
+                let file = isogrid::fs::open_regular(&data_path)?;
                 let piece = read_part(file, 0, &header, part).at_path(&data_path)?;
                 data = Some(match data {
                     None => piece,
@@ -65,7 +69,6 @@ pub fn read_nrrd(path: &Path) -> Result<Volume> {
             data.ok_or_else(|| Error::corrupt("no data files").with_path(path))?
         }
     };
-    let g = geometry(header.dims, header.spacing, header.origin, header.direction);
     Volume::with_geometry(g, data).at_path(path)
 }
 

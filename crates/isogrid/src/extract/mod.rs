@@ -46,7 +46,11 @@ impl Iso {
                 }
                 let (lo, hi) = volume
                     .value_range()
-                    .ok_or_else(|| Error::invalid("the volume has no finite sample"))?;
+                    .ok_or_else(|| {
+                        Error::invalid(
+                            "the volume has no finite sample (all are NaN or infinite), so it has no value range",
+                        )
+                    })?;
                 (lo + t * (hi - lo), Some((lo, hi)))
             }
         };
