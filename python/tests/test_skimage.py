@@ -1,0 +1,222 @@
+"""isogrid.skimage.marching_cubes against scikit-image's own marching_cubes on the same volumes.
+
+What is compared, and why:
+
+* Vertices: both make one vertex per crossed edge (inside is ``value > level`` in both), so the
+  vertices are matched by their edge (lower sample and axis) and must be the same set, at the same
+  positions within float32 rounding. scikit-image's Lewiner method may add one more vertex at the
+  centre of an ambiguous cell; those are the only unmatched vertices allowed.
+* Faces: a cell's surface may be cut into triangles differently (both are valid), so faces are
+  compared per cell through their summed area vectors, which do not depend on the triangulation
+  of the same boundary loop: equal in every cell that Lewiner's case table does not mark as
+  ambiguous (cases 3, 4, 6, 7, 10, 12, 13), where both draw the same loops. Ambiguous cells may
+  legitimately differ (Lewiner's asymptotic decider against isogrid's fixed rule) and are counted.
+* Normals: scikit-image averages per-cell forward differences, isogrid interpolates central
+  differences; both are −∇f, so they must point the same way (dot > 0.9).
+* Values: scikit-image's per-vertex maximum of the cells' corner ranges: equal.
+"""
+
+import base64
+
+import numpy as np
+import pytest
+
+import isogrid
+from isogrid.skimage import marching_cubes
+
+measure = pytest.importorskip("skimage.measure")
+from skimage.measure import _marching_cubes_lewiner_luts as luts  # noqa: E402
+
+AMBIGUOUS_CASES = {3, 4, 6, 7, 10, 12, 13}
+
+
+def lewiner_case_of_cells(volume, level):
+    """Lewiner's case number of every cell (scikit-image's corner numbering)."""
+    shape, text = luts.CASES
+    cases = np.frombuffer(base64.decodebytes(text.encode()), dtype=np.int8).reshape(shape)[:, 0]
+    v = np.asarray(volume, dtype=np.float32).astype(np.float64) - level
+    a = v > 0
+    corners = [
+        a[:-1, :-1, :-1], a[:-1, :-1, 1:], a[:-1, 1:, 1:], a[:-1, 1:, :-1],
+        a[1:, :-1, :-1], a[1:, :-1, 1:], a[1:, 1:, 1:], a[1:, 1:, :-1],
+    ]
+    index = sum(c.astype(np.int32) << i for i, c in enumerate(corners))
+    return cases[index]
+
+
+def edge_keys(verts_index_space):
+    """(lower sample, axis) of each vertex on a cell edge; None for vertices inside a cell."""
+    below = np.floor(verts_index_space).astype(np.int64)
+    frac = verts_index_space - below
+    keys = []
+    for b, f in zip(below, frac):
+        moving = np.flatnonzero(f > 0)
+        if len(moving) > 1:
+            keys.append(None)
+        else:
+            keys.append((tuple(b), int(moving[0]) if len(moving) else -1))
+    return keys
+
+
+def cell_area_vectors(verts, faces, cell_shape):
+    """Sum of the faces' area vectors per cell (the cell holding each face's centroid)."""
+    p = verts[faces].astype(np.float64)
+    area = 0.5 * np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+    cell = np.clip(np.floor(p.mean(axis=1)).astype(np.int64), 0, np.array(cell_shape) - 1)
+    flat = np.ravel_multi_index(cell.T, cell_shape)
+    out = np.zeros((int(np.prod(cell_shape)), 3))
+    np.add.at(out, flat, area)
+    return out.reshape(tuple(cell_shape) + (3,))
+
+
+def compare(volume, level=None, **kw):
+    ours = marching_cubes(volume, level, **kw)
+    theirs = measure.marching_cubes(volume, level, **kw)
+    for name, a, b in zip(("verts", "faces", "normals", "values"), ours, theirs):
+        assert a.dtype == b.dtype, f"{name}: {a.dtype} != {b.dtype}"
+        assert a.shape[1:] == b.shape[1:], name
+    v_ours, f_ours, n_ours, val_ours = ours
+    v_sk, f_sk, n_sk, val_sk = theirs
+    scale = np.asarray(kw.get("spacing", (1.0, 1.0, 1.0)), dtype=np.float64) * kw.get("step_size", 1)
+    idx_ours = v_ours / scale
+    idx_sk = v_sk / scale
+
+    keys_ours = edge_keys(idx_ours)
+    keys_sk = edge_keys(idx_sk)
+    assert None not in keys_ours
+    where_sk = {k: i for i, k in enumerate(keys_sk) if k is not None}
+    assert len(where_sk) == sum(k is not None for k in keys_sk), "scikit-image repeats an edge"
+    assert set(keys_ours) == set(where_sk), "the crossed edges differ"
+    match = np.array([where_sk[k] for k in keys_ours])
+    np.testing.assert_allclose(v_ours, v_sk[match], rtol=1e-6, atol=1e-5 * scale.max())
+    dots = np.einsum("ij,ij->i", n_ours, n_sk[match])
+    assert dots.min() > 0.9, f"normals disagree: min dot {dots.min()}"
+    np.testing.assert_allclose(val_ours, val_sk[match], rtol=1e-5, atol=1e-6)
+
+    cells = np.array(volume.shape[:3]) // kw.get("step_size", 1) - 1
+    sub = volume[:: kw.get("step_size", 1), :: kw.get("step_size", 1), :: kw.get("step_size", 1)]
+    cells = np.array(sub.shape) - 1
+    lev = 0.5 * (np.float32(volume.min()) + np.float32(volume.max())) if level is None else level
+    ambiguous = np.isin(lewiner_case_of_cells(sub, float(lev)), list(AMBIGUOUS_CASES))
+    mask = kw.get("mask")
+    if mask is not None:
+        step = kw.get("step_size", 1)
+        ambiguous &= mask[::step, ::step, ::step][1:, 1:, 1:]
+    a_ours = cell_area_vectors(idx_ours, f_ours, cells)
+    a_sk = cell_area_vectors(idx_sk, f_sk, cells)
+    plain = ~ambiguous
+    np.testing.assert_allclose(a_ours[plain], a_sk[plain], atol=1e-4)
+    differing = np.any(np.abs(a_ours - a_sk) > 1e-4, axis=-1)
+    return {
+        "vertices": (len(v_ours), len(v_sk)),
+        "faces": (len(f_ours), len(f_sk)),
+        "ambiguous_cells": int(ambiguous.sum()),
+        "differing_cells": int(differing.sum()),
+    }
+
+
+def ball(n=40, centre=(19.3, 20.6, 18.2), radius=13.7):
+    z, y, x = np.mgrid[:n, :n, :n]
+    return radius - np.sqrt((z - centre[0]) ** 2 + (y - centre[1]) ** 2 + (x - centre[2]) ** 2)
+
+
+def smooth_random_field(shape=(36, 30, 33), seed=7):
+    rng = np.random.default_rng(seed)
+    noise = rng.standard_normal(shape)
+    spectrum = np.fft.fftn(noise)
+    k = np.meshgrid(*[np.fft.fftfreq(n) for n in shape], indexing="ij")
+    spectrum *= np.exp(-(k[0] ** 2 + k[1] ** 2 + k[2] ** 2) / (2 * 0.06**2))
+    return np.real(np.fft.ifftn(spectrum)).astype(np.float32)
+
+
+def test_sphere_matches_skimage_exactly():
+    report = compare(ball().astype(np.float32), 0.0)
+    assert report["vertices"][0] == report["vertices"][1]
+    assert report["faces"][0] == report["faces"][1]
+    assert report["differing_cells"] == 0
+
+
+@pytest.mark.parametrize("direction", ["descent", "ascent"])
+def test_sphere_float64_with_default_level_and_direction(direction):
+    vol = ball() + 3.0  # float64, converted to float32 as scikit-image does
+    report = compare(vol, None, gradient_direction=direction)
+    assert report["faces"][0] == report["faces"][1]
+
+
+def test_random_smooth_field_differs_only_in_ambiguous_cells():
+    vol = smooth_random_field()
+    level = float(np.median(vol))
+    report = compare(vol, level)
+    assert report["vertices"][0] > 1000
+    # Every cell that differs is ambiguous (checked in compare); they are few.
+    assert report["differing_cells"] <= report["ambiguous_cells"]
+    assert report["differing_cells"] < 0.02 * report["faces"][0]
+
+
+def test_non_cubic_fortran_array_with_spacing_and_step():
+    vol = np.asfortranarray(smooth_random_field((41, 23, 30), seed=3))
+    level = float(np.percentile(vol, 60))
+    compare(vol, level, spacing=(0.5, 2.0, 1.25))
+    compare(vol, level, step_size=2)
+
+
+def test_mask():
+    vol = ball().astype(np.float32)
+    mask = np.zeros(vol.shape, dtype=bool)
+    mask[:, :, :21] = True
+    mask[5:9] = False
+    report = compare(vol, 0.0, mask=mask)
+    assert report["faces"][0] == report["faces"][1]
+
+
+def test_integer_data_at_an_integer_level():
+    """Crossings on samples: scikit-image makes coincident vertices and zero-area faces unless
+    allow_degenerate=False; isogrid's mesh is that merged one with either setting."""
+    solid = (ball() > 0).astype(np.uint8)
+    level = 0
+    ours = marching_cubes(solid, level)
+    v, f = ours[0], ours[1]
+    assert len(np.unique(v, axis=0)) == len(v)
+    p = v[f].astype(np.float64)
+    assert (np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1) > 0).all()
+    sk_v, sk_f, _, sk_val = measure.marching_cubes(solid, level, allow_degenerate=False)
+    assert len(v) == len(sk_v) and len(f) == len(sk_f)
+    order = lambda a: a[np.lexsort(a.T[::-1])]  # noqa: E731
+    np.testing.assert_array_equal(order(v), order(sk_v))
+    strict = marching_cubes(solid, level, allow_degenerate=False)
+    assert strict[1].dtype == sk_f.dtype
+    np.testing.assert_array_equal(strict[0], v)
+    # scikit-image's default keeps the duplicates: the same distinct positions, more vertices.
+    dup_v = measure.marching_cubes(solid, level)[0]
+    assert len(dup_v) > len(v) and len(np.unique(dup_v, axis=0)) == len(v)
+
+
+def test_errors_match_skimage():
+    vol = ball(12)
+    cases = [
+        ((vol[0],), {}),
+        ((vol[:1],), {}),
+        ((vol, 1e6), {}),
+        ((vol, -1e6), {}),
+        ((vol, 0.0), {"spacing": (1.0, 2.0)}),
+        ((vol, 0.0), {"step_size": 0}),
+        ((vol, 0.0), {"method": "other"}),
+        ((vol, 0.0), {"gradient_direction": "up"}),
+        ((vol, 0.0), {"mask": np.ones((3, 3, 3), bool)}),
+        ((vol.tolist(), 0.0), {}),
+    ]
+    for args, kw in cases:
+        with pytest.raises(ValueError) as sk_err:
+            measure.marching_cubes(*args, **kw)
+        with pytest.raises(ValueError) as our_err:
+            marching_cubes(*args, **kw)
+        assert str(our_err.value) == str(sk_err.value), (kw, str(our_err.value))
+    # A level that no cell crosses (the maximum, with inside = value > level).
+    with pytest.raises(RuntimeError, match="No surface found"):
+        measure.marching_cubes(vol, float(vol.max()))
+    with pytest.raises(RuntimeError, match="No surface found"):
+        marching_cubes(vol, float(vol.max()))
+
+
+def test_reachable_from_the_package():
+    assert isogrid.skimage.marching_cubes is marching_cubes
