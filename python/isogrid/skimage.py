@@ -8,7 +8,8 @@ conventions and dtypes: coordinates in array-axis order ``(axis 0, axis 1, axis 
 ``spacing``; a sample is inside when ``value > level`` (Lewiner et al.'s rule); with
 ``gradient_direction="descent"`` the right-hand normal of every face points up the gradient
 (scikit-image's left-hand rule), with ``"ascent"`` down it; ``normals`` point down the gradient
-(−∇f, from central differences along the array axes, not scaled by ``spacing``); ``values`` is
+(−∇f from differences along the cells' edges, weighted and summed per face as scikit-image
+does, not scaled by ``spacing``); ``values`` is
 scikit-image's "maximum value of the data near each vertex": over the cells around the vertex's
 edge, the largest ``max(0, max(c − level)) − min(0, min(c − level))`` of a cell's corners ``c``.
 
@@ -93,7 +94,8 @@ def marching_cubes(
         level = float(level)
         if level < lo or level > hi:
             raise ValueError("Surface level must be within volume data range.")
-    level = float(level)
+    # scikit-image compares float32 samples with a float32 level.
+    level = float(np.float32(level))
     if len(spacing) != 3:
         raise ValueError("`spacing` must consist of three floats.")
     step = int(step_size)
@@ -121,7 +123,7 @@ def marching_cubes(
         raise RuntimeError("No surface found at the given iso value.")
     verts = np.ascontiguousarray(verts)
     faces = np.ascontiguousarray(faces)
-    normals, values = _normals_and_values(prepared, verts, level, cells_ok)
+    normals, values = _normals_and_values(prepared, verts, faces, level, cells_ok)
     if step > 1:
         verts = verts * np.float32(step)
     if not np.array_equal(spacing, (1, 1, 1)):
@@ -148,11 +150,19 @@ def _keep_masked_cells(
     return verts[used], renumber[faces].astype(faces.dtype)
 
 
+# scikit-image's FLT_EPSILON (numpy.spacing(1.0)), which keeps its weights finite.
+_EPS = float(np.spacing(1.0))
+
+
 def _normals_and_values(
-    grid: np.ndarray, verts: np.ndarray, level: float, cells_ok: Optional[np.ndarray]
+    grid: np.ndarray,
+    verts: np.ndarray,
+    faces: np.ndarray,
+    level: float,
+    cells_ok: Optional[np.ndarray],
 ) -> Tuple[np.ndarray, np.ndarray]:
-    """Per vertex: the unit −∇f interpolated along its edge, and the largest corner range of the
-    cells around that edge (around the sample, for a vertex on a sample)."""
+    """Per vertex: the unit −∇f at it, and the largest corner range of the cells around its edge
+    (around the sample, for a vertex on a sample)."""
     shape = np.array(grid.shape)
     # `grid` is C- or Fortran-contiguous: index its memory directly.
     flat = grid.ravel(order="K")
@@ -166,19 +176,30 @@ def _normals_and_values(
     above = below.copy()
     above[np.arange(len(verts)), axis] += (~on_sample).astype(np.intp)
 
-    def gradient(at: np.ndarray) -> np.ndarray:
-        g = np.empty(at.shape, dtype=np.float64)
-        for d in range(3):
-            up = at.copy()
-            down = at.copy()
-            up[:, d] = np.minimum(at[:, d] + 1, shape[d] - 1)
-            down[:, d] = np.maximum(at[:, d] - 1, 0)
-            g[:, d] = (flat[up @ strides].astype(np.float64) - flat[down @ strides]) / (up[:, d] - down[:, d])
-        return g
+    # Normals as scikit-image forms them: every face adds, for each of its vertices, the
+    # differences along the edges of the face's cell at both ends of the vertex's edge, weighted
+    # by 1 / |f − level| at that end (so mostly the nearer end); the sum is normalised.
+    def value(index: np.ndarray) -> np.ndarray:
+        return flat[index].astype(np.float64)
 
-    n = -((1.0 - t)[:, None] * gradient(below) + t[:, None] * gradient(above))
-    length = np.sqrt((n * n).sum(axis=1))
-    normals = (n / np.where(length > 0, length, 1.0)[:, None]).astype(np.float32)
+    weight_below = 1.0 / (_EPS + np.abs(value(below @ strides) - level))
+    weight_above = 1.0 / (_EPS + np.abs(value(above @ strides) - level))
+    cell = np.clip(np.floor(verts[faces].mean(axis=1)).astype(np.intp), 0, shape - 2)
+    corner_cell = np.repeat(cell, 3, axis=0)
+    vertex = faces.ravel()
+    total = np.zeros((len(verts), 3))
+    for end, weight in ((below, weight_below), (above, weight_above)):
+        p = end[vertex]
+        g = np.empty((len(vertex), 3))
+        for d in range(3):
+            low = p.copy()
+            high = p.copy()
+            low[:, d] = corner_cell[:, d]
+            high[:, d] = corner_cell[:, d] + 1
+            g[:, d] = value(low @ strides) - value(high @ strides)
+        np.add.at(total, vertex, g * weight[vertex][:, None])
+    length = np.sqrt((total * total).sum(axis=1))
+    normals = (total / np.where(length > 0, length, 1.0)[:, None]).astype(np.float32)
 
     # Cells around the vertex: those holding its edge (two offsets of 0 or −1 across the edge),
     # or, on a sample, all eight holding that sample.
