@@ -69,6 +69,13 @@ def marching_cubes(
     origin: Optional[Sequence[float]] = None,
     above: bool = False,
 ) -> Tuple[npt.NDArray[np.float32], npt.NDArray[np.uint32]]: ...
+def skimage_normals_values(
+    array: np.ndarray,
+    fortran: bool,
+    positions: npt.NDArray[np.float32],
+    faces: npt.NDArray[np.uint32],
+    level: float,
+) -> Tuple[npt.NDArray[np.float32], npt.NDArray[np.float32]]: ...
 def load_volume(
     path: _Path,
     raw_shape: Optional[Sequence[int]] = None,

@@ -10,8 +10,8 @@ conventions and dtypes: coordinates in array-axis order ``(axis 0, axis 1, axis 
 (scikit-image's left-hand rule), with ``"ascent"`` down it; ``normals`` point down the gradient
 (−∇f from differences along the cells' edges, weighted and summed per face as scikit-image
 does, not scaled by ``spacing``); ``values`` is
-scikit-image's "maximum value of the data near each vertex": over the cells around the vertex's
-edge, the largest ``max(0, max(c − level)) − min(0, min(c − level))`` of a cell's corners ``c``.
+scikit-image's "maximum value of the data near each vertex": over the faces using the vertex, the
+largest ``max(0, max(c − level)) − min(0, min(c − level))`` of the corners ``c`` of the face's cell.
 
 Where the result differs from scikit-image, and why:
 
@@ -20,13 +20,16 @@ Where the result differs from scikit-image, and why:
   corners of an ambiguous face apart (its ``"lorensen"``-like rule, which also keeps the mesh
   watertight). Both are valid surfaces; they differ only in those cells. ``method`` is checked but
   does not change the result.
+* Normals: where the two meshes cut a cell's polygon into triangles differently, the per-face
+  sums that make a normal differ too; they still point the same way almost everywhere.
 * Crossings exactly on a sample (integer data at an integer level): scikit-image makes one vertex
   per crossed edge there, all at the same position, and zero-area triangles unless
   ``allow_degenerate=False`` merges them. isogrid always gives the merged mesh: one vertex per
   sample and no zero-area triangle, the same mesh scikit-image gives with
-  ``allow_degenerate=False``. ``values`` of such a merged vertex take every cell around the sample.
-* Speed: the surface is extracted in Rust on all cores (the GIL released); normals and values
-  are computed here with NumPy.
+  ``allow_degenerate=False`` (whose normals and values come from the first of the merged
+  vertices only; isogrid's from all their faces).
+* Speed: the surface is extracted in Rust on all cores, normals and values in Rust on one, with
+  the GIL released.
 """
 
 from __future__ import annotations
@@ -123,7 +126,13 @@ def marching_cubes(
         raise RuntimeError("No surface found at the given iso value.")
     verts = np.ascontiguousarray(verts)
     faces = np.ascontiguousarray(faces)
-    normals, values = _normals_and_values(prepared, verts, faces, level, cells_ok)
+    # Normals and values in isogrid's (x, y, z), then back to the array's axes.
+    xyz = verts if fortran else verts[:, ::-1]
+    normals, values = _isogrid.skimage_normals_values(
+        prepared, fortran, np.ascontiguousarray(xyz), faces.astype(np.uint32), level
+    )
+    if not fortran:
+        normals = np.ascontiguousarray(normals[:, ::-1])
     if step > 1:
         verts = verts * np.float32(step)
     if not np.array_equal(spacing, (1, 1, 1)):
@@ -148,80 +157,6 @@ def _keep_masked_cells(
     used[faces.ravel()] = True
     renumber = np.cumsum(used) - 1
     return verts[used], renumber[faces].astype(faces.dtype)
-
-
-# scikit-image's FLT_EPSILON (numpy.spacing(1.0)), which keeps its weights finite.
-_EPS = float(np.spacing(1.0))
-
-
-def _normals_and_values(
-    grid: np.ndarray,
-    verts: np.ndarray,
-    faces: np.ndarray,
-    level: float,
-    cells_ok: Optional[np.ndarray],
-) -> Tuple[np.ndarray, np.ndarray]:
-    """Per vertex: the unit −∇f at it, and the largest corner range of the cells around its edge
-    (around the sample, for a vertex on a sample)."""
-    shape = np.array(grid.shape)
-    # `grid` is C- or Fortran-contiguous: index its memory directly.
-    flat = grid.ravel(order="K")
-    strides = np.array(grid.strides) // grid.itemsize
-    below = np.floor(verts).astype(np.intp)
-    below = np.minimum(below, shape - 1)
-    frac = verts - below
-    axis = np.argmax(frac, axis=1)
-    t = frac[np.arange(len(verts)), axis].astype(np.float64)
-    on_sample = t == 0.0
-    above = below.copy()
-    above[np.arange(len(verts)), axis] += (~on_sample).astype(np.intp)
-
-    # Normals as scikit-image forms them: every face adds, for each of its vertices, the
-    # differences along the edges of the face's cell at both ends of the vertex's edge, weighted
-    # by 1 / |f − level| at that end (so mostly the nearer end); the sum is normalised.
-    def value(index: np.ndarray) -> np.ndarray:
-        return flat[index].astype(np.float64)
-
-    weight_below = 1.0 / (_EPS + np.abs(value(below @ strides) - level))
-    weight_above = 1.0 / (_EPS + np.abs(value(above @ strides) - level))
-    cell = np.clip(np.floor(verts[faces].mean(axis=1)).astype(np.intp), 0, shape - 2)
-    corner_cell = np.repeat(cell, 3, axis=0)
-    vertex = faces.ravel()
-    total = np.zeros((len(verts), 3))
-    for end, weight in ((below, weight_below), (above, weight_above)):
-        p = end[vertex]
-        g = np.empty((len(vertex), 3))
-        for d in range(3):
-            low = p.copy()
-            high = p.copy()
-            low[:, d] = corner_cell[:, d]
-            high[:, d] = corner_cell[:, d] + 1
-            g[:, d] = value(low @ strides) - value(high @ strides)
-        np.add.at(total, vertex, g * weight[vertex][:, None])
-    length = np.sqrt((total * total).sum(axis=1))
-    normals = (total / np.where(length > 0, length, 1.0)[:, None]).astype(np.float32)
-
-    # Cells around the vertex: those holding its edge (two offsets of 0 or −1 across the edge),
-    # or, on a sample, all eight holding that sample.
-    values = np.zeros(len(verts), dtype=np.float64)
-    corner_steps = np.array([[i, j, k] for i in (0, 1) for j in (0, 1) for k in (0, 1)])
-    for offset in corner_steps:
-        lower = below - offset
-        # A cell holds the edge only when it starts at the edge's lower end along the edge.
-        keep = (offset[axis] == 0) | on_sample
-        valid = keep & np.all((lower >= 0) & (lower <= shape - 2), axis=1)
-        if cells_ok is not None:
-            where = np.flatnonzero(valid)
-            c = lower[where]
-            valid[where] = cells_ok[c[:, 0], c[:, 1], c[:, 2]]
-        idx = np.flatnonzero(valid)
-        if idx.size == 0:
-            continue
-        base = lower[idx] @ strides
-        corners = np.stack([flat[base + s @ strides] for s in corner_steps]).astype(np.float64) - level
-        spread = np.maximum(corners.max(axis=0), 0.0) - np.minimum(corners.min(axis=0), 0.0)
-        values[idx] = np.maximum(values[idx], spread)
-    return normals, values.astype(np.float32)
 
 
 def _remove_degenerate_faces(
