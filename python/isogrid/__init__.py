@@ -177,7 +177,7 @@ def extract(
     """
     iso, iso_normalized = _iso_pair(iso, iso_normalized)
     spacing3 = _spacing_of(array, spacing)
-    placed = isinstance(array, Volume)
+    placed = array if isinstance(array, Volume) else None
     prepared, fortran = _prepare(array)
     grid = _isogrid.extract(
         prepared,
@@ -187,8 +187,8 @@ def extract(
         iso_normalized=iso_normalized,
         precision=None if precision is None else _int(precision, "precision"),
         threads=None if threads is None else _int(threads, "threads", 1),
-        origin=array.origin if placed else None,
-        direction=array.direction if placed else None,
+        origin=None if placed is None else placed.origin,
+        direction=None if placed is None else placed.direction,
     )
     _warn_if_empty(grid)
     return grid

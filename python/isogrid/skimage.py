@@ -92,13 +92,13 @@ def marching_cubes(
         raise ValueError(f"unsupported volume dtype {volume.dtype}: expected real numbers")
     lo, hi = np.float32(volume.min()), np.float32(volume.max())
     if level is None:
-        level = 0.5 * (lo + hi)
+        level_f32 = np.float32(0.5) * (lo + hi)
     else:
-        level = float(level)
-        if level < lo or level > hi:
+        if float(level) < lo or float(level) > hi:
             raise ValueError("Surface level must be within volume data range.")
+        level_f32 = np.float32(level)
     # scikit-image compares float32 samples with a float32 level.
-    level = float(np.float32(level))
+    level = float(level_f32)
     if len(spacing) != 3:
         raise ValueError("`spacing` must consist of three floats.")
     step = int(step_size)
@@ -139,7 +139,8 @@ def marching_cubes(
         verts = verts * np.r_[spacing]
     if allow_degenerate:
         return verts, faces, normals, values
-    return _remove_degenerate_faces(verts.astype(np.float32), faces, normals, values)
+    v, f, n, val = _remove_degenerate_faces(verts.astype(np.float32), faces, normals, values)
+    return v, f, n, val
 
 
 def _keep_masked_cells(
