@@ -21,10 +21,17 @@ layouts are copied first: an array that is neither C- nor Fortran-contiguous is 
 order when its first axis has the smaller stride, otherwise as C order (an array that is both, i.e.
 with at most one axis longer than 1, counts as C order).
 
-Everything else is in (x, y, z) order: ``spacing=(sx, sy, sz)``, grid ``dims`` ``(nx, ny, nz)``,
-cell positions, and world coordinates, where sample (i, j, k) sits at ``(i·sx, j·sy, k·sz)``
-(the origin is kept as metadata only). :func:`load_volume` follows the same rule: it returns a C
-array of shape ``(nz, ny, nx)`` and ``spacing`` as ``(sx, sy, sz)``.
+Everything else is in (x, y, z) order: ``spacing=(sx, sy, sz)``, ``origin``, grid ``dims``
+``(nx, ny, nz)``, cell positions, and world coordinates. Mesh vertices (:func:`marching_cubes`)
+are the volume's world coordinates: sample (i, j, k) sits at ``origin + (i·sx, j·sy, k·sz)``,
+the origin being a :class:`Volume`'s (e.g. the file's, or the mesh frame :func:`voxelize`
+returns), else zero. A :class:`CellGrid` keeps the origin and directions in ``info``, as the
+``.cgc`` files of the command line do; its ``world_bounds`` and the renderer place sample (0, 0, 0)
+at zero. :func:`load_volume` follows the same rule: it returns a C array of shape
+``(nz, ny, nx)`` and ``spacing``/``origin`` as (x, y, z).
+
+For scikit-image's conventions (array-axis order, ``level=``, four return values) use
+:func:`isogrid.skimage.marching_cubes`, a drop-in for ``skimage.measure.marching_cubes``.
 
 Samples of type uint8, uint16, int16 and float32 are used as they are; int8 becomes int16, bool
 becomes uint8 and other numeric types become float32 (a copy). A sample is *inside* when
@@ -157,7 +164,9 @@ def extract(
         iso: isovalue in data units; a sample is inside when ``value >= iso``.
         iso_normalized: isovalue as a fraction of the finite value range, ``min + t·(max − min)``
             (the paper uses 0.5). Give exactly one of ``iso`` and ``iso_normalized``.
-        spacing: sample spacing ``(sx, sy, sz)``; default the Volume's, else (1, 1, 1).
+        spacing: sample spacing ``(sx, sy, sz)``; default the Volume's, else (1, 1, 1). A Volume's
+            origin and directions are kept in the grid's ``info`` (as ``isogrid extract`` keeps
+            them in the ``.cgc`` file).
         precision: bits per stored corner, 4, 8, 16 or 32; default 8 for uint8, 16 otherwise.
         threads: worker threads (default all cores); the result is the same for any count.
 
@@ -170,6 +179,7 @@ def extract(
     iso, iso_normalized = _iso_pair(iso, iso_normalized)
     array = _volume_of(array)
     spacing3 = _spacing_of(array, spacing)
+    placed = array if isinstance(array, Volume) else None
     prepared, fortran = _prepare(array)
     grid = _isogrid.extract(
         prepared,
@@ -179,6 +189,8 @@ def extract(
         iso_normalized=iso_normalized,
         precision=None if precision is None else _int(precision, "precision"),
         threads=None if threads is None else _int(threads, "threads", 1),
+        origin=None if placed is None else placed.origin,
+        direction=None if placed is None else placed.direction,
     )
     _warn_if_empty(grid)
     return grid
@@ -245,13 +257,17 @@ def marching_cubes(
 
     Returns:
         ``(vertices, faces)``: vertices float32 of shape (V, 3) as **(x, y, z)** world
-        coordinates, sample (i, j, k) at (i·sx, j·sy, k·sz) — for a C array ``a[z, y, x]`` the
-        columns are reversed relative to its axes; faces uint32 of shape (T, 3), counter-clockwise
-        seen from outside (where value < iso). One vertex per crossed edge, no duplicates.
+        coordinates, sample (i, j, k) at ``origin + (i·sx, j·sy, k·sz)`` with a :class:`Volume`'s
+        origin (zero for a bare array) — for a C array ``a[z, y, x]`` the columns are reversed
+        relative to its axes; faces uint32 of shape (T, 3), counter-clockwise seen from outside
+        (where value < iso). One vertex per crossed edge, no duplicates: where crossings fall
+        exactly on a sample (integer data at an integer iso), the edges meeting there share one
+        vertex and the triangles that collapse are dropped, so no triangle has zero area.
     """
     iso, iso_normalized = _iso_pair(iso, iso_normalized)
     array = _volume_of(array)
     spacing3 = _spacing_of(array, spacing)
+    origin = array.origin if isinstance(array, Volume) else None
     prepared, fortran = _prepare(array)
     return _isogrid.marching_cubes(
         prepared,
@@ -260,6 +276,7 @@ def marching_cubes(
         iso=iso,
         iso_normalized=iso_normalized,
         threads=None if threads is None else _int(threads, "threads", 1),
+        origin=origin,
     )
 
 
@@ -287,7 +304,8 @@ def voxelize(
 
     Returns:
         A :class:`Volume`: uint8 ``array`` of shape (nz, ny, nx), cubic ``spacing`` in mesh units
-        and ``origin`` = world position of sample (0, 0, 0) in mesh coordinates.
+        and ``origin`` = world position of sample (0, 0, 0) in mesh coordinates, so that
+        ``marching_cubes(voxelize(v, f), iso_normalized=0.5)`` lands on the mesh ``(v, f)``.
     """
     v = np.ascontiguousarray(vertices, dtype=np.float32)
     f = np.asarray(faces)
@@ -457,3 +475,7 @@ def _int(value: Any, name: str, minimum: int = 0) -> int:
     if n < minimum:
         raise ValueError(f"{name} must be at least {minimum}, not {n}")
     return n
+
+
+# Last: it uses the helpers above.
+from . import skimage  # noqa: E402

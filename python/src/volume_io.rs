@@ -88,7 +88,7 @@ pub fn voxelize<'py>(
     volume_dict(py, volume)
 }
 
-fn rows3<T: numpy::Element + Copy>(
+pub(crate) fn rows3<T: numpy::Element + Copy>(
     array: &PyReadonlyArray2<'_, T>,
     name: &str,
 ) -> PyResult<Vec<[T; 3]>> {
