@@ -3,7 +3,7 @@
 //! Nothing is allocated from a header field before it has been checked against the file's length,
 //! and no grid is returned before every checksum, pointer and position has been checked.
 
-use super::{HEADER_CRC_AT, HEADER_SIZE, MAGIC, VERSION};
+use super::format::{HEADER_CRC_AT, HEADER_SIZE, MAGIC, VERSION};
 use crate::error::{Error, Result, ResultExt};
 use crate::grid::{CellGrid, GridInfo, Storage};
 use crate::layout::{Block, Metacell, Precision, BLOCK_METACELLS, BOUND_SLOT, CLUSTER_SLOTS};

@@ -13,8 +13,8 @@
 //! them right after its own vertices. The next slab's vertices follow in the concatenation, so
 //! every index only needs the slab's offset added: output is identical for any thread count.
 
+use super::mesh::{Inside, McMesh};
 use super::table::{cases, edge_corners};
-use super::{Inside, McMesh};
 use crate::error::{Error, Result};
 use crate::volume::{Samples, Scalar, VolumeView};
 use rayon::prelude::*;

@@ -29,33 +29,16 @@
 //! al.'s implementation), for drop-in replacements of `skimage.measure.marching_cubes`.
 
 mod extract;
+mod mesh;
 mod snorm;
 mod table;
 mod write;
 
+pub use mesh::{Inside, McMesh};
 pub use snorm::SnormMesh;
 
 use crate::error::Result;
 use crate::volume::VolumeView;
-
-/// Which samples are inside the surface.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum Inside {
-    /// `value >= iso`: isogrid's rule, shared with the CGC extraction.
-    #[default]
-    AtOrAbove,
-    /// `value > iso`: scikit-image's rule.
-    Above,
-}
-
-/// An indexed triangle mesh from Marching Cubes.
-#[derive(Debug, Clone, Default, PartialEq)]
-pub struct McMesh {
-    /// Vertex positions in world units without the origin: sample (i, j, k) is at (i·sx, j·sy, k·sz).
-    pub positions: Vec<[f32; 3]>,
-    /// Counter-clockwise seen from outside (value < iso), indices into `positions`.
-    pub triangles: Vec<[u32; 3]>,
-}
 
 /// Extracts the isosurface `value = iso` of `volume` with Marching Cubes, in parallel.
 ///
