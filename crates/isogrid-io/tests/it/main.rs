@@ -1,8 +1,10 @@
 //! Integration tests of isogrid-io, one binary: readers against files written by other tools
-//! (nibabel, pynrrd, numpy, pydicom, tifffile; see scripts/make_io_fixtures.py), bad input, and
+//! (nibabel, pynrrd, numpy, pydicom, tifffile; see scripts/make_io_fixtures.py), DICOM series
+//! written with dicom-object, bad input, and
 //! the NRRD writer.
 
 mod bad_input;
 mod common;
+mod dicom;
 mod readers;
 mod write_nrrd;
