@@ -6,11 +6,11 @@
 //! LUT) and C.7.6.16 (multi-frame functional groups).
 //!
 //! - **Transfer syntaxes:** implicit and explicit VR little endian, explicit VR big endian,
-//!   deflated explicit VR little endian; RLE Lossless; JPEG Baseline (8-bit), JPEG Extended with
-//!   8-bit samples and JPEG Lossless (processes 14 and 14 SV1) via `jpeg-decoder`; JPEG-LS
-//!   lossless and near-lossless via CharLS; JPEG 2000 lossless and lossy via OpenJPEG's pure
-//!   Rust port (`openjp2`). JPEG Extended with 12-bit samples is refused with an error naming
-//!   the syntax (`jpeg-decoder` reads lossy JPEG of 8-bit precision only).
+//!   deflated explicit VR little endian; RLE Lossless (8- and 16-bit samples); JPEG Baseline
+//!   (8-bit), JPEG Extended with 8-bit samples and JPEG Lossless (processes 14 and 14 SV1) via
+//!   `jpeg-decoder`; JPEG-LS lossless and near-lossless via CharLS; JPEG 2000 lossless and lossy
+//!   via OpenJPEG's pure Rust port (`openjp2`). JPEG Extended with 12-bit samples and RLE with
+//!   32-bit samples are refused with an error naming the syntax (the decoders lack them).
 //! - **Files:** a path that is a file is read alone; a folder contributes every regular file
 //!   (not subfolders) that looks like DICOM: `DICM` at byte 128, or at byte 0 (no preamble), or
 //!   a bare implicit-VR data set (no file meta group). Names and extensions do not matter.

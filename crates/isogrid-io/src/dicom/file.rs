@@ -296,7 +296,14 @@ pub(super) fn read_frames(path: &Path) -> Result<Vec<Frame>> {
     if ts_uid == JPEG_EXTENDED && bits_stored > 8 {
         return Err(Error::unsupported(format!(
             "{syntax} with {bits_stored}-bit samples is not supported: the JPEG decoder \
-             (jpeg-decoder) reads lossy JPEG of 8-bit precision only; transcode to a lossless syntax"
+             (jpeg-decoder) reads lossy JPEG of 8-bit precision only; transcode to a lossless \
+             syntax"
+        )));
+    }
+    if ts_uid == RLE_LOSSLESS && bits_allocated == 32 {
+        return Err(Error::unsupported(format!(
+            "{syntax} with 32-bit samples is not supported: the RLE decoder \
+             (dicom-transfer-syntax-registry) reads 8- and 16-bit samples only"
         )));
     }
     if !ts.can_decode_all() {
