@@ -39,11 +39,17 @@ pub struct InputArgs {
     /// Raw samples are big-endian.
     #[arg(long, requires = "raw_shape")]
     pub big_endian: bool,
+    /// DICOM folder: read this SeriesInstanceUID (default: the series with the most slices).
+    #[arg(long, value_name = "UID", conflicts_with = "raw_shape")]
+    pub series: Option<String>,
 }
 
 impl InputArgs {
     pub fn read_options(&self) -> Result<ReadOptions> {
-        let mut options = ReadOptions::default();
+        let mut options = ReadOptions {
+            series: self.series.clone(),
+            ..ReadOptions::default()
+        };
         if let Some(shape) = &self.raw_shape {
             let scalar = match self.raw_type.as_deref() {
                 Some("u8") => ScalarType::U8,

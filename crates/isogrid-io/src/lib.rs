@@ -26,12 +26,12 @@ mod geometry;
 mod read;
 mod samples;
 
-pub use dicom::read_dicom_series;
+pub use dicom::{read_dicom, read_dicom_series};
 pub use metaimage::read_metaimage;
 pub use mrc::read_mrc;
 pub use nifti::read_nifti;
 pub use npy::read_npy;
 pub use nrrd::{read_nrrd, write_nrrd};
 pub use raw::{read_raw, RawSpec};
-pub use read::{read_volume, ReadOptions};
+pub use read::{read_volume, read_volume_noted, ReadOptions};
 pub use tiff::read_tiff;

@@ -1,5 +1,6 @@
 //! Picking the reader for a path: a folder is a DICOM series, a raw spec means raw, otherwise the
-//! file extension decides, and when it says nothing the first bytes do.
+//! file extension decides, and when it says nothing the first bytes do. Readers may return
+//! notices for the user (e.g. other DICOM series left out); the caller decides how to show them.
 
 use crate::raw::RawSpec;
 use isogrid::{Error, Result, ResultExt, Volume};
@@ -11,17 +12,47 @@ use std::path::Path;
 pub struct ReadOptions {
     /// Read the file as headerless raw samples with this shape, type and byte order.
     pub raw: Option<RawSpec>,
+    /// DICOM: read this SeriesInstanceUID (default: the series with the most slices).
+    pub series: Option<String>,
 }
 
-/// Reads a volume, detecting the format from the path: a directory = DICOM series;
-/// `.nii`/`.nii.gz`; `.nrrd`/`.nhdr`; `.npy`; `.tif`/`.tiff`; `.mha`/`.mhd`;
-/// `.mrc`/`.map`/`.ccp4`/`.mrcs`; any file when `opts.raw` is set
+/// Reads a volume, detecting the format from the path: a directory or a `.dcm` file (or one
+/// with the `DICM` marker) = DICOM (see [`crate::dicom`]); `.nii`/`.nii.gz`; `.nrrd`/`.nhdr`;
+/// `.npy`; `.tif`/`.tiff`; `.mha`/`.mhd`; `.mrc`/`.map`/`.ccp4`/`.mrcs`; any file when `opts.raw` is set
 /// (`.raw`/`.bin` without it are an error asking for the spec). Other names are sniffed by
-/// their magic bytes. Errors name `path`.
+/// their magic bytes. Errors name `path`. Notices are dropped; see [`read_volume_noted`].
 pub fn read_volume(path: &Path, opts: &ReadOptions) -> Result<Volume> {
-    if path.is_dir() {
-        return crate::read_dicom_series(path);
+    read_volume_noted(path, opts).map(|(volume, _)| volume)
+}
+
+/// [`read_volume`], also returning notices for the user (one line each).
+pub fn read_volume_noted(path: &Path, opts: &ReadOptions) -> Result<(Volume, Vec<String>)> {
+    if path.is_dir() || (opts.raw.is_none() && is_dicom_file(path)) {
+        return crate::dicom::read_dicom(path, opts);
     }
+    read_single(path, opts).map(|volume| (volume, Vec::new()))
+}
+
+/// A file named `.dcm`/`.dicom`/`.ima`, or with `DICM` at byte 128 (or 0: no preamble).
+fn is_dicom_file(path: &Path) -> bool {
+    if !path.is_file() {
+        return false;
+    }
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().to_ascii_lowercase())
+        .unwrap_or_default();
+    if [".dcm", ".dicom", ".ima"].iter().any(|e| name.ends_with(e)) {
+        return true;
+    }
+    let mut head = [0u8; 132];
+    std::fs::File::open(path)
+        .and_then(|mut f| f.read_exact(&mut head))
+        .is_ok()
+        && (&head[128..] == b"DICM" || &head[..4] == b"DICM")
+}
+
+fn read_single(path: &Path, opts: &ReadOptions) -> Result<Volume> {
     if let Some(spec) = &opts.raw {
         return crate::read_raw(path, spec);
     }
@@ -86,7 +117,7 @@ fn sniff(path: &Path) -> Result<Volume> {
         crate::read_metaimage(path)
     } else {
         Err(Error::unsupported(
-            "unknown volume format (expected .nii, .nii.gz, .nrrd, .nhdr, .npy, .tif, .mha, .mhd, .mrc, .map, a DICOM folder, or a raw spec)",
+            "unknown volume format (expected .nii, .nii.gz, .nrrd, .nhdr, .npy, .tif, .mha, .mhd, .mrc, .map, DICOM, or a raw spec)",
         )
         .with_path(path))
     }

@@ -288,7 +288,10 @@ fn raw_size_mismatch_says_expected_and_actual() {
     };
     expect_err(
         &fixture("u8_detached.raw"),
-        &ReadOptions { raw: Some(spec) },
+        &ReadOptions {
+            raw: Some(spec),
+            ..ReadOptions::default()
+        },
         ErrorKind::InvalidInput,
         "needs 140 bytes but the file has 105",
     );
@@ -299,7 +302,10 @@ fn raw_size_mismatch_says_expected_and_actual() {
     };
     expect_err(
         &fixture("u8_detached.raw"),
-        &ReadOptions { raw: Some(spec) },
+        &ReadOptions {
+            raw: Some(spec),
+            ..ReadOptions::default()
+        },
         ErrorKind::InvalidInput,
         "420 bytes",
     );
@@ -483,7 +489,10 @@ fn sizes_beyond_memory_fail_with_the_limit_before_reading() {
     };
     expect_err(
         &sparse,
-        &ReadOptions { raw: Some(spec) },
+        &ReadOptions {
+            raw: Some(spec),
+            ..ReadOptions::default()
+        },
         ErrorKind::TooLarge,
         "needs 192.0 MiB of memory",
     );
@@ -617,7 +626,13 @@ fn directories_and_fifos_are_refused_with_their_kind() {
             for (path, opts) in [
                 (&paths[0], ReadOptions::default()),
                 (&paths[1], ReadOptions::default()),
-                (&paths[2], ReadOptions { raw: Some(raw) }),
+                (
+                    &paths[2],
+                    ReadOptions {
+                        raw: Some(raw),
+                        ..ReadOptions::default()
+                    },
+                ),
             ] {
                 let _ = send.send(read_volume(path, &opts).map(|_| ()).unwrap_err());
             }
