@@ -41,8 +41,8 @@
 mod file;
 
 use crate::geometry::{cross, dot, normalized, Vec3};
+use crate::read_options::ReadOptions;
 use crate::samples::sample_count;
-use crate::ReadOptions;
 use file::{Frame, Header};
 use isogrid::{Error, Geometry, Result, ResultExt, Volume, VolumeData};
 use std::collections::BTreeMap;
@@ -325,11 +325,4 @@ fn gather<T>(frames: &[Frame], total: usize, convert: impl Fn(&Frame, usize) -> 
         out.extend((0..f.rows * f.cols).map(|i| convert(f, i)));
     }
     out
-}
-
-fn file_name(path: &Path) -> String {
-    path.file_name().map_or_else(
-        || path.display().to_string(),
-        |n| n.to_string_lossy().into_owned(),
-    )
 }

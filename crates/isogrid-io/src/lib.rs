@@ -24,6 +24,7 @@ pub mod voxelize;
 mod data_file;
 mod geometry;
 mod read;
+mod read_options;
 mod samples;
 
 pub use dicom::{read_dicom, read_dicom_series};
@@ -33,5 +34,6 @@ pub use nifti::read_nifti;
 pub use npy::read_npy;
 pub use nrrd::{read_nrrd, write_nrrd};
 pub use raw::{read_raw, RawSpec};
-pub use read::{read_volume, read_volume_noted, ReadOptions};
+pub use read::{read_volume, read_volume_noted};
+pub use read_options::ReadOptions;
 pub use tiff::read_tiff;

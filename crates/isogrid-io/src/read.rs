@@ -2,19 +2,10 @@
 //! file extension decides, and when it says nothing the first bytes do. Readers may return
 //! notices for the user (e.g. other DICOM series left out); the caller decides how to show them.
 
-use crate::raw::RawSpec;
+use crate::read_options::ReadOptions;
 use isogrid::{Error, Result, ResultExt, Volume};
 use std::io::Read;
 use std::path::Path;
-
-/// How to read files whose format cannot be detected.
-#[derive(Debug, Clone, Default)]
-pub struct ReadOptions {
-    /// Read the file as headerless raw samples with this shape, type and byte order.
-    pub raw: Option<RawSpec>,
-    /// DICOM: read this SeriesInstanceUID (default: the series with the most slices).
-    pub series: Option<String>,
-}
 
 /// Reads a volume, detecting the format from the path: a directory or a `.dcm` file (or one
 /// with the `DICM` marker) = DICOM (see [`crate::dicom`]); `.nii`/`.nii.gz`; `.nrrd`/`.nhdr`;

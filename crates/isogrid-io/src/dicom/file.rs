@@ -76,7 +76,7 @@ impl Frame {
 
     /// "FILE" or "FILE frame N".
     pub fn describe(&self) -> String {
-        let file = super::file_name(&self.path);
+        let file = file_name(&self.path);
         if self.index == 0 {
             file
         } else {
@@ -640,4 +640,12 @@ fn error_chain(e: &dyn std::error::Error) -> String {
 
 pub(super) fn one_line(s: &str) -> String {
     s.lines().next().unwrap_or("").to_string()
+}
+
+/// The file's name for messages (the whole path when it has none).
+fn file_name(path: &Path) -> String {
+    path.file_name().map_or_else(
+        || path.display().to_string(),
+        |n| n.to_string_lossy().into_owned(),
+    )
 }
