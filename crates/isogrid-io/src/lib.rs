@@ -7,7 +7,9 @@
 //! axis directions as metadata when the format has them. Sample types u8, u16, i16 and f32 are
 //! kept; i8 becomes i16, bool becomes u8, and u32/i32/u64/i64/f64 become f32 (integers above 2²⁴
 //! and f64 precision are rounded). Malformed or truncated files give one-line errors naming the
-//! file; declared sizes are checked against the file before anything is allocated.
+//! file; declared sizes are checked against the file, and against the memory there is
+//! ([`isogrid::memory`]), before anything is allocated. Only regular files are read: a pipe,
+//! FIFO, device or directory given as a file is refused rather than waited on.
 
 pub mod dicom;
 pub mod image;
