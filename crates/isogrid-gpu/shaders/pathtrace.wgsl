@@ -3,8 +3,9 @@
 // bounces off Lambertian surfaces with cosine-weighted directions, traced through the clustered
 // grid cells by `trace_ray` (trace.wgsl), until it escapes to the environment or runs out of
 // bounces (then it contributes nothing). Each frame adds its sample to a per-pixel sum; the mean
-// is written as sRGB 8-bit. Keep `sky` and `environment` in sync with
-// `src/env_map.rs` (`sky_radiance`, `EnvMap`); `to_srgb8` is shared, in common.wgsl.
+// is written as sRGB 8-bit. `sky` and `environment` are twins of the core's
+// `isogrid::env_map::sky` and `EnvMap::radiance` (crates/isogrid/src/env_map.rs): keep them in
+// sync; `to_srgb8` is shared, in common.wgsl.
 //
 // `path_trace_traced_primary` (`PrimaryRays::Traced`) is the same path tracer with the primary
 // ray from the eye through the pixel centre traced by `trace_ray` too, for devices whose graphics
@@ -29,7 +30,7 @@
 const PI: f32 = 3.14159265358979;
 
 // Built-in sky (world +y up, the camera presets' up): horizon → zenith gradient above, horizon →
-// ground below, plus a smooth sun lobe.
+// ground below, plus a smooth sun lobe. Twin of `sky` in crates/isogrid/src/env_map.rs.
 const SKY_ZENITH: vec3<f32> = vec3<f32>(0.20, 0.40, 0.90);
 const SKY_HORIZON: vec3<f32> = vec3<f32>(0.85, 0.90, 1.00);
 const SKY_GROUND: vec3<f32> = vec3<f32>(0.30, 0.27, 0.24);
@@ -47,15 +48,17 @@ fn sky(d: vec3<f32>) -> vec3<f32> {
     return base + SUN_RADIANCE * pow(max(dot(d, normalize(SUN_DIR)), 0.0), SUN_EXPONENT);
 }
 
-// Radiance arriving from direction d (unit, world): the environment map, or the sky. Column
-// (φ + π) / 2π · width with φ = atan2(d.z, d.x); row acos(d.y) / π · height (row 0 = +y);
-// bilinear between texel centres, wrapping in φ and clamping at the poles.
+// Radiance arriving from direction d (unit, world): the environment map, or the sky. Twin of
+// `EnvMap::radiance` in crates/isogrid/src/env_map.rs, whose doc gives the orientation (centre
+// column −z, row 0 +y, +x a quarter right of the centre): column (φ + π) / 2π · width with
+// φ = atan2(d.x, −d.z); row acos(d.y) / π · height; bilinear between texel centres, wrapping in φ
+// and clamping at the poles.
 fn environment(d: vec3<f32>) -> vec3<f32> {
     if trace.sample.y == 0u {
         return sky(d);
     }
     let size = vec2<i32>(textureDimensions(env));
-    let phi = atan2(d.z, d.x);
+    let phi = atan2(d.x, -d.z);
     let theta = acos(clamp(d.y, -1.0, 1.0));
     let uv = vec2<f32>((phi + PI) / (2.0 * PI), theta / PI) * vec2<f32>(size) - 0.5;
     let base = floor(uv);

@@ -62,7 +62,7 @@ mod view;
 mod wgpu_util;
 
 pub use backends::preferred_backends;
-pub use env_map::{sky_radiance, EnvMap, GpuEnvMap};
+pub use env_map::GpuEnvMap;
 pub use error::{GpuError, GpuErrorKind};
 pub use options::{
     CellRaster, Mode, PathTraceOptions, PrimaryRays, RenderOptions, DEFAULT_BOUNCES, MAX_BOUNCES,

@@ -140,7 +140,7 @@ pub struct PathTraceOptions<'a> {
     /// Diffuse reflections per path (secondary rays traced); a path that has not escaped to the
     /// environment after them contributes nothing. 0 shows only the directly visible environment.
     pub bounces: u32,
-    /// The environment; `None` uses the built-in sky ([`crate::sky_radiance`]).
+    /// The environment; `None` uses the built-in sky ([`isogrid::env_map::sky`]).
     pub env: Option<&'a GpuEnvMap>,
     /// Lambertian albedo, each component in [0, 1].
     pub albedo: [f32; 3],

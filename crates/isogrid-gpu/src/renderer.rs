@@ -3,7 +3,7 @@
 //! the work to the modules that do it.
 
 use crate::backends::preferred_backends;
-use crate::env_map::{upload_env, EnvMap, GpuEnvMap};
+use crate::env_map::{upload_env, GpuEnvMap};
 use crate::error::{GpuError, GpuErrorKind};
 use crate::options::{Mode, PathTraceOptions, RenderOptions};
 use crate::output::Frame;
@@ -14,6 +14,7 @@ use crate::targets::{EWA_FORMAT, IDS_FORMAT, SURFACE_FORMAT};
 use crate::upload::{GpuGrid, GpuMesh, GpuVolume, GridLayouts, Scene, Uploader};
 use crate::view::ViewState;
 use crate::wgpu_util::Gpu;
+use isogrid::EnvMap;
 use isogrid::{Camera, CellGrid, Ray};
 use std::sync::{Arc, Mutex};
 

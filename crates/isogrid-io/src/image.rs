@@ -8,8 +8,8 @@
 //! Every writer goes through [`isogrid::fs::write_atomic`].
 
 use isogrid::fs::write_atomic;
+use isogrid::EnvMap;
 use isogrid::{Error, Result};
-use isogrid_trace::EnvMap;
 use std::path::Path;
 
 /// Writes an 8-bit PNG of `width × height` pixels with `channels` (3 = RGB, 4 = RGBA) bytes each.
@@ -225,8 +225,8 @@ mod tests {
             img.save_with_format(&path, format).unwrap();
             let map = read_env_map(&path).unwrap();
             assert_eq!((map.width(), map.height()), (4, 2));
-            // Top row, centre column (looking along −z and a little up) is texel 2.
-            let v = map.lookup([0.0, 0.3, -0.95]);
+            // Rows from the top, columns left to right: texel 2's centre direction reads texel 2.
+            let v = map.radiance(isogrid::EnvMap::texel_direction(4, 2, 2, 0));
             assert!(
                 (v[0] - 1.0).abs() < 0.02 && (v[2] - 2.0).abs() < 0.05,
                 "{name}: {v:?}"

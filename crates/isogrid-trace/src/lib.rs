@@ -53,6 +53,6 @@ pub use bvh_traverse::BvhTracer;
 pub use cluster_bvh::ClusterBvh;
 pub use cluster_search::{Hit, Occlusion};
 pub use crossing::Crossing;
-pub use env::{EnvMap, Environment};
+pub use env::Environment;
 pub use grid_tracer::{GridTracer, Traversal};
 pub use render::{render, render_with_progress, Image, PathTraceOptions, RenderOptions, Shading};

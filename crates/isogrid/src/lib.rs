@@ -7,7 +7,8 @@
 //!
 //! Data flows one way: [`Volume`] → [`extract`](fn@extract) → [`CellGrid`] → (file | renderer | tracer | stats).
 //! The ray tracers live in their own crates (`isogrid-trace` on the CPU, `isogrid-gpu`); the
-//! empty-space structures both read are here, in [`skip`].
+//! empty-space structures both read are here, in [`skip`], and so is the environment both path
+//! tracers light with, in [`env_map`].
 //!
 //! ```
 //! use isogrid::{extract, ExtractOptions, Iso, Volume, VolumeData};
@@ -26,6 +27,7 @@
 
 pub mod camera;
 pub mod cgc;
+pub mod env_map;
 pub mod error;
 pub mod extract;
 pub mod fs;
@@ -42,6 +44,7 @@ pub mod stats;
 pub mod volume;
 
 pub use camera::{Camera, Ray};
+pub use env_map::EnvMap;
 pub use error::{Error, ErrorKind, Result, ResultExt};
 pub use extract::{extract, ExtractOptions, Iso};
 pub use grid::{CellGrid, GridInfo};

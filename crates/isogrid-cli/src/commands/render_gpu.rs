@@ -69,17 +69,12 @@ pub fn path_trace(
     camera: &Camera,
     frames: u32,
     bounces: u32,
-    env: Option<&isogrid_trace::EnvMap>,
+    env: Option<&isogrid::EnvMap>,
     primary: isogrid_gpu::PrimaryRays,
 ) -> Result<GpuRender> {
     let gpu_grid = renderer.upload_grid(grid).map_err(isogrid::Error::from)?;
     let gpu_env = match env {
-        Some(map) => {
-            let rgb = map.texels().iter().flatten().copied().collect();
-            let env = isogrid_gpu::EnvMap::new(map.width(), map.height(), rgb)
-                .map_err(isogrid::Error::from)?;
-            Some(renderer.upload_env(&env).map_err(isogrid::Error::from)?)
-        }
+        Some(map) => Some(renderer.upload_env(map).map_err(isogrid::Error::from)?),
         None => None,
     };
     let options = isogrid_gpu::PathTraceOptions {

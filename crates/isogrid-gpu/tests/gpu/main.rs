@@ -5,6 +5,7 @@ mod accuracy;
 mod culling;
 mod edges;
 mod empty_space;
+mod env_orientation;
 mod metacell_walk;
 mod paged_trace;
 mod pathtrace;
@@ -42,6 +43,44 @@ pub fn scene(field: Field, size: usize, precision: Option<Precision>) -> (Volume
     options.precision = precision;
     let grid = extract(&volume.view(), &options).unwrap();
     (volume, grid)
+}
+
+/// `grid` seen by `camera`, path traced under `env` with `samples` per pixel and `bounces` on
+/// the GPU (hybrid primaries) and on the CPU tracer (random stream `seed`).
+pub fn path_trace_on_both(
+    r: &Renderer,
+    grid: &CellGrid,
+    camera: &isogrid::Camera,
+    env: &isogrid::EnvMap,
+    (samples, bounces, seed): (u32, u32, u64),
+) -> (isogrid_gpu::Frame, isogrid_trace::Image) {
+    use isogrid_trace::{Environment, PathTraceOptions, RenderOptions, Shading};
+    let gpu_env = r.upload_env(env).unwrap();
+    let gpu_grid = r.upload_grid(grid).unwrap();
+    let gpu = r
+        .path_trace(
+            &gpu_grid,
+            camera,
+            &isogrid_gpu::PathTraceOptions {
+                frames: samples,
+                bounces,
+                env: Some(&gpu_env),
+                ..Default::default()
+            },
+        )
+        .unwrap();
+    let options = RenderOptions {
+        shading: Shading::PathTrace(PathTraceOptions {
+            samples_per_pixel: samples,
+            bounces,
+            environment: Environment::Map(env.clone()),
+            seed,
+            ..PathTraceOptions::default()
+        }),
+        ..RenderOptions::default()
+    };
+    let cpu = isogrid_trace::render(grid, camera, &options).unwrap();
+    (gpu, cpu)
 }
 
 /// Pixels of a `width`-wide image where the pixel and its 4 neighbours are all `hit`: interior

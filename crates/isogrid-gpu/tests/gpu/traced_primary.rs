@@ -6,8 +6,8 @@
 use crate::paged_trace::quarter_binding;
 use crate::{interior_pixels, new_renderer, renderer, scene, MeanEstimate};
 use isogrid::generate::Field;
-use isogrid::{extract, Camera, CellGrid, ExtractOptions, Iso, Precision};
-use isogrid_gpu::{EnvMap, Frame, GpuGrid, PathTraceOptions, PrimaryRays, Renderer};
+use isogrid::{extract, Camera, CellGrid, EnvMap, ExtractOptions, Iso, Precision};
+use isogrid_gpu::{Frame, GpuGrid, PathTraceOptions, PrimaryRays, Renderer};
 use isogrid_trace::{Crossing, Tracer};
 
 fn traced(frames: u32, bounces: u32) -> PathTraceOptions<'static> {
