@@ -48,6 +48,7 @@ mod jpeg12;
 use crate::geometry::{cross, dot, normalized, Vec3};
 use crate::read_options::ReadOptions;
 use crate::samples::sample_count;
+pub(crate) use file::is_dicom_head;
 use file::{Frame, Header};
 use isogrid::{Error, Geometry, Result, ResultExt, Volume, VolumeData};
 use std::collections::BTreeMap;

@@ -138,7 +138,12 @@ fn head(path: &Path) -> std::io::Result<Vec<u8>> {
 
 /// Whether `path` looks like a DICOM file (any [`Layout`] but `NotDicom`).
 pub(super) fn looks_like_dicom(path: &Path) -> bool {
-    head(path).is_ok_and(|head| layout(&head) != Layout::NotDicom)
+    head(path).is_ok_and(|head| is_dicom_head(&head))
+}
+
+/// Whether a file starting with `head` (its first 132 bytes or more) looks like DICOM.
+pub(crate) fn is_dicom_head(head: &[u8]) -> bool {
+    layout(head) != Layout::NotDicom
 }
 
 /// Opens `path`, reading up to (not including) PixelData when `header_only`.

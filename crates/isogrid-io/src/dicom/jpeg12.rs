@@ -59,11 +59,70 @@ impl Handle {
     }
 }
 
+/// libjpeg's warning for a sequential scan whose SOS header does not say Ss = 0, Se = 63,
+/// Ah = Al = 0 (JWRN_NOT_SEQUENTIAL).
+const NOT_SEQUENTIAL: &str = "Invalid SOS parameters for sequential JPEG";
+
 /// Decodes one grayscale JPEG stream of `cols` × `rows` samples into little-endian 16-bit
 /// samples. The stream's own size must be exactly that (libjpeg-turbo is told to refuse larger
 /// images before it allocates for them), and any libjpeg warning (a truncated or damaged
-/// stream, which libjpeg would otherwise fill with grey) is an error.
+/// stream, which libjpeg would otherwise fill with grey) is an error, with one exception: some
+/// encoders write other values in the SOS header's spectral-selection fields of a sequential
+/// scan (pydicom's `JPEG-lossy.dcm` is one). T.81 fixes those fields for sequential DCT
+/// (Table B.3), so a decoder has nothing to read in them; such a stream is decoded again with
+/// the fixed values written in, and must then decode without any warning.
 pub(super) fn decode_frame(stream: &[u8], cols: usize, rows: usize) -> Result<Vec<u8>, String> {
+    match decode_strictly(stream, cols, rows) {
+        Err(e) if e == NOT_SEQUENTIAL => {
+            let fixed = with_sequential_sos(stream).ok_or(e)?;
+            decode_strictly(&fixed, cols, rows)
+        }
+        result => result,
+    }
+}
+
+/// A copy of `stream` whose SOS headers say Ss = 0, Se = 63, Ah = Al = 0 (T.81 B.2.3), or `None`
+/// when its marker segments do not parse. Walks the marker segments (B.1.1.4) and skips each
+/// scan's entropy-coded data, in which 0xFF is followed only by 0x00 or a restart marker.
+fn with_sequential_sos(stream: &[u8]) -> Option<Vec<u8>> {
+    let mut out = stream.to_vec();
+    let mut at = 2; // after SOI
+    loop {
+        while *out.get(at)? == 0xFF && *out.get(at + 1)? == 0xFF {
+            at += 1; // fill bytes
+        }
+        if *out.get(at)? != 0xFF {
+            return None;
+        }
+        let marker = *out.get(at + 1)?;
+        if marker == 0xD9 {
+            return Some(out); // EOI
+        }
+        let length = u16::from_be_bytes([*out.get(at + 2)?, *out.get(at + 3)?]) as usize;
+        let end = at + 2 + length;
+        if end > out.len() || length < 2 {
+            return None;
+        }
+        if marker != 0xDA {
+            at = end;
+            continue;
+        }
+        let components = *out.get(at + 4)? as usize;
+        let fields = at + 5 + 2 * components;
+        if fields + 3 > end {
+            return None;
+        }
+        out[fields..fields + 3].copy_from_slice(&[0, 63, 0]);
+        at = end;
+        while at + 1 < out.len()
+            && !(out[at] == 0xFF && out[at + 1] != 0 && !(0xD0..=0xD7).contains(&out[at + 1]))
+        {
+            at += 1;
+        }
+    }
+}
+
+fn decode_strictly(stream: &[u8], cols: usize, rows: usize) -> Result<Vec<u8>, String> {
     let pixels = cols
         .checked_mul(rows)
         .filter(|&n| n > 0 && n <= c_int::MAX as usize)

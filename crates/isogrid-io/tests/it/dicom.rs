@@ -162,6 +162,10 @@ fn dicom_single_file_without_preamble_or_extension_and_with_group_0000() {
     assert_eq!(v.get(3, 2, 0), stored(3, 2, 0) as f64 - 1024.0);
     let v = read_volume(&dir.0, &ReadOptions::default()).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(v.dims(), [COLS, ROWS, 1]);
+    // Without the `DICM` code either: the file meta group at byte 0 (pydicom reads these).
+    let no_magic = dir.file("IMAGE2", &bytes[132..]);
+    let v = read_volume(&no_magic, &ReadOptions::default()).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(v.get(3, 2, 0), stored(3, 2, 0) as f64 - 1024.0);
 }
 
 #[test]
@@ -497,6 +501,29 @@ fn dicom_jpeg_extended_12_bit_decodes_and_a_damaged_stream_is_named() {
                     "({i}, {j}, {k}): {got} vs {want}"
                 );
             }
+        }
+    }
+
+    // Spectral selection 0..0 written in the SOS header of the sequential scan, as some encoders
+    // do (libjpeg warns "Invalid SOS parameters"): T.81 fixes those fields, same decode.
+    let mut odd_sos = jpeg12_frame(0);
+    let sos = odd_sos
+        .windows(4)
+        .position(|w| w == [0xFF, 0xDA, 0x00, 0x08])
+        .expect("one grey scan: SOS of 8 bytes");
+    assert_eq!(odd_sos[sos + 7..sos + 10], [0, 63, 0]);
+    odd_sos[sos + 8] = 0;
+    let p = encapsulated_bits(
+        uids::JPEG_EXTENDED12_BIT,
+        [16, 12],
+        vec![odd_sos],
+        1,
+        &dir.path("sos.dcm"),
+    );
+    let w = read_volume(&p, &ReadOptions::default()).unwrap_or_else(|e| panic!("{e}"));
+    for j in 0..ROWS {
+        for i in 0..COLS {
+            assert_eq!(w.get(i, j, 0), v.get(i, j, 0));
         }
     }
 
