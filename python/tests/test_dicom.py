@@ -10,6 +10,10 @@ decode of another implementation, so the tolerance is that of the codecs, stated
 - JPEG baseline: jpeg-decoder and libjpeg (pylibjpeg-libjpeg) use different IDCT and colour
   rounding; the standard allows such differences (ITU-T T.83 accuracy tests), measured here at
   most 1 unit, allowed 1.
+- JPEG Extended 12-bit: isogrid uses libjpeg-turbo (its 12-bit integer IDCT), pydicom Thomas
+  Richter's libjpeg (pylibjpeg-libjpeg), two independent implementations whose IDCT rounding
+  differs. Measured on the test series: 1,240 of 7,680 samples differ by 1 and 12 by 2; on
+  pydicom's JPGExtended.dcm at most 1. Allowed 2 (a 12-bit sample spans 0..4095).
 """
 
 import importlib.util
@@ -29,7 +33,7 @@ from pydicom.data import get_testdata_file  # noqa: E402
 SCRIPT = REPO / "scripts" / "make_dicom_series.py"
 # JPEG Extended 12-bit: libjpeg-turbo against pydicom's libjpeg (pylibjpeg-libjpeg); see the
 # module doc.
-JPEG12_TOLERANCE = 1
+JPEG12_TOLERANCE = 2
 
 LOSSLESS = [
     "implicit",
@@ -184,7 +188,6 @@ PYDICOM_FILES = {
     "rtdose.dcm": 0,
     "rtdose_1frame.dcm": 0,
     "rtdose_expb.dcm": 0,
-    "JPEG-lossy.dcm": JPEG12_TOLERANCE,
     "JPGExtended.dcm": JPEG12_TOLERANCE,
 }
 
@@ -352,3 +355,23 @@ def test_legacy_files_that_pydicom_accepts_are_read(tmp_path, layout):
     # Each file alone, too.
     one = isogrid.load_volume(folder / "I1")
     check(one, [folder / "I1"])
+
+
+def test_pydicom_jpeg_lossy_with_a_nonstandard_sos_header(tmp_path):
+    """pydicom's JPEG-lossy.dcm (12-bit JPEG Extended, NM) says Se = 0 in the SOS header of its
+    sequential scan, where T.81 (Table B.3) fixes Ss = 0, Se = 63, Ah = Al = 0. libjpeg warns
+    and isogrid decodes it with the fixed values; pylibjpeg-libjpeg refuses the file, so the
+    reference is pydicom's decode of a copy with those values written in."""
+    from pydicom.encaps import encapsulate, generate_frames
+
+    path = get_testdata_file("JPEG-lossy.dcm")
+    ds = pydicom.dcmread(path)
+    frame = next(generate_frames(ds.PixelData, number_of_frames=1))
+    at = frame.index(b"\xff\xda")  # SOS: length 8, one component, then Ss, Se, Ah/Al
+    assert frame[at + 2 : at + 5] == b"\x00\x08\x01" and frame[at + 7 : at + 10] == b"\x00\x00\x00"
+    ds.PixelData = encapsulate([frame[: at + 7] + b"\x00\x3f\x00" + frame[at + 10 :]])
+    fixed = tmp_path / "fixed.dcm"
+    ds.save_as(fixed)
+    vol = isogrid.load_volume(path)
+    assert vol.array.dtype == np.uint16
+    check(vol, [fixed], JPEG12_TOLERANCE)

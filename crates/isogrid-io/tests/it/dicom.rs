@@ -530,7 +530,7 @@ fn dicom_jpeg_extended_12_bit_decodes_and_a_damaged_stream_is_named() {
     // The stream cut in half: libjpeg's "premature end of data" warning is an error, not a
     // frame filled with grey.
     let mut cut = jpeg12_frame(0);
-    cut.truncate(cut.len() / 2 & !1);
+    cut.truncate((cut.len() / 2) & !1);
     let p = encapsulated_bits(
         uids::JPEG_EXTENDED12_BIT,
         [16, 12],
