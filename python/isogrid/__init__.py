@@ -152,6 +152,7 @@ def extract(
     spacing: Optional[Sequence[float]] = None,
     precision: Optional[int] = None,
     threads: Optional[int] = None,
+    series: Optional[str] = None,
 ) -> CellGrid:
     """Extracts the active cells of a 3-D volume into clustered grid cells.
 
@@ -169,6 +170,8 @@ def extract(
             them in the ``.cgc`` file).
         precision: bits per stored corner, 4, 8, 16 or 32; default 8 for uint8, 16 otherwise.
         threads: worker threads (default all cores); the result is the same for any count.
+        series: when ``array`` is the path of a DICOM folder, the SeriesInstanceUID to read, as
+            :func:`load_volume` (and the CLI's ``--series``) takes it.
 
     The GIL is released while extracting; do not modify ``array`` from another thread meanwhile.
 
@@ -177,7 +180,7 @@ def extract(
         why (the isovalue outside the samples' range, or a volume one sample thick).
     """
     iso, iso_normalized = _iso_pair(iso, iso_normalized)
-    array = _volume_of(array)
+    array = _volume_of(array, series)
     spacing3 = _spacing_of(array, spacing)
     placed = array if isinstance(array, Volume) else None
     prepared, fortran = _prepare(array)
@@ -210,6 +213,7 @@ def load_volume(
     raw_shape: Optional[Sequence[int]] = None,
     raw_dtype: Any = None,
     big_endian: bool = False,
+    series: Optional[str] = None,
 ) -> Volume:
     """Reads a volume file: NIfTI-1 (``.nii``, ``.nii.gz``), NRRD (``.nrrd``, ``.nhdr``), NumPy
     ``.npy``, TIFF stacks, a DICOM series (a folder), MetaImage (``.mha``, ``.mhd`` + data file;
@@ -229,6 +233,9 @@ def load_volume(
         raw_dtype: for raw files, uint8, uint16, int16 or float32 (any NumPy dtype spelling;
             an explicit ``'>'`` byte order implies ``big_endian``).
         big_endian: raw samples are big-endian.
+        series: for DICOM, the SeriesInstanceUID to read (the CLI's ``--series``); by default
+            the series with the most slices is read and a :class:`UserWarning` names the others.
+            A UID the folder does not hold is an error that lists the series it has.
     """
     dtype_name = None
     if raw_dtype is not None:
@@ -240,7 +247,11 @@ def load_volume(
         shape = [_int(n, "raw_shape", 1) for n in raw_shape]
         if len(shape) != 3:
             raise ValueError(f"raw_shape must be three positive integers (nx, ny, nz), not {tuple(raw_shape)}")
-    d = _isogrid.load_volume(os.fspath(path), shape, dtype_name, bool(big_endian))
+    if series is not None and not isinstance(series, str):
+        raise TypeError(f"series must be a SeriesInstanceUID string, not {type(series).__name__}")
+    d = _isogrid.load_volume(os.fspath(path), shape, dtype_name, bool(big_endian), series)
+    for notice in d["notices"]:
+        warnings.warn(f"{os.fspath(path)}: {notice}", UserWarning, stacklevel=2)
     return Volume(d["array"], d["spacing"], d["origin"], d["direction"])
 
 
@@ -250,10 +261,12 @@ def marching_cubes(
     iso_normalized: Optional[float] = None,
     spacing: Optional[Sequence[float]] = None,
     threads: Optional[int] = None,
+    series: Optional[str] = None,
 ) -> Tuple[np.ndarray, np.ndarray]:
     """Marching Cubes isosurface of a 3-D volume: the indexed mesh baseline of the paper.
 
-    ``array``, ``iso``, ``iso_normalized`` and ``spacing`` are read as by :func:`extract`.
+    ``array``, ``iso``, ``iso_normalized``, ``spacing`` and ``series`` are read as by
+    :func:`extract`.
 
     Returns:
         ``(vertices, faces)``: vertices float32 of shape (V, 3) as **(x, y, z)** world
@@ -265,7 +278,7 @@ def marching_cubes(
         vertex and the triangles that collapse are dropped, so no triangle has zero area.
     """
     iso, iso_normalized = _iso_pair(iso, iso_normalized)
-    array = _volume_of(array)
+    array = _volume_of(array, series)
     spacing3 = _spacing_of(array, spacing)
     origin = array.origin if isinstance(array, Volume) else None
     prepared, fortran = _prepare(array)
@@ -435,10 +448,13 @@ def _prepare(array: Any) -> Tuple[np.ndarray, bool]:
     return np.require(a, dtype=_sample_dtype(a.dtype), requirements=[order, "A"]), fortran
 
 
-def _volume_of(array: Any) -> Any:
-    """A path is read with :func:`load_volume`; arrays and Volumes pass through."""
+def _volume_of(array: Any, series: Optional[str] = None) -> Any:
+    """A path is read with :func:`load_volume` (picking DICOM ``series``); arrays and Volumes
+    pass through."""
     if isinstance(array, (str, os.PathLike)):
-        return load_volume(array)
+        return load_volume(array, series=series)
+    if series is not None:
+        raise ValueError("series picks a DICOM series when reading a path; this input is not a path")
     return array
 
 

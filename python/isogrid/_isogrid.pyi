@@ -81,6 +81,7 @@ def load_volume(
     raw_shape: Optional[Sequence[int]] = None,
     raw_dtype: Optional[str] = None,
     big_endian: bool = False,
+    series: Optional[str] = None,
 ) -> Dict[str, Any]: ...
 def voxelize(
     vertices: npt.NDArray[np.float32],

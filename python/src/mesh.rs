@@ -38,12 +38,7 @@ pub fn marching_cubes<'py>(
         let mut mesh = isogrid::mc::try_marching_cubes_with(&view, iso, inside)?;
         // The library's positions leave the origin out (the renderer's frame); Python's are the
         // volume's own world coordinates.
-        let origin = view.geometry().origin;
-        if origin != [0.0; 3] {
-            for p in &mut mesh.positions {
-                *p = [0, 1, 2].map(|a| (p[a] as f64 + origin[a]) as f32);
-            }
-        }
+        mesh.translate(view.geometry().origin);
         Ok::<_, isogrid::Error>(mesh)
     })?
     .map_err(to_py)?;

@@ -14,15 +14,18 @@ use pyo3::types::PyDict;
 use std::path::PathBuf;
 
 /// Reads a volume file; returns a dict with `array` (C order, shape (nz, ny, nx), the reader's
-/// buffer moved into numpy), `spacing`, `origin`, `direction` (all in x, y, z order).
+/// buffer moved into numpy), `spacing`, `origin`, `direction` (all in x, y, z order) and
+/// `notices` (the reader's messages for the user, e.g. other DICOM series left out). `series`
+/// picks a DICOM series by SeriesInstanceUID, as the CLI's `--series`.
 #[pyfunction]
-#[pyo3(signature = (path, raw_shape=None, raw_dtype=None, big_endian=false))]
+#[pyo3(signature = (path, raw_shape=None, raw_dtype=None, big_endian=false, series=None))]
 pub fn load_volume(
     py: Python<'_>,
     path: PathBuf,
     raw_shape: Option<[usize; 3]>,
     raw_dtype: Option<String>,
     big_endian: bool,
+    series: Option<String>,
 ) -> PyResult<Bound<'_, PyDict>> {
     let raw = match (raw_shape, raw_dtype.as_deref()) {
         (None, None) => None,
@@ -37,14 +40,13 @@ pub fn load_volume(
             ))
         }
     };
-    let options = ReadOptions {
-        raw,
-        ..ReadOptions::default()
-    };
-    let volume = py
-        .detach(|| isogrid_io::read_volume(&path, &options))
+    let options = ReadOptions { raw, series };
+    let (volume, notices) = py
+        .detach(|| isogrid_io::read_volume_noted(&path, &options))
         .map_err(to_py)?;
-    volume_dict(py, volume)
+    let d = volume_dict(py, volume)?;
+    d.set_item("notices", notices)?;
+    Ok(d)
 }
 
 fn scalar_type(name: &str) -> PyResult<ScalarType> {

@@ -10,6 +10,10 @@ decode of another implementation, so the tolerance is that of the codecs, stated
 - JPEG baseline: jpeg-decoder and libjpeg (pylibjpeg-libjpeg) use different IDCT and colour
   rounding; the standard allows such differences (ITU-T T.83 accuracy tests), measured here at
   most 1 unit, allowed 1.
+- JPEG Extended 12-bit: isogrid uses libjpeg-turbo (its 12-bit integer IDCT), pydicom Thomas
+  Richter's libjpeg (pylibjpeg-libjpeg), two independent implementations whose IDCT rounding
+  differs. Measured on the test series: 1,240 of 7,680 samples differ by 1 and 12 by 2; on
+  pydicom's JPGExtended.dcm at most 1. Allowed 2 (a 12-bit sample spans 0..4095).
 """
 
 import importlib.util
@@ -27,6 +31,9 @@ pydicom = pytest.importorskip("pydicom")
 from pydicom.data import get_testdata_file  # noqa: E402
 
 SCRIPT = REPO / "scripts" / "make_dicom_series.py"
+# JPEG Extended 12-bit: libjpeg-turbo against pydicom's libjpeg (pylibjpeg-libjpeg); see the
+# module doc.
+JPEG12_TOLERANCE = 2
 
 LOSSLESS = [
     "implicit",
@@ -40,7 +47,7 @@ LOSSLESS = [
     "jpeg_lossless_p14",
 ]
 # name -> largest allowed |isogrid - pydicom| in stored units (see the module doc).
-LOSSY = {"jpeg_ls_near": 0, "j2k": 0, "jpeg_baseline": 1}
+LOSSY = {"jpeg_ls_near": 0, "j2k": 0, "jpeg_baseline": 1, "jpeg_extended_12": JPEG12_TOLERANCE}
 
 
 @pytest.fixture(scope="module")
@@ -60,6 +67,13 @@ def pydicom_volume(paths):
         ds = pydicom.dcmread(p, force=True)
         if "PixelData" not in ds:
             continue
+        if "TransferSyntaxUID" not in ds.file_meta:
+            # A bare data set: pydicom found its encoding while reading, the decoder needs it.
+            implicit, little = ds.original_encoding
+            assert little
+            ds.file_meta.TransferSyntaxUID = (
+                pydicom.uid.ImplicitVRLittleEndian if implicit else pydicom.uid.ExplicitVRLittleEndian
+            )
         a = ds.pixel_array.astype(np.float64)
         if a.ndim == 2:
             a = a[None]
@@ -136,12 +150,6 @@ def test_series_in_lossy_syntaxes_match_pydicom_within_the_codec_tolerance(
     check(vol, files(series_dir / name), tolerance)
 
 
-def test_jpeg_extended_12_bit_is_refused_by_name(series_dir):
-    with pytest.raises(Exception, match=r"JPEG Extended.*12-bit samples is not supported") as e:
-        isogrid.load_volume(series_dir / "jpeg_extended_12")
-    assert "\n" not in str(e.value)
-
-
 @pytest.mark.parametrize("name", ["enhanced.dcm", "classic.dcm"])
 def test_multi_frame_files_match_pydicom(series_dir, name):
     vol = isogrid.load_volume(series_dir / name)
@@ -180,6 +188,7 @@ PYDICOM_FILES = {
     "rtdose.dcm": 0,
     "rtdose_1frame.dcm": 0,
     "rtdose_expb.dcm": 0,
+    "JPGExtended.dcm": JPEG12_TOLERANCE,
 }
 
 
@@ -212,7 +221,6 @@ def test_pydicom_ct_folder_with_a_gap_is_refused():
 @pytest.mark.parametrize(
     "name,why",
     [
-        ("JPGExtended.dcm", "JPEG Extended.*12-bit samples is not supported"),
         ("rtdose_rle.dcm", "RLE Lossless.*32-bit samples is not supported"),
     ],
 )
@@ -226,3 +234,144 @@ def test_colour_pydicom_file_is_refused_in_one_line():
     with pytest.raises(Exception, match="colour DICOM images are not supported") as e:
         isogrid.load_volume(get_testdata_file("SC_rgb_jpeg_gdcm.dcm"))
     assert "\n" not in str(e.value)
+
+
+def series_uids(folder):
+    """SeriesInstanceUID -> its files, read by pydicom."""
+    out = {}
+    for p in files(folder):
+        out.setdefault(str(pydicom.dcmread(p, stop_before_pixels=True).SeriesInstanceUID), []).append(p)
+    return out
+
+
+def test_series_argument_picks_a_series_like_the_cli(series_dir):
+    folder = series_dir / "two_series"
+    by_uid = series_uids(folder)
+    assert sorted(len(v) for v in by_uid.values()) == [3, 6]
+    small = next(uid for uid, paths in by_uid.items() if len(paths) == 3)
+    big = next(uid for uid, paths in by_uid.items() if len(paths) == 6)
+
+    # Default: the larger series, and a warning that names the other one.
+    with pytest.warns(UserWarning, match=rf"reading {big} \(6 slices\).*{small} \(3 slices\)"):
+        isogrid.load_volume(folder)
+
+    for uid in (small, big):
+        vol = isogrid.load_volume(folder, series=uid)
+        check(vol, by_uid[uid])
+        # extract and marching_cubes of the path read the same series.
+        grid = isogrid.extract(folder, iso=0, series=uid)
+        assert grid.stats == isogrid.extract(vol, iso=0).stats
+        assert grid.info["dims"] == vol.dims
+        v1, f1 = isogrid.marching_cubes(folder, iso=0, series=uid)
+        v2, f2 = isogrid.marching_cubes(vol, iso=0)
+        np.testing.assert_array_equal(v1, v2)
+        np.testing.assert_array_equal(f1, f2)
+
+    with pytest.raises(ValueError, match=r"has no series 9\.9; its series are") as e:
+        isogrid.load_volume(folder, series="9.9")
+    assert small in str(e.value) and big in str(e.value) and "\n" not in str(e.value)
+    with pytest.raises(ValueError, match="series picks a DICOM series"):
+        isogrid.extract(isogrid.load_volume(folder, series=big), iso=0, series=big)
+
+
+def legacy_slices(n=3):
+    """n CT slices as pydicom datasets (explicit VR little endian), with the command-group
+    elements (group 0000) that old GE and ACR-NEMA style files carry in the data set."""
+    rng = np.random.default_rng(7)
+    series = pydicom.uid.generate_uid()
+    out = []
+    for k in range(n):
+        ds = pydicom.Dataset()
+        ds.add_new(0x00000000, "UL", 0)  # CommandGroupLength (value not checked by readers)
+        ds.add_new(0x00000002, "UI", "1.2.840.10008.5.1.4.1.1.4")  # AffectedSOPClassUID
+        ds.add_new(0x00000100, "US", 1)  # CommandField
+        ds.add_new(0x00000800, "US", 0x0101)  # CommandDataSetType
+        ds.SOPClassUID = "1.2.840.10008.5.1.4.1.1.4"
+        ds.SOPInstanceUID = pydicom.uid.generate_uid()
+        ds.SeriesInstanceUID = series
+        ds.Manufacturer = "GE MEDICAL SYSTEMS"
+        ds.Modality = "MR"
+        ds.InstanceNumber = k + 1
+        ds.ImagePositionPatient = [-12.5, 30.0, 4.0 + 3.0 * k]
+        ds.ImageOrientationPatient = [1, 0, 0, 0, 1, 0]
+        ds.PixelSpacing = [0.9, 0.7]
+        ds.Rows, ds.Columns = 6, 5
+        ds.SamplesPerPixel = 1
+        ds.PhotometricInterpretation = "MONOCHROME2"
+        ds.BitsAllocated, ds.BitsStored, ds.HighBit = 16, 12, 11
+        ds.PixelRepresentation = 0
+        ds.PixelData = rng.integers(0, 4096, (6, 5), dtype="<u2").tobytes()
+        out.append(ds)
+    return out
+
+
+def write_legacy(path, ds, layout):
+    """Writes `ds` with pydicom's low-level writer (dcmwrite refuses group 0000 elements):
+    preamble + "DICM" + file meta group (``standard``), the file meta group at byte 0 without
+    preamble or "DICM" (``no_preamble``), or the bare data set (``bare_implicit``,
+    ``bare_explicit``)."""
+    from pydicom.filebase import DicomBytesIO
+    from pydicom.uid import ExplicitVRLittleEndian
+
+    fp = DicomBytesIO()
+    if layout in ("standard", "no_preamble"):
+        if layout == "standard":
+            fp.write(b"\0" * 128 + b"DICM")
+        meta = pydicom.dataset.FileMetaDataset()
+        meta.MediaStorageSOPClassUID = ds.SOPClassUID
+        meta.MediaStorageSOPInstanceUID = ds.SOPInstanceUID
+        meta.TransferSyntaxUID = ExplicitVRLittleEndian
+        pydicom.filewriter.write_file_meta_info(fp, meta, enforce_standard=True)
+    fp.is_little_endian = True
+    fp.is_implicit_VR = layout == "bare_implicit"
+    pydicom.filewriter.write_dataset(fp, ds)
+    path.write_bytes(fp.getvalue())
+
+
+@pytest.mark.parametrize("layout", ["standard", "no_preamble", "bare_implicit", "bare_explicit"])
+def test_legacy_files_that_pydicom_accepts_are_read(tmp_path, layout):
+    """Files without an extension holding group-0000 elements: with the standard preamble and
+    file meta group; without the 128-byte preamble and "DICM" (the file meta group first); and
+    bare data sets with neither preamble nor file meta (implicit or explicit VR little endian).
+    pydicom reads the last three with force=True. (pydicom's wheel has no GE MR series with
+    group-0000 elements to use instead.)"""
+    folder = tmp_path / layout
+    folder.mkdir()
+    for k, ds in enumerate(legacy_slices()):
+        path = folder / f"I{k}"
+        write_legacy(path, ds, layout)
+        head = path.read_bytes()[:132]
+        if layout == "standard":
+            assert head[128:132] == b"DICM"
+        elif layout == "no_preamble":
+            assert head[:4] == b"\2\0\0\0"  # starts with (0002,0000)
+        else:
+            assert head[:4] == b"\0\0\0\0"  # starts with (0000,0000)
+        # pydicom reads the group-0000 elements back from the data set.
+        assert pydicom.dcmread(path, force=True)[0x00000100].value == 1
+    vol = isogrid.load_volume(folder)
+    assert vol.dims == (5, 6, 3)
+    check(vol, files(folder))
+    # Each file alone, too.
+    one = isogrid.load_volume(folder / "I1")
+    check(one, [folder / "I1"])
+
+
+def test_pydicom_jpeg_lossy_with_a_nonstandard_sos_header(tmp_path):
+    """pydicom's JPEG-lossy.dcm (12-bit JPEG Extended, NM) says Se = 0 in the SOS header of its
+    sequential scan, where T.81 (Table B.3) fixes Ss = 0, Se = 63, Ah = Al = 0. libjpeg warns
+    and isogrid decodes it with the fixed values; pylibjpeg-libjpeg refuses the file, so the
+    reference is pydicom's decode of a copy with those values written in."""
+    from pydicom.encaps import encapsulate, generate_frames
+
+    path = get_testdata_file("JPEG-lossy.dcm")
+    ds = pydicom.dcmread(path)
+    frame = next(generate_frames(ds.PixelData, number_of_frames=1))
+    at = frame.index(b"\xff\xda")  # SOS: length 8, one component, then Ss, Se, Ah/Al
+    assert frame[at + 2 : at + 5] == b"\x00\x08\x01" and frame[at + 7 : at + 10] == b"\x00\x00\x00"
+    ds.PixelData = encapsulate([frame[: at + 7] + b"\x00\x3f\x00" + frame[at + 10 :]])
+    fixed = tmp_path / "fixed.dcm"
+    ds.save_as(fixed)
+    vol = isogrid.load_volume(path)
+    assert vol.array.dtype == np.uint16
+    check(vol, [fixed], JPEG12_TOLERANCE)

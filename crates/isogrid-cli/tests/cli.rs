@@ -397,3 +397,82 @@ fn dicom_folder_with_two_series_notes_the_other_and_series_picks_it() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `mc -o` writes vertices in the volume's world coordinates: a ball of radius 5 mm centred at
+/// sample (10, 8, 6) of an NRRD with spacing (0.5, 1, 2) mm and origin (−10, 20, 30) lies, in the
+/// PLY, around origin + centre · spacing = (−5, 28, 42), every vertex within half a sample
+/// diagonal of the sphere.
+#[test]
+fn mc_mesh_is_placed_at_the_volume_origin() {
+    let dir = temp_dir("mc-origin");
+    let (dims, spacing, origin) = ([21usize, 17, 13], [0.5, 1.0, 2.0], [-10.0, 20.0, 30.0]);
+    let centre = [10.0 * 0.5, 8.0, 6.0 * 2.0];
+    let mut header = format!(
+        "NRRD0004\ntype: float\ndimension: 3\nsizes: {} {} {}\nspace: left-posterior-superior\n\
+         space directions: ({},0,0) (0,{},0) (0,0,{})\nspace origin: ({},{},{})\n\
+         encoding: raw\nendian: little\n\n",
+        dims[0],
+        dims[1],
+        dims[2],
+        spacing[0],
+        spacing[1],
+        spacing[2],
+        origin[0],
+        origin[1],
+        origin[2]
+    )
+    .into_bytes();
+    for k in 0..dims[2] {
+        for j in 0..dims[1] {
+            for i in 0..dims[0] {
+                let p = [
+                    i as f64 * spacing[0],
+                    j as f64 * spacing[1],
+                    k as f64 * spacing[2],
+                ];
+                let r = (0..3)
+                    .map(|a| (p[a] - centre[a]).powi(2))
+                    .sum::<f64>()
+                    .sqrt();
+                header.extend_from_slice(&(r as f32).to_le_bytes());
+            }
+        }
+    }
+    let volume = dir.join("ball.nrrd");
+    std::fs::write(&volume, header).unwrap();
+    let ply = dir.join("ball.ply");
+    // Inside is value >= iso, so the ball is the outside of the distance field: same surface.
+    let m = ok_json(&["mc", s(&volume), "--iso", "5", "-o", s(&ply), "--json"]);
+    let vertices = m["vertices"].as_u64().unwrap() as usize;
+    assert!(vertices > 100, "{m}");
+
+    let bytes = std::fs::read(&ply).unwrap();
+    let end = b"end_header\n";
+    let body = bytes.windows(end.len()).position(|w| w == end).unwrap() + end.len();
+    let positions: Vec<[f64; 3]> = bytes[body..body + 12 * vertices]
+        .chunks_exact(12)
+        .map(|v| {
+            [0, 1, 2].map(|a| f32::from_le_bytes(v[4 * a..4 * a + 4].try_into().unwrap()) as f64)
+        })
+        .collect();
+    let world_centre = [0, 1, 2].map(|a| origin[a] + centre[a]);
+    let half_diagonal = 0.5 * (0.25f64 + 1.0 + 4.0).sqrt();
+    for p in &positions {
+        let r = (0..3)
+            .map(|a| (p[a] - world_centre[a]).powi(2))
+            .sum::<f64>()
+            .sqrt();
+        assert!(
+            (r - 5.0).abs() < half_diagonal,
+            "vertex {p:?} is {r} mm from the centre"
+        );
+    }
+    let mean = [0, 1, 2].map(|a| positions.iter().map(|p| p[a]).sum::<f64>() / vertices as f64);
+    for a in 0..3 {
+        assert!(
+            (mean[a] - world_centre[a]).abs() < 0.1,
+            "vertex mean {mean:?}, ball centre {world_centre:?}"
+        );
+    }
+    std::fs::remove_dir_all(dir).unwrap();
+}

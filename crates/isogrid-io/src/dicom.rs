@@ -8,12 +8,16 @@
 //! - **Transfer syntaxes:** implicit and explicit VR little endian, explicit VR big endian,
 //!   deflated explicit VR little endian; RLE Lossless (8- and 16-bit samples); JPEG Baseline
 //!   (8-bit), JPEG Extended with 8-bit samples and JPEG Lossless (processes 14 and 14 SV1) via
-//!   `jpeg-decoder`; JPEG-LS lossless and near-lossless via CharLS; JPEG 2000 lossless and lossy
-//!   via OpenJPEG's pure Rust port (`openjp2`). JPEG Extended with 12-bit samples and RLE with
-//!   32-bit samples are refused with an error naming the syntax (the decoders lack them).
+//!   `jpeg-decoder`; JPEG Extended with 12-bit samples via libjpeg-turbo (`jpeg12`); JPEG-LS
+//!   lossless and near-lossless via CharLS; JPEG 2000 lossless and lossy via OpenJPEG's pure Rust
+//!   port (`openjp2`). RLE with 32-bit samples is refused with an error naming the syntax (the
+//!   registry's decoder lacks it).
 //! - **Files:** a path that is a file is read alone; a folder contributes every regular file
-//!   (not subfolders) that looks like DICOM: `DICM` at byte 128, or at byte 0 (no preamble), or
-//!   a bare implicit-VR data set (no file meta group). Names and extensions do not matter.
+//!   (not subfolders) that looks like DICOM: `DICM` at byte 128, or at byte 0 (no preamble), the
+//!   file meta group at byte 0 without `DICM`, or a bare implicit- or explicit-VR little-endian
+//!   data set (no file meta group), as pydicom reads them with `force=True`. Group-0000
+//!   (command) elements in the data set are read like any other. Names and extensions do not
+//!   matter.
 //!   Files without Rows (DICOMDIR, reports, RT plans) are skipped; an image file without
 //!   PixelData, or one that does not parse, is an error naming it.
 //! - **Series:** files are grouped by SeriesInstanceUID. [`ReadOptions::series`] picks one;
@@ -39,10 +43,12 @@
 //!   MONOCHROME1 values are kept, not inverted; colour images are refused.
 
 mod file;
+mod jpeg12;
 
 use crate::geometry::{cross, dot, normalized, Vec3};
 use crate::read_options::ReadOptions;
 use crate::samples::sample_count;
+pub(crate) use file::is_dicom_head;
 use file::{Frame, Header};
 use isogrid::{Error, Geometry, Result, ResultExt, Volume, VolumeData};
 use std::collections::BTreeMap;

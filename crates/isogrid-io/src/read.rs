@@ -76,10 +76,10 @@ fn read_single(path: &Path, opts: &ReadOptions) -> Result<Volume> {
                 .with_path(path),
         );
     }
-    sniff(path)
+    sniff(path, opts)
 }
 
-fn sniff(path: &Path) -> Result<Volume> {
+fn sniff(path: &Path, opts: &ReadOptions) -> Result<Volume> {
     let mut head = [0u8; 348];
     let mut file = isogrid::fs::open_regular(path)?;
     let mut len = 0;
@@ -106,6 +106,10 @@ fn sniff(path: &Path) -> Result<Volume> {
         crate::read_mrc(path)
     } else if head.starts_with(b"ObjectType") || head.starts_with(b"NDims") {
         crate::read_metaimage(path)
+    } else if crate::dicom::is_dicom_head(head) {
+        // Last: a legacy DICOM file without `DICM` (file meta group or bare data set first) has
+        // only a weak signature.
+        crate::dicom::read_dicom(path, opts).map(|(volume, _)| volume)
     } else {
         Err(Error::unsupported(
             "unknown volume format (expected .nii, .nii.gz, .nrrd, .nhdr, .npy, .tif, .mha, .mhd, .mrc, .map, DICOM, or a raw spec)",

@@ -59,8 +59,11 @@ pub fn run(args: Args) -> Result<()> {
     let spinner = progress::spinner("marching cubes".into());
     let pool = args.threads.pool()?;
     let start = Instant::now();
-    let mesh = pool.install(|| marching_cubes(&volume.view(), iso));
+    let mut mesh = pool.install(|| marching_cubes(&volume.view(), iso));
     let extract = start.elapsed().as_secs_f64();
+    // World coordinates, as the .cgc and Python's marching_cubes place the surface: the library
+    // leaves the origin out (the renderer's frame).
+    mesh.translate(volume.geometry().origin);
     spinner.finish_and_clear();
     let mut write = 0.0;
     if let Some(out) = &args.output {

@@ -3,13 +3,16 @@
 //! LUT) and the enhanced multi-frame functional groups (C.7.6.16), and pixel data decoded by
 //! dicom-rs (`dicom-pixeldata` and its transfer-syntax registry).
 
+use super::jpeg12;
 use crate::geometry::{cross, normalized, Vec3};
 use crate::samples::sample_count;
 use dicom_core::value::{PrimitiveValue, Value};
-use dicom_core::Tag;
+use dicom_core::{Tag, VR};
 use dicom_dictionary_std::tags;
 use dicom_encoding::transfer_syntax::{Endianness, TransferSyntaxIndex};
-use dicom_object::{DefaultDicomObject, FileMetaTableBuilder, InMemDicomObject, OpenFileOptions};
+use dicom_object::{
+    file::ReadPreamble, DefaultDicomObject, FileMetaTableBuilder, InMemDicomObject, OpenFileOptions,
+};
 use dicom_pixeldata::PixelDecoder;
 use dicom_transfer_syntax_registry::TransferSyntaxRegistry;
 use isogrid::{Error, Result};
@@ -85,68 +88,111 @@ impl Frame {
     }
 }
 
-/// Whether `path` looks like a DICOM file: `DICM` at byte 128 (standard) or 0 (no preamble), or
-/// a bare implicit-VR little-endian data set starting with a group 0000, 0002 or 0008 element
-/// (old ACR-NEMA style files, which pydicom reads with `force=True`).
-pub(super) fn looks_like_dicom(path: &Path) -> bool {
-    let mut head = [0u8; 132];
-    let Ok(mut file) = std::fs::File::open(path) else {
-        return false;
-    };
-    let mut len = 0;
-    while len < head.len() {
-        match file.read(&mut head[len..]) {
-            Ok(0) | Err(_) => break,
-            Ok(n) => len += n,
-        }
+/// How a DICOM file begins, from its first 132 bytes.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Layout {
+    /// `DICM` at byte 128 (standard) or at byte 0 (preamble missing): dicom-rs finds it.
+    Standard,
+    /// The file meta group (group 0002) at byte 0, without preamble or `DICM` (pydicom reads
+    /// these with `force=True`).
+    MetaWithoutMagic,
+    /// A bare little-endian data set without file meta group (old ACR-NEMA style files), its
+    /// first element (group 0000, 0008, …) explicit VR when bytes 4–5 are a VR, else implicit.
+    BareDataSet {
+        explicit: bool,
+    },
+    NotDicom,
+}
+
+fn layout(head: &[u8]) -> Layout {
+    if (head.len() >= 132 && &head[128..132] == b"DICM") || head.starts_with(b"DICM") {
+        return Layout::Standard;
     }
-    (len == 132 && &head[128..] == b"DICM") || (len >= 4 && &head[..4] == b"DICM") || {
-        len >= 8 && bare_data_set(&head[..len])
+    if head.len() < 8 {
+        return Layout::NotDicom;
+    }
+    let group = u16::from_le_bytes([head[0], head[1]]);
+    let element = u16::from_le_bytes([head[2], head[3]]);
+    let explicit = VR::from_binary([head[4], head[5]]).is_some();
+    let implicit_length = u32::from_le_bytes([head[4], head[5], head[6], head[7]]);
+    if !matches!(group, 0x0000 | 0x0002 | 0x0008) || element >= 0x0100 {
+        return Layout::NotDicom;
+    }
+    if group == 0x0002 && explicit {
+        Layout::MetaWithoutMagic
+    } else if explicit || implicit_length < 1024 {
+        Layout::BareDataSet { explicit }
+    } else {
+        Layout::NotDicom
     }
 }
 
-fn bare_data_set(head: &[u8]) -> bool {
-    let group = u16::from_le_bytes([head[0], head[1]]);
-    let element = u16::from_le_bytes([head[2], head[3]]);
-    let length = u32::from_le_bytes([head[4], head[5], head[6], head[7]]);
-    matches!(group, 0x0000 | 0x0002 | 0x0008) && element < 0x0100 && length < 1024
+/// The first 132 bytes of `path` (fewer when the file is shorter).
+fn head(path: &Path) -> std::io::Result<Vec<u8>> {
+    let mut head = Vec::with_capacity(132);
+    std::fs::File::open(path)?
+        .take(132)
+        .read_to_end(&mut head)?;
+    Ok(head)
+}
+
+/// Whether `path` looks like a DICOM file (any [`Layout`] but `NotDicom`).
+pub(super) fn looks_like_dicom(path: &Path) -> bool {
+    head(path).is_ok_and(|head| is_dicom_head(&head))
+}
+
+/// Whether a file starting with `head` (its first 132 bytes or more) looks like DICOM.
+pub(crate) fn is_dicom_head(head: &[u8]) -> bool {
+    layout(head) != Layout::NotDicom
 }
 
 /// Opens `path`, reading up to (not including) PixelData when `header_only`.
 fn open(path: &Path, header_only: bool) -> Result<DefaultDicomObject> {
-    let bare = {
-        let mut head = [0u8; 132];
-        let n = std::fs::File::open(path)
-            .and_then(|mut f| f.read(&mut head))
-            .map_err(|e| Error::from(e).with_path(path))?;
-        n >= 8 && !(n == 132 && &head[128..] == b"DICM") && &head[..4] != b"DICM"
-    };
+    let head = head(path).map_err(|e| Error::from(e).with_path(path))?;
     let invalid = |e: &dyn std::fmt::Display| {
         Error::corrupt(format!("invalid DICOM file: {}", one_line(&e.to_string())))
     };
-    if bare {
-        // No file meta group: an implicit VR little-endian data set (PS3.5 A.1 default).
-        let ts = TransferSyntaxRegistry
-            .get(dicom_dictionary_std::uids::IMPLICIT_VR_LITTLE_ENDIAN)
-            .expect("the registry knows implicit VR little endian");
-        let file = std::fs::File::open(path).map_err(|e| Error::from(e).with_path(path))?;
-        let obj = InMemDicomObject::read_dataset_with_ts(std::io::BufReader::new(file), ts)
-            .map_err(|e| invalid(&e))?;
-        return obj
-            .with_meta(
-                FileMetaTableBuilder::new()
-                    .transfer_syntax(dicom_dictionary_std::uids::IMPLICIT_VR_LITTLE_ENDIAN)
-                    .media_storage_sop_class_uid("1.2.840.10008.5.1.4.1.1.7")
-                    .media_storage_sop_instance_uid("2.25.0"),
-            )
-            .map_err(|e| invalid(&e));
-    }
-    // The default preamble detection also reads files that start with `DICM` (no preamble).
+    let reader = || {
+        std::fs::File::open(path)
+            .map(std::io::BufReader::new)
+            .map_err(|e| Error::from(e).with_path(path))
+    };
     let mut options = OpenFileOptions::new();
     if header_only {
         options = options.read_until(tags::PIXEL_DATA);
     }
-    options.open_file(path).map_err(|e| invalid(&e))
+    match layout(&head) {
+        Layout::BareDataSet { explicit } => {
+            // No file meta group: the data set in little-endian VR as its first element shows
+            // (implicit is the PS3.5 A.1 default).
+            let uid = if explicit {
+                dicom_dictionary_std::uids::EXPLICIT_VR_LITTLE_ENDIAN
+            } else {
+                dicom_dictionary_std::uids::IMPLICIT_VR_LITTLE_ENDIAN
+            };
+            let ts = TransferSyntaxRegistry
+                .get(uid)
+                .expect("the registry knows the little-endian uncompressed syntaxes");
+            let obj =
+                InMemDicomObject::read_dataset_with_ts(reader()?, ts).map_err(|e| invalid(&e))?;
+            obj.with_meta(
+                FileMetaTableBuilder::new()
+                    .transfer_syntax(uid)
+                    .media_storage_sop_class_uid("1.2.840.10008.5.1.4.1.1.7")
+                    .media_storage_sop_instance_uid("2.25.0"),
+            )
+            .map_err(|e| invalid(&e))
+        }
+        Layout::MetaWithoutMagic => {
+            // dicom-rs's meta reader starts at the magic code: give it one.
+            options
+                .read_preamble(ReadPreamble::Never)
+                .from_reader(std::io::Read::chain(&b"DICM"[..], reader()?))
+                .map_err(|e| invalid(&e))
+        }
+        // The default preamble detection also reads files that start with `DICM`.
+        Layout::Standard | Layout::NotDicom => options.open_file(path).map_err(|e| invalid(&e)),
+    }
 }
 
 /// The header of an image file, or `None` for a DICOM file that holds no image (DICOMDIR,
@@ -293,11 +339,13 @@ pub(super) fn read_frames(path: &Path) -> Result<Vec<Frame>> {
             "{bits_stored} of {bits_allocated} allocated bits per sample is not supported"
         )));
     }
-    if ts_uid == JPEG_EXTENDED && bits_stored > 8 {
+    // jpeg-decoder (the registry's JPEG codec) reads lossy JPEG of 8-bit precision only; 12-bit
+    // JPEG Extended goes to libjpeg-turbo instead.
+    let jpeg12 = ts_uid == JPEG_EXTENDED && bits_stored > 8;
+    if jpeg12 && bits_allocated != 16 {
         return Err(Error::unsupported(format!(
-            "{syntax} with {bits_stored}-bit samples is not supported: the JPEG decoder \
-             (jpeg-decoder) reads lossy JPEG of 8-bit precision only; transcode to a lossless \
-             syntax"
+            "{syntax} with {bits_stored} of {bits_allocated} allocated bits per sample is not \
+             supported (12-bit JPEG needs 16 allocated bits)"
         )));
     }
     if ts_uid == RLE_LOSSLESS && bits_allocated == 32 {
@@ -342,6 +390,12 @@ pub(super) fn read_frames(path: &Path) -> Result<Vec<Frame>> {
                         let fragment = fragment_list.get(k).map_or(&[][..], |f| &f[..]);
                         check_rle(fragment, bits_allocated as usize / 8, frame_samples)
                             .map_err(fails)?;
+                    }
+                    if jpeg12 {
+                        let stream =
+                            jpeg12::frame_stream(fragment_list, seq.offset_table(), frames, k)
+                                .map_err(fails)?;
+                        return jpeg12::decode_frame(&stream, cols, rows).map_err(fails);
                     }
                     // The codecs are third-party code on hostile input: a panic in one becomes
                     // this frame's error instead of taking the process down.
@@ -465,7 +519,7 @@ pub(super) fn read_frames(path: &Path) -> Result<Vec<Frame>> {
     Ok(out)
 }
 
-/// JPEG Extended (process 2 and 4): 8-bit or 12-bit lossy.
+/// JPEG Extended (processes 2 and 4): 8-bit or 12-bit lossy.
 const JPEG_EXTENDED: &str = "1.2.840.10008.1.2.4.51";
 const RLE_LOSSLESS: &str = "1.2.840.10008.1.2.5";
 

@@ -162,6 +162,10 @@ fn dicom_single_file_without_preamble_or_extension_and_with_group_0000() {
     assert_eq!(v.get(3, 2, 0), stored(3, 2, 0) as f64 - 1024.0);
     let v = read_volume(&dir.0, &ReadOptions::default()).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(v.dims(), [COLS, ROWS, 1]);
+    // Without the `DICM` code either: the file meta group at byte 0 (pydicom reads these).
+    let no_magic = dir.file("IMAGE2", &bytes[132..]);
+    let v = read_volume(&no_magic, &ReadOptions::default()).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(v.get(3, 2, 0), stored(3, 2, 0) as f64 - 1024.0);
 }
 
 #[test]
@@ -326,21 +330,32 @@ fn dicom_classic_multi_frame_stacks_along_the_normal() {
 
 /// A slice whose PixelData is encapsulated: `fragments` after an empty offset table.
 fn encapsulated(ts: &str, bits: u16, fragments: Vec<Vec<u8>>, frames: u32, path: &Path) -> PathBuf {
+    encapsulated_bits(ts, [bits, bits], fragments, frames, path)
+}
+
+/// As [`encapsulated`], with `bits` = [BitsAllocated, BitsStored].
+fn encapsulated_bits(
+    ts: &str,
+    bits: [u16; 2],
+    fragments: Vec<Vec<u8>>,
+    frames: u32,
+    path: &Path,
+) -> PathBuf {
     let mut obj = slice("1.2.3", 1, [0.0; 3], |_, _| 0);
     obj.put(DataElement::new(
         tags::BITS_ALLOCATED,
         VR::US,
-        PrimitiveValue::from(bits),
+        PrimitiveValue::from(bits[0]),
     ));
     obj.put(DataElement::new(
         tags::BITS_STORED,
         VR::US,
-        PrimitiveValue::from(bits),
+        PrimitiveValue::from(bits[1]),
     ));
     obj.put(DataElement::new(
         tags::HIGH_BIT,
         VR::US,
-        PrimitiveValue::from(bits - 1),
+        PrimitiveValue::from(bits[1] - 1),
     ));
     obj.put(DataElement::new(
         tags::NUMBER_OF_FRAMES,
@@ -418,4 +433,118 @@ fn dicom_rle_frame_decodes_and_bad_encapsulated_data_is_named() {
     assert_eq!(err.path(), Some(p.as_path()));
     assert!(err.message().contains("JPEG Baseline"), "{err}");
     assert!(err.message().contains("does not decode"), "{err}");
+}
+
+/// Frame `k` of the test image (stored values, 12 bits) as a 12-bit lossy JPEG (process 4),
+/// encoded by libjpeg-turbo at quality 100.
+fn jpeg12_frame(k: usize) -> Vec<u8> {
+    use std::ffi::c_int;
+    use turbojpeg_sys as tj;
+    let samples: Vec<i16> = (0..ROWS)
+        .flat_map(|j| (0..COLS).map(move |i| stored(i, j, k) as i16))
+        .collect();
+    // SAFETY: a compressor handle used once and destroyed; the source buffer holds COLS × ROWS
+    // grey samples; the output buffer is allocated by the library and freed with tj3Free.
+    unsafe {
+        let handle = tj::tj3Init(tj::TJINIT_TJINIT_COMPRESS as c_int);
+        assert!(!handle.is_null());
+        for (param, value) in [
+            (tj::TJPARAM_TJPARAM_QUALITY, 100),
+            (tj::TJPARAM_TJPARAM_SUBSAMP, tj::TJSAMP_TJSAMP_GRAY as c_int),
+            (tj::TJPARAM_TJPARAM_PRECISION, 12),
+        ] {
+            assert_eq!(tj::tj3Set(handle, param as c_int, value), 0);
+        }
+        let (mut out, mut len): (_, tj::size_t) = (std::ptr::null_mut(), 0);
+        let status = tj::tj3Compress12(
+            handle,
+            samples.as_ptr(),
+            COLS as c_int,
+            0,
+            ROWS as c_int,
+            tj::TJPF_TJPF_GRAY as c_int,
+            &mut out,
+            &mut len,
+        );
+        assert_eq!(status, 0);
+        let mut stream = std::slice::from_raw_parts(out, len as usize).to_vec();
+        tj::tj3Free(out.cast());
+        tj::tj3Destroy(handle);
+        if stream.len() % 2 == 1 {
+            stream.push(0); // DICOM fragments have even length
+        }
+        stream
+    }
+}
+
+#[test]
+fn dicom_jpeg_extended_12_bit_decodes_and_a_damaged_stream_is_named() {
+    let dir = TempDir::new("dicom-jpeg12");
+    // Two frames, one fragment each (the decode against pydicom is in test_dicom.py).
+    let p = encapsulated_bits(
+        uids::JPEG_EXTENDED12_BIT,
+        [16, 12],
+        vec![jpeg12_frame(0), jpeg12_frame(1)],
+        2,
+        &dir.path("jpeg12.dcm"),
+    );
+    let v = read_volume(&p, &ReadOptions::default()).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(v.dims(), [COLS, ROWS, 2]);
+    // Lossy even at quality 100 (DCT rounding): within 2 stored units of the encoded values.
+    for k in 0..2 {
+        for j in 0..ROWS {
+            for i in 0..COLS {
+                let want = stored(i, j, k) as f64 - 1024.0;
+                let got = v.get(i, j, k);
+                assert!(
+                    (got - want).abs() <= 2.0,
+                    "({i}, {j}, {k}): {got} vs {want}"
+                );
+            }
+        }
+    }
+
+    // Spectral selection 0..0 written in the SOS header of the sequential scan, as some encoders
+    // do (libjpeg warns "Invalid SOS parameters"): T.81 fixes those fields, same decode.
+    let mut odd_sos = jpeg12_frame(0);
+    let sos = odd_sos
+        .windows(4)
+        .position(|w| w == [0xFF, 0xDA, 0x00, 0x08])
+        .expect("one grey scan: SOS of 8 bytes");
+    assert_eq!(odd_sos[sos + 7..sos + 10], [0, 63, 0]);
+    odd_sos[sos + 8] = 0;
+    let p = encapsulated_bits(
+        uids::JPEG_EXTENDED12_BIT,
+        [16, 12],
+        vec![odd_sos],
+        1,
+        &dir.path("sos.dcm"),
+    );
+    let w = read_volume(&p, &ReadOptions::default()).unwrap_or_else(|e| panic!("{e}"));
+    for j in 0..ROWS {
+        for i in 0..COLS {
+            assert_eq!(w.get(i, j, 0), v.get(i, j, 0));
+        }
+    }
+
+    // The stream cut in half: libjpeg's "premature end of data" warning is an error, not a
+    // frame filled with grey.
+    let mut cut = jpeg12_frame(0);
+    cut.truncate((cut.len() / 2) & !1);
+    let p = encapsulated_bits(
+        uids::JPEG_EXTENDED12_BIT,
+        [16, 12],
+        vec![cut],
+        1,
+        &dir.path("cut.dcm"),
+    );
+    let err = read_err(&p, &ReadOptions::default());
+    assert_eq!(err.kind(), ErrorKind::Corrupt, "{err}");
+    assert_eq!(err.path(), Some(p.as_path()));
+    assert!(
+        err.message().contains(
+            "JPEG Extended (Process 2 & 4) (1.2.840.10008.1.2.4.51) frame 1 does not decode"
+        ),
+        "{err}"
+    );
 }
