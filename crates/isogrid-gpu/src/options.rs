@@ -2,7 +2,7 @@
 //! that draws the cells, and the path tracer's [`PathTraceOptions`] with its [`PrimaryRays`].
 
 use crate::env_map::GpuEnvMap;
-use isogrid::{Camera, GridInfo};
+use isogrid::{Camera, GridInfo, Progress};
 
 /// What to draw.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -149,6 +149,9 @@ pub struct PathTraceOptions<'a> {
     pub backface_culling: bool,
     /// Rasterised (the paper's hybrid, the default) or traced primary rays.
     pub primary: PrimaryRays,
+    /// Counts finished frames and is checked before each frame: with it, at most two frames are
+    /// in flight and a cancel ends the call within a frame ([`crate::GpuErrorKind::Cancelled`]).
+    pub progress: Option<&'a Progress>,
 }
 
 impl Default for PathTraceOptions<'_> {
@@ -161,6 +164,7 @@ impl Default for PathTraceOptions<'_> {
             occlusion_culling: true,
             backface_culling: true,
             primary: PrimaryRays::Raster,
+            progress: None,
         }
     }
 }

@@ -1,0 +1,102 @@
+//! The backend policy: which renderer runs a request, decided from the request and the adapter
+//! the GPU renderer would open, before any device is created.
+//!
+//! - `cpu`: the CPU tracer; GPU-only modes are refused when the request is built.
+//! - `gpu`: the GPU renderer on any adapter, lavapipe included; an error where there is none.
+//! - `auto`: a hardware adapter when there is one. Where the only adapter is a software one
+//!   (lavapipe, llvmpipe: wgpu's `DeviceType::Cpu`), the backend measured faster for the mode
+//!   ([`software_adapter_wins`]). The CPU where there is no adapter. GPU-only modes and requests
+//!   naming the primary rays need an adapter either way.
+
+use crate::mode::{Backend, Mode};
+use crate::request::RenderRequest;
+use isogrid::{Error, Result};
+use isogrid_gpu::AdapterSummary;
+
+/// The renderer a request runs on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Placement {
+    /// The CPU tracer (isogrid-trace).
+    Cpu,
+    /// The GPU renderer (isogrid-gpu).
+    Gpu,
+}
+
+/// A placement and, when `auto` passed over an adapter or found none, why (one line for people).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Decision {
+    pub placement: Placement,
+    pub note: Option<String>,
+}
+
+/// Places `request`. `adapter` tells which adapter the GPU renderer would open (see
+/// [`isogrid_gpu::default_adapter`]); it is asked at most once, and only when the answer matters.
+pub fn decide(
+    request: &RenderRequest,
+    adapter: impl FnOnce() -> Option<AdapterSummary>,
+) -> Result<Decision> {
+    let mode = request.mode();
+    let gpu = |note: Option<String>| {
+        Ok(Decision {
+            placement: Placement::Gpu,
+            note,
+        })
+    };
+    let cpu = |note: Option<String>| {
+        Ok(Decision {
+            placement: Placement::Cpu,
+            note,
+        })
+    };
+    let no_adapter = || {
+        Error::unsupported(format!(
+            "mode {mode}{} needs a GPU adapter and none was found (for a CPU Vulkan driver \
+             install mesa-vulkan-drivers)",
+            match request.parts().primary {
+                Some(p) => format!(" with {} primary rays", p.name()),
+                None => String::new(),
+            }
+        ))
+    };
+    match request.backend() {
+        Backend::Cpu => cpu(None),
+        Backend::Gpu => match adapter() {
+            Some(_) => gpu(None),
+            None => Err(no_adapter()),
+        },
+        Backend::Auto => {
+            // Naming the primary rays asks for the GPU path tracer; the CPU would ignore them.
+            let gpu_only = !mode.on_cpu() || request.parts().primary.is_some();
+            match adapter() {
+                None if gpu_only => Err(no_adapter()),
+                None => cpu(Some("no GPU adapter, rendering on the CPU".into())),
+                Some(_) if gpu_only => gpu(None),
+                Some(a) if !a.software => gpu(None),
+                Some(a) => {
+                    let (w, h) = (request.width(), request.height());
+                    let samples = request.parts().samples;
+                    if software_adapter_wins(mode, w, h, samples) {
+                        gpu(None)
+                    } else {
+                        cpu(Some(format!(
+                            "{} is a software adapter; the CPU tracer is faster for {mode}",
+                            a.name
+                        )))
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// Whether a software adapter (lavapipe) renders `mode` at `width × height` (with `samples` per
+/// pixel for path tracing) faster than the CPU tracer, start-up included, for a mode both have.
+///
+/// From the measurements in `docs/benchmarks-render-policy.md` ("lavapipe against the CPU
+/// tracer"): a first render on lavapipe pays about 1–2 s to open the device and build its
+/// pipelines, and even after that its frames are no faster than the CPU tracer on the same
+/// cores, at 320×240 and at 1920×1080, for `cgc` and for path tracing.
+pub fn software_adapter_wins(mode: Mode, width: u32, height: u32, samples: u32) -> bool {
+    let _ = (mode, width, height, samples);
+    false
+}
