@@ -36,20 +36,26 @@ pub struct AdapterSummary {
 /// The adapter [`crate::Renderer::new`] would pick (same backends and power preference), or
 /// `None` where there is none.
 pub fn default_adapter() -> Option<AdapterSummary> {
-    let instance = wgpu::Instance::new(wgpu::InstanceDescriptor {
-        backends: preferred_backends(),
-        ..wgpu::InstanceDescriptor::new_without_display_handle_from_env()
-    });
-    let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
-        power_preference: wgpu::PowerPreference::HighPerformance,
-        force_fallback_adapter: false,
-        compatible_surface: None,
-        apply_limit_buckets: false,
-    }))
-    .ok()?;
+    let adapter = request_adapter().ok()?;
     let info = adapter.get_info();
     Some(AdapterSummary {
         name: format!("{} ({:?})", info.name, info.backend),
         software: info.device_type == wgpu::DeviceType::Cpu,
     })
+}
+
+/// The adapter of [`preferred_backends`] that the renderer opens: headless, high performance,
+/// with the adapter's own limits (not bucketed), so that big structures need as few pages as
+/// possible.
+pub(crate) fn request_adapter() -> Result<wgpu::Adapter, wgpu::RequestAdapterError> {
+    let instance = wgpu::Instance::new(wgpu::InstanceDescriptor {
+        backends: preferred_backends(),
+        ..wgpu::InstanceDescriptor::new_without_display_handle_from_env()
+    });
+    pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
+        power_preference: wgpu::PowerPreference::HighPerformance,
+        force_fallback_adapter: false,
+        compatible_surface: None,
+        apply_limit_buckets: false,
+    }))
 }

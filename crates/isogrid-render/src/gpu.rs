@@ -53,7 +53,7 @@ pub(crate) fn render(
             cell_raster: parts.cell_raster,
             ..Default::default()
         };
-        let gpu_mode = mode.gpu_mode();
+        let gpu_mode = mode;
         let frame = match (mode, volume) {
             (Mode::Mc, Some(volume)) => {
                 let mesh = marching_cubes(&volume.view(), grid.info().iso);

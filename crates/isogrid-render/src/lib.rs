@@ -41,7 +41,7 @@ pub use dispatch::render;
 pub use environment::EnvSource;
 pub use isogrid_gpu::{AdapterSummary, CellRaster};
 pub use isogrid_trace::{Crossing, Traversal};
-pub use mode::{Aov, Backend, Mode, Primary};
+pub use mode::{cpu_draws, Aov, Backend, Mode, Primary};
 pub use output::{CpuStats, GpuStats, Rendered};
 pub use policy::{decide, Decision, Placement};
 pub use request::{CameraSpec, RenderRequest, RequestParts, MAX_BOUNCES, MAX_FRAMES, MAX_PIXELS};

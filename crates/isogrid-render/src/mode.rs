@@ -1,89 +1,16 @@
-//! [`Mode`], [`Backend`] and [`Primary`]: the choices of a render, with the names every front end
+//! [`Mode`], [`Backend`], [`Primary`] and [`Aov`]: the choices of a render, with the names every front end
 //! (CLI flags, Python keywords, the viewer's mode switch) spells them with.
 
 use isogrid::{Error, Result};
-use std::fmt;
 use std::str::FromStr;
 
-/// What to draw.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum Mode {
-    /// The clustered grid cell isosurface (paper §3.2–3.4), Blinn–Phong shaded: cell
-    /// rasterisation with EWA normals on the GPU, ray traced on the CPU (§3.6).
-    Cgc,
-    /// GPU only: cell rasterisation with trilinear-gradient normals, no EWA pass.
-    CgcNoEwa,
-    /// GPU only: the Marching Cubes mesh baseline (needs the volume).
-    Mc,
-    /// GPU only: cell rasterisation sampling the original volume (the CR baseline; needs the
-    /// volume).
-    Cr,
-    /// Path tracing under an environment (§3.6): on the GPU one sample per pixel per frame,
-    /// with raster (the paper's hybrid) or traced primary rays; on the CPU fully traced.
-    PathTrace,
-}
+/// What to draw: the GPU renderer's modes, by the names every front end uses ([`Mode::name`]).
+pub use isogrid_gpu::Mode;
 
-impl Mode {
-    /// Every mode, in the order front ends list them.
-    pub const ALL: [Mode; 5] = [
-        Mode::Cgc,
-        Mode::CgcNoEwa,
-        Mode::Mc,
-        Mode::Cr,
-        Mode::PathTrace,
-    ];
-
-    /// The name front ends use: `cgc`, `cgc-noewa`, `mc`, `cr` or `pathtrace`.
-    pub fn name(self) -> &'static str {
-        match self {
-            Mode::Cgc => "cgc",
-            Mode::CgcNoEwa => "cgc-noewa",
-            Mode::Mc => "mc",
-            Mode::Cr => "cr",
-            Mode::PathTrace => "pathtrace",
-        }
-    }
-
-    /// The GPU renderer's mode.
-    pub fn gpu_mode(self) -> isogrid_gpu::Mode {
-        match self {
-            Mode::Cgc => isogrid_gpu::Mode::Cgc,
-            Mode::CgcNoEwa => isogrid_gpu::Mode::CgcNoEwa,
-            Mode::Mc => isogrid_gpu::Mode::Mc,
-            Mode::Cr => isogrid_gpu::Mode::Cr,
-            Mode::PathTrace => isogrid_gpu::Mode::PathTrace,
-        }
-    }
-
-    /// Whether the CPU tracer draws this mode (the others are GPU baselines).
-    pub fn on_cpu(self) -> bool {
-        matches!(self, Mode::Cgc | Mode::PathTrace)
-    }
-
-    /// Needs the original volume, so is unavailable for `.cgc` inputs.
-    pub fn needs_volume(self) -> bool {
-        matches!(self, Mode::Mc | Mode::Cr)
-    }
-}
-
-impl FromStr for Mode {
-    type Err = Error;
-    fn from_str(s: &str) -> Result<Self> {
-        Mode::ALL
-            .into_iter()
-            .find(|m| m.name().eq_ignore_ascii_case(s))
-            .ok_or_else(|| {
-                Error::invalid(format!(
-                    "mode must be cgc, cgc-noewa, mc, cr or pathtrace, not {s:?}"
-                ))
-            })
-    }
-}
-
-impl fmt::Display for Mode {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(self.name())
-    }
+/// Whether the CPU tracer draws `mode` too (`cgc` ray traced, `pathtrace`); the others are GPU
+/// baselines.
+pub fn cpu_draws(mode: Mode) -> bool {
+    matches!(mode, Mode::Cgc | Mode::PathTrace)
 }
 
 /// Where to render; [`crate::policy`] turns `Auto` into one of the others.

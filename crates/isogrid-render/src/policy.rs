@@ -8,7 +8,7 @@
 //!   ([`software_adapter_wins`]). The CPU where there is no adapter. GPU-only modes and requests
 //!   naming the primary rays need an adapter either way.
 
-use crate::mode::{Backend, Mode};
+use crate::mode::{cpu_draws, Backend, Mode};
 use crate::request::RenderRequest;
 use isogrid::{Error, Result};
 use isogrid_gpu::AdapterSummary;
@@ -66,7 +66,7 @@ pub fn decide(
         },
         Backend::Auto => {
             // Naming the primary rays asks for the GPU path tracer; the CPU would ignore them.
-            let gpu_only = !mode.on_cpu() || request.parts().primary.is_some();
+            let gpu_only = !cpu_draws(mode) || request.parts().primary.is_some();
             match adapter() {
                 None if gpu_only => Err(no_adapter()),
                 None => cpu(Some("no GPU adapter, rendering on the CPU".into())),

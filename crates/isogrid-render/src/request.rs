@@ -3,7 +3,7 @@
 //! and the viewer fill the parts from their flags, keywords and widgets.
 
 use crate::environment::{EnvSource, LoadedEnv};
-use crate::mode::{Aov, Backend, Mode, Primary};
+use crate::mode::{cpu_draws, Aov, Backend, Mode, Primary};
 use isogrid::{Camera, Error, Result};
 use isogrid_trace::{Crossing, Traversal};
 
@@ -165,7 +165,7 @@ impl RenderRequest {
                 )));
             }
         }
-        if parts.backend == Backend::Cpu && !parts.mode.on_cpu() {
+        if parts.backend == Backend::Cpu && !cpu_draws(parts.mode) {
             return Err(Error::invalid(format!(
                 "mode {} needs the GPU renderer; on the CPU use mode cgc or pathtrace",
                 parts.mode

@@ -233,7 +233,7 @@ fn apply(renderer: &Renderer, scene: &mut Uploaded, msg: RenderMsg, notify: &Not
 }
 
 fn render(renderer: &Renderer, scene: &mut Uploaded, request: RenderRequest, notify: &Notifier) {
-    let mode = request.mode.gpu_mode();
+    let mode = request.mode;
     // CR samples the original volume: upload it the first time CR is drawn for this input.
     if request.mode == Mode::Cr && scene.gpu_volume.is_none() {
         if let (Some(volume), Some(grid)) = (&scene.volume, &scene.grid) {

@@ -5,7 +5,8 @@
 use isogrid::ErrorKind;
 use isogrid_render::policy::software_adapter_wins;
 use isogrid_render::{
-    decide, AdapterSummary, Backend, Mode, Placement, Primary, RenderRequest, RequestParts,
+    cpu_draws, decide, AdapterSummary, Backend, Mode, Placement, Primary, RenderRequest,
+    RequestParts,
 };
 
 fn request(mode: Mode, backend: Backend, primary: Option<Primary>) -> RenderRequest {
@@ -66,12 +67,12 @@ fn auto_prefers_hardware_and_falls_back_to_the_cpu_where_it_can() {
         );
         match decide(&r, || None) {
             Ok(d) => {
-                assert!(mode.on_cpu(), "{mode}");
+                assert!(cpu_draws(mode), "{mode}");
                 assert_eq!(d.placement, Placement::Cpu);
                 assert!(d.note.unwrap().contains("no GPU adapter"));
             }
             Err(e) => {
-                assert!(!mode.on_cpu(), "{mode}: {e}");
+                assert!(!cpu_draws(mode), "{mode}: {e}");
                 assert!(e.to_string().contains(mode.name()), "{e}");
             }
         }
@@ -93,7 +94,7 @@ fn auto_on_a_software_adapter_follows_the_measured_rule() {
     for mode in Mode::ALL {
         let r = request(mode, Backend::Auto, None);
         let d = decide(&r, || adapter(true)).unwrap();
-        let expected = if !mode.on_cpu() || software_adapter_wins(mode, 320, 240, 16) {
+        let expected = if !cpu_draws(mode) || software_adapter_wins(mode, 320, 240, 16) {
             Placement::Gpu
         } else {
             Placement::Cpu

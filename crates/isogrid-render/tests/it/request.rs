@@ -3,7 +3,8 @@
 
 use isogrid::ErrorKind;
 use isogrid_render::{
-    Aov, Backend, CameraSpec, EnvSource, Mode, Primary, RenderRequest, RequestParts, MAX_BOUNCES,
+    cpu_draws, Aov, Backend, CameraSpec, EnvSource, Mode, Primary, RenderRequest, RequestParts,
+    MAX_BOUNCES,
 };
 
 fn refused(parts: RequestParts, kind: ErrorKind, mention: &str) {
@@ -17,7 +18,7 @@ fn refused(parts: RequestParts, kind: ErrorKind, mention: &str) {
 #[test]
 fn consistent_parts_make_a_request() {
     for mode in Mode::ALL {
-        let backend = if mode.on_cpu() {
+        let backend = if cpu_draws(mode) {
             Backend::Cpu
         } else {
             Backend::Gpu
