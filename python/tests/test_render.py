@@ -52,11 +52,10 @@ def test_explicit_camera_looks_where_it_is_told(grid):
     assert np.all(np.isinf(away))
 
 
-def test_auto_backend_agrees_with_the_cpu_tracer(grid):
-    _, gpu = isogrid.render(grid, camera=2, size=(48, 36), aovs=("depth", "backend"))
+def test_gpu_backend_agrees_with_the_cpu_tracer(grid):
+    gpu_or_skip(grid)
+    _, gpu = isogrid.render(grid, camera=2, size=(48, 36), backend="gpu", aovs=("depth", "backend"))
     _, cpu = isogrid.render(grid, camera=2, size=(48, 36), backend="cpu", aovs=("depth",))
-    if gpu["backend"] != "gpu":
-        pytest.skip("no GPU adapter (install mesa-vulkan-drivers for lavapipe)")
     a, b = gpu["depth"], cpu["depth"]
     assert np.mean(np.isfinite(a) == np.isfinite(b)) >= 0.99
     both = np.isfinite(a) & np.isfinite(b)
@@ -135,17 +134,21 @@ def test_env_map_lights_path_tracing_alike_on_cpu_and_gpu(grid, tmp_path):
 
 def test_gpu_path_tracing_takes_one_sample_per_frame(grid):
     gpu_or_skip(grid)
-    kw = dict(camera=2, size=(64, 48), mode="pathtrace", aovs=("depth", "backend"))
-    one, aov = isogrid.render(grid, backend="gpu", spp=1, **kw)
-    many, _ = isogrid.render(grid, backend="gpu", spp=32, **kw)
-    cpu, cpu_aov = isogrid.render(grid, backend="cpu", spp=32, **kw)
+    kw = dict(camera=2, size=(64, 48), mode="pathtrace", backend="gpu", aovs=("depth", "backend"))
+    one, aov = isogrid.render(grid, spp=1, **kw)
+    few, _ = isogrid.render(grid, spp=8, **kw)
+    more, _ = isogrid.render(grid, spp=32, **kw)
+    many, _ = isogrid.render(grid, spp=256, **kw)
     assert aov["backend"] == "gpu"
-    hit = np.isfinite(aov["depth"]) & np.isfinite(cpu_aov["depth"])
+    hit = np.isfinite(aov["depth"])
     assert hit.sum() > 100
-    # More samples: less noise, so closer to the CPU's 32-sample image on the surface.
-    err = lambda img: np.abs(img[hit].astype(float) - cpu[hit].astype(float)).mean()  # noqa: E731
-    assert err(many) < err(one)
-    assert err(many) < 12
+    # Samples accumulate over frames: the noise on the surface shrinks towards the 256-sample
+    # image (measured on lavapipe: mean error 25, 17, 11 sRGB units at 1, 8, 32 samples); the
+    # directly seen environment needs no samples.
+    err = lambda img: np.abs(img[hit].astype(float) - many[hit].astype(float)).mean()  # noqa: E731
+    assert err(one) > err(few) > err(more)
+    assert err(more) < 0.6 * err(one)
+    assert np.array_equal(one[~hit], many[~hit])
 
 
 def test_progress_is_called_with_increasing_counts(grid):
