@@ -94,7 +94,7 @@ fn auto_on_a_software_adapter_follows_the_measured_rule() {
     for mode in Mode::ALL {
         let r = request(mode, Backend::Auto, None);
         let d = decide(&r, || adapter(true)).unwrap();
-        let expected = if !cpu_draws(mode) || software_adapter_wins(mode, 320, 240, 16) {
+        let expected = if !cpu_draws(mode) || software_adapter_wins(mode) {
             Placement::Gpu
         } else {
             Placement::Cpu
