@@ -48,12 +48,26 @@ from __future__ import annotations
 import operator
 import os
 import warnings
-from typing import Any, Optional, Sequence, Tuple, Union
+from typing import Any, Callable, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
-from . import _isogrid
-from ._isogrid import CellGrid, IsogridError
+def _quiet_vulkan_device_select() -> None:
+    """Mesa's Vulkan device-selection layer asks a Wayland compositor for the default GPU, and where
+    there is no session libwayland prints ``error: XDG_RUNTIME_DIR is invalid or not set`` once per
+    adapter lookup. On headless machines (no display, no runtime directory) there is no default to
+    ask for: turn the layer off with its documented switch, unless the user steers it."""
+    env = os.environ
+    headless = not any(k in env for k in ("XDG_RUNTIME_DIR", "WAYLAND_DISPLAY", "DISPLAY"))
+    steered = any(k in env for k in ("NODEVICE_SELECT", "DRI_PRIME", "MESA_VK_DEVICE_SELECT"))
+    if headless and not steered:
+        env["NODEVICE_SELECT"] = "1"
+
+
+_quiet_vulkan_device_select()
+
+from . import _isogrid  # noqa: E402
+from ._isogrid import CellGrid, IsogridError  # noqa: E402
 
 __version__: str = _isogrid.__version__
 
@@ -360,6 +374,8 @@ def render(
     bounces: int = 3,
     threads: Optional[int] = None,
     traversal: str = "blocks",
+    env: Optional[Union[str, "os.PathLike[str]"]] = None,
+    progress: Optional[Callable[[int, int], Any]] = None,
 ) -> Any:
     """An image of the isosurface, as ``isogrid render`` draws it.
 
@@ -372,16 +388,28 @@ def render(
             ``(eye, target, up, fovy_degrees)`` with points as (x, y, z) world coordinates.
         size: ``(width, height)`` in pixels.
         mode: ``"cgc"`` (cell rasterisation with EWA normals on a GPU; ray traced on the CPU),
-            ``"cgc-noewa"`` (GPU only) or ``"pathtrace"`` (sky environment; on the CPU ``spp``
-            samples, on the GPU one sample per frame).
-        backend: ``"auto"`` (a GPU adapter when there is one, lavapipe included, else the CPU),
-            ``"gpu"`` or ``"cpu"``.
+            ``"cgc-noewa"`` (GPU only) or ``"pathtrace"`` (``spp`` samples per pixel under
+            ``env``; the GPU takes one sample per frame).
+        backend: ``"auto"`` (a hardware GPU adapter when there is one; with only a software one
+            such as lavapipe, whichever was measured faster for the mode, see
+            ``docs/benchmarks-render-policy.md``; else the CPU), ``"gpu"`` (any adapter, lavapipe
+            included) or ``"cpu"``.
         aovs: any of ``"depth"`` (H×W float32 eye distance, +inf on misses), ``"normal"``
             (H×W×3 float32 unit world normal, NaN on misses), ``"cluster"`` (H×W uint32,
             4294967295 on misses), ``"backend"`` (which backend rendered).
+        frames: on the GPU, how many times the view is rendered (the visibility buffer converges).
+        spp: path tracing: samples per pixel, on either backend.
+        bounces: path tracing: scatterings per path.
+        threads: CPU worker threads (default: all cores).
         traversal: on the CPU, how rays find the cells they may cross: ``"blocks"`` (the paper's
             block walk) or ``"bvh"`` (a hierarchy over the metacells: each ray a little faster,
             but slower to build); the same image either way.
+        env: path tracing: an equirectangular ``.hdr`` or ``.exr`` map (+y up), or ``None`` for
+            the built-in sky.
+        progress: called as ``progress(done, total)`` about ten times a second while the render
+            runs, with ``done`` increasing (image rows of each pass on the CPU, frames on the GPU)
+            and once at the end. If it raises, the render stops within a tile or a frame and the
+            exception propagates. Ctrl-C stops the render the same way.
 
     Returns:
         The sRGB image as a uint8 array of shape (H, W, 3); with ``aovs``, ``(image, {name: value})``.
@@ -405,6 +433,8 @@ def render(
         bounces=_int(bounces, "bounces"),
         threads=None if threads is None else _int(threads, "threads", 1),
         traversal=str(traversal),
+        env=None if env is None else os.fspath(env),
+        progress=progress,
     )
     if not names:
         return out["image"]

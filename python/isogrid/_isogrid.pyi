@@ -1,7 +1,7 @@
 """Type stubs of the native module; use the wrappers in `isogrid` (they prepare the arrays)."""
 
 import os
-from typing import Any, Dict, Optional, Sequence, Tuple, Union
+from typing import Any, Callable, Dict, Optional, Sequence, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -104,4 +104,6 @@ def render(
     bounces: int = 3,
     threads: Optional[int] = None,
     traversal: str = "blocks",
+    env: Optional[_Path] = None,
+    progress: Optional[Callable[[int, int], Any]] = None,
 ) -> Dict[str, Any]: ...

@@ -1,44 +1,45 @@
-//! `isogrid.render`: an image of a grid with the GPU renderer (any wgpu adapter, lavapipe included)
-//! or the CPU ray tracer, plus depth / normal / cluster AOVs (conventions of `isogrid render`).
+//! `isogrid.render`: the keywords become an [`isogrid_render::RenderRequest`], placed and run by the
+//! render front door (the CPU tracer or the GPU renderer, lavapipe included), with the depth /
+//! normal / cluster AOVs of `isogrid render`, a `progress` callback and Ctrl-C.
 
 use crate::errors::{invalid, to_py};
 use crate::grid::CellGrid;
-use crate::pool::run_detached;
-use isogrid::Camera;
-use isogrid_trace::{Environment, PathTraceOptions, RenderOptions, Shading, Traversal};
+use crate::pool::run_watched;
+use isogrid::Progress;
+use isogrid_render::{
+    Backend, CameraSpec, EnvSource, Mode, Placement, RenderContext, RenderRequest, RequestParts,
+    Traversal,
+};
 use numpy::ndarray::{Array2, Array3};
 use numpy::IntoPyArray;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use std::sync::OnceLock;
+use std::path::PathBuf;
+use std::sync::LazyLock;
 
-/// One renderer per process: creating a device and its pipelines is the slow part.
-static GPU: OnceLock<Option<isogrid_gpu::Renderer>> = OnceLock::new();
+/// One context per process: the adapter is looked up once, and the GPU renderer (whose device
+/// and pipelines are the slow part) opened once, on the first render placed on the GPU.
+static CONTEXT: LazyLock<RenderContext> = LazyLock::new(RenderContext::new);
 
-fn gpu() -> PyResult<Option<&'static isogrid_gpu::Renderer>> {
-    if let Some(r) = GPU.get() {
-        return Ok(r.as_ref());
+/// `1`, `2` or `(eye, target, up, fovy_degrees)`.
+fn camera_spec(camera: &Bound<'_, PyAny>) -> PyResult<CameraSpec> {
+    if let Ok(view) = camera.extract::<u8>() {
+        return Ok(CameraSpec::View(view));
     }
-    let renderer = match isogrid_gpu::Renderer::new() {
-        Ok(r) => Some(r),
-        Err(e) if e.kind() == isogrid_gpu::GpuErrorKind::NoAdapter => None,
-        Err(e) => return Err(to_py(e.into())),
-    };
-    Ok(GPU.get_or_init(|| renderer).as_ref())
-}
-
-struct Rendered {
-    rgb: Vec<u8>,
-    depth: Vec<f32>,
-    normal: Vec<[f32; 3]>,
-    cluster: Vec<u32>,
-    backend: &'static str,
-    adapter: String,
+    let (eye, target, up, fovy_degrees): ([f64; 3], [f64; 3], [f64; 3], f64) = camera
+        .extract()
+        .map_err(|_| invalid("camera must be 1, 2 or (eye, target, up, fovy_degrees)"))?;
+    Ok(CameraSpec::LookAt {
+        eye,
+        target,
+        up,
+        fovy_degrees,
+    })
 }
 
 /// Renders `grid`; see `isogrid.render` for the arguments.
 #[pyfunction]
-#[pyo3(signature = (grid, camera, width, height, mode, backend, frames=1, spp=16, bounces=3, threads=None, traversal="blocks"))]
+#[pyo3(signature = (grid, camera, width, height, mode, backend, frames=1, spp=16, bounces=3, threads=None, traversal="blocks", env=None, progress=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn render<'py>(
     py: Python<'py>,
@@ -53,6 +54,8 @@ pub fn render<'py>(
     bounces: u32,
     threads: Option<usize>,
     traversal: &str,
+    env: Option<PathBuf>,
+    progress: Option<Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let grid = grid.inner();
     let traversal = Traversal::from_name(traversal).ok_or_else(|| {
@@ -60,116 +63,42 @@ pub fn render<'py>(
             "traversal must be 'blocks' or 'bvh', not {traversal:?}"
         ))
     })?;
-    if width == 0 || height == 0 || width as u64 * height as u64 > 64 << 20 {
-        return Err(invalid(format!(
-            "image size {width}x{height} is empty or too large"
-        )));
-    }
-    let camera = if let Ok(view) = camera.extract::<u8>() {
-        let (lo, hi) = grid.info().world_bounds();
-        Camera::preset(view, lo, hi, width, height).map_err(to_py)?
-    } else {
-        let (eye, target, up, fovy): ([f64; 3], [f64; 3], [f64; 3], f64) = camera
-            .extract()
-            .map_err(|_| invalid("camera must be 1, 2 or (eye, target, up, fovy_degrees)"))?;
-        let c = Camera {
-            eye,
-            target,
-            up,
-            fovy_degrees: fovy,
-            width,
-            height,
-        };
-        c.validate().map_err(to_py)?;
-        c
-    };
-    let gpu_mode = match mode {
-        "cgc" => Some(isogrid_gpu::Mode::Cgc),
-        "cgc-noewa" => Some(isogrid_gpu::Mode::CgcNoEwa),
-        "pathtrace" => None,
-        _ => {
-            return Err(invalid(format!(
-                "mode must be 'cgc', 'cgc-noewa' or 'pathtrace', not {mode:?}"
-            )))
-        }
-    };
-    let renderer = match (backend, gpu_mode) {
-        ("cpu", Some(isogrid_gpu::Mode::CgcNoEwa)) => {
-            return Err(invalid("mode 'cgc-noewa' needs the GPU backend"))
-        }
-        ("cpu", _) | ("auto", None) => None,
-        ("gpu", None) => {
-            return Err(invalid(
-                "path tracing runs on the CPU: use backend='cpu' or 'auto'",
-            ))
-        }
-        ("gpu", Some(_)) => Some(gpu()?.ok_or_else(|| invalid("no GPU adapter found"))?),
-        ("auto", Some(m)) => match gpu()? {
-            Some(r) => Some(r),
-            None if m == isogrid_gpu::Mode::CgcNoEwa => {
-                return Err(invalid("mode 'cgc-noewa' needs a GPU adapter"))
-            }
-            None => None,
-        },
-        _ => {
-            return Err(invalid(format!(
-                "backend must be 'auto', 'gpu' or 'cpu', not {backend:?}"
-            )))
-        }
-    };
-    let out = run_detached(py, threads, move || -> isogrid::Result<Rendered> {
-        if let (Some(r), Some(m)) = (renderer, gpu_mode) {
-            let gpu_grid = r.upload_grid(grid)?;
-            let options = isogrid_gpu::RenderOptions {
-                frames: frames.max(1),
-                ..Default::default()
-            };
-            let f = r.render_with(isogrid_gpu::Scene::Grid(&gpu_grid), &camera, m, &options)?;
-            let rgb = f
-                .rgba8
-                .chunks_exact(4)
-                .flat_map(|p| [p[0], p[1], p[2]])
-                .collect();
-            return Ok(Rendered {
-                rgb,
-                depth: f.depth,
-                normal: f.normal,
-                cluster: f.cluster,
-                backend: "gpu",
-                adapter: r.adapter_info(),
-            });
-        }
-        let shading = match gpu_mode {
-            None => Shading::PathTrace(PathTraceOptions {
-                samples_per_pixel: spp.max(1),
-                bounces,
-                environment: Environment::Sky,
-                ..PathTraceOptions::default()
-            }),
-            Some(_) => Shading::Phong,
-        };
-        let options = RenderOptions {
-            shading,
-            traversal,
-            ..RenderOptions::default()
-        };
-        let image = isogrid_trace::render(grid, &camera, &options)?;
-        Ok(Rendered {
-            rgb: image.rgb8,
-            depth: image.depth,
-            normal: image.normal,
-            cluster: image.cluster,
-            backend: "cpu",
-            adapter: "CPU ray tracer".into(),
-        })
-    })?
+    let mode: Mode = mode.parse().map_err(to_py)?;
+    let backend: Backend = backend.parse().map_err(to_py)?;
+    let request = RenderRequest::new(RequestParts {
+        mode,
+        backend,
+        camera: camera_spec(&camera)?,
+        size: (width, height),
+        environment: env.map_or(EnvSource::Sky, EnvSource::Map),
+        samples: spp,
+        frames,
+        bounces,
+        traversal,
+        ..RequestParts::default()
+    })
     .map_err(to_py)?;
+    if let Some(callback) = &progress {
+        if !callback.is_callable() {
+            return Err(invalid("progress must be a callable taking (done, total)"));
+        }
+    }
+    // The adapter lookup loads the Vulkan drivers: without the GIL.
+    let decision = py.detach(|| CONTEXT.decide(&request)).map_err(to_py)?;
+    let watch = Progress::new();
+    let out = run_watched(py, threads, &watch, progress.as_ref(), || {
+        isogrid_render::render(&CONTEXT, &request, decision.placement, grid, None, &watch)
+    })?;
+    let backend = match out.placement {
+        Placement::Cpu => "cpu",
+        Placement::Gpu => "gpu",
+    };
     let (h, w) = (height as usize, width as usize);
     let shape_err = |e: numpy::ndarray::ShapeError| invalid(e.to_string());
     let dict = PyDict::new(py);
     dict.set_item(
         "image",
-        Array3::from_shape_vec((h, w, 3), out.rgb)
+        Array3::from_shape_vec((h, w, 3), out.rgb8)
             .map_err(shape_err)?
             .into_pyarray(py),
     )?;
@@ -192,7 +121,8 @@ pub fn render<'py>(
             .map_err(shape_err)?
             .into_pyarray(py),
     )?;
-    dict.set_item("backend", out.backend)?;
+    dict.set_item("backend", backend)?;
     dict.set_item("adapter", out.adapter)?;
+    dict.set_item("samples", out.samples)?;
     Ok(dict)
 }

@@ -2,7 +2,9 @@
 
 mod args;
 mod commands;
+mod grid_source;
 mod input;
+mod interrupt;
 mod outputs;
 mod progress;
 mod report;
@@ -57,36 +59,27 @@ fn one_line(err: &anyhow::Error) -> String {
     line
 }
 
-/// Ctrl-C, SIGTERM and SIGHUP still end the process as they would, but first the temporary files
-/// of unfinished writes are removed: the signals are blocked in every thread (a mask set before
-/// any other thread exists is inherited) and taken by one thread that waits for them.
-#[cfg(unix)]
-fn remove_temporaries_when_interrupted() {
-    // SAFETY: plain libc signal-set calls on a local set; the mask is set before other threads.
-    unsafe {
-        let mut set: libc::sigset_t = std::mem::zeroed();
-        libc::sigemptyset(&mut set);
-        for signal in [libc::SIGINT, libc::SIGTERM, libc::SIGHUP] {
-            libc::sigaddset(&mut set, signal);
-        }
-        if libc::pthread_sigmask(libc::SIG_BLOCK, &set, std::ptr::null_mut()) != 0 {
-            return;
-        }
-        let spawned = std::thread::Builder::new()
-            .name("signals".into())
-            .spawn(move || {
-                let mut signal = 0;
-                if libc::sigwait(&set, &mut signal) == 0 {
-                    isogrid::fs::remove_unfinished();
-                    // End as the signal's default action does, so the exit status says so.
-                    libc::signal(signal, libc::SIG_DFL);
-                    libc::pthread_sigmask(libc::SIG_UNBLOCK, &set, std::ptr::null_mut());
-                    libc::raise(signal);
-                }
-            });
-        if spawned.is_err() {
-            libc::pthread_sigmask(libc::SIG_UNBLOCK, &set, std::ptr::null_mut());
-        }
+/// Whether the command stopped because it was asked to (Ctrl-C during a cancellable step).
+fn was_cancelled(err: &anyhow::Error) -> bool {
+    err.chain().any(|cause| {
+        cause
+            .downcast_ref::<isogrid::Error>()
+            .is_some_and(|e| e.kind() == isogrid::ErrorKind::Cancelled)
+    })
+}
+
+/// Mesa's Vulkan device-selection layer asks a Wayland compositor which GPU is the default, and
+/// where no session exists, libwayland prints `error: XDG_RUNTIME_DIR is invalid or not set in the
+/// environment.` once per adapter enumeration. On such headless machines there is no default to
+/// ask for, so the layer is turned off (`NODEVICE_SELECT=1`, its documented switch) unless the
+/// user steers device selection (`DRI_PRIME`, `MESA_VK_DEVICE_SELECT`) or a display exists.
+fn quiet_vulkan_device_select() {
+    let set = |name: &str| std::env::var_os(name).is_some();
+    let headless = !set("XDG_RUNTIME_DIR") && !set("WAYLAND_DISPLAY") && !set("DISPLAY");
+    let steered = set("NODEVICE_SELECT") || set("DRI_PRIME") || set("MESA_VK_DEVICE_SELECT");
+    if headless && !steered {
+        // At the start of main: the only other thread (signals) reads no variables.
+        std::env::set_var("NODEVICE_SELECT", "1");
     }
 }
 
@@ -99,7 +92,8 @@ fn main() -> ExitCode {
         libc::signal(libc::SIGXFSZ, libc::SIG_IGN);
     }
     #[cfg(unix)]
-    remove_temporaries_when_interrupted();
+    interrupt::install();
+    quiet_vulkan_device_select();
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Extract(a) => commands::extract::run(a),
@@ -114,6 +108,11 @@ fn main() -> ExitCode {
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
+        Err(err) if was_cancelled(&err) => {
+            eprintln!("isogrid: {}", one_line(&err));
+            // 128 + SIGINT, as shells report a command that Ctrl-C ended.
+            ExitCode::from(130)
+        }
         Err(err) => {
             // One line: the outermost context and its causes, never a backtrace.
             eprintln!("isogrid: error: {}", one_line(&err));

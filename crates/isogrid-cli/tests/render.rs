@@ -285,7 +285,7 @@ fn render_and_bench_fail_in_one_line() {
             "--primary",
             "traced",
         ],
-        "--primary",
+        "primary",
     );
     fails(
         &[
@@ -300,7 +300,7 @@ fn render_and_bench_fail_in_one_line() {
             "--primary",
             "traced",
         ],
-        "--primary",
+        "primary",
     );
     rejected(
         &[
@@ -557,4 +557,71 @@ fn gpu_and_cpu_backends_agree_on_depth() {
         both.len()
     );
     std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// Ctrl-C during a long CPU path trace stops it within a tile: the command ends by itself with a
+/// one-line message and status 130, and writes no image.
+#[cfg(unix)]
+#[test]
+fn ctrl_c_stops_a_long_render_cleanly_and_writes_nothing() {
+    use std::os::unix::process::ExitStatusExt;
+    use std::process::Stdio;
+    use std::time::{Duration, Instant};
+    let dir = temp_dir("sigint");
+    let input = volume(&dir);
+    let png = dir.join("never.png");
+    // Hours of work at 100000 samples per pixel; the signal comes after a pause that covers
+    // reading the input. A signal that lands before the render starts ends the process the
+    // default way (no message): then try again with a longer pause.
+    for pause in [1, 3, 8] {
+        let child = Command::new(env!("CARGO_BIN_EXE_isogrid"))
+            .args([
+                "render",
+                s(&input),
+                "--iso-normalized",
+                "0.5",
+                "--backend",
+                "cpu",
+            ])
+            .args([
+                "--mode",
+                "pathtrace",
+                "--spp",
+                "100000",
+                "--size",
+                "320x240",
+            ])
+            .args(["-o", s(&png)])
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        std::thread::sleep(Duration::from_secs(pause));
+        // SAFETY: sending SIGINT to our own child process.
+        unsafe { libc::kill(child.id() as i32, libc::SIGINT) };
+        let start = Instant::now();
+        let mut child = child;
+        while child.try_wait().unwrap().is_none() {
+            if start.elapsed() > Duration::from_secs(60) {
+                child.kill().unwrap();
+                panic!("still rendering 60 s after Ctrl-C");
+            }
+            std::thread::sleep(Duration::from_millis(50));
+        }
+        let out = child.wait_with_output().unwrap();
+        assert!(!png.exists(), "an image was written");
+        if out.status.signal() == Some(libc::SIGINT) {
+            continue;
+        }
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(130), "{stderr}");
+        assert_eq!(stderr.trim_end().lines().count(), 1, "{stderr}");
+        assert!(
+            stderr.contains("Ctrl-C") && stderr.contains("nothing written"),
+            "{stderr}"
+        );
+        std::fs::remove_dir_all(&dir).unwrap();
+        return;
+    }
+    panic!("every Ctrl-C came before the render started");
 }

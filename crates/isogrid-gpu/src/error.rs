@@ -15,6 +15,8 @@ pub enum GpuErrorKind {
     Device,
     /// The request does not make sense (mode without its scene data, bad camera, ...).
     InvalidInput,
+    /// The caller cancelled the work through its [`isogrid::Progress`].
+    Cancelled,
 }
 
 /// A one-line GPU error.
@@ -58,6 +60,7 @@ impl From<GpuError> for isogrid::Error {
         match e.kind {
             GpuErrorKind::TooLarge => isogrid::Error::too_large(e.message),
             GpuErrorKind::InvalidInput => isogrid::Error::invalid(e.message),
+            GpuErrorKind::Cancelled => isogrid::Error::cancelled(e.message),
             _ => isogrid::Error::unsupported(format!("GPU: {}", e.message)),
         }
     }

@@ -61,7 +61,7 @@ mod upload;
 mod view;
 mod wgpu_util;
 
-pub use backends::preferred_backends;
+pub use backends::{default_adapter, preferred_backends, AdapterSummary};
 pub use env_map::GpuEnvMap;
 pub use error::{GpuError, GpuErrorKind};
 pub use options::{

@@ -2,10 +2,10 @@
 //! that draws the cells, and the path tracer's [`PathTraceOptions`] with its [`PrimaryRays`].
 
 use crate::env_map::GpuEnvMap;
-use isogrid::{Camera, GridInfo};
+use isogrid::{Camera, GridInfo, Progress};
 
 /// What to draw.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Mode {
     /// Cell rasterisation of the clustered grid cells with EWA normal splatting (§3.2–3.4).
     Cgc,
@@ -21,6 +21,54 @@ pub enum Mode {
     /// samples accumulate while the view rests. See [`crate::Renderer::path_trace`] for the
     /// options, among them tracing the primary rays too ([`PrimaryRays::Traced`]).
     PathTrace,
+}
+
+impl Mode {
+    /// Every mode, in the order front ends list them.
+    pub const ALL: [Mode; 5] = [
+        Mode::Cgc,
+        Mode::CgcNoEwa,
+        Mode::Mc,
+        Mode::Cr,
+        Mode::PathTrace,
+    ];
+
+    /// The name every front end spells it with: `cgc`, `cgc-noewa`, `mc`, `cr` or `pathtrace`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Mode::Cgc => "cgc",
+            Mode::CgcNoEwa => "cgc-noewa",
+            Mode::Mc => "mc",
+            Mode::Cr => "cr",
+            Mode::PathTrace => "pathtrace",
+        }
+    }
+
+    /// Needs the original volume (the MC mesh or the CR samples), so a `.cgc` file cannot show it.
+    pub fn needs_volume(self) -> bool {
+        matches!(self, Mode::Mc | Mode::Cr)
+    }
+}
+
+impl std::str::FromStr for Mode {
+    type Err = isogrid::Error;
+    /// [`Mode::name`], any case.
+    fn from_str(s: &str) -> isogrid::Result<Self> {
+        Mode::ALL
+            .into_iter()
+            .find(|m| m.name().eq_ignore_ascii_case(s))
+            .ok_or_else(|| {
+                isogrid::Error::invalid(format!(
+                    "mode must be cgc, cgc-noewa, mc, cr or pathtrace, not {s:?}"
+                ))
+            })
+    }
+}
+
+impl std::fmt::Display for Mode {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
 }
 
 /// How to render.
@@ -149,6 +197,9 @@ pub struct PathTraceOptions<'a> {
     pub backface_culling: bool,
     /// Rasterised (the paper's hybrid, the default) or traced primary rays.
     pub primary: PrimaryRays,
+    /// Counts finished frames and is checked before each frame: with it, at most two frames are
+    /// in flight and a cancel ends the call within a frame ([`crate::GpuErrorKind::Cancelled`]).
+    pub progress: Option<&'a Progress>,
 }
 
 impl Default for PathTraceOptions<'_> {
@@ -161,6 +212,7 @@ impl Default for PathTraceOptions<'_> {
             occlusion_culling: true,
             backface_culling: true,
             primary: PrimaryRays::Raster,
+            progress: None,
         }
     }
 }

@@ -2,7 +2,7 @@
 //! entry points — uploads, one-off and per-view renders, path tracing and ray queries — which hand
 //! the work to the modules that do it.
 
-use crate::backends::preferred_backends;
+use crate::backends::request_adapter;
 use crate::env_map::{upload_env, GpuEnvMap};
 use crate::error::{GpuError, GpuErrorKind};
 use crate::options::{Mode, PathTraceOptions, RenderOptions};
@@ -31,24 +31,14 @@ pub struct Renderer {
 }
 
 impl Renderer {
-    /// Opens the default adapter of [`preferred_backends`] headlessly (`WGPU_BACKEND=vulkan|gl|...`
+    /// Opens the default adapter of [`crate::preferred_backends`] headlessly (`WGPU_BACKEND=vulkan|gl|...`
     /// picks the backend) with the adapter's own limits, and builds all pipelines.
     ///
     /// Fails with [`GpuErrorKind::NoAdapter`] when there is no adapter or it cannot run compute
     /// and fragment-storage shaders; callers may fall back to a CPU renderer then.
     pub fn new() -> Result<Renderer, GpuError> {
-        let instance = wgpu::Instance::new(wgpu::InstanceDescriptor {
-            backends: preferred_backends(),
-            ..wgpu::InstanceDescriptor::new_without_display_handle_from_env()
-        });
-        let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
-            power_preference: wgpu::PowerPreference::HighPerformance,
-            force_fallback_adapter: false,
-            compatible_surface: None,
-            // The real limits, so that big structures need as few pages as possible.
-            apply_limit_buckets: false,
-        }))
-        .map_err(|e| GpuError::new(GpuErrorKind::NoAdapter, format!("no GPU adapter: {e}")))?;
+        let adapter = request_adapter()
+            .map_err(|e| GpuError::new(GpuErrorKind::NoAdapter, format!("no GPU adapter: {e}")))?;
         let info = adapter.get_info();
         let needed = wgpu::DownlevelFlags::COMPUTE_SHADERS
             | wgpu::DownlevelFlags::FRAGMENT_WRITABLE_STORAGE

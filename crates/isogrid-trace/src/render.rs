@@ -6,7 +6,8 @@
 //! but the environment (no shadow rays: light arrives only when a path escapes); a path that is
 //! still on the surface after `bounces` scatterings contributes nothing. Every (pixel, sample) has
 //! its own random stream, so images do not depend on the thread count. Samples are accumulated in
-//! passes of one sample per pixel (progress is reported after each pass).
+//! passes of one sample per pixel, each in tiles of whole rows (progress is counted and
+//! cancellation checked per tile).
 
 use crate::cluster_search::Hit;
 use crate::crossing::Crossing;
@@ -16,6 +17,7 @@ use crate::sample::{cosine_hemisphere, Rng};
 use isogrid::camera::{dot, Camera, Ray};
 use isogrid::error::{Error, Result};
 use isogrid::grid::CellGrid;
+use isogrid::progress::Progress;
 use isogrid::shading::{shade, to_srgb8, ALBEDO, BACKGROUND_SRGB};
 use rayon::prelude::*;
 
@@ -105,16 +107,21 @@ pub const MAX_PIXELS: u64 = 1 << 28;
 
 /// Renders `grid` seen by `camera`.
 pub fn render(grid: &CellGrid, camera: &Camera, options: &RenderOptions) -> Result<Image> {
-    render_with_progress(grid, camera, options, &|_, _| {})
+    render_with_progress(grid, camera, options, &Progress::new())
 }
 
-/// [`render`], calling `progress(done, total)` after each pass over the image (one for Phong,
-/// one plus the sample count for path tracing).
+/// Pixels of one tile: the unit of work between progress updates and cancel checks, whole rows
+/// of at least this many pixels.
+const TILE_PIXELS: usize = 4096;
+
+/// [`render`], counting finished image rows in `progress` (one pass over the image for Phong,
+/// one plus the sample count for path tracing, so `total` is passes × height) and stopping
+/// with [`isogrid::ErrorKind::Cancelled`] within one tile of [`Progress::cancel`].
 pub fn render_with_progress(
     grid: &CellGrid,
     camera: &Camera,
     options: &RenderOptions,
-    progress: &(dyn Fn(u64, u64) + Sync),
+    progress: &Progress,
 ) -> Result<Image> {
     camera.validate()?;
     let (w, h) = (camera.width, camera.height);
@@ -124,9 +131,6 @@ pub fn render_with_progress(
             "image {w}x{h} has more than {MAX_PIXELS} pixels"
         )));
     }
-    let build = std::time::Instant::now();
-    let tracer = GridTracer::new(grid, options.crossing, options.traversal);
-    let build_seconds = build.elapsed().as_secs_f64();
     let passes = match &options.shading {
         Shading::Phong => 1,
         Shading::PathTrace(p) => {
@@ -136,16 +140,31 @@ pub fn render_with_progress(
             1 + p.samples_per_pixel as u64
         }
     };
+    progress.start(passes * h as u64);
+    let build = std::time::Instant::now();
+    let tracer = GridTracer::new(grid, options.crossing, options.traversal);
+    let build_seconds = build.elapsed().as_secs_f64();
+    progress.check()?;
     let pixel = |i: usize| ((i % w as usize) as u32, (i / w as usize) as u32);
-    let primary: Vec<Option<Hit>> = (0..n as usize)
-        .into_par_iter()
-        .with_min_len(64)
-        .map(|i| {
-            let (x, y) = pixel(i);
-            tracer.closest_hit(&camera.ray(x, y), 0.0, f64::INFINITY)
-        })
-        .collect();
-    progress(1, passes);
+    let tile_rows = TILE_PIXELS.div_ceil(w as usize);
+    let tile = tile_rows * w as usize;
+    // Each tile skips its work once cancelled; the pass then ends with the cancel error.
+    let tile_rows_of = |len: usize| (len / w as usize) as u64;
+    let mut primary: Vec<Option<Hit>> = vec![None; n as usize];
+    primary
+        .par_chunks_mut(tile)
+        .enumerate()
+        .for_each(|(t, hits)| {
+            if progress.is_cancelled() {
+                return;
+            }
+            for (k, hit) in hits.iter_mut().enumerate() {
+                let (x, y) = pixel(t * tile + k);
+                *hit = tracer.closest_hit(&camera.ray(x, y), 0.0, f64::INFINITY);
+            }
+            progress.advance(tile_rows_of(hits.len()));
+        });
+    progress.check()?;
     let mut rays_traced = n;
 
     let radiance: Vec<[f32; 3]> = match &options.shading {
@@ -174,21 +193,29 @@ pub fn render_with_progress(
             let offset = 1e-3 * world.iter().cloned().fold(f64::INFINITY, f64::min);
             for s in 0..p.samples_per_pixel {
                 rays_traced += sum
-                    .par_iter_mut()
+                    .par_chunks_mut(tile)
                     .enumerate()
-                    .with_min_len(64)
-                    .map(|(i, acc)| {
-                        let mut rng = Rng::for_sample(p.seed, i as u64, s as u64);
-                        let (x, y) = pixel(i);
-                        let ray = camera.ray_at(x as f64 + rng.unit(), y as f64 + rng.unit());
-                        let (l, rays) = trace_path(&tracer, ray, p, offset, &mut rng);
-                        for c in 0..3 {
-                            acc[c] += l[c] as f64;
+                    .map(|(t, accs)| {
+                        if progress.is_cancelled() {
+                            return 0;
                         }
+                        let mut rays = 0;
+                        for (k, acc) in accs.iter_mut().enumerate() {
+                            let i = t * tile + k;
+                            let mut rng = Rng::for_sample(p.seed, i as u64, s as u64);
+                            let (x, y) = pixel(i);
+                            let ray = camera.ray_at(x as f64 + rng.unit(), y as f64 + rng.unit());
+                            let (l, path_rays) = trace_path(&tracer, ray, p, offset, &mut rng);
+                            for c in 0..3 {
+                                acc[c] += l[c] as f64;
+                            }
+                            rays += path_rays;
+                        }
+                        progress.advance(tile_rows_of(accs.len()));
                         rays
                     })
                     .sum::<u64>();
-                progress(2 + s as u64, passes);
+                progress.check()?;
             }
             let inv = 1.0 / p.samples_per_pixel as f64;
             sum.iter().map(|v| v.map(|c| (c * inv) as f32)).collect()

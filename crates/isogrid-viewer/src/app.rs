@@ -26,7 +26,7 @@ use crate::extract_worker::{ExtractWorker, Wanted};
 use crate::orbit::Orbit;
 use crate::panel::{self, Measurements};
 use crate::render_worker::RenderWorker;
-use crate::{ViewMode, ViewerOptions};
+use crate::{Mode, ViewerOptions};
 use capture::Capture;
 use eframe::egui;
 use isogrid::Precision;
@@ -54,7 +54,7 @@ struct App {
     path_text: String,
     iso_value: f64,
     precision: Option<Precision>,
-    mode: ViewMode,
+    mode: Mode,
     compare_mc: bool,
     full_when_idle: bool,
     orbit: Orbit,
@@ -74,7 +74,7 @@ struct App {
     next_request: u64,
     cost: CostModel,
     /// The mode and scene version the cost model has frames of.
-    cost_of: Option<(ViewMode, u64)>,
+    cost_of: Option<(Mode, u64)>,
     last_interaction: Option<Instant>,
     /// The last painted image rectangle, in window pixels.
     image_rect_px: Option<egui::Rect>,
@@ -106,7 +106,7 @@ impl App {
                 open: None,
                 iso: options.iso,
                 precision: options.precision,
-                mesh: compare_mc || options.mode == ViewMode::Mc,
+                mesh: compare_mc || options.mode == Mode::Mc,
                 shutdown: false,
             },
             render.sender().clone(),

@@ -7,7 +7,7 @@ use isogrid_gpu::Frame;
 use std::path::PathBuf;
 use std::sync::mpsc::Sender;
 
-use crate::ViewMode;
+use crate::Mode;
 
 /// What the UI learns about an input when it has been opened.
 #[derive(Debug, Clone)]
@@ -39,7 +39,7 @@ impl SourceInfo {
 pub struct RenderedFrame {
     pub request: u64,
     pub camera: Camera,
-    pub mode: ViewMode,
+    pub mode: Mode,
     pub frame: Frame,
     /// Wall-clock seconds of the `render` call, read-back included.
     pub seconds: f64,

@@ -30,85 +30,12 @@ mod source;
 pub mod orbit;
 
 use std::path::PathBuf;
-use std::str::FromStr;
 
 pub use isogrid::Iso;
 pub use isogrid::Precision;
-
-/// What the viewer draws.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum ViewMode {
-    /// Clustered grid cells with EWA normals (the paper's method).
-    Cgc,
-    /// Clustered grid cells with trilinear-gradient normals.
-    CgcNoEwa,
-    /// The Marching Cubes mesh baseline (extracted in the background when selected).
-    Mc,
-    /// Cell rasterisation sampling the original volume (needs the volume, not a .cgc file).
-    Cr,
-    /// Hybrid GPU path tracing, refined while the camera rests.
-    PathTrace,
-}
-
-impl ViewMode {
-    /// Every mode in the order the mode switch lists them.
-    pub const ALL: [ViewMode; 5] = [
-        ViewMode::Cgc,
-        ViewMode::CgcNoEwa,
-        ViewMode::Mc,
-        ViewMode::Cr,
-        ViewMode::PathTrace,
-    ];
-
-    /// The command-line name.
-    pub fn name(self) -> &'static str {
-        match self {
-            ViewMode::Cgc => "cgc",
-            ViewMode::CgcNoEwa => "cgc-noewa",
-            ViewMode::Mc => "mc",
-            ViewMode::Cr => "cr",
-            ViewMode::PathTrace => "pathtrace",
-        }
-    }
-
-    /// The renderer's mode, `None` where the renderer does not have it yet.
-    pub fn gpu_mode(self) -> isogrid_gpu::Mode {
-        match self {
-            ViewMode::Cgc => isogrid_gpu::Mode::Cgc,
-            ViewMode::CgcNoEwa => isogrid_gpu::Mode::CgcNoEwa,
-            ViewMode::Mc => isogrid_gpu::Mode::Mc,
-            ViewMode::Cr => isogrid_gpu::Mode::Cr,
-            // Hybrid path tracing: one sample per render call, accumulated by the renderer while
-            // the camera rests (the app keeps asking until PATH_TRACE_SAMPLES).
-            ViewMode::PathTrace => isogrid_gpu::Mode::PathTrace,
-        }
-    }
-
-    /// Needs the original volume (so is unavailable for .cgc inputs).
-    pub fn needs_volume(self) -> bool {
-        matches!(self, ViewMode::Mc | ViewMode::Cr)
-    }
-}
-
-impl FromStr for ViewMode {
-    type Err = isogrid::Error;
-    fn from_str(s: &str) -> isogrid::Result<Self> {
-        ViewMode::ALL
-            .into_iter()
-            .find(|m| m.name().eq_ignore_ascii_case(s))
-            .ok_or_else(|| {
-                isogrid::Error::invalid(format!(
-                    "unknown mode '{s}' (expected cgc, cgc-noewa, mc, cr or pathtrace)"
-                ))
-            })
-    }
-}
-
-impl std::fmt::Display for ViewMode {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(self.name())
-    }
-}
+/// What the viewer draws: the render front door's modes, listed in its mode switch in
+/// [`Mode::ALL`] order (path tracing is the GPU hybrid, refined while the camera rests).
+pub use isogrid_render::Mode;
 
 /// How to start the viewer.
 #[derive(Debug, Clone)]
@@ -122,7 +49,7 @@ pub struct ViewerOptions {
     pub iso: Iso,
     /// Corner precision; `None` is the default for the volume's sample type.
     pub precision: Option<Precision>,
-    pub mode: ViewMode,
+    pub mode: Mode,
     /// Initial camera: `Camera::preset` view 1 (front) or 2 (oblique).
     pub view: u8,
     /// Fixed render size in pixels; `None` renders at the size of the window's image area.
@@ -145,7 +72,7 @@ impl Default for ViewerOptions {
             read_options: Default::default(),
             iso: Iso::Normalized(0.5),
             precision: None,
-            mode: ViewMode::Cgc,
+            mode: Mode::Cgc,
             view: 2,
             size: None,
             frames: None,

@@ -9,7 +9,7 @@
 //! SIGSEGV at exit (about one scripted run in 25 on lavapipe).
 
 use crate::events::{guarded, Event, Failure, Notifier, RenderedFrame};
-use crate::ViewMode;
+use crate::Mode;
 use isogrid::mc::McMesh;
 use isogrid::{Camera, CellGrid, GridStats, Volume};
 use isogrid_gpu::{GpuGrid, GpuMesh, GpuVolume, RenderOptions, Renderer, Scene, ViewState};
@@ -23,7 +23,7 @@ use std::time::{Duration, Instant};
 pub struct RenderRequest {
     pub id: u64,
     pub camera: Camera,
-    pub mode: ViewMode,
+    pub mode: Mode,
 }
 
 pub enum RenderMsg {
@@ -233,9 +233,9 @@ fn apply(renderer: &Renderer, scene: &mut Uploaded, msg: RenderMsg, notify: &Not
 }
 
 fn render(renderer: &Renderer, scene: &mut Uploaded, request: RenderRequest, notify: &Notifier) {
-    let mode = request.mode.gpu_mode();
+    let mode = request.mode;
     // CR samples the original volume: upload it the first time CR is drawn for this input.
-    if request.mode == ViewMode::Cr && scene.gpu_volume.is_none() {
+    if request.mode == Mode::Cr && scene.gpu_volume.is_none() {
         if let (Some(volume), Some(grid)) = (&scene.volume, &scene.grid) {
             match renderer.upload_volume(&volume.view(), grid) {
                 Ok(v) => scene.gpu_volume = Some(v),
@@ -250,11 +250,9 @@ fn render(renderer: &Renderer, scene: &mut Uploaded, request: RenderRequest, not
         }
     }
     let target = match (request.mode, &scene.grid, &scene.gpu_volume, &scene.mesh) {
-        (ViewMode::Mc, _, _, Some(mesh)) => Scene::Mesh(mesh),
-        (ViewMode::Cr, Some(grid), Some(volume), _) => Scene::Volume { grid, volume },
-        (ViewMode::Cgc | ViewMode::CgcNoEwa | ViewMode::PathTrace, Some(grid), _, _) => {
-            Scene::Grid(grid)
-        }
+        (Mode::Mc, _, _, Some(mesh)) => Scene::Mesh(mesh),
+        (Mode::Cr, Some(grid), Some(volume), _) => Scene::Volume { grid, volume },
+        (Mode::Cgc | Mode::CgcNoEwa | Mode::PathTrace, Some(grid), _, _) => Scene::Grid(grid),
         // Not there yet (still extracting), or not possible (CR of a .cgc file): the UI says which.
         _ => {
             notify.send(Event::NotRendered {

@@ -17,6 +17,9 @@ pub enum ErrorKind {
     InvalidInput,
     /// A size exceeds what the format or the data structure can address (e.g. the 128K grid limit).
     TooLarge,
+    /// The caller asked the work to stop ([`crate::progress::Progress::cancel`]); nothing was
+    /// finished or written.
+    Cancelled,
 }
 
 /// An error with a kind, a message, and the file it concerns when there is one.
@@ -53,6 +56,9 @@ impl Error {
     }
     pub fn too_large(message: impl Into<String>) -> Self {
         Self::new(ErrorKind::TooLarge, message)
+    }
+    pub fn cancelled(message: impl Into<String>) -> Self {
+        Self::new(ErrorKind::Cancelled, message)
     }
     /// Wraps an I/O error; a truncated read (`UnexpectedEof`) becomes `Corrupt` since the file is short.
     pub fn io(err: std::io::Error) -> Self {

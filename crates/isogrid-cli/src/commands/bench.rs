@@ -5,8 +5,8 @@
 //! `ox oy oz dx dy dz`, so another tracer can be given the very same rays). Only the tracing is
 //! timed; memory is the grid's three buffers (blocks, metacells, cells).
 
-use super::render::GridSource;
 use crate::args::{ThreadArgs, TraversalArg};
+use crate::grid_source::GridSource;
 use crate::outputs::{self, Output};
 use crate::report::print_json;
 use anyhow::{bail, Context, Result};

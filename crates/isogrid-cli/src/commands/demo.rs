@@ -6,7 +6,8 @@ use crate::report::{group, mb, print_json, GridReport, MeshReport, Seconds};
 use anyhow::Result;
 use isogrid::generate::{generate, Field};
 use isogrid::mc::marching_cubes;
-use isogrid::{extract, ExtractOptions, GridStats, Iso};
+use isogrid::{extract, ExtractOptions, GridStats, Iso, Progress};
+use isogrid_render::{render, CameraSpec, Placement, RenderContext, RenderRequest, RequestParts};
 use serde::Serialize;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -21,7 +22,7 @@ pub struct Args {
     pub size: u32,
     #[command(flatten)]
     pub threads: ThreadArgs,
-    /// Picture of the isosurface (PNG), rendered on a GPU adapter when there is one, else on the CPU.
+    /// Picture of the isosurface (PNG), rendered where `isogrid render --backend auto` would.
     #[arg(long, value_name = "OUT.png", default_value = "isogrid-demo.png")]
     pub image: PathBuf,
     /// Size of the picture.
@@ -50,33 +51,34 @@ struct DemoReport {
     image: PathBuf,
 }
 
-/// Renders view 2 of the grid to a PNG; returns the backend used and a description.
+/// Renders view 2 of the grid to a PNG where the front door's policy places it; returns the
+/// backend used and a description.
 fn picture(
     grid: &isogrid::CellGrid,
     path: &std::path::Path,
-    (w, h): (u32, u32),
+    size: (u32, u32),
 ) -> Result<(&'static str, String)> {
-    let (lo, hi) = grid.info().world_bounds();
-    let camera = isogrid::Camera::preset(2, lo, hi, w, h)?;
-    if let Some(renderer) = super::render_gpu::renderer()? {
-        let out = super::render_gpu::render(
-            &renderer,
-            grid,
-            None,
-            &camera,
-            isogrid_gpu::Mode::Cgc,
-            &isogrid_gpu::RenderOptions {
-                frames: 2,
-                ..Default::default()
-            },
-        )?;
-        isogrid_io::image::write_png(path, w, h, 4, &out.frame.rgba8)?;
-        return Ok(("gpu", out.adapter));
-    }
-    let options = isogrid_trace::RenderOptions::default();
-    let image = isogrid_trace::render(grid, &camera, &options)?;
-    isogrid_io::image::write_png(path, w, h, 3, &image.rgb8)?;
-    Ok(("cpu", "CPU ray tracer (no GPU adapter)".to_string()))
+    let request = RenderRequest::new(RequestParts {
+        camera: CameraSpec::View(2),
+        size,
+        frames: 2,
+        ..RequestParts::default()
+    })?;
+    let ctx = RenderContext::new();
+    let decision = ctx.decide(&request)?;
+    let image = render(
+        &ctx,
+        &request,
+        decision.placement,
+        grid,
+        None,
+        &Progress::new(),
+    )?;
+    isogrid_io::image::write_png(path, size.0, size.1, 3, &image.rgb8)?;
+    Ok(match decision.placement {
+        Placement::Gpu => ("gpu", image.adapter),
+        Placement::Cpu => ("cpu", decision.note.unwrap_or(image.adapter)),
+    })
 }
 
 pub fn run(args: Args) -> Result<()> {

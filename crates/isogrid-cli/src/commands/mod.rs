@@ -7,6 +7,5 @@ pub mod generate;
 pub mod info;
 pub mod mc;
 pub mod render;
-pub mod render_gpu;
 pub mod view;
 pub mod voxelize;

@@ -1,177 +1,70 @@
-//! `isogrid render`: an image of the isosurface with optional AOVs as `.npy`. On a GPU adapter
-//! (lavapipe counts) by cell rasterisation (paper §3.2–3.4) or the MC / CR baselines; on the CPU
-//! by ray tracing the same structure (§3.6) with the same shading, or path tracing under an
-//! environment. `--backend auto` prefers the GPU and falls back to the CPU with a notice.
+//! `isogrid render`: an image of the isosurface with optional AOVs as `.npy`. The flags become an
+//! [`isogrid_render::RenderRequest`]; the front door's policy places it on the GPU renderer or the
+//! CPU tracer and runs it with a progress bar, and Ctrl-C stops it cleanly with nothing written.
 
-use super::render_gpu;
-use crate::args::{parse_precision, InputArgs, ThreadArgs, TraversalArg};
+use crate::args::{ThreadArgs, TraversalArg};
+use crate::grid_source::GridSource;
+use crate::interrupt::cancel_on_interrupt;
 use crate::outputs::{self, Output};
+use crate::progress;
 use crate::report::print_json;
-use crate::{input, progress};
-use anyhow::{bail, Context, Result};
-use isogrid::{extract, Camera, CellGrid, ExtractOptions, Iso, Precision, Volume};
-use isogrid_trace::{
-    render_with_progress, Crossing, Environment, PathTraceOptions, RenderOptions, Shading,
+use anyhow::{bail, Result};
+use clap::builder::{PossibleValuesParser, TypedValueParser};
+use isogrid::{Camera, Progress};
+use isogrid_render::{
+    Aov, Backend, CameraSpec, CellRaster, Crossing, EnvSource, Mode, Placement, Primary,
+    RenderContext, RenderRequest, Rendered, RequestParts,
 };
 use serde::Serialize;
-use std::path::{Path, PathBuf};
-use std::time::Instant;
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::Duration;
 
-/// `--iso V | --iso-normalized V`, needed unless the input is a `.cgc` file.
-#[derive(clap::Args, Debug, Clone)]
-#[group(required = false, multiple = false)]
-pub struct OptionalIso {
-    /// Isovalue in data units: a sample is inside when value >= V.
-    #[arg(long, value_name = "V", allow_hyphen_values = true)]
-    pub iso: Option<f64>,
-    /// Isovalue as a fraction of the volume's value range (the paper uses 0.5).
-    #[arg(long, value_name = "V")]
-    pub iso_normalized: Option<f64>,
+/// Samples per pixel of path tracing when neither `--spp` nor `--frames` says.
+const DEFAULT_SAMPLES: u32 = 16;
+
+/// `--mode`, by the front door's names (also the viewer's).
+pub fn mode_parser() -> impl TypedValueParser<Value = Mode> {
+    PossibleValuesParser::new(Mode::ALL.map(Mode::name)).map(|s| s.parse::<Mode>().unwrap())
 }
 
-/// Where the grid of a render or benchmark comes from.
-#[derive(clap::Args, Debug, Clone)]
-pub struct GridSource {
-    /// A .cgc file, or a volume (.nii/.nii.gz, .nrrd, .npy, .tif, .mha, .mrc, DICOM folder, raw) to
-    /// extract.
-    pub input: PathBuf,
-    #[command(flatten)]
-    pub iso: OptionalIso,
-    /// Bits per stored corner value when extracting: 4, 8, 16 or 32.
-    #[arg(long, value_name = "BITS", value_parser = parse_precision)]
-    pub precision: Option<Precision>,
-    #[command(flatten)]
-    pub input_args: InputArgs,
+fn backend_parser() -> impl TypedValueParser<Value = Backend> {
+    PossibleValuesParser::new(["auto", "cpu", "gpu"]).map(|s| s.parse::<Backend>().unwrap())
 }
 
-fn is_cgc(path: &Path) -> bool {
-    path.extension()
-        .and_then(|e| e.to_str())
-        .is_some_and(|e| e.eq_ignore_ascii_case("cgc"))
+fn primary_parser() -> impl TypedValueParser<Value = Primary> {
+    PossibleValuesParser::new(["raster", "traced"]).map(|s| s.parse::<Primary>().unwrap())
 }
 
-impl GridSource {
-    /// Opens the `.cgc` file or reads and extracts the volume (on the current rayon pool).
-    pub fn load(&self) -> Result<CellGrid> {
-        Ok(self.load_with_volume()?.0)
-    }
-
-    /// Like [`GridSource::load`], also keeping the volume (absent for `.cgc` files).
-    pub fn load_with_volume(&self) -> Result<(CellGrid, Option<Volume>)> {
-        if is_cgc(&self.input) {
-            if self.iso.iso.is_some() || self.iso.iso_normalized.is_some() {
-                bail!(
-                    "{}: a .cgc file has its isovalue already; drop --iso/--iso-normalized",
-                    self.input.display()
-                );
-            }
-            if self.precision.is_some() {
-                bail!(
-                    "{}: a .cgc file has its precision already; drop --precision \
-                     (or extract the volume again with it)",
-                    self.input.display()
-                );
-            }
-            let grid = isogrid::cgc::open(&self.input)?;
-            crate::report::note_if_empty(&self.input, &grid);
-            return Ok((grid, None));
-        }
-        let iso = match (self.iso.iso, self.iso.iso_normalized) {
-            (Some(v), _) => Iso::Value(v),
-            (_, Some(t)) => Iso::Normalized(t),
-            _ => bail!(
-                "{}: a volume needs --iso V or --iso-normalized V",
-                self.input.display()
-            ),
-        };
-        let (volume, _) = input::read_volume(&self.input, &self.input_args.read_options()?)?;
-        let spinner = progress::spinner("extracting".into());
-        let options = ExtractOptions {
-            iso,
-            precision: self.precision,
-        };
-        let grid = extract(&volume.view(), &options)
-            .with_context(|| format!("{}: extraction failed", self.input.display()))?;
-        spinner.finish_and_clear();
-        crate::report::note_if_empty(&self.input, &grid);
-        Ok((grid, Some(volume)))
-    }
-}
-
-#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Mode {
-    /// The clustered grid cell isosurface: cell rasterisation with EWA normals on the GPU, ray
-    /// traced on the CPU; Blinn–Phong shaded.
-    Cgc,
-    /// GPU only: cell rasterisation without EWA normal interpolation.
-    CgcNoewa,
-    /// GPU only: the Marching Cubes mesh.
-    Mc,
-    /// GPU only: cell rasterisation sampling the original volume.
-    Cr,
-    /// Path tracing under an environment: on the GPU hybrid (raster primaries, traced secondaries)
-    /// or fully traced (--primary traced), one sample per pixel per frame, so --frames is the
-    /// sample count; or on the CPU (--spp).
-    Pathtrace,
-}
-
-/// Where GPU path tracing gets its primary hits.
-#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Primary {
-    /// The paper's hybrid: rasterised (cell raster, EWA normals, deferred shading).
-    Raster,
-    /// Traced from the eye like the secondary rays, in the same compute pass, with no raster
-    /// pass (faster on GPUs whose graphics pipeline is slow next to their compute).
-    Traced,
-}
-
-impl Primary {
-    fn name(self) -> &'static str {
-        match self {
-            Primary::Raster => "raster",
-            Primary::Traced => "traced",
-        }
-    }
-}
-
-#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
-pub enum CellRasterArg {
-    Auto,
-    Hardware,
-    Compute,
-}
-
-impl From<CellRasterArg> for isogrid_gpu::CellRaster {
-    fn from(arg: CellRasterArg) -> Self {
-        match arg {
-            CellRasterArg::Auto => isogrid_gpu::CellRaster::Auto,
-            CellRasterArg::Hardware => isogrid_gpu::CellRaster::Hardware,
-            CellRasterArg::Compute => isogrid_gpu::CellRaster::Compute,
-        }
-    }
-}
-
-#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Backend {
-    Auto,
-    Cpu,
-    Gpu,
+fn cell_raster_parser() -> impl TypedValueParser<Value = CellRaster> {
+    PossibleValuesParser::new(["auto", "hardware", "compute"]).map(|s| match s.as_str() {
+        "hardware" => CellRaster::Hardware,
+        "compute" => CellRaster::Compute,
+        _ => CellRaster::Auto,
+    })
 }
 
 #[derive(clap::Args)]
 pub struct Args {
     #[command(flatten)]
     pub source: GridSource,
-    /// What to draw.
-    #[arg(long, value_enum, default_value = "cgc")]
+    /// What to draw: `cgc` (cell rasterisation with EWA normals on the GPU, ray traced on the
+    /// CPU; Blinn–Phong), GPU only `cgc-noewa` (no EWA), `mc` (the Marching Cubes mesh) and `cr`
+    /// (cells sampling the original volume), or `pathtrace` (under an environment; on the GPU
+    /// one sample per pixel per frame, raster or traced primaries).
+    #[arg(long, default_value = "cgc", value_parser = mode_parser())]
     pub mode: Mode,
-    /// Where to render: `auto` uses a GPU adapter when there is one, else the CPU.
-    #[arg(long, value_enum, default_value = "auto")]
+    /// Where to render: `auto` takes a hardware GPU adapter when there is one; with only a
+    /// software one (lavapipe) the faster backend for the mode (docs/benchmarks-render-policy.md);
+    /// else the CPU.
+    #[arg(long, default_value = "auto", value_parser = backend_parser())]
     pub backend: Backend,
-    /// GPU: render the view this many times (the visibility buffer converges; timings are the
-    /// median over frames after the first).
-    #[arg(long, value_name = "N", default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=10000))]
-    pub frames: u32,
+    /// GPU raster modes: render the view this many times (the visibility buffer converges;
+    /// timings are the median over frames after the first). Path tracing: the sample count,
+    /// when --spp is not given.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=10000))]
+    pub frames: Option<u32>,
     /// GPU: draw every cluster every frame (turns off the visibility buffer of §3.3), to measure
     /// what culling saves.
     #[arg(long)]
@@ -179,8 +72,8 @@ pub struct Args {
     /// GPU: which raster draws the cells: `compute` (one thread per cell), `hardware` (the
     /// paper's screen rectangles through the graphics pipeline) or `auto` (compute unless cells
     /// can cover more than 32 pixels across, as when the eye is inside the volume).
-    #[arg(long, value_enum, default_value = "auto")]
-    pub cell_raster: CellRasterArg,
+    #[arg(long, default_value = "auto", value_parser = cell_raster_parser())]
+    pub cell_raster: CellRaster,
     /// Image size in pixels.
     #[arg(long, value_name = "WxH", default_value = "1280x720", value_parser = parse_size)]
     pub size: (u32, u32),
@@ -198,10 +91,9 @@ pub struct Args {
     /// NaN on miss), cluster=C.npy (u32 HxW, 4294967295 on miss), comma-separated.
     #[arg(long, value_name = "NAME=FILE,...", value_parser = parse_aovs)]
     pub aov: Option<Aovs>,
-    /// Path tracing: samples per pixel.
-    #[arg(long, value_name = "N", default_value_t = 16,
-          value_parser = clap::value_parser!(u32).range(1..))]
-    pub spp: u32,
+    /// Path tracing: samples per pixel, on either backend (default 16, or --frames).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
+    pub spp: Option<u32>,
     /// Path tracing: scatterings per path.
     #[arg(long, value_name = "N", default_value_t = 3)]
     pub bounces: u32,
@@ -209,7 +101,7 @@ pub struct Args {
     #[arg(long, value_name = "sky|FILE", default_value = "sky")]
     pub env: String,
     /// GPU path tracing: primary rays `raster` (the hybrid, default) or `traced`.
-    #[arg(long, value_enum, value_name = "raster|traced")]
+    #[arg(long, value_name = "raster|traced", value_parser = primary_parser())]
     pub primary: Option<Primary>,
     /// Path tracing: random seed.
     #[arg(long, value_name = "S", default_value_t = 0)]
@@ -237,6 +129,28 @@ pub struct Aovs {
     pub cluster: Option<PathBuf>,
 }
 
+impl Aovs {
+    fn slot(&mut self, aov: Aov) -> &mut Option<PathBuf> {
+        match aov {
+            Aov::Depth => &mut self.depth,
+            Aov::Normal => &mut self.normal,
+            Aov::Cluster => &mut self.cluster,
+        }
+    }
+
+    /// (AOV, file) of each requested output.
+    fn files(&self) -> Vec<(Aov, &PathBuf)> {
+        [
+            (Aov::Depth, &self.depth),
+            (Aov::Normal, &self.normal),
+            (Aov::Cluster, &self.cluster),
+        ]
+        .into_iter()
+        .filter_map(|(aov, path)| path.as_ref().map(|p| (aov, p)))
+        .collect()
+    }
+}
+
 fn parse_aovs(s: &str) -> Result<Aovs, String> {
     let mut aovs = Aovs::default();
     for part in s.split(',') {
@@ -244,13 +158,8 @@ fn parse_aovs(s: &str) -> Result<Aovs, String> {
             .split_once('=')
             .filter(|(_, f)| !f.is_empty())
             .ok_or_else(|| format!("AOV {part:?} is not NAME=FILE"))?;
-        let slot = match name.trim() {
-            "depth" => &mut aovs.depth,
-            "normal" => &mut aovs.normal,
-            "cluster" => &mut aovs.cluster,
-            other => return Err(format!("unknown AOV {other:?} (depth, normal or cluster)")),
-        };
-        if slot.replace(PathBuf::from(file)).is_some() {
+        let aov: Aov = name.parse().map_err(|e: isogrid::Error| e.to_string())?;
+        if aovs.slot(aov).replace(PathBuf::from(file)).is_some() {
             return Err(format!("AOV {name} given twice"));
         }
     }
@@ -259,7 +168,7 @@ fn parse_aovs(s: &str) -> Result<Aovs, String> {
 
 /// "1280x720" → (1280, 720).
 pub fn parse_size(s: &str) -> Result<(u32, u32), String> {
-    let max = isogrid_trace::render::MAX_PIXELS;
+    let max = isogrid_render::MAX_PIXELS;
     let bad = || format!("size must be WxH, positive integers with W·H at most {max}, not {s:?}");
     let (w, h) = s.split_once(['x', 'X']).ok_or_else(bad)?;
     let w: u32 = w.trim().parse().map_err(|_| bad())?;
@@ -268,6 +177,35 @@ pub fn parse_size(s: &str) -> Result<(u32, u32), String> {
         return Err(bad());
     }
     Ok((w, h))
+}
+
+/// Per-pass GPU milliseconds (median over frames after the first), `null` where unmeasured.
+#[derive(Serialize, Default)]
+pub struct GpuTimes {
+    /// Depth + G-buffer: cell raster (both visibility passes) plus EWA, or the MC mesh (Table 4).
+    pub raster_ms: Option<f64>,
+    /// Raster without the EWA pass.
+    pub raster_no_ewa_ms: Option<f64>,
+    pub ewa_ms: Option<f64>,
+    pub shade_ms: Option<f64>,
+    pub cull_ms: Option<f64>,
+    pub frame_ms: Option<f64>,
+    /// Path tracing: the compute pass tracing secondary rays (and primary ones when traced).
+    pub trace_ms: Option<f64>,
+}
+
+impl From<isogrid_gpu::PassTimings> for GpuTimes {
+    fn from(t: isogrid_gpu::PassTimings) -> Self {
+        GpuTimes {
+            raster_ms: t.raster_ms,
+            raster_no_ewa_ms: t.raster_ms.map(|r| r - t.ewa_ms.unwrap_or(0.0)),
+            ewa_ms: t.ewa_ms,
+            shade_ms: t.shade_ms,
+            cull_ms: t.cull_ms,
+            frame_ms: t.frame_ms,
+            trace_ms: t.trace_ms,
+        }
+    }
 }
 
 #[derive(Serialize)]
@@ -298,7 +236,7 @@ struct RenderReport {
     primary: Option<&'static str>,
     /// GPU: frames rendered, per-pass GPU times, cells drawn and probed in the last frame.
     frames: Option<u32>,
-    gpu_ms: Option<render_gpu::GpuTimes>,
+    gpu_ms: Option<GpuTimes>,
     drawn_cells: Option<u64>,
     probed_cells: Option<u64>,
     /// GPU: the raster that drew the cells, `compute` or `hardware`.
@@ -306,107 +244,47 @@ struct RenderReport {
     output: Option<PathBuf>,
 }
 
-/// The pixels and AOVs of a render, whichever backend made them.
-struct Rendered {
-    channels: u8,
-    pixels: Vec<u8>,
-    depth: Vec<f32>,
-    normal: Vec<[f32; 3]>,
-    cluster: Vec<u32>,
-}
-
-fn mode_name(mode: Mode) -> &'static str {
-    match mode {
-        Mode::Cgc => "cgc",
-        Mode::CgcNoewa => "cgc-noewa",
-        Mode::Mc => "mc",
-        Mode::Cr => "cr",
-        Mode::Pathtrace => "pathtrace",
+impl RenderReport {
+    fn new(args: &Args, grid: &isogrid::CellGrid, r: Rendered) -> (Self, Rendered) {
+        let path_trace = args.mode == Mode::PathTrace;
+        let cpu = r.cpu.as_ref();
+        let gpu = r.gpu.as_ref();
+        let report = RenderReport {
+            backend: match r.placement {
+                Placement::Cpu => "cpu",
+                Placement::Gpu => "gpu",
+            },
+            adapter: gpu.map(|_| r.adapter.clone()),
+            mode: args.mode.name(),
+            crossing: cpu.map(|c| c.crossing),
+            traversal: cpu.map(|c| c.traversal),
+            tracer_build_seconds: cpu.map(|c| c.build_seconds),
+            width: r.width,
+            height: r.height,
+            seconds: r.seconds,
+            hits: r.hits() as u64,
+            active_cells: grid.active_cells() as u64,
+            clusters: grid.clusters() as u64,
+            rays: cpu.map(|c| c.rays),
+            rays_per_second: cpu.map(|c| c.rays as f64 / r.seconds.max(1e-9)),
+            spp: r.samples,
+            bounces: path_trace.then_some(args.bounces),
+            primary: gpu
+                .filter(|_| path_trace)
+                .map(|_| args.primary.unwrap_or_default().name()),
+            frames: gpu.map(|g| g.frames),
+            gpu_ms: gpu.map(|g| GpuTimes::from(g.timings)),
+            drawn_cells: gpu.filter(|_| !path_trace).map(|g| g.drawn_cells),
+            probed_cells: gpu.filter(|_| !path_trace).map(|g| g.probed_cells),
+            cell_raster: gpu.and_then(|g| g.cell_raster).map(|c| match c {
+                CellRaster::Hardware => "hardware",
+                _ => "compute",
+            }),
+            output: args.output.clone(),
+        };
+        (report, r)
     }
 }
-
-fn gpu_mode(mode: Mode) -> Option<isogrid_gpu::Mode> {
-    match mode {
-        Mode::Cgc => Some(isogrid_gpu::Mode::Cgc),
-        Mode::CgcNoewa => Some(isogrid_gpu::Mode::CgcNoEwa),
-        Mode::Mc => Some(isogrid_gpu::Mode::Mc),
-        Mode::Cr => Some(isogrid_gpu::Mode::Cr),
-        Mode::Pathtrace => None,
-    }
-}
-
-/// Picks the backend before any data is read, so impossible requests fail fast.
-fn choose_renderer(
-    backend: Backend,
-    mode: Mode,
-    primary: Option<Primary>,
-) -> Result<Option<isogrid_gpu::Renderer>> {
-    if primary.is_some() && mode != Mode::Pathtrace {
-        bail!(
-            "--primary applies to --mode pathtrace on the GPU only, not to --mode {}",
-            mode_name(mode)
-        );
-    }
-    if primary.is_some() && backend == Backend::Cpu {
-        bail!("--primary applies to GPU path tracing only; drop it or use --backend gpu");
-    }
-    if let (Some(p), Backend::Auto) = (primary, backend) {
-        // Naming the primaries asks for the GPU path tracer; falling back would ignore it.
-        return render_gpu::renderer()?.map(Some).ok_or_else(|| {
-            anyhow::anyhow!(
-                "--primary {} needs a GPU adapter and none was found",
-                p.name()
-            )
-        });
-    }
-    let gpu_only = matches!(mode, Mode::CgcNoewa | Mode::Mc | Mode::Cr);
-    match backend {
-        Backend::Cpu if gpu_only => bail!(
-            "mode {} needs the GPU renderer; on the CPU use --mode cgc or pathtrace",
-            mode_name(mode)
-        ),
-        Backend::Cpu => Ok(None),
-        Backend::Gpu => render_gpu::renderer()?.map(Some).ok_or_else(|| {
-            anyhow::anyhow!(
-                "no GPU adapter found (for a CPU Vulkan driver install mesa-vulkan-drivers)"
-            )
-        }),
-        Backend::Auto => match render_gpu::renderer()? {
-            Some(r) => Ok(Some(r)),
-            None if gpu_only => bail!(
-                "mode {} needs a GPU adapter and none was found",
-                mode_name(mode)
-            ),
-            None => {
-                eprintln!("isogrid: no GPU adapter, rendering on the CPU");
-                Ok(None)
-            }
-        },
-    }
-}
-
-/// Fills the GPU fields of the report and hands back the frame's pixels and AOVs.
-fn gpu_rendered(report: &mut RenderReport, out: render_gpu::GpuRender, frames: u32) -> Rendered {
-    report.backend = "gpu";
-    report.adapter = Some(out.adapter);
-    report.frames = Some(frames);
-    report.gpu_ms = Some(out.times);
-    let f = out.frame;
-    report.hits = f.cluster.iter().filter(|&&c| c != u32::MAX).count() as u64;
-    Rendered {
-        channels: 4,
-        pixels: f.rgba8,
-        depth: f.depth,
-        normal: f.normal,
-        cluster: f.cluster,
-    }
-}
-
-/// Host memory per pixel of a render, bytes: the CPU tracer keeps each pixel's primary hit
-/// (64), radiance (12), path-tracing sum (24), sRGB (3), depth (4), normal (12) and cluster (4),
-/// and the PNG encoder a row-filtered copy (4); the GPU read-back holds RGBA, depth, normal and
-/// cluster (24) and their staging copies.
-const BYTES_PER_PIXEL: u64 = 128;
 
 /// The files `args` writes, checked against each other and the inputs before any work.
 fn check_outputs(args: &Args) -> Result<()> {
@@ -418,197 +296,155 @@ fn check_outputs(args: &Args) -> Result<()> {
             extensions: &[".png"],
         });
     }
-    if let Some(aovs) = &args.aov {
-        for (role, path) in [
-            ("the depth AOV", &aovs.depth),
-            ("the normal AOV", &aovs.normal),
-            ("the cluster AOV", &aovs.cluster),
-        ] {
-            if let Some(path) = path {
-                outs.push(Output {
-                    role,
-                    path,
-                    extensions: &[".npy"],
-                });
-            }
-        }
+    let aov_files = args.aov.as_ref().map(Aovs::files).unwrap_or_default();
+    for (aov, path) in &aov_files {
+        outs.push(Output {
+            role: match aov {
+                Aov::Depth => "the depth AOV",
+                Aov::Normal => "the normal AOV",
+                Aov::Cluster => "the cluster AOV",
+            },
+            path,
+            extensions: &[".npy"],
+        });
     }
-    let env = Path::new(&args.env);
+    let env = EnvSource::parse(&args.env);
     let mut inputs = vec![args.source.input.as_path()];
-    if args.mode == Mode::Pathtrace && !args.env.eq_ignore_ascii_case("sky") {
-        inputs.push(env);
-    }
+    inputs.extend(env.path());
     outputs::check(&inputs, &outs)
 }
 
-pub fn run(args: Args) -> Result<()> {
-    // Check everything that does not need the data first.
-    check_outputs(&args)?;
+/// The request the flags describe (checked, environment map read).
+fn request(args: &Args) -> Result<RenderRequest> {
     let (width, height) = args.size;
-    isogrid::memory::ensure_fits(
-        &format!("a {width}x{height} render"),
-        width as u64 * height as u64 * BYTES_PER_PIXEL,
-    )?;
-    if let Some(spec) = &args.camera {
-        Camera::parse(spec, width, height)?;
-    }
-    let env_map = match args.mode {
-        Mode::Pathtrace if !args.env.eq_ignore_ascii_case("sky") => {
-            Some(isogrid_io::image::read_env_map(Path::new(&args.env))?)
+    let camera = match &args.camera {
+        Some(spec) => {
+            let c = Camera::parse(spec, width, height)?;
+            CameraSpec::LookAt {
+                eye: c.eye,
+                target: c.target,
+                up: c.up,
+                fovy_degrees: c.fovy_degrees,
+            }
         }
-        _ => None,
+        None => CameraSpec::View(args.view),
     };
+    // Path tracing takes one sample per GPU frame, so --frames has long meant its samples.
+    let samples = match (args.spp, args.frames) {
+        (Some(spp), Some(frames)) if args.mode == Mode::PathTrace && spp != frames => bail!(
+            "--spp {spp} and --frames {frames} both set the samples of path tracing; give one"
+        ),
+        (Some(spp), _) => spp,
+        (None, Some(frames)) if args.mode == Mode::PathTrace => frames,
+        _ => DEFAULT_SAMPLES,
+    };
+    let parts = RequestParts {
+        mode: args.mode,
+        backend: args.backend,
+        camera,
+        size: args.size,
+        environment: EnvSource::parse(&args.env),
+        samples,
+        frames: args.frames.unwrap_or(1),
+        bounces: args.bounces,
+        primary: args.primary,
+        traversal: args.traversal.into(),
+        crossing: if args.exact {
+            Crossing::Exact
+        } else {
+            Crossing::Samples3
+        },
+        seed: args.seed,
+        aovs: args
+            .aov
+            .as_ref()
+            .map(|a| a.files().into_iter().map(|(aov, _)| aov).collect())
+            .unwrap_or_default(),
+        occlusion_culling: !args.no_occlusion_culling,
+        cell_raster: args.cell_raster,
+    };
+    Ok(RenderRequest::new(parts)?)
+}
+
+/// Runs `work` while a progress bar follows `progress` (rows on the CPU, frames of GPU path
+/// tracing) and Ctrl-C cancels it.
+fn with_progress_bar<T: Send>(
+    message: &str,
+    progress: &Arc<Progress>,
+    work: impl FnOnce() -> T + Send,
+) -> T {
+    let _cancel = cancel_on_interrupt(progress.clone());
+    let bar = progress::bar(message, 0);
+    let finished = AtomicBool::new(false);
+    let out = std::thread::scope(|scope| {
+        scope.spawn(|| {
+            while !finished.load(Ordering::Relaxed) {
+                let (done, total) = progress.counts();
+                bar.set_length(total);
+                bar.set_position(done);
+                std::thread::sleep(Duration::from_millis(100));
+            }
+        });
+        let out = work();
+        finished.store(true, Ordering::Relaxed);
+        out
+    });
+    bar.finish_and_clear();
+    out
+}
+
+pub fn run(args: Args) -> Result<()> {
+    // Everything that does not need the data first.
+    check_outputs(&args)?;
+    let request = request(&args)?;
     // The input before the GPU: a bad file or a missing --iso fails without starting a device
     // (whose drivers may print their own lines).
     let (grid, volume) = args.threads.install(|| args.source.load_with_volume())??;
-    let renderer = choose_renderer(args.backend, args.mode, args.primary)?;
-    let camera = match &args.camera {
-        Some(spec) => Camera::parse(spec, width, height)?,
-        None => {
-            let (lo, hi) = grid.info().world_bounds();
-            Camera::preset(args.view, lo, hi, width, height)?
-        }
+    let ctx = RenderContext::new();
+    let decision = ctx.decide(&request)?;
+    if let Some(note) = &decision.note {
+        eprintln!("isogrid: {note}");
+    }
+    let progress = Arc::new(Progress::new());
+    let message = match decision.placement {
+        Placement::Cpu => "rendering on the CPU",
+        Placement::Gpu => "rendering on the GPU",
     };
-    let mut report = RenderReport {
-        backend: "cpu",
-        adapter: None,
-        mode: mode_name(args.mode),
-        crossing: None,
-        traversal: None,
-        tracer_build_seconds: None,
-        width,
-        height,
-        seconds: 0.0,
-        hits: 0,
-        active_cells: grid.active_cells() as u64,
-        clusters: grid.clusters() as u64,
-        rays: None,
-        rays_per_second: None,
-        spp: None,
-        bounces: None,
-        primary: None,
-        frames: None,
-        gpu_ms: None,
-        drawn_cells: None,
-        probed_cells: None,
-        cell_raster: None,
-        output: args.output.clone(),
-    };
-
-    let rendered = match (&renderer, gpu_mode(args.mode)) {
-        (Some(renderer), None) => {
-            let spinner = progress::spinner("path tracing on the GPU".into());
-            let start = Instant::now();
-            let primary = args.primary.unwrap_or(Primary::Raster);
-            let out = render_gpu::path_trace(
-                renderer,
-                &grid,
-                &camera,
-                args.frames,
-                args.bounces,
-                env_map.as_ref(),
-                match primary {
-                    Primary::Raster => isogrid_gpu::PrimaryRays::Raster,
-                    Primary::Traced => isogrid_gpu::PrimaryRays::Traced,
-                },
-            )?;
-            report.seconds = start.elapsed().as_secs_f64();
-            spinner.finish_and_clear();
-            report.spp = Some(out.frame.samples);
-            report.bounces = Some(args.bounces);
-            report.primary = Some(primary.name());
-            gpu_rendered(&mut report, out, args.frames)
-        }
-        (Some(renderer), Some(mode)) => {
-            let spinner = progress::spinner("rendering on the GPU".into());
-            let start = Instant::now();
-            let out = render_gpu::render(
-                renderer,
+    let rendered = with_progress_bar(message, &progress, || {
+        args.threads.install(|| {
+            isogrid_render::render(
+                &ctx,
+                &request,
+                decision.placement,
                 &grid,
                 volume.as_ref(),
-                &camera,
-                mode,
-                &isogrid_gpu::RenderOptions {
-                    frames: args.frames,
-                    occlusion_culling: !args.no_occlusion_culling,
-                    cell_raster: args.cell_raster.into(),
-                    ..Default::default()
-                },
-            )?;
-            report.seconds = start.elapsed().as_secs_f64();
-            spinner.finish_and_clear();
-            report.cell_raster = out.frame.cell_raster.map(|r| match r {
-                isogrid_gpu::CellRaster::Hardware => "hardware",
-                _ => "compute",
-            });
-            report.drawn_cells = Some(out.frame.drawn_cells);
-            report.probed_cells = Some(out.frame.probed_cells);
-            gpu_rendered(&mut report, out, args.frames)
+                &progress,
+            )
+        })
+    })?;
+    let rendered = match rendered {
+        Err(e) if e.kind() == isogrid::ErrorKind::Cancelled => {
+            return Err(anyhow::Error::from(e).context("render stopped by Ctrl-C, nothing written"))
         }
-        _ => {
-            let shading = match args.mode {
-                Mode::Pathtrace => Shading::PathTrace(PathTraceOptions {
-                    samples_per_pixel: args.spp,
-                    bounces: args.bounces,
-                    environment: env_map.map_or(Environment::Sky, Environment::Map),
-                    seed: args.seed,
-                    ..PathTraceOptions::default()
-                }),
-                _ => Shading::Phong,
-            };
-            let crossing = if args.exact {
-                Crossing::Exact
-            } else {
-                Crossing::Samples3
-            };
-            let options = RenderOptions {
-                crossing,
-                traversal: args.traversal.into(),
-                shading,
-            };
-            let passes = match &options.shading {
-                Shading::PathTrace(p) => 1 + p.samples_per_pixel as u64,
-                Shading::Phong => 1,
-            };
-            let bar = progress::bar("rendering", passes);
-            let start = Instant::now();
-            let image = args.threads.install(|| {
-                render_with_progress(&grid, &camera, &options, &|done, _| bar.set_position(done))
-            })??;
-            report.seconds = start.elapsed().as_secs_f64();
-            bar.finish_and_clear();
-            report.crossing = Some(if args.exact { "exact" } else { "samples3" });
-            report.traversal = Some(options.traversal.name());
-            report.tracer_build_seconds = Some(image.build_seconds);
-            report.hits = image.hits() as u64;
-            report.rays = Some(image.rays_traced);
-            report.rays_per_second = Some(image.rays_traced as f64 / report.seconds.max(1e-9));
-            if args.mode == Mode::Pathtrace {
-                report.spp = Some(args.spp);
-                report.bounces = Some(args.bounces);
-            }
-            Rendered {
-                channels: 3,
-                pixels: image.rgb8,
-                depth: image.depth,
-                normal: image.normal,
-                cluster: image.cluster,
-            }
-        }
+        r => r?,
     };
+    let (width, height) = args.size;
+    let (report, rendered) = RenderReport::new(&args, &grid, rendered);
 
     if let Some(out) = &args.output {
-        isogrid_io::image::write_png(out, width, height, rendered.channels, &rendered.pixels)?;
+        isogrid_io::image::write_png(out, width, height, 3, &rendered.rgb8)?;
     }
-    if let Some(aovs) = &args.aov {
-        if let Some(p) = &aovs.depth {
-            isogrid_io::image::write_npy_f32_hw(p, width, height, &rendered.depth)?;
-        }
-        if let Some(p) = &aovs.normal {
-            isogrid_io::image::write_npy_f32_hw3(p, width, height, &rendered.normal)?;
-        }
-        if let Some(p) = &aovs.cluster {
-            isogrid_io::image::write_npy_u32_hw(p, width, height, &rendered.cluster)?;
+    for (aov, path) in args.aov.as_ref().map(Aovs::files).unwrap_or_default() {
+        match aov {
+            Aov::Depth => {
+                isogrid_io::image::write_npy_f32_hw(path, width, height, &rendered.depth)?
+            }
+            Aov::Normal => {
+                isogrid_io::image::write_npy_f32_hw3(path, width, height, &rendered.normal)?
+            }
+            Aov::Cluster => {
+                isogrid_io::image::write_npy_u32_hw(path, width, height, &rendered.cluster)?
+            }
         }
     }
     if args.json {

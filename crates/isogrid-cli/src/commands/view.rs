@@ -4,7 +4,7 @@
 use crate::args::{parse_precision, InputArgs};
 use anyhow::{bail, Result};
 use isogrid::{Iso, Precision};
-use isogrid_viewer::{ViewMode, ViewerOptions};
+use isogrid_viewer::{Mode, ViewerOptions};
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
@@ -27,8 +27,8 @@ pub struct Args {
     pub precision: Option<Precision>,
     /// What to draw: cgc, cgc-noewa, mc (Marching Cubes mesh), cr (needs the volume) or pathtrace
     /// (GPU hybrid path tracing, refined while the camera rests).
-    #[arg(long, default_value = "cgc", value_parser = ["cgc", "cgc-noewa", "mc", "cr", "pathtrace"])]
-    pub mode: String,
+    #[arg(long, default_value = "cgc", value_parser = super::render::mode_parser())]
+    pub mode: Mode,
     /// Initial camera: the paper's view 1 (front) or 2 (oblique).
     #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u8).range(1..=2))]
     pub view: u8,
@@ -59,7 +59,7 @@ pub fn run(args: Args) -> Result<()> {
     if args.frames.is_some() && args.input.is_none() && !args.wait_for_drop {
         bail!("--frames needs an INPUT to render");
     }
-    let mode: ViewMode = args.mode.parse()?;
+    let mode = args.mode;
     if let Some(path) = &args.screenshot {
         let inputs: Vec<&std::path::Path> = args.input.as_deref().into_iter().collect();
         crate::outputs::check(

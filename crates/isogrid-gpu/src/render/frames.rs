@@ -8,7 +8,7 @@ use super::plan::FramePlan;
 use super::readback::Readbacks;
 use super::timings::{read_timings, PassClock, Timestamps, TS_TRACE};
 use super::uniforms::frame_uniforms;
-use crate::error::GpuError;
+use crate::error::{GpuError, GpuErrorKind};
 use crate::options::{Mode, PathTraceOptions, RenderOptions};
 use crate::output::Frame;
 use crate::passes::RasterPasses;
@@ -119,7 +119,24 @@ fn render_unscoped(
         visibility: visibility.as_ref(),
         size: (camera.width, camera.height),
     };
+    // With a progress to report to, the CPU waits for frame f − 1 after submitting frame f: the
+    // GPU stays busy, finished frames are counted, and a cancel is seen within a frame.
+    let progress = path_trace.and_then(|o| o.progress);
+    if let Some(p) = progress {
+        p.start(frames as u64);
+    }
+    let mut in_flight = None;
     for f in 0..frames {
+        if let Some(p) = progress.filter(|p| p.is_cancelled()) {
+            gpu.device
+                .poll(wgpu::PollType::wait_indefinitely())
+                .map_err(|e| GpuError::device(format!("waiting for the GPU: {e}")))?;
+            let (done, total) = p.counts();
+            return Err(GpuError::new(
+                GpuErrorKind::Cancelled,
+                format!("interrupted after {done} of {total} frames"),
+            ));
+        }
         let uniforms = frame_uniforms(
             camera,
             plan.grid,
@@ -166,13 +183,27 @@ fn render_unscoped(
             let pages = plan.raster_grid.map_or(&[][..], |g| &g.pages[..]);
             readbacks.record(&mut encoder, pages);
         }
-        gpu.queue.submit([encoder.finish()]);
+        let submitted = gpu.queue.submit([encoder.finish()]);
+        if let Some(p) = progress {
+            if let Some(previous) = in_flight.replace(submitted) {
+                gpu.device
+                    .poll(wgpu::PollType::Wait {
+                        submission_index: Some(previous),
+                        timeout: None,
+                    })
+                    .map_err(|e| GpuError::device(format!("waiting for the GPU: {e}")))?;
+                p.advance(1);
+            }
+        }
     }
 
     let timings = read_timings(gpu, timestamps.as_ref(), &clock)?;
     let mut frame = readbacks.frame(gpu, timings, plan.occlusion, plan.cell_raster)?;
     if let Some(pt) = path_pass {
         pt.finish(gpu, &mut frame, view, frames)?;
+    }
+    if let Some(p) = progress {
+        p.advance(1);
     }
     Ok(frame)
 }

@@ -4,7 +4,7 @@
 use super::{App, PANEL_WIDTH};
 use crate::panel;
 use crate::screenshot;
-use crate::ViewMode;
+use crate::Mode;
 use eframe::egui;
 use isogrid::{Iso, Precision};
 use std::path::PathBuf;
@@ -48,7 +48,7 @@ impl App {
         ui.label("Mode");
         let has_volume = self.source.as_ref().is_none_or(|s| s.has_volume());
         ui.horizontal_wrapped(|ui| {
-            for mode in ViewMode::ALL {
+            for mode in Mode::ALL {
                 let reason = if mode.needs_volume() && !has_volume {
                     Some("needs the original volume; a .cgc file holds only the cells")
                 } else {
@@ -67,7 +67,7 @@ impl App {
                 }
             }
         });
-        if self.mode == ViewMode::Mc && self.measurements.mesh.is_none() {
+        if self.mode == Mode::Mc && self.measurements.mesh.is_none() {
             ui.label("Marching Cubes mesh: extracting…");
         }
         let compare = ui

@@ -3,7 +3,7 @@
 
 use super::App;
 use crate::render_worker::{RenderMsg, RenderRequest};
-use crate::ViewMode;
+use crate::Mode;
 use isogrid::Camera;
 use std::time::Duration;
 
@@ -20,7 +20,7 @@ const SETTLE: Duration = Duration::from_millis(250);
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(super) struct ViewKey {
     pub(super) camera: Camera,
-    pub(super) mode: ViewMode,
+    pub(super) mode: Mode,
     /// Grid (or, in MC mode, mesh) uploads so far.
     pub(super) scene: u64,
 }
@@ -28,7 +28,7 @@ pub(super) struct ViewKey {
 impl App {
     /// Whether the extraction worker should also run Marching Cubes.
     pub(super) fn wants_mesh(&self) -> bool {
-        self.compare_mc || self.mode == ViewMode::Mc
+        self.compare_mc || self.mode == Mode::Mc
     }
 
     /// Sends the next render request when the frame on screen is out of date and none is
@@ -42,7 +42,7 @@ impl App {
             .map(|t| t.elapsed())
             .filter(|&e| e < SETTLE);
         let scene = match self.mode {
-            ViewMode::Mc => self.mesh_version,
+            Mode::Mc => self.mesh_version,
             _ => self.grid_version,
         };
         let shown_width = self
@@ -72,7 +72,7 @@ impl App {
         let recheck = settling.map(|e| SETTLE - e);
         // Path tracing refines while the camera rests: the same view is asked for again, each
         // call adding a sample, until PATH_TRACE_SAMPLES.
-        let refining = key.mode == ViewMode::PathTrace && self.shown_samples < PATH_TRACE_SAMPLES;
+        let refining = key.mode == Mode::PathTrace && self.shown_samples < PATH_TRACE_SAMPLES;
         if (self.shown == Some(key) && !refining) || self.refused == Some(key) {
             return recheck;
         }

@@ -5,7 +5,7 @@ use super::script::ScriptState;
 use super::App;
 use crate::events::{Event, Failure, RenderedFrame, SourceInfo};
 use crate::panel::{FrameFacts, GridFacts, MeshFacts};
-use crate::ViewMode;
+use crate::Mode;
 use eframe::egui;
 use isogrid::Iso;
 
@@ -71,7 +71,7 @@ impl App {
                     // Not fatal to a scripted run: without a mesh only the memory comparison is
                     // missing (MC mode needs it), and a dropped file's error is what a drop test
                     // expects to see.
-                    let shown_only = (failure == Failure::Mesh && self.mode != ViewMode::Mc)
+                    let shown_only = (failure == Failure::Mesh && self.mode != Mode::Mc)
                         || (failure == Failure::Open && self.script_expects_open_error());
                     if shown_only {
                         self.note(message, true);
@@ -104,7 +104,7 @@ impl App {
                 "mode {} needs the original volume; a .cgc file holds only the cells: showing cgc",
                 self.mode
             ));
-            self.mode = ViewMode::Cgc;
+            self.mode = Mode::Cgc;
         }
         self.note(format!("opened {}", info.path.display()), false);
         self.source = Some(info);

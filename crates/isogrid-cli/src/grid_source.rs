@@ -1,0 +1,89 @@
+//! Where the grid of a render or benchmark comes from: a `.cgc` file, or a volume extracted at
+//! `--iso`/`--iso-normalized` with an optional `--precision`.
+
+use crate::args::{parse_precision, InputArgs};
+use crate::{input, progress};
+use anyhow::{bail, Context, Result};
+use isogrid::{extract, CellGrid, ExtractOptions, Iso, Precision, Volume};
+use std::path::{Path, PathBuf};
+
+/// `--iso V | --iso-normalized V`, needed unless the input is a `.cgc` file.
+#[derive(clap::Args, Debug, Clone)]
+#[group(required = false, multiple = false)]
+pub struct OptionalIso {
+    /// Isovalue in data units: a sample is inside when value >= V.
+    #[arg(long, value_name = "V", allow_hyphen_values = true)]
+    pub iso: Option<f64>,
+    /// Isovalue as a fraction of the volume's value range (the paper uses 0.5).
+    #[arg(long, value_name = "V")]
+    pub iso_normalized: Option<f64>,
+}
+
+/// Where the grid of a render or benchmark comes from.
+#[derive(clap::Args, Debug, Clone)]
+pub struct GridSource {
+    /// A .cgc file, or a volume (.nii/.nii.gz, .nrrd, .npy, .tif, .mha, .mrc, DICOM folder, raw) to
+    /// extract.
+    pub input: PathBuf,
+    #[command(flatten)]
+    pub iso: OptionalIso,
+    /// Bits per stored corner value when extracting: 4, 8, 16 or 32.
+    #[arg(long, value_name = "BITS", value_parser = parse_precision)]
+    pub precision: Option<Precision>,
+    #[command(flatten)]
+    pub input_args: InputArgs,
+}
+
+fn is_cgc(path: &Path) -> bool {
+    path.extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("cgc"))
+}
+
+impl GridSource {
+    /// Opens the `.cgc` file or reads and extracts the volume (on the current rayon pool).
+    pub fn load(&self) -> Result<CellGrid> {
+        Ok(self.load_with_volume()?.0)
+    }
+
+    /// Like [`GridSource::load`], also keeping the volume (absent for `.cgc` files).
+    pub fn load_with_volume(&self) -> Result<(CellGrid, Option<Volume>)> {
+        if is_cgc(&self.input) {
+            if self.iso.iso.is_some() || self.iso.iso_normalized.is_some() {
+                bail!(
+                    "{}: a .cgc file has its isovalue already; drop --iso/--iso-normalized",
+                    self.input.display()
+                );
+            }
+            if self.precision.is_some() {
+                bail!(
+                    "{}: a .cgc file has its precision already; drop --precision \
+                     (or extract the volume again with it)",
+                    self.input.display()
+                );
+            }
+            let grid = isogrid::cgc::open(&self.input)?;
+            crate::report::note_if_empty(&self.input, &grid);
+            return Ok((grid, None));
+        }
+        let iso = match (self.iso.iso, self.iso.iso_normalized) {
+            (Some(v), _) => Iso::Value(v),
+            (_, Some(t)) => Iso::Normalized(t),
+            _ => bail!(
+                "{}: a volume needs --iso V or --iso-normalized V",
+                self.input.display()
+            ),
+        };
+        let (volume, _) = input::read_volume(&self.input, &self.input_args.read_options()?)?;
+        let spinner = progress::spinner("extracting".into());
+        let options = ExtractOptions {
+            iso,
+            precision: self.precision,
+        };
+        let grid = extract(&volume.view(), &options)
+            .with_context(|| format!("{}: extraction failed", self.input.display()))?;
+        spinner.finish_and_clear();
+        crate::report::note_if_empty(&self.input, &grid);
+        Ok((grid, Some(volume)))
+    }
+}

@@ -1,0 +1,6 @@
+//! Integration tests of the render front door: request validation, the backend policy, and
+//! dispatch with progress and cancellation on both renderers.
+
+mod dispatch;
+mod policy;
+mod request;
