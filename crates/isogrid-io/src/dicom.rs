@@ -39,6 +39,7 @@
 //!   MONOCHROME1 values are kept, not inverted; colour images are refused.
 
 mod file;
+mod lengths;
 
 use crate::geometry::{cross, dot, normalized, Vec3};
 use crate::read_options::ReadOptions;

@@ -114,13 +114,18 @@ fn bare_data_set(head: &[u8]) -> bool {
 
 /// Opens `path`, reading up to (not including) PixelData when `header_only`.
 fn open(path: &Path, header_only: bool) -> Result<DefaultDicomObject> {
-    let bare = {
-        let mut head = [0u8; 132];
-        let n = std::fs::File::open(path)
-            .and_then(|mut f| f.read(&mut head))
-            .map_err(|e| Error::from(e).with_path(path))?;
-        n >= 8 && !(n == 132 && &head[128..] == b"DICM") && &head[..4] != b"DICM"
+    let mut head = [0u8; 132];
+    let n = std::fs::File::open(path)
+        .and_then(|mut f| f.read(&mut head))
+        .map_err(|e| Error::from(e).with_path(path))?;
+    let preamble = n == 132 && &head[128..] == b"DICM";
+    let bare = n >= 8 && !preamble && &head[..4] != b"DICM";
+    let meta_at = match (bare, preamble) {
+        (true, _) => None,
+        (false, true) => Some(132),
+        (false, false) => Some(4),
     };
+    super::lengths::check_declared_lengths(path, meta_at).map_err(|e| e.with_path(path))?;
     let invalid = |e: &dyn std::fmt::Display| {
         Error::corrupt(format!("invalid DICOM file: {}", one_line(&e.to_string())))
     };

@@ -1,0 +1,102 @@
+//! Inputs the coverage-guided fuzz targets of `fuzz/` found to crash, abort, hang or allocate
+//! without bound (docs/fuzzing.md), rebuilt here byte for byte in their minimal form: each must
+//! now give a one-line error naming the file and the problem.
+
+use crate::bad_input::expect_err;
+use crate::common::TempDir;
+use isogrid::ErrorKind;
+use isogrid_io::ReadOptions;
+
+const EXPLICIT_LE: &[u8] = b"1.2.840.10008.1.2.1\0";
+
+/// A part-10 file: preamble, `DICM`, a file meta group declaring transfer syntax `ts` (a UID
+/// padded to even length), then `data_set`. `meta_extra` goes at the group's end.
+fn part10(ts: &[u8], meta_extra: &[u8], data_set: &[u8]) -> Vec<u8> {
+    let mut out = vec![0u8; 128];
+    out.extend_from_slice(b"DICM");
+    out.extend_from_slice(&[0x02, 0x00, 0x10, 0x00, b'U', b'I']);
+    out.extend_from_slice(&(ts.len() as u16).to_le_bytes());
+    out.extend_from_slice(ts);
+    out.extend_from_slice(meta_extra);
+    out.extend_from_slice(data_set);
+    out
+}
+
+/// Writes `bytes` as `name` and expects the DICOM reader's `Corrupt` error containing `needle`.
+fn expect_corrupt_dicom(name: &str, bytes: &[u8], needle: &str) {
+    let dir = TempDir::new("fuzz-dicom");
+    let path = dir.file(name, bytes);
+    expect_err(&path, &ReadOptions::default(), ErrorKind::Corrupt, needle);
+}
+
+/// An explicit VR little-endian element header with a 4-byte length (OB, OW, UN, SQ, UT, ...).
+fn long_header(group: u16, element: u16, vr: &[u8; 2], len: u32) -> Vec<u8> {
+    let mut h = Vec::new();
+    h.extend_from_slice(&group.to_le_bytes());
+    h.extend_from_slice(&element.to_le_bytes());
+    h.extend_from_slice(vr);
+    h.extend_from_slice(&[0, 0]);
+    h.extend_from_slice(&len.to_le_bytes());
+    h
+}
+
+/// dicom-parser reserves and zero-fills a value's declared length before reading it: the fuzzer's
+/// 3.5 KB file declared a 1.7 GB OB value and allocated it. The length is now checked against the
+/// bytes that follow, before dicom-rs reads anything.
+#[test]
+fn dicom_value_longer_than_the_file_is_refused_before_allocating() {
+    let mut data_set = long_header(0x0011, 0x0010, b"OB", 0x6B6B_6B6B);
+    data_set.extend_from_slice(&[1, 2, 3, 4]);
+    expect_corrupt_dicom(
+        "long_value.dcm",
+        &part10(EXPLICIT_LE, &[], &data_set),
+        "element (0011,0010) declares 1802201963 bytes but only 4 follow it",
+    );
+}
+
+/// The same in the file meta group, which dicom-object reads with its own allocating reader.
+#[test]
+fn dicom_meta_element_longer_than_the_file_is_refused_before_allocating() {
+    let meta = long_header(0x0002, 0x0001, b"OB", u32::MAX - 1);
+    expect_corrupt_dicom(
+        "long_meta.dcm",
+        &part10(EXPLICIT_LE, &meta, &[]),
+        "element (0002,0001) declares 4294967294 bytes but only 0 follow it",
+    );
+}
+
+/// Inside a sequence and as an encapsulated pixel data fragment, the lazy walk still sees lengths.
+#[test]
+fn dicom_fragment_longer_than_the_file_is_refused_before_allocating() {
+    // PixelData, OB, undefined length: an encapsulated pixel sequence.
+    let mut data_set = long_header(0x7FE0, 0x0010, b"OB", u32::MAX);
+    // Basic offset table item (empty), then one fragment item declaring 1 GiB.
+    for len in [0u32, 1 << 30] {
+        data_set.extend_from_slice(&[0xFE, 0xFF, 0x00, 0xE0]);
+        data_set.extend_from_slice(&len.to_le_bytes());
+    }
+    data_set.extend_from_slice(&[0u8; 16]);
+    expect_corrupt_dicom(
+        "long_fragment.dcm",
+        &part10(EXPLICIT_LE, &[], &data_set),
+        "a pixel data fragment declares 1073741824 bytes but only 16 follow it",
+    );
+}
+
+/// A deflated data set is walked inflated: its lengths count inflated bytes (the fuzzer's second
+/// reproducer declared a 1.4 GB OB value inside the deflate stream).
+#[test]
+fn dicom_deflated_value_longer_than_the_data_set_is_refused_before_allocating() {
+    use std::io::Write;
+    let mut data_set = long_header(0x0011, 0x0010, b"OB", 0x5503_0004);
+    data_set.extend_from_slice(&[1, 2, 3, 4]);
+    let mut deflate =
+        flate2::write::DeflateEncoder::new(Vec::new(), flate2::Compression::default());
+    deflate.write_all(&data_set).unwrap();
+    let deflated = deflate.finish().unwrap();
+    expect_corrupt_dicom(
+        "long_deflated.dcm",
+        &part10(b"1.2.840.10008.1.2.1.99\0", &[], &deflated),
+        "element (0011,0010) declares 1426259972 bytes but only 4 follow it",
+    );
+}
