@@ -9,9 +9,10 @@
 //! error. A deflated data set is inflated first (within [`isogrid::memory`]'s limit): its
 //! lengths count inflated bytes.
 
-use dicom_core::header::{HasLength as _, Header as _};
+use dicom_core::header::{DataElementHeader, HasLength as _, Header as _};
 use dicom_encoding::transfer_syntax::{Codec, TransferSyntax, TransferSyntaxIndex};
-use dicom_parser::dataset::lazy_read::LazyDataSetReader;
+use dicom_parser::dataset::lazy_read::{LazyDataSetReader, LazyDataSetReaderOptions};
+use dicom_parser::dataset::read::OddLengthStrategy;
 use dicom_parser::dataset::LazyDataToken;
 use dicom_parser::StatefulDecode;
 use dicom_transfer_syntax_registry::TransferSyntaxRegistry;
@@ -66,7 +67,11 @@ pub(super) fn check_declared_lengths(path: &Path, meta_at: Option<u64>) -> Resul
 /// Walks the data set from the source's position to `end` without reading values, failing on
 /// the first declared length that passes `end`.
 fn walk_data_set<S: Read + Seek>(source: S, ts: &TransferSyntax, end: u64) -> Result<()> {
-    let Ok(mut reader) = LazyDataSetReader::new_with_ts(source, ts) else {
+    // Odd lengths are walked as declared: the lazy reader's default refuses them, which would
+    // end the walk where dicom-object's reader goes on.
+    let mut options = LazyDataSetReaderOptions::default();
+    options.odd_length = OddLengthStrategy::Accept;
+    let Ok(mut reader) = LazyDataSetReader::new_with_ts_options(source, ts, options) else {
         return Ok(());
     };
     while let Some(Ok(token)) = reader.advance() {
@@ -82,6 +87,9 @@ fn walk_data_set<S: Read + Seek>(source: S, ts: &TransferSyntax, end: u64) -> Re
         if let Some(len) = len {
             check_fits(tag, len, at, end)?;
         }
+        if let LazyDataToken::LazyValue { header, .. } = &token {
+            check_whole_values(header)?;
+        }
         if token.skip().is_err() {
             break;
         }
@@ -89,61 +97,128 @@ fn walk_data_set<S: Read + Seek>(source: S, ts: &TransferSyntax, end: u64) -> Re
     Ok(())
 }
 
-/// Walks the explicit VR little-endian group-0002 elements from `at`; returns where the data set
-/// starts and the transfer syntax UID, or `None` when the group does not parse (left to dicom-rs).
+/// Walks the file meta group from `at` as dicom-object reads it: the group length element
+/// (0002,0000) first, then explicit VR little-endian elements, of any group, until that many
+/// bytes are read. Returns where the data set starts and the transfer syntax UID, or `None` when
+/// the group does not parse (left to dicom-rs).
 fn walk_meta_group(
     file: &mut BufReader<std::fs::File>,
     mut at: u64,
     file_len: u64,
 ) -> Result<Option<(u64, String)>> {
-    let mut ts_uid = None;
-    loop {
-        let mut head = [0u8; 8];
-        if file.seek(SeekFrom::Start(at)).is_err() || file.read_exact(&mut head).is_err() {
+    let Some((tag, len, value_at)) = element_header(file, at) else {
+        return Ok(None);
+    };
+    let mut group_len = [0u8; 4];
+    if tag != (0x0002, 0x0000) || len != 4 || file.read_exact(&mut group_len).is_err() {
+        return Ok(None);
+    }
+    let group_len = u32::from_le_bytes(group_len);
+    at = value_at + 4;
+    let (mut read, mut ts_uid) = (0u32, None);
+    while read < group_len {
+        let Some((tag, len, value_at)) = element_header(file, at) else {
             return Ok(None);
-        }
-        let group = u16::from_le_bytes([head[0], head[1]]);
-        let element = u16::from_le_bytes([head[2], head[3]]);
-        if group != 0x0002 {
-            return Ok(ts_uid.map(|uid| (at, uid)));
-        }
-        let long_form = matches!(
-            &head[4..6],
-            b"OB"
-                | b"OD"
-                | b"OF"
-                | b"OL"
-                | b"OV"
-                | b"OW"
-                | b"SQ"
-                | b"SV"
-                | b"UC"
-                | b"UN"
-                | b"UR"
-                | b"UT"
-                | b"UV"
-        );
-        let (len, header_len) = if long_form {
-            let mut n = [0u8; 4];
-            if file.read_exact(&mut n).is_err() {
-                return Ok(None);
-            }
-            (u32::from_le_bytes(n), 12)
-        } else {
-            (u16::from_le_bytes([head[6], head[7]]) as u32, 8)
         };
         if len == u32::MAX {
             return Ok(None);
         }
-        let value_at = at + header_len;
-        check_fits(Some((group, element).into()), len, value_at, file_len)?;
-        if (group, element) == (0x0002, 0x0010) {
+        check_fits(Some(tag.into()), len, value_at, file_len)?;
+        if tag == (0x0002, 0x0010) {
             let mut uid = vec![0u8; len as usize];
             file.read_exact(&mut uid).map_err(Error::from)?;
             let uid = String::from_utf8_lossy(&uid);
             ts_uid = Some(uid.trim_end_matches(['\0', ' ']).to_string());
         }
+        read = read
+            .saturating_add((value_at - at) as u32)
+            .saturating_add(len);
         at = value_at + u64::from(len);
+    }
+    Ok(ts_uid.map(|uid| (at, uid)))
+}
+
+/// The explicit VR little-endian element header at `at` (PS3.5 §7.1.2): its tag, its value
+/// length and where its value starts; `None` past the end of the file.
+fn element_header(file: &mut BufReader<std::fs::File>, at: u64) -> Option<((u16, u16), u32, u64)> {
+    let mut head = [0u8; 8];
+    file.seek(SeekFrom::Start(at)).ok()?;
+    file.read_exact(&mut head).ok()?;
+    let tag = (
+        u16::from_le_bytes([head[0], head[1]]),
+        u16::from_le_bytes([head[2], head[3]]),
+    );
+    let short_form = matches!(
+        &head[4..6],
+        b"AE"
+            | b"AS"
+            | b"AT"
+            | b"CS"
+            | b"DA"
+            | b"DS"
+            | b"DT"
+            | b"FL"
+            | b"FD"
+            | b"IS"
+            | b"LO"
+            | b"LT"
+            | b"PN"
+            | b"SH"
+            | b"SL"
+            | b"SS"
+            | b"ST"
+            | b"TM"
+            | b"UI"
+            | b"UL"
+            | b"US"
+    );
+    if tag.0 == 0xFFFE {
+        // Item and delimiter tags carry no VR: a 4-byte length follows the tag.
+        return Some((
+            tag,
+            u32::from_le_bytes([head[4], head[5], head[6], head[7]]),
+            at + 8,
+        ));
+    }
+    if short_form {
+        return Some((
+            tag,
+            u32::from(u16::from_le_bytes([head[6], head[7]])),
+            at + 8,
+        ));
+    }
+    let mut len = [0u8; 4];
+    file.read_exact(&mut len).ok()?;
+    Some((tag, u32::from_le_bytes(len), at + 12))
+}
+
+/// A numeric value must hold a whole number of values (PS3.5 §6.2): dicom-parser reads the whole
+/// values of a partial length and goes on short of the value's end, out of step with the data set
+/// from there on, so the walk above would no longer see what dicom-rs reads.
+fn check_whole_values(header: &DataElementHeader) -> Result<()> {
+    use dicom_core::VR;
+    let size = match header.vr() {
+        VR::US | VR::SS | VR::OW => 2,
+        VR::UL | VR::SL | VR::FL | VR::OL | VR::OF | VR::AT => 4,
+        VR::FD | VR::OD | VR::SV | VR::UV | VR::OV => 8,
+        _ => return Ok(()),
+    };
+    // 8-bit pixel data of odd size in an implicit VR file is OW by rule (PS3.5 A.1) and is
+    // usually the last element: nothing is read out of step after it.
+    if header.tag() == dicom_dictionary_std::tags::PIXEL_DATA {
+        return Ok(());
+    }
+    match header.length().get() {
+        Some(len) if len % size != 0 => {
+            let tag = header.tag();
+            Err(Error::corrupt(format!(
+                "invalid DICOM file: element ({:04X},{:04X}) of VR {} declares {len} bytes, not a whole number of {size}-byte values",
+                tag.group(),
+                tag.element(),
+                header.vr().to_string()
+            )))
+        }
+        _ => Ok(()),
     }
 }
 

@@ -9,15 +9,18 @@ use isogrid_io::ReadOptions;
 
 const EXPLICIT_LE: &[u8] = b"1.2.840.10008.1.2.1\0";
 
-/// A part-10 file: preamble, `DICM`, a file meta group declaring transfer syntax `ts` (a UID
-/// padded to even length), then `data_set`. `meta_extra` goes at the group's end.
+/// A part-10 file: preamble, `DICM`, a file meta group (its group length, `meta_extra`, then
+/// transfer syntax `ts`, a UID padded to even length), then `data_set`.
 fn part10(ts: &[u8], meta_extra: &[u8], data_set: &[u8]) -> Vec<u8> {
+    let mut group = meta_extra.to_vec();
+    group.extend_from_slice(&[0x02, 0x00, 0x10, 0x00, b'U', b'I']);
+    group.extend_from_slice(&(ts.len() as u16).to_le_bytes());
+    group.extend_from_slice(ts);
     let mut out = vec![0u8; 128];
     out.extend_from_slice(b"DICM");
-    out.extend_from_slice(&[0x02, 0x00, 0x10, 0x00, b'U', b'I']);
-    out.extend_from_slice(&(ts.len() as u16).to_le_bytes());
-    out.extend_from_slice(ts);
-    out.extend_from_slice(meta_extra);
+    out.extend_from_slice(&[0x02, 0x00, 0x00, 0x00, b'U', b'L', 4, 0]);
+    out.extend_from_slice(&(group.len() as u32).to_le_bytes());
+    out.extend_from_slice(&group);
     out.extend_from_slice(data_set);
     out
 }
@@ -61,11 +64,29 @@ fn dicom_meta_element_longer_than_the_file_is_refused_before_allocating() {
     expect_corrupt_dicom(
         "long_meta.dcm",
         &part10(EXPLICIT_LE, &meta, &[]),
-        "element (0002,0001) declares 4294967294 bytes but only 0 follow it",
+        "element (0002,0001) declares 4294967294 bytes but only 28 follow it",
     );
 }
 
-/// Inside a sequence and as an encapsulated pixel data fragment, the lazy walk still sees lengths.
+/// The fuzzer's third reproducer: an element of another group inside the file meta group (which
+/// dicom-object reads up to the group length, whatever the groups), the transfer syntax after
+/// it, then an implicit VR data set whose element declares 1.7 GB; it spent over 10 s
+/// zero-filling the value.
+#[test]
+fn dicom_value_after_an_off_group_meta_element_is_checked_too() {
+    let off_group = [0x02, 0x40, 0x03, 0x00, b'U', b'I', 2, 0, b'1', 0];
+    let mut data_set = Vec::new();
+    data_set.extend_from_slice(&[0x11, 0x00, 0x10, 0x00]);
+    data_set.extend_from_slice(&0x6B6B_6B6Bu32.to_le_bytes());
+    data_set.extend_from_slice(&[1, 2, 3, 4]);
+    expect_corrupt_dicom(
+        "off_group_meta.dcm",
+        &part10(b"1.2.840.10008.1.2\0", &off_group, &data_set),
+        "element (0011,0010) declares 1802201963 bytes but only 4 follow it",
+    );
+}
+
+/// An encapsulated pixel data fragment: the lazy walk sees item lengths inside the pixel sequence.
 #[test]
 fn dicom_fragment_longer_than_the_file_is_refused_before_allocating() {
     // PixelData, OB, undefined length: an encapsulated pixel sequence.
@@ -98,5 +119,21 @@ fn dicom_deflated_value_longer_than_the_data_set_is_refused_before_allocating() 
         "long_deflated.dcm",
         &part10(b"1.2.840.10008.1.2.1.99\0", &[], &deflated),
         "element (0011,0010) declares 1426259972 bytes but only 4 follow it",
+    );
+}
+
+/// The fuzzer's fourth reproducer: a data set without file meta group whose UL element declares 47
+/// bytes. dicom-parser reads 11 values (44 bytes) and goes on 3 bytes early, out of step with
+/// the data set, until a misread header declared a 4 GB value (10 s of zero-filling). A numeric
+/// value whose length is not a whole number of values is now refused before parsing.
+#[test]
+fn dicom_numeric_value_of_a_partial_length_is_refused() {
+    let mut data_set = vec![0x28, 0x00, 0x10, 0x00];
+    data_set.extend_from_slice(&3u32.to_le_bytes());
+    data_set.extend_from_slice(&[1, 2, 3, 0]);
+    expect_corrupt_dicom(
+        "partial_value.dcm",
+        &data_set,
+        "element (0028,0010) of VR US declares 3 bytes, not a whole number of 2-byte values",
     );
 }
