@@ -120,6 +120,14 @@ fn dicom_deflated_value_longer_than_the_data_set_is_refused_before_allocating() 
         &part10(b"1.2.840.10008.1.2.1.99\0", &[], &deflated),
         "element (0011,0010) declares 1426259972 bytes but only 4 follow it",
     );
+    // The fifth reproducer: the same with the deflate stream cut short, which dicom-rs reads
+    // up to the damage (zero-filling the value for over 10 s) and the first walk skipped.
+    let cut = &deflated[..deflated.len() - 4];
+    expect_corrupt_dicom(
+        "long_deflated_cut.dcm",
+        &part10(b"1.2.840.10008.1.2.1.99\0", &[], cut),
+        "element (0011,0010) declares 1426259972 bytes but only",
+    );
 }
 
 /// The fuzzer's fourth reproducer: a data set without file meta group whose UL element declares 47
