@@ -44,6 +44,7 @@
 
 mod file;
 mod jpeg12;
+mod lengths;
 
 use crate::geometry::{cross, dot, normalized, Vec3};
 use crate::read_options::ReadOptions;

@@ -149,6 +149,16 @@ pub(crate) fn is_dicom_head(head: &[u8]) -> bool {
 /// Opens `path`, reading up to (not including) PixelData when `header_only`.
 fn open(path: &Path, header_only: bool) -> Result<DefaultDicomObject> {
     let head = head(path).map_err(|e| Error::from(e).with_path(path))?;
+    // Declared lengths are checked against the file before dicom-rs reserves them.
+    let (meta_at, bare_explicit) = match layout(&head) {
+        Layout::Standard if head.starts_with(b"DICM") => (Some(4), false),
+        Layout::Standard => (Some(132), false),
+        Layout::MetaWithoutMagic => (Some(0), false),
+        Layout::BareDataSet { explicit } => (None, explicit),
+        Layout::NotDicom => (Some(132), false),
+    };
+    super::lengths::check_declared_lengths(path, meta_at, bare_explicit)
+        .map_err(|e| e.with_path(path))?;
     let invalid = |e: &dyn std::fmt::Display| {
         Error::corrupt(format!("invalid DICOM file: {}", one_line(&e.to_string())))
     };

@@ -6,6 +6,7 @@
 mod bad_input;
 mod common;
 mod dicom;
+mod fuzz_regressions;
 mod metaimage;
 mod mrc;
 mod readers;

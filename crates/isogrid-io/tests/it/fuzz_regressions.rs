@@ -1,0 +1,147 @@
+//! Inputs the coverage-guided fuzz targets of `fuzz/` found to crash, abort, hang or allocate
+//! without bound (docs/fuzzing.md), rebuilt here byte for byte in their minimal form: each must
+//! now give a one-line error naming the file and the problem.
+
+use crate::bad_input::expect_err;
+use crate::common::TempDir;
+use isogrid::ErrorKind;
+use isogrid_io::ReadOptions;
+
+const EXPLICIT_LE: &[u8] = b"1.2.840.10008.1.2.1\0";
+
+/// A part-10 file: preamble, `DICM`, a file meta group (its group length, `meta_extra`, then
+/// transfer syntax `ts`, a UID padded to even length), then `data_set`.
+fn part10(ts: &[u8], meta_extra: &[u8], data_set: &[u8]) -> Vec<u8> {
+    let mut group = meta_extra.to_vec();
+    group.extend_from_slice(&[0x02, 0x00, 0x10, 0x00, b'U', b'I']);
+    group.extend_from_slice(&(ts.len() as u16).to_le_bytes());
+    group.extend_from_slice(ts);
+    let mut out = vec![0u8; 128];
+    out.extend_from_slice(b"DICM");
+    out.extend_from_slice(&[0x02, 0x00, 0x00, 0x00, b'U', b'L', 4, 0]);
+    out.extend_from_slice(&(group.len() as u32).to_le_bytes());
+    out.extend_from_slice(&group);
+    out.extend_from_slice(data_set);
+    out
+}
+
+/// Writes `bytes` as `name` and expects the DICOM reader's `Corrupt` error containing `needle`.
+fn expect_corrupt_dicom(name: &str, bytes: &[u8], needle: &str) {
+    let dir = TempDir::new("fuzz-dicom");
+    let path = dir.file(name, bytes);
+    expect_err(&path, &ReadOptions::default(), ErrorKind::Corrupt, needle);
+}
+
+/// An explicit VR little-endian element header with a 4-byte length (OB, OW, UN, SQ, UT, ...).
+fn long_header(group: u16, element: u16, vr: &[u8; 2], len: u32) -> Vec<u8> {
+    let mut h = Vec::new();
+    h.extend_from_slice(&group.to_le_bytes());
+    h.extend_from_slice(&element.to_le_bytes());
+    h.extend_from_slice(vr);
+    h.extend_from_slice(&[0, 0]);
+    h.extend_from_slice(&len.to_le_bytes());
+    h
+}
+
+/// dicom-parser reserves and zero-fills a value's declared length before reading it: the fuzzer's
+/// 3.5 KB file declared a 1.7 GB OB value and allocated it. The length is now checked against the
+/// bytes that follow, before dicom-rs reads anything.
+#[test]
+fn dicom_value_longer_than_the_file_is_refused_before_allocating() {
+    let mut data_set = long_header(0x0011, 0x0010, b"OB", 0x6B6B_6B6B);
+    data_set.extend_from_slice(&[1, 2, 3, 4]);
+    expect_corrupt_dicom(
+        "long_value.dcm",
+        &part10(EXPLICIT_LE, &[], &data_set),
+        "element (0011,0010) declares 1802201963 bytes but only 4 follow it",
+    );
+}
+
+/// The same in the file meta group, which dicom-object reads with its own allocating reader.
+#[test]
+fn dicom_meta_element_longer_than_the_file_is_refused_before_allocating() {
+    let meta = long_header(0x0002, 0x0001, b"OB", u32::MAX - 1);
+    expect_corrupt_dicom(
+        "long_meta.dcm",
+        &part10(EXPLICIT_LE, &meta, &[]),
+        "element (0002,0001) declares 4294967294 bytes but only 28 follow it",
+    );
+}
+
+/// The fuzzer's third reproducer: an element of another group inside the file meta group (which
+/// dicom-object reads up to the group length, whatever the groups), the transfer syntax after
+/// it, then an implicit VR data set whose element declares 1.7 GB; it spent over 10 s
+/// zero-filling the value.
+#[test]
+fn dicom_value_after_an_off_group_meta_element_is_checked_too() {
+    let off_group = [0x02, 0x40, 0x03, 0x00, b'U', b'I', 2, 0, b'1', 0];
+    let mut data_set = Vec::new();
+    data_set.extend_from_slice(&[0x11, 0x00, 0x10, 0x00]);
+    data_set.extend_from_slice(&0x6B6B_6B6Bu32.to_le_bytes());
+    data_set.extend_from_slice(&[1, 2, 3, 4]);
+    expect_corrupt_dicom(
+        "off_group_meta.dcm",
+        &part10(b"1.2.840.10008.1.2\0", &off_group, &data_set),
+        "element (0011,0010) declares 1802201963 bytes but only 4 follow it",
+    );
+}
+
+/// An encapsulated pixel data fragment: the lazy walk sees item lengths inside the pixel sequence.
+#[test]
+fn dicom_fragment_longer_than_the_file_is_refused_before_allocating() {
+    // PixelData, OB, undefined length: an encapsulated pixel sequence.
+    let mut data_set = long_header(0x7FE0, 0x0010, b"OB", u32::MAX);
+    // Basic offset table item (empty), then one fragment item declaring 1 GiB.
+    for len in [0u32, 1 << 30] {
+        data_set.extend_from_slice(&[0xFE, 0xFF, 0x00, 0xE0]);
+        data_set.extend_from_slice(&len.to_le_bytes());
+    }
+    data_set.extend_from_slice(&[0u8; 16]);
+    expect_corrupt_dicom(
+        "long_fragment.dcm",
+        &part10(EXPLICIT_LE, &[], &data_set),
+        "a pixel data fragment declares 1073741824 bytes but only 16 follow it",
+    );
+}
+
+/// A deflated data set is walked inflated: its lengths count inflated bytes (the fuzzer's second
+/// reproducer declared a 1.4 GB OB value inside the deflate stream).
+#[test]
+fn dicom_deflated_value_longer_than_the_data_set_is_refused_before_allocating() {
+    use std::io::Write;
+    let mut data_set = long_header(0x0011, 0x0010, b"OB", 0x5503_0004);
+    data_set.extend_from_slice(&[1, 2, 3, 4]);
+    let mut deflate =
+        flate2::write::DeflateEncoder::new(Vec::new(), flate2::Compression::default());
+    deflate.write_all(&data_set).unwrap();
+    let deflated = deflate.finish().unwrap();
+    expect_corrupt_dicom(
+        "long_deflated.dcm",
+        &part10(b"1.2.840.10008.1.2.1.99\0", &[], &deflated),
+        "element (0011,0010) declares 1426259972 bytes but only 4 follow it",
+    );
+    // The fifth reproducer: the same with the deflate stream cut short, which dicom-rs reads
+    // up to the damage (zero-filling the value for over 10 s) and the first walk skipped.
+    let cut = &deflated[..deflated.len() - 4];
+    expect_corrupt_dicom(
+        "long_deflated_cut.dcm",
+        &part10(b"1.2.840.10008.1.2.1.99\0", &[], cut),
+        "element (0011,0010) declares 1426259972 bytes but only",
+    );
+}
+
+/// The fuzzer's fourth reproducer: a data set without file meta group whose UL element declares 47
+/// bytes. dicom-parser reads 11 values (44 bytes) and goes on 3 bytes early, out of step with
+/// the data set, until a misread header declared a 4 GB value (10 s of zero-filling). A numeric
+/// value whose length is not a whole number of values is now refused before parsing.
+#[test]
+fn dicom_numeric_value_of_a_partial_length_is_refused() {
+    let mut data_set = vec![0x28, 0x00, 0x10, 0x00];
+    data_set.extend_from_slice(&3u32.to_le_bytes());
+    data_set.extend_from_slice(&[1, 2, 3, 0]);
+    expect_corrupt_dicom(
+        "partial_value.dcm",
+        &data_set,
+        "element (0028,0010) of VR US declares 3 bytes, not a whole number of 2-byte values",
+    );
+}

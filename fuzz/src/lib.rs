@@ -1,0 +1,88 @@
+//! What every fuzz target shares: a small memory budget, so that an honest header declaring
+//! gigabytes gets the readers' clear `TooLarge` error instead of an allocation that libFuzzer's
+//! `-malloc_limit_mb` reports as a crash; and a per-process scratch folder, because most volume
+//! readers take a path (they stat, open and sometimes follow a detached data file) rather than
+//! bytes.
+
+use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
+
+/// The budget the readers see through `isogrid::memory` (libFuzzer runs with a 1 GiB malloc limit).
+pub const MEMORY_LIMIT: u64 = 256 << 20;
+
+/// Sets the memory budget; call at the start of every iteration (an atomic store).
+pub fn init() {
+    isogrid::memory::set_limit(Some(MEMORY_LIMIT));
+}
+
+/// This process's scratch folder, on tmpfs when there is one; removed by nobody (it is reused by
+/// every iteration and holds a few small files).
+pub fn scratch() -> &'static Path {
+    static DIR: OnceLock<PathBuf> = OnceLock::new();
+    DIR.get_or_init(|| {
+        let base = if Path::new("/dev/shm").is_dir() {
+            PathBuf::from("/dev/shm")
+        } else {
+            std::env::temp_dir()
+        };
+        let dir = base.join(format!("isogrid-fuzz-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("scratch folder");
+        dir
+    })
+}
+
+/// Writes `bytes` to `name` in the scratch folder and returns its path.
+pub fn scratch_file(name: &str, bytes: &[u8]) -> PathBuf {
+    let path = scratch().join(name);
+    std::fs::write(&path, bytes).expect("scratch file");
+    path
+}
+
+/// Checks what every successful volume read promises: as many samples as the dimensions say,
+/// finite positive spacing and a finite origin.
+pub fn check_volume(volume: &isogrid::Volume) {
+    let dims = volume.dims();
+    assert_eq!(volume.data().len(), dims[0] * dims[1] * dims[2]);
+    assert!(dims.iter().all(|&d| d > 0), "empty dims {dims:?}");
+    assert!(
+        volume.spacing().iter().all(|s| s.is_finite() && *s > 0.0),
+        "spacing {:?}",
+        volume.spacing()
+    );
+    assert!(
+        volume.origin().iter().all(|o| o.is_finite()),
+        "origin {:?}",
+        volume.origin()
+    );
+    let _ = volume.value_range();
+}
+
+/// Reads `bytes` saved as `name` with `read` and checks the volume when it succeeds.
+pub fn fuzz_volume(
+    name: &str,
+    bytes: &[u8],
+    read: impl Fn(&Path) -> isogrid::Result<isogrid::Volume>,
+) {
+    init();
+    let path = scratch_file(name, bytes);
+    if let Ok(volume) = read(&path) {
+        check_volume(&volume);
+    }
+}
+
+/// Parses `bytes` as a mesh of `format` and checks the mesh when it succeeds; input starting with
+/// the gzip magic goes through `read_mesh` as the file `gz_name` instead, to reach the bounded
+/// inflation.
+pub fn fuzz_mesh(bytes: &[u8], format: isogrid_io::mesh::MeshFormat, gz_name: &str) {
+    init();
+    let mesh = if bytes.starts_with(&[0x1f, 0x8b]) {
+        isogrid_io::mesh::read_mesh(&scratch_file(gz_name, bytes))
+    } else {
+        isogrid_io::mesh::parse_mesh(bytes, format)
+    };
+    if let Ok(mesh) = mesh {
+        let n = mesh.vertices.len();
+        assert!(mesh.triangles.iter().flatten().all(|&i| (i as usize) < n));
+        assert!(mesh.vertices.iter().flatten().all(|c| c.is_finite()));
+    }
+}
