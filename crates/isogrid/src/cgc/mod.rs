@@ -36,6 +36,7 @@ mod read;
 mod write;
 
 pub use read::{open, read, read_bytes};
+pub(crate) use write::{header_bytes, sections_for_lengths, HeaderCounts};
 pub use write::{to_bytes, write};
 
 pub(crate) const MAGIC: [u8; 8] = *b"\x89CGC\r\n\x1a\n";

@@ -4,5 +4,6 @@ mod cgc;
 mod common;
 mod extract;
 mod mc;
+mod stream;
 mod trace;
 mod trace_bvh;
