@@ -37,7 +37,7 @@ pub fn load_volume(
             ))
         }
     };
-    let options = ReadOptions { raw };
+    let options = ReadOptions { raw, ..Default::default() };
     let volume = py
         .detach(|| isogrid_io::read_volume(&path, &options))
         .map_err(to_py)?;

@@ -16,6 +16,7 @@ pub mod nifti;
 pub mod npy;
 pub mod nrrd;
 pub mod raw;
+pub mod region;
 pub mod tiff;
 pub mod voxelize;
 
@@ -29,4 +30,5 @@ pub use npy::read_npy;
 pub use nrrd::{read_nrrd, write_nrrd};
 pub use raw::{read_raw, RawSpec};
 pub use read::{read_volume, ReadOptions};
+pub use region::{open_region, ZarrOptions};
 pub use tiff::read_tiff;

@@ -11,6 +11,8 @@ use std::path::Path;
 pub struct ReadOptions {
     /// Read the file as headerless raw samples with this shape, type and byte order.
     pub raw: Option<RawSpec>,
+    /// Level and extra-axis indices of a Zarr / OME-Zarr input.
+    pub zarr: crate::region::ZarrOptions,
 }
 
 /// Reads a volume, detecting the format from the path: a directory = DICOM series;
@@ -18,6 +20,12 @@ pub struct ReadOptions {
 /// (`.raw`/`.bin` without it are an error asking for the spec). Other names are sniffed by
 /// their magic bytes. Errors name `path`.
 pub fn read_volume(path: &Path, opts: &ReadOptions) -> Result<Volume> {
+    if crate::region::is_zarr(path) {
+        return crate::region::read_all(crate::region::open_zarr(path, opts)?.as_mut());
+    }
+    if crate::region::is_tiff_slices(path) {
+        return crate::region::read_all(&mut crate::region::slices::TiffSlices::open(path)?);
+    }
     if path.is_dir() {
         return crate::read_dicom_series(path);
     }

@@ -7,4 +7,5 @@ mod read;
 mod write;
 
 pub use read::read_nrrd;
+pub(crate) use read::region_layout;
 pub use write::write_nrrd;

@@ -288,7 +288,10 @@ fn raw_size_mismatch_says_expected_and_actual() {
     };
     expect_err(
         &fixture("u8_detached.raw"),
-        &ReadOptions { raw: Some(spec) },
+        &ReadOptions {
+            raw: Some(spec),
+            ..Default::default()
+        },
         ErrorKind::InvalidInput,
         "needs 140 bytes but the file has 105",
     );
@@ -299,7 +302,10 @@ fn raw_size_mismatch_says_expected_and_actual() {
     };
     expect_err(
         &fixture("u8_detached.raw"),
-        &ReadOptions { raw: Some(spec) },
+        &ReadOptions {
+            raw: Some(spec),
+            ..Default::default()
+        },
         ErrorKind::InvalidInput,
         "420 bytes",
     );

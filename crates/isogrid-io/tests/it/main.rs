@@ -5,4 +5,7 @@
 mod bad_input;
 mod common;
 mod readers;
+mod region;
 mod write_nrrd;
+#[cfg(feature = "zarr")]
+mod zarr;

@@ -178,7 +178,10 @@ fn raw_with_a_spec() {
     };
     let v = read_volume(
         &fixture("u8_detached.raw"),
-        &ReadOptions { raw: Some(spec) },
+        &ReadOptions {
+            raw: Some(spec),
+            ..Default::default()
+        },
     )
     .unwrap();
     check_samples(&v, ScalarType::U8, base);
@@ -191,7 +194,14 @@ fn raw_with_a_spec() {
         scalar: ScalarType::U16,
         big_endian: true,
     };
-    let v = read_volume(&p, &ReadOptions { raw: Some(spec) }).unwrap();
+    let v = read_volume(
+        &p,
+        &ReadOptions {
+            raw: Some(spec),
+            ..Default::default()
+        },
+    )
+    .unwrap();
     check_samples(&v, ScalarType::U16, |i, j, k| {
         300.0 * (i + 7 * (j + 5 * k)) as f64
     });

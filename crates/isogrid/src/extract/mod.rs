@@ -151,32 +151,17 @@ fn extract_typed<T: ExtractScalar>(
     let record = precision.bytes_per_cell();
     let mut metacells = vec![bytemuck::Zeroable::zeroed(); slot_total as usize];
     let mut cells = vec![0u8; cell_total as usize * record];
-    let mut outputs = Vec::new();
-    {
-        let (mut slots_rest, mut cells_rest): (&mut [Metacell], &mut [u8]) =
-            (&mut metacells, &mut cells);
-        let mut first_cell = 0u32;
-        for (index, (block, scan)) in blocks.iter().zip(&scans).enumerate() {
-            if block.metacell_count == 0 {
-                continue;
-            }
-            let (slots, rest) =
-                std::mem::take(&mut slots_rest).split_at_mut(block.metacell_count as usize);
-            slots_rest = rest;
-            let (cell_bytes, rest) =
-                std::mem::take(&mut cells_rest).split_at_mut(scan.active_cells as usize * record);
-            cells_rest = rest;
-            let block_pos = [index % nbx, index / nbx % nby, index / (nbx * nby)];
-            outputs.push(emit::BlockOutput {
-                block: block_pos,
-                slots,
-                cells: cell_bytes,
-                first_cell,
-                slab_block_z: 0,
-            });
-            first_cell += scan.active_cells;
-        }
-    }
+    let mut first_cell = 0u32;
+    let outputs = split_outputs(
+        &blocks,
+        |index| scans[index].active_cells,
+        0..block_count,
+        [nbx, nby],
+        (&mut metacells, &mut cells),
+        record,
+        &mut first_cell,
+        0,
+    );
     outputs
         .into_par_iter()
         .for_each_init(emit::BlockScratch::default, |scratch, out| {
@@ -243,4 +228,45 @@ impl Totals {
         }
         Ok(block)
     }
+}
+
+/// Splits `output` (slots, corner records) into the disjoint parts of the active blocks among
+/// `range` (in block order, which is output order). `next_cell` is the global index of the first
+/// cell and advances past the range; `slab_block_z` is where the samples the outputs will be
+/// emitted from start (see [`emit::BlockOutput`]).
+#[allow(clippy::too_many_arguments)]
+fn split_outputs<'a>(
+    blocks: &[Block],
+    active_cells: impl Fn(usize) -> u32,
+    range: std::ops::Range<usize>,
+    [nbx, nby]: [usize; 2],
+    output: (&'a mut [Metacell], &'a mut [u8]),
+    record: usize,
+    next_cell: &mut u32,
+    slab_block_z: usize,
+) -> Vec<emit::BlockOutput<'a>> {
+    let (mut slots_rest, mut cells_rest) = output;
+    let mut outputs = Vec::new();
+    for index in range {
+        let block = &blocks[index];
+        if block.metacell_count == 0 {
+            continue;
+        }
+        let cell_count = active_cells(index);
+        let (slots, rest) =
+            std::mem::take(&mut slots_rest).split_at_mut(block.metacell_count as usize);
+        slots_rest = rest;
+        let (cells, rest) =
+            std::mem::take(&mut cells_rest).split_at_mut(cell_count as usize * record);
+        cells_rest = rest;
+        outputs.push(emit::BlockOutput {
+            block: [index % nbx, index / nbx % nby, index / (nbx * nby)],
+            slots,
+            cells,
+            first_cell: *next_cell,
+            slab_block_z,
+        });
+        *next_cell += cell_count;
+    }
+    outputs
 }

@@ -35,7 +35,7 @@
 //! ranges of the sections.
 
 use super::scalar::ExtractScalar;
-use super::{emit, scan_blocks, ExtractOptions, Totals};
+use super::{emit, scan_blocks, split_outputs, ExtractOptions, Totals};
 use crate::cgc::{header_bytes, sections_for_lengths, HeaderCounts};
 use crate::error::{Error, Result};
 use crate::grid::GridInfo;
@@ -618,30 +618,16 @@ impl GroupBuffers {
         self.slots.resize(slot_count, bytemuck::Zeroable::zeroed());
         self.cells.clear();
         self.cells.resize(cell_count * record, 0);
-        let [nbx, nby] = slab.block_dims;
-        let mut outputs = Vec::new();
-        let (mut slots_rest, mut cells_rest): (&mut [Metacell], &mut [u8]) =
-            (&mut self.slots, &mut self.cells);
-        for index in group {
-            let block = &blocks[index];
-            if block.metacell_count == 0 {
-                continue;
-            }
-            let (slots, rest) =
-                std::mem::take(&mut slots_rest).split_at_mut(block.metacell_count as usize);
-            slots_rest = rest;
-            let (cells, rest) =
-                std::mem::take(&mut cells_rest).split_at_mut(active_cells[index] as usize * record);
-            cells_rest = rest;
-            outputs.push(emit::BlockOutput {
-                block: [index % nbx, index / nbx % nby, index / (nbx * nby)],
-                slots,
-                cells,
-                first_cell: *next_cell,
-                slab_block_z: slab.first_layer,
-            });
-            *next_cell += active_cells[index];
-        }
+        let outputs = split_outputs(
+            blocks,
+            |index| active_cells[index],
+            group,
+            slab.block_dims,
+            (&mut self.slots, &mut self.cells),
+            record,
+            next_cell,
+            slab.first_layer,
+        );
         outputs
             .into_par_iter()
             .for_each_init(emit::BlockScratch::default, |scratch, out| {
