@@ -122,7 +122,9 @@ impl RegionSource for MappedSource {
     }
     fn read_overhead(&self, _planes: usize) -> u64 {
         // One mapped chunk, its converted samples and, for scaled data, their scaled copy.
-        CONVERT_BYTES as u64 * (1 + 2 * 4 / self.layout.elem.size() as u64)
+        let samples = (CONVERT_BYTES / self.layout.elem.size()) as u64;
+        let scaled = if self.layout.scale.is_some() { 4 } else { 0 };
+        CONVERT_BYTES as u64 + samples * (self.scalar.size() as u64 + scaled)
     }
 }
 
