@@ -18,7 +18,7 @@ Chunks (9, 10, 11) do not divide 16 and the shape does not divide the chunks. Fi
     ome_v05.zarr           OME-Zarr 0.5 (Zarr v3): axes z, y, x; two levels; a multiscale-level
                            scale on top of the datasets' own
     v3_missing_chunk.zarr  Zarr v3 with fill value 9 and chunk (0, 0, 0) deleted
-    v2_corrupt_chunk.zarr  Zarr v2, blosc, chunk 1.0.2 overwritten with garbage
+    v2_corrupt_chunk.zarr  Zarr v2, blosc, chunk 1.0.1 overwritten with garbage
     v2_lzma.zarr           Zarr v2 with the lzma compressor (not supported by this build)
     v2_4d_unnamed.zarr     Zarr v2, shape (2, 35, 13, 20) without axis names, entry c holding f + 100 c
 
@@ -123,7 +123,7 @@ def main():
 
     write("v2_corrupt_chunk.zarr", BASE, zarr_format=2,
           compressors=numcodecs.Blosc(cname="zstd", clevel=3))
-    with open(os.path.join(OUT, "v2_corrupt_chunk.zarr", "1.0.2"), "wb") as f:
+    with open(os.path.join(OUT, "v2_corrupt_chunk.zarr", "1.0.1"), "wb") as f:
         f.write(b"this is not a blosc frame" * 3)
 
     write("v2_lzma.zarr", BASE[:3, :3, :3], zarr_format=2, chunks=(3, 3, 3),

@@ -439,7 +439,6 @@ fn streamed_extraction_matches_in_memory_over_budgets() {
 }
 
 /// OME-Zarr through the CLI: extra axes need `--index`, and the levels differ in size.
-#[cfg(feature = "zarr")]
 #[test]
 fn ome_zarr_extraction_needs_an_index_for_extra_axes() {
     let dir = temp_dir("ome-zarr");
@@ -490,6 +489,43 @@ fn ome_zarr_extraction_needs_an_index_for_extra_axes() {
     assert_eq!(half["dims"], serde_json::json!([10, 7, 18]));
     assert!(full["active_cells"].as_u64().unwrap() > half["active_cells"].as_u64().unwrap());
     assert!(half["active_cells"].as_u64().unwrap() > 0);
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+/// Bad Zarr inputs fail in one line naming the problem and leave nothing in the output folder:
+/// a corrupt chunk (named), a codec this build lacks, a budget below one slab (the least that
+/// works is named); a missing chunk is the fill value, not an error.
+#[test]
+fn bad_zarr_inputs_fail_in_one_line_and_leave_no_output() {
+    let dir = temp_dir("zarr-bad");
+    let fixtures = Path::new(env!("CARGO_MANIFEST_DIR")).join("../isogrid-io/tests/fixtures/zarr");
+    let out = dir.join("out.cgc");
+    let extract = |name: &str, extra: &[&str]| {
+        let input = fixtures.join(name);
+        let mut args = vec!["extract", s(&input), "--iso", "60", "-o", s(&out)];
+        args.extend_from_slice(extra);
+        args.iter().map(|a| a.to_string()).collect::<Vec<_>>()
+    };
+    let run = |args: Vec<String>, mention: &str| {
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        fails(&args, mention);
+        let left: Vec<_> = std::fs::read_dir(&dir).unwrap().collect();
+        assert!(left.is_empty(), "{args:?} left {left:?}");
+    };
+    run(extract("v2_corrupt_chunk.zarr", &[]), "chunk 1.0.1");
+    run(extract("v2_lzma.zarr", &[]), "lzma");
+    run(extract("v2_4d_unnamed.zarr", &[]), "--index dim0=0");
+    run(
+        extract("v2_blosc.zarr", &["--max-memory", "100K"]),
+        "the least that works is",
+    );
+    let e = ok_json(
+        &extract("v3_missing_chunk.zarr", &["--json"])
+            .iter()
+            .map(String::as_str)
+            .collect::<Vec<_>>(),
+    );
+    assert!(e["active_cells"].as_u64().unwrap() > 0);
     std::fs::remove_dir_all(dir).unwrap();
 }
 

@@ -1,8 +1,11 @@
 //! Volumes read by region, for extraction in bounded memory ([`isogrid::extract::stream`]):
 //! uncompressed raw, NRRD and NIfTI through memory maps ([`mapped`]), folders of 2-D TIFF slices
-//! ([`slices`]), and Zarr v2/v3 and OME-Zarr ([`zarr`]). Formats that must be decoded from their
+//! ([`slices`]), and Zarr v2/v3 and OME-Zarr ([`zarr`]) from a folder or over HTTP
+//! ([`http_store`]). Formats that must be decoded from their
 //! start (gzip NIfTI and NRRD, ascii NRRD, multi-page TIFF, npy, DICOM) are read whole instead.
 
+#[cfg(feature = "zarr")]
+pub mod http_store;
 pub mod mapped;
 pub mod slices;
 #[cfg(feature = "zarr")]
@@ -24,16 +27,23 @@ pub struct ZarrOptions {
     pub indices: Vec<(String, u64)>,
 }
 
-/// Whether `path` names a Zarr store: a folder with Zarr metadata at its root, or one named
-/// `*.zarr`.
+/// Whether `path` is an `http://` or `https://` URL (read as a Zarr store).
+pub fn is_url(path: &Path) -> bool {
+    let text = path.to_string_lossy().to_ascii_lowercase();
+    text.starts_with("http://") || text.starts_with("https://")
+}
+
+/// Whether `path` names a Zarr store: a URL, a folder with Zarr metadata at its root, or a folder
+/// named `*.zarr`.
 pub fn is_zarr(path: &Path) -> bool {
-    path.is_dir()
-        && (["zarr.json", ".zarray", ".zgroup"]
-            .iter()
-            .any(|name| path.join(name).is_file())
-            || path
-                .extension()
-                .is_some_and(|e| e.eq_ignore_ascii_case("zarr")))
+    is_url(path)
+        || path.is_dir()
+            && (["zarr.json", ".zarray", ".zgroup"]
+                .iter()
+                .any(|name| path.join(name).is_file())
+                || path
+                    .extension()
+                    .is_some_and(|e| e.eq_ignore_ascii_case("zarr")))
 }
 
 /// Whether `path` is a folder of TIFF slices.
@@ -77,7 +87,11 @@ pub fn open_region(
 /// Opens a Zarr store (an error naming the missing feature in builds without it).
 pub fn open_zarr(path: &Path, options: &ReadOptions) -> Result<Box<dyn RegionSource + Send>> {
     #[cfg(feature = "zarr")]
-    return Ok(Box::new(zarr::open_path(path, &options.zarr)?));
+    return Ok(Box::new(if is_url(path) {
+        zarr::open_url(&path.to_string_lossy(), &options.zarr)?
+    } else {
+        zarr::open_path(path, &options.zarr)?
+    }));
     #[cfg(not(feature = "zarr"))]
     {
         let _ = options;

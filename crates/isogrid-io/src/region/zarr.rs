@@ -1,6 +1,7 @@
 //! Zarr v2 and v3 arrays and OME-Zarr 0.4/0.5 multiscale images, read plane range by plane range
 //! through the `zarrs` crate (sharding; blosc, gzip and zstd codecs; missing chunks read as the
-//! array's fill value, as the Zarr specs say).
+//! array's fill value, as the Zarr specs say), from a folder or a URL. A slab asks the store for
+//! only the chunks that hold its planes.
 //!
 //! - A store whose root is an array is read as it is. Its axes are named by `dimension_names`
 //!   (v3) or `_ARRAY_DIMENSIONS` (v2, as xarray writes it); unnamed, the last three are z, y, x
@@ -385,8 +386,10 @@ impl ZarrSource {
             ))
             .with_path(location));
         }
+        // Shown as "uint16 / <u2" (the v3 name, then the v2 one where they differ).
         let type_name = array.data_type().to_string();
-        let stored = Stored::parse(&type_name).ok_or_else(|| {
+        let v3_name = type_name.split(" / ").next().unwrap_or_default();
+        let stored = Stored::parse(v3_name).ok_or_else(|| {
             Error::unsupported(format!("Zarr data type {type_name} is not supported"))
                 .with_path(location)
         })?;
@@ -533,4 +536,16 @@ pub fn open_path(path: &std::path::Path, options: &ZarrOptions) -> Result<ZarrSo
         .map_err(|e| Error::invalid(format!("cannot open as a Zarr store: {e}")).with_path(path))?;
     let store: ReadableStorage = Arc::new(store);
     ZarrSource::open(store, &path.display().to_string(), options)
+}
+
+/// Opens a Zarr store served over HTTP at `url` (see [`super::http_store`]).
+pub fn open_url(url: &str, options: &ZarrOptions) -> Result<ZarrSource> {
+    if cfg!(not(feature = "https")) && url.to_ascii_lowercase().starts_with("https://") {
+        return Err(Error::unsupported(
+            "https:// needs isogrid built with the `https` feature (plain http:// works without it)",
+        )
+        .with_path(url));
+    }
+    let store: ReadableStorage = Arc::new(super::http_store::HttpStore::new(url));
+    ZarrSource::open(store, url, options)
 }

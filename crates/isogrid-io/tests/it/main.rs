@@ -13,3 +13,5 @@ mod region;
 mod write_nrrd;
 #[cfg(feature = "zarr")]
 mod zarr;
+#[cfg(feature = "zarr")]
+mod zarr_http;
