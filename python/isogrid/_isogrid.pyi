@@ -81,6 +81,8 @@ def load_volume(
     raw_shape: Optional[Sequence[int]] = None,
     raw_dtype: Optional[str] = None,
     big_endian: bool = False,
+    level: int = 0,
+    index: Optional[Sequence[Tuple[str, int]]] = None,
 ) -> Dict[str, Any]: ...
 def voxelize(
     vertices: npt.NDArray[np.float32],
