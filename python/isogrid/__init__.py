@@ -48,7 +48,7 @@ from __future__ import annotations
 import operator
 import os
 import warnings
-from typing import Any, Callable, Optional, Sequence, Tuple, Union
+from typing import Any, Callable, Dict, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
@@ -228,11 +228,14 @@ def load_volume(
     raw_dtype: Any = None,
     big_endian: bool = False,
     series: Optional[str] = None,
+    level: int = 0,
+    index: Optional[Dict[str, int]] = None,
 ) -> Volume:
     """Reads a volume file: NIfTI-1 (``.nii``, ``.nii.gz``), NRRD (``.nrrd``, ``.nhdr``), NumPy
-    ``.npy``, TIFF stacks, a DICOM series (a folder), MetaImage (``.mha``, ``.mhd`` + data file;
-    raw or zlib), MRC/CCP4 maps (``.mrc``, ``.map``, ``.ccp4``, ``.mrcs``), or headerless raw
-    samples. Other names are recognised by their content.
+    ``.npy``, TIFF stacks or a folder of TIFF slices, a DICOM series (a folder), MetaImage
+    (``.mha``, ``.mhd`` + data file; raw or zlib), MRC/CCP4 maps (``.mrc``, ``.map``, ``.ccp4``,
+    ``.mrcs``), Zarr v2/v3 and OME-Zarr 0.4/0.5 (a folder, or an ``http://`` URL), or headerless
+    raw samples. Other names are recognised by their content.
 
     Samples keep the file's storage order (no reorientation or resampling) and come back as a
     :class:`Volume` whose ``array`` is C-ordered with shape ``(nz, ny, nx)`` — the reader's buffer
@@ -250,6 +253,9 @@ def load_volume(
         series: for DICOM, the SeriesInstanceUID to read (the CLI's ``--series``); by default
             the series with the most slices is read and a :class:`UserWarning` names the others.
             A UID the folder does not hold is an error that lists the series it has.
+        level: OME-Zarr resolution level (0 = full resolution).
+        index: Zarr axes other than x, y, z and the entry to read of each, e.g.
+            ``{"t": 0, "c": 1}``; 4-D and 5-D arrays need it (the error names the axes).
     """
     dtype_name = None
     if raw_dtype is not None:
@@ -263,7 +269,10 @@ def load_volume(
             raise ValueError(f"raw_shape must be three positive integers (nx, ny, nz), not {tuple(raw_shape)}")
     if series is not None and not isinstance(series, str):
         raise TypeError(f"series must be a SeriesInstanceUID string, not {type(series).__name__}")
-    d = _isogrid.load_volume(os.fspath(path), shape, dtype_name, bool(big_endian), series)
+    indices = None if index is None else [(str(a), _int(i, "index", 0)) for a, i in dict(index).items()]
+    d = _isogrid.load_volume(
+        os.fspath(path), shape, dtype_name, bool(big_endian), series, _int(level, "level", 0), indices
+    )
     for notice in d["notices"]:
         warnings.warn(f"{os.fspath(path)}: {notice}", UserWarning, stacklevel=2)
     return Volume(d["array"], d["spacing"], d["origin"], d["direction"])

@@ -82,6 +82,8 @@ def load_volume(
     raw_dtype: Optional[str] = None,
     big_endian: bool = False,
     series: Optional[str] = None,
+    level: int = 0,
+    index: Optional[Sequence[Tuple[str, int]]] = None,
 ) -> Dict[str, Any]: ...
 def voxelize(
     vertices: npt.NDArray[np.float32],

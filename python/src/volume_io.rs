@@ -6,19 +6,21 @@ use crate::pool::run_detached;
 use isogrid::{ScalarType, Volume, VolumeData};
 use isogrid_io::mesh::TriMesh;
 use isogrid_io::voxelize::VoxelizeOptions;
-use isogrid_io::{RawSpec, ReadOptions};
+use isogrid_io::{RawSpec, ReadOptions, ZarrOptions};
 use numpy::ndarray::Array3;
 use numpy::{IntoPyArray, PyReadonlyArray2};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use std::path::PathBuf;
 
-/// Reads a volume file; returns a dict with `array` (C order, shape (nz, ny, nx), the reader's
-/// buffer moved into numpy), `spacing`, `origin`, `direction` (all in x, y, z order) and
-/// `notices` (the reader's messages for the user, e.g. other DICOM series left out). `series`
-/// picks a DICOM series by SeriesInstanceUID, as the CLI's `--series`.
+/// Reads a volume file, a Zarr / OME-Zarr store (a folder or an `http://` URL; `level` and
+/// `index` pick the resolution level and the entries of non-spatial axes); returns a dict with
+/// `array` (C order, shape (nz, ny, nx), the reader's buffer moved into numpy), `spacing`,
+/// `origin`, `direction` (all in x, y, z order) and `notices` (the reader's messages for the
+/// user, e.g. other DICOM series left out). `series` picks a DICOM series by
+/// SeriesInstanceUID, as the CLI's `--series`.
 #[pyfunction]
-#[pyo3(signature = (path, raw_shape=None, raw_dtype=None, big_endian=false, series=None))]
+#[pyo3(signature = (path, raw_shape=None, raw_dtype=None, big_endian=false, series=None, level=0, index=None))]
 pub fn load_volume(
     py: Python<'_>,
     path: PathBuf,
@@ -26,6 +28,8 @@ pub fn load_volume(
     raw_dtype: Option<String>,
     big_endian: bool,
     series: Option<String>,
+    level: usize,
+    index: Option<Vec<(String, u64)>>,
 ) -> PyResult<Bound<'_, PyDict>> {
     let raw = match (raw_shape, raw_dtype.as_deref()) {
         (None, None) => None,
@@ -40,7 +44,14 @@ pub fn load_volume(
             ))
         }
     };
-    let options = ReadOptions { raw, series };
+    let options = ReadOptions {
+        raw,
+        series,
+        zarr: ZarrOptions {
+            level,
+            indices: index.unwrap_or_default(),
+        },
+    };
     let (volume, notices) = py
         .detach(|| isogrid_io::read_volume_noted(&path, &options))
         .map_err(to_py)?;

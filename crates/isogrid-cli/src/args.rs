@@ -42,6 +42,12 @@ pub struct InputArgs {
     /// DICOM folder: read this SeriesInstanceUID (default: the series with the most slices).
     #[arg(long, value_name = "UID", conflicts_with = "raw_shape")]
     pub series: Option<String>,
+    /// OME-Zarr resolution level to read (0 = full resolution).
+    #[arg(long, value_name = "N", default_value_t = 0)]
+    pub level: usize,
+    /// Entry of each extra (non-x/y/z) axis of a Zarr array, e.g. `t=0,c=1`.
+    #[arg(long, value_name = "AXIS=I,...", value_parser = parse_indices)]
+    pub index: Option<Vec<(String, u64)>>,
 }
 
 impl InputArgs {
@@ -64,6 +70,10 @@ impl InputArgs {
                 big_endian: self.big_endian,
             });
         }
+        options.zarr = isogrid_io::ZarrOptions {
+            level: self.level,
+            indices: self.index.clone().unwrap_or_default(),
+        };
         Ok(options)
     }
 }
@@ -108,6 +118,54 @@ pub fn parse_precision(s: &str) -> Result<Precision, String> {
         .ok()
         .and_then(Precision::from_bits)
         .ok_or_else(|| format!("precision must be 4, 8, 16 or 32, not {s}"))
+}
+
+/// "t=0,c=1" → [("t", 0), ("c", 1)].
+fn parse_indices(s: &str) -> Result<Vec<(String, u64)>, String> {
+    s.split(',')
+        .map(|part| {
+            let (axis, index) = part.split_once('=').ok_or_else(|| {
+                format!("--index takes AXIS=I pairs such as t=0,c=1, not {part:?}")
+            })?;
+            let index = index
+                .trim()
+                .parse::<u64>()
+                .map_err(|_| format!("--index {part:?}: the index must be a whole number"))?;
+            match axis.trim() {
+                "" => Err(format!("--index {part:?}: the axis name is missing")),
+                axis => Ok((axis.to_string(), index)),
+            }
+        })
+        .collect()
+}
+
+/// "512M", "4G", "1.5GiB", "1000000" → bytes (K, M, G, T are powers of 1024).
+pub fn parse_size(s: &str) -> Result<u64, String> {
+    let t = s.trim();
+    let digits = t
+        .find(|c: char| !(c.is_ascii_digit() || c == '.'))
+        .unwrap_or(t.len());
+    let (number, unit) = t.split_at(digits);
+    let value: f64 = number
+        .parse()
+        .map_err(|_| format!("size must be a number with an optional K, M, G or T, not {s:?}"))?;
+    let scale: u64 = match unit.trim().to_ascii_uppercase().as_str() {
+        "" | "B" => 1,
+        "K" | "KB" | "KIB" => 1 << 10,
+        "M" | "MB" | "MIB" => 1 << 20,
+        "G" | "GB" | "GIB" => 1 << 30,
+        "T" | "TB" | "TIB" => 1 << 40,
+        other => {
+            return Err(format!(
+                "unknown size unit {other:?} in {s:?} (use K, M, G or T)"
+            ))
+        }
+    };
+    let bytes = value * scale as f64;
+    if !(bytes >= 1.0 && bytes < u64::MAX as f64) {
+        return Err(format!("size {s:?} is out of range"));
+    }
+    Ok(bytes as u64)
 }
 
 /// "X,Y,Z" → [X, Y, Z], each a positive integer.

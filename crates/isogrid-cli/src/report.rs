@@ -12,10 +12,14 @@ use std::path::Path;
 /// One line on stderr when `grid` (from `source`) has no active cell, saying why: an empty
 /// surface is a valid result, but a blank image or zero hits alone look like a failure elsewhere.
 pub fn note_if_empty(source: &Path, grid: &CellGrid) {
-    if grid.active_cells() != 0 {
+    note_if_no_cells(source, grid.info(), grid.active_cells() as u64);
+}
+
+/// [`note_if_empty`] from a grid's header and cell count (a streamed grid is never in memory).
+pub fn note_if_no_cells(source: &Path, info: &isogrid::GridInfo, active_cells: u64) {
+    if active_cells != 0 {
         return;
     }
-    let info = grid.info();
     let [lo, hi] = info.value_range;
     let why = if info.cell_dims().contains(&0) {
         "the volume is one sample thick, so it has no cells".to_string()

@@ -348,6 +348,187 @@ fn bad_input_gets_one_clear_line() {
     std::fs::remove_dir_all(dir).unwrap();
 }
 
+/// The samples of an attached raw u8 NRRD (`isogrid generate` output) as a C-order `.npy`, which
+/// `extract` reads whole: the in-memory reference for the streamed NRRD.
+fn nrrd_u8_as_npy(nrrd: &Path, size: usize, npy: &Path) {
+    let bytes = std::fs::read(nrrd).unwrap();
+    let data = &bytes[bytes.len() - size * size * size..];
+    let mut header =
+        format!("{{'descr': '|u1', 'fortran_order': False, 'shape': ({size}, {size}, {size}), }}");
+    while (10 + header.len() + 1) % 64 != 0 {
+        header.push(' ');
+    }
+    header.push('\n');
+    let mut out = b"\x93NUMPY\x01\x00".to_vec();
+    out.extend_from_slice(&(header.len() as u16).to_le_bytes());
+    out.extend_from_slice(header.as_bytes());
+    out.extend_from_slice(data);
+    std::fs::write(npy, out).unwrap();
+}
+
+/// Region-readable inputs stream within `--max-memory`; every budget from the least that works
+/// up gives the in-memory file byte for byte, and one below it fails naming that least.
+#[test]
+fn streamed_extraction_matches_in_memory_over_budgets() {
+    let dir = temp_dir("stream-budgets");
+    let size = 150;
+    let nrrd = generated(&dir, "hairball", size as u32);
+    let npy = dir.join("hairball.npy");
+    nrrd_u8_as_npy(&nrrd, size, &npy);
+    let reference = dir.join("memory.cgc");
+    let memory = ok_json(&[
+        "extract",
+        s(&npy),
+        "--iso-normalized",
+        "0.5",
+        "-o",
+        s(&reference),
+        "--json",
+    ]);
+    let expected = std::fs::read(&reference).unwrap();
+
+    let too_small = fails(
+        &[
+            "extract",
+            s(&nrrd),
+            "--iso-normalized",
+            "0.5",
+            "--max-memory",
+            "1M",
+            "-o",
+            s(&dir.join("x.cgc")),
+        ],
+        "the least that works is",
+    );
+    let least = too_small
+        .split("the least that works is ")
+        .nth(1)
+        .and_then(|t| t.split(" MiB").next())
+        .and_then(|n| n.trim().parse::<u64>().ok())
+        .unwrap_or_else(|| panic!("no size in {too_small}"));
+    assert!(!dir.join("x.cgc").exists());
+
+    for (budget, threads) in [
+        (least, "1"),
+        (least + 2, "2"),
+        (least + 7, "3"),
+        (4096, "2"),
+    ] {
+        let out = dir.join(format!("stream-{budget}.cgc"));
+        let budget = format!("{budget}M");
+        let streamed = ok_json(&[
+            "extract",
+            s(&nrrd),
+            "--iso-normalized",
+            "0.5",
+            "--max-memory",
+            &budget,
+            "--threads",
+            threads,
+            "-o",
+            s(&out),
+            "--json",
+        ]);
+        assert_eq!(streamed["active_cells"], memory["active_cells"], "{budget}");
+        assert!(
+            std::fs::read(&out).unwrap() == expected,
+            "budget {budget}: files differ"
+        );
+    }
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+/// OME-Zarr through the CLI: extra axes need `--index`, and the levels differ in size.
+#[test]
+fn ome_zarr_extraction_needs_an_index_for_extra_axes() {
+    let dir = temp_dir("ome-zarr");
+    let ome = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../isogrid-io/tests/fixtures/zarr/ome_v04.zarr");
+    let out = dir.join("ome.cgc");
+    fails(
+        &["extract", s(&ome), "--iso", "2040", "-o", s(&out)],
+        "--index t=0,c=0",
+    );
+    fails(
+        &[
+            "extract",
+            s(&ome),
+            "--iso",
+            "2040",
+            "--index",
+            "t=0,c",
+            "-o",
+            s(&out),
+        ],
+        "AXIS=I",
+    );
+    assert!(!out.exists());
+    let full = ok_json(&[
+        "extract",
+        s(&ome),
+        "--iso",
+        "2040",
+        "--index",
+        "t=1,c=0",
+        "-o",
+        s(&out),
+        "--json",
+    ]);
+    let half = ok_json(&[
+        "extract",
+        s(&ome),
+        "--iso",
+        "2040",
+        "--index",
+        "t=1,c=0",
+        "--level",
+        "1",
+        "--json",
+    ]);
+    assert_eq!(full["dims"], serde_json::json!([20, 13, 35]));
+    assert_eq!(half["dims"], serde_json::json!([10, 7, 18]));
+    assert!(full["active_cells"].as_u64().unwrap() > half["active_cells"].as_u64().unwrap());
+    assert!(half["active_cells"].as_u64().unwrap() > 0);
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+/// Bad Zarr inputs fail in one line naming the problem and leave nothing in the output folder:
+/// a corrupt chunk (named), a codec this build lacks, a budget below one slab (the least that
+/// works is named); a missing chunk is the fill value, not an error.
+#[test]
+fn bad_zarr_inputs_fail_in_one_line_and_leave_no_output() {
+    let dir = temp_dir("zarr-bad");
+    let fixtures = Path::new(env!("CARGO_MANIFEST_DIR")).join("../isogrid-io/tests/fixtures/zarr");
+    let out = dir.join("out.cgc");
+    let extract = |name: &str, extra: &[&str]| {
+        let input = fixtures.join(name);
+        let mut args = vec!["extract", s(&input), "--iso", "60", "-o", s(&out)];
+        args.extend_from_slice(extra);
+        args.iter().map(|a| a.to_string()).collect::<Vec<_>>()
+    };
+    let run = |args: Vec<String>, mention: &str| {
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        fails(&args, mention);
+        let left: Vec<_> = std::fs::read_dir(&dir).unwrap().collect();
+        assert!(left.is_empty(), "{args:?} left {left:?}");
+    };
+    run(extract("v2_corrupt_chunk.zarr", &[]), "chunk 1.0.1");
+    run(extract("v2_lzma.zarr", &[]), "lzma");
+    run(extract("v2_4d_unnamed.zarr", &[]), "--index dim0=0");
+    run(
+        extract("v2_blosc.zarr", &["--max-memory", "100K"]),
+        "the least that works is",
+    );
+    let e = ok_json(
+        &extract("v3_missing_chunk.zarr", &["--json"])
+            .iter()
+            .map(String::as_str)
+            .collect::<Vec<_>>(),
+    );
+    assert!(e["active_cells"].as_u64().unwrap() > 0);
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
 #[test]
 fn dicom_folder_with_two_series_notes_the_other_and_series_picks_it() {
     let fixtures = Path::new(env!("CARGO_MANIFEST_DIR")).join("../isogrid-io/tests/fixtures");

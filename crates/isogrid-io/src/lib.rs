@@ -20,6 +20,7 @@ pub mod nifti;
 pub mod npy;
 pub mod nrrd;
 pub mod raw;
+pub mod region;
 pub mod tiff;
 pub mod voxelize;
 
@@ -38,4 +39,5 @@ pub use nrrd::{read_nrrd, write_nrrd};
 pub use raw::{read_raw, RawSpec};
 pub use read::{read_volume, read_volume_noted};
 pub use read_options::ReadOptions;
+pub use region::{open_region, ZarrOptions};
 pub use tiff::read_tiff;

@@ -90,7 +90,45 @@ fn read(path: &Path) -> Result<Volume> {
     Volume::with_geometry(g, data)
 }
 
-fn scaled(data: &VolumeData, slope: f32, inter: f32) -> Vec<f32> {
+/// Where an uncompressed `.nii` keeps its samples, for reading by region; `None` for a gzip file
+/// (which has to be decompressed from its start). Errors name `path`.
+pub(crate) fn region_layout(path: &Path) -> Result<Option<crate::region::MappedLayout>> {
+    (|| {
+        let mut file = isogrid::fs::open_regular(path)?;
+        let file_len = file.metadata()?.len();
+        let mut raw = [0u8; HEADER_SIZE];
+        let mut got = 0;
+        while got < HEADER_SIZE {
+            match file.read(&mut raw[got..])? {
+                0 => break,
+                n => got += n,
+            }
+        }
+        if got >= 2 && raw[..2] == [0x1f, 0x8b] {
+            return Ok(None);
+        }
+        if got < HEADER_SIZE {
+            return Err(Error::corrupt("file is shorter than a NIfTI-1 header"));
+        }
+        let header = parse_header(&raw)?;
+        let count = sample_count(header.dims)?;
+        check_available(
+            byte_count(count, header.elem)?,
+            file_len.saturating_sub(header.vox_offset),
+        )?;
+        Ok(Some(crate::region::MappedLayout {
+            data_path: path.to_path_buf(),
+            data_offset: header.vox_offset,
+            elem: header.elem,
+            big_endian: header.big_endian,
+            geometry: geometry(header.dims, header.spacing, header.origin, header.direction)?,
+            scale: header.scale,
+        }))
+    })()
+    .at_path(path)
+}
+
+pub(crate) fn scaled(data: &VolumeData, slope: f32, inter: f32) -> Vec<f32> {
     let s = data.samples();
     (0..s.len())
         .map(|i| s.get_f64(i) as f32 * slope + inter)

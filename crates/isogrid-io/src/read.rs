@@ -7,7 +7,8 @@ use isogrid::{Error, Result, ResultExt, Volume};
 use std::io::Read;
 use std::path::Path;
 
-/// Reads a volume, detecting the format from the path: a directory or a `.dcm` file (or one
+/// Reads a volume, detecting the format from the path: a Zarr store or OME-Zarr image (see
+/// [`crate::region`]); a folder of 2-D TIFF slices; another directory or a `.dcm` file (or one
 /// with the `DICM` marker) = DICOM (see [`crate::dicom`]); `.nii`/`.nii.gz`; `.nrrd`/`.nhdr`;
 /// `.npy`; `.tif`/`.tiff`; `.mha`/`.mhd`; `.mrc`/`.map`/`.ccp4`/`.mrcs`; any file when `opts.raw` is set
 /// (`.raw`/`.bin` without it are an error asking for the spec). Other names are sniffed by
@@ -18,6 +19,14 @@ pub fn read_volume(path: &Path, opts: &ReadOptions) -> Result<Volume> {
 
 /// [`read_volume`], also returning notices for the user (one line each).
 pub fn read_volume_noted(path: &Path, opts: &ReadOptions) -> Result<(Volume, Vec<String>)> {
+    if crate::region::is_zarr(path) {
+        let volume = crate::region::read_all(crate::region::open_zarr(path, opts)?.as_mut())?;
+        return Ok((volume, Vec::new()));
+    }
+    if crate::region::is_tiff_slices(path) {
+        let volume = crate::region::read_all(&mut crate::region::slices::TiffSlices::open(path)?)?;
+        return Ok((volume, Vec::new()));
+    }
     if path.is_dir() || (opts.raw.is_none() && is_dicom_file(path)) {
         return crate::dicom::read_dicom(path, opts);
     }

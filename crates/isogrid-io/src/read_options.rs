@@ -1,4 +1,5 @@
-//! What a caller can tell the readers beyond the path: a raw spec, a DICOM series.
+//! What a caller can tell the readers beyond the path: a raw spec, a DICOM series, a
+//! Zarr level and index.
 
 use crate::raw::RawSpec;
 
@@ -9,4 +10,6 @@ pub struct ReadOptions {
     pub raw: Option<RawSpec>,
     /// DICOM: read this SeriesInstanceUID (default: the series with the most slices).
     pub series: Option<String>,
+    /// Level and extra-axis indices of a Zarr / OME-Zarr input.
+    pub zarr: crate::region::ZarrOptions,
 }

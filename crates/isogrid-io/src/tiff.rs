@@ -69,6 +69,29 @@ fn read(path: &Path) -> Result<Volume> {
     Volume::new([w as usize, h as usize, pages], data)
 }
 
+/// Reads the first page of a grayscale TIFF as one slice: (width, height, samples), converted as
+/// the stack reader converts them. Errors name `path`.
+pub(crate) fn read_page(path: &Path) -> Result<(usize, usize, VolumeData)> {
+    (|| {
+        let file = isogrid::fs::open_regular(path)?;
+        let file_len = file.metadata()?.len();
+        let mut decoder = Decoder::new(BufReader::new(file)).map_err(tiff_error)?;
+        let (w, h) = decoder.dimensions().map_err(tiff_error)?;
+        match decoder.colortype().map_err(tiff_error)? {
+            ColorType::Gray(8 | 16 | 32 | 64) => {}
+            other => {
+                return Err(Error::unsupported(format!(
+                    "the image is {other:?}; only single-channel grayscale TIFF slices are volumes"
+                )))
+            }
+        }
+        check_page_fits(&mut decoder, w, h, file_len)?;
+        let page = decoder.read_image().map_err(tiff_error)?;
+        Ok((w as usize, h as usize, append(None, page, 0)?))
+    })()
+    .at_path(path)
+}
+
 /// Rejects a page whose declared pixels the file cannot hold, before the decoder allocates them;
 /// returns the page's decoded bytes.
 fn check_page_fits(

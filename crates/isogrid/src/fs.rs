@@ -29,6 +29,20 @@ pub fn write_atomic<F>(path: &Path, write: F) -> Result<()>
 where
     F: FnOnce(&mut dyn Write) -> Result<()>,
 {
+    write_atomic_file(path, |file| {
+        let mut out = BufWriter::with_capacity(1 << 20, file);
+        write(&mut out)?;
+        out.flush()?;
+        Ok(())
+    })
+}
+
+/// Like [`write_atomic`], handing `write` the temporary file itself, for writers that place
+/// sections at offsets (positioned writes) instead of streaming them in order.
+pub fn write_atomic_file<F>(path: &Path, write: F) -> Result<()>
+where
+    F: FnOnce(&mut File) -> Result<()>,
+{
     let dir = match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d,
         _ => Path::new("."),
@@ -53,10 +67,8 @@ where
         renamed: false,
     };
     let result = (|| -> Result<()> {
-        let file = File::create(&tmp)?;
-        let mut out = BufWriter::with_capacity(1 << 20, file);
-        write(&mut out)?;
-        let file = out.into_inner().map_err(|e| Error::io(e.into_error()))?;
+        let mut file = File::create(&tmp)?;
+        write(&mut file)?;
         file.sync_all()?;
         std::fs::rename(&tmp, path)?;
         Ok(())

@@ -192,7 +192,7 @@ impl Geometry {
     pub fn cell_dims(&self) -> [usize; 3] {
         self.dims.map(|n| n.saturating_sub(1))
     }
-    fn validate(&self, len: usize) -> Result<()> {
+    pub(crate) fn validate(&self, len: usize) -> Result<()> {
         for (axis, &n) in self.dims.iter().enumerate() {
             if n == 0 || n > MAX_DIM {
                 return Err(Error::too_large(format!(

@@ -1,18 +1,23 @@
 //! `isogrid extract`: volume → clustered grid cells (paper §3.1) → `.cgc`.
+//!
+//! Inputs that can be read by region (Zarr, OME-Zarr, TIFF slice folders, raw, uncompressed NRRD
+//! and NIfTI) are extracted slab by slab within `--max-memory` and written as they go
+//! ([`isogrid::extract::stream`]); the others are read whole first. Both give the same bytes.
 
-use crate::args::{parse_precision, InputArgs, IsoArgs, ThreadArgs};
+use crate::args::{parse_precision, parse_size, InputArgs, IsoArgs, ThreadArgs};
 use crate::outputs::{self, Output};
 use crate::report::{print_json, GridReport, Seconds};
 use crate::{input, progress};
 use anyhow::{Context, Result};
+use isogrid::extract::stream::{self, Progress, RegionSource, Stage};
 use isogrid::{extract, ExtractOptions, GridStats, Precision};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// Volume: .nii/.nii.gz, .nrrd/.nhdr, .npy, .tif/.tiff, .mha/.mhd, .mrc/.map, a DICOM folder,
-    /// or raw with --raw-shape.
+    /// Volume: .nii/.nii.gz, .nrrd/.nhdr, .npy, .tif/.tiff, .mha/.mhd, .mrc/.map, a folder of TIFF
+    /// slices, a Zarr or OME-Zarr store, a DICOM folder, or raw with --raw-shape.
     pub input: PathBuf,
     #[command(flatten)]
     pub iso: IsoArgs,
@@ -23,6 +28,9 @@ pub struct Args {
     pub threads: ThreadArgs,
     #[command(flatten)]
     pub input_args: InputArgs,
+    /// Peak memory for inputs read by region, e.g. 512M or 4G (default: a quarter of RAM).
+    #[arg(long, value_name = "SIZE", value_parser = parse_size)]
+    pub max_memory: Option<u64>,
     /// Write the grid to this .cgc file.
     #[arg(short, long, value_name = "OUT.cgc")]
     pub output: Option<PathBuf>,
@@ -38,17 +46,56 @@ pub fn run(args: Args) -> Result<()> {
         extensions: &[".cgc"],
     });
     outputs::check(&[&args.input], output.as_slice())?;
-    let (volume, read) = input::read_volume(&args.input, &args.input_args.read_options()?)?;
+    let read_options = args.input_args.read_options()?;
     let options = ExtractOptions {
         iso: args.iso.iso(),
         precision: args.precision,
     };
-    let spinner = progress::spinner("extracting".into());
     // The pool is started before the clock: thread start-up is not extraction.
     let pool = args.threads.pool()?;
     let start = Instant::now();
+    let region = isogrid_io::open_region(&args.input, &read_options)?;
+    let read = start.elapsed().as_secs_f64();
+    let (stats, seconds) = match region {
+        Some(mut source) => {
+            let max_memory = args.max_memory.unwrap_or_else(default_max_memory);
+            let stats =
+                pool.install(|| stream_to_file(&args, source.as_mut(), &options, max_memory))?;
+            (
+                stats,
+                Seconds {
+                    read,
+                    extract: start.elapsed().as_secs_f64() - read,
+                    write: 0.0,
+                },
+            )
+        }
+        None => in_memory(&args, &read_options, &options, &pool)?,
+    };
+    let report = GridReport::new(&stats, seconds);
+    if args.json {
+        print_json(&report)
+    } else {
+        report.print_human();
+        if let Some(out) = &args.output {
+            println!("wrote         {}", out.display());
+        }
+        Ok(())
+    }
+}
+
+/// The whole volume in memory, then the grid, then the file.
+fn in_memory(
+    args: &Args,
+    read_options: &isogrid_io::ReadOptions,
+    options: &ExtractOptions,
+    pool: &rayon::ThreadPool,
+) -> Result<(GridStats, Seconds)> {
+    let (volume, read) = input::read_volume(&args.input, read_options)?;
+    let spinner = progress::spinner("extracting".into());
+    let start = Instant::now();
     let grid = pool
-        .install(|| extract(&volume.view(), &options))
+        .install(|| extract(&volume.view(), options))
         .with_context(|| format!("{}: extraction failed", args.input.display()))?;
     let extract_seconds = start.elapsed().as_secs_f64();
     spinner.finish_and_clear();
@@ -59,21 +106,71 @@ pub fn run(args: Args) -> Result<()> {
         isogrid::cgc::write(out, &grid)?;
         write = start.elapsed().as_secs_f64();
     }
-    let report = GridReport::new(
-        &GridStats::of(&grid),
+    Ok((
+        GridStats::of(&grid),
         Seconds {
             read,
             extract: extract_seconds,
             write,
         },
-    );
-    if args.json {
-        print_json(&report)
-    } else {
-        report.print_human();
-        if let Some(out) = &args.output {
-            println!("wrote         {}", out.display());
+    ))
+}
+
+/// Slab by slab into `--output` (or a scratch file that is removed, for statistics only).
+fn stream_to_file(
+    args: &Args,
+    source: &mut dyn RegionSource,
+    options: &ExtractOptions,
+    max_memory: u64,
+) -> Result<GridStats> {
+    // Checked before any pass, so a budget too small fails at once.
+    stream::plan(source, max_memory).with_context(|| format!("{}", args.input.display()))?;
+    let scratch;
+    let out: &Path = match &args.output {
+        Some(out) => out,
+        None => {
+            scratch =
+                std::env::temp_dir().join(format!("isogrid-extract-{}.cgc", std::process::id()));
+            &scratch
         }
-        Ok(())
+    };
+    let mut bar: Option<(Stage, indicatif::ProgressBar)> = None;
+    let mut report = |p: Progress| {
+        if bar.as_ref().is_none_or(|(stage, _)| *stage != p.stage) {
+            if let Some((_, old)) = bar.take() {
+                old.finish_and_clear();
+            }
+            let label = match p.stage {
+                Stage::ValueRange => "value range",
+                Stage::Scan => "counting cells",
+                Stage::Emit => "writing cells",
+            };
+            bar = Some((p.stage, progress::bar(label, p.total)));
+        }
+        if let Some((_, b)) = &bar {
+            b.set_position(p.done);
+        }
+    };
+    let result = stream::extract_to_file(source, options, max_memory, out, &mut report);
+    if let Some((_, b)) = bar.take() {
+        b.finish_and_clear();
     }
+    if args.output.is_none() {
+        let _ = std::fs::remove_file(out);
+    }
+    let summary = result.with_context(|| format!("{}: extraction failed", args.input.display()))?;
+    crate::report::note_if_no_cells(&args.input, &summary.info, summary.stats.active_cells);
+    Ok(summary.stats)
+}
+
+/// A quarter of the machine's memory (4 GiB where it cannot be read).
+fn default_max_memory() -> u64 {
+    let total = std::fs::read_to_string("/proc/meminfo")
+        .ok()
+        .and_then(|text| {
+            let line = text.lines().find(|l| l.starts_with("MemTotal:"))?;
+            let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+            Some(kib * 1024)
+        });
+    total.map_or(4 << 30, |t| t / 4)
 }

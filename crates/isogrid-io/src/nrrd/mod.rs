@@ -8,4 +8,5 @@ mod write;
 
 pub(crate) use header::clip;
 pub use read::read_nrrd;
+pub(crate) use read::region_layout;
 pub use write::write_nrrd;

@@ -72,6 +72,56 @@ pub fn read_nrrd(path: &Path) -> Result<Volume> {
     Volume::with_geometry(g, data).at_path(path)
 }
 
+/// Where a raw-encoded NRRD (attached, or detached into one file, without line skips) keeps its
+/// samples, for reading by region; `None` for other encodings and layouts, which are read whole.
+/// Errors name the file at fault.
+pub(crate) fn region_layout(path: &Path) -> Result<Option<crate::region::MappedLayout>> {
+    let file = isogrid::fs::open_regular(path)?;
+    let mut reader = BufReader::new(file);
+    let (lines, data_offset) = read_header_lines(&mut reader).at_path(path)?;
+    let header = header::parse(&lines).at_path(path)?;
+    if !matches!(header.encoding, Encoding::Raw) || header.line_skip != 0 {
+        return Ok(None);
+    }
+    let count = sample_count(header.dims).at_path(path)?;
+    let needed = byte_count(count, header.elem).at_path(path)?;
+    let (data_path, start) = match &header.data {
+        DataFiles::Attached => match data_offset {
+            Some(offset) => (path.to_path_buf(), offset),
+            None => {
+                return Err(Error::corrupt(
+                    "NRRD header names no data file and has no attached data",
+                )
+                .with_path(path))
+            }
+        },
+        DataFiles::Detached(names) if names.len() == 1 => (
+            resolve(path.parent().unwrap_or(Path::new(".")), &names[0]),
+            0,
+        ),
+        DataFiles::Detached(_) => return Ok(None),
+    };
+    let file_len = std::fs::metadata(&data_path).at_path(&data_path)?.len();
+    let available = file_len.saturating_sub(start);
+    let data_offset = if header.byte_skip == -1 {
+        check_available(needed, available).at_path(&data_path)?;
+        file_len - needed
+    } else {
+        let skip = header.byte_skip as u64;
+        check_available(needed.saturating_add(skip), available).at_path(&data_path)?;
+        start + skip
+    };
+    Ok(Some(crate::region::MappedLayout {
+        data_path,
+        data_offset,
+        elem: header.elem,
+        big_endian: header.big_endian,
+        geometry: geometry(header.dims, header.spacing, header.origin, header.direction)
+            .at_path(path)?,
+        scale: None,
+    }))
+}
+
 /// Reads the magic line and the header lines. Returns the lines and, when a blank line ended the
 /// header, the byte offset right after it (where attached data starts).
 fn read_header_lines<R: BufRead>(reader: &mut R) -> Result<(Vec<String>, Option<u64>)> {

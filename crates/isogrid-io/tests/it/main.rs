@@ -10,4 +10,9 @@ mod fuzz_regressions;
 mod metaimage;
 mod mrc;
 mod readers;
+mod region;
 mod write_nrrd;
+#[cfg(feature = "zarr")]
+mod zarr;
+#[cfg(feature = "zarr")]
+mod zarr_http;

@@ -37,4 +37,5 @@ mod read;
 mod write;
 
 pub use read::{open, read, read_bytes};
+pub(crate) use write::{header_bytes, sections_for_lengths, HeaderCounts};
 pub use write::{to_bytes, write};

@@ -2,14 +2,39 @@
 
 use super::format::{align16, scalar_code, HEADER_CRC_AT, HEADER_SIZE, MAGIC, VERSION};
 use crate::error::Result;
-use crate::grid::CellGrid;
+use crate::grid::{CellGrid, GridInfo};
 use std::io::Write;
 use std::path::Path;
 
+/// Counts a header records besides the grid's metadata.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) struct HeaderCounts {
+    pub blocks: u64,
+    pub metacell_slots: u64,
+    pub active_cells: u64,
+    pub occupied_metacells: u64,
+}
+
 /// The header bytes for `grid`.
 fn header(grid: &CellGrid) -> [u8; HEADER_SIZE] {
-    let info = grid.info();
-    let sections = section_layout(grid);
+    let counts = HeaderCounts {
+        blocks: grid.blocks().len() as u64,
+        metacell_slots: grid.metacell_slots() as u64,
+        active_cells: grid.active_cells() as u64,
+        occupied_metacells: grid.occupied_metacells() as u64,
+    };
+    let crcs = section_bytes(grid).map(crc32fast::hash);
+    header_bytes(grid.info(), &counts, section_layout(grid), crcs)
+}
+
+/// The header bytes from their parts: shared by the in-memory writer and the streaming extraction,
+/// which knows its sections' checksums only once they are written.
+pub(crate) fn header_bytes(
+    info: &GridInfo,
+    counts: &HeaderCounts,
+    sections: [(u64, u64); 3],
+    crcs: [u32; 3],
+) -> [u8; HEADER_SIZE] {
     let mut h = [0u8; HEADER_SIZE];
     let mut at = 0;
     let mut put = |bytes: &[u8]| {
@@ -29,10 +54,10 @@ fn header(grid: &CellGrid) -> [u8; HEADER_SIZE] {
     put(&info.mapping.iso_code.to_le_bytes());
     put(&info.mapping.offset.to_le_bytes());
     put(&info.mapping.step.to_le_bytes());
-    put(&(grid.blocks().len() as u64).to_le_bytes());
-    put(&(grid.metacell_slots() as u64).to_le_bytes());
-    put(&(grid.active_cells() as u64).to_le_bytes());
-    put(&(grid.occupied_metacells() as u64).to_le_bytes());
+    put(&counts.blocks.to_le_bytes());
+    put(&counts.metacell_slots.to_le_bytes());
+    put(&counts.active_cells.to_le_bytes());
+    put(&counts.occupied_metacells.to_le_bytes());
     for (offset, len) in sections {
         put(&offset.to_le_bytes());
         put(&len.to_le_bytes());
@@ -41,8 +66,8 @@ fn header(grid: &CellGrid) -> [u8; HEADER_SIZE] {
         .iter()
         .flatten()
         .for_each(|v| put(&v.to_le_bytes()));
-    for bytes in section_bytes(grid) {
-        put(&crc32fast::hash(bytes).to_le_bytes());
+    for crc in crcs {
+        put(&crc.to_le_bytes());
     }
     debug_assert_eq!(at, 292);
     let crc = crc32fast::hash(&h[..HEADER_CRC_AT]);
@@ -60,11 +85,16 @@ fn section_bytes(grid: &CellGrid) -> [&[u8]; 3] {
 
 /// (offset, length) of each section.
 fn section_layout(grid: &CellGrid) -> [(u64, u64); 3] {
+    sections_for_lengths(section_bytes(grid).map(|bytes| bytes.len() as u64))
+}
+
+/// (offset, length) of sections of the given byte lengths: 16-byte aligned, after the header.
+pub(crate) fn sections_for_lengths(lengths: [u64; 3]) -> [(u64, u64); 3] {
     let mut offset = HEADER_SIZE as u64;
-    section_bytes(grid).map(|bytes| {
+    lengths.map(|len| {
         let start = align16(offset);
-        offset = start + bytes.len() as u64;
-        (start, bytes.len() as u64)
+        offset = start + len;
+        (start, len)
     })
 }
 

@@ -9,6 +9,7 @@
 mod emit;
 mod scalar;
 mod scan;
+pub mod stream;
 
 use crate::error::{Error, Result};
 use crate::grid::{CellGrid, GridInfo};
@@ -36,6 +37,16 @@ impl Iso {
 
     /// Like [`Iso::resolve`], also returning the value range when it had to be computed.
     fn resolve_with_range(&self, volume: &VolumeView) -> Result<(f64, Option<(f64, f64)>)> {
+        self.resolve_lazily(|| Ok(volume.value_range()))
+    }
+
+    /// Resolves with `value_range` (NaN-free min and max, `None` without a finite sample) called
+    /// only for a normalised isovalue, after its fraction has been checked: a streaming source
+    /// pays a pass over the volume for it.
+    fn resolve_lazily(
+        &self,
+        value_range: impl FnOnce() -> Result<Option<(f64, f64)>>,
+    ) -> Result<(f64, Option<(f64, f64)>)> {
         let (iso, range) = match *self {
             Iso::Value(v) => (v, None),
             Iso::Normalized(t) => {
@@ -44,13 +55,11 @@ impl Iso {
                         "normalised isovalue {t} is outside [0, 1]"
                     )));
                 }
-                let (lo, hi) = volume
-                    .value_range()
-                    .ok_or_else(|| {
-                        Error::invalid(
-                            "the volume has no finite sample (all are NaN or infinite), so it has no value range",
-                        )
-                    })?;
+                let (lo, hi) = value_range()?.ok_or_else(|| {
+                    Error::invalid(
+                        "the volume has no finite sample (all are NaN or infinite), so it has no value range",
+                    )
+                })?;
                 (lo + t * (hi - lo), Some((lo, hi)))
             }
         };
@@ -115,16 +124,10 @@ fn extract_typed<T: ExtractScalar>(
     let block_count = nbx * nby * nbz;
 
     // Pass 1: per-block ranges and counts, block rows in block order.
-    let scans: Vec<scan::BlockScan> = if block_count == 0 {
+    let scans = if block_count == 0 {
         Vec::new()
     } else {
-        (0..nby * nbz)
-            .into_par_iter()
-            .map_init(scan::RowScratch::default, |scratch, row| {
-                scan::scan_block_row(samples, dims, row % nby, row / nby, threshold, scratch)
-            })
-            .flatten_iter()
-            .collect()
+        scan_blocks(samples, dims, threshold)
     };
 
     let (lo, hi) = match value_range {
@@ -141,52 +144,27 @@ fn extract_typed<T: ExtractScalar>(
 
     // Prefix sums: each block's slots and cells.
     let mut blocks = Vec::with_capacity(block_count);
-    let (mut slot_total, mut cell_total) = (0u64, 0u64);
+    let mut totals = Totals::default();
     for s in &scans {
-        let slots =
-            (s.occupied_metacells as u64).div_ceil(CLUSTER_METACELLS as u64) * CLUSTER_SLOTS as u64;
-        blocks.push(Block {
-            metacell_count: slots as u32,
-            metacell_pointer: slot_total as u32,
-            min: s.min as f32,
-            max: s.max as f32,
-        });
-        slot_total += slots;
-        cell_total += s.active_cells as u64;
-        if slot_total > u32::MAX as u64 || cell_total > u32::MAX as u64 {
-            return Err(Error::too_large("more than 2^32 metacell slots or active cells: beyond the 32-bit pointers of the format"));
-        }
+        blocks.push(totals.add(s)?);
     }
+    let (slot_total, cell_total) = (totals.slots, totals.cells);
 
     // Pass 2: emit active blocks into disjoint parts of the output.
     let record = precision.bytes_per_cell();
     let mut metacells = vec![bytemuck::Zeroable::zeroed(); slot_total as usize];
     let mut cells = vec![0u8; cell_total as usize * record];
-    let mut outputs = Vec::new();
-    {
-        let (mut slots_rest, mut cells_rest): (&mut [Metacell], &mut [u8]) =
-            (&mut metacells, &mut cells);
-        let mut first_cell = 0u32;
-        for (index, (block, scan)) in blocks.iter().zip(&scans).enumerate() {
-            if block.metacell_count == 0 {
-                continue;
-            }
-            let (slots, rest) =
-                std::mem::take(&mut slots_rest).split_at_mut(block.metacell_count as usize);
-            slots_rest = rest;
-            let (cell_bytes, rest) =
-                std::mem::take(&mut cells_rest).split_at_mut(scan.active_cells as usize * record);
-            cells_rest = rest;
-            let block_pos = [index % nbx, index / nbx % nby, index / (nbx * nby)];
-            outputs.push(emit::BlockOutput {
-                block: block_pos,
-                slots,
-                cells: cell_bytes,
-                first_cell,
-            });
-            first_cell += scan.active_cells;
-        }
-    }
+    let mut first_cell = 0u32;
+    let outputs = split_outputs(
+        &blocks,
+        |index| scans[index].active_cells,
+        0..block_count,
+        [nbx, nby],
+        (&mut metacells, &mut cells),
+        record,
+        &mut first_cell,
+        0,
+    );
     outputs
         .into_par_iter()
         .for_each_init(emit::BlockScratch::default, |scratch, out| {
@@ -205,4 +183,93 @@ fn extract_typed<T: ExtractScalar>(
         mapping: quantizer.mapping(),
     };
     Ok(CellGrid::from_parts(info, blocks, metacells, cells))
+}
+
+/// Pass 1 over `samples` (a whole volume, or a slab of whole block layers plus its halo plane):
+/// one [`scan::BlockScan`] per block in block order. Runs on the current rayon pool.
+fn scan_blocks<T: ExtractScalar>(
+    samples: &[T],
+    dims: [usize; 3],
+    threshold: Option<T>,
+) -> Vec<scan::BlockScan> {
+    let [_, nby, nbz] = dims.map(|d| d.saturating_sub(1).div_ceil(BLOCK_CELLS));
+    (0..nby * nbz)
+        .into_par_iter()
+        .map_init(scan::RowScratch::default, |scratch, row| {
+            scan::scan_block_row(samples, dims, row % nby, row / nby, threshold, scratch)
+        })
+        .flatten_iter()
+        .collect()
+}
+
+/// Running prefix sums over blocks in block order: where each block's slots and cells start.
+#[derive(Debug, Default, Clone, Copy)]
+struct Totals {
+    slots: u64,
+    cells: u64,
+    occupied_metacells: u64,
+    nonempty_blocks: u64,
+}
+
+impl Totals {
+    /// The next block's record; errors past the format's 32-bit pointers.
+    fn add(&mut self, s: &scan::BlockScan) -> Result<Block> {
+        let slots =
+            (s.occupied_metacells as u64).div_ceil(CLUSTER_METACELLS as u64) * CLUSTER_SLOTS as u64;
+        let block = Block {
+            metacell_count: slots as u32,
+            metacell_pointer: self.slots as u32,
+            min: s.min as f32,
+            max: s.max as f32,
+        };
+        self.slots += slots;
+        self.cells += s.active_cells as u64;
+        self.occupied_metacells += s.occupied_metacells as u64;
+        self.nonempty_blocks += (slots > 0) as u64;
+        if self.slots > u32::MAX as u64 || self.cells > u32::MAX as u64 {
+            return Err(Error::too_large("more than 2^32 metacell slots or active cells: beyond the 32-bit pointers of the format"));
+        }
+        Ok(block)
+    }
+}
+
+/// Splits `output` (slots, corner records) into the disjoint parts of the active blocks among
+/// `range` (in block order, which is output order). `next_cell` is the global index of the first
+/// cell and advances past the range; `slab_block_z` is where the samples the outputs will be
+/// emitted from start (see [`emit::BlockOutput`]).
+#[allow(clippy::too_many_arguments)]
+fn split_outputs<'a>(
+    blocks: &[Block],
+    active_cells: impl Fn(usize) -> u32,
+    range: std::ops::Range<usize>,
+    [nbx, nby]: [usize; 2],
+    output: (&'a mut [Metacell], &'a mut [u8]),
+    record: usize,
+    next_cell: &mut u32,
+    slab_block_z: usize,
+) -> Vec<emit::BlockOutput<'a>> {
+    let (mut slots_rest, mut cells_rest) = output;
+    let mut outputs = Vec::new();
+    for index in range {
+        let block = &blocks[index];
+        if block.metacell_count == 0 {
+            continue;
+        }
+        let cell_count = active_cells(index);
+        let (slots, rest) =
+            std::mem::take(&mut slots_rest).split_at_mut(block.metacell_count as usize);
+        slots_rest = rest;
+        let (cells, rest) =
+            std::mem::take(&mut cells_rest).split_at_mut(cell_count as usize * record);
+        cells_rest = rest;
+        outputs.push(emit::BlockOutput {
+            block: [index % nbx, index / nbx % nby, index / (nbx * nby)],
+            slots,
+            cells,
+            first_cell: *next_cell,
+            slab_block_z,
+        });
+        *next_cell += cell_count;
+    }
+    outputs
 }

@@ -6,3 +6,4 @@ mod cgc;
 mod common;
 mod extract;
 mod mc;
+mod stream;

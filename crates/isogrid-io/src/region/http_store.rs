@@ -1,0 +1,156 @@
+//! A read-only `zarrs` store over HTTP, for Zarr and OME-Zarr served as static files (public
+//! OME-Zarr collections are served this way): every store key is a URL under the store's base URL.
+//!
+//! Built on `ureq` without a TLS stack, so it speaks plain `http://`; `https://` needs the
+//! `https` feature (rustls). The `zarrs_http` crate does the same through `reqwest`, which would
+//! bring an async runtime and a TLS stack into every build. Byte ranges (shard indexes and inner
+//! chunks) are asked for with `Range` headers; a server that ignores them and answers 200 with the
+//! whole object is served by slicing, so simple static servers work too. A 404 is a missing key
+//! (a missing chunk reads as the fill value, as the Zarr specs say); any other failure is an
+//! error naming the URL.
+
+use std::time::Duration;
+use zarrs::storage::byte_range::{ByteRange, ByteRangeIterator};
+use zarrs::storage::{
+    Bytes, MaybeBytes, MaybeBytesIterator, ReadableStorageTraits, StorageError, StoreKey,
+};
+
+/// A Zarr store rooted at an HTTP(S) URL.
+pub struct HttpStore {
+    agent: ureq::Agent,
+    base: String,
+}
+
+impl HttpStore {
+    /// A store whose keys are resolved under `base_url` (with or without a trailing slash).
+    pub fn new(base_url: &str) -> Self {
+        let config = ureq::Agent::config_builder()
+            // Statuses are answers to interpret (404 = missing key), not transport errors.
+            .http_status_as_error(false)
+            .timeout_connect(Some(Duration::from_secs(30)))
+            .timeout_recv_response(Some(Duration::from_secs(120)))
+            .timeout_per_read(Some(Duration::from_secs(120)))
+            .build();
+        HttpStore {
+            agent: ureq::Agent::new_with_config(config),
+            base: base_url.trim_end_matches('/').to_string(),
+        }
+    }
+
+    fn url(&self, key: &StoreKey) -> String {
+        format!("{}/{}", self.base, key.as_str())
+    }
+
+    /// GETs `url`, with `range` as a `Range` header value when given. `None` on 404; otherwise the
+    /// status (200 or 206) and the body.
+    fn fetch(&self, url: &str, range: Option<&str>) -> Result<Option<(u16, Bytes)>, StorageError> {
+        let mut request = self.agent.get(url);
+        if let Some(range) = range {
+            request = request.header("Range", range);
+        }
+        let response = request
+            .call()
+            .map_err(|e| StorageError::from(format!("{url}: {e}")))?;
+        let status = response.status().as_u16();
+        match status {
+            404 => Ok(None),
+            200 | 206 => {
+                let body = response
+                    .into_body()
+                    .with_config()
+                    .limit(u64::MAX)
+                    .read_to_vec()
+                    .map_err(|e| StorageError::from(format!("{url}: {e}")))?;
+                Ok(Some((status, Bytes::from(body))))
+            }
+            _ => Err(StorageError::from(format!("{url}: HTTP status {status}"))),
+        }
+    }
+
+    /// One byte range of the object at `url`; `None` when the server has no such object.
+    fn fetch_range(&self, url: &str, range: ByteRange) -> Result<MaybeBytes, StorageError> {
+        let header = match range {
+            ByteRange::FromStart(0, None) => None,
+            ByteRange::FromStart(_, Some(0)) => return Ok(Some(Bytes::new())),
+            ByteRange::FromStart(start, None) => Some(format!("bytes={start}-")),
+            ByteRange::FromStart(start, Some(len)) => {
+                Some(format!("bytes={start}-{}", start + len - 1))
+            }
+            ByteRange::Suffix(0) => return Ok(Some(Bytes::new())),
+            ByteRange::Suffix(len) => Some(format!("bytes=-{len}")),
+        };
+        let Some((status, body)) = self.fetch(url, header.as_deref())? else {
+            return Ok(None);
+        };
+        if status == 206 || header.is_none() {
+            let expected = match range {
+                ByteRange::FromStart(_, Some(len)) | ByteRange::Suffix(len) => Some(len),
+                ByteRange::FromStart(_, None) => None,
+            };
+            if expected.is_some_and(|len| body.len() as u64 != len) {
+                return Err(StorageError::from(format!(
+                    "{url}: asked for {} bytes ({}), got {}",
+                    expected.unwrap_or(0),
+                    header.unwrap_or_default(),
+                    body.len()
+                )));
+            }
+            return Ok(Some(body));
+        }
+        // 200 to a range request: the server sent the whole object.
+        let size = body.len() as u64;
+        let (start, end) = (range.start(size), range.end(size));
+        if start > end || end > size {
+            return Err(StorageError::from(format!(
+                "{url}: bytes {start}..{end} asked for, but the object has {size}"
+            )));
+        }
+        Ok(Some(body.slice(start as usize..end as usize)))
+    }
+}
+
+impl ReadableStorageTraits for HttpStore {
+    fn get(&self, key: &StoreKey) -> Result<MaybeBytes, StorageError> {
+        Ok(self.fetch(&self.url(key), None)?.map(|(_, body)| body))
+    }
+
+    fn get_partial_many<'a>(
+        &'a self,
+        key: &StoreKey,
+        byte_ranges: ByteRangeIterator<'a>,
+    ) -> Result<MaybeBytesIterator<'a>, StorageError> {
+        let url = self.url(key);
+        let mut parts = Vec::new();
+        for range in byte_ranges {
+            match self.fetch_range(&url, range)? {
+                Some(bytes) => parts.push(Ok(bytes)),
+                None => return Ok(None),
+            }
+        }
+        Ok(Some(Box::new(parts.into_iter())))
+    }
+
+    fn size_key(&self, key: &StoreKey) -> Result<Option<u64>, StorageError> {
+        let url = self.url(key);
+        let response = self
+            .agent
+            .head(&url)
+            .call()
+            .map_err(|e| StorageError::from(format!("{url}: {e}")))?;
+        match response.status().as_u16() {
+            404 => Ok(None),
+            200 => response
+                .headers()
+                .get("content-length")
+                .and_then(|v| v.to_str().ok())
+                .and_then(|v| v.parse().ok())
+                .map(Some)
+                .ok_or_else(|| StorageError::from(format!("{url}: no Content-Length"))),
+            status => Err(StorageError::from(format!("{url}: HTTP status {status}"))),
+        }
+    }
+
+    fn supports_get_partial(&self) -> bool {
+        true
+    }
+}

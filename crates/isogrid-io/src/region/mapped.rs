@@ -1,0 +1,158 @@
+//! Uncompressed raw, NRRD and NIfTI-1 files read plane range by plane range through a memory map.
+//!
+//! Each read maps only the byte range of the planes asked for and unmaps it before returning, so
+//! the mapped pages never outlive the slab (a map of the whole file would keep every page it ever
+//! touched resident until the end). Samples are converted exactly as the in-memory readers convert
+//! them (the same `read_samples`, one bounded chunk at a time), so both paths see the same values.
+
+use crate::samples::{read_samples, ElemType};
+use isogrid::extract::stream::{RegionSource, SlabMut};
+use isogrid::{Error, Geometry, Result, ResultExt, ScalarType, VolumeData};
+use memmap2::{Advice, MmapOptions};
+use std::fs::File;
+use std::ops::Range;
+use std::path::{Path, PathBuf};
+
+/// Bytes converted at a time: bounds the temporary of the conversion.
+const CONVERT_BYTES: usize = 4 << 20;
+
+/// Where and how a file stores its samples: filled in by the format's header reader.
+#[derive(Debug, Clone)]
+pub(crate) struct MappedLayout {
+    /// The file holding the samples (the header file itself, or a detached data file).
+    pub data_path: PathBuf,
+    /// Byte offset of sample (0, 0, 0); the caller has checked that all samples are in the file.
+    pub data_offset: u64,
+    pub elem: ElemType,
+    pub big_endian: bool,
+    pub geometry: Geometry,
+    /// NIfTI intensity scaling (slope, intercept), applied as the in-memory reader applies it.
+    pub scale: Option<(f32, f32)>,
+}
+
+/// A file read through per-slab memory maps.
+pub struct MappedSource {
+    layout: MappedLayout,
+    file: File,
+    scalar: ScalarType,
+}
+
+impl MappedSource {
+    pub(crate) fn open(layout: MappedLayout) -> Result<Self> {
+        let file = File::open(&layout.data_path).at_path(&layout.data_path)?;
+        // The kept type: what `read_samples` (and scaling) turns the stored type into.
+        let scalar = match (layout.scale, layout.elem) {
+            (Some(_), _) => ScalarType::F32,
+            (None, ElemType::U8) => ScalarType::U8,
+            (None, ElemType::U16) => ScalarType::U16,
+            (None, ElemType::I16 | ElemType::I8) => ScalarType::I16,
+            (None, _) => ScalarType::F32,
+        };
+        Ok(MappedSource {
+            layout,
+            file,
+            scalar,
+        })
+    }
+
+    fn read(&mut self, z: Range<usize>, mut out: SlabMut<'_>) -> Result<()> {
+        let [nx, ny, _] = self.layout.geometry.dims;
+        let size = self.layout.elem.size();
+        let plane_bytes = (nx * ny * size) as u64;
+        let offset = self.layout.data_offset + z.start as u64 * plane_bytes;
+        let len = z.len() as u64 * plane_bytes;
+        if len == 0 {
+            return Ok(());
+        }
+        // Mapped a bounded chunk at a time: resident pages of a map count against the process
+        // until it is unmapped.
+        let per_chunk = (CONVERT_BYTES / size).max(1) as u64 * size as u64;
+        let mut done = 0u64;
+        while done < len {
+            let chunk = per_chunk.min(len - done);
+            // SAFETY: the map is read-only and lives only for this chunk; a file truncated by
+            // another process meanwhile would fault, as it would for any reader of a mapped file.
+            let map = unsafe {
+                MmapOptions::new()
+                    .offset(offset + done)
+                    .len(chunk as usize)
+                    .map(&self.file)?
+            };
+            let _ = map.advise(Advice::Sequential);
+            let count = chunk as usize / size;
+            let data = read_samples(
+                &mut &map[..],
+                self.layout.elem,
+                self.layout.big_endian,
+                count,
+            )?;
+            let data = match self.layout.scale {
+                Some((slope, inter)) => VolumeData::F32(crate::nifti::scaled(&data, slope, inter)),
+                None => data,
+            };
+            copy_into(&data, &mut out, (done / size as u64) as usize)?;
+            done += chunk;
+        }
+        Ok(())
+    }
+}
+
+/// Copies `data` into `out` from sample `at` on.
+fn copy_into(data: &VolumeData, out: &mut SlabMut<'_>, at: usize) -> Result<()> {
+    match (data, out) {
+        (VolumeData::U8(d), SlabMut::U8(o)) => o[at..at + d.len()].copy_from_slice(d),
+        (VolumeData::U16(d), SlabMut::U16(o)) => o[at..at + d.len()].copy_from_slice(d),
+        (VolumeData::I16(d), SlabMut::I16(o)) => o[at..at + d.len()].copy_from_slice(d),
+        (VolumeData::F32(d), SlabMut::F32(o)) => o[at..at + d.len()].copy_from_slice(d),
+        _ => return Err(Error::invalid("slab buffer type differs from the file's")),
+    }
+    Ok(())
+}
+
+impl RegionSource for MappedSource {
+    fn geometry(&self) -> Geometry {
+        self.layout.geometry
+    }
+    fn scalar_type(&self) -> ScalarType {
+        self.scalar
+    }
+    fn read_planes(&mut self, z: Range<usize>, out: SlabMut<'_>) -> Result<()> {
+        let path = self.layout.data_path.clone();
+        self.read(z, out).at_path(&path)
+    }
+    fn read_overhead(&self, _planes: usize) -> u64 {
+        // One mapped chunk, its converted samples and, for scaled data, their scaled copy.
+        let samples = (CONVERT_BYTES / self.layout.elem.size()) as u64;
+        let scaled = if self.layout.scale.is_some() { 4 } else { 0 };
+        CONVERT_BYTES as u64 + samples * (self.scalar.size() as u64 + scaled)
+    }
+}
+
+/// A raw file as described by its spec.
+pub(crate) fn raw_layout(path: &Path, spec: &crate::RawSpec) -> Result<MappedLayout> {
+    let count = crate::samples::sample_count(spec.dims).at_path(path)?;
+    let elem = match spec.scalar {
+        ScalarType::U8 => ElemType::U8,
+        ScalarType::U16 => ElemType::U16,
+        ScalarType::I16 => ElemType::I16,
+        ScalarType::F32 => ElemType::F32,
+    };
+    let actual = std::fs::metadata(path).at_path(path)?.len();
+    let expected = count as u64 * spec.scalar.size() as u64;
+    if actual != expected {
+        let [nx, ny, nz] = spec.dims;
+        return Err(Error::invalid(format!(
+            "raw size mismatch: {nx}x{ny}x{nz} {} needs {expected} bytes but the file has {actual}",
+            spec.scalar.name()
+        ))
+        .with_path(path));
+    }
+    Ok(MappedLayout {
+        data_path: path.to_path_buf(),
+        data_offset: 0,
+        elem,
+        big_endian: spec.big_endian,
+        geometry: Geometry::new(spec.dims),
+        scale: None,
+    })
+}

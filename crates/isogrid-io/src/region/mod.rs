@@ -1,0 +1,124 @@
+//! Volumes read by region, for extraction in bounded memory ([`isogrid::extract::stream`]):
+//! uncompressed raw, NRRD and NIfTI through memory maps ([`mapped`]), folders of 2-D TIFF slices
+//! ([`slices`]), and Zarr v2/v3 and OME-Zarr ([`zarr`]) from a folder or over HTTP
+//! ([`http_store`]). Formats that must be decoded from their
+//! start (gzip NIfTI and NRRD, ascii NRRD, multi-page TIFF, npy, DICOM) are read whole instead.
+
+#[cfg(feature = "zarr")]
+pub mod http_store;
+pub mod mapped;
+pub mod slices;
+#[cfg(feature = "zarr")]
+pub mod zarr;
+
+pub use isogrid::extract::stream::{RegionSource, SlabMut};
+pub(crate) use mapped::MappedLayout;
+
+use crate::read_options::ReadOptions;
+use isogrid::{Result, Volume, VolumeData};
+use std::path::Path;
+
+/// Which level and which entries of extra axes to read from a Zarr array or OME-Zarr image.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct ZarrOptions {
+    /// OME-Zarr multiscale level; 0 is full resolution.
+    pub level: usize,
+    /// Index along each non-spatial axis, by axis name (`t`, `c`, …).
+    pub indices: Vec<(String, u64)>,
+}
+
+/// Whether `path` is an `http://` or `https://` URL (read as a Zarr store).
+pub fn is_url(path: &Path) -> bool {
+    let text = path.to_string_lossy().to_ascii_lowercase();
+    text.starts_with("http://") || text.starts_with("https://")
+}
+
+/// Whether `path` names a Zarr store: a URL, a folder with Zarr metadata at its root, or a folder
+/// named `*.zarr`.
+pub fn is_zarr(path: &Path) -> bool {
+    is_url(path)
+        || path.is_dir()
+            && (["zarr.json", ".zarray", ".zgroup"]
+                .iter()
+                .any(|name| path.join(name).is_file())
+                || path
+                    .extension()
+                    .is_some_and(|e| e.eq_ignore_ascii_case("zarr")))
+}
+
+/// Whether `path` is a folder of TIFF slices.
+pub fn is_tiff_slices(path: &Path) -> bool {
+    path.is_dir() && matches!(slices::tiff_slices(path), Ok(Some(_)))
+}
+
+/// Opens `path` for reading by region when its format allows it; `Ok(None)` when it has to be
+/// read whole (see the module doc). Errors name the file at fault.
+pub fn open_region(
+    path: &Path,
+    options: &ReadOptions,
+) -> Result<Option<Box<dyn RegionSource + Send>>> {
+    if let Some(spec) = &options.raw {
+        let layout = mapped::raw_layout(path, spec)?;
+        return Ok(Some(Box::new(mapped::MappedSource::open(layout)?)));
+    }
+    if is_zarr(path) {
+        return open_zarr(path, options).map(Some);
+    }
+    if is_tiff_slices(path) {
+        return Ok(Some(Box::new(slices::TiffSlices::open(path)?)));
+    }
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().to_ascii_lowercase())
+        .unwrap_or_default();
+    let layout = if name.ends_with(".nii") {
+        crate::nifti::region_layout(path)?
+    } else if name.ends_with(".nrrd") || name.ends_with(".nhdr") {
+        crate::nrrd::region_layout(path)?
+    } else {
+        None
+    };
+    match layout {
+        Some(layout) => Ok(Some(Box::new(mapped::MappedSource::open(layout)?))),
+        None => Ok(None),
+    }
+}
+
+/// Opens a Zarr store (an error naming the missing feature in builds without it).
+pub fn open_zarr(path: &Path, options: &ReadOptions) -> Result<Box<dyn RegionSource + Send>> {
+    #[cfg(feature = "zarr")]
+    return Ok(Box::new(if is_url(path) {
+        zarr::open_url(&path.to_string_lossy(), &options.zarr)?
+    } else {
+        zarr::open_path(path, &options.zarr)?
+    }));
+    #[cfg(not(feature = "zarr"))]
+    {
+        let _ = options;
+        Err(isogrid::Error::unsupported(
+            "this build of isogrid-io reads no Zarr (built without the `zarr` feature)",
+        )
+        .with_path(path))
+    }
+}
+
+/// Reads a whole region source into memory (for commands that need the volume itself).
+pub fn read_all(source: &mut dyn RegionSource) -> Result<Volume> {
+    let geometry = source.geometry();
+    let count = crate::samples::sample_count(geometry.dims)?;
+    let nz = geometry.dims[2];
+    let mut data = match source.scalar_type() {
+        isogrid::ScalarType::U8 => VolumeData::U8(vec![0; count]),
+        isogrid::ScalarType::U16 => VolumeData::U16(vec![0; count]),
+        isogrid::ScalarType::I16 => VolumeData::I16(vec![0; count]),
+        isogrid::ScalarType::F32 => VolumeData::F32(vec![0.0; count]),
+    };
+    let out = match &mut data {
+        VolumeData::U8(v) => SlabMut::U8(v),
+        VolumeData::U16(v) => SlabMut::U16(v),
+        VolumeData::I16(v) => SlabMut::I16(v),
+        VolumeData::F32(v) => SlabMut::F32(v),
+    };
+    source.read_planes(0..nz, out)?;
+    Volume::with_geometry(geometry, data)
+}

@@ -1,0 +1,178 @@
+//! Inputs read by region: TIFF slice folders and memory-mapped raw / NRRD / NIfTI (Zarr in
+//! `zarr.rs`); streaming extraction from each must give the bytes of the in-memory extraction.
+
+use crate::common::{fixture, TempDir};
+use isogrid::extract::stream::{extract_planned, MemoryPlan};
+use isogrid::{cgc, extract, ExtractOptions, Iso, ScalarType, Volume, VolumeData};
+use isogrid_io::{open_region, read_volume, write_nrrd, ReadOptions};
+use std::path::Path;
+
+pub fn check(volume: &Volume, dims: [usize; 3], expected: impl Fn(usize, usize, usize) -> f64) {
+    assert_eq!(volume.dims(), dims);
+    for k in 0..dims[2] {
+        for j in 0..dims[1] {
+            for i in 0..dims[0] {
+                assert_eq!(
+                    volume.get(i, j, k),
+                    expected(i, j, k),
+                    "sample ({i}, {j}, {k})"
+                );
+            }
+        }
+    }
+}
+
+pub fn plan(layers: usize, output_buffer: u64) -> MemoryPlan {
+    MemoryPlan {
+        max_memory: u64::MAX,
+        slab_layers: layers,
+        slab_bytes: 0,
+        output_buffer,
+        fixed: 0,
+        minimum: 0,
+    }
+}
+
+/// Streams `path` (which must open by region) over several slab sizes and compares the files
+/// with the in-memory extraction of `read_volume`.
+pub fn streams_like_memory(path: &Path, opts: &ReadOptions, extract_options: &[ExtractOptions]) {
+    let dir = TempDir::new("stream");
+    let out = dir.path("out.cgc");
+    let volume = read_volume(path, opts).unwrap();
+    for options in extract_options {
+        let expected = cgc::to_bytes(&extract(&volume.view(), options).unwrap());
+        for (layers, buffer) in [(1, 1), (2, 3000), (64, 64 << 20)] {
+            let mut source = open_region(path, opts)
+                .unwrap()
+                .unwrap_or_else(|| panic!("{} does not open by region", path.display()));
+            extract_planned(
+                source.as_mut(),
+                options,
+                &plan(layers, buffer),
+                &out,
+                &mut |_| {},
+            )
+            .unwrap();
+            assert!(
+                std::fs::read(&out).unwrap() == expected,
+                "{}: {options:?} with {layers}-layer slabs",
+                path.display()
+            );
+        }
+    }
+}
+
+fn wave(dims: [usize; 3]) -> Vec<f64> {
+    let mut out = Vec::new();
+    for k in 0..dims[2] {
+        for j in 0..dims[1] {
+            for i in 0..dims[0] {
+                out.push((i as f64 * 0.3).sin() * (j as f64 * 0.2).cos() + (k as f64 * 0.15).sin());
+            }
+        }
+    }
+    out
+}
+
+#[test]
+fn mapped_raw_nrrd_and_nifti_stream_byte_identically() {
+    let dir = TempDir::new("mapped");
+    let dims = [37, 21, 40];
+    let values: Vec<f32> = wave(dims).into_iter().map(|v| v as f32).collect();
+    let isos = [
+        ExtractOptions::new(Iso::Normalized(0.5)),
+        ExtractOptions::new(Iso::Value(0.2)),
+    ];
+
+    let nrrd = dir.path("wave.nrrd");
+    let volume = Volume::new(dims, VolumeData::F32(values.clone()))
+        .unwrap()
+        .with_spacing([0.5, 1.0, 2.0])
+        .unwrap();
+    write_nrrd(&nrrd, &volume).unwrap();
+    streams_like_memory(&nrrd, &ReadOptions::default(), &isos);
+
+    let raw = dir.path("wave.raw");
+    let bytes: Vec<u8> = values.iter().flat_map(|v| v.to_be_bytes()).collect();
+    std::fs::write(&raw, bytes).unwrap();
+    let raw_options = ReadOptions {
+        raw: Some(isogrid_io::RawSpec {
+            dims,
+            scalar: ScalarType::F32,
+            big_endian: true,
+        }),
+        ..Default::default()
+    };
+    streams_like_memory(&raw, &raw_options, &isos);
+
+    // Fixtures written by nibabel and pynrrd (scripts/make_io_fixtures.py), some of which convert.
+    for name in ["f32_qform.nii", "f32_big.nrrd"] {
+        let path = fixture(name);
+        assert!(
+            open_region(&path, &ReadOptions::default())
+                .unwrap()
+                .is_some(),
+            "{name}"
+        );
+        streams_like_memory(&path, &ReadOptions::default(), &isos[..1]);
+    }
+    // Compressed files are read whole.
+    assert!(open_region(&fixture("i16.nii.gz"), &ReadOptions::default())
+        .unwrap()
+        .is_none());
+    assert!(
+        open_region(&fixture("i16_gzip.nrrd"), &ReadOptions::default())
+            .unwrap()
+            .is_none()
+    );
+}
+
+fn write_tiff_u16(path: &Path, width: u32, height: u32, samples: &[u16]) {
+    let file = std::fs::File::create(path).unwrap();
+    let mut encoder = tiff::encoder::TiffEncoder::new(file).unwrap();
+    encoder
+        .write_image::<tiff::encoder::colortype::Gray16>(width, height, samples)
+        .unwrap();
+}
+
+#[test]
+fn tiff_slice_folders_sort_naturally_and_stream_byte_identically() {
+    let dir = TempDir::new("slices");
+    let dims = [19usize, 11, 23];
+    let values = wave(dims);
+    let plane = dims[0] * dims[1];
+    for k in 0..dims[2] {
+        let samples: Vec<u16> = values[k * plane..(k + 1) * plane]
+            .iter()
+            .map(|v| (v * 1000.0 + 3000.0) as u16)
+            .collect();
+        // slice_2 must come before slice_10: natural, not lexical, order.
+        write_tiff_u16(&dir.path(&format!("slice_{k}.tif")), 19, 11, &samples);
+    }
+    let v = read_volume(&dir.0, &ReadOptions::default()).unwrap();
+    check(&v, dims, |i, j, k| {
+        (values[i + dims[0] * (j + dims[1] * k)] * 1000.0 + 3000.0) as u16 as f64
+    });
+    streams_like_memory(
+        &dir.0,
+        &ReadOptions::default(),
+        &[ExtractOptions::new(Iso::Normalized(0.4))],
+    );
+
+    // A slice of another size is an error naming it.
+    write_tiff_u16(&dir.path("slice_99.tif"), 5, 5, &[0; 25]);
+    let mut source = open_region(&dir.0, &ReadOptions::default())
+        .unwrap()
+        .unwrap();
+    let err = extract_planned(
+        source.as_mut(),
+        &ExtractOptions::new(Iso::Value(3000.0)),
+        &plan(1, 1 << 20),
+        &dir.path("out.cgc"),
+        &mut |_| {},
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(err.contains("slice_99.tif") && err.contains("5x5"), "{err}");
+    assert!(!dir.path("out.cgc").exists());
+}

@@ -1,0 +1,136 @@
+//! Zarr v2/v3 and OME-Zarr fixtures written by zarr-python (scripts/make_zarr_fixtures.py): values,
+//! geometry, levels and axes, missing and corrupt chunks, bad metadata, and streaming extraction.
+
+use crate::common::{assert_close, fixture};
+use crate::region::{check, streams_like_memory};
+use isogrid::{ExtractOptions, Iso, Precision, ScalarType};
+use isogrid_io::{read_volume, ReadOptions, ZarrOptions};
+use std::path::Path;
+
+const DIMS: [usize; 3] = [20, 13, 35];
+
+/// The Zarr fixtures' formula (see scripts/make_zarr_fixtures.py).
+fn f(i: usize, j: usize, k: usize) -> f64 {
+    let d = |a: usize, c: usize| (a as f64 - c as f64).powi(2);
+    d(i, 9) + d(j, 6) + d(k, 17) + ((i + 2 * j + 3 * k) % 4) as f64
+}
+
+fn zarr(name: &str) -> std::path::PathBuf {
+    fixture("zarr").join(name)
+}
+
+pub fn options(level: usize, indices: &[(&str, u64)]) -> ReadOptions {
+    ReadOptions {
+        zarr: ZarrOptions {
+            level,
+            indices: indices.iter().map(|&(n, i)| (n.to_string(), i)).collect(),
+        },
+        ..Default::default()
+    }
+}
+
+fn error_of(path: &Path, opts: &ReadOptions) -> String {
+    let err = match read_volume(path, opts) {
+        Ok(_) => panic!("{} was read", path.display()),
+        Err(e) => e.to_string(),
+    };
+    assert!(!err.contains('\n'), "{err}");
+    assert!(err.contains(&*path.to_string_lossy()), "{err}");
+    err
+}
+
+#[test]
+fn zarr_v2_v3_and_sharded_arrays_hold_the_formula() {
+    for name in ["v2_blosc.zarr", "v3_zstd.zarr", "v3_sharded_gzip.zarr"] {
+        let v = read_volume(&zarr(name), &ReadOptions::default()).unwrap();
+        assert_eq!(v.scalar_type(), ScalarType::U16, "{name}");
+        check(&v, DIMS, f);
+    }
+    let v = read_volume(&zarr("v2_f32_gzip.zarr"), &ReadOptions::default()).unwrap();
+    assert_eq!(v.scalar_type(), ScalarType::F32);
+    check(&v, DIMS, |i, j, k| 0.25 * f(i, j, k) - 3.5);
+}
+
+#[test]
+fn ome_zarr_levels_axes_and_transforms() {
+    // 0.4, 5-D: t and c picked by index; spacing and origin from the dataset's transforms.
+    let path = zarr("ome_v04.zarr");
+    let v = read_volume(&path, &options(0, &[("t", 1), ("c", 0)])).unwrap();
+    check(&v, DIMS, |i, j, k| f(i, j, k) + 2000.0);
+    assert_close(v.spacing(), [0.25, 0.5, 2.0]);
+    assert_close(v.origin(), [3.0, -5.0, 10.0]);
+    let v = read_volume(&path, &options(1, &[("c", 1), ("t", 0)])).unwrap();
+    check(&v, [10, 7, 18], |i, j, k| f(2 * i, 2 * j, 2 * k) + 1000.0);
+    assert_close(v.spacing(), [0.5, 1.0, 4.0]);
+    assert_close(v.origin(), [3.125, -4.75, 11.0]);
+
+    // 0.5, Zarr v3: the multiscale-level scale applies after the dataset's transforms.
+    let path = zarr("ome_v05.zarr");
+    let v = read_volume(&path, &ReadOptions::default()).unwrap();
+    check(&v, DIMS, f);
+    assert_close(v.spacing(), [0.5, 1.0, 1.5]);
+    assert_close(v.origin(), [0.0, 0.0, 0.0]);
+    let v = read_volume(&path, &options(1, &[])).unwrap();
+    check(&v, [10, 7, 18], |i, j, k| f(2 * i, 2 * j, 2 * k));
+    assert_close(v.spacing(), [1.0, 2.0, 3.0]);
+    assert_close(v.origin(), [0.25, 0.5, 0.75]);
+
+    // Unnamed 4-D: the leading axis is dim0.
+    let v = read_volume(&zarr("v2_4d_unnamed.zarr"), &options(0, &[("dim0", 1)])).unwrap();
+    check(&v, DIMS, |i, j, k| f(i, j, k) + 100.0);
+}
+
+#[test]
+fn a_missing_chunk_reads_as_the_fill_value() {
+    let v = read_volume(&zarr("v3_missing_chunk.zarr"), &ReadOptions::default()).unwrap();
+    // Chunk (0, 0, 0) spans z 0..9, y 0..10, x 0..11 (chunks are (9, 10, 11) in z, y, x).
+    check(&v, DIMS, |i, j, k| {
+        if i < 11 && j < 10 && k < 9 {
+            9.0
+        } else {
+            f(i, j, k)
+        }
+    });
+}
+
+#[test]
+fn bad_zarr_inputs_get_one_line_naming_the_problem() {
+    let err = error_of(&zarr("v2_corrupt_chunk.zarr"), &ReadOptions::default());
+    assert!(err.contains("chunk 1.0.1"), "{err}");
+    let err = error_of(&zarr("v2_lzma.zarr"), &ReadOptions::default());
+    assert!(err.contains("lzma"), "{err}");
+    let err = error_of(&zarr("ome_v04.zarr"), &ReadOptions::default());
+    assert!(
+        err.contains("--index") && err.contains("t (2 entries)") && err.contains("c (2 entries)"),
+        "{err}"
+    );
+    let err = error_of(&zarr("v2_4d_unnamed.zarr"), &ReadOptions::default());
+    assert!(err.contains("dim0"), "{err}");
+    let err = error_of(&zarr("ome_v04.zarr"), &options(2, &[("t", 0), ("c", 0)]));
+    assert!(err.contains("level 2") && err.contains("2 levels"), "{err}");
+    let err = error_of(&zarr("ome_v04.zarr"), &options(0, &[("t", 5), ("c", 0)]));
+    assert!(err.contains("t=5") && err.contains("out of range"), "{err}");
+    let err = error_of(&zarr("ome_v04.zarr"), &options(0, &[("q", 0)]));
+    assert!(err.contains("q"), "{err}");
+}
+
+#[test]
+fn zarr_streams_byte_identically() {
+    let isos = [
+        ExtractOptions::new(Iso::Normalized(0.5)),
+        ExtractOptions::new(Iso::Value(60.0)).with_precision(Precision::Bits8),
+    ];
+    for name in [
+        "v2_blosc.zarr",
+        "v3_sharded_gzip.zarr",
+        "v3_missing_chunk.zarr",
+        "v2_f32_gzip.zarr",
+    ] {
+        streams_like_memory(&zarr(name), &ReadOptions::default(), &isos);
+    }
+    streams_like_memory(
+        &zarr("ome_v04.zarr"),
+        &options(0, &[("t", 1), ("c", 1)]),
+        &isos,
+    );
+}

@@ -1,0 +1,201 @@
+//! Zarr and OME-Zarr over HTTP, served from the fixture folder by a small static file server on
+//! 127.0.0.1 that logs what is asked of it: the same volumes as from the folder, byte ranges
+//! honoured or ignored by the server, only the chunks a slab needs fetched, and errors that name
+//! the URL.
+
+use crate::region::streams_like_memory;
+use crate::zarr::options;
+use isogrid::extract::stream::SlabMut;
+use isogrid::{ExtractOptions, Iso};
+use isogrid_io::{open_region, read_volume, ReadOptions};
+use std::io::{BufRead, BufReader, Write};
+use std::net::{TcpListener, TcpStream};
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex};
+
+/// A static file server over a folder, answering GET and HEAD, with `Range` requests honoured
+/// (206) or, like the simplest servers, ignored (200 and the whole file).
+struct Server {
+    url: String,
+    /// "METHOD /path" of every request, in arrival order.
+    log: Arc<Mutex<Vec<String>>>,
+}
+
+impl Server {
+    fn start(root: PathBuf, honour_ranges: bool) -> Server {
+        let listener = TcpListener::bind("127.0.0.1:0").unwrap();
+        let url = format!("http://{}", listener.local_addr().unwrap());
+        let log = Arc::new(Mutex::new(Vec::new()));
+        let requests = log.clone();
+        std::thread::spawn(move || {
+            for stream in listener.incoming().flatten() {
+                let (root, requests) = (root.clone(), requests.clone());
+                std::thread::spawn(move || answer(stream, &root, honour_ranges, &requests));
+            }
+        });
+        Server { url, log }
+    }
+
+    fn url_of(&self, name: &str) -> PathBuf {
+        PathBuf::from(format!("{}/{name}", self.url))
+    }
+
+    fn requests(&self) -> Vec<String> {
+        self.log.lock().unwrap().clone()
+    }
+}
+
+fn answer(mut stream: TcpStream, root: &Path, honour_ranges: bool, log: &Mutex<Vec<String>>) {
+    let mut reader = BufReader::new(stream.try_clone().unwrap());
+    let mut request = String::new();
+    if reader.read_line(&mut request).is_err() {
+        return;
+    }
+    let mut words = request.split_whitespace();
+    let method = words.next().unwrap_or_default().to_string();
+    let target = words.next().unwrap_or("/").to_string();
+    let mut range = None;
+    loop {
+        let mut header = String::new();
+        if reader.read_line(&mut header).unwrap_or(0) == 0 || header.trim().is_empty() {
+            break;
+        }
+        if let Some((name, value)) = header.split_once(':') {
+            if name.eq_ignore_ascii_case("range") {
+                range = Some(value.trim().to_string());
+            }
+        }
+    }
+    log.lock().unwrap().push(format!("{method} {target}"));
+    let path = root.join(target.trim_start_matches('/'));
+    let body = match std::fs::read(&path) {
+        Ok(body) if path.is_file() => body,
+        _ => {
+            let _ = stream.write_all(
+                b"HTTP/1.1 404 Not Found\r\nContent-Length: 0\r\nConnection: close\r\n\r\n",
+            );
+            return;
+        }
+    };
+    let asked = range
+        .filter(|_| honour_ranges)
+        .and_then(|r| byte_range(&r, body.len()));
+    let (status, part) = match asked {
+        Some((start, end)) => ("206 Partial Content", &body[start..end]),
+        None => ("200 OK", &body[..]),
+    };
+    let head = format!(
+        "HTTP/1.1 {status}\r\nContent-Length: {}\r\nConnection: close\r\n\r\n",
+        part.len()
+    );
+    let _ = stream.write_all(head.as_bytes());
+    if method != "HEAD" {
+        let _ = stream.write_all(part);
+    }
+}
+
+/// `bytes=a-b`, `bytes=a-` or `bytes=-n` as a half-open range of a `size`-byte file.
+fn byte_range(header: &str, size: usize) -> Option<(usize, usize)> {
+    let (start, end) = header.strip_prefix("bytes=")?.split_once('-')?;
+    if start.is_empty() {
+        return Some((size.saturating_sub(end.parse().ok()?), size));
+    }
+    let start: usize = start.parse().ok()?;
+    let end = match end {
+        "" => size,
+        end => end.parse::<usize>().ok()? + 1,
+    };
+    (start <= end && end <= size).then_some((start, end))
+}
+
+fn fixtures() -> PathBuf {
+    crate::common::fixture("zarr")
+}
+
+#[test]
+fn zarr_over_http_reads_as_from_the_folder() {
+    for honour_ranges in [true, false] {
+        let server = Server::start(fixtures(), honour_ranges);
+        let cases = [
+            ("v2_blosc.zarr", ReadOptions::default()),
+            ("v3_zstd.zarr", ReadOptions::default()),
+            ("v3_sharded_gzip.zarr", ReadOptions::default()),
+            ("v3_missing_chunk.zarr", ReadOptions::default()),
+            ("ome_v04.zarr", options(1, &[("t", 1), ("c", 1)])),
+            ("ome_v05.zarr", options(1, &[])),
+        ];
+        for (name, opts) in cases {
+            let local = read_volume(&fixtures().join(name), &opts).unwrap();
+            let remote = read_volume(&server.url_of(name), &opts).unwrap();
+            assert_eq!(remote.dims(), local.dims(), "{name}");
+            assert_eq!(remote.spacing(), local.spacing(), "{name}");
+            assert_eq!(remote.origin(), local.origin(), "{name}");
+            assert!(remote.data() == local.data(), "{name}: samples differ");
+        }
+        // The sharded array's inner chunks come as ranges of its shard files.
+        let ranged = server
+            .requests()
+            .iter()
+            .filter(|r| r.starts_with("GET /v3_sharded_gzip.zarr/c/"))
+            .count();
+        assert!(ranged > 0);
+    }
+}
+
+#[test]
+fn a_slab_over_http_fetches_only_its_chunks() {
+    let server = Server::start(fixtures(), true);
+    let mut source = open_region(&server.url_of("v3_zstd.zarr"), &ReadOptions::default())
+        .unwrap()
+        .unwrap();
+    // Chunks are 9 planes deep: planes 0..5 lie in the first layer of 2 × 2 chunks (y, x).
+    let mut planes = vec![0u16; 20 * 13 * 5];
+    source.read_planes(0..5, SlabMut::U16(&mut planes)).unwrap();
+    let mut chunks: Vec<String> = server
+        .requests()
+        .into_iter()
+        .filter(|r| r.contains("/c/"))
+        .collect();
+    chunks.sort();
+    assert_eq!(
+        chunks,
+        [
+            "GET /v3_zstd.zarr/c/0/0/0",
+            "GET /v3_zstd.zarr/c/0/0/1",
+            "GET /v3_zstd.zarr/c/0/1/0",
+            "GET /v3_zstd.zarr/c/0/1/1"
+        ]
+    );
+}
+
+#[test]
+fn zarr_over_http_streams_byte_identically() {
+    let server = Server::start(fixtures(), true);
+    streams_like_memory(
+        &server.url_of("v3_sharded_gzip.zarr"),
+        &ReadOptions::default(),
+        &[ExtractOptions::new(Iso::Normalized(0.5))],
+    );
+}
+
+#[test]
+fn http_errors_name_the_url() {
+    let server = Server::start(fixtures(), true);
+    let missing = server.url_of("nothing.zarr");
+    let err = read_volume(&missing, &ReadOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains(&*missing.to_string_lossy()), "{err}");
+    assert!(err.contains("not a Zarr store"), "{err}");
+    assert!(!err.contains('\n'), "{err}");
+
+    // Nothing listens on the port of a server that was bound and dropped.
+    let closed = TcpListener::bind("127.0.0.1:0").unwrap();
+    let url = format!("http://{}/x.zarr", closed.local_addr().unwrap());
+    drop(closed);
+    let err = read_volume(Path::new(&url), &ReadOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains(&url), "{err}");
+    assert!(!err.contains('\n'), "{err}");
+}

@@ -1,0 +1,663 @@
+//! Streaming extraction (paper §3.1) in bounded memory: volumes larger than RAM, read slab by slab.
+//!
+//! Every cell belongs to exactly one 16³ block, and a block reads only its own samples plus one
+//! more on its high sides. A *slab* of whole block layers `bz0..bz1` therefore needs exactly the
+//! sample planes `16·bz0 ..= 16·bz1` (the last one, the *halo*, is re-read as the first plane of
+//! the next slab), and its blocks come out exactly as the whole-volume extraction makes them: there
+//! is no seam to stitch and nothing to de-duplicate.
+//!
+//! What the whole volume still decides — the value range behind the quantiser and every block's
+//! place in the output — is settled before anything is emitted, so the design is a two-pass plan
+//! into a pre-sized file rather than sections spooled to temporary files and concatenated:
+//!
+//! 1. (`Iso::Normalized` only) a pass over the planes for the value range;
+//! 2. *scan*: slab by slab, [`super::scan`] counts each block's active cells and occupied metacells
+//!    and records its value range; prefix sums then fix every block's record and the exact size of
+//!    each section, and the block section is written;
+//! 3. *emit*: slab by slab again, the blocks with active cells are emitted by [`super::emit`] in
+//!    groups whose output fits a bounded buffer, and each group's metacells and corner records are
+//!    written at their final offsets; the section checksums are accumulated in file order, and the
+//!    header goes last.
+//!
+//! Both passes use the same scan and emit code as [`super::extract`], and blocks and groups are
+//! written in block order whatever the thread count, so the file is byte-identical to
+//! `cgc::write(extract(volume))` for any budget and any pool size. Spooling instead would need
+//! the output's size again in temporary space, and a copy, for no gain: the scan pass is the
+//! cheaper of the two and reads the volume once.
+//!
+//! Memory: the block table (20 B per block), one slab of `16·k + 1` planes, one output group and
+//! per-thread scratch. [`plan`] picks the largest `k` that fits a budget, or says the least budget
+//! that works. A [`RegionSource`] reads planes into the caller's buffer; its own transient memory
+//! (decoded chunks) it declares through [`RegionSource::read_overhead`].
+//!
+//! A later distributed extraction (tiles of whole blocks on other machines) reuses the same split:
+//! tiles scan independently, the prefix sums are global, tiles emit independently into their
+//! ranges of the sections.
+
+use super::scalar::ExtractScalar;
+use super::{emit, scan_blocks, split_outputs, ExtractOptions, Totals};
+use crate::cgc::{header_bytes, sections_for_lengths, HeaderCounts};
+use crate::error::{Error, Result};
+use crate::grid::GridInfo;
+use crate::layout::{Block, Metacell, Precision, BLOCK_CELLS};
+use crate::quantize::Quantizer;
+use crate::stats::{GridStats, MemoryBytes};
+use crate::volume::{Geometry, Samples, ScalarType, VolumeView};
+use rayon::prelude::*;
+use std::fs::File;
+use std::io::{Seek, SeekFrom, Write};
+use std::ops::Range;
+use std::path::Path;
+
+/// Resident memory of the process before any volume data: code, allocator, thread stacks. Counted
+/// in every budget so that `--max-memory` bounds the process, not only the buffers.
+pub const PROCESS_BASELINE: u64 = 48 << 20;
+
+/// Output buffer bounds: one block's worst case is ~140 KB (4096 cells × 32 B plus its slots).
+const OUTPUT_BUFFER_MIN: u64 = 1 << 20;
+const OUTPUT_BUFFER_MAX: u64 = 64 << 20;
+
+/// Bytes of the block table kept for the whole run: the block record and its active cell count.
+const BLOCK_TABLE_BYTES: u64 = 16 + 4;
+/// Bytes per block of one slab's scan results (freed after each slab).
+const BLOCK_SCAN_BYTES: u64 = 24;
+
+/// Mutable samples of one of the supported types: where a [`RegionSource`] writes a slab.
+#[derive(Debug)]
+pub enum SlabMut<'a> {
+    U8(&'a mut [u8]),
+    U16(&'a mut [u16]),
+    I16(&'a mut [i16]),
+    F32(&'a mut [f32]),
+}
+
+impl SlabMut<'_> {
+    pub fn len(&self) -> usize {
+        match self {
+            SlabMut::U8(s) => s.len(),
+            SlabMut::U16(s) => s.len(),
+            SlabMut::I16(s) => s.len(),
+            SlabMut::F32(s) => s.len(),
+        }
+    }
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+    pub fn scalar_type(&self) -> ScalarType {
+        match self {
+            SlabMut::U8(_) => ScalarType::U8,
+            SlabMut::U16(_) => ScalarType::U16,
+            SlabMut::I16(_) => ScalarType::I16,
+            SlabMut::F32(_) => ScalarType::F32,
+        }
+    }
+    /// The buffer as bytes in native byte order (for sources that copy stored bytes in).
+    pub fn as_bytes_mut(&mut self) -> &mut [u8] {
+        match self {
+            SlabMut::U8(s) => s,
+            SlabMut::U16(s) => bytemuck::cast_slice_mut(s),
+            SlabMut::I16(s) => bytemuck::cast_slice_mut(s),
+            SlabMut::F32(s) => bytemuck::cast_slice_mut(s),
+        }
+    }
+    /// Swaps every sample's bytes (stored byte order differs from the machine's).
+    pub fn swap_bytes(&mut self) {
+        match self {
+            SlabMut::U8(_) => {}
+            SlabMut::U16(s) => s.iter_mut().for_each(|v| *v = v.swap_bytes()),
+            SlabMut::I16(s) => s.iter_mut().for_each(|v| *v = v.swap_bytes()),
+            SlabMut::F32(s) => s
+                .iter_mut()
+                .for_each(|v| *v = f32::from_bits(v.to_bits().swap_bytes())),
+        }
+    }
+}
+
+/// A volume that can be read plane range by plane range without holding all of it.
+pub trait RegionSource {
+    /// Dimensions, spacing, origin and direction of the whole volume.
+    fn geometry(&self) -> Geometry;
+    /// The type samples are delivered in.
+    fn scalar_type(&self) -> ScalarType;
+    /// Reads the sample planes `z` (whole x-y planes, x fastest) into `out`, which holds exactly
+    /// `nx·ny·z.len()` samples of [`RegionSource::scalar_type`].
+    fn read_planes(&mut self, z: Range<usize>, out: SlabMut<'_>) -> Result<()>;
+    /// Resident bytes a read of `planes` planes may take beyond `out` (decoded chunks, caches).
+    fn read_overhead(&self, planes: usize) -> u64 {
+        let _ = planes;
+        0
+    }
+}
+
+/// An in-memory volume read plane range by plane range: the reference the streaming tests compare
+/// against, and a way to stream arrays that are already resident.
+impl RegionSource for VolumeView<'_> {
+    fn geometry(&self) -> Geometry {
+        *VolumeView::geometry(self)
+    }
+    fn scalar_type(&self) -> ScalarType {
+        VolumeView::scalar_type(self)
+    }
+    fn read_planes(&mut self, z: Range<usize>, out: SlabMut<'_>) -> Result<()> {
+        let [nx, ny, _] = self.dims();
+        let span = nx * ny * z.start..nx * ny * z.end;
+        match (self.samples(), out) {
+            (Samples::U8(s), SlabMut::U8(o)) => o.copy_from_slice(&s[span]),
+            (Samples::U16(s), SlabMut::U16(o)) => o.copy_from_slice(&s[span]),
+            (Samples::I16(s), SlabMut::I16(o)) => o.copy_from_slice(&s[span]),
+            (Samples::F32(s), SlabMut::F32(o)) => o.copy_from_slice(&s[span]),
+            _ => return Err(Error::invalid("slab buffer type differs from the volume's")),
+        }
+        Ok(())
+    }
+}
+
+/// How a budget is spent.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct MemoryPlan {
+    /// The budget asked for, bytes.
+    pub max_memory: u64,
+    /// Block layers (16 cells of z) per slab.
+    pub slab_layers: usize,
+    /// Bytes of one slab's samples and scan results, plus the source's read overhead.
+    pub slab_bytes: u64,
+    /// Bytes of the output group buffer.
+    pub output_buffer: u64,
+    /// Bytes that do not depend on the slab: process baseline, block table, per-thread scratch.
+    pub fixed: u64,
+    /// The least budget that works for this volume (one block layer per slab).
+    pub minimum: u64,
+}
+
+/// Plans slabs for `source` within `max_memory` bytes on the current rayon pool; errors with
+/// the least budget that works when even one block layer does not fit.
+pub fn plan(source: &dyn RegionSource, max_memory: u64) -> Result<MemoryPlan> {
+    let geometry = source.geometry();
+    let [nx, ny, nz] = geometry.dims.map(|d| d as u64);
+    let size = source.scalar_type().size() as u64;
+    let [nbx, nby, nbz] = geometry.cell_dims().map(|c| c.div_ceil(BLOCK_CELLS) as u64);
+    let threads = rayon::current_num_threads() as u64;
+    // Pass 1 per thread: inside and active bit rows of one block row (`scan::RowScratch`), the
+    // lane ranges, and the stack the thread touches.
+    let scratch =
+        threads * (nx.div_ceil(64) * 8 * (17 * 17 + 16 * 16) + nx * 8 * size + (64 << 10));
+    let fixed = PROCESS_BASELINE + nbx * nby * nbz * BLOCK_TABLE_BYTES + scratch;
+    let slab_cost = |layers: u64| -> u64 {
+        let planes = (16 * layers + 1).min(nz);
+        nx * ny * planes * size
+            + nbx * nby * layers * BLOCK_SCAN_BYTES
+            + source.read_overhead(planes as usize)
+    };
+    let minimum = fixed + OUTPUT_BUFFER_MIN + slab_cost(1);
+    if max_memory < minimum {
+        return Err(Error::too_large(format!(
+            "a memory budget of {} is too small for one slab of {}x{}x{} samples; the least that works is {}",
+            format_bytes(max_memory),
+            nx,
+            ny,
+            (17).min(nz),
+            format_bytes(minimum.next_multiple_of(1 << 20))
+        )));
+    }
+    let spare = max_memory - fixed;
+    let output_buffer = (spare / 8).clamp(OUTPUT_BUFFER_MIN, OUTPUT_BUFFER_MAX);
+    let for_slabs = spare - output_buffer;
+    // Largest layer count that fits (slab cost grows with layers), at most the volume's.
+    let (mut lo, mut hi) = (1u64, nbz.max(1));
+    while lo < hi {
+        let mid = lo + (hi - lo).div_ceil(2);
+        if slab_cost(mid) <= for_slabs {
+            lo = mid;
+        } else {
+            hi = mid - 1;
+        }
+    }
+    Ok(MemoryPlan {
+        max_memory,
+        slab_layers: lo as usize,
+        slab_bytes: slab_cost(lo),
+        output_buffer,
+        fixed,
+        minimum,
+    })
+}
+
+/// Bytes as `512 MiB`, `3.2 GiB` (binary units, as `--max-memory` reads them).
+pub fn format_bytes(bytes: u64) -> String {
+    const UNITS: [&str; 5] = ["B", "KiB", "MiB", "GiB", "TiB"];
+    let mut value = bytes as f64;
+    let mut unit = 0;
+    while value >= 1024.0 && unit + 1 < UNITS.len() {
+        value /= 1024.0;
+        unit += 1;
+    }
+    if unit == 0 || value >= 100.0 || value.fract() == 0.0 {
+        format!("{value:.0} {}", UNITS[unit])
+    } else {
+        format!("{value:.1} {}", UNITS[unit])
+    }
+}
+
+/// Which pass a progress report is about.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Stage {
+    /// The value range for a normalised isovalue.
+    ValueRange,
+    /// Counting active cells per block.
+    Scan,
+    /// Writing metacells and corner records.
+    Emit,
+}
+
+/// Progress of one pass: `done` of `total` sample planes read.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Progress {
+    pub stage: Stage,
+    pub done: u64,
+    pub total: u64,
+}
+
+/// What a streaming extraction wrote.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StreamSummary {
+    pub info: GridInfo,
+    pub stats: GridStats,
+    pub plan: MemoryPlan,
+}
+
+/// Extracts `source` at `options` into the `.cgc` file `path` within `max_memory` bytes, writing
+/// as it goes (atomically: on error no file is left under `path`). `progress` hears after every
+/// slab. The file is byte-identical to `cgc::write` of [`super::extract`] on the same samples.
+pub fn extract_to_file(
+    source: &mut dyn RegionSource,
+    options: &ExtractOptions,
+    max_memory: u64,
+    path: &Path,
+    progress: &mut dyn FnMut(Progress),
+) -> Result<StreamSummary> {
+    let plan = plan(source, max_memory)?;
+    extract_planned(source, options, &plan, path, progress)
+}
+
+/// [`extract_to_file`] with slab and output-buffer sizes given (as [`plan`] makes them, or
+/// smaller: tests use one-layer slabs and one-block groups to reach every boundary).
+pub fn extract_planned(
+    source: &mut dyn RegionSource,
+    options: &ExtractOptions,
+    plan: &MemoryPlan,
+    path: &Path,
+    progress: &mut dyn FnMut(Progress),
+) -> Result<StreamSummary> {
+    if plan.slab_layers == 0 {
+        return Err(Error::invalid("a slab needs at least one block layer"));
+    }
+    let geometry = source.geometry();
+    geometry.validate(geometry.sample_count())?;
+    let mut run = Run {
+        source,
+        geometry,
+        plan: *plan,
+        progress,
+    };
+    match run.source.scalar_type() {
+        ScalarType::U8 => run.extract::<u8>(options, path),
+        ScalarType::U16 => run.extract::<u16>(options, path),
+        ScalarType::I16 => run.extract::<i16>(options, path),
+        ScalarType::F32 => run.extract::<f32>(options, path),
+    }
+}
+
+/// Sample types a slab buffer can hold.
+trait SlabScalar: ExtractScalar + Default {
+    fn slab(samples: &mut [Self]) -> SlabMut<'_>;
+    fn samples(samples: &[Self]) -> Samples<'_>;
+}
+
+macro_rules! slab_scalar {
+    ($t:ty, $variant:ident) => {
+        impl SlabScalar for $t {
+            fn slab(samples: &mut [Self]) -> SlabMut<'_> {
+                SlabMut::$variant(samples)
+            }
+            fn samples(samples: &[Self]) -> Samples<'_> {
+                Samples::$variant(samples)
+            }
+        }
+    };
+}
+slab_scalar!(u8, U8);
+slab_scalar!(u16, U16);
+slab_scalar!(i16, I16);
+slab_scalar!(f32, F32);
+
+struct Run<'a> {
+    source: &'a mut dyn RegionSource,
+    geometry: Geometry,
+    plan: MemoryPlan,
+    progress: &'a mut dyn FnMut(Progress),
+}
+
+impl Run<'_> {
+    fn read<T: SlabScalar>(&mut self, z: Range<usize>, buffer: &mut Vec<T>) -> Result<()> {
+        let [nx, ny, _] = self.geometry.dims;
+        buffer.clear();
+        buffer.resize(nx * ny * z.len(), T::default());
+        self.source.read_planes(z, T::slab(buffer))
+    }
+
+    /// Slabs as block layer ranges, and the sample planes each reads (its layers plus the halo).
+    fn slabs(&self) -> Vec<(Range<usize>, Range<usize>)> {
+        let nz = self.geometry.dims[2];
+        let nbz = (nz - 1).div_ceil(BLOCK_CELLS);
+        let k = self.plan.slab_layers;
+        (0..nbz)
+            .step_by(k)
+            .map(|bz0| {
+                let bz1 = (bz0 + k).min(nbz);
+                (bz0..bz1, BLOCK_CELLS * bz0..(BLOCK_CELLS * bz1 + 1).min(nz))
+            })
+            .collect()
+    }
+
+    /// NaN-free (min, max) over all samples, `None` without one: the in-memory `value_range`.
+    fn value_range<T: SlabScalar>(&mut self, buffer: &mut Vec<T>) -> Result<Option<(f64, f64)>> {
+        let nz = self.geometry.dims[2];
+        let step = BLOCK_CELLS * self.plan.slab_layers + 1;
+        let mut range: Option<(f64, f64)> = None;
+        for z0 in (0..nz).step_by(step) {
+            let z = z0..(z0 + step).min(nz);
+            self.read(z.clone(), buffer)?;
+            if let Some((lo, hi)) = T::samples(buffer).value_range() {
+                range = Some(range.map_or((lo, hi), |(a, b)| (a.min(lo), b.max(hi))));
+            }
+            (self.progress)(Progress {
+                stage: Stage::ValueRange,
+                done: z.end as u64,
+                total: nz as u64,
+            });
+        }
+        Ok(range)
+    }
+
+    fn extract<T: SlabScalar>(
+        &mut self,
+        options: &ExtractOptions,
+        path: &Path,
+    ) -> Result<StreamSummary> {
+        let [nx, ny, nz] = self.geometry.dims;
+        let precision = options.precision.unwrap_or(Precision::default_for(T::TYPE));
+        let mut buffer: Vec<T> = Vec::new();
+
+        let (iso, value_range) = options
+            .iso
+            .resolve_lazily(|| self.value_range(&mut buffer))?;
+        let threshold = T::threshold(iso);
+
+        let [nbx, nby, nbz] = self.geometry.cell_dims().map(|c| c.div_ceil(BLOCK_CELLS));
+        let block_count = nbx * nby * nbz;
+        let slabs = if block_count == 0 {
+            Vec::new()
+        } else {
+            self.slabs()
+        };
+
+        // Pass 1: counts and ranges, slab by slab, into the block table.
+        let mut blocks: Vec<Block> = Vec::with_capacity(block_count);
+        let mut active_cells: Vec<u32> = Vec::with_capacity(block_count);
+        let mut totals = Totals::default();
+        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        for (layers, planes) in &slabs {
+            self.read(planes.clone(), &mut buffer)?;
+            let scans = scan_blocks(&buffer, [nx, ny, planes.len()], threshold);
+            debug_assert_eq!(scans.len(), nbx * nby * layers.len());
+            for s in &scans {
+                (lo, hi) = (lo.min(s.min), hi.max(s.max));
+                blocks.push(totals.add(s)?);
+                active_cells.push(s.active_cells);
+            }
+            (self.progress)(Progress {
+                stage: Stage::Scan,
+                done: planes.end as u64,
+                total: nz as u64,
+            });
+        }
+
+        let (lo, hi) = match value_range {
+            Some(r) => r,
+            None if block_count > 0 => (lo, hi),
+            None => self.value_range(&mut buffer)?.unwrap_or((0.0, 0.0)),
+        };
+        let (lo, hi) = if lo <= hi { (lo, hi) } else { (0.0, 0.0) }; // all NaN
+        let quantizer = Quantizer::new(precision, T::TYPE.is_integer(), lo, hi, iso);
+        let record = precision.bytes_per_cell() as u64;
+        let info = GridInfo {
+            dims: self.geometry.dims.map(|d| d as u32),
+            spacing: self.geometry.spacing,
+            origin: self.geometry.origin,
+            direction: self.geometry.direction,
+            scalar_type: T::TYPE,
+            value_range: [lo, hi],
+            iso,
+            precision,
+            mapping: quantizer.mapping(),
+        };
+        let counts = HeaderCounts {
+            blocks: block_count as u64,
+            metacell_slots: totals.slots,
+            active_cells: totals.cells,
+            occupied_metacells: totals.occupied_metacells,
+        };
+        let sections = sections_for_lengths([
+            block_count as u64 * std::mem::size_of::<Block>() as u64,
+            totals.slots * std::mem::size_of::<Metacell>() as u64,
+            totals.cells * record,
+        ]);
+
+        crate::fs::write_atomic_file(path, |file| {
+            let (cells_at, cells_len) = sections[2];
+            file.set_len(cells_at + cells_len)?;
+            let block_bytes: &[u8] = bytemuck::cast_slice(&blocks);
+            write_at(file, sections[0].0, block_bytes)?;
+            let block_crc = crc32fast::hash(block_bytes);
+
+            // Pass 2: emit slab by slab, in block order, into the pre-sized sections.
+            let mut writer = SectionWriter {
+                file: &mut *file,
+                slot_at: sections[1].0,
+                cell_at: sections[2].0,
+                slot_crc: crc32fast::Hasher::new(),
+                cell_crc: crc32fast::Hasher::new(),
+            };
+            let mut groups = GroupBuffers::default();
+            let mut next_cell = 0u32;
+            for (layers, planes) in &slabs {
+                let first = layers.start * nbx * nby;
+                let end = layers.end * nbx * nby;
+                let progress = Progress {
+                    stage: Stage::Emit,
+                    done: planes.end as u64,
+                    total: nz as u64,
+                };
+                if blocks[first..end].iter().all(|b| b.metacell_count == 0) {
+                    (self.progress)(progress);
+                    continue;
+                }
+                self.read(planes.clone(), &mut buffer)?;
+                let slab = SlabView {
+                    samples: &buffer,
+                    dims: [nx, ny, planes.len()],
+                    first_layer: layers.start,
+                    block_dims: [nbx, nby],
+                };
+                let mut index = first;
+                while index < end {
+                    let group = next_group(
+                        &blocks,
+                        &active_cells,
+                        index..end,
+                        record,
+                        self.plan.output_buffer,
+                    );
+                    groups.emit(
+                        &slab,
+                        &blocks,
+                        &active_cells,
+                        group.clone(),
+                        &mut next_cell,
+                        threshold,
+                        &quantizer,
+                        record as usize,
+                    );
+                    writer.write(&groups)?;
+                    index = group.end;
+                }
+                (self.progress)(progress);
+            }
+            let crcs = [
+                block_crc,
+                writer.slot_crc.finalize(),
+                writer.cell_crc.finalize(),
+            ];
+            write_at(file, 0, &header_bytes(&info, &counts, sections, crcs))?;
+            Ok(())
+        })?;
+
+        let stats = GridStats {
+            dims: info.dims,
+            iso,
+            precision_bits: precision.bits(),
+            active_cells: totals.cells,
+            metacells: totals.occupied_metacells,
+            metacell_slots: totals.slots,
+            clusters: totals.slots / crate::layout::CLUSTER_SLOTS as u64,
+            blocks: block_count as u64,
+            nonempty_blocks: totals.nonempty_blocks,
+            bytes: MemoryBytes {
+                blocks: block_count as u64 * 16,
+                metacells: totals.slots * 12,
+                cells: totals.cells * record,
+                paper_total: totals.slots * 12 + totals.cells * record,
+            },
+        };
+        Ok(StreamSummary {
+            info,
+            stats,
+            plan: self.plan,
+        })
+    }
+}
+
+fn write_at(file: &mut File, offset: u64, bytes: &[u8]) -> Result<()> {
+    file.seek(SeekFrom::Start(offset))?;
+    file.write_all(bytes)?;
+    Ok(())
+}
+
+/// One slab's samples and where it sits among the blocks.
+struct SlabView<'a, T> {
+    samples: &'a [T],
+    /// Samples per axis of the slab (its planes, halo included).
+    dims: [usize; 3],
+    first_layer: usize,
+    block_dims: [usize; 2],
+}
+
+/// The next run of blocks in `range`, starting at its first block, whose output fits `capacity`
+/// bytes (at least one block, whatever its size).
+fn next_group(
+    blocks: &[Block],
+    active_cells: &[u32],
+    range: Range<usize>,
+    record: u64,
+    capacity: u64,
+) -> Range<usize> {
+    let mut bytes = 0u64;
+    let mut end = range.start;
+    while end < range.end {
+        let out = blocks[end].metacell_count as u64 * std::mem::size_of::<Metacell>() as u64
+            + active_cells[end] as u64 * record;
+        if end > range.start && bytes + out > capacity {
+            break;
+        }
+        bytes += out;
+        end += 1;
+    }
+    range.start..end
+}
+
+/// The output of one group of blocks, reused from group to group.
+#[derive(Default)]
+struct GroupBuffers {
+    slots: Vec<Metacell>,
+    cells: Vec<u8>,
+}
+
+impl GroupBuffers {
+    #[allow(clippy::too_many_arguments)]
+    fn emit<T: SlabScalar>(
+        &mut self,
+        slab: &SlabView<'_, T>,
+        blocks: &[Block],
+        active_cells: &[u32],
+        group: Range<usize>,
+        next_cell: &mut u32,
+        threshold: Option<T>,
+        quantizer: &Quantizer,
+        record: usize,
+    ) {
+        let slot_count: usize = blocks[group.clone()]
+            .iter()
+            .map(|b| b.metacell_count as usize)
+            .sum();
+        let cell_count: usize = active_cells[group.clone()]
+            .iter()
+            .map(|&c| c as usize)
+            .sum();
+        // Padding slots must be zero, as in the in-memory output.
+        self.slots.clear();
+        self.slots.resize(slot_count, bytemuck::Zeroable::zeroed());
+        self.cells.clear();
+        self.cells.resize(cell_count * record, 0);
+        let outputs = split_outputs(
+            blocks,
+            |index| active_cells[index],
+            group,
+            slab.block_dims,
+            (&mut self.slots, &mut self.cells),
+            record,
+            next_cell,
+            slab.first_layer,
+        );
+        outputs
+            .into_par_iter()
+            .for_each_init(emit::BlockScratch::default, |scratch, out| {
+                emit::emit_block(slab.samples, slab.dims, threshold, quantizer, out, scratch)
+            });
+    }
+}
+
+/// Appends groups to the metacell and cell sections, in file order, checksumming as it goes.
+struct SectionWriter<'a> {
+    file: &'a mut File,
+    slot_at: u64,
+    cell_at: u64,
+    slot_crc: crc32fast::Hasher,
+    cell_crc: crc32fast::Hasher,
+}
+
+impl SectionWriter<'_> {
+    fn write(&mut self, group: &GroupBuffers) -> Result<()> {
+        let slots: &[u8] = bytemuck::cast_slice(&group.slots);
+        if !slots.is_empty() {
+            write_at(self.file, self.slot_at, slots)?;
+            self.slot_crc.update(slots);
+            self.slot_at += slots.len() as u64;
+        }
+        if !group.cells.is_empty() {
+            write_at(self.file, self.cell_at, &group.cells)?;
+            self.cell_crc.update(&group.cells);
+            self.cell_at += group.cells.len() as u64;
+        }
+        Ok(())
+    }
+}

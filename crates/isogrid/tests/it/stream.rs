@@ -1,0 +1,298 @@
+//! Streaming extraction: the file written slab by slab must be byte-identical to the in-memory
+//! extraction written with `cgc::to_bytes`, for any slab size, output group size, thread count,
+//! isovalue form and precision; failures must leave no file behind.
+
+use crate::common::{field, random_u8, Rng};
+use isogrid::extract::stream::{
+    self, extract_planned, extract_to_file, MemoryPlan, Progress, RegionSource, SlabMut, Stage,
+};
+use isogrid::{cgc, extract, ErrorKind, ExtractOptions, Iso, Precision, Volume, VolumeData};
+use std::ops::Range;
+use std::path::PathBuf;
+
+struct TempDir(PathBuf);
+
+impl TempDir {
+    fn new(name: &str) -> Self {
+        let dir =
+            std::env::temp_dir().join(format!("isogrid-stream-{name}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        TempDir(dir)
+    }
+    fn entries(&self) -> Vec<String> {
+        let mut names: Vec<String> = std::fs::read_dir(&self.0)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        names.sort();
+        names
+    }
+}
+
+impl Drop for TempDir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+/// Volumes of every type with shapes that are not multiples of 16, including degenerate ones.
+fn volumes() -> Vec<(&'static str, Volume)> {
+    let mut rng = Rng::new(7);
+    let wave = |dims: [usize; 3]| {
+        field(dims, |x, y, z| {
+            (x * 0.31).sin() * (y * 0.23).cos() + (z * 0.17).sin() + 0.1 * (x + y) / 7.0
+        })
+    };
+    let f32_dims = [19, 40, 35];
+    let mut f32_values: Vec<f32> = wave(f32_dims).into_iter().map(|v| v as f32).collect();
+    for _ in 0..40 {
+        let i = rng.below(f32_values.len() as u64) as usize;
+        f32_values[i] = f32::NAN;
+    }
+    let u16_dims = [17, 17, 50];
+    let i16_dims = [40, 3, 65];
+    vec![
+        ("u8 random", random_u8([37, 21, 50], 3, 3)),
+        (
+            "f32 wave with NaN",
+            Volume::new(f32_dims, VolumeData::F32(f32_values)).unwrap(),
+        ),
+        (
+            "u16 wave",
+            Volume::new(
+                u16_dims,
+                VolumeData::U16(
+                    wave(u16_dims)
+                        .into_iter()
+                        .map(|v| (v * 9000.0 + 30000.0) as u16)
+                        .collect(),
+                ),
+            )
+            .unwrap()
+            .with_spacing([0.5, 0.7, 1.25])
+            .unwrap()
+            .with_origin([-3.0, 4.0, 10.0])
+            .unwrap(),
+        ),
+        (
+            "i16 wave",
+            Volume::new(
+                i16_dims,
+                VolumeData::I16(
+                    wave(i16_dims)
+                        .into_iter()
+                        .map(|v| (v * 1000.0) as i16)
+                        .collect(),
+                ),
+            )
+            .unwrap(),
+        ),
+        ("u8 thin", random_u8([9, 2, 33], 5, 2)),
+        ("u8 2x2x2", random_u8([2, 2, 2], 11, 2)),
+        ("u8 single plane", random_u8([8, 8, 1], 13, 4)),
+    ]
+}
+
+fn option_sets() -> Vec<ExtractOptions> {
+    vec![
+        ExtractOptions::new(Iso::Normalized(0.5)),
+        ExtractOptions::new(Iso::Normalized(0.3)).with_precision(Precision::Bits4),
+        ExtractOptions::new(Iso::Value(0.4)).with_precision(Precision::Bits16),
+        ExtractOptions::new(Iso::Value(128.0)).with_precision(Precision::Float32),
+    ]
+}
+
+fn plan(layers: usize, output_buffer: u64) -> MemoryPlan {
+    MemoryPlan {
+        max_memory: u64::MAX,
+        slab_layers: layers,
+        slab_bytes: 0,
+        output_buffer,
+        fixed: 0,
+        minimum: 0,
+    }
+}
+
+#[test]
+fn streamed_files_are_byte_identical_to_in_memory_ones() {
+    let dir = TempDir::new("identical");
+    let out = dir.0.join("out.cgc");
+    let mut compared = 0;
+    for (name, volume) in volumes() {
+        for options in option_sets() {
+            let expected = cgc::to_bytes(&extract(&volume.view(), &options).unwrap());
+            // One-layer slabs with one-block groups, mid-sized slabs, and the whole volume at once.
+            for (layers, buffer) in [(1, 1), (2, 1 << 20), (3, 5000), (100, 64 << 20)] {
+                for threads in [1, 3] {
+                    let pool = rayon::ThreadPoolBuilder::new()
+                        .num_threads(threads)
+                        .build()
+                        .unwrap();
+                    let mut source = volume.view();
+                    let summary = pool
+                        .install(|| {
+                            extract_planned(
+                                &mut source,
+                                &options,
+                                &plan(layers, buffer),
+                                &out,
+                                &mut |_| {},
+                            )
+                        })
+                        .unwrap();
+                    let written = std::fs::read(&out).unwrap();
+                    assert!(
+                        written == expected,
+                        "{name} {options:?} layers {layers} buffer {buffer} threads {threads}: \
+                         {} streamed bytes differ from {} in-memory bytes",
+                        written.len(),
+                        expected.len()
+                    );
+                    let grid = cgc::read_bytes(&written).unwrap();
+                    assert_eq!(summary.stats, isogrid::GridStats::of(&grid), "{name}");
+                    compared += 1;
+                }
+            }
+        }
+    }
+    assert_eq!(compared, 7 * 4 * 4 * 2);
+    assert_eq!(dir.entries(), vec!["out.cgc".to_string()]);
+}
+
+#[test]
+fn budgets_from_the_least_that_works_upwards_give_the_same_bytes() {
+    let dir = TempDir::new("budgets");
+    let out = dir.0.join("out.cgc");
+    let volume = random_u8([70, 50, 90], 17, 5);
+    let options = ExtractOptions::new(Iso::Normalized(0.5));
+    let expected = cgc::to_bytes(&extract(&volume.view(), &options).unwrap());
+    let minimum = stream::plan(&volume.view(), u64::MAX).unwrap().minimum;
+    let layer_bytes = 70 * 50 * 16;
+    let mut layer_counts = Vec::new();
+    for budget in [
+        minimum,
+        minimum + layer_bytes,
+        minimum + 3 * layer_bytes,
+        1 << 40,
+    ] {
+        let mut source = volume.view();
+        let summary = extract_to_file(&mut source, &options, budget, &out, &mut |_| {}).unwrap();
+        assert!(
+            summary.plan.fixed + summary.plan.slab_bytes + summary.plan.output_buffer <= budget
+        );
+        layer_counts.push(summary.plan.slab_layers);
+        assert!(std::fs::read(&out).unwrap() == expected, "budget {budget}");
+    }
+    // The budgets really did give different slabs: 1 layer at the minimum, all 6 at the top.
+    assert_eq!(layer_counts.first(), Some(&1));
+    assert_eq!(layer_counts.last(), Some(&6));
+    assert!(
+        layer_counts.windows(2).all(|w| w[0] <= w[1]),
+        "{layer_counts:?}"
+    );
+}
+
+#[test]
+fn a_budget_below_one_slab_names_the_least_that_works_and_writes_nothing() {
+    let dir = TempDir::new("small-budget");
+    let out = dir.0.join("out.cgc");
+    let volume = random_u8([64, 64, 40], 1, 2);
+    let minimum = stream::plan(&volume.view(), u64::MAX).unwrap().minimum;
+    let err = extract_to_file(
+        &mut volume.view(),
+        &ExtractOptions::new(Iso::Value(100.0)),
+        minimum - 1,
+        &out,
+        &mut |_| {},
+    )
+    .unwrap_err();
+    assert_eq!(err.kind(), ErrorKind::TooLarge);
+    let least = stream::format_bytes(minimum.next_multiple_of(1 << 20));
+    assert!(
+        err.to_string()
+            .contains(&format!("the least that works is {least}")),
+        "{err}"
+    );
+    assert!(dir.entries().is_empty());
+}
+
+/// A source that fails on its `fail_at`-th read, to check that nothing is left behind.
+struct Failing<'a> {
+    inner: isogrid::VolumeView<'a>,
+    reads: usize,
+    fail_at: usize,
+}
+
+impl RegionSource for Failing<'_> {
+    fn geometry(&self) -> isogrid::Geometry {
+        *self.inner.geometry()
+    }
+    fn scalar_type(&self) -> isogrid::ScalarType {
+        self.inner.scalar_type()
+    }
+    fn read_planes(&mut self, z: Range<usize>, out: SlabMut<'_>) -> isogrid::Result<()> {
+        self.reads += 1;
+        if self.reads == self.fail_at {
+            return Err(isogrid::Error::corrupt(format!("planes {z:?} unreadable")));
+        }
+        self.inner.read_planes(z, out)
+    }
+}
+
+#[test]
+fn a_read_error_in_any_pass_leaves_no_file_and_keeps_an_old_one() {
+    let dir = TempDir::new("failing");
+    let out = dir.0.join("out.cgc");
+    std::fs::write(&out, b"old").unwrap();
+    let volume = random_u8([20, 20, 50], 9, 2);
+    // 4 one-layer slabs: reads 1-4 are the range pass, 5-8 the scan, 9-12 the emit.
+    for fail_at in [2, 6, 11] {
+        let mut source = Failing {
+            inner: volume.view(),
+            reads: 0,
+            fail_at,
+        };
+        let err = extract_planned(
+            &mut source,
+            &ExtractOptions::new(Iso::Normalized(0.5)),
+            &plan(1, 1),
+            &out,
+            &mut |_| {},
+        )
+        .unwrap_err();
+        assert!(err.to_string().contains("unreadable"), "{err}");
+        assert_eq!(std::fs::read(&out).unwrap(), b"old");
+        assert_eq!(dir.entries(), vec!["out.cgc".to_string()]);
+    }
+}
+
+#[test]
+fn progress_covers_every_pass_to_the_last_plane() {
+    let dir = TempDir::new("progress");
+    let volume = random_u8([20, 20, 50], 9, 2);
+    let mut seen: Vec<Progress> = Vec::new();
+    extract_planned(
+        &mut volume.view(),
+        &ExtractOptions::new(Iso::Normalized(0.5)),
+        &plan(1, 1 << 20),
+        &dir.0.join("out.cgc"),
+        &mut |p| seen.push(p),
+    )
+    .unwrap();
+    for stage in [Stage::ValueRange, Stage::Scan, Stage::Emit] {
+        let last = seen.iter().rfind(|p| p.stage == stage).unwrap();
+        assert_eq!((last.done, last.total), (50, 50), "{stage:?}");
+    }
+    // A data-unit isovalue needs no range pass.
+    seen.clear();
+    extract_planned(
+        &mut volume.view(),
+        &ExtractOptions::new(Iso::Value(100.0)),
+        &plan(1, 1 << 20),
+        &dir.0.join("out.cgc"),
+        &mut |p| seen.push(p),
+    )
+    .unwrap();
+    assert!(seen.iter().all(|p| p.stage != Stage::ValueRange));
+}
