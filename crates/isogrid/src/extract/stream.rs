@@ -308,7 +308,7 @@ pub fn extract_planned(
 }
 
 /// Sample types a slab buffer can hold.
-trait SlabScalar: ExtractScalar + Default {
+pub(super) trait SlabScalar: ExtractScalar + Default {
     fn slab(samples: &mut [Self]) -> SlabMut<'_>;
     fn samples(samples: &[Self]) -> Samples<'_>;
 }
@@ -488,6 +488,7 @@ impl Run<'_> {
                     dims: [nx, ny, planes.len()],
                     first_layer: layers.start,
                     block_dims: [nbx, nby],
+                    table_start: 0,
                 };
                 let mut index = first;
                 while index < end {
@@ -547,19 +548,22 @@ impl Run<'_> {
     }
 }
 
-fn write_at(file: &mut File, offset: u64, bytes: &[u8]) -> Result<()> {
+pub(super) fn write_at(file: &mut File, offset: u64, bytes: &[u8]) -> Result<()> {
     file.seek(SeekFrom::Start(offset))?;
     file.write_all(bytes)?;
     Ok(())
 }
 
 /// One slab's samples and where it sits among the blocks.
-struct SlabView<'a, T> {
-    samples: &'a [T],
+pub(super) struct SlabView<'a, T> {
+    pub samples: &'a [T],
     /// Samples per axis of the slab (its planes, halo included).
-    dims: [usize; 3],
-    first_layer: usize,
-    block_dims: [usize; 2],
+    pub dims: [usize; 3],
+    pub first_layer: usize,
+    pub block_dims: [usize; 2],
+    /// The grid's block number of the first entry of the block table passed along with the slab
+    /// (0 for the whole table; a tile holds only its own layers).
+    pub table_start: usize,
 }
 
 /// The next run of blocks in `range`, starting at its first block, whose output fits `capacity`
@@ -587,14 +591,14 @@ fn next_group(
 
 /// The output of one group of blocks, reused from group to group.
 #[derive(Default)]
-struct GroupBuffers {
-    slots: Vec<Metacell>,
-    cells: Vec<u8>,
+pub(super) struct GroupBuffers {
+    pub slots: Vec<Metacell>,
+    pub cells: Vec<u8>,
 }
 
 impl GroupBuffers {
     #[allow(clippy::too_many_arguments)]
-    fn emit<T: SlabScalar>(
+    pub(super) fn emit<T: SlabScalar>(
         &mut self,
         slab: &SlabView<'_, T>,
         blocks: &[Block],
@@ -620,6 +624,7 @@ impl GroupBuffers {
         self.cells.resize(cell_count * record, 0);
         let outputs = split_outputs(
             blocks,
+            slab.table_start,
             |index| active_cells[index],
             group,
             slab.block_dims,

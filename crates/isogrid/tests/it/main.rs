@@ -5,5 +5,6 @@ mod common;
 mod extract;
 mod mc;
 mod stream;
+mod tiles;
 mod trace;
 mod trace_bvh;
