@@ -10,7 +10,7 @@ median over frames after the first) and the ratios to mc, beside the paper's Tab
 Runs on whatever adapter wgpu finds: on the lent NVIDIA machine (carry the release binary and the
 Vulkan loader) or, without a GPU, on Mesa's lavapipe, which the report then says.
 
-    python3 scripts/bench_gpu.py [--frames 4] [--size 1920x1080] [--exe target/release/isogrid]
+    python3 scripts/bench_gpu.py [--frames 4] [--size 1920x1080] [--exe target/release/isogrid] [--no-dragon]
 """
 import argparse
 import datetime
@@ -56,6 +56,8 @@ def main():
     ap.add_argument("--size", default="1920x1080")
     ap.add_argument("--exe", default=None, help="isogrid binary (default: build the release CLI)")
     ap.add_argument("--hairball-size", type=int, default=256)
+    ap.add_argument("--no-dragon", action="store_true",
+                    help="only the generated hairball (no download, quick runs on lavapipe)")
     ap.add_argument("--out", default=os.path.join(ROOT, "docs", "benchmarks-gpu.md"))
     args = ap.parse_args()
     os.chdir(ROOT)
@@ -67,7 +69,8 @@ def main():
         exe = os.path.join(json.loads(meta)["target_directory"], "release", "isogrid")
     os.makedirs("data", exist_ok=True)
     datasets = []
-    if os.path.exists("data/dragon512.nrrd") or subprocess.run(["bash", "scripts/fetch_data.sh"]).returncode == 0:
+    if not args.no_dragon and (os.path.exists("data/dragon512.nrrd")
+                               or subprocess.run(["bash", "scripts/fetch_data.sh"]).returncode == 0):
         datasets.append(("Dragon", "data/dragon512.nrrd"))
     hairball = f"data/hairball{args.hairball_size}.nrrd"
     if not os.path.exists(hairball):
@@ -105,7 +108,8 @@ def main():
         L.append("  relative cost of the passes, not GPU speed; compute-pass times on lavapipe are not trustworthy.")
         L.append("  The same command runs unchanged on a GPU machine (carry the release binary and the Vulkan loader).")
     L.append(f"- {args.size}, {args.frames} frames per render; GPU times are timestamp-query medians over frames after the first.")
-    L.append(f"- Datasets: the Stanford dragon voxelised into a 512³ cube (`scripts/fetch_data.sh`), the built-in hairball at "
+    dragon = "the Stanford dragon voxelised into a 512³ cube (`scripts/fetch_data.sh`), " if datasets[0][0] == "Dragon" else ""
+    L.append(f"- Datasets: {dragon}the built-in hairball at "
              f"{args.hairball_size}³ (the paper's is 1024³); normalised isovalue 0.5; views 1 (front) and 2 (oblique).")
     L.append("- Raster = depth + G-buffer passes (for CGC: both visibility passes plus EWA), the quantity of Table 4.")
     L.append("")

@@ -319,7 +319,7 @@ def write_report(args, results):
         "nearest first by its mid-planes, and one corner record is read per cell the ray crosses",
         "(prefetched). On the dragon a ray that hits executes about seven times the instructions of one",
         "that misses (cachegrind): near the surface it passes through about three active cells before",
-        "it crosses. Embree traverses a SIMD BVH over the mesh. `docs/tracer-performance.md` has the",
+        "it crosses. Embree traverses a SIMD BVH over the mesh. `docs/design/tracing.md` has the",
         "measurements behind these choices.",
         "Hit/miss agreement with Embree is limited by the MC mesh",
         "approximating the trilinear surface, not by the tracer (the tests compare `Exact` with a",

@@ -7,13 +7,17 @@ follows a formula of the base value f = i + 10*j + 100*k that the Rust tests rec
     u8   : f                 i16 : f - 150          u16 : 200*f
     f32  : 0.25*f - 3.5      f64 : same as f32, stored as double
 
-Files are written by nibabel, pynrrd, numpy, pydicom and tifffile (pip install numpy nibabel
-pynrrd pydicom tifffile), so the readers are checked against other implementations of the formats.
-Run from the repository root: python3 scripts/make_io_fixtures.py
+Files are written by nibabel, pynrrd, numpy, pydicom, tifffile, SimpleITK and mrcfile (pip install
+numpy nibabel pynrrd pydicom tifffile SimpleITK mrcfile), so the readers are checked against other
+implementations of the formats. Run from the repository root:
+
+    python3 scripts/make_io_fixtures.py              # every fixture
+    python3 scripts/make_io_fixtures.py mrc nifti    # only these formats
 """
 import os
 import shutil
 import struct
+import sys
 
 import nibabel as nib
 import nrrd
@@ -172,11 +176,63 @@ def write_tiff():
     tifffile.imwrite(path("rgb.tif"), np.zeros((2, 3, 3), np.uint8), photometric="rgb")
 
 
+def write_metaimage():
+    import SimpleITK as sitk
+
+    def image(a, spacing, origin, direction=None):
+        img = sitk.GetImageFromArray(np.ascontiguousarray(a.transpose(2, 1, 0)))  # array [k, j, i]
+        img.SetSpacing(spacing)
+        img.SetOrigin(origin)
+        if direction is not None:
+            img.SetDirection(direction)  # row-major; column c is the direction of axis c
+        return img
+
+    # Header and raw data in one file; axis i points along +y, axis j along -x.
+    sitk.WriteImage(image(u8(), (0.5, 0.75, 2.0), (10, -20, 30), (0, -1, 0, 1, 0, 0, 0, 0, 1)), path("u8.mha"))
+    # Separate zlib-compressed data file (.zraw) named by the header.
+    sitk.WriteImage(image(i16(), (1.5, 1.0, 1.25), (5, 6, 7)), path("i16_z.mhd"), useCompression=True)
+    # Doubles, compressed, in one file.
+    sitk.WriteImage(image(f32().astype(np.float64), (1, 2, 3), (0, 0, 0)), path("f64_z.mha"), useCompression=True)
+
+
+def write_mrc():
+    import mrcfile
+
+    zyx = lambda a: np.ascontiguousarray(a.transpose(2, 1, 0))  # sections = k, rows = j, columns = i
+    # float32 with the MRC2014 origin fields; voxel size (0.5, 0.75, 2).
+    with mrcfile.new(path("f32.mrc"), overwrite=True) as m:
+        m.set_data(zyx(f32()))
+        m.voxel_size = (0.5, 0.75, 2.0)
+        m.header.origin = (10.0, -20.0, 30.0)
+    # int16 stored with columns along z and sections along x (MAPC, MAPR, MAPS = 3, 2, 1), placed
+    # by its start indices (NCSTART, NRSTART, NSSTART = 4, 2, -3, i.e. z, y, x), origin fields 0.
+    with mrcfile.new(path("i16_zyx.map"), overwrite=True) as m:
+        m.set_data(np.ascontiguousarray(i16()))  # array [x, y, z] = [section, row, column]
+        m.header.mapc, m.header.mapr, m.header.maps = 3, 2, 1
+        m.header.mx, m.header.my, m.header.mz = NX, NY, NZ  # sampling along x, y, z
+        m.header.cella = (NX * 1.5, NY * 2.0, NZ * 2.5)
+        m.header.nxstart, m.header.nystart, m.header.nzstart = 4, 2, -3
+    # Mode 0 (signed bytes) and mode 6 (uint16) stored big-endian.
+    with mrcfile.new(path("i8.mrc"), overwrite=True) as m:
+        m.set_data(zyx((BASE % 100 - 50).astype(np.int8)))
+    with mrcfile.new(path("u16_big.mrc"), overwrite=True) as m:
+        m.set_data(zyx(u16()).astype(">u2"))
+    with mrcfile.open(path("u16_big.mrc")) as m:
+        assert m.header.mode == 6 and m.data.dtype.byteorder == ">", "mrcfile wrote little endian"
+
+
+WRITERS = {
+    "nifti": write_nifti,
+    "nrrd": write_nrrd,
+    "npy": write_npy,
+    "dicom": write_dicom,
+    "tiff": write_tiff,
+    "metaimage": write_metaimage,
+    "mrc": write_mrc,
+}
+
 if __name__ == "__main__":
     os.makedirs(OUT, exist_ok=True)
-    write_nifti()
-    write_nrrd()
-    write_npy()
-    write_dicom()
-    write_tiff()
+    for name in sys.argv[1:] or WRITERS:
+        WRITERS[name]()
     print("fixtures written to", OUT)

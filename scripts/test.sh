@@ -3,5 +3,9 @@
 # Python binding tests (builds the package from source into python/.venv).
 set -euo pipefail
 cd "$(dirname "$0")/.."
+# The core, the tracer and the GPU crate keep module graphs without import cycles.
+for crate in isogrid isogrid-trace isogrid-gpu isogrid-io isogrid-cli; do
+  python3 scripts/check_module_cycles.py "crates/$crate/src"
+done
 cargo test --workspace --locked
 bash python/test.sh

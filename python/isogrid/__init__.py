@@ -21,10 +21,17 @@ layouts are copied first: an array that is neither C- nor Fortran-contiguous is 
 order when its first axis has the smaller stride, otherwise as C order (an array that is both, i.e.
 with at most one axis longer than 1, counts as C order).
 
-Everything else is in (x, y, z) order: ``spacing=(sx, sy, sz)``, grid ``dims`` ``(nx, ny, nz)``,
-cell positions, and world coordinates, where sample (i, j, k) sits at ``(i·sx, j·sy, k·sz)``
-(the origin is kept as metadata only). :func:`load_volume` follows the same rule: it returns a C
-array of shape ``(nz, ny, nx)`` and ``spacing`` as ``(sx, sy, sz)``.
+Everything else is in (x, y, z) order: ``spacing=(sx, sy, sz)``, ``origin``, grid ``dims``
+``(nx, ny, nz)``, cell positions, and world coordinates. Mesh vertices (:func:`marching_cubes`)
+are the volume's world coordinates: sample (i, j, k) sits at ``origin + (i·sx, j·sy, k·sz)``,
+the origin being a :class:`Volume`'s (e.g. the file's, or the mesh frame :func:`voxelize`
+returns), else zero. A :class:`CellGrid` keeps the origin and directions in ``info``, as the
+``.cgc`` files of the command line do; its ``world_bounds`` and the renderer place sample (0, 0, 0)
+at zero. :func:`load_volume` follows the same rule: it returns a C array of shape
+``(nz, ny, nx)`` and ``spacing``/``origin`` as (x, y, z).
+
+For scikit-image's conventions (array-axis order, ``level=``, four return values) use
+:func:`isogrid.skimage.marching_cubes`, a drop-in for ``skimage.measure.marching_cubes``.
 
 Samples of type uint8, uint16, int16 and float32 are used as they are; int8 becomes int16, bool
 becomes uint8 and other numeric types become float32 (a copy). A sample is *inside* when
@@ -139,7 +146,7 @@ class Volume:
 
 
 def extract(
-    array: Union[np.ndarray, Volume, Any],
+    array: Union[np.ndarray, Volume, PathLike, Any],
     iso: Optional[float] = None,
     iso_normalized: Optional[float] = None,
     spacing: Optional[Sequence[float]] = None,
@@ -149,14 +156,17 @@ def extract(
     """Extracts the active cells of a 3-D volume into clustered grid cells.
 
     Args:
-        array: 3-D samples; a :class:`Volume` also supplies its spacing. The axis that varies
+        array: 3-D samples, a :class:`Volume` (which also supplies its spacing), or the path of a
+            volume file, read with :func:`load_volume`. The axis that varies
             fastest in memory is x: a C array of shape (nz, ny, nx) and a Fortran array of shape
             (nx, ny, nz) are read in place. uint8, uint16, int16 and float32 are not copied when
             contiguous; other types and layouts are converted first (see the module docs).
         iso: isovalue in data units; a sample is inside when ``value >= iso``.
         iso_normalized: isovalue as a fraction of the finite value range, ``min + t·(max − min)``
             (the paper uses 0.5). Give exactly one of ``iso`` and ``iso_normalized``.
-        spacing: sample spacing ``(sx, sy, sz)``; default the Volume's, else (1, 1, 1).
+        spacing: sample spacing ``(sx, sy, sz)``; default the Volume's, else (1, 1, 1). A Volume's
+            origin and directions are kept in the grid's ``info`` (as ``isogrid extract`` keeps
+            them in the ``.cgc`` file).
         precision: bits per stored corner, 4, 8, 16 or 32; default 8 for uint8, 16 otherwise.
         threads: worker threads (default all cores); the result is the same for any count.
 
@@ -167,7 +177,9 @@ def extract(
         why (the isovalue outside the samples' range, or a volume one sample thick).
     """
     iso, iso_normalized = _iso_pair(iso, iso_normalized)
+    array = _volume_of(array)
     spacing3 = _spacing_of(array, spacing)
+    placed = array if isinstance(array, Volume) else None
     prepared, fortran = _prepare(array)
     grid = _isogrid.extract(
         prepared,
@@ -177,6 +189,8 @@ def extract(
         iso_normalized=iso_normalized,
         precision=None if precision is None else _int(precision, "precision"),
         threads=None if threads is None else _int(threads, "threads", 1),
+        origin=None if placed is None else placed.origin,
+        direction=None if placed is None else placed.direction,
     )
     _warn_if_empty(grid)
     return grid
@@ -198,11 +212,15 @@ def load_volume(
     big_endian: bool = False,
 ) -> Volume:
     """Reads a volume file: NIfTI-1 (``.nii``, ``.nii.gz``), NRRD (``.nrrd``, ``.nhdr``), NumPy
-    ``.npy``, TIFF stacks, a DICOM series (a folder), or headerless raw samples.
+    ``.npy``, TIFF stacks, a DICOM series (a folder), MetaImage (``.mha``, ``.mhd`` + data file;
+    raw or zlib), MRC/CCP4 maps (``.mrc``, ``.map``, ``.ccp4``, ``.mrcs``), or headerless raw
+    samples. Other names are recognised by their content.
 
     Samples keep the file's storage order (no reorientation or resampling) and come back as a
     :class:`Volume` whose ``array`` is C-ordered with shape ``(nz, ny, nx)`` — the reader's buffer
-    handed to NumPy without a copy — and whose ``spacing``/``origin`` are (x, y, z).
+    handed to NumPy without a copy — and whose ``spacing``/``origin`` are (x, y, z). MRC maps are
+    the one exception to the storage order: their columns, rows and sections are permuted to
+    x, y, z by the header's MAPC/MAPR/MAPS, as ChimeraX shows them.
     ``extract(load_volume(p), ...)`` therefore matches ``isogrid extract p`` on the command line.
 
     Args:
@@ -227,7 +245,7 @@ def load_volume(
 
 
 def marching_cubes(
-    array: Union[np.ndarray, Volume, Any],
+    array: Union[np.ndarray, Volume, PathLike, Any],
     iso: Optional[float] = None,
     iso_normalized: Optional[float] = None,
     spacing: Optional[Sequence[float]] = None,
@@ -239,12 +257,17 @@ def marching_cubes(
 
     Returns:
         ``(vertices, faces)``: vertices float32 of shape (V, 3) as **(x, y, z)** world
-        coordinates, sample (i, j, k) at (i·sx, j·sy, k·sz) — for a C array ``a[z, y, x]`` the
-        columns are reversed relative to its axes; faces uint32 of shape (T, 3), counter-clockwise
-        seen from outside (where value < iso). One vertex per crossed edge, no duplicates.
+        coordinates, sample (i, j, k) at ``origin + (i·sx, j·sy, k·sz)`` with a :class:`Volume`'s
+        origin (zero for a bare array) — for a C array ``a[z, y, x]`` the columns are reversed
+        relative to its axes; faces uint32 of shape (T, 3), counter-clockwise seen from outside
+        (where value < iso). One vertex per crossed edge, no duplicates: where crossings fall
+        exactly on a sample (integer data at an integer iso), the edges meeting there share one
+        vertex and the triangles that collapse are dropped, so no triangle has zero area.
     """
     iso, iso_normalized = _iso_pair(iso, iso_normalized)
+    array = _volume_of(array)
     spacing3 = _spacing_of(array, spacing)
+    origin = array.origin if isinstance(array, Volume) else None
     prepared, fortran = _prepare(array)
     return _isogrid.marching_cubes(
         prepared,
@@ -253,6 +276,7 @@ def marching_cubes(
         iso=iso,
         iso_normalized=iso_normalized,
         threads=None if threads is None else _int(threads, "threads", 1),
+        origin=origin,
     )
 
 
@@ -280,7 +304,8 @@ def voxelize(
 
     Returns:
         A :class:`Volume`: uint8 ``array`` of shape (nz, ny, nx), cubic ``spacing`` in mesh units
-        and ``origin`` = world position of sample (0, 0, 0) in mesh coordinates.
+        and ``origin`` = world position of sample (0, 0, 0) in mesh coordinates, so that
+        ``marching_cubes(voxelize(v, f), iso_normalized=0.5)`` lands on the mesh ``(v, f)``.
     """
     v = np.ascontiguousarray(vertices, dtype=np.float32)
     f = np.asarray(faces)
@@ -410,6 +435,13 @@ def _prepare(array: Any) -> Tuple[np.ndarray, bool]:
     return np.require(a, dtype=_sample_dtype(a.dtype), requirements=[order, "A"]), fortran
 
 
+def _volume_of(array: Any) -> Any:
+    """A path is read with :func:`load_volume`; arrays and Volumes pass through."""
+    if isinstance(array, (str, os.PathLike)):
+        return load_volume(array)
+    return array
+
+
 def _spacing_of(array: Any, spacing: Optional[Sequence[float]]) -> Triple:
     if spacing is None:
         return array.spacing if isinstance(array, Volume) else (1.0, 1.0, 1.0)
@@ -443,3 +475,7 @@ def _int(value: Any, name: str, minimum: int = 0) -> int:
     if n < minimum:
         raise ValueError(f"{name} must be at least {minimum}, not {n}")
     return n
+
+
+# Last: it uses the helpers above.
+from . import skimage  # noqa: E402

@@ -1,9 +1,12 @@
 """Type stubs of the native module; use the wrappers in `isogrid` (they prepare the arrays)."""
 
-from typing import Any, Dict, Optional, Sequence, Tuple
+import os
+from typing import Any, Dict, Optional, Sequence, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
+
+_Path = Union[str, "os.PathLike[str]"]
 
 __version__: str
 
@@ -12,6 +15,12 @@ class IsogridError(ValueError):
 
 class CellGrid:
     """Clustered grid cells (paper §3.1) of one isosurface."""
+
+    def __new__(cls, data: bytes) -> "CellGrid":
+        """A grid from the bytes of a ``.cgc`` file, fully validated."""
+    def to_bytes(self) -> bytes:
+        """The grid as the bytes of a ``.cgc`` file (what ``save`` writes)."""
+    def __reduce__(self) -> Tuple[Any, Tuple[bytes]]: ...
 
     @property
     def stats(self) -> Dict[str, Any]:
@@ -36,7 +45,7 @@ class CellGrid:
         """Read-only, shape (active_cells, bytes_per_cell)."""
     def cell_positions(self) -> npt.NDArray[np.uint32]: ...
     def corners(self) -> npt.NDArray[np.float32]: ...
-    def save(self, path: str) -> None: ...
+    def save(self, path: _Path) -> None: ...
 
 def extract(
     array: np.ndarray,
@@ -46,8 +55,10 @@ def extract(
     iso_normalized: Optional[float] = None,
     precision: Optional[int] = None,
     threads: Optional[int] = None,
+    origin: Optional[Sequence[float]] = None,
+    direction: Optional[Sequence[Sequence[float]]] = None,
 ) -> CellGrid: ...
-def load(path: str) -> CellGrid: ...
+def load(path: _Path) -> CellGrid: ...
 def marching_cubes(
     array: np.ndarray,
     fortran: bool,
@@ -55,9 +66,18 @@ def marching_cubes(
     iso: Optional[float] = None,
     iso_normalized: Optional[float] = None,
     threads: Optional[int] = None,
+    origin: Optional[Sequence[float]] = None,
+    above: bool = False,
 ) -> Tuple[npt.NDArray[np.float32], npt.NDArray[np.uint32]]: ...
+def skimage_normals_values(
+    array: np.ndarray,
+    fortran: bool,
+    positions: npt.NDArray[np.float32],
+    faces: npt.NDArray[np.uint32],
+    level: float,
+) -> Tuple[npt.NDArray[np.float32], npt.NDArray[np.float32]]: ...
 def load_volume(
-    path: str,
+    path: _Path,
     raw_shape: Optional[Sequence[int]] = None,
     raw_dtype: Optional[str] = None,
     big_endian: bool = False,
@@ -82,4 +102,5 @@ def render(
     spp: int = 16,
     bounces: int = 3,
     threads: Optional[int] = None,
+    traversal: str = "blocks",
 ) -> Dict[str, Any]: ...

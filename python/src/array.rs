@@ -77,6 +77,27 @@ impl<'py> VolumeArg<'py> {
         })
     }
 
+    /// Sets where the volume sits in the world: the position of sample (0, 0, 0) and, as rows,
+    /// the directions of the x, y, z axes (metadata); `None` keeps the defaults.
+    pub fn place(
+        mut self,
+        origin: Option<Vec<f64>>,
+        direction: Option<Vec<Vec<f64>>>,
+    ) -> PyResult<Self> {
+        if let Some(origin) = origin {
+            self.geometry.origin = triple(origin, "origin")?;
+        }
+        if let Some(rows) = direction {
+            let n = rows.len();
+            let rows: [Vec<f64>; 3] = rows
+                .try_into()
+                .map_err(|_| invalid(format!("direction must have 3 rows, got {n}")))?;
+            let [x, y, z] = rows.map(|r| triple(r, "direction row"));
+            self.geometry.direction = [x?, y?, z?];
+        }
+        Ok(self)
+    }
+
     /// The samples as an isogrid view, borrowing the numpy buffer.
     pub fn view(&self) -> PyResult<VolumeView<'_>> {
         let samples = match &self.array {
@@ -104,8 +125,17 @@ fn slice<'a, T: Element>(a: &'a PyReadonlyArrayDyn<'_, T>) -> PyResult<&'a [T]> 
 
 /// `spacing` as three positive finite numbers (the library checks them again).
 pub fn spacing3(spacing: Vec<f64>) -> PyResult<[f64; 3]> {
-    let n = spacing.len();
-    spacing
+    triple(spacing, "spacing")
+}
+
+/// Three finite numbers (x, y, z).
+fn triple(values: Vec<f64>, name: &str) -> PyResult<[f64; 3]> {
+    let n = values.len();
+    let t: [f64; 3] = values
         .try_into()
-        .map_err(|_| invalid(format!("spacing must have 3 values (sx, sy, sz), got {n}")))
+        .map_err(|_| invalid(format!("{name} must have 3 values (x, y, z), got {n}")))?;
+    if t.iter().any(|v| !v.is_finite()) {
+        return Err(invalid(format!("{name} must be finite, got {t:?}")));
+    }
+    Ok(t)
 }

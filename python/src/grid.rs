@@ -8,7 +8,7 @@ use isogrid::{layout, ExtractOptions, GridStats, Iso, Precision, ScalarType};
 use numpy::ndarray::{ArrayView1, ArrayView2};
 use numpy::{PyArray1, PyArray2, PyArrayDescr, PyArrayMethods};
 use pyo3::prelude::*;
-use pyo3::types::PyDict;
+use pyo3::types::{PyBytes, PyDict};
 use std::path::PathBuf;
 
 /// Clustered grid cells of one isosurface (paper §3.1), from `isogrid.extract` or `isogrid.load`.
@@ -25,7 +25,11 @@ use std::path::PathBuf;
 ///   in units of 2 cells), cell_mask (bit b = cell (b&1, b>>1&1, b>>2&1)), cell_pointer.
 /// - `cells`: uint8 (active_cells, bytes_per_cell), 8 corner codes per cell at `precision` bits.
 ///
-/// Methods: `cell_positions()`, `corners()`, `save(path)`.
+/// Methods: `cell_positions()`, `corners()`, `save(path)`, `to_bytes()`.
+///
+/// `CellGrid(data)` rebuilds a grid from the bytes of a `.cgc` file (validated as `load` does);
+/// pickling goes through those bytes, so a grid crosses process boundaries (multiprocessing,
+/// Dask) and comes back byte-identical.
 #[pyclass(frozen, weakref, module = "isogrid")]
 pub struct CellGrid {
     inner: isogrid::CellGrid,
@@ -39,7 +43,7 @@ impl CellGrid {
 
 /// Extracts the active cells of a 3-D array (see `isogrid.extract`, which prepares `array`).
 #[pyfunction]
-#[pyo3(signature = (array, fortran, spacing, iso=None, iso_normalized=None, precision=None, threads=None))]
+#[pyo3(signature = (array, fortran, spacing, iso=None, iso_normalized=None, precision=None, threads=None, origin=None, direction=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn extract(
     py: Python<'_>,
@@ -50,8 +54,10 @@ pub fn extract(
     iso_normalized: Option<f64>,
     precision: Option<u32>,
     threads: Option<usize>,
+    origin: Option<Vec<f64>>,
+    direction: Option<Vec<Vec<f64>>>,
 ) -> PyResult<CellGrid> {
-    let volume = VolumeArg::new(array, fortran, spacing3(spacing)?)?;
+    let volume = VolumeArg::new(array, fortran, spacing3(spacing)?)?.place(origin, direction)?;
     let view = volume.view()?;
     let mut options = ExtractOptions::new(iso_arg(iso, iso_normalized)?);
     options.precision = precision.map(precision_arg).transpose()?;
@@ -125,6 +131,29 @@ fn struct_view<'py>(
 
 #[pymethods]
 impl CellGrid {
+    /// A grid from the bytes of a `.cgc` file, fully validated.
+    #[new]
+    fn new(py: Python<'_>, data: &[u8]) -> PyResult<Self> {
+        let inner = py
+            .detach(|| isogrid::cgc::read_bytes(data))
+            .map_err(to_py)?;
+        Ok(CellGrid { inner })
+    }
+
+    /// The grid as the bytes of a `.cgc` file (what `save` writes).
+    fn to_bytes<'py>(&self, py: Python<'py>) -> Bound<'py, PyBytes> {
+        let bytes = py.detach(|| isogrid::cgc::to_bytes(&self.inner));
+        PyBytes::new(py, &bytes)
+    }
+
+    /// Pickles as `CellGrid(self.to_bytes())`.
+    fn __reduce__<'py>(
+        slf: &Bound<'py, Self>,
+    ) -> PyResult<(Bound<'py, PyAny>, (Bound<'py, PyBytes>,))> {
+        let class = slf.get_type().into_any();
+        Ok((class, (slf.get().to_bytes(slf.py()),)))
+    }
+
     /// Counts and sizes, with the names of the CLI's `--json` output (without `seconds`).
     #[getter]
     fn stats<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {

@@ -14,6 +14,7 @@ mod grid;
 mod mesh;
 mod pool;
 mod render;
+mod skimage;
 mod volume_io;
 
 use pyo3::prelude::*;
@@ -27,6 +28,7 @@ fn _isogrid(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(grid::extract, m)?)?;
     m.add_function(wrap_pyfunction!(grid::load, m)?)?;
     m.add_function(wrap_pyfunction!(mesh::marching_cubes, m)?)?;
+    m.add_function(wrap_pyfunction!(skimage::skimage_normals_values, m)?)?;
     m.add_function(wrap_pyfunction!(volume_io::load_volume, m)?)?;
     m.add_function(wrap_pyfunction!(volume_io::voxelize, m)?)?;
     m.add_function(wrap_pyfunction!(render::render, m)?)?;

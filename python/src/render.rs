@@ -4,8 +4,8 @@
 use crate::errors::{invalid, to_py};
 use crate::grid::CellGrid;
 use crate::pool::run_detached;
-use isogrid::trace::{Environment, PathTraceOptions, RenderOptions, Shading, Traversal};
 use isogrid::Camera;
+use isogrid_trace::{Environment, PathTraceOptions, RenderOptions, Shading, Traversal};
 use numpy::ndarray::{Array2, Array3};
 use numpy::IntoPyArray;
 use pyo3::prelude::*;
@@ -55,10 +55,15 @@ pub fn render<'py>(
     traversal: &str,
 ) -> PyResult<Bound<'py, PyDict>> {
     let grid = grid.inner();
-    let traversal = Traversal::from_name(traversal)
-        .ok_or_else(|| invalid(format!("traversal must be 'blocks' or 'bvh', not {traversal:?}")))?;
+    let traversal = Traversal::from_name(traversal).ok_or_else(|| {
+        invalid(format!(
+            "traversal must be 'blocks' or 'bvh', not {traversal:?}"
+        ))
+    })?;
     if width == 0 || height == 0 || width as u64 * height as u64 > 64 << 20 {
-        return Err(invalid(format!("image size {width}x{height} is empty or too large")));
+        return Err(invalid(format!(
+            "image size {width}x{height} is empty or too large"
+        )));
     }
     let camera = if let Ok(view) = camera.extract::<u8>() {
         let (lo, hi) = grid.info().world_bounds();
@@ -67,7 +72,14 @@ pub fn render<'py>(
         let (eye, target, up, fovy): ([f64; 3], [f64; 3], [f64; 3], f64) = camera
             .extract()
             .map_err(|_| invalid("camera must be 1, 2 or (eye, target, up, fovy_degrees)"))?;
-        let c = Camera { eye, target, up, fovy_degrees: fovy, width, height };
+        let c = Camera {
+            eye,
+            target,
+            up,
+            fovy_degrees: fovy,
+            width,
+            height,
+        };
         c.validate().map_err(to_py)?;
         c
     };
@@ -75,27 +87,57 @@ pub fn render<'py>(
         "cgc" => Some(isogrid_gpu::Mode::Cgc),
         "cgc-noewa" => Some(isogrid_gpu::Mode::CgcNoEwa),
         "pathtrace" => None,
-        _ => return Err(invalid(format!("mode must be 'cgc', 'cgc-noewa' or 'pathtrace', not {mode:?}"))),
+        _ => {
+            return Err(invalid(format!(
+                "mode must be 'cgc', 'cgc-noewa' or 'pathtrace', not {mode:?}"
+            )))
+        }
     };
     let renderer = match (backend, gpu_mode) {
-        ("cpu", Some(isogrid_gpu::Mode::CgcNoEwa)) => return Err(invalid("mode 'cgc-noewa' needs the GPU backend")),
+        ("cpu", Some(isogrid_gpu::Mode::CgcNoEwa)) => {
+            return Err(invalid("mode 'cgc-noewa' needs the GPU backend"))
+        }
         ("cpu", _) | ("auto", None) => None,
-        ("gpu", None) => return Err(invalid("path tracing runs on the CPU: use backend='cpu' or 'auto'")),
+        ("gpu", None) => {
+            return Err(invalid(
+                "path tracing runs on the CPU: use backend='cpu' or 'auto'",
+            ))
+        }
         ("gpu", Some(_)) => Some(gpu()?.ok_or_else(|| invalid("no GPU adapter found"))?),
         ("auto", Some(m)) => match gpu()? {
             Some(r) => Some(r),
-            None if m == isogrid_gpu::Mode::CgcNoEwa => return Err(invalid("mode 'cgc-noewa' needs a GPU adapter")),
+            None if m == isogrid_gpu::Mode::CgcNoEwa => {
+                return Err(invalid("mode 'cgc-noewa' needs a GPU adapter"))
+            }
             None => None,
         },
-        _ => return Err(invalid(format!("backend must be 'auto', 'gpu' or 'cpu', not {backend:?}"))),
+        _ => {
+            return Err(invalid(format!(
+                "backend must be 'auto', 'gpu' or 'cpu', not {backend:?}"
+            )))
+        }
     };
     let out = run_detached(py, threads, move || -> isogrid::Result<Rendered> {
         if let (Some(r), Some(m)) = (renderer, gpu_mode) {
             let gpu_grid = r.upload_grid(grid)?;
-            let options = isogrid_gpu::RenderOptions { frames: frames.max(1), ..Default::default() };
+            let options = isogrid_gpu::RenderOptions {
+                frames: frames.max(1),
+                ..Default::default()
+            };
             let f = r.render_with(isogrid_gpu::Scene::Grid(&gpu_grid), &camera, m, &options)?;
-            let rgb = f.rgba8.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect();
-            return Ok(Rendered { rgb, depth: f.depth, normal: f.normal, cluster: f.cluster, backend: "gpu", adapter: r.adapter_info() });
+            let rgb = f
+                .rgba8
+                .chunks_exact(4)
+                .flat_map(|p| [p[0], p[1], p[2]])
+                .collect();
+            return Ok(Rendered {
+                rgb,
+                depth: f.depth,
+                normal: f.normal,
+                cluster: f.cluster,
+                backend: "gpu",
+                adapter: r.adapter_info(),
+            });
         }
         let shading = match gpu_mode {
             None => Shading::PathTrace(PathTraceOptions {
@@ -106,8 +148,12 @@ pub fn render<'py>(
             }),
             Some(_) => Shading::Phong,
         };
-        let options = RenderOptions { shading, traversal, ..RenderOptions::default() };
-        let image = isogrid::trace::render(grid, &camera, &options)?;
+        let options = RenderOptions {
+            shading,
+            traversal,
+            ..RenderOptions::default()
+        };
+        let image = isogrid_trace::render(grid, &camera, &options)?;
         Ok(Rendered {
             rgb: image.rgb8,
             depth: image.depth,
@@ -121,11 +167,31 @@ pub fn render<'py>(
     let (h, w) = (height as usize, width as usize);
     let shape_err = |e: numpy::ndarray::ShapeError| invalid(e.to_string());
     let dict = PyDict::new(py);
-    dict.set_item("image", Array3::from_shape_vec((h, w, 3), out.rgb).map_err(shape_err)?.into_pyarray(py))?;
-    dict.set_item("depth", Array2::from_shape_vec((h, w), out.depth).map_err(shape_err)?.into_pyarray(py))?;
+    dict.set_item(
+        "image",
+        Array3::from_shape_vec((h, w, 3), out.rgb)
+            .map_err(shape_err)?
+            .into_pyarray(py),
+    )?;
+    dict.set_item(
+        "depth",
+        Array2::from_shape_vec((h, w), out.depth)
+            .map_err(shape_err)?
+            .into_pyarray(py),
+    )?;
     let normal: Vec<f32> = out.normal.into_iter().flatten().collect();
-    dict.set_item("normal", Array3::from_shape_vec((h, w, 3), normal).map_err(shape_err)?.into_pyarray(py))?;
-    dict.set_item("cluster", Array2::from_shape_vec((h, w), out.cluster).map_err(shape_err)?.into_pyarray(py))?;
+    dict.set_item(
+        "normal",
+        Array3::from_shape_vec((h, w, 3), normal)
+            .map_err(shape_err)?
+            .into_pyarray(py),
+    )?;
+    dict.set_item(
+        "cluster",
+        Array2::from_shape_vec((h, w), out.cluster)
+            .map_err(shape_err)?
+            .into_pyarray(py),
+    )?;
     dict.set_item("backend", out.backend)?;
     dict.set_item("adapter", out.adapter)?;
     Ok(dict)

@@ -37,7 +37,10 @@ pub fn load_volume(
             ))
         }
     };
-    let options = ReadOptions { raw, ..Default::default() };
+    let options = ReadOptions {
+        raw,
+        ..ReadOptions::default()
+    };
     let volume = py
         .detach(|| isogrid_io::read_volume(&path, &options))
         .map_err(to_py)?;
@@ -88,7 +91,7 @@ pub fn voxelize<'py>(
     volume_dict(py, volume)
 }
 
-fn rows3<T: numpy::Element + Copy>(
+pub(crate) fn rows3<T: numpy::Element + Copy>(
     array: &PyReadonlyArray2<'_, T>,
     name: &str,
 ) -> PyResult<Vec<[T; 3]>> {

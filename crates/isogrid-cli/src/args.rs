@@ -10,10 +10,10 @@ use isogrid_io::{RawSpec, ReadOptions};
 #[group(required = true, multiple = false)]
 pub struct IsoArgs {
     /// Isovalue in data units: a sample is inside when value >= V.
-    #[arg(long, value_name = "V", allow_negative_numbers = true)]
+    #[arg(long, value_name = "V", allow_hyphen_values = true)]
     pub iso: Option<f64>,
     /// Isovalue as a fraction of the volume's value range (the paper uses 0.5).
-    #[arg(long, value_name = "V")]
+    #[arg(long, value_name = "V", allow_hyphen_values = true)]
     pub iso_normalized: Option<f64>,
 }
 
@@ -39,6 +39,9 @@ pub struct InputArgs {
     /// Raw samples are big-endian.
     #[arg(long, requires = "raw_shape")]
     pub big_endian: bool,
+    /// DICOM folder: read this SeriesInstanceUID (default: the series with the most slices).
+    #[arg(long, value_name = "UID", conflicts_with = "raw_shape")]
+    pub series: Option<String>,
     /// OME-Zarr resolution level to read (0 = full resolution).
     #[arg(long, value_name = "N", default_value_t = 0)]
     pub level: usize,
@@ -49,7 +52,10 @@ pub struct InputArgs {
 
 impl InputArgs {
     pub fn read_options(&self) -> Result<ReadOptions> {
-        let mut options = ReadOptions::default();
+        let mut options = ReadOptions {
+            series: self.series.clone(),
+            ..ReadOptions::default()
+        };
         if let Some(shape) = &self.raw_shape {
             let scalar = match self.raw_type.as_deref() {
                 Some("u8") => ScalarType::U8,
@@ -72,11 +78,15 @@ impl InputArgs {
     }
 }
 
+/// Most worker threads `--threads` accepts: far above any core count the work scales to, and
+/// below the per-user thread limits (`ulimit -u`) systems commonly set.
+pub const MAX_THREADS: i64 = 1024;
+
 /// `--threads N`.
 #[derive(Args, Debug, Clone, Default)]
 pub struct ThreadArgs {
-    /// Worker threads (default: all cores). Output is identical for any count.
-    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u16).range(1..))]
+    /// Worker threads, at most 1024 (default: all cores). Output is identical for any count.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u16).range(1..=MAX_THREADS))]
     pub threads: Option<u16>,
 }
 
@@ -87,7 +97,14 @@ impl ThreadArgs {
         if let Some(n) = self.threads {
             builder = builder.num_threads(n as usize);
         }
-        Ok(builder.build()?)
+        builder.build().map_err(|e| {
+            let n = self
+                .threads
+                .map_or_else(|| "the default number of".to_string(), |n| n.to_string());
+            anyhow::anyhow!(
+                "cannot start {n} worker threads ({e}): the system allows fewer; use a smaller --threads"
+            )
+        })
     }
 
     /// Runs `f` on a rayon pool of the requested size.
@@ -163,21 +180,21 @@ fn parse_shape(s: &str) -> Result<[usize; 3], String> {
         .map_err(|_| format!("shape must have three values X,Y,Z, not {s:?}"))
 }
 
-/// `--traversal`: how CPU rays find candidate metacells ([`isogrid::trace::Traversal`]).
+/// `--traversal`: how CPU rays find candidate metacells ([`isogrid_trace::Traversal`]).
 #[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum TraversalArg {
-    /// 3D DDA over the blocks with empty-space leaps (the paper's §3.6; isogrid::trace::Tracer).
+    /// 3D DDA over the blocks with empty-space leaps (the paper's §3.6; isogrid_trace::Tracer).
     Blocks,
     /// 8-wide bounding volume hierarchy over the metacells regrouped into leaf clusters
-    /// (isogrid::trace::BvhTracer): faster per ray, slower to build.
+    /// (isogrid_trace::BvhTracer): faster per ray, slower to build.
     Bvh,
 }
 
-impl From<TraversalArg> for isogrid::trace::Traversal {
+impl From<TraversalArg> for isogrid_trace::Traversal {
     fn from(t: TraversalArg) -> Self {
         match t {
-            TraversalArg::Blocks => isogrid::trace::Traversal::Blocks,
-            TraversalArg::Bvh => isogrid::trace::Traversal::Bvh,
+            TraversalArg::Blocks => isogrid_trace::Traversal::Blocks,
+            TraversalArg::Bvh => isogrid_trace::Traversal::Bvh,
         }
     }
 }

@@ -3,6 +3,7 @@
 mod args;
 mod commands;
 mod input;
+mod outputs;
 mod progress;
 mod report;
 
@@ -56,7 +57,49 @@ fn one_line(err: &anyhow::Error) -> String {
     line
 }
 
+/// Ctrl-C, SIGTERM and SIGHUP still end the process as they would, but first the temporary files
+/// of unfinished writes are removed: the signals are blocked in every thread (a mask set before
+/// any other thread exists is inherited) and taken by one thread that waits for them.
+#[cfg(unix)]
+fn remove_temporaries_when_interrupted() {
+    // SAFETY: plain libc signal-set calls on a local set; the mask is set before other threads.
+    unsafe {
+        let mut set: libc::sigset_t = std::mem::zeroed();
+        libc::sigemptyset(&mut set);
+        for signal in [libc::SIGINT, libc::SIGTERM, libc::SIGHUP] {
+            libc::sigaddset(&mut set, signal);
+        }
+        if libc::pthread_sigmask(libc::SIG_BLOCK, &set, std::ptr::null_mut()) != 0 {
+            return;
+        }
+        let spawned = std::thread::Builder::new()
+            .name("signals".into())
+            .spawn(move || {
+                let mut signal = 0;
+                if libc::sigwait(&set, &mut signal) == 0 {
+                    isogrid::fs::remove_unfinished();
+                    // End as the signal's default action does, so the exit status says so.
+                    libc::signal(signal, libc::SIG_DFL);
+                    libc::pthread_sigmask(libc::SIG_UNBLOCK, &set, std::ptr::null_mut());
+                    libc::raise(signal);
+                }
+            });
+        if spawned.is_err() {
+            libc::pthread_sigmask(libc::SIG_UNBLOCK, &set, std::ptr::null_mut());
+        }
+    }
+}
+
 fn main() -> ExitCode {
+    // A file-size limit (`ulimit -f`) then makes a write fail with EFBIG, which the atomic writer
+    // reports and cleans up after, instead of killing the process with its temporary file left.
+    #[cfg(unix)]
+    // SAFETY: setting a signal's disposition to SIG_IGN before any other thread exists.
+    unsafe {
+        libc::signal(libc::SIGXFSZ, libc::SIG_IGN);
+    }
+    #[cfg(unix)]
+    remove_temporaries_when_interrupted();
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Extract(a) => commands::extract::run(a),

@@ -1,5 +1,8 @@
 //! The `isogrid` binary end to end: JSON names, files it writes, and how it fails on bad input.
 
+#[path = "cli/hostile.rs"]
+mod hostile;
+
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -488,4 +491,54 @@ fn ome_zarr_extraction_needs_an_index_for_extra_axes() {
     assert!(full["active_cells"].as_u64().unwrap() > half["active_cells"].as_u64().unwrap());
     assert!(half["active_cells"].as_u64().unwrap() > 0);
     std::fs::remove_dir_all(dir).unwrap();
+}
+
+#[test]
+fn dicom_folder_with_two_series_notes_the_other_and_series_picks_it() {
+    let fixtures = Path::new(env!("CARGO_MANIFEST_DIR")).join("../isogrid-io/tests/fixtures");
+    let dir = temp_dir("dicom-two-series");
+    for n in ["a.dcm", "b.dcm", "c.dcm"] {
+        std::fs::copy(
+            fixtures.join("dicom_ct").join(n),
+            dir.join(format!("ct_{n}")),
+        )
+        .unwrap();
+    }
+    for n in ["a.dcm", "b.dcm"] {
+        std::fs::copy(
+            fixtures.join("dicom_scaled").join(n),
+            dir.join(format!("sc_{n}")),
+        )
+        .unwrap();
+    }
+    let ct = "1.2.826.0.1.3680043.8.498.8840649940829964383378619131949557239";
+    let scaled = "1.2.826.0.1.3680043.8.498.60695371359384373647244921884165860996";
+    let out = isogrid(&["extract", s(&dir), "--iso", "0", "--json"]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    let e: Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(e["dims"], serde_json::json!([7, 5, 3]));
+    let note = stderr
+        .lines()
+        .find(|l| l.contains("note:"))
+        .expect("a notice");
+    assert!(note.contains(&format!("reading {ct} (3 slices)")), "{note}");
+    assert!(note.contains(&format!("{scaled} (2 slices)")), "{note}");
+    assert!(note.contains("--series UID"), "{note}");
+
+    let e = ok_json(&[
+        "extract",
+        s(&dir),
+        "--iso",
+        "0",
+        "--series",
+        scaled,
+        "--json",
+    ]);
+    assert_eq!(e["dims"], serde_json::json!([7, 5, 2]));
+    fails(
+        &["extract", s(&dir), "--iso", "0", "--series", "1.2.3"],
+        "has no series 1.2.3",
+    );
+    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -4,7 +4,7 @@
 
 use isogrid::generate::{generate, Field};
 use isogrid::{extract, Camera, ExtractOptions, Iso};
-use isogrid_gpu::{PathTraceOptions, Renderer};
+use isogrid_gpu::{PathTraceOptions, Renderer, ViewState};
 use std::error::Error;
 use std::time::Instant;
 
@@ -33,11 +33,12 @@ fn main() -> Result<(), Box<dyn Error>> {
         ..Default::default()
     };
     // The first frame allocates the accumulation; time the others one call (one frame) each.
-    let mut frame = renderer.path_trace(&gpu_grid, &camera, &options(1))?;
+    let mut view = ViewState::new();
+    let mut frame = renderer.path_trace_view(&mut view, &gpu_grid, &camera, &options(1))?;
     let mut wall = Vec::new();
     for _ in 1..frames {
         let start = Instant::now();
-        frame = renderer.path_trace(&gpu_grid, &camera, &options(1))?;
+        frame = renderer.path_trace_view(&mut view, &gpu_grid, &camera, &options(1))?;
         wall.push(start.elapsed().as_secs_f64() * 1e3);
     }
     wall.sort_by(|a, b| a.total_cmp(b));

@@ -4,7 +4,7 @@
 // grid cells by `trace_ray` (trace.wgsl), until it escapes to the environment or runs out of
 // bounces (then it contributes nothing). Each frame adds its sample to a per-pixel sum; the mean
 // is written as sRGB 8-bit. Keep `sky` and `environment` in sync with
-// `src/pathtrace/env_map.rs` (`sky_radiance`, `EnvMap`); `to_srgb8` is shared, in common.wgsl.
+// `src/env_map.rs` (`sky_radiance`, `EnvMap`); `to_srgb8` is shared, in common.wgsl.
 //
 // `path_trace_traced_primary` (`PrimaryRays::Traced`) is the same path tracer with the primary
 // ray from the eye through the pixel centre traced by `trace_ray` too, for devices whose graphics

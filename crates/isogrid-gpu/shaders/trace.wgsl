@@ -1,8 +1,8 @@
 // Hierarchical ray traversal of the clustered grid cells (paper §3.6): a 3D DDA over the dense
 // 16³-cell block grid visits blocks front to back, leaping across the largest cube of empty
 // blocks that starts at the current block and grows towards the ray's octant
-// (`isogrid::trace::octant_space`, as the CPU tracer does) and skipping blocks without slots; inside a block, a second DDA visits its occupied
-// metacells front to back (`isogrid::trace::occupancy`; where the paper slab-tests each cluster
+// (`isogrid::skip::octant_space`, as the CPU tracer does) and skipping blocks without slots; inside a block, a second DDA visits its occupied
+// metacells front to back (`isogrid::skip::occupancy`; where the paper slab-tests each cluster
 // bound and then each metacell box), then each active cell's unit box is slab-tested, and
 // finally the cell's trilinear interpolant of its 8 stored corner codes is sampled three times
 // along the segment and refined like the cell raster (`cells.wgsl`). The first metacell with a

@@ -1,21 +1,75 @@
-//! Scene data on the GPU: clustered grid cells split into pages of whole clusters (paper §3.1,
-//! byte for byte `isogrid::layout`), the Marching Cubes mesh (Table 3 layout) and the original
-//! volume as a 3D texture for the CR baseline.
+//! Scene data on the GPU, uploaded once and drawn by any number of views: clustered grid cells
+//! split into pages of whole clusters (paper §3.1, byte for byte `isogrid::layout`), the Marching
+//! Cubes mesh (Table 3 layout) and the original volume as a 3D texture for the CR baseline; with
+//! the bind-group layouts through which passes read them.
 
 use crate::error::GpuError;
 use crate::gpu_types::{MeshUniforms, PageDispatchArgs, PageDrawArgs, PageUniforms};
-use crate::render::buffer_entry as entry;
-use crate::Renderer;
+use crate::wgpu_util::{buffer_entry as entry, layout, storage, uniform, Gpu};
 use isogrid::layout::{BOUND_SLOT, CLUSTER_SLOTS};
-use isogrid::trace::occupancy::MetacellOccupancy;
-use isogrid::trace::octant_space::OctantSpaceMap;
+use isogrid::skip::occupancy::MetacellOccupancy;
+use isogrid::skip::octant_space::OctantSpaceMap;
 use isogrid::{CellGrid, GridInfo, Metacell};
-use std::sync::atomic::AtomicU32;
-use std::sync::Mutex;
-use wgpu::util::DeviceExt;
+use std::sync::atomic::{AtomicU64, Ordering};
+use wgpu::ShaderStages;
 
-/// Clusters the visibility buffers hold at least (the paper's 1M, 128 KiB per buffer).
-pub(crate) const MIN_VISIBILITY_CLUSTERS: u64 = 1 << 20;
+/// How passes bind uploaded data: a page of a grid (group 1 of the cell passes) and a mesh.
+pub(crate) struct GridLayouts {
+    /// A page for the compute passes: uniforms, metacells, records, the three instance lists
+    /// and the draw arguments (written by the expansion).
+    pub page_compute: wgpu::BindGroupLayout,
+    /// A page for the raster passes: uniforms, metacells, records and one instance list.
+    pub page_render: wgpu::BindGroupLayout,
+    /// The compute raster's dispatch arguments of a page (written by `size_dispatches`).
+    pub dispatch_args: wgpu::BindGroupLayout,
+    /// An MC mesh: decoding uniforms and snorm16 positions.
+    pub mesh: wgpu::BindGroupLayout,
+}
+
+impl GridLayouts {
+    pub fn new(device: &wgpu::Device) -> Self {
+        let (c, v) = (ShaderStages::COMPUTE, ShaderStages::VERTEX);
+        GridLayouts {
+            page_compute: layout(
+                device,
+                "page (compute)",
+                &[
+                    uniform(0, c),
+                    storage(1, c, true),
+                    storage(2, c, true),
+                    storage(3, c, false),
+                    storage(4, c, false),
+                    storage(5, c, false),
+                    storage(6, c, false),
+                ],
+            ),
+            page_render: layout(
+                device,
+                "page (render)",
+                &[
+                    uniform(0, v),
+                    storage(1, v, true),
+                    storage(2, v, true),
+                    storage(3, v, true),
+                ],
+            ),
+            dispatch_args: layout(device, "dispatch arguments", &[storage(0, c, false)]),
+            mesh: layout(device, "mc mesh", &[uniform(0, v), storage(1, v, true)]),
+        }
+    }
+}
+
+/// The uploaded data a mode draws: [`crate::Mode::Cgc`] and [`crate::Mode::CgcNoEwa`] need a
+/// grid, [`crate::Mode::Cr`] a grid and its volume, [`crate::Mode::Mc`] a mesh.
+#[derive(Clone, Copy)]
+pub enum Scene<'a> {
+    Grid(&'a GpuGrid),
+    Volume {
+        grid: &'a GpuGrid,
+        volume: &'a GpuVolume,
+    },
+    Mesh(&'a GpuMesh),
+}
 
 /// One binding's worth of a grid: a contiguous range of whole clusters.
 pub(crate) struct Page {
@@ -37,24 +91,20 @@ pub(crate) struct Page {
     pub render_groups: [wgpu::BindGroup; 3],
 }
 
-/// A [`CellGrid`] resident on the GPU, with its cluster visibility buffers.
+/// A [`CellGrid`] resident on the GPU: only what was uploaded, never changed by drawing it. What
+/// one view of it keeps between frames (visibility bits, accumulated samples) lives in a
+/// [`crate::ViewState`].
 pub struct GpuGrid {
+    /// Tells grids apart in a view's state: another grid starts that state afresh.
+    pub(crate) id: u64,
     pub(crate) info: GridInfo,
     pub(crate) pages: Vec<Page>,
     /// Dense block records (the raster passes address cells through metacells only; blocks
     /// serve ray traversal).
     pub(crate) blocks: Option<wgpu::Buffer>,
-    pub(crate) visible_last_frame: wgpu::Buffer,
-    pub(crate) visible_new: wgpu::Buffer,
-    pub(crate) visibility_bytes: u64,
     /// No sample of the grid's border is inside, so a ray from an eye outside the grid box first
     /// meets the surface from outside and back-face culling is safe.
     pub(crate) border_outside: bool,
-    pub(crate) frame_index: AtomicU32,
-    /// What the visibility bits were last computed for; another view starts from "all visible".
-    pub(crate) last_view: Mutex<Option<String>>,
-    /// The path tracer's running sums for the last view it rendered.
-    pub(crate) accumulation: Mutex<Option<crate::pathtrace::Accumulation>>,
     active_cells: u64,
     clusters: u64,
 }
@@ -73,13 +123,9 @@ impl GpuGrid {
     pub fn clusters(&self) -> u64 {
         self.clusters
     }
-    /// Forgets the visibility of earlier frames: the next frame draws every cluster fully.
-    pub fn reset_visibility(&self) {
-        if let Ok(mut v) = self.last_view.lock() {
-            *v = None;
-        }
-    }
 }
+
+static NEXT_GRID_ID: AtomicU64 = AtomicU64::new(1);
 
 /// An MC mesh on the GPU: snorm16 positions (6 bytes per vertex) and u32 indices.
 pub struct GpuMesh {
@@ -167,53 +213,20 @@ pub(crate) fn plan_pages(
     Ok(pages)
 }
 
-impl Renderer {
-    fn buffer_init(
-        &self,
-        label: &str,
-        contents: &[u8],
-        usage: wgpu::BufferUsages,
-    ) -> Result<wgpu::Buffer, GpuError> {
-        if contents.len() as u64 > self.limits.max_buffer_size {
-            return Err(GpuError::too_large(format!(
-                "{label}: {} bytes exceed the device's largest buffer ({} bytes)",
-                contents.len(),
-                self.limits.max_buffer_size
-            )));
-        }
-        Ok(self
-            .device
-            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some(label),
-                contents,
-                usage,
-            }))
-    }
+/// Where grids are uploaded to: the device, the layouts their pages are bound with, and the
+/// bytes one page may take.
+pub(crate) struct Uploader<'a> {
+    pub gpu: &'a Gpu,
+    pub layouts: &'a GridLayouts,
+    pub page_bytes: u64,
+}
 
-    fn buffer(
-        &self,
-        label: &str,
-        size: u64,
-        usage: wgpu::BufferUsages,
-    ) -> Result<wgpu::Buffer, GpuError> {
-        if size > self.limits.max_buffer_size {
-            return Err(GpuError::too_large(format!(
-                "{label}: {size} bytes exceed the device's largest buffer ({} bytes)",
-                self.limits.max_buffer_size
-            )));
-        }
-        Ok(self.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some(label),
-            size: size.max(16).div_ceil(4) * 4,
-            usage,
-            mapped_at_creation: false,
-        }))
-    }
-
+impl Uploader<'_> {
     /// Uploads blocks, metacell slots and corner records, split into pages when they exceed one
-    /// storage binding, and allocates the visibility buffers (all clusters visible at first).
+    /// storage binding.
     pub fn upload_grid(&self, grid: &CellGrid) -> Result<GpuGrid, GpuError> {
-        self.scoped("uploading the grid", || self.upload_grid_unscoped(grid))
+        self.gpu
+            .scoped("uploading the grid", || self.upload_grid_unscoped(grid))
     }
 
     fn upload_grid_unscoped(&self, grid: &CellGrid) -> Result<GpuGrid, GpuError> {
@@ -235,40 +248,40 @@ impl Renderer {
                 slot_count: slots.len() as u32,
                 _pad: 0,
             };
-            let uniforms = self.buffer_init(
+            let uniforms = self.gpu.buffer_init(
                 &format!("page {p} uniforms"),
                 bytemuck::bytes_of(&uniforms),
                 wgpu::BufferUsages::UNIFORM,
             )?;
-            let metacell_buffer = self.buffer_init(
+            let metacell_buffer = self.gpu.buffer_init(
                 &format!("page {p} metacells"),
                 &padded(bytemuck::cast_slice(&metacells[slots.clone()])),
                 storage,
             )?;
-            let cell_buffer = self.buffer_init(
+            let cell_buffer = self.gpu.buffer_init(
                 &format!("page {p} corner records"),
                 &padded(&cells[records]),
                 storage,
             )?;
             let list_bytes = [cell_count, slots.len() as u64, cell_count].map(|n| 4 * n);
             let lists = [
-                self.buffer(
+                self.gpu.buffer(
                     &format!("page {p} full instance list"),
                     list_bytes[0],
                     storage,
                 )?,
-                self.buffer(
+                self.gpu.buffer(
                     &format!("page {p} probe instance list"),
                     list_bytes[1],
                     storage,
                 )?,
-                self.buffer(
+                self.gpu.buffer(
                     &format!("page {p} new instance list"),
                     list_bytes[2],
                     storage,
                 )?,
             ];
-            let args = self.buffer_init(
+            let args = self.gpu.buffer_init(
                 &format!("page {p} draw arguments"),
                 bytemuck::bytes_of(&PageDrawArgs::empty()),
                 storage
@@ -276,40 +289,48 @@ impl Renderer {
                     | wgpu::BufferUsages::COPY_DST
                     | wgpu::BufferUsages::COPY_SRC,
             )?;
-            let compute_group = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some(&format!("page {p} (compute)")),
-                layout: &self.pipelines.page_compute,
-                entries: &[
-                    entry(0, &uniforms),
-                    entry(1, &metacell_buffer),
-                    entry(2, &cell_buffer),
-                    entry(3, &lists[0]),
-                    entry(4, &lists[1]),
-                    entry(5, &lists[2]),
-                    entry(6, &args),
-                ],
-            });
-            let dispatch_args = self.buffer_init(
-                &format!("page {p} compute raster dispatch arguments"),
-                bytemuck::bytes_of(&PageDispatchArgs::default()),
-                storage | wgpu::BufferUsages::INDIRECT,
-            )?;
-            let dispatch_group = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some(&format!("page {p} dispatch arguments (compute)")),
-                layout: &self.pipelines.dispatch_args,
-                entries: &[entry(0, &dispatch_args)],
-            });
-            let render_groups = std::array::from_fn(|l| {
-                self.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                    label: Some(&format!("page {p} list {l} (render)")),
-                    layout: &self.pipelines.page_render,
+            let compute_group = self
+                .gpu
+                .device
+                .create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: Some(&format!("page {p} (compute)")),
+                    layout: &self.layouts.page_compute,
                     entries: &[
                         entry(0, &uniforms),
                         entry(1, &metacell_buffer),
                         entry(2, &cell_buffer),
-                        entry(3, &lists[l]),
+                        entry(3, &lists[0]),
+                        entry(4, &lists[1]),
+                        entry(5, &lists[2]),
+                        entry(6, &args),
                     ],
-                })
+                });
+            let dispatch_args = self.gpu.buffer_init(
+                &format!("page {p} compute raster dispatch arguments"),
+                bytemuck::bytes_of(&PageDispatchArgs::default()),
+                storage | wgpu::BufferUsages::INDIRECT,
+            )?;
+            let dispatch_group = self
+                .gpu
+                .device
+                .create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: Some(&format!("page {p} dispatch arguments (compute)")),
+                    layout: &self.layouts.dispatch_args,
+                    entries: &[entry(0, &dispatch_args)],
+                });
+            let render_groups = std::array::from_fn(|l| {
+                self.gpu
+                    .device
+                    .create_bind_group(&wgpu::BindGroupDescriptor {
+                        label: Some(&format!("page {p} list {l} (render)")),
+                        layout: &self.layouts.page_render,
+                        entries: &[
+                            entry(0, &uniforms),
+                            entry(1, &metacell_buffer),
+                            entry(2, &cell_buffer),
+                            entry(3, &lists[l]),
+                        ],
+                    })
             });
             pages.push(Page {
                 first_slot: slots.start as u32,
@@ -329,51 +350,35 @@ impl Renderer {
             None
         } else {
             let words = tracer_block_words(grid);
-            Some(self.buffer_init(
+            Some(self.gpu.buffer_init(
                 "blocks, empty-space map and metacell occupancy",
                 bytemuck::cast_slice(&words),
                 storage,
             )?)
         };
-        let clusters = grid.clusters() as u64;
-        let visibility_bytes = clusters.max(MIN_VISIBILITY_CLUSTERS).div_ceil(32) * 4;
-        let visibility_usage = storage | wgpu::BufferUsages::COPY_DST;
         Ok(GpuGrid {
+            id: NEXT_GRID_ID.fetch_add(1, Ordering::Relaxed),
             border_outside: border_is_outside(grid),
-            visible_last_frame: self.buffer(
-                "visible clusters (last frame)",
-                visibility_bytes,
-                visibility_usage,
-            )?,
-            visible_new: self.buffer(
-                "newly visible clusters",
-                visibility_bytes,
-                visibility_usage,
-            )?,
-            visibility_bytes,
             info,
             pages,
             blocks,
-            frame_index: AtomicU32::new(0),
-            last_view: Mutex::new(None),
-            accumulation: Mutex::new(None),
             active_cells: grid.active_cells() as u64,
-            clusters,
+            clusters: grid.clusters() as u64,
         })
     }
 
     /// Uploads an MC mesh as snorm16 positions scaled by its bounds and u32 indices (paper Table 3).
     pub fn upload_mesh(&self, mesh: &isogrid::mc::McMesh) -> Result<GpuMesh, GpuError> {
-        self.scoped("uploading the mesh", || {
+        self.gpu.scoped("uploading the mesh", || {
             let snorm = mesh.to_snorm16();
             let index_count = u32::try_from(mesh.triangles.len() * 3)
                 .map_err(|_| GpuError::too_large("the mesh has more than 2^32 indices"))?;
-            let positions = self.buffer_init(
+            let positions = self.gpu.buffer_init(
                 "mc snorm16 positions",
                 &padded(bytemuck::cast_slice(&snorm.positions)),
                 wgpu::BufferUsages::STORAGE,
             )?;
-            let indices = self.buffer_init(
+            let indices = self.gpu.buffer_init(
                 "mc indices",
                 &padded(bytemuck::cast_slice(&snorm.triangles)),
                 wgpu::BufferUsages::INDEX,
@@ -387,25 +392,28 @@ impl Renderer {
                     0.0,
                 ],
             };
-            let uniforms = self.buffer_init(
+            let uniforms = self.gpu.buffer_init(
                 "mc mesh uniforms",
                 bytemuck::bytes_of(&uniforms),
                 wgpu::BufferUsages::UNIFORM,
             )?;
-            let bind_group = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("mc mesh"),
-                layout: &self.pipelines.mesh,
-                entries: &[
-                    wgpu::BindGroupEntry {
-                        binding: 0,
-                        resource: uniforms.as_entire_binding(),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 1,
-                        resource: positions.as_entire_binding(),
-                    },
-                ],
-            });
+            let bind_group = self
+                .gpu
+                .device
+                .create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: Some("mc mesh"),
+                    layout: &self.layouts.mesh,
+                    entries: &[
+                        wgpu::BindGroupEntry {
+                            binding: 0,
+                            resource: uniforms.as_entire_binding(),
+                        },
+                        wgpu::BindGroupEntry {
+                            binding: 1,
+                            resource: positions.as_entire_binding(),
+                        },
+                    ],
+                });
             let lo = std::array::from_fn(|a| (snorm.center[a] - snorm.half_extent[a]) as f64);
             let hi = std::array::from_fn(|a| (snorm.center[a] + snorm.half_extent[a]) as f64);
             Ok(GpuMesh {
@@ -432,20 +440,20 @@ impl Renderer {
                 dims[0], dims[1], dims[2], grid.info.dims[0], grid.info.dims[1], grid.info.dims[2]
             )));
         }
-        let max = self.limits.max_texture_dimension_3d as usize;
+        let max = self.gpu.limits.max_texture_dimension_3d as usize;
         if dims.iter().any(|&d| d > max) {
             return Err(GpuError::too_large(format!(
                 "volume {}x{}x{} exceeds the largest 3D texture ({max} per axis)",
                 dims[0], dims[1], dims[2]
             )));
         }
-        self.scoped("uploading the volume", || {
+        self.gpu.scoped("uploading the volume", || {
             let size = wgpu::Extent3d {
                 width: dims[0] as u32,
                 height: dims[1] as u32,
                 depth_or_array_layers: dims[2] as u32,
             };
-            let texture = self.device.create_texture(&wgpu::TextureDescriptor {
+            let texture = self.gpu.device.create_texture(&wgpu::TextureDescriptor {
                 label: Some("original volume (CR)"),
                 size,
                 mip_level_count: 1,
@@ -463,7 +471,7 @@ impl Renderer {
                 for (i, v) in plane.iter_mut().enumerate() {
                     *v = samples.get_f64(z * slice + i) as f32;
                 }
-                self.queue.write_texture(
+                self.gpu.queue.write_texture(
                     wgpu::TexelCopyTextureInfo {
                         texture: &texture,
                         mip_level: 0,
@@ -504,7 +512,7 @@ const OCCUPANCY_RECORD_WORDS: usize = 25;
 /// What the tracer reads per block, as one array of words (keep in sync with `block_side`
 /// and `occupancy_index` in trace.wgsl):
 /// - the block records byte for byte (4 words each, `isogrid::layout::Block`);
-/// - the octant empty-space map (`isogrid::trace::octant_space`, as the CPU tracer leaps): for
+/// - the octant empty-space map (`isogrid::skip::octant_space`, as the CPU tracer leaps): for
 ///   each of the 8 ray octants in turn, one byte per block, the whole padded to a whole word;
 /// - per block, the word offset of its occupancy record in this array (`u32::MAX` when empty);
 /// - per non-empty block, a record of [`OCCUPANCY_RECORD_WORDS`]: the 512-bit Morton-order mask

@@ -1,385 +1,328 @@
-//! DICOM series: a folder of single-frame slices read as one volume.
+//! DICOM images read as one volume: a folder of slices, a single file, or multi-frame files.
 //!
-//! Files are parsed with dicom-rs (`dicom-object`); pixel data is decoded here from the native
-//! (uncompressed) little-endian transfer syntaxes, implicit or explicit VR. Compressed transfer
-//! syntaxes (JPEG, JPEG 2000, RLE, deflate) are `Unsupported`: decompress first (e.g.
-//! `gdcmconv --raw`). Spec references are to DICOM PS3.3 C.7.6.2 (Image Plane) and C.7.6.3
-//! (Image Pixel).
+//! Files are parsed with dicom-rs (`dicom-object`) and compressed pixel data is decoded by
+//! `dicom-pixeldata` and its transfer-syntax registry; no codec is written here. Spec
+//! references are to DICOM PS3.3 C.7.6.2 (Image Plane), C.7.6.3 (Image Pixel), C.11.1 (Modality
+//! LUT) and C.7.6.16 (multi-frame functional groups).
 //!
-//! - Files: every regular file of the folder (not its subfolders) with the `DICM` marker at byte
-//!   128; other files are ignored, and so are DICOM files without PixelData (e.g. DICOMDIR).
-//!   All slices must belong to one series, have the same size and pixel format, and be
-//!   single-frame grayscale (MONOCHROME1/2; MONOCHROME1 values are kept, not inverted).
-//! - Order: by position along the slice normal, `ImagePositionPatient · (row × column)` of
-//!   `ImageOrientationPatient`, when every slice has both; else by `InstanceNumber`; else by file
-//!   name. Two slices at the same position are an error (usually two series mixed in a folder).
-//! - Grid: i along a row (Columns samples), j down the columns (Rows samples), k = slice.
-//! - Spacing: i = `PixelSpacing[1]` (column spacing), j = `PixelSpacing[0]` (row spacing),
-//!   k = mean step between sorted slice positions (else `SpacingBetweenSlices`, else
-//!   `SliceThickness`, else 1), in mm. Origin = `ImagePositionPatient` of the first slice, in the
-//!   patient coordinate system (LPS, mm). Direction rows: row cosine, column cosine, normal.
-//! - Values: `RescaleSlope`/`RescaleIntercept` applied per slice. When every slope is 1 and every
-//!   intercept an integer, values stay integers: u8 (8-bit data that fits), else i16 (signed data
-//!   that fits), else u16, else i16 if they fit; otherwise, and for any other rescale, f32.
+//! - **Transfer syntaxes:** implicit and explicit VR little endian, explicit VR big endian,
+//!   deflated explicit VR little endian; RLE Lossless (8- and 16-bit samples); JPEG Baseline
+//!   (8-bit), JPEG Extended with 8-bit samples and JPEG Lossless (processes 14 and 14 SV1) via
+//!   `jpeg-decoder`; JPEG-LS lossless and near-lossless via CharLS; JPEG 2000 lossless and lossy
+//!   via OpenJPEG's pure Rust port (`openjp2`). JPEG Extended with 12-bit samples and RLE with
+//!   32-bit samples are refused with an error naming the syntax (the decoders lack them).
+//! - **Files:** a path that is a file is read alone; a folder contributes every regular file
+//!   (not subfolders) that looks like DICOM: `DICM` at byte 128, or at byte 0 (no preamble), or
+//!   a bare implicit-VR data set (no file meta group). Names and extensions do not matter.
+//!   Files without Rows (DICOMDIR, reports, RT plans) are skipped; an image file without
+//!   PixelData, or one that does not parse, is an error naming it.
+//! - **Series:** files are grouped by SeriesInstanceUID. [`ReadOptions::series`] picks one;
+//!   by default the series with the most frames is read and a notice lists the others.
+//! - **Frames:** a multi-frame file contributes every frame. Enhanced files take each frame's
+//!   position, orientation, pixel spacing and rescale from its PerFrameFunctionalGroupsSequence
+//!   item, else the SharedFunctionalGroupsSequence, else the top level. Classic multi-frame files
+//!   place frame k at ImagePositionPatient + offset_k · normal, the offsets from
+//!   GridFrameOffsetVector, else k · SpacingBetweenSlices, else k · SliceThickness.
+//! - **Order and spacing:** frames are sorted by their position projected on the slice normal
+//!   (row × column of ImageOrientationPatient); the k spacing is the mean step. Steps that
+//!   differ by more than 1 % (a gap, a missing slice), a stack whose positions do not follow the
+//!   normal (gantry tilt), mixed orientations or two frames at one position are errors: a
+//!   regular grid cannot hold them. Without positions, frames are ordered by InstanceNumber and
+//!   the k spacing is SpacingBetweenSlices, else SliceThickness, else 1.
+//! - **Grid:** i along a row (Columns samples), j down the columns (Rows samples), k = frame.
+//!   Spacing i = PixelSpacing[1], j = PixelSpacing[0] (mm). Origin = position of the first
+//!   frame (patient LPS, mm). Direction rows: row cosine, column cosine, normal.
+//! - **Values:** stored values are masked to BitsStored and sign-extended when
+//!   PixelRepresentation is 1, then RescaleSlope and RescaleIntercept are applied per frame.
+//!   When every slope is 1 and every intercept an integer, values stay integers in the narrowest
+//!   of u8, i16, u16 that holds the rescaled range; otherwise (and for any other rescale) f32.
+//!   MONOCHROME1 values are kept, not inverted; colour images are refused.
+
+mod file;
 
 use crate::geometry::{cross, dot, normalized, Vec3};
+use crate::read_options::ReadOptions;
 use crate::samples::sample_count;
-use dicom_core::value::{PrimitiveValue, Value};
-use dicom_core::Tag;
-use dicom_dictionary_std::tags;
-use dicom_object::{DefaultDicomObject, OpenFileOptions};
+use file::{Frame, Header};
 use isogrid::{Error, Geometry, Result, ResultExt, Volume, VolumeData};
-use std::io::Read;
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-/// Reads the DICOM slices in folder `dir` as one volume (see the module doc). Errors name the
+/// Reads the DICOM folder or file `path` as one volume, ignoring notices (see the module doc).
+pub fn read_dicom_series(path: &Path) -> Result<Volume> {
+    read_dicom(path, &ReadOptions::default()).map(|(volume, _)| volume)
+}
+
+/// Reads the DICOM folder or file `path` as one volume (see the module doc), honouring
+/// `opts.series`. Also returns notices for the user (other series left out). Errors name the
 /// folder, or the file at fault.
-pub fn read_dicom_series(dir: &Path) -> Result<Volume> {
-    let mut files = Vec::new();
-    for entry in std::fs::read_dir(dir).at_path(dir)? {
-        let path = entry.at_path(dir)?.path();
-        if path.is_file() && has_dicom_marker(&path) {
-            files.push(path);
+pub fn read_dicom(path: &Path, opts: &ReadOptions) -> Result<(Volume, Vec<String>)> {
+    let files = if path.is_dir() {
+        let mut files = Vec::new();
+        for entry in std::fs::read_dir(path).at_path(path)? {
+            let p = entry.at_path(path)?.path();
+            if p.is_file() && file::looks_like_dicom(&p) {
+                files.push(p);
+            }
+        }
+        files.sort();
+        files
+    } else {
+        vec![path.to_path_buf()]
+    };
+    let mut headers = Vec::new();
+    for p in &files {
+        if let Some(h) = file::read_header(p).at_path(p)? {
+            headers.push(h);
         }
     }
-    files.sort();
-    let mut slices = Vec::new();
-    for path in files {
-        if let Some(slice) = read_slice(&path).at_path(&path)? {
-            slices.push(slice);
+    let (chosen, notices) = pick_series(headers, opts.series.as_deref()).at_path(path)?;
+    let mut frames = Vec::new();
+    for p in &chosen {
+        frames.extend(file::read_frames(p).at_path(p)?);
+    }
+    let volume = stack(frames).at_path(path)?;
+    Ok((volume, notices))
+}
+
+/// The files of the requested series, or of the one with the most frames, and a notice naming
+/// the others.
+fn pick_series(headers: Vec<Header>, wanted: Option<&str>) -> Result<(Vec<PathBuf>, Vec<String>)> {
+    if headers.is_empty() {
+        return Err(Error::invalid("holds no DICOM image slices"));
+    }
+    let mut series: BTreeMap<String, (usize, Vec<PathBuf>)> = BTreeMap::new();
+    for h in headers {
+        let entry = series.entry(h.series).or_default();
+        entry.0 += h.frames;
+        entry.1.push(h.path);
+    }
+    let label = |uid: &str| {
+        if uid.is_empty() {
+            "(no SeriesInstanceUID)".to_string()
+        } else {
+            uid.to_string()
         }
-    }
-    assemble(slices).at_path(dir)
-}
-
-fn has_dicom_marker(path: &Path) -> bool {
-    let mut head = [0u8; 132];
-    std::fs::File::open(path)
-        .and_then(|mut f| f.read_exact(&mut head))
-        .is_ok()
-        && &head[128..] == b"DICM"
-}
-
-/// One slice: its metadata and its stored pixel values as little-endian bytes.
-struct Slice {
-    path: PathBuf,
-    rows: usize,
-    cols: usize,
-    bits_allocated: u16,
-    bits_stored: u16,
-    signed: bool,
-    slope: f64,
-    intercept: f64,
-    position: Option<Vec3>,
-    orientation: Option<(Vec3, Vec3)>,
-    instance: Option<i64>,
-    pixel_spacing: Option<[f64; 2]>,
-    series: Option<String>,
-    slice_step: Option<f64>,
-    pixels: Vec<u8>,
-    /// Smallest and largest stored value.
-    range: (i64, i64),
-}
-
-/// Native transfer syntaxes whose pixel data is plain little-endian samples.
-const NATIVE_LE: [&str; 2] = ["1.2.840.10008.1.2", "1.2.840.10008.1.2.1"];
-
-fn read_slice(path: &Path) -> Result<Option<Slice>> {
-    let obj = OpenFileOptions::new()
-        .open_file(path)
-        .map_err(|e| Error::corrupt(format!("invalid DICOM file: {}", one_line(&e.to_string()))))?;
-    let Some(pixel_data) = element(&obj, tags::PIXEL_DATA) else {
-        return Ok(None);
     };
-    let ts = obj
-        .meta()
-        .transfer_syntax()
-        .trim_end_matches(['\0', ' '])
-        .to_string();
-    if !NATIVE_LE.contains(&ts.as_str()) {
-        return Err(Error::unsupported(format!(
-            "transfer syntax {ts} (compressed or big endian) is not supported; decompress the series first"
-        )));
-    }
-    let int = |tag: Tag| element(&obj, tag).and_then(|e| e.to_int::<i64>().ok());
-    let floats = |tag: Tag| element(&obj, tag).and_then(|e| e.to_multi_float64().ok());
-    let float = |tag: Tag| {
-        floats(tag)
-            .and_then(|v| v.first().copied())
-            .filter(|x| x.is_finite())
+    let listing = |skip: &str| {
+        series
+            .iter()
+            .filter(|(uid, _)| uid.as_str() != skip)
+            .map(|(uid, (n, _))| format!("{} ({n} slices)", label(uid)))
+            .collect::<Vec<_>>()
+            .join(", ")
     };
-    let text = |tag: Tag| {
-        element(&obj, tag)
-            .and_then(|e| e.to_str().ok())
-            .map(|s| s.trim().to_string())
+    let uid = match wanted {
+        Some(w) => {
+            if !series.contains_key(w) {
+                return Err(Error::invalid(format!(
+                    "has no series {w}; its series are {}",
+                    listing("")
+                )));
+            }
+            w.to_string()
+        }
+        None => series
+            .iter()
+            .max_by(|a, b| a.1 .0.cmp(&b.1 .0).then_with(|| b.0.cmp(a.0)))
+            .map(|(uid, _)| uid.clone())
+            .unwrap_or_default(),
     };
-
-    let rows = int(tags::ROWS).ok_or_else(|| Error::corrupt("slice has no Rows"))?;
-    let cols = int(tags::COLUMNS).ok_or_else(|| Error::corrupt("slice has no Columns"))?;
-    let bits_allocated = int(tags::BITS_ALLOCATED).unwrap_or(16);
-    let bits_stored = int(tags::BITS_STORED).unwrap_or(bits_allocated);
-    if int(tags::SAMPLES_PER_PIXEL).unwrap_or(1) != 1 {
-        return Err(Error::unsupported(
-            "colour DICOM images are not supported (SamplesPerPixel != 1)",
+    let mut notices = Vec::new();
+    if wanted.is_none() && series.len() > 1 {
+        notices.push(format!(
+            "{} DICOM series found; reading {} ({} slices), the one with the most slices; \
+             also present: {} (pick one with --series UID)",
+            series.len(),
+            label(&uid),
+            series[&uid].0,
+            listing(&uid)
         ));
     }
-    let photometric = text(tags::PHOTOMETRIC_INTERPRETATION).unwrap_or_default();
-    if !photometric.is_empty() && !photometric.starts_with("MONOCHROME") {
-        return Err(Error::unsupported(format!(
-            "photometric interpretation {photometric} is not grayscale"
-        )));
-    }
-    if int(tags::NUMBER_OF_FRAMES).unwrap_or(1) > 1 {
-        return Err(Error::unsupported(
-            "multi-frame DICOM files are not supported",
-        ));
-    }
-    if !matches!(bits_allocated, 8 | 16 | 32) || !(1..=bits_allocated).contains(&bits_stored) {
-        return Err(Error::unsupported(format!(
-            "{bits_stored} of {bits_allocated} allocated bits per sample is not supported"
-        )));
-    }
-    let (rows, cols) = (
-        usize::try_from(rows).unwrap_or(0),
-        usize::try_from(cols).unwrap_or(0),
-    );
-    let count = sample_count([cols, rows, 1])?;
-    let pixels = le_bytes(pixel_data.value())?;
-    let needed = count as u64 * (bits_allocated as u64 / 8);
-    if (pixels.len() as u64) < needed {
-        return Err(Error::corrupt(format!(
-            "PixelData holds {} bytes but {cols}x{rows} samples of {bits_allocated} bits need {needed}",
-            pixels.len()
-        )));
-    }
-    let mut pixels = pixels;
-    pixels.truncate(needed as usize);
+    let files = series.remove(&uid).map(|(_, f)| f).unwrap_or_default();
+    Ok((files, notices))
+}
 
-    let vec3 = |v: &[f64]| [v[0], v[1], v[2]];
-    let position = floats(tags::IMAGE_POSITION_PATIENT)
-        .filter(|v| v.len() == 3)
-        .map(|v| vec3(&v));
-    let orientation = floats(tags::IMAGE_ORIENTATION_PATIENT)
-        .filter(|v| v.len() == 6)
-        .and_then(|v| Some((normalized(vec3(&v[..3]))?, normalized(vec3(&v[3..]))?)));
-    let mut slice = Slice {
-        path: path.to_path_buf(),
-        rows,
-        cols,
-        bits_allocated: bits_allocated as u16,
-        bits_stored: bits_stored as u16,
-        signed: int(tags::PIXEL_REPRESENTATION).unwrap_or(0) == 1,
-        slope: float(tags::RESCALE_SLOPE)
-            .filter(|&s| s != 0.0)
-            .unwrap_or(1.0),
-        intercept: float(tags::RESCALE_INTERCEPT).unwrap_or(0.0),
-        position,
-        orientation,
-        instance: int(tags::INSTANCE_NUMBER),
-        pixel_spacing: floats(tags::PIXEL_SPACING)
-            .filter(|v| v.len() == 2 && v.iter().all(|x| x.is_finite() && *x > 0.0))
-            .map(|v| [v[0], v[1]]),
-        series: text(tags::SERIES_INSTANCE_UID),
-        slice_step: float(tags::SPACING_BETWEEN_SLICES)
-            .or_else(|| float(tags::SLICE_THICKNESS))
-            .filter(|&s| s > 0.0),
-        pixels,
-        range: (0, 0),
+/// Relative tolerance on slice steps and on the alignment of the stack with the normal.
+const STEP_TOLERANCE: f64 = 0.01;
+
+/// Sorts the frames into a regular stack and builds the volume (see the module doc).
+fn stack(mut frames: Vec<Frame>) -> Result<Volume> {
+    let Some(first) = frames.first() else {
+        return Err(Error::invalid("holds no DICOM image slices"));
     };
-    slice.range = stored_range(&slice);
-    Ok(Some(slice))
-}
-
-fn element(obj: &DefaultDicomObject, tag: Tag) -> Option<&dicom_object::mem::InMemElement> {
-    obj.element_opt(tag).ok().flatten()
-}
-
-/// Native pixel data as little-endian bytes, however the parser typed the values.
-fn le_bytes(
-    value: &Value<dicom_object::InMemDicomObject, dicom_core::value::InMemFragment>,
-) -> Result<Vec<u8>> {
-    match value {
-        Value::Primitive(PrimitiveValue::U8(v)) => Ok(v.to_vec()),
-        Value::Primitive(PrimitiveValue::U16(v)) => {
-            Ok(v.iter().flat_map(|x| x.to_le_bytes()).collect())
-        }
-        Value::Primitive(PrimitiveValue::I16(v)) => {
-            Ok(v.iter().flat_map(|x| x.to_le_bytes()).collect())
-        }
-        Value::Primitive(PrimitiveValue::U32(v)) => {
-            Ok(v.iter().flat_map(|x| x.to_le_bytes()).collect())
-        }
-        Value::Primitive(PrimitiveValue::I32(v)) => {
-            Ok(v.iter().flat_map(|x| x.to_le_bytes()).collect())
-        }
-        Value::PixelSequence(_) => Err(Error::unsupported(
-            "encapsulated (compressed) PixelData is not supported",
-        )),
-        _ => Err(Error::corrupt("PixelData has an unexpected value type")),
-    }
-}
-
-/// Stored value `index` of a slice: masked to BitsStored, sign-extended when signed.
-fn stored(slice: &Slice, index: usize) -> i64 {
-    let p = &slice.pixels;
-    let raw: u32 = match slice.bits_allocated {
-        8 => p[index] as u32,
-        16 => u16::from_le_bytes([p[2 * index], p[2 * index + 1]]) as u32,
-        _ => u32::from_le_bytes([
-            p[4 * index],
-            p[4 * index + 1],
-            p[4 * index + 2],
-            p[4 * index + 3],
-        ]),
-    };
-    let bits = slice.bits_stored as u32;
-    let mask = if bits >= 32 {
-        u32::MAX
-    } else {
-        (1u32 << bits) - 1
-    };
-    let v = raw & mask;
-    if slice.signed && (v >> (bits - 1)) & 1 == 1 {
-        v as i64 - (1i64 << bits)
-    } else {
-        v as i64
-    }
-}
-
-fn stored_range(slice: &Slice) -> (i64, i64) {
-    let n = slice.rows * slice.cols;
-    (0..n)
-        .map(|i| stored(slice, i))
-        .fold((i64::MAX, i64::MIN), |(lo, hi), v| (lo.min(v), hi.max(v)))
-}
-
-fn assemble(mut slices: Vec<Slice>) -> Result<Volume> {
-    let Some(first) = slices.first() else {
-        return Err(Error::invalid("folder holds no DICOM image slices"));
-    };
-    for s in &slices[1..] {
-        if (s.rows, s.cols) != (first.rows, first.cols) {
+    for f in &frames[1..] {
+        if (f.rows, f.cols) != (first.rows, first.cols) {
             return Err(Error::corrupt(format!(
                 "slices differ in size: {} is {}x{} but {} is {}x{}",
-                name(&s.path),
-                s.cols,
-                s.rows,
-                name(&first.path),
+                f.describe(),
+                f.cols,
+                f.rows,
+                first.describe(),
                 first.cols,
                 first.rows
             )));
         }
-        if (s.bits_allocated, s.signed) != (first.bits_allocated, first.signed) {
+        if (f.bits_allocated, f.signed) != (first.bits_allocated, first.signed) {
             return Err(Error::corrupt(format!(
                 "slices differ in pixel format: {} and {}",
-                name(&s.path),
-                name(&first.path)
+                f.describe(),
+                first.describe()
             )));
         }
-        if s.series != first.series {
-            return Err(Error::invalid(
-                "folder holds slices of more than one series; use a folder per series",
-            ));
-        }
     }
-    let normal = match (
-        first.orientation,
-        slices.iter().all(|s| s.position.is_some()),
-    ) {
-        (Some((row, col)), true) => normalized(cross(row, col)),
-        _ => None,
+    let positioned = frames
+        .iter()
+        .all(|f| f.position.is_some() && f.orientation.is_some());
+    let normal = if positioned {
+        let (row, col) = first.orientation.unwrap_or_default();
+        for f in &frames[1..] {
+            let (r, c) = f.orientation.unwrap_or_default();
+            if dot(r, row) < 1.0 - 1e-4 || dot(c, col) < 1.0 - 1e-4 {
+                return Err(Error::invalid(format!(
+                    "slices differ in orientation: {} and {}",
+                    f.describe(),
+                    first.describe()
+                )));
+            }
+        }
+        normalized(cross(row, col))
+    } else {
+        None
     };
-    let key = |s: &Slice| normal.and_then(|n| s.position.map(|p| dot(p, n)));
+    let key = |f: &Frame| normal.and_then(|n| f.position.map(|p| dot(p, n)));
     if normal.is_some() {
-        slices.sort_by(|a, b| {
+        frames.sort_by(|a, b| {
             key(a)
                 .partial_cmp(&key(b))
                 .unwrap_or(std::cmp::Ordering::Equal)
         });
-        for pair in slices.windows(2) {
-            if (key(&pair[1]).unwrap_or(0.0) - key(&pair[0]).unwrap_or(0.0)).abs() < 1e-6 {
-                return Err(Error::corrupt(format!(
-                    "slices {} and {} are at the same position",
-                    name(&pair[0].path),
-                    name(&pair[1].path)
-                )));
-            }
-        }
-    } else if slices.iter().all(|s| s.instance.is_some()) {
-        slices.sort_by_key(|s| s.instance);
+    } else if frames.iter().all(|f| f.instance.is_some()) {
+        frames.sort_by_key(|f| f.instance);
     }
-
-    let first = &slices[0];
-    let n = slices.len();
-    let dims = [first.cols, first.rows, n];
-    let total = sample_count(dims)?;
-    let step = match (key(first), slices.last().and_then(key)) {
-        (Some(a), Some(b)) if n > 1 => Some((b - a) / (n - 1) as f64),
-        _ => first.slice_step,
+    let step = match normal {
+        Some(n) => Some(regular_step(&frames, n)?),
+        None => None,
     };
+
+    let first = &frames[0];
+    let dims = [first.cols, first.rows, frames.len()];
+    let total = sample_count(dims)?;
     let [row_spacing, col_spacing] = first.pixel_spacing.unwrap_or([1.0, 1.0]);
     let mut geometry = Geometry::new(dims);
-    geometry.spacing = [col_spacing, row_spacing, step.unwrap_or(1.0)];
+    geometry.spacing = [
+        col_spacing,
+        row_spacing,
+        step.or(first.slice_step).unwrap_or(1.0),
+    ];
     geometry.origin = first.position.unwrap_or([0.0; 3]);
     if let (Some((row, col)), Some(normal)) = (first.orientation, normal) {
         geometry.direction = [row, col, normal];
     }
-    let data = values(&slices, total);
+    let data = values(&frames, total);
     Volume::with_geometry(geometry, data)
 }
 
-/// Rescaled samples of all slices in order, in the narrowest type that holds them exactly.
-fn values(slices: &[Slice], total: usize) -> VolumeData {
-    let integral = slices
+/// The even step between sorted frames along `normal`, or an error for duplicates, gaps and
+/// a stack sheared off the normal (gantry tilt).
+fn regular_step(frames: &[Frame], normal: Vec3) -> Result<f64> {
+    let n = frames.len();
+    let pos = |f: &Frame| f.position.unwrap_or_default();
+    let along = |f: &Frame| dot(pos(f), normal);
+    for pair in frames.windows(2) {
+        if (along(&pair[1]) - along(&pair[0])).abs() < 1e-6 {
+            return Err(Error::corrupt(format!(
+                "slices {} and {} are at the same position (two series mixed, or a duplicate)",
+                pair[0].describe(),
+                pair[1].describe()
+            )));
+        }
+    }
+    if n < 2 {
+        return Ok(frames[0].slice_step.unwrap_or(1.0));
+    }
+    let mean = (along(&frames[n - 1]) - along(&frames[0])) / (n - 1) as f64;
+    // The step furthest from the mean: a gap, when there is one.
+    let worst = frames
+        .windows(2)
+        .map(|pair| (along(&pair[1]) - along(&pair[0]), pair))
+        .max_by(|a, b| (a.0 - mean).abs().total_cmp(&(b.0 - mean).abs()));
+    if let Some((d, pair)) = worst {
+        if (d - mean).abs() > STEP_TOLERANCE * mean {
+            return Err(Error::invalid(format!(
+                "slices are unevenly spaced: {:.4} mm from {} to {}, {:.4} mm on average \
+                 (a gap or a missing slice); a regular grid cannot hold them",
+                d,
+                pair[0].describe(),
+                pair[1].describe(),
+                mean
+            )));
+        }
+    }
+    // The stack's direction: from the first to the last position, per slice.
+    let (a, b) = (pos(&frames[0]), pos(&frames[n - 1]));
+    let walk = [
+        (b[0] - a[0]) / (n - 1) as f64,
+        (b[1] - a[1]) / (n - 1) as f64,
+        (b[2] - a[2]) / (n - 1) as f64,
+    ];
+    let sideways = [
+        walk[0] - mean * normal[0],
+        walk[1] - mean * normal[1],
+        walk[2] - mean * normal[2],
+    ];
+    let shear = dot(sideways, sideways).sqrt();
+    if shear > STEP_TOLERANCE * mean {
+        return Err(Error::unsupported(format!(
+            "slices are stacked {:.2}° off their normal (gantry tilt); a regular grid cannot hold \
+             them, resample the series first",
+            shear.atan2(mean).to_degrees()
+        )));
+    }
+    Ok(mean)
+}
+
+/// Rescaled samples of all frames in order, in the narrowest type that holds them exactly.
+fn values(frames: &[Frame], total: usize) -> VolumeData {
+    let integral = frames
         .iter()
-        .all(|s| s.slope == 1.0 && s.intercept.fract() == 0.0 && s.intercept.abs() < 1e9);
+        .all(|f| f.slope == 1.0 && f.intercept.fract() == 0.0 && f.intercept.abs() < 1e9);
     if integral {
-        let lo = slices
+        let lo = frames
             .iter()
-            .map(|s| s.range.0 + s.intercept as i64)
+            .map(|f| f.range.0 + f.intercept as i64)
             .min()
             .unwrap_or(0);
-        let hi = slices
+        let hi = frames
             .iter()
-            .map(|s| s.range.1 + s.intercept as i64)
+            .map(|f| f.range.1 + f.intercept as i64)
             .max()
             .unwrap_or(0);
         let fits = |a: i64, b: i64| lo >= a && hi <= b;
-        let shifted = |s: &Slice, i: usize| stored(s, i) + s.intercept as i64;
-        if slices[0].bits_allocated == 8 && fits(0, 255) {
-            return VolumeData::U8(gather(slices, total, |s, i| shifted(s, i) as u8));
+        let shifted = |f: &Frame, i: usize| f.stored(i) + f.intercept as i64;
+        if frames[0].bits_allocated == 8 && fits(0, 255) {
+            return VolumeData::U8(gather(frames, total, |f, i| shifted(f, i) as u8));
         }
-        if slices[0].signed && fits(-32768, 32767) {
-            return VolumeData::I16(gather(slices, total, |s, i| shifted(s, i) as i16));
+        if frames[0].signed && fits(-32768, 32767) {
+            return VolumeData::I16(gather(frames, total, |f, i| shifted(f, i) as i16));
         }
         if fits(0, 65535) {
-            return VolumeData::U16(gather(slices, total, |s, i| shifted(s, i) as u16));
+            return VolumeData::U16(gather(frames, total, |f, i| shifted(f, i) as u16));
         }
         if fits(-32768, 32767) {
-            return VolumeData::I16(gather(slices, total, |s, i| shifted(s, i) as i16));
+            return VolumeData::I16(gather(frames, total, |f, i| shifted(f, i) as i16));
         }
     }
-    VolumeData::F32(gather(slices, total, |s, i| {
-        (stored(s, i) as f64 * s.slope + s.intercept) as f32
+    VolumeData::F32(gather(frames, total, |f, i| {
+        (f.stored(i) as f64 * f.slope + f.intercept) as f32
     }))
 }
 
-/// Every sample of every slice, in slice order, through `convert`.
-fn gather<T>(slices: &[Slice], total: usize, convert: impl Fn(&Slice, usize) -> T) -> Vec<T> {
+/// Every sample of every frame, in frame order, through `convert`.
+fn gather<T>(frames: &[Frame], total: usize, convert: impl Fn(&Frame, usize) -> T) -> Vec<T> {
     let mut out = Vec::with_capacity(total);
-    for s in slices {
-        out.extend((0..s.rows * s.cols).map(|i| convert(s, i)));
+    for f in frames {
+        out.extend((0..f.rows * f.cols).map(|i| convert(f, i)));
     }
     out
-}
-
-fn name(path: &Path) -> String {
-    path.file_name().map_or_else(
-        || path.display().to_string(),
-        |n| n.to_string_lossy().into_owned(),
-    )
-}
-
-fn one_line(s: &str) -> String {
-    s.lines().next().unwrap_or("").to_string()
 }

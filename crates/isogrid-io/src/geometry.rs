@@ -1,10 +1,13 @@
 //! Small helpers that turn a format's spatial metadata into a valid [`Geometry`].
 //!
-//! Formats allow things a [`Geometry`] does not: zero or NaN spacing (unknown), negative spacing
-//! (a flipped axis). Unknown spacing becomes 1; a negative one keeps its magnitude and flips the
-//! axis's direction row, so positions `origin + i·spacing·direction` stay the same.
+//! Formats allow things a [`Geometry`] does not. The rule, the same for every format:
+//! - NaN spacing means "unknown" (NRRD's spec says so for `spacings`; a reader maps its format's
+//!   own "unset" marker to NaN) and becomes 1;
+//! - a negative spacing keeps its magnitude and flips the axis's direction row, so positions
+//!   `origin + i·spacing·direction` stay the same;
+//! - zero or infinite spacing is an error: no voxel has that size, and 1 would be a guess.
 
-use isogrid::Geometry;
+use isogrid::{Error, Geometry, Result};
 
 pub(crate) type Vec3 = [f64; 3];
 
@@ -36,7 +39,13 @@ pub(crate) fn geometry(
     spacing: [f64; 3],
     origin: [f64; 3],
     direction: Option<[Vec3; 3]>,
-) -> Geometry {
+) -> Result<Geometry> {
+    if let Some(axis) = (0..3).find(|&a| spacing[a] == 0.0 || spacing[a].is_infinite()) {
+        return Err(Error::corrupt(format!(
+            "spacing {} along axis {axis} is not a voxel size (it must be finite and non-zero)",
+            spacing[axis]
+        )));
+    }
     let mut g = Geometry::new(dims);
     if let Some(direction) = direction {
         if direction.iter().flatten().all(|x| x.is_finite()) {
@@ -44,7 +53,7 @@ pub(crate) fn geometry(
         }
     }
     for (axis, &s) in spacing.iter().enumerate() {
-        if s.is_finite() && s != 0.0 {
+        if !s.is_nan() {
             g.spacing[axis] = s.abs();
             if s < 0.0 {
                 g.direction[axis] = g.direction[axis].map(|x| -x);
@@ -54,5 +63,5 @@ pub(crate) fn geometry(
     if origin.iter().all(|x| x.is_finite()) {
         g.origin = origin;
     }
-    g
+    Ok(g)
 }

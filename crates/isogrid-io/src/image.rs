@@ -8,8 +8,8 @@
 //! Every writer goes through [`isogrid::fs::write_atomic`].
 
 use isogrid::fs::write_atomic;
-use isogrid::trace::EnvMap;
-use isogrid::{Error, Result, ResultExt};
+use isogrid::{Error, Result};
+use isogrid_trace::EnvMap;
 use std::path::Path;
 
 /// Writes an 8-bit PNG of `width × height` pixels with `channels` (3 = RGB, 4 = RGBA) bytes each.
@@ -147,7 +147,7 @@ pub fn read_env_map(path: &Path) -> Result<EnvMap> {
             .with_path(path))
         }
     };
-    let file = std::fs::File::open(path).at_path(path)?;
+    let file = isogrid::fs::open_regular(path)?;
     let mut reader = ::image::ImageReader::with_format(std::io::BufReader::new(file), format);
     let mut limits = ::image::Limits::default();
     limits.max_alloc = Some(MAX_ENV_TEXELS * 16);

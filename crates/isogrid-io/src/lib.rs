@@ -1,17 +1,21 @@
-//! Volume file formats for isogrid: NIfTI-1, NRRD, NumPy `.npy`, raw, DICOM series and TIFF
-//! stacks, read into an [`isogrid::Volume`], and NRRD written back; triangle meshes ([`mesh`]) and
+//! Volume file formats for isogrid: NIfTI-1, NRRD, NumPy `.npy`, raw, DICOM series, TIFF
+//! stacks, MetaImage and MRC/CCP4 maps, read into an [`isogrid::Volume`], and NRRD written back; triangle meshes ([`mesh`]) and
 //! their solid voxelisation into coverage volumes ([`voxelize`], paper §4).
 //!
 //! Every reader keeps the file's storage order (voxel (i, j, k), i fastest; no reorientation or
-//! resampling), keeps spacing and origin in physical file units in [`isogrid::Geometry`] and the
+//! resampling; MRC maps alone are permuted to x-fastest, see [`mrc`]), keeps spacing and origin in physical file units in [`isogrid::Geometry`] and the
 //! axis directions as metadata when the format has them. Sample types u8, u16, i16 and f32 are
 //! kept; i8 becomes i16, bool becomes u8, and u32/i32/u64/i64/f64 become f32 (integers above 2²⁴
 //! and f64 precision are rounded). Malformed or truncated files give one-line errors naming the
-//! file; declared sizes are checked against the file before anything is allocated.
+//! file; declared sizes are checked against the file, and against the memory there is
+//! ([`isogrid::memory`]), before anything is allocated. Only regular files are read: a pipe,
+//! FIFO, device or directory given as a file is refused rather than waited on.
 
 pub mod dicom;
 pub mod image;
 pub mod mesh;
+pub mod metaimage;
+pub mod mrc;
 pub mod nifti;
 pub mod npy;
 pub mod nrrd;
@@ -20,15 +24,20 @@ pub mod region;
 pub mod tiff;
 pub mod voxelize;
 
+mod data_file;
 mod geometry;
 mod read;
+mod read_options;
 mod samples;
 
-pub use dicom::read_dicom_series;
+pub use dicom::{read_dicom, read_dicom_series};
+pub use metaimage::read_metaimage;
+pub use mrc::read_mrc;
 pub use nifti::read_nifti;
 pub use npy::read_npy;
 pub use nrrd::{read_nrrd, write_nrrd};
 pub use raw::{read_raw, RawSpec};
-pub use read::{read_volume, ReadOptions};
+pub use read::{read_volume, read_volume_noted};
+pub use read_options::ReadOptions;
 pub use region::{open_region, ZarrOptions};
 pub use tiff::read_tiff;

@@ -6,7 +6,8 @@
 //! and ndarray for no gain here). Either byte order is accepted (detected from `sizeof_hdr`).
 //!
 //! - Grid: voxel (i, j, k) in file order, i fastest; no reorientation.
-//! - Spacing: `|pixdim[1..=3]|` (0 or NaN means unknown and becomes 1).
+//! - Spacing: `|pixdim[1..=3]|`; 0 is what tools write when they leave the field unset and
+//!   becomes 1, while NaN or an infinity is an error (no voxel has that size).
 //! - Origin and direction, in NIfTI world space (RAS+, usually mm): from the **sform** when
 //!   `sform_code > 0` (as nibabel's best affine does), else from the **qform** when
 //!   `qform_code > 0`, else origin 0 and identity directions (NIfTI "method 1").
@@ -23,7 +24,6 @@ use crate::samples::{
     sample_count, skip_bytes, ElemType,
 };
 use isogrid::{Error, Result, ResultExt, Volume, VolumeData};
-use std::fs::File;
 use std::io::{BufReader, Read, Seek, SeekFrom};
 use std::path::Path;
 
@@ -47,7 +47,7 @@ struct Header {
 }
 
 fn read(path: &Path) -> Result<Volume> {
-    let mut file = File::open(path)?;
+    let mut file = isogrid::fs::open_regular(path)?;
     let file_len = file.metadata()?.len();
     let mut magic = [0u8; 2];
     let gzipped = file.read(&mut magic)? == 2 && magic == [0x1f, 0x8b];
@@ -86,7 +86,7 @@ fn read(path: &Path) -> Result<Volume> {
         Some((slope, inter)) => VolumeData::F32(scaled(&data, slope, inter)),
         None => data,
     };
-    let g = geometry(header.dims, header.spacing, header.origin, header.direction);
+    let g = geometry(header.dims, header.spacing, header.origin, header.direction)?;
     Volume::with_geometry(g, data)
 }
 
@@ -94,7 +94,7 @@ fn read(path: &Path) -> Result<Volume> {
 /// (which has to be decompressed from its start). Errors name `path`.
 pub(crate) fn region_layout(path: &Path) -> Result<Option<crate::region::MappedLayout>> {
     (|| {
-        let mut file = File::open(path)?;
+        let mut file = isogrid::fs::open_regular(path)?;
         let file_len = file.metadata()?.len();
         let mut raw = [0u8; HEADER_SIZE];
         let mut got = 0;
@@ -121,7 +121,7 @@ pub(crate) fn region_layout(path: &Path) -> Result<Option<crate::region::MappedL
             data_offset: header.vox_offset,
             elem: header.elem,
             big_endian: header.big_endian,
-            geometry: geometry(header.dims, header.spacing, header.origin, header.direction),
+            geometry: geometry(header.dims, header.spacing, header.origin, header.direction)?,
             scale: header.scale,
         }))
     })()
@@ -205,6 +205,13 @@ fn parse_header(raw: &[u8; HEADER_SIZE]) -> Result<Header> {
     }
     let pixdim = |d: usize| h.f32(76 + 4 * d) as f64;
     let spacing = [pixdim(1), pixdim(2), pixdim(3)];
+    if let Some(axis) = (0..3).find(|&a| !spacing[a].is_finite()) {
+        return Err(Error::corrupt(format!(
+            "pixdim[{}] is {}, not a voxel size",
+            axis + 1,
+            spacing[axis]
+        )));
+    }
     let (slope, inter) = (h.f32(112), h.f32(116));
     let scale = (slope != 0.0 && slope.is_finite() && (slope, inter) != (1.0, 0.0))
         .then_some((slope, if inter.is_finite() { inter } else { 0.0 }));
@@ -220,7 +227,8 @@ fn parse_header(raw: &[u8; HEADER_SIZE]) -> Result<Header> {
         elem,
         big_endian,
         vox_offset: vox_offset as u64,
-        spacing: spacing.map(|s| s.abs()),
+        // 0 = unset: unknown (NaN) for `geometry`, which makes it 1.
+        spacing: spacing.map(|s| if s == 0.0 { f64::NAN } else { s.abs() }),
         origin,
         direction,
         scale,

@@ -17,7 +17,6 @@
 
 use crate::samples::{byte_count, read_samples, sample_count, ElemType};
 use isogrid::{Error, Result, ResultExt, Volume};
-use std::fs::File;
 use std::io::{BufReader, Read};
 use std::path::Path;
 
@@ -36,7 +35,7 @@ struct Header {
 }
 
 fn read(path: &Path) -> Result<Volume> {
-    let file = File::open(path)?;
+    let file = isogrid::fs::open_regular(path)?;
     let file_len = file.metadata()?.len();
     let mut reader = BufReader::new(file);
     let mut preamble = [0u8; 8];

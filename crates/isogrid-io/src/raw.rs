@@ -6,7 +6,6 @@
 
 use crate::samples::{read_samples, sample_count, ElemType};
 use isogrid::{Error, Result, ResultExt, ScalarType, Volume};
-use std::fs::File;
 use std::io::BufReader;
 use std::path::Path;
 
@@ -31,7 +30,7 @@ fn read(path: &Path, spec: &RawSpec) -> Result<Volume> {
         ScalarType::I16 => ElemType::I16,
         ScalarType::F32 => ElemType::F32,
     };
-    let file = File::open(path)?;
+    let file = isogrid::fs::open_regular(path)?;
     let actual = file.metadata()?.len();
     let expected = count as u64 * spec.scalar.size() as u64;
     if actual != expected {

@@ -1,34 +1,58 @@
 //! Picking the reader for a path: a folder is a DICOM series, a raw spec means raw, otherwise the
-//! file extension decides, and when it says nothing the first bytes do.
+//! file extension decides, and when it says nothing the first bytes do. Readers may return
+//! notices for the user (e.g. other DICOM series left out); the caller decides how to show them.
 
-use crate::raw::RawSpec;
+use crate::read_options::ReadOptions;
 use isogrid::{Error, Result, ResultExt, Volume};
 use std::io::Read;
 use std::path::Path;
 
-/// How to read files whose format cannot be detected.
-#[derive(Debug, Clone, Default)]
-pub struct ReadOptions {
-    /// Read the file as headerless raw samples with this shape, type and byte order.
-    pub raw: Option<RawSpec>,
-    /// Level and extra-axis indices of a Zarr / OME-Zarr input.
-    pub zarr: crate::region::ZarrOptions,
+/// Reads a volume, detecting the format from the path: a Zarr store or OME-Zarr image (see
+/// [`crate::region`]); a folder of 2-D TIFF slices; another directory or a `.dcm` file (or one
+/// with the `DICM` marker) = DICOM (see [`crate::dicom`]); `.nii`/`.nii.gz`; `.nrrd`/`.nhdr`;
+/// `.npy`; `.tif`/`.tiff`; `.mha`/`.mhd`; `.mrc`/`.map`/`.ccp4`/`.mrcs`; any file when `opts.raw` is set
+/// (`.raw`/`.bin` without it are an error asking for the spec). Other names are sniffed by
+/// their magic bytes. Errors name `path`. Notices are dropped; see [`read_volume_noted`].
+pub fn read_volume(path: &Path, opts: &ReadOptions) -> Result<Volume> {
+    read_volume_noted(path, opts).map(|(volume, _)| volume)
 }
 
-/// Reads a volume, detecting the format from the path: a directory = DICOM series;
-/// `.nii`/`.nii.gz`; `.nrrd`/`.nhdr`; `.npy`; `.tif`/`.tiff`; any file when `opts.raw` is set
-/// (`.raw`/`.bin` without it are an error asking for the spec). Other names are sniffed by
-/// their magic bytes. Errors name `path`.
-pub fn read_volume(path: &Path, opts: &ReadOptions) -> Result<Volume> {
+/// [`read_volume`], also returning notices for the user (one line each).
+pub fn read_volume_noted(path: &Path, opts: &ReadOptions) -> Result<(Volume, Vec<String>)> {
     if crate::region::is_zarr(path) {
-        return crate::region::read_all(crate::region::open_zarr(path, opts)?.as_mut());
+        let volume = crate::region::read_all(crate::region::open_zarr(path, opts)?.as_mut())?;
+        return Ok((volume, Vec::new()));
     }
     if crate::region::is_tiff_slices(path) {
-        return crate::region::read_all(&mut crate::region::slices::TiffSlices::open(path)?);
+        let volume = crate::region::read_all(&mut crate::region::slices::TiffSlices::open(path)?)?;
+        return Ok((volume, Vec::new()));
     }
-    if path.is_dir() {
-        return crate::read_dicom_series(path);
+    if path.is_dir() || (opts.raw.is_none() && is_dicom_file(path)) {
+        return crate::dicom::read_dicom(path, opts);
     }
+    read_single(path, opts).map(|volume| (volume, Vec::new()))
+}
+
+/// A file named `.dcm`/`.dicom`/`.ima`, or with `DICM` at byte 128 (or 0: no preamble).
+fn is_dicom_file(path: &Path) -> bool {
+    if !path.is_file() {
+        return false;
+    }
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().to_ascii_lowercase())
+        .unwrap_or_default();
+    if [".dcm", ".dicom", ".ima"].iter().any(|e| name.ends_with(e)) {
+        return true;
+    }
+    let mut head = [0u8; 132];
+    std::fs::File::open(path)
+        .and_then(|mut f| f.read_exact(&mut head))
+        .is_ok()
+        && (&head[128..] == b"DICM" || &head[..4] == b"DICM")
+}
+
+fn read_single(path: &Path, opts: &ReadOptions) -> Result<Volume> {
     if let Some(spec) = &opts.raw {
         return crate::read_raw(path, spec);
     }
@@ -49,6 +73,12 @@ pub fn read_volume(path: &Path, opts: &ReadOptions) -> Result<Volume> {
     if ends(".tif") || ends(".tiff") {
         return crate::read_tiff(path);
     }
+    if ends(".mha") || ends(".mhd") {
+        return crate::read_metaimage(path);
+    }
+    if ends(".mrc") || ends(".map") || ends(".ccp4") || ends(".mrcs") {
+        return crate::read_mrc(path);
+    }
     if ends(".raw") || ends(".bin") {
         return Err(
             Error::invalid("raw files need their shape, type and byte order (a raw spec)")
@@ -60,7 +90,7 @@ pub fn read_volume(path: &Path, opts: &ReadOptions) -> Result<Volume> {
 
 fn sniff(path: &Path) -> Result<Volume> {
     let mut head = [0u8; 348];
-    let mut file = std::fs::File::open(path).at_path(path)?;
+    let mut file = isogrid::fs::open_regular(path)?;
     let mut len = 0;
     while len < head.len() {
         match file.read(&mut head[len..]).at_path(path)? {
@@ -81,9 +111,13 @@ fn sniff(path: &Path) -> Result<Volume> {
         crate::read_tiff(path)
     } else if head.len() == 348 && &head[344..347] == b"n+1" {
         crate::read_nifti(path)
+    } else if head.len() >= 212 && &head[208..211] == b"MAP" {
+        crate::read_mrc(path)
+    } else if head.starts_with(b"ObjectType") || head.starts_with(b"NDims") {
+        crate::read_metaimage(path)
     } else {
         Err(Error::unsupported(
-            "unknown volume format (expected .nii, .nii.gz, .nrrd, .nhdr, .npy, .tif, a DICOM folder, or a raw spec)",
+            "unknown volume format (expected .nii, .nii.gz, .nrrd, .nhdr, .npy, .tif, .mha, .mhd, .mrc, .map, DICOM, or a raw spec)",
         )
         .with_path(path))
     }

@@ -92,15 +92,33 @@ pub(crate) fn check_deflate_budget(needed: u64, compressed: u64) -> Result<()> {
     Ok(())
 }
 
+/// Fails with a `TooLarge` error naming the limit when decoding `count` elements of `elem` needs
+/// more memory than the machine has ([`isogrid::memory`]): the file's element array plus, for a
+/// converted type, the kept array built from it.
+pub(crate) fn ensure_memory(count: usize, elem: ElemType) -> Result<()> {
+    let file_bytes = count as u64 * elem.size() as u64;
+    let kept_bytes = match elem {
+        ElemType::U8 | ElemType::U16 | ElemType::I16 | ElemType::F32 => 0,
+        ElemType::I8 => count as u64 * 2,
+        _ => count as u64 * 4,
+    };
+    isogrid::memory::ensure_fits(
+        &format!("a volume of {count} samples"),
+        file_bytes + kept_bytes,
+    )
+}
+
 /// Reads exactly `count` elements of `elem` (byte order `big_endian`) and converts them to one of
-/// the kept types. Memory grows with the data actually read (in chunks), so a short stream fails
-/// without the full allocation. A short read is a `Corrupt` error naming expected and actual bytes.
+/// the kept types. The memory this needs is checked first ([`ensure_memory`]); then it grows with
+/// the data actually read (in chunks), so a short stream fails without the full allocation. A
+/// short read is a `Corrupt` error naming expected and actual bytes.
 pub(crate) fn read_samples<R: Read + ?Sized>(
     reader: &mut R,
     elem: ElemType,
     big_endian: bool,
     count: usize,
 ) -> Result<VolumeData> {
+    ensure_memory(count, elem)?;
     let swap = big_endian != cfg!(target_endian = "big");
     Ok(match elem {
         ElemType::U8 => VolumeData::U8(read_vec::<u8, R>(reader, count, false)?),
@@ -122,21 +140,100 @@ pub(crate) fn read_samples<R: Read + ?Sized>(
         ElemType::I64 => VolumeData::F32(convert(read_vec::<i64, R>(reader, count, swap)?, |v| {
             v as f32
         })),
-        ElemType::F64 => VolumeData::F32(convert(read_vec::<f64, R>(reader, count, swap)?, |v| {
-            v as f32
-        })),
+        ElemType::F64 => VolumeData::F32(f64_to_f32(&read_vec::<f64, R>(reader, count, swap)?)?),
     })
 }
 
-/// Builds kept-type data from values given as f64 (text encodings), converting like [`read_samples`].
-pub(crate) fn from_f64_values(values: &[f64], elem: ElemType) -> VolumeData {
-    match elem {
+/// f64 samples as f32, refusing finite values beyond the f32 range (about ±3.4·10³⁸): they would
+/// become infinite and every isovalue would then be measured against infinity. NaN and ±∞ stay.
+fn f64_to_f32(values: &[f64]) -> Result<Vec<f32>> {
+    if let Some(i) = values
+        .iter()
+        .position(|v| v.is_finite() && (*v as f32).is_infinite())
+    {
+        return Err(Error::unsupported(format!(
+            "sample {i} is {:e}, beyond the f32 range (±{:e}) in which volumes are kept",
+            values[i],
+            f32::MAX
+        )));
+    }
+    Ok(values.iter().map(|&v| v as f32).collect())
+}
+
+/// Builds kept-type data from values given as f64 (text encodings), converting like
+/// [`read_samples`]. A value an integer type cannot hold exactly (out of range, or with a
+/// fraction) is an error naming it, not a silently saturated sample.
+pub(crate) fn from_f64_values(values: &[f64], elem: ElemType) -> Result<VolumeData> {
+    let range = match elem {
+        ElemType::U8 => Some((0.0, u8::MAX as f64)),
+        ElemType::I8 => Some((i8::MIN as f64, i8::MAX as f64)),
+        ElemType::U16 => Some((0.0, u16::MAX as f64)),
+        ElemType::I16 => Some((i16::MIN as f64, i16::MAX as f64)),
+        _ => None,
+    };
+    if let Some((lo, hi)) = range {
+        if let Some(i) = values
+            .iter()
+            .position(|&v| !(v >= lo && v <= hi && v.fract() == 0.0))
+        {
+            return Err(Error::corrupt(format!(
+                "value {} (number {i}) is not an integer in [{lo}, {hi}] as the type declares",
+                values[i]
+            )));
+        }
+    }
+    Ok(match elem {
         ElemType::U8 => VolumeData::U8(values.iter().map(|&v| v as u8).collect()),
         ElemType::U16 => VolumeData::U16(values.iter().map(|&v| v as u16).collect()),
         ElemType::I16 => VolumeData::I16(values.iter().map(|&v| v as i16).collect()),
         ElemType::I8 => VolumeData::I16(values.iter().map(|&v| v as i8 as i16).collect()),
-        _ => VolumeData::F32(values.iter().map(|&v| v as f32).collect()),
+        _ => VolumeData::F32(f64_to_f32(values)?),
+    })
+}
+
+/// Reads `count` decimal values separated by whitespace or commas from the next `available` bytes
+/// (NRRD ascii, MetaImage text data) and converts them like [`read_samples`]. `what` names the data
+/// in errors.
+pub(crate) fn read_text_samples<R: Read>(
+    reader: R,
+    available: u64,
+    elem: ElemType,
+    count: usize,
+    what: &str,
+) -> Result<VolumeData> {
+    // Each value takes at least one character plus a separator.
+    if count as u64 > available / 2 + 1 {
+        return Err(Error::corrupt(format!(
+            "{what} of {available} bytes cannot hold {count} values"
+        )));
     }
+    // The text, its values as f64, and the kept samples.
+    isogrid::memory::ensure_fits(
+        &format!("{what} of {count} values"),
+        available + count as u64 * 12,
+    )?;
+    let mut text = String::new();
+    reader
+        .take(available)
+        .read_to_string(&mut text)
+        .map_err(|_| Error::corrupt(format!("{what} is not text")))?;
+    let values = text
+        .split(|c: char| c.is_whitespace() || c == ',')
+        .filter(|t| !t.is_empty())
+        .map(|t| {
+            t.parse::<f64>().map_err(|_| {
+                let shown: String = t.chars().filter(|c| !c.is_control()).take(60).collect();
+                Error::corrupt(format!("{what}: value '{shown}' is not a number"))
+            })
+        })
+        .collect::<Result<Vec<f64>>>()?;
+    if values.len() != count {
+        return Err(Error::corrupt(format!(
+            "{what} holds {} values, the header declares {count}",
+            values.len()
+        )));
+    }
+    from_f64_values(&values, elem)
 }
 
 /// Fails if `reader` has any byte left: a stream longer than declared is inconsistent.
@@ -190,6 +287,16 @@ fn read_vec<T: bytemuck::Pod, R: Read + ?Sized>(
     while values.len() < count {
         let start = values.len();
         let end = count.min(start + chunk);
+        if end > values.capacity() {
+            // Amortised growth (doubling) that never reserves past `count`, and fails cleanly.
+            let want = count.min(end.max(values.capacity().saturating_mul(2)));
+            values.try_reserve_exact(want - start).map_err(|_| {
+                Error::too_large(format!(
+                    "{} bytes of samples cannot be allocated",
+                    count as u64 * size as u64
+                ))
+            })?;
+        }
         values.resize(end, T::zeroed());
         let bytes: &mut [u8] = bytemuck::cast_slice_mut(&mut values[start..end]);
         let got = fill(reader, bytes)?;

@@ -24,7 +24,7 @@ pub fn read_tiff(path: &Path) -> Result<Volume> {
 }
 
 fn read(path: &Path) -> Result<Volume> {
-    let file = File::open(path)?;
+    let file = isogrid::fs::open_regular(path)?;
     let file_len = file.metadata()?.len();
     let mut decoder = Decoder::new(BufReader::new(file)).map_err(tiff_error)?;
     let mut slices: Option<VolumeData> = None;
@@ -47,7 +47,12 @@ fn read(path: &Path) -> Result<Volume> {
                 first_size.map_or(0, |s| s.1)
             )));
         }
-        check_page_fits(&mut decoder, w, h, file_len)?;
+        let page_bytes = check_page_fits(&mut decoder, w, h, file_len)?;
+        // The stack so far and this page, with room for the stack's growth as pages join it.
+        isogrid::memory::ensure_fits(
+            &format!("a stack of {} {w}x{h} pages", pages + 1),
+            (pages as u64 + 2).saturating_mul(page_bytes),
+        )?;
         let page = decoder.read_image().map_err(tiff_error)?;
         slices = Some(append(slices, page, pages)?);
         pages += 1;
@@ -68,7 +73,7 @@ fn read(path: &Path) -> Result<Volume> {
 /// the stack reader converts them. Errors name `path`.
 pub(crate) fn read_page(path: &Path) -> Result<(usize, usize, VolumeData)> {
     (|| {
-        let file = File::open(path)?;
+        let file = isogrid::fs::open_regular(path)?;
         let file_len = file.metadata()?.len();
         let mut decoder = Decoder::new(BufReader::new(file)).map_err(tiff_error)?;
         let (w, h) = decoder.dimensions().map_err(tiff_error)?;
@@ -87,13 +92,14 @@ pub(crate) fn read_page(path: &Path) -> Result<(usize, usize, VolumeData)> {
     .at_path(path)
 }
 
-/// Rejects a page whose declared pixels the file cannot hold, before the decoder allocates them.
+/// Rejects a page whose declared pixels the file cannot hold, before the decoder allocates them;
+/// returns the page's decoded bytes.
 fn check_page_fits(
     decoder: &mut Decoder<BufReader<File>>,
     w: u32,
     h: u32,
     file_len: u64,
-) -> Result<()> {
+) -> Result<u64> {
     let bits: u64 = decoder
         .find_tag_unsigned::<u64>(Tag::BitsPerSample)
         .ok()
@@ -115,7 +121,7 @@ fn check_page_fits(
             "a {w}x{h} page of {bits}-bit samples cannot fit in a {file_len}-byte file"
         )));
     }
-    Ok(())
+    Ok(bytes)
 }
 
 /// Appends a decoded page to the stack, converting to a kept type; all pages must share a type.

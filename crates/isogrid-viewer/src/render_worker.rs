@@ -12,7 +12,7 @@ use crate::events::{guarded, Event, Failure, Notifier, RenderedFrame};
 use crate::ViewMode;
 use isogrid::mc::McMesh;
 use isogrid::{Camera, CellGrid, GridStats, Volume};
-use isogrid_gpu::{GpuGrid, GpuMesh, GpuVolume, RenderOptions, Renderer, Scene};
+use isogrid_gpu::{GpuGrid, GpuMesh, GpuVolume, RenderOptions, Renderer, Scene, ViewState};
 use std::sync::mpsc::{Receiver, Sender};
 use std::sync::Arc;
 use std::thread::JoinHandle;
@@ -112,6 +112,8 @@ struct Uploaded {
     volume: Option<Arc<Volume>>,
     gpu_volume: Option<GpuVolume>,
     mesh: Option<GpuMesh>,
+    /// The window's view: visibility bits and path-traced samples kept between frames.
+    view: ViewState,
 }
 
 fn run(rx: Receiver<RenderMsg>, notify: Notifier) {
@@ -266,7 +268,7 @@ fn render(renderer: &Renderer, scene: &mut Uploaded, request: RenderRequest, not
         frames: 1,
         ..Default::default()
     };
-    match renderer.render_with(target, &request.camera, mode, &options) {
+    match renderer.render_view(&mut scene.view, target, &request.camera, mode, &options) {
         Ok(frame) => notify.send(Event::Frame(Box::new(RenderedFrame {
             request: request.id,
             camera: request.camera,

@@ -30,7 +30,9 @@ pub struct Camera {
 pub(crate) fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
 }
-pub(crate) fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+/// Dot product of two 3-vectors (the CPU renderer in `isogrid-trace` shades with it per pixel).
+#[inline]
+pub fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 pub(crate) fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
@@ -40,10 +42,17 @@ pub(crate) fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
         a[0] * b[1] - a[1] * b[0],
     ]
 }
+/// `a / |a|`, scaled first so that long vectors (|a| > 1e154) do not overflow the dot product.
 pub(crate) fn normalize(a: [f64; 3]) -> [f64; 3] {
+    let scale = a.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let a = a.map(|v| v / scale);
     let n = dot(a, a).sqrt();
     a.map(|v| v / n)
 }
+
+/// Largest camera coordinate magnitude: beyond it an f64 position is coarser than 1/8 of a world
+/// unit (2⁵³ ≈ 9·10¹⁵), so rays from there cannot resolve a grid of unit-sized cells.
+pub const MAX_CAMERA_COORDINATE: f64 = 1e15;
 
 /// Default vertical field of view of the presets, in degrees.
 pub const PRESET_FOVY: f64 = 35.0;
@@ -125,12 +134,24 @@ impl Camera {
                 self.fovy_degrees
             )));
         }
+        for (name, point) in [("eye", self.eye), ("target", self.target), ("up", self.up)] {
+            if let Some(c) = point.iter().find(|c| !(c.abs() <= MAX_CAMERA_COORDINATE)) {
+                return Err(Error::invalid(format!(
+                    "camera {name} coordinate {c:e} is beyond ±{MAX_CAMERA_COORDINATE:e}, where \
+                     f64 positions are too coarse to trace"
+                )));
+            }
+        }
         let forward = sub(self.target, self.eye);
-        if dot(forward, forward) == 0.0 {
+        if forward == [0.0; 3] {
             return Err(Error::invalid("camera eye and target coincide"));
         }
-        let right = cross(forward, self.up);
-        if dot(right, right) <= 1e-12 * dot(forward, forward) * dot(self.up, self.up) {
+        if self.up == [0.0; 3] {
+            return Err(Error::invalid("camera up is the zero vector"));
+        }
+        // Unit vectors, so the parallel test neither overflows nor underflows.
+        let right = cross(normalize(forward), normalize(self.up));
+        if dot(right, right) <= 1e-12 {
             return Err(Error::invalid(
                 "camera up is parallel to the view direction",
             ));

@@ -1,12 +1,27 @@
 //! Atomic file writes: write a temporary file beside the target, flush it to disk, then rename.
 //!
 //! A crash or a failed write never leaves a half-written file under the target name, and an
-//! existing file is replaced only once the new one is complete.
+//! existing file is replaced only once the new one is complete. Inputs are opened with
+//! [`open_regular`], which refuses what is not a regular file before a read can block on it.
 
 use crate::error::{Error, Result};
 use std::fs::File;
 use std::io::{BufWriter, Write};
-use std::path::Path;
+use std::path::{Path, PathBuf};
+use std::sync::Mutex;
+
+/// Temporary files of writes in progress, for [`remove_unfinished`].
+static UNFINISHED: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
+
+/// Removes the temporary files of every write in progress. For a program's interrupt handler
+/// (Ctrl-C, SIGTERM), called just before it exits: the writes cannot finish, and their files
+/// would stay behind.
+pub fn remove_unfinished() {
+    let mut unfinished = UNFINISHED.lock().unwrap_or_else(|e| e.into_inner());
+    for tmp in unfinished.drain(..) {
+        let _ = std::fs::remove_file(tmp);
+    }
+}
 
 /// Writes `path` atomically with the bytes `write` produces. On error the target is untouched and
 /// the temporary file is removed. Errors name `path`.
@@ -40,6 +55,17 @@ where
         name.to_string_lossy(),
         std::process::id()
     ));
+    // Removes the temporary file on every way out of this function that runs code: an error, or
+    // a panic in `write` unwinding through here. (A file-size limit must reach us as an error,
+    // EFBIG: programs ignore SIGXFSZ, whose default action kills without running anything.)
+    UNFINISHED
+        .lock()
+        .unwrap_or_else(|e| e.into_inner())
+        .push(tmp.clone());
+    let mut guard = TempFile {
+        path: &tmp,
+        renamed: false,
+    };
     let result = (|| -> Result<()> {
         let mut file = File::create(&tmp)?;
         write(&mut file)?;
@@ -47,10 +73,72 @@ where
         std::fs::rename(&tmp, path)?;
         Ok(())
     })();
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
+    if result.is_ok() {
+        guard.renamed = true; // nothing left to remove
     }
+    drop(guard);
     result.map_err(|e| e.with_path(path))
+}
+
+/// A temporary file removed when dropped unless it was renamed into place; either way it leaves
+/// the list of unfinished writes.
+struct TempFile<'a> {
+    path: &'a Path,
+    renamed: bool,
+}
+
+impl Drop for TempFile<'_> {
+    fn drop(&mut self) {
+        if !self.renamed {
+            let _ = std::fs::remove_file(self.path);
+        }
+        let mut unfinished = UNFINISHED.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(at) = unfinished.iter().position(|p| p == self.path) {
+            unfinished.swap_remove(at);
+        }
+    }
+}
+
+/// Opens `path` for reading if it is a regular file (after following links). A directory, FIFO,
+/// socket or device is refused with an error saying which: reading a FIFO blocks until a writer
+/// comes, a device may never end, and a directory cannot be read as a file. Errors name `path`.
+pub fn open_regular(path: &Path) -> Result<File> {
+    ensure_regular(path)?;
+    File::open(path).map_err(|e| Error::io(e).with_path(path))
+}
+
+/// Fails unless `path` is a regular file (after following links); see [`open_regular`].
+pub fn ensure_regular(path: &Path) -> Result<()> {
+    let meta = std::fs::metadata(path).map_err(|e| Error::io(e).with_path(path))?;
+    if meta.is_file() {
+        return Ok(());
+    }
+    let what = if meta.is_dir() {
+        "a directory"
+    } else {
+        special_kind(&meta)
+    };
+    Err(Error::invalid(format!("is {what}, not a regular file")).with_path(path))
+}
+
+#[cfg(unix)]
+fn special_kind(meta: &std::fs::Metadata) -> &'static str {
+    use std::os::unix::fs::FileTypeExt;
+    let t = meta.file_type();
+    if t.is_fifo() {
+        "a pipe or FIFO (reading it could wait forever for a writer)"
+    } else if t.is_socket() {
+        "a socket"
+    } else if t.is_char_device() || t.is_block_device() {
+        "a device"
+    } else {
+        "not a file"
+    }
+}
+
+#[cfg(not(unix))]
+fn special_kind(_: &std::fs::Metadata) -> &'static str {
+    "a special file"
 }
 
 #[cfg(test)]
@@ -77,6 +165,21 @@ mod tests {
         );
         write_atomic(&target, |w| Ok(w.write_all(b"new")?)).unwrap();
         assert_eq!(std::fs::read(&target).unwrap(), b"new");
+        // A panic inside the writer unwinds through the guard, which removes the temporary file.
+        let panicked = std::panic::catch_unwind(|| {
+            let _ = write_atomic(&target, |w| {
+                w.write_all(b"partial")?;
+                w.flush()?;
+                panic!("writer panics");
+            });
+        });
+        assert!(panicked.is_err());
+        assert_eq!(std::fs::read(&target).unwrap(), b"new");
+        assert_eq!(
+            std::fs::read_dir(&dir).unwrap().count(),
+            1,
+            "temporary file left behind by a panic"
+        );
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }

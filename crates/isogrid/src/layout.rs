@@ -54,6 +54,7 @@ impl Block {
         self.metacell_count as usize / CLUSTER_SLOTS
     }
     /// Range of slot indices this block owns.
+    #[inline]
     pub fn slots(&self) -> std::ops::Range<usize> {
         let start = self.metacell_pointer as usize;
         start..start + self.metacell_count as usize
@@ -79,6 +80,8 @@ pub struct Metacell {
 const _: () = assert!(size_of::<Metacell>() == 12);
 
 impl Metacell {
+    // Called per traced cell by the CPU tracer in `isogrid-trace`: inlined across the crate boundary.
+    #[inline]
     pub fn active_cells(&self) -> u32 {
         (self.cell_mask & 0xff).count_ones()
     }
@@ -90,6 +93,7 @@ impl Metacell {
         bytemuck::cast(*self)
     }
     /// Grid index of cell `bit` of this metacell.
+    #[inline]
     pub fn cell_position(&self, bit: u32) -> [u32; 3] {
         let p = self.position;
         [

@@ -6,6 +6,8 @@
 //! corner values so that rendering never needs the volume again.
 //!
 //! Data flows one way: [`Volume`] → [`extract`](fn@extract) → [`CellGrid`] → (file | renderer | tracer | stats).
+//! The ray tracers live in their own crates (`isogrid-trace` on the CPU, `isogrid-gpu`); the
+//! empty-space structures both read are here, in [`skip`].
 //!
 //! ```
 //! use isogrid::{extract, ExtractOptions, Iso, Volume, VolumeData};
@@ -22,10 +24,6 @@
 //! assert_eq!(grid.metacell_slots() % 16, 0);
 //! ```
 
-// `!(entry < exit)` is how the tracer's slab tests reject an empty interval and a NaN in one
-// comparison; `partial_cmp` would hide that behind a match.
-#![allow(clippy::neg_cmp_op_on_partial_ord)]
-
 pub mod camera;
 pub mod cgc;
 pub mod error;
@@ -35,11 +33,12 @@ pub mod generate;
 pub mod grid;
 pub mod layout;
 pub mod mc;
+pub mod memory;
 pub mod morton;
 pub mod quantize;
 pub mod shading;
+pub mod skip;
 pub mod stats;
-pub mod trace;
 pub mod volume;
 
 pub use camera::{Camera, Ray};

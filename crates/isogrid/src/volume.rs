@@ -138,13 +138,14 @@ impl<'a> Samples<'a> {
             Samples::F32(v) => v[index] as f64,
         }
     }
-    /// Smallest and largest sample, ignoring NaN; `None` when there is no finite sample.
+    /// Smallest and largest finite sample, ignoring NaN and ±∞ (an infinite sample would make
+    /// every normalised isovalue infinite); `None` when there is no finite sample.
     pub fn value_range(&self) -> Option<(f64, f64)> {
         fn range<T: Scalar>(v: &[T]) -> Option<(f64, f64)> {
             use rayon::prelude::*;
             v.par_chunks(1 << 16)
                 .filter_map(|chunk| {
-                    let mut it = chunk.iter().copied().filter(|x| x.partial_cmp(x).is_some()); // skip NaN
+                    let mut it = chunk.iter().copied().filter(|x| x.to_f64().is_finite());
                     let first = it.next()?;
                     let (lo, hi) = it.fold((first, first), |(lo, hi), x| {
                         (if x < lo { x } else { lo }, if x > hi { x } else { hi })
@@ -281,7 +282,7 @@ impl Volume {
         let [nx, ny, _] = self.geometry.dims;
         self.data.samples().get_f64(i + nx * (j + ny * k))
     }
-    /// Smallest and largest sample, ignoring NaN.
+    /// Smallest and largest finite sample (see [`Samples::value_range`]).
     pub fn value_range(&self) -> Option<(f64, f64)> {
         self.data.samples().value_range()
     }

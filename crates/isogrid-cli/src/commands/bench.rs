@@ -7,11 +7,12 @@
 
 use super::render::GridSource;
 use crate::args::{ThreadArgs, TraversalArg};
+use crate::outputs::{self, Output};
 use crate::report::print_json;
 use anyhow::{bail, Context, Result};
-use isogrid::trace::sample::{uniform_sphere, Rng};
-use isogrid::trace::{Crossing, GridTracer, Hit};
 use isogrid::{GridStats, Ray};
+use isogrid_trace::sample::{uniform_sphere, Rng};
+use isogrid_trace::{Crossing, GridTracer, Hit};
 use serde::Serialize;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -103,6 +104,7 @@ fn read_rays(path: &PathBuf) -> Result<Vec<Ray>> {
             path.display()
         );
     }
+    isogrid::fs::ensure_regular(path)?;
     let bytes = std::fs::read(path).with_context(|| format!("{}: cannot read", path.display()))?;
     let f = |b: &[u8]| f32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f64;
     let mut rays = Vec::with_capacity(bytes.len() / 24);
@@ -146,7 +148,37 @@ fn process_cpu_ns() -> Option<u64> {
     None
 }
 
+/// Checks the outputs and the memory the rays take before the grid is loaded.
+fn check_request(args: &RaysArgs) -> Result<()> {
+    let mut inputs = vec![args.source.input.as_path()];
+    inputs.extend(args.rays_file.as_deref());
+    let output = args.t_out.as_deref().map(|path| Output {
+        role: "the hit distances",
+        path,
+        extensions: &[".npy"],
+    });
+    outputs::check(&inputs, output.as_slice())?;
+    let (rays, file_bytes) = match &args.rays_file {
+        // A file that is not whole rays is refused by `read_rays`; here only its size matters.
+        Some(path) => match std::fs::metadata(path) {
+            Ok(m) => (m.len() / 24, m.len()),
+            Err(_) => return Ok(()),
+        },
+        None => (args.rays, 0),
+    };
+    let per_ray = std::mem::size_of::<Ray>()
+        + std::mem::size_of::<Option<Hit>>()
+        + if args.t_out.is_some() { 4 } else { 0 };
+    isogrid::memory::ensure_fits(
+        &format!("{rays} rays"),
+        rays.saturating_mul(per_ray as u64)
+            .saturating_add(file_bytes),
+    )?;
+    Ok(())
+}
+
 fn rays(args: RaysArgs) -> Result<()> {
+    check_request(&args)?;
     let grid = args.threads.install(|| args.source.load())??;
     let rays = match &args.rays_file {
         Some(path) => read_rays(path)?,

@@ -73,13 +73,24 @@ fn picture(
         isogrid_io::image::write_png(path, w, h, 4, &out.frame.rgba8)?;
         return Ok(("gpu", out.adapter));
     }
-    let options = isogrid::trace::RenderOptions::default();
-    let image = isogrid::trace::render(grid, &camera, &options)?;
+    let options = isogrid_trace::RenderOptions::default();
+    let image = isogrid_trace::render(grid, &camera, &options)?;
     isogrid_io::image::write_png(path, w, h, 3, &image.rgb8)?;
     Ok(("cpu", "CPU ray tracer (no GPU adapter)".to_string()))
 }
 
 pub fn run(args: Args) -> Result<()> {
+    let mut outs = vec![crate::outputs::Output {
+        role: "the picture",
+        path: &args.image,
+        extensions: &[".png"],
+    }];
+    outs.extend(args.output.as_deref().map(|path| crate::outputs::Output {
+        role: "the grid",
+        path,
+        extensions: &[".cgc"],
+    }));
+    crate::outputs::check(&[], &outs)?;
     let start = Instant::now();
     let volume = generate(args.field, args.size as usize, 1);
     let generated = start.elapsed().as_secs_f64();

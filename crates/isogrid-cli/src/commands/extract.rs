@@ -5,6 +5,7 @@
 //! ([`isogrid::extract::stream`]); the others are read whole first. Both give the same bytes.
 
 use crate::args::{parse_precision, parse_size, InputArgs, IsoArgs, ThreadArgs};
+use crate::outputs::{self, Output};
 use crate::report::{print_json, GridReport, Seconds};
 use crate::{input, progress};
 use anyhow::{Context, Result};
@@ -15,8 +16,8 @@ use std::time::Instant;
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// Volume: .nii/.nii.gz, .nrrd/.nhdr, .npy, .tif/.tiff, a folder of TIFF slices, a Zarr or
-    /// OME-Zarr store, a DICOM folder, or raw with --raw-shape.
+    /// Volume: .nii/.nii.gz, .nrrd/.nhdr, .npy, .tif/.tiff, .mha/.mhd, .mrc/.map, a folder of TIFF
+    /// slices, a Zarr or OME-Zarr store, a DICOM folder, or raw with --raw-shape.
     pub input: PathBuf,
     #[command(flatten)]
     pub iso: IsoArgs,
@@ -39,6 +40,12 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> Result<()> {
+    let output = args.output.as_deref().map(|path| Output {
+        role: "the grid",
+        path,
+        extensions: &[".cgc"],
+    });
+    outputs::check(&[&args.input], output.as_slice())?;
     let read_options = args.input_args.read_options()?;
     let options = ExtractOptions {
         iso: args.iso.iso(),

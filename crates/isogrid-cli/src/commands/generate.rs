@@ -1,5 +1,6 @@
 //! `isogrid generate`: built-in procedural volumes (8-bit, surface at normalised isovalue 0.5).
 
+use crate::outputs::{self, Output};
 use anyhow::Result;
 use isogrid::generate::{generate, Field};
 use std::path::PathBuf;
@@ -21,12 +22,22 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> Result<()> {
-    let start = Instant::now();
-    let volume = generate(args.field, args.size as usize, args.seed);
-    let seconds = start.elapsed().as_secs_f64();
     let output = args
         .output
         .unwrap_or_else(|| PathBuf::from(format!("{}-{}.nrrd", args.field, args.size)));
+    outputs::check(
+        &[],
+        &[Output {
+            role: "the volume",
+            path: &output,
+            extensions: &[".nrrd"],
+        }],
+    )?;
+    let n = args.size as u64;
+    isogrid::memory::ensure_fits(&format!("a {n}³ u8 volume"), n * n * n)?;
+    let start = Instant::now();
+    let volume = generate(args.field, args.size as usize, args.seed);
+    let seconds = start.elapsed().as_secs_f64();
     isogrid_io::write_nrrd(&output, &volume)?;
     println!(
         "{}: {}³ u8 in {seconds:.2} s, wrote {}",

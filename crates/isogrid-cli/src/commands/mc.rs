@@ -1,16 +1,18 @@
 //! `isogrid mc`: the Marching Cubes mesh the paper compares with (Table 3).
 
 use crate::args::{InputArgs, IsoArgs, ThreadArgs};
+use crate::outputs::{self, Output};
 use crate::report::{print_json, MeshReport, Seconds};
 use crate::{input, progress};
-use anyhow::{bail, Result};
+use anyhow::{bail, Context, Result};
 use isogrid::mc::{marching_cubes, McMesh};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// Volume: .nii/.nii.gz, .nrrd/.nhdr, .npy, .tif/.tiff, a DICOM folder, or raw with --raw-shape.
+    /// Volume: .nii/.nii.gz, .nrrd/.nhdr, .npy, .tif/.tiff, .mha/.mhd, .mrc/.map, a DICOM folder,
+    /// or raw with --raw-shape.
     pub input: PathBuf,
     #[command(flatten)]
     pub iso: IsoArgs,
@@ -41,20 +43,19 @@ pub fn write_mesh(mesh: &McMesh, path: &Path) -> Result<()> {
 }
 
 pub fn run(args: Args) -> Result<()> {
-    if let Some(out) = &args.output {
-        // Fail before the work, not after it.
-        if !matches!(
-            out.extension()
-                .and_then(|e| e.to_str())
-                .map(str::to_ascii_lowercase)
-                .as_deref(),
-            Some("ply" | "obj")
-        ) {
-            bail!("{}: mesh output must end in .ply or .obj", out.display());
-        }
-    }
+    // Fail before the work, not after it.
+    let output = args.output.as_deref().map(|path| Output {
+        role: "the mesh",
+        path,
+        extensions: &[".ply", ".obj"],
+    });
+    outputs::check(&[&args.input], output.as_slice())?;
     let (volume, read) = input::read_volume(&args.input, &args.input_args.read_options()?)?;
-    let iso = args.iso.iso().resolve(&volume.view())?;
+    let iso = args
+        .iso
+        .iso()
+        .resolve(&volume.view())
+        .with_context(|| args.input.display().to_string())?;
     let spinner = progress::spinner("marching cubes".into());
     let pool = args.threads.pool()?;
     let start = Instant::now();

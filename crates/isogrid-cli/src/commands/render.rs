@@ -5,13 +5,14 @@
 
 use super::render_gpu;
 use crate::args::{parse_precision, InputArgs, ThreadArgs, TraversalArg};
+use crate::outputs::{self, Output};
 use crate::report::print_json;
 use crate::{input, progress};
 use anyhow::{bail, Context, Result};
-use isogrid::trace::{
+use isogrid::{extract, Camera, CellGrid, ExtractOptions, Iso, Precision, Volume};
+use isogrid_trace::{
     render_with_progress, Crossing, Environment, PathTraceOptions, RenderOptions, Shading,
 };
-use isogrid::{extract, Camera, CellGrid, ExtractOptions, Iso, Precision, Volume};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -21,7 +22,7 @@ use std::time::Instant;
 #[group(required = false, multiple = false)]
 pub struct OptionalIso {
     /// Isovalue in data units: a sample is inside when value >= V.
-    #[arg(long, value_name = "V", allow_negative_numbers = true)]
+    #[arg(long, value_name = "V", allow_hyphen_values = true)]
     pub iso: Option<f64>,
     /// Isovalue as a fraction of the volume's value range (the paper uses 0.5).
     #[arg(long, value_name = "V")]
@@ -31,7 +32,8 @@ pub struct OptionalIso {
 /// Where the grid of a render or benchmark comes from.
 #[derive(clap::Args, Debug, Clone)]
 pub struct GridSource {
-    /// A .cgc file, or a volume (.nii/.nii.gz, .nrrd, .npy, .tif, DICOM folder, raw) to extract.
+    /// A .cgc file, or a volume (.nii/.nii.gz, .nrrd, .npy, .tif, .mha, .mrc, DICOM folder, raw) to
+    /// extract.
     pub input: PathBuf,
     #[command(flatten)]
     pub iso: OptionalIso,
@@ -60,6 +62,13 @@ impl GridSource {
             if self.iso.iso.is_some() || self.iso.iso_normalized.is_some() {
                 bail!(
                     "{}: a .cgc file has its isovalue already; drop --iso/--iso-normalized",
+                    self.input.display()
+                );
+            }
+            if self.precision.is_some() {
+                bail!(
+                    "{}: a .cgc file has its precision already; drop --precision \
+                     (or extract the volume again with it)",
                     self.input.display()
                 );
             }
@@ -250,11 +259,12 @@ fn parse_aovs(s: &str) -> Result<Aovs, String> {
 
 /// "1280x720" → (1280, 720).
 pub fn parse_size(s: &str) -> Result<(u32, u32), String> {
-    let bad = || format!("size must be WxH with positive integers, not {s:?}");
+    let max = isogrid_trace::render::MAX_PIXELS;
+    let bad = || format!("size must be WxH, positive integers with W·H at most {max}, not {s:?}");
     let (w, h) = s.split_once(['x', 'X']).ok_or_else(bad)?;
     let w: u32 = w.trim().parse().map_err(|_| bad())?;
     let h: u32 = h.trim().parse().map_err(|_| bad())?;
-    if w == 0 || h == 0 || w as u64 * h as u64 > isogrid::trace::render::MAX_PIXELS {
+    if w == 0 || h == 0 || w as u64 * h as u64 > max {
         return Err(bad());
     }
     Ok((w, h))
@@ -392,18 +402,53 @@ fn gpu_rendered(report: &mut RenderReport, out: render_gpu::GpuRender, frames: u
     }
 }
 
-pub fn run(args: Args) -> Result<()> {
-    // Check everything that does not need the data first.
-    if let Some(out) = &args.output {
-        if !out
-            .extension()
-            .and_then(|e| e.to_str())
-            .is_some_and(|e| e.eq_ignore_ascii_case("png"))
-        {
-            bail!("{}: the image output must end in .png", out.display());
+/// Host memory per pixel of a render, bytes: the CPU tracer keeps each pixel's primary hit
+/// (64), radiance (12), path-tracing sum (24), sRGB (3), depth (4), normal (12) and cluster (4),
+/// and the PNG encoder a row-filtered copy (4); the GPU read-back holds RGBA, depth, normal and
+/// cluster (24) and their staging copies.
+const BYTES_PER_PIXEL: u64 = 128;
+
+/// The files `args` writes, checked against each other and the inputs before any work.
+fn check_outputs(args: &Args) -> Result<()> {
+    let mut outs = Vec::new();
+    if let Some(path) = &args.output {
+        outs.push(Output {
+            role: "the image",
+            path,
+            extensions: &[".png"],
+        });
+    }
+    if let Some(aovs) = &args.aov {
+        for (role, path) in [
+            ("the depth AOV", &aovs.depth),
+            ("the normal AOV", &aovs.normal),
+            ("the cluster AOV", &aovs.cluster),
+        ] {
+            if let Some(path) = path {
+                outs.push(Output {
+                    role,
+                    path,
+                    extensions: &[".npy"],
+                });
+            }
         }
     }
+    let env = Path::new(&args.env);
+    let mut inputs = vec![args.source.input.as_path()];
+    if args.mode == Mode::Pathtrace && !args.env.eq_ignore_ascii_case("sky") {
+        inputs.push(env);
+    }
+    outputs::check(&inputs, &outs)
+}
+
+pub fn run(args: Args) -> Result<()> {
+    // Check everything that does not need the data first.
+    check_outputs(&args)?;
     let (width, height) = args.size;
+    isogrid::memory::ensure_fits(
+        &format!("a {width}x{height} render"),
+        width as u64 * height as u64 * BYTES_PER_PIXEL,
+    )?;
     if let Some(spec) = &args.camera {
         Camera::parse(spec, width, height)?;
     }

@@ -69,7 +69,7 @@ pub fn path_trace(
     camera: &Camera,
     frames: u32,
     bounces: u32,
-    env: Option<&isogrid::trace::EnvMap>,
+    env: Option<&isogrid_trace::EnvMap>,
     primary: isogrid_gpu::PrimaryRays,
 ) -> Result<GpuRender> {
     let gpu_grid = renderer.upload_grid(grid).map_err(isogrid::Error::from)?;

@@ -15,7 +15,7 @@ pub struct Args {
     #[arg(
         long,
         value_name = "V",
-        allow_negative_numbers = true,
+        allow_hyphen_values = true,
         conflicts_with = "iso_normalized"
     )]
     pub iso: Option<f64>,
@@ -60,6 +60,17 @@ pub fn run(args: Args) -> Result<()> {
         bail!("--frames needs an INPUT to render");
     }
     let mode: ViewMode = args.mode.parse()?;
+    if let Some(path) = &args.screenshot {
+        let inputs: Vec<&std::path::Path> = args.input.as_deref().into_iter().collect();
+        crate::outputs::check(
+            &inputs,
+            &[crate::outputs::Output {
+                role: "the screenshot",
+                path,
+                extensions: &[".png"],
+            }],
+        )?;
+    }
     isogrid_viewer::run(ViewerOptions {
         input: args.input,
         read_options: args.input_args.read_options()?,

@@ -1,8 +1,9 @@
 //! `isogrid voxelize`: triangle mesh → 8-bit coverage volume (paper §4: solid voxelisation at 3×
 //! the target resolution, averaged down).
 
+use crate::outputs::{self, Output};
 use crate::progress;
-use anyhow::Result;
+use anyhow::{Context, Result};
 use isogrid_io::voxelize::{voxelize, VoxelizeOptions};
 use std::path::PathBuf;
 use std::time::Instant;
@@ -26,6 +27,18 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> Result<()> {
+    let output = args
+        .output
+        .clone()
+        .unwrap_or_else(|| default_output(&args.mesh));
+    outputs::check(
+        &[&args.mesh],
+        &[Output {
+            role: "the volume",
+            path: &output,
+            extensions: &[".nrrd"],
+        }],
+    )?;
     let start = Instant::now();
     let spinner = progress::spinner(format!("reading {}", args.mesh.display()));
     let mesh = isogrid_io::mesh::read_mesh(&args.mesh)?;
@@ -42,13 +55,10 @@ pub fn run(args: Args) -> Result<()> {
     let volume = voxelize(&mesh, &options, &|done, total| {
         bar.set_length(total);
         bar.set_position(done);
-    })?;
+    })
+    .with_context(|| args.mesh.display().to_string())?;
     bar.finish_and_clear();
     let seconds = start.elapsed().as_secs_f64();
-    let output = args
-        .output
-        .clone()
-        .unwrap_or_else(|| default_output(&args.mesh));
     isogrid_io::write_nrrd(&output, &volume)?;
     let [x, y, z] = volume.dims();
     println!(

@@ -1,14 +1,11 @@
 //! How a trace pass binds a grid (paper §3.6): its uniforms, its blocks and its pages, one page
-//! as the raster passes bind it or up to six at once behind a page table; and the small buffers
-//! every trace call makes.
+//! as the raster passes bind it or up to six at once behind a page table.
 
-use super::trace_pipelines::TraceEntryPoints;
+use super::trace_pipelines::{TraceEntryPoints, TracePipelines};
 use crate::error::GpuError;
 use crate::gpu_types::{TracePages, TraceUniforms, TRACE_PAGES};
-use crate::render::buffer_entry;
-use crate::upload::GpuGrid;
-use crate::Renderer;
-use wgpu::util::DeviceExt;
+use crate::upload::{GpuGrid, Page};
+use crate::wgpu_util::{buffer_entry, Gpu};
 
 /// Secondary rays start this far (in cells of the smallest spacing) off the surface along the
 /// normal, well above the raster's and the tracer's crossing error (≈ 1e-4 cell after bisection).
@@ -21,163 +18,130 @@ pub(super) struct TraceBinding {
     pub(super) entry: TraceEntryPoints,
 }
 
-impl Renderer {
-    pub(super) fn uniform_buffer(&self, label: &str, contents: &[u8]) -> wgpu::Buffer {
-        self.device
-            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some(label),
-                contents,
-                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            })
+/// The trace uniforms of `grid` with `bounces` and `albedo`; sample 0, the built-in sky.
+pub(super) fn trace_uniforms(grid: &GpuGrid, bounces: u32, albedo: [f32; 3]) -> TraceUniforms {
+    let info = &grid.info;
+    let blocks = if grid.blocks.is_some() {
+        info.block_dims()
+    } else {
+        [0; 3]
+    };
+    let cells = info.cell_dims();
+    let offset = RAY_OFFSET_CELLS * info.spacing.iter().cloned().fold(f64::INFINITY, f64::min);
+    TraceUniforms {
+        block_dims: [blocks[0], blocks[1], blocks[2], bounces],
+        cell_dims: [
+            cells[0] as f32,
+            cells[1] as f32,
+            cells[2] as f32,
+            offset as f32,
+        ],
+        albedo: [albedo[0], albedo[1], albedo[2], 0.0],
+        sample: [0; 4],
     }
+}
 
-    pub(super) fn readback_buffer(&self, label: &str, size: u64) -> wgpu::Buffer {
-        self.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some(label),
-            size,
-            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+/// Bind groups 0 (uniforms, blocks) and 1 (the pages) of the trace passes and the pipelines
+/// for them: a grid of one page (or none) binds it as the raster passes do; a paged grid binds
+/// all its pages at once with a page table (`shaders/trace_pages.wgsl`). A grid without
+/// blocks or pages binds small dummies that the shader never reads (it sees no blocks).
+pub(super) fn trace_binding(
+    gpu: &Gpu,
+    t: &TracePipelines,
+    grid: &GpuGrid,
+    frame: &wgpu::Buffer,
+    uniforms: &wgpu::Buffer,
+) -> Result<TraceBinding, GpuError> {
+    let dummy = || {
+        gpu.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("unused trace data"),
+            size: 16,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::UNIFORM,
             mapped_at_creation: false,
         })
-    }
-
-    pub(super) fn trace_uniforms(
-        &self,
-        grid: &GpuGrid,
-        bounces: u32,
-        albedo: [f32; 3],
-    ) -> TraceUniforms {
-        let info = &grid.info;
-        let blocks = if grid.blocks.is_some() {
-            info.block_dims()
-        } else {
-            [0; 3]
+    };
+    let blocks = grid.blocks.clone().unwrap_or_else(dummy);
+    let group0 = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("trace grid"),
+        layout: &t.grid,
+        entries: &[
+            buffer_entry(0, frame),
+            buffer_entry(1, uniforms),
+            buffer_entry(3, &blocks),
+        ],
+    });
+    if grid.pages.len() <= 1 {
+        let (page_uniforms, metacells, cells) = match grid.pages.first() {
+            Some(p) => (p.uniforms.clone(), p.metacells.clone(), p.cells.clone()),
+            None => (dummy(), dummy(), dummy()),
         };
-        let cells = info.cell_dims();
-        let offset = RAY_OFFSET_CELLS * info.spacing.iter().cloned().fold(f64::INFINITY, f64::min);
-        TraceUniforms {
-            block_dims: [blocks[0], blocks[1], blocks[2], bounces],
-            cell_dims: [
-                cells[0] as f32,
-                cells[1] as f32,
-                cells[2] as f32,
-                offset as f32,
-            ],
-            albedo: [albedo[0], albedo[1], albedo[2], 0.0],
-            sample: [0; 4],
-        }
-    }
-
-    /// The device's largest storage binding: the limit for buffers that are not grid pages (the
-    /// test hook `set_page_bytes` shrinks only pages).
-    pub(super) fn binding_limit(&self) -> u64 {
-        self.limits
-            .max_storage_buffer_binding_size
-            .min(self.limits.max_buffer_size)
-    }
-
-    /// Bind groups 0 (uniforms, blocks) and 1 (the pages) of the trace passes and the pipelines
-    /// for them: a grid of one page (or none) binds it as the raster passes do; a paged grid binds
-    /// all its pages at once with a page table (`shaders/trace_pages.wgsl`). A grid without
-    /// blocks or pages binds small dummies that the shader never reads (it sees no blocks).
-    pub(super) fn trace_binding(
-        &self,
-        grid: &GpuGrid,
-        frame: &wgpu::Buffer,
-        uniforms: &wgpu::Buffer,
-    ) -> Result<TraceBinding, GpuError> {
-        let dummy = || {
-            self.device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("unused trace data"),
-                size: 16,
-                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::UNIFORM,
-                mapped_at_creation: false,
-            })
-        };
-        let t = &self.pipelines.trace;
-        let blocks = grid.blocks.clone().unwrap_or_else(dummy);
-        let group0 = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("trace grid"),
-            layout: &t.grid,
+        let group1 = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("trace page"),
+            layout: &t.page,
             entries: &[
-                buffer_entry(0, frame),
-                buffer_entry(1, uniforms),
-                buffer_entry(3, &blocks),
+                buffer_entry(0, &page_uniforms),
+                buffer_entry(1, &metacells),
+                buffer_entry(2, &cells),
             ],
         });
-        if grid.pages.len() <= 1 {
-            let (page_uniforms, metacells, cells) = match grid.pages.first() {
-                Some(p) => (p.uniforms.clone(), p.metacells.clone(), p.cells.clone()),
-                None => (dummy(), dummy(), dummy()),
-            };
-            let group1 = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("trace page"),
-                layout: &t.page,
-                entries: &[
-                    buffer_entry(0, &page_uniforms),
-                    buffer_entry(1, &metacells),
-                    buffer_entry(2, &cells),
-                ],
-            });
-            return Ok(TraceBinding {
-                groups: [group0, group1],
-                entry: t.one_page.clone(),
-            });
-        }
-        let largest = grid
-            .pages
-            .iter()
-            .map(|p| p.metacells.size().max(p.cells.size()))
-            .max()
-            .unwrap_or(0);
-        if grid.pages.len() > TRACE_PAGES {
-            return Err(GpuError::too_large(format!(
-                "ray tracing binds at most {TRACE_PAGES} pages of a grid at once, but this one was \
+        return Ok(TraceBinding {
+            groups: [group0, group1],
+            entry: t.one_page.clone(),
+        });
+    }
+    let largest = grid
+        .pages
+        .iter()
+        .map(|p| p.metacells.size().max(p.cells.size()))
+        .max()
+        .unwrap_or(0);
+    if grid.pages.len() > TRACE_PAGES {
+        return Err(GpuError::too_large(format!(
+            "ray tracing binds at most {TRACE_PAGES} pages of a grid at once, but this one was \
                  split into {} pages (storage bindings of up to {largest} bytes, {} active cells); \
                  it can only be rasterised",
-                grid.pages.len(),
-                grid.active_cells()
-            )));
-        }
-        let needed = 2 * TRACE_PAGES as u32 + 3;
-        let allowed = self.limits.max_storage_buffers_per_shader_stage;
-        if allowed < needed {
-            return Err(GpuError::too_large(format!(
-                "ray tracing a grid of {} pages binds {needed} storage buffers per shader stage, \
-                 but the device allows {allowed}; it can only be rasterised",
-                grid.pages.len()
-            )));
-        }
-        let mut table = TracePages {
-            count: [grid.pages.len() as u32, 0, 0, 0],
-            first_slot: [[0; 4]; 2],
-            first_cell: [[0; 4]; 2],
-        };
-        for (i, page) in grid.pages.iter().enumerate() {
-            table.first_slot[i / 4][i % 4] = page.first_slot;
-            table.first_cell[i / 4][i % 4] = page.first_cell;
-        }
-        let table = self.uniform_buffer("trace page table", bytemuck::bytes_of(&table));
-        let unused = dummy();
-        let page_buffer = |i: usize, pick: fn(&crate::upload::Page) -> &wgpu::Buffer| {
-            grid.pages.get(i).map_or(&unused, pick)
-        };
-        let mut entries = vec![buffer_entry(0, &table)];
-        for i in 0..TRACE_PAGES {
-            entries.push(buffer_entry(1 + i as u32, page_buffer(i, |p| &p.metacells)));
-            entries.push(buffer_entry(
-                1 + (TRACE_PAGES + i) as u32,
-                page_buffer(i, |p| &p.cells),
-            ));
-        }
-        let paged = t.paged(&self.device);
-        let group1 = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("trace pages"),
-            layout: &paged.pages,
-            entries: &entries,
-        });
-        Ok(TraceBinding {
-            groups: [group0, group1],
-            entry: paged.entry.clone(),
-        })
+            grid.pages.len(),
+            grid.active_cells()
+        )));
     }
+    let needed = 2 * TRACE_PAGES as u32 + 3;
+    let allowed = gpu.limits.max_storage_buffers_per_shader_stage;
+    if allowed < needed {
+        return Err(GpuError::too_large(format!(
+            "ray tracing a grid of {} pages binds {needed} storage buffers per shader stage, \
+                 but the device allows {allowed}; it can only be rasterised",
+            grid.pages.len()
+        )));
+    }
+    let mut table = TracePages {
+        count: [grid.pages.len() as u32, 0, 0, 0],
+        first_slot: [[0; 4]; 2],
+        first_cell: [[0; 4]; 2],
+    };
+    for (i, page) in grid.pages.iter().enumerate() {
+        table.first_slot[i / 4][i % 4] = page.first_slot;
+        table.first_cell[i / 4][i % 4] = page.first_cell;
+    }
+    let table = gpu.uniform_buffer("trace page table", bytemuck::bytes_of(&table));
+    let unused = dummy();
+    let page_buffer =
+        |i: usize, pick: fn(&Page) -> &wgpu::Buffer| grid.pages.get(i).map_or(&unused, pick);
+    let mut entries = vec![buffer_entry(0, &table)];
+    for i in 0..TRACE_PAGES {
+        entries.push(buffer_entry(1 + i as u32, page_buffer(i, |p| &p.metacells)));
+        entries.push(buffer_entry(
+            1 + (TRACE_PAGES + i) as u32,
+            page_buffer(i, |p| &p.cells),
+        ));
+    }
+    let paged = t.paged(&gpu.device);
+    let group1 = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("trace pages"),
+        layout: &paged.pages,
+        entries: &entries,
+    });
+    Ok(TraceBinding {
+        groups: [group0, group1],
+        entry: paged.entry.clone(),
+    })
 }

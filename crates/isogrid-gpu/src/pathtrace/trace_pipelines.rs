@@ -3,9 +3,10 @@
 //! bound as several pages.
 
 use crate::gpu_types::TRACE_PAGES;
-use crate::pipelines::{
-    compute, layout, module, pipeline_layout, storage, texture, uniform, CELL_DATA, COLOR_FORMAT,
-    COMMON, D2, FINAL_FORMAT, FLOAT, IDS_FORMAT, TRACE_PAGES_DATA,
+use crate::shaders::{CELL_DATA, COMMON, TRACE_PAGES_DATA};
+use crate::targets::{COLOR_FORMAT, FINAL_FORMAT, IDS_FORMAT};
+use crate::wgpu_util::{
+    compute, layout, module, pipeline_layout, storage, texture, uniform, written_texture, D2, FLOAT,
 };
 use std::sync::{Arc, OnceLock};
 
@@ -140,20 +141,6 @@ impl TracePipelines {
             );
             PagedTrace { pages, entry }
         })
-    }
-}
-
-/// A write-only storage texture of the compute stage.
-fn written_texture(binding: u32, format: wgpu::TextureFormat) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::StorageTexture {
-            access: wgpu::StorageTextureAccess::WriteOnly,
-            format,
-            view_dimension: D2,
-        },
-        count: None,
     }
 }
 

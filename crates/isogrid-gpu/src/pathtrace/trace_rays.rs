@@ -1,15 +1,16 @@
 //! Tracing caller-given rays on the GPU (paper §3.6): the path tracer's secondary-ray traversal
 //! run on a list of world-space rays, returning each one's nearest isosurface crossing.
 
+use super::binding::{trace_binding, trace_uniforms};
+use super::trace_pipelines::TracePipelines;
 use crate::error::GpuError;
 use crate::gpu_types::{FrameUniforms, SOURCE_RECORDS};
-use crate::render::{buffer_entry, dispatch_size};
 use crate::upload::GpuGrid;
-use crate::Renderer;
+use crate::wgpu_util::{buffer_entry, dispatch_size, Gpu};
 use isogrid::Ray;
 use wgpu::util::DeviceExt;
 
-/// The nearest crossing of a ray with the isosurface ([`Renderer::trace_rays`]).
+/// The nearest crossing of a ray with the isosurface ([`crate::Renderer::trace_rays`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RayHit {
     /// World distance along the unit ray direction.
@@ -18,116 +19,108 @@ pub struct RayHit {
     pub normal: [f32; 3],
 }
 
-impl Renderer {
-    /// Traces world-space rays (any non-zero direction length; t is measured along the unit
-    /// direction from t = 0) through the grid's hierarchy on the GPU and returns the nearest
-    /// isosurface crossing of each, as the path tracer's secondary rays find them.
-    ///
-    /// A grid split into pages (larger than one storage binding) is traced with all its pages
-    /// bound at once, which works for up to six pages and on devices with at least 15 storage
-    /// buffers per shader stage; otherwise this and [`Renderer::path_trace`] fail with
-    /// [`crate::GpuErrorKind::TooLarge`] naming the numbers.
-    pub fn trace_rays(
-        &self,
-        grid: &GpuGrid,
-        rays: &[Ray],
-    ) -> Result<Vec<Option<RayHit>>, GpuError> {
-        if rays.is_empty() {
-            return Ok(Vec::new());
-        }
-        let mut packed = Vec::with_capacity(rays.len() * 8);
-        for (i, ray) in rays.iter().enumerate() {
-            let len = ray.direction.iter().map(|v| v * v).sum::<f64>().sqrt();
-            let finite = ray
-                .origin
-                .iter()
-                .chain(&ray.direction)
-                .all(|v| v.is_finite());
-            if !finite || !len.is_finite() || len == 0.0 {
-                return Err(GpuError::invalid(format!(
-                    "ray {i} has a non-finite origin or a zero or non-finite direction"
-                )));
-            }
-            packed.extend(ray.origin.map(|v| v as f32));
-            packed.push(0.0);
-            packed.extend(ray.direction.map(|v| (v / len) as f32));
-            packed.push(f32::MAX);
-        }
-        let ray_bytes = packed.len() as u64 * 4;
-        if ray_bytes > self.binding_limit() {
-            return Err(GpuError::too_large(format!(
-                "{} rays need {ray_bytes} bytes, more than one storage binding holds ({} bytes)",
-                rays.len(),
-                self.binding_limit()
+/// Traces world-space rays through the grid's hierarchy (see [`crate::Renderer::trace_rays`]).
+pub(crate) fn trace_ray_batch(
+    gpu: &Gpu,
+    t: &TracePipelines,
+    grid: &GpuGrid,
+    rays: &[Ray],
+) -> Result<Vec<Option<RayHit>>, GpuError> {
+    if rays.is_empty() {
+        return Ok(Vec::new());
+    }
+    let mut packed = Vec::with_capacity(rays.len() * 8);
+    for (i, ray) in rays.iter().enumerate() {
+        let len = ray.direction.iter().map(|v| v * v).sum::<f64>().sqrt();
+        let finite = ray
+            .origin
+            .iter()
+            .chain(&ray.direction)
+            .all(|v| v.is_finite());
+        if !finite || !len.is_finite() || len == 0.0 {
+            return Err(GpuError::invalid(format!(
+                "ray {i} has a non-finite origin or a zero or non-finite direction"
             )));
         }
-        self.scoped("tracing rays", || {
-            let frame = FrameUniforms {
-                eye: [0.0; 4],
-                right: [1.0, 0.0, 0.0, 1.0],
-                up: [0.0, 1.0, 0.0, 1.0],
-                forward: [0.0, 0.0, -1.0, 0.0],
-                viewport: [1.0; 4],
-                cell_to_world: spacing_and_iso(grid),
-                params: [grid.info.precision.bits(), SOURCE_RECORDS, 0, 0],
-            };
-            let frame = self.uniform_buffer("trace frame uniforms", bytemuck::bytes_of(&frame));
-            let mut uniforms = self.trace_uniforms(grid, 0, [0.0; 3]);
-            uniforms.sample[2] = rays.len() as u32;
-            let uniforms = self.uniform_buffer("trace uniforms", bytemuck::bytes_of(&uniforms));
-            let binding = self.trace_binding(grid, &frame, &uniforms)?;
-            let storage = wgpu::BufferUsages::STORAGE;
-            let ray_buffer = self
-                .device
-                .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                    label: Some("rays"),
-                    contents: bytemuck::cast_slice(&packed),
-                    usage: storage,
-                });
-            let hit_bytes = ray_bytes / 2;
-            let hits = self.device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("ray hits"),
-                size: hit_bytes,
-                usage: storage | wgpu::BufferUsages::COPY_SRC,
-                mapped_at_creation: false,
-            });
-            let readback = self.readback_buffer("ray hits readback", hit_bytes);
-            let io = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("trace rays io"),
-                layout: &self.pipelines.trace.ray_io,
-                entries: &[buffer_entry(4, &ray_buffer), buffer_entry(5, &hits)],
-            });
-            let mut encoder = self
-                .device
-                .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                    label: Some("trace rays"),
-                });
-            {
-                let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                    label: Some("trace rays"),
-                    timestamp_writes: None,
-                });
-                pass.set_pipeline(&binding.entry.trace_rays);
-                pass.set_bind_group(0, &binding.groups[0], &[]);
-                pass.set_bind_group(1, &binding.groups[1], &[]);
-                pass.set_bind_group(2, &io, &[]);
-                let (x, y) = dispatch_size(rays.len() as u32);
-                pass.dispatch_workgroups(x, y, 1);
-            }
-            encoder.copy_buffer_to_buffer(&hits, 0, &readback, 0, hit_bytes);
-            self.queue.submit([encoder.finish()]);
-            let hits: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&self.read_buffer(&readback)?);
-            Ok(hits
-                .iter()
-                .map(|h| {
-                    (h[3] < 1e38).then_some(RayHit {
-                        t: h[3],
-                        normal: [h[0], h[1], h[2]],
-                    })
-                })
-                .collect())
-        })
+        packed.extend(ray.origin.map(|v| v as f32));
+        packed.push(0.0);
+        packed.extend(ray.direction.map(|v| (v / len) as f32));
+        packed.push(f32::MAX);
     }
+    let ray_bytes = packed.len() as u64 * 4;
+    if ray_bytes > gpu.binding_limit() {
+        return Err(GpuError::too_large(format!(
+            "{} rays need {ray_bytes} bytes, more than one storage binding holds ({} bytes)",
+            rays.len(),
+            gpu.binding_limit()
+        )));
+    }
+    gpu.scoped("tracing rays", || {
+        let frame = FrameUniforms {
+            eye: [0.0; 4],
+            right: [1.0, 0.0, 0.0, 1.0],
+            up: [0.0, 1.0, 0.0, 1.0],
+            forward: [0.0, 0.0, -1.0, 0.0],
+            viewport: [1.0; 4],
+            cell_to_world: spacing_and_iso(grid),
+            params: [grid.info.precision.bits(), SOURCE_RECORDS, 0, 0],
+        };
+        let frame = gpu.uniform_buffer("trace frame uniforms", bytemuck::bytes_of(&frame));
+        let mut uniforms = trace_uniforms(grid, 0, [0.0; 3]);
+        uniforms.sample[2] = rays.len() as u32;
+        let uniforms = gpu.uniform_buffer("trace uniforms", bytemuck::bytes_of(&uniforms));
+        let binding = trace_binding(gpu, t, grid, &frame, &uniforms)?;
+        let storage = wgpu::BufferUsages::STORAGE;
+        let ray_buffer = gpu
+            .device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("rays"),
+                contents: bytemuck::cast_slice(&packed),
+                usage: storage,
+            });
+        let hit_bytes = ray_bytes / 2;
+        let hits = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("ray hits"),
+            size: hit_bytes,
+            usage: storage | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let readback = gpu.readback_buffer("ray hits readback", hit_bytes);
+        let io = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("trace rays io"),
+            layout: &t.ray_io,
+            entries: &[buffer_entry(4, &ray_buffer), buffer_entry(5, &hits)],
+        });
+        let mut encoder = gpu
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("trace rays"),
+            });
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("trace rays"),
+                timestamp_writes: None,
+            });
+            pass.set_pipeline(&binding.entry.trace_rays);
+            pass.set_bind_group(0, &binding.groups[0], &[]);
+            pass.set_bind_group(1, &binding.groups[1], &[]);
+            pass.set_bind_group(2, &io, &[]);
+            let (x, y) = dispatch_size(rays.len() as u32);
+            pass.dispatch_workgroups(x, y, 1);
+        }
+        encoder.copy_buffer_to_buffer(&hits, 0, &readback, 0, hit_bytes);
+        gpu.queue.submit([encoder.finish()]);
+        let hits: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&gpu.read_buffer(&readback)?);
+        Ok(hits
+            .iter()
+            .map(|h| {
+                (h[3] < 1e38).then_some(RayHit {
+                    t: h[3],
+                    normal: [h[0], h[1], h[2]],
+                })
+            })
+            .collect())
+    })
 }
 
 fn spacing_and_iso(grid: &GpuGrid) -> [f32; 4] {

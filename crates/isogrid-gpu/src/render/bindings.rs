@@ -1,42 +1,132 @@
-//! Small constructors the crate's passes share: bind-group entries, colour attachments and the
-//! workgroup grid of a one-thread-per-slot compute dispatch.
+//! The targets, buffers and bind groups one render call's passes bind, built once per call and
+//! shared by its frames; each pass builds its own groups from the targets.
 
-pub(crate) fn buffer_entry(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
-    wgpu::BindGroupEntry {
-        binding,
-        resource: buffer.as_entire_binding(),
-    }
+use super::plan::FramePlan;
+use crate::gpu_types::{FrameUniforms, PageDrawArgs};
+use crate::passes::{ComputeRasterGroups, RasterPasses, SceneGroups, SceneInputs};
+use crate::targets::Targets;
+use crate::view::Visibility;
+use crate::wgpu_util::{view, Gpu};
+use isogrid::Camera;
+
+/// The targets and everything else one render call's passes bind.
+pub(super) struct FrameBindings {
+    pub targets: Targets,
+    /// [`FrameUniforms`], rewritten before each frame.
+    pub uniforms: wgpu::Buffer,
+    /// Every list of a page's draw arguments empty; copied over them before the expansions.
+    pub args_template: wgpu::Buffer,
+    /// The compute splats' integer sums: 4 words per pixel, only when they run.
+    pub ewa_sum: wgpu::Buffer,
+    pub scene: SceneGroups,
+    pub depth_input: wgpu::BindGroup,
+    pub surface_input: wgpu::BindGroup,
+    pub compute_raster: ComputeRasterGroups,
+    pub ids_input: wgpu::BindGroup,
+    pub shade_inputs: wgpu::BindGroup,
+    /// Only the compute shading pass binds its outputs as storage (see [`Targets::new`]).
+    pub shade_outputs: Option<wgpu::BindGroup>,
 }
 
-pub(crate) fn texture_entry(binding: u32, view: &wgpu::TextureView) -> wgpu::BindGroupEntry<'_> {
-    wgpu::BindGroupEntry {
-        binding,
-        resource: wgpu::BindingResource::TextureView(view),
-    }
-}
-
-/// A colour attachment that is cleared to `clear`, or loaded where `None`, and stored.
-pub(super) fn color_attachment(
-    view: &wgpu::TextureView,
-    clear: Option<wgpu::Color>,
-) -> Option<wgpu::RenderPassColorAttachment<'_>> {
-    Some(wgpu::RenderPassColorAttachment {
-        view,
-        depth_slice: None,
-        resolve_target: None,
-        ops: wgpu::Operations {
-            load: match clear {
-                Some(c) => wgpu::LoadOp::Clear(c),
-                None => wgpu::LoadOp::Load,
+impl FrameBindings {
+    /// The targets of `camera`'s image size and the bind groups and buffers `plan`'s passes use,
+    /// with the view's `visibility` bits (`None` without a grid).
+    pub fn new(
+        gpu: &Gpu,
+        passes: &RasterPasses,
+        camera: &Camera,
+        plan: &FramePlan<'_>,
+        visibility: Option<&Visibility>,
+    ) -> FrameBindings {
+        let size = (camera.width, camera.height);
+        let targets = Targets::new(gpu, size, plan.traced || plan.compute_raster);
+        let uniforms = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("frame uniforms"),
+            size: std::mem::size_of::<FrameUniforms>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let dummy_storage = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("unused visibility bits"),
+            size: 16,
+            usage: wgpu::BufferUsages::STORAGE,
+            mapped_at_creation: false,
+        });
+        let dummy_volume = gpu.device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("unused volume"),
+            size: wgpu::Extent3d {
+                width: 1,
+                height: 1,
+                depth_or_array_layers: 1,
             },
-            store: wgpu::StoreOp::Store,
-        },
-    })
-}
-
-/// Workgroups (x, y) of 64 threads covering `slots` threads; y spills over the 65535 x limit.
-pub(crate) fn dispatch_size(slots: u32) -> (u32, u32) {
-    let groups = slots.div_ceil(64).max(1);
-    let x = groups.min(65535);
-    (x, groups.div_ceil(x))
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D3,
+            format: wgpu::TextureFormat::R32Float,
+            usage: wgpu::TextureUsages::TEXTURE_BINDING,
+            view_formats: &[],
+        });
+        let dummy_volume_view = view(&dummy_volume);
+        let (visible_last_frame, visible_new) = match visibility {
+            Some(v) => (&v.last_frame, &v.new),
+            None => (&dummy_storage, &dummy_storage),
+        };
+        let scene = passes.scene.bind(
+            gpu,
+            &SceneInputs {
+                uniforms: &uniforms,
+                visible_last_frame,
+                visible_new,
+                volume: plan.volume.map(|v| &v.view).unwrap_or(&dummy_volume_view),
+            },
+        );
+        // The compute passes' per-pixel words, full size only when those passes run.
+        let pixel_words = |label: &str, words: u64, used: bool| {
+            gpu.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: if used {
+                    4 * words * camera.width as u64 * camera.height as u64
+                } else {
+                    16
+                },
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            })
+        };
+        // Reversed-Z depth bits per pixel, row-major.
+        let raster_depth = pixel_words(
+            "compute raster depth (reversed-Z bits)",
+            1,
+            plan.compute_raster,
+        );
+        let ewa_sum = pixel_words("compute ewa sums", 4, plan.ewa && plan.compute_raster);
+        let compute_raster = passes.compute.bind(gpu, &targets, &raster_depth, &ewa_sum);
+        let shade_outputs = plan
+            .compute_raster
+            .then(|| passes.shading.bind_outputs(gpu, &targets));
+        let args_template = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("empty draw arguments"),
+            size: std::mem::size_of::<PageDrawArgs>() as u64,
+            usage: wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        gpu.queue.write_buffer(
+            &args_template,
+            0,
+            bytemuck::bytes_of(&PageDrawArgs::empty()),
+        );
+        FrameBindings {
+            depth_input: passes.hardware.bind_depth(gpu, &targets),
+            surface_input: passes.ewa.bind(gpu, &targets),
+            ids_input: passes.visibility.bind(gpu, &targets),
+            shade_inputs: passes.shading.bind_inputs(gpu, &targets),
+            targets,
+            uniforms,
+            args_template,
+            ewa_sum,
+            scene,
+            compute_raster,
+            shade_outputs,
+        }
+    }
 }

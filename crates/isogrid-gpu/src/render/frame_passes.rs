@@ -1,25 +1,27 @@
-//! Records one frame's passes (the sequence in the crate docs): cluster expansion and cell raster,
-//! hardware or compute, with probes and the newly visible clusters; EWA splats; the visibility
-//! update; deferred shading; or the MC mesh in place of the cells.
+//! Records one frame's passes in order (the sequence in the crate docs): cluster expansion and
+//! cell raster, hardware or compute, with probes and the newly visible clusters; EWA splats; the
+//! visibility update; deferred shading; or the MC mesh in place of the cells.
 
-use super::bindings::{color_attachment, dispatch_size};
+use super::bindings::FrameBindings;
 use super::plan::FramePlan;
-use super::targets::FrameBindings;
 use super::timings::{
     PassClock, TS_EWA, TS_EXPAND, TS_EXPAND_NEW, TS_PROBE, TS_RASTER, TS_RASTER_NEW, TS_SHADE,
     TS_VISIBILITY,
 };
-use crate::compute_raster::{ComputeRaster, RasterStep};
-use crate::gpu_types::{PageDrawArgs, LIST_FULL, LIST_NEW, LIST_PROBE};
-use crate::pipelines::Pipelines;
+use crate::gpu_types::{LIST_FULL, LIST_NEW, LIST_PROBE};
+use crate::passes::{ComputeRasterCall, RasterPasses, RasterStep};
 use crate::upload::{GpuGrid, GpuMesh};
+use crate::view::Visibility;
+use crate::wgpu_util::color_attachment;
 
 /// What the passes of every frame of one render call bind and time.
 pub(super) struct FramePasses<'a> {
-    pub pipelines: &'a Pipelines,
+    pub passes: &'a RasterPasses,
     pub plan: &'a FramePlan<'a>,
     pub bindings: &'a FrameBindings,
     pub clock: &'a PassClock<'a>,
+    /// The view's cluster visibility bits (with a grid).
+    pub visibility: Option<&'a Visibility>,
     /// Image size in pixels.
     pub size: (u32, u32),
 }
@@ -33,13 +35,13 @@ impl FramePasses<'_> {
         label: &str,
         ts: Option<wgpu::RenderPassTimestampWrites<'_>>,
     ) -> wgpu::RenderPass<'e> {
-        let b = self.bindings;
+        let t = &self.bindings.targets;
         encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
             label: Some(label),
             color_attachments: &[
-                color_attachment(&b.surface_view, Some(wgpu::Color::TRANSPARENT)),
+                color_attachment(&t.surface_view, Some(wgpu::Color::TRANSPARENT)),
                 color_attachment(
-                    &b.ids_view,
+                    &t.ids_view,
                     Some(wgpu::Color {
                         r: u32::MAX as f64,
                         g: u32::MAX as f64,
@@ -49,7 +51,7 @@ impl FramePasses<'_> {
                 ),
             ],
             depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                view: &b.depth_view,
+                view: &t.depth_view,
                 depth_ops: Some(wgpu::Operations {
                     load: wgpu::LoadOp::Clear(0.0),
                     store: wgpu::StoreOp::Store,
@@ -65,53 +67,26 @@ impl FramePasses<'_> {
     /// The MC baseline: the mesh in place of the cell raster.
     pub fn mesh(&self, encoder: &mut wgpu::CommandEncoder, m: &GpuMesh) {
         let mut pass = self.clear_targets(encoder, "mc mesh raster", self.clock.render(TS_RASTER));
-        if m.index_count > 0 {
-            pass.set_pipeline(&self.pipelines.mesh_pipeline);
-            pass.set_bind_group(0, &self.bindings.scene_render, &[]);
-            pass.set_bind_group(1, &m.bind_group, &[]);
-            pass.set_index_buffer(m.indices.slice(..), wgpu::IndexFormat::Uint32);
-            pass.draw_indexed(0..m.index_count, 0, 0..1);
-        }
+        self.passes
+            .mesh
+            .draw(&mut pass, &self.bindings.scene.render, m);
     }
 
-    fn compute_raster<'g>(&'g self, g: &'g GpuGrid) -> ComputeRaster<'g> {
+    fn compute_raster<'g>(&'g self, g: &'g GpuGrid) -> ComputeRasterCall<'g> {
         let b = self.bindings;
-        ComputeRaster {
-            pipelines: self.pipelines,
-            scene: &b.scene_compute,
-            targets: &b.raster_targets,
-            ewa_targets: &b.ewa_targets,
+        ComputeRasterCall {
+            raster: &self.passes.compute,
+            scene: &b.scene.compute,
+            groups: &b.compute_raster,
             pages: &g.pages,
             size: self.size,
-        }
-    }
-
-    /// Cell lists of every page from the clusters' visibility bits (`expand.wgsl`).
-    fn expand(
-        &self,
-        encoder: &mut wgpu::CommandEncoder,
-        label: &str,
-        pipeline: &wgpu::ComputePipeline,
-        slot: u32,
-        g: &GpuGrid,
-    ) {
-        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some(label),
-            timestamp_writes: self.clock.compute(slot),
-        });
-        pass.set_pipeline(pipeline);
-        pass.set_bind_group(0, &self.bindings.scene_compute, &[]);
-        for page in &g.pages {
-            pass.set_bind_group(1, &page.compute_group, &[]);
-            let (x, y) = dispatch_size(page.slot_count);
-            pass.dispatch_workgroups(x, y, 1);
         }
     }
 
     /// Expansion and raster of the clusters visible last frame, then with occlusion culling the
     /// probes, expansion of the newly visible clusters and their raster into the same targets.
     pub fn cull_and_raster(&self, encoder: &mut wgpu::CommandEncoder, g: &GpuGrid) {
-        let (p, b) = (self.pipelines, self.bindings);
+        let b = self.bindings;
         for page in &g.pages {
             encoder.copy_buffer_to_buffer(
                 &b.args_template,
@@ -121,19 +96,21 @@ impl FramePasses<'_> {
                 b.args_template.size(),
             );
         }
-        self.expand(
+        let expansion = &self.passes.expansion;
+        let scene = &b.scene.compute;
+        expansion.expand(
             encoder,
-            "expand visible clusters",
-            &p.expand_visible,
-            TS_EXPAND,
-            g,
+            false,
+            scene,
+            &g.pages,
+            self.clock.compute(TS_EXPAND),
         );
         let compute = self.compute_raster(g);
         self.raster_visible(encoder, g, &compute);
         if self.plan.occlusion {
             self.probe(encoder, g, &compute);
-            let label = "expand newly visible clusters";
-            self.expand(encoder, label, &p.expand_new, TS_EXPAND_NEW, g);
+            let ts = self.clock.compute(TS_EXPAND_NEW);
+            expansion.expand(encoder, true, scene, &g.pages, ts);
             self.raster_new(encoder, g, &compute);
         }
     }
@@ -142,11 +119,13 @@ impl FramePasses<'_> {
         &self,
         encoder: &mut wgpu::CommandEncoder,
         g: &GpuGrid,
-        compute: &ComputeRaster<'_>,
+        compute: &ComputeRasterCall<'_>,
     ) {
         let b = self.bindings;
         if self.plan.compute_raster {
-            compute.size_dispatches(encoder);
+            self.passes
+                .expansion
+                .size_dispatches(encoder, &b.scene.compute, &g.pages);
             // The clear is part of the timed raster, as the hardware path's load op is. A grid
             // without pages has nothing to bind for the compute clear, nor any cell to draw.
             let clear: &[RasterStep] = if g.pages.is_empty() {
@@ -165,16 +144,18 @@ impl FramePasses<'_> {
             compute.pass(encoder, "compute cell raster", ts, &steps);
         } else {
             let mut pass = self.clear_targets(encoder, "cell raster", self.clock.render(TS_RASTER));
-            pass.set_pipeline(&self.pipelines.cells);
-            pass.set_bind_group(0, &b.scene_render, &[]);
-            for page in &g.pages {
-                pass.set_bind_group(1, &page.render_groups[LIST_FULL as usize], &[]);
-                pass.draw_indirect(&page.args, PageDrawArgs::offset(LIST_FULL));
-            }
+            self.passes
+                .hardware
+                .draw_cells(&mut pass, &b.scene.render, &g.pages, LIST_FULL);
         }
     }
 
-    fn probe(&self, encoder: &mut wgpu::CommandEncoder, g: &GpuGrid, compute: &ComputeRaster<'_>) {
+    fn probe(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        g: &GpuGrid,
+        compute: &ComputeRasterCall<'_>,
+    ) {
         if self.plan.compute_raster {
             let probes = [RasterStep::Probe];
             let ts = self.clock.compute(TS_PROBE);
@@ -183,19 +164,19 @@ impl FramePasses<'_> {
             let b = self.bindings;
             let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                 label: Some("visibility probes"),
-                color_attachments: &[color_attachment(&b.ids_view, None)],
+                color_attachments: &[color_attachment(&b.targets.ids_view, None)],
                 depth_stencil_attachment: None,
                 timestamp_writes: self.clock.render(TS_PROBE),
                 occlusion_query_set: None,
                 multiview_mask: None,
             });
-            pass.set_pipeline(&self.pipelines.probe);
-            pass.set_bind_group(0, &b.scene_render, &[]);
-            pass.set_bind_group(2, &b.depth_input, &[]);
-            for page in &g.pages {
-                pass.set_bind_group(1, &page.render_groups[LIST_PROBE as usize], &[]);
-                pass.draw_indirect(&page.args, PageDrawArgs::offset(LIST_PROBE));
-            }
+            self.passes.hardware.draw_probes(
+                &mut pass,
+                &b.scene.render,
+                &b.depth_input,
+                &g.pages,
+                LIST_PROBE,
+            );
         }
     }
 
@@ -203,10 +184,13 @@ impl FramePasses<'_> {
         &self,
         encoder: &mut wgpu::CommandEncoder,
         g: &GpuGrid,
-        compute: &ComputeRaster<'_>,
+        compute: &ComputeRasterCall<'_>,
     ) {
+        let b = self.bindings;
         if self.plan.compute_raster {
-            compute.size_dispatches(encoder);
+            self.passes
+                .expansion
+                .size_dispatches(encoder, &b.scene.compute, &g.pages);
             let steps = [
                 RasterStep::DepthNew,
                 RasterStep::ResolveFull,
@@ -215,15 +199,15 @@ impl FramePasses<'_> {
             let label = "compute cell raster (newly visible) and resolve";
             compute.pass(encoder, label, self.clock.compute(TS_RASTER_NEW), &steps);
         } else {
-            let b = self.bindings;
+            let t = &b.targets;
             let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                 label: Some("cell raster (newly visible)"),
                 color_attachments: &[
-                    color_attachment(&b.surface_view, None),
-                    color_attachment(&b.ids_view, None),
+                    color_attachment(&t.surface_view, None),
+                    color_attachment(&t.ids_view, None),
                 ],
                 depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                    view: &b.depth_view,
+                    view: &t.depth_view,
                     depth_ops: Some(wgpu::Operations {
                         load: wgpu::LoadOp::Load,
                         store: wgpu::StoreOp::Store,
@@ -234,12 +218,9 @@ impl FramePasses<'_> {
                 occlusion_query_set: None,
                 multiview_mask: None,
             });
-            pass.set_pipeline(&self.pipelines.cells);
-            pass.set_bind_group(0, &b.scene_render, &[]);
-            for page in &g.pages {
-                pass.set_bind_group(1, &page.render_groups[LIST_NEW as usize], &[]);
-                pass.draw_indirect(&page.args, PageDrawArgs::offset(LIST_NEW));
-            }
+            self.passes
+                .hardware
+                .draw_cells(&mut pass, &b.scene.render, &g.pages, LIST_NEW);
         }
     }
 
@@ -266,7 +247,7 @@ impl FramePasses<'_> {
         let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
             label: Some("ewa normal splats"),
             color_attachments: &[color_attachment(
-                &b.ewa_view,
+                &b.targets.ewa_view,
                 Some(wgpu::Color::TRANSPARENT),
             )],
             depth_stencil_attachment: None,
@@ -279,20 +260,18 @@ impl FramePasses<'_> {
             multiview_mask: None,
         });
         if plan.ewa {
-            pass.set_pipeline(&self.pipelines.ewa);
-            pass.set_bind_group(0, &b.scene_render, &[]);
-            pass.set_bind_group(2, &b.surface_input, &[]);
             let lists: &[u64] = if plan.occlusion {
                 &[LIST_FULL, LIST_NEW]
             } else {
                 &[LIST_FULL]
             };
-            for page in &g.pages {
-                for &list in lists {
-                    pass.set_bind_group(1, &page.render_groups[list as usize], &[]);
-                    pass.draw_indirect(&page.args, PageDrawArgs::offset(list));
-                }
-            }
+            self.passes.ewa.draw(
+                &mut pass,
+                &b.scene.render,
+                &b.surface_input,
+                &g.pages,
+                lists,
+            );
         }
     }
 
@@ -301,7 +280,7 @@ impl FramePasses<'_> {
         encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
             label: Some("clear ewa target"),
             color_attachments: &[color_attachment(
-                &self.bindings.ewa_view,
+                &self.bindings.targets.ewa_view,
                 Some(wgpu::Color::TRANSPARENT),
             )],
             depth_stencil_attachment: None,
@@ -311,51 +290,50 @@ impl FramePasses<'_> {
         });
     }
 
-    /// Rebuilds the clusters' visibility bits from the cluster id target (occlusion culling).
-    pub fn visibility(&self, encoder: &mut wgpu::CommandEncoder, g: &GpuGrid) {
+    /// Rebuilds the view's cluster visibility bits from the cluster id target (occlusion culling).
+    pub fn visibility(&self, encoder: &mut wgpu::CommandEncoder) {
+        let Some(visibility) = self.visibility else {
+            return;
+        };
         let b = self.bindings;
-        encoder.clear_buffer(&g.visible_last_frame, 0, None);
-        encoder.clear_buffer(&g.visible_new, 0, None);
-        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some("visibility update"),
-            timestamp_writes: self.clock.compute(TS_VISIBILITY),
-        });
-        pass.set_pipeline(&self.pipelines.visibility);
-        pass.set_bind_group(0, &b.scene_compute, &[]);
-        pass.set_bind_group(1, &b.ids_input, &[]);
-        pass.dispatch_workgroups(self.size.0.div_ceil(8), self.size.1.div_ceil(8), 1);
+        self.passes.visibility.record(
+            encoder,
+            visibility,
+            &b.scene.compute,
+            &b.ids_input,
+            self.size,
+            self.clock.compute(TS_VISIBILITY),
+        );
     }
 
     /// Deferred shading into the colour and final normal targets: in a compute pass after the
     /// compute raster, else in a full-screen fragment pass; none with traced primaries.
     pub fn shade(&self, encoder: &mut wgpu::CommandEncoder) {
-        let (p, b) = (self.pipelines, self.bindings);
+        let b = self.bindings;
+        let shading = &self.passes.shading;
         if let Some(outputs) = &b.shade_outputs {
-            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("deferred shading (compute)"),
-                timestamp_writes: self.clock.compute(TS_SHADE),
-            });
-            pass.set_pipeline(&p.shade_compute);
-            pass.set_bind_group(0, &b.scene_compute, &[]);
-            pass.set_bind_group(1, &b.shade_inputs, &[]);
-            pass.set_bind_group(2, outputs, &[]);
-            pass.dispatch_workgroups(self.size.0.div_ceil(8), self.size.1.div_ceil(8), 1);
+            shading.record_compute(
+                encoder,
+                &b.scene.compute,
+                &b.shade_inputs,
+                outputs,
+                self.size,
+                self.clock.compute(TS_SHADE),
+            );
         } else if !self.plan.traced {
+            let t = &b.targets;
             let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                 label: Some("deferred shading"),
                 color_attachments: &[
-                    color_attachment(&b.color_view, Some(wgpu::Color::BLACK)),
-                    color_attachment(&b.final_view, Some(wgpu::Color::TRANSPARENT)),
+                    color_attachment(&t.color_view, Some(wgpu::Color::BLACK)),
+                    color_attachment(&t.final_view, Some(wgpu::Color::TRANSPARENT)),
                 ],
                 depth_stencil_attachment: None,
                 timestamp_writes: self.clock.render(TS_SHADE),
                 occlusion_query_set: None,
                 multiview_mask: None,
             });
-            pass.set_pipeline(&p.shade);
-            pass.set_bind_group(0, &b.scene_render, &[]);
-            pass.set_bind_group(1, &b.shade_inputs, &[]);
-            pass.draw(0..3, 0..1);
+            shading.draw(&mut pass, &b.scene.render, &b.shade_inputs);
         }
     }
 }

@@ -1,131 +1,178 @@
-//! Runs one render call: resets visibility on a new view, sets up the call's targets, bind
-//! groups and queries, records and submits each frame, and reads back the last one.
+//! Runs one render call: checks the request, finds or resets the view's visibility bits, sets up
+//! the call's targets, bind groups and queries, records and submits each frame, and reads back
+//! the last one.
 
+use super::bindings::FrameBindings;
 use super::frame_passes::FramePasses;
 use super::plan::FramePlan;
-use super::timings::{PassClock, TS_TRACE};
-use super::{Frame, Mode};
+use super::readback::Readbacks;
+use super::timings::{read_timings, PassClock, Timestamps, TS_TRACE};
+use super::uniforms::frame_uniforms;
 use crate::error::GpuError;
-use crate::pathtrace::PathTraceOptions;
-use crate::Renderer;
+use crate::options::{Mode, PathTraceOptions, RenderOptions};
+use crate::output::Frame;
+use crate::passes::RasterPasses;
+use crate::pathtrace::{PathTracePass, TracePipelines};
+use crate::upload::Scene;
+use crate::view::ViewState;
+use crate::wgpu_util::Gpu;
 use isogrid::Camera;
-use std::sync::atomic::Ordering;
 
-impl Renderer {
-    /// Visibility state belongs to one view; a new view starts with every cluster visible.
-    fn reset_visibility_for_view(
-        &self,
-        plan: &FramePlan<'_>,
-        camera: &Camera,
-        mode: Mode,
-    ) -> Result<(), GpuError> {
-        if let Some(g) = plan.grid {
+/// The device and the passes a render call records.
+pub(crate) struct FrameContext<'a> {
+    pub gpu: &'a Gpu,
+    pub passes: &'a RasterPasses,
+    pub tracer: &'a TracePipelines,
+}
+
+/// Renders `options.frames` frames of `camera`'s view of `scene` in `mode` with `view`'s state,
+/// path tracing with `path_trace` where given, and reads back the last frame.
+pub(crate) fn render(
+    ctx: &FrameContext<'_>,
+    view: &mut ViewState,
+    scene: Scene<'_>,
+    camera: &Camera,
+    mode: Mode,
+    options: &RenderOptions,
+    path_trace: Option<&PathTraceOptions>,
+) -> Result<Frame, GpuError> {
+    camera
+        .validate()
+        .map_err(|e| GpuError::invalid(e.to_string()))?;
+    let max = ctx.gpu.limits.max_texture_dimension_2d;
+    if camera.width > max || camera.height > max {
+        return Err(GpuError::too_large(format!(
+            "image {}x{} exceeds the device's largest texture ({max} per side)",
+            camera.width, camera.height
+        )));
+    }
+    let (grid, volume, mesh) = match (mode, scene) {
+        (
+            Mode::Cgc | Mode::CgcNoEwa | Mode::PathTrace,
+            Scene::Grid(g) | Scene::Volume { grid: g, .. },
+        ) => (Some(g), None, None),
+        (Mode::Cr, Scene::Volume { grid, volume }) => (Some(grid), Some(volume), None),
+        (Mode::Mc, Scene::Mesh(m)) => (None, None, Some(m)),
+        _ => {
+            return Err(GpuError::invalid(format!(
+                "mode {mode:?} needs {}",
+                match mode {
+                    Mode::Mc => "an uploaded mesh (Scene::Mesh)",
+                    Mode::Cr => "a grid and its volume (Scene::Volume)",
+                    _ => "an uploaded grid (Scene::Grid)",
+                }
+            )))
+        }
+    };
+    let plan = FramePlan::new((grid, volume, mesh), camera, mode, options, path_trace);
+    ctx.gpu.scoped("rendering", || {
+        render_unscoped(ctx, view, &plan, camera, mode, path_trace)
+    })
+}
+
+fn render_unscoped(
+    ctx: &FrameContext<'_>,
+    view: &mut ViewState,
+    plan: &FramePlan<'_>,
+    camera: &Camera,
+    mode: Mode,
+    path_trace: Option<&PathTraceOptions>,
+) -> Result<Frame, GpuError> {
+    let gpu = ctx.gpu;
+    let frames = plan.frames;
+    // Visibility state belongs to one view; a new view starts with every cluster visible.
+    let visibility = match plan.grid {
+        Some(g) => {
             let key = format!("{camera:?} {mode:?} {}", plan.flags);
-            let mut last = g
-                .last_view
-                .lock()
-                .map_err(|_| GpuError::device("visibility state poisoned"))?;
-            if last.as_deref() != Some(key.as_str()) {
-                let all = vec![0xffu8; g.visibility_bytes as usize];
-                self.queue.write_buffer(&g.visible_last_frame, 0, &all);
-                let none = vec![0u8; g.visibility_bytes as usize];
-                self.queue.write_buffer(&g.visible_new, 0, &none);
-                *last = Some(key);
+            Some(view.visibility_for(gpu, g, key)?)
+        }
+        None => None,
+    };
+    let bindings = FrameBindings::new(gpu, ctx.passes, camera, plan, visibility.as_ref());
+    let timestamps = Timestamps::new(gpu, frames);
+    let page_count = plan.grid.map_or(0, |g| g.pages.len()) as u64;
+    let readbacks = Readbacks::new(gpu, &bindings.targets, page_count);
+    let t = &bindings.targets;
+    let path_pass = match (path_trace, plan.grid) {
+        (Some(o), Some(g)) => Some(PathTracePass::prepare(
+            gpu,
+            ctx.tracer,
+            view,
+            g,
+            camera,
+            o,
+            [&t.final_normal, &t.color, &t.ids],
+            &bindings.uniforms,
+        )?),
+        _ => None,
+    };
+    let first_frame = match plan.grid {
+        Some(_) => view.take_frames(frames),
+        None => 0,
+    };
+    let clock = PassClock::new(timestamps.as_ref());
+    let passes = FramePasses {
+        passes: ctx.passes,
+        plan,
+        bindings: &bindings,
+        clock: &clock,
+        visibility: visibility.as_ref(),
+        size: (camera.width, camera.height),
+    };
+    for f in 0..frames {
+        let uniforms = frame_uniforms(
+            camera,
+            plan.grid,
+            plan.volume.is_some(),
+            plan.bounds,
+            plan.flags,
+            first_frame.wrapping_add(f),
+        );
+        gpu.queue
+            .write_buffer(&bindings.uniforms, 0, bytemuck::bytes_of(&uniforms));
+        let mut encoder = gpu
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("frame"),
+            });
+        clock.start_frame(f);
+        if let Some(m) = plan.mesh {
+            passes.mesh(&mut encoder, m);
+        }
+        if let Some(g) = plan.raster_grid {
+            passes.cull_and_raster(&mut encoder, g);
+            passes.ewa(&mut encoder, g);
+            if plan.occlusion {
+                passes.visibility(&mut encoder);
             }
         }
-        Ok(())
-    }
-
-    pub(super) fn render_unscoped(
-        &self,
-        plan: &FramePlan<'_>,
-        camera: &Camera,
-        mode: Mode,
-        path_trace: Option<&PathTraceOptions>,
-    ) -> Result<Frame, GpuError> {
-        let frames = plan.frames;
-        let bindings = self.frame_bindings(camera, plan);
-        self.reset_visibility_for_view(plan, camera, mode)?;
-        let timestamps = self.timestamps(frames);
-        let page_count = plan.grid.map_or(0, |g| g.pages.len()) as u64;
-        let readbacks = self.readbacks(&bindings.targets, page_count);
-        let t = &bindings.targets;
-        let path_pass = match (path_trace, plan.grid) {
-            (Some(o), Some(g)) => Some(self.prepare_path_trace(
-                g,
-                camera,
-                o,
-                [&t.final_normal, &t.color, &t.ids],
-                &bindings.uniforms,
-            )?),
-            _ => None,
-        };
-        let clock = PassClock::new(timestamps.as_ref());
-        let passes = FramePasses {
-            pipelines: &self.pipelines,
-            plan,
-            bindings: &bindings,
-            clock: &clock,
-            size: (camera.width, camera.height),
-        };
-        for f in 0..frames {
-            let frame_index = plan
-                .grid
-                .map_or(0, |g| g.frame_index.fetch_add(1, Ordering::Relaxed));
-            let uniforms = self.frame_uniforms(
-                camera,
-                plan.grid,
-                plan.volume.is_some(),
-                plan.bounds,
-                plan.flags,
-                frame_index,
+        if plan.grid.is_none() {
+            passes.clear_ewa(&mut encoder);
+        }
+        passes.shade(&mut encoder);
+        if let Some(pt) = &path_pass {
+            pt.encode(
+                gpu,
+                &mut encoder,
+                f,
+                clock.compute(TS_TRACE),
+                f + 1 == frames,
             );
-            self.queue
-                .write_buffer(&bindings.uniforms, 0, bytemuck::bytes_of(&uniforms));
-            let mut encoder = self
-                .device
-                .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                    label: Some("frame"),
-                });
-            clock.start_frame(f);
-            if let Some(m) = plan.mesh {
-                passes.mesh(&mut encoder, m);
-            }
-            if let Some(g) = plan.raster_grid {
-                passes.cull_and_raster(&mut encoder, g);
-                passes.ewa(&mut encoder, g);
-                if plan.occlusion {
-                    passes.visibility(&mut encoder, g);
-                }
-            }
-            if plan.grid.is_none() {
-                passes.clear_ewa(&mut encoder);
-            }
-            passes.shade(&mut encoder);
-            if let Some(pt) = &path_pass {
-                pt.encode(
-                    self,
-                    &mut encoder,
-                    f,
-                    clock.compute(TS_TRACE),
-                    f + 1 == frames,
-                );
-            }
-            if f + 1 == frames {
-                if let Some(t) = &timestamps {
-                    t.resolve(&mut encoder);
-                }
-                let pages = plan.raster_grid.map_or(&[][..], |g| &g.pages[..]);
-                readbacks.record(&mut encoder, pages);
-            }
-            self.queue.submit([encoder.finish()]);
         }
-
-        let timings = self.read_timings(timestamps.as_ref(), &clock)?;
-        let mut frame = readbacks.frame(self, timings, plan.occlusion, plan.cell_raster)?;
-        if let (Some(pt), Some(g)) = (path_pass, plan.grid) {
-            pt.finish(self, &mut frame, g, frames)?;
+        if f + 1 == frames {
+            if let Some(t) = &timestamps {
+                t.resolve(&mut encoder);
+            }
+            let pages = plan.raster_grid.map_or(&[][..], |g| &g.pages[..]);
+            readbacks.record(&mut encoder, pages);
         }
-        Ok(frame)
+        gpu.queue.submit([encoder.finish()]);
     }
+
+    let timings = read_timings(gpu, timestamps.as_ref(), &clock)?;
+    let mut frame = readbacks.frame(gpu, timings, plan.occlusion, plan.cell_raster)?;
+    if let Some(pt) = path_pass {
+        pt.finish(gpu, &mut frame, view, frames)?;
+    }
+    Ok(frame)
 }

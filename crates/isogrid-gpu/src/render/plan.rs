@@ -1,10 +1,8 @@
 //! Which passes a render call's frames run, decided once from the mode, the options, the scene
 //! and where the eye is.
 
-use super::{Mode, RenderOptions};
-use crate::compute_raster::CellRaster;
 use crate::gpu_types::{FLAG_BACKFACE, FLAG_EWA, FLAG_OCCLUSION};
-use crate::pathtrace::{PathTraceOptions, PrimaryRays};
+use crate::options::{CellRaster, Mode, PathTraceOptions, PrimaryRays, RenderOptions};
 use crate::upload::{GpuGrid, GpuMesh, GpuVolume};
 use isogrid::Camera;
 

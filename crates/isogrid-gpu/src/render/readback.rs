@@ -1,13 +1,13 @@
 //! Read-back of a render call's last frame: colour, final normal and cluster id targets and the
 //! pages' draw arguments are copied to mappable buffers, then unpacked into a [`Frame`].
 
-use super::targets::Targets;
-use super::{Frame, PassTimings};
-use crate::compute_raster::CellRaster;
 use crate::error::GpuError;
 use crate::gpu_types::{PageDrawArgs, LIST_FULL, LIST_NEW, LIST_PROBE};
+use crate::options::CellRaster;
+use crate::output::{Frame, PassTimings};
+use crate::targets::Targets;
 use crate::upload::Page;
-use crate::Renderer;
+use crate::wgpu_util::Gpu;
 
 /// Mappable copies of the AOV targets and of the draw arguments of every page.
 pub(super) struct Readbacks<'a> {
@@ -25,9 +25,9 @@ fn padded_row(width: u32, texel_bytes: u32) -> u32 {
 
 const ARGS_SIZE: u64 = std::mem::size_of::<PageDrawArgs>() as u64;
 
-impl Renderer {
+impl<'a> Readbacks<'a> {
     /// Read-back buffers for `targets` and the draw arguments of `page_count` pages.
-    pub(super) fn readbacks<'a>(&self, targets: &'a Targets, page_count: u64) -> Readbacks<'a> {
+    pub fn new(gpu: &Gpu, targets: &'a Targets, page_count: u64) -> Readbacks<'a> {
         let size = targets.color.size();
         let targets = [
             (&targets.color, 4u32, "colour readback"),
@@ -36,7 +36,7 @@ impl Renderer {
         ]
         .map(|(texture, texel, label)| {
             let row = padded_row(size.width, texel);
-            let buffer = self.device.create_buffer(&wgpu::BufferDescriptor {
+            let buffer = gpu.device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some(label),
                 size: row as u64 * size.height as u64,
                 usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
@@ -44,7 +44,7 @@ impl Renderer {
             });
             (texture, row, buffer)
         });
-        let args = self.device.create_buffer(&wgpu::BufferDescriptor {
+        let args = gpu.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("draw arguments readback"),
             size: (ARGS_SIZE * page_count).max(ARGS_SIZE),
             usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
@@ -55,27 +55,6 @@ impl Renderer {
             args,
             page_count,
         }
-    }
-
-    /// Maps a MAP_READ buffer and copies its bytes out.
-    pub(crate) fn read_buffer(&self, buffer: &wgpu::Buffer) -> Result<Vec<u8>, GpuError> {
-        let slice = buffer.slice(..);
-        let (tx, rx) = std::sync::mpsc::channel();
-        slice.map_async(wgpu::MapMode::Read, move |r| {
-            let _ = tx.send(r);
-        });
-        self.device
-            .poll(wgpu::PollType::wait_indefinitely())
-            .map_err(|e| GpuError::device(format!("waiting for the GPU: {e}")))?;
-        rx.recv()
-            .map_err(|_| GpuError::device("read-back was cancelled"))?
-            .map_err(|e| GpuError::device(format!("read-back failed: {e}")))?;
-        let bytes = slice
-            .get_mapped_range()
-            .map_err(|e| GpuError::device(format!("read-back failed: {e}")))?
-            .to_vec();
-        buffer.unmap();
-        Ok(bytes)
     }
 }
 
@@ -111,17 +90,16 @@ impl Readbacks<'_> {
     /// probed (the lists a frame with `occlusion` culling ran).
     pub fn frame(
         &self,
-        renderer: &Renderer,
+        gpu: &Gpu,
         timings: PassTimings,
         occlusion: bool,
         cell_raster: Option<CellRaster>,
     ) -> Result<Frame, GpuError> {
         let mut mapped = Vec::new();
         for (_, _, buffer) in &self.targets {
-            mapped.push(renderer.read_buffer(buffer)?);
+            mapped.push(gpu.read_buffer(buffer)?);
         }
-        let args: Vec<PageDrawArgs> =
-            bytemuck::pod_collect_to_vec(&renderer.read_buffer(&self.args)?);
+        let args: Vec<PageDrawArgs> = bytemuck::pod_collect_to_vec(&gpu.read_buffer(&self.args)?);
         let count = |list: u64| -> u64 {
             args.iter()
                 .take(self.page_count as usize)

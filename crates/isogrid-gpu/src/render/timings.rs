@@ -2,28 +2,9 @@
 //! per-pass medians over frames reported as [`PassTimings`].
 
 use crate::error::GpuError;
-use crate::Renderer;
+use crate::output::PassTimings;
+use crate::wgpu_util::Gpu;
 use std::cell::Cell;
-
-/// GPU time of the last frames' passes in milliseconds (median over frames after the first);
-/// `None` without timestamp queries or where the pass did not run.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct PassTimings {
-    /// Depth and G-buffer passes: cell raster (both visibility passes) plus EWA splatting, or the
-    /// MC mesh pass (the quantity of the paper's Table 4).
-    pub raster_ms: Option<f64>,
-    /// The EWA splatting pass alone; `raster_ms - ewa_ms` is the raster time without EWA.
-    pub ewa_ms: Option<f64>,
-    /// Deferred shading.
-    pub shade_ms: Option<f64>,
-    /// Culling work: cluster expansion (both), probes and the visibility update.
-    pub cull_ms: Option<f64>,
-    /// First to last timestamp of the frame.
-    pub frame_ms: Option<f64>,
-    /// The path tracing pass ([`crate::Mode::PathTrace`]): secondary rays (and primary ones with
-    /// [`crate::PrimaryRays::Traced`]), accumulation, tone mapping.
-    pub trace_ms: Option<f64>,
-}
 
 // Timestamp slots of one frame: begin/end of each pass.
 pub(super) const TS_EXPAND: u32 = 0;
@@ -110,24 +91,24 @@ impl<'q> PassClock<'q> {
     }
 }
 
-impl Renderer {
+impl Timestamps {
     /// Timestamp queries for the first frames of `frames`, where the device has them.
-    pub(super) fn timestamps(&self, frames: u32) -> Option<Timestamps> {
+    pub fn new(gpu: &Gpu, frames: u32) -> Option<Timestamps> {
         let timed_frames = frames.min(TIMED_FRAMES);
-        self.timestamps.then(|| {
+        gpu.timestamps.then(|| {
             let count = TS_PER_FRAME * timed_frames;
-            let set = self.device.create_query_set(&wgpu::QuerySetDescriptor {
+            let set = gpu.device.create_query_set(&wgpu::QuerySetDescriptor {
                 label: Some("pass timestamps"),
                 ty: wgpu::QueryType::Timestamp,
                 count,
             });
-            let resolve = self.device.create_buffer(&wgpu::BufferDescriptor {
+            let resolve = gpu.device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("timestamp resolve"),
                 size: 8 * count as u64,
                 usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
                 mapped_at_creation: false,
             });
-            let readback = self.device.create_buffer(&wgpu::BufferDescriptor {
+            let readback = gpu.device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("timestamp readback"),
                 size: 8 * count as u64,
                 usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
@@ -141,70 +122,75 @@ impl Renderer {
             }
         })
     }
+}
 
-    /// Reads the resolved timestamps back into per-pass medians; empty without timestamps.
-    pub(super) fn read_timings(
-        &self,
-        timestamps: Option<&Timestamps>,
-        clock: &PassClock<'_>,
-    ) -> Result<PassTimings, GpuError> {
-        Ok(match timestamps {
-            Some(t) => {
-                let ticks: Vec<u64> = bytemuck::pod_collect_to_vec(&self.read_buffer(&t.readback)?);
-                self.pass_timings(&ticks, t.frames, &clock.ran.get())
-            }
-            None => PassTimings::default(),
-        })
-    }
-
-    fn pass_timings(&self, ticks: &[u64], frames: u32, ran: &[bool; TIMED_PASSES]) -> PassTimings {
-        let period_ms = self.queue.get_timestamp_period() as f64 * 1e-6;
-        // Frames after the first (the first one draws every cluster), unless there is only one.
-        let frames: Vec<u32> = if frames > 1 {
-            (1..frames).collect()
-        } else {
-            vec![0]
-        };
-        let pass = |slot: u32, f: u32| -> Option<f64> {
-            if !ran[(slot / 2) as usize] {
-                return None;
-            }
-            let base = (f * TS_PER_FRAME + slot) as usize;
-            let (a, b) = (*ticks.get(base)?, *ticks.get(base + 1)?);
-            Some(b.saturating_sub(a) as f64 * period_ms)
-        };
-        let sum = |slots: &[u32]| -> Option<f64> {
-            let per_frame: Vec<f64> = frames
-                .iter()
-                .filter_map(|&f| {
-                    let times: Vec<f64> = slots.iter().filter_map(|&s| pass(s, f)).collect();
-                    (!times.is_empty()).then(|| times.iter().sum())
-                })
-                .collect();
-            median(per_frame)
-        };
-        let span = median(
-            frames
-                .iter()
-                .filter_map(|&f| {
-                    let ran_slots: Vec<u32> = (0..TIMED_PASSES as u32)
-                        .filter(|&i| ran[i as usize])
-                        .map(|i| 2 * i)
-                        .collect();
-                    let first = ticks.get((f * TS_PER_FRAME + *ran_slots.first()?) as usize)?;
-                    let last = ticks.get((f * TS_PER_FRAME + *ran_slots.last()? + 1) as usize)?;
-                    Some(last.saturating_sub(*first) as f64 * period_ms)
-                })
-                .collect(),
-        );
-        PassTimings {
-            raster_ms: sum(&[TS_RASTER, TS_RASTER_NEW, TS_EWA]),
-            ewa_ms: sum(&[TS_EWA]),
-            shade_ms: sum(&[TS_SHADE]),
-            cull_ms: sum(&[TS_EXPAND, TS_PROBE, TS_EXPAND_NEW, TS_VISIBILITY]),
-            frame_ms: span,
-            trace_ms: sum(&[TS_TRACE]),
+/// Reads the resolved timestamps back into per-pass medians; empty without timestamps.
+pub(super) fn read_timings(
+    gpu: &Gpu,
+    timestamps: Option<&Timestamps>,
+    clock: &PassClock<'_>,
+) -> Result<PassTimings, GpuError> {
+    Ok(match timestamps {
+        Some(t) => {
+            let ticks: Vec<u64> = bytemuck::pod_collect_to_vec(&gpu.read_buffer(&t.readback)?);
+            let period_ms = gpu.queue.get_timestamp_period() as f64 * 1e-6;
+            pass_timings(period_ms, &ticks, t.frames, &clock.ran.get())
         }
+        None => PassTimings::default(),
+    })
+}
+
+fn pass_timings(
+    period_ms: f64,
+    ticks: &[u64],
+    frames: u32,
+    ran: &[bool; TIMED_PASSES],
+) -> PassTimings {
+    // Frames after the first (the first one draws every cluster), unless there is only one.
+    let frames: Vec<u32> = if frames > 1 {
+        (1..frames).collect()
+    } else {
+        vec![0]
+    };
+    let pass = |slot: u32, f: u32| -> Option<f64> {
+        if !ran[(slot / 2) as usize] {
+            return None;
+        }
+        let base = (f * TS_PER_FRAME + slot) as usize;
+        let (a, b) = (*ticks.get(base)?, *ticks.get(base + 1)?);
+        Some(b.saturating_sub(a) as f64 * period_ms)
+    };
+    let sum = |slots: &[u32]| -> Option<f64> {
+        let per_frame: Vec<f64> = frames
+            .iter()
+            .filter_map(|&f| {
+                let times: Vec<f64> = slots.iter().filter_map(|&s| pass(s, f)).collect();
+                (!times.is_empty()).then(|| times.iter().sum())
+            })
+            .collect();
+        median(per_frame)
+    };
+    let span = median(
+        frames
+            .iter()
+            .filter_map(|&f| {
+                let ran_slots: Vec<u32> = (0..TIMED_PASSES as u32)
+                    .filter(|&i| ran[i as usize])
+                    .map(|i| 2 * i)
+                    .collect();
+                let first = ticks.get((f * TS_PER_FRAME + *ran_slots.first()?) as usize)?;
+                let last = ticks.get((f * TS_PER_FRAME + *ran_slots.last()? + 1) as usize)?;
+                Some(last.saturating_sub(*first) as f64 * period_ms)
+            })
+            .collect(),
+    );
+    PassTimings {
+        raster_ms: sum(&[TS_RASTER, TS_RASTER_NEW, TS_EWA]),
+        ewa_ms: sum(&[TS_EWA]),
+        shade_ms: sum(&[TS_SHADE]),
+        cull_ms: sum(&[TS_EXPAND, TS_PROBE, TS_EXPAND_NEW, TS_VISIBILITY]),
+        frame_ms: span,
+        trace_ms: sum(&[TS_TRACE]),
     }
 }
 

@@ -3,7 +3,7 @@
 use crate::{renderer, scene};
 use isogrid::generate::Field;
 use isogrid::Camera;
-use isogrid_gpu::{Mode, RenderOptions, Scene};
+use isogrid_gpu::{Mode, RenderOptions, Scene, ViewState};
 
 /// The probes are conservative (see probe.wgsl), so after 8 frames (every cell of an invisible
 /// cluster probed once) every cluster with a visible pixel is drawn, and drawing order among the
@@ -33,8 +33,9 @@ fn converged_culling_changes_no_pixel_and_draws_fewer_cells() {
         let plain = r
             .render_with(Scene::Grid(&gpu), &cam, Mode::CgcNoEwa, &off)
             .unwrap();
+        let mut view = ViewState::new();
         let culled = r
-            .render_with(Scene::Grid(&gpu), &cam, Mode::CgcNoEwa, &on)
+            .render_view(&mut view, Scene::Grid(&gpu), &cam, Mode::CgcNoEwa, &on)
             .unwrap();
         eprintln!(
             "{field} {size}: drew {} of {} cells, {} probes",
@@ -62,7 +63,8 @@ fn converged_culling_changes_no_pixel_and_draws_fewer_cells() {
         // The second visibility pass keeps a single-frame render with stale visibility complete
         // enough: a converged view of the same camera stays identical frame after frame.
         let again = r
-            .render_with(
+            .render_view(
+                &mut view,
                 Scene::Grid(&gpu),
                 &cam,
                 Mode::CgcNoEwa,

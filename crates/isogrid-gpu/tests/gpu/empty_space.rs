@@ -1,5 +1,5 @@
 //! The GPU tracer leaps across empty blocks with the octant empty-space map uploaded after the
-//! block records (`isogrid::trace::octant_space`): two small balls in opposite corners of a mostly empty
+//! block records (`isogrid::skip::octant_space`): two small balls in opposite corners of a mostly empty
 //! grid, so that rays cross cubes of several empty blocks before they meet one. The hits must be
 //! the CPU tracer's, whose leaps are tested against brute force in the core.
 
@@ -7,9 +7,9 @@ use crate::pathtrace::random_rays;
 use crate::{renderer, HitAgreement};
 use isogrid::camera::Ray;
 use isogrid::layout::BLOCK_CELLS;
-use isogrid::trace::octant_space::OctantSpaceMap;
-use isogrid::trace::{Crossing, Tracer};
+use isogrid::skip::octant_space::OctantSpaceMap;
 use isogrid::{extract, ExtractOptions, Iso, Volume, VolumeData};
+use isogrid_trace::{Crossing, Tracer};
 
 /// 112³ samples (7³ blocks) with balls of radius 6 around `CENTRES`; inside is 200, outside 0.
 const SIZE: usize = 112;

@@ -11,6 +11,7 @@ mod pathtrace;
 mod rasters;
 mod reference;
 mod traced_primary;
+mod views;
 
 use isogrid::generate::{generate, Field};
 use isogrid::{extract, CellGrid, ExtractOptions, Iso, Precision, Volume};
@@ -94,7 +95,7 @@ pub struct HitAgreement {
 
 impl HitAgreement {
     pub fn of(
-        cpu: &isogrid::trace::Tracer,
+        cpu: &isogrid_trace::Tracer,
         rays: &[isogrid::Ray],
         gpu: &[Option<isogrid_gpu::RayHit>],
     ) -> Self {

@@ -1,5 +1,5 @@
 //! Inside a block the GPU tracer walks the occupied metacells front to back with a DDA
-//! (`trace.wgsl`, `isogrid::trace::occupancy`) and stops at the first one with a crossing. A walk
+//! (`trace.wgsl`, `isogrid::skip::occupancy`) and stops at the first one with a crossing. A walk
 //! that started one metacell late, or found a metacell at the wrong slot, would lose crossings
 //! near where rays start, which is where a path tracer's secondary rays start. So the rays here
 //! start on and just off metacell faces, edges and corners, and just off the surface itself, in
@@ -10,8 +10,8 @@ use crate::pathtrace::Rng;
 use crate::{renderer, scene, HitAgreement};
 use isogrid::camera::Ray;
 use isogrid::generate::Field;
-use isogrid::trace::{Crossing, Tracer};
 use isogrid::Precision;
+use isogrid_trace::{Crossing, Tracer};
 
 /// Offsets (cells) of ray origins from even grid coordinates, i.e. metacell faces: on the face,
 /// and just below and above it by less than the walk's start nudge.

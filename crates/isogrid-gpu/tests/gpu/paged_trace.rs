@@ -1,15 +1,15 @@
 //! Ray tracing of grids split into several pages (larger than one storage binding, paper §3.6):
 //! the same grid forced into 3–6 pages must trace exactly like one page, and like the CPU tracer
-//! (`isogrid::trace::Tracer`, the same three-sample crossing search); more pages than the tracer
+//! (`isogrid_trace::Tracer`, the same three-sample crossing search); more pages than the tracer
 //! binds at once is a clear error.
 
 use crate::pathtrace::random_rays;
 use crate::{new_renderer, renderer, scene, HitAgreement};
 use isogrid::generate::Field;
 use isogrid::layout::CLUSTER_SLOTS;
-use isogrid::trace::{Crossing, Tracer};
 use isogrid::{CellGrid, Precision};
 use isogrid_gpu::{GpuErrorKind, PathTraceOptions};
+use isogrid_trace::{Crossing, Tracer};
 
 /// A binding size that splits `grid` into about four pages: pages are cut where the metacell
 /// slots or the corner records (or the instance lists, 4 bytes per cell) outgrow it.

@@ -9,6 +9,7 @@ use isogrid::shading::{to_srgb8, ALBEDO};
 use isogrid::{extract, Camera, ExtractOptions, Iso, Precision, Ray, Volume, VolumeData};
 use isogrid_gpu::{
     sky_radiance, EnvMap, GpuErrorKind, Mode, PathTraceOptions, PrimaryRays, RenderOptions, Scene,
+    ViewState,
 };
 
 /// Small deterministic generator (SplitMix64) for test rays.
@@ -379,17 +380,19 @@ fn accumulation_restarts_when_the_view_changes() {
         frames: n,
         ..Default::default()
     };
-    let first = r.path_trace(&gpu, &a, &frames(2)).unwrap();
+    let mut view = ViewState::new();
+    let first = r.path_trace_view(&mut view, &gpu, &a, &frames(2)).unwrap();
     assert_eq!(first.samples, 2);
-    let more = r.path_trace(&gpu, &a, &frames(3)).unwrap();
+    let more = r.path_trace_view(&mut view, &gpu, &a, &frames(3)).unwrap();
     assert_eq!(more.samples, 5);
     assert_ne!(
         first.linear, more.linear,
         "more samples must change a noisy image"
     );
-    // Through render_with too: Mode::PathTrace keeps accumulating the same view.
+    // Through render_view too: Mode::PathTrace keeps accumulating the same view.
     let via_mode = r
-        .render_with(
+        .render_view(
+            &mut view,
             Scene::Grid(&gpu),
             &a,
             Mode::PathTrace,
@@ -402,9 +405,9 @@ fn accumulation_restarts_when_the_view_changes() {
     assert_eq!(via_mode.samples, 6);
     assert!(via_mode.timings.trace_ms.is_some() || !r.has_timestamps());
 
-    let moved = r.path_trace(&gpu, &b, &frames(1)).unwrap();
+    let moved = r.path_trace_view(&mut view, &gpu, &b, &frames(1)).unwrap();
     assert_eq!(moved.samples, 1);
-    let back = r.path_trace(&gpu, &a, &frames(2)).unwrap();
+    let back = r.path_trace_view(&mut view, &gpu, &a, &frames(2)).unwrap();
     assert_eq!(back.samples, 2);
     // Same samples as the first image. Not bit-identical: EWA splats are blended in whatever
     // order the rasteriser emits them, so primary normals can differ in the last bits and a few
@@ -427,7 +430,8 @@ fn accumulation_restarts_when_the_view_changes() {
         diffs.len()
     );
     let other_bounces = r
-        .path_trace(
+        .path_trace_view(
+            &mut view,
             &gpu,
             &a,
             &PathTraceOptions {
@@ -438,6 +442,9 @@ fn accumulation_restarts_when_the_view_changes() {
         )
         .unwrap();
     assert_eq!(other_bounces.samples, 1);
+    // A call without a view starts afresh, whatever the views of the same grid hold.
+    let one_off = r.path_trace(&gpu, &a, &frames(1)).unwrap();
+    assert_eq!(one_off.samples, 1);
 }
 
 #[test]
@@ -498,12 +505,12 @@ fn an_empty_grid_shows_only_the_environment() {
     }
 }
 
-/// The GPU hybrid path tracer and the CPU path tracer (`isogrid::trace`) estimate the same image:
+/// The GPU hybrid path tracer and the CPU path tracer (`isogrid_trace`) estimate the same image:
 /// same grid, camera, albedo, bounces and a uniform environment. Their random numbers differ, so
 /// only the means over the surface pixels are compared, against several standard errors.
 #[test]
 fn gpu_and_cpu_path_tracers_agree_on_the_mean() {
-    use isogrid::trace::{Environment, PathTraceOptions as CpuOptions, RenderOptions, Shading};
+    use isogrid_trace::{Environment, PathTraceOptions as CpuOptions, RenderOptions, Shading};
     let Some(r) = renderer() else { return };
     let radiance = [0.9f32, 0.7, 0.5];
     let env = r.upload_env(&EnvMap::constant(radiance).unwrap()).unwrap();
@@ -534,7 +541,7 @@ fn gpu_and_cpu_path_tracers_agree_on_the_mean() {
             }),
             ..RenderOptions::default()
         };
-        let cpu = isogrid::trace::render(&grid, &cam, &options).unwrap();
+        let cpu = isogrid_trace::render(&grid, &cam, &options).unwrap();
         // Interior surface pixels of both images (silhouettes would bias the comparison).
         let both = interior_pixels(pixels as usize, gpu.linear.len(), |i| {
             gpu.is_hit(i) && cpu.cluster[i] != u32::MAX

@@ -6,9 +6,9 @@
 use crate::paged_trace::quarter_binding;
 use crate::{interior_pixels, new_renderer, renderer, scene, MeanEstimate};
 use isogrid::generate::Field;
-use isogrid::trace::{Crossing, Tracer};
 use isogrid::{extract, Camera, CellGrid, ExtractOptions, Iso, Precision};
 use isogrid_gpu::{EnvMap, Frame, GpuGrid, PathTraceOptions, PrimaryRays, Renderer};
+use isogrid_trace::{Crossing, Tracer};
 
 fn traced(frames: u32, bounces: u32) -> PathTraceOptions<'static> {
     PathTraceOptions {
@@ -200,7 +200,7 @@ fn path_trace(
 /// EWA-smoothed primary normals, biased the mean by less than one of them here.
 #[test]
 fn traced_and_raster_primaries_agree_on_the_mean() {
-    use isogrid::trace::{Environment, PathTraceOptions as CpuOptions, RenderOptions, Shading};
+    use isogrid_trace::{Environment, PathTraceOptions as CpuOptions, RenderOptions, Shading};
     let Some(r) = renderer() else { return };
     let radiance = [0.9f32, 0.7, 0.5];
     let env = r.upload_env(&EnvMap::constant(radiance).unwrap()).unwrap();
@@ -221,7 +221,7 @@ fn traced_and_raster_primaries_agree_on_the_mean() {
             }),
             ..RenderOptions::default()
         };
-        let cpu = isogrid::trace::render(&grid, &camera, &options).unwrap();
+        let cpu = isogrid_trace::render(&grid, &camera, &options).unwrap();
         let interior = interior_pixels(pixels as usize, cpu.radiance.len(), |i| {
             raster.is_hit(i) && traced.is_hit(i) && cpu.cluster[i] != u32::MAX
         });

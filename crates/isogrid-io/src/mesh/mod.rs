@@ -68,20 +68,21 @@ impl MeshFormat {
 /// optionally followed by `.gz`), or from the content when the extension is unknown. Gzip is
 /// recognised by its magic bytes. Errors name `path`.
 pub fn read_mesh(path: &Path) -> Result<TriMesh> {
-    let raw = std::fs::read(path).at_path(path)?;
+    let mut file = isogrid::fs::open_regular(path)?;
+    let len = file.metadata().at_path(path)?.len();
+    let mut raw =
+        isogrid::memory::try_vec::<u8>("reading the mesh file", len as usize).at_path(path)?;
+    file.read_to_end(&mut raw).at_path(path)?;
     let name = path
         .file_name()
         .map(|n| n.to_string_lossy().to_ascii_lowercase())
         .unwrap_or_default();
     let bytes = if raw.starts_with(&[0x1f, 0x8b]) {
-        let mut out = Vec::new();
-        match flate2::read::MultiGzDecoder::new(raw.as_slice()).read_to_end(&mut out) {
-            Ok(_) => out,
+        match inflate(&raw) {
+            Ok(out) => out,
             // A binary STL header may begin with the gzip magic by chance.
             Err(_) if !name.ends_with(".gz") => raw,
-            Err(e) => {
-                return Err(Error::corrupt(format!("gzip stream is damaged: {e}")).with_path(path))
-            }
+            Err(e) => return Err(e.with_path(path)),
         }
     } else {
         raw
@@ -96,6 +97,38 @@ pub fn read_mesh(path: &Path) -> Result<TriMesh> {
         })
         .at_path(path)?;
     parse_mesh(&bytes, format).at_path(path)
+}
+
+/// Decompresses a gzip mesh, never past what its content allows: for a binary PLY, the header's
+/// elements at their largest records; otherwise the memory there is. A stream with more is
+/// refused before the excess is held, so a small file that inflates to gigabytes fails early.
+fn inflate(raw: &[u8]) -> Result<Vec<u8>> {
+    let damaged = |e: std::io::Error| Error::corrupt(format!("gzip stream is damaged: {e}"));
+    let mut decoder = flate2::read::MultiGzDecoder::new(raw);
+    let mut out = Vec::new();
+    // Enough for any PLY header the reader accepts.
+    (&mut decoder)
+        .take(ply::MAX_HEADER_BYTES as u64)
+        .read_to_end(&mut out)
+        .map_err(damaged)?;
+    let (limit, why) = match ply::max_file_bytes(&out) {
+        Some(n) => (n, format!("{n} bytes the PLY header allows")),
+        None => match isogrid::memory::available() {
+            Some((n, source)) => (n, format!("{} ({source})", isogrid::memory::show_bytes(n))),
+            None => (u64::MAX, String::new()),
+        },
+    };
+    let more = limit.saturating_sub(out.len() as u64).saturating_add(1);
+    (&mut decoder)
+        .take(more)
+        .read_to_end(&mut out)
+        .map_err(damaged)?;
+    if out.len() as u64 > limit {
+        return Err(Error::corrupt(format!(
+            "gzip data inflates to more than the {why}"
+        )));
+    }
+    Ok(out)
 }
 
 /// Parses an uncompressed mesh held in memory. Fails when the mesh has no triangle.

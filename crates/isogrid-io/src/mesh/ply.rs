@@ -8,7 +8,7 @@ use super::{parse_number, push_fan, show, validate, Tokens, TriMesh};
 use isogrid::{Error, Result};
 
 /// A header can hold many comments but not megabytes; past this we stop looking for `end_header`.
-const MAX_HEADER_BYTES: usize = 1 << 20;
+pub(super) const MAX_HEADER_BYTES: usize = 1 << 20;
 
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Encoding {
@@ -81,6 +81,32 @@ impl Element {
             })
             .sum();
         bytes.max(1)
+    }
+
+    /// The most bytes one binary record can take: lists at the largest length their count type
+    /// can state. `None` when a count type states no useful bound (signed or floating counts
+    /// wider than 16 bits, or an overflow).
+    fn max_binary_record_bytes(&self) -> Option<u64> {
+        self.properties.iter().try_fold(0u64, |sum, (_, p)| {
+            let bytes = match p {
+                Property::Scalar(t) => t.size() as u64,
+                Property::List { count, item } => {
+                    let most_items: u64 = match count {
+                        ScalarType::U8 => u8::MAX as u64,
+                        ScalarType::I8 => i8::MAX as u64,
+                        ScalarType::U16 => u16::MAX as u64,
+                        ScalarType::I16 => i16::MAX as u64,
+                        ScalarType::U32 => u32::MAX as u64,
+                        ScalarType::I32 => i32::MAX as u64,
+                        ScalarType::F32 | ScalarType::F64 => return None,
+                    };
+                    most_items
+                        .checked_mul(item.size() as u64)?
+                        .checked_add(count.size() as u64)?
+                }
+            };
+            sum.checked_add(bytes)
+        })
     }
 
     fn property_index(&self, names: &[&str]) -> Option<usize> {
@@ -252,6 +278,22 @@ impl<'a> Body<'a> {
         }
         Ok(n as usize)
     }
+}
+
+/// The most bytes a binary PLY file with the header at the start of `head` can hold: header plus
+/// every element at its largest records. `None` for ASCII (text has no bound per value), a
+/// header that does not parse, or no useful bound.
+pub(super) fn max_file_bytes(head: &[u8]) -> Option<u64> {
+    let header = parse_header(head).ok()?;
+    if header.encoding == Encoding::Ascii {
+        return None;
+    }
+    header
+        .elements
+        .iter()
+        .try_fold(header.body_start as u64, |sum, e| {
+            sum.checked_add(e.count.checked_mul(e.max_binary_record_bytes()?)?)
+        })
 }
 
 pub(super) fn parse(bytes: &[u8]) -> Result<TriMesh> {

@@ -86,6 +86,15 @@ fn parse_binary(bytes: &[u8]) -> Result<TriMesh> {
             body.len() / RECORD
         )));
     }
+    // More whole records than the count means the count is wrong (or two files were joined):
+    // reading only `count` would drop triangles without a word. A partial record of trailing
+    // bytes (padding some writers add) is ignored.
+    if body.len() / RECORD > count {
+        return Err(Error::corrupt(format!(
+            "binary STL declares {count} triangles but holds {}",
+            body.len() / RECORD
+        )));
+    }
     let mut welder = Welder::with_capacity(count);
     for record in body.chunks_exact(RECORD).take(count) {
         let f = |at: usize| {

@@ -6,6 +6,7 @@ mod header;
 mod read;
 mod write;
 
+pub(crate) use header::clip;
 pub use read::read_nrrd;
 pub(crate) use read::region_layout;
 pub use write::write_nrrd;

@@ -7,31 +7,36 @@
 //! checked against the file before allocating, and a gzip stream must decompress to exactly the
 //! declared byte count.
 //!
-//! Geometry: spacing from `space directions` (vector lengths) or else `spacings`; origin from
+//! Geometry: spacing from `space directions` (vector lengths) or else `spacings` (`nan` = no
+//! spacing for that axis, as the spec says, and becomes 1; 0 or a zero-length direction vector is
+//! an error; a negative spacing flips the axis, see `geometry.rs`); origin from
 //! `space origin`; directions (unit `space directions`) kept as metadata. Grid order is the file's
 //! (first axis fastest).
 
 use super::header::{self, clip, DataFiles, Encoding, Header};
+use crate::data_file::resolve;
 use crate::geometry::geometry;
 use crate::samples::{
-    byte_count, check_available, check_deflate_budget, expect_end, from_f64_values, gzip_error,
-    read_samples, sample_count, skip_bytes,
+    byte_count, check_available, check_deflate_budget, expect_end, gzip_error, read_samples,
+    read_text_samples, sample_count, skip_bytes,
 };
 use isogrid::{Error, Result, ResultExt, Volume, VolumeData};
 use std::fs::File;
 use std::io::{BufRead, BufReader, Read, Seek, SeekFrom};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 /// Headers longer than this are not NRRD headers (they are garbage or binary data).
 const MAX_HEADER_BYTES: u64 = 1 << 20;
 
 /// Reads an attached `.nrrd` or a detached `.nhdr` (+ data files). Errors name the file at fault.
 pub fn read_nrrd(path: &Path) -> Result<Volume> {
-    let file = File::open(path).at_path(path)?;
+    let file = isogrid::fs::open_regular(path)?;
     let mut reader = BufReader::new(file);
     let (lines, data_offset) = read_header_lines(&mut reader).at_path(path)?;
     let header = header::parse(&lines).at_path(path)?;
     let count = sample_count(header.dims).at_path(path)?;
+    // Before the data: a bad spacing fails without reading gigabytes.
+    let g = geometry(header.dims, header.spacing, header.origin, header.direction).at_path(path)?;
     let data = match &header.data {
         DataFiles::Attached => {
             let offset = data_offset.ok_or_else(|| {
@@ -53,7 +58,7 @@ pub fn read_nrrd(path: &Path) -> Result<Volume> {
             let mut data: Option<VolumeData> = None;
             for name in names {
                 let data_path = resolve(base, name);
-                let file = File::open(&data_path).at_path(&data_path)?;
+                let file = isogrid::fs::open_regular(&data_path)?;
                 let piece = read_part(file, 0, &header, part).at_path(&data_path)?;
                 data = Some(match data {
                     None => piece,
@@ -64,7 +69,6 @@ pub fn read_nrrd(path: &Path) -> Result<Volume> {
             data.ok_or_else(|| Error::corrupt("no data files").with_path(path))?
         }
     };
-    let g = geometry(header.dims, header.spacing, header.origin, header.direction);
     Volume::with_geometry(g, data).at_path(path)
 }
 
@@ -72,7 +76,7 @@ pub fn read_nrrd(path: &Path) -> Result<Volume> {
 /// samples, for reading by region; `None` for other encodings and layouts, which are read whole.
 /// Errors name the file at fault.
 pub(crate) fn region_layout(path: &Path) -> Result<Option<crate::region::MappedLayout>> {
-    let file = File::open(path).at_path(path)?;
+    let file = isogrid::fs::open_regular(path)?;
     let mut reader = BufReader::new(file);
     let (lines, data_offset) = read_header_lines(&mut reader).at_path(path)?;
     let header = header::parse(&lines).at_path(path)?;
@@ -112,18 +116,10 @@ pub(crate) fn region_layout(path: &Path) -> Result<Option<crate::region::MappedL
         data_offset,
         elem: header.elem,
         big_endian: header.big_endian,
-        geometry: geometry(header.dims, header.spacing, header.origin, header.direction),
+        geometry: geometry(header.dims, header.spacing, header.origin, header.direction)
+            .at_path(path)?,
         scale: None,
     }))
-}
-
-fn resolve(base: &Path, name: &str) -> PathBuf {
-    let p = Path::new(name);
-    if p.is_absolute() {
-        p.to_path_buf()
-    } else {
-        base.join(p)
-    }
 }
 
 /// Reads the magic line and the header lines. Returns the lines and, when a blank line ended the
@@ -203,32 +199,13 @@ fn read_part(file: File, offset: u64, header: &Header, count: usize) -> Result<V
         }
         Encoding::Ascii => {
             skip_bytes(&mut reader, header.byte_skip.max(0) as u64)?;
-            // Each value takes at least one character plus a separator.
-            if count as u64 > available / 2 + 1 {
-                return Err(Error::corrupt(format!(
-                    "ascii data of {available} bytes cannot hold {count} values"
-                )));
-            }
-            let mut text = String::new();
-            reader
-                .read_to_string(&mut text)
-                .map_err(|_| Error::corrupt("ascii NRRD data is not text"))?;
-            let values = text
-                .split(|c: char| c.is_whitespace() || c == ',')
-                .filter(|t| !t.is_empty())
-                .map(|t| {
-                    t.parse::<f64>().map_err(|_| {
-                        Error::corrupt(format!("ascii NRRD value '{}' is not a number", clip(t)))
-                    })
-                })
-                .collect::<Result<Vec<f64>>>()?;
-            if values.len() != count {
-                return Err(Error::corrupt(format!(
-                    "ascii NRRD data holds {} values, the header declares {count}",
-                    values.len()
-                )));
-            }
-            Ok(from_f64_values(&values, header.elem))
+            read_text_samples(
+                &mut reader,
+                available,
+                header.elem,
+                count,
+                "ascii NRRD data",
+            )
         }
     }
 }

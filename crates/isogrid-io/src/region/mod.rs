@@ -11,7 +11,7 @@ pub mod zarr;
 pub use isogrid::extract::stream::{RegionSource, SlabMut};
 pub(crate) use mapped::MappedLayout;
 
-use crate::read::ReadOptions;
+use crate::read_options::ReadOptions;
 use isogrid::{Result, Volume, VolumeData};
 use std::path::Path;
 

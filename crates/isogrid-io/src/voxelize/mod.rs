@@ -94,9 +94,8 @@ pub fn voxelize(
     let tris = &mesh.triangles;
 
     let slice_len = nx * ny;
-    let mut data: Vec<u8> = Vec::new();
-    data.try_reserve_exact(slice_len * nz)
-        .map_err(|_| Error::too_large(format!("a {nx}x{ny}x{nz} volume does not fit in memory")))?;
+    let mut data: Vec<u8> =
+        isogrid::memory::try_vec(&format!("a {nx}x{ny}x{nz} u8 volume"), slice_len * nz)?;
     data.resize(slice_len * nz, 0);
     progress(0, nz as u64);
 

@@ -6,7 +6,7 @@ use isogrid::{ErrorKind, ScalarType};
 use isogrid_io::{read_volume, RawSpec, ReadOptions};
 use std::path::Path;
 
-fn expect_err(path: &Path, opts: &ReadOptions, kind: ErrorKind, needle: &str) {
+pub fn expect_err(path: &Path, opts: &ReadOptions, kind: ErrorKind, needle: &str) {
     let err = match read_volume(path, opts) {
         Ok(v) => panic!("{}: read {:?} instead of failing", path.display(), v.dims()),
         Err(e) => e,
@@ -290,7 +290,7 @@ fn raw_size_mismatch_says_expected_and_actual() {
         &fixture("u8_detached.raw"),
         &ReadOptions {
             raw: Some(spec),
-            ..Default::default()
+            ..ReadOptions::default()
         },
         ErrorKind::InvalidInput,
         "needs 140 bytes but the file has 105",
@@ -304,7 +304,7 @@ fn raw_size_mismatch_says_expected_and_actual() {
         &fixture("u8_detached.raw"),
         &ReadOptions {
             raw: Some(spec),
-            ..Default::default()
+            ..ReadOptions::default()
         },
         ErrorKind::InvalidInput,
         "420 bytes",
@@ -426,4 +426,290 @@ fn dicom_huge_rows_and_truncated_slices_are_corrupt() {
     let err = read_volume(&dir.0, &ReadOptions::default()).unwrap_err();
     assert_eq!(err.kind(), ErrorKind::Corrupt, "{err}");
     assert_eq!(err.path(), Some(a.as_path()), "{err}");
+}
+
+/// Bytes that deflate cannot shrink (a multiplicative hash stream), so a gzip stream of them is
+/// as long as they are.
+fn incompressible(len: usize) -> Vec<u8> {
+    let mut x = 0x9E37_79B9_7F4A_7C15u64;
+    (0..len)
+        .map(|_| {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            (x >> 24) as u8
+        })
+        .collect()
+}
+
+/// The memory limit every test of this binary runs under once one of them set it: far above
+/// what the other tests read (kilobytes), far below what the requests here need.
+const TEST_MEMORY_LIMIT: u64 = 64 << 20;
+
+#[test]
+fn sizes_beyond_memory_fail_with_the_limit_before_reading() {
+    isogrid::memory::set_limit(Some(TEST_MEMORY_LIMIT));
+    let dir = TempDir::new("memory");
+    let none = ReadOptions::default();
+    // Honest headers declaring 512³ u8 = 128 MiB, with enough compressed bytes that deflate's
+    // 1100:1 bound cannot reject them: only the memory check can, and must, before inflating.
+    let payload = gzip(&incompressible(160 << 10));
+    let nrrd = [
+        &b"NRRD0004\ntype: uint8\ndimension: 3\nsizes: 512 512 512\nencoding: gzip\n\n"[..],
+        &payload,
+    ]
+    .concat();
+    expect_err(
+        &dir.file("big.nrrd", &nrrd),
+        &none,
+        ErrorKind::TooLarge,
+        "needs 128.0 MiB of memory but the memory limit set is 64.0 MiB",
+    );
+    let mut nii = fixture_bytes("u8.nii")[..352].to_vec();
+    for d in 0..3 {
+        nii[42 + 2 * d..44 + 2 * d].copy_from_slice(&512i16.to_le_bytes());
+    }
+    nii.extend(incompressible(160 << 10));
+    expect_err(
+        &dir.file("big.nii.gz", &gzip(&nii)),
+        &none,
+        ErrorKind::TooLarge,
+        "of memory but",
+    );
+    // A sparse raw file: 192 MiB long, nothing stored.
+    let sparse = dir.path("sparse.raw");
+    std::fs::File::create(&sparse)
+        .unwrap()
+        .set_len(192 << 20)
+        .unwrap();
+    let spec = RawSpec {
+        dims: [1024, 1024, 96],
+        scalar: ScalarType::U16,
+        big_endian: false,
+    };
+    expect_err(
+        &sparse,
+        &ReadOptions {
+            raw: Some(spec),
+            ..ReadOptions::default()
+        },
+        ErrorKind::TooLarge,
+        "needs 192.0 MiB of memory",
+    );
+}
+
+#[test]
+fn f64_samples_beyond_the_f32_range_are_refused() {
+    let dir = TempDir::new("f64-range");
+    let none = ReadOptions::default();
+    let mut raw =
+        b"NRRD0004\ntype: double\ndimension: 3\nsizes: 2 1 1\nencoding: raw\nendian: little\n\n"
+            .to_vec();
+    raw.extend(1.0f64.to_le_bytes());
+    raw.extend(1e300f64.to_le_bytes());
+    expect_err(
+        &dir.file("huge.nrrd", &raw),
+        &none,
+        ErrorKind::Unsupported,
+        "sample 1 is 1e300, beyond the f32 range",
+    );
+    let ascii = b"NRRD0004\ntype: double\ndimension: 3\nsizes: 2 1 1\nencoding: ascii\n\n-1e39 2\n";
+    expect_err(
+        &dir.file("huge_ascii.nrrd", ascii),
+        &none,
+        ErrorKind::Unsupported,
+        "beyond the f32 range",
+    );
+    // Infinities are kept: they are values, not overflows.
+    let inf = b"NRRD0004\ntype: double\ndimension: 3\nsizes: 2 1 1\nencoding: ascii\n\ninf 2\n";
+    let v = read_volume(&dir.file("inf.nrrd", inf), &none).unwrap();
+    assert_eq!(v.get(0, 0, 0), f64::INFINITY);
+    // An integer type cannot hold 300 or 1.5: no silent saturation.
+    let u8_text = b"NRRD0004\ntype: uint8\ndimension: 3\nsizes: 2 1 1\nencoding: ascii\n\n1 300\n";
+    expect_err(
+        &dir.file("sat.nrrd", u8_text),
+        &none,
+        ErrorKind::Corrupt,
+        "value 300 (number 1) is not an integer in [0, 255]",
+    );
+}
+
+#[test]
+fn spacings_that_are_no_voxel_size_are_errors_and_nan_means_unknown() {
+    let dir = TempDir::new("spacings");
+    let none = ReadOptions::default();
+    let nrrd = |spacings: &str| {
+        format!("NRRD0004\ntype: uint8\ndimension: 3\nsizes: 2 1 1\nencoding: raw\n{spacings}\n\n\x01\x02")
+    };
+    for (name, field, needle) in [
+        ("zero.nrrd", "spacings: 1 0 1", "spacing 0 along axis 1"),
+        ("inf.nrrd", "spacings: inf 1 1", "spacing inf along axis 0"),
+        (
+            "zero_vector.nrrd",
+            "space dimension: 3\nspace directions: (1,0,0) (0,0,0) (0,0,1)",
+            "spacing 0 along axis 1",
+        ),
+    ] {
+        expect_err(
+            &dir.file(name, nrrd(field).as_bytes()),
+            &none,
+            ErrorKind::Corrupt,
+            needle,
+        );
+    }
+    // The NRRD spec: `nan` = no spacing on that axis; it becomes 1.
+    let v = read_volume(
+        &dir.file("nan.nrrd", nrrd("spacings: 2 nan 3").as_bytes()),
+        &none,
+    )
+    .unwrap();
+    assert_eq!(v.geometry().spacing, [2.0, 1.0, 3.0]);
+    // A negative spacing keeps its magnitude and flips the axis, so positions are unchanged.
+    let v = read_volume(
+        &dir.file("neg.nrrd", nrrd("spacings: -2 1 1").as_bytes()),
+        &none,
+    )
+    .unwrap();
+    assert_eq!(v.geometry().spacing, [2.0, 1.0, 1.0]);
+    assert_eq!(v.geometry().direction[0], [-1.0, 0.0, 0.0]);
+
+    // NIfTI pixdim[2] (byte 84) NaN or infinite: an error; 0 (unset): 1.
+    let mut nii = fixture_bytes("u8.nii");
+    nii[84..88].copy_from_slice(&f32::NAN.to_le_bytes());
+    expect_err(
+        &dir.file("nan.nii", &nii),
+        &none,
+        ErrorKind::Corrupt,
+        "pixdim[2] is NaN",
+    );
+    nii[84..88].copy_from_slice(&0f32.to_le_bytes());
+    let v = read_volume(&dir.file("zero.nii", &nii), &none).unwrap();
+    assert_eq!(v.geometry().spacing[1], 1.0);
+}
+
+#[test]
+fn directories_and_fifos_are_refused_with_their_kind() {
+    let dir = TempDir::new("special");
+    let none = ReadOptions::default();
+    dir.file(
+        "dot.nhdr",
+        b"NRRD0004\ntype: uint8\ndimension: 3\nsizes: 2 1 1\nencoding: raw\ndata file: .\n",
+    );
+    let err = read_volume(&dir.path("dot.nhdr"), &none).unwrap_err();
+    assert!(
+        err.to_string()
+            .contains("is a directory, not a regular file"),
+        "{err}"
+    );
+    #[cfg(unix)]
+    {
+        let fifo = dir.path("fifo_data");
+        let made = std::process::Command::new("mkfifo")
+            .arg(&fifo)
+            .status()
+            .unwrap();
+        assert!(made.success());
+        dir.file(
+            "fifo.nhdr",
+            b"NRRD0004\ntype: uint8\ndimension: 3\nsizes: 2 1 1\nencoding: raw\ndata file: fifo_data\n",
+        );
+        let header = dir.path("fifo.nhdr");
+        // Read on another thread, so that a regression blocks that thread and not the test.
+        let (send, recv) = std::sync::mpsc::channel();
+        let paths = [header, fifo.clone(), fifo.clone()];
+        std::thread::spawn(move || {
+            let raw = RawSpec {
+                dims: [2, 1, 1],
+                scalar: ScalarType::U8,
+                big_endian: false,
+            };
+            for (path, opts) in [
+                (&paths[0], ReadOptions::default()),
+                (&paths[1], ReadOptions::default()),
+                (
+                    &paths[2],
+                    ReadOptions {
+                        raw: Some(raw),
+                        ..ReadOptions::default()
+                    },
+                ),
+            ] {
+                let _ = send.send(read_volume(path, &opts).map(|_| ()).unwrap_err());
+            }
+        });
+        for _ in 0..3 {
+            let err = recv
+                .recv_timeout(std::time::Duration::from_secs(20))
+                .expect("reading a FIFO blocked");
+            assert_eq!(err.path(), Some(fifo.as_path()), "{err}");
+            assert!(err.to_string().contains("is a pipe or FIFO"), "{err}");
+        }
+    }
+}
+
+#[test]
+fn gzip_meshes_inflate_no_further_than_the_ply_header_allows() {
+    use isogrid_io::mesh::read_mesh;
+    let dir = TempDir::new("ply-bomb");
+    // 4 vertices and one triangle, binary: at most the header + 4·12 + 1·(1 + 255·4) bytes.
+    let mut ply = b"ply\nformat binary_little_endian 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n".to_vec();
+    for v in [[0f32, 0., 0.], [1., 0., 0.], [0., 1., 0.], [0., 0., 1.]] {
+        ply.extend(v.iter().flat_map(|c| c.to_le_bytes()));
+    }
+    ply.push(3);
+    ply.extend([0i32, 1, 2].iter().flat_map(|i| i.to_le_bytes()));
+    assert_eq!(
+        read_mesh(&dir.file("ok.ply.gz", &gzip(&ply)))
+            .unwrap()
+            .triangles
+            .len(),
+        1
+    );
+    // Followed by 64 MiB of zeros (64 KiB compressed): refused after at most the bound, not
+    // after inflating everything (the probe's 8 GiB of zeros ran out of memory).
+    let mut bomb = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::fast());
+    std::io::Write::write_all(&mut bomb, &ply).unwrap();
+    let zeros = vec![0u8; 1 << 20];
+    for _ in 0..64 {
+        std::io::Write::write_all(&mut bomb, &zeros).unwrap();
+    }
+    let path = dir.file("bomb.ply.gz", &bomb.finish().unwrap());
+    let err = read_mesh(&path).unwrap_err();
+    assert_eq!(err.path(), Some(path.as_path()));
+    assert!(
+        err.to_string().contains("inflates to more than the")
+            && err.to_string().contains("the PLY header allows"),
+        "{err}"
+    );
+}
+
+#[test]
+fn binary_stl_with_a_count_too_low_is_refused() {
+    use isogrid_io::mesh::read_mesh;
+    let dir = TempDir::new("stl-count");
+    let mut stl = vec![b' '; 80];
+    stl.extend(1u32.to_le_bytes()); // declares 1, holds 2
+    for shift in [0f32, 5.0] {
+        stl.extend([0u8; 12]);
+        for v in [[0f32, 0., 0.], [1., 0., 0.], [0., 1., 0.]] {
+            stl.extend(v.iter().flat_map(|c| (c + shift).to_le_bytes()));
+        }
+        stl.extend([0u8; 2]);
+    }
+    let path = dir.file("low.stl", &stl);
+    let err = read_mesh(&path).unwrap_err();
+    assert!(
+        err.to_string().contains("declares 1 triangles but holds 2"),
+        "{err}"
+    );
+    // A partial record of trailing bytes is padding, not a triangle.
+    stl[80..84].copy_from_slice(&2u32.to_le_bytes());
+    stl.extend([0u8; 7]);
+    assert_eq!(
+        read_mesh(&dir.file("pad.stl", &stl))
+            .unwrap()
+            .triangles
+            .len(),
+        2
+    );
 }

@@ -1,9 +1,13 @@
 //! Integration tests of isogrid-io, one binary: readers against files written by other tools
-//! (nibabel, pynrrd, numpy, pydicom, tifffile; see scripts/make_io_fixtures.py), bad input, and
-//! the NRRD writer.
+//! (nibabel, pynrrd, numpy, pydicom, tifffile, SimpleITK, mrcfile; see
+//! scripts/make_io_fixtures.py), DICOM series written with dicom-object, bad input, and the NRRD
+//! writer.
 
 mod bad_input;
 mod common;
+mod dicom;
+mod metaimage;
+mod mrc;
 mod readers;
 mod region;
 mod write_nrrd;

@@ -180,7 +180,7 @@ fn raw_with_a_spec() {
         &fixture("u8_detached.raw"),
         &ReadOptions {
             raw: Some(spec),
-            ..Default::default()
+            ..ReadOptions::default()
         },
     )
     .unwrap();
@@ -198,7 +198,7 @@ fn raw_with_a_spec() {
         &p,
         &ReadOptions {
             raw: Some(spec),
-            ..Default::default()
+            ..ReadOptions::default()
         },
     )
     .unwrap();

@@ -32,27 +32,10 @@
 //! checksum, pointer and position before handing out a grid, so renderers and tracers can index
 //! the buffers without bounds surprises.
 
+mod format;
 mod read;
 mod write;
 
 pub use read::{open, read, read_bytes};
 pub(crate) use write::{header_bytes, sections_for_lengths, HeaderCounts};
 pub use write::{to_bytes, write};
-
-pub(crate) const MAGIC: [u8; 8] = *b"\x89CGC\r\n\x1a\n";
-pub(crate) const VERSION: u32 = 1;
-pub(crate) const HEADER_SIZE: usize = 320;
-pub(crate) const HEADER_CRC_AT: usize = 316;
-
-pub(crate) fn align16(n: u64) -> u64 {
-    n.div_ceil(16) * 16
-}
-
-pub(crate) fn scalar_code(t: crate::ScalarType) -> u32 {
-    match t {
-        crate::ScalarType::U8 => 0,
-        crate::ScalarType::U16 => 1,
-        crate::ScalarType::I16 => 2,
-        crate::ScalarType::F32 => 3,
-    }
-}

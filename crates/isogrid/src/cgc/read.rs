@@ -3,7 +3,7 @@
 //! Nothing is allocated from a header field before it has been checked against the file's length,
 //! and no grid is returned before every checksum, pointer and position has been checked.
 
-use super::{HEADER_CRC_AT, HEADER_SIZE, MAGIC, VERSION};
+use super::format::{HEADER_CRC_AT, HEADER_SIZE, MAGIC, VERSION};
 use crate::error::{Error, Result, ResultExt};
 use crate::grid::{CellGrid, GridInfo, Storage};
 use crate::layout::{Block, Metacell, Precision, BLOCK_METACELLS, BOUND_SLOT, CLUSTER_SLOTS};
@@ -124,11 +124,10 @@ fn parse_header(h: &[u8], file_len: u64) -> Result<Header> {
     let names = ["blocks", "metacells", "cells"];
     for s in 0..3 {
         let (offset, len) = (c.u64(), c.u64());
-        let expected_len = counts[s].checked_mul(record_sizes[s]);
-        if expected_len != Some(len) {
+        if counts[s].checked_mul(record_sizes[s]) != Some(len) {
             return Err(Error::corrupt(format!(
-                "{} section is {len} bytes but its count says {:?}",
-                names[s], expected_len
+                "{} section is {len} bytes but holds {} records of {} bytes",
+                names[s], counts[s], record_sizes[s]
             )));
         }
         if offset % 16 != 0 || offset < end || offset.checked_add(len).is_none_or(|e| e > file_len)
@@ -289,12 +288,17 @@ pub fn read_bytes(bytes: &[u8]) -> Result<CellGrid> {
 /// Reads and validates a `.cgc` file into memory. Errors name the file.
 pub fn read(path: &Path) -> Result<CellGrid> {
     (|| -> Result<CellGrid> {
-        let mut file = std::fs::File::open(path)?;
+        let mut file = crate::fs::open_regular(path)?;
         let file_len = file.metadata()?.len();
         let mut head = vec![0u8; HEADER_SIZE.min(file_len as usize)];
         file.read_exact(&mut head)?;
         let header = parse_header(&head, file_len)?;
-        // Sizes are checked against the file length, so these allocations are bounded by it.
+        // Sizes are checked against the file length, so these allocations are bounded by it,
+        // and by the memory there is (a sparse file can be long and hold nothing).
+        crate::memory::ensure_fits(
+            "reading the grid",
+            header.sections.iter().map(|r| r.len() as u64).sum(),
+        )?;
         let mut blocks = vec![bytemuck::Zeroable::zeroed(); header.sections[0].len() / 16];
         let mut metacells = vec![bytemuck::Zeroable::zeroed(); header.sections[1].len() / 12];
         let mut cells = vec![0u8; header.sections[2].len()];
@@ -316,7 +320,7 @@ pub fn read(path: &Path) -> Result<CellGrid> {
 /// Memory-maps and validates a `.cgc` file: the grid's buffers are views of the page cache.
 pub fn open(path: &Path) -> Result<CellGrid> {
     (|| -> Result<CellGrid> {
-        let file = std::fs::File::open(path)?;
+        let file = crate::fs::open_regular(path)?;
         // SAFETY: the map is read-only; like every mmap user we rely on nobody truncating the
         // file while it is mapped. Validation below covers all contents we later index.
         let map = unsafe { memmap2::Mmap::map(&file)? };

@@ -1,6 +1,6 @@
 //! Writes a [`CellGrid`] as a `.cgc` file (format in [`super`]), atomically.
 
-use super::{align16, scalar_code, HEADER_CRC_AT, HEADER_SIZE, MAGIC, VERSION};
+use super::format::{align16, scalar_code, HEADER_CRC_AT, HEADER_SIZE, MAGIC, VERSION};
 use crate::error::Result;
 use crate::grid::{CellGrid, GridInfo};
 use std::io::Write;

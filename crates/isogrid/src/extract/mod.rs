@@ -56,8 +56,11 @@ impl Iso {
                         "normalised isovalue {t} is outside [0, 1]"
                     )));
                 }
-                let (lo, hi) = value_range()?
-                    .ok_or_else(|| Error::invalid("the volume has no finite sample"))?;
+                let (lo, hi) = value_range()?.ok_or_else(|| {
+                    Error::invalid(
+                        "the volume has no finite sample (all are NaN or infinite), so it has no value range",
+                    )
+                })?;
                 (lo + t * (hi - lo), Some((lo, hi)))
             }
         };

@@ -13,23 +13,29 @@
 //! them right after its own vertices. The next slab's vertices follow in the concatenation, so
 //! every index only needs the slab's offset added: output is identical for any thread count.
 
+use super::mesh::{Inside, McMesh};
 use super::table::{cases, edge_corners};
-use super::McMesh;
 use crate::error::{Error, Result};
 use crate::volume::{Samples, Scalar, VolumeView};
 use rayon::prelude::*;
+use std::collections::HashMap;
 
 /// Planes per slab as a function of the volume alone (never of the thread count).
 pub(crate) fn default_slab_planes(nz: usize) -> usize {
     nz.div_ceil(128).max(8)
 }
 
-pub(crate) fn extract(volume: &VolumeView, iso: f64, slab_planes: usize) -> Result<McMesh> {
+pub(crate) fn extract(
+    volume: &VolumeView,
+    iso: f64,
+    inside: Inside,
+    slab_planes: usize,
+) -> Result<McMesh> {
     match volume.samples() {
-        Samples::U8(s) => extract_typed(volume, s, iso, slab_planes),
-        Samples::U16(s) => extract_typed(volume, s, iso, slab_planes),
-        Samples::I16(s) => extract_typed(volume, s, iso, slab_planes),
-        Samples::F32(s) => extract_typed(volume, s, iso, slab_planes),
+        Samples::U8(s) => extract_typed(volume, s, iso, inside, slab_planes),
+        Samples::U16(s) => extract_typed(volume, s, iso, inside, slab_planes),
+        Samples::I16(s) => extract_typed(volume, s, iso, inside, slab_planes),
+        Samples::F32(s) => extract_typed(volume, s, iso, inside, slab_planes),
     }
 }
 
@@ -37,6 +43,14 @@ pub(crate) fn extract(volume: &VolumeView, iso: f64, slab_planes: usize) -> Resu
 /// in the sample type. `None` when no value can be inside.
 trait Threshold: Scalar {
     fn threshold(iso: f64) -> Option<Self>;
+    /// The smallest value `v` of the type with `v as f64 > iso`.
+    fn threshold_above(iso: f64) -> Option<Self>;
+    fn inside_threshold(iso: f64, inside: Inside) -> Option<Self> {
+        match inside {
+            Inside::AtOrAbove => Self::threshold(iso),
+            Inside::Above => Self::threshold_above(iso),
+        }
+    }
 }
 
 macro_rules! integer_threshold {
@@ -51,6 +65,10 @@ macro_rules! integer_threshold {
                 } else {
                     Some(lowest as $t)
                 }
+            }
+            fn threshold_above(iso: f64) -> Option<Self> {
+                // The lowest integer above iso is floor(iso) + 1.
+                Self::threshold(iso.floor() + 1.0)
             }
         }
     )*};
@@ -73,6 +91,28 @@ impl Threshold for f32 {
         } else {
             Some(f32::from_bits(t.to_bits() - 1))
         }
+    }
+    fn threshold_above(iso: f64) -> Option<Self> {
+        let t = Self::threshold(iso)?;
+        if (t as f64) > iso {
+            Some(t)
+        } else if t == f32::INFINITY {
+            None
+        } else {
+            // `t` equals iso: the next f32 up (the ordered successor; -0.0 and 0.0 are both 0).
+            Some(next_up(t))
+        }
+    }
+}
+
+/// The smallest f32 greater than the finite or −∞ value `t`.
+fn next_up(t: f32) -> f32 {
+    if t == 0.0 {
+        f32::from_bits(1)
+    } else if t > 0.0 {
+        f32::from_bits(t.to_bits() + 1)
+    } else {
+        f32::from_bits(t.to_bits() - 1)
     }
 }
 
@@ -126,8 +166,26 @@ impl Plane {
     }
 }
 
-struct Slab {
+/// The vertices a slab creates, and which of them lie exactly on a sample.
+#[derive(Default)]
+struct Vertices {
     positions: Vec<[f32; 3]>,
+    /// (vertex index local to the slab, linear sample index), in vertex order.
+    on_sample: Vec<(u32, usize)>,
+}
+
+impl Vertices {
+    #[inline]
+    fn push(&mut self, (position, sample): ([f32; 3], Option<usize>)) {
+        if let Some(s) = sample {
+            self.on_sample.push((self.positions.len() as u32, s));
+        }
+        self.positions.push(position);
+    }
+}
+
+struct Slab {
+    vertices: Vertices,
     triangles: Vec<[u32; 3]>,
 }
 
@@ -135,10 +193,11 @@ fn extract_typed<T: Threshold>(
     volume: &VolumeView,
     samples: &[T],
     iso: f64,
+    inside: Inside,
     slab_planes: usize,
 ) -> Result<McMesh> {
     let geometry = volume.geometry();
-    let Some(threshold) = T::threshold(iso) else {
+    let Some(threshold) = T::inside_threshold(iso, inside) else {
         return Ok(McMesh::default());
     };
     let dims = geometry.dims;
@@ -161,7 +220,7 @@ fn extract_typed<T: Threshold>(
         })
         .collect::<Result<_>>()?;
 
-    let vertex_count: usize = slabs.iter().map(|s| s.positions.len()).sum();
+    let vertex_count: usize = slabs.iter().map(|s| s.vertices.positions.len()).sum();
     if vertex_count > u32::MAX as usize {
         return Err(too_many_vertices());
     }
@@ -171,7 +230,7 @@ fn extract_typed<T: Threshold>(
     for slab in &slabs {
         vertex_offsets.push(v);
         triangle_offsets.push(t);
-        v += slab.positions.len();
+        v += slab.vertices.positions.len();
         t += slab.triangles.len();
     }
     let mut positions = vec![[0f32; 3]; v];
@@ -180,29 +239,87 @@ fn extract_typed<T: Threshold>(
     let mut triangle_parts = Vec::with_capacity(slabs.len());
     let (mut rest_p, mut rest_t) = (&mut positions[..], &mut triangles[..]);
     for slab in &slabs {
-        let (p, rp) = rest_p.split_at_mut(slab.positions.len());
+        let (p, rp) = rest_p.split_at_mut(slab.vertices.positions.len());
         let (q, rq) = rest_t.split_at_mut(slab.triangles.len());
         position_parts.push(p);
         triangle_parts.push(q);
         rest_p = rp;
         rest_t = rq;
     }
+    let on_sample: Vec<(u32, usize)> = slabs
+        .iter()
+        .zip(&vertex_offsets)
+        .flat_map(|(slab, &offset)| {
+            slab.vertices
+                .on_sample
+                .iter()
+                .map(move |&(v, s)| (v + offset as u32, s))
+        })
+        .collect();
     slabs
         .par_iter()
         .zip(position_parts)
         .zip(triangle_parts)
         .zip(vertex_offsets)
         .for_each(|(((slab, p), q), offset)| {
-            p.copy_from_slice(&slab.positions);
+            p.copy_from_slice(&slab.vertices.positions);
             let offset = offset as u32;
             for (dst, src) in q.iter_mut().zip(&slab.triangles) {
                 *dst = src.map(|i| i + offset);
             }
         });
-    Ok(McMesh {
+    let mut mesh = McMesh {
         positions,
         triangles,
-    })
+    };
+    if !on_sample.is_empty() {
+        merge_sample_vertices(&mut mesh, &on_sample);
+    }
+    Ok(mesh)
+}
+
+/// Makes the vertices that lie exactly on the same sample one vertex, and drops the triangles
+/// that collapse.
+///
+/// A crossing lands on a sample when that sample's value equals the isovalue (or an endpoint is
+/// infinite); every crossed edge at that sample then has its vertex there. The first of them in
+/// vertex order is kept, so the result stays independent of the work split. Triangles of a cell
+/// have their vertices on the cell's edges, and three distinct points on a cube's edges are
+/// never collinear unless they share an edge (impossible here), so after merging a triangle has
+/// zero area exactly when it repeats an index.
+fn merge_sample_vertices(mesh: &mut McMesh, on_sample: &[(u32, usize)]) {
+    // `target[v]`: the vertex's index after merging and compacting.
+    let mut target: Vec<u32> = Vec::with_capacity(mesh.positions.len());
+    let mut first_at_sample: HashMap<usize, u32> = HashMap::with_capacity(on_sample.len());
+    let mut merged = on_sample.iter().peekable();
+    let mut kept = 0u32;
+    for v in 0..mesh.positions.len() {
+        let mut duplicate_of = None;
+        if let Some(&&(w, sample)) = merged.peek() {
+            if w as usize == v {
+                merged.next();
+                match first_at_sample.get(&sample) {
+                    Some(&first) => duplicate_of = Some(target[first as usize]),
+                    None => {
+                        first_at_sample.insert(sample, v as u32);
+                    }
+                }
+            }
+        }
+        match duplicate_of {
+            Some(t) => target.push(t),
+            None => {
+                mesh.positions[kept as usize] = mesh.positions[v];
+                target.push(kept);
+                kept += 1;
+            }
+        }
+    }
+    mesh.positions.truncate(kept as usize);
+    mesh.triangles.retain_mut(|t| {
+        *t = t.map(|i| target[i as usize]);
+        t[0] != t[1] && t[1] != t[2] && t[0] != t[2]
+    });
 }
 
 fn too_many_vertices() -> Error {
@@ -218,14 +335,14 @@ fn extract_slab<T: Threshold>(grid: &Grid<T>, k0: usize, k1: usize) -> Result<Sl
     let mut hi = Plane::new(len);
     let mut z = EdgeRanks::new(len);
     let mut slab = Slab {
-        positions: Vec::new(),
+        vertices: Vertices::default(),
         triangles: Vec::new(),
     };
     // Vertices numbered so far (including the next slab's, which are only ranked).
     let mut count = 0usize;
 
     pack_plane(grid, k0, &mut lo.inside);
-    rank_xy(grid, k0, &mut lo, &mut count, Some(&mut slab.positions));
+    rank_xy(grid, k0, &mut lo, &mut count, Some(&mut slab.vertices));
     for k in k0..k1.min(nz - 1) {
         pack_plane(grid, k + 1, &mut hi.inside);
         rank_z(
@@ -235,10 +352,10 @@ fn extract_slab<T: Threshold>(grid: &Grid<T>, k0: usize, k1: usize) -> Result<Sl
             &hi.inside,
             &mut z,
             &mut count,
-            &mut slab.positions,
+            &mut slab.vertices,
         );
         // The next slab emits plane k1's vertices; here they are only ranked.
-        let emit = (k + 1 < k1).then_some(&mut slab.positions);
+        let emit = (k + 1 < k1).then_some(&mut slab.vertices);
         rank_xy(grid, k + 1, &mut hi, &mut count, emit);
         if count > u32::MAX as usize {
             return Err(too_many_vertices());
@@ -313,7 +430,7 @@ fn rank_xy<T: Threshold>(
     k: usize,
     plane: &mut Plane,
     count: &mut usize,
-    mut positions: Option<&mut Vec<[f32; 3]>>,
+    mut positions: Option<&mut Vertices>,
 ) {
     let [nx, ny, _] = grid.dims;
     let words = grid.words;
@@ -361,7 +478,7 @@ fn rank_z<T: Threshold>(
     hi: &[u64],
     z: &mut EdgeRanks,
     count: &mut usize,
-    positions: &mut Vec<[f32; 3]>,
+    positions: &mut Vertices,
 ) {
     let [nx, ny, _] = grid.dims;
     let words = grid.words;
@@ -390,21 +507,36 @@ fn for_each_bit(mut bits: u64, w: usize, mut f: impl FnMut(usize)) {
 }
 
 impl<T: Threshold> Grid<'_, T> {
-    /// The vertex on the edge from sample `s0` (grid position `at`) to `s1` one step along `axis`.
+    /// The vertex on the edge from sample `s0` (grid position `at`) to `s1` one step along `axis`,
+    /// and the sample it lies on when the crossing is exactly at an end of the edge.
     #[inline]
-    fn vertex(&self, s0: usize, s1: usize, at: [usize; 3], axis: usize) -> [f32; 3] {
+    fn vertex(
+        &self,
+        s0: usize,
+        s1: usize,
+        at: [usize; 3],
+        axis: usize,
+    ) -> ([f32; 3], Option<usize>) {
         let a = self.samples[s0].to_f64();
         let b = self.samples[s1].to_f64();
         let t = (self.iso - a) / (b - a);
         // NaN samples (outside) and infinities give no usable fraction: take the edge midpoint.
         let t = if t.is_nan() { 0.5 } else { t.clamp(0.0, 1.0) };
+        let on_sample = if t == 0.0 {
+            Some(s0)
+        } else if t == 1.0 {
+            Some(s1)
+        } else {
+            None
+        };
         let mut p = at.map(|c| c as f64);
         p[axis] += t;
-        [
+        let position = [
             (p[0] * self.spacing[0]) as f32,
             (p[1] * self.spacing[1]) as f32,
             (p[2] * self.spacing[2]) as f32,
-        ]
+        ];
+        (position, on_sample)
     }
 }
 
@@ -534,14 +666,20 @@ mod tests {
             for v in 0..=255u8 {
                 let t = u8::threshold(iso);
                 assert_eq!(t.is_some_and(|t| v >= t), v as f64 >= iso, "u8 {v} {iso}");
+                let t = u8::threshold_above(iso);
+                assert_eq!(t.is_some_and(|t| v >= t), v as f64 > iso, "u8 > {v} {iso}");
             }
             for v in [i16::MIN, -2, -1, 0, 1, 127, 128, 255, 256, i16::MAX] {
                 let t = i16::threshold(iso);
                 assert_eq!(t.is_some_and(|t| v >= t), v as f64 >= iso, "i16 {v} {iso}");
+                let t = i16::threshold_above(iso);
+                assert_eq!(t.is_some_and(|t| v >= t), v as f64 > iso, "i16 > {v} {iso}");
             }
             for v in [0u16, 1, 255, 256, 65534, 65535] {
                 let t = u16::threshold(iso);
                 assert_eq!(t.is_some_and(|t| v >= t), v as f64 >= iso, "u16 {v} {iso}");
+                let t = u16::threshold_above(iso);
+                assert_eq!(t.is_some_and(|t| v >= t), v as f64 > iso, "u16 > {v} {iso}");
             }
             let floats = [
                 f32::NEG_INFINITY,
@@ -563,6 +701,8 @@ mod tests {
             for v in floats {
                 let t = f32::threshold(iso);
                 assert_eq!(t.is_some_and(|t| v >= t), v as f64 >= iso, "f32 {v} {iso}");
+                let t = f32::threshold_above(iso);
+                assert_eq!(t.is_some_and(|t| v >= t), v as f64 > iso, "f32 > {v} {iso}");
             }
         }
         assert!(u8::threshold(f64::NAN).is_none());

@@ -11,6 +11,10 @@
 //! - an edge between samples of different insideness gets one vertex at the linear crossing
 //!   `a + t·(b − a)`, `t = (iso − va) / (vb − va)` clamped to [0, 1] (the midpoint when `t` is NaN,
 //!   i.e. with a NaN or infinite endpoint);
+//! - a crossing exactly on a sample (`t` = 0 or 1: the sample equals the isovalue, as integer data
+//!   at an integer isovalue often does) is one vertex for all the crossed edges that meet there,
+//!   and the triangles that this collapses are dropped, so no two vertices share a position and
+//!   no triangle has zero area;
 //! - triangles wind counter-clockwise seen from the outside, so `(p1 − p0) × (p2 − p0)` points from
 //!   inside to outside, down the gradient (along −∇f);
 //! - faces with two diagonal inside corners keep the inside corners apart, so the mesh is
@@ -18,27 +22,23 @@
 //!   each direction.
 //!
 //! Vertex order is fixed (see `extract.rs`): by the edge's lower sample plane `k`, then axis (x, y,
-//! z), then storage order; triangles by cell, cells in storage order. The output is the same for
-//! any number of threads.
+//! z), then storage order, a vertex on a sample taking the place of its first edge; triangles by
+//! cell, cells in storage order. The output is the same for any number of threads.
+//!
+//! [`Inside::Above`] switches to scikit-image's rule (`value > iso` is inside, as in Lewiner et
+//! al.'s implementation), for drop-in replacements of `skimage.measure.marching_cubes`.
 
 mod extract;
+mod mesh;
 mod snorm;
 mod table;
 mod write;
 
+pub use mesh::{Inside, McMesh};
 pub use snorm::SnormMesh;
 
 use crate::error::Result;
 use crate::volume::VolumeView;
-
-/// An indexed triangle mesh from Marching Cubes.
-#[derive(Debug, Clone, Default, PartialEq)]
-pub struct McMesh {
-    /// Vertex positions in world units without the origin: sample (i, j, k) is at (i·sx, j·sy, k·sz).
-    pub positions: Vec<[f32; 3]>,
-    /// Counter-clockwise seen from outside (value < iso), indices into `positions`.
-    pub triangles: Vec<[u32; 3]>,
-}
 
 /// Extracts the isosurface `value = iso` of `volume` with Marching Cubes, in parallel.
 ///
@@ -55,7 +55,17 @@ pub fn marching_cubes(volume: &VolumeView, iso: f64) -> McMesh {
 /// [`marching_cubes`], failing with `ErrorKind::TooLarge` instead of panicking when the mesh
 /// would need more than 2³²−1 vertices.
 pub fn try_marching_cubes(volume: &VolumeView, iso: f64) -> Result<McMesh> {
-    extract::extract(volume, iso, extract::default_slab_planes(volume.dims()[2]))
+    try_marching_cubes_with(volume, iso, Inside::AtOrAbove)
+}
+
+/// [`try_marching_cubes`] with the given rule for which samples are inside.
+pub fn try_marching_cubes_with(volume: &VolumeView, iso: f64, inside: Inside) -> Result<McMesh> {
+    extract::extract(
+        volume,
+        iso,
+        inside,
+        extract::default_slab_planes(volume.dims()[2]),
+    )
 }
 
 /// [`try_marching_cubes`] with `planes_per_slab` sample planes per parallel work item. The output
@@ -66,7 +76,7 @@ pub fn marching_cubes_with_slab_planes(
     iso: f64,
     planes_per_slab: usize,
 ) -> Result<McMesh> {
-    extract::extract(volume, iso, planes_per_slab)
+    extract::extract(volume, iso, Inside::AtOrAbove, planes_per_slab)
 }
 
 impl McMesh {

@@ -1,7 +1,7 @@
 //! The paper's compact MC vertex format (Table 3): positions as three snorm16 values scaled by
 //! the mesh bounds, 6 bytes per vertex.
 
-use super::McMesh;
+use super::mesh::McMesh;
 
 /// An [`McMesh`] with quantised positions.
 ///

@@ -2,7 +2,7 @@
 //!
 //! Both go through [`crate::fs::write_atomic`]; positions are written as stored (world units).
 
-use super::McMesh;
+use super::mesh::McMesh;
 use crate::error::Result;
 use crate::fs::write_atomic;
 use std::io::Write;

@@ -208,6 +208,52 @@ fn rewritten_headers_with_valid_checksums_are_still_validated() {
 }
 
 #[test]
+fn a_section_length_mismatch_is_told_in_words() {
+    let mut b = cgc::to_bytes(&tiny_grid());
+    b[144..152].copy_from_slice(&5u64.to_le_bytes()); // cell count
+    let crc = crc32fast_hash(&b[..316]);
+    b[316..320].copy_from_slice(&crc.to_le_bytes());
+    let err = cgc::read_bytes(&b).unwrap_err().to_string();
+    assert!(
+        err.contains("cells section is") && err.contains("holds 5 records of"),
+        "{err}"
+    );
+    assert!(!err.contains("Some("), "Rust debug text in {err}");
+}
+
+#[test]
+fn directories_and_fifos_are_refused_not_waited_on() {
+    let dir = temp_path("a-directory.cgc");
+    std::fs::create_dir_all(&dir).unwrap();
+    for result in [cgc::open(&dir), cgc::read(&dir)] {
+        let err = result.unwrap_err().to_string();
+        assert!(err.contains("is a directory, not a regular file"), "{err}");
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+    #[cfg(unix)]
+    {
+        let fifo = temp_path("fifo.cgc");
+        let _ = std::fs::remove_file(&fifo);
+        let made = std::process::Command::new("mkfifo")
+            .arg(&fifo)
+            .status()
+            .unwrap();
+        assert!(made.success());
+        // On another thread, so that a regression hangs that thread, not the test.
+        let (send, recv) = std::sync::mpsc::channel();
+        let path = fifo.clone();
+        std::thread::spawn(move || {
+            let _ = send.send(cgc::open(&path).map(|_| ()).unwrap_err().to_string());
+        });
+        let err = recv
+            .recv_timeout(std::time::Duration::from_secs(20))
+            .expect("opening a FIFO blocked");
+        assert!(err.contains("FIFO"), "{err}");
+        std::fs::remove_file(&fifo).unwrap();
+    }
+}
+
+#[test]
 fn writes_are_atomic_and_errors_name_the_file() {
     let path = temp_path("does/not/exist/out.cgc");
     let err = cgc::write(&path, &tiny_grid()).unwrap_err();

@@ -1,10 +1,10 @@
 //! Integration tests of the core crate, one binary.
 
 mod cgc;
+// Also compiled into isogrid-trace's test binary, which uses helpers this one does not.
+#[allow(dead_code)]
 mod common;
 mod extract;
 mod mc;
 mod stream;
 mod tiles;
-mod trace;
-mod trace_bvh;

@@ -2,7 +2,9 @@
 //! mesh topology (watertightness, orientation, Euler characteristic), analytic volumes, and
 //! files parsed back by hand.
 
-use isogrid::mc::{marching_cubes, marching_cubes_with_slab_planes, McMesh};
+use isogrid::mc::{
+    marching_cubes, marching_cubes_with_slab_planes, try_marching_cubes_with, Inside, McMesh,
+};
 use isogrid::{Geometry, Volume, VolumeData, VolumeView};
 use std::collections::HashMap;
 
@@ -122,12 +124,15 @@ struct Edge {
     axis: usize,
 }
 
-fn inside(v: f64, iso: f64) -> bool {
-    v >= iso
+fn inside(v: f64, iso: f64, rule: Inside) -> bool {
+    match rule {
+        Inside::AtOrAbove => v >= iso,
+        Inside::Above => v > iso,
+    }
 }
 
 /// All crossed edges, in the documented vertex order: (k, axis, j, i).
-fn crossed_edges(view: &VolumeView, iso: f64) -> Vec<Edge> {
+fn crossed_edges(view: &VolumeView, iso: f64, rule: Inside) -> Vec<Edge> {
     let [nx, ny, nz] = view.dims();
     let mut edges = Vec::new();
     for k in 0..nz {
@@ -141,7 +146,7 @@ fn crossed_edges(view: &VolumeView, iso: f64) -> Vec<Edge> {
                     }
                     let va = view.get(i, j, k);
                     let vb = view.get(b[0], b[1], b[2]);
-                    if inside(va, iso) != inside(vb, iso) {
+                    if inside(va, iso, rule) != inside(vb, iso, rule) {
                         edges.push(Edge {
                             at: [i, j, k],
                             axis,
@@ -154,16 +159,72 @@ fn crossed_edges(view: &VolumeView, iso: f64) -> Vec<Edge> {
     edges
 }
 
-/// Checks that vertex `v` is on the `v`-th crossed edge and the field interpolated there is iso.
-fn check_vertices(mesh: &McMesh, view: &VolumeView, iso: f64) -> Vec<Edge> {
-    let edges = crossed_edges(view, iso);
+/// The documented crossing fraction along an edge from value `va` to `vb`.
+fn fraction(va: f64, vb: f64, iso: f64) -> f64 {
+    let t = (iso - va) / (vb - va);
+    if t.is_nan() {
+        0.5
+    } else {
+        t.clamp(0.0, 1.0)
+    }
+}
+
+/// The expected vertices: one per crossed edge, except that crossings exactly on a sample are one
+/// vertex for every edge meeting there, placed at the first such edge. Each vertex lists its edges.
+fn expected_vertices(view: &VolumeView, iso: f64, rule: Inside) -> Vec<Vec<Edge>> {
+    let mut vertices: Vec<Vec<Edge>> = Vec::new();
+    let mut at_sample: HashMap<[usize; 3], usize> = HashMap::new();
+    for e in crossed_edges(view, iso, rule) {
+        let mut b = e.at;
+        b[e.axis] += 1;
+        let t = fraction(
+            view.get(e.at[0], e.at[1], e.at[2]),
+            view.get(b[0], b[1], b[2]),
+            iso,
+        );
+        let sample = if t == 0.0 {
+            Some(e.at)
+        } else if t == 1.0 {
+            Some(b)
+        } else {
+            None
+        };
+        match sample {
+            Some(s) => match at_sample.get(&s) {
+                Some(&v) => vertices[v].push(e),
+                None => {
+                    at_sample.insert(s, vertices.len());
+                    vertices.push(vec![e]);
+                }
+            },
+            None => vertices.push(vec![e]),
+        }
+    }
+    vertices
+}
+
+/// Checks the vertices against [`expected_vertices`]: count, order, each on its (first) edge
+/// where the field interpolates to iso; no two vertices at the same position.
+fn check_vertices(mesh: &McMesh, view: &VolumeView, iso: f64) -> Vec<Vec<Edge>> {
+    check_vertices_with(mesh, view, iso, Inside::AtOrAbove)
+}
+
+fn check_vertices_with(mesh: &McMesh, view: &VolumeView, iso: f64, rule: Inside) -> Vec<Vec<Edge>> {
+    let vertices = expected_vertices(view, iso, rule);
     assert_eq!(
         mesh.vertex_count(),
-        edges.len(),
-        "vertex count != crossed edges"
+        vertices.len(),
+        "vertex count != crossed edges (crossings on one sample counted once)"
     );
+    let mut seen = HashMap::new();
+    for (v, p) in mesh.positions.iter().enumerate() {
+        if let Some(w) = seen.insert(p.map(f32::to_bits), v) {
+            panic!("vertices {w} and {v} share the position {p:?}");
+        }
+    }
     let s = view.geometry().spacing;
-    for (v, (p, e)) in mesh.positions.iter().zip(&edges).enumerate() {
+    for (v, (p, edges)) in mesh.positions.iter().zip(&vertices).enumerate() {
+        let e = &edges[0];
         for a in 0..3 {
             let lower = e.at[a] as f64 * s[a];
             if a != e.axis {
@@ -203,11 +264,11 @@ fn check_vertices(mesh: &McMesh, view: &VolumeView, iso: f64) -> Vec<Edge> {
             );
         }
     }
-    edges
+    vertices
 }
 
 /// Checks each triangle uses three distinct vertices of the edges of one cell.
-fn check_triangles_are_local(mesh: &McMesh, edges: &[Edge]) {
+fn check_triangles_are_local(mesh: &McMesh, vertices: &[Vec<Edge>]) {
     let cells = |e: &Edge| -> Vec<[usize; 3]> {
         let mut out = Vec::new();
         let others: Vec<usize> = (0..3).filter(|&a| a != e.axis).collect();
@@ -230,7 +291,10 @@ fn check_triangles_are_local(mesh: &McMesh, edges: &[Edge]) {
             t[0] != t[1] && t[1] != t[2] && t[0] != t[2],
             "triangle {n} repeats an index: {t:?}"
         );
-        let sets: Vec<Vec<[usize; 3]>> = t.iter().map(|&v| cells(&edges[v as usize])).collect();
+        let sets: Vec<Vec<[usize; 3]>> = t
+            .iter()
+            .map(|&v| vertices[v as usize].iter().flat_map(cells).collect())
+            .collect();
         assert!(
             sets[0]
                 .iter()
@@ -240,30 +304,59 @@ fn check_triangles_are_local(mesh: &McMesh, edges: &[Edge]) {
     }
 }
 
-/// Directed edge counts; asserts no directed edge appears twice (consistent orientation).
-fn directed_edges(mesh: &McMesh) -> HashMap<(u32, u32), u32> {
+/// How a mesh may be joined at its edges.
+#[derive(Clone, Copy, PartialEq)]
+enum Joins {
+    /// Every directed edge at most once: a manifold, consistently oriented.
+    Manifold,
+    /// Vertices on samples were merged: where the surface touches itself at such a sample an edge
+    /// may be in four triangles, so only the balance of the two directions is required.
+    Touching,
+}
+
+/// `Touching` when some vertex stands for several crossed edges (a merged crossing on a sample).
+fn joins(vertices: &[Vec<Edge>]) -> Joins {
+    if vertices.iter().any(|edges| edges.len() > 1) {
+        Joins::Touching
+    } else {
+        Joins::Manifold
+    }
+}
+
+/// Directed edge counts; for a `Manifold` asserts no directed edge appears twice (consistent
+/// orientation).
+fn directed_edges(mesh: &McMesh, joins: Joins) -> HashMap<(u32, u32), u32> {
     let mut map = HashMap::new();
     for t in &mesh.triangles {
         for (a, b) in [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])] {
             *map.entry((a, b)).or_insert(0) += 1;
         }
     }
-    for (&(a, b), &n) in &map {
-        assert_eq!(
-            n, 1,
-            "directed edge {a}->{b} used {n} times: inconsistent orientation or non-manifold"
-        );
+    if joins == Joins::Manifold {
+        for (&(a, b), &n) in &map {
+            assert_eq!(
+                n, 1,
+                "directed edge {a}->{b} used {n} times: inconsistent orientation or non-manifold"
+            );
+        }
     }
     map
 }
 
-/// A closed, consistently oriented mesh: each directed edge once, with its reverse present.
-fn assert_watertight(mesh: &McMesh) {
+/// Whether edge a->b is used as often as b->a (closed there, oriented consistently).
+fn balanced(map: &HashMap<(u32, u32), u32>, a: u32, b: u32) -> bool {
+    map.get(&(a, b)) == map.get(&(b, a))
+}
+
+/// A closed, consistently oriented mesh: each directed edge once (with merged vertices: as often
+/// as its reverse), with its reverse present, and every vertex of a single edge in a triangle (a
+/// merged vertex may be left alone when all its triangles collapsed, e.g. a lone sample at iso).
+fn assert_watertight(mesh: &McMesh, vertices: &[Vec<Edge>]) {
     assert!(mesh.triangle_count() > 0);
-    let map = directed_edges(mesh);
+    let map = directed_edges(mesh, joins(vertices));
     for &(a, b) in map.keys() {
         assert!(
-            map.contains_key(&(b, a)),
+            balanced(&map, a, b),
             "edge {a}-{b} is on a hole or has one orientation"
         );
     }
@@ -274,14 +367,16 @@ fn assert_watertight(mesh: &McMesh) {
         }
     }
     assert!(
-        used.iter().all(|&u| u),
+        used.iter()
+            .zip(vertices)
+            .all(|(&u, edges)| u || edges.len() > 1),
         "unreferenced vertex in a closed mesh"
     );
 }
 
 /// An open mesh from a volume cut by its border: edges in one triangle must lie on the border.
-fn assert_manifold_with_border(mesh: &McMesh, view: &VolumeView) {
-    let map = directed_edges(mesh);
+fn assert_manifold_with_border(mesh: &McMesh, view: &VolumeView, joins: Joins) {
+    let map = directed_edges(mesh, joins);
     let s = view.geometry().spacing;
     let dims = view.dims();
     let on_border_plane = |p: [f32; 3], a: usize, side: usize| {
@@ -293,7 +388,7 @@ fn assert_manifold_with_border(mesh: &McMesh, view: &VolumeView) {
         p[a] == coord
     };
     for &(a, b) in map.keys() {
-        if map.contains_key(&(b, a)) {
+        if balanced(&map, a, b) {
             continue;
         }
         let (pa, pb) = (mesh.positions[a as usize], mesh.positions[b as usize]);
@@ -308,7 +403,7 @@ fn assert_manifold_with_border(mesh: &McMesh, view: &VolumeView) {
 }
 
 fn euler_characteristic(mesh: &McMesh) -> i64 {
-    let map = directed_edges(mesh);
+    let map = directed_edges(mesh, Joins::Manifold);
     let undirected = map
         .keys()
         .filter(|(a, b)| a < b || !map.contains_key(&(*b, *a)))
@@ -365,7 +460,7 @@ fn vertices_are_the_crossed_edges_of_random_volumes() {
                 let mesh = marching_cubes(&vol.view(), iso);
                 let edges = check_vertices(&mesh, &vol.view(), iso);
                 check_triangles_are_local(&mesh, &edges);
-                assert_manifold_with_border(&mesh, &vol.view());
+                assert_manifold_with_border(&mesh, &vol.view(), joins(&edges));
                 if dims.contains(&1) {
                     assert_eq!(mesh.triangle_count(), 0, "{dims:?} has no cells");
                 }
@@ -387,11 +482,84 @@ fn isovalues_on_sample_values_count_as_inside() {
             let mesh = marching_cubes(&vol.view(), iso);
             let edges = check_vertices(&mesh, &vol.view(), iso);
             check_triangles_are_local(&mesh, &edges);
-            assert_manifold_with_border(&mesh, &vol.view());
+            assert_manifold_with_border(&mesh, &vol.view(), joins(&edges));
         }
         // The lowest value: everything inside, nothing crossed.
         let lowest = values[0];
         assert_eq!(marching_cubes(&vol.view(), lowest), McMesh::default());
+    }
+}
+
+fn triangle_area(mesh: &McMesh, t: &[u32; 3]) -> f64 {
+    let p = |v: u32| mesh.positions[v as usize].map(|c| c as f64);
+    let (a, b, c) = (p(t[0]), p(t[1]), p(t[2]));
+    let (u, w) = (
+        [b[0] - a[0], b[1] - a[1], b[2] - a[2]],
+        [c[0] - a[0], c[1] - a[1], c[2] - a[2]],
+    );
+    let cross = [
+        u[1] * w[2] - u[2] * w[1],
+        u[2] * w[0] - u[0] * w[2],
+        u[0] * w[1] - u[1] * w[0],
+    ];
+    0.5 * (cross[0] * cross[0] + cross[1] * cross[1] + cross[2] * cross[2]).sqrt()
+}
+
+/// Integer data at an integer isovalue puts crossings exactly on samples, where several crossed
+/// edges meet: they must give one vertex there, and no triangle of zero area.
+#[test]
+fn crossings_on_samples_are_one_vertex_without_degenerate_triangles() {
+    // Integer steps of 1 per voxel from 19 at the centre; the border is below 12.
+    let ball = |ty| {
+        volume([21, 20, 19], ty, |p| {
+            (19.0 - distance(p, [10.2, 9.6, 9.1])).round()
+        })
+    };
+    for ty in TYPES {
+        let vol = ball(ty);
+        for (rule, iso) in [
+            (Inside::AtOrAbove, 12.0),
+            (Inside::AtOrAbove, 15.0),
+            (Inside::Above, 12.0),
+            (Inside::Above, 14.0),
+        ] {
+            let mesh = try_marching_cubes_with(&vol.view(), iso, rule).unwrap();
+            let vertices = check_vertices_with(&mesh, &vol.view(), iso, rule);
+            assert!(
+                vertices.iter().any(|edges| edges.len() > 1),
+                "{ty:?} {rule:?} {iso}: no crossing on a sample, the test tests nothing"
+            );
+            check_triangles_are_local(&mesh, &vertices);
+            for t in &mesh.triangles {
+                assert!(
+                    triangle_area(&mesh, t) > 0.0,
+                    "{ty:?} {rule:?} {iso}: zero-area {t:?}"
+                );
+            }
+            // Still closed and consistently oriented.
+            assert_watertight(&mesh, &vertices);
+        }
+    }
+}
+
+/// `Inside::Above` (scikit-image's rule) is `Inside::AtOrAbove` just above the isovalue on
+/// integer data, and the same on float data away from sample values.
+#[test]
+fn inside_above_counts_samples_at_the_isovalue_as_outside() {
+    for ty in TYPES {
+        let vol = random_volume([12, 9, 10], ty, 4, 31);
+        let lo = if matches!(ty, Ty::I16) { -2.0 } else { 0.0 };
+        for iso in [lo, lo + 1.0, lo + 1.5] {
+            let mesh = try_marching_cubes_with(&vol.view(), iso, Inside::Above).unwrap();
+            let vertices = check_vertices_with(&mesh, &vol.view(), iso, Inside::Above);
+            check_triangles_are_local(&mesh, &vertices);
+        }
+        let sphere = sphere(20, ty, 6.5);
+        let above = try_marching_cubes_with(&sphere.view(), 100.5, Inside::Above).unwrap();
+        let at = marching_cubes(&sphere.view(), 100.5);
+        if !matches!(ty, Ty::F32) {
+            assert_eq!(above, at, "{ty:?}: no sample equals 100.5");
+        }
     }
 }
 
@@ -409,7 +577,7 @@ fn structured_volumes_match_brute_force() {
                 let edges = check_vertices(&mesh, &vol.view(), iso);
                 check_triangles_are_local(&mesh, &edges);
                 assert!(mesh.triangle_count() > 0, "{name} {ty:?}");
-                assert_watertight(&mesh);
+                assert_watertight(&mesh, &edges);
             }
         }
     }
@@ -444,7 +612,7 @@ fn nan_samples_are_outside() {
         let mesh = marching_cubes(&vol.view(), iso);
         let edges = check_vertices(&mesh, &vol.view(), iso);
         check_triangles_are_local(&mesh, &edges);
-        assert_manifold_with_border(&mesh, &vol.view());
+        assert_manifold_with_border(&mesh, &vol.view(), joins(&edges));
     }
 }
 
@@ -459,7 +627,7 @@ fn random_blobs_are_watertight() {
                 let mesh = marching_cubes(&vol.view(), iso);
                 let edges = check_vertices(&mesh, &vol.view(), iso);
                 check_triangles_are_local(&mesh, &edges);
-                assert_watertight(&mesh);
+                assert_watertight(&mesh, &edges);
             }
         }
     }
@@ -575,8 +743,8 @@ fn view_from_borrowed_samples_matches_owned_volume() {
     geometry.origin = [7.0, -3.0, 1.0];
     let view = VolumeView::new(geometry, isogrid::Samples::I16(values)).unwrap();
     let mesh = marching_cubes(&view, 100.0);
-    check_vertices(&mesh, &view, 100.0);
-    assert_watertight(&mesh);
+    let edges = check_vertices(&mesh, &view, 100.0);
+    assert_watertight(&mesh, &edges);
 }
 
 fn temp_path(name: &str) -> std::path::PathBuf {

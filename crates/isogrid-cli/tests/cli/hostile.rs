@@ -1,0 +1,414 @@
+//! Requests a hostile-input probe found mishandled: sizes the arguments accept but memory does
+//! not, special files, misleading messages, silently ignored options, and outputs that would
+//! destroy inputs or each other. Each fails with one clear line, quickly, allocating little.
+
+use super::{fails, generated, isogrid, s, temp_dir};
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+/// Runs the binary with `ISOGRID_MEMORY_LIMIT` set.
+fn with_memory_limit(limit: &str, args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_isogrid"))
+        .args(args)
+        .env("ISOGRID_MEMORY_LIMIT", limit)
+        .output()
+        .expect("runs the binary")
+}
+
+fn one_line_error(out: &Output, mention: &str) {
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "should fail: {stderr}");
+    assert_eq!(stderr.trim_end().lines().count(), 1, "{stderr}");
+    assert!(
+        stderr.contains(mention),
+        "{stderr} should mention {mention}"
+    );
+}
+
+/// Runs the binary, killing it after `limit`: a hang fails the test instead of stalling it.
+fn within(limit: Duration, args: &[&str]) -> Output {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_isogrid"))
+        .args(args)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let start = Instant::now();
+    while child.try_wait().unwrap().is_none() {
+        if start.elapsed() > limit {
+            child.kill().unwrap();
+            panic!("{args:?} still running after {limit:?}");
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    child.wait_with_output().unwrap()
+}
+
+/// A generated sphere volume of `size`³ in `dir` and its grid `s.cgc`.
+fn sphere_grid(dir: &std::path::Path, size: u32) -> (std::path::PathBuf, std::path::PathBuf) {
+    let volume = generated(dir, "sphere", size);
+    let cgc = dir.join("s.cgc");
+    let out = isogrid(&[
+        "extract",
+        s(&volume),
+        "--iso-normalized",
+        "0.5",
+        "-o",
+        s(&cgc),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    (volume, cgc)
+}
+
+#[test]
+fn sizes_the_arguments_accept_are_checked_against_memory() {
+    let dir = temp_dir("memory");
+    let (_, cgc) = sphere_grid(&dir, 16);
+    // 512³ = 128 MiB against a 64 MiB limit (the probe's 1600³ against the machine's memory).
+    let out = with_memory_limit(
+        "64M",
+        &[
+            "generate",
+            "sphere",
+            "--size",
+            "512",
+            "-o",
+            s(&dir.join("big.nrrd")),
+        ],
+    );
+    one_line_error(
+        &out,
+        "a 512³ u8 volume needs 128.0 MiB of memory but ISOGRID_MEMORY_LIMIT is 64.0 MiB",
+    );
+    assert!(!dir.join("big.nrrd").exists());
+    for backend in ["cpu", "auto"] {
+        let out = with_memory_limit(
+            "1G",
+            &[
+                "render",
+                s(&cgc),
+                "--backend",
+                backend,
+                "--size",
+                "8192x8192",
+                "-o",
+                s(&dir.join("r.png")),
+            ],
+        );
+        one_line_error(
+            &out,
+            "a 8192x8192 render needs 8.0 GiB of memory but ISOGRID_MEMORY_LIMIT is 1.0 GiB",
+        );
+    }
+    let out = with_memory_limit("1G", &["bench", "rays", s(&cgc), "--rays", "100000000"]);
+    one_line_error(&out, "100000000 rays needs");
+    one_line_error(&out, "ISOGRID_MEMORY_LIMIT is 1.0 GiB");
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+#[test]
+fn special_files_are_refused_not_waited_on() {
+    let dir = temp_dir("special");
+    let out = within(Duration::from_secs(30), &["info", s(&dir)]);
+    one_line_error(&out, "is a directory, not a regular file");
+    #[cfg(unix)]
+    {
+        let fifo = dir.join("fifo.cgc");
+        assert!(Command::new("mkfifo")
+            .arg(&fifo)
+            .status()
+            .unwrap()
+            .success());
+        let out = within(Duration::from_secs(30), &["info", s(&fifo)]);
+        one_line_error(&out, "is a pipe or FIFO");
+        // A valid NRRD through a pipe: refused as a pipe, not misread.
+        let volume = generated(&dir, "sphere", 8);
+        let mut child = Command::new(env!("CARGO_BIN_EXE_isogrid"))
+            .args(["extract", "/dev/stdin", "--iso", "100"])
+            .stdin(Stdio::piped())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        let bytes = std::fs::read(&volume).unwrap();
+        let mut stdin = child.stdin.take().unwrap();
+        // The writer may see a closed pipe once the reader refuses it.
+        let _ = std::io::Write::write_all(&mut stdin, &bytes);
+        drop(stdin);
+        let out = child.wait_with_output().unwrap();
+        one_line_error(&out, "is a pipe or FIFO");
+    }
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+#[test]
+fn messages_say_what_is_wrong() {
+    let dir = temp_dir("messages");
+    let (volume, cgc) = sphere_grid(&dir, 12);
+
+    let out = isogrid(&["extract", s(&volume), "--iso", "100", "--threads", "3000"]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && stderr.contains("1..=1024"),
+        "{stderr}"
+    );
+
+    // Negative isovalues parse, infinite ones parse and are then refused.
+    assert!(isogrid(&["extract", s(&volume), "--iso", "-5"])
+        .status
+        .success());
+    fails(
+        &["extract", s(&volume), "--iso", "-inf"],
+        "isovalue -inf is not a finite number",
+    );
+    fails(&["mc", s(&volume), "--iso", "-inf"], "sphere.nrrd");
+
+    fails(
+        &[
+            "render",
+            s(&cgc),
+            "--backend",
+            "cpu",
+            "--camera",
+            "1e200,0,0:0,0,0:0,1,0:40",
+        ],
+        "camera eye coordinate 1e200 is beyond",
+    );
+    let out = isogrid(&["render", s(&cgc), "--size", "20000x20000"]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && stderr.contains("at most 268435456"),
+        "{stderr}"
+    );
+    fails(
+        &["render", s(&cgc), "--backend", "cpu", "--precision", "4"],
+        "a .cgc file has its precision already",
+    );
+
+    // ±∞ samples: the normalised isovalue comes from the finite ones.
+    let header =
+        "NRRD0004\ntype: float\ndimension: 3\nsizes: 4 4 4\nencoding: raw\nendian: little\n\n";
+    let mut data: Vec<f32> = (0..64).map(|i| (i % 4) as f32).collect();
+    data[5] = f32::INFINITY;
+    data[6] = f32::NEG_INFINITY;
+    let inf = dir.join("inf.nrrd");
+    let bytes: Vec<u8> = header
+        .bytes()
+        .chain(data.iter().flat_map(|v| v.to_le_bytes()))
+        .collect();
+    std::fs::write(&inf, bytes).unwrap();
+    let out = isogrid(&["extract", s(&inf), "--iso-normalized", "0.5", "--json"]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(report["iso"].as_f64(), Some(1.5), "{report}");
+    let all_inf: Vec<u8> = header
+        .bytes()
+        .chain((0..64).flat_map(|i| {
+            if i % 2 == 0 {
+                f32::INFINITY
+            } else {
+                f32::NEG_INFINITY
+            }
+            .to_le_bytes()
+        }))
+        .collect();
+    std::fs::write(&inf, all_inf).unwrap();
+    fails(
+        &["extract", s(&inf), "--iso-normalized", "0.5"],
+        "no finite sample (all are NaN or infinite)",
+    );
+
+    // Voxelisation errors name the mesh.
+    let flat = dir.join("flat.obj");
+    std::fs::write(&flat, "v 0 0 0\nv 0 0 0\nv 0 0 0\nf 1 2 3\n").unwrap();
+    fails(
+        &[
+            "voxelize",
+            s(&flat),
+            "--resolution",
+            "8",
+            "-o",
+            s(&dir.join("flat.nrrd")),
+        ],
+        "flat.obj",
+    );
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+#[test]
+fn outputs_never_overwrite_inputs_or_each_other() {
+    let dir = temp_dir("outputs");
+    let volume = generated(&dir, "sphere", 12);
+    let before = std::fs::read(&volume).unwrap();
+    fails(
+        &["extract", s(&volume), "--iso", "100", "-o", s(&volume)],
+        "would overwrite the input",
+    );
+    // Another spelling of the same file.
+    let dotted = dir.join(".").join("sphere.nrrd");
+    fails(
+        &["extract", s(&volume), "--iso", "100", "-o", s(&dotted)],
+        "would overwrite the input",
+    );
+    assert_eq!(std::fs::read(&volume).unwrap(), before, "input changed");
+
+    fails(
+        &[
+            "extract",
+            s(&volume),
+            "--iso",
+            "100",
+            "-o",
+            s(&dir.join("out.png")),
+        ],
+        "must end in .cgc",
+    );
+    fails(
+        &[
+            "generate",
+            "sphere",
+            "--size",
+            "8",
+            "-o",
+            s(&dir.join("out.npy")),
+        ],
+        "must end in .nrrd",
+    );
+    assert!(!dir.join("out.png").exists() && !dir.join("out.npy").exists());
+
+    let cgc = dir.join("s.cgc");
+    assert!(
+        isogrid(&["extract", s(&volume), "--iso", "100", "-o", s(&cgc)])
+            .status
+            .success()
+    );
+    // A small CPU render of the grid with these outputs must fail naming `mention`.
+    let render_fails = |outputs: &[&str], mention: &str| {
+        let args = ["render", s(&cgc), "--backend", "cpu", "--size", "8x8"];
+        fails(&[&args[..], outputs].concat(), mention);
+    };
+    let image = dir.join("rr.png");
+    render_fails(
+        &["--aov", &format!("depth={}", s(&image)), "-o", s(&image)],
+        "must end in .npy",
+    );
+    let aov = dir.join("a.npy");
+    render_fails(
+        &["--aov", &format!("depth={0},normal={0}", s(&aov))],
+        "named for both the depth AOV and the normal AOV",
+    );
+    render_fails(
+        &[
+            "-o",
+            s(&dir.join("s.cgc.png")),
+            "--aov",
+            &format!("depth={}", s(&cgc)),
+        ],
+        "the depth AOV would overwrite the input",
+    );
+    assert!(!image.exists() && !aov.exists());
+    // An input whose name fits the output's format: the rays file given as --t-out.
+    let rays = dir.join("rays.npy");
+    let ray: Vec<u8> = [0f32, 0., 0., 1., 0., 0.]
+        .iter()
+        .flat_map(|v| v.to_le_bytes())
+        .collect();
+    std::fs::write(&rays, &ray).unwrap();
+    fails(
+        &[
+            "bench",
+            "rays",
+            s(&cgc),
+            "--rays-file",
+            s(&rays),
+            "--t-out",
+            s(&rays),
+        ],
+        "the hit distances would overwrite the input",
+    );
+    assert_eq!(std::fs::read(&rays).unwrap(), ray);
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+/// The names of the files in `dir`.
+fn names_in(dir: &std::path::Path) -> Vec<String> {
+    std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect()
+}
+
+/// A file-size limit makes the write fail with EFBIG: the error is reported and the temporary
+/// file removed (the default action of SIGXFSZ would kill the process and leave it behind).
+#[cfg(unix)]
+#[test]
+fn a_file_size_limit_leaves_no_temporary_file() {
+    let dir = temp_dir("fsize");
+    let out_path = dir.join("big.nrrd");
+    // `ulimit -f 16`: 8 or 16 KiB depending on the shell's block size; the volume is 256 KiB.
+    let out = Command::new("sh")
+        .arg("-c")
+        .arg(format!(
+            "ulimit -f 16 && exec \"$0\" generate sphere --size 64 -o '{}'",
+            s(&out_path)
+        ))
+        .arg(env!("CARGO_BIN_EXE_isogrid"))
+        .output()
+        .unwrap();
+    one_line_error(&out, "big.nrrd");
+    let left = names_in(&dir);
+    assert!(left.is_empty(), "left behind: {left:?}");
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+/// Ctrl-C during a write: the process ends by the signal, and its temporary file goes with it.
+#[cfg(unix)]
+#[test]
+fn an_interrupt_during_a_write_leaves_no_temporary_file() {
+    let dir = temp_dir("interrupt");
+    let out_path = dir.join("v.nrrd");
+    let is_tmp = |n: &str| n.starts_with(".v.nrrd.tmp");
+    let listing = || names_in(&dir);
+    // The write must be caught in progress: 128 MiB, written and synced, is tens of
+    // milliseconds at the very least; a few tries cover an unlucky poll.
+    let mut caught = false;
+    for _ in 0..4 {
+        let mut child = Command::new(env!("CARGO_BIN_EXE_isogrid"))
+            .args(["generate", "sphere", "--size", "512", "-o", s(&out_path)])
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap();
+        let start = Instant::now();
+        while child.try_wait().unwrap().is_none() && start.elapsed() < Duration::from_secs(120) {
+            if listing().iter().any(|n| is_tmp(n)) {
+                // SAFETY: sending SIGINT to our own child process.
+                unsafe { libc::kill(child.id() as i32, libc::SIGINT) };
+                caught = true;
+                break;
+            }
+            std::thread::sleep(Duration::from_millis(1));
+        }
+        let status = child.wait().unwrap();
+        let left = listing();
+        assert!(!left.iter().any(|n| is_tmp(n)), "left behind: {left:?}");
+        use std::os::unix::process::ExitStatusExt;
+        if caught && status.signal() == Some(libc::SIGINT) {
+            break;
+        }
+        // The signal came after the rename (the write had finished): try again.
+        assert!(status.success(), "{status:?}");
+        caught = false;
+        let _ = std::fs::remove_file(&out_path);
+    }
+    assert!(caught, "never interrupted a write in progress");
+    std::fs::remove_dir_all(dir).unwrap();
+}

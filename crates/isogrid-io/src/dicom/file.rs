@@ -1,0 +1,651 @@
+//! One DICOM file → its image frames: opening (with or without preamble or file meta group),
+//! the attributes of DICOM PS3.3 C.7.6.2 (Image Plane), C.7.6.3 (Image Pixel), C.11.1 (Modality
+//! LUT) and the enhanced multi-frame functional groups (C.7.6.16), and pixel data decoded by
+//! dicom-rs (`dicom-pixeldata` and its transfer-syntax registry).
+
+use crate::geometry::{cross, normalized, Vec3};
+use crate::samples::sample_count;
+use dicom_core::value::{PrimitiveValue, Value};
+use dicom_core::Tag;
+use dicom_dictionary_std::tags;
+use dicom_encoding::transfer_syntax::{Endianness, TransferSyntaxIndex};
+use dicom_object::{DefaultDicomObject, FileMetaTableBuilder, InMemDicomObject, OpenFileOptions};
+use dicom_pixeldata::PixelDecoder;
+use dicom_transfer_syntax_registry::TransferSyntaxRegistry;
+use isogrid::{Error, Result};
+use std::io::Read;
+use std::path::{Path, PathBuf};
+
+/// What the series grouping needs from a file, read without its pixel data.
+pub(super) struct Header {
+    pub path: PathBuf,
+    pub series: String,
+    /// Image frames the file declares (NumberOfFrames, 1 when absent).
+    pub frames: usize,
+}
+
+/// One 2-D image: its metadata and its stored values as little-endian samples.
+pub(super) struct Frame {
+    pub path: PathBuf,
+    /// Index of the frame in its file (0 for single-frame files).
+    pub index: usize,
+    pub rows: usize,
+    pub cols: usize,
+    pub bits_allocated: u16,
+    pub bits_stored: u16,
+    pub signed: bool,
+    pub slope: f64,
+    pub intercept: f64,
+    pub position: Option<Vec3>,
+    pub orientation: Option<(Vec3, Vec3)>,
+    pub instance: Option<i64>,
+    pub pixel_spacing: Option<[f64; 2]>,
+    /// SpacingBetweenSlices, else SliceThickness: the k spacing when positions are missing.
+    pub slice_step: Option<f64>,
+    pub pixels: Vec<u8>,
+    /// Smallest and largest stored value.
+    pub range: (i64, i64),
+}
+
+impl Frame {
+    /// Stored value `index`: masked to BitsStored, sign-extended when signed.
+    pub fn stored(&self, index: usize) -> i64 {
+        let p = &self.pixels;
+        let raw: u32 = match self.bits_allocated {
+            8 => p[index] as u32,
+            16 => u16::from_le_bytes([p[2 * index], p[2 * index + 1]]) as u32,
+            _ => u32::from_le_bytes([
+                p[4 * index],
+                p[4 * index + 1],
+                p[4 * index + 2],
+                p[4 * index + 3],
+            ]),
+        };
+        let bits = self.bits_stored as u32;
+        let v = if bits >= 32 {
+            raw
+        } else {
+            raw & ((1u32 << bits) - 1)
+        };
+        if self.signed && (v >> (bits - 1)) & 1 == 1 {
+            v as i64 - (1i64 << bits)
+        } else {
+            v as i64
+        }
+    }
+
+    /// "FILE" or "FILE frame N".
+    pub fn describe(&self) -> String {
+        let file = file_name(&self.path);
+        if self.index == 0 {
+            file
+        } else {
+            format!("{file} frame {}", self.index + 1)
+        }
+    }
+}
+
+/// Whether `path` looks like a DICOM file: `DICM` at byte 128 (standard) or 0 (no preamble), or
+/// a bare implicit-VR little-endian data set starting with a group 0000, 0002 or 0008 element
+/// (old ACR-NEMA style files, which pydicom reads with `force=True`).
+pub(super) fn looks_like_dicom(path: &Path) -> bool {
+    let mut head = [0u8; 132];
+    let Ok(mut file) = std::fs::File::open(path) else {
+        return false;
+    };
+    let mut len = 0;
+    while len < head.len() {
+        match file.read(&mut head[len..]) {
+            Ok(0) | Err(_) => break,
+            Ok(n) => len += n,
+        }
+    }
+    (len == 132 && &head[128..] == b"DICM") || (len >= 4 && &head[..4] == b"DICM") || {
+        len >= 8 && bare_data_set(&head[..len])
+    }
+}
+
+fn bare_data_set(head: &[u8]) -> bool {
+    let group = u16::from_le_bytes([head[0], head[1]]);
+    let element = u16::from_le_bytes([head[2], head[3]]);
+    let length = u32::from_le_bytes([head[4], head[5], head[6], head[7]]);
+    matches!(group, 0x0000 | 0x0002 | 0x0008) && element < 0x0100 && length < 1024
+}
+
+/// Opens `path`, reading up to (not including) PixelData when `header_only`.
+fn open(path: &Path, header_only: bool) -> Result<DefaultDicomObject> {
+    let bare = {
+        let mut head = [0u8; 132];
+        let n = std::fs::File::open(path)
+            .and_then(|mut f| f.read(&mut head))
+            .map_err(|e| Error::from(e).with_path(path))?;
+        n >= 8 && !(n == 132 && &head[128..] == b"DICM") && &head[..4] != b"DICM"
+    };
+    let invalid = |e: &dyn std::fmt::Display| {
+        Error::corrupt(format!("invalid DICOM file: {}", one_line(&e.to_string())))
+    };
+    if bare {
+        // No file meta group: an implicit VR little-endian data set (PS3.5 A.1 default).
+        let ts = TransferSyntaxRegistry
+            .get(dicom_dictionary_std::uids::IMPLICIT_VR_LITTLE_ENDIAN)
+            .expect("the registry knows implicit VR little endian");
+        let file = std::fs::File::open(path).map_err(|e| Error::from(e).with_path(path))?;
+        let obj = InMemDicomObject::read_dataset_with_ts(std::io::BufReader::new(file), ts)
+            .map_err(|e| invalid(&e))?;
+        return obj
+            .with_meta(
+                FileMetaTableBuilder::new()
+                    .transfer_syntax(dicom_dictionary_std::uids::IMPLICIT_VR_LITTLE_ENDIAN)
+                    .media_storage_sop_class_uid("1.2.840.10008.5.1.4.1.1.7")
+                    .media_storage_sop_instance_uid("2.25.0"),
+            )
+            .map_err(|e| invalid(&e));
+    }
+    // The default preamble detection also reads files that start with `DICM` (no preamble).
+    let mut options = OpenFileOptions::new();
+    if header_only {
+        options = options.read_until(tags::PIXEL_DATA);
+    }
+    options.open_file(path).map_err(|e| invalid(&e))
+}
+
+/// The header of an image file, or `None` for a DICOM file that holds no image (DICOMDIR,
+/// structured report, RT plan: no Rows).
+pub(super) fn read_header(path: &Path) -> Result<Option<Header>> {
+    let obj = open(path, true)?;
+    let attrs = Attributes(&obj);
+    if attrs.int(tags::ROWS).is_none() && attrs.int(tags::COLUMNS).is_none() {
+        return Ok(None);
+    }
+    Ok(Some(Header {
+        path: path.to_path_buf(),
+        series: attrs.text(tags::SERIES_INSTANCE_UID).unwrap_or_default(),
+        frames: number_of_frames(&attrs).unwrap_or(1).max(1),
+    }))
+}
+
+fn number_of_frames(attrs: &Attributes) -> Option<usize> {
+    attrs
+        .int(tags::NUMBER_OF_FRAMES)
+        .map(|n| usize::try_from(n).unwrap_or(0))
+}
+
+/// Attribute lookup in a data set (or a functional-group item).
+#[derive(Clone, Copy)]
+struct Attributes<'a>(&'a InMemDicomObject);
+
+impl<'a> Attributes<'a> {
+    fn element(self, tag: Tag) -> Option<&'a dicom_object::mem::InMemElement> {
+        self.0.element_opt(tag).ok().flatten()
+    }
+    fn int(self, tag: Tag) -> Option<i64> {
+        self.element(tag).and_then(|e| e.to_int::<i64>().ok())
+    }
+    fn floats(self, tag: Tag) -> Option<Vec<f64>> {
+        self.element(tag).and_then(|e| e.to_multi_float64().ok())
+    }
+    fn float(self, tag: Tag) -> Option<f64> {
+        self.floats(tag)
+            .and_then(|v| v.first().copied())
+            .filter(|x| x.is_finite())
+    }
+    fn text(self, tag: Tag) -> Option<String> {
+        self.element(tag)
+            .and_then(|e| e.to_str().ok())
+            .map(|s| s.trim_end_matches(['\0', ' ']).trim().to_string())
+    }
+    /// The first item of sequence `tag`.
+    fn item(self, tag: Tag) -> Option<Attributes<'a>> {
+        self.element(tag)
+            .and_then(|e| e.items())
+            .and_then(|items| items.first())
+            .map(Attributes)
+    }
+    fn position(self) -> Option<Vec3> {
+        self.floats(tags::IMAGE_POSITION_PATIENT)
+            .filter(|v| v.len() == 3 && v.iter().all(|x| x.is_finite()))
+            .map(|v| [v[0], v[1], v[2]])
+    }
+    fn orientation(self) -> Option<(Vec3, Vec3)> {
+        let v = self
+            .floats(tags::IMAGE_ORIENTATION_PATIENT)
+            .filter(|v| v.len() == 6)?;
+        Some((
+            normalized([v[0], v[1], v[2]])?,
+            normalized([v[3], v[4], v[5]])?,
+        ))
+    }
+    fn pixel_spacing(self) -> Option<[f64; 2]> {
+        self.floats(tags::PIXEL_SPACING)
+            .filter(|v| v.len() == 2 && v.iter().all(|x| x.is_finite() && *x > 0.0))
+            .map(|v| [v[0], v[1]])
+    }
+    fn rescale(self) -> Option<(f64, f64)> {
+        let slope = self.float(tags::RESCALE_SLOPE).filter(|&s| s != 0.0);
+        let intercept = self.float(tags::RESCALE_INTERCEPT);
+        (slope.is_some() || intercept.is_some())
+            .then(|| (slope.unwrap_or(1.0), intercept.unwrap_or(0.0)))
+    }
+}
+
+/// Per-frame metadata of an enhanced multi-frame file (C.7.6.16): the frame's own functional
+/// group item, then the shared one, then the top-level data set.
+struct FrameGroups<'a> {
+    top: Attributes<'a>,
+    shared: Option<Attributes<'a>>,
+    per_frame: Option<Attributes<'a>>,
+}
+
+impl<'a> FrameGroups<'a> {
+    /// The first answer of `get` applied to the functional group `macro_tag` of this frame,
+    /// of the shared groups, then to the top level.
+    fn find<T>(&self, macro_tag: Tag, get: impl Fn(Attributes<'a>) -> Option<T>) -> Option<T> {
+        [self.per_frame, self.shared]
+            .into_iter()
+            .flatten()
+            .filter_map(|g| g.item(macro_tag))
+            .find_map(&get)
+            .or_else(|| get(self.top))
+    }
+}
+
+/// Reads every frame of the image file `path` (see the module doc of `dicom`). Errors do not
+/// name the file; the caller adds it.
+pub(super) fn read_frames(path: &Path) -> Result<Vec<Frame>> {
+    let obj = open(path, false)?;
+    let top = Attributes(&obj);
+    let Some(pixel_data) = top.element(tags::PIXEL_DATA) else {
+        return Err(Error::corrupt("image file has no PixelData"));
+    };
+    let ts_uid = obj
+        .meta()
+        .transfer_syntax()
+        .trim_end_matches(['\0', ' '])
+        .to_string();
+    let ts = TransferSyntaxRegistry
+        .get(&ts_uid)
+        .ok_or_else(|| Error::unsupported(format!("unknown transfer syntax {ts_uid}")))?;
+    let syntax = format!("{} ({ts_uid})", ts.name());
+
+    let rows = top
+        .int(tags::ROWS)
+        .ok_or_else(|| Error::corrupt("image has no Rows"))?;
+    let cols = top
+        .int(tags::COLUMNS)
+        .ok_or_else(|| Error::corrupt("image has no Columns"))?;
+    let bits_allocated = top.int(tags::BITS_ALLOCATED).unwrap_or(16);
+    let bits_stored = top.int(tags::BITS_STORED).unwrap_or(bits_allocated);
+    if top.int(tags::SAMPLES_PER_PIXEL).unwrap_or(1) != 1 {
+        return Err(Error::unsupported(
+            "colour DICOM images are not supported (SamplesPerPixel is not 1)",
+        ));
+    }
+    let photometric = top
+        .text(tags::PHOTOMETRIC_INTERPRETATION)
+        .unwrap_or_default();
+    if !photometric.is_empty() && !photometric.starts_with("MONOCHROME") {
+        return Err(Error::unsupported(format!(
+            "photometric interpretation {photometric} is not grayscale"
+        )));
+    }
+    if !matches!(bits_allocated, 8 | 16 | 32) || !(1..=bits_allocated).contains(&bits_stored) {
+        return Err(Error::unsupported(format!(
+            "{bits_stored} of {bits_allocated} allocated bits per sample is not supported"
+        )));
+    }
+    if ts_uid == JPEG_EXTENDED && bits_stored > 8 {
+        return Err(Error::unsupported(format!(
+            "{syntax} with {bits_stored}-bit samples is not supported: the JPEG decoder \
+             (jpeg-decoder) reads lossy JPEG of 8-bit precision only; transcode to a lossless \
+             syntax"
+        )));
+    }
+    if ts_uid == RLE_LOSSLESS && bits_allocated == 32 {
+        return Err(Error::unsupported(format!(
+            "{syntax} with 32-bit samples is not supported: the RLE decoder \
+             (dicom-transfer-syntax-registry) reads 8- and 16-bit samples only"
+        )));
+    }
+    if !ts.can_decode_all() {
+        return Err(Error::unsupported(format!(
+            "transfer syntax {syntax} cannot be decoded by this build"
+        )));
+    }
+    let (rows, cols) = (
+        usize::try_from(rows).unwrap_or(0),
+        usize::try_from(cols).unwrap_or(0),
+    );
+    let frame_samples = sample_count([cols, rows, 1])?;
+    let frame_bytes = frame_samples * (bits_allocated as usize / 8);
+    let frames = number_of_frames(&top).unwrap_or(1);
+    if frames == 0 {
+        return Err(Error::corrupt("NumberOfFrames is 0"));
+    }
+
+    let frame_pixels: Vec<Vec<u8>> = match pixel_data.value() {
+        Value::PixelSequence(seq) => {
+            let fragments = seq.fragments().len();
+            let offsets = seq.offset_table().len();
+            if frames > 1 && fragments < frames && offsets < frames {
+                return Err(Error::corrupt(format!(
+                    "NumberOfFrames says {frames} but the encapsulated PixelData holds {fragments} \
+                     fragments and {offsets} frame offsets"
+                )));
+            }
+            let fragment_list = seq.fragments();
+            (0..frames)
+                .map(|k| {
+                    let fails = |why: String| {
+                        Error::corrupt(format!("{syntax} frame {} does not decode: {why}", k + 1))
+                    };
+                    if ts_uid == RLE_LOSSLESS {
+                        let fragment = fragment_list.get(k).map_or(&[][..], |f| &f[..]);
+                        check_rle(fragment, bits_allocated as usize / 8, frame_samples)
+                            .map_err(fails)?;
+                    }
+                    // The codecs are third-party code on hostile input: a panic in one becomes
+                    // this frame's error instead of taking the process down.
+                    let decoded = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                        obj.decode_pixel_data_frame(k as u32)
+                            .map(|d| d.data().to_vec())
+                    }))
+                    .map_err(|_| fails("the decoder failed on this data".into()))?
+                    .map_err(|e| fails(error_chain(&e)))?;
+                    let data = decoded;
+                    if data.len() < frame_bytes {
+                        return Err(Error::corrupt(format!(
+                            "{syntax} frame {} decodes to {} bytes but {cols}x{rows} samples of \
+                             {bits_allocated} bits need {frame_bytes}",
+                            k + 1,
+                            data.len()
+                        )));
+                    }
+                    Ok(data[..frame_bytes].to_vec())
+                })
+                .collect::<Result<_>>()?
+        }
+        value => {
+            let big_endian = ts.endianness() == Endianness::Big;
+            let all = native_le_bytes(value, bits_allocated as usize / 8, big_endian)?;
+            let needed = frames as u64 * frame_bytes as u64;
+            if (all.len() as u64) < needed {
+                return Err(Error::corrupt(format!(
+                    "PixelData holds {} bytes but {frames} frame(s) of {cols}x{rows} samples of \
+                     {bits_allocated} bits need {needed}",
+                    all.len()
+                )));
+            }
+            all.chunks_exact(frame_bytes.max(1))
+                .take(frames)
+                .map(<[u8]>::to_vec)
+                .collect()
+        }
+    };
+
+    let shared = top.item(tags::SHARED_FUNCTIONAL_GROUPS_SEQUENCE);
+    let per_frame_items = top
+        .element(tags::PER_FRAME_FUNCTIONAL_GROUPS_SEQUENCE)
+        .and_then(|e| e.items());
+    let enhanced = per_frame_items.is_some();
+    if let Some(items) = per_frame_items {
+        if items.len() != frames {
+            return Err(Error::corrupt(format!(
+                "PerFrameFunctionalGroupsSequence has {} items for {frames} frames",
+                items.len()
+            )));
+        }
+    }
+    let classic_offsets = (!enhanced && frames > 1)
+        .then(|| classic_frame_offsets(top, frames))
+        .flatten();
+    let instance = top.int(tags::INSTANCE_NUMBER);
+    let slice_step = top
+        .float(tags::SPACING_BETWEEN_SLICES)
+        .or_else(|| top.float(tags::SLICE_THICKNESS))
+        .filter(|&s| s > 0.0);
+
+    let mut out = Vec::with_capacity(frames);
+    for (index, pixels) in frame_pixels.into_iter().enumerate() {
+        let groups = FrameGroups {
+            top,
+            shared,
+            per_frame: per_frame_items.map(|items| Attributes(&items[index])),
+        };
+        let orientation = groups.find(tags::PLANE_ORIENTATION_SEQUENCE, Attributes::orientation);
+        let mut position = groups.find(tags::PLANE_POSITION_SEQUENCE, Attributes::position);
+        if !enhanced && frames > 1 {
+            // Classic multi-frame: one position for the first frame, frames stacked along the
+            // normal (GridFrameOffsetVector or SpacingBetweenSlices); without offsets the frames
+            // have no positions of their own and keep their order.
+            position = match (&classic_offsets, position, orientation) {
+                (Some(offsets), Some(p), Some((row, col))) => {
+                    normalized(cross(row, col)).map(|n| {
+                        let d = offsets[index];
+                        [p[0] + d * n[0], p[1] + d * n[1], p[2] + d * n[2]]
+                    })
+                }
+                _ => None,
+            };
+        }
+        let (slope, intercept) = groups
+            .find(
+                tags::PIXEL_VALUE_TRANSFORMATION_SEQUENCE,
+                Attributes::rescale,
+            )
+            .unwrap_or((1.0, 0.0));
+        let mut frame = Frame {
+            path: path.to_path_buf(),
+            index,
+            rows,
+            cols,
+            bits_allocated: bits_allocated as u16,
+            bits_stored: bits_stored as u16,
+            signed: top.int(tags::PIXEL_REPRESENTATION).unwrap_or(0) == 1,
+            slope,
+            intercept,
+            position,
+            orientation,
+            instance: instance.map(|i| i * frames as i64 + index as i64),
+            pixel_spacing: groups.find(tags::PIXEL_MEASURES_SEQUENCE, Attributes::pixel_spacing),
+            slice_step: groups
+                .find(tags::PIXEL_MEASURES_SEQUENCE, |g| {
+                    g.float(tags::SPACING_BETWEEN_SLICES)
+                        .or_else(|| g.float(tags::SLICE_THICKNESS))
+                })
+                .filter(|&s| s > 0.0)
+                .or(slice_step),
+            pixels,
+            range: (0, 0),
+        };
+        frame.range = (0..frame_samples)
+            .map(|i| frame.stored(i))
+            .fold((i64::MAX, i64::MIN), |(lo, hi), v| (lo.min(v), hi.max(v)));
+        out.push(frame);
+    }
+    Ok(out)
+}
+
+/// JPEG Extended (process 2 and 4): 8-bit or 12-bit lossy.
+const JPEG_EXTENDED: &str = "1.2.840.10008.1.2.4.51";
+const RLE_LOSSLESS: &str = "1.2.840.10008.1.2.5";
+
+/// Checks an RLE Lossless frame's layout before the decoder sees it (PS3.5 G.3.1, G.5): a
+/// 64-byte header with one segment per sample byte, offsets inside the fragment and in order, and
+/// every segment's PackBits runs covering at least `samples` bytes. (The registry's decoder
+/// indexes past short segments instead of failing.)
+fn check_rle(
+    fragment: &[u8],
+    bytes_per_sample: usize,
+    samples: usize,
+) -> std::result::Result<(), String> {
+    if fragment.len() < 64 {
+        return Err(format!("RLE header is {} bytes, not 64", fragment.len()));
+    }
+    let word = |i: usize| {
+        u32::from_le_bytes([
+            fragment[4 * i],
+            fragment[4 * i + 1],
+            fragment[4 * i + 2],
+            fragment[4 * i + 3],
+        ]) as usize
+    };
+    let segments = word(0);
+    if segments != bytes_per_sample {
+        return Err(format!(
+            "RLE header lists {segments} segments, not {bytes_per_sample}"
+        ));
+    }
+    for s in 0..segments {
+        let start = word(1 + s);
+        let end = if s + 1 < segments {
+            word(2 + s)
+        } else {
+            fragment.len()
+        };
+        if start < 64 || start > end || end > fragment.len() {
+            return Err(format!(
+                "RLE segment {} lies outside the fragment ({} bytes)",
+                s + 1,
+                fragment.len()
+            ));
+        }
+        // Decoded length of the PackBits runs: n >= 0 copies n + 1 bytes, -127..=-1 repeats one
+        // byte 1 - n times, -128 is a no-op.
+        let (mut at, mut out) = (start, 0usize);
+        while at < end && out < samples {
+            let n = fragment[at] as i8;
+            match n {
+                0..=127 => {
+                    out += n as usize + 1;
+                    at += n as usize + 2;
+                }
+                -127..=-1 => {
+                    out += (1 - n as isize) as usize;
+                    at += 2;
+                }
+                _ => at += 1,
+            }
+        }
+        if out < samples || at > end {
+            return Err(format!("RLE segment {} is truncated", s + 1));
+        }
+    }
+    Ok(())
+}
+
+/// Offsets along the normal of the frames of a classic multi-frame file: GridFrameOffsetVector
+/// (RT Dose, C.8.8.3.2; relative to the first frame when it starts at 0, else absolute along
+/// the normal from ImagePositionPatient's projection, which this turns relative), else
+/// k × SpacingBetweenSlices, else k × SliceThickness.
+fn classic_frame_offsets(top: Attributes, frames: usize) -> Option<Vec<f64>> {
+    if let Some(v) = top
+        .floats(tags::GRID_FRAME_OFFSET_VECTOR)
+        .filter(|v| v.len() == frames && v.iter().all(|x| x.is_finite()))
+    {
+        let first = v[0];
+        return Some(v.iter().map(|x| x - first).collect());
+    }
+    let step = top
+        .float(tags::SPACING_BETWEEN_SLICES)
+        .or_else(|| top.float(tags::SLICE_THICKNESS))
+        .filter(|&s| s > 0.0)?;
+    Some((0..frames).map(|k| k as f64 * step).collect())
+}
+
+/// Native pixel data as little-endian samples of `width` bytes, however the parser typed the
+/// values. Big-endian files are parsed into typed values word by word (OW as u16), so samples
+/// wider than a word are rebuilt from the file's byte order.
+fn native_le_bytes(
+    value: &Value<InMemDicomObject, dicom_core::value::InMemFragment>,
+    width: usize,
+    big_endian: bool,
+) -> Result<Vec<u8>> {
+    let Value::Primitive(primitive) = value else {
+        return Err(Error::corrupt("PixelData has an unexpected value type"));
+    };
+    let to_file_order = |bytes: [u8; 2]| {
+        if big_endian {
+            [bytes[1], bytes[0]]
+        } else {
+            bytes
+        }
+    };
+    // The bytes as they are in the file.
+    let file_bytes: Vec<u8> = match primitive {
+        PrimitiveValue::U8(v) => v.to_vec(),
+        PrimitiveValue::U16(v) => v
+            .iter()
+            .flat_map(|x| to_file_order(x.to_le_bytes()))
+            .collect(),
+        PrimitiveValue::I16(v) => v
+            .iter()
+            .flat_map(|x| to_file_order(x.to_le_bytes()))
+            .collect(),
+        PrimitiveValue::U32(v) => v
+            .iter()
+            .flat_map(|x| {
+                if big_endian {
+                    x.to_be_bytes()
+                } else {
+                    x.to_le_bytes()
+                }
+            })
+            .collect(),
+        PrimitiveValue::I32(v) => v
+            .iter()
+            .flat_map(|x| {
+                if big_endian {
+                    x.to_be_bytes()
+                } else {
+                    x.to_le_bytes()
+                }
+            })
+            .collect(),
+        PrimitiveValue::F32(v) => v
+            .iter()
+            .flat_map(|x| {
+                if big_endian {
+                    x.to_be_bytes()
+                } else {
+                    x.to_le_bytes()
+                }
+            })
+            .collect(),
+        _ => return Err(Error::corrupt("PixelData has an unexpected value type")),
+    };
+    if !big_endian || width == 1 {
+        return Ok(file_bytes);
+    }
+    let mut le = file_bytes;
+    for sample in le.chunks_exact_mut(width) {
+        sample.reverse();
+    }
+    Ok(le)
+}
+
+/// An error and its sources on one line (the decoders' detail sits in the sources).
+fn error_chain(e: &dyn std::error::Error) -> String {
+    let mut text = one_line(&e.to_string());
+    let mut source = e.source();
+    while let Some(s) = source {
+        let more = one_line(&s.to_string());
+        if !text.contains(&more) {
+            text.push_str(": ");
+            text.push_str(&more);
+        }
+        source = s.source();
+    }
+    text
+}
+
+pub(super) fn one_line(s: &str) -> String {
+    s.lines().next().unwrap_or("").to_string()
+}
+
+/// The file's name for messages (the whole path when it has none).
+fn file_name(path: &Path) -> String {
+    path.file_name().map_or_else(
+        || path.display().to_string(),
+        |n| n.to_string_lossy().into_owned(),
+    )
+}

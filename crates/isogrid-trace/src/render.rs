@@ -1,0 +1,268 @@
+//! CPU renderer of a clustered grid cell isosurface: one traced primary ray per pixel centre,
+//! shaded with the shared deferred Blinn–Phong model ([`isogrid::shading`]) like the GPU renderer, or
+//! a progressive Monte Carlo path tracer lit by an [`Environment`] (paper §3.6).
+//!
+//! Path tracing: Lambertian surfaces of a single albedo, cosine-weighted bounces, no light sources
+//! but the environment (no shadow rays: light arrives only when a path escapes); a path that is
+//! still on the surface after `bounces` scatterings contributes nothing. Every (pixel, sample) has
+//! its own random stream, so images do not depend on the thread count. Samples are accumulated in
+//! passes of one sample per pixel (progress is reported after each pass).
+
+use crate::cluster_search::Hit;
+use crate::crossing::Crossing;
+use crate::env::Environment;
+use crate::grid_tracer::{GridTracer, Traversal};
+use crate::sample::{cosine_hemisphere, Rng};
+use isogrid::camera::{dot, Camera, Ray};
+use isogrid::error::{Error, Result};
+use isogrid::grid::CellGrid;
+use isogrid::shading::{shade, to_srgb8, ALBEDO, BACKGROUND_SRGB};
+use rayon::prelude::*;
+
+/// How pixels get their colour.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Shading {
+    /// Deferred normalised Blinn–Phong with camera-space lights, as every renderer of the project.
+    Phong,
+    /// Monte Carlo path tracing (see the module docs).
+    PathTrace(PathTraceOptions),
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct PathTraceOptions {
+    /// Samples per pixel (≥ 1), each through a random point of the pixel.
+    pub samples_per_pixel: u32,
+    /// Scatterings per path.
+    pub bounces: u32,
+    pub environment: Environment,
+    /// Linear diffuse reflectance.
+    pub albedo: [f32; 3],
+    pub seed: u64,
+}
+
+impl Default for PathTraceOptions {
+    fn default() -> Self {
+        PathTraceOptions {
+            samples_per_pixel: 16,
+            bounces: 3,
+            environment: Environment::Sky,
+            albedo: ALBEDO,
+            seed: 0,
+        }
+    }
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct RenderOptions {
+    pub crossing: Crossing,
+    /// How rays find candidate metacells; the hits are the same either way.
+    pub traversal: Traversal,
+    pub shading: Shading,
+}
+
+impl Default for RenderOptions {
+    fn default() -> Self {
+        RenderOptions {
+            crossing: Crossing::Samples3,
+            traversal: Traversal::default(),
+            shading: Shading::Phong,
+        }
+    }
+}
+
+/// A rendered image and its per-pixel buffers (arbitrary output variables), row-major from the
+/// top-left pixel, `width × height` entries each.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Image {
+    pub width: u32,
+    pub height: u32,
+    /// sRGB 8-bit, 3 bytes per pixel.
+    pub rgb8: Vec<u8>,
+    /// Linear RGB before encoding (unclamped; the background's linear value on Phong misses).
+    pub radiance: Vec<[f32; 3]>,
+    /// World distance from the eye to the surface along the pixel-centre ray; +∞ on a miss.
+    pub depth: Vec<f32>,
+    /// Unit world-space normal −∇f/|∇f| (out of the solid); NaN on a miss.
+    pub normal: Vec<[f32; 3]>,
+    /// Cluster index of the hit cell; `u32::MAX` on a miss.
+    pub cluster: Vec<u32>,
+    /// Closest-hit queries made (primary rays plus every path segment).
+    pub rays_traced: u64,
+    /// Wall-clock seconds spent building the tracer (its traversal's structures) before the
+    /// first ray.
+    pub build_seconds: f64,
+}
+
+impl Image {
+    /// Pixels whose centre ray hit the surface.
+    pub fn hits(&self) -> usize {
+        self.cluster.iter().filter(|&&c| c != u32::MAX).count()
+    }
+}
+
+/// Pixels an image may have (a 16K × 16K image).
+pub const MAX_PIXELS: u64 = 1 << 28;
+
+/// Renders `grid` seen by `camera`.
+pub fn render(grid: &CellGrid, camera: &Camera, options: &RenderOptions) -> Result<Image> {
+    render_with_progress(grid, camera, options, &|_, _| {})
+}
+
+/// [`render`], calling `progress(done, total)` after each pass over the image (one for Phong,
+/// one plus the sample count for path tracing).
+pub fn render_with_progress(
+    grid: &CellGrid,
+    camera: &Camera,
+    options: &RenderOptions,
+    progress: &(dyn Fn(u64, u64) + Sync),
+) -> Result<Image> {
+    camera.validate()?;
+    let (w, h) = (camera.width, camera.height);
+    let n = w as u64 * h as u64;
+    if n > MAX_PIXELS {
+        return Err(Error::too_large(format!(
+            "image {w}x{h} has more than {MAX_PIXELS} pixels"
+        )));
+    }
+    let build = std::time::Instant::now();
+    let tracer = GridTracer::new(grid, options.crossing, options.traversal);
+    let build_seconds = build.elapsed().as_secs_f64();
+    let passes = match &options.shading {
+        Shading::Phong => 1,
+        Shading::PathTrace(p) => {
+            if p.samples_per_pixel == 0 {
+                return Err(Error::invalid("samples per pixel must be at least 1"));
+            }
+            1 + p.samples_per_pixel as u64
+        }
+    };
+    let pixel = |i: usize| ((i % w as usize) as u32, (i / w as usize) as u32);
+    let primary: Vec<Option<Hit>> = (0..n as usize)
+        .into_par_iter()
+        .with_min_len(64)
+        .map(|i| {
+            let (x, y) = pixel(i);
+            tracer.closest_hit(&camera.ray(x, y), 0.0, f64::INFINITY)
+        })
+        .collect();
+    progress(1, passes);
+    let mut rays_traced = n;
+
+    let radiance: Vec<[f32; 3]> = match &options.shading {
+        Shading::Phong => {
+            let (right, up, forward) = camera.basis();
+            let to_camera = |v: [f64; 3]| [dot(v, right), dot(v, up), -dot(v, forward)];
+            let background = BACKGROUND_SRGB.map(srgb8_to_linear);
+            primary
+                .par_iter()
+                .enumerate()
+                .with_min_len(64)
+                .map(|(i, hit)| match hit {
+                    None => background,
+                    Some(hit) => {
+                        let (x, y) = pixel(i);
+                        let d = to_camera(camera.ray(x, y).direction);
+                        let n = to_camera(hit.normal);
+                        shade(n.map(|v| v as f32), d.map(|v| -v as f32))
+                    }
+                })
+                .collect()
+        }
+        Shading::PathTrace(p) => {
+            let mut sum = vec![[0.0f64; 3]; n as usize];
+            let world = grid.info().spacing;
+            let offset = 1e-3 * world.iter().cloned().fold(f64::INFINITY, f64::min);
+            for s in 0..p.samples_per_pixel {
+                rays_traced += sum
+                    .par_iter_mut()
+                    .enumerate()
+                    .with_min_len(64)
+                    .map(|(i, acc)| {
+                        let mut rng = Rng::for_sample(p.seed, i as u64, s as u64);
+                        let (x, y) = pixel(i);
+                        let ray = camera.ray_at(x as f64 + rng.unit(), y as f64 + rng.unit());
+                        let (l, rays) = trace_path(&tracer, ray, p, offset, &mut rng);
+                        for c in 0..3 {
+                            acc[c] += l[c] as f64;
+                        }
+                        rays
+                    })
+                    .sum::<u64>();
+                progress(2 + s as u64, passes);
+            }
+            let inv = 1.0 / p.samples_per_pixel as f64;
+            sum.iter().map(|v| v.map(|c| (c * inv) as f32)).collect()
+        }
+    };
+
+    let rgb8 = radiance.iter().flat_map(|c| c.map(to_srgb8)).collect();
+    let depth = primary
+        .iter()
+        .map(|h| h.map_or(f32::INFINITY, |h| h.t as f32))
+        .collect();
+    let normal = primary
+        .iter()
+        .map(|h| h.map_or([f32::NAN; 3], |h| h.normal.map(|v| v as f32)))
+        .collect();
+    let cluster = primary
+        .iter()
+        .map(|h| h.map_or(u32::MAX, |h| h.cluster))
+        .collect();
+    Ok(Image {
+        width: w,
+        height: h,
+        rgb8,
+        radiance,
+        depth,
+        normal,
+        cluster,
+        rays_traced,
+        build_seconds,
+    })
+}
+
+/// Radiance carried back along `ray` (one path, see the module docs) and the rays it took.
+fn trace_path(
+    tracer: &GridTracer,
+    mut ray: Ray,
+    p: &PathTraceOptions,
+    offset: f64,
+    rng: &mut Rng,
+) -> ([f32; 3], u64) {
+    let mut throughput = [1.0f32; 3];
+    for depth in 0..=p.bounces {
+        let Some(hit) = tracer.closest_hit(&ray, 0.0, f64::INFINITY) else {
+            let env = p.environment.radiance(ray.direction);
+            let l = std::array::from_fn(|c| throughput[c] * env[c]);
+            return (l, depth as u64 + 1);
+        };
+        if depth == p.bounces {
+            break;
+        }
+        // Scatter on the side the ray came from.
+        let n = if dot(hit.normal, ray.direction) > 0.0 {
+            hit.normal.map(|v| -v)
+        } else {
+            hit.normal
+        };
+        let point = [0, 1, 2].map(|a| ray.origin[a] + hit.t * ray.direction[a] + offset * n[a]);
+        ray = Ray {
+            origin: point,
+            direction: cosine_hemisphere(n, rng),
+        };
+        // Cosine-weighted sampling cancels cos θ / π of the Lambertian BRDF: only albedo remains.
+        for (t, albedo) in throughput.iter_mut().zip(p.albedo) {
+            *t *= albedo;
+        }
+    }
+    ([0.0; 3], p.bounces as u64 + 1)
+}
+
+fn srgb8_to_linear(v: u8) -> f32 {
+    let s = v as f32 / 255.0;
+    if s <= 0.04045 {
+        s / 12.92
+    } else {
+        ((s + 0.055) / 1.055).powf(2.4)
+    }
+}
