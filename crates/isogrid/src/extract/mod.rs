@@ -7,6 +7,7 @@
 //! and the output is O(blocks) plus per-thread scratch for one block row.
 
 mod emit;
+mod file_layout;
 mod scalar;
 mod scan;
 pub mod stream;

@@ -34,14 +34,15 @@
 //! tiles scan independently, the prefix sums are global, tiles emit independently into their
 //! ranges of the sections.
 
+use super::file_layout::FileLayout;
 use super::scalar::ExtractScalar;
 use super::{emit, scan_blocks, split_outputs, ExtractOptions, Totals};
-use crate::cgc::{header_bytes, sections_for_lengths, HeaderCounts};
+use crate::cgc::header_bytes;
 use crate::error::{Error, Result};
 use crate::grid::GridInfo;
 use crate::layout::{Block, Metacell, Precision, BLOCK_CELLS};
 use crate::quantize::Quantizer;
-use crate::stats::{GridStats, MemoryBytes};
+use crate::stats::GridStats;
 use crate::volume::{Geometry, Samples, ScalarType, VolumeView};
 use rayon::prelude::*;
 use std::fs::File;
@@ -427,31 +428,22 @@ impl Run<'_> {
             None if block_count > 0 => (lo, hi),
             None => self.value_range(&mut buffer)?.unwrap_or((0.0, 0.0)),
         };
-        let (lo, hi) = if lo <= hi { (lo, hi) } else { (0.0, 0.0) }; // all NaN
-        let quantizer = Quantizer::new(precision, T::TYPE.is_integer(), lo, hi, iso);
-        let record = precision.bytes_per_cell() as u64;
-        let info = GridInfo {
-            dims: self.geometry.dims.map(|d| d as u32),
-            spacing: self.geometry.spacing,
-            origin: self.geometry.origin,
-            direction: self.geometry.direction,
-            scalar_type: T::TYPE,
-            value_range: [lo, hi],
-            iso,
+        let FileLayout {
+            info,
+            quantizer,
+            counts,
+            sections,
+            stats,
+        } = FileLayout::new(
+            &self.geometry,
+            T::TYPE,
             precision,
-            mapping: quantizer.mapping(),
-        };
-        let counts = HeaderCounts {
-            blocks: block_count as u64,
-            metacell_slots: totals.slots,
-            active_cells: totals.cells,
-            occupied_metacells: totals.occupied_metacells,
-        };
-        let sections = sections_for_lengths([
-            block_count as u64 * std::mem::size_of::<Block>() as u64,
-            totals.slots * std::mem::size_of::<Metacell>() as u64,
-            totals.cells * record,
-        ]);
+            iso,
+            (lo, hi),
+            block_count as u64,
+            &totals,
+        );
+        let record = precision.bytes_per_cell() as u64;
 
         crate::fs::write_atomic_file(path, |file| {
             let (cells_at, cells_len) = sections[2];
@@ -523,23 +515,6 @@ impl Run<'_> {
             Ok(())
         })?;
 
-        let stats = GridStats {
-            dims: info.dims,
-            iso,
-            precision_bits: precision.bits(),
-            active_cells: totals.cells,
-            metacells: totals.occupied_metacells,
-            metacell_slots: totals.slots,
-            clusters: totals.slots / crate::layout::CLUSTER_SLOTS as u64,
-            blocks: block_count as u64,
-            nonempty_blocks: totals.nonempty_blocks,
-            bytes: MemoryBytes {
-                blocks: block_count as u64 * 16,
-                metacells: totals.slots * 12,
-                cells: totals.cells * record,
-                paper_total: totals.slots * 12 + totals.cells * record,
-            },
-        };
         Ok(StreamSummary {
             info,
             stats,

@@ -27,15 +27,16 @@
 //! Fragments are plain little-endian bytes (they cross processes and machines); each starts with a
 //! four-byte tag and is checked against what the receiver expects before use.
 
+use super::file_layout::FileLayout;
 use super::scalar::ExtractScalar as _;
 use super::stream::{write_at, GroupBuffers, SlabScalar, SlabView};
 use super::{scan_blocks, ExtractOptions, Totals};
-use crate::cgc::{header_bytes, scalar_code, sections_for_lengths, HeaderCounts};
+use crate::cgc::{header_bytes, scalar_code};
 use crate::error::{Error, Result};
 use crate::grid::GridInfo;
 use crate::layout::{Block, Metacell, Precision, BLOCK_CELLS};
 use crate::quantize::Quantizer;
-use crate::stats::{GridStats, MemoryBytes};
+use crate::stats::GridStats;
 use crate::volume::{Geometry, Samples, ScalarType, VolumeView};
 use std::ops::Range;
 use std::path::Path;
@@ -133,14 +134,6 @@ pub struct EmitJob {
     pub cells: Range<u64>,
     /// What [`emit_tile`] needs besides the samples.
     pub bytes: Vec<u8>,
-}
-
-/// The file's header and sizes, once every tile has been scanned.
-struct Layout {
-    info: GridInfo,
-    counts: HeaderCounts,
-    sections: [(u64, u64); 3],
-    stats: GridStats,
 }
 
 /// What a tiled extraction wrote.
@@ -261,7 +254,7 @@ impl TileExtraction {
     }
 
     /// Header, counts and sizes; errors until every layer is scanned.
-    fn layout(&self) -> Result<Layout> {
+    fn layout(&self) -> Result<FileLayout> {
         let nbz = self.block_dims()[2];
         if self.next_layer != nbz {
             return Err(Error::invalid(format!(
@@ -270,70 +263,20 @@ impl TileExtraction {
             )));
         }
         let block_count = self.blocks.len() as u64;
-        let (lo, hi) = match self.value_range {
+        let range = match self.value_range {
             Some(r) => r,
             None if block_count > 0 => self.scanned,
             None => (0.0, 0.0),
         };
-        let (lo, hi) = if lo <= hi { (lo, hi) } else { (0.0, 0.0) }; // all NaN
-        let quantizer = self.quantizer(lo, hi);
-        let record = self.precision.bytes_per_cell() as u64;
-        let totals = self.totals;
-        let info = GridInfo {
-            dims: self.geometry.dims.map(|d| d as u32),
-            spacing: self.geometry.spacing,
-            origin: self.geometry.origin,
-            direction: self.geometry.direction,
-            scalar_type: self.scalar_type,
-            value_range: [lo, hi],
-            iso: self.iso,
-            precision: self.precision,
-            mapping: quantizer.mapping(),
-        };
-        let counts = HeaderCounts {
-            blocks: block_count,
-            metacell_slots: totals.slots,
-            active_cells: totals.cells,
-            occupied_metacells: totals.occupied_metacells,
-        };
-        let sections = sections_for_lengths([
-            block_count * size_of::<Block>() as u64,
-            totals.slots * size_of::<Metacell>() as u64,
-            totals.cells * record,
-        ]);
-        let stats = GridStats {
-            dims: info.dims,
-            iso: self.iso,
-            precision_bits: self.precision.bits(),
-            active_cells: totals.cells,
-            metacells: totals.occupied_metacells,
-            metacell_slots: totals.slots,
-            clusters: totals.slots / crate::layout::CLUSTER_SLOTS as u64,
-            blocks: block_count,
-            nonempty_blocks: totals.nonempty_blocks,
-            bytes: MemoryBytes {
-                blocks: block_count * 16,
-                metacells: totals.slots * 12,
-                cells: totals.cells * record,
-                paper_total: totals.slots * 12 + totals.cells * record,
-            },
-        };
-        Ok(Layout {
-            info,
-            counts,
-            sections,
-            stats,
-        })
-    }
-
-    fn quantizer(&self, lo: f64, hi: f64) -> Quantizer {
-        Quantizer::new(
+        Ok(FileLayout::new(
+            &self.geometry,
+            self.scalar_type,
             self.precision,
-            self.scalar_type.is_integer(),
-            lo,
-            hi,
             self.iso,
-        )
+            range,
+            block_count,
+            &self.totals,
+        ))
     }
 
     /// Cuts the layers that hold active cells into emit jobs of consecutive layers whose samples
