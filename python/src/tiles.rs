@@ -9,7 +9,8 @@ use crate::array::{spacing3, triple, VolumeArg};
 use crate::errors::{invalid, to_py};
 use crate::grid::{iso_arg, precision_arg, stats_dict};
 use isogrid::extract::tiles::{self, EmitJob};
-use isogrid::{ExtractOptions, Geometry, ScalarType};
+use crate::volume_io::scalar_type_named;
+use isogrid::{ExtractOptions, Geometry};
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict};
 use std::path::PathBuf;
@@ -71,17 +72,7 @@ impl _TileExtraction {
         precision: Option<u32>,
         value_range: Option<(f64, f64)>,
     ) -> PyResult<Self> {
-        let scalar_type = match dtype {
-            "uint8" => ScalarType::U8,
-            "uint16" => ScalarType::U16,
-            "int16" => ScalarType::I16,
-            "float32" => ScalarType::F32,
-            _ => {
-                return Err(invalid(format!(
-                    "dtype must be uint8, uint16, int16 or float32, not {dtype}"
-                )))
-            }
-        };
+        let scalar_type = scalar_type_named(dtype, "dtype")?;
         let geometry = Geometry {
             spacing: spacing3(spacing)?,
             origin: triple(origin, "origin")?,
