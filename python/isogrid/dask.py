@@ -86,6 +86,11 @@ def extract(
     start = time.perf_counter()
     iso, iso_normalized = _iso_pair(iso, iso_normalized)
     bits = None if precision is None else _int(precision, "precision")
+    # Checked again in Rust; here so that a typo fails before the value-range pass.
+    if bits is not None and bits not in (4, 8, 16, 32):
+        raise ValueError(f"precision must be 4, 8, 16 or 32, not {bits}")
+    if iso_normalized is not None and not 0.0 <= iso_normalized <= 1.0:
+        raise ValueError(f"normalised isovalue {iso_normalized} is outside [0, 1]")
     spacing3 = (1.0, 1.0, 1.0) if spacing is None else _triple(spacing, "spacing")
     origin3 = (0.0, 0.0, 0.0) if origin is None else _triple(origin, "origin")
     budget = _int(tile_bytes, "tile_bytes", 1)
@@ -119,7 +124,7 @@ def extract(
     # Pass 1: scan tiles of whole block layers (plus the halo plane), add up in layer order.
     plane_bytes = nx * ny * dtype.itemsize
     layers_per_tile = max(1, (budget // plane_bytes - 1) // BLOCK_CELLS)
-    layers = -(-(nz - 1) // BLOCK_CELLS)
+    layers = -(-(nz - 1) // BLOCK_CELLS) if blocks else 0  # without blocks, nothing to scan
     scans = []
     for first in range(0, layers, layers_per_tile):
         z0, z1 = _planes(first, min(first + layers_per_tile, layers), nz)

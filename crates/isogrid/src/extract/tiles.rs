@@ -201,7 +201,12 @@ impl TileExtraction {
             active_cells: Vec::with_capacity(block_count),
             totals: Totals::default(),
             scanned: (f64::INFINITY, f64::NEG_INFINITY),
-            next_layer: 0,
+            // Without blocks (an axis of one sample) there is nothing to scan.
+            next_layer: if block_count == 0 {
+                geometry.cell_dims()[2].div_ceil(BLOCK_CELLS)
+            } else {
+                0
+            },
         })
     }
 

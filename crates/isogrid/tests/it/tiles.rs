@@ -40,7 +40,12 @@ fn scanned(
         Some(volume.value_range()),
     )
     .unwrap();
-    let nbz = block_layers(nz);
+    let blocks: usize = geometry
+        .cell_dims()
+        .iter()
+        .map(|c| c.div_ceil(16))
+        .product();
+    let nbz = if blocks == 0 { 0 } else { block_layers(nz) };
     for first in (0..nbz).step_by(tile_layers) {
         let layers = first..(first + tile_layers).min(nbz);
         let tile = planes_of(volume, tile_planes(&layers, nz));
@@ -103,6 +108,15 @@ fn tiled_files_are_byte_identical_to_in_memory_ones() {
                 compared += 1;
             }
         }
+    }
+    // A volume one sample wide has layers but no blocks: nothing to scan or emit.
+    let line = isogrid::Volume::new([1, 5, 40], isogrid::VolumeData::U8(vec![7; 200])).unwrap();
+    for options in option_sets() {
+        let expected = cgc::to_bytes(&extract(&line.view(), &options).unwrap());
+        let (run, jobs) = scanned(&line, &options, 1, 1);
+        assert!(jobs.is_empty());
+        write(&run, &jobs, Vec::new(), &out).unwrap();
+        assert!(std::fs::read(&out).unwrap() == expected, "{options:?}");
     }
     assert_eq!(compared, 7 * 4 * 4);
     // The budgets did cut some volumes into several jobs.

@@ -1,0 +1,85 @@
+"""Times isogrid.dask.extract on a LocalCluster of 1 and then 2 worker processes.
+
+The volume is a u8 gyroid computed chunk by chunk as a dask array (no disk), N³ samples. Each
+worker is one process with one dask thread and one rayon thread (RAYON_NUM_THREADS=1), so 1 and 2
+workers use 1 and 2 cores. Every run's file must be byte-identical to the first one's, and (for
+sizes that fit in memory) to the in-process isogrid.extract of the same samples.
+
+    python scripts/bench_dask.py [N ...]      # default 512; prints one Markdown table row per run
+"""
+
+import os
+import sys
+import tempfile
+import time
+
+import numpy as np
+import dask.array as da
+from distributed import Client, LocalCluster
+
+import isogrid
+import isogrid.dask
+
+CHUNK = 128
+
+
+def gyroid_chunk(block, block_info=None):
+    (z0, z1), (y0, y1), (x0, x1) = block_info[None]["array-location"]
+    z, y, x = np.ogrid[z0:z1, y0:y1, x0:x1]
+    f = 2 * np.pi / 64.0
+    v = (
+        np.sin(x * f) * np.cos(y * f)
+        + np.sin(y * f) * np.cos(z * f)
+        + np.sin(z * f) * np.cos(x * f)
+    )
+    return np.clip((v + 1.5) * 85, 0, 255).astype(np.uint8)
+
+
+def gyroid(n):
+    return da.map_blocks(gyroid_chunk, chunks=((CHUNK,) * (n // CHUNK),) * 3, dtype=np.uint8)
+
+
+def main():
+    sizes = [int(a) for a in sys.argv[1:]] or [512]
+    with tempfile.TemporaryDirectory() as tmp:
+        for n in sizes:
+            source = gyroid(n)
+            reference = None
+            if n <= 512:
+                path = os.path.join(tmp, "reference.cgc")
+                t = time.perf_counter()
+                array = source.compute()
+                made = time.perf_counter() - t
+                t = time.perf_counter()
+                isogrid.extract(array, iso_normalized=0.5, threads=1).save(path)
+                print(f"| {n}³ | in process, 1 thread (samples made first in {made:.1f} s) | "
+                      f"{time.perf_counter() - t:.1f} s | — |")
+                reference = open(path, "rb").read()
+                del array
+            first = None
+            for workers in (1, 2):
+                cluster = LocalCluster(
+                    n_workers=workers,
+                    processes=True,
+                    threads_per_worker=1,
+                    memory_limit="3GiB",
+                    dashboard_address=None,
+                    env={"RAYON_NUM_THREADS": "1"},
+                )
+                client = Client(cluster)
+                out = os.path.join(tmp, f"dask{workers}.cgc")
+                t = time.perf_counter()
+                stats = isogrid.dask.extract(source, iso_normalized=0.5, output=out, client=client)
+                seconds = time.perf_counter() - t
+                client.close()
+                cluster.close()
+                data = open(out, "rb").read()
+                first = first or data
+                same = data == first and (reference is None or data == reference)
+                print(f"| {n}³ | LocalCluster, {workers} worker{'s' if workers > 1 else ''} | "
+                      f"{seconds:.1f} s | {stats['active_cells']:,} cells, "
+                      f"{'byte-identical' if same else 'BYTES DIFFER'} |", flush=True)
+
+
+if __name__ == "__main__":
+    main()
