@@ -123,7 +123,7 @@ def extract(
 
     # Pass 1: scan tiles of whole block layers (plus the halo plane), add up in layer order.
     plane_bytes = nx * ny * dtype.itemsize
-    layers_per_tile = max(1, (budget // plane_bytes - 1) // BLOCK_CELLS)
+    layers_per_tile = _align_to_chunks(max(1, (budget // plane_bytes - 1) // BLOCK_CELLS), array.chunks[0])
     layers = -(-(nz - 1) // BLOCK_CELLS) if blocks else 0  # without blocks, nothing to scan
     scans = []
     for first in range(0, layers, layers_per_tile):
@@ -140,6 +140,16 @@ def extract(
     stats = extraction.write(out, run.as_completed(emits))
     stats["seconds"] = {"read": read, "extract": time.perf_counter() - start - read, "write": 0.0}
     return stats
+
+
+def _align_to_chunks(layers: int, z_chunks: Tuple[int, ...]) -> int:
+    """`layers` rounded down to whole source chunks along z where the chunks are whole layers,
+    so that a tile reads its chunks plus one more row for the halo plane, not two partial rows."""
+    depth = z_chunks[0]
+    if len(z_chunks) > 1 and depth % BLOCK_CELLS == 0 and all(c == depth for c in z_chunks[:-1]):
+        per_chunk = depth // BLOCK_CELLS
+        return max(per_chunk, layers // per_chunk * per_chunk)
+    return layers
 
 
 def _planes(first_layer: int, end_layer: int, nz: int) -> Tuple[int, int]:
@@ -235,32 +245,25 @@ class _Runner:
             yield from self._compute(batch)
 
     def as_completed(self, tasks: List[Any]) -> Iterator[Any]:
-        """Results in completion order (in task order without a client), a window at a time."""
+        """Results in completion order (in task order without a client), a window at a time:
+        tasks of one window share the source chunks they both read (the halo planes)."""
         if self.client is None:
             yield from self.in_order(tasks)
             return
         from distributed import as_completed
 
         pending = iter(tasks)
-        running = as_completed()
-        unfinished = set()
-
-        def submit(task: Any) -> None:
-            future = self.client.compute(task)
-            unfinished.add(future)
-            running.add(future)
-
-        try:
-            for task in itertools.islice(pending, self.window):
-                submit(task)
-            for future in running:
-                result = future.result()
-                unfinished.discard(future)
-                future.release()
-                task = next(pending, None)
-                if task is not None:
-                    submit(task)
-                yield result
-        finally:
-            for future in unfinished:
-                future.cancel()
+        while True:
+            batch = list(itertools.islice(pending, self.window))
+            if not batch:
+                return
+            futures = self.client.compute(batch)
+            try:
+                for future in as_completed(futures):
+                    result = future.result()
+                    future.release()
+                    yield result
+            finally:
+                for future in futures:
+                    if not future.done():
+                        future.cancel()
