@@ -5,7 +5,10 @@ worker is one process with one dask thread and one rayon thread (RAYON_NUM_THREA
 workers use 1 and 2 cores. Every run's file must be byte-identical to the first one's, and (for
 sizes that fit in memory) to the in-process isogrid.extract of the same samples.
 
-    python scripts/bench_dask.py [N ...]      # default 512; prints one Markdown table row per run
+    python scripts/bench_dask.py [--zarr] [N ...]   # default 512; one Markdown table row per run
+
+With --zarr the volume is first written to a Zarr store (zarr-python's default codec, 128³
+chunks) in a temporary folder, and the runs read that path instead of computing the samples.
 """
 
 import os
@@ -42,10 +45,17 @@ def gyroid(n):
 
 
 def main():
-    sizes = [int(a) for a in sys.argv[1:]] or [512]
+    use_zarr = "--zarr" in sys.argv[1:]
+    sizes = [int(a) for a in sys.argv[1:] if a != "--zarr"] or [512]
     with tempfile.TemporaryDirectory() as tmp:
         for n in sizes:
             source = gyroid(n)
+            if use_zarr:
+                store = os.path.join(tmp, f"gyroid{n}.zarr")
+                t = time.perf_counter()
+                source.to_zarr(store)
+                print(f"| {n}³ | written to Zarr in {time.perf_counter() - t:.1f} s | — | — |")
+                source = da.from_zarr(store)
             reference = None
             if n <= 512:
                 path = os.path.join(tmp, "reference.cgc")
