@@ -30,9 +30,8 @@
 //! that works. A [`RegionSource`] reads planes into the caller's buffer; its own transient memory
 //! (decoded chunks) it declares through [`RegionSource::read_overhead`].
 //!
-//! A later distributed extraction (tiles of whole blocks on other machines) reuses the same split:
-//! tiles scan independently, the prefix sums are global, tiles emit independently into their
-//! ranges of the sections.
+//! The distributed extraction ([`super::tiles`]) reuses the same split: tiles scan independently,
+//! the prefix sums are global, emit jobs write independently into their ranges of the sections.
 
 use super::file_layout::FileLayout;
 use super::scalar::ExtractScalar;
