@@ -31,7 +31,9 @@ at zero. :func:`load_volume` follows the same rule: it returns a C array of shap
 ``(nz, ny, nx)`` and ``spacing``/``origin`` as (x, y, z).
 
 For scikit-image's conventions (array-axis order, ``level=``, four return values) use
-:func:`isogrid.skimage.marching_cubes`, a drop-in for ``skimage.measure.marching_cubes``.
+:func:`isogrid.skimage.marching_cubes`, a drop-in for ``skimage.measure.marching_cubes``. For
+volumes that do not fit in memory, :func:`isogrid.dask.extract` (``import isogrid.dask``, with the
+``dask`` extra) spreads the extraction over a Dask cluster and writes the ``.cgc`` file.
 
 Samples of type uint8, uint16, int16 and float32 are used as they are; int8 becomes int16, bool
 becomes uint8 and other numeric types become float32 (a copy). A sample is *inside* when

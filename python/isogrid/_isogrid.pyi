@@ -1,7 +1,7 @@
 """Type stubs of the native module; use the wrappers in `isogrid` (they prepare the arrays)."""
 
 import os
-from typing import Any, Callable, Dict, Optional, Sequence, Tuple, Union
+from typing import Any, Callable, Dict, Iterable, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -109,3 +109,29 @@ def render(
     env: Optional[_Path] = None,
     progress: Optional[Callable[[int, int], Any]] = None,
 ) -> Dict[str, Any]: ...
+
+# Tiled extraction, driven by `isogrid.dask`.
+def _scan_tile(
+    tile: npt.NDArray[Any], volume_dims: Tuple[int, int, int], first_layer: int, iso: float
+) -> bytes: ...
+def _emit_tile(tile: npt.NDArray[Any], job: bytes, index: int) -> bytes: ...
+
+class _TileExtraction:
+    """Collects scan fragments, plans emit jobs and writes the `.cgc` file from their output."""
+
+    def __new__(
+        cls,
+        dims: Tuple[int, int, int],
+        dtype: str,
+        spacing: Sequence[float],
+        origin: Sequence[float],
+        iso: Optional[float] = None,
+        iso_normalized: Optional[float] = None,
+        precision: Optional[int] = None,
+        value_range: Optional[Tuple[float, float]] = None,
+    ) -> "_TileExtraction": ...
+    @property
+    def iso(self) -> float: ...
+    def add_scan(self, fragment: bytes) -> None: ...
+    def plan_emits(self, job_bytes: int) -> List[Tuple[int, int, bytes]]: ...
+    def write(self, path: _Path, fragments: Iterable[bytes]) -> Dict[str, Any]: ...

@@ -129,7 +129,7 @@ pub fn spacing3(spacing: Vec<f64>) -> PyResult<[f64; 3]> {
 }
 
 /// Three finite numbers (x, y, z).
-fn triple(values: Vec<f64>, name: &str) -> PyResult<[f64; 3]> {
+pub fn triple(values: Vec<f64>, name: &str) -> PyResult<[f64; 3]> {
     let n = values.len();
     let t: [f64; 3] = values
         .try_into()

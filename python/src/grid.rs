@@ -67,6 +67,28 @@ pub fn extract(
     })
 }
 
+/// `stats` as a dict with the names of the CLI's `--json` output (without `seconds`).
+pub fn stats_dict<'py>(py: Python<'py>, s: &GridStats) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    d.set_item("dims", tuple3(s.dims))?;
+    d.set_item("iso", s.iso)?;
+    d.set_item("precision", s.precision_bits)?;
+    d.set_item("active_cells", s.active_cells)?;
+    d.set_item("metacells", s.metacells)?;
+    d.set_item("metacell_slots", s.metacell_slots)?;
+    d.set_item("clusters", s.clusters)?;
+    d.set_item("blocks", s.blocks)?;
+    d.set_item("nonempty_blocks", s.nonempty_blocks)?;
+    let bytes = PyDict::new(py);
+    bytes.set_item("blocks", s.bytes.blocks)?;
+    bytes.set_item("metacells", s.bytes.metacells)?;
+    bytes.set_item("cells", s.bytes.cells)?;
+    bytes.set_item("paper_total", s.bytes.paper_total)?;
+    d.set_item("bytes", bytes)?;
+    d.set_item("bytes_per_cell", s.bytes_per_cell())?;
+    Ok(d)
+}
+
 /// Memory-maps and validates a `.cgc` file.
 #[pyfunction]
 pub fn load(py: Python<'_>, path: PathBuf) -> PyResult<CellGrid> {
@@ -83,7 +105,7 @@ pub fn iso_arg(iso: Option<f64>, iso_normalized: Option<f64>) -> PyResult<Iso> {
     }
 }
 
-fn precision_arg(bits: u32) -> PyResult<Precision> {
+pub fn precision_arg(bits: u32) -> PyResult<Precision> {
     Precision::from_bits(bits)
         .ok_or_else(|| invalid(format!("precision must be 4, 8, 16 or 32, not {bits}")))
 }
@@ -157,25 +179,7 @@ impl CellGrid {
     /// Counts and sizes, with the names of the CLI's `--json` output (without `seconds`).
     #[getter]
     fn stats<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        let s = GridStats::of(&self.inner);
-        let d = PyDict::new(py);
-        d.set_item("dims", tuple3(s.dims))?;
-        d.set_item("iso", s.iso)?;
-        d.set_item("precision", s.precision_bits)?;
-        d.set_item("active_cells", s.active_cells)?;
-        d.set_item("metacells", s.metacells)?;
-        d.set_item("metacell_slots", s.metacell_slots)?;
-        d.set_item("clusters", s.clusters)?;
-        d.set_item("blocks", s.blocks)?;
-        d.set_item("nonempty_blocks", s.nonempty_blocks)?;
-        let bytes = PyDict::new(py);
-        bytes.set_item("blocks", s.bytes.blocks)?;
-        bytes.set_item("metacells", s.bytes.metacells)?;
-        bytes.set_item("cells", s.bytes.cells)?;
-        bytes.set_item("paper_total", s.bytes.paper_total)?;
-        d.set_item("bytes", bytes)?;
-        d.set_item("bytes_per_cell", s.bytes_per_cell())?;
-        Ok(d)
+        stats_dict(py, &GridStats::of(&self.inner))
     }
 
     /// Geometry, isovalue and value mapping (the `.cgc` header).

@@ -15,6 +15,7 @@ mod mesh;
 mod pool;
 mod render;
 mod skimage;
+mod tiles;
 mod volume_io;
 
 use pyo3::prelude::*;
@@ -32,5 +33,8 @@ fn _isogrid(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(volume_io::load_volume, m)?)?;
     m.add_function(wrap_pyfunction!(volume_io::voxelize, m)?)?;
     m.add_function(wrap_pyfunction!(render::render, m)?)?;
+    m.add_class::<tiles::_TileExtraction>()?;
+    m.add_function(wrap_pyfunction!(tiles::_scan_tile, m)?)?;
+    m.add_function(wrap_pyfunction!(tiles::_emit_tile, m)?)?;
     Ok(())
 }

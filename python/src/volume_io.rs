@@ -35,7 +35,7 @@ pub fn load_volume(
         (None, None) => None,
         (Some(dims), Some(name)) => Some(RawSpec {
             dims,
-            scalar: scalar_type(name)?,
+            scalar: scalar_type_named(name, "raw_dtype")?,
             big_endian,
         }),
         _ => {
@@ -60,7 +60,9 @@ pub fn load_volume(
     Ok(d)
 }
 
-fn scalar_type(name: &str) -> PyResult<ScalarType> {
+/// The sample type a dtype name (`uint8`, `uint16`, `int16`, `float32`) names; errors name the
+/// argument `what`.
+pub fn scalar_type_named(name: &str, what: &str) -> PyResult<ScalarType> {
     Ok(match name {
         "uint8" => ScalarType::U8,
         "uint16" => ScalarType::U16,
@@ -68,7 +70,7 @@ fn scalar_type(name: &str) -> PyResult<ScalarType> {
         "float32" => ScalarType::F32,
         _ => {
             return Err(invalid(format!(
-                "raw_dtype must be uint8, uint16, int16 or float32, not {name}"
+                "{what} must be uint8, uint16, int16 or float32, not {name}"
             )))
         }
     })

@@ -36,6 +36,7 @@ mod format;
 mod read;
 mod write;
 
+pub(crate) use format::scalar_code;
 pub use read::{open, read, read_bytes};
 pub(crate) use write::{header_bytes, sections_for_lengths, HeaderCounts};
 pub use write::{to_bytes, write};

@@ -7,9 +7,11 @@
 //! and the output is O(blocks) plus per-thread scratch for one block row.
 
 mod emit;
+mod file_layout;
 mod scalar;
 mod scan;
 pub mod stream;
+pub mod tiles;
 
 use crate::error::{Error, Result};
 use crate::grid::{CellGrid, GridInfo};
@@ -157,6 +159,7 @@ fn extract_typed<T: ExtractScalar>(
     let mut first_cell = 0u32;
     let outputs = split_outputs(
         &blocks,
+        0,
         |index| scans[index].active_cells,
         0..block_count,
         [nbx, nby],
@@ -234,12 +237,14 @@ impl Totals {
 }
 
 /// Splits `output` (slots, corner records) into the disjoint parts of the active blocks among
-/// `range` (in block order, which is output order). `next_cell` is the global index of the first
-/// cell and advances past the range; `slab_block_z` is where the samples the outputs will be
-/// emitted from start (see [`emit::BlockOutput`]).
+/// `range` (in block order, which is output order). `blocks[0]` is the grid's block number
+/// `first_block` (0 for the whole table; a tile holds only its own layers). `next_cell` is the
+/// global index of the first cell and advances past the range; `slab_block_z` is where the
+/// samples the outputs will be emitted from start (see [`emit::BlockOutput`]).
 #[allow(clippy::too_many_arguments)]
 fn split_outputs<'a>(
     blocks: &[Block],
+    first_block: usize,
     active_cells: impl Fn(usize) -> u32,
     range: std::ops::Range<usize>,
     [nbx, nby]: [usize; 2],
@@ -262,8 +267,13 @@ fn split_outputs<'a>(
         let (cells, rest) =
             std::mem::take(&mut cells_rest).split_at_mut(cell_count as usize * record);
         cells_rest = rest;
+        let grid_index = first_block + index;
         outputs.push(emit::BlockOutput {
-            block: [index % nbx, index / nbx % nby, index / (nbx * nby)],
+            block: [
+                grid_index % nbx,
+                grid_index / nbx % nby,
+                grid_index / (nbx * nby),
+            ],
             slots,
             cells,
             first_cell: *next_cell,

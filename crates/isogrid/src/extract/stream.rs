@@ -30,18 +30,18 @@
 //! that works. A [`RegionSource`] reads planes into the caller's buffer; its own transient memory
 //! (decoded chunks) it declares through [`RegionSource::read_overhead`].
 //!
-//! A later distributed extraction (tiles of whole blocks on other machines) reuses the same split:
-//! tiles scan independently, the prefix sums are global, tiles emit independently into their
-//! ranges of the sections.
+//! The distributed extraction ([`super::tiles`]) reuses the same split: tiles scan independently,
+//! the prefix sums are global, emit jobs write independently into their ranges of the sections.
 
+use super::file_layout::FileLayout;
 use super::scalar::ExtractScalar;
 use super::{emit, scan_blocks, split_outputs, ExtractOptions, Totals};
-use crate::cgc::{header_bytes, sections_for_lengths, HeaderCounts};
+use crate::cgc::header_bytes;
 use crate::error::{Error, Result};
 use crate::grid::GridInfo;
 use crate::layout::{Block, Metacell, Precision, BLOCK_CELLS};
 use crate::quantize::Quantizer;
-use crate::stats::{GridStats, MemoryBytes};
+use crate::stats::GridStats;
 use crate::volume::{Geometry, Samples, ScalarType, VolumeView};
 use rayon::prelude::*;
 use std::fs::File;
@@ -308,7 +308,7 @@ pub fn extract_planned(
 }
 
 /// Sample types a slab buffer can hold.
-trait SlabScalar: ExtractScalar + Default {
+pub(super) trait SlabScalar: ExtractScalar + Default {
     fn slab(samples: &mut [Self]) -> SlabMut<'_>;
     fn samples(samples: &[Self]) -> Samples<'_>;
 }
@@ -427,31 +427,22 @@ impl Run<'_> {
             None if block_count > 0 => (lo, hi),
             None => self.value_range(&mut buffer)?.unwrap_or((0.0, 0.0)),
         };
-        let (lo, hi) = if lo <= hi { (lo, hi) } else { (0.0, 0.0) }; // all NaN
-        let quantizer = Quantizer::new(precision, T::TYPE.is_integer(), lo, hi, iso);
-        let record = precision.bytes_per_cell() as u64;
-        let info = GridInfo {
-            dims: self.geometry.dims.map(|d| d as u32),
-            spacing: self.geometry.spacing,
-            origin: self.geometry.origin,
-            direction: self.geometry.direction,
-            scalar_type: T::TYPE,
-            value_range: [lo, hi],
-            iso,
+        let FileLayout {
+            info,
+            quantizer,
+            counts,
+            sections,
+            stats,
+        } = FileLayout::new(
+            &self.geometry,
+            T::TYPE,
             precision,
-            mapping: quantizer.mapping(),
-        };
-        let counts = HeaderCounts {
-            blocks: block_count as u64,
-            metacell_slots: totals.slots,
-            active_cells: totals.cells,
-            occupied_metacells: totals.occupied_metacells,
-        };
-        let sections = sections_for_lengths([
-            block_count as u64 * std::mem::size_of::<Block>() as u64,
-            totals.slots * std::mem::size_of::<Metacell>() as u64,
-            totals.cells * record,
-        ]);
+            iso,
+            (lo, hi),
+            block_count as u64,
+            &totals,
+        );
+        let record = precision.bytes_per_cell() as u64;
 
         crate::fs::write_atomic_file(path, |file| {
             let (cells_at, cells_len) = sections[2];
@@ -488,6 +479,7 @@ impl Run<'_> {
                     dims: [nx, ny, planes.len()],
                     first_layer: layers.start,
                     block_dims: [nbx, nby],
+                    table_start: 0,
                 };
                 let mut index = first;
                 while index < end {
@@ -522,23 +514,6 @@ impl Run<'_> {
             Ok(())
         })?;
 
-        let stats = GridStats {
-            dims: info.dims,
-            iso,
-            precision_bits: precision.bits(),
-            active_cells: totals.cells,
-            metacells: totals.occupied_metacells,
-            metacell_slots: totals.slots,
-            clusters: totals.slots / crate::layout::CLUSTER_SLOTS as u64,
-            blocks: block_count as u64,
-            nonempty_blocks: totals.nonempty_blocks,
-            bytes: MemoryBytes {
-                blocks: block_count as u64 * 16,
-                metacells: totals.slots * 12,
-                cells: totals.cells * record,
-                paper_total: totals.slots * 12 + totals.cells * record,
-            },
-        };
         Ok(StreamSummary {
             info,
             stats,
@@ -547,19 +522,22 @@ impl Run<'_> {
     }
 }
 
-fn write_at(file: &mut File, offset: u64, bytes: &[u8]) -> Result<()> {
+pub(super) fn write_at(file: &mut File, offset: u64, bytes: &[u8]) -> Result<()> {
     file.seek(SeekFrom::Start(offset))?;
     file.write_all(bytes)?;
     Ok(())
 }
 
 /// One slab's samples and where it sits among the blocks.
-struct SlabView<'a, T> {
-    samples: &'a [T],
+pub(super) struct SlabView<'a, T> {
+    pub samples: &'a [T],
     /// Samples per axis of the slab (its planes, halo included).
-    dims: [usize; 3],
-    first_layer: usize,
-    block_dims: [usize; 2],
+    pub dims: [usize; 3],
+    pub first_layer: usize,
+    pub block_dims: [usize; 2],
+    /// The grid's block number of the first entry of the block table passed along with the slab
+    /// (0 for the whole table; a tile holds only its own layers).
+    pub table_start: usize,
 }
 
 /// The next run of blocks in `range`, starting at its first block, whose output fits `capacity`
@@ -587,14 +565,14 @@ fn next_group(
 
 /// The output of one group of blocks, reused from group to group.
 #[derive(Default)]
-struct GroupBuffers {
-    slots: Vec<Metacell>,
-    cells: Vec<u8>,
+pub(super) struct GroupBuffers {
+    pub slots: Vec<Metacell>,
+    pub cells: Vec<u8>,
 }
 
 impl GroupBuffers {
     #[allow(clippy::too_many_arguments)]
-    fn emit<T: SlabScalar>(
+    pub(super) fn emit<T: SlabScalar>(
         &mut self,
         slab: &SlabView<'_, T>,
         blocks: &[Block],
@@ -620,6 +598,7 @@ impl GroupBuffers {
         self.cells.resize(cell_count * record, 0);
         let outputs = split_outputs(
             blocks,
+            slab.table_start,
             |index| active_cells[index],
             group,
             slab.block_dims,

@@ -7,3 +7,4 @@ mod common;
 mod extract;
 mod mc;
 mod stream;
+mod tiles;

@@ -10,17 +10,17 @@ use isogrid::{cgc, extract, ErrorKind, ExtractOptions, Iso, Precision, Volume, V
 use std::ops::Range;
 use std::path::PathBuf;
 
-struct TempDir(PathBuf);
+pub(crate) struct TempDir(pub PathBuf);
 
 impl TempDir {
-    fn new(name: &str) -> Self {
+    pub(crate) fn new(name: &str) -> Self {
         let dir =
             std::env::temp_dir().join(format!("isogrid-stream-{name}-{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&dir);
         std::fs::create_dir_all(&dir).unwrap();
         TempDir(dir)
     }
-    fn entries(&self) -> Vec<String> {
+    pub(crate) fn entries(&self) -> Vec<String> {
         let mut names: Vec<String> = std::fs::read_dir(&self.0)
             .unwrap()
             .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
@@ -37,7 +37,7 @@ impl Drop for TempDir {
 }
 
 /// Volumes of every type with shapes that are not multiples of 16, including degenerate ones.
-fn volumes() -> Vec<(&'static str, Volume)> {
+pub(crate) fn volumes() -> Vec<(&'static str, Volume)> {
     let mut rng = Rng::new(7);
     let wave = |dims: [usize; 3]| {
         field(dims, |x, y, z| {
@@ -94,7 +94,7 @@ fn volumes() -> Vec<(&'static str, Volume)> {
     ]
 }
 
-fn option_sets() -> Vec<ExtractOptions> {
+pub(crate) fn option_sets() -> Vec<ExtractOptions> {
     vec![
         ExtractOptions::new(Iso::Normalized(0.5)),
         ExtractOptions::new(Iso::Normalized(0.3)).with_precision(Precision::Bits4),

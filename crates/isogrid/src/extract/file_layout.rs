@@ -1,0 +1,89 @@
+//! The `.cgc` header fields and section sizes of an extraction, from its block counts alone
+//! (paper §3.1): what the streaming and the tiled extractions settle before they emit anything,
+//! since they write files they never hold whole.
+
+use super::Totals;
+use crate::cgc::{sections_for_lengths, HeaderCounts};
+use crate::grid::GridInfo;
+use crate::layout::{Block, Metacell, Precision, CLUSTER_SLOTS};
+use crate::quantize::Quantizer;
+use crate::stats::{GridStats, MemoryBytes};
+use crate::volume::{Geometry, ScalarType};
+
+/// Header, quantiser, section offsets and statistics of one output file.
+pub(super) struct FileLayout {
+    pub info: GridInfo,
+    pub quantizer: Quantizer,
+    pub counts: HeaderCounts,
+    /// (offset, length) of the block, metacell and cell sections.
+    pub sections: [(u64, u64); 3],
+    pub stats: GridStats,
+}
+
+impl FileLayout {
+    /// The layout of `block_count` blocks whose prefix sums ended at `totals`. `range` is the
+    /// NaN-free value range of the samples (min > max when none is finite, stored as 0..0).
+    pub(super) fn new(
+        geometry: &Geometry,
+        scalar_type: ScalarType,
+        precision: Precision,
+        iso: f64,
+        range: (f64, f64),
+        block_count: u64,
+        totals: &Totals,
+    ) -> Self {
+        let (lo, hi) = if range.0 <= range.1 {
+            range
+        } else {
+            (0.0, 0.0)
+        };
+        let quantizer = Quantizer::new(precision, scalar_type.is_integer(), lo, hi, iso);
+        let record = precision.bytes_per_cell() as u64;
+        let info = GridInfo {
+            dims: geometry.dims.map(|d| d as u32),
+            spacing: geometry.spacing,
+            origin: geometry.origin,
+            direction: geometry.direction,
+            scalar_type,
+            value_range: [lo, hi],
+            iso,
+            precision,
+            mapping: quantizer.mapping(),
+        };
+        let counts = HeaderCounts {
+            blocks: block_count,
+            metacell_slots: totals.slots,
+            active_cells: totals.cells,
+            occupied_metacells: totals.occupied_metacells,
+        };
+        let sections = sections_for_lengths([
+            block_count * size_of::<Block>() as u64,
+            totals.slots * size_of::<Metacell>() as u64,
+            totals.cells * record,
+        ]);
+        let stats = GridStats {
+            dims: info.dims,
+            iso,
+            precision_bits: precision.bits(),
+            active_cells: totals.cells,
+            metacells: totals.occupied_metacells,
+            metacell_slots: totals.slots,
+            clusters: totals.slots / CLUSTER_SLOTS as u64,
+            blocks: block_count,
+            nonempty_blocks: totals.nonempty_blocks,
+            bytes: MemoryBytes {
+                blocks: block_count * size_of::<Block>() as u64,
+                metacells: totals.slots * size_of::<Metacell>() as u64,
+                cells: totals.cells * record,
+                paper_total: totals.slots * size_of::<Metacell>() as u64 + totals.cells * record,
+            },
+        };
+        FileLayout {
+            info,
+            quantizer,
+            counts,
+            sections,
+            stats,
+        }
+    }
+}

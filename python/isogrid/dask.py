@@ -1,0 +1,269 @@
+"""Isosurface extraction spread over a Dask cluster (``pip install isogrid[dask]``).
+
+    import isogrid.dask
+    stats = isogrid.dask.extract("volume.zarr", iso_normalized=0.5, output="volume.cgc")
+
+Every cell of the clustered grid cell structure (paper §3.1) belongs to exactly one 16³ block,
+and a block reads only its own samples plus one more on its high sides. A *tile* of whole block
+layers therefore extracts on its own, from its planes plus one halo plane, and its blocks are
+exactly those of the whole-volume extraction: there are no seams to stitch. The run is:
+
+1. with ``iso_normalized``, a Dask reduction for the value range (NaN ignored);
+2. one task per tile counts each block's active cells (*scan*); the driver adds the counts up
+   in block order, which fixes every block's place in the file;
+3. one task per *emit job* (consecutive layers holding active cells, sized to ``tile_bytes``)
+   writes its metacells and corner records; the driver places each result at its offset as it
+   arrives and writes the header last, into a temporary file renamed at the end.
+
+The file is byte-identical to ``isogrid.extract(volume).save(output)`` of the same samples, for
+any chunking, tiling and worker count, and when a worker dies mid-run (Dask reruns its tasks;
+their results are the same bytes). The driver holds 16 bytes per block and one result at a time;
+each task holds one tile.
+
+Axes: the source is indexed ``[z, y, x]`` (NumPy's C order, as OME-Zarr stores ``zyx``): its last
+axis is x, the one that varies fastest, and ``spacing`` and ``origin`` are (x, y, z).
+"""
+
+from __future__ import annotations
+
+import itertools
+import os
+import time
+import warnings
+from typing import Any, Dict, Iterator, List, Optional, Sequence, Tuple
+
+import numpy as np
+
+try:
+    import dask
+    import dask.array as da
+except ImportError as err:  # pragma: no cover - depends on the environment
+    raise ImportError("isogrid.dask needs dask: pip install 'isogrid[dask]'") from err
+
+from . import _isogrid, _int, _iso_pair, _sample_dtype, _triple
+
+__all__ = ["extract"]
+
+BLOCK_CELLS = 16
+DEFAULT_TILE_BYTES = 64 << 20
+
+
+def extract(
+    source: Any,
+    iso: Optional[float] = None,
+    iso_normalized: Optional[float] = None,
+    *,
+    output: "str | os.PathLike[str]",
+    precision: Optional[int] = None,
+    spacing: Optional[Sequence[float]] = None,
+    origin: Optional[Sequence[float]] = None,
+    client: Any = None,
+    component: Optional[str] = None,
+    tile_bytes: int = DEFAULT_TILE_BYTES,
+) -> Dict[str, Any]:
+    """Extracts the active cells of a 3-D volume on Dask and writes them to the ``.cgc`` ``output``.
+
+    Args:
+        source: a Zarr array's path or URL (anything fsspec opens, e.g. ``s3://…``; with
+            ``component`` naming an array inside a group), a zarr array, a dask array or a NumPy
+            array; 3-D, indexed ``[z, y, x]``. Samples are read as :func:`isogrid.extract` reads
+            them: uint8, uint16, int16 and float32 as they are, int8 as int16, bool as uint8,
+            other real types as float32.
+        iso, iso_normalized: the isovalue in data units, or as a fraction of the value range
+            (exactly one).
+        output: the ``.cgc`` file, written atomically (nothing is left under its name on error).
+        precision: bits per stored corner, 4, 8, 16 or 32; default 8 for uint8, 16 otherwise.
+        spacing, origin: (x, y, z) sample spacing and position of sample (0, 0, 0).
+        client: a ``distributed.Client``; default the current one, else dask's default scheduler.
+        tile_bytes: the samples (plus output) one task holds, about; a task never holds less
+            than one block layer (16 planes plus the halo plane).
+
+    Returns:
+        The statistics ``isogrid extract --json`` prints: dims, iso, precision, active_cells,
+        metacells, metacell_slots, clusters, blocks, nonempty_blocks, bytes {blocks, metacells,
+        cells, paper_total}, bytes_per_cell and seconds {read, extract, write}.
+    """
+    start = time.perf_counter()
+    iso, iso_normalized = _iso_pair(iso, iso_normalized)
+    bits = None if precision is None else _int(precision, "precision")
+    # Checked again in Rust; here so that a typo fails before the value-range pass.
+    if bits is not None and bits not in (4, 8, 16, 32):
+        raise ValueError(f"precision must be 4, 8, 16 or 32, not {bits}")
+    if iso_normalized is not None and not 0.0 <= iso_normalized <= 1.0:
+        raise ValueError(f"normalised isovalue {iso_normalized} is outside [0, 1]")
+    spacing3 = (1.0, 1.0, 1.0) if spacing is None else _triple(spacing, "spacing")
+    origin3 = (0.0, 0.0, 0.0) if origin is None else _triple(origin, "origin")
+    budget = _int(tile_bytes, "tile_bytes", 1)
+    out = os.fspath(output)
+    parent = os.path.dirname(os.path.abspath(out))
+    if not os.path.isdir(parent):
+        raise FileNotFoundError(f"{out}: the output folder {parent} does not exist")
+    if os.path.isdir(out):
+        raise IsADirectoryError(f"{out}: is a folder, not a .cgc file")
+
+    array = _dask_array(source, component)
+    dtype = _sample_dtype(array.dtype)
+    if array.dtype != dtype:
+        array = array.astype(dtype)
+    nz, ny, nx = (int(n) for n in array.shape)
+    if min(nz, ny, nx) < 1:
+        raise ValueError(f"the volume is empty (shape {array.shape})")
+    read = time.perf_counter() - start
+
+    run = _Runner(_client(client))
+    blocks = 1
+    for n in (nx, ny, nz):
+        blocks *= -(-(n - 1) // BLOCK_CELLS)
+    value_range = None
+    if iso_normalized is not None or blocks == 0:
+        value_range = run.value_range(array)
+    extraction = _isogrid._TileExtraction(
+        (nx, ny, nz), dtype.name, spacing3, origin3, iso, iso_normalized, bits, value_range
+    )
+
+    # Pass 1: scan tiles of whole block layers (plus the halo plane), add up in layer order.
+    plane_bytes = nx * ny * dtype.itemsize
+    layers_per_tile = _align_to_chunks(max(1, (budget // plane_bytes - 1) // BLOCK_CELLS), array.chunks[0])
+    layers = -(-(nz - 1) // BLOCK_CELLS) if blocks else 0  # without blocks, nothing to scan
+    scans = []
+    for first in range(0, layers, layers_per_tile):
+        z0, z1 = _planes(first, min(first + layers_per_tile, layers), nz)
+        scans.append(dask.delayed(_scan)(array[z0:z1], (nx, ny, nz), first, extraction.iso))
+    for fragment in run.in_order(scans):
+        extraction.add_scan(fragment)
+
+    # Pass 2: emit jobs, written at their offsets as they complete.
+    jobs = extraction.plan_emits(budget)
+    emits = [
+        dask.delayed(_emit)(array[z0:z1], job, index) for index, (z0, z1, job) in enumerate(jobs)
+    ]
+    stats = extraction.write(out, run.as_completed(emits))
+    stats["seconds"] = {"read": read, "extract": time.perf_counter() - start - read, "write": 0.0}
+    return stats
+
+
+def _align_to_chunks(layers: int, z_chunks: Tuple[int, ...]) -> int:
+    """`layers` rounded down to whole source chunks along z where the chunks are whole layers,
+    so that a tile reads its chunks plus one more row for the halo plane, not two partial rows."""
+    depth = z_chunks[0]
+    if len(z_chunks) > 1 and depth % BLOCK_CELLS == 0 and all(c == depth for c in z_chunks[:-1]):
+        per_chunk = depth // BLOCK_CELLS
+        return max(per_chunk, layers // per_chunk * per_chunk)
+    return layers
+
+
+def _planes(first_layer: int, end_layer: int, nz: int) -> Tuple[int, int]:
+    """The sample planes block layers first_layer..end_layer read, halo included."""
+    return BLOCK_CELLS * first_layer, min(BLOCK_CELLS * end_layer + 1, nz)
+
+
+def _scan(tile: np.ndarray, dims: Tuple[int, int, int], first_layer: int, iso: float) -> bytes:
+    """Task: pass 1 of one tile (GIL released in Rust)."""
+    return _isogrid._scan_tile(np.ascontiguousarray(tile), dims, first_layer, iso)
+
+
+def _emit(tile: np.ndarray, job: bytes, index: int) -> bytes:
+    """Task: pass 2 of one emit job (GIL released in Rust)."""
+    return _isogrid._emit_tile(np.ascontiguousarray(tile), job, index)
+
+
+def _dask_array(source: Any, component: Optional[str]) -> "da.Array":
+    """`source` as a 3-D dask array, checked before any task runs."""
+    if isinstance(source, da.Array):
+        array = source
+    elif isinstance(source, (str, os.PathLike)):
+        path = os.fspath(source)
+        import zarr
+
+        try:
+            opened = zarr.open(path, mode="r", path=component) if component else zarr.open(path, mode="r")
+        except Exception as err:  # zarr raises several kinds for a missing or foreign store
+            raise ValueError(f"{path}: cannot open as Zarr: {err}") from err
+        if not isinstance(opened, zarr.Array):
+            raise ValueError(
+                f"{path}{'/' + component if component else ''}: is a Zarr group, not an array; "
+                "name the array with component='…'"
+            )
+        array = da.from_zarr(opened)
+    elif type(source).__module__.startswith("zarr"):
+        array = da.from_zarr(source)
+    else:
+        array = da.asarray(source)
+    if array.ndim != 3:
+        raise ValueError(
+            f"expected a 3-D array (z, y, x), got {array.ndim} dimension"
+            f"{'' if array.ndim == 1 else 's'} (shape {array.shape})"
+        )
+    if any(np.isnan(n) for n in array.shape):
+        raise ValueError(f"the array's shape {array.shape} is not known")
+    return array
+
+
+def _client(client: Any) -> Any:
+    """The distributed client to use: the one given, else the current one, else None."""
+    if client is not None:
+        return client
+    try:
+        from distributed import default_client
+    except ImportError:
+        return None
+    try:
+        return default_client()
+    except ValueError:
+        return None
+
+
+class _Runner:
+    """Runs delayed tasks on a distributed client, or on dask's default scheduler."""
+
+    def __init__(self, client: Any) -> None:
+        self.client = client
+        if client is not None:
+            self.window = 2 * max(1, sum(client.nthreads().values()))
+        else:
+            self.window = 2 * (os.cpu_count() or 1)
+
+    def value_range(self, array: "da.Array") -> Tuple[float, float]:
+        """(min, max) of the samples, NaN ignored; (nan, nan) when none is finite."""
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN chunks
+            lo, hi = self._compute([da.nanmin(array), da.nanmax(array)])
+        return float(lo), float(hi)
+
+    def _compute(self, tasks: List[Any]) -> List[Any]:
+        if self.client is not None:
+            return list(self.client.gather(self.client.compute(tasks)))
+        return list(dask.compute(*tasks))
+
+    def in_order(self, tasks: List[Any]) -> Iterator[Any]:
+        """Results in task order, at most a window of them computed ahead."""
+        pending = iter(tasks)
+        while True:
+            batch = list(itertools.islice(pending, self.window))
+            if not batch:
+                return
+            yield from self._compute(batch)
+
+    def as_completed(self, tasks: List[Any]) -> Iterator[Any]:
+        """Results in completion order (in task order without a client), a window at a time:
+        tasks of one window share the source chunks they both read (the halo planes)."""
+        if self.client is None:
+            yield from self.in_order(tasks)
+            return
+        from distributed import as_completed
+
+        pending = iter(tasks)
+        while True:
+            batch = list(itertools.islice(pending, self.window))
+            if not batch:
+                return
+            futures = self.client.compute(batch)
+            try:
+                for future in as_completed(futures):
+                    result = future.result()
+                    future.release()
+                    yield result
+            finally:
+                for future in futures:
+                    if not future.done():
+                        future.cancel()

@@ -1,0 +1,158 @@
+//! Tiled extraction for `isogrid.dask` (the Rust side is `isogrid::extract::tiles`): the two task
+//! functions a Dask worker runs on one tile of whole block layers, and the coordinating object
+//! that collects scan fragments, plans emit jobs and writes the `.cgc` file from their output.
+//!
+//! Tasks take a C-ordered array of shape (planes, ny, nx) and return bytes; they run with the GIL
+//! released, on rayon's global pool.
+
+use crate::array::{spacing3, triple, VolumeArg};
+use crate::errors::{invalid, to_py};
+use crate::grid::{iso_arg, precision_arg, stats_dict};
+use isogrid::extract::tiles::{self, EmitJob};
+use crate::volume_io::scalar_type_named;
+use isogrid::{ExtractOptions, Geometry};
+use pyo3::prelude::*;
+use pyo3::types::{PyBytes, PyDict};
+use std::path::PathBuf;
+
+/// Pass 1 of one tile: its scan fragment (see `isogrid.dask`).
+#[pyfunction]
+pub fn _scan_tile<'py>(
+    py: Python<'py>,
+    tile: &Bound<'py, PyAny>,
+    volume_dims: [usize; 3],
+    first_layer: usize,
+    iso: f64,
+) -> PyResult<Bound<'py, PyBytes>> {
+    let tile = VolumeArg::new(tile, false, [1.0; 3])?;
+    let view = tile.view()?;
+    let fragment = py
+        .detach(move || tiles::scan_tile(&view, volume_dims, first_layer, iso))
+        .map_err(to_py)?;
+    Ok(PyBytes::new(py, &fragment))
+}
+
+/// Pass 2 of one emit job: its output fragment (see `isogrid.dask`).
+#[pyfunction]
+pub fn _emit_tile<'py>(
+    py: Python<'py>,
+    tile: &Bound<'py, PyAny>,
+    job: &[u8],
+    index: u32,
+) -> PyResult<Bound<'py, PyBytes>> {
+    let tile = VolumeArg::new(tile, false, [1.0; 3])?;
+    let view = tile.view()?;
+    let fragment = py
+        .detach(move || tiles::emit_tile(&view, job, index))
+        .map_err(to_py)?;
+    Ok(PyBytes::new(py, &fragment))
+}
+
+/// The coordinating side of a tiled extraction: scan fragments in, emit jobs out, then the file.
+#[pyclass(module = "isogrid")]
+pub struct _TileExtraction {
+    inner: tiles::TileExtraction,
+    jobs: Vec<EmitJob>,
+}
+
+#[pymethods]
+impl _TileExtraction {
+    /// `dims` (nx, ny, nz); `value_range` (min, max) of all samples, NaN for none finite, or None
+    /// when not computed (needed only for `iso_normalized` and volumes one sample thick).
+    #[new]
+    #[pyo3(signature = (dims, dtype, spacing, origin, iso=None, iso_normalized=None, precision=None, value_range=None))]
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        dims: [usize; 3],
+        dtype: &str,
+        spacing: Vec<f64>,
+        origin: Vec<f64>,
+        iso: Option<f64>,
+        iso_normalized: Option<f64>,
+        precision: Option<u32>,
+        value_range: Option<(f64, f64)>,
+    ) -> PyResult<Self> {
+        let scalar_type = scalar_type_named(dtype, "dtype")?;
+        let geometry = Geometry {
+            spacing: spacing3(spacing)?,
+            origin: triple(origin, "origin")?,
+            ..Geometry::new(dims)
+        };
+        let mut options = ExtractOptions::new(iso_arg(iso, iso_normalized)?);
+        options.precision = precision.map(precision_arg).transpose()?;
+        let value_range =
+            value_range.map(|(lo, hi)| (!lo.is_nan() && !hi.is_nan()).then_some((lo, hi)));
+        let inner = tiles::TileExtraction::new(geometry, scalar_type, &options, value_range)
+            .map_err(to_py)?;
+        Ok(_TileExtraction {
+            inner,
+            jobs: Vec::new(),
+        })
+    }
+
+    /// The isovalue in data units.
+    #[getter]
+    fn iso(&self) -> f64 {
+        self.inner.iso()
+    }
+
+    /// Adds the next tile's scan fragment (tiles in layer order).
+    fn add_scan(&mut self, fragment: &[u8]) -> PyResult<()> {
+        self.inner.add_scan(fragment).map_err(to_py)
+    }
+
+    /// Plans the emit jobs (samples plus output within `job_bytes` where a layer allows); returns
+    /// one `(first_plane, end_plane, job)` per job, in file order.
+    fn plan_emits<'py>(
+        &mut self,
+        py: Python<'py>,
+        job_bytes: u64,
+    ) -> PyResult<Vec<(usize, usize, Bound<'py, PyBytes>)>> {
+        self.jobs = self.inner.plan_emits(job_bytes).map_err(to_py)?;
+        Ok(self
+            .jobs
+            .iter()
+            .map(|job| {
+                (
+                    job.planes.start,
+                    job.planes.end,
+                    PyBytes::new(py, &job.bytes),
+                )
+            })
+            .collect())
+    }
+
+    /// Writes `path` atomically from the output fragments `fragments` yields (any order); returns
+    /// the statistics. An exception raised by `fragments` propagates, and no file is left.
+    fn write<'py>(
+        &self,
+        py: Python<'py>,
+        path: PathBuf,
+        fragments: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let mut iterator = fragments.try_iter()?;
+        let mut raised: Option<PyErr> = None;
+        let mut next_fragment = || -> isogrid::Result<Option<Vec<u8>>> {
+            let next = iterator.next().map(|item| {
+                let item = item?;
+                let bytes = item.cast::<PyBytes>().map_err(|_| {
+                    invalid(format!("fragments must be bytes, not {}", item.get_type()))
+                })?;
+                Ok::<_, PyErr>(bytes.as_bytes().to_vec())
+            });
+            match next {
+                None => Ok(None),
+                Some(Ok(bytes)) => Ok(Some(bytes)),
+                Some(Err(err)) => {
+                    raised = Some(err);
+                    Err(isogrid::Error::invalid("a task failed"))
+                }
+            }
+        };
+        let summary = self.inner.write(&path, &self.jobs, &mut next_fragment);
+        if let Some(err) = raised {
+            return Err(err);
+        }
+        stats_dict(py, &summary.map_err(to_py)?.stats)
+    }
+}

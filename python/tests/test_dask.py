@@ -1,0 +1,196 @@
+"""isogrid.dask: extraction spread over Dask gives the bytes of the in-process extraction, for dask
+arrays with chunks that do not divide 16, zarr arrays written by zarr-python, Zarr paths, a
+LocalCluster of two worker processes and a worker killed mid-run; its statistics are the CLI's."""
+
+import json
+import os
+import signal
+import subprocess
+
+import numpy as np
+import pytest
+
+da = pytest.importorskip("dask.array")
+distributed = pytest.importorskip("distributed")
+zarr = pytest.importorskip("zarr")
+
+import isogrid  # noqa: E402
+import isogrid.dask  # noqa: E402
+from conftest import sphere  # noqa: E402
+
+# Shapes that are not multiples of 16, chunks that do not divide 16, and a task budget small
+# enough for several tiles and several emit jobs.
+SHAPE = (45, 38, 41)
+CHUNKS = (7, 11, 13)
+TILE_BYTES = 41 * 38 * 4 * 20
+
+
+def volume(dtype=np.float32):
+    """Two overlapping spheres plus a ripple, (z, y, x)."""
+    a = sphere(SHAPE, (20.0, 17.0, 21.0), 12.0, np.float64)
+    b = sphere(SHAPE, (30.0, 25.0, 30.0), 9.0, np.float64)
+    z = np.arange(SHAPE[0])[:, None, None]
+    v = np.maximum(a, b) + 0.5 * np.sin(z * 0.7)
+    if np.dtype(dtype).kind == "f":
+        return v.astype(dtype)
+    return np.clip(v * 8 + 100, 0, 255).astype(dtype)
+
+
+def in_process_bytes(array, tmp_path, **kwargs):
+    path = tmp_path / "reference.cgc"
+    isogrid.extract(array, **kwargs).save(path)
+    return path.read_bytes()
+
+
+@pytest.mark.parametrize(
+    "dtype,kwargs",
+    [
+        (np.float32, {"iso": 0.0}),
+        (np.uint8, {"iso_normalized": 0.5}),
+        (np.float64, {"iso_normalized": 0.4, "precision": 8}),
+        (np.int16, {"iso": 101, "precision": 4}),
+    ],
+    ids=["f32-iso", "u8-normalized", "f64-as-f32", "i16-4bit"],
+)
+def test_dask_array_with_chunks_not_dividing_16_is_byte_identical(tmp_path, dtype, kwargs):
+    a = volume(dtype)
+    expected = in_process_bytes(a, tmp_path, spacing=(0.5, 0.75, 2.0), **kwargs)
+    out = tmp_path / "dask.cgc"
+    stats = isogrid.dask.extract(
+        da.from_array(a, chunks=CHUNKS),
+        output=out,
+        spacing=(0.5, 0.75, 2.0),
+        tile_bytes=TILE_BYTES,
+        **kwargs,
+    )
+    assert out.read_bytes() == expected
+    assert stats["active_cells"] > 1000
+    assert stats["dims"] == (41, 38, 45)
+    assert sorted(os.listdir(tmp_path)) == ["dask.cgc", "reference.cgc"]
+
+
+def test_zarr_array_on_disk_and_zarr_path(tmp_path):
+    a = volume(np.uint16)
+    expected = in_process_bytes(a, tmp_path, iso_normalized=0.5)
+    store = tmp_path / "volume.zarr"
+    z = zarr.open(str(store), mode="w", shape=a.shape, chunks=CHUNKS, dtype=a.dtype)
+    z[...] = a
+    opened = zarr.open(str(store), mode="r")
+    isogrid.dask.extract(opened, iso_normalized=0.5, output=tmp_path / "array.cgc", tile_bytes=TILE_BYTES)
+    isogrid.dask.extract(str(store), iso_normalized=0.5, output=tmp_path / "path.cgc", tile_bytes=TILE_BYTES)
+    assert (tmp_path / "array.cgc").read_bytes() == expected
+    assert (tmp_path / "path.cgc").read_bytes() == expected
+
+
+@pytest.fixture(scope="module")
+def two_workers():
+    """A LocalCluster of two single-threaded worker processes, and its client."""
+    cluster = distributed.LocalCluster(
+        n_workers=2,
+        processes=True,
+        threads_per_worker=1,
+        memory_limit="1GiB",
+        dashboard_address=None,
+    )
+    client = distributed.Client(cluster)
+    yield client
+    client.close()
+    cluster.close()
+
+
+def test_local_cluster_of_two_processes_is_byte_identical(tmp_path, two_workers):
+    a = volume(np.float32)
+    expected = in_process_bytes(a, tmp_path, iso_normalized=0.5)
+    source = da.from_array(a, chunks=CHUNKS)
+    # Given explicitly, and found as the current client.
+    with distributed.get_task_stream(two_workers) as tasks:
+        isogrid.dask.extract(
+            source, iso_normalized=0.5, output=tmp_path / "given.cgc", client=two_workers, tile_bytes=TILE_BYTES
+        )
+    isogrid.dask.extract(source, iso_normalized=0.5, output=tmp_path / "current.cgc", tile_bytes=TILE_BYTES)
+    assert (tmp_path / "given.cgc").read_bytes() == expected
+    assert (tmp_path / "current.cgc").read_bytes() == expected
+    # Both worker processes ran tasks.
+    assert len({task["worker"] for task in tasks.data}) == 2
+
+
+def test_a_worker_killed_mid_run_changes_nothing(tmp_path, two_workers):
+    a = volume(np.float32)
+    expected = in_process_bytes(a, tmp_path, iso=0.0)
+    marker = str(tmp_path / "killed")
+
+    def kill_once(block, block_info=None):
+        # The first time chunk (3, 1, 1) is computed, its worker process dies without a word.
+        if block_info[0]["chunk-location"] == (3, 1, 1):
+            try:
+                os.close(os.open(marker, os.O_CREAT | os.O_EXCL))
+            except FileExistsError:
+                return block
+            os.kill(os.getpid(), signal.SIGKILL)
+        return block
+
+    killing = da.from_array(a, chunks=CHUNKS).map_blocks(kill_once, dtype=a.dtype)
+    out = tmp_path / "killed.cgc"
+    isogrid.dask.extract(killing, iso=0.0, output=out, client=two_workers, tile_bytes=TILE_BYTES)
+    assert os.path.exists(marker), "no worker was killed"
+    assert out.read_bytes() == expected
+
+
+def test_stats_are_the_cli_json_figures(tmp_path, cli):
+    a = volume(np.uint8)
+    np.save(tmp_path / "v.npy", a)
+    run = subprocess.run(
+        [cli, "extract", str(tmp_path / "v.npy"), "--iso-normalized", "0.5", "--json", "-o", str(tmp_path / "cli.cgc")],
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    expected = json.loads(run.stdout)
+    stats = isogrid.dask.extract(
+        da.from_array(a, chunks=CHUNKS), iso_normalized=0.5, output=tmp_path / "dask.cgc", tile_bytes=TILE_BYTES
+    )
+    assert set(stats["seconds"]) == {"read", "extract", "write"}
+    del stats["seconds"], expected["seconds"]
+    expected["dims"] = tuple(expected["dims"])
+    assert stats == expected
+    assert (tmp_path / "dask.cgc").read_bytes() == (tmp_path / "cli.cgc").read_bytes()
+
+
+@pytest.mark.parametrize(
+    "source,message",
+    [
+        (da.zeros((4, 20, 20, 20), chunks=10), "expected a 3-D array"),
+        (da.from_array(np.full((20, 20, 20), "a")), "unsupported sample dtype"),
+        (da.zeros((20, 20, 20), dtype=np.complex64), "unsupported sample dtype"),
+        ("no-such.zarr", "cannot open as Zarr"),
+    ],
+    ids=["4-D", "strings", "complex", "missing store"],
+)
+def test_bad_input_gets_a_clear_error_and_no_file(tmp_path, source, message):
+    out = tmp_path / "out.cgc"
+    if isinstance(source, str):
+        source = str(tmp_path / source)
+    with pytest.raises(ValueError, match=message):
+        isogrid.dask.extract(source, iso=0.5, output=out)
+    assert os.listdir(tmp_path) == []
+
+
+def test_a_task_failing_while_the_file_is_written_leaves_no_file(tmp_path):
+    a = volume(np.float32)
+    marker = str(tmp_path.parent / f"{tmp_path.name}-scanned")
+
+    def fail_second_time(block, block_info=None):
+        # Chunk (0, 0, 0) lies in the first tile only: its first computation is the scan, its
+        # second the emit job, by when the output file is being written.
+        if block_info[0]["chunk-location"] == (0, 0, 0):
+            if os.path.exists(marker):
+                raise RuntimeError("the store went away")
+            open(marker, "w").close()
+        return block
+
+    source = da.from_array(a, chunks=CHUNKS).map_blocks(fail_second_time, dtype=a.dtype)
+    out = tmp_path / "out.cgc"
+    with pytest.raises(RuntimeError, match="the store went away"):
+        isogrid.dask.extract(source, iso=0.0, output=out, tile_bytes=TILE_BYTES)
+    assert os.path.exists(marker)
+    assert os.listdir(tmp_path) == []
