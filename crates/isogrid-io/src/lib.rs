@@ -26,6 +26,7 @@ pub mod voxelize;
 
 mod data_file;
 mod geometry;
+mod mapped_layout;
 mod read;
 mod read_options;
 mod samples;

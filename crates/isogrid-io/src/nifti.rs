@@ -92,7 +92,7 @@ fn read(path: &Path) -> Result<Volume> {
 
 /// Where an uncompressed `.nii` keeps its samples, for reading by region; `None` for a gzip file
 /// (which has to be decompressed from its start). Errors name `path`.
-pub(crate) fn region_layout(path: &Path) -> Result<Option<crate::region::MappedLayout>> {
+pub(crate) fn region_layout(path: &Path) -> Result<Option<crate::mapped_layout::MappedLayout>> {
     (|| {
         let mut file = isogrid::fs::open_regular(path)?;
         let file_len = file.metadata()?.len();
@@ -116,7 +116,7 @@ pub(crate) fn region_layout(path: &Path) -> Result<Option<crate::region::MappedL
             byte_count(count, header.elem)?,
             file_len.saturating_sub(header.vox_offset),
         )?;
-        Ok(Some(crate::region::MappedLayout {
+        Ok(Some(crate::mapped_layout::MappedLayout {
             data_path: path.to_path_buf(),
             data_offset: header.vox_offset,
             elem: header.elem,

@@ -11,5 +11,14 @@ pub struct ReadOptions {
     /// DICOM: read this SeriesInstanceUID (default: the series with the most slices).
     pub series: Option<String>,
     /// Level and extra-axis indices of a Zarr / OME-Zarr input.
-    pub zarr: crate::region::ZarrOptions,
+    pub zarr: ZarrOptions,
+}
+
+/// Which level and which entries of extra axes to read from a Zarr array or OME-Zarr image.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct ZarrOptions {
+    /// OME-Zarr multiscale level; 0 is full resolution.
+    pub level: usize,
+    /// Index along each non-spatial axis, by axis name (`t`, `c`, …).
+    pub indices: Vec<(String, u64)>,
 }

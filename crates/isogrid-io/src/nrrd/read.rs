@@ -75,7 +75,7 @@ pub fn read_nrrd(path: &Path) -> Result<Volume> {
 /// Where a raw-encoded NRRD (attached, or detached into one file, without line skips) keeps its
 /// samples, for reading by region; `None` for other encodings and layouts, which are read whole.
 /// Errors name the file at fault.
-pub(crate) fn region_layout(path: &Path) -> Result<Option<crate::region::MappedLayout>> {
+pub(crate) fn region_layout(path: &Path) -> Result<Option<crate::mapped_layout::MappedLayout>> {
     let file = isogrid::fs::open_regular(path)?;
     let mut reader = BufReader::new(file);
     let (lines, data_offset) = read_header_lines(&mut reader).at_path(path)?;
@@ -111,7 +111,7 @@ pub(crate) fn region_layout(path: &Path) -> Result<Option<crate::region::MappedL
         check_available(needed.saturating_add(skip), available).at_path(&data_path)?;
         start + skip
     };
-    Ok(Some(crate::region::MappedLayout {
+    Ok(Some(crate::mapped_layout::MappedLayout {
         data_path,
         data_offset,
         elem: header.elem,

@@ -5,30 +5,17 @@
 //! touched resident until the end). Samples are converted exactly as the in-memory readers convert
 //! them (the same `read_samples`, one bounded chunk at a time), so both paths see the same values.
 
+use crate::mapped_layout::MappedLayout;
 use crate::samples::{read_samples, ElemType};
 use isogrid::extract::stream::{RegionSource, SlabMut};
 use isogrid::{Error, Geometry, Result, ResultExt, ScalarType, VolumeData};
 use memmap2::{Advice, MmapOptions};
 use std::fs::File;
 use std::ops::Range;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 /// Bytes converted at a time: bounds the temporary of the conversion.
 const CONVERT_BYTES: usize = 4 << 20;
-
-/// Where and how a file stores its samples: filled in by the format's header reader.
-#[derive(Debug, Clone)]
-pub(crate) struct MappedLayout {
-    /// The file holding the samples (the header file itself, or a detached data file).
-    pub data_path: PathBuf,
-    /// Byte offset of sample (0, 0, 0); the caller has checked that all samples are in the file.
-    pub data_offset: u64,
-    pub elem: ElemType,
-    pub big_endian: bool,
-    pub geometry: Geometry,
-    /// NIfTI intensity scaling (slope, intercept), applied as the in-memory reader applies it.
-    pub scale: Option<(f32, f32)>,
-}
 
 /// A file read through per-slab memory maps.
 pub struct MappedSource {

@@ -11,21 +11,12 @@ pub mod slices;
 #[cfg(feature = "zarr")]
 pub mod zarr;
 
+pub use crate::read_options::ZarrOptions;
 pub use isogrid::extract::stream::{RegionSource, SlabMut};
-pub(crate) use mapped::MappedLayout;
 
 use crate::read_options::ReadOptions;
 use isogrid::{Result, Volume, VolumeData};
 use std::path::Path;
-
-/// Which level and which entries of extra axes to read from a Zarr array or OME-Zarr image.
-#[derive(Debug, Clone, Default, PartialEq, Eq)]
-pub struct ZarrOptions {
-    /// OME-Zarr multiscale level; 0 is full resolution.
-    pub level: usize,
-    /// Index along each non-spatial axis, by axis name (`t`, `c`, …).
-    pub indices: Vec<(String, u64)>,
-}
 
 /// Whether `path` is an `http://` or `https://` URL (read as a Zarr store).
 pub fn is_url(path: &Path) -> bool {
