@@ -45,9 +45,10 @@ pub struct InputArgs {
     /// OME-Zarr resolution level to read (0 = full resolution).
     #[arg(long, value_name = "N", default_value_t = 0)]
     pub level: usize,
-    /// Entry of each extra (non-x/y/z) axis of a Zarr array, e.g. `t=0,c=1`.
-    #[arg(long, value_name = "AXIS=I,...", value_parser = parse_indices)]
-    pub index: Option<Vec<(String, u64)>>,
+    /// Entry of each extra (non-x/y/z) axis of a Zarr array, e.g. `t=0,c=1`. Checked when the
+    /// request is built, so a bad value gets the one-line error every other input error gets.
+    #[arg(long, value_name = "AXIS=I,...")]
+    pub index: Option<String>,
 }
 
 impl InputArgs {
@@ -72,7 +73,10 @@ impl InputArgs {
         }
         options.zarr = isogrid_io::ZarrOptions {
             level: self.level,
-            indices: self.index.clone().unwrap_or_default(),
+            indices: match &self.index {
+                Some(text) => parse_indices(text).map_err(anyhow::Error::msg)?,
+                None => Vec::new(),
+            },
         };
         Ok(options)
     }
