@@ -155,7 +155,9 @@ fn open(path: &Path, header_only: bool) -> Result<DefaultDicomObject> {
         Layout::Standard => (Some(132), false),
         Layout::MetaWithoutMagic => (Some(0), false),
         Layout::BareDataSet { explicit } => (None, explicit),
-        Layout::NotDicom => (Some(132), false),
+        // Read as a part-10 file below, but walked here as the bare implicit data set a `.dcm`
+        // without any header is most likely to be: a lying length is then refused up front.
+        Layout::NotDicom => (None, false),
     };
     super::lengths::check_declared_lengths(path, meta_at, bare_explicit)
         .map_err(|e| e.with_path(path))?;
