@@ -47,6 +47,16 @@ def pinned(cmd):
     return ["taskset", "-c", "0", *cmd]
 
 
+def write_rays(path, lo, hi, count, seed):
+    """`count` rays as raw little-endian f32 (origin, direction): origins uniform in the box
+    [lo, hi], directions uniform on the sphere, from numpy's generator seeded with `seed`."""
+    rng = np.random.default_rng(seed)
+    origins = lo + (hi - lo) * rng.random((count, 3))
+    d = rng.standard_normal((count, 3))
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    np.hstack([origins, d]).astype("<f4").tofile(path)
+
+
 def read_ply(path):
     """Binary little-endian PLY as written by `isogrid mc`: float xyz, uchar/uint face lists."""
     with open(path, "rb") as f:
@@ -171,12 +181,8 @@ def main():
             mesh = run_json([binary, "mc", path, "--iso-normalized", "0.5", "-o", ply, "--json"])
             probe = run_json([binary, "bench", "rays", cgc, "--rays", "1", "--json"])
             lo, hi = (np.array(v) for v in probe["world_bounds"])
-            rng = np.random.default_rng(args.seed)
-            origins = lo + (hi - lo) * rng.random((args.rays, 3))
-            d = rng.standard_normal((args.rays, 3))
-            d /= np.linalg.norm(d, axis=1, keepdims=True)
             rays_path = os.path.join(tmp, "rays.bin")
-            np.hstack([origins, d]).astype("<f4").tofile(rays_path)
+            write_rays(rays_path, lo, hi, args.rays, args.seed)
             t = {k: os.path.join(tmp, f"t_{k}.npy") for k in ("s3", "exact", "bvh", "embree")}
             # Rounds of one run each, interleaved, best per tracer: the host's load drifts over
             # minutes, and ratios taken from runs minutes apart drifted with it.

@@ -28,19 +28,11 @@ import tempfile
 
 import numpy as np
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-DATASETS = {
-    "MNI152 T1": "data/mni152_t1.nii.gz",
-    "Dragon 512³": "data/dragon512.nrrd",
-}
+from bench_rays import DATASETS, ROOT, run_json, write_rays
+
 TRAVERSALS = [("Samples3", ["--traversal", "blocks"]),
               ("Exact", ["--traversal", "blocks", "--exact"]),
               ("BVH", ["--traversal", "bvh"])]
-
-
-def run_json(cmd):
-    out = subprocess.run(cmd, check=True, capture_output=True, text=True)
-    return json.loads(out.stdout)
 
 
 def bench(binary, cgc, rays_path, extra):
@@ -62,14 +54,6 @@ def instructions(binary, cgc, rays_path, extra):
            "--rays-file", rays_path, "--threads", "1", "--json", *extra]
     res = subprocess.run(cmd, check=True, capture_output=True, text=True)
     return int(re.search(r"Collected : (\d+)", res.stderr).group(1))
-
-
-def write_rays(path, lo, hi, count, seed):
-    rng = np.random.default_rng(seed)
-    origins = lo + (hi - lo) * rng.random((count, 3))
-    d = rng.standard_normal((count, 3))
-    d /= np.linalg.norm(d, axis=1, keepdims=True)
-    np.hstack([origins, d]).astype("<f4").tofile(path)
 
 
 def main():
