@@ -50,6 +50,7 @@ pub fn load_volume(
         zarr: ZarrOptions {
             level,
             indices: index.unwrap_or_default(),
+            trusted_certificates: isogrid_io::ssl_cert_file_from_env(),
         },
     };
     let (volume, notices) = py

@@ -62,3 +62,44 @@ def test_ome_zarr_levels_and_indices_match_zarr_python():
     assert v.origin == pytest.approx((3.0, -5.0, 10.0))
     with pytest.raises(ValueError, match="--index"):
         isogrid.load_volume(path)
+
+
+TLS = FIXTURES.parent / "tls"
+
+
+@pytest.fixture
+def https_server(tmp_path):
+    """A static https server on 127.0.0.1 over tmp_path, with the certificate the test CA of
+    crates/isogrid-io/tests/fixtures/tls issued for 127.0.0.1 (scripts/make_tls_fixtures.sh)."""
+    import functools
+    import http.server
+    import ssl
+    import threading
+
+    handler = functools.partial(http.server.SimpleHTTPRequestHandler, directory=str(tmp_path))
+    handler.log_message = lambda *args: None
+    server = http.server.ThreadingHTTPServer(("127.0.0.1", 0), handler)
+    context = ssl.SSLContext(ssl.PROTOCOL_TLS_SERVER)
+    context.load_cert_chain(TLS / "server.pem", TLS / "server.key")
+    server.socket = context.wrap_socket(server.socket, server_side=True)
+    thread = threading.Thread(target=server.serve_forever, daemon=True)
+    thread.start()
+    yield f"https://127.0.0.1:{server.server_address[1]}"
+    server.shutdown()
+    server.server_close()
+
+
+def test_zarr_over_https_trusts_the_roots_ssl_cert_file_names(tmp_path, https_server, monkeypatch):
+    data = volume()
+    a = zarr.create_array(store=str(tmp_path / "v.zarr"), shape=data.shape, dtype=data.dtype, chunks=(9, 10, 11))
+    a[...] = data
+    url = f"{https_server}/v.zarr"
+    # Mozilla's roots do not include the test CA: refused, in one line naming the URL.
+    monkeypatch.delenv("SSL_CERT_FILE", raising=False)
+    with pytest.raises(Exception) as refused:
+        isogrid.load_volume(url)
+    message = str(refused.value)
+    assert url in message and "certificate" in message.lower() and "\n" not in message
+    # With the test CA trusted, the samples are zarr-python's.
+    monkeypatch.setenv("SSL_CERT_FILE", str(TLS / "ca.pem"))
+    np.testing.assert_array_equal(isogrid.load_volume(url).array, zarr.open_array(str(tmp_path / "v.zarr"), mode="r")[...])

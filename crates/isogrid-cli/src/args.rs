@@ -77,6 +77,7 @@ impl InputArgs {
                 Some(text) => parse_indices(text).map_err(anyhow::Error::msg)?,
                 None => Vec::new(),
             },
+            trusted_certificates: isogrid_io::ssl_cert_file_from_env(),
         };
         Ok(options)
     }

@@ -21,4 +21,16 @@ pub struct ZarrOptions {
     pub level: usize,
     /// Index along each non-spatial axis, by axis name (`t`, `c`, …).
     pub indices: Vec<(String, u64)>,
+    /// A PEM file of the root certificates that `https://` stores are checked against instead of
+    /// Mozilla's (a site's own certificate authority); front ends take it from
+    /// [`ssl_cert_file_from_env`].
+    pub trusted_certificates: Option<std::path::PathBuf>,
+}
+
+/// The PEM file named by the `SSL_CERT_FILE` environment variable (the one OpenSSL, curl and
+/// Python read), if set and not empty.
+pub fn ssl_cert_file_from_env() -> Option<std::path::PathBuf> {
+    std::env::var_os("SSL_CERT_FILE")
+        .filter(|path| !path.is_empty())
+        .map(std::path::PathBuf::from)
 }

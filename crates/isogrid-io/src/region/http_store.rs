@@ -1,9 +1,11 @@
 //! A read-only `zarrs` store over HTTP, for Zarr and OME-Zarr served as static files (public
 //! OME-Zarr collections are served this way): every store key is a URL under the store's base URL.
 //!
-//! Built on `ureq` without a TLS stack, so it speaks plain `http://`; `https://` needs the
-//! `https` feature (rustls). The `zarrs_http` crate does the same through `reqwest`, which would
-//! bring an async runtime and a TLS stack into every build. Byte ranges (shard indexes and inner
+//! Built on `ureq`, which is small and blocking. `https://` comes with the `https` feature (on by
+//! default): rustls, trusting Mozilla's root certificates, or the certificates of a PEM file
+//! ([`crate::ZarrOptions::trusted_certificates`], which the CLI and Python take from
+//! `SSL_CERT_FILE`) for a site's own certificate authority or a TLS-intercepting proxy. The `zarrs_http` crate does the same through `reqwest`, which would bring an async
+//! runtime into every build. Byte ranges (shard indexes and inner
 //! chunks) are asked for with `Range` headers; a server that ignores them and answers 200 with the
 //! whole object is served by slicing, so simple static servers work too. A 404 is a missing key
 //! (a missing chunk reads as the fill value, as the Zarr specs say); any other failure is an
@@ -22,19 +24,25 @@ pub struct HttpStore {
 }
 
 impl HttpStore {
-    /// A store whose keys are resolved under `base_url` (with or without a trailing slash).
-    pub fn new(base_url: &str) -> Self {
+    /// A store whose keys are resolved under `base_url` (with or without a trailing slash);
+    /// `https://` servers must prove themselves to `trusted` (a PEM file of root certificates) or,
+    /// when it is `None`, to Mozilla's roots. Fails only when `trusted` cannot be read or holds no
+    /// certificate.
+    pub fn new(base_url: &str, trusted: Option<&std::path::Path>) -> isogrid::Result<Self> {
         let config = ureq::Agent::config_builder()
             // Statuses are answers to interpret (404 = missing key), not transport errors.
             .http_status_as_error(false)
             .timeout_connect(Some(Duration::from_secs(30)))
             .timeout_recv_response(Some(Duration::from_secs(120)))
-            .timeout_per_read(Some(Duration::from_secs(120)))
-            .build();
-        HttpStore {
-            agent: ureq::Agent::new_with_config(config),
+            .timeout_per_read(Some(Duration::from_secs(120)));
+        #[cfg(feature = "https")]
+        let config = config.tls_config(tls::config(trusted)?);
+        #[cfg(not(feature = "https"))]
+        let _ = trusted;
+        Ok(HttpStore {
+            agent: ureq::Agent::new_with_config(config.build()),
             base: base_url.trim_end_matches('/').to_string(),
-        }
+        })
     }
 
     fn url(&self, key: &StoreKey) -> String {
@@ -152,5 +160,43 @@ impl ReadableStorageTraits for HttpStore {
 
     fn supports_get_partial(&self) -> bool {
         true
+    }
+}
+
+/// The TLS settings of the store's agent: which certificates it trusts.
+#[cfg(feature = "https")]
+mod tls {
+    use isogrid::{Error, Result};
+    use std::path::Path;
+    use std::sync::Arc;
+    use ureq::tls::{parse_pem, PemItem, RootCerts, TlsConfig};
+
+    pub(super) fn config(trusted: Option<&Path>) -> Result<TlsConfig> {
+        let roots = match trusted {
+            Some(path) => roots_from(path)?,
+            None => RootCerts::WebPki,
+        };
+        Ok(TlsConfig::builder().root_certs(roots).build())
+    }
+
+    /// The certificates of a PEM file; other PEM items (keys) are skipped.
+    fn roots_from(path: &Path) -> Result<RootCerts> {
+        let named = |problem: String| {
+            Error::invalid(format!("trusted certificates (SSL_CERT_FILE): {problem}"))
+                .with_path(path)
+        };
+        let pem = std::fs::read(path).map_err(|e| named(format!("it cannot be read: {e}")))?;
+        let mut certs = Vec::new();
+        for item in parse_pem(&pem) {
+            match item {
+                Ok(PemItem::Certificate(cert)) => certs.push(cert),
+                Ok(_) => {}
+                Err(e) => return Err(named(format!("it is not valid PEM: {e}"))),
+            }
+        }
+        if certs.is_empty() {
+            return Err(named("it holds no certificate".into()));
+        }
+        Ok(RootCerts::Specific(Arc::new(certs)))
     }
 }

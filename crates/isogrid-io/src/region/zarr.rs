@@ -542,10 +542,12 @@ pub fn open_path(path: &std::path::Path, options: &ZarrOptions) -> Result<ZarrSo
 pub fn open_url(url: &str, options: &ZarrOptions) -> Result<ZarrSource> {
     if cfg!(not(feature = "https")) && url.to_ascii_lowercase().starts_with("https://") {
         return Err(Error::unsupported(
-            "https:// needs isogrid built with the `https` feature (plain http:// works without it)",
+            "https:// needs isogrid-io built with its `https` feature (plain http:// works without it)",
         )
         .with_path(url));
     }
-    let store: ReadableStorage = Arc::new(super::http_store::HttpStore::new(url));
+    let trusted = options.trusted_certificates.as_deref();
+    let store = super::http_store::HttpStore::new(url, trusted).map_err(|e| e.with_path(url))?;
+    let store: ReadableStorage = Arc::new(store);
     ZarrSource::open(store, url, options)
 }

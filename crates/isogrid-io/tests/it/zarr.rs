@@ -24,6 +24,7 @@ pub fn options(level: usize, indices: &[(&str, u64)]) -> ReadOptions {
         zarr: ZarrOptions {
             level,
             indices: indices.iter().map(|&(n, i)| (n.to_string(), i)).collect(),
+            ..Default::default()
         },
         ..Default::default()
     }

@@ -1,15 +1,16 @@
 //! Zarr and OME-Zarr over HTTP, served from the fixture folder by a small static file server on
 //! 127.0.0.1 that logs what is asked of it: the same volumes as from the folder, byte ranges
-//! honoured or ignored by the server, only the chunks a slab needs fetched, and errors that name
-//! the URL.
+//! honoured or ignored by the server, only the chunks a slab needs fetched, errors that name the
+//! URL, and `https://` checked against the trusted certificates (the test CA of
+//! `fixtures/tls`, written by `scripts/make_tls_fixtures.sh`).
 
 use crate::region::streams_like_memory;
 use crate::zarr::options;
 use isogrid::extract::stream::SlabMut;
 use isogrid::{ExtractOptions, Iso};
 use isogrid_io::{open_region, read_volume, ReadOptions};
-use std::io::{BufRead, BufReader, Write};
-use std::net::{TcpListener, TcpStream};
+use std::io::{BufRead, BufReader, Read, Write};
+use std::net::TcpListener;
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
 
@@ -23,14 +24,40 @@ struct Server {
 
 impl Server {
     fn start(root: PathBuf, honour_ranges: bool) -> Server {
+        Server::start_with(root, honour_ranges, None)
+    }
+
+    /// A server speaking TLS with the certificate of `fixtures/tls/server.pem` (for 127.0.0.1,
+    /// issued by the test CA `fixtures/tls/ca.pem`).
+    fn start_tls(root: PathBuf) -> Server {
+        Server::start_with(root, true, Some(tls_config()))
+    }
+
+    fn start_with(
+        root: PathBuf,
+        honour_ranges: bool,
+        tls: Option<Arc<rustls::ServerConfig>>,
+    ) -> Server {
         let listener = TcpListener::bind("127.0.0.1:0").unwrap();
-        let url = format!("http://{}", listener.local_addr().unwrap());
+        let scheme = if tls.is_some() { "https" } else { "http" };
+        let url = format!("{scheme}://{}", listener.local_addr().unwrap());
         let log = Arc::new(Mutex::new(Vec::new()));
         let requests = log.clone();
         std::thread::spawn(move || {
             for stream in listener.incoming().flatten() {
-                let (root, requests) = (root.clone(), requests.clone());
-                std::thread::spawn(move || answer(stream, &root, honour_ranges, &requests));
+                let (root, requests, tls) = (root.clone(), requests.clone(), tls.clone());
+                std::thread::spawn(move || match tls {
+                    None => answer(stream, &root, honour_ranges, &requests),
+                    Some(config) => {
+                        let Ok(connection) = rustls::ServerConnection::new(config) else {
+                            return;
+                        };
+                        let mut tls = rustls::StreamOwned::new(connection, stream);
+                        answer(&mut tls, &root, honour_ranges, &requests);
+                        tls.conn.send_close_notify();
+                        let _ = tls.flush();
+                    }
+                });
             }
         });
         Server { url, log }
@@ -45,8 +72,9 @@ impl Server {
     }
 }
 
-fn answer(mut stream: TcpStream, root: &Path, honour_ranges: bool, log: &Mutex<Vec<String>>) {
-    let mut reader = BufReader::new(stream.try_clone().unwrap());
+fn answer(stream: impl Read + Write, root: &Path, honour_ranges: bool, log: &Mutex<Vec<String>>) {
+    // A GET has no body, so nothing the reader buffers beyond the headers is lost.
+    let mut reader = BufReader::new(stream);
     let mut request = String::new();
     if reader.read_line(&mut request).is_err() {
         return;
@@ -67,6 +95,7 @@ fn answer(mut stream: TcpStream, root: &Path, honour_ranges: bool, log: &Mutex<V
         }
     }
     log.lock().unwrap().push(format!("{method} {target}"));
+    let stream = reader.get_mut();
     let path = root.join(target.trim_start_matches('/'));
     let body = match std::fs::read(&path) {
         Ok(body) if path.is_file() => body,
@@ -198,4 +227,76 @@ fn http_errors_name_the_url() {
         .to_string();
     assert!(err.contains(&url), "{err}");
     assert!(!err.contains('\n'), "{err}");
+}
+
+fn tls_fixture(name: &str) -> PathBuf {
+    crate::common::fixture("tls").join(name)
+}
+
+fn tls_config() -> Arc<rustls::ServerConfig> {
+    use rustls::pki_types::pem::PemObject;
+    use rustls::pki_types::{CertificateDer, PrivateKeyDer};
+    let certs = CertificateDer::pem_file_iter(tls_fixture("server.pem"))
+        .unwrap()
+        .collect::<Result<Vec<_>, _>>()
+        .unwrap();
+    let key = PrivateKeyDer::from_pem_file(tls_fixture("server.key")).unwrap();
+    let provider = Arc::new(rustls::crypto::ring::default_provider());
+    let config = rustls::ServerConfig::builder_with_provider(provider)
+        .with_safe_default_protocol_versions()
+        .unwrap()
+        .with_no_client_auth()
+        .with_single_cert(certs, key)
+        .unwrap();
+    Arc::new(config)
+}
+
+fn trusting(certificates: Option<PathBuf>) -> ReadOptions {
+    let mut opts = ReadOptions::default();
+    opts.zarr.trusted_certificates = certificates;
+    opts
+}
+
+#[test]
+fn zarr_over_https_reads_as_from_the_folder_when_the_server_is_trusted() {
+    let server = Server::start_tls(fixtures());
+    let trusted = trusting(Some(tls_fixture("ca.pem")));
+    for name in ["v3_sharded_gzip.zarr", "ome_v05.zarr"] {
+        let local = read_volume(&fixtures().join(name), &ReadOptions::default()).unwrap();
+        let remote = read_volume(&server.url_of(name), &trusted).unwrap();
+        assert_eq!(remote.dims(), local.dims(), "{name}");
+        assert_eq!(remote.origin(), local.origin(), "{name}");
+        assert!(remote.data() == local.data(), "{name}: samples differ");
+    }
+    assert!(server
+        .requests()
+        .iter()
+        .any(|r| r.starts_with("GET /ome_v05.zarr/")));
+}
+
+#[test]
+fn https_refuses_an_untrusted_server_and_a_bad_certificate_file_in_one_line() {
+    let server = Server::start_tls(fixtures());
+    let url = server.url_of("v3_zstd.zarr");
+    let error_with = |opts: &ReadOptions| {
+        let err = read_volume(&url, opts).unwrap_err().to_string();
+        assert!(!err.contains('\n'), "{err}");
+        err
+    };
+    // Mozilla's roots do not include the test CA; nor does the server's own certificate vouch
+    // for itself (it is not a CA).
+    for opts in [trusting(None), trusting(Some(tls_fixture("server.pem")))] {
+        let err = error_with(&opts);
+        assert!(err.contains(&*url.to_string_lossy()), "{err}");
+        assert!(err.to_lowercase().contains("certificate"), "{err}");
+    }
+    assert!(server.requests().is_empty(), "{:?}", server.requests());
+
+    let missing = tls_fixture("no-such.pem");
+    let err = error_with(&trusting(Some(missing.clone())));
+    assert!(err.contains(&*missing.to_string_lossy()), "{err}");
+    assert!(err.contains("SSL_CERT_FILE"), "{err}");
+    let key_only = tls_fixture("server.key");
+    let err = error_with(&trusting(Some(key_only)));
+    assert!(err.contains("holds no certificate"), "{err}");
 }
