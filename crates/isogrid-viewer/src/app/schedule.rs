@@ -113,3 +113,27 @@ fn render_request(key: &ViewKey) -> isogrid::Result<RenderRequest> {
 fn same_view(a: &Camera, b: &Camera) -> bool {
     (a.eye, a.target, a.up, a.fovy_degrees) == (b.eye, b.target, b.up, b.fovy_degrees)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The request carries the orbit camera exactly: the front door renders the view the key
+    /// names, whatever the scene's box.
+    #[test]
+    fn requests_carry_the_orbit_camera_and_mode() {
+        let orbit = crate::orbit::Orbit::preset(2, [0.0; 3], [40.0, 30.0, 20.0], 320, 240)
+            .expect("a preset view of a box");
+        let key = ViewKey {
+            camera: orbit.camera(320, 240),
+            mode: Mode::PathTrace,
+            scene: 1,
+        };
+        let request = render_request(&key).unwrap();
+        assert_eq!(request.mode(), Mode::PathTrace);
+        assert_eq!((request.width(), request.height()), (320, 240));
+        assert_eq!(request.parts().samples, 1);
+        let camera = request.camera([-5.0; 3], [99.0; 3]).unwrap();
+        assert_eq!(camera, key.camera);
+    }
+}
