@@ -44,8 +44,9 @@ pub struct RenderedFrame {
 
 /// A task of the extraction worker (reading an input, extracting, Marching Cubes), shown in the
 /// window while it runs. The worker counts its steps in `progress` (`isogrid::Progress`: reading a
-/// `.cgc` file counts bytes checksummed and blocks checked, extraction two steps per block);
-/// steps that do not count their work (reading a volume file, Marching Cubes) leave it at 0 of 0.
+/// `.cgc` file counts bytes checksummed and blocks checked, extraction two steps per block,
+/// Marching Cubes sample planes); reading a volume file does not count its work and leaves it at
+/// 0 of 0.
 #[derive(Debug, Clone)]
 pub struct Task {
     pub what: String,

@@ -8,12 +8,13 @@
 //! the worker finishes, never a queue of stale ones. Extraction itself cannot be interrupted.
 //!
 //! Each task is announced with an [`isogrid::Progress`] the window reads while it runs (a
-//! progress bar where the task counts its steps: reading a `.cgc` file, extraction).
+//! progress bar where the task counts its steps: reading a `.cgc` file, extraction, Marching
+//! Cubes).
 
 use crate::events::{guarded, Event, Failure, Notifier, SourceInfo, Task};
 use crate::render_worker::RenderMsg;
 use crate::source::{self, Source};
-use isogrid::mc::try_marching_cubes;
+use isogrid::mc::try_marching_cubes_with_progress;
 use isogrid::{extract_with_progress, ExtractOptions, GridStats, Iso, Precision, Progress, Volume};
 use std::path::PathBuf;
 use std::sync::mpsc::Sender;
@@ -290,12 +291,12 @@ impl Worker {
             return;
         };
         self.mesh_done = Some((generation, iso.to_bits()));
-        self.start_task(format!(
+        let progress = self.start_task(format!(
             "Marching Cubes at {}",
             crate::panel::fmt_value(iso)
         ));
         let start = Instant::now();
-        match try_marching_cubes(&volume.view(), iso) {
+        match try_marching_cubes_with_progress(&volume.view(), iso, &progress) {
             Ok(mesh) => {
                 let _ = self.render.send(RenderMsg::Mesh {
                     generation,
@@ -502,6 +503,12 @@ mod tests {
         assert_eq!(seen.last().unwrap().1, 2 * grid.blocks().len() as u64);
         let (_, extracted) = next_grid(&render_rx);
         assert_eq!(extracted.cells(), grid.cells());
+        // Marching Cubes counts sample planes.
+        worker.update(|w| w.mesh = true);
+        let (what, seen) = follow_task(&event_rx);
+        assert!(what.starts_with("Marching Cubes"), "{what}");
+        assert_counts_to_done(&what, &seen);
+        assert_eq!(seen.last().unwrap().1, 80);
 
         // A .cgc file: its checksums and blocks are counted while it is read.
         worker.update(|w| w.open = Some(open_request(2, &cgc_path)));
