@@ -3,8 +3,8 @@
 # Python binding tests (builds the package from source into python/.venv).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-# The core, tracer, GPU, io, render front door and CLI crates keep module graphs without import cycles.
-for crate in isogrid isogrid-trace isogrid-gpu isogrid-io isogrid-render isogrid-cli; do
+# The core, tracer, GPU, io, render front door, viewer and CLI crates keep module graphs without import cycles.
+for crate in isogrid isogrid-trace isogrid-gpu isogrid-io isogrid-render isogrid-viewer isogrid-cli; do
   python3 scripts/check_module_cycles.py "crates/$crate/src"
 done
 cargo test --workspace --locked

@@ -18,13 +18,14 @@ pub fn render(
     volume: Option<&Volume>,
     progress: &Progress,
 ) -> Result<Rendered> {
+    // Checked before anything is uploaded or traced.
     let (lo, hi) = grid.info().world_bounds();
     let camera = request.camera(lo, hi)?;
     match placement {
         Placement::Cpu => crate::cpu::render(request, grid, &camera, progress),
         Placement::Gpu => {
             let renderer = ctx.renderer()?;
-            crate::gpu::render(renderer, request, grid, volume, &camera, progress)
+            crate::gpu::render(renderer, request, grid, volume, progress)
         }
     }
 }

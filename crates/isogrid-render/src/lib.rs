@@ -7,7 +7,9 @@
 //! Modules, lowest first (none imports one above it; `scripts/check_module_cycles.py` checks):
 //! `mode` (the names of modes, backends, primary rays and AOVs) and `environment` (the one place
 //! that knows the tracers' environment-map types); `request`; `policy`; `output` and `context`
-//! (the process's adapter and GPU renderer); `cpu` and `gpu`; `dispatch`.
+//! (the process's adapter and GPU renderer); `scene` (data uploaded to the GPU renderer once and
+//! the per-view state drawn across frames, for interactive use); `cpu` and `gpu` (one-shot
+//! requests, `gpu` through a fresh scene); `dispatch`.
 //!
 //! ```no_run
 //! use isogrid_render::{render, RenderContext, RenderRequest, RequestParts, Mode};
@@ -35,6 +37,7 @@ mod mode;
 mod output;
 pub mod policy;
 mod request;
+mod scene;
 
 pub use context::RenderContext;
 pub use dispatch::render;
@@ -45,3 +48,4 @@ pub use mode::{cpu_draws, Aov, Backend, Mode, Primary};
 pub use output::{CpuStats, GpuStats, Rendered};
 pub use policy::{decide, Decision, Placement};
 pub use request::{CameraSpec, RenderRequest, RequestParts, MAX_BOUNCES, MAX_FRAMES, MAX_PIXELS};
+pub use scene::{SceneView, UploadedScene};

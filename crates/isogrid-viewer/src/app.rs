@@ -14,6 +14,7 @@ mod messages;
 mod opening;
 mod schedule;
 mod script;
+mod state;
 mod viewport;
 mod window;
 mod worker_reports;
@@ -21,75 +22,16 @@ mod worker_reports;
 pub use window::run;
 
 use crate::cost::CostModel;
-use crate::events::{Event, Notifier, SourceInfo};
+use crate::events::Notifier;
 use crate::extract_worker::{ExtractWorker, Wanted};
 use crate::orbit::Orbit;
 use crate::panel::{self, Measurements};
 use crate::render_worker::RenderWorker;
 use crate::{Mode, ViewerOptions};
-use capture::Capture;
 use eframe::egui;
-use isogrid::Precision;
-use messages::Message;
-use schedule::ViewKey;
-use script::{Script, ScriptState};
-use std::path::PathBuf;
-use std::sync::mpsc::Receiver;
+use state::{App, Script, ScriptState, MEASUREMENTS_WIDTH, PANEL_WIDTH};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
-
-/// Width of the control panel in points.
-const PANEL_WIDTH: f32 = 300.0;
-/// Width of the measurement panel in points.
-const MEASUREMENTS_WIDTH: f32 = 270.0;
-
-struct App {
-    options: ViewerOptions,
-    events: Receiver<Event>,
-    extractor: ExtractWorker,
-    render: RenderWorker,
-
-    generation: u64,
-    source: Option<SourceInfo>,
-    path_text: String,
-    iso_value: f64,
-    precision: Option<Precision>,
-    mode: Mode,
-    compare_mc: bool,
-    full_when_idle: bool,
-    orbit: Orbit,
-    has_view: bool,
-
-    grid_version: u64,
-    mesh_version: u64,
-    texture: Option<egui::TextureHandle>,
-    shown: Option<ViewKey>,
-    /// The frame's image (RGBA), kept for saving the render alone.
-    shown_pixels: Option<(u32, u32, Vec<u8>)>,
-    /// Path-tracing samples accumulated in the shown image.
-    shown_samples: u32,
-    in_flight: Option<(u64, ViewKey)>,
-    /// A view the render worker could not draw: not asked again until something changes.
-    refused: Option<ViewKey>,
-    next_request: u64,
-    cost: CostModel,
-    /// The mode and scene version the cost model has frames of.
-    cost_of: Option<(Mode, u64)>,
-    last_interaction: Option<Instant>,
-    /// The last painted image rectangle, in window pixels.
-    image_rect_px: Option<egui::Rect>,
-
-    busy: Option<String>,
-    renderer_error: Option<String>,
-    /// Why the newest input could not be opened, shown where its image would be.
-    open_error: Option<String>,
-    measurements: Measurements,
-    messages: Vec<Message>,
-    capture: Capture,
-    capture_path: Option<PathBuf>,
-    script: Option<Script>,
-    failure: Arc<Mutex<Option<String>>>,
-}
 
 impl App {
     fn new(
@@ -228,6 +170,10 @@ impl eframe::App for App {
         }
         if let Some(after) = recheck {
             ctx.request_repaint_after(after);
+        }
+        if self.busy.is_some() {
+            // The worker counts its steps without waking the window: look again for the bar.
+            ctx.request_repaint_after(Duration::from_millis(100));
         }
         if self.script.is_some() {
             // Timeouts need a look now and then even when no worker reports.

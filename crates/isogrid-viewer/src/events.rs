@@ -2,12 +2,11 @@
 //! (`egui::Context::request_repaint`), which otherwise sleeps until the next input event.
 
 use eframe::egui;
-use isogrid::{Camera, GridInfo, GridStats, Precision, ScalarType};
-use isogrid_gpu::Frame;
+use isogrid::{GridInfo, GridStats, Precision, Progress, ScalarType};
+use isogrid_render::Rendered;
 use std::path::PathBuf;
 use std::sync::mpsc::Sender;
-
-use crate::Mode;
+use std::sync::Arc;
 
 /// What the UI learns about an input when it has been opened.
 #[derive(Debug, Clone)]
@@ -35,14 +34,31 @@ impl SourceInfo {
     }
 }
 
-/// A rendered image and what it shows.
+/// A rendered image, and the id of the request it answers.
 pub struct RenderedFrame {
     pub request: u64,
-    pub camera: Camera,
-    pub mode: Mode,
-    pub frame: Frame,
+    pub image: Rendered,
     /// Wall-clock seconds of the `render` call, read-back included.
     pub seconds: f64,
+}
+
+/// A task of the extraction worker (reading an input, extracting, Marching Cubes), shown in the
+/// window while it runs. The worker counts its steps in `progress` (`isogrid::Progress`: reading a
+/// `.cgc` file counts bytes checksummed and blocks checked, extraction two steps per block,
+/// Marching Cubes sample planes); reading a volume file does not count its work and leaves it at
+/// 0 of 0.
+#[derive(Debug, Clone)]
+pub struct Task {
+    pub what: String,
+    pub progress: Arc<Progress>,
+}
+
+impl Task {
+    /// The fraction done, where the task counts its steps.
+    pub fn fraction(&self) -> Option<f32> {
+        let (done, total) = self.progress.counts();
+        (total > 0).then(|| (done.min(total) as f64 / total as f64) as f32)
+    }
 }
 
 /// Which part failed; scripted runs stop on any of them.
@@ -66,7 +82,7 @@ pub enum Event {
         info: SourceInfo,
     },
     /// The extraction worker started (`Some`) or finished (`None`) a task.
-    Busy(Option<String>),
+    Busy(Option<Task>),
     /// A grid is uploaded and drawn from now on.
     GridShown {
         generation: u64,

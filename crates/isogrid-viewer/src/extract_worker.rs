@@ -6,12 +6,16 @@
 //! The UI only ever overwrites one shared [`Wanted`]; the worker compares it with what it has
 //! done after each step, so a slider dragged across many values costs one extraction per step
 //! the worker finishes, never a queue of stale ones. Extraction itself cannot be interrupted.
+//!
+//! Each task is announced with an [`isogrid::Progress`] the window reads while it runs (a
+//! progress bar where the task counts its steps: reading a `.cgc` file, extraction, Marching
+//! Cubes).
 
-use crate::events::{guarded, Event, Failure, Notifier, SourceInfo};
+use crate::events::{guarded, Event, Failure, Notifier, SourceInfo, Task};
 use crate::render_worker::RenderMsg;
 use crate::source::{self, Source};
-use isogrid::mc::try_marching_cubes;
-use isogrid::{extract, ExtractOptions, GridStats, Iso, Precision, Volume};
+use isogrid::mc::try_marching_cubes_with_progress;
+use isogrid::{extract_with_progress, ExtractOptions, GridStats, Iso, Precision, Progress, Volume};
 use std::path::PathBuf;
 use std::sync::mpsc::Sender;
 use std::sync::{Arc, Condvar, Mutex};
@@ -179,18 +183,28 @@ impl Worker {
         None
     }
 
-    fn busy(&self, what: Option<String>) {
-        self.notify.send(Event::Busy(what));
+    /// Tells the window that a task starts; its steps are counted in the returned progress.
+    fn start_task(&self, what: String) -> Arc<Progress> {
+        let progress = Arc::new(Progress::new());
+        self.notify.send(Event::Busy(Some(Task {
+            what,
+            progress: progress.clone(),
+        })));
+        progress
+    }
+
+    fn end_task(&self) {
+        self.notify.send(Event::Busy(None));
     }
 
     fn open(&mut self, request: OpenRequest) {
-        self.busy(Some(format!("reading {}", request.path.display())));
+        let progress = self.start_task(format!("reading {}", request.path.display()));
         // Forget the old input first: a failed open leaves nothing half-shown.
         self.generation = Some(request.generation);
         self.volume = None;
         self.grid_done = None;
         self.mesh_done = None;
-        match source::open(&request.path, &request.read_options) {
+        match source::open(&request.path, &request.read_options, &progress) {
             Err(e) => self.notify.error(Failure::Open, e.to_string()),
             Ok(Source::Volume(volume)) => {
                 let range = volume.value_range();
@@ -237,7 +251,7 @@ impl Worker {
                 });
             }
         }
-        self.busy(None);
+        self.end_task();
     }
 
     fn extract_grid(&mut self, volume: &Arc<Volume>, iso: f64, precision: Option<Precision>) {
@@ -245,16 +259,16 @@ impl Worker {
             return;
         };
         self.grid_done = Some((generation, iso.to_bits(), precision));
-        self.busy(Some(format!(
+        let progress = self.start_task(format!(
             "extracting cells at {}",
             crate::panel::fmt_value(iso)
-        )));
+        ));
         let start = Instant::now();
         let options = ExtractOptions {
             iso: Iso::Value(iso),
             precision,
         };
-        match extract(&volume.view(), &options) {
+        match extract_with_progress(&volume.view(), &options, &progress) {
             Ok(grid) => {
                 let stats = GridStats::of(&grid);
                 let _ = self.render.send(RenderMsg::Grid {
@@ -269,7 +283,7 @@ impl Worker {
                 .notify
                 .error(Failure::Extract, format!("extraction: {e}")),
         }
-        self.busy(None);
+        self.end_task();
     }
 
     fn extract_mesh(&mut self, volume: &Arc<Volume>, iso: f64) {
@@ -277,12 +291,12 @@ impl Worker {
             return;
         };
         self.mesh_done = Some((generation, iso.to_bits()));
-        self.busy(Some(format!(
+        let progress = self.start_task(format!(
             "Marching Cubes at {}",
             crate::panel::fmt_value(iso)
-        )));
+        ));
         let start = Instant::now();
-        match try_marching_cubes(&volume.view(), iso) {
+        match try_marching_cubes_with_progress(&volume.view(), iso, &progress) {
             Ok(mesh) => {
                 let _ = self.render.send(RenderMsg::Mesh {
                     generation,
@@ -295,7 +309,7 @@ impl Worker {
                 .notify
                 .error(Failure::Mesh, format!("Marching Cubes: {e}")),
         }
-        self.busy(None);
+        self.end_task();
     }
 }
 
@@ -306,7 +320,7 @@ mod tests {
     use eframe::egui;
     use isogrid::generate::{generate, Field};
     use isogrid::mc::marching_cubes;
-    use isogrid::CellGrid;
+    use isogrid::{extract, CellGrid};
     use std::sync::mpsc::{channel, Receiver};
     use std::time::Duration;
 
@@ -327,6 +341,35 @@ mod tests {
         extract(&volume.view(), &ExtractOptions { iso, precision }).unwrap()
     }
 
+    fn open_request(generation: u64, path: &std::path::Path) -> OpenRequest {
+        OpenRequest {
+            generation,
+            path: path.to_path_buf(),
+            read_options: Default::default(),
+        }
+    }
+
+    /// A worker opening `path` (generation 1) at the normalised isovalue 0.5, without meshes,
+    /// and the receivers of what it sends to the render worker and to the window.
+    fn spawn_opening(
+        path: &std::path::Path,
+    ) -> (ExtractWorker, Receiver<RenderMsg>, Receiver<Event>) {
+        let (render_tx, render_rx) = channel();
+        let (event_tx, event_rx) = channel();
+        let worker = ExtractWorker::spawn(
+            Wanted {
+                open: Some(open_request(1, path)),
+                iso: Iso::Normalized(0.5),
+                precision: None,
+                mesh: false,
+                shutdown: false,
+            },
+            render_tx,
+            Notifier::new(event_tx, egui::Context::default()),
+        );
+        (worker, render_rx, event_rx)
+    }
+
     #[test]
     fn follows_the_wanted_isovalue_precision_and_mesh() {
         let dir =
@@ -336,23 +379,7 @@ mod tests {
         let volume = generate(Field::Sphere, 24, 1);
         isogrid_io::write_nrrd(&path, &volume).unwrap();
 
-        let (render_tx, render_rx) = channel();
-        let (event_tx, event_rx) = channel();
-        let worker = ExtractWorker::spawn(
-            Wanted {
-                open: Some(OpenRequest {
-                    generation: 1,
-                    path: path.clone(),
-                    read_options: Default::default(),
-                }),
-                iso: Iso::Normalized(0.5),
-                precision: None,
-                mesh: false,
-                shutdown: false,
-            },
-            render_tx,
-            Notifier::new(event_tx, egui::Context::default()),
-        );
+        let (worker, render_rx, event_rx) = spawn_opening(&path);
 
         let (generation, grid) = next_grid(&render_rx);
         let expected = reference(&volume, Iso::Normalized(0.5), None);
@@ -395,13 +422,7 @@ mod tests {
 
         // A missing file is reported with its path; nothing is extracted for it.
         let missing = dir.join("missing.nrrd");
-        worker.update(|w| {
-            w.open = Some(OpenRequest {
-                generation: 2,
-                path: missing.clone(),
-                read_options: Default::default(),
-            })
-        });
+        worker.update(|w| w.open = Some(open_request(2, &missing)));
         let message = loop {
             if let Event::Error { failure, message } = event_rx.recv_timeout(WAIT).unwrap() {
                 assert_eq!(failure, Failure::Open);
@@ -409,6 +430,93 @@ mod tests {
             }
         };
         assert!(message.contains("missing.nrrd"), "{message}");
+        drop(worker);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    /// Follows one task from its `Busy` announcement to its end, reading its counts as the window
+    /// does; returns the task's name and every count seen, the last taken after it ended.
+    fn follow_task(events: &Receiver<Event>) -> (String, Vec<(u64, u64)>) {
+        let task = loop {
+            match events.recv_timeout(WAIT).expect("the worker reports") {
+                Event::Busy(Some(task)) => break task,
+                Event::Error { message, .. } => panic!("{message}"),
+                _ => continue,
+            }
+        };
+        let mut seen = vec![task.progress.counts()];
+        loop {
+            match events.try_recv() {
+                Ok(Event::Busy(None)) => break,
+                Ok(Event::Error { message, .. }) => panic!("{message}"),
+                Ok(_) => {}
+                Err(std::sync::mpsc::TryRecvError::Empty) => std::thread::yield_now(),
+                Err(e) => panic!("{e}"),
+            }
+            seen.push(task.progress.counts());
+        }
+        seen.push(task.progress.counts());
+        (task.what, seen)
+    }
+
+    /// Counts only grow, against one total once it is set, and end with every step done.
+    fn assert_counts_to_done(what: &str, seen: &[(u64, u64)]) {
+        let (done, total) = *seen.last().unwrap();
+        assert!(
+            total > 0 && done == total,
+            "{what}: ended at {done} of {total}"
+        );
+        for pair in seen.windows(2) {
+            let ((d0, t0), (d1, t1)) = (pair[0], pair[1]);
+            assert!(d1 >= d0, "{what}: done went back from {d0} to {d1}");
+            assert!(
+                t0 == 0 || t0 == t1,
+                "{what}: total changed from {t0} to {t1}"
+            );
+            assert!(d1 <= t1, "{what}: {d1} done of {t1}");
+        }
+    }
+
+    #[test]
+    fn loading_reports_progress_that_grows_to_done() {
+        let dir =
+            std::env::temp_dir().join(format!("isogrid-viewer-progress-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let volume_path = dir.join("sphere.nrrd");
+        let volume = generate(Field::Sphere, 80, 1);
+        isogrid_io::write_nrrd(&volume_path, &volume).unwrap();
+        let cgc_path = dir.join("sphere.cgc");
+        let grid = reference(&volume, Iso::Normalized(0.5), None);
+        isogrid::cgc::write(&cgc_path, &grid).unwrap();
+
+        let (worker, render_rx, event_rx) = spawn_opening(&volume_path);
+        // A volume: reading does not count its steps, extraction does (two per block).
+        let (what, seen) = follow_task(&event_rx);
+        assert!(
+            what.starts_with("reading") && what.contains("sphere.nrrd"),
+            "{what}"
+        );
+        assert_eq!(*seen.last().unwrap(), (0, 0), "{what}");
+        let (what, seen) = follow_task(&event_rx);
+        assert!(what.starts_with("extracting cells"), "{what}");
+        assert_counts_to_done(&what, &seen);
+        assert_eq!(seen.last().unwrap().1, 2 * grid.blocks().len() as u64);
+        let (_, extracted) = next_grid(&render_rx);
+        assert_eq!(extracted.cells(), grid.cells());
+        // Marching Cubes counts sample planes.
+        worker.update(|w| w.mesh = true);
+        let (what, seen) = follow_task(&event_rx);
+        assert!(what.starts_with("Marching Cubes"), "{what}");
+        assert_counts_to_done(&what, &seen);
+        assert_eq!(seen.last().unwrap().1, 80);
+
+        // A .cgc file: its checksums and blocks are counted while it is read.
+        worker.update(|w| w.open = Some(open_request(2, &cgc_path)));
+        let (what, seen) = follow_task(&event_rx);
+        assert!(what.contains("sphere.cgc"), "{what}");
+        assert_counts_to_done(&what, &seen);
+        let (generation, opened) = next_grid(&render_rx);
+        assert_eq!((generation, opened.cells()), (2, grid.cells()));
         drop(worker);
         std::fs::remove_dir_all(&dir).unwrap();
     }

@@ -1,15 +1,19 @@
 //! Interactive isosurface viewer for clustered grid cells (issue 5 §1): an eframe/egui window
-//! showing the isosurface rendered by [`isogrid_gpu::Renderer`], with an orbit camera, an
-//! isovalue slider that re-extracts in the background, a mode switch between CGC and the paper's
-//! baselines, and a panel with what the paper measures (cells, clusters, memory, pass times).
+//! showing the isosurface rendered through the render front door (`isogrid_render`, on the GPU
+//! renderer), with an orbit camera, an isovalue slider that re-extracts in the background, a mode
+//! switch between CGC and the paper's baselines, and a panel with what the paper measures (cells,
+//! clusters, memory, pass times).
 //!
 //! Threads, so that the window never waits for the CPU or the GPU:
-//! - the UI thread (eframe) owns the camera and settings and only displays finished frames;
+//! - the UI thread (eframe) owns the camera and settings, builds an
+//!   [`isogrid_render::RenderRequest`] for each view it wants, and only displays finished frames;
 //! - the extraction worker (`extract_worker.rs`) reads files and runs `isogrid::extract` and
-//!   Marching Cubes for the latest requested isovalue and precision;
-//! - the render worker (`render_worker.rs`) owns the headless renderer and its uploaded scene,
-//!   renders the latest requested view offscreen and sends back the read-back [`isogrid_gpu::Frame`],
-//!   which the UI shows as a texture. The window's own wgpu device (eframe's) is a separate one.
+//!   Marching Cubes for the latest requested isovalue and precision, counting its steps in an
+//!   `isogrid::Progress` that the window shows as a progress bar;
+//! - the render worker (`render_worker.rs`) owns the front door's `UploadedScene` of the open input
+//!   and the window's `SceneView`, renders the latest request offscreen and sends back the
+//!   [`isogrid_render::Rendered`] image, which the UI shows as a texture. The window's own wgpu
+//!   device (eframe's) is a separate one.
 //!   Closing the window stops this thread and waits for it, so that its wgpu instance is gone
 //!   before the process exits.
 //!

@@ -1,7 +1,8 @@
-//! The render worker: a thread that owns the headless [`Renderer`] and the scene uploaded to it,
-//! and renders the most recent view the UI asked for. Rendering on a CPU adapter (lavapipe) takes
-//! hundreds of milliseconds, so it must not run on the UI thread; requests that arrive while a
-//! frame renders replace each other, and only the newest is drawn.
+//! The render worker: a thread that owns the GPU renderer (through an
+//! [`isogrid_render::RenderContext`]), the [`UploadedScene`] of the open input and the window's
+//! [`SceneView`], and renders the most recent [`RenderRequest`] the UI built. Rendering on a CPU
+//! adapter (lavapipe) takes hundreds of milliseconds, so it must not run on the UI thread;
+//! requests that arrive while a frame renders replace each other, and only the newest is drawn.
 //!
 //! Dropping the [`RenderWorker`] stops the thread and waits for it: its wgpu instance must be
 //! destroyed before the process exits. Destroying a Vulkan instance unloads the driver libraries,
@@ -11,20 +12,12 @@
 use crate::events::{guarded, Event, Failure, Notifier, RenderedFrame};
 use crate::Mode;
 use isogrid::mc::McMesh;
-use isogrid::{Camera, CellGrid, GridStats, Volume};
-use isogrid_gpu::{GpuGrid, GpuMesh, GpuVolume, RenderOptions, Renderer, Scene, ViewState};
+use isogrid::{CellGrid, GridStats, Progress, Volume};
+use isogrid_render::{RenderContext, RenderRequest, SceneView, UploadedScene};
 use std::sync::mpsc::{Receiver, Sender};
 use std::sync::Arc;
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
-
-/// A view to render.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct RenderRequest {
-    pub id: u64,
-    pub camera: Camera,
-    pub mode: Mode,
-}
 
 pub enum RenderMsg {
     /// Draw this grid from now on; `volume` is its source (for CR), `None` for `.cgc` inputs.
@@ -42,7 +35,8 @@ pub enum RenderMsg {
         mesh: McMesh,
         seconds: f64,
     },
-    Render(RenderRequest),
+    /// Render `request`; `id` names the frame (or the refusal) in the reply.
+    Render { id: u64, request: RenderRequest },
     /// Free the scene and the renderer and end the thread, whoever else still holds a sender.
     Shutdown,
 }
@@ -103,75 +97,71 @@ impl Drop for RenderWorker {
     }
 }
 
-/// What is uploaded.
-#[derive(Default)]
-struct Uploaded {
-    generation: Option<u64>,
-    grid: Option<GpuGrid>,
-    /// The grid's source volume on the CPU, uploaded to `gpu_volume` when CR first needs it.
+/// The open input's scene.
+struct Shown<'r> {
+    generation: u64,
+    scene: UploadedScene<'r>,
+    /// The grid's source volume on the CPU, uploaded to the scene when CR first needs it.
     volume: Option<Arc<Volume>>,
-    gpu_volume: Option<GpuVolume>,
-    mesh: Option<GpuMesh>,
-    /// The window's view: visibility bits and path-traced samples kept between frames.
-    view: ViewState,
 }
 
 fn run(rx: Receiver<RenderMsg>, notify: Notifier) {
     // Building the pipelines takes a while on a CPU adapter; the window is already up.
-    let renderer = match Renderer::new() {
+    let ctx = RenderContext::new();
+    let ready = match ctx.renderer() {
         Ok(r) => {
             notify.send(Event::RendererReady {
                 adapter: r.adapter_info(),
             });
-            Some(r)
+            true
         }
         Err(e) => {
             notify.error(Failure::Renderer, format!("GPU renderer unavailable: {e}"));
-            None
+            false
         }
     };
-    let mut scene = Uploaded::default();
+    // Dropped before the context and its renderer (reverse declaration order).
+    let mut shown: Option<Shown<'_>> = None;
+    // The window's view: visibility bits and path-traced samples kept between frames.
+    let mut view = SceneView::new();
     while let Ok(first) = rx.recv() {
         // Apply every scene change that is waiting, and keep only the newest render request.
-        let mut request = None;
+        let mut newest: Option<(u64, RenderRequest)> = None;
         for msg in std::iter::once(first).chain(rx.try_iter()) {
             match msg {
-                // The scene is dropped before the renderer (reverse declaration order).
                 RenderMsg::Shutdown => return,
-                RenderMsg::Render(r) => {
-                    if let Some(old) = request.replace(r) {
-                        notify.send(Event::NotRendered { request: old.id });
+                RenderMsg::Render { id, request } => {
+                    if let Some((old, _)) = newest.replace((id, request)) {
+                        notify.send(Event::NotRendered { request: old });
                     }
                 }
                 other => {
-                    if let Some(renderer) = &renderer {
+                    if ready {
                         guarded(&notify, Failure::Render, "uploading", || {
-                            apply(renderer, &mut scene, other, &notify)
+                            apply(&ctx, &mut shown, other, &notify)
                         });
                     }
                 }
             }
         }
-        if let Some(request) = request {
-            match &renderer {
-                Some(renderer) => {
-                    let id = request.id;
-                    let ok = guarded(&notify, Failure::Render, "rendering", || {
-                        render(renderer, &mut scene, request, &notify)
-                    });
-                    if !ok {
-                        notify.send(Event::NotRendered { request: id });
-                    }
-                }
-                None => notify.send(Event::NotRendered {
-                    request: request.id,
-                }),
+        if let Some((id, request)) = newest {
+            let drawn = ready
+                && guarded(&notify, Failure::Render, "rendering", || {
+                    render(&mut shown, &mut view, id, &request, &notify)
+                });
+            if !drawn {
+                notify.send(Event::NotRendered { request: id });
             }
         }
     }
 }
 
-fn apply(renderer: &Renderer, scene: &mut Uploaded, msg: RenderMsg, notify: &Notifier) {
+fn apply<'r>(
+    ctx: &'r RenderContext,
+    shown: &mut Option<Shown<'r>>,
+    msg: RenderMsg,
+    notify: &Notifier,
+) {
     match msg {
         RenderMsg::Grid {
             generation,
@@ -180,17 +170,27 @@ fn apply(renderer: &Renderer, scene: &mut Uploaded, msg: RenderMsg, notify: &Not
             stats,
             extract_seconds,
         } => {
-            // Free the old grid first: two large grids may not fit at once.
-            scene.grid = None;
-            if scene.generation != Some(generation) {
-                scene.generation = Some(generation);
-                scene.gpu_volume = None;
-                scene.mesh = None;
+            if shown.as_ref().is_none_or(|s| s.generation != generation) {
+                // Free the old input's uploads first: two large inputs may not fit at once.
+                *shown = None;
+                match UploadedScene::new(ctx, grid.info()) {
+                    Ok(scene) => {
+                        *shown = Some(Shown {
+                            generation,
+                            scene,
+                            volume: None,
+                        })
+                    }
+                    Err(e) => {
+                        notify.error(Failure::Render, format!("uploading the cells: {e}"));
+                        return;
+                    }
+                }
             }
-            scene.volume = volume;
-            match renderer.upload_grid(&grid) {
-                Ok(gpu) => {
-                    scene.grid = Some(gpu);
+            let Some(s) = shown.as_mut() else { return };
+            s.volume = volume;
+            match s.scene.show_grid(&grid) {
+                Ok(()) => {
                     let info = grid.info();
                     notify.send(Event::GridShown {
                         generation,
@@ -209,76 +209,61 @@ fn apply(renderer: &Renderer, scene: &mut Uploaded, msg: RenderMsg, notify: &Not
             mesh,
             seconds,
         } => {
-            if scene.generation != Some(generation) {
+            // A mesh follows its input's first grid, which made the scene.
+            let Some(s) = shown.as_mut().filter(|s| s.generation == generation) else {
                 return;
-            }
-            scene.mesh = None;
-            match renderer.upload_mesh(&mesh) {
-                Ok(gpu) => {
-                    scene.mesh = Some(gpu);
-                    notify.send(Event::MeshShown {
-                        generation,
-                        iso,
-                        triangles: mesh.triangle_count() as u64,
-                        vertices: mesh.vertex_count() as u64,
-                        bytes: mesh.memory_bytes(),
-                        seconds,
-                    });
-                }
+            };
+            match s.scene.show_mesh(&mesh) {
+                Ok(()) => notify.send(Event::MeshShown {
+                    generation,
+                    iso,
+                    triangles: mesh.triangle_count() as u64,
+                    vertices: mesh.vertex_count() as u64,
+                    bytes: mesh.memory_bytes(),
+                    seconds,
+                }),
                 Err(e) => notify.error(Failure::Render, format!("uploading the mesh: {e}")),
             }
         }
-        RenderMsg::Render(_) | RenderMsg::Shutdown => {}
+        RenderMsg::Render { .. } | RenderMsg::Shutdown => {}
     }
 }
 
-fn render(renderer: &Renderer, scene: &mut Uploaded, request: RenderRequest, notify: &Notifier) {
-    let mode = request.mode;
+/// Renders `request` into a frame for the UI, or says it was not rendered: the scene has nothing
+/// for its mode yet (still extracting) or cannot have (CR of a `.cgc` file), or rendering failed.
+fn render(
+    shown: &mut Option<Shown<'_>>,
+    view: &mut SceneView,
+    id: u64,
+    request: &RenderRequest,
+    notify: &Notifier,
+) {
+    let refuse = || notify.send(Event::NotRendered { request: id });
+    let Some(s) = shown.as_mut() else {
+        return refuse();
+    };
     // CR samples the original volume: upload it the first time CR is drawn for this input.
-    if request.mode == Mode::Cr && scene.gpu_volume.is_none() {
-        if let (Some(volume), Some(grid)) = (&scene.volume, &scene.grid) {
-            match renderer.upload_volume(&volume.view(), grid) {
-                Ok(v) => scene.gpu_volume = Some(v),
-                Err(e) => {
-                    notify.error(Failure::Render, format!("uploading the volume for CR: {e}"));
-                    notify.send(Event::NotRendered {
-                        request: request.id,
-                    });
-                    return;
-                }
+    if request.mode() == Mode::Cr && !s.scene.has_volume() {
+        if let Some(volume) = &s.volume {
+            if let Err(e) = s.scene.show_volume(volume) {
+                notify.error(Failure::Render, format!("uploading the volume for CR: {e}"));
+                return refuse();
             }
         }
     }
-    let target = match (request.mode, &scene.grid, &scene.gpu_volume, &scene.mesh) {
-        (Mode::Mc, _, _, Some(mesh)) => Scene::Mesh(mesh),
-        (Mode::Cr, Some(grid), Some(volume), _) => Scene::Volume { grid, volume },
-        (Mode::Cgc | Mode::CgcNoEwa | Mode::PathTrace, Some(grid), _, _) => Scene::Grid(grid),
-        // Not there yet (still extracting), or not possible (CR of a .cgc file): the UI says which.
-        _ => {
-            notify.send(Event::NotRendered {
-                request: request.id,
-            });
-            return;
-        }
-    };
+    if !s.scene.can_draw(request.mode()) {
+        return refuse();
+    }
     let start = Instant::now();
-    let options = RenderOptions {
-        frames: 1,
-        ..Default::default()
-    };
-    match renderer.render_view(&mut scene.view, target, &request.camera, mode, &options) {
-        Ok(frame) => notify.send(Event::Frame(Box::new(RenderedFrame {
-            request: request.id,
-            camera: request.camera,
-            mode: request.mode,
-            frame,
+    match s.scene.render(view, request, &Progress::new()) {
+        Ok(image) => notify.send(Event::Frame(Box::new(RenderedFrame {
+            request: id,
+            image,
             seconds: start.elapsed().as_secs_f64(),
         }))),
         Err(e) => {
             notify.error(Failure::Render, format!("rendering: {e}"));
-            notify.send(Event::NotRendered {
-                request: request.id,
-            });
+            refuse();
         }
     }
 }

@@ -2,7 +2,7 @@
 //! re-extracted at any isovalue, or a `.cgc` file, which holds one extracted isosurface and no
 //! volume.
 
-use isogrid::{CellGrid, ResultExt, Volume};
+use isogrid::{CellGrid, Progress, ResultExt, Volume};
 use std::io::Read;
 use std::path::Path;
 use std::sync::Arc;
@@ -32,10 +32,15 @@ pub fn is_cgc(path: &Path) -> bool {
         && magic == CGC_MAGIC
 }
 
-/// Reads `path`; errors name the path.
-pub fn open(path: &Path, read_options: &isogrid_io::ReadOptions) -> isogrid::Result<Source> {
+/// Reads `path`; errors name the path. `progress` counts the checks of a `.cgc` file (volume
+/// readers do not count their work).
+pub fn open(
+    path: &Path,
+    read_options: &isogrid_io::ReadOptions,
+    progress: &Progress,
+) -> isogrid::Result<Source> {
     if is_cgc(path) {
-        isogrid::cgc::open(path)
+        isogrid::cgc::open_with_progress(path, progress)
             .map(|g| Source::Grid(Box::new(g)))
             .at_path(path)
     } else {

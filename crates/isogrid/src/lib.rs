@@ -47,7 +47,7 @@ pub mod volume;
 pub use camera::{Camera, Ray};
 pub use env_map::EnvMap;
 pub use error::{Error, ErrorKind, Result, ResultExt};
-pub use extract::{extract, ExtractOptions, Iso};
+pub use extract::{extract, extract_with_progress, ExtractOptions, Iso};
 pub use grid::{CellGrid, GridInfo};
 pub use layout::{Block, ClusterBound, Metacell, Precision};
 pub use progress::Progress;

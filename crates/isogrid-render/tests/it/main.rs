@@ -4,3 +4,4 @@
 mod dispatch;
 mod policy;
 mod request;
+mod scene;

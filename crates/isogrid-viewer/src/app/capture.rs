@@ -1,13 +1,9 @@
 //! Screenshots: the whole window through egui's capture, or the rendered image alone.
 
-use super::App;
+use super::state::App;
 use crate::screenshot;
 use eframe::egui;
 use std::path::PathBuf;
-use std::sync::{Arc, Mutex};
-
-/// The window pixels from egui's capture, and where to save them.
-pub(super) type Capture = Arc<Mutex<Option<Arc<egui::ColorImage>>>>;
 
 impl App {
     /// Asks egui for the window's pixels; they are saved to `path` (default: the next free
@@ -58,12 +54,12 @@ impl App {
 
     /// Saves the rendered image alone (the button, and scripted runs whose capture never came).
     pub(super) fn save_render(&mut self, path: PathBuf) -> bool {
-        let Some((w, h, rgba)) = &self.shown_pixels else {
+        let Some((w, h, rgb)) = &self.shown_pixels else {
             self.fail_or_note("no rendered image to save yet".into());
             return false;
         };
         let (w, h) = (*w, *h);
-        let saved = screenshot::write_png(&path, w, h, &screenshot::rgba_to_rgb(rgba));
+        let saved = screenshot::write_png(&path, w, h, rgb);
         self.report_saved(saved, || {
             format!(
                 "saved {} (rendered image only); rendered image at 0,0 size {w}x{h} px",

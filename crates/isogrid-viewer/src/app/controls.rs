@@ -1,7 +1,7 @@
 //! The left panel: input path, isovalue and precision, mode switch, views, screenshots, status
 //! and messages.
 
-use super::{App, PANEL_WIDTH};
+use super::state::{App, PANEL_WIDTH};
 use crate::panel;
 use crate::screenshot;
 use crate::Mode;
@@ -115,9 +115,19 @@ impl App {
         ui.separator();
 
         ui.horizontal(|ui| {
-            if let Some(what) = &self.busy {
-                ui.spinner();
-                ui.label(what);
+            if let Some(task) = &self.busy {
+                match task.fraction() {
+                    Some(f) => {
+                        let bar = egui::ProgressBar::new(f)
+                            .desired_width(PANEL_WIDTH - 24.0)
+                            .text(format!("{} {:.0}%", task.what, f * 100.0));
+                        ui.add(bar);
+                    }
+                    None => {
+                        ui.spinner();
+                        ui.label(&task.what);
+                    }
+                }
             } else if self.in_flight.is_some() {
                 ui.spinner();
                 ui.label("rendering");

@@ -1,6 +1,6 @@
 //! Keyboard shortcuts and mouse orbit, pan and zoom of the camera.
 
-use super::App;
+use super::state::App;
 use crate::orbit::Orbit;
 use eframe::egui;
 use std::time::Instant;

@@ -1,13 +1,7 @@
 //! Messages listed in the window, and failures, which end a scripted run but only show in an
 //! interactive one.
 
-use super::script::ScriptState;
-use super::App;
-
-pub(super) struct Message {
-    pub(super) text: String,
-    pub(super) error: bool,
-}
+use super::state::{App, Message, ScriptState};
 
 impl App {
     /// Lists `text` in the window (errors also on stderr), keeping the last few.

@@ -1,7 +1,7 @@
 //! Opening inputs, typed or dropped on the window: the extraction worker is told what to read,
 //! and the isovalue carries over as the slider's normalised position.
 
-use super::App;
+use super::state::App;
 use crate::extract_worker::OpenRequest;
 use eframe::egui;
 use isogrid::Iso;

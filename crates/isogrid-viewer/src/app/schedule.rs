@@ -1,10 +1,11 @@
 //! Which view to render next and at what size: reduced while the camera moves, a preview and
 //! then the full size when it rests, refined sample by sample in path-tracing mode.
 
-use super::App;
-use crate::render_worker::{RenderMsg, RenderRequest};
+use super::state::{App, ViewKey};
+use crate::render_worker::RenderMsg;
 use crate::Mode;
 use isogrid::Camera;
+use isogrid_render::{Backend, CameraSpec, RenderRequest, RequestParts};
 use std::time::Duration;
 
 /// Samples per pixel the viewer accumulates while the camera rests in path-tracing mode.
@@ -15,15 +16,6 @@ const INTERACTIVE_MS: f64 = 70.0;
 const PREVIEW_MS: f64 = 500.0;
 /// The view counts as moving for this long after the last drag or wheel event.
 const SETTLE: Duration = Duration::from_millis(250);
-
-/// What a frame shows: a different key means the frame on screen is out of date.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub(super) struct ViewKey {
-    pub(super) camera: Camera,
-    pub(super) mode: Mode,
-    /// Grid (or, in MC mode, mesh) uploads so far.
-    pub(super) scene: u64,
-}
 
 impl App {
     /// Whether the extraction worker should also run Marching Cubes.
@@ -77,26 +69,71 @@ impl App {
             return recheck;
         }
         self.refused = None;
+        let request = match render_request(&key) {
+            Ok(r) => r,
+            Err(e) => {
+                // Not asked again until the view changes.
+                self.refused = Some(key);
+                self.fail(format!("render request: {e}"));
+                return recheck;
+            }
+        };
         self.next_request += 1;
         let id = self.next_request;
-        let request = RenderRequest {
-            id,
-            camera: key.camera,
-            mode: key.mode,
-        };
-        if self
-            .render
-            .sender()
-            .send(RenderMsg::Render(request))
-            .is_ok()
-        {
+        let msg = RenderMsg::Render { id, request };
+        if self.render.sender().send(msg).is_ok() {
             self.in_flight = Some((id, key));
         }
         recheck
     }
 }
 
+/// The front door's request for one frame of `key`'s view: the orbit camera as a look-at camera,
+/// one frame (path tracing: one more sample, accumulated by the render worker's view). On the
+/// GPU, where the scene and the view's state live between frames.
+fn render_request(key: &ViewKey) -> isogrid::Result<RenderRequest> {
+    let c = &key.camera;
+    RenderRequest::new(RequestParts {
+        mode: key.mode,
+        backend: Backend::Gpu,
+        camera: CameraSpec::LookAt {
+            eye: c.eye,
+            target: c.target,
+            up: c.up,
+            fovy_degrees: c.fovy_degrees,
+        },
+        size: (c.width, c.height),
+        samples: 1,
+        frames: 1,
+        ..RequestParts::default()
+    })
+}
+
 /// Whether two cameras show the same view (image size aside).
 fn same_view(a: &Camera, b: &Camera) -> bool {
     (a.eye, a.target, a.up, a.fovy_degrees) == (b.eye, b.target, b.up, b.fovy_degrees)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The request carries the orbit camera exactly: the front door renders the view the key
+    /// names, whatever the scene's box.
+    #[test]
+    fn requests_carry_the_orbit_camera_and_mode() {
+        let orbit = crate::orbit::Orbit::preset(2, [0.0; 3], [40.0, 30.0, 20.0], 320, 240)
+            .expect("a preset view of a box");
+        let key = ViewKey {
+            camera: orbit.camera(320, 240),
+            mode: Mode::PathTrace,
+            scene: 1,
+        };
+        let request = render_request(&key).unwrap();
+        assert_eq!(request.mode(), Mode::PathTrace);
+        assert_eq!((request.width(), request.height()), (320, 240));
+        assert_eq!(request.parts().samples, 1);
+        let camera = request.camera([-5.0; 3], [99.0; 3]).unwrap();
+        assert_eq!(camera, key.camera);
+    }
 }

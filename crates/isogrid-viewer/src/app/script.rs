@@ -2,7 +2,7 @@
 //! Tests drive the viewer this way under Xvfb; with `wait_for_drop` the frames are those of a
 //! file dropped on the window, or the window showing why it could not be opened.
 
-use super::App;
+use super::state::{App, ScriptState};
 use eframe::egui;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
@@ -11,31 +11,6 @@ use std::time::{Duration, Instant};
 const SCRIPT_TIMEOUT: Duration = Duration::from_secs(300);
 /// How long a scripted run waits for the window capture before saving the rendered image alone.
 const CAPTURE_TIMEOUT: Duration = Duration::from_secs(15);
-
-#[derive(Clone, Copy)]
-pub(super) enum ScriptState {
-    /// `wait_for_drop`: frames of the initial input, if any, do not count.
-    AwaitingDrop,
-    /// A dropped file is being read: its errors are shown, as in an interactive run.
-    OpeningDrop,
-    Rendering {
-        done: u32,
-    },
-    /// The dropped file could not be opened: the window shows why, and is captured so.
-    ShowingError,
-    Capturing {
-        since: Instant,
-    },
-    Finished,
-}
-
-/// A scripted run (`--frames`): render, capture, close.
-pub(super) struct Script {
-    pub(super) frames: u32,
-    pub(super) screenshot: Option<PathBuf>,
-    pub(super) state: ScriptState,
-    pub(super) started: Instant,
-}
 
 impl App {
     /// Advances a scripted run; returns whether the window should close.

@@ -1,7 +1,7 @@
 //! The image area: where the frame sits (one texel per pixel where possible), and what it shows
 //! instead before the first frame or when the input cannot be opened or drawn.
 
-use super::App;
+use super::state::App;
 use eframe::egui;
 
 impl App {
@@ -33,6 +33,11 @@ impl App {
                 e.clone()
             } else if self.source.is_none() && self.busy.is_none() {
                 "Drop a volume or .cgc file here, or type its path on the left".to_string()
+            } else if let Some(task) = &self.busy {
+                match task.fraction() {
+                    Some(f) => format!("{}… {:.0}%", task.what, f * 100.0),
+                    None => format!("{}…", task.what),
+                }
             } else {
                 "waiting for the first frame…".to_string()
             };

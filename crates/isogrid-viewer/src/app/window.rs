@@ -1,7 +1,7 @@
 //! Opening the native window (size, renderer, drag and drop) and turning a scripted run's
 //! failure into the caller's error once the window has closed.
 
-use super::{App, MEASUREMENTS_WIDTH, PANEL_WIDTH};
+use super::state::{App, MEASUREMENTS_WIDTH, PANEL_WIDTH};
 use crate::ViewerOptions;
 use eframe::egui;
 use isogrid::Error;

@@ -1,8 +1,7 @@
 //! Applying the extraction and render workers' reports to the window's state: opened inputs,
 //! new grids and meshes, finished frames (shown as the texture) and errors.
 
-use super::script::ScriptState;
-use super::App;
+use super::state::{App, ScriptState};
 use crate::events::{Event, Failure, RenderedFrame, SourceInfo};
 use crate::panel::{FrameFacts, GridFacts, MeshFacts};
 use crate::Mode;
@@ -126,9 +125,7 @@ impl App {
     fn on_frame(&mut self, ctx: &egui::Context, rendered: RenderedFrame, full_size: [u32; 2]) {
         let RenderedFrame {
             request,
-            camera,
-            mode,
-            frame,
+            image,
             seconds,
         } = rendered;
         let Some((id, key)) = self.in_flight else {
@@ -143,12 +140,10 @@ impl App {
             self.cost_of = Some((key.mode, key.scene));
         }
         self.cost
-            .record(frame.width as u64 * frame.height as u64, seconds * 1e3);
-        let full = [frame.width, frame.height] == full_size;
-        let image = egui::ColorImage::from_rgba_unmultiplied(
-            [frame.width as usize, frame.height as usize],
-            &frame.rgba8,
-        );
+            .record(image.width as u64 * image.height as u64, seconds * 1e3);
+        let full = [image.width, image.height] == full_size;
+        let texture =
+            egui::ColorImage::from_rgb([image.width as usize, image.height as usize], &image.rgb8);
         // One texel per pixel at full size; smooth magnification of reduced frames.
         let filter = if full {
             egui::TextureOptions::NEAREST
@@ -156,21 +151,22 @@ impl App {
             egui::TextureOptions::LINEAR
         };
         match &mut self.texture {
-            Some(t) => t.set(image, filter),
-            None => self.texture = Some(ctx.load_texture("isosurface", image, filter)),
+            Some(t) => t.set(texture, filter),
+            None => self.texture = Some(ctx.load_texture("isosurface", texture, filter)),
         }
-        self.measurements.frame = Some(FrameFacts {
-            width: frame.width,
-            height: frame.height,
-            timings: frame.timings,
-            drawn_cells: frame.drawn_cells,
-            probed_cells: frame.probed_cells,
-            seconds,
-        });
-        debug_assert_eq!((key.camera, key.mode), (camera, mode));
+        if let Some(gpu) = &image.gpu {
+            self.measurements.frame = Some(FrameFacts {
+                width: image.width,
+                height: image.height,
+                timings: gpu.timings,
+                drawn_cells: gpu.drawn_cells,
+                probed_cells: gpu.probed_cells,
+                seconds,
+            });
+        }
         self.shown = Some(key);
-        self.shown_samples = frame.samples;
-        self.shown_pixels = Some((frame.width, frame.height, frame.rgba8));
+        self.shown_samples = image.samples.unwrap_or(0);
+        self.shown_pixels = Some((image.width, image.height, image.rgb8));
         if let Some(script) = &mut self.script {
             if let ScriptState::Rendering { done } = &mut script.state {
                 if full {

@@ -37,6 +37,6 @@ mod read;
 mod write;
 
 pub(crate) use format::scalar_code;
-pub use read::{open, read, read_bytes};
+pub use read::{open, open_with_progress, read, read_bytes};
 pub(crate) use write::{header_bytes, sections_for_lengths, HeaderCounts};
 pub use write::{to_bytes, write};

@@ -7,6 +7,7 @@ use super::format::{HEADER_CRC_AT, HEADER_SIZE, MAGIC, VERSION};
 use crate::error::{Error, Result, ResultExt};
 use crate::grid::{CellGrid, GridInfo, Storage};
 use crate::layout::{Block, Metacell, Precision, BLOCK_METACELLS, BOUND_SLOT, CLUSTER_SLOTS};
+use crate::progress::Progress;
 use crate::quantize::ValueMapping;
 use crate::volume::{ScalarType, MAX_DIM};
 use std::io::{Read, Seek, SeekFrom};
@@ -161,17 +162,33 @@ fn parse_header(h: &[u8], file_len: u64) -> Result<Header> {
     })
 }
 
-/// Checks every record against the header and the structure of §3.1.
-fn validate(header: &Header, blocks: &[Block], metacells: &[Metacell], cells: &[u8]) -> Result<()> {
-    for (s, bytes) in [
+/// Bytes checksummed between two progress steps: a step of a memory-mapped file is mostly page
+/// faults, a few milliseconds at disk speed.
+const CHECKSUM_STEP: usize = 8 << 20;
+
+/// Checks every record against the header and the structure of §3.1. `progress` counts bytes
+/// checksummed, then blocks walked: `done` reaches `total` when the grid is valid.
+fn validate(
+    header: &Header,
+    blocks: &[Block],
+    metacells: &[Metacell],
+    cells: &[u8],
+    progress: &Progress,
+) -> Result<()> {
+    let sections: [&[u8]; 3] = [
         bytemuck::cast_slice(blocks),
         bytemuck::cast_slice(metacells),
         cells,
-    ]
-    .into_iter()
-    .enumerate()
-    {
-        if crc32fast::hash(bytes) != header.crcs[s] {
+    ];
+    let bytes_total: usize = sections.iter().map(|s| s.len()).sum();
+    progress.start((bytes_total + blocks.len()) as u64);
+    for (s, bytes) in sections.into_iter().enumerate() {
+        let mut crc = crc32fast::Hasher::new();
+        for chunk in bytes.chunks(CHECKSUM_STEP) {
+            crc.update(chunk);
+            progress.advance(chunk.len() as u64);
+        }
+        if crc.finalize() != header.crcs[s] {
             let name = ["blocks", "metacells", "cells"][s];
             return Err(Error::corrupt(format!(
                 "{name} section checksum mismatch (the data is damaged)"
@@ -185,6 +202,7 @@ fn validate(header: &Header, blocks: &[Block], metacells: &[Metacell], cells: &[
     let total_cells = cells.len() / record;
     let (mut next_slot, mut next_cell, mut occupied) = (0usize, 0usize, 0u64);
     for (b, block) in blocks.iter().enumerate() {
+        progress.advance(1);
         let fail = |what: String| Error::corrupt(format!("block {b}: {what}"));
         if !(block.metacell_count as usize).is_multiple_of(CLUSTER_SLOTS)
             || block.metacell_pointer as usize != next_slot
@@ -281,7 +299,7 @@ pub fn read_bytes(bytes: &[u8]) -> Result<CellGrid> {
     let blocks: Vec<Block> = bytemuck::pod_collect_to_vec(&bytes[header.sections[0].clone()]);
     let metacells: Vec<Metacell> = bytemuck::pod_collect_to_vec(&bytes[header.sections[1].clone()]);
     let cells = bytes[header.sections[2].clone()].to_vec();
-    validate(&header, &blocks, &metacells, &cells)?;
+    validate(&header, &blocks, &metacells, &cells, &Progress::new())?;
     Ok(CellGrid::from_parts(header.info, blocks, metacells, cells))
 }
 
@@ -311,7 +329,7 @@ pub fn read(path: &Path) -> Result<CellGrid> {
             file.seek(SeekFrom::Start(range.start as u64))?;
             file.read_exact(target)?;
         }
-        validate(&header, &blocks, &metacells, &cells)?;
+        validate(&header, &blocks, &metacells, &cells, &Progress::new())?;
         Ok(CellGrid::from_parts(header.info, blocks, metacells, cells))
     })()
     .at_path(path)
@@ -319,6 +337,12 @@ pub fn read(path: &Path) -> Result<CellGrid> {
 
 /// Memory-maps and validates a `.cgc` file: the grid's buffers are views of the page cache.
 pub fn open(path: &Path) -> Result<CellGrid> {
+    open_with_progress(path, &Progress::new())
+}
+
+/// [`open`], counting in `progress` the bytes checksummed and then the blocks checked (a large
+/// file is read from disk while its checksums are taken).
+pub fn open_with_progress(path: &Path, progress: &Progress) -> Result<CellGrid> {
     (|| -> Result<CellGrid> {
         let file = crate::fs::open_regular(path)?;
         // SAFETY: the map is read-only; like every mmap user we rely on nobody truncating the
@@ -331,7 +355,7 @@ pub fn open(path: &Path) -> Result<CellGrid> {
                 .map_err(|_| Error::corrupt("misaligned blocks section"))?;
             let metacells: &[Metacell] = bytemuck::try_cast_slice(&map[m.clone()])
                 .map_err(|_| Error::corrupt("misaligned metacell section"))?;
-            validate(&header, blocks, metacells, &map[c.clone()])?;
+            validate(&header, blocks, metacells, &map[c.clone()], progress)?;
         }
         Ok(CellGrid::from_storage(
             header.info,

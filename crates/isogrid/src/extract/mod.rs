@@ -16,6 +16,7 @@ pub mod tiles;
 use crate::error::{Error, Result};
 use crate::grid::{CellGrid, GridInfo};
 use crate::layout::{Block, Metacell, Precision, BLOCK_CELLS, CLUSTER_METACELLS, CLUSTER_SLOTS};
+use crate::progress::Progress;
 use crate::quantize::Quantizer;
 use crate::volume::{Samples, VolumeView};
 use rayon::prelude::*;
@@ -99,11 +100,23 @@ impl ExtractOptions {
 ///
 /// Runs on the current rayon pool; the output is byte-identical for any pool size.
 pub fn extract(volume: &VolumeView, options: &ExtractOptions) -> Result<CellGrid> {
+    extract_with_progress(volume, options, &Progress::new())
+}
+
+/// [`extract`], counting in `progress` two steps per block: one when pass 1 has scanned it, one
+/// when pass 2 has emitted it (blocks without active cells, which pass 2 skips, count at its
+/// start). `done` reaches `total` with the grid. A [`Progress::cancel`] is honoured between the
+/// passes, with an error of kind [`crate::ErrorKind::Cancelled`].
+pub fn extract_with_progress(
+    volume: &VolumeView,
+    options: &ExtractOptions,
+    progress: &Progress,
+) -> Result<CellGrid> {
     match volume.samples() {
-        Samples::U8(s) => extract_typed(volume, s, options),
-        Samples::U16(s) => extract_typed(volume, s, options),
-        Samples::I16(s) => extract_typed(volume, s, options),
-        Samples::F32(s) => extract_typed(volume, s, options),
+        Samples::U8(s) => extract_typed(volume, s, options, progress),
+        Samples::U16(s) => extract_typed(volume, s, options, progress),
+        Samples::I16(s) => extract_typed(volume, s, options, progress),
+        Samples::F32(s) => extract_typed(volume, s, options, progress),
     }
 }
 
@@ -111,6 +124,7 @@ fn extract_typed<T: ExtractScalar>(
     volume: &VolumeView,
     samples: &[T],
     options: &ExtractOptions,
+    progress: &Progress,
 ) -> Result<CellGrid> {
     let geometry = volume.geometry();
     let dims = geometry.dims;
@@ -124,13 +138,15 @@ fn extract_typed<T: ExtractScalar>(
     let block_dims = cell_dims.map(|c| c.div_ceil(BLOCK_CELLS));
     let [nbx, nby, nbz] = block_dims;
     let block_count = nbx * nby * nbz;
+    progress.start(2 * block_count as u64);
 
     // Pass 1: per-block ranges and counts, block rows in block order.
     let scans = if block_count == 0 {
         Vec::new()
     } else {
-        scan_blocks(samples, dims, threshold)
+        scan_blocks_counted(samples, dims, threshold, Some(progress))
     };
+    progress.check()?;
 
     let (lo, hi) = match value_range {
         Some(r) => r,
@@ -168,10 +184,12 @@ fn extract_typed<T: ExtractScalar>(
         &mut first_cell,
         0,
     );
+    progress.advance((block_count - outputs.len()) as u64);
     outputs
         .into_par_iter()
         .for_each_init(emit::BlockScratch::default, |scratch, out| {
-            emit::emit_block(samples, dims, threshold, &quantizer, out, scratch)
+            emit::emit_block(samples, dims, threshold, &quantizer, out, scratch);
+            progress.advance(1);
         });
 
     let info = GridInfo {
@@ -195,11 +213,26 @@ fn scan_blocks<T: ExtractScalar>(
     dims: [usize; 3],
     threshold: Option<T>,
 ) -> Vec<scan::BlockScan> {
-    let [_, nby, nbz] = dims.map(|d| d.saturating_sub(1).div_ceil(BLOCK_CELLS));
+    scan_blocks_counted(samples, dims, threshold, None)
+}
+
+/// [`scan_blocks`], adding each scanned row's blocks to `progress`.
+fn scan_blocks_counted<T: ExtractScalar>(
+    samples: &[T],
+    dims: [usize; 3],
+    threshold: Option<T>,
+    progress: Option<&Progress>,
+) -> Vec<scan::BlockScan> {
+    let [nbx, nby, nbz] = dims.map(|d| d.saturating_sub(1).div_ceil(BLOCK_CELLS));
     (0..nby * nbz)
         .into_par_iter()
         .map_init(scan::RowScratch::default, |scratch, row| {
-            scan::scan_block_row(samples, dims, row % nby, row / nby, threshold, scratch)
+            let scans =
+                scan::scan_block_row(samples, dims, row % nby, row / nby, threshold, scratch);
+            if let Some(p) = progress {
+                p.advance(nbx as u64);
+            }
+            scans
         })
         .flatten_iter()
         .collect()

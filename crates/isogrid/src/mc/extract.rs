@@ -16,6 +16,7 @@
 use super::mesh::{Inside, McMesh};
 use super::table::{cases, edge_corners};
 use crate::error::{Error, Result};
+use crate::progress::Progress;
 use crate::volume::{Samples, Scalar, VolumeView};
 use rayon::prelude::*;
 use std::collections::HashMap;
@@ -25,17 +26,20 @@ pub(crate) fn default_slab_planes(nz: usize) -> usize {
     nz.div_ceil(128).max(8)
 }
 
+/// The mesh of `volume`; `progress` counts sample planes whose slab is done.
 pub(crate) fn extract(
     volume: &VolumeView,
     iso: f64,
     inside: Inside,
     slab_planes: usize,
+    progress: &Progress,
 ) -> Result<McMesh> {
+    progress.start(volume.dims()[2] as u64);
     match volume.samples() {
-        Samples::U8(s) => extract_typed(volume, s, iso, inside, slab_planes),
-        Samples::U16(s) => extract_typed(volume, s, iso, inside, slab_planes),
-        Samples::I16(s) => extract_typed(volume, s, iso, inside, slab_planes),
-        Samples::F32(s) => extract_typed(volume, s, iso, inside, slab_planes),
+        Samples::U8(s) => extract_typed(volume, s, iso, inside, slab_planes, progress),
+        Samples::U16(s) => extract_typed(volume, s, iso, inside, slab_planes, progress),
+        Samples::I16(s) => extract_typed(volume, s, iso, inside, slab_planes, progress),
+        Samples::F32(s) => extract_typed(volume, s, iso, inside, slab_planes, progress),
     }
 }
 
@@ -195,9 +199,11 @@ fn extract_typed<T: Threshold>(
     iso: f64,
     inside: Inside,
     slab_planes: usize,
+    progress: &Progress,
 ) -> Result<McMesh> {
     let geometry = volume.geometry();
     let Some(threshold) = T::inside_threshold(iso, inside) else {
+        progress.advance(geometry.dims[2] as u64);
         return Ok(McMesh::default());
     };
     let dims = geometry.dims;
@@ -216,7 +222,9 @@ fn extract_typed<T: Threshold>(
         .map(|s| {
             let k0 = s * slab_planes;
             let k1 = (k0 + slab_planes).min(dims[2]);
-            extract_slab(&grid, k0, k1)
+            let slab = extract_slab(&grid, k0, k1);
+            progress.advance((k1 - k0) as u64);
+            slab
         })
         .collect::<Result<_>>()?;
 

@@ -38,6 +38,7 @@ pub use mesh::{Inside, McMesh};
 pub use snorm::SnormMesh;
 
 use crate::error::Result;
+use crate::progress::Progress;
 use crate::volume::VolumeView;
 
 /// Extracts the isosurface `value = iso` of `volume` with Marching Cubes, in parallel.
@@ -65,6 +66,23 @@ pub fn try_marching_cubes_with(volume: &VolumeView, iso: f64, inside: Inside) ->
         iso,
         inside,
         extract::default_slab_planes(volume.dims()[2]),
+        &Progress::new(),
+    )
+}
+
+/// [`try_marching_cubes`], counting in `progress` the sample planes whose slab is done (`total`
+/// is the volume's planes, reached with the mesh).
+pub fn try_marching_cubes_with_progress(
+    volume: &VolumeView,
+    iso: f64,
+    progress: &Progress,
+) -> Result<McMesh> {
+    extract::extract(
+        volume,
+        iso,
+        Inside::AtOrAbove,
+        extract::default_slab_planes(volume.dims()[2]),
+        progress,
     )
 }
 
@@ -76,7 +94,13 @@ pub fn marching_cubes_with_slab_planes(
     iso: f64,
     planes_per_slab: usize,
 ) -> Result<McMesh> {
-    extract::extract(volume, iso, Inside::AtOrAbove, planes_per_slab)
+    extract::extract(
+        volume,
+        iso,
+        Inside::AtOrAbove,
+        planes_per_slab,
+        &Progress::new(),
+    )
 }
 
 impl McMesh {

@@ -106,6 +106,13 @@ fn round_trip_through_files_and_memory_maps() {
         let mapped = cgc::open(&path).unwrap();
         assert!(mapped.is_mapped());
         same(&grid, &mapped);
+        // Counted: every section byte checksummed, then every block checked.
+        let progress = isogrid::Progress::new();
+        same(&grid, &cgc::open_with_progress(&path, &progress).unwrap());
+        let counted = (grid.blocks().len() * 16 + grid.metacells().len() * 12 + grid.cells().len())
+            as u64
+            + grid.blocks().len() as u64;
+        assert_eq!(progress.counts(), (counted, counted));
         assert_eq!(std::fs::read(&path).unwrap(), cgc::to_bytes(&grid));
     }
 }

@@ -373,3 +373,21 @@ fn the_largest_grid_coordinates_fit_the_16_bit_metacell_positions() {
     assert_eq!(back.metacells(), grid.metacells());
     assert!(Volume::new([n + 1, 1, 1], VolumeData::U8(vec![0; n + 1])).is_err());
 }
+
+#[test]
+fn progress_counts_two_steps_per_block_and_cancel_stops_between_the_passes() {
+    let volume = blobs_u8([45, 38, 41]);
+    let options = ExtractOptions::new(Iso::Normalized(0.5));
+    let progress = isogrid::Progress::new();
+    let counted = isogrid::extract_with_progress(&volume.view(), &options, &progress).unwrap();
+    let plain = extract(&volume.view(), &options).unwrap();
+    assert_eq!(counted.cells(), plain.cells());
+    assert_eq!(counted.metacells(), plain.metacells());
+    // 3 × 3 × 3 blocks of 16³ cells.
+    assert_eq!(plain.blocks().len(), 27);
+    assert_eq!(progress.counts(), (54, 54));
+    let cancelled = isogrid::Progress::new();
+    cancelled.cancel();
+    let err = isogrid::extract_with_progress(&volume.view(), &options, &cancelled).unwrap_err();
+    assert_eq!(err.kind(), isogrid::ErrorKind::Cancelled, "{err}");
+}

@@ -3,7 +3,8 @@
 //! files parsed back by hand.
 
 use isogrid::mc::{
-    marching_cubes, marching_cubes_with_slab_planes, try_marching_cubes_with, Inside, McMesh,
+    marching_cubes, marching_cubes_with_slab_planes, try_marching_cubes_with,
+    try_marching_cubes_with_progress, Inside, McMesh,
 };
 use isogrid::{Geometry, Volume, VolumeData, VolumeView};
 use std::collections::HashMap;
@@ -911,4 +912,18 @@ fn memory_and_snorm16_follow_table_3() {
     assert_eq!(qf.position(0), [0.0, 1.0, 5.0]);
     assert_eq!(qf.position(1), [2.0, -1.0, 5.0]);
     assert_eq!(McMesh::default().to_snorm16().positions.len(), 0);
+}
+
+#[test]
+fn progress_counts_every_sample_plane_once() {
+    let vol = sphere(21, Ty::F32, 7.0);
+    let progress = isogrid::Progress::new();
+    let mesh = try_marching_cubes_with_progress(&vol.view(), 100.0, &progress).unwrap();
+    assert_eq!(mesh, marching_cubes(&vol.view(), 100.0));
+    assert!(mesh.triangle_count() > 100);
+    assert_eq!(progress.counts(), (21, 21));
+    // No sample can be inside: the planes count as done all the same.
+    let empty = isogrid::Progress::new();
+    let mesh = try_marching_cubes_with_progress(&vol.view(), f64::NAN, &empty).unwrap();
+    assert_eq!((mesh, empty.counts()), (McMesh::default(), (21, 21)));
 }
