@@ -122,21 +122,20 @@ def extract(
     )
 
     # Pass 1: scan tiles of whole block layers (plus the halo plane), add up in layer order.
+    source = _Chunks(array)
     plane_bytes = nx * ny * dtype.itemsize
     layers_per_tile = _align_to_chunks(max(1, (budget // plane_bytes - 1) // BLOCK_CELLS), array.chunks[0])
     layers = -(-(nz - 1) // BLOCK_CELLS) if blocks else 0  # without blocks, nothing to scan
     scans = []
     for first in range(0, layers, layers_per_tile):
         z0, z1 = _planes(first, min(first + layers_per_tile, layers), nz)
-        scans.append(dask.delayed(_scan)(array[z0:z1], (nx, ny, nz), first, extraction.iso))
+        scans.append(source.task(_scan, z0, z1, (nx, ny, nz), first, extraction.iso))
     for fragment in run.in_order(scans):
         extraction.add_scan(fragment)
 
     # Pass 2: emit jobs, written at their offsets as they complete.
     jobs = extraction.plan_emits(budget)
-    emits = [
-        dask.delayed(_emit)(array[z0:z1], job, index) for index, (z0, z1, job) in enumerate(jobs)
-    ]
+    emits = [source.task(_emit, z0, z1, job, index) for index, (z0, z1, job) in enumerate(jobs)]
     stats = extraction.write(out, run.as_completed(emits))
     stats["seconds"] = {"read": read, "extract": time.perf_counter() - start - read, "write": 0.0}
     return stats
@@ -157,14 +156,68 @@ def _planes(first_layer: int, end_layer: int, nz: int) -> Tuple[int, int]:
     return BLOCK_CELLS * first_layer, min(BLOCK_CELLS * end_layer + 1, nz)
 
 
-def _scan(tile: np.ndarray, dims: Tuple[int, int, int], first_layer: int, iso: float) -> bytes:
+def _scan(pieces: List[np.ndarray], places: List[Tuple[int, int, int]], shape: Tuple[int, int, int],
+          dims: Tuple[int, int, int], first_layer: int, iso: float) -> bytes:
     """Task: pass 1 of one tile (GIL released in Rust)."""
-    return _isogrid._scan_tile(np.ascontiguousarray(tile), dims, first_layer, iso)
+    return _isogrid._scan_tile(_assemble(pieces, places, shape), dims, first_layer, iso)
 
 
-def _emit(tile: np.ndarray, job: bytes, index: int) -> bytes:
+def _emit(pieces: List[np.ndarray], places: List[Tuple[int, int, int]], shape: Tuple[int, int, int],
+          job: bytes, index: int) -> bytes:
     """Task: pass 2 of one emit job (GIL released in Rust)."""
-    return _isogrid._emit_tile(np.ascontiguousarray(tile), job, index)
+    return _isogrid._emit_tile(_assemble(pieces, places, shape), job, index)
+
+
+def _assemble(pieces: List[np.ndarray], places: List[Tuple[int, int, int]], shape: Tuple[int, int, int]) -> np.ndarray:
+    """The C-ordered tile of `shape` that `pieces` (source chunks or parts of them) tile, each
+    placed at its (z, y, x) corner: the one copy of the samples a task makes."""
+    if len(pieces) == 1 and pieces[0].shape == shape and pieces[0].flags.c_contiguous:
+        return pieces[0]
+    tile = np.empty(shape, dtype=pieces[0].dtype)
+    for piece, (z, y, x) in zip(pieces, places):
+        tile[z : z + piece.shape[0], y : y + piece.shape[1], x : x + piece.shape[2]] = piece
+    return tile
+
+
+def _cut(chunk: np.ndarray, z0: int, z1: int) -> np.ndarray:
+    """Task: planes z0..z1 of a chunk, copied so that the chunk itself can be let go."""
+    return np.array(chunk[z0:z1], order="C", copy=True)
+
+
+class _Chunks:
+    """The source's chunks as delayed objects, and tasks that read tiles of planes from them.
+
+    A tile's task depends on the chunks it covers directly, and on a small *cut* task where it
+    needs only some planes of a chunk (the halo plane, or a chunk row that two tiles share), so
+    that within one graph every chunk is computed once and only the planes a tile needs move
+    between workers. (Slicing the dask array instead lets dask fuse each tile's slices with the
+    chunks' own tasks: every tile then recomputes the chunk row holding its halo plane.)
+    """
+
+    def __init__(self, array: "da.Array") -> None:
+        self.blocks = array.to_delayed(optimize_graph=True)
+        self.z_bounds = np.cumsum((0,) + tuple(array.chunks[0]))
+        self.y_starts = np.cumsum((0,) + tuple(array.chunks[1]))[:-1]
+        self.x_starts = np.cumsum((0,) + tuple(array.chunks[2]))[:-1]
+        self.yx = (int(sum(array.chunks[1])), int(sum(array.chunks[2])))
+
+    def task(self, function: Any, z0: int, z1: int, *args: Any) -> Any:
+        """The delayed `function(pieces, places, shape, *args)` on the tile of planes z0..z1."""
+        pieces, places = [], []
+        first_row = int(np.searchsorted(self.z_bounds, z0, side="right")) - 1
+        for row in range(first_row, len(self.z_bounds) - 1):
+            lo, hi = int(self.z_bounds[row]), int(self.z_bounds[row + 1])
+            if lo >= z1:
+                break
+            a, b = max(z0, lo) - lo, min(z1, hi) - lo
+            for j, y in enumerate(self.y_starts):
+                for i, x in enumerate(self.x_starts):
+                    chunk = self.blocks[row, j, i]
+                    whole = a == 0 and b == hi - lo
+                    pieces.append(chunk if whole else dask.delayed(_cut, pure=True)(chunk, a, b))
+                    places.append((lo + a - z0, int(y), int(x)))
+        shape = (z1 - z0,) + self.yx
+        return dask.delayed(function, pure=True)(pieces, places, shape, *args)
 
 
 def _dask_array(source: Any, component: Optional[str]) -> "da.Array":
@@ -214,17 +267,23 @@ def _client(client: Any) -> Any:
 
 
 class _Runner:
-    """Runs delayed tasks on a distributed client, or on dask's default scheduler."""
+    """Runs delayed tasks on a distributed client, or on dask's default scheduler.
+
+    On a client a pass is one graph, so that tiles reading the same chunk (the halo plane) share
+    one computation of it; the scheduler's ordering keeps only a few tiles' chunks in memory, and
+    results are gathered (and released) one by one. Without a client, a window of tasks at a time
+    is one graph (dask's local schedulers return a graph's results all at once).
+    """
 
     def __init__(self, client: Any) -> None:
         self.client = client
-        if client is not None:
-            self.window = 2 * max(1, sum(client.nthreads().values()))
-        else:
-            self.window = 2 * (os.cpu_count() or 1)
+        self.window = 2 * (os.cpu_count() or 1)
 
     def value_range(self, array: "da.Array") -> Tuple[float, float]:
         """(min, max) of the samples, NaN ignored; (nan, nan) when none is finite."""
+        if array.dtype.kind != "f":
+            lo, hi = self._compute([array.min(), array.max()])
+            return float(lo), float(hi)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN chunks
             lo, hi = self._compute([da.nanmin(array), da.nanmax(array)])
@@ -235,35 +294,46 @@ class _Runner:
             return list(self.client.gather(self.client.compute(tasks)))
         return list(dask.compute(*tasks))
 
-    def in_order(self, tasks: List[Any]) -> Iterator[Any]:
-        """Results in task order, at most a window of them computed ahead."""
+    def _windows(self, tasks: List[Any]) -> Iterator[Any]:
         pending = iter(tasks)
         while True:
             batch = list(itertools.islice(pending, self.window))
             if not batch:
                 return
-            yield from self._compute(batch)
+            yield from dask.compute(*batch, optimize_graph=False)
+
+    def in_order(self, tasks: List[Any]) -> Iterator[Any]:
+        """Results in task order."""
+        if self.client is None:
+            yield from self._windows(tasks)
+            return
+        futures = self.client.compute(tasks, optimize_graph=False)
+        try:
+            for future in futures:
+                result = future.result()
+                future.release()
+                yield result
+        finally:
+            self._cancel(futures)
 
     def as_completed(self, tasks: List[Any]) -> Iterator[Any]:
-        """Results in completion order (in task order without a client), a window at a time:
-        tasks of one window share the source chunks they both read (the halo planes)."""
+        """Results in completion order (in task order without a client)."""
         if self.client is None:
-            yield from self.in_order(tasks)
+            yield from self._windows(tasks)
             return
         from distributed import as_completed
 
-        pending = iter(tasks)
-        while True:
-            batch = list(itertools.islice(pending, self.window))
-            if not batch:
-                return
-            futures = self.client.compute(batch)
-            try:
-                for future in as_completed(futures):
-                    result = future.result()
-                    future.release()
-                    yield result
-            finally:
-                for future in futures:
-                    if not future.done():
-                        future.cancel()
+        futures = self.client.compute(tasks, optimize_graph=False)
+        try:
+            for future in as_completed(futures):
+                result = future.result()
+                future.release()
+                yield result
+        finally:
+            self._cancel(futures)
+
+    @staticmethod
+    def _cancel(futures: List[Any]) -> None:
+        for future in futures:
+            if not future.done():
+                future.cancel()
