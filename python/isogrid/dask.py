@@ -59,22 +59,31 @@ def extract(
     origin: Optional[Sequence[float]] = None,
     client: Any = None,
     component: Optional[str] = None,
+    level: int = 0,
+    index: Optional[Dict[str, int]] = None,
     tile_bytes: int = DEFAULT_TILE_BYTES,
 ) -> Dict[str, Any]:
     """Extracts the active cells of a 3-D volume on Dask and writes them to the ``.cgc`` ``output``.
 
     Args:
-        source: a Zarr array's path or URL (anything fsspec opens, e.g. ``s3://…``; with
-            ``component`` naming an array inside a group), a zarr array, a dask array or a NumPy
-            array; 3-D, indexed ``[z, y, x]``. Samples are read as :func:`isogrid.extract` reads
-            them: uint8, uint16, int16 and float32 as they are, int8 as int16, bool as uint8,
-            other real types as float32.
+        source: a Zarr store's path or URL (anything fsspec opens, e.g. ``s3://…``) holding an
+            array or an OME-Zarr 0.4/0.5 image, a zarr array or group, a dask array or a NumPy
+            array. Zarr sources are read as :func:`isogrid.load_volume` and ``isogrid extract``
+            read them: axes mapped to x, y and z by name, spacing and origin from the OME-Zarr
+            ``coordinateTransformations``. Other arrays are 3-D, indexed ``[z, y, x]``. Samples
+            are read as :func:`isogrid.extract` reads them: uint8, uint16, int16 and float32 as
+            they are, int8 as int16, bool as uint8, other real types as float32.
         iso, iso_normalized: the isovalue in data units, or as a fraction of the value range
             (exactly one).
         output: the ``.cgc`` file, written atomically (nothing is left under its name on error).
         precision: bits per stored corner, 4, 8, 16 or 32; default 8 for uint8, 16 otherwise.
-        spacing, origin: (x, y, z) sample spacing and position of sample (0, 0, 0).
+        spacing, origin: (x, y, z) sample spacing and position of sample (0, 0, 0); default the
+            OME-Zarr image's, else 1 and 0.
         client: a ``distributed.Client``; default the current one, else dask's default scheduler.
+        component: an array inside the Zarr store at ``source``, e.g. ``"0"``.
+        level: the OME-Zarr resolution level (0 = full resolution), as ``isogrid extract --level``.
+        index: the entry to read of every Zarr axis other than x, y and z that has more than one,
+            e.g. ``{"t": 0, "c": 1}``, as ``isogrid extract --index``.
         tile_bytes: the samples (plus output) one task holds, about; a task never holds less
             than one block layer (16 planes plus the halo plane).
 
@@ -91,8 +100,6 @@ def extract(
         raise ValueError(f"precision must be 4, 8, 16 or 32, not {bits}")
     if iso_normalized is not None and not 0.0 <= iso_normalized <= 1.0:
         raise ValueError(f"normalised isovalue {iso_normalized} is outside [0, 1]")
-    spacing3 = (1.0, 1.0, 1.0) if spacing is None else _triple(spacing, "spacing")
-    origin3 = (0.0, 0.0, 0.0) if origin is None else _triple(origin, "origin")
     budget = _int(tile_bytes, "tile_bytes", 1)
     out = os.fspath(output)
     parent = os.path.dirname(os.path.abspath(out))
@@ -101,7 +108,10 @@ def extract(
     if os.path.isdir(out):
         raise IsADirectoryError(f"{out}: is a folder, not a .cgc file")
 
-    array = _dask_array(source, component)
+    indices = None if index is None else [(str(a), _int(i, "index", 0)) for a, i in dict(index).items()]
+    array, geometry = _dask_array(source, component, _int(level, "level", 0), indices)
+    spacing3 = geometry["spacing"] if spacing is None else _triple(spacing, "spacing")
+    origin3 = geometry["origin"] if origin is None else _triple(origin, "origin")
     dtype = _sample_dtype(array.dtype)
     if array.dtype != dtype:
         array = array.astype(dtype)
@@ -118,7 +128,7 @@ def extract(
     if iso_normalized is not None or blocks == 0:
         value_range = run.value_range(array)
     extraction = _isogrid._TileExtraction(
-        (nx, ny, nz), dtype.name, spacing3, origin3, iso, iso_normalized, bits, value_range
+        (nx, ny, nz), dtype.name, spacing3, origin3, iso, iso_normalized, bits, value_range, geometry["direction"]
     )
 
     # Pass 1: scan tiles of whole block layers (plus the halo plane), add up in layer order.
@@ -220,11 +230,13 @@ class _Chunks:
         return dask.delayed(function, pure=True)(pieces, places, shape, *args)
 
 
-def _dask_array(source: Any, component: Optional[str]) -> "da.Array":
-    """`source` as a 3-D dask array, checked before any task runs."""
-    if isinstance(source, da.Array):
-        array = source
-    elif isinstance(source, (str, os.PathLike)):
+def _dask_array(
+    source: Any, component: Optional[str], level: int, indices: Optional[List[Tuple[str, int]]]
+) -> Tuple["da.Array", Dict[str, Any]]:
+    """`source` as a 3-D dask array indexed [z, y, x], and its spacing, origin and direction
+    (x, y, z), checked before any task runs."""
+    geometry: Dict[str, Any] = {"spacing": (1.0, 1.0, 1.0), "origin": (0.0, 0.0, 0.0), "direction": None}
+    if isinstance(source, (str, os.PathLike)):
         path = os.fspath(source)
         import zarr
 
@@ -232,16 +244,13 @@ def _dask_array(source: Any, component: Optional[str]) -> "da.Array":
             opened = zarr.open(path, mode="r", path=component) if component else zarr.open(path, mode="r")
         except Exception as err:  # zarr raises several kinds for a missing or foreign store
             raise ValueError(f"{path}: cannot open as Zarr: {err}") from err
-        if not isinstance(opened, zarr.Array):
-            raise ValueError(
-                f"{path}{'/' + component if component else ''}: is a Zarr group, not an array; "
-                "name the array with component='…'"
-            )
-        array = da.from_zarr(opened)
+        array, geometry = _from_zarr(opened, path + ("/" + component if component else ""), level, indices)
     elif type(source).__module__.startswith("zarr"):
-        array = da.from_zarr(source)
+        array, geometry = _from_zarr(source, str(getattr(source, "store_path", "the zarr source")), level, indices)
     else:
-        array = da.asarray(source)
+        if level != 0 or indices:
+            raise ValueError("level and index pick from a Zarr source; slice a dask or NumPy array instead")
+        array = source if isinstance(source, da.Array) else da.asarray(source)
     if array.ndim != 3:
         raise ValueError(
             f"expected a 3-D array (z, y, x), got {array.ndim} dimension"
@@ -249,7 +258,37 @@ def _dask_array(source: Any, component: Optional[str]) -> "da.Array":
         )
     if any(np.isnan(n) for n in array.shape):
         raise ValueError(f"the array's shape {array.shape} is not known")
-    return array
+    return array, geometry
+
+
+def _from_zarr(
+    node: Any, location: str, level: int, indices: Optional[List[Tuple[str, int]]]
+) -> Tuple["da.Array", Dict[str, Any]]:
+    """A zarr array, or the OME-Zarr image a zarr group holds, as the volume `isogrid extract`
+    reads from it: the Rust reader's own metadata rules pick the level's array, map its axes to
+    x, y and z by name, pick the `indices` entries of the others and give the geometry."""
+    import json
+
+    import zarr
+
+    attrs = None
+    if isinstance(node, zarr.Group):
+        attrs = json.dumps(node.attrs.asdict())
+        node = node[_isogrid._ome_level_path(location, attrs, level)]
+        if not isinstance(node, zarr.Array):
+            raise ValueError(f"{location}: level {level} of the OME-Zarr image is not an array")
+    names = getattr(node.metadata, "dimension_names", None) or node.attrs.get("_ARRAY_DIMENSIONS")
+    if names is not None and not all(isinstance(n, str) for n in names):
+        names = None
+    picked = _isogrid._zarr_selection(location, list(node.shape), names, attrs, level, indices)
+    array = da.from_zarr(node)
+    fixed = dict(picked["fixed"])
+    array = array[tuple(fixed.get(axis, slice(None)) for axis in range(array.ndim))]
+    kept = [axis for axis in range(node.ndim) if axis not in fixed]
+    x, y, z = (kept.index(axis) for axis in picked["spatial"])
+    if (z, y, x) != (0, 1, 2):
+        array = array.transpose(z, y, x)
+    return array, picked
 
 
 def _client(client: Any) -> Any:
@@ -271,8 +310,9 @@ class _Runner:
 
     On a client a pass is one graph, so that tiles reading the same chunk (the halo plane) share
     one computation of it; the scheduler's ordering keeps only a few tiles' chunks in memory, and
-    results are gathered (and released) one by one. Without a client, a window of tasks at a time
-    is one graph (dask's local schedulers return a graph's results all at once).
+    results are gathered (and released) one by one. Without a client, dask's local schedulers
+    return a graph's results all at once: the scan pass (16 bytes a block) is still one graph, the
+    emit pass a window of tasks at a time.
     """
 
     def __init__(self, client: Any) -> None:
@@ -294,46 +334,35 @@ class _Runner:
             return list(self.client.gather(self.client.compute(tasks)))
         return list(dask.compute(*tasks))
 
-    def _windows(self, tasks: List[Any]) -> Iterator[Any]:
+    def _windows(self, tasks: List[Any], window: int) -> Iterator[Any]:
         pending = iter(tasks)
         while True:
-            batch = list(itertools.islice(pending, self.window))
+            batch = list(itertools.islice(pending, window))
             if not batch:
                 return
             yield from dask.compute(*batch, optimize_graph=False)
 
     def in_order(self, tasks: List[Any]) -> Iterator[Any]:
-        """Results in task order."""
-        if self.client is None:
-            yield from self._windows(tasks)
-            return
-        futures = self.client.compute(tasks, optimize_graph=False)
-        try:
-            for future in futures:
-                result = future.result()
-                future.release()
-                yield result
-        finally:
-            self._cancel(futures)
+        """Results in task order (small ones: without a client they are all held at once)."""
+        return self._results(tasks, ordered=True)
 
     def as_completed(self, tasks: List[Any]) -> Iterator[Any]:
         """Results in completion order (in task order without a client)."""
+        return self._results(tasks, ordered=False)
+
+    def _results(self, tasks: List[Any], ordered: bool) -> Iterator[Any]:
         if self.client is None:
-            yield from self._windows(tasks)
+            yield from self._windows(tasks, max(1, len(tasks)) if ordered else self.window)
             return
         from distributed import as_completed
 
         futures = self.client.compute(tasks, optimize_graph=False)
         try:
-            for future in as_completed(futures):
+            for future in futures if ordered else as_completed(futures):
                 result = future.result()
                 future.release()
                 yield result
         finally:
-            self._cancel(futures)
-
-    @staticmethod
-    def _cancel(futures: List[Any]) -> None:
-        for future in futures:
-            if not future.done():
-                future.cancel()
+            for future in futures:
+                if not future.done():
+                    future.cancel()
