@@ -18,10 +18,13 @@ exactly those of the whole-volume extraction: there are no seams to stitch. The 
 The file is byte-identical to ``isogrid.extract(volume).save(output)`` of the same samples, for
 any chunking, tiling and worker count, and when a worker dies mid-run (Dask reruns its tasks;
 their results are the same bytes). The driver holds 16 bytes per block and one result at a time;
-each task holds one tile.
+each task holds one tile. Tasks read the source's chunks themselves, each pass being one graph,
+so that a chunk two tiles read (the one holding a halo plane) is computed once per pass.
 
-Axes: the source is indexed ``[z, y, x]`` (NumPy's C order, as OME-Zarr stores ``zyx``): its last
-axis is x, the one that varies fastest, and ``spacing`` and ``origin`` are (x, y, z).
+Axes: a Zarr store or group is read as ``isogrid extract`` reads it (OME-Zarr levels, axes by
+name, ``index`` for the others, spacing and origin from the metadata), by the same Rust code.
+Any other source is indexed ``[z, y, x]`` (NumPy's C order): its last axis is x, the one that
+varies fastest, and ``spacing`` and ``origin`` are (x, y, z).
 """
 
 from __future__ import annotations
@@ -132,20 +135,20 @@ def extract(
     )
 
     # Pass 1: scan tiles of whole block layers (plus the halo plane), add up in layer order.
-    source = _Chunks(array)
+    chunks = _Chunks(array)
     plane_bytes = nx * ny * dtype.itemsize
     layers_per_tile = _align_to_chunks(max(1, (budget // plane_bytes - 1) // BLOCK_CELLS), array.chunks[0])
     layers = -(-(nz - 1) // BLOCK_CELLS) if blocks else 0  # without blocks, nothing to scan
     scans = []
     for first in range(0, layers, layers_per_tile):
         z0, z1 = _planes(first, min(first + layers_per_tile, layers), nz)
-        scans.append(source.task(_scan, z0, z1, (nx, ny, nz), first, extraction.iso))
+        scans.append(chunks.task(_scan, z0, z1, (nx, ny, nz), first, extraction.iso))
     for fragment in run.in_order(scans):
         extraction.add_scan(fragment)
 
     # Pass 2: emit jobs, written at their offsets as they complete.
     jobs = extraction.plan_emits(budget)
-    emits = [source.task(_emit, z0, z1, job, index) for index, (z0, z1, job) in enumerate(jobs)]
+    emits = [chunks.task(_emit, z0, z1, job, index) for index, (z0, z1, job) in enumerate(jobs)]
     stats = extraction.write(out, run.as_completed(emits))
     stats["seconds"] = {"read": read, "extract": time.perf_counter() - start - read, "write": 0.0}
     return stats

@@ -132,6 +132,12 @@ def test_ome_zarr_errors_are_load_volume_errors(tmp_path, kwargs):
     assert os.listdir(tmp_path) == []
 
 
+def test_level_and_index_need_a_zarr_source(tmp_path):
+    with pytest.raises(ValueError, match="level and index pick from a Zarr source"):
+        isogrid.dask.extract(da.zeros((20, 20, 20)), iso=0.5, level=1, output=tmp_path / "out.cgc")
+    assert os.listdir(tmp_path) == []
+
+
 @pytest.fixture(scope="module")
 def two_workers():
     """A LocalCluster of two single-threaded worker processes, and its client."""
