@@ -3,7 +3,9 @@
 The volume is a u8 gyroid computed chunk by chunk as a dask array (no disk), N³ samples. Each
 worker is one process with one dask thread and one rayon thread (RAYON_NUM_THREADS=1), so 1 and 2
 workers use 1 and 2 cores. Every run's file must be byte-identical to the first one's, and (for
-sizes that fit in memory) to the in-process isogrid.extract of the same samples.
+sizes that fit in memory) to the in-process isogrid.extract of the same samples. Each row gives
+the workers' peak resident memory (getrusage, over the worker process's life: the extraction and
+the one computation of the source before it).
 
     python scripts/bench_dask.py [--zarr] [N ...]   # default 512; one Markdown table row per run
 
@@ -12,6 +14,7 @@ chunks) in a temporary folder, and the runs read that path instead of computing 
 """
 
 import os
+import resource
 import sys
 import tempfile
 import time
@@ -38,6 +41,11 @@ def gyroid_chunk(block_info=None):
         + sz[:, None, None] * cx[None, None, :]
     )
     return np.clip((v + np.float32(1.5)) * np.float32(85), 0, 255).astype(np.uint8)
+
+
+def peak_rss_mib():
+    """This process's peak resident memory, in MiB (run on each worker)."""
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
 
 
 def gyroid(n):
@@ -86,6 +94,7 @@ def main():
                 t = time.perf_counter()
                 stats = isogrid.dask.extract(source, iso_normalized=0.5, output=out, client=client)
                 seconds = time.perf_counter() - t
+                peaks = sorted(client.run(peak_rss_mib).values())
                 client.close()
                 cluster.close()
                 data = open(out, "rb").read()
@@ -93,7 +102,8 @@ def main():
                 same = data == first and (reference is None or data == reference)
                 print(f"| {n}³ | LocalCluster, {workers} worker{'s' if workers > 1 else ''} | "
                       f"{seconds:.1f} s | source computed once: {source_seconds:.1f} s; "
-                      f"{stats['active_cells']:,} cells, "
+                      f"{stats['active_cells']:,} cells; peak RSS per worker "
+                      f"{', '.join(f'{p:.0f}' for p in peaks)} MiB; "
                       f"{'byte-identical' if same else 'BYTES DIFFER'} |", flush=True)
 
 

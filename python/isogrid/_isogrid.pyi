@@ -111,6 +111,15 @@ def render(
 ) -> Dict[str, Any]: ...
 
 # Tiled extraction, driven by `isogrid.dask`.
+def _ome_level_path(location: str, attrs_json: str, level: int) -> str: ...
+def _zarr_selection(
+    location: str,
+    shape: Sequence[int],
+    axes: Optional[Sequence[str]] = None,
+    group_attrs: Optional[str] = None,
+    level: int = 0,
+    index: Optional[Sequence[Tuple[str, int]]] = None,
+) -> Dict[str, Any]: ...
 def _scan_tile(
     tile: npt.NDArray[Any], volume_dims: Tuple[int, int, int], first_layer: int, iso: float
 ) -> bytes: ...
@@ -129,6 +138,7 @@ class _TileExtraction:
         iso_normalized: Optional[float] = None,
         precision: Optional[int] = None,
         value_range: Optional[Tuple[float, float]] = None,
+        direction: Optional[Sequence[Sequence[float]]] = None,
     ) -> "_TileExtraction": ...
     @property
     def iso(self) -> float: ...

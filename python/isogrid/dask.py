@@ -18,10 +18,13 @@ exactly those of the whole-volume extraction: there are no seams to stitch. The 
 The file is byte-identical to ``isogrid.extract(volume).save(output)`` of the same samples, for
 any chunking, tiling and worker count, and when a worker dies mid-run (Dask reruns its tasks;
 their results are the same bytes). The driver holds 16 bytes per block and one result at a time;
-each task holds one tile.
+each task holds one tile. Tasks read the source's chunks themselves, each pass being one graph,
+so that a chunk two tiles read (the one holding a halo plane) is computed once per pass.
 
-Axes: the source is indexed ``[z, y, x]`` (NumPy's C order, as OME-Zarr stores ``zyx``): its last
-axis is x, the one that varies fastest, and ``spacing`` and ``origin`` are (x, y, z).
+Axes: a Zarr store or group is read as ``isogrid extract`` reads it (OME-Zarr levels, axes by
+name, ``index`` for the others, spacing and origin from the metadata), by the same Rust code.
+Any other source is indexed ``[z, y, x]`` (NumPy's C order): its last axis is x, the one that
+varies fastest, and ``spacing`` and ``origin`` are (x, y, z).
 """
 
 from __future__ import annotations
@@ -59,22 +62,31 @@ def extract(
     origin: Optional[Sequence[float]] = None,
     client: Any = None,
     component: Optional[str] = None,
+    level: int = 0,
+    index: Optional[Dict[str, int]] = None,
     tile_bytes: int = DEFAULT_TILE_BYTES,
 ) -> Dict[str, Any]:
     """Extracts the active cells of a 3-D volume on Dask and writes them to the ``.cgc`` ``output``.
 
     Args:
-        source: a Zarr array's path or URL (anything fsspec opens, e.g. ``s3://…``; with
-            ``component`` naming an array inside a group), a zarr array, a dask array or a NumPy
-            array; 3-D, indexed ``[z, y, x]``. Samples are read as :func:`isogrid.extract` reads
-            them: uint8, uint16, int16 and float32 as they are, int8 as int16, bool as uint8,
-            other real types as float32.
+        source: a Zarr store's path or URL (anything fsspec opens, e.g. ``s3://…``) holding an
+            array or an OME-Zarr 0.4/0.5 image, a zarr array or group, a dask array or a NumPy
+            array. Zarr sources are read as :func:`isogrid.load_volume` and ``isogrid extract``
+            read them: axes mapped to x, y and z by name, spacing and origin from the OME-Zarr
+            ``coordinateTransformations``. Other arrays are 3-D, indexed ``[z, y, x]``. Samples
+            are read as :func:`isogrid.extract` reads them: uint8, uint16, int16 and float32 as
+            they are, int8 as int16, bool as uint8, other real types as float32.
         iso, iso_normalized: the isovalue in data units, or as a fraction of the value range
             (exactly one).
         output: the ``.cgc`` file, written atomically (nothing is left under its name on error).
         precision: bits per stored corner, 4, 8, 16 or 32; default 8 for uint8, 16 otherwise.
-        spacing, origin: (x, y, z) sample spacing and position of sample (0, 0, 0).
+        spacing, origin: (x, y, z) sample spacing and position of sample (0, 0, 0); default the
+            OME-Zarr image's, else 1 and 0.
         client: a ``distributed.Client``; default the current one, else dask's default scheduler.
+        component: an array inside the Zarr store at ``source``, e.g. ``"0"``.
+        level: the OME-Zarr resolution level (0 = full resolution), as ``isogrid extract --level``.
+        index: the entry to read of every Zarr axis other than x, y and z that has more than one,
+            e.g. ``{"t": 0, "c": 1}``, as ``isogrid extract --index``.
         tile_bytes: the samples (plus output) one task holds, about; a task never holds less
             than one block layer (16 planes plus the halo plane).
 
@@ -91,8 +103,6 @@ def extract(
         raise ValueError(f"precision must be 4, 8, 16 or 32, not {bits}")
     if iso_normalized is not None and not 0.0 <= iso_normalized <= 1.0:
         raise ValueError(f"normalised isovalue {iso_normalized} is outside [0, 1]")
-    spacing3 = (1.0, 1.0, 1.0) if spacing is None else _triple(spacing, "spacing")
-    origin3 = (0.0, 0.0, 0.0) if origin is None else _triple(origin, "origin")
     budget = _int(tile_bytes, "tile_bytes", 1)
     out = os.fspath(output)
     parent = os.path.dirname(os.path.abspath(out))
@@ -101,7 +111,10 @@ def extract(
     if os.path.isdir(out):
         raise IsADirectoryError(f"{out}: is a folder, not a .cgc file")
 
-    array = _dask_array(source, component)
+    indices = None if index is None else [(str(a), _int(i, "index", 0)) for a, i in dict(index).items()]
+    array, geometry = _dask_array(source, component, _int(level, "level", 0), indices)
+    spacing3 = geometry["spacing"] if spacing is None else _triple(spacing, "spacing")
+    origin3 = geometry["origin"] if origin is None else _triple(origin, "origin")
     dtype = _sample_dtype(array.dtype)
     if array.dtype != dtype:
         array = array.astype(dtype)
@@ -118,25 +131,24 @@ def extract(
     if iso_normalized is not None or blocks == 0:
         value_range = run.value_range(array)
     extraction = _isogrid._TileExtraction(
-        (nx, ny, nz), dtype.name, spacing3, origin3, iso, iso_normalized, bits, value_range
+        (nx, ny, nz), dtype.name, spacing3, origin3, iso, iso_normalized, bits, value_range, geometry["direction"]
     )
 
     # Pass 1: scan tiles of whole block layers (plus the halo plane), add up in layer order.
+    chunks = _Chunks(array)
     plane_bytes = nx * ny * dtype.itemsize
     layers_per_tile = _align_to_chunks(max(1, (budget // plane_bytes - 1) // BLOCK_CELLS), array.chunks[0])
     layers = -(-(nz - 1) // BLOCK_CELLS) if blocks else 0  # without blocks, nothing to scan
     scans = []
     for first in range(0, layers, layers_per_tile):
         z0, z1 = _planes(first, min(first + layers_per_tile, layers), nz)
-        scans.append(dask.delayed(_scan)(array[z0:z1], (nx, ny, nz), first, extraction.iso))
+        scans.append(chunks.task(_scan, z0, z1, (nx, ny, nz), first, extraction.iso))
     for fragment in run.in_order(scans):
         extraction.add_scan(fragment)
 
     # Pass 2: emit jobs, written at their offsets as they complete.
     jobs = extraction.plan_emits(budget)
-    emits = [
-        dask.delayed(_emit)(array[z0:z1], job, index) for index, (z0, z1, job) in enumerate(jobs)
-    ]
+    emits = [chunks.task(_emit, z0, z1, job, index) for index, (z0, z1, job) in enumerate(jobs)]
     stats = extraction.write(out, run.as_completed(emits))
     stats["seconds"] = {"read": read, "extract": time.perf_counter() - start - read, "write": 0.0}
     return stats
@@ -157,21 +169,77 @@ def _planes(first_layer: int, end_layer: int, nz: int) -> Tuple[int, int]:
     return BLOCK_CELLS * first_layer, min(BLOCK_CELLS * end_layer + 1, nz)
 
 
-def _scan(tile: np.ndarray, dims: Tuple[int, int, int], first_layer: int, iso: float) -> bytes:
+def _scan(pieces: List[np.ndarray], places: List[Tuple[int, int, int]], shape: Tuple[int, int, int],
+          dims: Tuple[int, int, int], first_layer: int, iso: float) -> bytes:
     """Task: pass 1 of one tile (GIL released in Rust)."""
-    return _isogrid._scan_tile(np.ascontiguousarray(tile), dims, first_layer, iso)
+    return _isogrid._scan_tile(_assemble(pieces, places, shape), dims, first_layer, iso)
 
 
-def _emit(tile: np.ndarray, job: bytes, index: int) -> bytes:
+def _emit(pieces: List[np.ndarray], places: List[Tuple[int, int, int]], shape: Tuple[int, int, int],
+          job: bytes, index: int) -> bytes:
     """Task: pass 2 of one emit job (GIL released in Rust)."""
-    return _isogrid._emit_tile(np.ascontiguousarray(tile), job, index)
+    return _isogrid._emit_tile(_assemble(pieces, places, shape), job, index)
 
 
-def _dask_array(source: Any, component: Optional[str]) -> "da.Array":
-    """`source` as a 3-D dask array, checked before any task runs."""
-    if isinstance(source, da.Array):
-        array = source
-    elif isinstance(source, (str, os.PathLike)):
+def _assemble(pieces: List[np.ndarray], places: List[Tuple[int, int, int]], shape: Tuple[int, int, int]) -> np.ndarray:
+    """The C-ordered tile of `shape` that `pieces` (source chunks or parts of them) tile, each
+    placed at its (z, y, x) corner: the one copy of the samples a task makes."""
+    if len(pieces) == 1 and pieces[0].shape == shape and pieces[0].flags.c_contiguous:
+        return pieces[0]
+    tile = np.empty(shape, dtype=pieces[0].dtype)
+    for piece, (z, y, x) in zip(pieces, places):
+        tile[z : z + piece.shape[0], y : y + piece.shape[1], x : x + piece.shape[2]] = piece
+    return tile
+
+
+def _cut(chunk: np.ndarray, z0: int, z1: int) -> np.ndarray:
+    """Task: planes z0..z1 of a chunk, copied so that the chunk itself can be let go."""
+    return np.array(chunk[z0:z1], order="C", copy=True)
+
+
+class _Chunks:
+    """The source's chunks as delayed objects, and tasks that read tiles of planes from them.
+
+    A tile's task depends on the chunks it covers directly, and on a small *cut* task where it
+    needs only some planes of a chunk (the halo plane, or a chunk row that two tiles share), so
+    that within one graph every chunk is computed once and only the planes a tile needs move
+    between workers. (Slicing the dask array instead lets dask fuse each tile's slices with the
+    chunks' own tasks: every tile then recomputes the chunk row holding its halo plane.)
+    """
+
+    def __init__(self, array: "da.Array") -> None:
+        self.blocks = array.to_delayed(optimize_graph=True)
+        self.z_bounds = np.cumsum((0,) + tuple(array.chunks[0]))
+        self.y_starts = np.cumsum((0,) + tuple(array.chunks[1]))[:-1]
+        self.x_starts = np.cumsum((0,) + tuple(array.chunks[2]))[:-1]
+        self.yx = (int(sum(array.chunks[1])), int(sum(array.chunks[2])))
+
+    def task(self, function: Any, z0: int, z1: int, *args: Any) -> Any:
+        """The delayed `function(pieces, places, shape, *args)` on the tile of planes z0..z1."""
+        pieces, places = [], []
+        first_row = int(np.searchsorted(self.z_bounds, z0, side="right")) - 1
+        for row in range(first_row, len(self.z_bounds) - 1):
+            lo, hi = int(self.z_bounds[row]), int(self.z_bounds[row + 1])
+            if lo >= z1:
+                break
+            a, b = max(z0, lo) - lo, min(z1, hi) - lo
+            for j, y in enumerate(self.y_starts):
+                for i, x in enumerate(self.x_starts):
+                    chunk = self.blocks[row, j, i]
+                    whole = a == 0 and b == hi - lo
+                    pieces.append(chunk if whole else dask.delayed(_cut, pure=True)(chunk, a, b))
+                    places.append((lo + a - z0, int(y), int(x)))
+        shape = (z1 - z0,) + self.yx
+        return dask.delayed(function, pure=True)(pieces, places, shape, *args)
+
+
+def _dask_array(
+    source: Any, component: Optional[str], level: int, indices: Optional[List[Tuple[str, int]]]
+) -> Tuple["da.Array", Dict[str, Any]]:
+    """`source` as a 3-D dask array indexed [z, y, x], and its spacing, origin and direction
+    (x, y, z), checked before any task runs."""
+    geometry: Dict[str, Any] = {"spacing": (1.0, 1.0, 1.0), "origin": (0.0, 0.0, 0.0), "direction": None}
+    if isinstance(source, (str, os.PathLike)):
         path = os.fspath(source)
         import zarr
 
@@ -179,16 +247,13 @@ def _dask_array(source: Any, component: Optional[str]) -> "da.Array":
             opened = zarr.open(path, mode="r", path=component) if component else zarr.open(path, mode="r")
         except Exception as err:  # zarr raises several kinds for a missing or foreign store
             raise ValueError(f"{path}: cannot open as Zarr: {err}") from err
-        if not isinstance(opened, zarr.Array):
-            raise ValueError(
-                f"{path}{'/' + component if component else ''}: is a Zarr group, not an array; "
-                "name the array with component='…'"
-            )
-        array = da.from_zarr(opened)
+        array, geometry = _from_zarr(opened, path + ("/" + component if component else ""), level, indices)
     elif type(source).__module__.startswith("zarr"):
-        array = da.from_zarr(source)
+        array, geometry = _from_zarr(source, str(getattr(source, "store_path", "the zarr source")), level, indices)
     else:
-        array = da.asarray(source)
+        if level != 0 or indices:
+            raise ValueError("level and index pick from a Zarr source; slice a dask or NumPy array instead")
+        array = source if isinstance(source, da.Array) else da.asarray(source)
     if array.ndim != 3:
         raise ValueError(
             f"expected a 3-D array (z, y, x), got {array.ndim} dimension"
@@ -196,7 +261,37 @@ def _dask_array(source: Any, component: Optional[str]) -> "da.Array":
         )
     if any(np.isnan(n) for n in array.shape):
         raise ValueError(f"the array's shape {array.shape} is not known")
-    return array
+    return array, geometry
+
+
+def _from_zarr(
+    node: Any, location: str, level: int, indices: Optional[List[Tuple[str, int]]]
+) -> Tuple["da.Array", Dict[str, Any]]:
+    """A zarr array, or the OME-Zarr image a zarr group holds, as the volume `isogrid extract`
+    reads from it: the Rust reader's own metadata rules pick the level's array, map its axes to
+    x, y and z by name, pick the `indices` entries of the others and give the geometry."""
+    import json
+
+    import zarr
+
+    attrs = None
+    if isinstance(node, zarr.Group):
+        attrs = json.dumps(node.attrs.asdict())
+        node = node[_isogrid._ome_level_path(location, attrs, level)]
+        if not isinstance(node, zarr.Array):
+            raise ValueError(f"{location}: level {level} of the OME-Zarr image is not an array")
+    names = getattr(node.metadata, "dimension_names", None) or node.attrs.get("_ARRAY_DIMENSIONS")
+    if names is not None and not all(isinstance(n, str) for n in names):
+        names = None
+    picked = _isogrid._zarr_selection(location, list(node.shape), names, attrs, level, indices)
+    array = da.from_zarr(node)
+    fixed = dict(picked["fixed"])
+    array = array[tuple(fixed.get(axis, slice(None)) for axis in range(array.ndim))]
+    kept = [axis for axis in range(node.ndim) if axis not in fixed]
+    x, y, z = (kept.index(axis) for axis in picked["spatial"])
+    if (z, y, x) != (0, 1, 2):
+        array = array.transpose(z, y, x)
+    return array, picked
 
 
 def _client(client: Any) -> Any:
@@ -214,17 +309,24 @@ def _client(client: Any) -> Any:
 
 
 class _Runner:
-    """Runs delayed tasks on a distributed client, or on dask's default scheduler."""
+    """Runs delayed tasks on a distributed client, or on dask's default scheduler.
+
+    On a client a pass is one graph, so that tiles reading the same chunk (the halo plane) share
+    one computation of it; the scheduler's ordering keeps only a few tiles' chunks in memory, and
+    results are gathered (and released) one by one. Without a client, dask's local schedulers
+    return a graph's results all at once: the scan pass (16 bytes a block) is still one graph, the
+    emit pass a window of tasks at a time.
+    """
 
     def __init__(self, client: Any) -> None:
         self.client = client
-        if client is not None:
-            self.window = 2 * max(1, sum(client.nthreads().values()))
-        else:
-            self.window = 2 * (os.cpu_count() or 1)
+        self.window = 2 * (os.cpu_count() or 1)
 
     def value_range(self, array: "da.Array") -> Tuple[float, float]:
         """(min, max) of the samples, NaN ignored; (nan, nan) when none is finite."""
+        if array.dtype.kind != "f":
+            lo, hi = self._compute([array.min(), array.max()])
+            return float(lo), float(hi)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN chunks
             lo, hi = self._compute([da.nanmin(array), da.nanmax(array)])
@@ -235,35 +337,35 @@ class _Runner:
             return list(self.client.gather(self.client.compute(tasks)))
         return list(dask.compute(*tasks))
 
-    def in_order(self, tasks: List[Any]) -> Iterator[Any]:
-        """Results in task order, at most a window of them computed ahead."""
+    def _windows(self, tasks: List[Any], window: int) -> Iterator[Any]:
         pending = iter(tasks)
         while True:
-            batch = list(itertools.islice(pending, self.window))
+            batch = list(itertools.islice(pending, window))
             if not batch:
                 return
-            yield from self._compute(batch)
+            yield from dask.compute(*batch, optimize_graph=False)
+
+    def in_order(self, tasks: List[Any]) -> Iterator[Any]:
+        """Results in task order (small ones: without a client they are all held at once)."""
+        return self._results(tasks, ordered=True)
 
     def as_completed(self, tasks: List[Any]) -> Iterator[Any]:
-        """Results in completion order (in task order without a client), a window at a time:
-        tasks of one window share the source chunks they both read (the halo planes)."""
+        """Results in completion order (in task order without a client)."""
+        return self._results(tasks, ordered=False)
+
+    def _results(self, tasks: List[Any], ordered: bool) -> Iterator[Any]:
         if self.client is None:
-            yield from self.in_order(tasks)
+            yield from self._windows(tasks, max(1, len(tasks)) if ordered else self.window)
             return
         from distributed import as_completed
 
-        pending = iter(tasks)
-        while True:
-            batch = list(itertools.islice(pending, self.window))
-            if not batch:
-                return
-            futures = self.client.compute(batch)
-            try:
-                for future in as_completed(futures):
-                    result = future.result()
-                    future.release()
-                    yield result
-            finally:
-                for future in futures:
-                    if not future.done():
-                        future.cancel()
+        futures = self.client.compute(tasks, optimize_graph=False)
+        try:
+            for future in futures if ordered else as_completed(futures):
+                result = future.result()
+                future.release()
+                yield result
+        finally:
+            for future in futures:
+                if not future.done():
+                    future.cancel()

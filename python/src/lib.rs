@@ -32,6 +32,8 @@ fn _isogrid(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(skimage::skimage_normals_values, m)?)?;
     m.add_function(wrap_pyfunction!(volume_io::load_volume, m)?)?;
     m.add_function(wrap_pyfunction!(volume_io::voxelize, m)?)?;
+    m.add_function(wrap_pyfunction!(volume_io::_ome_level_path, m)?)?;
+    m.add_function(wrap_pyfunction!(volume_io::_zarr_selection, m)?)?;
     m.add_function(wrap_pyfunction!(render::render, m)?)?;
     m.add_class::<tiles::_TileExtraction>()?;
     m.add_function(wrap_pyfunction!(tiles::_scan_tile, m)?)?;

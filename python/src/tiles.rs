@@ -58,9 +58,10 @@ pub struct _TileExtraction {
 #[pymethods]
 impl _TileExtraction {
     /// `dims` (nx, ny, nz); `value_range` (min, max) of all samples, NaN for none finite, or None
-    /// when not computed (needed only for `iso_normalized` and volumes one sample thick).
+    /// when not computed (needed only for `iso_normalized` and volumes one sample thick);
+    /// `direction` rows are the world directions of x, y and z (default the identity).
     #[new]
-    #[pyo3(signature = (dims, dtype, spacing, origin, iso=None, iso_normalized=None, precision=None, value_range=None))]
+    #[pyo3(signature = (dims, dtype, spacing, origin, iso=None, iso_normalized=None, precision=None, value_range=None, direction=None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         dims: [usize; 3],
@@ -71,13 +72,17 @@ impl _TileExtraction {
         iso_normalized: Option<f64>,
         precision: Option<u32>,
         value_range: Option<(f64, f64)>,
+        direction: Option<[[f64; 3]; 3]>,
     ) -> PyResult<Self> {
         let scalar_type = scalar_type_named(dtype, "dtype")?;
-        let geometry = Geometry {
+        let mut geometry = Geometry {
             spacing: spacing3(spacing)?,
             origin: triple(origin, "origin")?,
             ..Geometry::new(dims)
         };
+        if let Some(direction) = direction {
+            geometry.direction = direction;
+        }
         let mut options = ExtractOptions::new(iso_arg(iso, iso_normalized)?);
         options.precision = precision.map(precision_arg).transpose()?;
         let value_range =

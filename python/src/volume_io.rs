@@ -61,6 +61,46 @@ pub fn load_volume(
     Ok(d)
 }
 
+/// For `isogrid.dask`: the array path of level `level` of the OME-Zarr image at `location`, whose
+/// root group attributes are `attrs_json` (read by zarr-python, which opens any fsspec URL).
+#[pyfunction]
+pub fn _ome_level_path(location: &str, attrs_json: &str, level: usize) -> PyResult<String> {
+    isogrid_io::region::zarr::ome_level_path(attrs_json, level, location).map_err(to_py)
+}
+
+/// For `isogrid.dask`: how a Zarr array of `shape` maps to a volume, decided as `load_volume` and
+/// the CLI decide it. `axes` names its axes (`dimension_names` or `_ARRAY_DIMENSIONS`; None when
+/// unnamed), `group_attrs` is the OME-Zarr root group's attributes (JSON; None for a plain
+/// array). Returns a dict: `spatial` (the array axes of x, y, z), `fixed` ((axis, entry) of every
+/// other axis), `spacing`, `origin` and `direction` (x, y, z order).
+#[pyfunction]
+#[pyo3(signature = (location, shape, axes=None, group_attrs=None, level=0, index=None))]
+pub fn _zarr_selection<'py>(
+    py: Python<'py>,
+    location: &str,
+    shape: Vec<u64>,
+    axes: Option<Vec<String>>,
+    group_attrs: Option<&str>,
+    level: usize,
+    index: Option<Vec<(String, u64)>>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let options = ZarrOptions {
+        level,
+        indices: index.unwrap_or_default(),
+    };
+    let selection =
+        isogrid_io::region::zarr::select(group_attrs, axes, &shape, &options, location)
+            .map_err(to_py)?;
+    let g = selection.geometry;
+    let d = PyDict::new(py);
+    d.set_item("spatial", selection.spatial)?;
+    d.set_item("fixed", selection.fixed)?;
+    d.set_item("spacing", tuple3(g.spacing))?;
+    d.set_item("origin", tuple3(g.origin))?;
+    d.set_item("direction", tuple3(g.direction.map(tuple3)))?;
+    Ok(d)
+}
+
 /// The sample type a dtype name (`uint8`, `uint16`, `int16`, `float32`) names; errors name the
 /// argument `what`.
 pub fn scalar_type_named(name: &str, what: &str) -> PyResult<ScalarType> {

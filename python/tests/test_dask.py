@@ -1,11 +1,13 @@
 """isogrid.dask: extraction spread over Dask gives the bytes of the in-process extraction, for dask
-arrays with chunks that do not divide 16, zarr arrays written by zarr-python, Zarr paths, a
-LocalCluster of two worker processes and a worker killed mid-run; its statistics are the CLI's."""
+arrays with chunks that do not divide 16, zarr arrays written by zarr-python, Zarr paths, OME-Zarr
+0.4 and 0.5 images (levels, indexed t/c axes, transforms; also the CLI's bytes), a LocalCluster of
+two worker processes and a worker killed mid-run; its statistics are the CLI's."""
 
 import json
 import os
 import signal
 import subprocess
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -80,6 +82,60 @@ def test_zarr_array_on_disk_and_zarr_path(tmp_path):
     isogrid.dask.extract(str(store), iso_normalized=0.5, output=tmp_path / "path.cgc", tile_bytes=TILE_BYTES)
     assert (tmp_path / "array.cgc").read_bytes() == expected
     assert (tmp_path / "path.cgc").read_bytes() == expected
+
+
+ZARR_FIXTURES = Path(__file__).resolve().parents[2] / "crates" / "isogrid-io" / "tests" / "fixtures" / "zarr"
+OME_IMAGES = [("ome_v04.zarr", {"t": 1, "c": 0}), ("ome_v05.zarr", None)]
+
+
+@pytest.mark.parametrize("level", [0, 1])
+@pytest.mark.parametrize("name,index", OME_IMAGES, ids=["0.4-tczyx", "0.5-zyx"])
+def test_ome_zarr_image_is_the_load_volume_extraction(tmp_path, name, index, level):
+    store = ZARR_FIXTURES / name
+    volume = isogrid.load_volume(store, level=level, index=index)
+    grid = isogrid.extract(volume, iso_normalized=0.5)
+    grid.save(tmp_path / "reference.cgc")
+    out = tmp_path / "dask.cgc"
+    # A tile budget of one block layer: several tiles and emit jobs even on these small images.
+    isogrid.dask.extract(store, iso_normalized=0.5, level=level, index=index, output=out, tile_bytes=1)
+    assert out.read_bytes() == (tmp_path / "reference.cgc").read_bytes()
+    # Not the defaults: the transforms reached the file.
+    info = isogrid.load(out).info
+    assert tuple(info["spacing"]) == pytest.approx(volume.spacing) and tuple(info["spacing"]) != (1.0, 1.0, 1.0)
+    assert tuple(info["origin"]) == pytest.approx(volume.origin)
+
+
+def test_ome_zarr_level_is_the_cli_bytes(tmp_path, cli):
+    store = str(ZARR_FIXTURES / "ome_v04.zarr")
+    subprocess.run(
+        [cli, "extract", store, "--level", "1", "--index", "t=1,c=0", "--iso-normalized", "0.5", "-o", str(tmp_path / "cli.cgc")],
+        capture_output=True,
+        check=True,
+    )
+    group = zarr.open_group(store, mode="r")
+    isogrid.dask.extract(group, iso_normalized=0.5, level=1, index={"t": 1, "c": 0}, output=tmp_path / "dask.cgc")
+    assert (tmp_path / "dask.cgc").read_bytes() == (tmp_path / "cli.cgc").read_bytes()
+
+
+@pytest.mark.parametrize(
+    "kwargs",
+    [{}, {"index": {"t": 2, "c": 0}}, {"index": {"z": 0}}, {"level": 2, "index": {"t": 0, "c": 0}}],
+    ids=["unindexed", "out-of-range", "spatial", "no-level"],
+)
+def test_ome_zarr_errors_are_load_volume_errors(tmp_path, kwargs):
+    store = ZARR_FIXTURES / "ome_v04.zarr"
+    with pytest.raises(ValueError) as expected:
+        isogrid.load_volume(store, **kwargs)
+    with pytest.raises(ValueError) as got:
+        isogrid.dask.extract(str(store), iso=0.5, output=tmp_path / "out.cgc", **kwargs)
+    assert str(got.value) == str(expected.value)
+    assert os.listdir(tmp_path) == []
+
+
+def test_level_and_index_need_a_zarr_source(tmp_path):
+    with pytest.raises(ValueError, match="level and index pick from a Zarr source"):
+        isogrid.dask.extract(da.zeros((20, 20, 20)), iso=0.5, level=1, output=tmp_path / "out.cgc")
+    assert os.listdir(tmp_path) == []
 
 
 @pytest.fixture(scope="module")

@@ -279,15 +279,179 @@ fn array_axes(array: &Array<dyn ReadableStorageTraits>) -> Vec<String> {
                 .and_then(|a| a.iter().map(|v| v.as_str().map(str::to_string)).collect())
         })
         .filter(|names: &Vec<String>| names.len() == n);
-    named.unwrap_or_else(|| {
-        (0..n)
-            .map(|i| match n - i {
-                1 => "x".to_string(),
-                2 => "y".to_string(),
-                3 => "z".to_string(),
-                _ => format!("dim{i}"),
-            })
-            .collect()
+    named.unwrap_or_else(|| default_axes(n))
+}
+
+/// Names of `n` unnamed axes: the last three z, y, x (numpy's C order), the others `dim0`, ….
+fn default_axes(n: usize) -> Vec<String> {
+    (0..n)
+        .map(|i| match n - i {
+            1 => "x".to_string(),
+            2 => "y".to_string(),
+            3 => "z".to_string(),
+            _ => format!("dim{i}"),
+        })
+        .collect()
+}
+
+/// What a volume reader decides from a store's metadata before it reads any chunk (see the
+/// module doc): the array axes of x, y and z, the entry picked on every other axis, and the
+/// volume's geometry. Public so that other readers of the same store (the Python
+/// package's Dask extraction, through zarr-python) decide exactly as [`ZarrSource`] does.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ZarrSelection {
+    /// Array axis of x, y and z.
+    pub spatial: [usize; 3],
+    /// Index along every other axis: (array axis, entry).
+    pub fixed: Vec<(usize, u64)>,
+    pub geometry: Geometry,
+}
+
+/// The array path (inside the store, without a leading `/`) that `options.level` of the OME-Zarr
+/// image with root group attributes `attrs_json` names; errors as [`ZarrSource::open`] does.
+pub fn ome_level_path(attrs_json: &str, level: usize, location: &str) -> Result<String> {
+    let attrs = parse_attrs(attrs_json, location)?;
+    Ok(ome_image(&attrs, level, location)?
+        .path
+        .trim_matches('/')
+        .to_string())
+}
+
+fn parse_attrs(attrs_json: &str, location: &str) -> Result<Value> {
+    serde_json::from_str(attrs_json)
+        .map_err(|e| zarr_error(location, "group attributes are not valid JSON", e))
+}
+
+/// The selection for an array of `shape` whose axes are named `axes` (`None`: unnamed, see the
+/// module doc), inside an OME-Zarr image whose root group attributes are `group_attrs_json`
+/// (`None`: the store's root is the array itself).
+pub fn select(
+    group_attrs_json: Option<&str>,
+    axes: Option<Vec<String>>,
+    shape: &[u64],
+    options: &ZarrOptions,
+    location: &str,
+) -> Result<ZarrSelection> {
+    let image = match group_attrs_json {
+        Some(json) => Some(ome_image(
+            &parse_attrs(json, location)?,
+            options.level,
+            location,
+        )?),
+        None => None,
+    };
+    let axes = axes.filter(|a| a.len() == shape.len());
+    select_axes(image.as_ref(), axes, shape, options, location)
+}
+
+/// A single array has level 0 only.
+fn check_single_array_level(options: &ZarrOptions, location: &str) -> Result<()> {
+    if options.level != 0 {
+        return Err(Error::invalid(format!(
+            "--level {} asked for, but this is a single Zarr array, not a multiscale image",
+            options.level
+        ))
+        .with_path(location));
+    }
+    Ok(())
+}
+
+fn select_axes(
+    image: Option<&Image>,
+    array_axes: Option<Vec<String>>,
+    shape: &[u64],
+    options: &ZarrOptions,
+    location: &str,
+) -> Result<ZarrSelection> {
+    if image.is_none() {
+        check_single_array_level(options, location)?;
+    }
+    let axes = match image {
+        Some(image) => image.axes.clone(),
+        None => array_axes.unwrap_or_else(|| default_axes(shape.len())),
+    };
+    if axes.len() != shape.len() {
+        return Err(Error::corrupt(format!(
+            "{} axes named but the array has {} dimensions",
+            axes.len(),
+            shape.len()
+        ))
+        .with_path(location));
+    }
+    let find = |name: &str| axes.iter().position(|a| a.eq_ignore_ascii_case(name));
+    let spatial = match (find("x"), find("y"), find("z")) {
+        (Some(x), Some(y), Some(z)) => [x, y, z],
+        _ => {
+            return Err(Error::unsupported(format!(
+                "axes [{}]: a volume needs axes named x, y and z",
+                axes.join(", ")
+            ))
+            .with_path(location))
+        }
+    };
+    for (name, _) in &options.indices {
+        if find(name).is_none() || spatial.contains(&find(name).unwrap()) {
+            return Err(Error::invalid(format!(
+                "--index names {name}, which is not a non-spatial axis of [{}]",
+                axes.join(", ")
+            ))
+            .with_path(location));
+        }
+    }
+    let mut fixed = Vec::new();
+    let mut unindexed = Vec::new();
+    for (axis, name) in axes.iter().enumerate() {
+        if spatial.contains(&axis) {
+            continue;
+        }
+        let given = options
+            .indices
+            .iter()
+            .find(|(n, _)| n.eq_ignore_ascii_case(name))
+            .map(|&(_, i)| i);
+        match given {
+            Some(i) if i < shape[axis] => fixed.push((axis, i)),
+            Some(i) => {
+                return Err(Error::invalid(format!(
+                    "--index {name}={i} is out of range: axis {name} has {} entries",
+                    shape[axis]
+                ))
+                .with_path(location))
+            }
+            None if shape[axis] == 1 => fixed.push((axis, 0)),
+            None => unindexed.push(format!("{name} ({} entries)", shape[axis])),
+        }
+    }
+    if !unindexed.is_empty() {
+        return Err(Error::invalid(format!(
+            "{}-D data with axes [{}]: pick one entry of {} with --index, e.g. --index {}",
+            shape.len(),
+            axes.join(", "),
+            unindexed.join(" and "),
+            axes.iter()
+                .enumerate()
+                .filter(|(a, _)| !spatial.contains(a) && shape[*a] > 1)
+                .map(|(_, n)| format!("{n}=0"))
+                .collect::<Vec<_>>()
+                .join(",")
+        ))
+        .with_path(location));
+    }
+    let dims = spatial.map(|a| shape[a] as usize);
+    let mut geometry = Geometry::new(dims);
+    if let Some(image) = image {
+        geometry.spacing = spatial.map(|a| image.scale[a].abs());
+        geometry.origin = spatial.map(|a| image.translation[a]);
+        for (row, &a) in spatial.iter().enumerate() {
+            if image.scale[a] < 0.0 {
+                geometry.direction[row] = geometry.direction[row].map(|v| -v);
+            }
+        }
+    }
+    Ok(ZarrSelection {
+        spatial,
+        fixed,
+        geometry,
     })
 }
 
@@ -295,97 +459,29 @@ impl ZarrSource {
     /// Opens the Zarr array or OME-Zarr image at the root of `store`.
     pub fn open(store: ReadableStorage, location: &str, options: &ZarrOptions) -> Result<Self> {
         let (array_path, image) = match root_kind(&store, location)? {
-            Root::Array => {
-                if options.level != 0 {
-                    return Err(Error::invalid(format!(
-                        "--level {} asked for, but this is a single Zarr array, not a multiscale image",
-                        options.level
-                    ))
-                    .with_path(location));
-                }
-                ("/".to_string(), None)
-            }
+            Root::Array => ("/".to_string(), None),
             Root::Group(attrs) => {
                 let image = ome_image(&attrs, options.level, location)?;
                 (format!("/{}", image.path.trim_matches('/')), Some(image))
             }
         };
+        if image.is_none() {
+            check_single_array_level(options, location)?;
+        }
         let array = Array::open(store.clone(), &array_path).map_err(|e| {
             Error::unsupported(format!("cannot open the Zarr array {array_path}: {e}"))
                 .with_path(location)
         })?;
         let shape = array.shape().to_vec();
-        let axes = match &image {
-            Some(image) => image.axes.clone(),
-            None => array_axes(&array),
+        let named = match &image {
+            Some(_) => None,
+            None => Some(array_axes(&array)),
         };
-        if axes.len() != shape.len() {
-            return Err(Error::corrupt(format!(
-                "{} axes named but the array has {} dimensions",
-                axes.len(),
-                shape.len()
-            ))
-            .with_path(location));
-        }
-        let find = |name: &str| axes.iter().position(|a| a.eq_ignore_ascii_case(name));
-        let spatial = match (find("x"), find("y"), find("z")) {
-            (Some(x), Some(y), Some(z)) => [x, y, z],
-            _ => {
-                return Err(Error::unsupported(format!(
-                    "axes [{}]: a volume needs axes named x, y and z",
-                    axes.join(", ")
-                ))
-                .with_path(location))
-            }
-        };
-        for (name, _) in &options.indices {
-            if find(name).is_none() || spatial.contains(&find(name).unwrap()) {
-                return Err(Error::invalid(format!(
-                    "--index names {name}, which is not a non-spatial axis of [{}]",
-                    axes.join(", ")
-                ))
-                .with_path(location));
-            }
-        }
-        let mut fixed = Vec::new();
-        let mut unindexed = Vec::new();
-        for (axis, name) in axes.iter().enumerate() {
-            if spatial.contains(&axis) {
-                continue;
-            }
-            let given = options
-                .indices
-                .iter()
-                .find(|(n, _)| n.eq_ignore_ascii_case(name))
-                .map(|&(_, i)| i);
-            match given {
-                Some(i) if i < shape[axis] => fixed.push((axis, i)),
-                Some(i) => {
-                    return Err(Error::invalid(format!(
-                        "--index {name}={i} is out of range: axis {name} has {} entries",
-                        shape[axis]
-                    ))
-                    .with_path(location))
-                }
-                None if shape[axis] == 1 => fixed.push((axis, 0)),
-                None => unindexed.push(format!("{name} ({} entries)", shape[axis])),
-            }
-        }
-        if !unindexed.is_empty() {
-            return Err(Error::invalid(format!(
-                "{}-D data with axes [{}]: pick one entry of {} with --index, e.g. --index {}",
-                shape.len(),
-                axes.join(", "),
-                unindexed.join(" and "),
-                axes.iter()
-                    .enumerate()
-                    .filter(|(a, _)| !spatial.contains(a) && shape[*a] > 1)
-                    .map(|(_, n)| format!("{n}=0"))
-                    .collect::<Vec<_>>()
-                    .join(",")
-            ))
-            .with_path(location));
-        }
+        let ZarrSelection {
+            spatial,
+            fixed,
+            geometry,
+        } = select_axes(image.as_ref(), named, &shape, options, location)?;
         // Shown as "uint16 / <u2" (the v3 name, then the v2 one where they differ).
         let type_name = array.data_type().to_string();
         let v3_name = type_name.split(" / ").next().unwrap_or_default();
@@ -393,17 +489,6 @@ impl ZarrSource {
             Error::unsupported(format!("Zarr data type {type_name} is not supported"))
                 .with_path(location)
         })?;
-        let dims = spatial.map(|a| shape[a] as usize);
-        let mut geometry = Geometry::new(dims);
-        if let Some(image) = &image {
-            geometry.spacing = spatial.map(|a| image.scale[a].abs());
-            geometry.origin = spatial.map(|a| image.translation[a]);
-            for (row, &a) in spatial.iter().enumerate() {
-                if image.scale[a] < 0.0 {
-                    geometry.direction[row] = geometry.direction[row].map(|v| -v);
-                }
-            }
-        }
         let chunk_elements: u64 = array
             .chunk_shape(&vec![0; shape.len()])
             .map(|c| c.iter().map(|n| n.get()).product())

@@ -82,6 +82,52 @@ fn ome_zarr_levels_axes_and_transforms() {
 }
 
 #[test]
+fn metadata_alone_selects_as_the_reader_does() {
+    // What other readers of a store (the Python package's Dask extraction) get from the metadata:
+    // the level's array path, the axes and geometry `read_volume` uses, and its errors.
+    use isogrid_io::region::zarr::{ome_level_path, select};
+    let path = zarr("ome_v04.zarr");
+    let location = path.display().to_string();
+    let attrs = std::fs::read_to_string(path.join(".zattrs")).unwrap();
+    assert_eq!(ome_level_path(&attrs, 1, &location).unwrap(), "1");
+    let opts = options(1, &[("c", 1), ("t", 0)]);
+    let picked = select(
+        Some(&attrs),
+        None,
+        &[2, 2, 18, 7, 10],
+        &opts.zarr,
+        &location,
+    )
+    .unwrap();
+    let v = read_volume(&path, &opts).unwrap();
+    assert_eq!(picked.spatial, [4, 3, 2]);
+    assert_eq!(picked.fixed, vec![(0, 0), (1, 1)]);
+    assert_eq!(&picked.geometry, v.geometry());
+    let err = select(
+        Some(&attrs),
+        None,
+        &[2, 2, 18, 7, 10],
+        &options(1, &[]).zarr,
+        &location,
+    );
+    assert_eq!(
+        err.unwrap_err().to_string(),
+        error_of(&path, &options(1, &[]))
+    );
+    // A plain array: named axes, or z, y, x for the last three; only level 0.
+    let named = Some(vec!["x".into(), "z".into(), "y".into()]);
+    let picked = select(None, named, &[5, 6, 7], &ZarrOptions::default(), "a.zarr").unwrap();
+    assert_eq!(picked.spatial, [0, 2, 1]);
+    assert_eq!(picked.geometry.dims, [5, 7, 6]);
+    let level1 = ZarrOptions {
+        level: 1,
+        ..Default::default()
+    };
+    let err = select(None, None, &[5, 6, 7], &level1, "a.zarr").unwrap_err();
+    assert!(err.to_string().contains("single Zarr array"), "{err}");
+}
+
+#[test]
 fn a_missing_chunk_reads_as_the_fill_value() {
     let v = read_volume(&zarr("v3_missing_chunk.zarr"), &ReadOptions::default()).unwrap();
     // Chunk (0, 0, 0) spans z 0..9, y 0..10, x 0..11 (chunks are (9, 10, 11) in z, y, x).
