@@ -34,6 +34,15 @@ fn trace_page_first_cell(page_index: u32) -> u32 {
     return page.first_cell;
 }
 
+// The one page holds every slot.
+fn trace_slot_is_bound(global_slot: u32) -> bool {
+    return true;
+}
+
+fn trace_slots_are_bound(first_global_slot: u32, count: u32) -> bool {
+    return true;
+}
+
 fn read_metacell(local_slot: u32) -> Metacell {
     return metacell_in(0u, local_slot);
 }

@@ -12,7 +12,8 @@
 // pipeline is slow next to their compute (no raster pass runs then); it writes the primary hit
 // where the raster passes would have, so the frame's AOVs read back alike.
 //
-// Prepended: common.wgsl, cell_decode.wgsl, cell_data.wgsl or trace_pages.wgsl, trace.wgsl.
+// Prepended: common.wgsl, cell_decode.wgsl, cell_data.wgsl or trace_pages.wgsl, trace.wgsl; grids
+// of more pages than one pass binds append wavefront.wgsl.
 
 // Final world normal (xyz; zero on a miss) and eye distance (w) from the shading pass.
 @group(2) @binding(0) var gbuffer: texture_2d<f32>;
@@ -98,38 +99,67 @@ fn cosine_direction(n: vec3<f32>, u1: f32, u2: f32) -> vec3<f32> {
     return normalize(r * cos(phi) * tangent + r * sin(phi) * bitangent + sqrt(max(1.0 - u1, 0.0)) * n);
 }
 
+fn pixel_index(pixel: vec2<u32>) -> u32 {
+    return pixel.x + pixel.y * u32(frame.viewport.x);
+}
+
+// The random stream of a pixel's path in this frame's sample.
+fn path_rng(index: u32) -> u32 {
+    return pcg(index ^ pcg(trace.sample.x));
+}
+
+// A unit normal turned to face against direction `dir`.
+fn facing(normal: vec3<f32>, dir: vec3<f32>) -> vec3<f32> {
+    return select(normal, -normal, dot(normal, dir) > 0.0);
+}
+
+struct BounceRay {
+    origin: vec3<f32>,
+    direction: vec3<f32>,
+}
+
+// The next ray of a path at surface point p with facing normal n: a cosine-weighted direction,
+// from just off the surface.
+fn bounce_ray(p: vec3<f32>, n: vec3<f32>, rng: ptr<function, u32>) -> BounceRay {
+    let u1 = random(rng);
+    let u2 = random(rng);
+    return BounceRay(p + trace.cell_dims.w * n, cosine_direction(n, u1, u2));
+}
+
+// Adds a path's radiance to pixel `pixel`'s sum and writes the tone-mapped mean.
+fn add_sample(index: u32, pixel: vec2<u32>, radiance: vec3<f32>) {
+    let sum = accumulation[index] + vec4<f32>(radiance, 1.0);
+    accumulation[index] = sum;
+    let mean = sum.rgb / sum.a;
+    textureStore(output, vec2<i32>(pixel), vec4<f32>(to_srgb8(mean.r), to_srgb8(mean.g), to_srgb8(mean.b), 1.0));
+}
+
 // Follows the path of pixel `pixel` (ray direction `dir` from the eye) from its primary hit
 // `primary` (world normal xyz, zero on a miss; eye distance w), and adds its radiance to the
-// pixel's sum and tone-mapped mean.
+// pixel's sum and tone-mapped mean. wavefront.wgsl takes the same steps, one pass each.
 fn follow_path(pixel: vec2<u32>, dir: vec3<f32>, primary: vec4<f32>) {
-    let index = pixel.x + pixel.y * u32(frame.viewport.x);
-    var rng = pcg(index ^ pcg(trace.sample.x));
+    let index = pixel_index(pixel);
+    var rng = path_rng(index);
     var radiance = vec3<f32>(0.0);
     if dot(primary.xyz, primary.xyz) == 0.0 {
         radiance = environment(dir);
     } else {
         var p = frame.eye.xyz + primary.w * dir;
-        var n = select(primary.xyz, -primary.xyz, dot(primary.xyz, dir) > 0.0);
+        var n = facing(primary.xyz, dir);
         var throughput = trace.albedo.rgb;
         for (var bounce = 0u; bounce < trace.block_dims.w; bounce++) {
-            let u1 = random(&rng);
-            let u2 = random(&rng);
-            let wi = cosine_direction(n, u1, u2);
-            let origin = p + trace.cell_dims.w * n;
-            let hit = trace_ray(origin, wi, 0.0, NO_HIT);
+            let ray = bounce_ray(p, n, &rng);
+            let hit = trace_ray(ray.origin, ray.direction, 0.0, NO_HIT);
             if hit.t >= NO_HIT {
-                radiance = throughput * environment(wi);
+                radiance = throughput * environment(ray.direction);
                 break;
             }
-            p = origin + hit.t * wi;
-            n = select(hit.normal, -hit.normal, dot(hit.normal, wi) > 0.0);
+            p = ray.origin + hit.t * ray.direction;
+            n = facing(hit.normal, ray.direction);
             throughput *= trace.albedo.rgb;
         }
     }
-    let sum = accumulation[index] + vec4<f32>(radiance, 1.0);
-    accumulation[index] = sum;
-    let mean = sum.rgb / sum.a;
-    textureStore(output, vec2<i32>(pixel), vec4<f32>(to_srgb8(mean.r), to_srgb8(mean.g), to_srgb8(mean.b), 1.0));
+    add_sample(index, pixel, radiance);
 }
 
 fn outside_image(gid: vec3<u32>) -> bool {

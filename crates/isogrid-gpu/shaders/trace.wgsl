@@ -9,13 +9,16 @@
 // hit holds the nearest one: its cells lie inside its box, and later metacells and blocks start
 // where it ends.
 //
-// Grids split into pages (a contiguous run of whole clusters each) are traced with all pages
-// bound at once: a block's clusters may straddle a page boundary, so the page is looked up per
-// metacell (`trace_page_of_slot`), and slots and records are read page-locally through
-// cell_decode.wgsl.
+// Grids split into pages (a contiguous run of whole clusters each) are traced with a group of up
+// to TRACE_PAGES pages bound at once: a block's clusters may straddle a page boundary, so the
+// page is looked up per metacell (`trace_page_of_slot`), and slots and records are read
+// page-locally through cell_decode.wgsl. Clusters outside the bound group are empty space to the
+// traversal (`trace_slot_is_bound`); a grid of more groups is traced in one pass per group, each
+// keeping the nearer crossing (`trace_ray_until`, src/pathtrace/mod.rs).
 //
 // Prepended: common.wgsl, cell_decode.wgsl, then cell_data.wgsl (one page) or trace_pages.wgsl
-// (several), which provide `trace_page_of_slot`, `trace_page_first_slot` and `trace_page_first_cell`.
+// (several), which provide `trace_page_of_slot`, `trace_page_first_slot`, `trace_page_first_cell`,
+// `trace_slot_is_bound` and `trace_slots_are_bound`.
 // Rays are in world space (unit direction, t = world distance); traversal runs in cell space
 // (world / spacing), where the same t applies to the scaled direction.
 
@@ -173,9 +176,12 @@ fn trace_block(index: u32, block: vec3<i32>, o: vec3<f32>, d: vec3<f32>, inv: ve
         if ((word >> bit) & 1u) != 0u {
             let before = (blocks[record + 16u + (code >> 6u)] >> (16u * ((code >> 5u) & 1u))) & 0xffffu;
             let rank = before + countOneBits(word & ((1u << bit) - 1u));
-            best = trace_metacell(first + rank + rank / 15u, o, d, inv, t_lo, t_hi, best);
-            if best.bracket.x < NO_HIT {
-                break;
+            let slot = first + rank + rank / 15u;
+            if trace_slot_is_bound(slot) {
+                best = trace_metacell(slot, o, d, inv, t_lo, t_hi, best);
+                if best.bracket.x < NO_HIT {
+                    break;
+                }
             }
         }
         // Face times afresh from the planes (no accumulated increments), so that one metacell's
@@ -200,6 +206,14 @@ fn trace_block(index: u32, block: vec3<i32>, o: vec3<f32>, d: vec3<f32>, inv: ve
 
 // Nearest crossing of the world ray origin + t·dir (unit dir) with t in [t_min, t_max].
 fn trace_ray(origin: vec3<f32>, dir: vec3<f32>, t_min: f32, t_max: f32) -> TraceHit {
+    return trace_ray_until(origin, dir, t_min, t_max, t_max);
+}
+
+// Like `trace_ray`, in the bound pages only (the clusters of other pages are seen as empty
+// space), and visiting no block that starts beyond t_stop: a pass over one group of pages that
+// knows a crossing at t_stop from earlier groups. Cells are still clipped to [t_min, t_max]
+// only, so a crossing found here is computed exactly as a trace of the whole grid computes it.
+fn trace_ray_until(origin: vec3<f32>, dir: vec3<f32>, t_min: f32, t_max: f32, t_stop: f32) -> TraceHit {
     let miss = TraceHit(NO_HIT, vec3<f32>(0.0), NO_CLUSTER);
     if trace.block_dims.x == 0u {
         return miss;
@@ -212,7 +226,7 @@ fn trace_ray(origin: vec3<f32>, dir: vec3<f32>, t_min: f32, t_max: f32) -> Trace
     let inv = 1.0 / safe;
     let grid = box_span(o, inv, vec3<f32>(0.0), trace.cell_dims.xyz);
     let t_start = max(grid.x, t_min);
-    let t_end = min(grid.y, t_max);
+    let t_end = min(grid.y, min(t_max, t_stop));
     if t_start > t_end {
         return miss;
     }
@@ -232,9 +246,11 @@ fn trace_ray(origin: vec3<f32>, dir: vec3<f32>, t_min: f32, t_max: f32) -> Trace
         let index = u32(b.x) + trace.block_dims.x * (u32(b.y) + trace.block_dims.y * u32(b.z));
         let count = blocks[4u * index];
         if count > 0u {
-            best = trace_block(index, b, o, d, inv, positive, t_min, t_max, best);
-            if best.bracket.x < NO_HIT {
-                break;
+            if trace_slots_are_bound(blocks[4u * index + 1u], count) {
+                best = trace_block(index, b, o, d, inv, positive, t_min, t_max, best);
+                if best.bracket.x < NO_HIT {
+                    break;
+                }
             }
         } else {
             let side = i32(block_side(octant, index));
@@ -301,7 +317,9 @@ fn trace_ray(origin: vec3<f32>, dir: vec3<f32>, t_min: f32, t_max: f32) -> Trace
 }
 
 // Test entry point: one thread per ray. Rays: origin (xyz, w = t_min), direction (xyz, unit;
-// w = t_max). Hits: normal (xyz), t (w; NO_HIT on a miss).
+// w = t_max). Hits: normal (xyz), t (w; NO_HIT on a miss), the nearest crossing so far: the
+// caller starts them at NO_HIT and runs one dispatch per group of bound pages, each keeping the
+// nearer crossing (ties keep the earlier group's).
 @group(2) @binding(4) var<storage, read> rays: array<vec4<f32>>;
 @group(2) @binding(5) var<storage, read_write> hits: array<vec4<f32>>;
 
@@ -313,6 +331,9 @@ fn trace_rays(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
     }
     let o = rays[2u * i];
     let d = rays[2u * i + 1u];
-    let h = trace_ray(o.xyz, d.xyz, o.w, d.w);
-    hits[i] = vec4<f32>(h.normal, h.t);
+    let nearest = hits[i].w;
+    let h = trace_ray_until(o.xyz, d.xyz, o.w, d.w, nearest);
+    if h.t < nearest {
+        hits[i] = vec4<f32>(h.normal, h.t);
+    }
 }

@@ -1,6 +1,6 @@
-// Up to TRACE_PAGES pages of a grid bound at once for the path tracer (paper §3.6 on grids larger
-// than one storage binding): the storage behind cell_decode.wgsl when the grid was split into
-// several pages. WGSL cannot index an array of buffer bindings (that needs binding arrays, which
+// A group of up to TRACE_PAGES consecutive pages of a grid bound at once for the path tracer
+// (paper §3.6 on grids larger than one storage binding): the storage behind cell_decode.wgsl when
+// the grid was split into several pages. Grids of more pages are traced one group per pass. WGSL cannot index an array of buffer bindings (that needs binding arrays, which
 // not every backend has), so each page's metacell slots and corner records are their own binding
 // and `slot_word` / `record_word` switch on the page index. Unused bindings hold a small dummy.
 // cell_data.wgsl is the one-page twin of this file's functions; keep their signatures in sync.
@@ -12,7 +12,7 @@ const TRACE_PAGES: u32 = 6u;
 
 // Keep in sync with `TracePages` in src/gpu_types.rs.
 struct TracePages {
-    count: vec4<u32>,                 // x: pages bound (1..=TRACE_PAGES)
+    count: vec4<u32>,                 // x: pages bound (1..=TRACE_PAGES); y: global slot just past the last bound page
     first_slot: array<vec4<u32>, 2>,  // global index of each page's first metacell slot, page p at [p / 4][p % 4]
     first_cell: array<vec4<u32>, 2>,  // global index of each page's first corner record, likewise
 }
@@ -98,4 +98,15 @@ fn trace_page_of_slot(global_slot: u32) -> u32 {
         }
     }
     return p;
+}
+
+// Whether a global metacell slot lies in the bound pages; the traversal sees the others' clusters
+// as empty space.
+fn trace_slot_is_bound(global_slot: u32) -> bool {
+    return global_slot >= trace_page_first_slot(0u) && global_slot < pages.count.y;
+}
+
+// Whether any of `count` slots from a global slot on lies in the bound pages.
+fn trace_slots_are_bound(first_global_slot: u32, count: u32) -> bool {
+    return first_global_slot < pages.count.y && first_global_slot + count > trace_page_first_slot(0u);
 }

@@ -112,18 +112,18 @@ pub(crate) struct TraceUniforms {
 
 const _: () = assert!(std::mem::size_of::<TraceUniforms>() == 64);
 
-/// Pages of a grid the path tracer binds at once (`shaders/trace_pages.wgsl`, which declares
-/// that many metacell and record bindings; keep in sync with `TRACE_PAGES` there). Six pages take
-/// 12 storage buffers, 15 with the tracer's others, within the 16 per shader stage that GL and
-/// most devices offer.
+/// Pages of a grid one trace pass binds at once (`shaders/trace_pages.wgsl`, which declares
+/// that many metacell and record bindings; keep in sync with `TRACE_PAGES` there); grids of more
+/// pages are traced in passes over groups of this many. Six pages take 12 storage buffers, 15
+/// with the tracer's others, within the 16 per shader stage that GL and most devices offer.
 pub(crate) const TRACE_PAGES: usize = 6;
 
-/// Where each bound page starts (group 1, binding 0 of the several-pages trace passes). Keep in
+/// Where each bound page of a group starts (group 1, binding 0 of the several-pages trace passes). Keep in
 /// sync with `TracePages` in `shaders/trace_pages.wgsl`.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
 pub(crate) struct TracePages {
-    /// x: pages bound; yzw unused.
+    /// x: pages bound; y: global slot just past the last bound page's; zw unused.
     pub count: [u32; 4],
     /// Global index of page p's first metacell slot at `[p / 4][p % 4]`.
     pub first_slot: [[u32; 4]; 2],

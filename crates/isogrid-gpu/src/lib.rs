@@ -33,7 +33,8 @@
 //!
 //! Structures larger than one storage binding (`max_storage_buffer_binding_size`) are split into
 //! pages of whole clusters, each with its own buffers and draws; the path tracer binds up to six
-//! pages at once (see `pathtrace/mod.rs`).
+//! pages at once and traces grids of more in passes over groups of six (see `pathtrace/mod.rs`),
+//! so any grid that fits the device's memory renders in every mode.
 //!
 //! A grid is uploaded once ([`GpuGrid`], only uploaded data) and drawn by any number of views,
 //! each with its own [`ViewState`] (visibility bits, frame counter, accumulated samples).

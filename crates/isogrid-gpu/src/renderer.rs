@@ -256,7 +256,7 @@ impl Renderer {
     /// environment and primary rays keep accumulating; anything else starts afresh.
     ///
     /// Grids split into several pages (larger than one storage binding) are traced with up to
-    /// six pages bound at once; a grid of more pages fails with [`GpuErrorKind::TooLarge`] (see
+    /// six pages bound at once, and grids of more pages in passes over groups of six (see
     /// [`Renderer::trace_rays`]).
     pub fn path_trace_view(
         &self,
@@ -287,9 +287,10 @@ impl Renderer {
     /// direction from t = 0) through the grid's hierarchy on the GPU and returns the nearest
     /// isosurface crossing of each, as the path tracer's secondary rays find them.
     ///
-    /// A grid split into pages (larger than one storage binding) is traced with all its pages
-    /// bound at once, which works for up to six pages and on devices with at least 15 storage
-    /// buffers per shader stage; otherwise this and [`Renderer::path_trace`] fail with
+    /// A grid split into pages (larger than one storage binding) is traced with groups of up to
+    /// six pages bound at once, one pass per group, each keeping the nearer crossing: any number
+    /// of pages gives the hits of a one-page trace. Paged grids need at least 15 storage buffers
+    /// per shader stage; a device with fewer makes this and [`Renderer::path_trace`] fail with
     /// [`GpuErrorKind::TooLarge`] naming the numbers.
     pub fn trace_rays(
         &self,

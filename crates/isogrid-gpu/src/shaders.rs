@@ -19,3 +19,5 @@ pub(crate) const TRACE_PAGES_DATA: &str = concat!(
     include_str!("../shaders/cell_decode.wgsl"),
     include_str!("../shaders/trace_pages.wgsl")
 );
+/// The wavefront path tracer's passes, for grids of more pages than one trace pass binds.
+pub(crate) const WAVEFRONT: &str = include_str!("../shaders/wavefront.wgsl");

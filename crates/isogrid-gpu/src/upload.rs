@@ -159,13 +159,6 @@ impl GpuVolume {
     }
 }
 
-fn padded(bytes: &[u8]) -> Vec<u8> {
-    // Storage bindings need a non-zero size that is a multiple of 4.
-    let mut v = bytes.to_vec();
-    v.resize(bytes.len().div_ceil(4).max(4) * 4, 0);
-    v
-}
-
 /// Cell count of each cluster, from its metacells' masks.
 fn cluster_cells(metacells: &[Metacell]) -> Vec<u64> {
     metacells
@@ -255,12 +248,12 @@ impl Uploader<'_> {
             )?;
             let metacell_buffer = self.gpu.buffer_init(
                 &format!("page {p} metacells"),
-                &padded(bytemuck::cast_slice(&metacells[slots.clone()])),
+                bytemuck::cast_slice(&metacells[slots.clone()]),
                 storage,
             )?;
             let cell_buffer = self.gpu.buffer_init(
                 &format!("page {p} corner records"),
-                &padded(&cells[records]),
+                &cells[records],
                 storage,
             )?;
             let list_bytes = [cell_count, slots.len() as u64, cell_count].map(|n| 4 * n);
@@ -375,12 +368,12 @@ impl Uploader<'_> {
                 .map_err(|_| GpuError::too_large("the mesh has more than 2^32 indices"))?;
             let positions = self.gpu.buffer_init(
                 "mc snorm16 positions",
-                &padded(bytemuck::cast_slice(&snorm.positions)),
+                bytemuck::cast_slice(&snorm.positions),
                 wgpu::BufferUsages::STORAGE,
             )?;
             let indices = self.gpu.buffer_init(
                 "mc indices",
-                &padded(bytemuck::cast_slice(&snorm.triangles)),
+                bytemuck::cast_slice(&snorm.triangles),
                 wgpu::BufferUsages::INDEX,
             )?;
             let uniforms = MeshUniforms {

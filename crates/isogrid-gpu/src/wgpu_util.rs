@@ -53,27 +53,40 @@ impl Gpu {
             .min(self.limits.max_buffer_size)
     }
 
-    /// A buffer holding `contents`, or `TooLarge` where it exceeds the device's largest buffer.
+    /// A buffer holding `contents`, zero-padded to a non-zero multiple of 4 bytes (what storage
+    /// bindings need), or `TooLarge` where it exceeds the device's largest buffer. The contents
+    /// are copied straight into the buffer's mapping: a memory-mapped grid file is read once,
+    /// with no copy of it on the heap.
     pub fn buffer_init(
         &self,
         label: &str,
         contents: &[u8],
         usage: wgpu::BufferUsages,
     ) -> Result<wgpu::Buffer, GpuError> {
-        if contents.len() as u64 > self.limits.max_buffer_size {
+        let size = (contents.len() as u64).div_ceil(4).max(1) * 4;
+        if size > self.limits.max_buffer_size {
             return Err(GpuError::too_large(format!(
                 "{label}: {} bytes exceed the device's largest buffer ({} bytes)",
                 contents.len(),
                 self.limits.max_buffer_size
             )));
         }
-        Ok(self
-            .device
-            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some(label),
-                contents,
-                usage,
-            }))
+        let buffer = self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some(label),
+            size,
+            usage,
+            mapped_at_creation: true,
+        });
+        // A mapping at creation starts zeroed, so the padding needs no writing.
+        if !contents.is_empty() {
+            buffer
+                .get_mapped_range_mut(..)
+                .map_err(|e| GpuError::device(format!("{label}: mapping the new buffer: {e}")))?
+                .slice(..contents.len())
+                .copy_from_slice(contents);
+        }
+        buffer.unmap();
+        Ok(buffer)
     }
 
     /// A zeroed buffer of at least `size` bytes (16 at least, a multiple of 4), or `TooLarge`

@@ -1,5 +1,5 @@
 //! How a trace pass binds a grid (paper §3.6): its uniforms, its blocks and its pages, one page
-//! as the raster passes bind it or up to six at once behind a page table.
+//! as the raster passes bind it or groups of up to six behind a page table each.
 
 use super::trace_pipelines::{TraceEntryPoints, TracePipelines};
 use crate::error::GpuError;
@@ -11,10 +11,13 @@ use crate::wgpu_util::{buffer_entry, Gpu};
 /// normal, well above the raster's and the tracer's crossing error (≈ 1e-4 cell after bisection).
 const RAY_OFFSET_CELLS: f64 = 2e-3;
 
-/// How one trace call binds the grid: groups 0 (uniforms, blocks) and 1 (the pages), and the
-/// pipelines compiled for that binding.
+/// How one trace call binds the grid: group 0 (uniforms, blocks), one group 1 per group of pages
+/// (traced one pass each, nearest crossing kept), and the pipelines compiled for that binding.
 pub(super) struct TraceBinding {
-    pub(super) groups: [wgpu::BindGroup; 2],
+    pub(super) grid: wgpu::BindGroup,
+    /// One bind group for a grid of up to [`TRACE_PAGES`] pages; more pages get one per run of
+    /// [`TRACE_PAGES`] consecutive pages, and are traced in passes ([`super::wavefront`]).
+    pub(super) page_groups: Vec<wgpu::BindGroup>,
     pub(super) entry: TraceEntryPoints,
 }
 
@@ -43,8 +46,9 @@ pub(super) fn trace_uniforms(grid: &GpuGrid, bounces: u32, albedo: [f32; 3]) -> 
 
 /// Bind groups 0 (uniforms, blocks) and 1 (the pages) of the trace passes and the pipelines
 /// for them: a grid of one page (or none) binds it as the raster passes do; a paged grid binds
-/// all its pages at once with a page table (`shaders/trace_pages.wgsl`). A grid without
-/// blocks or pages binds small dummies that the shader never reads (it sees no blocks).
+/// its pages in groups of up to [`TRACE_PAGES`] with a page table each
+/// (`shaders/trace_pages.wgsl`). A grid without blocks or pages binds small dummies that the
+/// shader never reads (it sees no blocks).
 pub(super) fn trace_binding(
     gpu: &Gpu,
     t: &TracePipelines,
@@ -85,24 +89,10 @@ pub(super) fn trace_binding(
             ],
         });
         return Ok(TraceBinding {
-            groups: [group0, group1],
+            grid: group0,
+            page_groups: vec![group1],
             entry: t.one_page.clone(),
         });
-    }
-    let largest = grid
-        .pages
-        .iter()
-        .map(|p| p.metacells.size().max(p.cells.size()))
-        .max()
-        .unwrap_or(0);
-    if grid.pages.len() > TRACE_PAGES {
-        return Err(GpuError::too_large(format!(
-            "ray tracing binds at most {TRACE_PAGES} pages of a grid at once, but this one was \
-                 split into {} pages (storage bindings of up to {largest} bytes, {} active cells); \
-                 it can only be rasterised",
-            grid.pages.len(),
-            grid.active_cells()
-        )));
     }
     let needed = 2 * TRACE_PAGES as u32 + 3;
     let allowed = gpu.limits.max_storage_buffers_per_shader_stage;
@@ -113,35 +103,44 @@ pub(super) fn trace_binding(
             grid.pages.len()
         )));
     }
-    let mut table = TracePages {
-        count: [grid.pages.len() as u32, 0, 0, 0],
-        first_slot: [[0; 4]; 2],
-        first_cell: [[0; 4]; 2],
-    };
-    for (i, page) in grid.pages.iter().enumerate() {
-        table.first_slot[i / 4][i % 4] = page.first_slot;
-        table.first_cell[i / 4][i % 4] = page.first_cell;
-    }
-    let table = gpu.uniform_buffer("trace page table", bytemuck::bytes_of(&table));
-    let unused = dummy();
-    let page_buffer =
-        |i: usize, pick: fn(&Page) -> &wgpu::Buffer| grid.pages.get(i).map_or(&unused, pick);
-    let mut entries = vec![buffer_entry(0, &table)];
-    for i in 0..TRACE_PAGES {
-        entries.push(buffer_entry(1 + i as u32, page_buffer(i, |p| &p.metacells)));
-        entries.push(buffer_entry(
-            1 + (TRACE_PAGES + i) as u32,
-            page_buffer(i, |p| &p.cells),
-        ));
-    }
     let paged = t.paged(&gpu.device);
-    let group1 = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: Some("trace pages"),
-        layout: &paged.pages,
-        entries: &entries,
-    });
+    let unused = dummy();
+    let page_groups = grid
+        .pages
+        .chunks(TRACE_PAGES)
+        .enumerate()
+        .map(|(g, group)| {
+            let last = &group[group.len() - 1];
+            let mut table = TracePages {
+                count: [group.len() as u32, last.first_slot + last.slot_count, 0, 0],
+                first_slot: [[0; 4]; 2],
+                first_cell: [[0; 4]; 2],
+            };
+            for (i, page) in group.iter().enumerate() {
+                table.first_slot[i / 4][i % 4] = page.first_slot;
+                table.first_cell[i / 4][i % 4] = page.first_cell;
+            }
+            let table = gpu.uniform_buffer("trace page table", bytemuck::bytes_of(&table));
+            let page_buffer =
+                |i: usize, pick: fn(&Page) -> &wgpu::Buffer| group.get(i).map_or(&unused, pick);
+            let mut entries = vec![buffer_entry(0, &table)];
+            for i in 0..TRACE_PAGES {
+                entries.push(buffer_entry(1 + i as u32, page_buffer(i, |p| &p.metacells)));
+                entries.push(buffer_entry(
+                    1 + (TRACE_PAGES + i) as u32,
+                    page_buffer(i, |p| &p.cells),
+                ));
+            }
+            gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some(&format!("trace pages, group {g}")),
+                layout: &paged.pages,
+                entries: &entries,
+            })
+        })
+        .collect();
     Ok(TraceBinding {
-        groups: [group0, group1],
+        grid: group0,
+        page_groups,
         entry: paged.entry.clone(),
     })
 }

@@ -1,9 +1,11 @@
 //! One path-traced render call (paper §3.6): the trace pass's bindings and uniforms, prepared
 //! before the frames with the view's accumulation, recorded once per frame after the primary
-//! passes, and the accumulated sums read back into the [`Frame`].
+//! passes (one dispatch, or a [`Wavefront`] for grids of several page groups), and the
+//! accumulated sums read back into the [`Frame`].
 
 use super::binding::{trace_binding, trace_uniforms};
 use super::trace_pipelines::TracePipelines;
+use super::wavefront::Wavefront;
 use crate::error::GpuError;
 use crate::gpu_types::TraceUniforms;
 use crate::options::{PathTraceOptions, PrimaryRays, MAX_BOUNCES};
@@ -17,12 +19,21 @@ use isogrid::Camera;
 pub(crate) struct PathTracePass {
     uniforms: wgpu::Buffer,
     base: TraceUniforms,
-    groups: [wgpu::BindGroup; 3],
-    pipeline: wgpu::ComputePipeline,
+    work: TraceWork,
     sum: wgpu::Buffer,
     readback: wgpu::Buffer,
     first_sample: u32,
     size: (u32, u32),
+}
+
+/// How a frame's paths are traced: whole in one dispatch where one pass binds every page the
+/// grid has, or bounce by bounce over groups of pages ([`Wavefront`]).
+enum TraceWork {
+    OnePass {
+        groups: [wgpu::BindGroup; 3],
+        pipeline: wgpu::ComputePipeline,
+    },
+    Wavefront(Wavefront),
 }
 
 impl PathTracePass {
@@ -112,31 +123,55 @@ impl PathTracePass {
             texture_entry(2, &output),
             texture_entry(3, env_view),
         ];
-        let t = pipelines;
-        let (io_layout, pipeline) = match options.primary {
-            PrimaryRays::Raster => {
-                entries.push(texture_entry(0, &gbuffer));
-                (&t.path_io, binding.entry.path_trace.clone())
-            }
+        match options.primary {
+            PrimaryRays::Raster => entries.push(texture_entry(0, &gbuffer)),
             PrimaryRays::Traced => {
-                entries.extend([texture_entry(6, &gbuffer), texture_entry(7, &ids)]);
-                (
+                entries.extend([texture_entry(6, &gbuffer), texture_entry(7, &ids)])
+            }
+        }
+        let size = (camera.width, camera.height);
+        let work = if binding.page_groups.len() > 1 {
+            let wave = pipelines
+                .paged(&gpu.device)
+                .wavefront(&gpu.device, &pipelines.grid);
+            let kernels = match options.primary {
+                PrimaryRays::Raster => &wave.raster,
+                PrimaryRays::Traced => &wave.traced,
+            };
+            TraceWork::Wavefront(Wavefront::new(
+                gpu,
+                wave,
+                kernels,
+                binding,
+                entries,
+                options.bounces,
+                size,
+            )?)
+        } else {
+            let t = pipelines;
+            let (io_layout, pipeline) = match options.primary {
+                PrimaryRays::Raster => (&t.path_io, binding.entry.path_trace.clone()),
+                PrimaryRays::Traced => (
                     &t.traced_primary_io,
                     binding.entry.traced_primary(&gpu.device),
-                )
+                ),
+            };
+            let io = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("path trace io"),
+                layout: io_layout,
+                entries: &entries,
+            });
+            let [pages] = <[wgpu::BindGroup; 1]>::try_from(binding.page_groups)
+                .map_err(|_| GpuError::device("a one-pass trace binds one page group"))?;
+            TraceWork::OnePass {
+                groups: [binding.grid, pages, io],
+                pipeline,
             }
         };
-        let io = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("path trace io"),
-            layout: io_layout,
-            entries: &entries,
-        });
-        let [group0, group1] = binding.groups;
         Ok(PathTracePass {
             uniforms,
             base,
-            groups: [group0, group1, io],
-            pipeline,
+            work,
             readback: gpu.readback_buffer("accumulation readback", sum_bytes),
             sum,
             first_sample,
@@ -162,11 +197,16 @@ impl PathTracePass {
                 label: Some("path trace"),
                 timestamp_writes: timestamps,
             });
-            pass.set_pipeline(&self.pipeline);
-            for (i, group) in self.groups.iter().enumerate() {
-                pass.set_bind_group(i as u32, group, &[]);
+            match &self.work {
+                TraceWork::OnePass { groups, pipeline } => {
+                    pass.set_pipeline(pipeline);
+                    for (i, group) in groups.iter().enumerate() {
+                        pass.set_bind_group(i as u32, group, &[]);
+                    }
+                    pass.dispatch_workgroups(self.size.0.div_ceil(8), self.size.1.div_ceil(8), 1);
+                }
+                TraceWork::Wavefront(wave) => wave.encode(&mut pass),
             }
-            pass.dispatch_workgroups(self.size.0.div_ceil(8), self.size.1.div_ceil(8), 1);
         }
         if last {
             encoder.copy_buffer_to_buffer(&self.sum, 0, &self.readback, 0, self.readback.size());

@@ -1,9 +1,9 @@
 //! Layouts and compute pipelines of the trace passes (paper §3.6): `trace.wgsl` +
 //! `pathtrace.wgsl`, compiled once over a grid bound as one page and, on first use, over a grid
-//! bound as several pages.
+//! bound as a group of several pages (with `wavefront.wgsl`'s passes for grids of several groups).
 
 use crate::gpu_types::TRACE_PAGES;
-use crate::shaders::{CELL_DATA, COMMON, TRACE_PAGES_DATA};
+use crate::shaders::{CELL_DATA, COMMON, TRACE_PAGES_DATA, WAVEFRONT};
 use crate::targets::{COLOR_FORMAT, FINAL_FORMAT, IDS_FORMAT};
 use crate::wgpu_util::{
     compute, layout, module, pipeline_layout, storage, texture, uniform, written_texture, D2, FLOAT,
@@ -43,6 +43,107 @@ impl TraceEntryPoints {
 pub(super) struct PagedTrace {
     pub(super) pages: wgpu::BindGroupLayout,
     pub(super) entry: TraceEntryPoints,
+    wavefront: OnceLock<WavefrontPipelines>,
+}
+
+/// The wavefront path tracer's kernels (`shaders/wavefront.wgsl`) for grids of more pages than
+/// one pass binds: `trace` binds the grid, a group of pages and the path states; the others
+/// no pages, so that they stay within the storage buffers per stage of every device.
+pub(super) struct WavefrontPipelines {
+    /// Group 2 of `trace`: the path states.
+    pub(super) paths: wgpu::BindGroupLayout,
+    pub(super) trace: wgpu::ComputePipeline,
+    pub(super) raster: WavefrontKernels,
+    pub(super) traced: WavefrontKernels,
+}
+
+/// The start and resolve kernels for one kind of primary rays, and their group 2 layout.
+pub(super) struct WavefrontKernels {
+    /// Raster primaries: G-buffer (read), accumulation, output, environment, path states.
+    /// Traced primaries: accumulation, output, environment, G-buffer (written), path states.
+    pub(super) io: wgpu::BindGroupLayout,
+    pub(super) start: wgpu::ComputePipeline,
+    /// `wave_resolve_primary`, for traced primaries only.
+    pub(super) resolve_primary: Option<wgpu::ComputePipeline>,
+    pub(super) resolve: wgpu::ComputePipeline,
+}
+
+impl PagedTrace {
+    /// The wavefront kernels, compiled on the first trace of a grid of several page groups.
+    pub(super) fn wavefront(
+        &self,
+        device: &wgpu::Device,
+        grid: &wgpu::BindGroupLayout,
+    ) -> &WavefrontPipelines {
+        self.wavefront.get_or_init(|| {
+            let c = wgpu::ShaderStages::COMPUTE;
+            let shader = &self.entry.shader;
+            let paths = layout(device, "wavefront paths", &[storage(8, c, false)]);
+            let trace_layout =
+                pipeline_layout(device, "wavefront trace", &[grid, &self.pages, &paths]);
+            let trace = compute(
+                device,
+                "wavefront trace",
+                &trace_layout,
+                shader,
+                "wave_trace",
+            );
+            let kernels = |label: &str, io: wgpu::BindGroupLayout, start: &str, traced: bool| {
+                // No group 1: these kernels read no pages.
+                let pipeline_layout =
+                    device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                        label: Some(label),
+                        bind_group_layouts: &[Some(grid), None, Some(&io)],
+                        immediate_size: 0,
+                    });
+                let kernel = |entry: &str| {
+                    compute(
+                        device,
+                        &format!("{label}: {entry}"),
+                        &pipeline_layout,
+                        shader,
+                        entry,
+                    )
+                };
+                WavefrontKernels {
+                    start: kernel(start),
+                    resolve_primary: traced.then(|| kernel("wave_resolve_primary")),
+                    resolve: kernel("wave_resolve"),
+                    io,
+                }
+            };
+            let with_paths = |mut entries: Vec<wgpu::BindGroupLayoutEntry>| {
+                entries.push(storage(8, c, false));
+                entries
+            };
+            let raster_io = layout(
+                device,
+                "wavefront io (raster primaries)",
+                &with_paths(path_io_entries()),
+            );
+            let traced_io = layout(
+                device,
+                "wavefront io (traced primaries)",
+                &with_paths(traced_primary_io_entries()),
+            );
+            WavefrontPipelines {
+                raster: kernels(
+                    "wavefront (raster primaries)",
+                    raster_io,
+                    "wave_start",
+                    false,
+                ),
+                traced: kernels(
+                    "wavefront (traced primaries)",
+                    traced_io,
+                    "wave_start_traced",
+                    true,
+                ),
+                trace,
+                paths,
+            }
+        })
+    }
 }
 
 /// Layouts and pipelines of the trace passes: the one-page variant built with the renderer, the
@@ -75,26 +176,11 @@ impl TracePipelines {
         );
         // The G-buffer (read, raster primaries; or written, traced primaries), accumulation,
         // output and environment.
-        let path_io = layout(
-            device,
-            "path trace io",
-            &[
-                texture(0, c, FLOAT, D2),
-                storage(1, c, false),
-                written_texture(2, COLOR_FORMAT),
-                texture(3, c, FLOAT, D2),
-            ],
-        );
+        let path_io = layout(device, "path trace io", &path_io_entries());
         let traced_primary_io = layout(
             device,
             "path trace io (traced primaries)",
-            &[
-                storage(1, c, false),
-                written_texture(2, COLOR_FORMAT),
-                texture(3, c, FLOAT, D2),
-                written_texture(6, FINAL_FORMAT),
-                written_texture(7, IDS_FORMAT),
-            ],
+            &traced_primary_io_entries(),
         );
         let ray_io = layout(
             device,
@@ -104,7 +190,8 @@ impl TracePipelines {
         let one_page = entry_points(
             device,
             "one page",
-            CELL_DATA,
+            &[CELL_DATA],
+            &[],
             [&grid, &page, &path_io, &traced_primary_io, &ray_io],
         );
         TracePipelines {
@@ -130,7 +217,8 @@ impl TracePipelines {
             let entry = entry_points(
                 device,
                 "several pages",
-                TRACE_PAGES_DATA,
+                &[TRACE_PAGES_DATA],
+                &[WAVEFRONT],
                 [
                     &self.grid,
                     &pages,
@@ -139,29 +227,38 @@ impl TracePipelines {
                     &self.ray_io,
                 ],
             );
-            PagedTrace { pages, entry }
+            PagedTrace {
+                pages,
+                entry,
+                wavefront: OnceLock::new(),
+            }
         })
     }
 }
 
 /// Compiles trace.wgsl + pathtrace.wgsl over `cell_storage` (the cell decoding and the page
-/// bindings it reads) with layouts [grid, pages, path trace io, traced primaries io, trace rays
-/// io]; the traced-primaries entry point only on first use.
+/// bindings it reads), followed by `appended`, with layouts [grid, pages, path trace io, traced
+/// primaries io, trace rays io]; the traced-primaries entry point only on first use.
 fn entry_points(
     device: &wgpu::Device,
     variant: &str,
-    cell_storage: &str,
+    cell_storage: &[&str],
+    appended: &[&str],
     [grid, pages, path_io, traced_primary_io, ray_io]: [&wgpu::BindGroupLayout; 5],
 ) -> TraceEntryPoints {
     let shader = module(
         device,
         &format!("trace.wgsl + pathtrace.wgsl ({variant})"),
         &[
-            COMMON,
+            &[COMMON],
             cell_storage,
-            include_str!("../../shaders/trace.wgsl"),
-            include_str!("../../shaders/pathtrace.wgsl"),
-        ],
+            &[
+                include_str!("../../shaders/trace.wgsl"),
+                include_str!("../../shaders/pathtrace.wgsl"),
+            ],
+            appended,
+        ]
+        .concat(),
     );
     let path_layout = pipeline_layout(
         device,
@@ -196,4 +293,29 @@ fn entry_points(
         ),
         shader,
     }
+}
+
+/// Group 2 of the path tracer with raster primaries: the G-buffer (read), accumulation, output
+/// and environment.
+fn path_io_entries() -> Vec<wgpu::BindGroupLayoutEntry> {
+    let c = wgpu::ShaderStages::COMPUTE;
+    vec![
+        texture(0, c, FLOAT, D2),
+        storage(1, c, false),
+        written_texture(2, COLOR_FORMAT),
+        texture(3, c, FLOAT, D2),
+    ]
+}
+
+/// Group 2 of the path tracer with traced primaries: accumulation, output, environment and the
+/// G-buffer (written).
+fn traced_primary_io_entries() -> Vec<wgpu::BindGroupLayoutEntry> {
+    let c = wgpu::ShaderStages::COMPUTE;
+    vec![
+        storage(1, c, false),
+        written_texture(2, COLOR_FORMAT),
+        texture(3, c, FLOAT, D2),
+        written_texture(6, FINAL_FORMAT),
+        written_texture(7, IDS_FORMAT),
+    ]
 }

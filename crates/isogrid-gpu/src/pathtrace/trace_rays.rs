@@ -1,5 +1,6 @@
 //! Tracing caller-given rays on the GPU (paper §3.6): the path tracer's secondary-ray traversal
-//! run on a list of world-space rays, returning each one's nearest isosurface crossing.
+//! run on a list of world-space rays, returning each one's nearest isosurface crossing; one
+//! dispatch per group of bound pages, each keeping the nearer crossing.
 
 use super::binding::{trace_binding, trace_uniforms};
 use super::trace_pipelines::TracePipelines;
@@ -79,12 +80,15 @@ pub(crate) fn trace_ray_batch(
                 usage: storage,
             });
         let hit_bytes = ray_bytes / 2;
-        let hits = gpu.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("ray hits"),
-            size: hit_bytes,
-            usage: storage | wgpu::BufferUsages::COPY_SRC,
-            mapped_at_creation: false,
-        });
+        // No crossing yet: each group's pass keeps the nearer of the hit so far and its own.
+        let no_hits = vec![[0.0, 0.0, 0.0, NO_HIT]; rays.len()];
+        let hits = gpu
+            .device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("ray hits"),
+                contents: bytemuck::cast_slice(&no_hits),
+                usage: storage | wgpu::BufferUsages::COPY_SRC,
+            });
         let readback = gpu.readback_buffer("ray hits readback", hit_bytes);
         let io = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("trace rays io"),
@@ -102,11 +106,13 @@ pub(crate) fn trace_ray_batch(
                 timestamp_writes: None,
             });
             pass.set_pipeline(&binding.entry.trace_rays);
-            pass.set_bind_group(0, &binding.groups[0], &[]);
-            pass.set_bind_group(1, &binding.groups[1], &[]);
+            pass.set_bind_group(0, &binding.grid, &[]);
             pass.set_bind_group(2, &io, &[]);
             let (x, y) = dispatch_size(rays.len() as u32);
-            pass.dispatch_workgroups(x, y, 1);
+            for pages in &binding.page_groups {
+                pass.set_bind_group(1, pages, &[]);
+                pass.dispatch_workgroups(x, y, 1);
+            }
         }
         encoder.copy_buffer_to_buffer(&hits, 0, &readback, 0, hit_bytes);
         gpu.queue.submit([encoder.finish()]);
@@ -114,7 +120,7 @@ pub(crate) fn trace_ray_batch(
         Ok(hits
             .iter()
             .map(|h| {
-                (h[3] < 1e38).then_some(RayHit {
+                (h[3] < NO_HIT).then_some(RayHit {
                     t: h[3],
                     normal: [h[0], h[1], h[2]],
                 })
@@ -122,6 +128,9 @@ pub(crate) fn trace_ray_batch(
             .collect())
     })
 }
+
+/// `NO_HIT` of `shaders/trace.wgsl`: the t of a ray without a crossing.
+const NO_HIT: f32 = 3.0e38;
 
 fn spacing_and_iso(grid: &GpuGrid) -> [f32; 4] {
     let s = grid.info.spacing;

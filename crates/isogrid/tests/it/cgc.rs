@@ -269,3 +269,79 @@ fn writes_are_atomic_and_errors_name_the_file() {
     assert_eq!(err.kind(), ErrorKind::Io);
     assert!(err.to_string().contains("missing.cgc"));
 }
+
+/// Anonymous resident memory of this process (`RssAnon` in /proc/self/status), in bytes: heap
+/// and other private memory, not pages of mapped files.
+#[cfg(target_os = "linux")]
+fn anonymous_resident_bytes() -> u64 {
+    let status = std::fs::read_to_string("/proc/self/status").unwrap();
+    let line = status
+        .lines()
+        .find(|l| l.starts_with("RssAnon:"))
+        .expect("RssAnon in /proc/self/status");
+    let kib: u64 = line
+        .trim_start_matches("RssAnon:")
+        .trim()
+        .trim_end_matches("kB")
+        .trim()
+        .parse()
+        .unwrap();
+    kib * 1024
+}
+
+/// `cgc::open` (what `isogrid render`, `view`, `bench rays` and Python's `load` use) maps the
+/// file: opening and validating a grid of about 20 MB adds less than a tenth of its payload to
+/// the process's anonymous memory, while `cgc::read`, which copies, adds at least 90 % of it
+/// (the check that the measurement sees copies). Measured in a child process running only this
+/// test, so that other tests' allocations do not blur the figures.
+#[cfg(target_os = "linux")]
+#[test]
+fn opening_a_cgc_file_maps_its_payload_instead_of_copying_it() {
+    const CHILD: &str = "ISOGRID_TEST_RSS_CHILD";
+    let name = "cgc::opening_a_cgc_file_maps_its_payload_instead_of_copying_it";
+    if std::env::var_os(CHILD).is_none() {
+        let output = std::process::Command::new(std::env::current_exe().unwrap())
+            .args(["--exact", name, "--test-threads=1", "--nocapture"])
+            .env(CHILD, "1")
+            .output()
+            .unwrap();
+        let text = String::from_utf8_lossy(&output.stdout).to_string()
+            + &String::from_utf8_lossy(&output.stderr);
+        eprintln!("{text}");
+        assert!(output.status.success(), "child failed");
+        assert!(text.contains("1 passed"), "the child ran no test");
+        return;
+    }
+    let path = temp_path("mapped.cgc");
+    let payload = {
+        let volume = isogrid::generate::generate(isogrid::generate::Field::Hairball, 256, 1);
+        let grid = extract(&volume.view(), &ExtractOptions::new(Iso::Normalized(0.5))).unwrap();
+        cgc::write(&path, &grid).unwrap();
+        (std::mem::size_of_val(grid.blocks())
+            + std::mem::size_of_val(grid.metacells())
+            + grid.cells().len()) as u64
+    };
+    assert!(payload > 10 << 20, "payload of {payload} bytes");
+
+    let before = anonymous_resident_bytes();
+    let mapped = cgc::open(&path).unwrap();
+    // Touch every payload byte, as a renderer's upload does.
+    let sum = mapped.cells().iter().map(|&b| b as u64).sum::<u64>()
+        + bytemuck::cast_slice::<_, u8>(mapped.metacells())
+            .iter()
+            .map(|&b| b as u64)
+            .sum::<u64>();
+    let opened = anonymous_resident_bytes().saturating_sub(before);
+
+    let before = anonymous_resident_bytes();
+    let copied = cgc::read(&path).unwrap();
+    let read = anonymous_resident_bytes().saturating_sub(before);
+    same(&mapped, &copied);
+    eprintln!(
+        "payload {payload} bytes (checksum {sum}): RssAnon +{opened} bytes after cgc::open, \
+         +{read} after cgc::read"
+    );
+    assert!(opened < payload / 10, "open added {opened} bytes");
+    assert!(read >= payload / 10 * 9, "read added only {read} bytes");
+    std::fs::remove_file(&path).unwrap();
+}
