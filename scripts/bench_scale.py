@@ -300,9 +300,10 @@ def main():
         budget = float(from_isogrid[:-1]) * unit[from_isogrid[-1]] if from_isogrid[-1] in unit \
             else float(from_isogrid)
         ratio = memory["wall"] / r["wall"]
-        line = (f"- {r['name']}, {r['budget']}: peak RSS {r['rss'] / 2**20:.0f} MiB under the budget "
-                f"({'met' if r['rss'] <= budget else 'NOT met'}); throughput {100 * ratio:.0f} % of "
-                f"in memory (≥ 80 %: {'met' if ratio >= 0.8 else 'NOT met'})")
+        line = (f"- {r['name']}, {r['budget']}: peak RSS {r['rss'] / 2**20:.0f} MiB against a budget "
+                f"of {budget / 2**20:.0f} MiB (under it: {'met' if r['rss'] <= budget else 'NOT met'}); "
+                f"throughput {100 * ratio:.0f} % of in memory (≥ 80 %: "
+                f"{'met' if ratio >= 0.8 else 'NOT met'})")
         for d in dask_rows:
             speed, mem = d["seconds"] / r["wall"], r["rss"] / d["rss"]
             line += (f"; {speed:.1f}× the Dask peer's speed (≥ 10×: "
