@@ -72,34 +72,52 @@ def bench_isogrid(exe, path, iso, repeat):
     return rows
 
 
-def bench_vtk(vol, iso, repeat):
+def vtk_image(vol, deep=True):
+    """`vol` (indexed [x, y, z]) as a vtkImageData; deep=False shares the samples (no copy: the volume
+    must be x-fastest in memory, e.g. the transpose of a C-order [z, y, x] array)."""
     import vtk
     from vtk.util import numpy_support
     nx, ny, nz = vol.shape
     image = vtk.vtkImageData()
     image.SetDimensions(nx, ny, nz)
     flat = np.ascontiguousarray(vol.ravel(order="F"))  # x fastest, as VTK expects
-    image.GetPointData().SetScalars(numpy_support.numpy_to_vtk(flat, deep=True))
+    image.GetPointData().SetScalars(numpy_support.numpy_to_vtk(flat, deep=deep))
+    return image
+
+
+def flying_edges(image, iso):
+    """vtkFlyingEdges3D on `image` at `iso` (no normals, gradients or scalars); the output polydata."""
+    import vtk
+    fe = vtk.vtkFlyingEdges3D()
+    fe.SetInputData(image)
+    fe.SetValue(0, iso)
+    fe.ComputeNormalsOff()
+    fe.ComputeGradientsOff()
+    fe.ComputeScalarsOff()
+    fe.Update()
+    return fe.GetOutput()
+
+
+def bench_vtk(vol, iso, repeat):
+    image = vtk_image(vol)
 
     def run():
-        fe = vtk.vtkFlyingEdges3D()
-        fe.SetInputData(image)
-        fe.SetValue(0, iso)
-        fe.ComputeNormalsOff()
-        fe.ComputeGradientsOff()
-        fe.ComputeScalarsOff()
-        fe.Update()
-        out = fe.GetOutput()
+        out = flying_edges(image, iso)
         return out.GetNumberOfPoints(), out.GetNumberOfPolys()
 
     return best_of(repeat, run)
 
 
-def bench_skimage(vol, iso, repeat):
+def skimage_mesh(vol, iso):
+    """skimage.measure.marching_cubes (Lewiner, degenerate triangles kept): (vertices, faces)."""
     from skimage import measure
+    verts, faces, _, _ = measure.marching_cubes(vol, level=iso, method="lewiner", allow_degenerate=True)
+    return verts, faces
 
+
+def bench_skimage(vol, iso, repeat):
     def run():
-        verts, faces, _, _ = measure.marching_cubes(vol, level=iso, method="lewiner", allow_degenerate=True)
+        verts, faces = skimage_mesh(vol, iso)
         return len(verts), len(faces)
 
     return best_of(repeat, run)
