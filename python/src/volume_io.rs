@@ -87,6 +87,7 @@ pub fn _zarr_selection<'py>(
     let options = ZarrOptions {
         level,
         indices: index.unwrap_or_default(),
+        ..ZarrOptions::default()
     };
     let selection =
         isogrid_io::region::zarr::select(group_attrs, axes, &shape, &options, location)
