@@ -609,9 +609,11 @@ impl RegionSource for ZarrSource {
     }
     fn read_overhead(&self, planes: usize) -> u64 {
         let [nx, ny, _] = self.geometry.dims;
-        // The subset as stored, plus the chunks being decoded at once (encoded and decoded).
+        // The subset as stored, twice: zarrs decodes it into its own bytes and converts those
+        // into the typed Vec it returns, and both are alive at the conversion. Plus the chunks
+        // being decoded at once (encoded and decoded).
         let threads = rayon::current_num_threads() as u64;
-        (nx * ny * planes * self.stored.size()) as u64 + 2 * threads * self.chunk_bytes
+        2 * (nx * ny * planes * self.stored.size()) as u64 + 2 * threads * self.chunk_bytes
     }
 }
 
