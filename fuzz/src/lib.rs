@@ -86,3 +86,53 @@ pub fn fuzz_mesh(bytes: &[u8], format: isogrid_io::mesh::MeshFormat, gz_name: &s
         assert!(mesh.vertices.iter().flatten().all(|c| c.is_finite()));
     }
 }
+
+/// A Zarr store held in memory, from one fuzz input.
+pub mod zarr_store {
+    use std::sync::Arc;
+    use zarrs::storage::store::MemoryStore;
+    use zarrs::storage::{Bytes, ReadableStorage, StoreKey, WritableStorageTraits};
+
+    /// Between two entries of a store (a line of its own; chosen to be absent from the seeds'
+    /// chunks, which `make_seeds.py` checks).
+    pub const SEPARATOR: &[u8] = b"\n%%zarr%%\n";
+
+    /// At most this many entries are stored (a bound on the work per input).
+    const MAX_ENTRIES: usize = 64;
+
+    /// The store the input describes: entries `KEY\nVALUE` separated by [`SEPARATOR`]; entries
+    /// without a newline or with a key zarrs refuses are left out.
+    pub fn memory_store(data: &[u8]) -> ReadableStorage {
+        let store = MemoryStore::new();
+        for entry in split(data).take(MAX_ENTRIES) {
+            let Some(newline) = entry.iter().position(|&b| b == b'\n') else {
+                continue;
+            };
+            let (key, value) = (&entry[..newline], &entry[newline + 1..]);
+            let Ok(key) = std::str::from_utf8(key).map(StoreKey::new) else {
+                continue;
+            };
+            if let Ok(key) = key {
+                store
+                    .set(&key, Bytes::from(value.to_vec()))
+                    .expect("memory store");
+            }
+        }
+        Arc::new(store)
+    }
+
+    fn split(mut data: &[u8]) -> impl Iterator<Item = &[u8]> {
+        std::iter::from_fn(move || {
+            if data.is_empty() {
+                return None;
+            }
+            let end = data
+                .windows(SEPARATOR.len())
+                .position(|w| w == SEPARATOR)
+                .unwrap_or(data.len());
+            let entry = &data[..end];
+            data = data.get(end + SEPARATOR.len()..).unwrap_or(&[]);
+            Some(entry)
+        })
+    }
+}
