@@ -55,10 +55,10 @@ libfuzzer_sys::fuzz_target!(|data: &[u8]| {
         let planes = (16 * memory.slab_layers + 1).min(nz);
         let len = nx * ny * planes;
         let _ = match source.scalar_type() {
-            ScalarType::U8 => first_slab(&mut source, planes, len, SlabMut::U8),
-            ScalarType::U16 => first_slab(&mut source, planes, len, SlabMut::U16),
-            ScalarType::I16 => first_slab(&mut source, planes, len, SlabMut::I16),
-            ScalarType::F32 => first_slab(&mut source, planes, len, SlabMut::F32),
+            ScalarType::U8 => first_slab(&mut source, planes, len, |s| SlabMut::U8(s)),
+            ScalarType::U16 => first_slab(&mut source, planes, len, |s| SlabMut::U16(s)),
+            ScalarType::I16 => first_slab(&mut source, planes, len, |s| SlabMut::I16(s)),
+            ScalarType::F32 => first_slab(&mut source, planes, len, |s| SlabMut::F32(s)),
         };
     }
     // `read_volume`: the whole array, for the commands that need the volume itself.
