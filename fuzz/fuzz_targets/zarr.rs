@@ -1,6 +1,6 @@
 //! Zarr v2/v3 arrays and OME-Zarr 0.4/0.5 images: the metadata documents (`zarr.json`, `.zarray`,
-//! `.zattrs`, `.zgroup`, at the root and under the datasets' paths) and a few chunks, in an
-//! in-memory zarrs store, opened by `ZarrSource::open` as a folder or a URL would be; then read
+//! `.zattrs`, `.zgroup`, at the root and under the datasets' paths) and a few chunks, written as
+//! a store folder on tmpfs and opened by `region::zarr::open_path` as a user's would be; then read
 //! the two ways a user's command reads it: the streaming extraction's first slab (after its
 //! memory plan) and the whole volume (`read_volume`'s `region::read_all`).
 //!
@@ -26,10 +26,9 @@ fn first_slab<T: Copy + Default>(
 
 libfuzzer_sys::fuzz_target!(|data: &[u8]| {
     isogrid_fuzz::init();
-    let store = isogrid_fuzz::zarr_store::memory_store(data);
+    let root = isogrid_fuzz::zarr_store::folder_store(data);
     let options = isogrid_io::ZarrOptions::default();
-    let Ok(mut source) = isogrid_io::region::zarr::ZarrSource::open(store, "in.zarr", &options)
-    else {
+    let Ok(mut source) = isogrid_io::region::zarr::open_path(&root, &options) else {
         return;
     };
     let geometry = source.geometry();

@@ -44,6 +44,7 @@
 
 mod file;
 mod jpeg12;
+mod jpeg_header;
 mod lengths;
 
 use crate::geometry::{cross, dot, normalized, Vec3};
