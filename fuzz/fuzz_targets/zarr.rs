@@ -5,7 +5,7 @@
 //! memory plan) and the whole volume (`read_volume`'s `region::read_all`).
 //!
 //! Input: entries separated by [`isogrid_fuzz::zarr_store::SEPARATOR`], each `KEY\nVALUE`
-//! (`python3 fuzz/make_seeds.py` writes the seeds from the Zarr fixtures).
+//! (`python3 fuzz/zarr_seeds.py` packs the Zarr fixtures into seeds; `seed_corpora.sh` runs it).
 #![no_main]
 
 use isogrid::extract::stream::{plan, RegionSource, SlabMut};
