@@ -10,6 +10,10 @@ cd "$(dirname "$0")"
 seconds=$1; shift
 bin=target/x86_64-unknown-linux-gnu/release
 mkdir -p logs
+# OpenJPEG's C sources (the dicom target) have function-local statics of the same name, which
+# AddressSanitizer's one-definition-rule check mistakes for duplicate globals; cargo-fuzz sets
+# the same option when it runs a target.
+export ASAN_OPTIONS=detect_odr_violation=0
 for target in "$@"; do
     mkdir -p "artifacts/$target" "corpus/$target"
     nice -n 19 "$bin/$target" "corpus/$target" -artifact_prefix="artifacts/$target/" \

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Fills the working corpora fuzz/corpus/TARGET/ (git-ignored) from the readers' test fixtures and
-# the committed seeds of fuzz/corpus-seeds/TARGET/; gzip variants (.nii.gz, meshes) are made here.
+# the committed seeds of fuzz/corpus-seeds/TARGET/; gzip variants (.nii.gz, meshes) and the Zarr
+# target's packed stores (zarr_seeds.py) are made here.
 # Existing corpus entries are kept, so a corpus grows across runs.
 set -euo pipefail
 cd "$(dirname "$0")"
@@ -31,4 +32,5 @@ done
 for mesh in ply stl obj; do
     for f in corpus-seeds/$mesh/*; do gzip -9nc "$f" > "corpus/$mesh/$(basename "$f").gz"; done
 done
+python3 zarr_seeds.py "$io/zarr" corpus/zarr
 for d in corpus/*/; do echo "$(basename "$d"): $(ls "$d" | wc -l) files"; done

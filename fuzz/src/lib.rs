@@ -86,3 +86,63 @@ pub fn fuzz_mesh(bytes: &[u8], format: isogrid_io::mesh::MeshFormat, gz_name: &s
         assert!(mesh.vertices.iter().flatten().all(|c| c.is_finite()));
     }
 }
+
+/// A Zarr store from one fuzz input, as a folder: the reader's own path (zarrs' `FilesystemStore`,
+/// which a user's store goes through) rather than zarrs' `MemoryStore`, whose partial reads
+/// panic on a suffix longer than the value (a shard shorter than its index) where the folder
+/// store gives an error.
+pub mod zarr_store {
+    use std::path::PathBuf;
+
+    /// Between two entries of a store (a line of its own; chosen to be absent from the seeds'
+    /// chunks, which `zarr_seeds.py` checks).
+    pub const SEPARATOR: &[u8] = b"\n%%zarr%%\n";
+
+    /// At most this many entries are stored (a bound on the work per input).
+    const MAX_ENTRIES: usize = 64;
+
+    /// Writes the store the input describes into a fresh folder of the scratch area and returns
+    /// it: entries `KEY\nVALUE` separated by [`SEPARATOR`]; entries without a newline, with a key
+    /// zarrs refuses, or with `.`/`..` components are left out.
+    pub fn folder_store(data: &[u8]) -> PathBuf {
+        let root = super::scratch().join("in.zarr");
+        let _ = std::fs::remove_dir_all(&root);
+        std::fs::create_dir_all(&root).expect("store folder");
+        for entry in split(data).take(MAX_ENTRIES) {
+            let Some(newline) = entry.iter().position(|&b| b == b'\n') else {
+                continue;
+            };
+            let (key, value) = (&entry[..newline], &entry[newline + 1..]);
+            let Ok(key) = std::str::from_utf8(key) else {
+                continue;
+            };
+            let plain = |part: &str| !part.is_empty() && part != "." && part != "..";
+            if zarrs::storage::StoreKey::new(key).is_err() || !key.split('/').all(plain) {
+                continue;
+            }
+            let path = root.join(key);
+            // A key may name a folder another key already made a file (or the reverse).
+            if let Some(parent) = path.parent() {
+                if std::fs::create_dir_all(parent).is_err() {
+                    continue;
+                }
+            }
+            let _ = std::fs::write(&path, value);
+        }
+        root
+    }
+    fn split(mut data: &[u8]) -> impl Iterator<Item = &[u8]> {
+        std::iter::from_fn(move || {
+            if data.is_empty() {
+                return None;
+            }
+            let end = data
+                .windows(SEPARATOR.len())
+                .position(|w| w == SEPARATOR)
+                .unwrap_or(data.len());
+            let entry = &data[..end];
+            data = data.get(end + SEPARATOR.len()..).unwrap_or(&[]);
+            Some(entry)
+        })
+    }
+}

@@ -9,8 +9,8 @@
 //!   deflated explicit VR little endian; RLE Lossless (8- and 16-bit samples); JPEG Baseline
 //!   (8-bit), JPEG Extended with 8-bit samples and JPEG Lossless (processes 14 and 14 SV1) via
 //!   `jpeg-decoder`; JPEG Extended with 12-bit samples via libjpeg-turbo (`jpeg12`); JPEG-LS
-//!   lossless and near-lossless via CharLS; JPEG 2000 lossless and lossy via OpenJPEG's pure Rust
-//!   port (`openjp2`). RLE with 32-bit samples is refused with an error naming the syntax (the
+//!   lossless and near-lossless via CharLS; JPEG 2000 lossless and lossy via OpenJPEG (the C
+//!   library, `openjpeg-sys`). RLE with 32-bit samples is refused with an error naming the syntax (the
 //!   registry's decoder lacks it).
 //! - **Files:** a path that is a file is read alone; a folder contributes every regular file
 //!   (not subfolders) that looks like DICOM: `DICM` at byte 128, or at byte 0 (no preamble), the
@@ -44,6 +44,7 @@
 
 mod file;
 mod jpeg12;
+mod jpeg_header;
 mod lengths;
 
 use crate::geometry::{cross, dot, normalized, Vec3};

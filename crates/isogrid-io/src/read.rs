@@ -20,7 +20,8 @@ pub fn read_volume(path: &Path, opts: &ReadOptions) -> Result<Volume> {
 /// [`read_volume`], also returning notices for the user (one line each).
 pub fn read_volume_noted(path: &Path, opts: &ReadOptions) -> Result<(Volume, Vec<String>)> {
     if crate::region::is_zarr(path) {
-        let volume = crate::region::read_all(crate::region::open_zarr(path, opts)?.as_mut())?;
+        let volume = crate::region::read_all(crate::region::open_zarr(path, opts)?.as_mut())
+            .at_path(path)?;
         return Ok((volume, Vec::new()));
     }
     if crate::region::is_tiff_slices(path) {

@@ -409,6 +409,13 @@ pub(super) fn read_frames(path: &Path) -> Result<Vec<Frame>> {
                                 .map_err(fails)?;
                         return jpeg12::decode_frame(&stream, cols, rows).map_err(fails);
                     }
+                    if JPEG_DECODER_SYNTAXES.contains(&ts_uid.as_str()) {
+                        let stream =
+                            jpeg12::frame_stream(fragment_list, seq.offset_table(), frames, k)
+                                .map_err(fails)?;
+                        super::jpeg_header::check_frame(&stream, cols, rows, bits_allocated as u16)
+                            .map_err(fails)?;
+                    }
                     // The codecs are third-party code on hostile input: a panic in one becomes
                     // this frame's error instead of taking the process down.
                     let decoded = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
@@ -534,6 +541,13 @@ pub(super) fn read_frames(path: &Path) -> Result<Vec<Frame>> {
 /// JPEG Extended (processes 2 and 4): 8-bit or 12-bit lossy.
 const JPEG_EXTENDED: &str = "1.2.840.10008.1.2.4.51";
 const RLE_LOSSLESS: &str = "1.2.840.10008.1.2.5";
+/// The syntaxes jpeg-decoder reads (baseline, extended 8-bit, lossless process 14 and SV1).
+const JPEG_DECODER_SYNTAXES: [&str; 4] = [
+    "1.2.840.10008.1.2.4.50",
+    JPEG_EXTENDED,
+    "1.2.840.10008.1.2.4.57",
+    "1.2.840.10008.1.2.4.70",
+];
 
 /// Checks an RLE Lossless frame's layout before the decoder sees it (PS3.5 G.3.1, G.5): a
 /// 64-byte header with one segment per sample byte, offsets inside the fragment and in order, and

@@ -82,7 +82,11 @@ impl HttpStore {
             ByteRange::FromStart(_, Some(0)) => return Ok(Some(Bytes::new())),
             ByteRange::FromStart(start, None) => Some(format!("bytes={start}-")),
             ByteRange::FromStart(start, Some(len)) => {
-                Some(format!("bytes={start}-{}", start + len - 1))
+                // The range comes from a shard index, i.e. from the data: it may overflow.
+                let last = start.checked_add(len - 1).ok_or_else(|| {
+                    StorageError::from(format!("{url}: byte range {start}+{len} overflows"))
+                })?;
+                Some(format!("bytes={start}-{last}"))
             }
             ByteRange::Suffix(0) => return Ok(Some(Bytes::new())),
             ByteRange::Suffix(len) => Some(format!("bytes=-{len}")),
@@ -107,7 +111,14 @@ impl HttpStore {
         }
         // 200 to a range request: the server sent the whole object.
         let size = body.len() as u64;
-        let (start, end) = (range.start(size), range.end(size));
+        // Checked: a suffix longer than the object (a shard shorter than its index) or an end
+        // past u64 is the data's fault, not a reason to panic.
+        let (start, end) = match range {
+            ByteRange::FromStart(start, None) => (Some(start), Some(size)),
+            ByteRange::FromStart(start, Some(len)) => (Some(start), start.checked_add(len)),
+            ByteRange::Suffix(len) => (size.checked_sub(len), Some(size)),
+        };
+        let (start, end) = (start.unwrap_or(u64::MAX), end.unwrap_or(u64::MAX));
         if start > end || end > size {
             return Err(StorageError::from(format!(
                 "{url}: bytes {start}..{end} asked for, but the object has {size}"

@@ -98,6 +98,11 @@ pub fn read_all(source: &mut dyn RegionSource) -> Result<Volume> {
     let geometry = source.geometry();
     let count = crate::samples::sample_count(geometry.dims)?;
     let nz = geometry.dims[2];
+    // The whole volume plus what one read of all its planes takes beyond it (decoded chunks).
+    let bytes = (count as u64)
+        .saturating_mul(source.scalar_type().size() as u64)
+        .saturating_add(source.read_overhead(nz));
+    isogrid::memory::ensure_fits("the volume", bytes)?;
     let mut data = match source.scalar_type() {
         isogrid::ScalarType::U8 => VolumeData::U8(vec![0; count]),
         isogrid::ScalarType::U16 => VolumeData::U16(vec![0; count]),

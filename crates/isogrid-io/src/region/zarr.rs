@@ -437,7 +437,9 @@ fn select_axes(
         ))
         .with_path(location));
     }
-    let dims = spatial.map(|a| shape[a] as usize);
+    let dims = spatial.map(|a| usize::try_from(shape[a]).unwrap_or(usize::MAX));
+    // An empty axis or one beyond MAX_DIM is refused here, before any plan or read.
+    crate::samples::sample_count(dims).map_err(|e| e.with_path(location))?;
     let mut geometry = Geometry::new(dims);
     if let Some(image) = image {
         geometry.spacing = spatial.map(|a| image.scale[a].abs());
@@ -446,6 +448,21 @@ fn select_axes(
             if image.scale[a] < 0.0 {
                 geometry.direction[row] = geometry.direction[row].map(|v| -v);
             }
+        }
+        // Scales multiply and translations add up: a zero scale, or products and sums that
+        // overflow, would give a volume without a size or a place.
+        let bad = geometry
+            .spacing
+            .iter()
+            .any(|s| !(s.is_finite() && *s > 0.0))
+            || geometry.origin.iter().any(|o| !o.is_finite());
+        if bad {
+            return Err(Error::corrupt(format!(
+                "OME-Zarr coordinateTransformations give spacing {:?} and origin {:?}; \
+                 spacing must be positive and finite, the origin finite",
+                geometry.spacing, geometry.origin
+            ))
+            .with_path(location));
         }
     }
     Ok(ZarrSelection {
@@ -489,9 +506,10 @@ impl ZarrSource {
             Error::unsupported(format!("Zarr data type {type_name} is not supported"))
                 .with_path(location)
         })?;
+        // Saturating: a declared chunk shape may multiply past u64, and then no budget fits it.
         let chunk_elements: u64 = array
             .chunk_shape(&vec![0; shape.len()])
-            .map(|c| c.iter().map(|n| n.get()).product())
+            .map(|c| c.iter().fold(1u64, |acc, n| acc.saturating_mul(n.get())))
             .unwrap_or(0);
         Ok(ZarrSource {
             array,
@@ -500,7 +518,7 @@ impl ZarrSource {
             geometry,
             spatial,
             fixed,
-            chunk_bytes: chunk_elements * stored.size() as u64,
+            chunk_bytes: chunk_elements.saturating_mul(stored.size() as u64),
         })
     }
 
@@ -613,7 +631,8 @@ impl RegionSource for ZarrSource {
         // into the typed Vec it returns, and both are alive at the conversion. Plus the chunks
         // being decoded at once (encoded and decoded).
         let threads = rayon::current_num_threads() as u64;
-        2 * (nx * ny * planes * self.stored.size()) as u64 + 2 * threads * self.chunk_bytes
+        (2 * (nx * ny * planes * self.stored.size()) as u64)
+            .saturating_add((2 * threads).saturating_mul(self.chunk_bytes))
     }
 }
 

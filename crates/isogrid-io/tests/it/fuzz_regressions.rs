@@ -145,3 +145,52 @@ fn dicom_numeric_value_of_a_partial_length_is_refused() {
         "element (0028,0010) of VR US declares 3 bytes, not a whole number of 2-byte values",
     );
 }
+
+/// An explicit VR little-endian element with a 2-byte length (US, CS, ...).
+fn short_element(group: u16, element: u16, vr: &[u8; 2], value: &[u8]) -> Vec<u8> {
+    let mut e = Vec::new();
+    e.extend_from_slice(&group.to_le_bytes());
+    e.extend_from_slice(&element.to_le_bytes());
+    e.extend_from_slice(vr);
+    e.extend_from_slice(&(value.len() as u16).to_le_bytes());
+    e.extend_from_slice(value);
+    e
+}
+
+/// A JPEG frame larger than the image: the fuzzer's reproducer was an 8-bit JPEG Lossless file
+/// whose stream decoded to more bytes than Rows × Columns, and dicom-transfer-syntax-registry
+/// copied them into its smaller buffer with a slice index that panicked. The frame header is now
+/// compared with the image before the decoder runs (only a header is needed to show it).
+#[test]
+fn dicom_jpeg_frame_larger_than_the_image_is_refused_before_decoding() {
+    let mut data_set = Vec::new();
+    for (element, vr, value) in [
+        (0x0002u16, b"US", &1u16.to_le_bytes()[..]),
+        (0x0004, b"CS", b"MONOCHROME2 "),
+        (0x0010, b"US", &8u16.to_le_bytes()),
+        (0x0011, b"US", &8u16.to_le_bytes()),
+        (0x0100, b"US", &8u16.to_le_bytes()),
+        (0x0101, b"US", &8u16.to_le_bytes()),
+        (0x0102, b"US", &7u16.to_le_bytes()),
+        (0x0103, b"US", &0u16.to_le_bytes()),
+    ] {
+        data_set.extend(short_element(0x0028, element, vr, value));
+    }
+    // SOI, then a baseline frame header: 8-bit, 40 lines of 64 samples, one component; EOI.
+    let mut jpeg = vec![
+        0xFF, 0xD8, 0xFF, 0xC0, 0, 11, 8, 0, 40, 0, 64, 1, 1, 0x11, 0,
+    ];
+    jpeg.extend_from_slice(&[0xFF, 0xD9, 0]);
+    data_set.extend(long_header(0x7FE0, 0x0010, b"OB", u32::MAX));
+    for item in [&[][..], &jpeg[..]] {
+        data_set.extend_from_slice(&[0xFE, 0xFF, 0x00, 0xE0]);
+        data_set.extend_from_slice(&(item.len() as u32).to_le_bytes());
+        data_set.extend_from_slice(item);
+    }
+    data_set.extend_from_slice(&[0xFE, 0xFF, 0xDD, 0xE0, 0, 0, 0, 0]);
+    expect_corrupt_dicom(
+        "jpeg_larger_frame.dcm",
+        &part10(b"1.2.840.10008.1.2.4.50\0", &[], &data_set),
+        "the JPEG stream is 64x40 but the image is 8x8",
+    );
+}

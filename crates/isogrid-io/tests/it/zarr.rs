@@ -1,10 +1,10 @@
 //! Zarr v2/v3 and OME-Zarr fixtures written by zarr-python (scripts/make_zarr_fixtures.py): values,
 //! geometry, levels and axes, missing and corrupt chunks, bad metadata, and streaming extraction.
 
-use crate::common::{assert_close, fixture};
+use crate::common::{assert_close, fixture, TempDir};
 use crate::region::{check, streams_like_memory};
-use isogrid::{ExtractOptions, Iso, Precision, ScalarType};
-use isogrid_io::{read_volume, ReadOptions, ZarrOptions};
+use isogrid::{ErrorKind, ExtractOptions, Iso, Precision, ScalarType};
+use isogrid_io::{open_region, read_volume, ReadOptions, ZarrOptions};
 use std::path::Path;
 
 const DIMS: [usize; 3] = [20, 13, 35];
@@ -180,4 +180,119 @@ fn zarr_streams_byte_identically() {
         &options(0, &[("t", 1), ("c", 1)]),
         &isos,
     );
+}
+
+/// A Zarr v3 array of bytes with `shape` and `chunk_shape`, no chunk written: `x.zarr/zarr.json`.
+fn v3_array_json(shape: &str, chunk_shape: &str) -> String {
+    format!(
+        r#"{{"zarr_format": 3, "node_type": "array", "shape": {shape}, "data_type": "uint8",
+        "chunk_grid": {{"name": "regular", "configuration": {{"chunk_shape": {chunk_shape}}}}},
+        "chunk_key_encoding": {{"name": "default", "configuration": {{"separator": "/"}}}},
+        "fill_value": 0, "codecs": [{{"name": "bytes"}}]}}"#
+    )
+}
+
+/// Writes a store of `(key, document)` pairs; returns its folder.
+fn store(dir: &TempDir, docs: &[(&str, &str)]) -> std::path::PathBuf {
+    let root = dir.path("x.zarr");
+    for (key, doc) in docs {
+        let path = root.join(key);
+        std::fs::create_dir_all(path.parent().unwrap()).unwrap();
+        std::fs::write(path, doc).unwrap();
+    }
+    root
+}
+
+/// The error of both ways a Zarr store is read: whole (`read_volume`) and streamed (`open_region`
+/// and the streaming extraction's memory plan); both must be `kind` and one line, and the first
+/// names the store (the plan, in `isogrid`, knows no path).
+fn errors_whole_and_streamed(root: &Path, kind: ErrorKind) -> String {
+    let whole = read_volume(root, &ReadOptions::default())
+        .err()
+        .expect("read");
+    let streamed = open_region(root, &ReadOptions::default())
+        .and_then(|source| {
+            isogrid::extract::stream::plan(&*source.expect("a region source"), 1 << 30)
+        })
+        .err()
+        .expect("opened and planned");
+    for err in [&whole, &streamed] {
+        let text = err.to_string();
+        assert_eq!(err.kind(), kind, "{text}");
+        assert!(!text.contains('\n'), "{text}");
+    }
+    assert!(
+        whole.to_string().contains(&*root.to_string_lossy()),
+        "{whole}"
+    );
+    whole.to_string()
+}
+
+/// Declared sizes are checked before anything is allocated or planned: an empty axis, an axis
+/// beyond `MAX_DIM`, a volume far larger than memory, and chunks whose size overflows u64 (no
+/// chunk of any of them is stored; the reader must not need one to refuse).
+#[test]
+fn zarr_declared_sizes_are_refused_before_allocating() {
+    let dir = TempDir::new("zarr-sizes");
+    let cases = [
+        (
+            "[0, 13, 20]",
+            "[9, 10, 11]",
+            ErrorKind::Corrupt,
+            "size along axis 2 is 0",
+        ),
+        (
+            "[200000, 13, 20]",
+            "[9, 10, 11]",
+            ErrorKind::TooLarge,
+            "exceeds the limit",
+        ),
+    ];
+    for (shape, chunks, kind, needle) in cases {
+        let root = store(&dir, &[("zarr.json", &v3_array_json(shape, chunks))]);
+        let err = errors_whole_and_streamed(&root, kind);
+        assert!(err.contains(needle), "{err}");
+    }
+    // 10^15 bytes: refused for the memory it needs, not attempted.
+    let root = store(
+        &dir,
+        &[(
+            "zarr.json",
+            &v3_array_json("[100000, 100000, 100000]", "[64, 64, 64]"),
+        )],
+    );
+    let err = read_volume(&root, &ReadOptions::default())
+        .err()
+        .expect("read");
+    assert_eq!(err.kind(), ErrorKind::TooLarge, "{err}");
+    // A 20x13x35 array whose one chunk declares 2^120 elements.
+    let huge = "[1099511627776, 1099511627776, 1099511627776]";
+    let root = store(&dir, &[("zarr.json", &v3_array_json("[35, 13, 20]", huge))]);
+    let err = errors_whole_and_streamed(&root, ErrorKind::TooLarge);
+    assert!(err.contains("memory"), "{err}");
+}
+
+/// OME-Zarr transformations that leave no size or place: a zero scale, scales multiplying past
+/// f64's range.
+#[test]
+fn ome_zarr_degenerate_transformations_are_refused() {
+    let dir = TempDir::new("zarr-ome-scale");
+    for scale in ["[0, 1, 1]", "[1e300, 1, 1]"] {
+        let group = format!(
+            r#"{{"zarr_format": 3, "node_type": "group", "attributes": {{"ome": {{"version": "0.5",
+            "multiscales": [{{"axes": [{{"name": "z"}}, {{"name": "y"}}, {{"name": "x"}}],
+            "datasets": [{{"path": "0", "coordinateTransformations":
+                [{{"type": "scale", "scale": {scale}}}]}}],
+            "coordinateTransformations": [{{"type": "scale", "scale": {scale}}}]}}]}}}}}}"#
+        );
+        let root = store(
+            &dir,
+            &[
+                ("zarr.json", &group),
+                ("0/zarr.json", &v3_array_json("[35, 13, 20]", "[9, 10, 11]")),
+            ],
+        );
+        let err = errors_whole_and_streamed(&root, ErrorKind::Corrupt);
+        assert!(err.contains("spacing must be positive and finite"), "{err}");
+    }
 }

@@ -184,11 +184,11 @@ pub fn plan(source: &dyn RegionSource, max_memory: u64) -> Result<MemoryPlan> {
     let fixed = PROCESS_BASELINE + nbx * nby * nbz * BLOCK_TABLE_BYTES + scratch;
     let slab_cost = |layers: u64| -> u64 {
         let planes = (16 * layers + 1).min(nz);
-        nx * ny * planes * size
-            + nbx * nby * layers * BLOCK_SCAN_BYTES
-            + source.read_overhead(planes as usize)
+        // Saturating: a source may declare an overhead no budget holds (a huge Zarr chunk).
+        (nx * ny * planes * size + nbx * nby * layers * BLOCK_SCAN_BYTES)
+            .saturating_add(source.read_overhead(planes as usize))
     };
-    let minimum = fixed + OUTPUT_BUFFER_MIN + slab_cost(1);
+    let minimum = (fixed + OUTPUT_BUFFER_MIN).saturating_add(slab_cost(1));
     if max_memory < minimum {
         return Err(Error::too_large(format!(
             "a memory budget of {} is too small for one slab of {}x{}x{} samples; the least that works is {}",
@@ -196,7 +196,7 @@ pub fn plan(source: &dyn RegionSource, max_memory: u64) -> Result<MemoryPlan> {
             nx,
             ny,
             (17).min(nz),
-            format_bytes(minimum.next_multiple_of(1 << 20))
+            format_bytes(minimum.checked_next_multiple_of(1 << 20).unwrap_or(minimum))
         )));
     }
     let spare = max_memory - fixed;
