@@ -104,8 +104,13 @@ enum Layout {
     NotDicom,
 }
 
+/// Whether `DICM` follows a 128-byte preamble (PS3.10 §7.1).
+fn has_magic_after_preamble(head: &[u8]) -> bool {
+    head.len() >= 132 && &head[128..132] == b"DICM"
+}
+
 fn layout(head: &[u8]) -> Layout {
-    if (head.len() >= 132 && &head[128..132] == b"DICM") || head.starts_with(b"DICM") {
+    if has_magic_after_preamble(head) || head.starts_with(b"DICM") {
         return Layout::Standard;
     }
     if head.len() < 8 {
@@ -151,8 +156,10 @@ fn open(path: &Path, header_only: bool) -> Result<DefaultDicomObject> {
     let head = head(path).map_err(|e| Error::from(e).with_path(path))?;
     // Declared lengths are checked against the file before dicom-rs reserves them.
     let (meta_at, bare_explicit) = match layout(&head) {
-        Layout::Standard if head.starts_with(b"DICM") => (Some(4), false),
-        Layout::Standard => (Some(132), false),
+        // dicom-object's preamble detection looks at byte 128 first: a file with `DICM` there
+        // and at byte 0 too is read after a preamble, so it is walked from there.
+        Layout::Standard if has_magic_after_preamble(&head) => (Some(132), false),
+        Layout::Standard => (Some(4), false),
         Layout::MetaWithoutMagic => (Some(0), false),
         Layout::BareDataSet { explicit } => (None, explicit),
         // Read as a part-10 file below, but walked here as the bare implicit data set a `.dcm`

@@ -57,6 +57,23 @@ fn dicom_value_longer_than_the_file_is_refused_before_allocating() {
     );
 }
 
+/// The fuzzer's timeout with JPEG 2000 seeds: `DICM` at byte 0 and again after a 128-byte
+/// preamble. dicom-object's detection takes the one at byte 128, the length walk took the one at
+/// byte 0, found no meta group in the zeros after it and checked nothing, and the real read then
+/// zero-filled a 1.7 GB value for over 10 s. The walk now starts where dicom-object reads.
+#[test]
+fn dicom_magic_at_byte_0_and_after_the_preamble_is_walked_as_dicom_object_reads_it() {
+    let mut data_set = long_header(0x0011, 0x0010, b"OB", 0x6B6B_6B6B);
+    data_set.extend_from_slice(&[1, 2, 3, 4]);
+    let mut file = part10(EXPLICIT_LE, &[], &data_set);
+    file[..4].copy_from_slice(b"DICM");
+    expect_corrupt_dicom(
+        "two_magics.dcm",
+        &file,
+        "element (0011,0010) declares 1802201963 bytes but only 4 follow it",
+    );
+}
+
 /// The same in the file meta group, which dicom-object reads with its own allocating reader.
 #[test]
 fn dicom_meta_element_longer_than_the_file_is_refused_before_allocating() {
