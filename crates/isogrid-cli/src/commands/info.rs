@@ -16,6 +16,13 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> Result<()> {
+    if isogrid_io::region::is_url(&args.file) {
+        // Without this the URL is taken for a local path: "No such file or directory".
+        anyhow::bail!(
+            "{}: info reads .cgc files, which are local; `isogrid extract URL -o FILE.cgc` reads a Zarr store at a URL",
+            args.file.display()
+        );
+    }
     let start = Instant::now();
     let grid = isogrid::cgc::open(&args.file)?;
     let read = start.elapsed().as_secs_f64();

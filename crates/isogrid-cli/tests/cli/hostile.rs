@@ -115,6 +115,12 @@ fn special_files_are_refused_not_waited_on() {
     let dir = temp_dir("special");
     let out = within(Duration::from_secs(30), &["info", s(&dir)]);
     one_line_error(&out, "is a directory, not a regular file");
+    // A URL is not a local path: say what reads one instead of "No such file or directory".
+    let out = within(
+        Duration::from_secs(30),
+        &["info", "https://127.0.0.1:9/image.ome.zarr"],
+    );
+    one_line_error(&out, "info reads .cgc files, which are local");
     #[cfg(unix)]
     {
         let fifo = dir.join("fifo.cgc");
