@@ -423,6 +423,13 @@ pub(super) fn read_frames(path: &Path) -> Result<Vec<Frame>> {
                         super::jpeg_header::check_frame(&stream, cols, rows, bits_allocated as u16)
                             .map_err(fails)?;
                     }
+                    if JPEG_2000_SYNTAXES.contains(&ts_uid.as_str()) {
+                        let stream =
+                            jpeg12::frame_stream(fragment_list, seq.offset_table(), frames, k)
+                                .map_err(fails)?;
+                        super::jpeg_header::check_j2k(&stream, cols, rows, bits_allocated as u16)
+                            .map_err(fails)?;
+                    }
                     // The codecs are third-party code on hostile input: a panic in one becomes
                     // this frame's error instead of taking the process down.
                     let decoded = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
@@ -555,6 +562,9 @@ const JPEG_DECODER_SYNTAXES: [&str; 4] = [
     "1.2.840.10008.1.2.4.57",
     "1.2.840.10008.1.2.4.70",
 ];
+
+/// JPEG 2000 lossless only and lossy (PS3.5 A.4.4).
+const JPEG_2000_SYNTAXES: [&str; 2] = ["1.2.840.10008.1.2.4.90", "1.2.840.10008.1.2.4.91"];
 
 /// Checks an RLE Lossless frame's layout before the decoder sees it (PS3.5 G.3.1, G.5): a
 /// 64-byte header with one segment per sample byte, offsets inside the fragment and in order, and

@@ -1,7 +1,8 @@
-//! The frame header (SOF, ITU T.81 B.2.2) of a JPEG stream, checked against the DICOM image
-//! before jpeg-decoder sees the stream: dicom-transfer-syntax-registry copies whatever the decoder
-//! returns into a buffer sized from Rows × Columns and panics (a slice index out of range) when
-//! the stream declares a larger image, more components or 16-bit samples in an 8-bit image.
+//! The frame header (SOF, ITU T.81 B.2.2) of a JPEG stream, and the image and tile size marker
+//! (SIZ, ITU T.800 A.5.1) of a JPEG 2000 codestream, checked against the DICOM image before the
+//! decoder sees the stream: dicom-transfer-syntax-registry copies whatever the decoder returns
+//! into a buffer sized from Rows × Columns and panics (a slice index out of range) when the
+//! stream declares a larger image, more components or 16-bit samples in an 8-bit image.
 
 /// Precision, lines, samples per line and component count of the stream's first frame header;
 /// `None` when no header comes before the first scan (the decoder then reports the damage).
@@ -56,6 +57,60 @@ pub(super) fn check_frame(
     if precision > 8 && bits_allocated < 16 {
         return Err(format!(
             "{precision}-bit JPEG samples do not fit {bits_allocated} allocated bits"
+        ));
+    }
+    Ok(())
+}
+
+/// Width, height, component count and the first component's bit depth of a JPEG 2000
+/// codestream (SOC, then SIZ); `None` for anything else (a JP2 file, a damaged stream), which the
+/// decoder then judges.
+fn j2k_size(stream: &[u8]) -> Option<(u64, u64, u16, u8)> {
+    if !stream.starts_with(&[0xFF, 0x4F, 0xFF, 0x51]) {
+        return None;
+    }
+    // After SOC, the SIZ marker and Lsiz: Rsiz (2 bytes); Xsiz, Ysiz, XOsiz, YOsiz and the tile
+    // sizes and offsets (4 each); Csiz (2); then Ssiz, XRsiz, YRsiz per component.
+    let siz = stream.get(6..43)?;
+    let be32 = |at: usize| {
+        u64::from(u32::from_be_bytes([
+            siz[at],
+            siz[at + 1],
+            siz[at + 2],
+            siz[at + 3],
+        ]))
+    };
+    let width = be32(2).checked_sub(be32(10))?;
+    let height = be32(6).checked_sub(be32(14))?;
+    let components = u16::from_be_bytes([siz[34], siz[35]]);
+    let depth = (siz[36] & 0x7F) + 1;
+    Some((width, height, components, depth))
+}
+
+/// Checks that a JPEG 2000 codestream of a grayscale image is `cols` × `rows`, one component,
+/// of samples that fit `bits_allocated`; the message says what differs.
+pub(super) fn check_j2k(
+    stream: &[u8],
+    cols: usize,
+    rows: usize,
+    bits_allocated: u16,
+) -> Result<(), String> {
+    let Some((width, height, components, depth)) = j2k_size(stream) else {
+        return Ok(());
+    };
+    if (width, height) != (cols as u64, rows as u64) {
+        return Err(format!(
+            "the JPEG 2000 stream is {width}x{height} but the image is {cols}x{rows}"
+        ));
+    }
+    if components != 1 {
+        return Err(format!(
+            "the JPEG 2000 stream has {components} components but the image is grayscale"
+        ));
+    }
+    if u16::from(depth) > bits_allocated {
+        return Err(format!(
+            "{depth}-bit JPEG 2000 samples do not fit {bits_allocated} allocated bits"
         ));
     }
     Ok(())

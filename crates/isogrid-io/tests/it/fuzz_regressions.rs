@@ -211,3 +211,41 @@ fn dicom_jpeg_frame_larger_than_the_image_is_refused_before_decoding() {
         "the JPEG stream is 64x40 but the image is 8x8",
     );
 }
+
+/// The same in JPEG 2000, found by the fuzzer once OpenJPEG decoded the J2K seeds: a codestream
+/// whose image is larger than Rows × Columns panicked in the registry's JPEG 2000 adapter. The
+/// codestream's SIZ marker is now compared with the image before OpenJPEG runs.
+#[test]
+fn dicom_jpeg_2000_image_larger_than_the_dicom_image_is_refused_before_decoding() {
+    let mut data_set = Vec::new();
+    for (element, vr, value) in [
+        (0x0002u16, b"US", &1u16.to_le_bytes()[..]),
+        (0x0004, b"CS", b"MONOCHROME2 "),
+        (0x0010, b"US", &8u16.to_le_bytes()),
+        (0x0011, b"US", &8u16.to_le_bytes()),
+        (0x0100, b"US", &8u16.to_le_bytes()),
+        (0x0101, b"US", &8u16.to_le_bytes()),
+        (0x0102, b"US", &7u16.to_le_bytes()),
+        (0x0103, b"US", &0u16.to_le_bytes()),
+    ] {
+        data_set.extend(short_element(0x0028, element, vr, value));
+    }
+    // SOC, then SIZ: a 64x40 image (no offsets) in one tile, one 8-bit component; EOC.
+    let mut j2k = vec![0xFF, 0x4F, 0xFF, 0x51, 0, 41, 0, 0];
+    for value in [64u32, 40, 0, 0, 64, 40, 0, 0] {
+        j2k.extend_from_slice(&value.to_be_bytes());
+    }
+    j2k.extend_from_slice(&[0, 1, 7, 1, 1, 0xFF, 0xD9]);
+    data_set.extend(long_header(0x7FE0, 0x0010, b"OB", u32::MAX));
+    for item in [&[][..], &j2k[..]] {
+        data_set.extend_from_slice(&[0xFE, 0xFF, 0x00, 0xE0]);
+        data_set.extend_from_slice(&(item.len() as u32).to_le_bytes());
+        data_set.extend_from_slice(item);
+    }
+    data_set.extend_from_slice(&[0xFE, 0xFF, 0xDD, 0xE0, 0, 0, 0, 0]);
+    expect_corrupt_dicom(
+        "j2k_larger_image.dcm",
+        &part10(b"1.2.840.10008.1.2.4.90\0", &[], &data_set),
+        "the JPEG 2000 stream is 64x40 but the image is 8x8",
+    );
+}
