@@ -174,12 +174,9 @@ fn short_element(group: u16, element: u16, vr: &[u8; 2], value: &[u8]) -> Vec<u8
     e
 }
 
-/// A JPEG frame larger than the image: the fuzzer's reproducer was an 8-bit JPEG Lossless file
-/// whose stream decoded to more bytes than Rows × Columns, and dicom-transfer-syntax-registry
-/// copied them into its smaller buffer with a slice index that panicked. The frame header is now
-/// compared with the image before the decoder runs (only a header is needed to show it).
-#[test]
-fn dicom_jpeg_frame_larger_than_the_image_is_refused_before_decoding() {
+/// The data set of an 8x8 8-bit grayscale image whose encapsulated PixelData holds an empty
+/// offset table and `frame` as its one fragment.
+fn encapsulated_8x8_image(frame: &[u8]) -> Vec<u8> {
     let mut data_set = Vec::new();
     for (element, vr, value) in [
         (0x0002u16, b"US", &1u16.to_le_bytes()[..]),
@@ -193,21 +190,34 @@ fn dicom_jpeg_frame_larger_than_the_image_is_refused_before_decoding() {
     ] {
         data_set.extend(short_element(0x0028, element, vr, value));
     }
-    // SOI, then a baseline frame header: 8-bit, 40 lines of 64 samples, one component; EOI.
-    let mut jpeg = vec![
-        0xFF, 0xD8, 0xFF, 0xC0, 0, 11, 8, 0, 40, 0, 64, 1, 1, 0x11, 0,
-    ];
-    jpeg.extend_from_slice(&[0xFF, 0xD9, 0]);
     data_set.extend(long_header(0x7FE0, 0x0010, b"OB", u32::MAX));
-    for item in [&[][..], &jpeg[..]] {
+    for item in [&[][..], frame] {
         data_set.extend_from_slice(&[0xFE, 0xFF, 0x00, 0xE0]);
         data_set.extend_from_slice(&(item.len() as u32).to_le_bytes());
         data_set.extend_from_slice(item);
     }
     data_set.extend_from_slice(&[0xFE, 0xFF, 0xDD, 0xE0, 0, 0, 0, 0]);
+    data_set
+}
+
+/// A JPEG frame larger than the image: the fuzzer's reproducer was an 8-bit JPEG Lossless file
+/// whose stream decoded to more bytes than Rows × Columns, and dicom-transfer-syntax-registry
+/// copied them into its smaller buffer with a slice index that panicked. The frame header is now
+/// compared with the image before the decoder runs (only a header is needed to show it).
+#[test]
+fn dicom_jpeg_frame_larger_than_the_image_is_refused_before_decoding() {
+    // SOI, then a baseline frame header: 8-bit, 40 lines of 64 samples, one component; EOI.
+    let mut jpeg = vec![
+        0xFF, 0xD8, 0xFF, 0xC0, 0, 11, 8, 0, 40, 0, 64, 1, 1, 0x11, 0,
+    ];
+    jpeg.extend_from_slice(&[0xFF, 0xD9, 0]);
     expect_corrupt_dicom(
         "jpeg_larger_frame.dcm",
-        &part10(b"1.2.840.10008.1.2.4.50\0", &[], &data_set),
+        &part10(
+            b"1.2.840.10008.1.2.4.50\0",
+            &[],
+            &encapsulated_8x8_image(&jpeg),
+        ),
         "the JPEG stream is 64x40 but the image is 8x8",
     );
 }
@@ -217,35 +227,19 @@ fn dicom_jpeg_frame_larger_than_the_image_is_refused_before_decoding() {
 /// codestream's SIZ marker is now compared with the image before OpenJPEG runs.
 #[test]
 fn dicom_jpeg_2000_image_larger_than_the_dicom_image_is_refused_before_decoding() {
-    let mut data_set = Vec::new();
-    for (element, vr, value) in [
-        (0x0002u16, b"US", &1u16.to_le_bytes()[..]),
-        (0x0004, b"CS", b"MONOCHROME2 "),
-        (0x0010, b"US", &8u16.to_le_bytes()),
-        (0x0011, b"US", &8u16.to_le_bytes()),
-        (0x0100, b"US", &8u16.to_le_bytes()),
-        (0x0101, b"US", &8u16.to_le_bytes()),
-        (0x0102, b"US", &7u16.to_le_bytes()),
-        (0x0103, b"US", &0u16.to_le_bytes()),
-    ] {
-        data_set.extend(short_element(0x0028, element, vr, value));
-    }
     // SOC, then SIZ: a 64x40 image (no offsets) in one tile, one 8-bit component; EOC.
     let mut j2k = vec![0xFF, 0x4F, 0xFF, 0x51, 0, 41, 0, 0];
     for value in [64u32, 40, 0, 0, 64, 40, 0, 0] {
         j2k.extend_from_slice(&value.to_be_bytes());
     }
     j2k.extend_from_slice(&[0, 1, 7, 1, 1, 0xFF, 0xD9]);
-    data_set.extend(long_header(0x7FE0, 0x0010, b"OB", u32::MAX));
-    for item in [&[][..], &j2k[..]] {
-        data_set.extend_from_slice(&[0xFE, 0xFF, 0x00, 0xE0]);
-        data_set.extend_from_slice(&(item.len() as u32).to_le_bytes());
-        data_set.extend_from_slice(item);
-    }
-    data_set.extend_from_slice(&[0xFE, 0xFF, 0xDD, 0xE0, 0, 0, 0, 0]);
     expect_corrupt_dicom(
         "j2k_larger_image.dcm",
-        &part10(b"1.2.840.10008.1.2.4.90\0", &[], &data_set),
+        &part10(
+            b"1.2.840.10008.1.2.4.90\0",
+            &[],
+            &encapsulated_8x8_image(&j2k),
+        ),
         "the JPEG 2000 stream is 64x40 but the image is 8x8",
     );
 }
