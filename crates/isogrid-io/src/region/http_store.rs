@@ -26,8 +26,8 @@ pub struct HttpStore {
 impl HttpStore {
     /// A store whose keys are resolved under `base_url` (with or without a trailing slash);
     /// `https://` servers must prove themselves to `trusted` (a PEM file of root certificates) or,
-    /// when it is `None`, to Mozilla's roots. Fails only when `trusted` cannot be read or holds no
-    /// certificate.
+    /// when it is `None`, to Mozilla's roots. Fails only when an `https://` store's `trusted` cannot be
+    /// read or holds no certificate.
     pub fn new(base_url: &str, trusted: Option<&std::path::Path>) -> isogrid::Result<Self> {
         let config = ureq::Agent::config_builder()
             // Statuses are answers to interpret (404 = missing key), not transport errors.
@@ -35,10 +35,19 @@ impl HttpStore {
             .timeout_connect(Some(Duration::from_secs(30)))
             .timeout_recv_response(Some(Duration::from_secs(120)))
             .timeout_per_read(Some(Duration::from_secs(120)));
+        // Only https:// reads the trusted certificates: a bad SSL_CERT_FILE must not stop a
+        // plain http:// store.
+        let is_https = base_url
+            .get(..8)
+            .is_some_and(|s| s.eq_ignore_ascii_case("https://"));
         #[cfg(feature = "https")]
-        let config = config.tls_config(tls::config(trusted)?);
+        let config = if is_https {
+            config.tls_config(tls::config(trusted)?)
+        } else {
+            config
+        };
         #[cfg(not(feature = "https"))]
-        let _ = trusted;
+        let _ = (trusted, is_https);
         Ok(HttpStore {
             agent: ureq::Agent::new_with_config(config.build()),
             base: base_url.trim_end_matches('/').to_string(),

@@ -299,4 +299,8 @@ fn https_refuses_an_untrusted_server_and_a_bad_certificate_file_in_one_line() {
     let key_only = tls_fixture("server.key");
     let err = error_with(&trusting(Some(key_only)));
     assert!(err.contains("holds no certificate"), "{err}");
+
+    // Plain http:// does not read the certificates, so a bad file does not stop it.
+    let plain = Server::start(fixtures(), true);
+    read_volume(&plain.url_of("v3_zstd.zarr"), &trusting(Some(missing))).unwrap();
 }
