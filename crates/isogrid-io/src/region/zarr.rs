@@ -15,6 +15,8 @@
 //! - Sample types: u8, u16, i16 and f32 are kept; i8 and bool widen, the other integers and f64
 //!   become f32, as for every other format of this crate.
 
+mod rows;
+
 use super::ZarrOptions;
 use isogrid::extract::stream::{RegionSource, SlabMut};
 use isogrid::{Error, Geometry, Result, ScalarType};
@@ -88,6 +90,9 @@ pub struct ZarrSource {
     fixed: Vec<(usize, u64)>,
     /// Bytes of one decoded chunk (of the outer chunk grid).
     chunk_bytes: u64,
+    /// The chunk-by-chunk reader, for arrays whose last axes are z, y, x; `None` for others,
+    /// which zarrs assembles by subset.
+    rows: Option<rows::ChunkRows>,
 }
 
 fn zarr_error(location: &str, what: &str, e: impl std::fmt::Display) -> Error {
@@ -511,6 +516,7 @@ impl ZarrSource {
             .chunk_shape(&vec![0; shape.len()])
             .map(|c| c.iter().fold(1u64, |acc, n| acc.saturating_mul(n.get())))
             .unwrap_or(0);
+        let rows = rows::ChunkRows::new(&array, spatial, &fixed, geometry.dims);
         Ok(ZarrSource {
             array,
             location: location.to_string(),
@@ -519,6 +525,7 @@ impl ZarrSource {
             spatial,
             fixed,
             chunk_bytes: chunk_elements.saturating_mul(stored.size() as u64),
+            rows,
         })
     }
 
@@ -570,15 +577,18 @@ impl ZarrSource {
     }
 
     fn read_into<S, K>(
-        &self,
+        &mut self,
         z: &Range<usize>,
         out: &mut [K],
         convert: impl Fn(S) -> K + Sync,
     ) -> Result<()>
     where
         S: zarrs::array::ElementOwned + Copy,
-        K: Copy + Send,
+        K: Copy + Default + Send + Sync + 'static,
     {
+        if let Some(rows) = &mut self.rows {
+            return rows.read(&self.array, &self.location, z.clone(), out, convert);
+        }
         let subset = self.subset(z);
         let values = self.retrieve::<S>(&subset)?;
         let [nx, ny, _] = self.geometry.dims;
@@ -627,12 +637,19 @@ impl RegionSource for ZarrSource {
     }
     fn read_overhead(&self, planes: usize) -> u64 {
         let [nx, ny, _] = self.geometry.dims;
-        // The subset as stored, twice: zarrs decodes it into its own bytes and converts those
-        // into the typed Vec it returns, and both are alive at the conversion. Plus the chunks
-        // being decoded at once (encoded and decoded).
+        let plane = (nx * ny) as u64;
+        // Read by chunk: the planes of the row kept for the next slab. Read by subset: the subset
+        // as stored, twice (zarrs decodes it into its own bytes and converts those into the typed
+        // Vec it returns, both alive at the conversion). Either way, the chunks being decoded at
+        // once (encoded and decoded).
+        let buffers = match &self.rows {
+            Some(rows) => {
+                rows.kept_planes(planes) as u64 * plane * self.stored.kept().size() as u64
+            }
+            None => 2 * plane * planes as u64 * self.stored.size() as u64,
+        };
         let threads = rayon::current_num_threads() as u64;
-        (2 * (nx * ny * planes * self.stored.size()) as u64)
-            .saturating_add((2 * threads).saturating_mul(self.chunk_bytes))
+        buffers.saturating_add((2 * threads).saturating_mul(self.chunk_bytes))
     }
 }
 

@@ -296,3 +296,115 @@ fn ome_zarr_degenerate_transformations_are_refused() {
         assert!(err.contains("spacing must be positive and finite"), "{err}");
     }
 }
+
+/// A 20x13x35 u8 array stored with its axes as (x, y, z) (`dimension_names`), in uncompressed
+/// 7x6x8 chunks written here: the reader must transpose it (zarrs' subset path, not the
+/// chunk-row one, which needs z, y, x last).
+fn transposed_store(dir: &TempDir) -> std::path::PathBuf {
+    let [nx, ny, nz] = DIMS;
+    let chunk = [7, 6, 8];
+    let value = |i: usize, j: usize, k: usize| (f(i, j, k) as u64 % 251) as u8;
+    let array = format!(
+        r#"{{"zarr_format": 3, "node_type": "array", "shape": [{nx}, {ny}, {nz}],
+        "data_type": "uint8", "dimension_names": ["x", "y", "z"],
+        "chunk_grid": {{"name": "regular", "configuration": {{"chunk_shape": {chunk:?}}}}},
+        "chunk_key_encoding": {{"name": "default", "configuration": {{"separator": "/"}}}},
+        "fill_value": 0, "codecs": [{{"name": "bytes"}}]}}"#
+    );
+    let root = store(dir, &[("zarr.json", &array)]);
+    for ci in 0..nx.div_ceil(chunk[0]) {
+        for cj in 0..ny.div_ceil(chunk[1]) {
+            for ck in 0..nz.div_ceil(chunk[2]) {
+                // C order over the array's own axes (x, y, z); edge chunks padded with zeros.
+                let mut bytes = Vec::new();
+                for a in 0..chunk[0] {
+                    for b in 0..chunk[1] {
+                        for c in 0..chunk[2] {
+                            let (i, j, k) =
+                                (ci * chunk[0] + a, cj * chunk[1] + b, ck * chunk[2] + c);
+                            let inside = i < nx && j < ny && k < nz;
+                            bytes.push(if inside { value(i, j, k) } else { 0 });
+                        }
+                    }
+                }
+                let path = root.join(format!("c/{ci}/{cj}/{ck}"));
+                std::fs::create_dir_all(path.parent().unwrap()).unwrap();
+                std::fs::write(path, bytes).unwrap();
+            }
+        }
+    }
+    root
+}
+
+#[test]
+fn a_zarr_array_stored_as_x_y_z_reads_and_streams_transposed() {
+    let dir = TempDir::new("zarr-transposed");
+    let root = transposed_store(&dir);
+    let v = read_volume(&root, &ReadOptions::default()).unwrap();
+    check(&v, DIMS, |i, j, k| (f(i, j, k) as u64 % 251) as f64);
+    streams_like_memory(
+        &root,
+        &ReadOptions::default(),
+        &[ExtractOptions::new(Iso::Value(100.0))],
+    );
+}
+
+/// Plane ranges read one after another from one opened source (overlapping by the halo plane as
+/// the stream reads, back to back as the value-range pass does, and jumping back as a second
+/// pass does) hold the planes of the volume read whole: the chunk row kept between reads must
+/// be the right one, and a read it does not cover must decode afresh.
+#[test]
+fn zarr_plane_ranges_read_in_sequence_match_the_whole_volume() {
+    use isogrid::extract::stream::SlabMut;
+    let dir = TempDir::new("zarr-ranges");
+    let cases = [
+        (zarr("v2_blosc.zarr"), ReadOptions::default()),
+        (zarr("v3_sharded_gzip.zarr"), ReadOptions::default()),
+        (zarr("v3_missing_chunk.zarr"), ReadOptions::default()),
+        (zarr("v2_f32_gzip.zarr"), ReadOptions::default()),
+        (zarr("ome_v04.zarr"), options(0, &[("t", 1), ("c", 0)])),
+        (transposed_store(&dir), ReadOptions::default()),
+    ];
+    let sequences: [&[(usize, usize)]; 5] = [
+        &[(0, 17), (16, 33), (32, 35)],
+        &[(0, 3), (3, 6), (6, 9), (9, 12), (12, 35)],
+        &[(0, 20), (20, 35)],
+        &[(0, 17), (16, 33), (0, 17), (16, 33), (32, 35)],
+        &[(10, 11), (10, 30), (29, 30), (5, 35)],
+    ];
+    for (path, opts) in &cases {
+        let whole = read_volume(path, opts).unwrap();
+        let [nx, ny, _] = whole.dims();
+        for sequence in sequences {
+            let mut source = open_region(path, opts).unwrap().unwrap();
+            for &(z0, z1) in sequence {
+                let mut got = vec![0.0f32; nx * ny * (z1 - z0)];
+                match whole.scalar_type() {
+                    ScalarType::U16 => {
+                        let mut slab = vec![0u16; got.len()];
+                        source.read_planes(z0..z1, SlabMut::U16(&mut slab)).unwrap();
+                        got = slab.iter().map(|&v| v as f32).collect();
+                    }
+                    ScalarType::F32 => {
+                        source.read_planes(z0..z1, SlabMut::F32(&mut got)).unwrap();
+                    }
+                    ScalarType::U8 => {
+                        let mut slab = vec![0u8; got.len()];
+                        source.read_planes(z0..z1, SlabMut::U8(&mut slab)).unwrap();
+                        got = slab.iter().map(|&v| v as f32).collect();
+                    }
+                    other => panic!("no fixture of type {other:?}"),
+                }
+                for (n, &v) in got.iter().enumerate() {
+                    let (i, j, k) = (n % nx, n / nx % ny, z0 + n / (nx * ny));
+                    assert_eq!(
+                        v as f64,
+                        whole.get(i, j, k),
+                        "{}: planes {z0}..{z1} of {sequence:?}, sample ({i}, {j}, {k})",
+                        path.display()
+                    );
+                }
+            }
+        }
+    }
+}

@@ -298,6 +298,7 @@ pub fn extract_planned(
         geometry,
         plan: *plan,
         progress,
+        held: None,
     };
     match run.source.scalar_type() {
         ScalarType::U8 => run.extract::<u8>(options, path),
@@ -335,14 +336,24 @@ struct Run<'a> {
     geometry: Geometry,
     plan: MemoryPlan,
     progress: &'a mut dyn FnMut(Progress),
+    /// The planes the slab buffer holds (the run has one buffer), so that a pass asking for
+    /// the planes the previous one ended on does not read them again: a volume that fits one
+    /// slab is read once, not once per pass.
+    held: Option<Range<usize>>,
 }
 
 impl Run<'_> {
     fn read<T: SlabScalar>(&mut self, z: Range<usize>, buffer: &mut Vec<T>) -> Result<()> {
+        if self.held.as_ref() == Some(&z) {
+            return Ok(());
+        }
         let [nx, ny, _] = self.geometry.dims;
+        self.held = None;
         buffer.clear();
         buffer.resize(nx * ny * z.len(), T::default());
-        self.source.read_planes(z, T::slab(buffer))
+        self.source.read_planes(z.clone(), T::slab(buffer))?;
+        self.held = Some(z);
+        Ok(())
     }
 
     /// Slabs as block layer ranges, and the sample planes each reads (its layers plus the halo).

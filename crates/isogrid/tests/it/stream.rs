@@ -217,7 +217,8 @@ fn a_budget_below_one_slab_names_the_least_that_works_and_writes_nothing() {
     assert!(dir.entries().is_empty());
 }
 
-/// A source that fails on its `fail_at`-th read, to check that nothing is left behind.
+/// A source that counts its reads and fails on its `fail_at`-th, to check that nothing is left
+/// behind.
 struct Failing<'a> {
     inner: isogrid::VolumeView<'a>,
     reads: usize,
@@ -295,4 +296,34 @@ fn progress_covers_every_pass_to_the_last_plane() {
     )
     .unwrap();
     assert!(seen.iter().all(|p| p.stage != Stage::ValueRange));
+}
+
+/// Every pass reads its slabs, but a pass that starts on the planes the previous one ended on
+/// takes them from the buffer: a volume in one slab is read once for the range, scan and emit
+/// passes together.
+#[test]
+fn a_volume_in_one_slab_is_read_once_for_every_pass() {
+    let dir = TempDir::new("read-once");
+    let out = dir.0.join("out.cgc");
+    let volume = random_u8([20, 20, 50], 9, 2);
+    let options = ExtractOptions::new(Iso::Normalized(0.5));
+    let expected = cgc::to_bytes(&extract(&volume.view(), &options).unwrap());
+    // One-layer slabs: 3 range reads of 17 planes, then 4 slabs each for scan and emit.
+    for (layers, reads) in [(64, 1), (1, 3 + 4 + 4)] {
+        let mut source = Failing {
+            inner: volume.view(),
+            reads: 0,
+            fail_at: usize::MAX,
+        };
+        extract_planned(
+            &mut source,
+            &options,
+            &plan(layers, 1 << 20),
+            &out,
+            &mut |_| {},
+        )
+        .unwrap();
+        assert_eq!(source.reads, reads, "{layers}-layer slabs");
+        assert!(std::fs::read(&out).unwrap() == expected);
+    }
 }

@@ -1,0 +1,325 @@
+//! Slab reads of a Zarr array chunk by chunk, for arrays whose last three axes are z, y and x (the
+//! C order of every OME-Zarr image and of numpy-written volumes).
+//!
+//! zarrs' `retrieve_array_subset` assembles a subset through an index iterator that walks every
+//! contiguous run of a chunk (64 samples for 64³ chunks) and then copies the whole subset into
+//! the typed `Vec` it returns; on a 2048³ volume that assembly, not zstd, was most of the read.
+//! Here each chunk is decoded on its own (in parallel over the chunks of a *chunk row*, the
+//! chunks that share one z range) and its x-runs are copied straight into the caller's slab,
+//! converting the type on the way.
+//!
+//! A slab of `16·k + 1` planes rarely ends on a chunk boundary, so the chunk row holding its last
+//! planes is also the first row of the next slab. That row's planes from the slab's halo plane on
+//! are kept (one row's planes at most), and the next read takes them from there instead of
+//! decoding the row again, so a whole stream decodes each chunk once per pass.
+
+use isogrid::{Error, Result};
+use rayon::prelude::*;
+use std::any::Any;
+use std::ops::Range;
+use zarrs::array::{Array, ArraySubset, CodecOptions, ElementOwned};
+use zarrs::storage::ReadableStorageTraits;
+
+/// Reads planes of an array whose axes are `[fixed…, z, y, x]`.
+pub(super) struct ChunkRows {
+    /// Array dimensionality, and the index picked on each leading (non-spatial) axis.
+    fixed: Vec<u64>,
+    /// Samples along x, y, z.
+    dims: [usize; 3],
+    /// z extent of the chunk rows (the first chunk's; a regular grid's for all).
+    row_depth: usize,
+    kept: Option<KeptRow>,
+}
+
+/// The planes `planes` of chunk row `row`, decoded by the previous read.
+struct KeptRow {
+    row: u64,
+    planes: Range<usize>,
+    /// A `Vec<K>` of the slab's sample type.
+    samples: Box<dyn Any + Send + Sync>,
+}
+
+/// A slab that chunk copies on several threads write at once, each into places no other writes.
+struct SharedSlab<K> {
+    start: *mut K,
+    len: usize,
+}
+
+// SAFETY: the pointer comes from a `&mut [K]` that outlives every use (the parallel loop of
+// `ChunkRows::read` borrows it for its whole duration), and writers touch disjoint elements.
+unsafe impl<K: Send> Send for SharedSlab<K> {}
+unsafe impl<K: Send> Sync for SharedSlab<K> {}
+
+impl<K> SharedSlab<K> {
+    fn new(samples: &mut [K]) -> Self {
+        SharedSlab {
+            start: samples.as_mut_ptr(),
+            len: samples.len(),
+        }
+    }
+
+    /// `len` elements from `at`.
+    ///
+    /// # Safety
+    /// No other live reference may cover any of these elements.
+    #[allow(clippy::mut_from_ref)]
+    unsafe fn run(&self, at: usize, len: usize) -> &mut [K] {
+        assert!(
+            at <= self.len && len <= self.len - at,
+            "run outside the slab"
+        );
+        // SAFETY: in bounds (asserted); exclusive by the caller's contract.
+        unsafe { std::slice::from_raw_parts_mut(self.start.add(at), len) }
+    }
+}
+
+/// Where one chunk row's samples go: planes `planes` of the volume, into `samples`, which holds
+/// planes from `first_plane` on.
+struct Destination<'a, K> {
+    planes: Range<usize>,
+    first_plane: usize,
+    samples: &'a SharedSlab<K>,
+}
+
+impl ChunkRows {
+    /// A reader for `array` when its last three axes are z, y, x (`spatial` is x, y, z's axes) and
+    /// every other axis has a fixed index; `None` otherwise.
+    pub(super) fn new(
+        array: &Array<dyn ReadableStorageTraits>,
+        spatial: [usize; 3],
+        fixed: &[(usize, u64)],
+        dims: [usize; 3],
+    ) -> Option<Self> {
+        let n = array.dimensionality();
+        if n < 3 || spatial != [n - 1, n - 2, n - 3] || fixed.len() != n - 3 {
+            return None;
+        }
+        let mut lead = vec![0u64; n - 3];
+        for &(axis, index) in fixed {
+            *lead.get_mut(axis)? = index;
+        }
+        let first = array.chunk_shape(&vec![0; n]).ok()?;
+        let row_depth = usize::try_from(first[n - 3].get()).ok()?;
+        Some(ChunkRows {
+            fixed: lead,
+            dims,
+            row_depth,
+            kept: None,
+        })
+    }
+
+    /// Planes of the row a slab of `planes` planes keeps for the next one (0 where a row is
+    /// deeper than the slab: keeping it would cost more memory than decoding it twice).
+    pub(super) fn kept_planes(&self, planes: usize) -> usize {
+        if self.row_depth <= planes {
+            self.row_depth
+        } else {
+            0
+        }
+    }
+
+    /// Reads planes `z` into `out` (C order, x fastest), converting each sample with `convert`.
+    pub(super) fn read<S, K>(
+        &mut self,
+        array: &Array<dyn ReadableStorageTraits>,
+        location: &str,
+        z: Range<usize>,
+        out: &mut [K],
+        convert: impl Fn(S) -> K + Sync,
+    ) -> Result<()>
+    where
+        S: ElementOwned + Copy,
+        K: Copy + Default + Send + Sync + 'static,
+    {
+        let [nx, ny, nz] = self.dims;
+        let plane = nx * ny;
+        assert_eq!(out.len(), plane * z.len(), "slab buffer of the wrong size");
+        if z.is_empty() {
+            return Ok(());
+        }
+        let n = array.dimensionality();
+        let mut ranges: Vec<Range<u64>> = self.fixed.iter().map(|&i| i..i + 1).collect();
+        ranges.extend([z.start as u64..z.end as u64, 0..ny as u64, 0..nx as u64]);
+        let subset = ArraySubset::new_with_ranges(&ranges);
+        let chunks = match array.chunks_in_array_subset(&subset) {
+            Ok(Some(chunks)) => chunks,
+            _ => {
+                return Err(Error::corrupt(format!(
+                    "the Zarr chunk grid does not cover planes {}..{}",
+                    z.start, z.end
+                ))
+                .with_path(location))
+            }
+        };
+        let (first, end) = (chunks.start().to_vec(), chunks.end_exc());
+        let keep_row = self.kept_planes(z.len()) > 0;
+        let shared_out = SharedSlab::new(out);
+        for row in first[n - 3]..end[n - 3] {
+            let mut indices = first.clone();
+            indices[n - 3] = row;
+            let row_planes = bounded(array, &indices, n - 3, nz, location)?;
+            let needed = z.start.max(row_planes.start)..z.end.min(row_planes.end);
+            let at = (needed.start - z.start) * plane;
+
+            if let Some(kept) = &self.kept {
+                if kept.row == row
+                    && kept.planes.start <= needed.start
+                    && needed.end <= kept.planes.end
+                {
+                    let samples = kept
+                        .samples
+                        .downcast_ref::<Vec<K>>()
+                        .expect("a kept row has the slab's sample type");
+                    let from = (needed.start - kept.planes.start) * plane;
+                    // SAFETY: no chunk copy runs; this is the only reference into `out`.
+                    let dst = unsafe { shared_out.run(at, needed.len() * plane) };
+                    dst.copy_from_slice(&samples[from..from + needed.len() * plane]);
+                    continue;
+                }
+            }
+
+            // The last row goes on past the slab: keep its planes from the halo plane on (the
+            // next slab starts there, or one plane later for reads that do not overlap).
+            let keep = if keep_row && row + 1 == end[n - 3] && row_planes.end > z.end {
+                row_planes.start.max(z.end - 1)..row_planes.end
+            } else {
+                0..0
+            };
+            let mut kept_samples: Vec<K> = match self.kept.take() {
+                Some(kept) => *kept
+                    .samples
+                    .downcast::<Vec<K>>()
+                    .expect("a kept row has the slab's sample type"),
+                None => Vec::new(),
+            };
+            kept_samples.clear();
+            kept_samples.resize(keep.len() * plane, K::default());
+            let shared_kept = SharedSlab::new(&mut kept_samples);
+            let destinations = [
+                Destination {
+                    planes: needed.clone(),
+                    first_plane: z.start,
+                    samples: &shared_out,
+                },
+                Destination {
+                    planes: keep.clone(),
+                    first_plane: keep.start,
+                    samples: &shared_kept,
+                },
+            ];
+
+            let mut row_chunks = Vec::new();
+            for y in first[n - 2]..end[n - 2] {
+                for x in first[n - 1]..end[n - 1] {
+                    let mut chunk = indices.clone();
+                    chunk[n - 2] = y;
+                    chunk[n - 1] = x;
+                    row_chunks.push(chunk);
+                }
+            }
+            row_chunks.par_iter().try_for_each(|chunk| {
+                self.copy_chunk::<S, K>(array, location, chunk, &destinations, &convert)
+            })?;
+            if !keep.is_empty() {
+                self.kept = Some(KeptRow {
+                    row,
+                    planes: keep,
+                    samples: Box::new(kept_samples),
+                });
+            }
+        }
+        Ok(())
+    }
+
+    /// Decodes one chunk and copies its x-runs into every destination that holds its planes.
+    fn copy_chunk<S, K>(
+        &self,
+        array: &Array<dyn ReadableStorageTraits>,
+        location: &str,
+        chunk: &[u64],
+        destinations: &[Destination<'_, K>],
+        convert: &(impl Fn(S) -> K + Sync),
+    ) -> Result<()>
+    where
+        S: ElementOwned + Copy,
+        K: Copy + Send,
+    {
+        let [nx, ny, _] = self.dims;
+        let n = chunk.len();
+        let (origin, shape) = chunk_box(array, chunk, location)?;
+        // One chunk at a time per thread: the parallelism is over the chunks.
+        let options = CodecOptions::default().with_concurrent_target(1);
+        let samples: Vec<S> = array
+            .retrieve_chunk_opt::<Vec<S>>(chunk, &options)
+            .map_err(|e| {
+                let key = array.chunk_key(chunk);
+                Error::corrupt(format!("chunk {key} (indices {chunk:?}): {e}")).with_path(location)
+            })?;
+        if samples.len() != shape.iter().product::<usize>() {
+            let key = array.chunk_key(chunk);
+            return Err(Error::corrupt(format!(
+                "chunk {key} decoded to {} samples, not the {shape:?} of its chunk",
+                samples.len()
+            ))
+            .with_path(location));
+        }
+        // Chunk-local C-order strides; the leading axes sit at their fixed index.
+        let mut stride = vec![1usize; n];
+        for a in (0..n - 1).rev() {
+            stride[a] = stride[a + 1] * shape[a + 1];
+        }
+        let lead: usize = (0..n - 3)
+            .map(|a| (self.fixed[a] - origin[a]) as usize * stride[a])
+            .sum();
+        let [cz0, cy0, cx0] = [origin[n - 3], origin[n - 2], origin[n - 1]].map(|o| o as usize);
+        let ys = cy0..(cy0 + shape[n - 2]).min(ny);
+        let xs = cx0..(cx0 + shape[n - 1]).min(nx);
+        let chunk_planes = cz0..cz0 + shape[n - 3];
+        for destination in destinations {
+            let planes = destination.planes.start.max(chunk_planes.start)
+                ..destination.planes.end.min(chunk_planes.end);
+            for zz in planes {
+                for y in ys.clone() {
+                    let from = lead + (zz - cz0) * stride[n - 3] + (y - cy0) * stride[n - 2];
+                    let src = &samples[from..from + xs.len()];
+                    let at = ((zz - destination.first_plane) * ny + y) * nx + xs.start;
+                    // SAFETY: the chunks of one row cover disjoint (x, y) boxes, so this run of
+                    // plane `zz`, row `y`, columns `xs` is written by this chunk alone.
+                    let dst = unsafe { destination.samples.run(at, xs.len()) };
+                    for (o, &v) in dst.iter_mut().zip(src) {
+                        *o = convert(v);
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The origin and shape of the chunk at `indices` (a whole chunk, also where the array ends).
+fn chunk_box(
+    array: &Array<dyn ReadableStorageTraits>,
+    indices: &[u64],
+    location: &str,
+) -> Result<(Vec<u64>, Vec<usize>)> {
+    let bad = |e: zarrs::array::ArrayError| Error::corrupt(e.to_string()).with_path(location);
+    let origin = array.chunk_origin(indices).map_err(bad)?;
+    let shape = array.chunk_shape(indices).map_err(bad)?;
+    Ok((
+        origin.to_vec(),
+        shape.iter().map(|s| s.get() as usize).collect(),
+    ))
+}
+
+/// The planes of chunk row `indices[axis]`, within the volume's `nz`.
+fn bounded(
+    array: &Array<dyn ReadableStorageTraits>,
+    indices: &[u64],
+    axis: usize,
+    nz: usize,
+    location: &str,
+) -> Result<Range<usize>> {
+    let (origin, shape) = chunk_box(array, indices, location)?;
+    let start = (origin[axis] as usize).min(nz);
+    Ok(start..(start + shape[axis]).min(nz))
+}
