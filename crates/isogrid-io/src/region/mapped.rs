@@ -1,9 +1,12 @@
-//! Uncompressed raw, NRRD and NIfTI-1 files read plane range by plane range through a memory map.
+//! Uncompressed raw, NRRD and NIfTI-1 files read plane range by plane range.
 //!
-//! Each read maps only the byte range of the planes asked for and unmaps it before returning, so
-//! the mapped pages never outlive the slab (a map of the whole file would keep every page it ever
-//! touched resident until the end). Samples are converted exactly as the in-memory readers convert
-//! them (the same `read_samples`, one bounded chunk at a time), so both paths see the same values.
+//! Samples stored as they are kept (u8, u16, i16, f32, unscaled) are read with one positioned
+//! read straight into the slab, byte-swapped in place where the file's order is not the
+//! machine's: one copy out of the page cache, with no page faults and no map to tear down.
+//! Samples that must be converted are read through a memory map of a bounded chunk at a time,
+//! unmapped before the next (a map of the whole file would keep every page it ever touched
+//! resident until the end), and converted exactly as the in-memory readers convert them (the same
+//! `read_samples`), so both paths see the same values.
 
 use crate::mapped_layout::MappedLayout;
 use crate::samples::{read_samples, ElemType};
@@ -51,6 +54,15 @@ impl MappedSource {
         if len == 0 {
             return Ok(());
         }
+        if self.stored_as_kept() {
+            use std::io::{Read, Seek, SeekFrom};
+            (&self.file).seek(SeekFrom::Start(offset))?;
+            (&self.file).read_exact(out.as_bytes_mut())?;
+            if self.layout.big_endian != cfg!(target_endian = "big") {
+                out.swap_bytes();
+            }
+            return Ok(());
+        }
         // Mapped a bounded chunk at a time: resident pages of a map count against the process
         // until it is unmapped.
         let per_chunk = (CONVERT_BYTES / size).max(1) as u64 * size as u64;
@@ -96,6 +108,20 @@ fn copy_into(data: &VolumeData, out: &mut SlabMut<'_>, at: usize) -> Result<()> 
     Ok(())
 }
 
+impl MappedSource {
+    /// Whether the stored samples are the kept ones, byte order aside.
+    fn stored_as_kept(&self) -> bool {
+        self.layout.scale.is_none()
+            && matches!(
+                (self.layout.elem, self.scalar),
+                (ElemType::U8, ScalarType::U8)
+                    | (ElemType::U16, ScalarType::U16)
+                    | (ElemType::I16, ScalarType::I16)
+                    | (ElemType::F32, ScalarType::F32)
+            )
+    }
+}
+
 impl RegionSource for MappedSource {
     fn geometry(&self) -> Geometry {
         self.layout.geometry
@@ -108,6 +134,9 @@ impl RegionSource for MappedSource {
         self.read(z, out).at_path(&path)
     }
     fn read_overhead(&self, _planes: usize) -> u64 {
+        if self.stored_as_kept() {
+            return 0;
+        }
         // One mapped chunk, its converted samples and, for scaled data, their scaled copy.
         let samples = (CONVERT_BYTES / self.layout.elem.size()) as u64;
         let scaled = if self.layout.scale.is_some() { 4 } else { 0 };

@@ -105,6 +105,21 @@ fn mapped_raw_nrrd_and_nifti_stream_byte_identically() {
     };
     streams_like_memory(&raw, &raw_options, &isos);
 
+    // int32 samples become f32: read through bounded maps and converted, not read straight in.
+    let converted = dir.path("wave_i32.nrrd");
+    let mut bytes = format!(
+        "NRRD0004\ntype: int32\ndimension: 3\nsizes: {} {} {}\nencoding: raw\nendian: little\n\n",
+        dims[0], dims[1], dims[2]
+    )
+    .into_bytes();
+    bytes.extend(
+        values
+            .iter()
+            .flat_map(|v| ((v * 1000.0) as i32).to_le_bytes()),
+    );
+    std::fs::write(&converted, bytes).unwrap();
+    streams_like_memory(&converted, &ReadOptions::default(), &isos[..1]);
+
     // Fixtures written by nibabel and pynrrd (scripts/make_io_fixtures.py), some of which convert.
     for name in ["f32_qform.nii", "f32_big.nrrd"] {
         let path = fixture(name);
