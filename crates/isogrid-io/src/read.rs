@@ -34,6 +34,22 @@ pub fn read_volume_noted(path: &Path, opts: &ReadOptions) -> Result<(Volume, Vec
     read_single(path, opts).map(|volume| (volume, Vec::new()))
 }
 
+/// [`read_volume`], counting the planes read in `progress` for inputs read by region (Zarr, TIFF
+/// slice folders, uncompressed raw, NRRD and NIfTI), which also stop with a `Cancelled` error
+/// once `progress` is cancelled; other formats are read in one go, without counts.
+pub fn read_volume_with_progress(
+    path: &Path,
+    opts: &ReadOptions,
+    progress: &isogrid::Progress,
+) -> Result<Volume> {
+    match crate::region::open_region(path, opts)? {
+        Some(mut source) => {
+            crate::region::read_all_with_progress(source.as_mut(), progress).at_path(path)
+        }
+        None => read_volume(path, opts),
+    }
+}
+
 /// A file named `.dcm`/`.dicom`/`.ima`, or with `DICM` at byte 128 (or 0: no preamble).
 fn is_dicom_file(path: &Path) -> bool {
     if !path.is_file() {

@@ -490,13 +490,14 @@ mod tests {
         isogrid::cgc::write(&cgc_path, &grid).unwrap();
 
         let (worker, render_rx, event_rx) = spawn_opening(&volume_path);
-        // A volume: reading does not count its steps, extraction does (two per block).
+        // A volume read by region counts its planes; extraction counts two steps per block.
         let (what, seen) = follow_task(&event_rx);
         assert!(
             what.starts_with("reading") && what.contains("sphere.nrrd"),
             "{what}"
         );
-        assert_eq!(*seen.last().unwrap(), (0, 0), "{what}");
+        assert_counts_to_done(&what, &seen);
+        assert_eq!(seen.last().unwrap().1, 80);
         let (what, seen) = follow_task(&event_rx);
         assert!(what.starts_with("extracting cells"), "{what}");
         assert_counts_to_done(&what, &seen);

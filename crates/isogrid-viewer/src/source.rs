@@ -32,8 +32,9 @@ pub fn is_cgc(path: &Path) -> bool {
         && magic == CGC_MAGIC
 }
 
-/// Reads `path`; errors name the path. `progress` counts the checks of a `.cgc` file (volume
-/// readers do not count their work).
+/// Reads `path`; errors name the path. `progress` counts the checks of a `.cgc` file, and the
+/// planes of a volume read by region (Zarr, TIFF slices, uncompressed raw, NRRD and NIfTI); other
+/// volume formats are read without counts.
 pub fn open(
     path: &Path,
     read_options: &isogrid_io::ReadOptions,
@@ -44,7 +45,7 @@ pub fn open(
             .map(|g| Source::Grid(Box::new(g)))
             .at_path(path)
     } else {
-        isogrid_io::read_volume(path, read_options)
+        isogrid_io::read_volume_with_progress(path, read_options, progress)
             .map(|v| Source::Volume(Arc::new(v)))
             .at_path(path)
     }

@@ -15,7 +15,7 @@ pub use crate::read_options::ZarrOptions;
 pub use isogrid::extract::stream::{RegionSource, SlabMut};
 
 use crate::read_options::ReadOptions;
-use isogrid::{Result, Volume, VolumeData};
+use isogrid::{Progress, Result, Volume, VolumeData};
 use std::path::Path;
 
 /// Whether `path` is an `http://` or `https://` URL (read as a Zarr store).
@@ -95,6 +95,15 @@ pub fn open_zarr(path: &Path, options: &ReadOptions) -> Result<Box<dyn RegionSou
 
 /// Reads a whole region source into memory (for commands that need the volume itself).
 pub fn read_all(source: &mut dyn RegionSource) -> Result<Volume> {
+    read_all_with_progress(source, &Progress::new())
+}
+
+/// [`read_all`], counting planes read in `progress` (about 64 steps) and stopping with a
+/// `Cancelled` error once it is cancelled.
+pub fn read_all_with_progress(
+    source: &mut dyn RegionSource,
+    progress: &Progress,
+) -> Result<Volume> {
     let geometry = source.geometry();
     let count = crate::samples::sample_count(geometry.dims)?;
     let nz = geometry.dims[2];
@@ -115,6 +124,34 @@ pub fn read_all(source: &mut dyn RegionSource) -> Result<Volume> {
         VolumeData::I16(v) => SlabMut::I16(v),
         VolumeData::F32(v) => SlabMut::F32(v),
     };
-    source.read_planes(0..nz, out)?;
+    read_in_steps(source, out, nz, progress)?;
     Volume::with_geometry(geometry, data)
+}
+
+/// Reads all `nz` planes into `out` in about 64 steps of whole multiples of the source's
+/// plane granularity (so a Zarr chunk row is not decoded once per step).
+fn read_in_steps(
+    source: &mut dyn RegionSource,
+    mut out: SlabMut<'_>,
+    nz: usize,
+    progress: &Progress,
+) -> Result<()> {
+    let granularity = source.plane_granularity().max(1);
+    let step = nz.div_ceil(64).next_multiple_of(granularity);
+    let plane = out.len() / nz.max(1);
+    progress.start(nz as u64);
+    for z0 in (0..nz).step_by(step) {
+        progress.check()?;
+        let z = z0..(z0 + step).min(nz);
+        let part = plane * z0..plane * z.end;
+        let slab = match &mut out {
+            SlabMut::U8(v) => SlabMut::U8(&mut v[part]),
+            SlabMut::U16(v) => SlabMut::U16(&mut v[part]),
+            SlabMut::I16(v) => SlabMut::I16(&mut v[part]),
+            SlabMut::F32(v) => SlabMut::F32(&mut v[part]),
+        };
+        source.read_planes(z.clone(), slab)?;
+        progress.advance(z.len() as u64);
+    }
+    Ok(())
 }

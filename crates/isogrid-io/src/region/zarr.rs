@@ -635,6 +635,9 @@ impl RegionSource for ZarrSource {
             _ => Err(Error::invalid("slab buffer type differs from the array's")),
         }
     }
+    fn plane_granularity(&self) -> usize {
+        self.rows.as_ref().map_or(1, |rows| rows.row_depth())
+    }
     fn read_overhead(&self, planes: usize) -> u64 {
         let [nx, ny, _] = self.geometry.dims;
         let plane = (nx * ny) as u64;

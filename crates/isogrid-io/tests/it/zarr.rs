@@ -408,3 +408,18 @@ fn zarr_plane_ranges_read_in_sequence_match_the_whole_volume() {
         }
     }
 }
+
+#[test]
+fn reading_a_store_whole_counts_its_planes_and_stops_when_cancelled() {
+    use isogrid_io::read_volume_with_progress;
+    let path = zarr("v3_zstd.zarr");
+    let progress = isogrid::Progress::new();
+    let v = read_volume_with_progress(&path, &ReadOptions::default(), &progress).unwrap();
+    check(&v, DIMS, f);
+    assert_eq!(progress.counts(), (35, 35));
+    let cancelled = isogrid::Progress::new();
+    cancelled.cancel();
+    let err = read_volume_with_progress(&path, &ReadOptions::default(), &cancelled).unwrap_err();
+    assert_eq!(err.kind(), ErrorKind::Cancelled, "{err}");
+    assert!(err.to_string().contains(&*path.to_string_lossy()), "{err}");
+}

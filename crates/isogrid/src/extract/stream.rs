@@ -127,6 +127,11 @@ pub trait RegionSource {
         let _ = planes;
         0
     }
+    /// Reads are cheapest in multiples of this many planes (a Zarr chunk row's depth): a caller
+    /// free to split a long read splits it there.
+    fn plane_granularity(&self) -> usize {
+        1
+    }
 }
 
 /// An in-memory volume read plane range by plane range: the reference the streaming tests compare

@@ -108,6 +108,11 @@ impl ChunkRows {
         })
     }
 
+    /// z extent of a chunk row.
+    pub(super) fn row_depth(&self) -> usize {
+        self.row_depth
+    }
+
     /// Planes of the row a slab of `planes` planes keeps for the next one (0 where a row is
     /// deeper than the slab: keeping it would cost more memory than decoding it twice).
     pub(super) fn kept_planes(&self, planes: usize) -> usize {
