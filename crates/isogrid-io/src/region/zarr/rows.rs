@@ -17,7 +17,7 @@ use isogrid::{Error, Result};
 use rayon::prelude::*;
 use std::any::Any;
 use std::ops::Range;
-use zarrs::array::{Array, ArraySubset, CodecOptions, ElementOwned};
+use zarrs::array::{Array, ArrayShardedExt, ArraySubset, CodecOptions, ElementOwned};
 use zarrs::storage::ReadableStorageTraits;
 
 /// Reads planes of an array whose axes are `[fixed…, z, y, x]`.
@@ -82,8 +82,10 @@ struct Destination<'a, K> {
 }
 
 impl ChunkRows {
-    /// A reader for `array` when its last three axes are z, y, x (`spatial` is x, y, z's axes) and
-    /// every other axis has a fixed index; `None` otherwise.
+    /// A reader for `array` when its last three axes are z, y, x (`spatial` is x, y, z's axes),
+    /// every other axis has a fixed index and it is not sharded; `None` otherwise. (A shard is
+    /// one chunk of the outer grid, often hundreds of planes deep: zarrs' subset read decodes
+    /// only the inner chunks a slab needs, and fetches only those over HTTP.)
     pub(super) fn new(
         array: &Array<dyn ReadableStorageTraits>,
         spatial: [usize; 3],
@@ -91,7 +93,7 @@ impl ChunkRows {
         dims: [usize; 3],
     ) -> Option<Self> {
         let n = array.dimensionality();
-        if n < 3 || spatial != [n - 1, n - 2, n - 3] || fixed.len() != n - 3 {
+        if n < 3 || spatial != [n - 1, n - 2, n - 3] || fixed.len() != n - 3 || array.is_sharded() {
             return None;
         }
         let mut lead = vec![0u64; n - 3];
