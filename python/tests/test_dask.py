@@ -1,5 +1,5 @@
 """isogrid.dask: extraction spread over Dask gives the bytes of the in-process extraction, for dask
-arrays with chunks that do not divide 16, zarr arrays written by zarr-python, Zarr paths, OME-Zarr
+arrays with chunks that do not divide 16 and tiles cut along x, y and z, zarr arrays written by zarr-python, Zarr paths, OME-Zarr
 0.4 and 0.5 images (levels, indexed t/c axes, transforms; also the CLI's bytes), a LocalCluster of
 two worker processes and a worker killed mid-run; its statistics are the CLI's."""
 
@@ -25,6 +25,10 @@ from conftest import sphere  # noqa: E402
 SHAPE = (45, 38, 41)
 CHUNKS = (7, 11, 13)
 TILE_BYTES = 41 * 38 * 4 * 20
+# Tilings: whole block layers (the budget above); boxes of one block for float32 and rows of
+# blocks for uint8 (a budget below one layer); 1 x 2 x 1 blocks (z, y, x) given as a shape.
+TILINGS = [{"tile_bytes": TILE_BYTES}, {"tile_bytes": 12_000}, {"tile_shape": (16, 32, 16)}]
+TILING_IDS = ["layers", "blocks-or-rows", "shape"]
 
 
 def volume(dtype=np.float32):
@@ -54,7 +58,8 @@ def in_process_bytes(array, tmp_path, **kwargs):
     ],
     ids=["f32-iso", "u8-normalized", "f64-as-f32", "i16-4bit"],
 )
-def test_dask_array_with_chunks_not_dividing_16_is_byte_identical(tmp_path, dtype, kwargs):
+@pytest.mark.parametrize("tiling", TILINGS, ids=TILING_IDS)
+def test_dask_array_with_chunks_not_dividing_16_is_byte_identical(tmp_path, dtype, kwargs, tiling):
     a = volume(dtype)
     expected = in_process_bytes(a, tmp_path, spacing=(0.5, 0.75, 2.0), **kwargs)
     out = tmp_path / "dask.cgc"
@@ -62,13 +67,59 @@ def test_dask_array_with_chunks_not_dividing_16_is_byte_identical(tmp_path, dtyp
         da.from_array(a, chunks=CHUNKS),
         output=out,
         spacing=(0.5, 0.75, 2.0),
-        tile_bytes=TILE_BYTES,
+        **tiling,
         **kwargs,
     )
     assert out.read_bytes() == expected
     assert stats["active_cells"] > 1000
     assert stats["dims"] == (41, 38, 45)
     assert sorted(os.listdir(tmp_path)) == ["dask.cgc", "reference.cgc"]
+
+
+@pytest.mark.parametrize("chunks", [(16, 32, 16), (32, 16, 48)], ids=["blocks", "uneven"])
+def test_chunks_of_whole_blocks_are_tiled_along_them(tmp_path, chunks):
+    a = volume(np.uint8)
+    expected = in_process_bytes(a, tmp_path, iso_normalized=0.5)
+    # Room for two chunks' samples, not for a whole layer: tiles of whole chunks along y and x.
+    isogrid.dask.extract(
+        da.from_array(a, chunks=chunks), iso_normalized=0.5, output=tmp_path / "dask.cgc", tile_bytes=20_000
+    )
+    assert (tmp_path / "dask.cgc").read_bytes() == expected
+
+
+@pytest.mark.parametrize(
+    "dims,chunks,itemsize",
+    [
+        ((4096, 4096, 4096), ((4096,), (256,) * 16, (16,) * 256), 1),
+        ((4096, 4096, 4096), ((128,) * 32,) * 3, 1),
+        ((16384, 16384, 300), ((1000,) * 16 + (384,), (1000,) * 16 + (384,), (300,)), 4),
+        ((100000, 3, 3), ((100000,), (3,), (3,)), 4),
+    ],
+    ids=["u8-rows", "u8-cubes", "f32-wide-planes", "long-x"],
+)
+def test_tiles_stay_within_the_budget_on_any_plane(dims, chunks, itemsize):
+    budget = 64 << 20
+    tile = isogrid.dask._tile_blocks(dims, chunks, itemsize, budget)
+    samples = itemsize
+    for n, k in zip(dims, tile):
+        samples *= min(16 * k + 1, n)
+    assert samples <= budget
+    # Near the budget: along each axis the tile is whole, or one more chunk (where chunks are
+    # whole blocks) or block would not fit.
+    for axis in range(3):
+        step = chunks[axis][0] // 16 if chunks[axis][0] % 16 == 0 else 1
+        grown = itemsize
+        for a, (n, k) in enumerate(zip(dims, tile)):
+            grown *= min(16 * (k + step * (a == axis)) + 1, n)
+        assert grown > budget or 16 * tile[axis] + 1 >= dims[axis], (axis, tile)
+        # Along chunks of whole blocks, tiles are whole chunks.
+        assert tile[axis] % step == 0 or 16 * tile[axis] + 1 >= dims[axis], (axis, tile)
+
+
+def test_tile_shape_must_be_whole_blocks(tmp_path):
+    with pytest.raises(ValueError, match="multiples of 16"):
+        isogrid.dask.extract(da.zeros((20, 20, 20)), iso=0.5, output=tmp_path / "out.cgc", tile_shape=(16, 20, 16))
+    assert os.listdir(tmp_path) == []
 
 
 def test_zarr_array_on_disk_and_zarr_path(tmp_path):
@@ -164,8 +215,11 @@ def test_local_cluster_of_two_processes_is_byte_identical(tmp_path, two_workers)
             source, iso_normalized=0.5, output=tmp_path / "given.cgc", client=two_workers, tile_bytes=TILE_BYTES
         )
     isogrid.dask.extract(source, iso_normalized=0.5, output=tmp_path / "current.cgc", tile_bytes=TILE_BYTES)
+    # Tiles of single blocks, split along x, y and z.
+    isogrid.dask.extract(source, iso_normalized=0.5, output=tmp_path / "blocks.cgc", tile_bytes=12_000)
     assert (tmp_path / "given.cgc").read_bytes() == expected
     assert (tmp_path / "current.cgc").read_bytes() == expected
+    assert (tmp_path / "blocks.cgc").read_bytes() == expected
     # Both worker processes ran tasks.
     assert len({task["worker"] for task in tasks.data}) == 2
 
