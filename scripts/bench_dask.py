@@ -10,7 +10,7 @@ the .cgc small (a few hundred MB at 4096³).
 Each worker is one process with one dask thread and one rayon thread (RAYON_NUM_THREADS=1), so 1
 and 2 workers use 1 and 2 cores. Every run's file must be byte-identical to the first one's, and
 (for N <= 1024) to the in-process isogrid.extract of the same samples. Each row gives the
-workers' peak resident memory (getrusage over the worker process's life), and while a run goes
+workers' peak resident memory (VmHWM over the worker process's life), and while a run goes
 a line every 60 s gives each worker's current and peak resident memory (so a run cut short
 still says what it held).
 
@@ -23,7 +23,6 @@ the volume is first written to a Zarr store in a temporary folder, and the runs 
 """
 
 import os
-import resource
 import sys
 import tempfile
 import threading
@@ -60,14 +59,22 @@ def _cuts(n, c):
     return (c,) * (n // c) + ((n % c,) if n % c else ())
 
 
+def _status_mib(field):
+    with open("/proc/self/status") as f:
+        for line in f:
+            if line.startswith(field + ":"):
+                return int(line.split()[1]) / 1024
+    raise KeyError(field)
+
+
 def peak_rss_mib():
-    """This process's peak resident memory, in MiB (run on each worker)."""
-    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    """This process's peak resident memory, in MiB (run on each worker). VmHWM, not getrusage's
+    ru_maxrss: a spawned worker inherits the driver's ru_maxrss across fork and exec."""
+    return _status_mib("VmHWM")
 
 
 def rss_now_mib():
-    with open("/proc/self/statm") as f:
-        return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE") / 2**20
+    return _status_mib("VmRSS")
 
 
 def watch(client, start, stop):

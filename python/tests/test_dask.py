@@ -147,7 +147,7 @@ def test_ome_zarr_image_is_the_load_volume_extraction(tmp_path, name, index, lev
     grid = isogrid.extract(volume, iso_normalized=0.5)
     grid.save(tmp_path / "reference.cgc")
     out = tmp_path / "dask.cgc"
-    # A tile budget of one block layer: several tiles and emit jobs even on these small images.
+    # A tile budget of one block: many tiles and emit jobs even on these small images.
     isogrid.dask.extract(store, iso_normalized=0.5, level=level, index=index, output=out, tile_bytes=1)
     assert out.read_bytes() == (tmp_path / "reference.cgc").read_bytes()
     # Not the defaults: the transforms reached the file.
