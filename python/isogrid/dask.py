@@ -91,8 +91,9 @@ def extract(
         level: the OME-Zarr resolution level (0 = full resolution), as ``isogrid extract --level``.
         index: the entry to read of every Zarr axis other than x, y and z that has more than one,
             e.g. ``{"t": 0, "c": 1}``, as ``isogrid extract --index``.
-        tile_bytes: the samples (plus output) one task holds, about; a task never holds less
-            than one block (17³ samples).
+        tile_bytes: the samples plus output one task holds, about: tiles take half of it for
+            their samples, and emit jobs halve a tile whose output would not fit the rest. A task
+            never holds less than one block (17³ samples).
         tile_shape: the (z, y, x) samples a tile covers, each a multiple of 16 (a tile reads one
             more along each axis, its halo); default: picked from ``tile_bytes`` and the chunks.
 
@@ -144,7 +145,9 @@ def extract(
     chunks = _Chunks(array)
     dims = (nx, ny, nz)
     if tile_shape is None:
-        tile = _tile_blocks(dims, array.chunks[::-1], dtype.itemsize, budget)
+        # Half the budget for the samples, the other half for an emit job's output, so that
+        # emit jobs seldom need to halve a tile (halves cut their chunks apart).
+        tile = _tile_blocks(dims, array.chunks[::-1], dtype.itemsize, max(1, budget // 2))
     else:
         tile = _tile_shape_blocks(tile_shape)
     scans = [

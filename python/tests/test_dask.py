@@ -24,10 +24,10 @@ from conftest import sphere  # noqa: E402
 # enough for several tiles and several emit jobs.
 SHAPE = (45, 38, 41)
 CHUNKS = (7, 11, 13)
-TILE_BYTES = 41 * 38 * 4 * 20
+TILE_BYTES = 41 * 38 * 4 * 40  # tiles take half: 20 planes of float32
 # Tilings: whole block layers (the budget above); boxes of one block for float32 and rows of
 # blocks for uint8 (a budget below one layer); 1 x 2 x 1 blocks (z, y, x) given as a shape.
-TILINGS = [{"tile_bytes": TILE_BYTES}, {"tile_bytes": 12_000}, {"tile_shape": (16, 32, 16)}]
+TILINGS = [{"tile_bytes": TILE_BYTES}, {"tile_bytes": 24_000}, {"tile_shape": (16, 32, 16)}]
 TILING_IDS = ["layers", "blocks-or-rows", "shape"]
 
 
@@ -82,7 +82,7 @@ def test_chunks_of_whole_blocks_are_tiled_along_them(tmp_path, chunks):
     expected = in_process_bytes(a, tmp_path, iso_normalized=0.5)
     # Room for two chunks' samples, not for a whole layer: tiles of whole chunks along y and x.
     isogrid.dask.extract(
-        da.from_array(a, chunks=chunks), iso_normalized=0.5, output=tmp_path / "dask.cgc", tile_bytes=20_000
+        da.from_array(a, chunks=chunks), iso_normalized=0.5, output=tmp_path / "dask.cgc", tile_bytes=40_000
     )
     assert (tmp_path / "dask.cgc").read_bytes() == expected
 
@@ -216,7 +216,7 @@ def test_local_cluster_of_two_processes_is_byte_identical(tmp_path, two_workers)
         )
     isogrid.dask.extract(source, iso_normalized=0.5, output=tmp_path / "current.cgc", tile_bytes=TILE_BYTES)
     # Tiles of single blocks, split along x, y and z.
-    isogrid.dask.extract(source, iso_normalized=0.5, output=tmp_path / "blocks.cgc", tile_bytes=12_000)
+    isogrid.dask.extract(source, iso_normalized=0.5, output=tmp_path / "blocks.cgc", tile_bytes=24_000)
     assert (tmp_path / "given.cgc").read_bytes() == expected
     assert (tmp_path / "current.cgc").read_bytes() == expected
     assert (tmp_path / "blocks.cgc").read_bytes() == expected

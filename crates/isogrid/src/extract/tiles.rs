@@ -387,8 +387,8 @@ impl TileExtraction {
     /// Settles every block's place in the file (every block must be scanned), then cuts the tiles
     /// of `tile_blocks` blocks (x, y, z, as [`tiles`] cuts them) that hold active cells into emit
     /// jobs whose samples plus output stay within `job_bytes` where one block allows: a tile over
-    /// the budget is halved along its longest axis until it fits. Tiles and halves without
-    /// active cells get no job.
+    /// the budget is halved (along z while it has several layers, then y, then x) until it fits.
+    /// Tiles and halves without active cells get no job.
     pub fn plan_emits(&mut self, tile_blocks: [usize; 3], job_bytes: u64) -> Result<Vec<EmitJob>> {
         let tiles = tiles(self.geometry.dims, tile_blocks)?;
         self.settle()?;
@@ -425,11 +425,12 @@ impl TileExtraction {
             * self.scalar_type.size() as u64
             + slots * size_of::<Metacell>() as u64
             + cells * record;
-        // The longest axis, z before y before x on ties (longer runs of the table).
+        // Along z first, then y, then x: the halves keep whole rows (one run of the table each)
+        // as long as they can, and the source's chunks are often whole rows too.
         let axis = [2, 1, 0]
             .into_iter()
-            .max_by_key(|&a| (blocks[a].len(), a))
-            .unwrap();
+            .find(|&a| blocks[a].len() > 1)
+            .unwrap_or(0);
         if cost > job_bytes && blocks[axis].len() > 1 {
             let middle = blocks[axis].start + blocks[axis].len() / 2;
             let (mut low, mut high) = (blocks.clone(), blocks);
