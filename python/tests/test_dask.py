@@ -224,6 +224,29 @@ def test_local_cluster_of_two_processes_is_byte_identical(tmp_path, two_workers)
     assert len({task["worker"] for task in tasks.data}) == 2
 
 
+def test_each_chunk_is_computed_once_per_pass_with_tiles_along_y_and_x(tmp_path):
+    a = volume(np.uint8)
+    expected = in_process_bytes(a, tmp_path, iso=100)
+    log = str(tmp_path / "computed")
+
+    def counted(block, block_info=None):
+        # A line per computation, appended from whichever worker runs it (tasks are pickled).
+        with open(log, "a") as f:
+            f.write(f"{block_info[0]['chunk-location']}\n")
+        return block
+
+    # Chunks of whole blocks, cut into tiles of 1 x 2 x 1 chunks with halos from the neighbours.
+    source = da.from_array(a, chunks=(16, 16, 16)).map_blocks(counted, dtype=a.dtype)
+    with distributed.Client(processes=False, n_workers=1, threads_per_worker=2, dashboard_address=None) as client:
+        isogrid.dask.extract(source, iso=100, output=tmp_path / "dask.cgc", client=client, tile_shape=(16, 32, 16))
+    assert (tmp_path / "dask.cgc").read_bytes() == expected
+    # Scan and emit: every chunk at least once (the scan), none more than once per pass.
+    computed = open(log).read().split("\n")[:-1]
+    counts = {loc: computed.count(loc) for loc in set(computed)}
+    assert len(counts) == source.npartitions
+    assert max(counts.values()) <= 2, counts
+
+
 def test_a_worker_killed_mid_run_changes_nothing(tmp_path, two_workers):
     a = volume(np.float32)
     expected = in_process_bytes(a, tmp_path, iso=0.0)
