@@ -386,7 +386,7 @@ def _client(client: Any) -> Any:
 class _Runner:
     """Runs delayed tasks on a distributed client, or on dask's default scheduler.
 
-    On a client a pass is one graph, so that tiles reading the same chunk (the halo plane) share
+    On a client a pass is one graph, so that tiles reading the same chunk (one holding a halo) share
     one computation of it; the scheduler's ordering keeps only a few tiles' chunks in memory, and
     results are gathered (and released) one by one. Without a client, dask's local schedulers
     return a graph's results all at once: the scan pass (16 bytes a block) is still one graph, the
