@@ -4,22 +4,25 @@
     stats = isogrid.dask.extract("volume.zarr", iso_normalized=0.5, output="volume.cgc")
 
 Every cell of the clustered grid cell structure (paper §3.1) belongs to exactly one 16³ block,
-and a block reads only its own samples plus one more on its high sides. A *tile* of whole block
-layers therefore extracts on its own, from its planes plus one halo plane, and its blocks are
-exactly those of the whole-volume extraction: there are no seams to stitch. The run is:
+and a block reads only its own samples plus one more on its high sides. A *tile*, a box of whole
+blocks, therefore extracts on its own, from its samples plus a one-sample halo on its high sides,
+and its blocks are exactly those of the whole-volume extraction: there are no seams to stitch.
+The run is:
 
 1. with ``iso_normalized``, a Dask reduction for the value range (NaN ignored);
 2. one task per tile counts each block's active cells (*scan*); the driver adds the counts up
    in block order, which fixes every block's place in the file;
-3. one task per *emit job* (consecutive layers holding active cells, sized to ``tile_bytes``)
-   writes its metacells and corner records; the driver places each result at its offset as it
+3. one task per *emit job* (a tile holding active cells, halved until it fits ``tile_bytes``)
+   writes its metacells and corner records; the driver places each result at its offsets as it
    arrives and writes the header last, into a temporary file renamed at the end.
 
-The file is byte-identical to ``isogrid.extract(volume).save(output)`` of the same samples, for
-any chunking, tiling and worker count, and when a worker dies mid-run (Dask reruns its tasks;
-their results are the same bytes). The driver holds 16 bytes per block and one result at a time;
-each task holds one tile. Tasks read the source's chunks themselves, each pass being one graph,
-so that a chunk two tiles read (the one holding a halo plane) is computed once per pass.
+Tiles are cut along x, y and z so that a task's samples stay near ``tile_bytes`` whatever the
+size of a plane, and along the source's chunks where those are whole blocks. The file is
+byte-identical to ``isogrid.extract(volume).save(output)`` of the same samples, for any chunking,
+tiling and worker count, and when a worker dies mid-run (Dask reruns its tasks; their results
+are the same bytes). The driver holds 21 bytes per block and one result at a time; each task
+holds one tile. Tasks read the source's chunks themselves, each pass being one graph, so that a
+chunk two tiles read (one holding a halo) is computed once per pass.
 
 Axes: a Zarr store or group is read as ``isogrid extract`` reads it (OME-Zarr levels, axes by
 name, ``index`` for the others, spacing and origin from the metadata), by the same Rust code.
@@ -65,6 +68,7 @@ def extract(
     level: int = 0,
     index: Optional[Dict[str, int]] = None,
     tile_bytes: int = DEFAULT_TILE_BYTES,
+    tile_shape: Optional[Sequence[int]] = None,
 ) -> Dict[str, Any]:
     """Extracts the active cells of a 3-D volume on Dask and writes them to the ``.cgc`` ``output``.
 
@@ -87,8 +91,11 @@ def extract(
         level: the OME-Zarr resolution level (0 = full resolution), as ``isogrid extract --level``.
         index: the entry to read of every Zarr axis other than x, y and z that has more than one,
             e.g. ``{"t": 0, "c": 1}``, as ``isogrid extract --index``.
-        tile_bytes: the samples (plus output) one task holds, about; a task never holds less
-            than one block layer (16 planes plus the halo plane).
+        tile_bytes: the samples plus output one task holds, about: tiles take half of it for
+            their samples, and emit jobs halve a tile whose output would not fit the rest. A task
+            never holds less than one block (17³ samples).
+        tile_shape: the (z, y, x) samples a tile covers, each a multiple of 16 (a tile reads one
+            more along each axis, its halo); default: picked from ``tile_bytes`` and the chunks.
 
     Returns:
         The statistics ``isogrid extract --json`` prints: dims, iso, precision, active_cells,
@@ -134,45 +141,104 @@ def extract(
         (nx, ny, nz), dtype.name, spacing3, origin3, iso, iso_normalized, bits, value_range, geometry["direction"]
     )
 
-    # Pass 1: scan tiles of whole block layers (plus the halo plane), add up in layer order.
+    # Pass 1: scan tiles of whole blocks (plus the halo on their high sides), in any order.
     chunks = _Chunks(array)
-    plane_bytes = nx * ny * dtype.itemsize
-    layers_per_tile = _align_to_chunks(max(1, (budget // plane_bytes - 1) // BLOCK_CELLS), array.chunks[0])
-    layers = -(-(nz - 1) // BLOCK_CELLS) if blocks else 0  # without blocks, nothing to scan
-    scans = []
-    for first in range(0, layers, layers_per_tile):
-        z0, z1 = _planes(first, min(first + layers_per_tile, layers), nz)
-        scans.append(chunks.task(_scan, z0, z1, (nx, ny, nz), first, extraction.iso))
+    dims = (nx, ny, nz)
+    if tile_shape is None:
+        # Half the budget for the samples, the other half for an emit job's output, so that
+        # emit jobs seldom need to halve a tile (halves cut their chunks apart).
+        tile = _tile_blocks(dims, array.chunks[::-1], dtype.itemsize, max(1, budget // 2))
+    else:
+        tile = _tile_shape_blocks(tile_shape)
+    scans = [
+        chunks.task(_scan, _samples(box, dims), dims, tuple(b[0] for b in box), extraction.iso)
+        for box in _tiles(dims, tile)
+    ]
     for fragment in run.in_order(scans):
         extraction.add_scan(fragment)
 
     # Pass 2: emit jobs, written at their offsets as they complete.
-    jobs = extraction.plan_emits(budget)
-    emits = [chunks.task(_emit, z0, z1, job, index) for index, (z0, z1, job) in enumerate(jobs)]
+    jobs = extraction.plan_emits(tile, budget)
+    emits = [chunks.task(_emit, samples, job, index) for index, (samples, job) in enumerate(jobs)]
     stats = extraction.write(out, run.as_completed(emits))
     stats["seconds"] = {"read": read, "extract": time.perf_counter() - start - read, "write": 0.0}
     return stats
 
 
-def _align_to_chunks(layers: int, z_chunks: Tuple[int, ...]) -> int:
-    """`layers` rounded down to whole source chunks along z where the chunks are whole layers,
-    so that a tile reads its chunks plus one more row for the halo plane, not two partial rows."""
-    depth = z_chunks[0]
-    if len(z_chunks) > 1 and depth % BLOCK_CELLS == 0 and all(c == depth for c in z_chunks[:-1]):
-        per_chunk = depth // BLOCK_CELLS
-        return max(per_chunk, layers // per_chunk * per_chunk)
-    return layers
+Box = Tuple[Tuple[int, int], Tuple[int, int], Tuple[int, int]]
 
 
-def _planes(first_layer: int, end_layer: int, nz: int) -> Tuple[int, int]:
-    """The sample planes block layers first_layer..end_layer read, halo included."""
-    return BLOCK_CELLS * first_layer, min(BLOCK_CELLS * end_layer + 1, nz)
+def _blocks(n: int) -> int:
+    """Blocks along an axis of `n` samples."""
+    return -(-(n - 1) // BLOCK_CELLS)
+
+
+def _tile_blocks(dims: Tuple[int, int, int], chunks: Tuple[Tuple[int, ...], ...], itemsize: int,
+                 budget: int) -> Tuple[int, int, int]:
+    """The (x, y, z) blocks of a tile whose samples stay within `budget` bytes where one block
+    allows. Along an axis whose chunks are whole blocks a tile is whole chunks, so that it reads
+    its chunks plus thin halo cuts of the next ones, not parts of a chunk that other tiles share.
+    Tiles grow along x first, then y, then z: long rows are one run of the block table."""
+    counts = [max(1, _blocks(n)) for n in dims]
+
+    def unit(axis_chunks: Tuple[int, ...]) -> int:
+        depth = axis_chunks[0]
+        whole = depth % BLOCK_CELLS == 0 and all(c == depth for c in axis_chunks[:-1])
+        return depth // BLOCK_CELLS if whole else 1
+
+    def cost(k: List[int]) -> int:
+        size = itemsize
+        for n, b in zip(dims, k):
+            size *= min(BLOCK_CELLS * b + 1, n)
+        return size
+
+    units = [min(unit(c), n) for c, n in zip(chunks, counts)]
+    tile = list(units)
+    while cost(tile) > budget and max(tile) > 1:
+        # Even one chunk is too much: halve the longest axis, z before y before x.
+        axis = max((2, 1, 0), key=lambda a: tile[a])
+        tile[axis] = max(1, tile[axis] // 2)
+        units[axis] = 1
+    for axis in (0, 1, 2):
+        while tile[axis] < counts[axis]:
+            grown = list(tile)
+            grown[axis] = min(counts[axis], tile[axis] + units[axis])
+            if cost(grown) > budget:
+                break
+            tile = grown
+    return tile[0], tile[1], tile[2]
+
+
+def _tile_shape_blocks(tile_shape: Sequence[int]) -> Tuple[int, int, int]:
+    """`tile_shape` (z, y, x samples, multiples of 16) as (x, y, z) blocks."""
+    shape = [_int(n, "tile_shape", 1) for n in tile_shape]
+    if len(shape) != 3 or any(n % BLOCK_CELLS for n in shape):
+        raise ValueError(f"tile_shape must be three multiples of 16 samples (z, y, x), not {tuple(tile_shape)}")
+    z, y, x = (n // BLOCK_CELLS for n in shape)
+    return x, y, z
+
+
+def _tiles(dims: Tuple[int, int, int], tile: Tuple[int, int, int]) -> List[Box]:
+    """The boxes of `tile` blocks (x, y, z ranges of blocks) covering the volume, in block order;
+    none when an axis has a single sample (no block)."""
+    counts = [_blocks(n) for n in dims]
+    if min(counts) == 0:
+        return []
+    cuts = [[(b, min(b + k, n)) for b in range(0, n, k)] for n, k in zip(counts, tile)]
+    return [(x, y, z) for z in cuts[2] for y in cuts[1] for x in cuts[0]]
+
+
+def _samples(box: Box, dims: Tuple[int, int, int]) -> Box:
+    """The (x, y, z) sample ranges the blocks of `box` read, halo included."""
+    return tuple(  # type: ignore[return-value]
+        (BLOCK_CELLS * b0, min(BLOCK_CELLS * b1 + 1, n)) for (b0, b1), n in zip(box, dims)
+    )
 
 
 def _scan(pieces: List[np.ndarray], places: List[Tuple[int, int, int]], shape: Tuple[int, int, int],
-          dims: Tuple[int, int, int], first_layer: int, iso: float) -> bytes:
+          dims: Tuple[int, int, int], first_block: Tuple[int, int, int], iso: float) -> bytes:
     """Task: pass 1 of one tile (GIL released in Rust)."""
-    return _isogrid._scan_tile(_assemble(pieces, places, shape), dims, first_layer, iso)
+    return _isogrid._scan_tile(_assemble(pieces, places, shape), dims, first_block, iso)
 
 
 def _emit(pieces: List[np.ndarray], places: List[Tuple[int, int, int]], shape: Tuple[int, int, int],
@@ -192,44 +258,53 @@ def _assemble(pieces: List[np.ndarray], places: List[Tuple[int, int, int]], shap
     return tile
 
 
-def _cut(chunk: np.ndarray, z0: int, z1: int) -> np.ndarray:
-    """Task: planes z0..z1 of a chunk, copied so that the chunk itself can be let go."""
-    return np.array(chunk[z0:z1], order="C", copy=True)
+def _cut(chunk: np.ndarray, z0: int, z1: int, y0: int, y1: int, x0: int, x1: int) -> np.ndarray:
+    """Task: samples [z0:z1, y0:y1, x0:x1] of a chunk, copied so that the chunk can be let go."""
+    return np.array(chunk[z0:z1, y0:y1, x0:x1], order="C", copy=True)
 
 
 class _Chunks:
-    """The source's chunks as delayed objects, and tasks that read tiles of planes from them.
+    """The source's chunks as delayed objects, and tasks that read boxes of samples from them.
 
-    A tile's task depends on the chunks it covers directly, and on a small *cut* task where it
-    needs only some planes of a chunk (the halo plane, or a chunk row that two tiles share), so
-    that within one graph every chunk is computed once and only the planes a tile needs move
-    between workers. (Slicing the dask array instead lets dask fuse each tile's slices with the
-    chunks' own tasks: every tile then recomputes the chunk row holding its halo plane.)
+    A tile's task depends on the chunks it covers whole directly, and on a small *cut* task where
+    it needs only part of a chunk (its halo, or a chunk that two tiles share), so that within one
+    graph every chunk is computed once and only the samples a tile needs move between workers.
+    (Slicing the dask array instead lets dask fuse each tile's slices with the chunks' own tasks:
+    every tile then recomputes the chunks holding its halo.)
     """
 
     def __init__(self, array: "da.Array") -> None:
         self.blocks = array.to_delayed(optimize_graph=True)
-        self.z_bounds = np.cumsum((0,) + tuple(array.chunks[0]))
-        self.y_starts = np.cumsum((0,) + tuple(array.chunks[1]))[:-1]
-        self.x_starts = np.cumsum((0,) + tuple(array.chunks[2]))[:-1]
-        self.yx = (int(sum(array.chunks[1])), int(sum(array.chunks[2])))
+        # Chunk bounds along z, y and x.
+        self.bounds = [np.cumsum((0,) + tuple(c)) for c in array.chunks]
 
-    def task(self, function: Any, z0: int, z1: int, *args: Any) -> Any:
-        """The delayed `function(pieces, places, shape, *args)` on the tile of planes z0..z1."""
+    def _spans(self, axis: int, lo: int, hi: int) -> Iterator[Tuple[int, int, int]]:
+        """(chunk index, start inside it, end inside it) of the chunks that samples lo..hi of
+        `axis` (z, y, x) meet, with the chunks' starts."""
+        bounds = self.bounds[axis]
+        first = int(np.searchsorted(bounds, lo, side="right")) - 1
+        for index in range(first, len(bounds) - 1):
+            start, end = int(bounds[index]), int(bounds[index + 1])
+            if start >= hi:
+                return
+            yield index, max(lo, start) - start, min(hi, end) - start
+
+    def task(self, function: Any, samples: Box, *args: Any) -> Any:
+        """The delayed `function(pieces, places, shape, *args)` on the (x, y, z) sample ranges
+        `samples`."""
+        (x0, x1), (y0, y1), (z0, z1) = samples
         pieces, places = [], []
-        first_row = int(np.searchsorted(self.z_bounds, z0, side="right")) - 1
-        for row in range(first_row, len(self.z_bounds) - 1):
-            lo, hi = int(self.z_bounds[row]), int(self.z_bounds[row + 1])
-            if lo >= z1:
-                break
-            a, b = max(z0, lo) - lo, min(z1, hi) - lo
-            for j, y in enumerate(self.y_starts):
-                for i, x in enumerate(self.x_starts):
-                    chunk = self.blocks[row, j, i]
-                    whole = a == 0 and b == hi - lo
-                    pieces.append(chunk if whole else dask.delayed(_cut, pure=True)(chunk, a, b))
-                    places.append((lo + a - z0, int(y), int(x)))
-        shape = (z1 - z0,) + self.yx
+        for k, za, zb in self._spans(0, z0, z1):
+            for j, ya, yb in self._spans(1, y0, y1):
+                for i, xa, xb in self._spans(2, x0, x1):
+                    chunk = self.blocks[k, j, i]
+                    sizes = (self.bounds[0][k + 1] - self.bounds[0][k], self.bounds[1][j + 1] - self.bounds[1][j],
+                             self.bounds[2][i + 1] - self.bounds[2][i])
+                    whole = (za, ya, xa) == (0, 0, 0) and (zb, yb, xb) == tuple(int(n) for n in sizes)
+                    pieces.append(chunk if whole else dask.delayed(_cut, pure=True)(chunk, za, zb, ya, yb, xa, xb))
+                    places.append((int(self.bounds[0][k]) + za - z0, int(self.bounds[1][j]) + ya - y0,
+                                   int(self.bounds[2][i]) + xa - x0))
+        shape = (z1 - z0, y1 - y0, x1 - x0)
         return dask.delayed(function, pure=True)(pieces, places, shape, *args)
 
 
@@ -311,7 +386,7 @@ def _client(client: Any) -> Any:
 class _Runner:
     """Runs delayed tasks on a distributed client, or on dask's default scheduler.
 
-    On a client a pass is one graph, so that tiles reading the same chunk (the halo plane) share
+    On a client a pass is one graph, so that tiles reading the same chunk (one holding a halo) share
     one computation of it; the scheduler's ordering keeps only a few tiles' chunks in memory, and
     results are gathered (and released) one by one. Without a client, dask's local schedulers
     return a graph's results all at once: the scan pass (16 bytes a block) is still one graph, the

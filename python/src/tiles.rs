@@ -1,9 +1,10 @@
 //! Tiled extraction for `isogrid.dask` (the Rust side is `isogrid::extract::tiles`): the two task
-//! functions a Dask worker runs on one tile of whole block layers, and the coordinating object
-//! that collects scan fragments, plans emit jobs and writes the `.cgc` file from their output.
+//! functions a Dask worker runs on one tile (a box of whole blocks plus the halo on its high
+//! sides), and the coordinating object that collects scan fragments, plans emit jobs and writes
+//! the `.cgc` file from their output.
 //!
-//! Tasks take a C-ordered array of shape (planes, ny, nx) and return bytes; they run with the GIL
-//! released, on rayon's global pool.
+//! Tasks take a C-ordered array of shape (z, y, x) and return bytes; they run with the GIL
+//! released, on rayon's global pool. Blocks and sample ranges cross as (x, y, z).
 
 use crate::array::{spacing3, triple, VolumeArg};
 use crate::errors::{invalid, to_py};
@@ -21,13 +22,13 @@ pub fn _scan_tile<'py>(
     py: Python<'py>,
     tile: &Bound<'py, PyAny>,
     volume_dims: [usize; 3],
-    first_layer: usize,
+    first_block: [usize; 3],
     iso: f64,
 ) -> PyResult<Bound<'py, PyBytes>> {
     let tile = VolumeArg::new(tile, false, [1.0; 3])?;
     let view = tile.view()?;
     let fragment = py
-        .detach(move || tiles::scan_tile(&view, volume_dims, first_layer, iso))
+        .detach(move || tiles::scan_tile(&view, volume_dims, first_block, iso))
         .map_err(to_py)?;
     Ok(PyBytes::new(py, &fragment))
 }
@@ -101,28 +102,28 @@ impl _TileExtraction {
         self.inner.iso()
     }
 
-    /// Adds the next tile's scan fragment (tiles in layer order).
+    /// Adds a tile's scan fragment (tiles in any order, each block exactly once).
     fn add_scan(&mut self, fragment: &[u8]) -> PyResult<()> {
         self.inner.add_scan(fragment).map_err(to_py)
     }
 
-    /// Plans the emit jobs (samples plus output within `job_bytes` where a layer allows); returns
-    /// one `(first_plane, end_plane, job)` per job, in file order.
+    /// Plans the emit jobs from tiles of `tile_blocks` (x, y, z) blocks, halved until samples plus
+    /// output fit `job_bytes` where one block allows; returns one `(samples, job)` per job, where
+    /// `samples` is the ((x0, x1), (y0, y1), (z0, z1)) sample ranges it reads.
+    #[allow(clippy::type_complexity)]
     fn plan_emits<'py>(
         &mut self,
         py: Python<'py>,
+        tile_blocks: [usize; 3],
         job_bytes: u64,
-    ) -> PyResult<Vec<(usize, usize, Bound<'py, PyBytes>)>> {
-        self.jobs = self.inner.plan_emits(job_bytes).map_err(to_py)?;
+    ) -> PyResult<Vec<([(usize, usize); 3], Bound<'py, PyBytes>)>> {
+        self.jobs = self.inner.plan_emits(tile_blocks, job_bytes).map_err(to_py)?;
         Ok(self
             .jobs
             .iter()
             .map(|job| {
-                (
-                    job.planes.start,
-                    job.planes.end,
-                    PyBytes::new(py, &job.bytes),
-                )
+                let samples = job.samples.clone().map(|r| (r.start, r.end));
+                (samples, PyBytes::new(py, &job.bytes))
             })
             .collect())
     }

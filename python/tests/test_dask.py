@@ -1,5 +1,5 @@
 """isogrid.dask: extraction spread over Dask gives the bytes of the in-process extraction, for dask
-arrays with chunks that do not divide 16, zarr arrays written by zarr-python, Zarr paths, OME-Zarr
+arrays with chunks that do not divide 16 and tiles cut along x, y and z, zarr arrays written by zarr-python, Zarr paths, OME-Zarr
 0.4 and 0.5 images (levels, indexed t/c axes, transforms; also the CLI's bytes), a LocalCluster of
 two worker processes and a worker killed mid-run; its statistics are the CLI's."""
 
@@ -24,7 +24,11 @@ from conftest import sphere  # noqa: E402
 # enough for several tiles and several emit jobs.
 SHAPE = (45, 38, 41)
 CHUNKS = (7, 11, 13)
-TILE_BYTES = 41 * 38 * 4 * 20
+TILE_BYTES = 41 * 38 * 4 * 40  # tiles take half: 20 planes of float32
+# Tilings: whole block layers (the budget above); boxes of one block for float32 and rows of
+# blocks for uint8 (a budget below one layer); 1 x 2 x 1 blocks (z, y, x) given as a shape.
+TILINGS = [{"tile_bytes": TILE_BYTES}, {"tile_bytes": 24_000}, {"tile_shape": (16, 32, 16)}]
+TILING_IDS = ["layers", "blocks-or-rows", "shape"]
 
 
 def volume(dtype=np.float32):
@@ -54,7 +58,8 @@ def in_process_bytes(array, tmp_path, **kwargs):
     ],
     ids=["f32-iso", "u8-normalized", "f64-as-f32", "i16-4bit"],
 )
-def test_dask_array_with_chunks_not_dividing_16_is_byte_identical(tmp_path, dtype, kwargs):
+@pytest.mark.parametrize("tiling", TILINGS, ids=TILING_IDS)
+def test_dask_array_with_chunks_not_dividing_16_is_byte_identical(tmp_path, dtype, kwargs, tiling):
     a = volume(dtype)
     expected = in_process_bytes(a, tmp_path, spacing=(0.5, 0.75, 2.0), **kwargs)
     out = tmp_path / "dask.cgc"
@@ -62,13 +67,59 @@ def test_dask_array_with_chunks_not_dividing_16_is_byte_identical(tmp_path, dtyp
         da.from_array(a, chunks=CHUNKS),
         output=out,
         spacing=(0.5, 0.75, 2.0),
-        tile_bytes=TILE_BYTES,
+        **tiling,
         **kwargs,
     )
     assert out.read_bytes() == expected
     assert stats["active_cells"] > 1000
     assert stats["dims"] == (41, 38, 45)
     assert sorted(os.listdir(tmp_path)) == ["dask.cgc", "reference.cgc"]
+
+
+@pytest.mark.parametrize("chunks", [(16, 32, 16), (32, 16, 48)], ids=["blocks", "uneven"])
+def test_chunks_of_whole_blocks_are_tiled_along_them(tmp_path, chunks):
+    a = volume(np.uint8)
+    expected = in_process_bytes(a, tmp_path, iso_normalized=0.5)
+    # Room for two chunks' samples, not for a whole layer: tiles of whole chunks along y and x.
+    isogrid.dask.extract(
+        da.from_array(a, chunks=chunks), iso_normalized=0.5, output=tmp_path / "dask.cgc", tile_bytes=40_000
+    )
+    assert (tmp_path / "dask.cgc").read_bytes() == expected
+
+
+@pytest.mark.parametrize(
+    "dims,chunks,itemsize",
+    [
+        ((4096, 4096, 4096), ((4096,), (256,) * 16, (16,) * 256), 1),
+        ((4096, 4096, 4096), ((128,) * 32,) * 3, 1),
+        ((16384, 16384, 300), ((1000,) * 16 + (384,), (1000,) * 16 + (384,), (300,)), 4),
+        ((100000, 3, 3), ((100000,), (3,), (3,)), 4),
+    ],
+    ids=["u8-rows", "u8-cubes", "f32-wide-planes", "long-x"],
+)
+def test_tiles_stay_within_the_budget_on_any_plane(dims, chunks, itemsize):
+    budget = 64 << 20
+    tile = isogrid.dask._tile_blocks(dims, chunks, itemsize, budget)
+    samples = itemsize
+    for n, k in zip(dims, tile):
+        samples *= min(16 * k + 1, n)
+    assert samples <= budget
+    # Near the budget: along each axis the tile is whole, or one more chunk (where chunks are
+    # whole blocks) or block would not fit.
+    for axis in range(3):
+        step = chunks[axis][0] // 16 if chunks[axis][0] % 16 == 0 else 1
+        grown = itemsize
+        for a, (n, k) in enumerate(zip(dims, tile)):
+            grown *= min(16 * (k + step * (a == axis)) + 1, n)
+        assert grown > budget or 16 * tile[axis] + 1 >= dims[axis], (axis, tile)
+        # Along chunks of whole blocks, tiles are whole chunks.
+        assert tile[axis] % step == 0 or 16 * tile[axis] + 1 >= dims[axis], (axis, tile)
+
+
+def test_tile_shape_must_be_whole_blocks(tmp_path):
+    with pytest.raises(ValueError, match="multiples of 16"):
+        isogrid.dask.extract(da.zeros((20, 20, 20)), iso=0.5, output=tmp_path / "out.cgc", tile_shape=(16, 20, 16))
+    assert os.listdir(tmp_path) == []
 
 
 def test_zarr_array_on_disk_and_zarr_path(tmp_path):
@@ -96,7 +147,7 @@ def test_ome_zarr_image_is_the_load_volume_extraction(tmp_path, name, index, lev
     grid = isogrid.extract(volume, iso_normalized=0.5)
     grid.save(tmp_path / "reference.cgc")
     out = tmp_path / "dask.cgc"
-    # A tile budget of one block layer: several tiles and emit jobs even on these small images.
+    # A tile budget of one block: many tiles and emit jobs even on these small images.
     isogrid.dask.extract(store, iso_normalized=0.5, level=level, index=index, output=out, tile_bytes=1)
     assert out.read_bytes() == (tmp_path / "reference.cgc").read_bytes()
     # Not the defaults: the transforms reached the file.
@@ -164,10 +215,36 @@ def test_local_cluster_of_two_processes_is_byte_identical(tmp_path, two_workers)
             source, iso_normalized=0.5, output=tmp_path / "given.cgc", client=two_workers, tile_bytes=TILE_BYTES
         )
     isogrid.dask.extract(source, iso_normalized=0.5, output=tmp_path / "current.cgc", tile_bytes=TILE_BYTES)
+    # Tiles of single blocks, split along x, y and z.
+    isogrid.dask.extract(source, iso_normalized=0.5, output=tmp_path / "blocks.cgc", tile_bytes=24_000)
     assert (tmp_path / "given.cgc").read_bytes() == expected
     assert (tmp_path / "current.cgc").read_bytes() == expected
+    assert (tmp_path / "blocks.cgc").read_bytes() == expected
     # Both worker processes ran tasks.
     assert len({task["worker"] for task in tasks.data}) == 2
+
+
+def test_each_chunk_is_computed_once_per_pass_with_tiles_along_y_and_x(tmp_path):
+    a = volume(np.uint8)
+    expected = in_process_bytes(a, tmp_path, iso=100)
+    log = str(tmp_path / "computed")
+
+    def counted(block, block_info=None):
+        # A line per computation, appended from whichever worker runs it (tasks are pickled).
+        with open(log, "a") as f:
+            f.write(f"{block_info[0]['chunk-location']}\n")
+        return block
+
+    # Chunks of whole blocks, cut into tiles of 1 x 2 x 1 chunks with halos from the neighbours.
+    source = da.from_array(a, chunks=(16, 16, 16)).map_blocks(counted, dtype=a.dtype)
+    with distributed.Client(processes=False, n_workers=1, threads_per_worker=2, dashboard_address=None) as client:
+        isogrid.dask.extract(source, iso=100, output=tmp_path / "dask.cgc", client=client, tile_shape=(16, 32, 16))
+    assert (tmp_path / "dask.cgc").read_bytes() == expected
+    # Scan and emit: every chunk at least once (the scan), none more than once per pass.
+    computed = open(log).read().split("\n")[:-1]
+    counts = {loc: computed.count(loc) for loc in set(computed)}
+    assert len(counts) == source.npartitions
+    assert max(counts.values()) <= 2, counts
 
 
 def test_a_worker_killed_mid_run_changes_nothing(tmp_path, two_workers):

@@ -39,9 +39,10 @@ pub(crate) struct BlockOutput<'a> {
     pub cells: &'a mut [u8],
     /// Global index of the block's first active cell.
     pub first_cell: u32,
-    /// The block layer (z) where the caller's samples start: 0 for a whole volume, the slab's
-    /// first layer when streaming. Sample z of the slab is global z - 16·`slab_block_z`.
-    pub slab_block_z: usize,
+    /// The block where the caller's samples start: 0 for a whole volume, the slab's first layer
+    /// (z) when streaming, a tile's first block in every axis. Sample (x, y, z) of the caller's
+    /// samples is the volume's sample (x, y, z) - 16·`slab_block`.
+    pub slab_block: [usize; 3],
 }
 
 /// Emits one block. The counts must match what pass 1 found (checked in debug builds).
@@ -54,9 +55,8 @@ pub(crate) fn emit_block<T: ExtractScalar>(
     scratch: &mut BlockScratch,
 ) {
     let [nx, ny, nz] = dims;
-    // Sample offsets of the block inside the caller's samples (a slab starts at a block layer).
-    let origin =
-        [out.block[0], out.block[1], out.block[2] - out.slab_block_z].map(|b| b * BLOCK_CELLS);
+    // Sample offsets of the block inside the caller's samples (a slab or tile starts at a block).
+    let origin = [0, 1, 2].map(|a| (out.block[a] - out.slab_block[a]) * BLOCK_CELLS);
     let cells = [0, 1, 2].map(|a| (dims[a] - 1 - origin[a]).min(BLOCK_CELLS));
     let slab = nx * ny;
 

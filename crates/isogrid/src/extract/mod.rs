@@ -272,8 +272,9 @@ impl Totals {
 /// Splits `output` (slots, corner records) into the disjoint parts of the active blocks among
 /// `range` (in block order, which is output order). `blocks[0]` is the grid's block number
 /// `first_block` (0 for the whole table; a tile holds only its own layers). `next_cell` is the
-/// global index of the first cell and advances past the range; `slab_block_z` is where the
-/// samples the outputs will be emitted from start (see [`emit::BlockOutput`]).
+/// global index of the first cell and advances past the range; `slab_block_z` is the block layer
+/// where the samples the outputs will be emitted from start (see [`emit::BlockOutput`]; a tile
+/// that starts at another block in x or y sets its outputs' `slab_block` itself).
 #[allow(clippy::too_many_arguments)]
 fn split_outputs<'a>(
     blocks: &[Block],
@@ -310,7 +311,7 @@ fn split_outputs<'a>(
             slots,
             cells,
             first_cell: *next_cell,
-            slab_block_z,
+            slab_block: [0, 0, slab_block_z],
         });
         *next_cell += cell_count;
     }

@@ -1,38 +1,50 @@
-//! Tiled extraction (the distributed split): scanning tiles of whole block layers, planning emit
-//! jobs and writing their fragments in any order must give the bytes of the in-memory extraction
-//! written with `cgc::to_bytes`, for any tiling and job size; a missing, foreign or conflicting
-//! fragment must leave no file behind.
+//! Tiled extraction (the distributed split): scanning boxes of whole blocks in any order, planning
+//! emit jobs and writing their fragments in any order must give the bytes of the in-memory
+//! extraction written with `cgc::to_bytes`, for any tiling along x, y and z and any job size; a
+//! missing, foreign, overlapping or conflicting fragment must leave no file behind.
 
 use crate::stream::{option_sets, volumes, TempDir};
 use isogrid::extract::tiles::{
-    block_layers, emit_tile, scan_tile, tile_planes, EmitJob, TileExtraction, TileSummary,
+    block_dims, emit_tile, scan_tile, tile_samples, tiles, EmitJob, TileExtraction, TileSummary,
 };
-use isogrid::{cgc, extract, ExtractOptions, Geometry, Iso, Samples, Volume, VolumeView};
+use isogrid::{cgc, extract, ExtractOptions, Iso, Samples, Volume, VolumeData};
 use std::ops::Range;
 use std::path::Path;
 
-/// The sample planes `planes` of `volume` as a volume of their own (what a task receives).
-fn planes_of<'a>(volume: &'a Volume, planes: Range<usize>) -> VolumeView<'a> {
+/// The samples `x`, `y`, `z` of `volume` copied into a volume of their own (what a task receives).
+fn box_of(volume: &Volume, [x, y, z]: [Range<usize>; 3]) -> Volume {
     let [nx, ny, _] = volume.geometry().dims;
-    let span = nx * ny * planes.start..nx * ny * planes.end;
-    let samples = match volume.view().samples() {
-        Samples::U8(s) => Samples::U8(&s[span]),
-        Samples::U16(s) => Samples::U16(&s[span]),
-        Samples::I16(s) => Samples::I16(&s[span]),
-        Samples::F32(s) => Samples::F32(&s[span]),
+    fn pick<T: Copy>(s: &[T], nx: usize, ny: usize, b: &[Range<usize>; 3]) -> Vec<T> {
+        let mut out = Vec::with_capacity(b.iter().map(|r| r.len()).product());
+        for z in b[2].clone() {
+            for y in b[1].clone() {
+                let row = nx * (y + ny * z);
+                out.extend_from_slice(&s[row + b[0].start..row + b[0].end]);
+            }
+        }
+        out
+    }
+    let b = [x.clone(), y.clone(), z.clone()];
+    let data = match volume.view().samples() {
+        Samples::U8(s) => VolumeData::U8(pick(s, nx, ny, &b)),
+        Samples::U16(s) => VolumeData::U16(pick(s, nx, ny, &b)),
+        Samples::I16(s) => VolumeData::I16(pick(s, nx, ny, &b)),
+        Samples::F32(s) => VolumeData::F32(pick(s, nx, ny, &b)),
     };
-    VolumeView::new(Geometry::new([nx, ny, planes.len()]), samples).unwrap()
+    Volume::new([x.len(), y.len(), z.len()], data).unwrap()
 }
 
-/// Scans `volume` in tiles of `tile_layers` block layers and plans jobs of `job_bytes`.
+/// Scans `volume` in tiles of `scan_blocks` blocks (x, y, z), last tile first, and plans jobs
+/// from tiles of `job_blocks` within `job_bytes`.
 fn scanned(
     volume: &Volume,
     options: &ExtractOptions,
-    tile_layers: usize,
+    scan_blocks: [usize; 3],
+    job_blocks: [usize; 3],
     job_bytes: u64,
 ) -> (TileExtraction, Vec<EmitJob>) {
     let geometry = *volume.geometry();
-    let nz = geometry.dims[2];
+    let dims = geometry.dims;
     let mut run = TileExtraction::new(
         geometry,
         volume.scalar_type(),
@@ -40,19 +52,13 @@ fn scanned(
         Some(volume.value_range()),
     )
     .unwrap();
-    let blocks: usize = geometry
-        .cell_dims()
-        .iter()
-        .map(|c| c.div_ceil(16))
-        .product();
-    let nbz = if blocks == 0 { 0 } else { block_layers(nz) };
-    for first in (0..nbz).step_by(tile_layers) {
-        let layers = first..(first + tile_layers).min(nbz);
-        let tile = planes_of(volume, tile_planes(&layers, nz));
-        run.add_scan(&scan_tile(&tile, geometry.dims, first, run.iso()).unwrap())
+    for tile in tiles(dims, scan_blocks).unwrap().into_iter().rev() {
+        let samples = box_of(volume, tile_samples(&tile, dims));
+        let first = tile.map(|b| b.start);
+        run.add_scan(&scan_tile(&samples.view(), dims, first, run.iso()).unwrap())
             .unwrap();
     }
-    let jobs = run.plan_emits(job_bytes).unwrap();
+    let jobs = run.plan_emits(job_blocks, job_bytes).unwrap();
     (run, jobs)
 }
 
@@ -60,7 +66,8 @@ fn fragments(volume: &Volume, jobs: &[EmitJob]) -> Vec<Vec<u8>> {
     jobs.iter()
         .enumerate()
         .map(|(i, job)| {
-            emit_tile(&planes_of(volume, job.planes.clone()), &job.bytes, i as u32).unwrap()
+            let samples = box_of(volume, job.samples.clone());
+            emit_tile(&samples.view(), &job.bytes, i as u32).unwrap()
         })
         .collect()
 }
@@ -81,12 +88,22 @@ fn tiled_files_are_byte_identical_to_in_memory_ones() {
     let out = dir.0.join("out.cgc");
     let mut compared = 0;
     let mut job_counts = Vec::new();
+    // (scan tiles, job tiles, job budget), tiles in blocks (x, y, z): single blocks; layers split
+    // along y only; uneven boxes split along every axis, scanned and emitted differently; whole
+    // layers; everything at once.
+    let tilings: [([usize; 3], [usize; 3], u64); 6] = [
+        ([1, 1, 1], [1, 1, 1], 1),
+        ([100, 1, 2], [100, 2, 1], 20_000),
+        ([2, 3, 1], [3, 2, 2], 1),
+        ([1, 2, 3], [2, 1, 100], 9_000),
+        ([100, 100, 1], [100, 100, 3], 1),
+        ([100, 100, 100], [100, 100, 100], u64::MAX),
+    ];
     for (name, volume) in volumes() {
         for options in option_sets() {
             let expected = cgc::to_bytes(&extract(&volume.view(), &options).unwrap());
-            // One-layer tiles with one-layer jobs, uneven tiles, and everything at once.
-            for (tile_layers, job_bytes) in [(1, 1), (2, 20_000), (3, 1), (100, u64::MAX)] {
-                let (run, jobs) = scanned(&volume, &options, tile_layers, job_bytes);
+            for (scan_blocks, job_blocks, job_bytes) in tilings {
+                let (run, jobs) = scanned(&volume, &options, scan_blocks, job_blocks, job_bytes);
                 job_counts.push(jobs.len());
                 // Finished out of order, one delivered twice (a retried task).
                 let mut arriving = fragments(&volume, &jobs);
@@ -98,8 +115,9 @@ fn tiled_files_are_byte_identical_to_in_memory_ones() {
                 let written = std::fs::read(&out).unwrap();
                 assert!(
                     written == expected,
-                    "{name} {options:?} tiles of {tile_layers} layers, jobs of {job_bytes} \
-                     bytes: {} tiled bytes differ from {} in-memory bytes",
+                    "{name} {options:?} scan tiles of {scan_blocks:?} blocks, jobs of \
+                     {job_blocks:?} within {job_bytes} bytes: {} tiled bytes differ from {} \
+                     in-memory bytes",
                     written.len(),
                     expected.len()
                 );
@@ -110,18 +128,31 @@ fn tiled_files_are_byte_identical_to_in_memory_ones() {
         }
     }
     // A volume one sample wide has layers but no blocks: nothing to scan or emit.
-    let line = isogrid::Volume::new([1, 5, 40], isogrid::VolumeData::U8(vec![7; 200])).unwrap();
+    let line = Volume::new([1, 5, 40], VolumeData::U8(vec![7; 200])).unwrap();
     for options in option_sets() {
         let expected = cgc::to_bytes(&extract(&line.view(), &options).unwrap());
-        let (run, jobs) = scanned(&line, &options, 1, 1);
+        let (run, jobs) = scanned(&line, &options, [1, 1, 1], [1, 1, 1], 1);
         assert!(jobs.is_empty());
         write(&run, &jobs, Vec::new(), &out).unwrap();
         assert!(std::fs::read(&out).unwrap() == expected, "{options:?}");
     }
-    assert_eq!(compared, 7 * 4 * 4);
-    // The budgets did cut some volumes into several jobs.
-    assert!(job_counts.iter().any(|&n| n >= 3), "{job_counts:?}");
+    assert_eq!(compared, 7 * 4 * 6);
+    // The budgets did cut some volumes into many jobs, and some jobs into several runs.
+    assert!(job_counts.iter().any(|&n| n >= 10), "{job_counts:?}");
     assert_eq!(dir.entries(), vec!["out.cgc".to_string()]);
+}
+
+#[test]
+fn jobs_of_partial_rows_write_several_runs() {
+    // A job narrower than the volume and more than one row high holds one run per block row.
+    let (_, volume) = volumes().remove(0); // 37 x 21 x 50: 3 x 2 x 4 blocks
+    let options = ExtractOptions::new(Iso::Normalized(0.5));
+    let (_, jobs) = scanned(&volume, &options, [1, 2, 2], [2, 2, 2], u64::MAX);
+    assert_eq!(block_dims(volume.geometry().dims), [3, 2, 4]);
+    assert_eq!(jobs.len(), 4, "{jobs:?}");
+    assert!(jobs.iter().any(|job| job.runs.len() == 4), "{jobs:?}");
+    assert_eq!(jobs[0].samples, [0..33, 0..21, 0..33]);
+    assert_eq!(jobs[1].samples, [32..37, 0..21, 0..33]);
 }
 
 #[test]
@@ -130,7 +161,7 @@ fn missing_foreign_or_conflicting_fragments_leave_no_file() {
     let out = dir.0.join("out.cgc");
     let (_, volume) = volumes().remove(0);
     let options = ExtractOptions::new(Iso::Normalized(0.5));
-    let (run, jobs) = scanned(&volume, &options, 1, 1);
+    let (run, jobs) = scanned(&volume, &options, [1, 1, 1], [2, 1, 1], 1);
     assert!(jobs.len() >= 3);
     let good = fragments(&volume, &jobs);
 
@@ -165,30 +196,45 @@ fn missing_foreign_or_conflicting_fragments_leave_no_file() {
         "{err}"
     );
 
+    // A plan that leaves a job out does not cover the output.
+    let last = jobs.len() - 1;
+    let err = write(&run, &jobs[..last], good[..last].to_vec(), &out).unwrap_err();
+    assert!(err.to_string().contains("exactly once"), "{err}");
+
     assert!(dir.entries().is_empty(), "{:?}", dir.entries());
 }
 
 #[test]
-fn tiles_out_of_order_or_not_of_whole_layers_are_refused() {
-    let (_, volume) = volumes().remove(0); // 37 x 21 x 50: layers 0..4
+fn tiles_not_of_whole_blocks_or_overlapping_are_refused() {
+    let (_, volume) = volumes().remove(0); // 37 x 21 x 50: 3 x 2 x 4 blocks
     let options = ExtractOptions::new(Iso::Value(1.0));
     let geometry = *volume.geometry();
+    let dims = geometry.dims;
     let mut run = TileExtraction::new(geometry, volume.scalar_type(), &options, None).unwrap();
-    // 16 planes is one layer without its halo.
-    let err = scan_tile(&planes_of(&volume, 0..16), geometry.dims, 0, 1.0).unwrap_err();
-    assert!(err.to_string().contains("not whole block layers"), "{err}");
-    // Layer 1 before layer 0.
-    let second = scan_tile(&planes_of(&volume, 16..33), geometry.dims, 1, 1.0).unwrap();
-    let err = run.add_scan(&second).unwrap_err();
-    assert!(err.to_string().contains("layer 0 of 4 is next"), "{err}");
-    // Jobs need every layer scanned.
-    let first = scan_tile(&planes_of(&volume, 0..17), geometry.dims, 0, 1.0).unwrap();
-    run.add_scan(&first).unwrap();
-    let err = run.plan_emits(u64::MAX).unwrap_err();
+    // 16 planes is one layer without its halo; 16 rows one block row without its halo.
+    for samples in [
+        [0..37, 0..21, 0..16],
+        [0..37, 0..16, 0..17],
+        [16..32, 0..21, 0..17],
+    ] {
+        let first = [samples[0].start / 16, 0, 0];
+        let err = scan_tile(&box_of(&volume, samples).view(), dims, first, 1.0).unwrap_err();
+        assert!(err.to_string().contains("not whole blocks"), "{err}");
+    }
+    // Layer 1 before layer 0 is fine; the same blocks twice are not.
+    let second = box_of(&volume, [0..37, 0..21, 16..33]);
+    run.add_scan(&scan_tile(&second.view(), dims, [0, 0, 1], 1.0).unwrap())
+        .unwrap();
+    let overlapping = box_of(&volume, [16..37, 16..21, 16..49]);
+    let fragment = scan_tile(&overlapping.view(), dims, [1, 1, 1], 1.0).unwrap();
+    let err = run.add_scan(&fragment).unwrap_err();
     assert!(
-        err.to_string().contains("1 of 4 block layers scanned"),
+        err.to_string().contains("overlaps blocks already scanned"),
         "{err}"
     );
+    // Jobs need every block scanned.
+    let err = run.plan_emits([1, 1, 1], u64::MAX).unwrap_err();
+    assert!(err.to_string().contains("6 of 24 blocks scanned"), "{err}");
     // A normalised isovalue cannot start without the value range.
     let err = TileExtraction::new(
         geometry,
