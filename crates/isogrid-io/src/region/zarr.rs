@@ -18,7 +18,7 @@
 mod rows;
 
 use super::ZarrOptions;
-use isogrid::extract::stream::{RegionSource, SlabMut};
+use isogrid::extract::stream::{BlockMask, RegionSource, SlabMut};
 use isogrid::{Error, Geometry, Result, ScalarType};
 use serde_json::Value;
 use std::ops::Range;
@@ -576,10 +576,12 @@ impl ZarrSource {
         Error::corrupt(format!("cannot read the Zarr array: {error}")).with_path(&self.location)
     }
 
+    /// Reads planes `z` (with `wanted`, at least the samples of those blocks) into `out`.
     fn read_into<S, K>(
         &mut self,
         z: &Range<usize>,
         out: &mut [K],
+        wanted: Option<&BlockMask>,
         convert: impl Fn(S) -> K + Sync,
     ) -> Result<()>
     where
@@ -587,7 +589,7 @@ impl ZarrSource {
         K: Copy + Default + Send + Sync + 'static,
     {
         if let Some(rows) = &mut self.rows {
-            return rows.read(&self.array, &self.location, z.clone(), out, convert);
+            return rows.read(&self.array, &self.location, z.clone(), out, wanted, convert);
         }
         let subset = self.subset(z);
         let values = self.retrieve::<S>(&subset)?;
@@ -609,6 +611,42 @@ impl ZarrSource {
         }
         Ok(())
     }
+
+    /// Reads planes `z` into `out`, converting the stored type to the kept one as
+    /// `crate::samples::read_samples` does.
+    fn read_converted(
+        &mut self,
+        z: Range<usize>,
+        out: SlabMut<'_>,
+        wanted: Option<&BlockMask>,
+    ) -> Result<()> {
+        match (self.stored, out) {
+            (Stored::U8, SlabMut::U8(o)) => self.read_into::<u8, u8>(&z, o, wanted, |v| v),
+            (Stored::Bool, SlabMut::U8(o)) => {
+                self.read_into::<bool, u8>(&z, o, wanted, |v| v as u8)
+            }
+            (Stored::U16, SlabMut::U16(o)) => self.read_into::<u16, u16>(&z, o, wanted, |v| v),
+            (Stored::I16, SlabMut::I16(o)) => self.read_into::<i16, i16>(&z, o, wanted, |v| v),
+            (Stored::I8, SlabMut::I16(o)) => self.read_into::<i8, i16>(&z, o, wanted, |v| v as i16),
+            (Stored::F32, SlabMut::F32(o)) => self.read_into::<f32, f32>(&z, o, wanted, |v| v),
+            (Stored::U32, SlabMut::F32(o)) => {
+                self.read_into::<u32, f32>(&z, o, wanted, |v| v as f32)
+            }
+            (Stored::I32, SlabMut::F32(o)) => {
+                self.read_into::<i32, f32>(&z, o, wanted, |v| v as f32)
+            }
+            (Stored::U64, SlabMut::F32(o)) => {
+                self.read_into::<u64, f32>(&z, o, wanted, |v| v as f32)
+            }
+            (Stored::I64, SlabMut::F32(o)) => {
+                self.read_into::<i64, f32>(&z, o, wanted, |v| v as f32)
+            }
+            (Stored::F64, SlabMut::F32(o)) => {
+                self.read_into::<f64, f32>(&z, o, wanted, |v| v as f32)
+            }
+            _ => Err(Error::invalid("slab buffer type differs from the array's")),
+        }
+    }
 }
 
 impl RegionSource for ZarrSource {
@@ -619,21 +657,15 @@ impl RegionSource for ZarrSource {
         self.stored.kept()
     }
     fn read_planes(&mut self, z: Range<usize>, out: SlabMut<'_>) -> Result<()> {
-        // Conversions are those of `crate::samples::read_samples`.
-        match (self.stored, out) {
-            (Stored::U8, SlabMut::U8(o)) => self.read_into::<u8, u8>(&z, o, |v| v),
-            (Stored::Bool, SlabMut::U8(o)) => self.read_into::<bool, u8>(&z, o, |v| v as u8),
-            (Stored::U16, SlabMut::U16(o)) => self.read_into::<u16, u16>(&z, o, |v| v),
-            (Stored::I16, SlabMut::I16(o)) => self.read_into::<i16, i16>(&z, o, |v| v),
-            (Stored::I8, SlabMut::I16(o)) => self.read_into::<i8, i16>(&z, o, |v| v as i16),
-            (Stored::F32, SlabMut::F32(o)) => self.read_into::<f32, f32>(&z, o, |v| v),
-            (Stored::U32, SlabMut::F32(o)) => self.read_into::<u32, f32>(&z, o, |v| v as f32),
-            (Stored::I32, SlabMut::F32(o)) => self.read_into::<i32, f32>(&z, o, |v| v as f32),
-            (Stored::U64, SlabMut::F32(o)) => self.read_into::<u64, f32>(&z, o, |v| v as f32),
-            (Stored::I64, SlabMut::F32(o)) => self.read_into::<i64, f32>(&z, o, |v| v as f32),
-            (Stored::F64, SlabMut::F32(o)) => self.read_into::<f64, f32>(&z, o, |v| v as f32),
-            _ => Err(Error::invalid("slab buffer type differs from the array's")),
-        }
+        self.read_converted(z, out, None)
+    }
+    fn read_planes_within(
+        &mut self,
+        z: Range<usize>,
+        out: SlabMut<'_>,
+        wanted: &BlockMask,
+    ) -> Result<()> {
+        self.read_converted(z, out, Some(wanted))
     }
     fn plane_granularity(&self) -> usize {
         self.rows.as_ref().map_or(1, |rows| rows.row_depth())

@@ -195,6 +195,33 @@ fn a_slab_over_http_fetches_only_its_chunks() {
             "GET /v3_zstd.zarr/c/0/1/1"
         ]
     );
+
+    // Only block (1, 0) wanted: it reads x 16..=19, all in the chunks of x index 1 (x 11..22).
+    let mut wanted = isogrid::extract::stream::BlockMask::new([2, 1]);
+    wanted.want(1, 0);
+    let before = server.requests().len();
+    let mut source = open_region(&server.url_of("v3_zstd.zarr"), &ReadOptions::default())
+        .unwrap()
+        .unwrap();
+    let mut within = vec![0u16; 20 * 13 * 5];
+    source
+        .read_planes_within(0..5, SlabMut::U16(&mut within), &wanted)
+        .unwrap();
+    let mut chunks: Vec<String> = server.requests()[before..]
+        .iter()
+        .filter(|r| r.contains("/c/"))
+        .cloned()
+        .collect();
+    chunks.sort();
+    assert_eq!(
+        chunks,
+        ["GET /v3_zstd.zarr/c/0/0/1", "GET /v3_zstd.zarr/c/0/1/1"]
+    );
+    for (i, (&got, &all)) in within.iter().zip(&planes).enumerate() {
+        if i % 20 >= 16 {
+            assert_eq!(got, all, "sample {i}");
+        }
+    }
 }
 
 #[test]

@@ -127,10 +127,60 @@ pub trait RegionSource {
         let _ = planes;
         0
     }
+    /// Reads planes `z` as [`RegionSource::read_planes`] does, except that only the samples of
+    /// the blocks `wanted` marks (each block's 17 samples along x and y, halo included) must come
+    /// out right; the others may hold anything. The emit pass reads its slabs this way: it reads
+    /// no sample outside an active block, and a chunked store need not decode the chunks that
+    /// hold none.
+    fn read_planes_within(
+        &mut self,
+        z: Range<usize>,
+        out: SlabMut<'_>,
+        wanted: &BlockMask,
+    ) -> Result<()> {
+        let _ = wanted;
+        self.read_planes(z, out)
+    }
     /// Reads are cheapest in multiples of this many planes (a Zarr chunk row's depth): a caller
     /// free to split a long read splits it there.
     fn plane_granularity(&self) -> usize {
         1
+    }
+}
+
+/// The blocks of one x-y layer that a read must deliver (any of the slab's layers), by block
+/// column `bx` and row `by`.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct BlockMask {
+    block_dims: [usize; 2],
+    wanted: Vec<bool>,
+}
+
+impl BlockMask {
+    /// No block wanted, over `nbx` × `nby` blocks.
+    pub fn new(block_dims: [usize; 2]) -> Self {
+        BlockMask {
+            block_dims,
+            wanted: vec![false; block_dims[0] * block_dims[1]],
+        }
+    }
+    pub fn want(&mut self, bx: usize, by: usize) {
+        self.wanted[bx + self.block_dims[0] * by] = true;
+    }
+    pub fn is_wanted(&self, bx: usize, by: usize) -> bool {
+        self.wanted[bx + self.block_dims[0] * by]
+    }
+    /// Whether a wanted block reads a sample of columns `xs` and rows `ys` (a block reads
+    /// samples `16·b ..= 16·b + 16`).
+    pub fn touches(&self, xs: Range<usize>, ys: Range<usize>) -> bool {
+        let blocks = |r: Range<usize>, n: usize| {
+            r.start.saturating_sub(1) / BLOCK_CELLS..r.end.div_ceil(BLOCK_CELLS).min(n)
+        };
+        let [nbx, nby] = self.block_dims;
+        if xs.is_empty() || ys.is_empty() {
+            return false;
+        }
+        blocks(ys, nby).any(|by| blocks(xs.clone(), nbx).any(|bx| self.is_wanted(bx, by)))
     }
 }
 
@@ -348,17 +398,28 @@ struct Run<'a> {
 }
 
 impl Run<'_> {
-    fn read<T: SlabScalar>(&mut self, z: Range<usize>, buffer: &mut Vec<T>) -> Result<()> {
+    /// Reads planes `z` into `buffer`: all their samples, or (`wanted`) those of the marked
+    /// blocks only.
+    fn read<T: SlabScalar>(
+        &mut self,
+        z: Range<usize>,
+        buffer: &mut Vec<T>,
+        wanted: Option<&BlockMask>,
+    ) -> Result<()> {
         if self.held.as_ref() == Some(&z) {
             return Ok(());
         }
         let [nx, ny, _] = self.geometry.dims;
         self.held = None;
-        buffer.clear();
         buffer.resize(nx * ny * z.len(), T::default());
-        self.source.read_planes(z.clone(), T::slab(buffer))?;
-        self.held = Some(z);
-        Ok(())
+        match wanted {
+            Some(mask) => self.source.read_planes_within(z, T::slab(buffer), mask),
+            None => {
+                self.source.read_planes(z.clone(), T::slab(buffer))?;
+                self.held = Some(z);
+                Ok(())
+            }
+        }
     }
 
     /// Slabs as block layer ranges, and the sample planes each reads (its layers plus the halo).
@@ -382,7 +443,7 @@ impl Run<'_> {
         let mut range: Option<(f64, f64)> = None;
         for z0 in (0..nz).step_by(step) {
             let z = z0..(z0 + step).min(nz);
-            self.read(z.clone(), buffer)?;
+            self.read(z.clone(), buffer, None)?;
             if let Some((lo, hi)) = T::samples(buffer).value_range() {
                 range = Some(range.map_or((lo, hi), |(a, b)| (a.min(lo), b.max(hi))));
             }
@@ -423,7 +484,7 @@ impl Run<'_> {
         let mut totals = Totals::default();
         let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
         for (layers, planes) in &slabs {
-            self.read(planes.clone(), &mut buffer)?;
+            self.read(planes.clone(), &mut buffer, None)?;
             let scans = scan_blocks(&buffer, [nx, ny, planes.len()], threshold);
             debug_assert_eq!(scans.len(), nbx * nby * layers.len());
             for s in &scans {
@@ -489,7 +550,14 @@ impl Run<'_> {
                     (self.progress)(progress);
                     continue;
                 }
-                self.read(planes.clone(), &mut buffer)?;
+                // Only active blocks are emitted, and each reads its own samples alone.
+                let mut wanted = BlockMask::new([nbx, nby]);
+                for (i, block) in blocks[first..end].iter().enumerate() {
+                    if block.metacell_count > 0 {
+                        wanted.want(i % nbx, i / nbx % nby);
+                    }
+                }
+                self.read(planes.clone(), &mut buffer, Some(&wanted))?;
                 let slab = SlabView {
                     samples: &buffer,
                     dims: [nx, ny, planes.len()],

@@ -217,12 +217,26 @@ fn a_budget_below_one_slab_names_the_least_that_works_and_writes_nothing() {
     assert!(dir.entries().is_empty());
 }
 
-/// A source that counts its reads and fails on its `fail_at`-th, to check that nothing is left
-/// behind.
+/// A source that counts its reads, fails on its `fail_at`-th (to check that nothing is left
+/// behind), and delivers no more than `read_planes_within` promises: there every u8 sample
+/// outside the wanted blocks comes out inverted (inside turned outside), so an emit that read one
+/// would write different bytes.
 struct Failing<'a> {
     inner: isogrid::VolumeView<'a>,
     reads: usize,
+    masked_reads: usize,
     fail_at: usize,
+}
+
+impl<'a> Failing<'a> {
+    fn new(inner: isogrid::VolumeView<'a>, fail_at: usize) -> Self {
+        Failing {
+            inner,
+            reads: 0,
+            masked_reads: 0,
+            fail_at,
+        }
+    }
 }
 
 impl RegionSource for Failing<'_> {
@@ -239,6 +253,26 @@ impl RegionSource for Failing<'_> {
         }
         self.inner.read_planes(z, out)
     }
+    fn read_planes_within(
+        &mut self,
+        z: Range<usize>,
+        out: SlabMut<'_>,
+        wanted: &stream::BlockMask,
+    ) -> isogrid::Result<()> {
+        self.masked_reads += 1;
+        let SlabMut::U8(samples) = out else {
+            return self.read_planes(z, out);
+        };
+        self.read_planes(z, SlabMut::U8(&mut *samples))?;
+        let [nx, ny, _] = self.inner.dims();
+        for (i, v) in samples.iter_mut().enumerate() {
+            let (x, y) = (i % nx, i / nx % ny);
+            if !wanted.touches(x..x + 1, y..y + 1) {
+                *v ^= 0xff;
+            }
+        }
+        Ok(())
+    }
 }
 
 #[test]
@@ -249,11 +283,7 @@ fn a_read_error_in_any_pass_leaves_no_file_and_keeps_an_old_one() {
     let volume = random_u8([20, 20, 50], 9, 2);
     // 4 one-layer slabs: reads 1-4 are the range pass, 5-8 the scan, 9-12 the emit.
     for fail_at in [2, 6, 11] {
-        let mut source = Failing {
-            inner: volume.view(),
-            reads: 0,
-            fail_at,
-        };
+        let mut source = Failing::new(volume.view(), fail_at);
         let err = extract_planned(
             &mut source,
             &ExtractOptions::new(Iso::Normalized(0.5)),
@@ -298,6 +328,30 @@ fn progress_covers_every_pass_to_the_last_plane() {
     assert!(seen.iter().all(|p| p.stage != Stage::ValueRange));
 }
 
+/// Streams `volume` through a [`Failing`] source that never fails, in slabs of `layers` layers:
+/// the file's bytes, the reads and the masked reads.
+fn stream_counted(
+    volume: &Volume,
+    options: &ExtractOptions,
+    layers: usize,
+    out: &std::path::Path,
+) -> (Vec<u8>, usize, usize) {
+    let mut source = Failing::new(volume.view(), usize::MAX);
+    extract_planned(
+        &mut source,
+        options,
+        &plan(layers, 1 << 20),
+        out,
+        &mut |_| {},
+    )
+    .unwrap();
+    (
+        std::fs::read(out).unwrap(),
+        source.reads,
+        source.masked_reads,
+    )
+}
+
 /// Every pass reads its slabs, but a pass that starts on the planes the previous one ended on
 /// takes them from the buffer: a volume in one slab is read once for the range, scan and emit
 /// passes together.
@@ -310,20 +364,53 @@ fn a_volume_in_one_slab_is_read_once_for_every_pass() {
     let expected = cgc::to_bytes(&extract(&volume.view(), &options).unwrap());
     // One-layer slabs: 3 range reads of 17 planes, then 4 slabs each for scan and emit.
     for (layers, reads) in [(64, 1), (1, 3 + 4 + 4)] {
-        let mut source = Failing {
-            inner: volume.view(),
-            reads: 0,
-            fail_at: usize::MAX,
-        };
-        extract_planned(
-            &mut source,
-            &options,
-            &plan(layers, 1 << 20),
-            &out,
-            &mut |_| {},
-        )
-        .unwrap();
-        assert_eq!(source.reads, reads, "{layers}-layer slabs");
-        assert!(std::fs::read(&out).unwrap() == expected);
+        let (bytes, counted, _) = stream_counted(&volume, &options, layers, &out);
+        assert_eq!(counted, reads, "{layers}-layer slabs");
+        assert!(bytes == expected);
     }
+}
+
+/// The emit pass reads only the samples of active blocks (and a chunked store may skip the
+/// rest): balls in a larger volume, whose blocks are mostly empty, stream to the in-memory bytes
+/// when every other sample of the emit reads is wrong.
+#[test]
+fn the_emit_pass_needs_only_the_samples_of_active_blocks() {
+    let dir = TempDir::new("only-wanted");
+    let out = dir.0.join("out.cgc");
+    let dims = [70, 53, 60];
+    let balls = field(dims, |x, y, z| {
+        let d = |c: [f64; 3]| ((x - c[0]).powi(2) + (y - c[1]).powi(2) + (z - c[2]).powi(2)).sqrt();
+        (30.0 - 3.0 * d([20.0, 15.0, 18.0]).min(d([50.0, 40.0, 44.0]))).clamp(0.0, 30.0) * 8.0
+    });
+    let volume = Volume::new(
+        dims,
+        VolumeData::U8(balls.into_iter().map(|v| v as u8).collect()),
+    )
+    .unwrap();
+    for options in [
+        ExtractOptions::new(Iso::Value(120.0)),
+        ExtractOptions::new(Iso::Normalized(0.3)).with_precision(Precision::Bits4),
+    ] {
+        let expected = cgc::to_bytes(&extract(&volume.view(), &options).unwrap());
+        for layers in [1, 2, 64] {
+            let (bytes, _, masked_reads) = stream_counted(&volume, &options, layers, &out);
+            assert!(bytes == expected, "{options:?}, {layers}-layer slabs");
+            let masked = if layers == 64 { 0 } else { 1 };
+            assert!(masked_reads >= masked, "{layers}-layer slabs");
+        }
+    }
+}
+
+#[test]
+fn a_block_mask_touches_the_samples_its_blocks_read() {
+    let mut mask = stream::BlockMask::new([3, 2]);
+    mask.want(1, 1);
+    // Block (1, 1) reads samples 16..=32 along x and y.
+    assert!(mask.touches(16..17, 16..17));
+    assert!(mask.touches(32..33, 32..33));
+    assert!(mask.touches(0..17, 0..17));
+    assert!(!mask.touches(0..16, 0..40));
+    assert!(!mask.touches(33..48, 16..20));
+    assert!(!mask.touches(16..20, 33..40));
+    assert!(!mask.touches(20..20, 20..30));
 }

@@ -11,8 +11,10 @@
 //! A slab of `16·k + 1` planes rarely ends on a chunk boundary, so the chunk row holding its last
 //! planes is also the first row of the next slab. That row's planes from the slab's halo plane on
 //! are kept (one row's planes at most), and the next read takes them from there instead of
-//! decoding the row again, so a whole stream decodes each chunk once per pass.
+//! decoding the row again, so a whole stream decodes each chunk once per pass. The emit pass asks
+//! only for the samples of active blocks, and then only the chunks holding some are decoded.
 
+use isogrid::extract::stream::BlockMask;
 use isogrid::{Error, Result};
 use rayon::prelude::*;
 use std::any::Any;
@@ -125,13 +127,16 @@ impl ChunkRows {
         }
     }
 
-    /// Reads planes `z` into `out` (C order, x fastest), converting each sample with `convert`.
+    /// Reads planes `z` into `out` (C order, x fastest), converting each sample with `convert`;
+    /// with `wanted`, only the chunks that hold samples of the wanted blocks (and nothing is kept
+    /// for the next read, as the rows are incomplete).
     pub(super) fn read<S, K>(
         &mut self,
         array: &Array<dyn ReadableStorageTraits>,
         location: &str,
         z: Range<usize>,
         out: &mut [K],
+        wanted: Option<&BlockMask>,
         convert: impl Fn(S) -> K + Sync,
     ) -> Result<()>
     where
@@ -159,7 +164,7 @@ impl ChunkRows {
             }
         };
         let (first, end) = (chunks.start().to_vec(), chunks.end_exc());
-        let keep_row = self.kept_planes(z.len()) > 0;
+        let keep_row = wanted.is_none() && self.kept_planes(z.len()) > 0;
         let shared_out = SharedSlab::new(out);
         for row in first[n - 3]..end[n - 3] {
             let mut indices = first.clone();
@@ -221,6 +226,15 @@ impl ChunkRows {
                     let mut chunk = indices.clone();
                     chunk[n - 2] = y;
                     chunk[n - 1] = x;
+                    if let Some(mask) = wanted {
+                        let (origin, shape) = chunk_box(array, &chunk, location)?;
+                        let [x0, y0] = [origin[n - 1], origin[n - 2]].map(|o| o as usize);
+                        let xs = x0..(x0 + shape[n - 1]).min(nx);
+                        let ys = y0..(y0 + shape[n - 2]).min(ny);
+                        if !mask.touches(xs, ys) {
+                            continue;
+                        }
+                    }
                     row_chunks.push(chunk);
                 }
             }
