@@ -585,7 +585,7 @@ impl ZarrSource {
         convert: impl Fn(S) -> K + Sync,
     ) -> Result<()>
     where
-        S: zarrs::array::ElementOwned + Copy,
+        S: rows::ChunkElement,
         K: Copy + Default + Send + Sync + 'static,
     {
         if let Some(rows) = &mut self.rows {

@@ -6,7 +6,8 @@
 //! the typed `Vec` it returns; on a 2048³ volume that assembly, not zstd, was most of the read.
 //! Here each chunk is decoded on its own (in parallel over the chunks of a *chunk row*, the
 //! chunks that share one z range) and its x-runs are copied straight into the caller's slab,
-//! converting the type on the way.
+//! converting the type on the way; the decoded bytes are read in place, and a chunk never written
+//! (the fill value, as the specs say) is not decoded at all but filled in.
 //!
 //! A slab of `16·k + 1` planes rarely ends on a chunk boundary, so the chunk row holding its last
 //! planes is also the first row of the next slab. That row's planes from the slab's halo plane on
@@ -18,8 +19,11 @@ use isogrid::extract::stream::BlockMask;
 use isogrid::{Error, Result};
 use rayon::prelude::*;
 use std::any::Any;
+use std::borrow::Cow;
 use std::ops::Range;
-use zarrs::array::{Array, ArrayShardedExt, ArraySubset, CodecOptions, ElementOwned};
+use zarrs::array::{
+    Array, ArrayBytes, ArrayShardedExt, ArraySubset, CodecOptions, DataType, ElementOwned,
+};
 use zarrs::storage::ReadableStorageTraits;
 
 /// Reads planes of an array whose axes are `[fixed…, z, y, x]`.
@@ -80,6 +84,8 @@ impl<K> SharedSlab<K> {
 struct Destination<'a, K> {
     planes: Range<usize>,
     first_plane: usize,
+    /// Samples along x and y of each plane.
+    plane_dims: [usize; 2],
     samples: &'a SharedSlab<K>,
 }
 
@@ -140,10 +146,11 @@ impl ChunkRows {
         convert: impl Fn(S) -> K + Sync,
     ) -> Result<()>
     where
-        S: ElementOwned + Copy,
+        S: ChunkElement,
         K: Copy + Default + Send + Sync + 'static,
     {
         let [nx, ny, nz] = self.dims;
+        let fill = fill_value::<S>(array).map_err(|e| e.with_path(location))?;
         let plane = nx * ny;
         assert_eq!(out.len(), plane * z.len(), "slab buffer of the wrong size");
         if z.is_empty() {
@@ -211,11 +218,13 @@ impl ChunkRows {
                 Destination {
                     planes: needed.clone(),
                     first_plane: z.start,
+                    plane_dims: [nx, ny],
                     samples: &shared_out,
                 },
                 Destination {
                     planes: keep.clone(),
                     first_plane: keep.start,
+                    plane_dims: [nx, ny],
                     samples: &shared_kept,
                 },
             ];
@@ -239,7 +248,7 @@ impl ChunkRows {
                 }
             }
             row_chunks.par_iter().try_for_each(|chunk| {
-                self.copy_chunk::<S, K>(array, location, chunk, &destinations, &convert)
+                self.copy_chunk::<S, K>(array, location, chunk, &destinations, fill, &convert)
             })?;
             if !keep.is_empty() {
                 self.kept = Some(KeptRow {
@@ -259,10 +268,11 @@ impl ChunkRows {
         location: &str,
         chunk: &[u64],
         destinations: &[Destination<'_, K>],
+        fill: S,
         convert: &(impl Fn(S) -> K + Sync),
     ) -> Result<()>
     where
-        S: ElementOwned + Copy,
+        S: ChunkElement,
         K: Copy + Send,
     {
         let [nx, ny, _] = self.dims;
@@ -270,19 +280,33 @@ impl ChunkRows {
         let (origin, shape) = chunk_box(array, chunk, location)?;
         // One chunk at a time per thread: the parallelism is over the chunks.
         let options = CodecOptions::default().with_concurrent_target(1);
-        let samples: Vec<S> = array
-            .retrieve_chunk_opt::<Vec<S>>(chunk, &options)
-            .map_err(|e| {
-                let key = array.chunk_key(chunk);
-                Error::corrupt(format!("chunk {key} (indices {chunk:?}): {e}")).with_path(location)
-            })?;
-        if samples.len() != shape.iter().product::<usize>() {
+        let fail = |e: &dyn std::fmt::Display| {
             let key = array.chunk_key(chunk);
-            return Err(Error::corrupt(format!(
-                "chunk {key} decoded to {} samples, not the {shape:?} of its chunk",
+            Error::corrupt(format!("chunk {key} (indices {chunk:?}): {e}")).with_path(location)
+        };
+        let decoded = array
+            .retrieve_chunk_if_exists_opt::<ArrayBytes<'static>>(chunk, &options)
+            .map_err(|e| fail(&e))?;
+        let [cz0, cy0, cx0] = [origin[n - 3], origin[n - 2], origin[n - 1]].map(|o| o as usize);
+        let ys = cy0..(cy0 + shape[n - 2]).min(ny);
+        let xs = cx0..(cx0 + shape[n - 1]).min(nx);
+        let chunk_planes = cz0..cz0 + shape[n - 3];
+        let Some(decoded) = decoded else {
+            // A chunk never written holds the fill value (the Zarr specs): no decode, no copy.
+            let value = convert(fill);
+            for_each_run(destinations, &chunk_planes, &ys, &xs, |_, _, dst| {
+                dst.fill(value)
+            });
+            return Ok(());
+        };
+        let bytes = decoded.into_fixed().map_err(|e| fail(&e))?;
+        let samples = S::view(&bytes, array.data_type()).map_err(|e| fail(&e))?;
+        if samples.len() != shape.iter().product::<usize>() {
+            let what = format!(
+                "decoded to {} samples, not the {shape:?} of its chunk",
                 samples.len()
-            ))
-            .with_path(location));
+            );
+            return Err(fail(&what));
         }
         // Chunk-local C-order strides; the leading axes sit at their fixed index.
         let mut stride = vec![1usize; n];
@@ -292,28 +316,66 @@ impl ChunkRows {
         let lead: usize = (0..n - 3)
             .map(|a| (self.fixed[a] - origin[a]) as usize * stride[a])
             .sum();
-        let [cz0, cy0, cx0] = [origin[n - 3], origin[n - 2], origin[n - 1]].map(|o| o as usize);
-        let ys = cy0..(cy0 + shape[n - 2]).min(ny);
-        let xs = cx0..(cx0 + shape[n - 1]).min(nx);
-        let chunk_planes = cz0..cz0 + shape[n - 3];
-        for destination in destinations {
-            let planes = destination.planes.start.max(chunk_planes.start)
-                ..destination.planes.end.min(chunk_planes.end);
-            for zz in planes {
-                for y in ys.clone() {
-                    let from = lead + (zz - cz0) * stride[n - 3] + (y - cy0) * stride[n - 2];
-                    let src = &samples[from..from + xs.len()];
-                    let at = ((zz - destination.first_plane) * ny + y) * nx + xs.start;
-                    // SAFETY: the chunks of one row cover disjoint (x, y) boxes, so this run of
-                    // plane `zz`, row `y`, columns `xs` is written by this chunk alone.
-                    let dst = unsafe { destination.samples.run(at, xs.len()) };
-                    for (o, &v) in dst.iter_mut().zip(src) {
-                        *o = convert(v);
-                    }
-                }
+        for_each_run(destinations, &chunk_planes, &ys, &xs, |zz, y, dst| {
+            let from = lead + (zz - cz0) * stride[n - 3] + (y - cy0) * stride[n - 2];
+            for (o, &v) in dst.iter_mut().zip(&samples[from..from + xs.len()]) {
+                *o = convert(v);
+            }
+        });
+        Ok(())
+    }
+}
+
+/// Calls `write(z, y, run)` with each x-run (columns `xs` of row `y` of plane `z`) of a chunk
+/// spanning `planes`, `ys` and `xs` in every destination holding some of its planes.
+fn for_each_run<K>(
+    destinations: &[Destination<'_, K>],
+    planes: &Range<usize>,
+    ys: &Range<usize>,
+    xs: &Range<usize>,
+    mut write: impl FnMut(usize, usize, &mut [K]),
+) {
+    for destination in destinations {
+        let [nx, ny] = destination.plane_dims;
+        let overlap =
+            destination.planes.start.max(planes.start)..destination.planes.end.min(planes.end);
+        for z in overlap {
+            for y in ys.clone() {
+                let at = ((z - destination.first_plane) * ny + y) * nx + xs.start;
+                // SAFETY: the chunks of one row cover disjoint (x, y) boxes, so this run of plane
+                // `z`, row `y`, columns `xs` is written by this chunk alone.
+                write(z, y, unsafe { destination.samples.run(at, xs.len()) });
             }
         }
-        Ok(())
+    }
+}
+
+/// Stored element types, seen in a decoded chunk's native-order bytes without a copy where the
+/// bytes are aligned for them (a fresh allocation always is).
+pub(super) trait ChunkElement: ElementOwned + Copy + Send + Sync {
+    fn view<'a>(bytes: &'a [u8], data_type: &DataType) -> Result<Cow<'a, [Self]>>;
+}
+
+macro_rules! chunk_element_pod {
+    ($($t:ty),*) => {$(
+        impl ChunkElement for $t {
+            fn view<'a>(bytes: &'a [u8], _: &DataType) -> Result<Cow<'a, [Self]>> {
+                Ok(match bytemuck::try_cast_slice(bytes) {
+                    Ok(samples) => Cow::Borrowed(samples),
+                    Err(_) => Cow::Owned(bytemuck::pod_collect_to_vec(bytes)),
+                })
+            }
+        }
+    )*};
+}
+chunk_element_pod!(u8, i8, u16, i16, u32, i32, u64, i64, f32, f64);
+
+impl ChunkElement for bool {
+    fn view<'a>(bytes: &'a [u8], data_type: &DataType) -> Result<Cow<'a, [Self]>> {
+        // Not every byte is a bool: zarrs checks them.
+        bool::from_array_bytes(data_type, ArrayBytes::new_flen(Cow::Borrowed(bytes)))
+            .map(Cow::Owned)
+            .map_err(|e| Error::corrupt(e.to_string()))
     }
 }
 
@@ -343,4 +405,14 @@ fn bounded(
     let (origin, shape) = chunk_box(array, indices, location)?;
     let start = (origin[axis] as usize).min(nz);
     Ok(start..(start + shape[axis]).min(nz))
+}
+
+/// The array's fill value as a stored element.
+fn fill_value<S: ElementOwned>(array: &Array<dyn ReadableStorageTraits>) -> Result<S> {
+    let bytes = ArrayBytes::new_fill_value(array.data_type(), 1, array.fill_value())
+        .map_err(|e| Error::corrupt(format!("the fill value: {e}")))?;
+    S::from_array_bytes(array.data_type(), bytes)
+        .ok()
+        .and_then(|v| v.into_iter().next())
+        .ok_or_else(|| Error::corrupt("the fill value is not an element of the array's type"))
 }
