@@ -10,11 +10,20 @@ and its blocks are exactly those of the whole-volume extraction: there are no se
 The run is:
 
 1. with ``iso_normalized``, a Dask reduction for the value range (NaN ignored);
-2. one task per tile counts each block's active cells (*scan*); the driver adds the counts up
-   in block order, which fixes every block's place in the file;
-3. one task per *emit job* (a tile holding active cells, halved until it fits ``tile_bytes``)
-   writes its metacells and corner records; the driver places each result at its offsets as it
-   arrives and writes the header last, into a temporary file renamed at the end.
+2. one task per tile counts each block's active cells (*scan*) and, where it can, also writes the
+   tile's metacells and corner records (*one pass*): when the codes corner values are stored as
+   are known before the whole volume has been seen (the value range is known, or the type is
+   stored as it is: uint8, uint16 at 16 bits, any type at 32 bits) and the output fits what
+   ``tile_bytes`` leaves beside the tile's samples. The driver keeps such output in a scratch
+   file beside ``output`` (it takes up to the output's size until the end) and adds the counts
+   up in block order, which fixes every block's place in the file;
+3. one task per *emit job* (a tile that gave no output and holds active cells, halved until it
+   fits ``tile_bytes``) writes its metacells and corner records; the driver copies the one-pass
+   output into place, places each job's result at its offsets as it arrives and writes the
+   header last, into a temporary file renamed at the end.
+
+So a uint8 or uint16 source with ``iso`` in data units is read once, and twice with
+``iso_normalized``; other types are read once more, when their tiles are emitted.
 
 Tiles are cut along x, y and z so that a task's samples stay near ``tile_bytes`` whatever the
 size of a plane, and along the source's chunks where those are whole blocks. The file is
@@ -141,23 +150,36 @@ def extract(
         (nx, ny, nz), dtype.name, spacing3, origin3, iso, iso_normalized, bits, value_range, geometry["direction"]
     )
 
-    # Pass 1: scan tiles of whole blocks (plus the halo on their high sides), in any order.
+    # Pass 1: tiles of whole blocks (plus the halo on their high sides), in any order.
     chunks = _Chunks(array)
     dims = (nx, ny, nz)
     if tile_shape is None:
-        # Half the budget for the samples, the other half for an emit job's output, so that
-        # emit jobs seldom need to halve a tile (halves cut their chunks apart).
+        # Half the budget for the samples, the other half for the tile's output, so that tiles
+        # seldom need to be halved into emit jobs (halves cut their chunks apart).
         tile = _tile_blocks(dims, array.chunks[::-1], dtype.itemsize, max(1, budget // 2))
     else:
         tile = _tile_shape_blocks(tile_shape)
-    scans = [
-        chunks.task(_scan, _samples(box, dims), dims, tuple(b[0] for b in box), extraction.iso)
-        for box in _tiles(dims, tile)
-    ]
-    for fragment in run.in_order(scans):
-        extraction.add_scan(fragment)
+    one_pass = extraction.one_pass_task()
+    if one_pass is not None:
+        extraction.spool_in(parent)
+        tiles = []
+        for box in _tiles(dims, tile):
+            samples = _samples(box, dims)
+            sample_bytes = dtype.itemsize * int(np.prod([hi - lo for lo, hi in samples]))
+            output_bytes = max(0, budget - sample_bytes)
+            tiles.append(chunks.task(_extract, samples, one_pass, tuple(b[0] for b in box), output_bytes))
+        for fragment in run.as_completed(tiles):
+            extraction.add_tile(fragment)
+    else:
+        scans = [
+            chunks.task(_scan, _samples(box, dims), dims, tuple(b[0] for b in box), extraction.iso)
+            for box in _tiles(dims, tile)
+        ]
+        for fragment in run.in_order(scans):
+            extraction.add_scan(fragment)
 
-    # Pass 2: emit jobs, written at their offsets as they complete.
+    # Pass 2: emit jobs for the tiles that gave no output, written at their offsets as they
+    # complete, after the one-pass tiles' output.
     jobs = extraction.plan_emits(tile, budget)
     emits = [chunks.task(_emit, samples, job, index) for index, (samples, job) in enumerate(jobs)]
     stats = extraction.write(out, run.as_completed(emits))
@@ -239,6 +261,13 @@ def _scan(pieces: List[np.ndarray], places: List[Tuple[int, int, int]], shape: T
           dims: Tuple[int, int, int], first_block: Tuple[int, int, int], iso: float) -> bytes:
     """Task: pass 1 of one tile (GIL released in Rust)."""
     return _isogrid._scan_tile(_assemble(pieces, places, shape), dims, first_block, iso)
+
+
+def _extract(pieces: List[np.ndarray], places: List[Tuple[int, int, int]], shape: Tuple[int, int, int],
+             task: bytes, first_block: Tuple[int, int, int], output_bytes: int) -> bytes:
+    """Task: one pass over one tile, scan and (when it fits `output_bytes`) output (GIL released
+    in Rust)."""
+    return _isogrid._extract_tile(_assemble(pieces, places, shape), task, first_block, output_bytes)
 
 
 def _emit(pieces: List[np.ndarray], places: List[Tuple[int, int, int]], shape: Tuple[int, int, int],

@@ -38,5 +38,6 @@ fn _isogrid(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<tiles::_TileExtraction>()?;
     m.add_function(wrap_pyfunction!(tiles::_scan_tile, m)?)?;
     m.add_function(wrap_pyfunction!(tiles::_emit_tile, m)?)?;
+    m.add_function(wrap_pyfunction!(tiles::_extract_tile, m)?)?;
     Ok(())
 }

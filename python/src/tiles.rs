@@ -1,7 +1,7 @@
-//! Tiled extraction for `isogrid.dask` (the Rust side is `isogrid::extract::tiles`): the two task
+//! Tiled extraction for `isogrid.dask` (the Rust side is `isogrid::extract::tiles`): the task
 //! functions a Dask worker runs on one tile (a box of whole blocks plus the halo on its high
-//! sides), and the coordinating object that collects scan fragments, plans emit jobs and writes
-//! the `.cgc` file from their output.
+//! sides: one pass, or a scan and then an emit), and the coordinating object that collects their
+//! fragments, plans emit jobs and writes the `.cgc` file from their output.
 //!
 //! Tasks take a C-ordered array of shape (z, y, x) and return bytes; they run with the GIL
 //! released, on rayon's global pool. Blocks and sample ranges cross as (x, y, z).
@@ -9,8 +9,8 @@
 use crate::array::{spacing3, triple, VolumeArg};
 use crate::errors::{invalid, to_py};
 use crate::grid::{iso_arg, precision_arg, stats_dict};
-use isogrid::extract::tiles::{self, EmitJob};
 use crate::volume_io::scalar_type_named;
+use isogrid::extract::tiles::{self, EmitJob};
 use isogrid::{ExtractOptions, Geometry};
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict};
@@ -45,6 +45,24 @@ pub fn _emit_tile<'py>(
     let view = tile.view()?;
     let fragment = py
         .detach(move || tiles::emit_tile(&view, job, index))
+        .map_err(to_py)?;
+    Ok(PyBytes::new(py, &fragment))
+}
+
+/// One pass over one tile: its scan records, and its output when that fits `output_bytes` (see
+/// `isogrid.dask`).
+#[pyfunction]
+pub fn _extract_tile<'py>(
+    py: Python<'py>,
+    tile: &Bound<'py, PyAny>,
+    task: &[u8],
+    first_block: [usize; 3],
+    output_bytes: u64,
+) -> PyResult<Bound<'py, PyBytes>> {
+    let tile = VolumeArg::new(tile, false, [1.0; 3])?;
+    let view = tile.view()?;
+    let fragment = py
+        .detach(move || tiles::extract_tile(&view, task, first_block, output_bytes))
         .map_err(to_py)?;
     Ok(PyBytes::new(py, &fragment))
 }
@@ -107,6 +125,25 @@ impl _TileExtraction {
         self.inner.add_scan(fragment).map_err(to_py)
     }
 
+    /// The task `_extract_tile` runs on every tile when one pass over the samples suffices (the
+    /// quantiser is known before any tile is scanned), else None: scan, then emit.
+    fn one_pass_task<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyBytes>> {
+        self.inner
+            .one_pass_task()
+            .map(|task| PyBytes::new(py, &task))
+    }
+
+    /// Keeps one-pass tiles' output in a scratch file in the folder `dir` until `write`.
+    fn spool_in(&mut self, dir: PathBuf) {
+        self.inner.spool_in(&dir);
+    }
+
+    /// Adds a one-pass tile's fragment (tiles in any order, each block exactly once); its output,
+    /// if any, waits in the spool.
+    fn add_tile(&mut self, fragment: &[u8]) -> PyResult<()> {
+        self.inner.add_tile(fragment).map_err(to_py)
+    }
+
     /// Plans the emit jobs from tiles of `tile_blocks` (x, y, z) blocks, halved until samples plus
     /// output fit `job_bytes` where one block allows; returns one `(samples, job)` per job, where
     /// `samples` is the ((x0, x1), (y0, y1), (z0, z1)) sample ranges it reads.
@@ -117,7 +154,10 @@ impl _TileExtraction {
         tile_blocks: [usize; 3],
         job_bytes: u64,
     ) -> PyResult<Vec<([(usize, usize); 3], Bound<'py, PyBytes>)>> {
-        self.jobs = self.inner.plan_emits(tile_blocks, job_bytes).map_err(to_py)?;
+        self.jobs = self
+            .inner
+            .plan_emits(tile_blocks, job_bytes)
+            .map_err(to_py)?;
         Ok(self
             .jobs
             .iter()

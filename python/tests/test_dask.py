@@ -224,8 +224,11 @@ def test_local_cluster_of_two_processes_is_byte_identical(tmp_path, two_workers)
     assert len({task["worker"] for task in tasks.data}) == 2
 
 
-def test_each_chunk_is_computed_once_per_pass_with_tiles_along_y_and_x(tmp_path):
-    a = volume(np.uint8)
+@pytest.mark.parametrize("dtype, passes", [(np.uint8, 1), (np.int16, 2)], ids=["one-pass", "scan-then-emit"])
+def test_each_chunk_is_computed_once_per_pass_with_tiles_along_y_and_x(tmp_path, dtype, passes):
+    # uint8 corner values are stored as they are, so tiles scan and emit in one pass; int16 ones
+    # are quantised from the whole volume's range, so tiles are scanned, then emitted.
+    a = volume(np.uint8).astype(dtype)
     expected = in_process_bytes(a, tmp_path, iso=100)
     log = str(tmp_path / "computed")
 
@@ -240,16 +243,17 @@ def test_each_chunk_is_computed_once_per_pass_with_tiles_along_y_and_x(tmp_path)
     with distributed.Client(processes=False, n_workers=1, threads_per_worker=2, dashboard_address=None) as client:
         isogrid.dask.extract(source, iso=100, output=tmp_path / "dask.cgc", client=client, tile_shape=(16, 32, 16))
     assert (tmp_path / "dask.cgc").read_bytes() == expected
-    # Scan and emit: every chunk at least once (the scan), none more than once per pass.
+    # Every chunk at least once (the first pass), none more than once per pass.
     computed = open(log).read().split("\n")[:-1]
     counts = {loc: computed.count(loc) for loc in set(computed)}
     assert len(counts) == source.npartitions
-    assert max(counts.values()) <= 2, counts
+    assert max(counts.values()) == passes, counts
 
 
-def test_a_worker_killed_mid_run_changes_nothing(tmp_path, two_workers):
-    a = volume(np.float32)
-    expected = in_process_bytes(a, tmp_path, iso=0.0)
+@pytest.mark.parametrize("dtype, iso", [(np.float32, 0.0), (np.uint8, 100)], ids=["scan-then-emit", "one-pass"])
+def test_a_worker_killed_mid_run_changes_nothing(tmp_path, two_workers, dtype, iso):
+    a = volume(np.float32) if dtype == np.float32 else volume(np.uint8)
+    expected = in_process_bytes(a, tmp_path, iso=iso)
     marker = str(tmp_path / "killed")
 
     def kill_once(block, block_info=None):
@@ -264,7 +268,7 @@ def test_a_worker_killed_mid_run_changes_nothing(tmp_path, two_workers):
 
     killing = da.from_array(a, chunks=CHUNKS).map_blocks(kill_once, dtype=a.dtype)
     out = tmp_path / "killed.cgc"
-    isogrid.dask.extract(killing, iso=0.0, output=out, client=two_workers, tile_bytes=TILE_BYTES)
+    isogrid.dask.extract(killing, iso=iso, output=out, client=two_workers, tile_bytes=TILE_BYTES)
     assert os.path.exists(marker), "no worker was killed"
     assert out.read_bytes() == expected
 
@@ -326,4 +330,22 @@ def test_a_task_failing_while_the_file_is_written_leaves_no_file(tmp_path):
     with pytest.raises(RuntimeError, match="the store went away"):
         isogrid.dask.extract(source, iso=0.0, output=out, tile_bytes=TILE_BYTES)
     assert os.path.exists(marker)
+    assert os.listdir(tmp_path) == []
+
+
+def test_a_task_failing_after_one_pass_tiles_were_spooled_leaves_no_file(tmp_path):
+    # uint8 at iso=100 is one pass: the tiles before the failing one have their output in the
+    # scratch file beside the output when the run fails.
+    a = volume(np.uint8)
+    last = tuple(-(-n // c) - 1 for n, c in zip(a.shape, CHUNKS))
+
+    def fail_last(block, block_info=None):
+        if block_info[0]["chunk-location"] == last:
+            raise RuntimeError("the store went away")
+        return block
+
+    source = da.from_array(a, chunks=CHUNKS).map_blocks(fail_last, dtype=a.dtype)
+    out = tmp_path / "out.cgc"
+    with pytest.raises(RuntimeError, match="the store went away"):
+        isogrid.dask.extract(source, iso=100, output=out, tile_shape=(16, 16, 16))
     assert os.listdir(tmp_path) == []

@@ -5,7 +5,8 @@
 
 use crate::stream::{option_sets, volumes, TempDir};
 use isogrid::extract::tiles::{
-    block_dims, emit_tile, scan_tile, tile_samples, tiles, EmitJob, TileExtraction, TileSummary,
+    block_dims, emit_tile, extract_tile, scan_tile, tile_samples, tiles, EmitJob, TileExtraction,
+    TileSummary,
 };
 use isogrid::{cgc, extract, ExtractOptions, Iso, Samples, Volume, VolumeData};
 use std::ops::Range;
@@ -244,4 +245,161 @@ fn tiles_not_of_whole_blocks_or_overlapping_are_refused() {
     )
     .unwrap_err();
     assert!(err.to_string().contains("value range"), "{err}");
+}
+
+/// One pass over `volume` in tiles of `tile_blocks` blocks (x, y, z), last tile first, each
+/// giving its output when it fits `output_bytes`; then the jobs for the tiles that did not, within
+/// `job_bytes`. `None` when the run cannot be one pass.
+fn one_pass(
+    volume: &Volume,
+    options: &ExtractOptions,
+    tile_blocks: [usize; 3],
+    output_bytes: u64,
+    job_bytes: u64,
+    spool: &Path,
+) -> Option<(TileExtraction, Vec<EmitJob>, usize)> {
+    let geometry = *volume.geometry();
+    let dims = geometry.dims;
+    let mut run = TileExtraction::new(
+        geometry,
+        volume.scalar_type(),
+        options,
+        Some(volume.value_range()),
+    )
+    .unwrap();
+    let task = run.one_pass_task()?;
+    run.spool_in(spool);
+    let mut with_output = 0;
+    for tile in tiles(dims, tile_blocks).unwrap().into_iter().rev() {
+        let samples = box_of(volume, tile_samples(&tile, dims));
+        let first = tile.map(|b| b.start);
+        let fragment = extract_tile(&samples.view(), &task, first, output_bytes).unwrap();
+        let scan_only = scan_tile(&samples.view(), dims, first, run.iso()).unwrap();
+        // The same scan records as a scan fragment, then the output flag.
+        assert_eq!(fragment[4..scan_only.len()], scan_only[4..]);
+        with_output += (fragment[scan_only.len()] == 1) as usize;
+        run.add_tile(&fragment).unwrap();
+    }
+    let jobs = run.plan_emits(tile_blocks, job_bytes).unwrap();
+    Some((run, jobs, with_output))
+}
+
+#[test]
+fn one_pass_tiles_give_the_bytes_of_the_in_memory_extraction() {
+    let dir = TempDir::new("tiles-one-pass");
+    let out = dir.0.join("out.cgc");
+    let spool = TempDir::new("tiles-one-pass-spool");
+    let (mut one_pass_runs, mut two_pass_runs, mut mixed) = (0, 0, 0);
+    // (tiles, output budget, job budget): every tile gives its output; none does (all emitted in
+    // a second pass); some do, and the rest are split into jobs.
+    let tilings: [([usize; 3], u64, u64); 4] = [
+        ([1, 1, 1], u64::MAX, 1),
+        ([2, 3, 1], 0, 1),
+        ([100, 1, 2], 3_000, 9_000),
+        ([1, 2, 3], 20_000, u64::MAX),
+    ];
+    for (name, volume) in volumes() {
+        for options in option_sets() {
+            let expected = cgc::to_bytes(&extract(&volume.view(), &options).unwrap());
+            let integer = volume.scalar_type().is_integer();
+            for (tile_blocks, output_bytes, job_bytes) in tilings {
+                let Some((run, jobs, with_output)) = one_pass(
+                    &volume,
+                    &options,
+                    tile_blocks,
+                    output_bytes,
+                    job_bytes,
+                    &spool.0,
+                ) else {
+                    // Only a quantiser that depends on a range not yet known needs two passes.
+                    assert!(matches!(options.iso, Iso::Value(_)), "{name} {options:?}");
+                    assert!(
+                        !integer || options.precision == Some(isogrid::Precision::Bits16),
+                        "{name} {options:?}"
+                    );
+                    two_pass_runs += 1;
+                    continue;
+                };
+                let tiles = tiles(volume.geometry().dims, tile_blocks).unwrap().len();
+                if with_output > 0 && with_output < tiles && !jobs.is_empty() {
+                    mixed += 1;
+                }
+                let mut arriving = fragments(&volume, &jobs);
+                arriving.reverse();
+                let summary = write(&run, &jobs, arriving, &out).unwrap();
+                let written = std::fs::read(&out).unwrap();
+                assert!(
+                    written == expected,
+                    "{name} {options:?} one-pass tiles of {tile_blocks:?} blocks, output within \
+                     {output_bytes} bytes ({with_output} of {tiles} tiles gave theirs): {} bytes \
+                     differ from {} in-memory bytes",
+                    written.len(),
+                    expected.len()
+                );
+                assert_eq!(
+                    summary.stats,
+                    isogrid::GridStats::of(&cgc::read_bytes(&written).unwrap())
+                );
+                one_pass_runs += 1;
+            }
+        }
+    }
+    assert!(one_pass_runs >= 4 * 20, "{one_pass_runs}");
+    assert!(two_pass_runs > 0 && mixed > 0, "{two_pass_runs} {mixed}");
+    // The spool is unlinked as soon as it is made.
+    assert!(spool.entries().is_empty(), "{:?}", spool.entries());
+    assert_eq!(dir.entries(), vec!["out.cgc".to_string()]);
+}
+
+#[test]
+fn one_pass_plans_must_use_the_extracted_tiles() {
+    let dir = TempDir::new("tiles-one-pass-plan");
+    let (_, volume) = volumes().remove(0); // 37 x 21 x 50: 3 x 2 x 4 blocks
+    let options = ExtractOptions::new(Iso::Normalized(0.5));
+    let geometry = *volume.geometry();
+    let dims = geometry.dims;
+    let new_run = || {
+        TileExtraction::new(
+            geometry,
+            volume.scalar_type(),
+            &options,
+            Some(volume.value_range()),
+        )
+        .unwrap()
+    };
+    let mut run = new_run();
+    let task = run.one_pass_task().unwrap();
+    let tile = [0..3, 0..2, 1..2];
+    let samples = box_of(&volume, tile_samples(&tile, dims));
+    let fragment = extract_tile(&samples.view(), &task, [0, 0, 1], u64::MAX).unwrap();
+    // Output with nowhere to keep it is refused, and changes nothing.
+    let err = run.add_tile(&fragment).unwrap_err();
+    assert!(err.to_string().contains("no spool folder"), "{err}");
+    run.spool_in(&dir.0);
+    run.add_tile(&fragment).unwrap();
+    let err = run.add_tile(&fragment).unwrap_err();
+    assert!(
+        err.to_string().contains("overlaps blocks already scanned"),
+        "{err}"
+    );
+    let mut truncated = fragment.clone();
+    truncated.pop();
+    let err = new_run().add_tile(&truncated).unwrap_err();
+    assert!(err.to_string().contains("tile fragment"), "{err}");
+    // Another tile's samples, or another volume's task.
+    let err = extract_tile(&samples.view(), &task, [0, 0, 3], u64::MAX).unwrap_err();
+    assert!(err.to_string().contains("not whole blocks"), "{err}");
+    let err = extract_tile(&samples.view(), b"IGTS", [0, 0, 1], u64::MAX).unwrap_err();
+    assert!(err.to_string().contains("not a valid tile task"), "{err}");
+    for layer in [0, 2, 3] {
+        let tile = [0..3, 0..2, layer..layer + 1];
+        let samples = box_of(&volume, tile_samples(&tile, dims));
+        let first = tile.map(|b| b.start);
+        run.add_tile(&extract_tile(&samples.view(), &task, first, u64::MAX).unwrap())
+            .unwrap();
+    }
+    // Planned with other tiles than those extracted.
+    let err = run.plan_emits([1, 1, 1], u64::MAX).unwrap_err();
+    assert!(err.to_string().contains("not tiles of the plan"), "{err}");
+    assert!(dir.entries().is_empty(), "{:?}", dir.entries());
 }
