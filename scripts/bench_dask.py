@@ -12,12 +12,14 @@ and 2 workers use 1 and 2 cores. Every run's file must be byte-identical to the 
 (for N <= 1024) to the in-process isogrid.extract of the same samples. Each row gives the
 workers' peak resident memory (VmHWM over the worker process's life), and while a run goes
 a line every 60 s gives each worker's current and peak resident memory (so a run cut short
-still says what it held).
+still says what it held). CPU seconds are this process's (the driver, and the LocalCluster's
+scheduler, which runs in it) and the workers' summed, over the extraction.
 
-    python scripts/bench_dask.py [--zarr] [--workers 1,2] [--source-once] [--tile-bytes B] [N ...]
+    python scripts/bench_dask.py [--zarr] [--workers 1,2] [--source-once] [--tile-bytes B]
+                                 [--row-parts P] [N ...]
 
 Chunks are one block layer deep, 1/16 of the rows and whole rows: (16, N/16, N), 16 MiB at
-N = 4096. --tile-bytes B passes tile_bytes=B (default isogrid.dask's, 64 MiB).
+N = 4096; --row-parts P makes them 1/P of the rows instead (fewer, larger chunks and tasks). --tile-bytes B passes tile_bytes=B (default isogrid.dask's, 64 MiB).
 --source-once first times one computation of the source (source.max()), for scale. With --zarr
 the volume is first written to a Zarr store in a temporary folder, and the runs read that path.
 """
@@ -48,8 +50,8 @@ def sphere_chunk(n, block_info=None):
     return (tz[:, None, None] + ty[None, :, None]) + tx[None, None, :]
 
 
-def sphere(n):
-    chunks = (16, max(16, n // 16), n)
+def sphere(n, row_parts=16):
+    chunks = (16, max(16, n // row_parts), n)
     return da.map_blocks(
         sphere_chunk, n, chunks=tuple(_cuts(n, c) for c in chunks), dtype=np.uint8
     )
@@ -101,13 +103,17 @@ def main():
         worker_counts = [int(w) for w in args[args.index("--workers") + 1].split(",")]
         del args[args.index("--workers") : args.index("--workers") + 2]
     tile_bytes = isogrid.dask.DEFAULT_TILE_BYTES
+    row_parts = 16
+    if "--row-parts" in args:
+        row_parts = int(args[args.index("--row-parts") + 1])
+        del args[args.index("--row-parts") : args.index("--row-parts") + 2]
     if "--tile-bytes" in args:
         tile_bytes = int(args[args.index("--tile-bytes") + 1])
         del args[args.index("--tile-bytes") : args.index("--tile-bytes") + 2]
     sizes = [int(a) for a in args if not a.startswith("--")] or [512]
     with tempfile.TemporaryDirectory(dir=os.environ.get("BENCH_TMP")) as tmp:
         for n in sizes:
-            source = sphere(n)
+            source = sphere(n, row_parts)
             print(f"| {n}³ | chunks {source.chunksize}, {source.npartitions} of them | — | — |", flush=True)
             if use_zarr:
                 store = os.path.join(tmp, f"sphere{n}.zarr")
@@ -149,8 +155,14 @@ def main():
                 watcher = threading.Thread(target=watch, args=(client, t, stop), daemon=True)
                 watcher.start()
                 load = os.getloadavg()[0]
+                # CPU seconds of this process (the driver and, in a LocalCluster, the scheduler)
+                # and of each worker process over the run: where the cores went.
+                driver_cpu = time.process_time()
+                worker_cpu = client.run(time.process_time)
                 stats = isogrid.dask.extract(source, iso=ISO, output=out, client=client, tile_bytes=tile_bytes)
                 seconds = time.perf_counter() - t
+                driver_cpu = time.process_time() - driver_cpu
+                worker_cpu = sum(v - worker_cpu[w] for w, v in client.run(time.process_time).items())
                 stop.set()
                 watcher.join()
                 peaks = sorted(client.run(peak_rss_mib).values())
@@ -163,7 +175,8 @@ def main():
                 print(f"| {n}³ | LocalCluster, {workers} worker{'s' if workers > 1 else ''} | "
                       f"{seconds:.1f} s | {note}{stats['active_cells']:,} cells, "
                       f"{size / 1e6:.0f} MB; peak RSS per worker "
-                      f"{', '.join(f'{p:.0f}' for p in peaks)} MiB; load at start {load:.1f}, "
+                      f"{', '.join(f'{p:.0f}' for p in peaks)} MiB; CPU {driver_cpu:.0f} s driver and "
+                      f"scheduler, {worker_cpu:.0f} s workers; load at start {load:.1f}, "
                       f"at end {os.getloadavg()[0]:.1f}; "
                       f"{'byte-identical' if same else 'BYTES DIFFER'} |", flush=True)
 
