@@ -167,21 +167,18 @@ def extract(
             samples = _samples(box, dims)
             sample_bytes = dtype.itemsize * int(np.prod([hi - lo for lo, hi in samples]))
             output_bytes = max(0, budget - sample_bytes)
-            tiles.append(chunks.task(_extract, samples, one_pass, tuple(b[0] for b in box), output_bytes))
-        for fragment in run.as_completed(tiles):
+            tiles.append((samples, (one_pass, tuple(b[0] for b in box), output_bytes)))
+        for fragment in run.as_completed(chunks.tasks(_extract, tiles)):
             extraction.add_tile(fragment)
     else:
-        scans = [
-            chunks.task(_scan, _samples(box, dims), dims, tuple(b[0] for b in box), extraction.iso)
-            for box in _tiles(dims, tile)
-        ]
-        for fragment in run.in_order(scans):
+        scans = [(_samples(box, dims), (dims, tuple(b[0] for b in box), extraction.iso)) for box in _tiles(dims, tile)]
+        for fragment in run.in_order(chunks.tasks(_scan, scans)):
             extraction.add_scan(fragment)
 
     # Pass 2: emit jobs for the tiles that gave no output, written at their offsets as they
     # complete, after the one-pass tiles' output.
     jobs = extraction.plan_emits(tile, budget)
-    emits = [chunks.task(_emit, samples, job, index) for index, (samples, job) in enumerate(jobs)]
+    emits = chunks.tasks(_emit, [(samples, (job, index)) for index, (samples, job) in enumerate(jobs)])
     stats = extraction.write(out, run.as_completed(emits))
     stats["seconds"] = {"read": read, "extract": time.perf_counter() - start - read, "write": 0.0}
     return stats
@@ -293,17 +290,19 @@ def _cut(chunk: np.ndarray, z0: int, z1: int, y0: int, y1: int, x0: int, x1: int
 
 
 class _Chunks:
-    """The source's chunks as delayed objects, and tasks that read boxes of samples from them.
+    """The source's chunks, and the tasks of a pass that read boxes of samples from them.
 
     A tile's task depends on the chunks it covers whole directly, and on a small *cut* task where
     it needs only part of a chunk (its halo, or a chunk that two tiles share), so that within one
     graph every chunk is computed once and only the samples a tile needs move between workers.
     (Slicing the dask array instead lets dask fuse each tile's slices with the chunks' own tasks:
-    every tile then recomputes the chunks holding its halo.)
+    every tile then recomputes the chunks holding its halo.) A pass's tasks are written into one
+    graph layer by hand: building them one `dask.delayed` call at a time cost milliseconds per
+    tile on the driver, before any task could start.
     """
 
     def __init__(self, array: "da.Array") -> None:
-        self.blocks = array.to_delayed(optimize_graph=True)
+        (self.array,) = dask.optimize(array)
         # Chunk bounds along z, y and x.
         self.bounds = [np.cumsum((0,) + tuple(c)) for c in array.chunks]
 
@@ -318,23 +317,42 @@ class _Chunks:
                 return
             yield index, max(lo, start) - start, min(hi, end) - start
 
-    def task(self, function: Any, samples: Box, *args: Any) -> Any:
-        """The delayed `function(pieces, places, shape, *args)` on the (x, y, z) sample ranges
-        `samples`."""
-        (x0, x1), (y0, y1), (z0, z1) = samples
-        pieces, places = [], []
-        for k, za, zb in self._spans(0, z0, z1):
-            for j, ya, yb in self._spans(1, y0, y1):
-                for i, xa, xb in self._spans(2, x0, x1):
-                    chunk = self.blocks[k, j, i]
-                    sizes = (self.bounds[0][k + 1] - self.bounds[0][k], self.bounds[1][j + 1] - self.bounds[1][j],
-                             self.bounds[2][i + 1] - self.bounds[2][i])
-                    whole = (za, ya, xa) == (0, 0, 0) and (zb, yb, xb) == tuple(int(n) for n in sizes)
-                    pieces.append(chunk if whole else dask.delayed(_cut, pure=True)(chunk, za, zb, ya, yb, xa, xb))
-                    places.append((int(self.bounds[0][k]) + za - z0, int(self.bounds[1][j]) + ya - y0,
-                                   int(self.bounds[2][i]) + xa - x0))
-        shape = (z1 - z0, y1 - y0, x1 - x0)
-        return dask.delayed(function, pure=True)(pieces, places, shape, *args)
+    def tasks(self, function: Any, items: Sequence[Tuple[Box, Tuple[Any, ...]]]) -> List[Any]:
+        """One delayed `function(pieces, places, shape, *args)` per (samples, args) of `items`,
+        `samples` being (x, y, z) sample ranges, all in one graph layer."""
+        from dask.base import tokenize
+        from dask.delayed import Delayed
+        from dask.highlevelgraph import HighLevelGraph
+
+        source = self.array.name
+        name = f"{function.__name__.strip('_')}-{tokenize(source, function.__name__, items)}"
+        cut_name = f"cut-{source}"
+        layer: Dict[Any, Any] = {}
+        keys = []
+        for number, (samples, args) in enumerate(items):
+            (x0, x1), (y0, y1), (z0, z1) = samples
+            pieces, places = [], []
+            for k, za, zb in self._spans(0, z0, z1):
+                for j, ya, yb in self._spans(1, y0, y1):
+                    for i, xa, xb in self._spans(2, x0, x1):
+                        chunk = (source, k, j, i)
+                        sizes = tuple(int(self.bounds[a][n + 1] - self.bounds[a][n]) for a, n in enumerate((k, j, i)))
+                        if (za, ya, xa) == (0, 0, 0) and (zb, yb, xb) == sizes:
+                            pieces.append(chunk)
+                        else:
+                            # Named by chunk and box, so that tiles asking for the same part share it.
+                            cut = (cut_name, k, j, i, za, zb, ya, yb, xa, xb)
+                            layer[cut] = (_cut, chunk, za, zb, ya, yb, xa, xb)
+                            pieces.append(cut)
+                        places.append((int(self.bounds[0][k]) + za - z0, int(self.bounds[1][j]) + ya - y0,
+                                       int(self.bounds[2][i]) + xa - x0))
+            key = (name, number)
+            shape = (z1 - z0, y1 - y0, x1 - x0)
+            # Every other argument is numbers or bytes, which the graph cannot take for a task or key.
+            layer[key] = (function, pieces, places, shape) + tuple(args)
+            keys.append(key)
+        graph = HighLevelGraph.from_collections(name, layer, dependencies=[self.array])
+        return [Delayed(key, graph, layer=name) for key in keys]
 
 
 def _dask_array(
@@ -447,7 +465,8 @@ class _Runner:
             batch = list(itertools.islice(pending, window))
             if not batch:
                 return
-            yield from dask.compute(*batch, optimize_graph=False)
+            # Culled to the window's tasks: the pass's tasks share one graph.
+            yield from dask.compute(*batch, optimize_graph=True)
 
     def in_order(self, tasks: List[Any]) -> Iterator[Any]:
         """Results in task order (small ones: without a client they are all held at once)."""
@@ -463,7 +482,7 @@ class _Runner:
             return
         from distributed import as_completed
 
-        futures = self.client.compute(tasks, optimize_graph=False)
+        futures = self.client.compute(tasks, optimize_graph=True)
         try:
             for future in futures if ordered else as_completed(futures):
                 result = future.result()
