@@ -43,6 +43,8 @@ from __future__ import annotations
 
 import itertools
 import os
+import queue
+import threading
 import time
 import warnings
 from typing import Any, Dict, Iterator, List, Optional, Sequence, Tuple
@@ -416,6 +418,43 @@ def _from_zarr(
     return array, picked
 
 
+def _in_process_scheduler(tasks: List[Any]) -> bool:
+    """Whether dask's scheduler for `tasks` (without a client) runs them in this process."""
+    import dask.local
+    import dask.threaded
+    from dask.base import get_scheduler
+
+    return get_scheduler(collections=tasks) in (dask.threaded.get, dask.local.get_sync)
+
+
+class _Channel:
+    """A bounded queue from the tasks of a local pass to the driver, which can be closed."""
+
+    END = object()
+
+    class Closed(Exception):
+        """The driver stopped reading: the pass is abandoned."""
+
+    def __init__(self, size: int) -> None:
+        self.queue: "queue.Queue[Any]" = queue.Queue(size)
+        self.closed = threading.Event()
+
+    def put(self, item: Any) -> None:
+        """Waits for room; raises `Closed` once the driver has stopped reading."""
+        while not self.closed.is_set():
+            try:
+                self.queue.put(item, timeout=0.1)
+                return
+            except queue.Full:
+                continue
+        raise _Channel.Closed()
+
+
+def _hand_over(result: Any, channel: _Channel) -> None:
+    """Task: passes a result to the driver (a local pass), keeping none in the graph."""
+    channel.put(result)
+
+
 def _client(client: Any) -> Any:
     """The distributed client to use: the one given, else the current one, else None."""
     if client is not None:
@@ -433,11 +472,14 @@ def _client(client: Any) -> Any:
 class _Runner:
     """Runs delayed tasks on a distributed client, or on dask's default scheduler.
 
-    On a client a pass is one graph, so that tiles reading the same chunk (one holding a halo) share
-    one computation of it; the scheduler's ordering keeps only a few tiles' chunks in memory, and
-    results are gathered (and released) one by one. Without a client, dask's local schedulers
-    return a graph's results all at once: the scan pass (16 bytes a block) is still one graph, the
-    emit pass a window of tasks at a time.
+    A pass is one graph, so that tiles reading the same chunk (one holding a halo) share one
+    computation of it, and the scheduler's ordering keeps only a few tiles' chunks in memory. On a
+    client results are gathered (and released) one by one. Dask's local schedulers return a
+    graph's results all at once, so a scan pass (16 bytes a block) is computed whole, and a pass
+    with output runs on the threaded or synchronous scheduler in a background thread, each task
+    handing its result to the driver through a bounded queue (tasks wait while it is full). On
+    another local scheduler (processes, whose tasks cannot reach the queue) such a pass runs a
+    window of tasks at a time, and a chunk that two windows read is computed in both.
     """
 
     def __init__(self, client: Any) -> None:
@@ -468,6 +510,46 @@ class _Runner:
             # Culled to the window's tasks: the pass's tasks share one graph.
             yield from dask.compute(*batch, optimize_graph=True)
 
+    def _handed_over(self, tasks: List[Any]) -> Iterator[Any]:
+        """Results of `tasks`, one graph on the local scheduler in a background thread, in the
+        order they complete."""
+        from dask.delayed import Delayed
+        from dask.highlevelgraph import HighLevelGraph
+
+        channel = _Channel(self.window)
+        name = f"hand-over-{id(channel)}"
+        layer = {(name, n): (_hand_over, task.key, channel) for n, task in enumerate(tasks)}
+        graph = HighLevelGraph.from_collections(name, layer, dependencies=tasks)
+        handed = [Delayed((name, n), graph, layer=name) for n in range(len(tasks))]
+        failure: List[BaseException] = []
+
+        def run() -> None:
+            try:
+                dask.compute(*handed, optimize_graph=True)
+            except BaseException as err:  # handed to the driver below
+                failure.append(err)
+            finally:
+                try:
+                    channel.put(_Channel.END)
+                except _Channel.Closed:
+                    pass  # the driver has stopped reading
+
+        thread = threading.Thread(target=run, name="isogrid-dask-pass", daemon=True)
+        thread.start()
+        try:
+            while True:
+                item = channel.queue.get()
+                if item is _Channel.END:
+                    break
+                yield item
+            if failure and not isinstance(failure[0], _Channel.Closed):
+                raise failure[0]
+        finally:
+            # The driver stopped (an error, or it is done): tasks still running stop at their
+            # hand-over, and the pass ends.
+            channel.closed.set()
+            thread.join()
+
     def in_order(self, tasks: List[Any]) -> Iterator[Any]:
         """Results in task order (small ones: without a client they are all held at once)."""
         return self._results(tasks, ordered=True)
@@ -478,7 +560,12 @@ class _Runner:
 
     def _results(self, tasks: List[Any], ordered: bool) -> Iterator[Any]:
         if self.client is None:
-            yield from self._windows(tasks, max(1, len(tasks)) if ordered else self.window)
+            if ordered or not tasks:
+                yield from self._windows(tasks, max(1, len(tasks)))
+            elif _in_process_scheduler(tasks):
+                yield from self._handed_over(tasks)
+            else:
+                yield from self._windows(tasks, self.window)
             return
         from distributed import as_completed
 

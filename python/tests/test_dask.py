@@ -7,11 +7,13 @@ import json
 import os
 import signal
 import subprocess
+import threading
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+dask = pytest.importorskip("dask")
 da = pytest.importorskip("dask.array")
 distributed = pytest.importorskip("distributed")
 zarr = pytest.importorskip("zarr")
@@ -224,8 +226,9 @@ def test_local_cluster_of_two_processes_is_byte_identical(tmp_path, two_workers)
     assert len({task["worker"] for task in tasks.data}) == 2
 
 
+@pytest.mark.parametrize("scheduler", ["client", "threads", "synchronous"])
 @pytest.mark.parametrize("dtype, passes", [(np.uint8, 1), (np.int16, 2)], ids=["one-pass", "scan-then-emit"])
-def test_each_chunk_is_computed_once_per_pass_with_tiles_along_y_and_x(tmp_path, dtype, passes):
+def test_each_chunk_is_computed_once_per_pass_with_tiles_along_y_and_x(tmp_path, dtype, passes, scheduler):
     # uint8 corner values are stored as they are, so tiles scan and emit in one pass; int16 ones
     # are quantised from the whole volume's range, so tiles are scanned, then emitted.
     a = volume(np.uint8).astype(dtype)
@@ -240,8 +243,13 @@ def test_each_chunk_is_computed_once_per_pass_with_tiles_along_y_and_x(tmp_path,
 
     # Chunks of whole blocks, cut into tiles of 1 x 2 x 1 chunks with halos from the neighbours.
     source = da.from_array(a, chunks=(16, 16, 16)).map_blocks(counted, dtype=a.dtype)
-    with distributed.Client(processes=False, n_workers=1, threads_per_worker=2, dashboard_address=None) as client:
-        isogrid.dask.extract(source, iso=100, output=tmp_path / "dask.cgc", client=client, tile_shape=(16, 32, 16))
+    if scheduler == "client":
+        with distributed.Client(processes=False, n_workers=1, threads_per_worker=2, dashboard_address=None) as c:
+            isogrid.dask.extract(source, iso=100, output=tmp_path / "dask.cgc", client=c, tile_shape=(16, 32, 16))
+    else:
+        # Dask's local scheduler: a pass is one graph there too, its results handed over one by one.
+        with dask.config.set(scheduler=scheduler):
+            isogrid.dask.extract(source, iso=100, output=tmp_path / "dask.cgc", tile_shape=(16, 32, 16))
     assert (tmp_path / "dask.cgc").read_bytes() == expected
     # Every chunk at least once (the first pass), none more than once per pass.
     computed = open(log).read().split("\n")[:-1]
@@ -349,3 +357,25 @@ def test_a_task_failing_after_one_pass_tiles_were_spooled_leaves_no_file(tmp_pat
     with pytest.raises(RuntimeError, match="the store went away"):
         isogrid.dask.extract(source, iso=100, output=out, tile_shape=(16, 16, 16))
     assert os.listdir(tmp_path) == []
+
+
+def test_a_local_process_pool_runs_in_windows_and_gives_the_same_bytes(tmp_path):
+    # The processes scheduler's tasks cannot hand results to the driver's queue: windows of tasks.
+    a = volume(np.uint8)
+    expected = in_process_bytes(a, tmp_path, iso=100)
+    source = da.from_array(a, chunks=CHUNKS)
+    with dask.config.set(scheduler="processes", num_workers=2):
+        isogrid.dask.extract(source, iso=100, output=tmp_path / "dask.cgc", tile_shape=(16, 16, 16))
+    assert (tmp_path / "dask.cgc").read_bytes() == expected
+
+
+def test_the_driver_stopping_ends_a_local_pass(tmp_path):
+    # A refused fragment stops the driver mid-pass: the tasks still running must stop at their
+    # hand-over instead of waiting for room in the queue forever.
+    runner = isogrid.dask._Runner(None)
+    runner.window = 1
+    tasks = [dask.delayed(bytes)(1000 + n) for n in range(20)]
+    results = runner.as_completed(tasks)
+    assert len(next(results)) >= 1000
+    results.close()  # joins the pass's thread: returns only if the pass ended
+    assert not any(t.name == "isogrid-dask-pass" for t in threading.enumerate())
