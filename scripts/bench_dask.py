@@ -16,13 +16,14 @@ still says what it held). CPU seconds are this process's (the driver, and the Lo
 scheduler, which runs in it) and the workers' summed, over the extraction.
 
     python scripts/bench_dask.py [--zarr] [--workers 1,2] [--source-once] [--tile-bytes B]
-                                 [--row-parts P] [--local] [N ...]
+                                 [--row-parts P] [--local] [--no-cluster] [N ...]
 
 Chunks are one block layer deep, 1/16 of the rows and whole rows: (16, N/16, N), 16 MiB at
 N = 4096; --row-parts P makes them 1/P of the rows instead (fewer, larger chunks and tasks). --tile-bytes B passes tile_bytes=B (default isogrid.dask's, 64 MiB).
 --source-once first times one computation of the source (source.max()), for scale. --local
-first times the run with no client, on dask's threaded scheduler in this process with as many
-threads as the most workers (its peak RSS is this process's, reset before the run). With --zarr
+first times the run with no client, on dask's threaded scheduler in this process, with as many
+threads as each worker count (its peak RSS is this process's, reset before each run);
+--no-cluster skips the LocalCluster runs. With --zarr
 the volume is first written to a Zarr store in a temporary folder, and the runs read that path.
 """
 
@@ -107,6 +108,7 @@ def main():
     args = sys.argv[1:]
     use_zarr = "--zarr" in args
     local = "--local" in args
+    cluster_runs = "--no-cluster" not in args
     source_once = "--source-once" in args
     worker_counts = [1, 2]
     if "--workers" in args:
@@ -144,8 +146,7 @@ def main():
                 reference = open(path, "rb").read()
                 del array
             first = None
-            if local:
-                threads = max(worker_counts)
+            for threads in worker_counts if local else []:
                 out = os.path.join(tmp, "local.cgc")
                 reset_peak_rss()
                 load = os.getloadavg()[0]
@@ -154,13 +155,14 @@ def main():
                     stats = isogrid.dask.extract(source, iso=ISO, output=out, tile_bytes=tile_bytes)
                 seconds, cpu = time.perf_counter() - t, time.process_time() - cpu
                 size = os.path.getsize(out)
-                first = open(out, "rb").read() if size < (4 << 30) else None
-                same = reference is None or first == reference
-                print(f"| {n}³ | no client, threaded scheduler, {threads} threads | {seconds:.1f} s | "
+                data = open(out, "rb").read() if size < (4 << 30) else None
+                first = first or data
+                same = data == first and (reference is None or data == reference)
+                print(f"| {n}³ | no client, threaded scheduler, {threads} thread{'s' if threads > 1 else ''} | {seconds:.1f} s | "
                       f"{stats['active_cells']:,} cells, {size / 1e6:.0f} MB; peak RSS of the process "
                       f"{peak_rss_mib():.0f} MiB; CPU {cpu:.0f} s; load at start {load:.1f}, at end "
                       f"{os.getloadavg()[0]:.1f}; {'byte-identical' if same else 'BYTES DIFFER'} |", flush=True)
-            for workers in worker_counts:
+            for workers in worker_counts if cluster_runs else []:
                 cluster = LocalCluster(
                     n_workers=workers,
                     processes=True,
