@@ -238,6 +238,11 @@ fn scan_blocks_counted<T: ExtractScalar>(
         .collect()
 }
 
+/// Slots a block's `occupied` metacells take: whole clusters of 15 metacells and their bound.
+fn metacell_slots(occupied: u32) -> u64 {
+    (occupied as u64).div_ceil(CLUSTER_METACELLS as u64) * CLUSTER_SLOTS as u64
+}
+
 /// Running prefix sums over blocks in block order: where each block's slots and cells start.
 #[derive(Debug, Default, Clone, Copy)]
 struct Totals {
@@ -250,8 +255,7 @@ struct Totals {
 impl Totals {
     /// The next block's record; errors past the format's 32-bit pointers.
     fn add(&mut self, s: &scan::BlockScan) -> Result<Block> {
-        let slots =
-            (s.occupied_metacells as u64).div_ceil(CLUSTER_METACELLS as u64) * CLUSTER_SLOTS as u64;
+        let slots = metacell_slots(s.occupied_metacells);
         let block = Block {
             metacell_count: slots as u32,
             metacell_pointer: self.slots as u32,

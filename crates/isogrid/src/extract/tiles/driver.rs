@@ -9,9 +9,9 @@ use crate::cgc::{header_bytes, scalar_code};
 use crate::error::{Error, Result};
 use crate::extract::file_layout::FileLayout;
 use crate::extract::stream::write_at;
-use crate::extract::{scan, ExtractOptions, Totals};
+use crate::extract::{metacell_slots, scan, ExtractOptions, Totals};
 use crate::grid::GridInfo;
-use crate::layout::{Block, Metacell, Precision, BOUND_SLOT, CLUSTER_METACELLS, CLUSTER_SLOTS};
+use crate::layout::{Block, Metacell, Precision, BOUND_SLOT, CLUSTER_SLOTS};
 use crate::quantize::Quantizer;
 use crate::stats::GridStats;
 use crate::volume::{Geometry, ScalarType};
@@ -101,7 +101,7 @@ pub struct TileExtraction {
     /// Totals and NaN-free range over the blocks, once settled.
     settled: Option<(Totals, (f64, f64))>,
     /// Where one-pass tiles' output is kept until the file is written: the folder, the file
-    /// (made at the first output), and where each tile's output lies in it (offset, length).
+    /// (made at the first output), and each tile's offset in it.
     spool_dir: Option<PathBuf>,
     spool: Option<Spool>,
     spooled: HashMap<BlockBox, u64>,
@@ -235,8 +235,7 @@ impl TileExtraction {
                 for rec in records.chunks_exact(SCAN_RECORD) {
                     let word =
                         |i: usize| u32::from_le_bytes(rec[4 * i..4 * i + 4].try_into().unwrap());
-                    slots +=
-                        (word(0) as u64).div_ceil(CLUSTER_METACELLS as u64) * CLUSTER_SLOTS as u64;
+                    slots += metacell_slots(word(0));
                     cells += word(1) as u64;
                 }
                 let len = slots * size_of::<Metacell>() as u64 + cells * record;
