@@ -1,5 +1,6 @@
 //! [`CellGrid`]: an extracted clustered grid cell structure, owned or memory-mapped from a `.cgc` file.
 
+use crate::attribute::CellAttribute;
 use crate::layout::{
     Block, ClusterBound, Metacell, Precision, BLOCK_CELLS, BOUND_SLOT, CLUSTER_SLOTS,
 };
@@ -77,6 +78,8 @@ pub(crate) enum Storage {
 pub struct CellGrid {
     info: GridInfo,
     storage: Storage,
+    /// A second quantity per active cell, to colour the surface by.
+    attribute: Option<CellAttribute>,
 }
 
 impl std::fmt::Debug for CellGrid {
@@ -86,6 +89,7 @@ impl std::fmt::Debug for CellGrid {
             .field("blocks", &self.blocks().len())
             .field("metacell_slots", &self.metacells().len())
             .field("active_cells", &self.active_cells())
+            .field("attribute", &self.attribute.as_ref().map(|a| a.info()))
             .finish()
     }
 }
@@ -104,10 +108,33 @@ impl CellGrid {
                 metacells,
                 cells,
             },
+            attribute: None,
         }
     }
     pub(crate) fn from_storage(info: GridInfo, storage: Storage) -> Self {
-        CellGrid { info, storage }
+        CellGrid {
+            info,
+            storage,
+            attribute: None,
+        }
+    }
+
+    /// The grid with `attribute` as its per-cell attribute (replacing any it had). Fails unless the
+    /// attribute has one value per active cell.
+    pub fn with_attribute(mut self, attribute: CellAttribute) -> crate::Result<Self> {
+        if attribute.len() != self.active_cells() {
+            return Err(crate::Error::invalid(format!(
+                "the attribute has {} values for {} active cells",
+                attribute.len(),
+                self.active_cells()
+            )));
+        }
+        self.attribute = Some(attribute);
+        Ok(self)
+    }
+    /// The per-cell attribute, when the grid carries one.
+    pub fn attribute(&self) -> Option<&CellAttribute> {
+        self.attribute.as_ref()
     }
 
     pub fn info(&self) -> &GridInfo {

@@ -25,6 +25,7 @@
 //! assert_eq!(grid.metacell_slots() % 16, 0);
 //! ```
 
+pub mod attribute;
 pub mod camera;
 pub mod cgc;
 pub mod env_map;
@@ -44,6 +45,7 @@ pub mod skip;
 pub mod stats;
 pub mod volume;
 
+pub use attribute::{AttributeInfo, AttributePrecision, CellAttribute};
 pub use camera::{Camera, Ray};
 pub use env_map::EnvMap;
 pub use error::{Error, ErrorKind, Result, ResultExt};

@@ -1,12 +1,14 @@
 //! `.cgc` files: a clustered grid cell structure on disk, ready to memory-map.
 //!
-//! Layout (all little-endian). A 320-byte header, then three sections at 16-byte-aligned offsets,
-//! zero bytes between them:
+//! Layout of version 2, which this build writes (all little-endian): a 320-byte header, a section
+//! table of 32-byte entries ([`SectionKind`], offset, length, CRC-32 each), then the sections at
+//! 16-byte-aligned offsets in table order, zero bytes between them; the file ends where its last
+//! section ends.
 //!
 //! | offset | size | field |
 //! |---|---|---|
 //! | 0 | 8 | magic `\x89CGC\r\n\x1a\n` (detects text-mode mangling, like PNG's) |
-//! | 8 | 4 | format version, u32 = 1 |
+//! | 8 | 4 | format version, u32 = 2 |
 //! | 12 | 4 | header size, u32 = 320 |
 //! | 16 | 12 | dims: samples per axis, 3×u32 |
 //! | 28 | 4 | source scalar type, u32: 0 u8, 1 u16, 2 i16, 3 f32 |
@@ -22,21 +24,38 @@
 //! | 136 | 8 | metacell slot count, u64 |
 //! | 144 | 8 | active cell count, u64 |
 //! | 152 | 8 | occupied metacell count, u64 |
-//! | 160 | 48 | sections: (offset u64, byte length u64) for blocks, metacells, cells |
+//! | 160 | 8 | section table offset, u64 = 320 |
+//! | 168 | 4 | section count `n`, u32, 3..=64 |
+//! | 172 | 4 | CRC-32 of the `n`×32 table bytes |
+//! | 176 | 32 | reserved, zero |
 //! | 208 | 72 | direction cosines, 3×3 f64, rows = world directions of the i, j, k axes |
-//! | 280 | 12 | CRC-32 of each section's bytes, 3×u32 |
-//! | 292 | 24 | reserved, zero |
+//! | 280 | 36 | reserved, zero |
 //! | 316 | 4 | CRC-32 of header bytes 0..316 |
+//!
+//! Table entries are laid out as `format::TableEntry` documents: kind, flags (bit 0: a reader
+//! that does not know the kind must refuse the file), offset, length, CRC-32. Sections, by kind:
+//!
+//! | kind | section | flags | contents |
+//! |---|---|---|---|
+//! | 1 | blocks | required | [`crate::layout::Block`] records |
+//! | 2 | metacells | required | [`crate::layout::Metacell`] slots |
+//! | 3 | cells | required | corner records at the header's precision |
+//! | 4 | cell attribute | optional | one value per active cell ([`crate::attribute`]) |
+//!
+//! A reader skips optional sections of kinds it does not know (checking their CRC) and refuses
+//! required ones. Version 1 files, still read, have no table: header bytes 160..208 hold
+//! (offset u64, length u64) of the blocks, metacells and cells and 280..292 their CRC-32s.
 //!
 //! Sections hold the records of [`crate::layout`] byte for byte. Readers check every size, offset,
 //! checksum, pointer and position before handing out a grid, so renderers and tracers can index
-//! the buffers without bounds surprises.
+//! the buffers without bounds surprises. Every file is written by one writer, `CgcWriter`.
 
 mod format;
 mod read;
 mod write;
 
 pub(crate) use format::scalar_code;
+pub use format::SectionKind;
 pub use read::{open, open_with_progress, read, read_bytes};
-pub(crate) use write::{header_bytes, sections_for_lengths, HeaderCounts};
 pub use write::{to_bytes, write};
+pub(crate) use write::{CgcWriter, FilePlan, HeaderCounts};

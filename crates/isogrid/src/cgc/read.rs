@@ -3,7 +3,11 @@
 //! Nothing is allocated from a header field before it has been checked against the file's length,
 //! and no grid is returned before every checksum, pointer and position has been checked.
 
-use super::format::{HEADER_CRC_AT, HEADER_SIZE, MAGIC, VERSION};
+use super::format::{
+    SectionKind, TableEntry, FLAG_REQUIRED, HEADER_CRC_AT, HEADER_SIZE, MAGIC, MAX_SECTIONS,
+    TABLE_ENTRY_SIZE, TABLE_FIELDS_AT, VERSION, VERSION_1,
+};
+use crate::attribute::{AttributeInfo, AttributePrecision, CellAttribute, ATTRIBUTE_HEAD_SIZE};
 use crate::error::{Error, Result, ResultExt};
 use crate::grid::{CellGrid, GridInfo, Storage};
 use crate::layout::{Block, Metacell, Precision, BLOCK_METACELLS, BOUND_SLOT, CLUSTER_SLOTS};
@@ -16,10 +20,19 @@ use std::path::Path;
 
 struct Header {
     info: GridInfo,
+    /// Byte ranges of the blocks, metacells and cells in the file.
     sections: [Range<usize>; 3],
-    crcs: [u32; 3],
+    /// Every section with its name and stored checksum, in file order (the grid's three included).
+    checksummed: Vec<(String, Range<usize>, u32)>,
+    /// The cell attribute section, when there is one.
+    attribute: Option<Range<usize>>,
+    /// Bytes between sections, which must be zero (version 2).
+    gaps: Vec<Range<usize>>,
     occupied: u64,
 }
+
+/// Bytes a reader takes from the start of a file to parse its header and section table.
+const HEAD_READ: usize = HEADER_SIZE + MAX_SECTIONS * TABLE_ENTRY_SIZE;
 
 struct Cursor<'a>(&'a [u8]);
 
@@ -43,31 +56,34 @@ impl Cursor<'_> {
     }
 }
 
+/// Parses the header (and, in version 2, the section table) from `h`, the first bytes of a file
+/// of `file_len` bytes ([`HEAD_READ`] of them, or the whole file when shorter).
 fn parse_header(h: &[u8], file_len: u64) -> Result<Header> {
     if h.len() < HEADER_SIZE {
         return Err(Error::corrupt(format!(
             "file is {file_len} bytes, shorter than the {HEADER_SIZE}-byte .cgc header"
         )));
     }
-    let h = &h[..HEADER_SIZE];
+    let (h, after) = h.split_at(HEADER_SIZE);
     if h[..8] != MAGIC {
         return Err(Error::corrupt("not a .cgc file (bad magic bytes)"));
     }
-    let mut c = Cursor(&h[8..]);
-    let version = c.u32();
-    if version != VERSION {
-        return Err(Error::unsupported(format!(
-            "format version {version}; this build reads version {VERSION}"
-        )));
-    }
-    if c.u32() as usize != HEADER_SIZE {
-        return Err(Error::corrupt("header size field is wrong"));
-    }
+    // The checksum first: a damaged version field is damage, not a version from the future.
     let stored_crc = u32::from_le_bytes(h[HEADER_CRC_AT..].try_into().unwrap());
     if crc32fast::hash(&h[..HEADER_CRC_AT]) != stored_crc {
         return Err(Error::corrupt(
             "header checksum mismatch (the header is damaged)",
         ));
+    }
+    let mut c = Cursor(&h[8..]);
+    let version = c.u32();
+    if version != VERSION && version != VERSION_1 {
+        return Err(Error::unsupported(format!(
+            "format version {version}; this build reads versions {VERSION_1} and {VERSION}"
+        )));
+    }
+    if c.u32() as usize != HEADER_SIZE {
+        return Err(Error::corrupt("header size field is wrong"));
     }
     let dims = [c.u32(), c.u32(), c.u32()];
     if dims.iter().any(|&d| d == 0 || d as usize > MAX_DIM) {
@@ -108,44 +124,22 @@ fn parse_header(h: &[u8], file_len: u64) -> Result<Header> {
     }
     let counts = [c.u64(), c.u64(), c.u64()];
     let occupied = c.u64();
+    let mut direction = [[0.0; 3]; 3];
+    let mut d = Cursor(&h[208..280]);
+    for row in direction.iter_mut() {
+        *row = [d.f64(), d.f64(), d.f64()];
+    }
     let info = GridInfo {
         dims,
         spacing,
         origin,
-        direction: [[0.0; 3]; 3],
+        direction,
         scalar_type,
         value_range,
         iso,
         precision,
         mapping,
     };
-    let record_sizes = [16u64, 12, precision.bytes_per_cell() as u64];
-    let mut sections: [Range<usize>; 3] = Default::default();
-    let mut end = HEADER_SIZE as u64;
-    let names = ["blocks", "metacells", "cells"];
-    for s in 0..3 {
-        let (offset, len) = (c.u64(), c.u64());
-        if counts[s].checked_mul(record_sizes[s]) != Some(len) {
-            return Err(Error::corrupt(format!(
-                "{} section is {len} bytes but holds {} records of {} bytes",
-                names[s], counts[s], record_sizes[s]
-            )));
-        }
-        if offset % 16 != 0 || offset < end || offset.checked_add(len).is_none_or(|e| e > file_len)
-        {
-            return Err(Error::corrupt(format!(
-                "{} section at {offset}+{len} does not fit the {file_len}-byte file (truncated?)",
-                names[s]
-            )));
-        }
-        end = offset + len;
-        sections[s] = offset as usize..end as usize;
-    }
-    let mut info = info;
-    for row in info.direction.iter_mut() {
-        *row = [c.f64(), c.f64(), c.f64()];
-    }
-    let crcs = [c.u32(), c.u32(), c.u32()];
     if counts[0] as usize != info.block_count() {
         return Err(Error::corrupt(format!(
             "{} blocks stored but dims {:?} need {}",
@@ -154,12 +148,188 @@ fn parse_header(h: &[u8], file_len: u64) -> Result<Header> {
             info.block_count()
         )));
     }
-    Ok(Header {
+    let record_sizes = [16u64, 12, precision.bytes_per_cell() as u64];
+    let grid_lengths = |s: usize, len: u64| -> Result<()> {
+        let name = GRID_SECTIONS[s].name();
+        if counts[s].checked_mul(record_sizes[s]) != Some(len) {
+            return Err(Error::corrupt(format!(
+                "{name} section is {len} bytes but holds {} records of {} bytes",
+                counts[s], record_sizes[s]
+            )));
+        }
+        Ok(())
+    };
+    let fits = |name: &str, offset: u64, len: u64, end: u64| -> Result<Range<usize>> {
+        if offset % 16 != 0 || offset < end || offset.checked_add(len).is_none_or(|e| e > file_len)
+        {
+            return Err(Error::corrupt(format!(
+                "{name} section at {offset}+{len} does not fit the {file_len}-byte file (truncated?)"
+            )));
+        }
+        Ok(offset as usize..(offset + len) as usize)
+    };
+    let mut header = Header {
         info,
-        sections,
-        crcs,
+        sections: Default::default(),
+        checksummed: Vec::new(),
+        attribute: None,
+        gaps: Vec::new(),
         occupied,
-    })
+    };
+    if version == VERSION_1 {
+        let mut s160 = Cursor(&h[160..208]);
+        let mut crcs = Cursor(&h[280..292]);
+        let mut end = HEADER_SIZE as u64;
+        for (s, kind) in GRID_SECTIONS.into_iter().enumerate() {
+            let (offset, len) = (s160.u64(), s160.u64());
+            grid_lengths(s, len)?;
+            let range = fits(kind.name(), offset, len, end)?;
+            end = range.end as u64;
+            header.sections[s] = range.clone();
+            header
+                .checksummed
+                .push((kind.name().to_string(), range, crcs.u32()));
+        }
+        return Ok(header);
+    }
+
+    // Version 2: the section table.
+    let mut t = Cursor(&h[TABLE_FIELDS_AT..TABLE_FIELDS_AT + 16]);
+    let (table_at, count, table_crc) = (t.u64(), t.u32() as usize, t.u32());
+    if h[176..208]
+        .iter()
+        .chain(&h[280..HEADER_CRC_AT])
+        .any(|&b| b != 0)
+    {
+        return Err(Error::corrupt("reserved header bytes are not zero"));
+    }
+    if table_at != HEADER_SIZE as u64 || !(3..=MAX_SECTIONS).contains(&count) {
+        return Err(Error::corrupt(format!(
+            "section table of {count} entries at {table_at} (expected 3..={MAX_SECTIONS} at {HEADER_SIZE})"
+        )));
+    }
+    let table_len = count * TABLE_ENTRY_SIZE;
+    let table = after.get(..table_len).ok_or_else(|| {
+        Error::corrupt(format!(
+            "the {table_len}-byte section table does not fit the {file_len}-byte file (truncated?)"
+        ))
+    })?;
+    if crc32fast::hash(table) != table_crc {
+        return Err(Error::corrupt(
+            "section table checksum mismatch (the table is damaged)",
+        ));
+    }
+    let mut end = (HEADER_SIZE + table_len) as u64;
+    let mut seen = Vec::new();
+    for (i, raw) in table.chunks_exact(TABLE_ENTRY_SIZE).enumerate() {
+        let (entry, reserved_zero) = TableEntry::from_bytes(raw.try_into().unwrap());
+        let kind = SectionKind::from_code(entry.kind);
+        let name = kind.map_or(format!("section {i} (kind {})", entry.kind), |k| {
+            k.name().to_string()
+        });
+        if !reserved_zero || entry.flags & !FLAG_REQUIRED != 0 {
+            return Err(Error::corrupt(format!(
+                "{name}: reserved table bits are set"
+            )));
+        }
+        let required = entry.flags & FLAG_REQUIRED != 0;
+        let range = fits(&name, entry.offset, entry.len, end)?;
+        header.gaps.push(end as usize..range.start);
+        end = range.end as u64;
+        match kind {
+            None if required => {
+                return Err(Error::unsupported(format!(
+                    "{name} is required, and this build does not know its kind"
+                )))
+            }
+            None => {}
+            Some(kind) => {
+                if kind.required() != required {
+                    return Err(Error::corrupt(format!(
+                        "{name} section has the wrong flags"
+                    )));
+                }
+                if seen.contains(&kind) && !kind.repeatable() {
+                    return Err(Error::corrupt(format!("two {name} sections")));
+                }
+                seen.push(kind);
+                if let Some(s) = GRID_SECTIONS.iter().position(|&g| g == kind) {
+                    grid_lengths(s, entry.len)?;
+                    header.sections[s] = range.clone();
+                } else if kind == SectionKind::CellAttribute {
+                    header.attribute = Some(range.clone());
+                }
+            }
+        }
+        header.checksummed.push((name, range, entry.crc));
+    }
+    if let Some(kind) = GRID_SECTIONS.iter().find(|k| !seen.contains(k)) {
+        return Err(Error::corrupt(format!("no {} section", kind.name())));
+    }
+    if end != file_len {
+        return Err(Error::corrupt(format!(
+            "the file is {file_len} bytes but its sections end at {end} (truncated or appended to?)"
+        )));
+    }
+    Ok(header)
+}
+
+const GRID_SECTIONS: [SectionKind; 3] = [
+    SectionKind::Blocks,
+    SectionKind::Metacells,
+    SectionKind::Cells,
+];
+
+/// Checks the bytes that must be zero (gaps between sections).
+fn check_gaps<'a>(gaps: impl IntoIterator<Item = &'a [u8]>) -> Result<()> {
+    if gaps.into_iter().flatten().any(|&b| b != 0) {
+        return Err(Error::corrupt("padding between sections is not zero"));
+    }
+    Ok(())
+}
+
+/// Checks the checksum of each section (`parts`: name, bytes, stored CRC), counting bytes in
+/// `progress`.
+fn check_sums(parts: &[(&str, &[u8], u32)], progress: &Progress) -> Result<()> {
+    for (name, bytes, stored) in parts {
+        let mut crc = crc32fast::Hasher::new();
+        for chunk in bytes.chunks(CHECKSUM_STEP) {
+            crc.update(chunk);
+            progress.advance(chunk.len() as u64);
+        }
+        if crc.finalize() != *stored {
+            return Err(Error::corrupt(format!(
+                "{name} section checksum mismatch (the data is damaged)"
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// The cell attribute in `bytes` (its whole section), checked against the grid's cell count.
+fn parse_attribute(bytes: &[u8], active_cells: usize) -> Result<CellAttribute> {
+    let (info, count) = AttributeInfo::from_head(bytes)?;
+    let width = info.precision.bytes();
+    let values = &bytes[ATTRIBUTE_HEAD_SIZE.min(bytes.len())..];
+    if count != active_cells as u64 || values.len() as u64 != count * width as u64 {
+        return Err(Error::corrupt(format!(
+            "cell attribute section holds {} bytes of values, and {count} values for {active_cells} active cells",
+            values.len()
+        )));
+    }
+    if info.precision == AttributePrecision::F32 {
+        let [lo, hi] = info.range;
+        if let Some(v) = values
+            .chunks_exact(4)
+            .map(|v| f32::from_le_bytes(v.try_into().unwrap()) as f64)
+            .find(|v| !v.is_nan() && !(lo..=hi).contains(v))
+        {
+            return Err(Error::corrupt(format!(
+                "cell attribute value {v} lies outside its range [{lo}, {hi}]"
+            )));
+        }
+    }
+    Ok(CellAttribute::from_encoded(info, values.to_vec()))
 }
 
 /// Bytes checksummed between two progress steps: a step of a memory-mapped file is mostly page
@@ -170,31 +340,21 @@ const CHECKSUM_STEP: usize = 8 << 20;
 /// checksummed, then blocks walked: `done` reaches `total` when the grid is valid.
 fn validate(
     header: &Header,
+    section_bytes: &[&[u8]],
     blocks: &[Block],
     metacells: &[Metacell],
     cells: &[u8],
     progress: &Progress,
 ) -> Result<()> {
-    let sections: [&[u8]; 3] = [
-        bytemuck::cast_slice(blocks),
-        bytemuck::cast_slice(metacells),
-        cells,
-    ];
-    let bytes_total: usize = sections.iter().map(|s| s.len()).sum();
+    let bytes_total: usize = section_bytes.iter().map(|s| s.len()).sum();
     progress.start((bytes_total + blocks.len()) as u64);
-    for (s, bytes) in sections.into_iter().enumerate() {
-        let mut crc = crc32fast::Hasher::new();
-        for chunk in bytes.chunks(CHECKSUM_STEP) {
-            crc.update(chunk);
-            progress.advance(chunk.len() as u64);
-        }
-        if crc.finalize() != header.crcs[s] {
-            let name = ["blocks", "metacells", "cells"][s];
-            return Err(Error::corrupt(format!(
-                "{name} section checksum mismatch (the data is damaged)"
-            )));
-        }
-    }
+    let parts: Vec<(&str, &[u8], u32)> = header
+        .checksummed
+        .iter()
+        .zip(section_bytes)
+        .map(|((name, _, crc), bytes)| (name.as_str(), *bytes, *crc))
+        .collect();
+    check_sums(&parts, progress)?;
     let info = &header.info;
     let block_dims = info.block_dims().map(|b| b as usize);
     let cell_dims = info.cell_dims();
@@ -295,12 +455,37 @@ fn validate(
 
 /// Parses and validates a whole `.cgc` file held in memory; the grid owns copies of the buffers.
 pub fn read_bytes(bytes: &[u8]) -> Result<CellGrid> {
-    let header = parse_header(bytes, bytes.len() as u64)?;
+    let header = parse_header(&bytes[..HEAD_READ.min(bytes.len())], bytes.len() as u64)?;
+    check_gaps(header.gaps.iter().map(|r| &bytes[r.clone()]))?;
     let blocks: Vec<Block> = bytemuck::pod_collect_to_vec(&bytes[header.sections[0].clone()]);
     let metacells: Vec<Metacell> = bytemuck::pod_collect_to_vec(&bytes[header.sections[1].clone()]);
     let cells = bytes[header.sections[2].clone()].to_vec();
-    validate(&header, &blocks, &metacells, &cells, &Progress::new())?;
-    Ok(CellGrid::from_parts(header.info, blocks, metacells, cells))
+    let sections: Vec<&[u8]> = header
+        .checksummed
+        .iter()
+        .map(|(_, r, _)| &bytes[r.clone()])
+        .collect();
+    validate(
+        &header,
+        &sections,
+        &blocks,
+        &metacells,
+        &cells,
+        &Progress::new(),
+    )?;
+    let grid = CellGrid::from_parts(header.info.clone(), blocks, metacells, cells);
+    with_attribute(grid, header.attribute.map(|r| &bytes[r]))
+}
+
+/// `grid` with the attribute of section bytes `attribute`, when there is one (checksum checked).
+fn with_attribute(grid: CellGrid, attribute: Option<&[u8]>) -> Result<CellGrid> {
+    match attribute {
+        None => Ok(grid),
+        Some(bytes) => {
+            let attribute = parse_attribute(bytes, grid.active_cells())?;
+            grid.with_attribute(attribute)
+        }
+    }
 }
 
 /// Reads and validates a `.cgc` file into memory. Errors name the file.
@@ -308,15 +493,29 @@ pub fn read(path: &Path) -> Result<CellGrid> {
     (|| -> Result<CellGrid> {
         let mut file = crate::fs::open_regular(path)?;
         let file_len = file.metadata()?.len();
-        let mut head = vec![0u8; HEADER_SIZE.min(file_len as usize)];
+        let mut head = vec![0u8; HEAD_READ.min(file_len as usize)];
         file.read_exact(&mut head)?;
         let header = parse_header(&head, file_len)?;
         // Sizes are checked against the file length, so these allocations are bounded by it,
         // and by the memory there is (a sparse file can be long and hold nothing).
         crate::memory::ensure_fits(
             "reading the grid",
-            header.sections.iter().map(|r| r.len() as u64).sum(),
+            header
+                .checksummed
+                .iter()
+                .map(|(_, r, _)| r.len() as u64)
+                .sum(),
         )?;
+        let mut read_at = |range: &Range<usize>, target: &mut [u8]| -> Result<()> {
+            file.seek(SeekFrom::Start(range.start as u64))?;
+            file.read_exact(target)?;
+            Ok(())
+        };
+        for gap in &header.gaps {
+            let mut bytes = vec![0u8; gap.len()];
+            read_at(gap, &mut bytes)?;
+            check_gaps([bytes.as_slice()])?;
+        }
         let mut blocks = vec![bytemuck::Zeroable::zeroed(); header.sections[0].len() / 16];
         let mut metacells = vec![bytemuck::Zeroable::zeroed(); header.sections[1].len() / 12];
         let mut cells = vec![0u8; header.sections[2].len()];
@@ -326,11 +525,50 @@ pub fn read(path: &Path) -> Result<CellGrid> {
             &mut cells,
         ];
         for (range, target) in header.sections.iter().zip(targets) {
-            file.seek(SeekFrom::Start(range.start as u64))?;
-            file.read_exact(target)?;
+            read_at(range, target)?;
         }
-        validate(&header, &blocks, &metacells, &cells, &Progress::new())?;
-        Ok(CellGrid::from_parts(header.info, blocks, metacells, cells))
+        // The other sections, read whole (they are small beside the cells).
+        let mut others: Vec<Vec<u8>> = Vec::new();
+        for (_, range, _) in &header.checksummed {
+            if !header.sections.contains(range) {
+                let mut bytes = vec![0u8; range.len()];
+                read_at(range, &mut bytes)?;
+                others.push(bytes);
+            }
+        }
+        let mut others_iter = others.iter();
+        let grid_bytes: [&[u8]; 3] = [
+            bytemuck::cast_slice(&blocks),
+            bytemuck::cast_slice(&metacells),
+            &cells,
+        ];
+        let mut attribute = None;
+        let sections: Vec<&[u8]> = header
+            .checksummed
+            .iter()
+            .map(
+                |(_, range, _)| match header.sections.iter().position(|r| r == range) {
+                    Some(s) => grid_bytes[s],
+                    None => {
+                        let bytes = others_iter.next().expect("read above").as_slice();
+                        if header.attribute.as_ref() == Some(range) {
+                            attribute = Some(bytes);
+                        }
+                        bytes
+                    }
+                },
+            )
+            .collect();
+        validate(
+            &header,
+            &sections,
+            &blocks,
+            &metacells,
+            &cells,
+            &Progress::new(),
+        )?;
+        let grid = CellGrid::from_parts(header.info.clone(), blocks, metacells, cells);
+        with_attribute(grid, attribute)
     })()
     .at_path(path)
 }
@@ -348,16 +586,34 @@ pub fn open_with_progress(path: &Path, progress: &Progress) -> Result<CellGrid> 
         // SAFETY: the map is read-only; like every mmap user we rely on nobody truncating the
         // file while it is mapped. Validation below covers all contents we later index.
         let map = unsafe { memmap2::Mmap::map(&file)? };
-        let header = parse_header(&map, map.len() as u64)?;
+        let header = parse_header(&map[..HEAD_READ.min(map.len())], map.len() as u64)?;
+        check_gaps(header.gaps.iter().map(|r| &map[r.clone()]))?;
         let [b, m, c] = header.sections.clone();
         {
             let blocks: &[Block] = bytemuck::try_cast_slice(&map[b.clone()])
                 .map_err(|_| Error::corrupt("misaligned blocks section"))?;
             let metacells: &[Metacell] = bytemuck::try_cast_slice(&map[m.clone()])
                 .map_err(|_| Error::corrupt("misaligned metacell section"))?;
-            validate(&header, blocks, metacells, &map[c.clone()], progress)?;
+            let sections: Vec<&[u8]> = header
+                .checksummed
+                .iter()
+                .map(|(_, r, _)| &map[r.clone()])
+                .collect();
+            validate(
+                &header,
+                &sections,
+                blocks,
+                metacells,
+                &map[c.clone()],
+                progress,
+            )?;
         }
-        Ok(CellGrid::from_storage(
+        let attribute = header
+            .attribute
+            .clone()
+            .map(|r| parse_attribute(&map[r], c.len() / header.info.precision.bytes_per_cell()))
+            .transpose()?;
+        let grid = CellGrid::from_storage(
             header.info,
             Storage::Mapped {
                 map,
@@ -365,7 +621,11 @@ pub fn open_with_progress(path: &Path, progress: &Progress) -> Result<CellGrid> 
                 metacells: m,
                 cells: c,
             },
-        ))
+        );
+        match attribute {
+            Some(attribute) => grid.with_attribute(attribute),
+            None => Ok(grid),
+        }
     })()
     .at_path(path)
 }

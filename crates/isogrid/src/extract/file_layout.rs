@@ -3,7 +3,7 @@
 //! since they write files they never hold whole.
 
 use super::Totals;
-use crate::cgc::{sections_for_lengths, HeaderCounts};
+use crate::cgc::{FilePlan, HeaderCounts, SectionKind};
 use crate::grid::GridInfo;
 use crate::layout::{Block, Metacell, Precision, CLUSTER_SLOTS};
 use crate::quantize::Quantizer;
@@ -15,8 +15,8 @@ pub(super) struct FileLayout {
     pub info: GridInfo,
     pub quantizer: Quantizer,
     pub counts: HeaderCounts,
-    /// (offset, length) of the block, metacell and cell sections.
-    pub sections: [(u64, u64); 3],
+    /// Byte lengths of the block, metacell and cell sections.
+    pub lengths: [u64; 3],
     pub stats: GridStats,
 }
 
@@ -56,11 +56,11 @@ impl FileLayout {
             active_cells: totals.cells,
             occupied_metacells: totals.occupied_metacells,
         };
-        let sections = sections_for_lengths([
+        let lengths = [
             block_count * size_of::<Block>() as u64,
             totals.slots * size_of::<Metacell>() as u64,
             totals.cells * record,
-        ]);
+        ];
         let stats = GridStats {
             dims: info.dims,
             iso,
@@ -82,8 +82,18 @@ impl FileLayout {
             info,
             quantizer,
             counts,
-            sections,
+            lengths,
             stats,
         }
+    }
+
+    /// Where the file's sections go.
+    pub(super) fn plan(&self) -> FilePlan {
+        let [blocks, metacells, cells] = self.lengths;
+        FilePlan::new(&[
+            (SectionKind::Blocks, blocks),
+            (SectionKind::Metacells, metacells),
+            (SectionKind::Cells, cells),
+        ])
     }
 }

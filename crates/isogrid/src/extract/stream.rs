@@ -36,7 +36,7 @@
 use super::file_layout::FileLayout;
 use super::scalar::ExtractScalar;
 use super::{emit, scan_blocks, split_outputs, ExtractOptions, Totals};
-use crate::cgc::header_bytes;
+use crate::cgc::{CgcWriter, SectionKind};
 use crate::error::{Error, Result};
 use crate::grid::GridInfo;
 use crate::layout::{Block, Metacell, Precision, BLOCK_CELLS};
@@ -44,8 +44,6 @@ use crate::quantize::Quantizer;
 use crate::stats::GridStats;
 use crate::volume::{Geometry, Samples, ScalarType, VolumeView};
 use rayon::prelude::*;
-use std::fs::File;
-use std::io::{Seek, SeekFrom, Write};
 use std::ops::Range;
 use std::path::Path;
 
@@ -504,13 +502,7 @@ impl Run<'_> {
             None if block_count > 0 => (lo, hi),
             None => self.value_range(&mut buffer)?.unwrap_or((0.0, 0.0)),
         };
-        let FileLayout {
-            info,
-            quantizer,
-            counts,
-            sections,
-            stats,
-        } = FileLayout::new(
+        let layout = FileLayout::new(
             &self.geometry,
             T::TYPE,
             precision,
@@ -522,20 +514,11 @@ impl Run<'_> {
         let record = precision.bytes_per_cell() as u64;
 
         crate::fs::write_atomic_file(path, |file| {
-            let (cells_at, cells_len) = sections[2];
-            file.set_len(cells_at + cells_len)?;
-            let block_bytes: &[u8] = bytemuck::cast_slice(&blocks);
-            write_at(file, sections[0].0, block_bytes)?;
-            let block_crc = crc32fast::hash(block_bytes);
+            let mut writer = CgcWriter::new(file, layout.plan())?;
+            writer.put(SectionKind::Blocks, 0, bytemuck::cast_slice(&blocks))?;
 
             // Pass 2: emit slab by slab, in block order, into the pre-sized sections.
-            let mut writer = SectionWriter {
-                file: &mut *file,
-                slot_at: sections[1].0,
-                cell_at: sections[2].0,
-                slot_crc: crc32fast::Hasher::new(),
-                cell_crc: crc32fast::Hasher::new(),
-            };
+            let (mut slot_at, mut cell_at) = (0u64, 0u64);
             let mut groups = GroupBuffers::default();
             let mut next_cell = 0u32;
             for (layers, planes) in &slabs {
@@ -581,35 +564,27 @@ impl Run<'_> {
                         group.clone(),
                         &mut next_cell,
                         threshold,
-                        &quantizer,
+                        &layout.quantizer,
                         record as usize,
                     );
-                    writer.write(&groups)?;
+                    let slots: &[u8] = bytemuck::cast_slice(&groups.slots);
+                    writer.put(SectionKind::Metacells, slot_at, slots)?;
+                    writer.put(SectionKind::Cells, cell_at, &groups.cells)?;
+                    slot_at += slots.len() as u64;
+                    cell_at += groups.cells.len() as u64;
                     index = group.end;
                 }
                 (self.progress)(progress);
             }
-            let crcs = [
-                block_crc,
-                writer.slot_crc.finalize(),
-                writer.cell_crc.finalize(),
-            ];
-            write_at(file, 0, &header_bytes(&info, &counts, sections, crcs))?;
-            Ok(())
+            writer.finish(&layout.info, &layout.counts)
         })?;
 
         Ok(StreamSummary {
-            info,
-            stats,
+            info: layout.info,
+            stats: layout.stats,
             plan: self.plan,
         })
     }
-}
-
-pub(super) fn write_at(file: &mut File, offset: u64, bytes: &[u8]) -> Result<()> {
-    file.seek(SeekFrom::Start(offset))?;
-    file.write_all(bytes)?;
-    Ok(())
 }
 
 /// One slab's samples and where it sits among the blocks.
@@ -696,31 +671,5 @@ impl GroupBuffers {
             .for_each_init(emit::BlockScratch::default, |scratch, out| {
                 emit::emit_block(slab.samples, slab.dims, threshold, quantizer, out, scratch)
             });
-    }
-}
-
-/// Appends groups to the metacell and cell sections, in file order, checksumming as it goes.
-struct SectionWriter<'a> {
-    file: &'a mut File,
-    slot_at: u64,
-    cell_at: u64,
-    slot_crc: crc32fast::Hasher,
-    cell_crc: crc32fast::Hasher,
-}
-
-impl SectionWriter<'_> {
-    fn write(&mut self, group: &GroupBuffers) -> Result<()> {
-        let slots: &[u8] = bytemuck::cast_slice(&group.slots);
-        if !slots.is_empty() {
-            write_at(self.file, self.slot_at, slots)?;
-            self.slot_crc.update(slots);
-            self.slot_at += slots.len() as u64;
-        }
-        if !group.cells.is_empty() {
-            write_at(self.file, self.cell_at, &group.cells)?;
-            self.cell_crc.update(&group.cells);
-            self.cell_at += group.cells.len() as u64;
-        }
-        Ok(())
     }
 }

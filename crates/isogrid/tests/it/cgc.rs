@@ -36,14 +36,14 @@ fn golden_bytes_of_a_tiny_file() {
     // Fields checked by hand against the format table, independent of the writer.
     assert_eq!(
         bytes.len(),
-        560,
-        "320 header + 16 block + 16×12 slots + 4×8 cells"
+        656,
+        "320 header + 3×32 table + 16 block + 16×12 slots + 4×8 cells"
     );
     assert_eq!(&bytes[..8], b"\x89CGC\r\n\x1a\n");
     let u32_at = |o: usize| u32::from_le_bytes(bytes[o..o + 4].try_into().unwrap());
     let u64_at = |o: usize| u64::from_le_bytes(bytes[o..o + 8].try_into().unwrap());
     let f64_at = |o: usize| f64::from_le_bytes(bytes[o..o + 8].try_into().unwrap());
-    assert_eq!((u32_at(8), u32_at(12)), (1, 320));
+    assert_eq!((u32_at(8), u32_at(12)), (2, 320));
     assert_eq!(
         [u32_at(16), u32_at(20), u32_at(24), u32_at(28)],
         [3, 3, 2, 0]
@@ -55,28 +55,41 @@ fn golden_bytes_of_a_tiny_file() {
         [u64_at(128), u64_at(136), u64_at(144), u64_at(152)],
         [1, 16, 4, 1]
     );
-    assert_eq!(
-        [
-            u64_at(160),
-            u64_at(168),
-            u64_at(176),
-            u64_at(184),
-            u64_at(192),
-            u64_at(200)
-        ],
-        [320, 16, 336, 192, 528, 32]
-    );
+    // The section table: at 320, 3 entries, its CRC; reserved bytes zero.
+    assert_eq!((u64_at(160), u32_at(168)), (320, 3));
+    assert_eq!(u32_at(172), crc32_by_hand(&bytes[320..416]));
+    assert!(bytes[176..208]
+        .iter()
+        .chain(&bytes[280..316])
+        .all(|&b| b == 0));
+    assert_eq!(u32_at(316), crc32_by_hand(&bytes[..316]));
+    // Entries: kind, flags (required), offset, length, CRC of the section, reserved.
+    for (e, (kind, offset, len)) in [(1, 416, 16), (2, 432, 192), (3, 624, 32)]
+        .into_iter()
+        .enumerate()
+    {
+        let at = 320 + 32 * e;
+        assert_eq!((u32_at(at), u32_at(at + 4)), (kind, 1), "entry {e}");
+        assert_eq!(
+            (u64_at(at + 8), u64_at(at + 16)),
+            (offset, len),
+            "entry {e}"
+        );
+        let section = &bytes[offset as usize..(offset + len) as usize];
+        assert_eq!(u32_at(at + 24), crc32_by_hand(section), "entry {e}");
+        assert_eq!(u32_at(at + 28), 0);
+    }
     // Block: 16 slots from slot 0, min 0, max 200.
     assert_eq!(
-        &bytes[320..336],
+        &bytes[416..432],
         &[16, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0x48, 0x43]
     );
     // Metacell (0,0,0) with cells 0..3 active, first cell 0; then 14 zero slots; then the bound (0,0,0)-(0,0,0).
-    assert_eq!(&bytes[336..348], &[0, 0, 0, 0, 0, 0, 0x0f, 0, 0, 0, 0, 0]);
-    assert!(bytes[348..528].iter().all(|&b| b == 0));
+    assert_eq!(&bytes[432..444], &[0, 0, 0, 0, 0, 0, 0x0f, 0, 0, 0, 0, 0]);
+    assert!(bytes[444..624].iter().all(|&b| b == 0));
     // Cell (0,0,0): only corner 3 = sample (1,1,0) = 200. Cell (1,1,0): corner 2 = (1,1,0), corner 7 = (2,2,1) = 90.
-    assert_eq!(&bytes[528..536], &[0, 0, 0, 200, 0, 0, 0, 0]);
-    assert_eq!(&bytes[552..560], &[200, 0, 0, 0, 0, 0, 0, 90]);
+    assert_eq!(&bytes[624..632], &[0, 0, 0, 200, 0, 0, 0, 0]);
+    assert_eq!(&bytes[648..656], &[200, 0, 0, 0, 0, 0, 0, 90]);
 
     let golden_path = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/fixtures/tiny.cgc");
     if std::env::var_os("ISOGRID_BLESS").is_some() {
@@ -88,6 +101,24 @@ fn golden_bytes_of_a_tiny_file() {
         "the writer no longer produces the committed format"
     );
     same(&cgc::read_bytes(&golden).unwrap(), &tiny_grid());
+}
+
+/// A version 1 file, as the first writer made it (committed, never rewritten), still reads: from
+/// memory, into memory and memory-mapped, to the same grid the current writer writes.
+#[test]
+fn version_1_files_still_read() {
+    let path = PathBuf::from(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/tests/fixtures/tiny-v1.cgc"
+    ));
+    let bytes = std::fs::read(&path).unwrap();
+    assert_eq!(u32::from_le_bytes(bytes[8..12].try_into().unwrap()), 1);
+    same(&cgc::read_bytes(&bytes).unwrap(), &tiny_grid());
+    same(&cgc::read(&path).unwrap(), &tiny_grid());
+    same(&cgc::open(&path).unwrap(), &tiny_grid());
+    for len in 0..bytes.len() {
+        assert!(cgc::read_bytes(&bytes[..len]).is_err(), "len {len}");
+    }
 }
 
 #[test]
@@ -137,6 +168,17 @@ fn every_truncation_is_rejected() {
 
 #[test]
 fn damaged_bytes_are_rejected_without_panicking() {
+    // Every bit of a small file: the header, the table, the padding between sections and every
+    // section are covered by a checksum or a zero check, so no flip goes unnoticed.
+    let bytes = cgc::to_bytes(&tiny_grid());
+    for at in 0..bytes.len() {
+        for bit in 0..8 {
+            let mut damaged = bytes.clone();
+            damaged[at] ^= 1 << bit;
+            let err = cgc::read_bytes(&damaged).unwrap_err();
+            assert_eq!(err.kind(), ErrorKind::Corrupt, "byte {at} bit {bit}: {err}");
+        }
+    }
     let volume = blobs_u8([30, 30, 30]);
     let grid = extract(&volume.view(), &ExtractOptions::new(Iso::Value(127.5))).unwrap();
     let bytes = cgc::to_bytes(&grid);
@@ -145,37 +187,20 @@ fn damaged_bytes_are_rejected_without_panicking() {
         let mut damaged = bytes.clone();
         let at = rng.below(bytes.len() as u64) as usize;
         damaged[at] ^= 1 << rng.below(8);
-        match cgc::read_bytes(&damaged) {
-            Err(e) => assert_eq!(e.kind(), ErrorKind::Corrupt, "byte {at}: {e}"),
-            // Only the zero padding between sections is unchecked.
-            Ok(_) => assert!(
-                bytes[at] == 0 && is_padding(&bytes, at),
-                "flip at byte {at} went unnoticed"
-            ),
-        }
+        let err = cgc::read_bytes(&damaged).unwrap_err();
+        assert_eq!(err.kind(), ErrorKind::Corrupt, "byte {at}: {err}");
     }
     // A header claiming absurd counts must fail on sizes, before allocating.
     let mut absurd = bytes.clone();
     absurd[136..144].copy_from_slice(&(u64::MAX / 2).to_le_bytes());
-    let crc = crc32fast_hash(&absurd[..316]);
+    let crc = crc32_by_hand(&absurd[..316]);
     absurd[316..320].copy_from_slice(&crc.to_le_bytes());
     let err = cgc::read_bytes(&absurd).unwrap_err();
     assert_eq!(err.kind(), ErrorKind::Corrupt, "{err}");
 }
 
-/// Whether `at` lies between sections (alignment padding).
-fn is_padding(bytes: &[u8], at: usize) -> bool {
-    let u64_at = |o: usize| u64::from_le_bytes(bytes[o..o + 8].try_into().unwrap()) as usize;
-    let sections = [
-        (u64_at(160), u64_at(168)),
-        (u64_at(176), u64_at(184)),
-        (u64_at(192), u64_at(200)),
-    ];
-    at >= 320 && !sections.iter().any(|&(o, l)| at >= o && at < o + l)
-}
-
 /// CRC-32 (IEEE), written out so the test does not trust the library's checksum code path.
-fn crc32fast_hash(data: &[u8]) -> u32 {
+fn crc32_by_hand(data: &[u8]) -> u32 {
     let mut crc = !0u32;
     for &b in data {
         crc ^= b as u32;
@@ -190,13 +215,156 @@ fn crc32fast_hash(data: &[u8]) -> u32 {
     !crc
 }
 
+/// A version 2 file assembled by this test, independently of the library's writer: the header
+/// fields 16..160 and the direction of `model` (a file the library wrote), then a table of
+/// `sections` (kind, flags, bytes) in this order.
+fn assemble(model: &[u8], sections: &[(u32, u32, &[u8])]) -> Vec<u8> {
+    let table_end = 320 + 32 * sections.len();
+    let mut offsets = Vec::new();
+    let mut end = table_end;
+    for (_, _, bytes) in sections {
+        let offset = end.div_ceil(16) * 16;
+        offsets.push(offset);
+        end = offset + bytes.len();
+    }
+    let mut file = vec![0u8; end];
+    file[..160].copy_from_slice(&model[..160]);
+    file[208..280].copy_from_slice(&model[208..280]);
+    for (e, ((kind, flags, bytes), offset)) in sections.iter().zip(&offsets).enumerate() {
+        let at = 320 + 32 * e;
+        file[at..at + 4].copy_from_slice(&kind.to_le_bytes());
+        file[at + 4..at + 8].copy_from_slice(&flags.to_le_bytes());
+        file[at + 8..at + 16].copy_from_slice(&(*offset as u64).to_le_bytes());
+        file[at + 16..at + 24].copy_from_slice(&(bytes.len() as u64).to_le_bytes());
+        file[at + 24..at + 28].copy_from_slice(&crc32_by_hand(bytes).to_le_bytes());
+        file[*offset..*offset + bytes.len()].copy_from_slice(bytes);
+    }
+    file[160..168].copy_from_slice(&320u64.to_le_bytes());
+    file[168..172].copy_from_slice(&(sections.len() as u32).to_le_bytes());
+    let table_crc = crc32_by_hand(&file[320..table_end]);
+    file[172..176].copy_from_slice(&table_crc.to_le_bytes());
+    let crc = crc32_by_hand(&file[..316]);
+    file[316..320].copy_from_slice(&crc.to_le_bytes());
+    file
+}
+
+/// The bytes of section `e` of a version 2 file.
+fn section(file: &[u8], e: usize) -> &[u8] {
+    let u64_at = |o: usize| u64::from_le_bytes(file[o..o + 8].try_into().unwrap()) as usize;
+    let (offset, len) = (u64_at(320 + 32 * e + 8), u64_at(320 + 32 * e + 16));
+    &file[offset..offset + len]
+}
+
+#[test]
+fn the_section_table_admits_unknown_optional_sections_and_refuses_unknown_required_ones() {
+    let model = cgc::to_bytes(&tiny_grid());
+    let [blocks, metacells, cells] = [0, 1, 2].map(|e| section(&model, e));
+    // The test's own assembly of the same sections is the library's file, byte for byte.
+    assert_eq!(
+        assemble(&model, &[(1, 1, blocks), (2, 1, metacells), (3, 1, cells)]),
+        model
+    );
+    // An optional section of a kind from the future, anywhere in the table, is skipped...
+    let extra: &[u8] = b"a section from a later version";
+    for file in [
+        assemble(
+            &model,
+            &[
+                (1, 1, blocks),
+                (2, 1, metacells),
+                (3, 1, cells),
+                (99, 0, extra),
+            ],
+        ),
+        assemble(
+            &model,
+            &[
+                (99, 0, extra),
+                (1, 1, blocks),
+                (2, 1, metacells),
+                (3, 1, cells),
+            ],
+        ),
+    ] {
+        same(&cgc::read_bytes(&file).unwrap(), &tiny_grid());
+        // ...but its checksum is still checked.
+        let mut damaged = file.clone();
+        let at = file.windows(extra.len()).position(|w| w == extra).unwrap();
+        damaged[at] ^= 4;
+        let err = cgc::read_bytes(&damaged).unwrap_err().to_string();
+        assert!(err.contains("kind 99") && err.contains("checksum"), "{err}");
+    }
+    // A required one is refused as unsupported, naming the kind.
+    let file = assemble(
+        &model,
+        &[
+            (1, 1, blocks),
+            (2, 1, metacells),
+            (3, 1, cells),
+            (99, 1, extra),
+        ],
+    );
+    let err = cgc::read_bytes(&file).unwrap_err();
+    assert_eq!(err.kind(), ErrorKind::Unsupported);
+    assert!(err.to_string().contains("kind 99"), "{err}");
+    // Structure: each grid section once, with its flags; reserved flag bits zero.
+    for (sections, words) in [
+        (
+            vec![(1, 1, blocks), (2, 1, metacells)],
+            "section table of 2 entries",
+        ),
+        (
+            vec![(1, 1, blocks), (2, 1, metacells), (99, 0, extra)],
+            "no cells section",
+        ),
+        (
+            vec![
+                (1, 1, blocks),
+                (2, 1, metacells),
+                (3, 1, cells),
+                (3, 1, cells),
+            ],
+            "two cells sections",
+        ),
+        (
+            vec![(1, 0, blocks), (2, 1, metacells), (3, 1, cells)],
+            "wrong flags",
+        ),
+        (
+            vec![(1, 1, blocks), (2, 3, metacells), (3, 1, cells)],
+            "reserved table bits",
+        ),
+    ] {
+        let err = cgc::read_bytes(&assemble(&model, &sections)).unwrap_err();
+        assert_eq!(err.kind(), ErrorKind::Corrupt, "{err}");
+        assert!(err.to_string().contains(words), "{words}: {err}");
+    }
+    // Overlapping sections, with every checksum made valid again.
+    let mut overlapping = model.clone();
+    overlapping[352 + 8..352 + 16].copy_from_slice(&416u64.to_le_bytes());
+    let table_crc = crc32_by_hand(&overlapping[320..416]);
+    overlapping[172..176].copy_from_slice(&table_crc.to_le_bytes());
+    let crc = crc32_by_hand(&overlapping[..316]);
+    overlapping[316..320].copy_from_slice(&crc.to_le_bytes());
+    let err = cgc::read_bytes(&overlapping).unwrap_err().to_string();
+    assert!(
+        err.contains("metacells section at 416+192 does not fit"),
+        "{err}"
+    );
+    // Bytes appended after the last section are refused: the file must end where it ends.
+    let mut appended = model.clone();
+    appended.extend_from_slice(&[0; 16]);
+    let err = cgc::read_bytes(&appended).unwrap_err().to_string();
+    assert!(err.contains("sections end at 656"), "{err}");
+}
+
 #[test]
 fn rewritten_headers_with_valid_checksums_are_still_validated() {
     let bytes = cgc::to_bytes(&tiny_grid());
     let with = |offset: usize, value: &[u8]| {
         let mut b = bytes.clone();
         b[offset..offset + value.len()].copy_from_slice(value);
-        let crc = crc32fast_hash(&b[..316]);
+        let crc = crc32_by_hand(&b[..316]);
         b[316..320].copy_from_slice(&crc.to_le_bytes());
         cgc::read_bytes(&b).unwrap_err()
     };
@@ -210,7 +378,7 @@ fn rewritten_headers_with_valid_checksums_are_still_validated() {
         with(32, &(-1.0f64).to_le_bytes()).kind(),
         ErrorKind::Corrupt
     ); // spacing
-    assert_eq!(with(176, &330u64.to_le_bytes()).kind(), ErrorKind::Corrupt); // overlapping sections
+    assert_eq!(with(176, &1u64.to_le_bytes()).kind(), ErrorKind::Corrupt); // reserved bytes
     assert_eq!(with(144, &5u64.to_le_bytes()).kind(), ErrorKind::Corrupt); // cell count vs section length
 }
 
@@ -218,7 +386,7 @@ fn rewritten_headers_with_valid_checksums_are_still_validated() {
 fn a_section_length_mismatch_is_told_in_words() {
     let mut b = cgc::to_bytes(&tiny_grid());
     b[144..152].copy_from_slice(&5u64.to_le_bytes()); // cell count
-    let crc = crc32fast_hash(&b[..316]);
+    let crc = crc32_by_hand(&b[..316]);
     b[316..320].copy_from_slice(&crc.to_le_bytes());
     let err = cgc::read_bytes(&b).unwrap_err().to_string();
     assert!(

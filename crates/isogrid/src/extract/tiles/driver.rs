@@ -5,10 +5,9 @@
 use super::geometry::{block_dims, box_rows, tile_samples, tiles, BlockBox};
 use super::spool::Spool;
 use super::wire::*;
-use crate::cgc::{header_bytes, scalar_code};
+use crate::cgc::{scalar_code, CgcWriter, SectionKind};
 use crate::error::{Error, Result};
 use crate::extract::file_layout::FileLayout;
-use crate::extract::stream::write_at;
 use crate::extract::{metacell_slots, scan, ExtractOptions, Totals};
 use crate::grid::GridInfo;
 use crate::layout::{Block, Metacell, Precision, BOUND_SLOT, CLUSTER_SLOTS};
@@ -55,18 +54,19 @@ impl EmitJob {
                 .split_at_mut((slot_run.end - slot_run.start) as usize * slot_size);
             let row_cells = cell_run.end - cell_run.start;
             for (k, slot) in row.chunks_exact_mut(slot_size).enumerate() {
-                let mask = u16::from_le_bytes([slot[6], slot[7]]);
-                if k % CLUSTER_SLOTS == BOUND_SLOT || mask == 0 {
+                // The payload is bytes of any alignment: each slot is read and written whole.
+                let mut metacell: Metacell = bytemuck::pod_read_unaligned(slot);
+                if k % CLUSTER_SLOTS == BOUND_SLOT || metacell.is_empty() {
                     continue;
                 }
-                let local = u32::from_le_bytes(slot[8..12].try_into().unwrap()) as u64;
-                if local + mask.count_ones() as u64 > row_cells {
+                let local = metacell.cell_pointer as u64;
+                if local + metacell.active_cells() as u64 > row_cells {
                     return Err(Error::corrupt(
                         "spooled tile output whose cells lie outside its block row",
                     ));
                 }
-                let global = (cell_run.start + local) as u32;
-                slot[8..12].copy_from_slice(&global.to_le_bytes());
+                metacell.cell_pointer = (cell_run.start + local) as u32;
+                slot.copy_from_slice(bytemuck::bytes_of(&metacell));
             }
         }
         Ok(())
@@ -531,46 +531,32 @@ impl TileExtraction {
         next_fragment: &mut dyn FnMut() -> Result<Option<Vec<u8>>>,
     ) -> Result<TileSummary> {
         let (layout, totals) = self.layout()?;
-        let sections = layout.sections;
         let record = self.precision.bytes_per_cell() as u64;
         let slot_size = size_of::<Metacell>() as u64;
         crate::fs::write_atomic_file(path, |file| {
-            let (cells_at, cells_len) = sections[2];
-            file.set_len(cells_at + cells_len)?;
-            let block_bytes: &[u8] = bytemuck::cast_slice(&self.blocks);
-            write_at(file, sections[0].0, block_bytes)?;
-            // Per job, once written: the checksum of its fragment and of each run's slots and cells.
-            type Written = (u32, Vec<[crc32fast::Hasher; 2]>);
-            let mut written: Vec<Option<Written>> = vec![None; jobs.len()];
-            // Writes a job's output (its slots, then its cells) at its runs' offsets; returns the
-            // checksums of each run's slots and cells.
-            let place = |file: &mut std::fs::File, job: &EmitJob, payload: &[u8]| {
+            let mut writer = CgcWriter::new(file, layout.plan())?;
+            writer.put(SectionKind::Blocks, 0, bytemuck::cast_slice(&self.blocks))?;
+            // Writes a job's output (its slots, then its cells) at its runs' places.
+            let place = |writer: &mut CgcWriter, job: &EmitJob, payload: &[u8]| {
                 let slot_total: u64 = job
                     .runs
                     .iter()
                     .map(|(s, _)| (s.end - s.start) * slot_size)
                     .sum();
                 let (mut slots, mut cells) = payload.split_at(slot_total as usize);
-                let mut crcs = Vec::with_capacity(job.runs.len());
                 for (slot_run, cell_run) in &job.runs {
                     let here;
                     (here, slots) =
                         slots.split_at(((slot_run.end - slot_run.start) * slot_size) as usize);
-                    write_at(file, sections[1].0 + slot_run.start * slot_size, here)?;
-                    let mut slot_crc = crc32fast::Hasher::new();
-                    slot_crc.update(here);
+                    writer.put(SectionKind::Metacells, slot_run.start * slot_size, here)?;
                     let here;
                     (here, cells) =
                         cells.split_at(((cell_run.end - cell_run.start) * record) as usize);
-                    write_at(file, sections[2].0 + cell_run.start * record, here)?;
-                    let mut cell_crc = crc32fast::Hasher::new();
-                    cell_crc.update(here);
-                    crcs.push([slot_crc, cell_crc]);
+                    writer.put(SectionKind::Cells, cell_run.start * record, here)?;
                 }
-                Ok::<_, Error>(crcs)
+                Ok::<_, Error>(())
             };
             // One-pass tiles' output, from the spool, its cells moved to their place.
-            let mut spooled_crcs = Vec::with_capacity(self.spooled_jobs.len());
             if !self.spooled_jobs.is_empty() {
                 let (lo, hi) = self.one_pass_range().unwrap_or((f64::NAN, f64::NAN));
                 let tasks = Quantizer::new(
@@ -592,9 +578,11 @@ impl TileExtraction {
                     let mut payload = vec![0u8; job.output_len(slot_size, record) as usize];
                     spool.read(*offset, &mut payload)?;
                     job.number_cells(&mut payload)?;
-                    spooled_crcs.push(place(file, job, &payload)?);
+                    place(&mut writer, job, &payload)?;
                 }
             }
+            // Per job, once written: the checksum of its fragment.
+            let mut written: Vec<Option<u32>> = vec![None; jobs.len()];
             while let Some(fragment) = next_fragment()? {
                 let mut r = Reader::new(&fragment, OUTPUT_TAG, "output fragment")?;
                 let index = r.u32()? as usize;
@@ -603,55 +591,29 @@ impl TileExtraction {
                 })?;
                 let payload = r.rest(job.output_len(slot_size, record) as usize)?;
                 let crc = crc32fast::hash(payload);
-                if let Some((seen, _)) = &written[index] {
+                if let Some(seen) = written[index] {
                     // A retried task delivered twice: only the same bytes are acceptable.
-                    if *seen != crc {
+                    if seen != crc {
                         return Err(Error::invalid(format!(
                             "job {index} delivered twice with different bytes"
                         )));
                     }
                     continue;
                 }
-                let crcs = place(file, job, payload)?;
-                written[index] = Some((crc, crcs));
+                place(&mut writer, job, payload)?;
+                written[index] = Some(crc);
             }
-            // Runs in file order must cover every slot and cell exactly once.
-            let mut runs = Vec::new();
-            for (index, (job, done)) in jobs.iter().zip(&written).enumerate() {
-                let (_, crcs) = done.as_ref().ok_or_else(|| {
-                    Error::invalid(format!("the output of job {index} never arrived"))
-                })?;
-                runs.extend(job.runs.iter().zip(crcs));
+            if let Some(index) = written.iter().position(Option::is_none) {
+                return Err(Error::invalid(format!(
+                    "the output of job {index} never arrived"
+                )));
             }
-            for ((job, _), crcs) in self.spooled_jobs.iter().zip(&spooled_crcs) {
-                runs.extend(job.runs.iter().zip(crcs));
-            }
-            runs.sort_by_key(|((slots, _), _)| slots.start);
-            let mut section_crcs = [crc32fast::Hasher::new(), crc32fast::Hasher::new()];
-            let (mut slot_end, mut cell_end) = (0, 0);
-            for ((slot_run, cell_run), crcs) in runs {
-                if slot_run.start != slot_end || cell_run.start != cell_end {
-                    return Err(Error::invalid(
-                        "the emit jobs do not cover the output exactly once",
-                    ));
-                }
-                (slot_end, cell_end) = (slot_run.end, cell_run.end);
-                section_crcs[0].combine(&crcs[0]);
-                section_crcs[1].combine(&crcs[1]);
-            }
-            if slot_end != totals.slots || cell_end != totals.cells {
-                return Err(Error::invalid(
-                    "the emit jobs do not cover the output exactly once",
-                ));
-            }
-            let [slot_crc, cell_crc] = section_crcs.map(|h| h.finalize());
-            let crcs = [crc32fast::hash(block_bytes), slot_crc, cell_crc];
-            write_at(
-                file,
-                0,
-                &header_bytes(&layout.info, &layout.counts, sections, crcs),
-            )?;
-            Ok(())
+            // The writer checks that the runs covered every slot and cell exactly once.
+            debug_assert_eq!(
+                layout.lengths[1..],
+                [totals.slots * slot_size, totals.cells * record]
+            );
+            writer.finish(&layout.info, &layout.counts)
         })?;
         Ok(TileSummary {
             info: layout.info,

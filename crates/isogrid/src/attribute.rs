@@ -1,0 +1,251 @@
+//! Per-cell attributes (paper §3.4: cells carry "normals and other attributes"; §5: data "that
+//! need storing additional attributes per voxel or cell"): a second quantity sampled for every
+//! active cell, to colour the surface by.
+//!
+//! An attribute is stored as one `.cgc` section (kind [`crate::cgc::SectionKind::CellAttribute`]):
+//! a 96-byte head, then the values, little-endian:
+//!
+//! | offset | size | field |
+//! |---|---|---|
+//! | 0 | 4 | values per cell, u32: 1 (the attribute at the cell's surface point) |
+//! | 4 | 4 | bits per value, u32: 8 or 16 (codes, below) or 32 (IEEE f32 as it is) |
+//! | 8 | 8 | `lo`, f64: the smallest finite value (data units of the attribute) |
+//! | 16 | 8 | `hi`, f64: the largest finite value, `hi >= lo` (both 0 when no value is finite) |
+//! | 24 | 8 | value count, u64 = active cells × values per cell |
+//! | 32 | 64 | name, UTF-8, zero-padded (the attribute's source, for people) |
+//! | 96 | count × bits/8 | the values, in the order of the corner records |
+//!
+//! Codes of `b` bits (8 or 16): code `c < 2^b − 1` stands for `lo + c·(hi − lo)/(2^b − 2)`, and
+//! `2^b − 1` for NaN (no value). Rounding to the nearest code keeps the error within
+//! `(hi − lo)/(2(2^b − 2))`: 0.2 % of the range at 8 bits.
+
+use crate::error::{Error, Result};
+
+/// Bytes of the head of an attribute section.
+pub const ATTRIBUTE_HEAD_SIZE: usize = 96;
+/// Bytes of the name field.
+pub const ATTRIBUTE_NAME_SIZE: usize = 64;
+
+/// Bits per stored attribute value.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum AttributePrecision {
+    /// 8-bit codes over `[lo, hi]`.
+    Code8,
+    /// 16-bit codes over `[lo, hi]`.
+    Code16,
+    /// 32-bit floats, as they are.
+    F32,
+}
+
+impl AttributePrecision {
+    pub const ALL: [AttributePrecision; 3] = [
+        AttributePrecision::Code8,
+        AttributePrecision::Code16,
+        AttributePrecision::F32,
+    ];
+    pub fn bits(self) -> u32 {
+        match self {
+            AttributePrecision::Code8 => 8,
+            AttributePrecision::Code16 => 16,
+            AttributePrecision::F32 => 32,
+        }
+    }
+    pub fn from_bits(bits: u32) -> Option<Self> {
+        Self::ALL.into_iter().find(|p| p.bits() == bits)
+    }
+    pub fn bytes(self) -> usize {
+        self.bits() as usize / 8
+    }
+    /// The code that stands for NaN (codes only).
+    fn nan_code(self) -> u32 {
+        match self {
+            AttributePrecision::Code8 => 0xff,
+            AttributePrecision::Code16 => 0xffff,
+            AttributePrecision::F32 => unreachable!("f32 values are stored as they are"),
+        }
+    }
+}
+
+/// What an attribute is: its name, how its values are stored and their finite range.
+#[derive(Debug, Clone, PartialEq)]
+pub struct AttributeInfo {
+    /// Where the values came from (a file name, a channel), at most 64 bytes of UTF-8.
+    pub name: String,
+    pub precision: AttributePrecision,
+    /// Smallest and largest finite value, in the attribute's own units (`[0, 0]` when none is).
+    pub range: [f64; 2],
+}
+
+impl AttributeInfo {
+    /// The head of the attribute's section, for `count` values.
+    pub fn head_bytes(&self, count: u64) -> [u8; ATTRIBUTE_HEAD_SIZE] {
+        let mut h = [0u8; ATTRIBUTE_HEAD_SIZE];
+        h[0..4].copy_from_slice(&1u32.to_le_bytes());
+        h[4..8].copy_from_slice(&self.precision.bits().to_le_bytes());
+        h[8..16].copy_from_slice(&self.range[0].to_le_bytes());
+        h[16..24].copy_from_slice(&self.range[1].to_le_bytes());
+        h[24..32].copy_from_slice(&count.to_le_bytes());
+        let name = truncate_utf8(&self.name, ATTRIBUTE_NAME_SIZE);
+        h[32..32 + name.len()].copy_from_slice(name.as_bytes());
+        h
+    }
+
+    /// Parses and checks a section head; returns the info and the value count.
+    pub fn from_head(h: &[u8]) -> Result<(AttributeInfo, u64)> {
+        let h: &[u8; ATTRIBUTE_HEAD_SIZE] = h
+            .get(..ATTRIBUTE_HEAD_SIZE)
+            .and_then(|h| h.try_into().ok())
+            .ok_or_else(|| Error::corrupt("cell attribute section is shorter than its head"))?;
+        let u32_at = |o: usize| u32::from_le_bytes(h[o..o + 4].try_into().unwrap());
+        let f64_at = |o: usize| f64::from_le_bytes(h[o..o + 8].try_into().unwrap());
+        let per_cell = u32_at(0);
+        if per_cell != 1 {
+            return Err(Error::corrupt(format!(
+                "cell attribute has {per_cell} values per cell; 1 is defined"
+            )));
+        }
+        let bits = u32_at(4);
+        let precision = AttributePrecision::from_bits(bits)
+            .ok_or_else(|| Error::corrupt(format!("cell attribute of {bits} bits per value")))?;
+        let range = [f64_at(8), f64_at(16)];
+        if !(range[0].is_finite() && range[1].is_finite() && range[0] <= range[1]) {
+            return Err(Error::corrupt(format!(
+                "cell attribute range {range:?} is not finite and ordered"
+            )));
+        }
+        let count = u64::from_le_bytes(h[24..32].try_into().unwrap());
+        let name_field = &h[32..32 + ATTRIBUTE_NAME_SIZE];
+        let name_len = name_field
+            .iter()
+            .position(|&b| b == 0)
+            .unwrap_or(ATTRIBUTE_NAME_SIZE);
+        if name_field[name_len..].iter().any(|&b| b != 0) {
+            return Err(Error::corrupt("cell attribute name is not zero-padded"));
+        }
+        let name = std::str::from_utf8(&name_field[..name_len])
+            .map_err(|_| Error::corrupt("cell attribute name is not UTF-8"))?
+            .to_string();
+        Ok((
+            AttributeInfo {
+                name,
+                precision,
+                range,
+            },
+            count,
+        ))
+    }
+
+    /// The stored value of `value` (little-endian, [`AttributePrecision::bytes`] long).
+    pub fn encode(&self, value: f32, out: &mut [u8]) {
+        let [lo, hi] = self.range;
+        let code = |max_code: u32| -> u32 {
+            if value.is_nan() {
+                max_code + 1
+            } else if hi > lo {
+                let t = ((value as f64 - lo) / (hi - lo)).clamp(0.0, 1.0);
+                (t * max_code as f64).round() as u32
+            } else {
+                0
+            }
+        };
+        match self.precision {
+            AttributePrecision::Code8 => out[0] = code(0xfe) as u8,
+            AttributePrecision::Code16 => out.copy_from_slice(&(code(0xfffe) as u16).to_le_bytes()),
+            AttributePrecision::F32 => out.copy_from_slice(&value.to_le_bytes()),
+        }
+    }
+
+    /// The value stored as `bytes` (NaN for the NaN code).
+    pub fn decode(&self, bytes: &[u8]) -> f32 {
+        let [lo, hi] = self.range;
+        let from_code = |code: u32| -> f32 {
+            if code == self.precision.nan_code() {
+                f32::NAN
+            } else {
+                (lo + code as f64 * (hi - lo) / (self.precision.nan_code() - 1) as f64) as f32
+            }
+        };
+        match self.precision {
+            AttributePrecision::Code8 => from_code(bytes[0] as u32),
+            AttributePrecision::Code16 => {
+                from_code(u16::from_le_bytes([bytes[0], bytes[1]]) as u32)
+            }
+            AttributePrecision::F32 => f32::from_le_bytes(bytes[..4].try_into().unwrap()),
+        }
+    }
+}
+
+/// The longest prefix of `s` of at most `max` bytes that ends on a character boundary.
+fn truncate_utf8(s: &str, max: usize) -> &str {
+    let mut end = s.len().min(max);
+    while !s.is_char_boundary(end) {
+        end -= 1;
+    }
+    &s[..end.min(s.find('\0').unwrap_or(end))]
+}
+
+/// An attribute's values held by a grid: one per active cell, in corner-record order.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CellAttribute {
+    info: AttributeInfo,
+    head: [u8; ATTRIBUTE_HEAD_SIZE],
+    values: Vec<u8>,
+}
+
+impl CellAttribute {
+    /// An attribute from values, one per active cell, stored at `precision` over their finite range.
+    pub fn from_values(name: &str, precision: AttributePrecision, values: &[f32]) -> Self {
+        let (lo, hi) = values
+            .iter()
+            .filter(|v| v.is_finite())
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &v| {
+                (lo.min(v as f64), hi.max(v as f64))
+            });
+        let range = if lo <= hi { [lo, hi] } else { [0.0, 0.0] };
+        let info = AttributeInfo {
+            name: truncate_utf8(name, ATTRIBUTE_NAME_SIZE).to_string(),
+            precision,
+            range,
+        };
+        let width = precision.bytes();
+        let mut bytes = vec![0u8; values.len() * width];
+        for (v, out) in values.iter().zip(bytes.chunks_exact_mut(width)) {
+            info.encode(*v, out);
+        }
+        Self::from_encoded(info, bytes)
+    }
+
+    /// An attribute from its info and its encoded value bytes.
+    pub(crate) fn from_encoded(info: AttributeInfo, values: Vec<u8>) -> Self {
+        let count = (values.len() / info.precision.bytes()) as u64;
+        CellAttribute {
+            head: info.head_bytes(count),
+            info,
+            values,
+        }
+    }
+
+    pub fn info(&self) -> &AttributeInfo {
+        &self.info
+    }
+    /// Values stored.
+    pub fn len(&self) -> usize {
+        self.values.len() / self.info.precision.bytes()
+    }
+    pub fn is_empty(&self) -> bool {
+        self.values.is_empty()
+    }
+    /// The value of active cell `i` (NaN where it has none).
+    pub fn value(&self, i: usize) -> f32 {
+        let w = self.info.precision.bytes();
+        self.info.decode(&self.values[i * w..(i + 1) * w])
+    }
+    /// The section's head bytes.
+    pub fn head_bytes(&self) -> &[u8] {
+        &self.head
+    }
+    /// The stored values, as the section holds them after its head.
+    pub fn value_bytes(&self) -> &[u8] {
+        &self.values
+    }
+}
