@@ -6,6 +6,7 @@
 //! revisits only blocks that hold active cells and writes their records. Memory beyond the volume
 //! and the output is O(blocks) plus per-thread scratch for one block row.
 
+pub mod attribute;
 mod emit;
 mod file_layout;
 mod scalar;

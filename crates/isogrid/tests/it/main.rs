@@ -1,5 +1,6 @@
 //! Integration tests of the core crate, one binary.
 
+mod attribute;
 mod cgc;
 // Also compiled into isogrid-trace's test binary, which uses helpers this one does not.
 #[allow(dead_code)]
