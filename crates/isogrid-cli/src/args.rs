@@ -126,7 +126,7 @@ pub fn parse_precision(s: &str) -> Result<Precision, String> {
 }
 
 /// "t=0,c=1" → [("t", 0), ("c", 1)].
-fn parse_indices(s: &str) -> Result<Vec<(String, u64)>, String> {
+pub(crate) fn parse_indices(s: &str) -> Result<Vec<(String, u64)>, String> {
     s.split(',')
         .map(|part| {
             let (axis, index) = part.split_once('=').ok_or_else(|| {

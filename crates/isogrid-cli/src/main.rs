@@ -1,6 +1,7 @@
 //! `isogrid`: extract, inspect and compare clustered grid cell isosurfaces from the command line.
 
 mod args;
+mod color_by;
 mod commands;
 mod grid_source;
 mod input;

@@ -65,7 +65,37 @@ pub struct GridReport {
     pub nonempty_blocks: u64,
     pub bytes: Bytes,
     pub bytes_per_cell: f64,
+    /// The per-cell attribute (`--color-by`), or null.
+    pub attribute: Option<AttributeReport>,
     pub seconds: Seconds,
+}
+
+/// A grid's per-cell attribute in a report.
+#[derive(Serialize)]
+pub struct AttributeReport {
+    pub name: String,
+    /// Bits per stored value: 8 or 16 (codes over `range`) or 32 (f32).
+    pub bits: u32,
+    /// Smallest and largest finite value on the surface.
+    pub range: [f64; 2],
+    /// Bytes of the file's attribute section (head and values).
+    pub bytes: u64,
+    /// Attribute bytes per active cell.
+    pub bytes_per_cell: f64,
+}
+
+impl AttributeReport {
+    pub fn new(attribute: &isogrid::CellAttribute) -> Self {
+        let info = attribute.info();
+        let bytes = (attribute.head_bytes().len() + attribute.value_bytes().len()) as u64;
+        AttributeReport {
+            name: info.name.clone(),
+            bits: info.precision.bits(),
+            range: info.range,
+            bytes,
+            bytes_per_cell: info.precision.bytes() as f64,
+        }
+    }
 }
 
 impl GridReport {
@@ -87,8 +117,15 @@ impl GridReport {
                 paper_total: stats.bytes.paper_total,
             },
             bytes_per_cell: stats.bytes_per_cell(),
+            attribute: None,
             seconds,
         }
+    }
+
+    /// The report with the grid's attribute, when it has one.
+    pub fn with_attribute(mut self, attribute: Option<&isogrid::CellAttribute>) -> Self {
+        self.attribute = attribute.map(AttributeReport::new);
+        self
     }
 
     pub fn print_human(&self) {
@@ -120,6 +157,17 @@ impl GridReport {
             "bytes/cell    {:.2} (blocks + metacells + cells)",
             self.bytes_per_cell
         );
+        if let Some(a) = &self.attribute {
+            println!(
+                "attribute     {:?}: {}-bit values in [{}, {}] on the surface, {} ({} B/cell)",
+                a.name,
+                a.bits,
+                a.range[0],
+                a.range[1],
+                mb(a.bytes),
+                a.bytes_per_cell
+            );
+        }
         println!(
             "seconds       read {:.3}, extract {:.3}, write {:.3}",
             self.seconds.read, self.seconds.extract, self.seconds.write

@@ -1,5 +1,7 @@
 //! The `isogrid` binary end to end: JSON names, files it writes, and how it fails on bad input.
 
+#[path = "cli/color.rs"]
+mod color;
 #[path = "cli/hostile.rs"]
 mod hostile;
 

@@ -80,6 +80,50 @@ where
     result.map_err(|e| e.with_path(path))
 }
 
+/// A file a program writes for its own use and removes when done: removed when the guard is
+/// dropped (an error, a panic) and by [`remove_unfinished`] (an interrupt).
+#[derive(Debug)]
+pub struct ScratchFile {
+    path: PathBuf,
+}
+
+impl ScratchFile {
+    /// A scratch path beside `target` (same folder, so a later rename or copy stays on one disk),
+    /// named after it and this process; nothing is created yet.
+    pub fn beside(target: &Path, role: &str) -> Result<Self> {
+        let dir = match target.parent() {
+            Some(d) if !d.as_os_str().is_empty() => d,
+            _ => Path::new("."),
+        };
+        let name = target
+            .file_name()
+            .ok_or_else(|| Error::invalid("output path has no file name").with_path(target))?;
+        let path = dir.join(format!(
+            ".{}.{role}{}",
+            name.to_string_lossy(),
+            std::process::id()
+        ));
+        UNFINISHED
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .push(path.clone());
+        Ok(ScratchFile { path })
+    }
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+}
+
+impl Drop for ScratchFile {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_file(&self.path);
+        let mut unfinished = UNFINISHED.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(at) = unfinished.iter().position(|p| *p == self.path) {
+            unfinished.swap_remove(at);
+        }
+    }
+}
+
 /// A temporary file removed when dropped unless it was renamed into place; either way it leaves
 /// the list of unfinished writes.
 struct TempFile<'a> {

@@ -5,12 +5,13 @@
 //! ([`isogrid::extract::stream`]); the others are read whole first. Both give the same bytes.
 
 use crate::args::{parse_precision, parse_size, InputArgs, IsoArgs, ThreadArgs};
+use crate::color_by::{parse_attribute_precision, AttributeInput, DEFAULT_PRECISION};
 use crate::outputs::{self, Output};
-use crate::report::{print_json, GridReport, Seconds};
+use crate::report::{print_json, AttributeReport, GridReport, Seconds};
 use crate::{input, progress};
 use anyhow::{Context, Result};
 use isogrid::extract::stream::{self, Progress, RegionSource, Stage};
-use isogrid::{extract, ExtractOptions, GridStats, Precision};
+use isogrid::{extract, AttributePrecision, CellGrid, ExtractOptions, GridStats, Precision};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -31,6 +32,16 @@ pub struct Args {
     /// Peak memory for inputs read by region, e.g. 512M or 4G (default: a quarter of RAM).
     #[arg(long, value_name = "SIZE", value_parser = parse_size)]
     pub max_memory: Option<u64>,
+    /// Colour the surface by another volume: a file or folder isogrid reads (resampled in world
+    /// space when its grid differs), or AXIS=I,... for another entry of INPUT's extra axes, e.g.
+    /// `--index c=0 --color-by c=1` for a second channel. Each active cell stores the attribute
+    /// at its surface point.
+    #[arg(long, value_name = "ATTR")]
+    pub color_by: Option<String>,
+    /// Bits per stored attribute value: 8 or 16 (codes over the attribute's range on the
+    /// surface) or 32 (f32) [default: 16].
+    #[arg(long, value_name = "BITS", value_parser = parse_attribute_precision, requires = "color_by")]
+    pub attribute_precision: Option<AttributePrecision>,
     /// Write the grid to this .cgc file.
     #[arg(short, long, value_name = "OUT.cgc")]
     pub output: Option<PathBuf>,
@@ -45,8 +56,15 @@ pub fn run(args: Args) -> Result<()> {
         path,
         extensions: &[".cgc"],
     });
-    outputs::check(&[&args.input], output.as_slice())?;
     let read_options = args.input_args.read_options()?;
+    let attribute = args
+        .color_by
+        .as_deref()
+        .map(|text| AttributeInput::new(text, &args.input, &read_options))
+        .transpose()?;
+    let mut inputs = vec![args.input.as_path()];
+    inputs.extend(attribute.as_ref().map(|a| a.path.as_path()));
+    outputs::check(&inputs, output.as_slice())?;
     let options = ExtractOptions {
         iso: args.iso.iso(),
         precision: args.precision,
@@ -56,13 +74,21 @@ pub fn run(args: Args) -> Result<()> {
     let start = Instant::now();
     let region = isogrid_io::open_region(&args.input, &read_options)?;
     let read = start.elapsed().as_secs_f64();
-    let (stats, seconds) = match region {
+    let (stats, attribute_report, seconds) = match region {
         Some(mut source) => {
             let max_memory = args.max_memory.unwrap_or_else(default_max_memory);
-            let stats =
-                pool.install(|| stream_to_file(&args, source.as_mut(), &options, max_memory))?;
+            let (stats, attribute_report) = pool.install(|| {
+                stream_to_file(
+                    &args,
+                    source.as_mut(),
+                    &options,
+                    max_memory,
+                    attribute.as_ref(),
+                )
+            })?;
             (
                 stats,
+                attribute_report,
                 Seconds {
                     read,
                     extract: start.elapsed().as_secs_f64() - read,
@@ -70,9 +96,10 @@ pub fn run(args: Args) -> Result<()> {
                 },
             )
         }
-        None => in_memory(&args, &read_options, &options, &pool)?,
+        None => in_memory(&args, &read_options, &options, &pool, attribute.as_ref())?,
     };
-    let report = GridReport::new(&stats, seconds);
+    let mut report = GridReport::new(&stats, seconds);
+    report.attribute = attribute_report;
     if args.json {
         print_json(&report)
     } else {
@@ -90,7 +117,8 @@ fn in_memory(
     read_options: &isogrid_io::ReadOptions,
     options: &ExtractOptions,
     pool: &rayon::ThreadPool,
-) -> Result<(GridStats, Seconds)> {
+    attribute: Option<&AttributeInput>,
+) -> Result<(GridStats, Option<AttributeReport>, Seconds)> {
     let (volume, read) = input::read_volume(&args.input, read_options)?;
     let spinner = progress::spinner("extracting".into());
     let start = Instant::now();
@@ -100,6 +128,10 @@ fn in_memory(
     let extract_seconds = start.elapsed().as_secs_f64();
     spinner.finish_and_clear();
     crate::report::note_if_empty(&args.input, &grid);
+    let grid = match attribute {
+        Some(attribute) => pool.install(|| with_attribute(args, grid, attribute))?,
+        None => grid,
+    };
     let mut write = 0.0;
     if let Some(out) = &args.output {
         let start = Instant::now();
@@ -108,6 +140,7 @@ fn in_memory(
     }
     Ok((
         GridStats::of(&grid),
+        grid.attribute().map(AttributeReport::new),
         Seconds {
             read,
             extract: extract_seconds,
@@ -122,18 +155,23 @@ fn stream_to_file(
     source: &mut dyn RegionSource,
     options: &ExtractOptions,
     max_memory: u64,
-) -> Result<GridStats> {
+    attribute: Option<&AttributeInput>,
+) -> Result<(GridStats, Option<AttributeReport>)> {
     // Checked before any pass, so a budget too small fails at once.
     stream::plan(source, max_memory).with_context(|| format!("{}", args.input.display()))?;
-    let scratch;
-    let out: &Path = match &args.output {
-        Some(out) => out,
-        None => {
-            scratch =
-                std::env::temp_dir().join(format!("isogrid-extract-{}.cgc", std::process::id()));
-            &scratch
-        }
+    // With an attribute, the surface goes to a scratch file first: the attribute pass reads it
+    // back (memory-mapped) and the output is written whole, or not at all.
+    let final_out = match &args.output {
+        Some(out) => out.clone(),
+        None => std::env::temp_dir().join(format!("isogrid-extract-{}.cgc", std::process::id())),
     };
+    let surface_scratch = match attribute {
+        Some(_) => Some(isogrid::fs::ScratchFile::beside(&final_out, "surface.tmp")?),
+        None => None,
+    };
+    let out: &Path = surface_scratch
+        .as_ref()
+        .map_or(final_out.as_path(), |s| s.path());
     let mut bar: Option<(Stage, indicatif::ProgressBar)> = None;
     let mut report = |p: Progress| {
         if bar.as_ref().is_none_or(|(stage, _)| *stage != p.stage) {
@@ -155,12 +193,37 @@ fn stream_to_file(
     if let Some((_, b)) = bar.take() {
         b.finish_and_clear();
     }
+    let finished = (|| -> Result<(GridStats, Option<AttributeReport>)> {
+        let summary =
+            result.with_context(|| format!("{}: extraction failed", args.input.display()))?;
+        crate::report::note_if_no_cells(&args.input, &summary.info, summary.stats.active_cells);
+        let mut attribute_report = None;
+        if let Some(attribute) = attribute {
+            let grid = isogrid::cgc::open(out)?;
+            let grid = with_attribute(args, grid, attribute)?;
+            attribute_report = grid.attribute().map(AttributeReport::new);
+            if let Some(output) = &args.output {
+                isogrid::cgc::write(output, &grid)?;
+            }
+        }
+        Ok((summary.stats, attribute_report))
+    })();
     if args.output.is_none() {
         let _ = std::fs::remove_file(out);
     }
-    let summary = result.with_context(|| format!("{}: extraction failed", args.input.display()))?;
-    crate::report::note_if_no_cells(&args.input, &summary.info, summary.stats.active_cells);
-    Ok(summary.stats)
+    finished
+}
+
+/// `grid` with the attribute of `--color-by` sampled at its cells.
+fn with_attribute(args: &Args, grid: CellGrid, attribute: &AttributeInput) -> Result<CellGrid> {
+    let spinner = progress::spinner(format!("sampling {}", attribute.path.display()));
+    let values = attribute.sample(
+        &grid,
+        &args.input,
+        args.attribute_precision.unwrap_or(DEFAULT_PRECISION),
+    );
+    spinner.finish_and_clear();
+    Ok(grid.with_attribute(values?)?)
 }
 
 /// A quarter of the machine's memory (4 GiB where it cannot be read).

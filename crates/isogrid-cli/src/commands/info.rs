@@ -33,7 +33,8 @@ pub fn run(args: Args) -> Result<()> {
             read,
             ..Default::default()
         },
-    );
+    )
+    .with_attribute(grid.attribute());
     if args.json {
         print_json(&report)
     } else {

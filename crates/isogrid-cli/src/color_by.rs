@@ -1,0 +1,103 @@
+//! `--color-by ATTR`: the second volume a surface is coloured by, read and sampled at each active
+//! cell's surface point ([`isogrid::extract::attribute`]).
+//!
+//! `ATTR` is any volume isogrid reads (read by region where the format allows, so a streamed
+//! extraction keeps its memory bound), or `AXIS=I,...` for another entry of the input's own extra
+//! axes — another channel of the same OME-Zarr image (`--index c=0 --color-by c=1`). An attribute
+//! on another grid is resampled in world (patient) space, with a one-line notice.
+
+use crate::args::parse_indices;
+use anyhow::{anyhow, Result};
+use isogrid::extract::attribute::{alignment, grid_geometry, sample_attribute, Alignment};
+use isogrid::{AttributePrecision, CellAttribute, CellGrid};
+use isogrid_io::ReadOptions;
+use std::path::{Path, PathBuf};
+
+/// `--attribute-precision BITS`.
+pub fn parse_attribute_precision(s: &str) -> Result<AttributePrecision, String> {
+    s.parse::<u32>()
+        .ok()
+        .and_then(AttributePrecision::from_bits)
+        .ok_or_else(|| format!("attribute precision must be 8, 16 or 32, not {s}"))
+}
+
+/// Stored attribute precision when none is asked for: 16-bit codes, within 0.001 % of the range.
+pub const DEFAULT_PRECISION: AttributePrecision = AttributePrecision::Code16;
+
+/// Where an attribute's samples come from.
+#[derive(Debug, Clone)]
+pub struct AttributeInput {
+    pub path: PathBuf,
+    pub options: ReadOptions,
+    /// What the file's attribute section calls it.
+    pub name: String,
+}
+
+impl AttributeInput {
+    /// `--color-by TEXT` for a surface of `input` read with `input_options`.
+    pub fn new(text: &str, input: &Path, input_options: &ReadOptions) -> Result<Self> {
+        let as_path = PathBuf::from(text);
+        if !as_path.exists() && text.contains('=') {
+            let indices = parse_indices(text)
+                .map_err(|e| anyhow!("--color-by {text}: {e}").context("--color-by"))?;
+            let mut options = input_options.clone();
+            options.zarr.indices = indices;
+            return Ok(AttributeInput {
+                path: input.to_path_buf(),
+                options,
+                name: text.to_string(),
+            });
+        }
+        let mut options = ReadOptions::default();
+        options.zarr.trusted_certificates = input_options.zarr.trusted_certificates.clone();
+        let name = as_path
+            .file_name()
+            .map_or_else(|| text.to_string(), |n| n.to_string_lossy().into_owned());
+        Ok(AttributeInput {
+            path: as_path,
+            options,
+            name,
+        })
+    }
+
+    /// Samples the attribute at every active cell of `grid` (the surface of `surface`).
+    pub fn sample(
+        &self,
+        grid: &CellGrid,
+        surface: &Path,
+        precision: AttributePrecision,
+    ) -> Result<CellAttribute> {
+        let mut region = isogrid_io::open_region(&self.path, &self.options)?;
+        let volume;
+        let mut view;
+        let source: &mut dyn isogrid::extract::stream::RegionSource = match region.as_deref_mut() {
+            Some(region) => region,
+            None => {
+                (volume, _) = crate::input::read_volume(&self.path, &self.options)?;
+                view = volume.view();
+                &mut view
+            }
+        };
+        let geometry = source.geometry();
+        let name_both = |e: isogrid::Error| {
+            anyhow!(
+                "{}: {} (the surface is {})",
+                self.path.display(),
+                e,
+                surface.display()
+            )
+        };
+        if let Alignment::Resampled { .. } =
+            alignment(&grid_geometry(grid.info()), &geometry).map_err(name_both)?
+        {
+            eprintln!(
+                "isogrid: note: {} ({:?} samples, spacing {:?}) is resampled onto the surface of {} in world space",
+                self.path.display(),
+                geometry.dims,
+                geometry.spacing,
+                surface.display()
+            );
+        }
+        sample_attribute(grid, source, &self.name, precision).map_err(name_both)
+    }
+}
