@@ -2,6 +2,7 @@
 //! `--iso`/`--iso-normalized` with an optional `--precision`.
 
 use crate::args::{parse_precision, InputArgs};
+use crate::color_by::{AttributeInput, DEFAULT_PRECISION};
 use crate::{input, progress};
 use anyhow::{bail, Context, Result};
 use isogrid::{extract, CellGrid, ExtractOptions, Iso, Precision, Volume};
@@ -32,6 +33,12 @@ pub struct GridSource {
     pub precision: Option<Precision>,
     #[command(flatten)]
     pub input_args: InputArgs,
+    /// Colour the surface by another volume, sampled at each active cell's surface point (as
+    /// `extract --color-by`: a volume isogrid reads, resampled in world space when its grid
+    /// differs, or AXIS=I,... for another entry of INPUT's extra axes). A .cgc file with an
+    /// attribute brings its own.
+    #[arg(long, value_name = "ATTR")]
+    pub color_by: Option<String>,
 }
 
 fn is_cgc(path: &Path) -> bool {
@@ -46,8 +53,21 @@ impl GridSource {
         Ok(self.load_with_volume()?.0)
     }
 
-    /// Like [`GridSource::load`], also keeping the volume (absent for `.cgc` files).
+    /// Like [`GridSource::load`], also keeping the volume (absent for `.cgc` files), with the
+    /// attribute of `--color-by` sampled onto the grid.
     pub fn load_with_volume(&self) -> Result<(CellGrid, Option<Volume>)> {
+        let (grid, volume) = self.load_surface()?;
+        let Some(text) = &self.color_by else {
+            return Ok((grid, volume));
+        };
+        let attribute = AttributeInput::new(text, &self.input, &self.input_args.read_options()?)?;
+        let spinner = progress::spinner(format!("sampling {}", attribute.path.display()));
+        let values = attribute.sample(&grid, &self.input, DEFAULT_PRECISION);
+        spinner.finish_and_clear();
+        Ok((grid.with_attribute(values?)?, volume))
+    }
+
+    fn load_surface(&self) -> Result<(CellGrid, Option<Volume>)> {
         if is_cgc(&self.input) {
             if self.iso.iso.is_some() || self.iso.iso_normalized.is_some() {
                 bail!(

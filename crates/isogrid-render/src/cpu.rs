@@ -4,7 +4,8 @@ use crate::mode::Mode;
 use crate::output::{CpuStats, Rendered};
 use crate::policy::Placement;
 use crate::request::RenderRequest;
-use isogrid::{Camera, CellGrid, Progress, Result};
+use isogrid::colormap::Coloring;
+use isogrid::{Camera, CellGrid, Error, Progress, Result};
 use isogrid_trace::{render_with_progress, Crossing, PathTraceOptions, RenderOptions, Shading};
 use std::time::Instant;
 
@@ -27,10 +28,23 @@ pub(crate) fn render(
     } else {
         Shading::Phong
     };
+    let coloring = match &parts.color {
+        None => None,
+        Some(spec) => {
+            let attribute = grid.attribute().ok_or_else(|| {
+                Error::invalid("colouring asks for the grid's attribute, and the grid has none")
+            })?;
+            let clim = spec
+                .clim
+                .unwrap_or_else(|| Coloring::default_clim(attribute.info().range));
+            Some(Coloring::new(spec.map, clim)?)
+        }
+    };
     let options = RenderOptions {
         crossing: parts.crossing,
         traversal: parts.traversal,
         shading,
+        coloring,
     };
     let start = Instant::now();
     let image = render_with_progress(grid, camera, &options, progress)?;
@@ -51,6 +65,7 @@ pub(crate) fn render(
         depth: image.depth,
         normal: image.normal,
         cluster: image.cluster,
+        value: image.value,
         placement: Placement::Cpu,
         adapter: "CPU ray tracer".into(),
         seconds,

@@ -47,5 +47,7 @@ pub use isogrid_trace::{Crossing, Traversal};
 pub use mode::{cpu_draws, Aov, Backend, Mode, Primary};
 pub use output::{CpuStats, GpuStats, Rendered};
 pub use policy::{decide, Decision, Placement};
-pub use request::{CameraSpec, RenderRequest, RequestParts, MAX_BOUNCES, MAX_FRAMES, MAX_PIXELS};
+pub use request::{
+    CameraSpec, ColorSpec, RenderRequest, RequestParts, MAX_BOUNCES, MAX_FRAMES, MAX_PIXELS,
+};
 pub use scene::{SceneView, UploadedScene};

@@ -91,16 +91,19 @@ pub enum Aov {
     Normal,
     /// u32 cluster of the hit cell, `u32::MAX` on a miss.
     Cluster,
+    /// f32 value of the grid's attribute at the hit cell, NaN on a miss (grids with an attribute).
+    Value,
 }
 
 impl Aov {
-    pub const ALL: [Aov; 3] = [Aov::Depth, Aov::Normal, Aov::Cluster];
+    pub const ALL: [Aov; 4] = [Aov::Depth, Aov::Normal, Aov::Cluster, Aov::Value];
 
     pub fn name(self) -> &'static str {
         match self {
             Aov::Depth => "depth",
             Aov::Normal => "normal",
             Aov::Cluster => "cluster",
+            Aov::Value => "value",
         }
     }
 }
@@ -111,6 +114,10 @@ impl FromStr for Aov {
         Aov::ALL
             .into_iter()
             .find(|a| a.name() == s.trim())
-            .ok_or_else(|| Error::invalid(format!("unknown AOV {s:?} (depth, normal or cluster)")))
+            .ok_or_else(|| {
+                Error::invalid(format!(
+                    "unknown AOV {s:?} (depth, normal, cluster or value)"
+                ))
+            })
     }
 }

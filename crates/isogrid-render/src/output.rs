@@ -42,6 +42,9 @@ pub struct Rendered {
     pub normal: Vec<[f32; 3]>,
     /// Cluster of the hit cell, `u32::MAX` on a miss.
     pub cluster: Vec<u32>,
+    /// The grid's attribute at the hit cell, NaN on a miss; `None` where the renderer does not
+    /// give it (no attribute, or the GPU renderer).
+    pub value: Option<Vec<f32>>,
     pub placement: Placement,
     /// The adapter's name and API on the GPU, `CPU ray tracer` on the CPU.
     pub adapter: String,

@@ -66,6 +66,17 @@ pub struct RequestParts {
     pub occlusion_culling: bool,
     /// GPU: which raster draws the cells.
     pub cell_raster: isogrid_gpu::CellRaster,
+    /// Colour the surface by the grid's attribute; `None`: one colour. The CPU tracer draws it
+    /// (Phong and path tracing); the policy places such requests there.
+    pub color: Option<ColorSpec>,
+}
+
+/// How a surface is coloured by its grid's attribute.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct ColorSpec {
+    pub map: isogrid::colormap::ColorMap,
+    /// The values the map spans; `None`: the attribute's range on the surface.
+    pub clim: Option<[f64; 2]>,
 }
 
 impl Default for RequestParts {
@@ -86,6 +97,7 @@ impl Default for RequestParts {
             aovs: Vec::new(),
             occlusion_culling: true,
             cell_raster: isogrid_gpu::CellRaster::Auto,
+            color: None,
         }
     }
 }
@@ -168,6 +180,15 @@ impl RenderRequest {
         if parts.backend == Backend::Cpu && !cpu_draws(parts.mode) {
             return Err(Error::invalid(format!(
                 "mode {} needs the GPU renderer; on the CPU use mode cgc or pathtrace",
+                parts.mode
+            )));
+        }
+        if let Some(clim) = parts.color.as_ref().and_then(|c| c.clim) {
+            isogrid::colormap::check_clim(clim)?;
+        }
+        if parts.color.is_some() && !cpu_draws(parts.mode) {
+            return Err(Error::unsupported(format!(
+                "mode {} cannot colour the surface by an attribute; modes cgc and pathtrace can",
                 parts.mode
             )));
         }

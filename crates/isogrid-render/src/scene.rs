@@ -229,5 +229,6 @@ fn rendered(renderer: &Renderer, f: Frame, frames: u32, seconds: f64, mode: Mode
         depth: f.depth,
         normal: f.normal,
         cluster: f.cluster,
+        value: None,
     }
 }

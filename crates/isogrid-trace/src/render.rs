@@ -2,7 +2,8 @@
 //! shaded with the shared deferred Blinn–Phong model ([`isogrid::shading`]) like the GPU renderer, or
 //! a progressive Monte Carlo path tracer lit by an [`Environment`] (paper §3.6).
 //!
-//! Path tracing: Lambertian surfaces of a single albedo, cosine-weighted bounces, no light sources
+//! Path tracing: Lambertian surfaces of a single albedo (or, coloured by the grid's attribute, the
+//! colour of the value at each hit cell), cosine-weighted bounces, no light sources
 //! but the environment (no shadow rays: light arrives only when a path escapes); a path that is
 //! still on the surface after `bounces` scatterings contributes nothing. Every (pixel, sample) has
 //! its own random stream, so images do not depend on the thread count. Samples are accumulated in
@@ -15,10 +16,11 @@ use crate::env::Environment;
 use crate::grid_tracer::{GridTracer, Traversal};
 use crate::sample::{cosine_hemisphere, Rng};
 use isogrid::camera::{dot, Camera, Ray};
+use isogrid::colormap::Coloring;
 use isogrid::error::{Error, Result};
 use isogrid::grid::CellGrid;
 use isogrid::progress::Progress;
-use isogrid::shading::{shade, to_srgb8, ALBEDO, BACKGROUND_SRGB};
+use isogrid::shading::{shade_albedo, to_srgb8, ALBEDO, BACKGROUND_SRGB};
 use rayon::prelude::*;
 
 /// How pixels get their colour.
@@ -60,6 +62,9 @@ pub struct RenderOptions {
     /// How rays find candidate metacells; the hits are the same either way.
     pub traversal: Traversal,
     pub shading: Shading,
+    /// Colour the surface by the grid's attribute (its value at the hit cell, through the map) as
+    /// the diffuse albedo, in Phong shading and path tracing alike; `None`: the constant albedo.
+    pub coloring: Option<Coloring>,
 }
 
 impl Default for RenderOptions {
@@ -68,6 +73,22 @@ impl Default for RenderOptions {
             crossing: Crossing::Samples3,
             traversal: Traversal::default(),
             shading: Shading::Phong,
+            coloring: None,
+        }
+    }
+}
+
+/// The diffuse albedo of each hit cell: the attribute's colour, or one albedo for all.
+struct Albedo<'a> {
+    colored: Option<(&'a isogrid::CellAttribute, &'a Coloring)>,
+    constant: [f32; 3],
+}
+
+impl Albedo<'_> {
+    fn of(&self, hit: &Hit) -> [f32; 3] {
+        match self.colored {
+            Some((attribute, coloring)) => coloring.albedo(attribute.value(hit.cell as usize)),
+            None => self.constant,
         }
     }
 }
@@ -88,6 +109,9 @@ pub struct Image {
     pub normal: Vec<[f32; 3]>,
     /// Cluster index of the hit cell; `u32::MAX` on a miss.
     pub cluster: Vec<u32>,
+    /// The grid's attribute at the hit cell (the value stored for it), NaN on a miss; `None` when
+    /// the grid has no attribute.
+    pub value: Option<Vec<f32>>,
     /// Closest-hit queries made (primary rays plus every path segment).
     pub rays_traced: u64,
     /// Wall-clock seconds spent building the tracer (its traversal's structures) before the
@@ -140,6 +164,22 @@ pub fn render_with_progress(
             1 + p.samples_per_pixel as u64
         }
     };
+    let constant = match &options.shading {
+        Shading::PathTrace(p) => p.albedo,
+        Shading::Phong => ALBEDO,
+    };
+    let albedo = Albedo {
+        colored: match (&options.coloring, grid.attribute()) {
+            (Some(coloring), Some(attribute)) => Some((attribute, coloring)),
+            (Some(_), None) => {
+                return Err(Error::invalid(
+                    "colouring asks for the grid's attribute, and the grid has none",
+                ))
+            }
+            (None, _) => None,
+        },
+        constant,
+    };
     progress.start(passes * h as u64);
     let build = std::time::Instant::now();
     let tracer = GridTracer::new(grid, options.crossing, options.traversal);
@@ -182,7 +222,7 @@ pub fn render_with_progress(
                         let (x, y) = pixel(i);
                         let d = to_camera(camera.ray(x, y).direction);
                         let n = to_camera(hit.normal);
-                        shade(n.map(|v| v as f32), d.map(|v| -v as f32))
+                        shade_albedo(n.map(|v| v as f32), d.map(|v| -v as f32), albedo.of(hit))
                     }
                 })
                 .collect()
@@ -205,7 +245,8 @@ pub fn render_with_progress(
                             let mut rng = Rng::for_sample(p.seed, i as u64, s as u64);
                             let (x, y) = pixel(i);
                             let ray = camera.ray_at(x as f64 + rng.unit(), y as f64 + rng.unit());
-                            let (l, path_rays) = trace_path(&tracer, ray, p, offset, &mut rng);
+                            let (l, path_rays) =
+                                trace_path(&tracer, ray, p, &albedo, offset, &mut rng);
                             for c in 0..3 {
                                 acc[c] += l[c] as f64;
                             }
@@ -235,6 +276,12 @@ pub fn render_with_progress(
         .iter()
         .map(|h| h.map_or(u32::MAX, |h| h.cluster))
         .collect();
+    let value = grid.attribute().map(|attribute| {
+        primary
+            .iter()
+            .map(|h| h.map_or(f32::NAN, |h| attribute.value(h.cell as usize)))
+            .collect()
+    });
     Ok(Image {
         width: w,
         height: h,
@@ -243,6 +290,7 @@ pub fn render_with_progress(
         depth,
         normal,
         cluster,
+        value,
         rays_traced,
         build_seconds,
     })
@@ -253,6 +301,7 @@ fn trace_path(
     tracer: &GridTracer,
     mut ray: Ray,
     p: &PathTraceOptions,
+    albedo: &Albedo,
     offset: f64,
     rng: &mut Rng,
 ) -> ([f32; 3], u64) {
@@ -278,18 +327,11 @@ fn trace_path(
             direction: cosine_hemisphere(n, rng),
         };
         // Cosine-weighted sampling cancels cos θ / π of the Lambertian BRDF: only albedo remains.
-        for (t, albedo) in throughput.iter_mut().zip(p.albedo) {
-            *t *= albedo;
+        for (t, a) in throughput.iter_mut().zip(albedo.of(&hit)) {
+            *t *= a;
         }
     }
     ([0.0; 3], p.bounces as u64 + 1)
 }
 
-fn srgb8_to_linear(v: u8) -> f32 {
-    let s = v as f32 / 255.0;
-    if s <= 0.04045 {
-        s / 12.92
-    } else {
-        ((s + 0.055) / 1.055).powf(2.4)
-    }
-}
+use isogrid::colormap::srgb8_to_linear;

@@ -28,6 +28,7 @@
 pub mod attribute;
 pub mod camera;
 pub mod cgc;
+pub mod colormap;
 pub mod env_map;
 pub mod error;
 pub mod extract;

@@ -34,12 +34,17 @@ fn dot3(a: [f32; 3], b: [f32; 3]) -> f32 {
 /// back faces are shaded as if flipped, like two-sided lighting) seen along camera-space `view`
 /// (unit vector from the point towards the eye).
 pub fn shade(n: [f32; 3], view: [f32; 3]) -> [f32; 3] {
+    shade_albedo(n, view, ALBEDO)
+}
+
+/// [`shade`] with another diffuse albedo (linear): a surface coloured by an attribute.
+pub fn shade_albedo(n: [f32; 3], view: [f32; 3], albedo: [f32; 3]) -> [f32; 3] {
     let n = if dot3(n, view) < 0.0 {
         n.map(|c| -c)
     } else {
         n
     };
-    let mut rgb = ALBEDO.map(|a| a * AMBIENT);
+    let mut rgb = albedo.map(|a| a * AMBIENT);
     for (dir, radiance) in [
         (KEY_LIGHT_DIR, KEY_LIGHT_RADIANCE),
         (FILL_LIGHT_DIR, FILL_LIGHT_RADIANCE),
@@ -53,7 +58,7 @@ pub fn shade(n: [f32; 3], view: [f32; 3]) -> [f32; 3] {
         let spec = SPECULAR * (SHININESS + 8.0) / (8.0 * std::f32::consts::PI)
             * dot3(n, h).max(0.0).powf(SHININESS);
         for c in 0..3 {
-            rgb[c] += radiance * ndl * (ALBEDO[c] / std::f32::consts::PI + spec);
+            rgb[c] += radiance * ndl * (albedo[c] / std::f32::consts::PI + spec);
         }
     }
     rgb

@@ -10,13 +10,14 @@ use crate::progress;
 use crate::report::print_json;
 use anyhow::{bail, Result};
 use clap::builder::{PossibleValuesParser, TypedValueParser};
+use isogrid::colormap::ColorMap;
 use isogrid::{Camera, Progress};
 use isogrid_render::{
-    Aov, Backend, CameraSpec, CellRaster, Crossing, EnvSource, Mode, Placement, Primary,
+    Aov, Backend, CameraSpec, CellRaster, ColorSpec, Crossing, EnvSource, Mode, Placement, Primary,
     RenderContext, RenderRequest, Rendered, RequestParts,
 };
 use serde::Serialize;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::Duration;
@@ -88,7 +89,8 @@ pub struct Args {
     #[arg(short, long, value_name = "OUT.png")]
     pub output: Option<PathBuf>,
     /// Per-pixel outputs as .npy: depth=D.npy (f32 HxW, inf on miss), normal=N.npy (f32 HxWx3,
-    /// NaN on miss), cluster=C.npy (u32 HxW, 4294967295 on miss), comma-separated.
+    /// NaN on miss), cluster=C.npy (u32 HxW, 4294967295 on miss), value=V.npy (f32 HxW, the
+    /// attribute at the hit cell, NaN on a miss), comma-separated.
     #[arg(long, value_name = "NAME=FILE,...", value_parser = parse_aovs)]
     pub aov: Option<Aovs>,
     /// Path tracing: samples per pixel, on either backend (default 16, or --frames).
@@ -116,9 +118,32 @@ pub struct Args {
     pub traversal: TraversalArg,
     #[command(flatten)]
     pub threads: ThreadArgs,
+    /// Colour map of the attribute (a .cgc's own, or --color-by): viridis (default), magma,
+    /// inferno, plasma, cividis, turbo, gray or rdbu.
+    #[arg(long, value_name = "NAME", value_parser = parse_cmap)]
+    pub cmap: Option<ColorMap>,
+    /// Values the colour map spans, LO,HI (default: the attribute's range on the surface).
+    #[arg(long, value_name = "LO,HI", value_parser = parse_clim, allow_hyphen_values = true)]
+    pub clim: Option<[f64; 2]>,
     /// Print one JSON object.
     #[arg(long)]
     pub json: bool,
+}
+
+fn parse_cmap(s: &str) -> Result<ColorMap, String> {
+    ColorMap::from_name(s).map_err(|e| e.to_string())
+}
+
+/// "LO,HI" → [LO, HI], finite with LO < HI.
+fn parse_clim(s: &str) -> Result<[f64; 2], String> {
+    let bad = || format!("--clim takes LO,HI with finite LO < HI, not {s:?}");
+    let (lo, hi) = s.split_once(',').ok_or_else(bad)?;
+    let clim = [
+        lo.trim().parse().map_err(|_| bad())?,
+        hi.trim().parse().map_err(|_| bad())?,
+    ];
+    isogrid::colormap::check_clim(clim).map_err(|_| bad())?;
+    Ok(clim)
 }
 
 /// Output paths of `--aov`.
@@ -127,6 +152,7 @@ pub struct Aovs {
     pub depth: Option<PathBuf>,
     pub normal: Option<PathBuf>,
     pub cluster: Option<PathBuf>,
+    pub value: Option<PathBuf>,
 }
 
 impl Aovs {
@@ -135,6 +161,7 @@ impl Aovs {
             Aov::Depth => &mut self.depth,
             Aov::Normal => &mut self.normal,
             Aov::Cluster => &mut self.cluster,
+            Aov::Value => &mut self.value,
         }
     }
 
@@ -144,6 +171,7 @@ impl Aovs {
             (Aov::Depth, &self.depth),
             (Aov::Normal, &self.normal),
             (Aov::Cluster, &self.cluster),
+            (Aov::Value, &self.value),
         ]
         .into_iter()
         .filter_map(|(aov, path)| path.as_ref().map(|p| (aov, p)))
@@ -241,7 +269,16 @@ struct RenderReport {
     probed_cells: Option<u64>,
     /// GPU: the raster that drew the cells, `compute` or `hardware`.
     cell_raster: Option<&'static str>,
+    /// The colour map and range when the surface is coloured by its attribute.
+    color: Option<ColorReport>,
     output: Option<PathBuf>,
+}
+
+#[derive(Serialize)]
+struct ColorReport {
+    attribute: String,
+    cmap: &'static str,
+    clim: [f64; 2],
 }
 
 impl RenderReport {
@@ -280,6 +317,13 @@ impl RenderReport {
                 CellRaster::Hardware => "hardware",
                 _ => "compute",
             }),
+            color: grid.attribute().map(|a| ColorReport {
+                attribute: a.info().name.clone(),
+                cmap: args.cmap.unwrap_or_default().name(),
+                clim: args
+                    .clim
+                    .unwrap_or_else(|| isogrid::colormap::Coloring::default_clim(a.info().range)),
+            }),
             output: args.output.clone(),
         };
         (report, r)
@@ -303,6 +347,7 @@ fn check_outputs(args: &Args) -> Result<()> {
                 Aov::Depth => "the depth AOV",
                 Aov::Normal => "the normal AOV",
                 Aov::Cluster => "the cluster AOV",
+                Aov::Value => "the value AOV",
             },
             path,
             extensions: &[".npy"],
@@ -311,11 +356,22 @@ fn check_outputs(args: &Args) -> Result<()> {
     let env = EnvSource::parse(&args.env);
     let mut inputs = vec![args.source.input.as_path()];
     inputs.extend(env.path());
+    let color_by = args.source.color_by.as_deref().map(Path::new);
+    inputs.extend(color_by.filter(|p| p.exists()));
     outputs::check(&inputs, &outs)
 }
 
-/// The request the flags describe (checked, environment map read).
-fn request(args: &Args) -> Result<RenderRequest> {
+/// Whether the flags ask for colour whatever the grid holds.
+fn color_asked(args: &Args) -> bool {
+    args.cmap.is_some()
+        || args.clim.is_some()
+        || args.source.color_by.is_some()
+        || args.aov.as_ref().is_some_and(|a| a.value.is_some())
+}
+
+/// The request the flags describe (checked, environment map read); `colored`: colour the
+/// surface by the grid's attribute.
+fn request(args: &Args, colored: bool) -> Result<RenderRequest> {
     let (width, height) = args.size;
     let camera = match &args.camera {
         Some(spec) => {
@@ -362,6 +418,10 @@ fn request(args: &Args) -> Result<RenderRequest> {
             .unwrap_or_default(),
         occlusion_culling: !args.no_occlusion_culling,
         cell_raster: args.cell_raster,
+        color: colored.then(|| ColorSpec {
+            map: args.cmap.unwrap_or_default(),
+            clim: args.clim,
+        }),
     };
     Ok(RenderRequest::new(parts)?)
 }
@@ -396,10 +456,18 @@ fn with_progress_bar<T: Send>(
 pub fn run(args: Args) -> Result<()> {
     // Everything that does not need the data first.
     check_outputs(&args)?;
-    let request = request(&args)?;
+    request(&args, color_asked(&args))?;
     // The input before the GPU: a bad file or a missing --iso fails without starting a device
     // (whose drivers may print their own lines).
     let (grid, volume) = args.threads.install(|| args.source.load_with_volume())??;
+    if color_asked(&args) && grid.attribute().is_none() {
+        bail!(
+            "{}: --cmap, --clim and the value AOV colour by the grid's attribute, and it has none \
+             (extract with --color-by ATTR, or give --color-by here)",
+            args.source.input.display()
+        );
+    }
+    let request = request(&args, grid.attribute().is_some())?;
     let ctx = RenderContext::new();
     let decision = ctx.decide(&request)?;
     if let Some(note) = &decision.note {
@@ -444,6 +512,12 @@ pub fn run(args: Args) -> Result<()> {
             }
             Aov::Cluster => {
                 isogrid_io::image::write_npy_u32_hw(path, width, height, &rendered.cluster)?
+            }
+            Aov::Value => {
+                let value = rendered.value.as_ref().ok_or_else(|| {
+                    anyhow::anyhow!("the value AOV came back empty from the renderer")
+                })?;
+                isogrid_io::image::write_npy_f32_hw(path, width, height, value)?
             }
         }
     }

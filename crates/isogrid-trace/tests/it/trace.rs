@@ -542,6 +542,7 @@ fn renderer_aovs_match(traversal: Traversal) {
         crossing: Crossing::Exact,
         traversal,
         shading: Shading::Phong,
+        coloring: None,
     };
     let image = render(&grid, &camera, &options).unwrap();
     let tracer = GridTracer::new(&grid, Crossing::Exact, traversal);
@@ -597,6 +598,7 @@ fn furnace(albedo: f32) -> (isogrid_trace::Image, f64) {
             albedo: [albedo; 3],
             seed: 1,
         }),
+        coloring: None,
     };
     let image = render(&grid, &camera, &options).unwrap();
     let mean =
