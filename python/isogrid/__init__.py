@@ -169,6 +169,8 @@ def extract(
     precision: Optional[int] = None,
     threads: Optional[int] = None,
     series: Optional[str] = None,
+    attribute: Union[np.ndarray, Volume, PathLike, None] = None,
+    attribute_precision: int = 16,
 ) -> CellGrid:
     """Extracts the active cells of a 3-D volume into clustered grid cells.
 
@@ -188,6 +190,14 @@ def extract(
         threads: worker threads (default all cores); the result is the same for any count.
         series: when ``array`` is the path of a DICOM folder, the SeriesInstanceUID to read, as
             :func:`load_volume` (and the CLI's ``--series``) takes it.
+        attribute: a second volume to colour the surface by (``isogrid extract --color-by``):
+            each active cell stores its value at the cell's surface point (the centroid of the
+            edge crossings). An array of the surface's shape lies on the surface's samples; a
+            :class:`Volume` or a path brings its own geometry and is resampled trilinearly in
+            world space (origin, spacing, direction), NaN outside it. Read it back as
+            ``grid.attribute``; :func:`render` draws it through a colour map.
+        attribute_precision: bits per stored attribute value: 8 or 16 (codes over the values'
+            range on the surface) or 32 (float32).
 
     The GIL is released while extracting; do not modify ``array`` from another thread meanwhile.
 
@@ -200,6 +210,11 @@ def extract(
     spacing3 = _spacing_of(array, spacing)
     placed = array if isinstance(array, Volume) else None
     prepared, fortran = _prepare(array)
+    attribute_arg = None
+    if attribute is not None:
+        attribute_arg = _attribute_arg(
+            attribute, prepared, fortran, spacing3, placed, _int(attribute_precision, "attribute_precision")
+        )
     grid = _isogrid.extract(
         prepared,
         fortran,
@@ -210,9 +225,32 @@ def extract(
         threads=None if threads is None else _int(threads, "threads", 1),
         origin=None if placed is None else placed.origin,
         direction=None if placed is None else placed.direction,
+        attribute=attribute_arg,
     )
     _warn_if_empty(grid)
     return grid
+
+
+def _attribute_arg(
+    attribute: Any, surface: np.ndarray, fortran: bool, spacing: Triple, placed: Optional[Volume], bits: int
+) -> Tuple[Any, ...]:
+    """The attribute of :func:`extract` as the extension takes it: (array, fortran, spacing,
+    origin, direction, name, bits)."""
+    name = os.path.basename(os.fspath(attribute)) if isinstance(attribute, (str, os.PathLike)) else "attribute"
+    attribute = _volume_of(attribute)
+    prepared, attribute_fortran = _prepare(attribute)
+    if isinstance(attribute, Volume):
+        return (prepared, attribute_fortran, attribute.spacing, attribute.origin, attribute.direction, name, bits)
+    dims = prepared.shape if attribute_fortran else prepared.shape[::-1]
+    surface_dims = surface.shape if fortran else surface.shape[::-1]
+    if tuple(dims) != tuple(surface_dims):
+        raise ValueError(
+            f"an attribute array of {tuple(dims)} samples (x, y, z) lies on the surface's grid of "
+            f"{tuple(surface_dims)}; pass a Volume with its own geometry to resample it"
+        )
+    origin = None if placed is None else placed.origin
+    direction = None if placed is None else placed.direction
+    return (prepared, attribute_fortran, spacing, origin, direction, name, bits)
 
 
 def load(path: PathLike) -> CellGrid:
@@ -387,6 +425,8 @@ def render(
     traversal: str = "blocks",
     env: Optional[Union[str, "os.PathLike[str]"]] = None,
     progress: Optional[Callable[[int, int], Any]] = None,
+    cmap: Optional[str] = None,
+    clim: Optional[Tuple[float, float]] = None,
 ) -> Any:
     """An image of the isosurface, as ``isogrid render`` draws it.
 
@@ -407,7 +447,8 @@ def render(
             included) or ``"cpu"``.
         aovs: any of ``"depth"`` (H×W float32 eye distance, +inf on misses), ``"normal"``
             (H×W×3 float32 unit world normal, NaN on misses), ``"cluster"`` (H×W uint32,
-            4294967295 on misses), ``"backend"`` (which backend rendered).
+            4294967295 on misses), ``"value"`` (H×W float32, the grid's attribute at the hit
+            cell, NaN on misses; grids with an attribute), ``"backend"`` (which backend rendered).
         frames: on the GPU, how many times the view is rendered (the visibility buffer converges).
         spp: path tracing: samples per pixel, on either backend.
         bounces: path tracing: scatterings per path.
@@ -417,6 +458,11 @@ def render(
             but slower to build); the same image either way.
         env: path tracing: an equirectangular ``.hdr`` or ``.exr`` map (+y up), or ``None`` for
             the built-in sky.
+        cmap: colour map of a grid with an attribute: ``"viridis"`` (default), ``"magma"``,
+            ``"inferno"``, ``"plasma"``, ``"cividis"``, ``"turbo"``, ``"gray"`` or ``"rdbu"``. A grid
+            with an attribute is always drawn in colour, on the CPU tracer (the GPU renderer
+            draws one colour: ``backend="gpu"`` is refused).
+        clim: ``(lo, hi)``, the values the map spans (default the attribute's range on the surface).
         progress: called as ``progress(done, total)`` about ten times a second while the render
             runs, with ``done`` increasing (image rows of each pass on the CPU, frames on the GPU)
             and once at the end. If it raises, the render stops within a tile or a frame and the
@@ -430,8 +476,10 @@ def render(
     w, h = (_int(v, "size", 1) for v in size)
     names = tuple(aovs)
     for name in names:
-        if name not in ("depth", "normal", "cluster", "backend"):
-            raise ValueError(f"unknown AOV {name!r} (depth, normal, cluster or backend)")
+        if name not in ("depth", "normal", "cluster", "value", "backend"):
+            raise ValueError(f"unknown AOV {name!r} (depth, normal, cluster, value or backend)")
+    if "value" in names and grid.attribute is None:
+        raise ValueError("the value AOV is the grid's attribute, and the grid has none")
     out = _isogrid.render(
         grid,
         camera,
@@ -446,6 +494,8 @@ def render(
         traversal=str(traversal),
         env=None if env is None else os.fspath(env),
         progress=progress,
+        cmap=None if cmap is None else str(cmap),
+        clim=None if clim is None else (float(clim[0]), float(clim[1])),
     )
     if not names:
         return out["image"]

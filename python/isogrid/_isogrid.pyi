@@ -35,6 +35,12 @@ class CellGrid:
     @property
     def is_mapped(self) -> bool: ...
     @property
+    def attribute(self) -> Optional[npt.NDArray[np.float32]]:
+        """The per-cell attribute's values (one per active cell, NaN where none), or None."""
+    @property
+    def attribute_info(self) -> Optional[Dict[str, Any]]:
+        """name, bits (8, 16 or 32) and range (finite, on the surface) of the attribute, or None."""
+    @property
     def blocks(self) -> np.ndarray:
         """Read-only, fields metacell_count u4, metacell_pointer u4, min f4, max f4."""
     @property
@@ -57,6 +63,7 @@ def extract(
     threads: Optional[int] = None,
     origin: Optional[Sequence[float]] = None,
     direction: Optional[Sequence[Sequence[float]]] = None,
+    attribute: Optional[Tuple[Any, ...]] = None,
 ) -> CellGrid: ...
 def load(path: _Path) -> CellGrid: ...
 def marching_cubes(
@@ -108,6 +115,8 @@ def render(
     traversal: str = "blocks",
     env: Optional[_Path] = None,
     progress: Optional[Callable[[int, int], Any]] = None,
+    cmap: Optional[str] = None,
+    clim: Optional[Tuple[float, float]] = None,
 ) -> Dict[str, Any]: ...
 
 # Tiled extraction, driven by `isogrid.dask`.

@@ -4,9 +4,10 @@
 use crate::array::{spacing3, VolumeArg};
 use crate::errors::{invalid, to_py};
 use crate::pool::run_detached;
-use isogrid::{layout, ExtractOptions, GridStats, Iso, Precision, ScalarType};
+use isogrid::extract::attribute::sample_attribute;
+use isogrid::{layout, AttributePrecision, ExtractOptions, GridStats, Iso, Precision, ScalarType};
 use numpy::ndarray::{ArrayView1, ArrayView2};
-use numpy::{PyArray1, PyArray2, PyArrayDescr, PyArrayMethods};
+use numpy::{IntoPyArray, PyArray1, PyArray2, PyArrayDescr, PyArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict};
 use std::path::PathBuf;
@@ -24,6 +25,9 @@ use std::path::PathBuf;
 ///   3×u2 each: view it with dtype [("lo", "3<u2"), ("hi", "3<u2")]); fields position (3×u2,
 ///   in units of 2 cells), cell_mask (bit b = cell (b&1, b>>1&1, b>>2&1)), cell_pointer.
 /// - `cells`: uint8 (active_cells, bytes_per_cell), 8 corner codes per cell at `precision` bits.
+///
+/// `attribute` (float32 per active cell, or `None`) and `attribute_info` (name, bits, range) give
+/// the per-cell attribute of `extract(..., attribute=...)` or of a `.cgc` file.
 ///
 /// Methods: `cell_positions()`, `corners()`, `save(path)`, `to_bytes()`.
 ///
@@ -43,7 +47,7 @@ impl CellGrid {
 
 /// Extracts the active cells of a 3-D array (see `isogrid.extract`, which prepares `array`).
 #[pyfunction]
-#[pyo3(signature = (array, fortran, spacing, iso=None, iso_normalized=None, precision=None, threads=None, origin=None, direction=None))]
+#[pyo3(signature = (array, fortran, spacing, iso=None, iso_normalized=None, precision=None, threads=None, origin=None, direction=None, attribute=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn extract(
     py: Python<'_>,
@@ -56,16 +60,41 @@ pub fn extract(
     threads: Option<usize>,
     origin: Option<Vec<f64>>,
     direction: Option<Vec<Vec<f64>>>,
+    attribute: Option<AttributeArg<'_, '_>>,
 ) -> PyResult<CellGrid> {
     let volume = VolumeArg::new(array, fortran, spacing3(spacing)?)?.place(origin, direction)?;
     let view = volume.view()?;
     let mut options = ExtractOptions::new(iso_arg(iso, iso_normalized)?);
     options.precision = precision.map(precision_arg).transpose()?;
     let inner = run_detached(py, threads, move || isogrid::extract(&view, &options))?;
-    Ok(CellGrid {
-        inner: inner.map_err(to_py)?,
-    })
+    let mut inner = inner.map_err(to_py)?;
+    if let Some((array, fortran, spacing, origin, direction, name, bits)) = attribute {
+        let precision = AttributePrecision::from_bits(bits).ok_or_else(|| {
+            invalid(format!("attribute precision must be 8, 16 or 32, not {bits}"))
+        })?;
+        let volume =
+            VolumeArg::new(&array, fortran, spacing3(spacing)?)?.place(origin, direction)?;
+        let mut view = volume.view()?;
+        let grid = &inner;
+        let sampled = run_detached(py, threads, move || {
+            sample_attribute(grid, &mut view, &name, precision)
+        })?
+        .map_err(to_py)?;
+        inner.set_attribute(sampled).map_err(to_py)?;
+    }
+    Ok(CellGrid { inner })
 }
+
+/// The attribute volume of `extract`: (array, fortran, spacing, origin, direction, name, bits).
+type AttributeArg<'a, 'py> = (
+    Bound<'py, PyAny>,
+    bool,
+    Vec<f64>,
+    Option<Vec<f64>>,
+    Option<Vec<Vec<f64>>>,
+    String,
+    u32,
+);
 
 /// `stats` as a dict with the names of the CLI's `--json` output (without `seconds`).
 pub fn stats_dict<'py>(py: Python<'py>, s: &GridStats) -> PyResult<Bound<'py, PyDict>> {
@@ -210,6 +239,30 @@ impl CellGrid {
     fn active_cells(&self) -> usize {
         self.inner.active_cells()
     }
+
+    /// The per-cell attribute's values as float32 (one per active cell, in cell order, NaN where
+    /// there is none), decoded from their stored codes; `None` without an attribute.
+    #[getter]
+    fn attribute<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray1<f32>>> {
+        let a = self.inner.attribute()?;
+        let values: Vec<f32> = (0..a.len()).map(|i| a.value(i)).collect();
+        Some(values.into_pyarray(py))
+    }
+
+    /// The attribute's name, stored bits (8, 16 or 32) and finite range on the surface; `None`
+    /// without an attribute.
+    #[getter]
+    fn attribute_info<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
+        let Some(a) = self.inner.attribute() else {
+            return Ok(None);
+        };
+        let d = PyDict::new(py);
+        d.set_item("name", &a.info().name)?;
+        d.set_item("bits", a.info().precision.bits())?;
+        d.set_item("range", (a.info().range[0], a.info().range[1]))?;
+        Ok(Some(d))
+    }
+
 
     /// Whether the buffers are views of a memory-mapped `.cgc` file.
     #[getter]

@@ -6,8 +6,9 @@ use crate::errors::{invalid, to_py};
 use crate::grid::CellGrid;
 use crate::pool::run_watched;
 use isogrid::Progress;
+use isogrid::colormap::ColorMap;
 use isogrid_render::{
-    Backend, CameraSpec, EnvSource, Mode, Placement, RenderContext, RenderRequest, RequestParts,
+    Backend, CameraSpec, ColorSpec, EnvSource, Mode, Placement, RenderContext, RenderRequest, RequestParts,
     Traversal,
 };
 use numpy::ndarray::{Array2, Array3};
@@ -39,7 +40,7 @@ fn camera_spec(camera: &Bound<'_, PyAny>) -> PyResult<CameraSpec> {
 
 /// Renders `grid`; see `isogrid.render` for the arguments.
 #[pyfunction]
-#[pyo3(signature = (grid, camera, width, height, mode, backend, frames=1, spp=16, bounces=3, threads=None, traversal="blocks", env=None, progress=None))]
+#[pyo3(signature = (grid, camera, width, height, mode, backend, frames=1, spp=16, bounces=3, threads=None, traversal="blocks", env=None, progress=None, cmap=None, clim=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn render<'py>(
     py: Python<'py>,
@@ -56,8 +57,28 @@ pub fn render<'py>(
     traversal: &str,
     env: Option<PathBuf>,
     progress: Option<Bound<'py, PyAny>>,
+    cmap: Option<&str>,
+    clim: Option<(f64, f64)>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let grid = grid.inner();
+    // A grid with an attribute is drawn in colour; a colour map or range needs one.
+    let color = match grid.attribute() {
+        Some(_) => Some(ColorSpec {
+            map: cmap
+                .map(ColorMap::from_name)
+                .transpose()
+                .map_err(to_py)?
+                .unwrap_or_default(),
+            clim: clim.map(|(lo, hi)| [lo, hi]),
+        }),
+        None if cmap.is_some() || clim.is_some() => {
+            return Err(invalid(
+                "cmap and clim colour by the grid's attribute, and it has none \
+                 (extract with attribute=...)",
+            ))
+        }
+        None => None,
+    };
     let traversal = Traversal::from_name(traversal).ok_or_else(|| {
         invalid(format!(
             "traversal must be 'blocks' or 'bvh', not {traversal:?}"
@@ -75,6 +96,7 @@ pub fn render<'py>(
         frames,
         bounces,
         traversal,
+        color,
         ..RequestParts::default()
     })
     .map_err(to_py)?;
@@ -121,6 +143,14 @@ pub fn render<'py>(
             .map_err(shape_err)?
             .into_pyarray(py),
     )?;
+    if let Some(value) = out.value {
+        dict.set_item(
+            "value",
+            Array2::from_shape_vec((h, w), value)
+                .map_err(shape_err)?
+                .into_pyarray(py),
+        )?;
+    }
     dict.set_item("backend", backend)?;
     dict.set_item("adapter", out.adapter)?;
     dict.set_item("samples", out.samples)?;

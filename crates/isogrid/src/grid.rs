@@ -122,6 +122,11 @@ impl CellGrid {
     /// The grid with `attribute` as its per-cell attribute (replacing any it had). Fails unless the
     /// attribute has one value per active cell.
     pub fn with_attribute(mut self, attribute: CellAttribute) -> crate::Result<Self> {
+        self.set_attribute(attribute)?;
+        Ok(self)
+    }
+    /// Gives the grid `attribute` (see [`CellGrid::with_attribute`]).
+    pub fn set_attribute(&mut self, attribute: CellAttribute) -> crate::Result<()> {
         if attribute.len() != self.active_cells() {
             return Err(crate::Error::invalid(format!(
                 "the attribute has {} values for {} active cells",
@@ -130,7 +135,7 @@ impl CellGrid {
             )));
         }
         self.attribute = Some(attribute);
-        Ok(self)
+        Ok(())
     }
     /// The per-cell attribute, when the grid carries one.
     pub fn attribute(&self) -> Option<&CellAttribute> {

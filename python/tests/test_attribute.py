@@ -1,0 +1,132 @@
+"""Colour by a second volume: ``extract(..., attribute=)``, ``grid.attribute`` and ``render`` with
+``cmap``/``clim``, against a reference computed here with numpy and scipy: each active cell's surface
+point (the centroid of its edge crossings, from ``grid.corners()``) sampled trilinearly with
+``scipy.ndimage.map_coordinates``."""
+
+import numpy as np
+import pytest
+from scipy import ndimage
+
+import isogrid
+
+
+def _sphere(n=40, spacing=(1.0, 1.0, 1.0)):
+    z, y, x = np.mgrid[:n, :n, :n].astype(np.float64)
+    c = (n - 1) / 2
+    r = np.sqrt((x - c) ** 2 + (y - c) ** 2 + (z - c) ** 2)
+    return np.clip(255 - 10 * r, 0, 255).astype(np.uint8)
+
+
+def _surface_points(grid):
+    """(N, 3) index-space (x, y, z) surface point of every active cell, in cell order."""
+    corners = grid.corners().astype(np.float64)
+    iso = float(grid.info["iso_code"])
+    offsets = np.array([[c & 1, c >> 1 & 1, c >> 2 & 1] for c in range(8)], dtype=np.float64)
+    total = np.zeros((len(corners), 3))
+    count = np.zeros(len(corners))
+    for axis in range(3):
+        for c in range(8):
+            if c >> axis & 1:
+                continue
+            d = c | 1 << axis
+            a, b = corners[:, c], corners[:, d]
+            crosses = (a >= iso) != (b >= iso)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                t = np.clip((iso - a) / (b - a), 0, 1)
+            point = np.repeat(offsets[c][None, :], len(corners), axis=0)
+            point[:, axis] = t
+            total[crosses] += point[crosses]
+            count[crosses] += 1
+    return grid.cell_positions().astype(np.float64) + total / count[:, None]
+
+
+def test_attribute_on_the_same_grid_is_the_trilinear_value_at_each_surface_point():
+    sphere = _sphere()
+    rng = np.random.default_rng(3)
+    field = ndimage.gaussian_filter(rng.normal(size=sphere.shape), 2).astype(np.float32)
+    grid = isogrid.extract(sphere, iso=127.5, attribute=field, attribute_precision=32)
+    assert grid.attribute_info == {"name": "attribute", "bits": 32, "range": pytest.approx(grid.attribute_info["range"])}
+    p = _surface_points(grid)
+    # field is indexed [z, y, x].
+    expected = ndimage.map_coordinates(field.astype(np.float64), [p[:, 2], p[:, 1], p[:, 0]], order=1)
+    np.testing.assert_allclose(grid.attribute, expected, rtol=0, atol=1e-5)
+    lo, hi = grid.attribute_info["range"]
+    assert lo == pytest.approx(expected.min(), abs=1e-5) and hi == pytest.approx(expected.max(), abs=1e-5)
+    # 16-bit codes are within half a code step of the range.
+    coded = isogrid.extract(sphere, iso=127.5, attribute=field)
+    assert coded.attribute_info["bits"] == 16
+    np.testing.assert_allclose(coded.attribute, expected, rtol=0, atol=(hi - lo) / 65534 / 2 + 1e-6)
+
+
+def test_a_volume_attribute_is_resampled_in_world_space_with_nan_outside():
+    surface = isogrid.Volume(_sphere(36), spacing=(1.0, 1.5, 2.0), origin=(-20.0, 5.0, 30.0))
+    c, s = np.cos(0.5), np.sin(0.5)
+    direction = ((c, s, 0.0), (-s, c, 0.0), (0.0, 0.0, 1.0))
+    spacing, origin = (1.7, 1.9, 2.5), (-10.0, 2.0, 40.0)
+    rng = np.random.default_rng(5)
+    data = ndimage.gaussian_filter(rng.normal(size=(14, 30, 34)), 1.5).astype(np.float32)  # [z, y, x]
+    attribute = isogrid.Volume(data, spacing=spacing, origin=origin, direction=direction)
+    grid = isogrid.extract(surface, iso=127.5, attribute=attribute, attribute_precision=32)
+    p = _surface_points(grid)
+    # Index → world for each volume: world = origin + Σ_a p_a · spacing_a · direction_a.
+    world = np.asarray(surface.origin) + (p * np.asarray(surface.spacing)) @ np.asarray(surface.direction)
+    m = np.asarray(direction) * np.asarray(spacing)[:, None]  # rows: world step of each index axis
+    q = np.linalg.solve(m.T, (world - np.asarray(origin)).T).T  # attribute index (x, y, z)
+    expected = ndimage.map_coordinates(
+        data.astype(np.float64), [q[:, 2], q[:, 1], q[:, 0]], order=1, mode="constant", cval=np.nan
+    )
+    extent = np.array([33, 29, 13], dtype=np.float64)
+    margin = np.minimum(q, extent - q).min(axis=1)
+    inside, outside = margin > 1e-6, margin < -1e-6
+    assert inside.sum() > 300 and outside.sum() > 300, (inside.sum(), outside.sum())
+    np.testing.assert_allclose(grid.attribute[inside], expected[inside], rtol=0, atol=1e-4)
+    assert np.isnan(grid.attribute[outside]).all()
+
+
+def test_attributes_survive_files_and_pickles_and_render_in_colour(tmp_path):
+    sphere = _sphere(32)
+    z, y, x = np.mgrid[:32, :32, :32]
+    field = (x + 2.0 * y).astype(np.float32)
+    grid = isogrid.extract(sphere, iso=127.5, attribute=field)
+    path = tmp_path / "c.cgc"
+    grid.save(path)
+    loaded = isogrid.load(path)
+    np.testing.assert_array_equal(loaded.attribute, grid.attribute)
+    assert loaded.attribute_info == grid.attribute_info
+    import pickle
+
+    np.testing.assert_array_equal(pickle.loads(pickle.dumps(grid)).attribute, grid.attribute)
+    image, aovs = isogrid.render(grid, size=(64, 48), backend="cpu", aovs=("value", "depth"), cmap="gray")
+    hit = np.isfinite(aovs["depth"])
+    assert hit.sum() > 200
+    assert np.isnan(aovs["value"][~hit]).all()
+    lo, hi = grid.attribute_info["range"]
+    assert (aovs["value"][hit] >= lo - 1e-3).all() and (aovs["value"][hit] <= hi + 1e-3).all()
+    # gray: every hit pixel is grey; viridis is not.
+    assert (image[hit][:, 0] == image[hit][:, 1]).all() and (image[hit][:, 1] == image[hit][:, 2]).all()
+    colour = isogrid.render(grid, size=(64, 48), backend="cpu")
+    assert (colour[hit][:, 0] != colour[hit][:, 2]).mean() > 0.9
+
+
+def test_bad_attributes_and_colour_keywords_are_refused():
+    sphere = _sphere(24)
+    with pytest.raises(ValueError, match="surface's grid"):
+        isogrid.extract(sphere, iso=127.5, attribute=np.zeros((10, 10, 10), np.float32))
+    with pytest.raises(ValueError, match="8, 16 or 32"):
+        isogrid.extract(sphere, iso=127.5, attribute=sphere, attribute_precision=12)
+    far = isogrid.Volume(np.zeros((8, 8, 8), np.float32), origin=(500.0, 0.0, 0.0))
+    with pytest.raises(ValueError, match="does not overlap"):
+        isogrid.extract(sphere, iso=127.5, attribute=far)
+    plain = isogrid.extract(sphere, iso=127.5)
+    assert plain.attribute is None and plain.attribute_info is None
+    with pytest.raises(ValueError, match="has none"):
+        isogrid.render(plain, size=(32, 24), cmap="magma")
+    with pytest.raises(ValueError, match="has none"):
+        isogrid.render(plain, size=(32, 24), aovs=("value",))
+    coloured = isogrid.extract(sphere, iso=127.5, attribute=sphere)
+    with pytest.raises(ValueError, match="viridis"):
+        isogrid.render(coloured, size=(32, 24), cmap="jet")
+    with pytest.raises(ValueError):
+        isogrid.render(coloured, size=(32, 24), clim=(1.0, 1.0))
+    with pytest.raises(Exception, match="does not colour"):
+        isogrid.render(coloured, size=(32, 24), backend="gpu")
