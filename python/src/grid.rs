@@ -4,7 +4,7 @@
 use crate::array::{spacing3, VolumeArg};
 use crate::errors::{invalid, to_py};
 use crate::pool::run_detached;
-use isogrid::extract::attribute::sample_attribute;
+use isogrid::extract::attribute::sample_attribute_in_memory;
 use isogrid::{layout, AttributePrecision, ExtractOptions, GridStats, Iso, Precision, ScalarType};
 use numpy::ndarray::{ArrayView1, ArrayView2};
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyArrayDescr, PyArrayMethods};
@@ -74,10 +74,10 @@ pub fn extract(
         })?;
         let volume =
             VolumeArg::new(&array, fortran, spacing3(spacing)?)?.place(origin, direction)?;
-        let mut view = volume.view()?;
+        let view = volume.view()?;
         let grid = &inner;
         let sampled = run_detached(py, threads, move || {
-            sample_attribute(grid, &mut view, &name, precision)
+            sample_attribute_in_memory(grid, &view, &name, precision)
         })?
         .map_err(to_py)?;
         inner.set_attribute(sampled).map_err(to_py)?;

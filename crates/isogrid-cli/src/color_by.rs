@@ -8,7 +8,9 @@
 
 use crate::args::parse_indices;
 use anyhow::{anyhow, Result};
-use isogrid::extract::attribute::{alignment, grid_geometry, sample_attribute, Alignment};
+use isogrid::extract::attribute::{
+    alignment, grid_geometry, sample_attribute, sample_attribute_in_memory, Alignment,
+};
 use isogrid::{AttributePrecision, CellAttribute, CellGrid};
 use isogrid_io::ReadOptions;
 use std::path::{Path, PathBuf};
@@ -68,17 +70,15 @@ impl AttributeInput {
         precision: AttributePrecision,
     ) -> Result<CellAttribute> {
         let mut region = isogrid_io::open_region(&self.path, &self.options)?;
-        let volume;
-        let mut view;
-        let source: &mut dyn isogrid::extract::stream::RegionSource = match region.as_deref_mut() {
-            Some(region) => region,
-            None => {
-                (volume, _) = crate::input::read_volume(&self.path, &self.options)?;
-                view = volume.view();
-                &mut view
-            }
+        let volume = match region {
+            Some(_) => None,
+            None => Some(crate::input::read_volume(&self.path, &self.options)?.0),
         };
-        let geometry = source.geometry();
+        let geometry = match (&region, &volume) {
+            (Some(region), _) => region.geometry(),
+            (None, Some(volume)) => volume.geometry().clone(),
+            (None, None) => unreachable!("one of the two is read"),
+        };
         let name_both = |e: isogrid::Error| {
             anyhow!(
                 "{}: {} (the surface is {})",
@@ -98,6 +98,13 @@ impl AttributeInput {
                 surface.display()
             );
         }
-        sample_attribute(grid, source, &self.name, precision).map_err(name_both)
+        match (region.as_deref_mut(), &volume) {
+            (Some(region), _) => sample_attribute(grid, region, &self.name, precision),
+            (None, Some(volume)) => {
+                sample_attribute_in_memory(grid, &volume.view(), &self.name, precision)
+            }
+            (None, None) => unreachable!("one of the two is read"),
+        }
+        .map_err(name_both)
     }
 }

@@ -29,7 +29,7 @@ use crate::attribute::{AttributePrecision, CellAttribute};
 use crate::error::{Error, Result};
 use crate::grid::{CellGrid, GridInfo};
 use crate::layout::{read_corners, BLOCK_CELLS, BOUND_SLOT, CLUSTER_SLOTS};
-use crate::volume::{Geometry, ScalarType};
+use crate::volume::{Geometry, Samples, Scalar, ScalarType, VolumeView};
 use rayon::prelude::*;
 use std::ops::Range;
 
@@ -152,70 +152,138 @@ pub fn alignment(grid: &Geometry, attribute: &Geometry) -> Result<Alignment> {
     Ok(Alignment::Resampled { to_attribute })
 }
 
+/// The 12 edges of a cell: (low corner, high corner, axis), corners numbered as in
+/// [`crate::layout`] (bit 0 +x, bit 1 +y, bit 2 +z).
+const EDGES: [(usize, usize, usize); 12] = {
+    let mut edges = [(0, 0, 0); 12];
+    let mut n = 0;
+    let mut axis = 0;
+    while axis < 3 {
+        let mut c = 0;
+        while c < 8 {
+            if c >> axis & 1 == 0 {
+                edges[n] = (c, c | 1 << axis, axis);
+                n += 1;
+            }
+            c += 1;
+        }
+        axis += 1;
+    }
+    edges
+};
+
 /// The centroid of the points where the isosurface crosses a cell's edges, in the cell's own
 /// coordinates `[0, 1]³`, from its eight stored corners (codes, or f32 values at 32 bits) and the
 /// threshold in the same units. The cell's centre when no edge crosses.
 pub fn surface_point(corners: &[f32; 8], iso_code: f32) -> [f64; 3] {
-    let (mut sum, mut n) = ([0.0f64; 3], 0u32);
-    for axis in 0..3 {
-        for c in 0..8usize {
-            if c >> axis & 1 == 1 {
-                continue;
-            }
-            let d = c | 1 << axis;
-            let (a, b) = (corners[c] as f64, corners[d] as f64);
-            let (ia, ib) = (a >= iso_code as f64, b >= iso_code as f64);
-            if ia == ib || a.is_nan() || b.is_nan() {
-                continue;
-            }
-            let t = ((iso_code as f64 - a) / (b - a)).clamp(0.0, 1.0);
-            for k in 0..3 {
-                sum[k] += if k == axis { t } else { (c >> k & 1) as f64 };
-            }
-            n += 1;
+    let mut inside = 0u8;
+    for (c, &v) in corners.iter().enumerate() {
+        inside |= ((v >= iso_code) as u8) << c;
+    }
+    let (mut sum, mut n) = ([0.0f32; 3], 0u32);
+    for &(c, d, axis) in &EDGES {
+        if (inside >> c ^ inside >> d) & 1 == 0 {
+            continue;
         }
+        let (a, b) = (corners[c], corners[d]);
+        if a.is_nan() || b.is_nan() {
+            continue;
+        }
+        let t = ((iso_code - a) / (b - a)).clamp(0.0, 1.0);
+        // The edge's other two coordinates are the low corner's bits.
+        for (k, s) in sum.iter_mut().enumerate() {
+            *s += if k == axis { t } else { (c >> k & 1) as f32 };
+        }
+        n += 1;
     }
     if n == 0 {
         [0.5; 3]
     } else {
-        sum.map(|s| s / n as f64)
+        sum.map(|s| (s / n as f32) as f64)
     }
 }
 
-/// Trilinear interpolation at `q` (index space of a slab whose first plane is `z0`), NaN outside
-/// the volume's `dims` or outside the planes held.
-fn trilinear(samples: &[f32], dims: [usize; 3], planes: &Range<usize>, q: [f64; 3]) -> f32 {
-    const EPS: f64 = 1e-9;
-    let mut base = [0usize; 3];
-    let mut t = [0f64; 3];
-    for a in 0..3 {
-        let extent = dims[a].saturating_sub(1) as f64;
-        if !(q[a] >= -EPS && q[a] <= extent + EPS) {
+/// The attribute samples an interpolation reads: planes `planes` (x-y planes, x fastest) of a
+/// volume of `dims` — a slab read through a [`RegionSource`], or the whole volume in memory.
+struct Lattice<'a, T> {
+    samples: &'a [T],
+    dims: [usize; 3],
+    planes: Range<usize>,
+}
+
+/// `a` to `b` at `t`; the end itself at `t` = 0 or 1, so a NaN with no weight stays out.
+#[inline]
+fn lerp(a: f32, b: f32, t: f32) -> f32 {
+    if t == 0.0 {
+        a
+    } else if t == 1.0 {
+        b
+    } else {
+        a + (b - a) * t
+    }
+}
+
+impl<T: Scalar> Lattice<'_, T> {
+    /// The samples of the block whose first sample is `corner` (17 per axis, fewer at the
+    /// volume's far sides), copied into `out` as a lattice of their own (index space shifted by
+    /// `corner`).
+    fn copy_box<'b>(&self, corner: [usize; 3], out: &'b mut Vec<f32>) -> Lattice<'b, f32> {
+        let dims = [0, 1, 2].map(|a| (BLOCK_CELLS + 1).min(self.dims[a] - corner[a]));
+        let (nx, ny) = (self.dims[0], self.dims[1]);
+        out.clear();
+        for z in corner[2]..corner[2] + dims[2] {
+            for y in corner[1]..corner[1] + dims[1] {
+                let at = corner[0] + nx * (y + ny * (z - self.planes.start));
+                out.extend(
+                    self.samples[at..at + dims[0]]
+                        .iter()
+                        .map(|v| v.to_f64() as f32),
+                );
+            }
+        }
+        Lattice {
+            samples: out,
+            dims,
+            planes: 0..dims[2],
+        }
+    }
+
+    /// Trilinear interpolation at attribute index point `q`; NaN outside the volume or outside
+    /// the planes held.
+    fn trilinear(&self, q: [f64; 3]) -> f32 {
+        const EPS: f64 = 1e-9;
+        let dims = self.dims;
+        let mut base = [0usize; 3];
+        let mut t = [0f32; 3];
+        for a in 0..3 {
+            let extent = dims[a].saturating_sub(1) as f64;
+            if !(q[a] >= -EPS && q[a] <= extent + EPS) {
+                return f32::NAN;
+            }
+            let v = q[a].clamp(0.0, extent);
+            let i = (v as usize).min(dims[a].saturating_sub(2));
+            base[a] = i;
+            t[a] = (v - i as f64).clamp(0.0, 1.0) as f32;
+        }
+        let high_z = (base[2] + 1).min(dims[2] - 1);
+        if !self.planes.contains(&base[2]) || (t[2] > 0.0 && !self.planes.contains(&high_z)) {
             return f32::NAN;
         }
-        let v = q[a].clamp(0.0, extent);
-        let i = (v.floor() as usize).min(dims[a].saturating_sub(2));
-        base[a] = i;
-        t[a] = (v - i as f64).clamp(0.0, 1.0);
+        // Steps to the +1 neighbour along each axis (none on an axis of one sample).
+        let (nx, ny) = (dims[0], dims[1]);
+        let step = [
+            (dims[0] > 1) as usize,
+            if dims[1] > 1 { nx } else { 0 },
+            if dims[2] > 1 { nx * ny } else { 0 },
+        ];
+        let at = base[0] + nx * (base[1] + ny * (base[2] - self.planes.start));
+        let s = |o: usize| self.samples[at + o].to_f64() as f32;
+        let x00 = lerp(s(0), s(step[0]), t[0]);
+        let x10 = lerp(s(step[1]), s(step[1] + step[0]), t[0]);
+        let x01 = lerp(s(step[2]), s(step[2] + step[0]), t[0]);
+        let x11 = lerp(s(step[2] + step[1]), s(step[2] + step[1] + step[0]), t[0]);
+        lerp(lerp(x00, x10, t[1]), lerp(x01, x11, t[1]), t[2])
     }
-    let (nx, ny) = (dims[0], dims[1]);
-    let mut value = 0.0f64;
-    for c in 0..8usize {
-        let o = [c & 1, c >> 1 & 1, c >> 2 & 1];
-        let w: f64 = (0..3)
-            .map(|a| if o[a] == 1 { t[a] } else { 1.0 - t[a] })
-            .product();
-        if w == 0.0 {
-            continue;
-        }
-        let p = [0, 1, 2].map(|a| (base[a] + o[a]).min(dims[a] - 1));
-        if !planes.contains(&p[2]) {
-            return f32::NAN;
-        }
-        let s = samples[p[0] + nx * (p[1] + ny * (p[2] - planes.start))];
-        value += w * s as f64;
-    }
-    value as f32
 }
 
 /// Reads attribute planes `z` of `source` as f32.
@@ -242,99 +310,50 @@ fn read_f32(source: &mut dyn RegionSource, z: Range<usize>, out: &mut Vec<f32>) 
     Ok(())
 }
 
-/// Samples `source` at every active cell's surface point of `grid` and stores the values at
-/// `precision` under `name`. Reads the source one block layer at a time.
-pub fn sample_attribute(
+/// The values of the active cells of blocks `blocks` (block indices in grid order), sampled in
+/// `lattice`, written to `values` (indexed by cell): blocks fill their own runs in parallel.
+fn sample_blocks<T: Scalar>(
     grid: &CellGrid,
-    source: &mut dyn RegionSource,
-    name: &str,
-    precision: AttributePrecision,
-) -> Result<CellAttribute> {
+    blocks: Range<usize>,
+    alignment: &Alignment,
+    lattice: &Lattice<'_, T>,
+    values: &mut [f32],
+) {
     let info = grid.info();
-    let attribute_geometry = source.geometry();
-    let alignment = alignment(&grid_geometry(info), &attribute_geometry)?;
-    let dims = attribute_geometry.dims;
-    crate::memory::ensure_fits("the attribute's values", grid.active_cells() as u64 * 4)?;
-    let mut values = vec![f32::NAN; grid.active_cells()];
-    let [nbx, nby, nbz] = info.block_dims().map(|b| b as usize);
-    let mut slab = Vec::new();
-    let blocks = grid.blocks();
-    for bz in 0..nbz {
-        let layer = bz * nbx * nby..(bz + 1) * nbx * nby;
-        if blocks[layer.clone()].iter().all(|b| b.metacell_count == 0) {
+    let (precision, iso_code) = (info.precision, info.mapping.iso_code);
+    let mut runs = Vec::new();
+    let mut rest: &mut [f32] = values;
+    let mut next = 0usize;
+    let [nbx, nby, _] = info.block_dims().map(|b| b as usize);
+    for b in blocks {
+        let block = &grid.blocks()[b];
+        if block.metacell_count == 0 {
             continue;
         }
-        // The attribute planes this layer's surface points can reach.
-        let z_cells = (bz * BLOCK_CELLS) as f64..=((bz + 1) * BLOCK_CELLS) as f64;
-        let planes = match &alignment {
-            Alignment::SameGrid => bz * BLOCK_CELLS..((bz + 1) * BLOCK_CELLS + 1).min(dims[2]),
-            Alignment::Resampled { to_attribute } => {
-                let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
-                for corner in 0..8 {
-                    let p = [
-                        if corner & 1 == 1 {
-                            info.dims[0] as f64
-                        } else {
-                            0.0
-                        },
-                        if corner & 2 == 2 {
-                            info.dims[1] as f64
-                        } else {
-                            0.0
-                        },
-                        if corner & 4 == 4 {
-                            *z_cells.end()
-                        } else {
-                            *z_cells.start()
-                        },
-                    ];
-                    let q = apply(to_attribute, p)[2];
-                    lo = lo.min(q);
-                    hi = hi.max(q);
-                }
-                let start = lo.floor().max(0.0) as usize;
-                let end = ((hi.ceil() + 1.0).max(0.0) as usize).min(dims[2]);
-                start.min(end)..end
-            }
-        };
-        if !planes.is_empty() {
-            crate::memory::ensure_fits(
-                "a slab of the attribute volume",
-                (dims[0] * dims[1] * planes.len()) as u64 * 8,
-            )?;
-            read_f32(source, planes.clone(), &mut slab)?;
-        }
-        // Each block's cells are one run of the value array, so blocks fill their runs in parallel.
-        let mut runs = Vec::new();
-        let mut rest: &mut [f32] = &mut values;
-        let mut next = 0usize;
-        for b in layer {
-            let block = &blocks[b];
-            if block.metacell_count == 0 {
-                continue;
-            }
-            let slots = &grid.metacells()[block.slots()];
-            let first = slots
-                .iter()
-                .enumerate()
-                .find(|(s, m)| s % CLUSTER_SLOTS != BOUND_SLOT && !m.is_empty())
-                .map(|(_, m)| m.cell_pointer as usize)
-                .unwrap_or(next);
-            let count: usize = slots
-                .iter()
-                .enumerate()
-                .filter(|(s, _)| s % CLUSTER_SLOTS != BOUND_SLOT)
-                .map(|(_, m)| m.active_cells() as usize)
-                .sum();
-            let (_, tail) = std::mem::take(&mut rest).split_at_mut(first - next);
-            let (run, tail) = tail.split_at_mut(count);
-            rest = tail;
-            next = first + count;
-            runs.push((block.slots(), first, run));
-        }
-        let precision_bits = info.precision;
-        let iso_code = info.mapping.iso_code;
-        runs.into_par_iter().for_each(|(slots, first, run)| {
+        let slots = &grid.metacells()[block.slots()];
+        // A block's first slot holds a metacell (padding only ends a cluster).
+        let first = slots[0].cell_pointer as usize;
+        let count: usize = slots
+            .iter()
+            .enumerate()
+            .filter(|(s, _)| s % CLUSTER_SLOTS != BOUND_SLOT)
+            .map(|(_, m)| m.active_cells() as usize)
+            .sum();
+        let (_, tail) = std::mem::take(&mut rest).split_at_mut(first - next);
+        let (run, tail) = tail.split_at_mut(count);
+        rest = tail;
+        next = first + count;
+        let corner = [b % nbx, b / nbx % nby, b / (nbx * nby)].map(|i| i * BLOCK_CELLS);
+        runs.push((block.slots(), corner, first, run));
+    }
+    runs.into_par_iter()
+        .for_each_init(Vec::new, |local, (slots, corner, first, run)| {
+            // On the same grid a block reads only its own 17³ samples: copied row by row first, so
+            // that the cells' Morton order does not turn each interpolation into cache misses.
+            let block_lattice = match alignment {
+                Alignment::SameGrid => Some(lattice.copy_box(corner, local)),
+                Alignment::Resampled { .. } => None,
+            };
             let mut cell = first;
             for (s, m) in grid.metacells()[slots].iter().enumerate() {
                 if s % CLUSTER_SLOTS == BOUND_SLOT || m.is_empty() {
@@ -344,23 +363,138 @@ pub fn sample_attribute(
                     if m.cell_mask >> bit & 1 == 0 {
                         continue;
                     }
-                    let corners = read_corners(grid.cell_record(cell), precision_bits);
+                    let corners = read_corners(grid.cell_record(cell), precision);
                     let t = surface_point(&corners, iso_code);
                     let origin = m.cell_position(bit).map(|c| c as f64);
                     let p = [0, 1, 2].map(|a| origin[a] + t[a]);
-                    let q = match &alignment {
-                        Alignment::SameGrid => p,
-                        Alignment::Resampled { to_attribute } => apply(to_attribute, p),
-                    };
-                    run[cell - first] = if planes.is_empty() {
-                        f32::NAN
-                    } else {
-                        trilinear(&slab, dims, &planes, q)
+                    run[cell - first] = match (alignment, &block_lattice) {
+                        (Alignment::Resampled { to_attribute }, _) => {
+                            lattice.trilinear(apply(to_attribute, p))
+                        }
+                        (Alignment::SameGrid, Some(block)) => {
+                            block.trilinear([0, 1, 2].map(|a| p[a] - corner[a] as f64))
+                        }
+                        (Alignment::SameGrid, None) => unreachable!("copied above"),
                     };
                     cell += 1;
                 }
             }
         });
+}
+
+/// Samples `source` at every active cell's surface point of `grid` and stores the values at
+/// `precision` under `name`. Reads the source one block layer at a time.
+pub fn sample_attribute(
+    grid: &CellGrid,
+    source: &mut dyn RegionSource,
+    name: &str,
+    precision: AttributePrecision,
+) -> Result<CellAttribute> {
+    let info = grid.info();
+    let geometry = source.geometry();
+    let alignment = alignment(&grid_geometry(info), &geometry)?;
+    let dims = geometry.dims;
+    crate::memory::ensure_fits("the attribute's values", grid.active_cells() as u64 * 4)?;
+    let mut values = vec![f32::NAN; grid.active_cells()];
+    let [nbx, nby, nbz] = info.block_dims().map(|b| b as usize);
+    let mut slab = Vec::new();
+    for bz in 0..nbz {
+        let layer = bz * nbx * nby..(bz + 1) * nbx * nby;
+        if grid.blocks()[layer.clone()]
+            .iter()
+            .all(|b| b.metacell_count == 0)
+        {
+            continue;
+        }
+        let planes = layer_planes(info, bz, &alignment, dims);
+        if !planes.is_empty() {
+            crate::memory::ensure_fits(
+                "a slab of the attribute volume",
+                (dims[0] * dims[1] * planes.len()) as u64 * 8,
+            )?;
+            read_f32(source, planes.clone(), &mut slab)?;
+        }
+        let lattice = Lattice {
+            samples: &slab,
+            dims,
+            planes,
+        };
+        sample_blocks(grid, layer, &alignment, &lattice, &mut values);
     }
     Ok(CellAttribute::from_values(name, precision, &values))
+}
+
+/// [`sample_attribute`] from a volume in memory: its samples are read where they lie, with no
+/// slab copied.
+pub fn sample_attribute_in_memory(
+    grid: &CellGrid,
+    volume: &VolumeView<'_>,
+    name: &str,
+    precision: AttributePrecision,
+) -> Result<CellAttribute> {
+    let geometry = volume.geometry();
+    let alignment = alignment(&grid_geometry(grid.info()), geometry)?;
+    crate::memory::ensure_fits("the attribute's values", grid.active_cells() as u64 * 4)?;
+    let mut values = vec![f32::NAN; grid.active_cells()];
+    let all = 0..grid.blocks().len();
+    let planes = 0..geometry.dims[2];
+    macro_rules! with {
+        ($samples:expr) => {
+            sample_blocks(
+                grid,
+                all,
+                &alignment,
+                &Lattice {
+                    samples: $samples,
+                    dims: geometry.dims,
+                    planes,
+                },
+                &mut values,
+            )
+        };
+    }
+    match volume.samples() {
+        Samples::U8(s) => with!(s),
+        Samples::U16(s) => with!(s),
+        Samples::I16(s) => with!(s),
+        Samples::F32(s) => with!(s),
+    }
+    Ok(CellAttribute::from_values(name, precision, &values))
+}
+
+/// The attribute planes the surface points of block layer `bz` can reach.
+fn layer_planes(
+    info: &GridInfo,
+    bz: usize,
+    alignment: &Alignment,
+    dims: [usize; 3],
+) -> Range<usize> {
+    let z_cells = [(bz * BLOCK_CELLS) as f64, ((bz + 1) * BLOCK_CELLS) as f64];
+    match alignment {
+        Alignment::SameGrid => bz * BLOCK_CELLS..((bz + 1) * BLOCK_CELLS + 1).min(dims[2]),
+        Alignment::Resampled { to_attribute } => {
+            let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+            for corner in 0..8 {
+                let p = [
+                    if corner & 1 == 1 {
+                        info.dims[0] as f64
+                    } else {
+                        0.0
+                    },
+                    if corner & 2 == 2 {
+                        info.dims[1] as f64
+                    } else {
+                        0.0
+                    },
+                    z_cells[corner >> 2 & 1],
+                ];
+                let q = apply(to_attribute, p)[2];
+                lo = lo.min(q);
+                hi = hi.max(q);
+            }
+            let start = lo.floor().max(0.0) as usize;
+            let end = ((hi.ceil() + 1.0).max(0.0) as usize).min(dims[2]);
+            start.min(end)..end
+        }
+    }
 }
