@@ -43,14 +43,15 @@ const shaderPlugin = {
   },
 };
 
-export async function build() {
-  mkdirSync(join(here, 'dist'), { recursive: true });
+/** Builds the viewer into `dist` (web/dist, which is committed: `isogrid serve` embeds it). */
+export async function build(dist = join(here, 'dist')) {
+  mkdirSync(dist, { recursive: true });
   await esbuild.build({
     entryPoints: [join(here, 'src', 'main.ts')],
     bundle: true,
     format: 'esm',
     target: 'es2022',
-    outfile: join(here, 'dist', 'viewer.js'),
+    outfile: join(dist, 'viewer.js'),
     plugins: [shaderPlugin],
     // Not minifySyntax: it would turn the shader strings into template literals; the shader test
     // finds each module's source in the bundle as the manifest composes it.
@@ -60,7 +61,7 @@ export async function build() {
     sourcemap: false,
     logLevel: 'warning',
   });
-  copyFileSync(join(here, 'src', 'index.html'), join(here, 'dist', 'index.html'));
+  copyFileSync(join(here, 'src', 'index.html'), join(dist, 'index.html'));
   // The node tests' view of the pure modules (no DOM, no WebGPU).
   await esbuild.build({
     entryPoints: ['cgc', 'camera', 'loader', 'crc32'].map((m) => join(here, 'src', `${m}.ts`)),

@@ -37,7 +37,9 @@ const BROWSERS = [
   },
 ];
 
-await build();
+// A fresh build of the current sources (web/dist, the committed one, is checked in shaders.test.mjs).
+const dist = join(web, 'build', 'dist');
+await build(dist);
 const bin = isogridBinary();
 const sphere = sphereFile();
 const sphereBytes = sphere ? new Uint8Array(readFileSync(sphere)) : null;
@@ -91,9 +93,9 @@ for (const B of BROWSERS) {
       future[8] = 9;
       files['future.cgc'] = resealHeader(future);
     }
-    const server = await startServer({ dist: join(web, 'dist'), files });
-    const plain = await startServer({ dist: join(web, 'dist'), files, ranges: false });
-    const slow = await startServer({ dist: join(web, 'dist'), files, delayMs: 300 });
+    const server = await startServer({ dist, files });
+    const plain = await startServer({ dist, files, ranges: false });
+    const slow = await startServer({ dist, files, delayMs: 300 });
     const browser = await puppeteer.launch({ executablePath: B.path, headless: true, ...B.launch });
     const errors = [];
     const open = async (base, query) => {

@@ -5,7 +5,8 @@
 // reads a .wgsl file by itself.
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
-import { readFileSync, readdirSync } from 'node:fs';
+import { readFileSync, readdirSync, mkdtempSync } from 'node:fs';
+import { tmpdir } from 'node:os';
 import { join, dirname } from 'node:path';
 import { fileURLToPath } from 'node:url';
 import { build, shaderManifest, shaderSources, SHADER_DIR } from '../build.mjs';
@@ -27,8 +28,9 @@ test('every module the native renderer composes is in the manifest, with files t
 });
 
 test('the bundle holds exactly the manifest compositions, and no web source reads .wgsl itself', async () => {
-  await build();
-  const bundle = readFileSync(join(web, 'dist', 'viewer.js'), 'utf8');
+  const out = mkdtempSync(join(tmpdir(), 'isogrid-web-dist-'));
+  await build(out);
+  const bundle = readFileSync(join(out, 'viewer.js'), 'utf8');
   const sources = shaderSources();
   for (const [name, code] of Object.entries(sources)) {
     assert.ok(bundle.includes(JSON.stringify(code)), `dist/viewer.js lacks module ${name} as the manifest composes it`);
@@ -40,4 +42,15 @@ test('the bundle holds exactly the manifest compositions, and no web source read
   }
   // The browser never needs the wgpu-only `@early_depth_test` the native cell raster may add.
   assert.ok(!Object.values(sources).some((s) => s.includes('@early_depth_test')));
+});
+
+test('the committed bundle (web/dist, embedded by isogrid serve) is the build of the current sources', async () => {
+  const fresh = mkdtempSync(join(tmpdir(), 'isogrid-web-dist-'));
+  await build(fresh);
+  for (const f of ['index.html', 'viewer.js']) {
+    assert.ok(
+      readFileSync(join(fresh, f)).equals(readFileSync(join(web, 'dist', f))),
+      `web/dist/${f} is stale: run npm run build in web/ and commit it`,
+    );
+  }
 });
