@@ -17,6 +17,8 @@ const params = new URLSearchParams(location.search);
 interface IsogridApi {
   ready: Promise<void>;
   pixels(): Promise<string>;
+  /** Draws `n` more frames of the current view one after another: median wall and GPU ms. */
+  frames(n: number): Promise<{ wallMs: number; gpuMs: number | null }>;
   stats: Record<string, unknown>;
 }
 declare global {
@@ -38,6 +40,20 @@ window.isogrid = {
     let s = '';
     for (let i = 0; i < px.length; i += 0x8000) s += String.fromCharCode(...px.subarray(i, i + 0x8000));
     return btoa(s);
+  },
+  async frames(n) {
+    const median = (v: number[]) => v.sort((a, b) => a - b)[Math.floor(v.length / 2)];
+    const wall: number[] = [];
+    const gpu: number[] = [];
+    for (let i = 0; i < n; i++) {
+      const t0 = performance.now();
+      renderer!.render(camera!, null);
+      await renderer!.readPixels();
+      wall.push(performance.now() - t0);
+      await new Promise((r) => setTimeout(r, 0));
+      if (renderer!.lastGpuMs != null) gpu.push(renderer!.lastGpuMs);
+    }
+    return { wallMs: median(wall), gpuMs: gpu.length ? median(gpu) : null };
   },
 };
 
@@ -161,6 +177,7 @@ function drawFrame(): void {
     () => {
       drawing = false;
       stats.frameMs = performance.now() - t0;
+      if (!stats.firstFrameAt && (stats.pages as number) > 0) stats.firstFrameAt = performance.now();
       showFacts();
       if (wasComplete && !stats.readyAt) {
         stats.readyAt = performance.now();
