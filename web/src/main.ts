@@ -89,6 +89,7 @@ let context: GPUCanvasContext | null = null;
  */
 let context2d: CanvasRenderingContext2D | null = null;
 let renderer: Renderer | null = null;
+let rendererReady = false;
 let header: CgcHeader | null = null;
 let camera: Camera | null = null;
 let view = params.get('view') === '1' ? 1 : 2;
@@ -150,7 +151,7 @@ function requestFrame(): void {
 let drawing = false;
 
 function drawFrame(): void {
-  if (!renderer || !camera || !device || (!context && !context2d)) return;
+  if (!renderer || !rendererReady || !camera || !device || (!context && !context2d)) return;
   if (drawing) {
     requestFrame();
     return;
@@ -230,13 +231,17 @@ async function load(src: ByteSource): Promise<void> {
         header = h;
         const [lo, hi] = worldBounds(h);
         renderer = new Renderer(device!, { precisionBits: h.precisionBits, spacing: h.spacing, isoCode: h.isoCode, bounds: [lo, hi], slotCount: h.slotCount });
+        renderer.compiled.then(() => (rendererReady = true), (e) => fail(e, ''));
         canvas.hidden = false;
         if (!fixedSize) $('stage').classList.add('fill');
         resetCamera();
       },
       clusters(firstSlot, metacells, firstCell, cells, counts) {
-        renderer!.addClusters(firstSlot, metacells, firstCell, cells, counts);
-        requestFrame();
+        const r = renderer!;
+        r.compiled.then(() => {
+          r.addClusters(firstSlot, metacells, firstCell, cells, counts);
+          requestFrame();
+        });
       },
       progress(received, total) {
         bytesIn = received;
@@ -247,8 +252,10 @@ async function load(src: ByteSource): Promise<void> {
         showFacts();
       },
     });
-    complete = true;
     stats.completeAt = performance.now();
+    // After the clusters queued behind the compilation (promise callbacks run in order).
+    await renderer!.compiled;
+    complete = true;
     requestFrame();
   } catch (e) {
     fail(e, src.name);

@@ -67,6 +67,8 @@ export class Renderer {
   private visibilityFor = '';
   private query: { set: GPUQuerySet; resolve: GPUBuffer; read: GPUBuffer; busy: boolean } | null = null;
   lastGpuMs: number | null = null;
+  /** Settles when every pipeline is compiled; draw no frame before. */
+  readonly compiled: Promise<void>;
   /** Largest bytes of one page buffer (the storage binding limit, at most 128 MiB). */
   readonly pageBytes: number;
 
@@ -99,13 +101,16 @@ export class Renderer {
 
     const module = (name: keyof typeof SHADERS) => d.createShaderModule({ label: `${name} (shaders/modules.txt)`, code: SHADERS[name] });
     const pl = (...names: string[]) => d.createPipelineLayout({ bindGroupLayouts: names.map((n) => this.layouts[n]) });
+    // Compiled while the file downloads (SwiftShader takes seconds): see `compiled`.
+    const pending: Promise<unknown>[] = [];
+    const set = (name: string, p: Promise<GPURenderPipeline | GPUComputePipeline>) => pending.push(p.then((x) => (this.pipelines[name] = x)));
     const expand = module('expand');
     const expandLayout = pl('scene compute', 'page compute');
-    this.pipelines.expandVisible = d.createComputePipeline({ label: 'expand visible', layout: expandLayout, compute: { module: expand, entryPoint: 'expand_visible' } });
-    this.pipelines.expandNew = d.createComputePipeline({ label: 'expand new', layout: expandLayout, compute: { module: expand, entryPoint: 'expand_new' } });
+    set('expandVisible', d.createComputePipelineAsync({ label: 'expand visible', layout: expandLayout, compute: { module: expand, entryPoint: 'expand_visible' } }));
+    set('expandNew', d.createComputePipelineAsync({ label: 'expand new', layout: expandLayout, compute: { module: expand, entryPoint: 'expand_new' } }));
     const cells = module('cells');
-    const rect = (label: string, layoutNames: string[], mod: GPUShaderModule, vs: string, fs: string, targets: GPUColorTargetState[], depth: boolean): GPURenderPipeline =>
-      d.createRenderPipeline({
+    const rect = (label: string, layoutNames: string[], mod: GPUShaderModule, vs: string, fs: string, targets: GPUColorTargetState[], depth: boolean): Promise<GPURenderPipeline> =>
+      d.createRenderPipelineAsync({
         label,
         layout: pl(...layoutNames),
         vertex: { module: mod, entryPoint: vs },
@@ -113,13 +118,14 @@ export class Renderer {
         primitive: { topology: 'triangle-list', cullMode: 'none' },
         depthStencil: depth ? { format: DEPTH_FORMAT, depthWriteEnabled: true, depthCompare: 'greater' } : undefined,
       });
-    this.pipelines.cells = rect('cell raster', ['scene render', 'page render'], cells, 'vs_cell', 'fs_cell', [{ format: SURFACE_FORMAT }, { format: IDS_FORMAT }], true);
-    this.pipelines.probe = rect('visibility probes', ['scene render', 'page render', 'depth input'], module('probe'), 'vs_probe', 'fs_probe', [{ format: IDS_FORMAT, writeMask: 0 }], false);
+    set('cells', rect('cell raster', ['scene render', 'page render'], cells, 'vs_cell', 'fs_cell', [{ format: SURFACE_FORMAT }, { format: IDS_FORMAT }], true));
+    set('probe', rect('visibility probes', ['scene render', 'page render', 'depth input'], module('probe'), 'vs_probe', 'fs_probe', [{ format: IDS_FORMAT, writeMask: 0 }], false));
     const add: GPUBlendComponent = { srcFactor: 'one', dstFactor: 'one', operation: 'add' };
-    this.pipelines.ewa = rect('ewa normal splats', ['scene render', 'page render', 'surface input'], module('ewa'), 'vs_splat', 'fs_splat', [{ format: EWA_FORMAT, blend: { color: add, alpha: add } }], false);
-    this.pipelines.visibility = d.createComputePipeline({ label: 'visibility update', layout: pl('scene compute', 'ids input'), compute: { module: module('visibility'), entryPoint: 'update_visibility' } });
-    this.pipelines.shade = rect('deferred shading', ['scene render', 'shading inputs'], module('shade'), 'vs_fullscreen', 'fs_shade', [{ format: COLOR_FORMAT }, { format: FINAL_FORMAT }], false);
+    set('ewa', rect('ewa normal splats', ['scene render', 'page render', 'surface input'], module('ewa'), 'vs_splat', 'fs_splat', [{ format: EWA_FORMAT, blend: { color: add, alpha: add } }], false));
+    set('visibility', d.createComputePipelineAsync({ label: 'visibility update', layout: pl('scene compute', 'ids input'), compute: { module: module('visibility'), entryPoint: 'update_visibility' } }));
+    set('shade', rect('deferred shading', ['scene render', 'shading inputs'], module('shade'), 'vs_fullscreen', 'fs_shade', [{ format: COLOR_FORMAT }, { format: FINAL_FORMAT }], false));
 
+    this.compiled = Promise.all(pending).then(() => undefined);
     this.uniforms = d.createBuffer({ label: 'frame uniforms', size: 112, usage: GPUBufferUsage.UNIFORM | GPUBufferUsage.COPY_DST });
     const clusters = Math.max(Math.ceil(grid.slotCount / CLUSTER_SLOTS), MIN_VISIBILITY_CLUSTERS);
     const visBytes = Math.ceil(clusters / 32) * 4;

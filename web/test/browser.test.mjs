@@ -7,7 +7,8 @@
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
 import { existsSync, readFileSync, mkdtempSync } from 'node:fs';
-import { execFileSync } from 'node:child_process';
+import { execFileSync, spawn } from 'node:child_process';
+import { createInterface } from 'node:readline';
 import { join, dirname } from 'node:path';
 import { tmpdir } from 'node:os';
 import { fileURLToPath } from 'node:url';
@@ -153,6 +154,41 @@ for (const B of BROWSERS) {
         assert.equal(at, sphereBytes.length);
         assert.ok(stats.firstFrameBytes < sphereBytes.length, `first frame after ${stats.firstFrameBytes} of ${sphereBytes.length} bytes`);
         t.diagnostic(`${B.name}: first frame after ${stats.firstFrameBytes} of ${sphereBytes.length} bytes, ${ranges.length} requests`);
+      });
+      await t.test('through isogrid serve, throttled to 0.25 Mbit/s: first frame before the last byte, ranges cover the file once', async (st) => {
+        if (B.name !== 'chromium') {
+          st.skip('download throttling needs the DevTools protocol (Chromium)');
+          return;
+        }
+        const child = spawn(bin, ['serve', sphere, '--port', '0'], { stdio: ['ignore', 'pipe', 'inherit'] });
+        try {
+          const line = await new Promise((r) => createInterface({ input: child.stdout }).once('line', r));
+          const url = line.split(/\s+/).find((w) => w.startsWith('http://'));
+          const page = await browser.newPage();
+          const ranges = [];
+          page.on('request', (r) => {
+            const m = /bytes=(\d+)-(\d+)/.exec(r.headers().range || '');
+            if (m) ranges.push([Number(m[1]), Number(m[2]) + 1]);
+          });
+          await page.emulateNetworkConditions({ download: 0.25e6 / 8, upload: 0.25e6 / 8, latency: 20 });
+          await page.goto(`${url}&size=64x48`);
+          const outcome = await page.evaluate(() => window.isogrid.ready.then(() => 'ready', (e) => e.message));
+          assert.equal(outcome, 'ready');
+          const stats = await page.evaluate(() => window.isogrid.stats);
+          ranges.sort((a, b) => a[0] - b[0]);
+          let at = 0;
+          for (const [s0, e] of ranges) {
+            assert.equal(s0, at, 'a byte range requested twice or never');
+            at = Math.min(e, sphereBytes.length);
+          }
+          assert.equal(at, sphereBytes.length);
+          // Shown (read back into the page) before the last byte had arrived.
+          assert.ok(stats.firstFrameBytes < sphereBytes.length && stats.firstFrameAt < stats.completeAt, JSON.stringify(stats));
+          st.diagnostic(`isogrid serve at 0.25 Mbit/s: first frame shown at ${stats.firstFrameAt.toFixed(0)} ms (after ${stats.firstFrameBytes} of ${sphereBytes.length} bytes), last byte at ${stats.completeAt.toFixed(0)} ms, complete picture at ${stats.readyAt.toFixed(0)} ms`);
+          await page.close();
+        } finally {
+          child.kill();
+        }
       });
       await t.test('a server without Range support: one whole download and a notice', async () => {
         plain.log.length = 0;
