@@ -1,7 +1,7 @@
 // docs/benchmarks-web.md's measurements: for each .cgc given, served by `isogrid serve` on
 // 127.0.0.1, the time to the first frame and to the complete picture in headless Chromium with the
 // download throttled by the DevTools protocol (50 Mbit/s, 1 Gbit/s), the bytes transferred and the
-// bytes before the first frame; then the frame time (GPU timestamps; median of 10) in Chromium
+// bytes before the first frame; then the frame time (GPU timestamps and wall time with the read-back; median of 5) in Chromium
 // and Firefox at the given size.
 // Usage: node bench/bench.mjs SIZE FILE.cgc...   (e.g. 640x480; the isogrid binary as in the tests)
 import { spawn } from 'node:child_process';
@@ -33,13 +33,14 @@ for (const file of files) {
       let transferred = 0;
       const cdp = await page.createCDPSession();
       await cdp.send('Network.enable');
-      cdp.on('Network.loadingFinished', (e) => (transferred += e.encodedDataLength));
+      // Bytes of the .cgc's responses only (not the page and its bundle), headers included.
+      const cgc = new Set();
+      cdp.on('Network.requestWillBeSent', (e) => /\.cgc$/.test(new URL(e.request.url).pathname) && cgc.add(e.requestId));
+      cdp.on('Network.loadingFinished', (e) => cgc.has(e.requestId) && (transferred += e.encodedDataLength));
       await cdp.send('Network.emulateNetworkConditions', { offline: false, latency: 1, downloadThroughput: (mbit * 1e6) / 8, uploadThroughput: (mbit * 1e6) / 8 });
-      const t0 = Date.now();
       await page.goto(`${url}&view=2&size=${size}`);
       const s = await page.evaluate(() => window.isogrid.ready.then(() => window.isogrid.stats));
-      const nav = await page.evaluate(() => performance.timeOrigin);
-      console.log(JSON.stringify({ file, total, browser: 'chromium', mbit, firstFrameMs: s.firstFrameAt, completeMs: s.readyAt, firstFrameBytes: s.firstFrameBytes, transferred, pages: s.pages, wall: Date.now() - t0, nav: nav > 0 }));
+      console.log(JSON.stringify({ file, total, browser: 'chromium', mbit, firstFrameMs: s.firstFrameAt, completeMs: s.readyAt, firstFrameBytes: s.firstFrameBytes, transferred, pages: s.pages));
       await page.close();
     }
     await chromium.close();
@@ -48,7 +49,7 @@ for (const file of files) {
       const page = await browser.newPage();
       await page.goto(`${url}&view=2&size=${size}`);
       await page.evaluate(() => window.isogrid.ready);
-      const f = await page.evaluate(() => window.isogrid.frames(10));
+      const f = await page.evaluate(() => window.isogrid.frames(5));
       const adapter = await page.evaluate(() => window.isogrid.stats.adapter);
       console.log(JSON.stringify({ file, browser: name, adapter, size, ...f }));
       await browser.close();

@@ -162,7 +162,10 @@ for (const B of BROWSERS) {
         }
         const child = spawn(bin, ['serve', sphere, '--port', '0'], { stdio: ['ignore', 'pipe', 'inherit'] });
         try {
-          const line = await new Promise((r) => createInterface({ input: child.stdout }).once('line', r));
+          const line = await new Promise((resolve, reject) => {
+            createInterface({ input: child.stdout }).once('line', resolve);
+            child.once('exit', (code) => reject(new Error(`isogrid serve exited with ${code} before printing its URL`)));
+          });
           const url = line.split(/\s+/).find((w) => w.startsWith('http://'));
           const page = await browser.newPage();
           const ranges = [];

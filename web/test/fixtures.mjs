@@ -2,7 +2,8 @@
 // samples, version as that binary writes), the repository's fixtures, and version 2 files made
 // from version 1 ones by `toVersion2` (the layout of the format spec in docs/design/web.md), so
 // that both versions are covered whichever the binary writes.
-import { existsSync, mkdirSync, readFileSync, readdirSync } from 'node:fs';
+import { existsSync, mkdirSync, readFileSync, readdirSync, statSync } from 'node:fs';
+import { createHash } from 'node:crypto';
 import { execFileSync } from 'node:child_process';
 import { join, dirname } from 'node:path';
 import { fileURLToPath } from 'node:url';
@@ -21,7 +22,9 @@ export function isogridBinary() {
 export function sphereFile(size = 48) {
   const bin = isogridBinary();
   if (!bin) return null;
-  const dir = join(tmpdir(), `isogrid-web-test-${process.getuid?.() ?? 0}`);
+  // One folder per binary build, so a rebuilt binary (another format version) writes afresh.
+  const key = createHash('sha1').update(`${bin} ${statSync(bin).mtimeMs}`).digest('hex').slice(0, 12);
+  const dir = join(tmpdir(), `isogrid-web-test-${key}`);
   mkdirSync(dir, { recursive: true });
   const cgc = join(dir, `sphere${size}.cgc`);
   if (!existsSync(cgc)) {
