@@ -33,6 +33,7 @@ for (const file of files) {
       let transferred = 0;
       const cdp = await page.createCDPSession();
       await cdp.send('Network.enable');
+      await cdp.send('Network.setCacheDisabled', { cacheDisabled: true });
       // Bytes of the .cgc's responses only (not the page and its bundle), headers included.
       const cgc = new Set();
       cdp.on('Network.requestWillBeSent', (e) => /\.cgc$/.test(new URL(e.request.url).pathname) && cgc.add(e.requestId));
@@ -40,7 +41,7 @@ for (const file of files) {
       await cdp.send('Network.emulateNetworkConditions', { offline: false, latency: 1, downloadThroughput: (mbit * 1e6) / 8, uploadThroughput: (mbit * 1e6) / 8 });
       await page.goto(`${url}&view=2&size=${size}`);
       const s = await page.evaluate(() => window.isogrid.ready.then(() => window.isogrid.stats));
-      console.log(JSON.stringify({ file, total, browser: 'chromium', mbit, firstFrameMs: s.firstFrameAt, completeMs: s.readyAt, firstFrameBytes: s.firstFrameBytes, transferred, pages: s.pages));
+      console.log(JSON.stringify({ file, total, browser: 'chromium', mbit, firstFrameMs: s.firstFrameAt, lastByteMs: s.completeAt, completeMs: s.readyAt, firstFrameBytes: s.firstFrameBytes, transferred, pages: s.pages }));
       await page.close();
     }
     await chromium.close();
