@@ -290,79 +290,110 @@ const popcount8 = (m: number) => {
  * slots are the next whole clusters; metacells inside their block, in Morton order, before any
  * padding; cell pointers in sequence; cluster bounds exact; totals equal to the header's counts.
  * Needs the blocks and metacells; the cells only through their count (the section length).
+ * Incremental: `advance(slots)` checks the blocks whose slots lie in the first `slots` slots of
+ * `metacells` (the whole section's buffer, filled that far), so a streamed file is checked block
+ * by block as its metacells arrive; `finish()` checks the totals.
  */
-export function validateStructure(h: CgcHeader, blocks: Uint8Array, metacells: Uint8Array): void {
-  const b = new DataView(blocks.buffer, blocks.byteOffset, blocks.byteLength);
-  const m = new DataView(metacells.buffer, metacells.byteOffset, metacells.byteLength);
-  const bd = blockDims(h);
-  const cd = cellDims(h);
-  const totalCells = h.cells.length / h.precisionBits;
-  const slotsTotal = metacells.byteLength / SLOT_BYTES;
-  let nextSlot = 0;
-  let nextCell = 0;
-  let occupied = 0;
-  for (let blk = 0; blk < blocks.byteLength / BLOCK_BYTES; blk++) {
-    const count = b.getUint32(16 * blk, true);
-    const pointer = b.getUint32(16 * blk + 4, true);
-    if (count % CLUSTER_SLOTS !== 0 || pointer !== nextSlot) {
-      throw corrupt(
-        `block ${blk}: metacell range ${pointer}+${count} is not the next whole clusters (expected start ${nextSlot})`,
-      );
-    }
-    if (pointer + count > slotsTotal) throw corrupt(`block ${blk}: metacell range runs past the metacell section`);
-    nextSlot += count;
-    const pos = [blk % bd[0], Math.floor(blk / bd[0]) % bd[1], Math.floor(blk / (bd[0] * bd[1]))];
-    for (let k = 0; k < count / CLUSTER_SLOTS; k++) {
-      const lo = [0xffff, 0xffff, 0xffff];
-      const hi = [0, 0, 0];
-      let lastCode = -1;
-      let padding = false;
-      const first = pointer + k * CLUSTER_SLOTS;
-      for (let s = 0; s < BOUND_SLOT; s++) {
-        const slot = first + s;
-        const at = SLOT_BYTES * slot;
-        const fail = (what: string) => corrupt(`metacell slot ${slot}: ${what}`);
-        const p = [m.getUint16(at, true), m.getUint16(at + 2, true), m.getUint16(at + 4, true)];
-        const mask = m.getUint16(at + 6, true);
-        const cellPointer = m.getUint32(at + 8, true);
-        if (mask === 0) {
-          if (p.some((x) => x !== 0) || cellPointer !== 0) throw fail('empty slot with non-zero fields');
-          padding = true;
-          continue;
-        }
-        if (padding || mask > 0xff) throw fail('metacell after padding, or reserved mask bits set');
-        for (let a = 0; a < 3; a++) {
-          if (Math.floor(p[a] / BLOCK_METACELLS) !== pos[a]) throw fail('position outside its block');
-        }
-        const code = metacellCode(p[0] % BLOCK_METACELLS, p[1] % BLOCK_METACELLS, p[2] % BLOCK_METACELLS);
-        if (lastCode >= code) throw fail('metacells out of Morton order');
-        lastCode = code;
-        for (let bit = 0; bit < 8; bit++) {
-          if ((mask >> bit) & 1) {
-            const c = [2 * p[0] + (bit & 1), 2 * p[1] + ((bit >> 1) & 1), 2 * p[2] + ((bit >> 2) & 1)];
-            if (c.some((x, a) => x >= cd[a])) throw fail('active cell outside the grid');
+export class StructureCheck {
+  private blk = 0;
+  /** Slots of the blocks checked so far. */
+  nextSlot = 0;
+  private nextCell = 0;
+  private occupied = 0;
+  private readonly b: DataView;
+  private readonly m: DataView;
+
+  constructor(private readonly h: CgcHeader, private readonly blocks: Uint8Array, private readonly metacells: Uint8Array) {
+    this.b = new DataView(blocks.buffer, blocks.byteOffset, blocks.byteLength);
+    this.m = new DataView(metacells.buffer, metacells.byteOffset, metacells.byteLength);
+  }
+
+  /** Checks the blocks whose slots are within the first `slots`; returns the slots checked. */
+  advance(slots: number): number {
+    const { h, b, m } = this;
+    const bd = blockDims(h);
+    const cd = cellDims(h);
+    const totalCells = h.cells.length / h.precisionBits;
+    const slotsTotal = this.metacells.byteLength / SLOT_BYTES;
+    for (; this.blk < this.blocks.byteLength / BLOCK_BYTES; this.blk++) {
+      const blk = this.blk;
+      const count = b.getUint32(16 * blk, true);
+      const pointer = b.getUint32(16 * blk + 4, true);
+      if (count % CLUSTER_SLOTS !== 0 || pointer !== this.nextSlot) {
+        throw corrupt(
+          `block ${blk}: metacell range ${pointer}+${count} is not the next whole clusters (expected start ${this.nextSlot})`,
+        );
+      }
+      if (pointer + count > slotsTotal) throw corrupt(`block ${blk}: metacell range runs past the metacell section`);
+      if (pointer + count > slots) break;
+      const pos = [blk % bd[0], Math.floor(blk / bd[0]) % bd[1], Math.floor(blk / (bd[0] * bd[1]))];
+      for (let k = 0; k < count / CLUSTER_SLOTS; k++) {
+        const lo = [0xffff, 0xffff, 0xffff];
+        const hi = [0, 0, 0];
+        let lastCode = -1;
+        let padding = false;
+        const first = pointer + k * CLUSTER_SLOTS;
+        for (let s = 0; s < BOUND_SLOT; s++) {
+          const slot = first + s;
+          const at = SLOT_BYTES * slot;
+          const fail = (what: string) => corrupt(`metacell slot ${slot}: ${what}`);
+          const p = [m.getUint16(at, true), m.getUint16(at + 2, true), m.getUint16(at + 4, true)];
+          const mask = m.getUint16(at + 6, true);
+          const cellPointer = m.getUint32(at + 8, true);
+          if (mask === 0) {
+            if (p.some((x) => x !== 0) || cellPointer !== 0) throw fail('empty slot with non-zero fields');
+            padding = true;
+            continue;
+          }
+          if (padding || mask > 0xff) throw fail('metacell after padding, or reserved mask bits set');
+          for (let a = 0; a < 3; a++) {
+            if (Math.floor(p[a] / BLOCK_METACELLS) !== pos[a]) throw fail('position outside its block');
+          }
+          const code = metacellCode(p[0] % BLOCK_METACELLS, p[1] % BLOCK_METACELLS, p[2] % BLOCK_METACELLS);
+          if (lastCode >= code) throw fail('metacells out of Morton order');
+          lastCode = code;
+          for (let bit = 0; bit < 8; bit++) {
+            if ((mask >> bit) & 1) {
+              const c = [2 * p[0] + (bit & 1), 2 * p[1] + ((bit >> 1) & 1), 2 * p[2] + ((bit >> 2) & 1)];
+              if (c.some((x, a) => x >= cd[a])) throw fail('active cell outside the grid');
+            }
+          }
+          if (cellPointer !== this.nextCell) throw fail(`cell pointer ${cellPointer} out of sequence (expected ${this.nextCell})`);
+          this.nextCell += popcount8(mask);
+          if (this.nextCell > totalCells) throw fail('cells run past the cell section');
+          this.occupied++;
+          for (let a = 0; a < 3; a++) {
+            lo[a] = Math.min(lo[a], p[a]);
+            hi[a] = Math.max(hi[a], p[a]);
           }
         }
-        if (cellPointer !== nextCell) throw fail(`cell pointer ${cellPointer} out of sequence (expected ${nextCell})`);
-        nextCell += popcount8(mask);
-        if (nextCell > totalCells) throw fail('cells run past the cell section');
-        occupied++;
-        for (let a = 0; a < 3; a++) {
-          lo[a] = Math.min(lo[a], p[a]);
-          hi[a] = Math.max(hi[a], p[a]);
+        const at = SLOT_BYTES * (first + BOUND_SLOT);
+        const bound = [0, 1, 2, 3, 4, 5].map((i) => m.getUint16(at + 2 * i, true));
+        const firstMask = m.getUint16(SLOT_BYTES * first + 6, true);
+        if (firstMask === 0 || bound.slice(0, 3).some((x, a) => x !== lo[a]) || bound.slice(3).some((x, a) => x !== hi[a])) {
+          throw corrupt(`cluster bound in slot ${first + BOUND_SLOT} does not match its metacells`);
         }
       }
-      const at = SLOT_BYTES * (first + BOUND_SLOT);
-      const bound = [0, 1, 2, 3, 4, 5].map((i) => m.getUint16(at + 2 * i, true));
-      const firstMask = m.getUint16(SLOT_BYTES * first + 6, true);
-      if (firstMask === 0 || bound.slice(0, 3).some((x, a) => x !== lo[a]) || bound.slice(3).some((x, a) => x !== hi[a])) {
-        throw corrupt(`cluster bound in slot ${first + BOUND_SLOT} does not match its metacells`);
-      }
+      this.nextSlot += count;
+    }
+    return this.nextSlot;
+  }
+
+  /** The totals, once every block is checked. */
+  finish(): void {
+    const slotsTotal = this.metacells.byteLength / SLOT_BYTES;
+    const totalCells = this.h.cells.length / this.h.precisionBits;
+    if (this.nextSlot !== slotsTotal || this.nextCell !== totalCells || this.occupied !== this.h.occupied) {
+      throw corrupt("blocks, metacells and cells do not add up to the header's counts");
     }
   }
-  if (nextSlot !== slotsTotal || nextCell !== totalCells || occupied !== h.occupied) {
-    throw corrupt("blocks, metacells and cells do not add up to the header's counts");
-  }
+}
+
+/** The whole structure check of a file whose blocks and metacells are complete. */
+export function validateStructure(h: CgcHeader, blocks: Uint8Array, metacells: Uint8Array): void {
+  const check = new StructureCheck(h, blocks, metacells);
+  check.advance(metacells.byteLength / SLOT_BYTES);
+  check.finish();
 }
 
 export interface CgcFile {

@@ -9,15 +9,15 @@
 import { Crc32 } from './crc32.js';
 import {
   CgcError, CgcHeader, HEAD_READ, Section, SLOT_BYTES, CLUSTER_SLOTS, BOUND_SLOT,
-  checkGaps, checkSection, parseHeader, validateStructure,
+  checkGaps, checkSection, parseHeader, StructureCheck,
 } from './cgc.js';
 
 /**
- * Bytes of one request within a section: a sixteenth of the file, between 16 KiB and 1 MiB, so
+ * Bytes of one request within a section: a 32nd of the file, between 16 KiB and 1 MiB, so
  * that even small files show clusters before their last byte and large ones need few requests.
  */
 export function chunkBytes(total: number): number {
-  return Math.min(1 << 20, Math.max(16 << 10, Math.ceil(total / 16)));
+  return Math.min(1 << 20, Math.max(16 << 10, Math.ceil(total / 32)));
 }
 
 export interface ByteSource {
@@ -103,102 +103,118 @@ export interface StreamSink {
   progress(received: number, total: number): void;
 }
 
-/** Reads, validates and streams `src` into `sink`; resolves when every byte is in and checked. */
+/**
+ * Reads, validates and streams `src` into `sink`; resolves when every byte is in and checked.
+ * Request order: the header (and table), the sections before the metacells (the blocks), then
+ * metacells and cells interleaved — the next chunk of cells as soon as the metacells checked so
+ * far point at cells not yet fetched, else the next chunk of metacells — then the rest. Each byte
+ * is requested once.
+ */
 export async function streamCgc(src: ByteSource, sink: StreamSink, chunk?: number): Promise<CgcHeader> {
   const head = await src.read(0, HEAD_READ);
   const total = src.total ?? head.length;
   const h = parseHeader(head, total);
-  const chunkSize = chunk ?? chunkBytes(total);
   sink.header(h);
+  const chunkSize = chunk ?? chunkBytes(total);
   const file = new Uint8Array(total);
-  file.set(head.subarray(0, Math.min(head.length, total)));
-  let received = Math.min(head.length, total);
+  const headLength = Math.min(head.length, total);
+  file.set(head.subarray(0, headLength));
+  let received = headLength;
   sink.progress(received, total);
 
-  // The requests: [received, total) cut at section boundaries and into chunks within sections.
-  const cuts = new Set<number>([received, total]);
+  // The requests: [headLength, total) cut at section boundaries and into chunks within sections.
+  const cuts = new Set<number>([headLength, total]);
   for (const s of h.sections) {
-    for (const at of [s.offset, s.offset + s.length]) if (at > received && at < total) cuts.add(at);
-    for (let at = s.offset + chunkSize; at < s.offset + s.length; at += chunkSize) if (at > received) cuts.add(at);
+    for (const at of [s.offset, s.offset + s.length]) if (at > headLength && at < total) cuts.add(at);
+    for (let at = s.offset + chunkSize; at < s.offset + s.length; at += chunkSize) if (at > headLength) cuts.add(at);
   }
   const bounds = [...cuts].sort((a, b) => a - b);
+  const within = (s: Section, start: number) => start >= s.offset && start < s.offset + s.length;
+  const pieces = bounds.slice(0, -1).map((start, i) => [start, bounds[i + 1]] as [number, number]);
+  const metaPieces = pieces.filter(([a]) => within(h.metacells, a));
+  const cellPieces = pieces.filter(([a]) => within(h.cells, a));
+  const before = pieces.filter(([a]) => !within(h.metacells, a) && !within(h.cells, a) && a < h.metacells.offset);
+  const after = pieces.filter(([a]) => !within(h.metacells, a) && !within(h.cells, a) && a >= h.metacells.offset);
+
   const crcs = new Map<Section, Crc32>(h.sections.map((s) => [s, new Crc32()]));
   const done = new Set<Section>();
-  // Bytes of each section already fed to its CRC (sections may have started inside `head`).
+  // Bytes of each section received from its start (each section's pieces arrive in order).
+  const have = new Map<Section, number>(h.sections.map((s) => [s, Math.min(Math.max(headLength - s.offset, 0), s.length)]));
   const fed = new Map<Section, number>(h.sections.map((s) => [s, 0]));
-  let structureChecked = false;
-  let clusterEnds: Int32Array | null = null; // cells end (exclusive) of each cluster
-  let nextCluster = 0;
+  const blocks = file.subarray(h.blocks.offset, h.blocks.offset + h.blocks.length);
+  const meta = file.subarray(h.metacells.offset, h.metacells.offset + h.metacells.length);
+  const structure = new StructureCheck(h, blocks, meta);
+  const m = new DataView(meta.buffer, meta.byteOffset, meta.byteLength);
+  const bpc = h.precisionBits;
+  const clusterEnds: number[] = []; // cells end (exclusive) of each checked cluster
+  let nextCluster = 0; // clusters handed to the sink
 
   const advance = () => {
     for (const s of h.sections) {
-      const have = Math.min(Math.max(received - s.offset, 0), s.length);
+      const got = have.get(s)!;
       const f = fed.get(s)!;
-      if (have > f) {
-        crcs.get(s)!.update(file.subarray(s.offset + f, s.offset + have));
-        fed.set(s, have);
+      if (got > f) {
+        crcs.get(s)!.update(file.subarray(s.offset + f, s.offset + got));
+        fed.set(s, got);
       }
-      if (have === s.length && !done.has(s)) {
+      if (got === s.length && !done.has(s)) {
         checkSection(s, crcs.get(s)!);
         done.add(s);
       }
     }
-    if (!structureChecked && done.has(h.blocks) && done.has(h.metacells)) {
-      const meta = file.subarray(h.metacells.offset, h.metacells.offset + h.metacells.length);
-      validateStructure(h, file.subarray(h.blocks.offset, h.blocks.offset + h.blocks.length), meta);
-      structureChecked = true;
-      const m = new DataView(meta.buffer, meta.byteOffset, meta.byteLength);
-      const clusters = h.slotCount / CLUSTER_SLOTS;
-      clusterEnds = new Int32Array(clusters);
-      for (let k = 0; k < clusters; k++) {
-        let end = 0;
-        for (let s = 0; s < BOUND_SLOT; s++) {
-          const at = SLOT_BYTES * (k * CLUSTER_SLOTS + s);
-          const mask = m.getUint16(at + 6, true);
-          if (mask) {
-            let n = 0;
-            for (let b = 0; b < 8; b++) n += (mask >> b) & 1;
-            end = m.getUint32(at + 8, true) + n;
-          }
+    if (!done.has(h.blocks)) return;
+    const checked = structure.advance(Math.floor(have.get(h.metacells)! / SLOT_BYTES));
+    for (let k = clusterEnds.length; k < checked / CLUSTER_SLOTS; k++) {
+      let end = k === 0 ? 0 : clusterEnds[k - 1];
+      for (let s = 0; s < BOUND_SLOT; s++) {
+        const at = SLOT_BYTES * (k * CLUSTER_SLOTS + s);
+        const mask = m.getUint16(at + 6, true);
+        if (mask) {
+          let n = 0;
+          for (let b = 0; b < 8; b++) n += (mask >> b) & 1;
+          end = m.getUint32(at + 8, true) + n;
         }
-        clusterEnds[k] = end;
       }
+      clusterEnds.push(end);
     }
-    if (clusterEnds) {
-      const bpc = h.precisionBits;
-      const cellsIn = Math.floor(Math.min(Math.max(received - h.cells.offset, 0), h.cells.length) / bpc);
-      let k = nextCluster;
-      while (k < clusterEnds.length && clusterEnds[k] <= cellsIn) k++;
-      if (k > nextCluster) {
-        const firstCell = nextCluster === 0 ? 0 : clusterEnds[nextCluster - 1];
-        const lastCell = clusterEnds[k - 1];
-        const counts = [];
-        for (let c = nextCluster; c < k; c++) counts.push(clusterEnds[c] - (c === 0 ? 0 : clusterEnds[c - 1]));
-        const m0 = h.metacells.offset + nextCluster * CLUSTER_SLOTS * SLOT_BYTES;
-        const c0 = h.cells.offset + firstCell * bpc;
-        sink.clusters(
-          nextCluster * CLUSTER_SLOTS,
-          file.subarray(m0, m0 + (k - nextCluster) * CLUSTER_SLOTS * SLOT_BYTES),
-          firstCell,
-          file.subarray(c0, h.cells.offset + lastCell * bpc),
-          counts,
-        );
-        nextCluster = k;
-      }
+    const cellsIn = Math.floor(have.get(h.cells)! / bpc);
+    let k = nextCluster;
+    while (k < clusterEnds.length && clusterEnds[k] <= cellsIn) k++;
+    if (k > nextCluster) {
+      const firstCell = nextCluster === 0 ? 0 : clusterEnds[nextCluster - 1];
+      const counts = [];
+      for (let c = nextCluster; c < k; c++) counts.push(clusterEnds[c] - (c === 0 ? 0 : clusterEnds[c - 1]));
+      const m0 = h.metacells.offset + nextCluster * CLUSTER_SLOTS * SLOT_BYTES;
+      sink.clusters(
+        nextCluster * CLUSTER_SLOTS,
+        file.subarray(m0, m0 + (k - nextCluster) * CLUSTER_SLOTS * SLOT_BYTES),
+        firstCell,
+        file.subarray(h.cells.offset + firstCell * bpc, h.cells.offset + clusterEnds[k - 1] * bpc),
+        counts,
+      );
+      nextCluster = k;
     }
   };
-  advance();
-  for (let i = 0; i + 1 < bounds.length; i++) {
-    const [start, end] = [bounds[i], bounds[i + 1]];
+  const fetchPiece = async ([start, end]: [number, number]) => {
     const part = await src.read(start, end);
     if (part.length !== end - start) {
       throw new CgcError(`the file ended at ${start + part.length} bytes, before the ${total} its header promises (truncated?)`);
     }
     file.set(part, start);
-    received = end;
+    received += end - start;
+    for (const s of h.sections) if (within(s, start)) have.set(s, end - s.offset);
     sink.progress(received, total);
     advance();
+  };
+  advance();
+  for (const p of before) await fetchPiece(p);
+  while (metaPieces.length || cellPieces.length) {
+    const cellsWanted = clusterEnds.length ? clusterEnds[clusterEnds.length - 1] * bpc : 0;
+    const cellsFirst = cellPieces.length && (!metaPieces.length || have.get(h.cells)! < cellsWanted);
+    await fetchPiece((cellsFirst ? cellPieces : metaPieces).shift()!);
   }
+  for (const p of after) await fetchPiece(p);
+  structure.finish();
   checkGaps(h.gaps.map(([s, e]) => file.subarray(s, e)));
   return h;
 }
