@@ -34,7 +34,7 @@ pub struct GridSource {
     pub input_args: InputArgs,
 }
 
-fn is_cgc(path: &Path) -> bool {
+pub(crate) fn is_cgc(path: &Path) -> bool {
     path.extension()
         .and_then(|e| e.to_str())
         .is_some_and(|e| e.eq_ignore_ascii_case("cgc"))

@@ -43,6 +43,8 @@ fn sphere(dir: &Path) -> PathBuf {
 
 struct Server {
     child: Child,
+    /// Held open so that the server's later output does not meet a closed pipe.
+    _stdout: BufReader<std::process::ChildStdout>,
     addr: String,
     url: String,
 }
@@ -55,26 +57,40 @@ impl Drop for Server {
 }
 
 fn serve(file: &Path) -> Server {
+    serve_args(&[file.to_str().unwrap()])
+}
+
+fn serve_args(input: &[&str]) -> Server {
     let mut child = Command::new(env!("CARGO_BIN_EXE_isogrid"))
-        .args(["serve", file.to_str().unwrap(), "--port", "0"])
+        .arg("serve")
+        .args(input)
+        .args(["--port", "0"])
         .stdout(Stdio::piped())
         .spawn()
         .expect("starts the server");
-    let mut line = String::new();
-    BufReader::new(child.stdout.take().unwrap())
-        .read_line(&mut line)
-        .unwrap();
-    let url = line
-        .split_whitespace()
-        .find(|w| w.starts_with("http://"))
-        .unwrap_or_else(|| panic!("no URL in {line:?}"))
-        .to_string();
+    // Extraction prints its statistics first; the URL is on the "serving" line.
+    let mut stdout = BufReader::new(child.stdout.take().unwrap());
+    let url = loop {
+        let mut line = String::new();
+        assert!(
+            stdout.read_line(&mut line).unwrap() > 0,
+            "the server printed no URL"
+        );
+        if let Some(url) = line.split_whitespace().find(|w| w.starts_with("http://")) {
+            break url.to_string();
+        }
+    };
     let addr = url["http://".len()..]
         .split('/')
         .next()
         .unwrap()
         .to_string();
-    Server { child, addr, url }
+    Server {
+        child,
+        _stdout: stdout,
+        addr,
+        url,
+    }
 }
 
 /// One HTTP/1.1 GET: (status, headers in lower case, body).
@@ -151,6 +167,22 @@ fn serves_the_viewer_and_the_file_with_ranges_and_nothing_else() {
         let (status, _, body) = get(a, path, "");
         assert_eq!(status, 404, "{path}: {}", String::from_utf8_lossy(&body));
     }
+    drop(server);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn extracts_a_volume_input_first() {
+    let dir = std::env::temp_dir().join(format!("isogrid-serve-volume-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let cgc = sphere(&dir);
+    let volume = dir.join("sphere.nrrd");
+    let server = serve_args(&[volume.to_str().unwrap(), "--iso-normalized", "0.5"]);
+    assert!(server.url.ends_with("/?src=/sphere.cgc"), "{}", server.url);
+    let (status, _, body) = get(&server.addr, "/sphere.cgc", "");
+    assert_eq!(status, 200);
+    // The same extraction as `isogrid extract` of the same volume and isovalue.
+    assert_eq!(body, std::fs::read(&cgc).unwrap());
     drop(server);
     std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -1,9 +1,10 @@
 //! `isogrid serve`: an HTTP server for the web viewer (web/, its built bundle embedded in the
-//! binary) and one `.cgc` file, which the viewer reads with Range requests. It serves exactly
+//! binary) and one `.cgc` file (a volume input is extracted into a temporary one first), which the viewer reads with Range requests. It serves exactly
 //! three paths — `/` (the page), `/viewer.js` and `/NAME` (the file, by its own name) — and
 //! answers everything else with 404: no directory listing, nothing outside them. Ranges, 206 and
 //! 416 come from tower-http's `ServeFile`.
 
+use crate::grid_source::{is_cgc, GridSource};
 use anyhow::{Context, Result};
 use axum::http::{header, StatusCode};
 use axum::routing::get;
@@ -19,8 +20,9 @@ const VIEWER_JS: &str = include_str!("../../../../web/dist/viewer.js");
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// The .cgc file to serve (written by `isogrid extract`).
-    pub file: PathBuf,
+    /// The .cgc file to serve, or a volume to extract first (with --iso or --iso-normalized).
+    #[command(flatten)]
+    pub source: GridSource,
     /// TCP port; 0 picks a free one.
     #[arg(long, default_value_t = 8000)]
     pub port: u16,
@@ -44,14 +46,44 @@ fn url_name(name: &str) -> String {
         .collect()
 }
 
+/// A folder removed when the server stops (the .cgc extracted from a volume input).
+struct TempDir(PathBuf);
+
+impl Drop for TempDir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+/// The .cgc to serve: the input itself, or the volume extracted into a temporary folder (named
+/// after the volume, so the page shows that name).
+fn cgc_file(source: &GridSource) -> Result<(PathBuf, Option<TempDir>)> {
+    if is_cgc(&source.input) {
+        // Refuse a bad file here, with the reader's one-line message, rather than in the page.
+        isogrid::cgc::open(&source.input)?;
+        return Ok((source.input.clone(), None));
+    }
+    let grid = source.load()?;
+    let dir = std::env::temp_dir().join(format!("isogrid-serve-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).with_context(|| format!("{}", dir.display()))?;
+    let temp = TempDir(dir);
+    let stem = source
+        .input
+        .file_stem()
+        .and_then(|s| s.to_str())
+        .map(|s| s.trim_end_matches(".nii"))
+        .unwrap_or("volume");
+    let path = temp.0.join(format!("{stem}.cgc"));
+    isogrid::cgc::write(&path, &grid)?;
+    Ok((path, Some(temp)))
+}
+
 pub fn run(args: Args) -> Result<()> {
-    // Refuse a bad file here, with the reader's one-line message, rather than in the page.
-    isogrid::cgc::open(&args.file)?;
-    let name = args
-        .file
+    let (file, _temp) = cgc_file(&args.source)?;
+    let name = file
         .file_name()
         .and_then(|n| n.to_str())
-        .with_context(|| format!("{}: not a file name", args.file.display()))?;
+        .with_context(|| format!("{}: not a file name", file.display()))?;
     let url_path = format!("/{}", url_name(name));
     let app = Router::new()
         .route(
@@ -72,7 +104,7 @@ pub fn run(args: Args) -> Result<()> {
                 )
             }),
         )
-        .route_service(&url_path, ServeFile::new(&args.file))
+        .route_service(&url_path, ServeFile::new(&file))
         .fallback(|| async { (StatusCode::NOT_FOUND, "not found\n") });
     let runtime = tokio::runtime::Builder::new_multi_thread()
         .worker_threads(2)
@@ -92,7 +124,7 @@ pub fn run(args: Args) -> Result<()> {
             }
         };
         let url = format!("http://{host}:{}/?src={url_path}", addr.port());
-        println!("serving     {} at {url}", args.file.display());
+        println!("serving     {} at {url}", file.display());
         println!("            add &view=1|2 and &size=WxH for the camera of `isogrid render`; Ctrl-C stops");
         if args.open {
             open_browser(&url);
