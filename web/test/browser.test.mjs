@@ -200,6 +200,22 @@ for (const B of BROWSERS) {
         assert.match(stats.message, /does not support range requests/);
         assert.equal(plain.log.filter((r) => r.path === '/sphere48.cgc').length, 1);
       });
+      await t.test('without WebGPU the page says which browsers and flags work', async (st) => {
+        if (B.name !== 'chromium') {
+          st.skip('Chromium without --enable-unsafe-webgpu is the browser here that has no adapter');
+          return;
+        }
+        const plainChromium = await puppeteer.launch({ executablePath: B.path, headless: true, browser: 'chrome', args: ['--no-sandbox', '--headless=new'] });
+        try {
+          const page = await plainChromium.newPage();
+          await page.goto(`${server.url}/index.html?src=/tiny.cgc`);
+          const outcome = await page.evaluate(() => window.isogrid.ready.then(() => 'ready', (e) => e.message));
+          assert.match(outcome, /no WebGPU.*Chrome.*--enable-unsafe-webgpu.*Firefox.*dom\.webgpu\.enabled/);
+          assert.equal(await page.evaluate(() => document.getElementById('message').textContent), outcome);
+        } finally {
+          await plainChromium.close();
+        }
+      });
       assert.deepEqual(errors.filter((e) => !/checksum|truncated|version|Failed to load resource/.test(e)), [], 'console errors');
     } finally {
       await browser.close();
