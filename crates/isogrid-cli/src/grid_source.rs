@@ -41,7 +41,7 @@ pub struct GridSource {
     pub color_by: Option<String>,
 }
 
-fn is_cgc(path: &Path) -> bool {
+pub(crate) fn is_cgc(path: &Path) -> bool {
     path.extension()
         .and_then(|e| e.to_str())
         .is_some_and(|e| e.eq_ignore_ascii_case("cgc"))

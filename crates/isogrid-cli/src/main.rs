@@ -41,6 +41,8 @@ enum Command {
     Bench(commands::bench::Args),
     /// Open the interactive viewer (orbit, isovalue slider, modes, measurements); --frames N renders N frames and exits.
     View(commands::view::Args),
+    /// Serve the web viewer and one .cgc file over HTTP (Range requests), and print the URL to open.
+    Serve(commands::serve::Args),
 }
 
 /// The error and its causes joined by ": ", each cause once: a library error whose message is
@@ -106,6 +108,7 @@ fn main() -> ExitCode {
         Command::Render(a) => commands::render::run(a),
         Command::Bench(a) => commands::bench::run(a),
         Command::View(a) => commands::view::run(a),
+        Command::Serve(a) => commands::serve::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -1,23 +1,53 @@
-//! WGSL sources shared between passes. A pass's module is `common.wgsl` (+ `cell_decode.wgsl`
-//! and the page storage, `cell_data.wgsl` or the tracer's `trace_pages.wgsl`, for passes that read
-//! cells) + the role's file.
+//! The WGSL source of each shader module: the files of `shaders/` that it concatenates, in order,
+//! as `shaders/modules.txt` lists them (build.rs turns each line into one const here). That list is
+//! the one place a composition is written; the web viewer's build reads it too (web/build.mjs), so
+//! that the browser runs the same sources. Pass a const to `wgpu_util::module`, which concatenates
+//! the parts.
 
-pub(crate) const COMMON: &str = include_str!("../shaders/common.wgsl");
-/// Cell decoding over one page per bind group (the raster passes, the single-page tracer).
-pub(crate) const CELL_DATA: &str = concat!(
-    include_str!("../shaders/cell_decode.wgsl"),
-    include_str!("../shaders/cell_data.wgsl")
-);
-/// The per-pixel cell test shared by the hardware and the compute cell raster.
-pub(crate) const CELL_HIT: &str = include_str!("../shaders/cell_hit.wgsl");
-/// The instance lists and pixel spans of the compute raster and splat passes.
-pub(crate) const COMPUTE_LISTS: &str = include_str!("../shaders/compute_lists.wgsl");
-/// EWA splat setup and per-pixel weight, shared by the hardware and the compute splats.
-pub(crate) const EWA_SPLAT: &str = include_str!("../shaders/ewa_splat.wgsl");
-/// Cell decoding over up to [`crate::gpu_types::TRACE_PAGES`] pages bound at once (the tracer).
-pub(crate) const TRACE_PAGES_DATA: &str = concat!(
-    include_str!("../shaders/cell_decode.wgsl"),
-    include_str!("../shaders/trace_pages.wgsl")
-);
-/// The wavefront path tracer's passes, for grids of more pages than one trace pass binds.
-pub(crate) const WAVEFRONT: &str = include_str!("../shaders/wavefront.wgsl");
+include!(concat!(env!("OUT_DIR"), "/shader_modules.rs"));
+
+#[cfg(test)]
+mod tests {
+    use std::path::Path;
+
+    /// Every composition goes through the manifest: no source file of the crate includes a shader
+    /// file by itself, and every `.wgsl` file belongs to at least one module.
+    #[test]
+    fn shader_sources_come_only_from_the_manifest() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+        let manifest = std::fs::read_to_string(root.join("shaders/modules.txt")).unwrap();
+        let mut stack = vec![root.join("src")];
+        let mut checked = 0;
+        while let Some(dir) = stack.pop() {
+            for entry in std::fs::read_dir(&dir).unwrap() {
+                let path = entry.unwrap().path();
+                if path.is_dir() {
+                    stack.push(path);
+                } else if path.extension().is_some_and(|e| e == "rs") {
+                    let text = std::fs::read_to_string(&path).unwrap();
+                    let includes_shader = text
+                        .lines()
+                        .any(|l| l.contains(concat!("include", "_str!")) && l.contains(".wgsl"));
+                    assert!(
+                        !includes_shader,
+                        "{} includes a file itself: compose shader modules in shaders/modules.txt",
+                        path.display()
+                    );
+                    checked += 1;
+                }
+            }
+        }
+        assert!(checked > 10);
+        for entry in std::fs::read_dir(root.join("shaders")).unwrap() {
+            let name = entry.unwrap().file_name().into_string().unwrap();
+            if name.ends_with(".wgsl") {
+                assert!(
+                    manifest.split_whitespace().any(|w| w == name),
+                    "shaders/{name} is in no module of shaders/modules.txt"
+                );
+            }
+        }
+        assert_eq!(super::CELLS.len(), 5);
+        assert!(super::SHADE[0].starts_with("// Declarations shared by every isogrid-gpu shader"));
+    }
+}

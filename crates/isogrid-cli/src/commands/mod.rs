@@ -7,5 +7,6 @@ pub mod generate;
 pub mod info;
 pub mod mc;
 pub mod render;
+pub mod serve;
 pub mod view;
 pub mod voxelize;

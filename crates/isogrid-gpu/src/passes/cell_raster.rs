@@ -5,7 +5,7 @@
 
 use super::scene::SceneLayouts;
 use crate::gpu_types::PageDrawArgs;
-use crate::shaders::{CELL_DATA, CELL_HIT, COMMON};
+use crate::shaders::{CELLS, PROBE};
 use crate::targets::{Targets, DEPTH_FORMAT, IDS_FORMAT, SURFACE_FORMAT};
 use crate::upload::{GridLayouts, Page};
 use crate::wgpu_util::{
@@ -36,7 +36,9 @@ impl HardwareRaster {
         // The fragment shader writes the crossing's depth, which is never nearer than the
         // rectangle's (the box's nearest corner): declaring that (conservative depth) keeps the
         // early depth test, which rejects cells behind what is already drawn before any sampling.
-        let cells_source = include_str!("../../shaders/cells.wgsl");
+        // Only here, and only for devices that offer it: `@early_depth_test` is a wgpu extension,
+        // not WebGPU WGSL, so the shared files (and the web viewer) never contain it.
+        let cells_source = CELLS.concat();
         let cells_source = if device
             .features()
             .contains(wgpu::Features::SHADER_EARLY_DEPTH_TEST)
@@ -46,13 +48,9 @@ impl HardwareRaster {
                 "@fragment @early_depth_test(less_equal)\nfn fs_cell",
             )
         } else {
-            cells_source.to_string()
+            cells_source
         };
-        let cells_module = module(
-            device,
-            "cells.wgsl",
-            &[COMMON, CELL_DATA, CELL_HIT, &cells_source],
-        );
+        let cells_module = module(device, "cells.wgsl", &[&cells_source]);
         let cells_layout = pipeline_layout(device, "cells", &[&scene.render, &grid.page_render]);
         let cells = render_pipeline(
             device,
@@ -66,11 +64,7 @@ impl HardwareRaster {
                 depth: Some(DEPTH_FORMAT),
             },
         );
-        let probe_module = module(
-            device,
-            "probe.wgsl",
-            &[COMMON, CELL_DATA, include_str!("../../shaders/probe.wgsl")],
-        );
+        let probe_module = module(device, "probe.wgsl", PROBE);
         let probe_layout = pipeline_layout(
             device,
             "probe",

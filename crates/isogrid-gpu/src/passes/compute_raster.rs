@@ -6,7 +6,7 @@
 
 use super::scene::SceneLayouts;
 use crate::gpu_types::{PageDispatchArgs, LIST_FULL, LIST_NEW, LIST_PROBE};
-use crate::shaders::{CELL_DATA, CELL_HIT, COMMON, COMPUTE_LISTS, EWA_SPLAT};
+use crate::shaders::{CELLS_COMPUTE, EWA_COMPUTE};
 use crate::targets::{Targets, EWA_FORMAT, IDS_FORMAT, SURFACE_FORMAT};
 use crate::upload::{GridLayouts, Page};
 use crate::wgpu_util::{
@@ -75,33 +75,13 @@ impl ComputeRaster {
                 written_texture(2, EWA_FORMAT),
             ],
         );
-        let raster_module = module(
-            device,
-            "cells_compute.wgsl",
-            &[
-                COMMON,
-                CELL_DATA,
-                COMPUTE_LISTS,
-                CELL_HIT,
-                include_str!("../../shaders/cells_compute.wgsl"),
-            ],
-        );
+        let raster_module = module(device, "cells_compute.wgsl", CELLS_COMPUTE);
         let raster_layout = pipeline_layout(
             device,
             "compute raster",
             &[&scene.compute, &grid.page_compute, &targets],
         );
-        let ewa_module = module(
-            device,
-            "ewa_compute.wgsl",
-            &[
-                COMMON,
-                CELL_DATA,
-                COMPUTE_LISTS,
-                EWA_SPLAT,
-                include_str!("../../shaders/ewa_compute.wgsl"),
-            ],
-        );
+        let ewa_module = module(device, "ewa_compute.wgsl", EWA_COMPUTE);
         let ewa_layout = pipeline_layout(
             device,
             "compute ewa",

@@ -4,7 +4,7 @@
 
 use super::scene::SceneLayouts;
 use crate::gpu_types::PageDrawArgs;
-use crate::shaders::{CELL_DATA, COMMON, EWA_SPLAT};
+use crate::shaders::EWA;
 use crate::targets::{Targets, EWA_FORMAT};
 use crate::upload::{GridLayouts, Page};
 use crate::wgpu_util::{
@@ -25,16 +25,7 @@ impl EwaSplats {
             "raster surface input",
             &[texture(0, wgpu::ShaderStages::FRAGMENT, FLOAT, D2)],
         );
-        let ewa_module = module(
-            device,
-            "ewa.wgsl",
-            &[
-                COMMON,
-                CELL_DATA,
-                EWA_SPLAT,
-                include_str!("../../shaders/ewa.wgsl"),
-            ],
-        );
+        let ewa_module = module(device, "ewa.wgsl", EWA);
         let ewa_layout = pipeline_layout(
             device,
             "ewa",

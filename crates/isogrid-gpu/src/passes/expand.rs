@@ -4,7 +4,7 @@
 //! probes found — with their indirect draw and dispatch arguments.
 
 use super::scene::SceneLayouts;
-use crate::shaders::{CELL_DATA, COMMON};
+use crate::shaders::EXPAND;
 use crate::upload::{GridLayouts, Page};
 use crate::wgpu_util::{compute, dispatch_size, module, pipeline_layout};
 
@@ -17,11 +17,7 @@ pub(crate) struct ClusterExpansion {
 
 impl ClusterExpansion {
     pub fn new(device: &wgpu::Device, scene: &SceneLayouts, grid: &GridLayouts) -> Self {
-        let expand_module = module(
-            device,
-            "expand.wgsl",
-            &[COMMON, CELL_DATA, include_str!("../../shaders/expand.wgsl")],
-        );
+        let expand_module = module(device, "expand.wgsl", EXPAND);
         let expand_layout =
             pipeline_layout(device, "expand", &[&scene.compute, &grid.page_compute]);
         let visible = compute(

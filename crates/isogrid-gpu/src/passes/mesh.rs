@@ -2,7 +2,7 @@
 //! G-buffer and depth targets as the cells, so that shading and read-back are shared.
 
 use super::scene::SceneLayouts;
-use crate::shaders::COMMON;
+use crate::shaders::MESH;
 use crate::targets::{DEPTH_FORMAT, IDS_FORMAT, SURFACE_FORMAT};
 use crate::upload::{GpuMesh, GridLayouts};
 use crate::wgpu_util::{module, pipeline_layout, render_pipeline, target, RenderSpec};
@@ -14,11 +14,7 @@ pub(crate) struct MeshRaster {
 
 impl MeshRaster {
     pub fn new(device: &wgpu::Device, scene: &SceneLayouts, grid: &GridLayouts) -> Self {
-        let mesh_module = module(
-            device,
-            "mesh.wgsl",
-            &[COMMON, include_str!("../../shaders/mesh.wgsl")],
-        );
+        let mesh_module = module(device, "mesh.wgsl", MESH);
         let mesh_layout = pipeline_layout(device, "mesh", &[&scene.render, &grid.mesh]);
         let pipeline = render_pipeline(
             device,

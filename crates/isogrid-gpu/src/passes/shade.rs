@@ -4,7 +4,7 @@
 //! pass after the compute raster.
 
 use super::scene::SceneLayouts;
-use crate::shaders::COMMON;
+use crate::shaders::SHADE;
 use crate::targets::{Targets, COLOR_FORMAT, FINAL_FORMAT};
 use crate::wgpu_util::{
     compute, layout, module, pipeline_layout, render_pipeline, target, texture, texture_entry,
@@ -40,11 +40,7 @@ impl Shading {
                 written_texture(1, FINAL_FORMAT),
             ],
         );
-        let shade_module = module(
-            device,
-            "shade.wgsl",
-            &[COMMON, include_str!("../../shaders/shade.wgsl")],
-        );
+        let shade_module = module(device, "shade.wgsl", SHADE);
         let shade_layout = pipeline_layout(device, "shade", &[&scene.render, &inputs]);
         let fragment = render_pipeline(
             device,

@@ -2,7 +2,7 @@
 //! per-cluster visibility bits from the cluster id target, for the next frame's expansion.
 
 use super::scene::SceneLayouts;
-use crate::shaders::COMMON;
+use crate::shaders::VISIBILITY;
 use crate::targets::Targets;
 use crate::view::Visibility;
 use crate::wgpu_util::{compute, layout, module, pipeline_layout, texture, texture_entry, Gpu, D2};
@@ -25,11 +25,7 @@ impl VisibilityUpdate {
                 D2,
             )],
         );
-        let visibility_module = module(
-            device,
-            "visibility.wgsl",
-            &[COMMON, include_str!("../../shaders/visibility.wgsl")],
-        );
+        let visibility_module = module(device, "visibility.wgsl", VISIBILITY);
         let visibility_layout =
             pipeline_layout(device, "visibility", &[&scene.compute, &ids_input]);
         let pipeline = compute(

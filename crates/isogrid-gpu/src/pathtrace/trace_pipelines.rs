@@ -3,7 +3,7 @@
 //! bound as a group of several pages (with `wavefront.wgsl`'s passes for grids of several groups).
 
 use crate::gpu_types::TRACE_PAGES;
-use crate::shaders::{CELL_DATA, COMMON, TRACE_PAGES_DATA, WAVEFRONT};
+use crate::shaders::{TRACE_ONE_PAGE, TRACE_PAGED};
 use crate::targets::{COLOR_FORMAT, FINAL_FORMAT, IDS_FORMAT};
 use crate::wgpu_util::{
     compute, layout, module, pipeline_layout, storage, texture, uniform, written_texture, D2, FLOAT,
@@ -190,8 +190,7 @@ impl TracePipelines {
         let one_page = entry_points(
             device,
             "one page",
-            &[CELL_DATA],
-            &[],
+            TRACE_ONE_PAGE,
             [&grid, &page, &path_io, &traced_primary_io, &ray_io],
         );
         TracePipelines {
@@ -217,8 +216,7 @@ impl TracePipelines {
             let entry = entry_points(
                 device,
                 "several pages",
-                &[TRACE_PAGES_DATA],
-                &[WAVEFRONT],
+                TRACE_PAGED,
                 [
                     &self.grid,
                     &pages,
@@ -236,29 +234,19 @@ impl TracePipelines {
     }
 }
 
-/// Compiles trace.wgsl + pathtrace.wgsl over `cell_storage` (the cell decoding and the page
-/// bindings it reads), followed by `appended`, with layouts [grid, pages, path trace io, traced
+/// Compiles `sources` (trace.wgsl + pathtrace.wgsl over the cell decoding and page bindings of
+/// one variant, `shaders/modules.txt`), with layouts [grid, pages, path trace io, traced
 /// primaries io, trace rays io]; the traced-primaries entry point only on first use.
 fn entry_points(
     device: &wgpu::Device,
     variant: &str,
-    cell_storage: &[&str],
-    appended: &[&str],
+    sources: &[&str],
     [grid, pages, path_io, traced_primary_io, ray_io]: [&wgpu::BindGroupLayout; 5],
 ) -> TraceEntryPoints {
     let shader = module(
         device,
         &format!("trace.wgsl + pathtrace.wgsl ({variant})"),
-        &[
-            &[COMMON],
-            cell_storage,
-            &[
-                include_str!("../../shaders/trace.wgsl"),
-                include_str!("../../shaders/pathtrace.wgsl"),
-            ],
-            appended,
-        ]
-        .concat(),
+        sources,
     );
     let path_layout = pipeline_layout(
         device,

@@ -1,0 +1,153 @@
+//! `isogrid serve`: an HTTP server for the web viewer (web/, its built bundle embedded in the
+//! binary) and one `.cgc` file (a volume input is extracted into a temporary one first), which the viewer reads with Range requests. It serves exactly
+//! three paths — `/` (the page), `/viewer.js` and `/NAME` (the file, by its own name) — and
+//! answers everything else with 404: no directory listing, nothing outside them. Ranges, 206 and
+//! 416 come from tower-http's `ServeFile`.
+
+use crate::grid_source::{is_cgc, GridSource};
+use anyhow::{Context, Result};
+use axum::http::{header, StatusCode};
+use axum::routing::get;
+use axum::Router;
+use std::net::{IpAddr, SocketAddr};
+use std::path::PathBuf;
+use tower_http::services::ServeFile;
+
+/// The viewer: its page, and its bundle as `npm run build` writes it (web/dist/viewer.js, committed
+/// so that a fresh clone builds without node; a web test fails when it is stale).
+const INDEX_HTML: &str = include_str!("../../../../web/src/index.html");
+const VIEWER_JS: &str = include_str!("../../../../web/dist/viewer.js");
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// The .cgc file to serve, or a volume to extract first (with --iso or --iso-normalized).
+    #[command(flatten)]
+    pub source: GridSource,
+    /// TCP port; 0 picks a free one.
+    #[arg(long, default_value_t = 8000)]
+    pub port: u16,
+    /// Address to listen on: 127.0.0.1 keeps it on this machine; 0.0.0.0 shares it on the network.
+    #[arg(long, default_value = "127.0.0.1")]
+    pub bind: IpAddr,
+    /// Open the printed URL in the default browser.
+    #[arg(long)]
+    pub open: bool,
+}
+
+/// `name` with every byte outside the URL-safe set percent-encoded, for the file's URL path.
+fn url_name(name: &str) -> String {
+    name.bytes()
+        .map(|b| match b {
+            b'A'..=b'Z' | b'a'..=b'z' | b'0'..=b'9' | b'-' | b'.' | b'_' | b'~' => {
+                (b as char).to_string()
+            }
+            _ => format!("%{b:02X}"),
+        })
+        .collect()
+}
+
+/// A folder removed when the server stops (the .cgc extracted from a volume input).
+struct TempDir(PathBuf);
+
+impl Drop for TempDir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+/// The .cgc to serve: the input itself, or the volume extracted into a temporary folder (named
+/// after the volume, so the page shows that name).
+fn cgc_file(source: &GridSource) -> Result<(PathBuf, Option<TempDir>)> {
+    if is_cgc(&source.input) {
+        // Refuse a bad file here, with the reader's one-line message, rather than in the page.
+        isogrid::cgc::open(&source.input)?;
+        return Ok((source.input.clone(), None));
+    }
+    let grid = source.load()?;
+    let dir = std::env::temp_dir().join(format!("isogrid-serve-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).with_context(|| format!("{}", dir.display()))?;
+    let temp = TempDir(dir);
+    let stem = source
+        .input
+        .file_stem()
+        .and_then(|s| s.to_str())
+        .map(|s| s.trim_end_matches(".nii"))
+        .unwrap_or("volume");
+    let path = temp.0.join(format!("{stem}.cgc"));
+    isogrid::cgc::write(&path, &grid)?;
+    Ok((path, Some(temp)))
+}
+
+pub fn run(args: Args) -> Result<()> {
+    let (file, _temp) = cgc_file(&args.source)?;
+    let name = file
+        .file_name()
+        .and_then(|n| n.to_str())
+        .with_context(|| format!("{}: not a file name", file.display()))?;
+    let url_path = format!("/{}", url_name(name));
+    let app = Router::new()
+        .route(
+            "/",
+            get(|| async {
+                (
+                    [(header::CONTENT_TYPE, "text/html; charset=utf-8")],
+                    INDEX_HTML,
+                )
+            }),
+        )
+        .route(
+            "/viewer.js",
+            get(|| async {
+                (
+                    [(header::CONTENT_TYPE, "text/javascript; charset=utf-8")],
+                    VIEWER_JS,
+                )
+            }),
+        )
+        .route_service(&url_path, ServeFile::new(&file))
+        .fallback(|| async { (StatusCode::NOT_FOUND, "not found\n") });
+    let runtime = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_io()
+        .build()?;
+    runtime.block_on(async move {
+        let listener = tokio::net::TcpListener::bind(SocketAddr::new(args.bind, args.port))
+            .await
+            .with_context(|| format!("cannot listen on {}:{}", args.bind, args.port))?;
+        let addr = listener.local_addr()?;
+        let host = if addr.ip().is_unspecified() {
+            "127.0.0.1".to_string()
+        } else {
+            match addr.ip() {
+                IpAddr::V6(ip) => format!("[{ip}]"),
+                ip => ip.to_string(),
+            }
+        };
+        let url = format!("http://{host}:{}/?src={url_path}", addr.port());
+        println!("serving     {} at {url}", file.display());
+        println!("            add &view=1|2 and &size=WxH for the camera of `isogrid render`; Ctrl-C stops");
+        if args.open {
+            open_browser(&url);
+        }
+        axum::serve(listener, app)
+            .with_graceful_shutdown(async {
+                let _ = tokio::signal::ctrl_c().await;
+            })
+            .await
+            .context("HTTP server")
+    })
+}
+
+/// Opens `url` with the platform's opener; a failure is reported, not fatal (the URL is printed).
+fn open_browser(url: &str) {
+    let (program, args): (&str, Vec<&str>) = if cfg!(target_os = "macos") {
+        ("open", vec![url])
+    } else if cfg!(windows) {
+        ("cmd", vec!["/C", "start", "", url])
+    } else {
+        ("xdg-open", vec![url])
+    };
+    if let Err(e) = std::process::Command::new(program).args(&args).spawn() {
+        eprintln!("isogrid: could not open a browser ({program}: {e}); open the URL above");
+    }
+}

@@ -1,0 +1,207 @@
+//! `isogrid serve` end to end: the viewer's files, the .cgc with Range requests (206, 416 for
+//! malformed ranges), and 404 for everything else (no listing, no paths outside).
+
+use std::io::{BufRead, BufReader, Read, Write};
+use std::net::TcpStream;
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+
+fn isogrid(args: &[&str]) {
+    let out = Command::new(env!("CARGO_BIN_EXE_isogrid"))
+        .args(args)
+        .output()
+        .expect("runs the binary");
+    assert!(
+        out.status.success(),
+        "{args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+/// A small sphere .cgc in a fresh directory.
+fn sphere(dir: &Path) -> PathBuf {
+    let volume = dir.join("sphere.nrrd");
+    let cgc = dir.join("sphere.cgc");
+    isogrid(&[
+        "generate",
+        "sphere",
+        "--size",
+        "24",
+        "-o",
+        volume.to_str().unwrap(),
+    ]);
+    isogrid(&[
+        "extract",
+        volume.to_str().unwrap(),
+        "--iso-normalized",
+        "0.5",
+        "-o",
+        cgc.to_str().unwrap(),
+    ]);
+    cgc
+}
+
+struct Server {
+    child: Child,
+    /// Held open so that the server's later output does not meet a closed pipe.
+    _stdout: BufReader<std::process::ChildStdout>,
+    addr: String,
+    url: String,
+}
+
+impl Drop for Server {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+fn serve(file: &Path) -> Server {
+    serve_args(&[file.to_str().unwrap()])
+}
+
+fn serve_args(input: &[&str]) -> Server {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_isogrid"))
+        .arg("serve")
+        .args(input)
+        .args(["--port", "0"])
+        .stdout(Stdio::piped())
+        .spawn()
+        .expect("starts the server");
+    // Extraction prints its statistics first; the URL is on the "serving" line.
+    let mut stdout = BufReader::new(child.stdout.take().unwrap());
+    let url = loop {
+        let mut line = String::new();
+        assert!(
+            stdout.read_line(&mut line).unwrap() > 0,
+            "the server printed no URL"
+        );
+        if let Some(url) = line.split_whitespace().find(|w| w.starts_with("http://")) {
+            break url.to_string();
+        }
+    };
+    let addr = url["http://".len()..]
+        .split('/')
+        .next()
+        .unwrap()
+        .to_string();
+    Server {
+        child,
+        _stdout: stdout,
+        addr,
+        url,
+    }
+}
+
+/// One HTTP/1.1 GET: (status, headers in lower case, body).
+fn get(addr: &str, path: &str, extra: &str) -> (u16, String, Vec<u8>) {
+    let mut s = TcpStream::connect(addr).unwrap();
+    write!(
+        s,
+        "GET {path} HTTP/1.1\r\nHost: {addr}\r\nConnection: close\r\n{extra}\r\n"
+    )
+    .unwrap();
+    let mut raw = Vec::new();
+    s.read_to_end(&mut raw).unwrap();
+    let split = raw.windows(4).position(|w| w == b"\r\n\r\n").unwrap();
+    let head = String::from_utf8_lossy(&raw[..split]).to_lowercase();
+    let status = head.split_whitespace().nth(1).unwrap().parse().unwrap();
+    (status, head, raw[split + 4..].to_vec())
+}
+
+#[test]
+fn serves_the_viewer_and_the_file_with_ranges_and_nothing_else() {
+    let dir = std::env::temp_dir().join(format!("isogrid-serve-test-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = sphere(&dir);
+    let bytes = std::fs::read(&file).unwrap();
+    let server = serve(&file);
+    assert!(server.url.ends_with("/?src=/sphere.cgc"), "{}", server.url);
+    assert!(
+        server.addr.starts_with("127.0.0.1:"),
+        "default bind is local: {}",
+        server.addr
+    );
+    let a = server.addr.as_str();
+
+    let (status, head, body) = get(a, "/", "");
+    assert_eq!(status, 200);
+    assert!(head.contains("text/html") && String::from_utf8_lossy(&body).contains("viewer.js"));
+    let (status, head, _) = get(a, "/viewer.js", "");
+    assert_eq!(status, 200);
+    assert!(head.contains("javascript"));
+
+    // The whole file, and ranges of it that add up to it.
+    let (status, _, body) = get(a, "/sphere.cgc", "");
+    assert_eq!((status, body.as_slice()), (200, bytes.as_slice()));
+    let (status, head, body) = get(a, "/sphere.cgc", "Range: bytes=0-319\r\n");
+    assert_eq!(status, 206);
+    assert!(
+        head.contains(&format!("content-range: bytes 0-319/{}", bytes.len())),
+        "{head}"
+    );
+    let (_, _, rest) = get(a, "/sphere.cgc", "Range: bytes=320-\r\n");
+    assert_eq!([body, rest].concat(), bytes);
+
+    // Malformed and unsatisfiable ranges.
+    for range in [
+        "bytes=abc",
+        "bytes=5-2",
+        "items=0-1",
+        &format!("bytes={}-", bytes.len() + 10),
+    ] {
+        let (status, _, _) = get(a, "/sphere.cgc", &format!("Range: {range}\r\n"));
+        assert_eq!(status, 416, "Range: {range}");
+    }
+
+    // Nothing but the three paths: no listing, no other files, no way out.
+    for path in [
+        "/sphere.nrrd",
+        "/index.html/..",
+        "/../sphere.nrrd",
+        "/%2e%2e/%2e%2e/etc/passwd",
+        "/..%2fsphere.nrrd",
+        "/dist/",
+        "//etc/passwd",
+    ] {
+        let (status, _, body) = get(a, path, "");
+        assert_eq!(status, 404, "{path}: {}", String::from_utf8_lossy(&body));
+    }
+    drop(server);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn extracts_a_volume_input_first() {
+    let dir = std::env::temp_dir().join(format!("isogrid-serve-volume-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let cgc = sphere(&dir);
+    let volume = dir.join("sphere.nrrd");
+    let server = serve_args(&[volume.to_str().unwrap(), "--iso-normalized", "0.5"]);
+    assert!(server.url.ends_with("/?src=/sphere.cgc"), "{}", server.url);
+    let (status, _, body) = get(&server.addr, "/sphere.cgc", "");
+    assert_eq!(status, 200);
+    // The same extraction as `isogrid extract` of the same volume and isovalue.
+    assert_eq!(body, std::fs::read(&cgc).unwrap());
+    drop(server);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn refuses_a_damaged_file_with_one_line() {
+    let dir = std::env::temp_dir().join(format!("isogrid-serve-bad-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("bad.cgc");
+    std::fs::write(&file, b"not a cgc file at all").unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_isogrid"))
+        .args(["serve", file.to_str().unwrap(), "--port", "0"])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(
+        stderr.contains("bad.cgc") && stderr.lines().count() == 1,
+        "{stderr}"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -1,0 +1,130 @@
+// The native camera conventions (crates/isogrid/src/camera.rs) and the frame uniforms
+// (crates/isogrid-gpu/src/render/uniforms.rs), in f64 as there, so that `?view=N&size=WxH` gives
+// the camera of `isogrid render --view N --size WxH`. World space: sample (i, j, k) at
+// (i·sx, j·sy, k·sz); origin and direction cosines are ignored, as natively.
+
+export type Vec3 = [number, number, number];
+
+export interface Camera {
+  eye: Vec3;
+  target: Vec3;
+  up: Vec3;
+  fovyDegrees: number;
+  width: number;
+  height: number;
+}
+
+export const PRESET_FOVY = 35;
+/** EWA Gaussian standard deviation in cells (`EWA_SIGMA_CELLS`). */
+export const EWA_SIGMA_CELLS = 0.7;
+export const FLAG_OCCLUSION = 1;
+export const FLAG_BACKFACE = 2;
+export const FLAG_EWA = 4;
+
+const sub = (a: Vec3, b: Vec3): Vec3 => [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
+const dot = (a: Vec3, b: Vec3) => a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+const cross = (a: Vec3, b: Vec3): Vec3 => [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]];
+function normalize(a: Vec3): Vec3 {
+  const scale = Math.max(...a.map(Math.abs));
+  const s = a.map((v) => v / scale) as Vec3;
+  const n = Math.sqrt(dot(s, s));
+  return s.map((v) => v / n) as Vec3;
+}
+
+/** `Camera::preset`: view 1 from +z, view 2 oblique; both frame the box's bounding sphere. */
+export function presetCamera(view: number, lo: number[], hi: number[], width: number, height: number): Camera {
+  const center = [0, 1, 2].map((a) => 0.5 * (lo[a] + hi[a])) as Vec3;
+  const d = sub(hi as Vec3, lo as Vec3);
+  const radius = 0.5 * Math.max(Math.sqrt(dot(d, d)), 1e-9);
+  const half = (PRESET_FOVY * Math.PI) / 180 * 0.5;
+  const aspect = width / Math.max(height, 1);
+  const halfH = Math.atan(Math.tan(half) * Math.min(aspect, 1));
+  const distance = (1.05 * radius) / Math.sin(halfH);
+  let dir: Vec3;
+  if (view === 1) dir = [0, 0, 1];
+  else if (view === 2) dir = normalize([0.62, 0.42, 0.66]);
+  else throw new Error(`view ${view} is not 1 or 2`);
+  return {
+    eye: [0, 1, 2].map((a) => center[a] + distance * dir[a]) as Vec3,
+    target: center,
+    up: [0, 1, 0],
+    fovyDegrees: PRESET_FOVY,
+    width,
+    height,
+  };
+}
+
+/** Orthonormal (right, up, forward), `Camera::basis`. */
+export function basis(c: Camera): [Vec3, Vec3, Vec3] {
+  const forward = normalize(sub(c.target, c.eye));
+  const right = normalize(cross(forward, c.up));
+  const up = cross(right, forward);
+  return [right, up, forward];
+}
+
+/** Orbits the eye around the target by yaw/pitch radians (about world up and image right). */
+export function orbit(c: Camera, yaw: number, pitch: number): Camera {
+  const [right, , ] = basis(c);
+  const rot = (v: Vec3, axis: Vec3, ang: number): Vec3 => {
+    const k = normalize(axis);
+    const cs = Math.cos(ang), sn = Math.sin(ang);
+    const kv = cross(k, v);
+    const kd = dot(k, v) * (1 - cs);
+    return [0, 1, 2].map((i) => v[i] * cs + kv[i] * sn + k[i] * kd) as Vec3;
+  };
+  let v = sub(c.eye, c.target);
+  v = rot(v, c.up, yaw);
+  const v2 = rot(v, right, pitch);
+  // Keep away from the poles, where up and the view direction would be parallel.
+  const cosUp = dot(normalize(v2), normalize(c.up));
+  if (Math.abs(cosUp) < 0.995) v = v2;
+  return { ...c, eye: [0, 1, 2].map((i) => c.target[i] + v[i]) as Vec3 };
+}
+
+/** Moves the eye towards (factor < 1) or away from the target. */
+export function zoom(c: Camera, factor: number): Camera {
+  const v = sub(c.eye, c.target);
+  return { ...c, eye: [0, 1, 2].map((i) => c.target[i] + v[i] * factor) as Vec3 };
+}
+
+/** Moves eye and target along the image axes by (dx, dy) world units. */
+export function pan(c: Camera, dx: number, dy: number): Camera {
+  const [right, up] = basis(c);
+  const m = [0, 1, 2].map((i) => right[i] * dx + up[i] * dy);
+  return { ...c, eye: c.eye.map((v, i) => v + m[i]) as Vec3, target: c.target.map((v, i) => v + m[i]) as Vec3 };
+}
+
+export interface GridUniformInfo {
+  spacing: number[];
+  isoCode: number;
+  precisionBits: number;
+  bounds: [number[], number[]];
+}
+
+/**
+ * `FrameUniforms` (common.wgsl) as 112 bytes: eye+near, right+tan·aspect, up+tan,
+ * forward+sigma, viewport, spacing+iso code, params (precision, source, flags, frame).
+ */
+export function frameUniforms(c: Camera, g: GridUniformInfo, flags: number, frame: number): ArrayBuffer {
+  const [right, up, forward] = basis(c);
+  const tan = Math.tan(((c.fovyDegrees * Math.PI) / 180) * 0.5);
+  const aspect = c.width / c.height;
+  const [lo, hi] = g.bounds;
+  const center = [0, 1, 2].map((a) => 0.5 * (lo[a] + hi[a]));
+  const radius = Math.sqrt([0, 1, 2].map((a) => (hi[a] - lo[a]) ** 2).reduce((x, y) => x + y)) * 0.5;
+  const distance = Math.sqrt([0, 1, 2].map((a) => (c.eye[a] - center[a]) ** 2).reduce((x, y) => x + y));
+  const near = 1e-5 * Math.max(distance + radius, 1e-6);
+  const buf = new ArrayBuffer(112);
+  const f = new Float32Array(buf);
+  const u = new Uint32Array(buf);
+  f.set([...c.eye, near, ...right, tan * aspect, ...up, tan, ...forward, EWA_SIGMA_CELLS], 0);
+  f.set([c.width, c.height, 1 / c.width, 1 / c.height], 16);
+  f.set([g.spacing[0], g.spacing[1], g.spacing[2], g.isoCode], 20);
+  u.set([g.precisionBits, 0, flags, frame], 24);
+  return buf;
+}
+
+/** Whether the eye is outside the box (back-face culling is only safe then, as natively). */
+export function eyeOutside(c: Camera, bounds: [number[], number[]]): boolean {
+  return [0, 1, 2].some((a) => c.eye[a] < bounds[0][a] || c.eye[a] > bounds[1][a]);
+}

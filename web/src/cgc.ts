@@ -1,0 +1,415 @@
+// Reading and validating .cgc files (versions 1 and 2) in the browser, rule for rule as the Rust
+// reader (crates/isogrid/src/cgc/read.rs): the header and section table first (`parseHeader`), then
+// each section's checksum once it is complete (`checkSection`), the zero gaps of version 2
+// (`checkGaps`) and the structure of blocks, metacells and cells (`validateStructure`). The
+// loader runs these as bytes arrive; `parseCgc` runs them on a whole file in the Rust reader's
+// order. Errors are `CgcError`s with the Rust reader's one-line messages.
+//
+// Geometry: metacell positions are in metacell units (cell index / 2); cells are in index space.
+
+import { Crc32 } from './crc32.js';
+
+export const MAGIC = [0x89, 0x43, 0x47, 0x43, 0x0d, 0x0a, 0x1a, 0x0a];
+export const HEADER_SIZE = 320;
+const HEADER_CRC_AT = 316;
+const TABLE_FIELDS_AT = 160;
+export const TABLE_ENTRY_SIZE = 32;
+export const MAX_SECTIONS = 64;
+/// Bytes a reader takes from the start of a file to parse its header and section table.
+export const HEAD_READ = HEADER_SIZE + MAX_SECTIONS * TABLE_ENTRY_SIZE;
+const FLAG_REQUIRED = 1;
+export const MAX_DIM = 131072;
+export const BLOCK_CELLS = 16;
+export const BLOCK_METACELLS = 8;
+export const CLUSTER_SLOTS = 16;
+export const BOUND_SLOT = 15;
+export const BLOCK_BYTES = 16;
+export const SLOT_BYTES = 12;
+
+export const SECTION_BLOCKS = 1;
+export const SECTION_METACELLS = 2;
+export const SECTION_CELLS = 3;
+export const SECTION_CELL_ATTRIBUTE = 4;
+const KIND_NAMES: Record<number, string> = { 1: 'blocks', 2: 'metacells', 3: 'cells', 4: 'cell attribute' };
+const GRID_KINDS = [SECTION_BLOCKS, SECTION_METACELLS, SECTION_CELLS];
+
+/** A damaged, truncated or unsupported file; `message` is one line naming the problem. */
+export class CgcError extends Error {
+  constructor(message: string, readonly unsupported = false) {
+    super(message);
+    this.name = 'CgcError';
+  }
+}
+const corrupt = (m: string) => new CgcError(m);
+
+export interface Section {
+  name: string;
+  /** Kind code (version 1: the three grid kinds). */
+  kind: number;
+  offset: number;
+  length: number;
+  crc: number;
+}
+
+export interface CgcHeader {
+  version: number;
+  fileLength: number;
+  /** Samples per axis. */
+  dims: [number, number, number];
+  scalarType: number;
+  spacing: [number, number, number];
+  origin: [number, number, number];
+  valueRange: [number, number];
+  iso: number;
+  precisionBits: number;
+  isoCode: number;
+  mappingOffset: number;
+  mappingStep: number;
+  blockCount: number;
+  slotCount: number;
+  activeCells: number;
+  occupied: number;
+  direction: number[][];
+  blocks: Section;
+  metacells: Section;
+  cells: Section;
+  attribute: Section | null;
+  /** Every section in file order, each checked against its CRC once complete. */
+  sections: Section[];
+  /** Byte ranges [start, end) between sections that must be zero (version 2). */
+  gaps: [number, number][];
+}
+
+export function cellDims(h: { dims: number[] }): [number, number, number] {
+  return h.dims.map((n) => Math.max(n - 1, 0)) as [number, number, number];
+}
+export function blockDims(h: { dims: number[] }): [number, number, number] {
+  return cellDims(h).map((c) => Math.ceil(c / BLOCK_CELLS)) as [number, number, number];
+}
+/** World bounds [lo, hi] (index × spacing; origin and direction are not applied, as natively). */
+export function worldBounds(h: CgcHeader): [number[], number[]] {
+  return [[0, 0, 0], [0, 1, 2].map((a) => Math.max(h.dims[a] - 1, 0) * h.spacing[a])];
+}
+
+/**
+ * The header (and, in version 2, the section table) from `head`, the first HEAD_READ bytes of a
+ * file of `fileLength` bytes (or the whole file when shorter).
+ */
+export function parseHeader(head: Uint8Array, fileLength: number): CgcHeader {
+  if (head.length < HEADER_SIZE) {
+    throw corrupt(`file is ${fileLength} bytes, shorter than the ${HEADER_SIZE}-byte .cgc header`);
+  }
+  const h = head.subarray(0, HEADER_SIZE);
+  const after = head.subarray(HEADER_SIZE);
+  if (MAGIC.some((b, i) => h[i] !== b)) throw corrupt('not a .cgc file (bad magic bytes)');
+  const v = new DataView(h.buffer, h.byteOffset, HEADER_SIZE);
+  const u32 = (o: number) => v.getUint32(o, true);
+  const u64 = (o: number) => v.getBigUint64(o, true);
+  const f64 = (o: number) => v.getFloat64(o, true);
+  // The checksum first: a damaged version field is damage, not a version from the future.
+  if (new Crc32().update(h.subarray(0, HEADER_CRC_AT)).digest() !== u32(HEADER_CRC_AT)) {
+    throw corrupt('header checksum mismatch (the header is damaged)');
+  }
+  const version = u32(8);
+  if (version !== 1 && version !== 2) {
+    throw new CgcError(`format version ${version}; this viewer reads versions 1 and 2`, true);
+  }
+  if (u32(12) !== HEADER_SIZE) throw corrupt('header size field is wrong');
+  const dims: [number, number, number] = [u32(16), u32(20), u32(24)];
+  if (dims.some((d) => d === 0 || d > MAX_DIM)) {
+    throw corrupt(`dims [${dims.join(', ')}] outside 1..=${MAX_DIM}`);
+  }
+  const scalarType = u32(28);
+  if (scalarType > 3) throw corrupt(`unknown scalar type code ${scalarType}`);
+  const spacing: [number, number, number] = [f64(32), f64(40), f64(48)];
+  if (spacing.some((s) => !(Number.isFinite(s) && s > 0))) {
+    throw corrupt(`spacing [${spacing.join(', ')}] is not positive and finite`);
+  }
+  const origin: [number, number, number] = [f64(56), f64(64), f64(72)];
+  const valueRange: [number, number] = [f64(80), f64(88)];
+  const iso = f64(96);
+  const precisionBits = u32(104);
+  if (![4, 8, 16, 32].includes(precisionBits)) throw corrupt(`unknown precision ${precisionBits} bits`);
+  const isoCode = v.getFloat32(108, true);
+  const mappingOffset = f64(112);
+  const mappingStep = f64(120);
+  if (!(Number.isFinite(iso) && Number.isFinite(mappingOffset) && Number.isFinite(mappingStep) && mappingStep > 0)) {
+    throw corrupt('isovalue or value mapping is not finite');
+  }
+  const counts = [u64(128), u64(136), u64(144)];
+  const occupied = u64(152);
+  const direction = [0, 1, 2].map((r) => [0, 1, 2].map((c) => f64(208 + 24 * r + 8 * c)));
+  const bd = blockDims({ dims });
+  const needBlocks = bd[0] * bd[1] * bd[2];
+  if (counts[0] !== BigInt(needBlocks)) {
+    throw corrupt(`${counts[0]} blocks stored but dims [${dims.join(', ')}] need ${needBlocks}`);
+  }
+  const recordSizes = [16n, 12n, BigInt(precisionBits)];
+  const gridLength = (s: number, len: bigint) => {
+    if (counts[s] * recordSizes[s] !== len) {
+      throw corrupt(
+        `${KIND_NAMES[GRID_KINDS[s]]} section is ${len} bytes but holds ${counts[s]} records of ${recordSizes[s]} bytes`,
+      );
+    }
+  };
+  const file = BigInt(fileLength);
+  const fits = (name: string, offset: bigint, len: bigint, end: bigint): [number, number] => {
+    // u64 arithmetic as in Rust: an offset + length past 2^64 cannot fit any file.
+    if (offset % 16n !== 0n || offset < end || offset + len > file) {
+      throw corrupt(`${name} section at ${offset}+${len} does not fit the ${fileLength}-byte file (truncated?)`);
+    }
+    return [Number(offset), Number(len)];
+  };
+  const grid: (Section | null)[] = [null, null, null];
+  const sections: Section[] = [];
+  const gaps: [number, number][] = [];
+  let attribute: Section | null = null;
+  if (version === 1) {
+    let end = BigInt(HEADER_SIZE);
+    for (let s = 0; s < 3; s++) {
+      const offset = u64(160 + 16 * s);
+      const len = u64(168 + 16 * s);
+      const name = KIND_NAMES[GRID_KINDS[s]];
+      gridLength(s, len);
+      const [o, l] = fits(name, offset, len, end);
+      end = offset + len;
+      grid[s] = { name, kind: GRID_KINDS[s], offset: o, length: l, crc: u32(280 + 4 * s) };
+      sections.push(grid[s]!);
+    }
+  } else {
+    const tableAt = u64(TABLE_FIELDS_AT);
+    const count = u32(168);
+    const tableCrc = u32(172);
+    if (h.subarray(176, 208).some((b) => b !== 0) || h.subarray(280, HEADER_CRC_AT).some((b) => b !== 0)) {
+      throw corrupt('reserved header bytes are not zero');
+    }
+    if (tableAt !== BigInt(HEADER_SIZE) || count < 3 || count > MAX_SECTIONS) {
+      throw corrupt(`section table of ${count} entries at ${tableAt} (expected 3..=${MAX_SECTIONS} at ${HEADER_SIZE})`);
+    }
+    const tableLength = count * TABLE_ENTRY_SIZE;
+    if (after.length < tableLength) {
+      throw corrupt(`the ${tableLength}-byte section table does not fit the ${fileLength}-byte file (truncated?)`);
+    }
+    const table = after.subarray(0, tableLength);
+    if (new Crc32().update(table).digest() !== tableCrc) {
+      throw corrupt('section table checksum mismatch (the table is damaged)');
+    }
+    const t = new DataView(table.buffer, table.byteOffset, tableLength);
+    let end = BigInt(HEADER_SIZE + tableLength);
+    const seen: number[] = [];
+    for (let i = 0; i < count; i++) {
+      const at = i * TABLE_ENTRY_SIZE;
+      const kind = t.getUint32(at, true);
+      const flags = t.getUint32(at + 4, true);
+      const offset = t.getBigUint64(at + 8, true);
+      const len = t.getBigUint64(at + 16, true);
+      const crc = t.getUint32(at + 24, true);
+      const known = kind in KIND_NAMES;
+      const name = known ? KIND_NAMES[kind] : `section ${i} (kind ${kind})`;
+      if (t.getUint32(at + 28, true) !== 0 || (flags & ~FLAG_REQUIRED) !== 0) {
+        throw corrupt(`${name}: reserved table bits are set`);
+      }
+      const required = (flags & FLAG_REQUIRED) !== 0;
+      const [o, l] = fits(name, offset, len, end);
+      gaps.push([Number(end), o]);
+      end = offset + len;
+      const section: Section = { name, kind, offset: o, length: l, crc };
+      if (!known) {
+        if (required) throw new CgcError(`${name} is required, and this viewer does not know its kind`, true);
+      } else {
+        if (GRID_KINDS.includes(kind) !== required) throw corrupt(`${name} section has the wrong flags`);
+        if (seen.includes(kind)) throw corrupt(`two ${name} sections`);
+        seen.push(kind);
+        const s = GRID_KINDS.indexOf(kind);
+        if (s >= 0) {
+          gridLength(s, len);
+          grid[s] = section;
+        } else if (kind === SECTION_CELL_ATTRIBUTE) {
+          attribute = section;
+        }
+      }
+      sections.push(section);
+    }
+    const missing = GRID_KINDS.find((k) => !seen.includes(k));
+    if (missing !== undefined) throw corrupt(`no ${KIND_NAMES[missing]} section`);
+    if (end !== file) {
+      throw corrupt(`the file is ${fileLength} bytes but its sections end at ${end} (truncated or appended to?)`);
+    }
+  }
+  return {
+    version,
+    fileLength,
+    dims,
+    scalarType,
+    spacing,
+    origin,
+    valueRange,
+    iso,
+    precisionBits,
+    isoCode,
+    mappingOffset,
+    mappingStep,
+    blockCount: Number(counts[0]),
+    slotCount: Number(counts[1]),
+    activeCells: Number(counts[2]),
+    occupied: Number(occupied),
+    direction,
+    blocks: grid[0]!,
+    metacells: grid[1]!,
+    cells: grid[2]!,
+    attribute,
+    sections,
+    gaps,
+  };
+}
+
+/** Checks a complete section's bytes against its stored CRC-32. */
+export function checkSection(section: Section, bytes: Uint8Array | Crc32): void {
+  const digest = bytes instanceof Crc32 ? bytes.digest() : new Crc32().update(bytes).digest();
+  if (digest !== section.crc) throw corrupt(`${section.name} section checksum mismatch (the data is damaged)`);
+}
+
+/** Checks that the bytes between sections (`gap` each) are zero. */
+export function checkGaps(gaps: Uint8Array[]): void {
+  if (gaps.some((g) => g.some((b) => b !== 0))) throw corrupt('padding between sections is not zero');
+}
+
+function metacellCode(x: number, y: number, z: number): number {
+  const spread = (v: number) => (v & 1) | ((v & 2) << 2) | ((v & 4) << 4) | ((v & 8) << 6);
+  return spread(x) | (spread(y) << 1) | (spread(z) << 2);
+}
+
+const popcount8 = (m: number) => {
+  let n = 0;
+  for (let b = 0; b < 8; b++) n += (m >> b) & 1;
+  return n;
+};
+
+/**
+ * The structure of paper §3.1, as the Rust reader checks it after the checksums: each block's
+ * slots are the next whole clusters; metacells inside their block, in Morton order, before any
+ * padding; cell pointers in sequence; cluster bounds exact; totals equal to the header's counts.
+ * Needs the blocks and metacells; the cells only through their count (the section length).
+ * Incremental: `advance(slots)` checks the blocks whose slots lie in the first `slots` slots of
+ * `metacells` (the whole section's buffer, filled that far), so a streamed file is checked block
+ * by block as its metacells arrive; `finish()` checks the totals.
+ */
+export class StructureCheck {
+  private blk = 0;
+  /** Slots of the blocks checked so far. */
+  nextSlot = 0;
+  private nextCell = 0;
+  private occupied = 0;
+  private readonly b: DataView;
+  private readonly m: DataView;
+
+  constructor(private readonly h: CgcHeader, private readonly blocks: Uint8Array, private readonly metacells: Uint8Array) {
+    this.b = new DataView(blocks.buffer, blocks.byteOffset, blocks.byteLength);
+    this.m = new DataView(metacells.buffer, metacells.byteOffset, metacells.byteLength);
+  }
+
+  /** Checks the blocks whose slots are within the first `slots`; returns the slots checked. */
+  advance(slots: number): number {
+    const { h, b, m } = this;
+    const bd = blockDims(h);
+    const cd = cellDims(h);
+    const totalCells = h.cells.length / h.precisionBits;
+    const slotsTotal = this.metacells.byteLength / SLOT_BYTES;
+    for (; this.blk < this.blocks.byteLength / BLOCK_BYTES; this.blk++) {
+      const blk = this.blk;
+      const count = b.getUint32(16 * blk, true);
+      const pointer = b.getUint32(16 * blk + 4, true);
+      if (count % CLUSTER_SLOTS !== 0 || pointer !== this.nextSlot) {
+        throw corrupt(
+          `block ${blk}: metacell range ${pointer}+${count} is not the next whole clusters (expected start ${this.nextSlot})`,
+        );
+      }
+      if (pointer + count > slotsTotal) throw corrupt(`block ${blk}: metacell range runs past the metacell section`);
+      if (pointer + count > slots) break;
+      const pos = [blk % bd[0], Math.floor(blk / bd[0]) % bd[1], Math.floor(blk / (bd[0] * bd[1]))];
+      for (let k = 0; k < count / CLUSTER_SLOTS; k++) {
+        const lo = [0xffff, 0xffff, 0xffff];
+        const hi = [0, 0, 0];
+        let lastCode = -1;
+        let padding = false;
+        const first = pointer + k * CLUSTER_SLOTS;
+        for (let s = 0; s < BOUND_SLOT; s++) {
+          const slot = first + s;
+          const at = SLOT_BYTES * slot;
+          const fail = (what: string) => corrupt(`metacell slot ${slot}: ${what}`);
+          const p = [m.getUint16(at, true), m.getUint16(at + 2, true), m.getUint16(at + 4, true)];
+          const mask = m.getUint16(at + 6, true);
+          const cellPointer = m.getUint32(at + 8, true);
+          if (mask === 0) {
+            if (p.some((x) => x !== 0) || cellPointer !== 0) throw fail('empty slot with non-zero fields');
+            padding = true;
+            continue;
+          }
+          if (padding || mask > 0xff) throw fail('metacell after padding, or reserved mask bits set');
+          for (let a = 0; a < 3; a++) {
+            if (Math.floor(p[a] / BLOCK_METACELLS) !== pos[a]) throw fail('position outside its block');
+          }
+          const code = metacellCode(p[0] % BLOCK_METACELLS, p[1] % BLOCK_METACELLS, p[2] % BLOCK_METACELLS);
+          if (lastCode >= code) throw fail('metacells out of Morton order');
+          lastCode = code;
+          for (let bit = 0; bit < 8; bit++) {
+            if ((mask >> bit) & 1) {
+              const c = [2 * p[0] + (bit & 1), 2 * p[1] + ((bit >> 1) & 1), 2 * p[2] + ((bit >> 2) & 1)];
+              if (c.some((x, a) => x >= cd[a])) throw fail('active cell outside the grid');
+            }
+          }
+          if (cellPointer !== this.nextCell) throw fail(`cell pointer ${cellPointer} out of sequence (expected ${this.nextCell})`);
+          this.nextCell += popcount8(mask);
+          if (this.nextCell > totalCells) throw fail('cells run past the cell section');
+          this.occupied++;
+          for (let a = 0; a < 3; a++) {
+            lo[a] = Math.min(lo[a], p[a]);
+            hi[a] = Math.max(hi[a], p[a]);
+          }
+        }
+        const at = SLOT_BYTES * (first + BOUND_SLOT);
+        const bound = [0, 1, 2, 3, 4, 5].map((i) => m.getUint16(at + 2 * i, true));
+        const firstMask = m.getUint16(SLOT_BYTES * first + 6, true);
+        if (firstMask === 0 || bound.slice(0, 3).some((x, a) => x !== lo[a]) || bound.slice(3).some((x, a) => x !== hi[a])) {
+          throw corrupt(`cluster bound in slot ${first + BOUND_SLOT} does not match its metacells`);
+        }
+      }
+      this.nextSlot += count;
+    }
+    return this.nextSlot;
+  }
+
+  /** The totals, once every block is checked. */
+  finish(): void {
+    const slotsTotal = this.metacells.byteLength / SLOT_BYTES;
+    const totalCells = this.h.cells.length / this.h.precisionBits;
+    if (this.nextSlot !== slotsTotal || this.nextCell !== totalCells || this.occupied !== this.h.occupied) {
+      throw corrupt("blocks, metacells and cells do not add up to the header's counts");
+    }
+  }
+}
+
+/** The whole structure check of a file whose blocks and metacells are complete. */
+export function validateStructure(h: CgcHeader, blocks: Uint8Array, metacells: Uint8Array): void {
+  const check = new StructureCheck(h, blocks, metacells);
+  check.advance(metacells.byteLength / SLOT_BYTES);
+  check.finish();
+}
+
+export interface CgcFile {
+  header: CgcHeader;
+  blocks: Uint8Array;
+  metacells: Uint8Array;
+  cells: Uint8Array;
+}
+
+/** Parses and validates a whole file in memory, in the Rust reader's order. */
+export function parseCgc(bytes: Uint8Array): CgcFile {
+  const header = parseHeader(bytes.subarray(0, Math.min(HEAD_READ, bytes.length)), bytes.length);
+  checkGaps(header.gaps.map(([s, e]) => bytes.subarray(s, e)));
+  const part = (s: Section) => bytes.subarray(s.offset, s.offset + s.length);
+  for (const s of header.sections) checkSection(s, part(s));
+  const file = { header, blocks: part(header.blocks), metacells: part(header.metacells), cells: part(header.cells) };
+  validateStructure(header, file.blocks, file.metacells);
+  return file;
+}

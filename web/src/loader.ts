@@ -1,0 +1,220 @@
+// Streams a .cgc file into the renderer: the header and section table first (one range request
+// for the first HEAD_READ bytes), then the rest of the file in file order (blocks, metacells, then
+// the cells in chunks), each byte requested once. Every section's CRC is checked when it is
+// complete; the structure (validateStructure) as soon as the blocks and metacells are in; and each
+// run of clusters is handed to the renderer once its corner records have arrived, so the first
+// frame comes long before the last byte. A server that ignores Range (answers 200) still works:
+// the file then arrives in one download, with a notice.
+
+import { Crc32 } from './crc32.js';
+import {
+  CgcError, CgcHeader, HEAD_READ, Section, SLOT_BYTES, CLUSTER_SLOTS, BOUND_SLOT,
+  checkGaps, checkSection, parseHeader, StructureCheck,
+} from './cgc.js';
+
+/**
+ * Bytes of one request within a section: a 32nd of the file, between 16 KiB and 1 MiB, so
+ * that even small files show clusters before their last byte and large ones need few requests.
+ */
+export function chunkBytes(total: number): number {
+  return Math.min(1 << 20, Math.max(16 << 10, Math.ceil(total / 32)));
+}
+
+export interface ByteSource {
+  name: string;
+  /** Bytes [start, end); `total` is known after the first read. */
+  read(start: number, end: number): Promise<Uint8Array>;
+  total: number | null;
+  /** Set when the server ignored Range and the whole file came in one response. */
+  notice: string | null;
+}
+
+/** A local file (drag and drop): slices of the Blob. */
+export function blobSource(file: File): ByteSource {
+  return {
+    name: file.name,
+    total: file.size,
+    notice: null,
+    async read(start, end) {
+      return new Uint8Array(await file.slice(start, end).arrayBuffer());
+    },
+  };
+}
+
+/** A remote file read with HTTP Range requests. `onBytes` counts bytes as they arrive. */
+export function urlSource(url: string, onBytes: (n: number) => void): ByteSource {
+  const name = decodeURIComponent(new URL(url, location.href).pathname.split('/').pop() || url);
+  let whole: Uint8Array | null = null;
+  const src: ByteSource = {
+    name,
+    total: null,
+    notice: null,
+    async read(start, end) {
+      if (whole) return whole.subarray(start, Math.min(end, whole.length));
+      const res = await fetch(url, { headers: { Range: `bytes=${start}-${end - 1}` } });
+      if (res.status === 416 && start === 0) {
+        throw new CgcError(`file is 0 bytes, shorter than the 320-byte .cgc header`);
+      }
+      if (!res.ok) throw new Error(`${name}: HTTP ${res.status} ${res.statusText}`);
+      if (res.status === 206) {
+        const m = /bytes (\d+)-(\d+)\/(\d+)/.exec(res.headers.get('Content-Range') || '');
+        if (!m || Number(m[1]) !== start) throw new Error(`${name}: the server answered a range request with a wrong Content-Range`);
+        src.total = Number(m[3]);
+        const body = await readBody(res, onBytes);
+        return body;
+      }
+      // 200: the server ignores Range; take the whole file once.
+      src.notice = 'The server does not support range requests: the whole file is downloaded before the picture appears.';
+      whole = await readBody(res, onBytes);
+      src.total = whole.length;
+      return whole.subarray(start, Math.min(end, whole.length));
+    },
+  };
+  return src;
+}
+
+async function readBody(res: Response, onBytes: (n: number) => void): Promise<Uint8Array> {
+  const len = Number(res.headers.get('Content-Length') || 0);
+  const reader = res.body!.getReader();
+  const parts: Uint8Array[] = [];
+  let n = 0;
+  for (;;) {
+    const { done, value } = await reader.read();
+    if (done) break;
+    parts.push(value);
+    n += value.length;
+    onBytes(value.length);
+  }
+  const out = new Uint8Array(Math.max(n, len));
+  let at = 0;
+  for (const p of parts) {
+    out.set(p, at);
+    at += p.length;
+  }
+  return out.subarray(0, n);
+}
+
+export interface StreamSink {
+  /** The header is parsed and valid. */
+  header(h: CgcHeader): void;
+  /** Clusters of slots [firstSlot, +16·counts.length) with their records are complete. */
+  clusters(firstSlot: number, metacells: Uint8Array, firstCell: number, cells: Uint8Array, cellCounts: number[]): void;
+  /** Bytes received so far (of the file's total). */
+  progress(received: number, total: number): void;
+}
+
+/**
+ * Reads, validates and streams `src` into `sink`; resolves when every byte is in and checked.
+ * Request order: the header (and table), the sections before the metacells (the blocks), then
+ * metacells and cells interleaved — the next chunk of cells as soon as the metacells checked so
+ * far point at cells not yet fetched, else the next chunk of metacells — then the rest. Each byte
+ * is requested once.
+ */
+export async function streamCgc(src: ByteSource, sink: StreamSink, chunk?: number): Promise<CgcHeader> {
+  const head = await src.read(0, HEAD_READ);
+  const total = src.total ?? head.length;
+  const h = parseHeader(head, total);
+  sink.header(h);
+  const chunkSize = chunk ?? chunkBytes(total);
+  const file = new Uint8Array(total);
+  const headLength = Math.min(head.length, total);
+  file.set(head.subarray(0, headLength));
+  let received = headLength;
+  sink.progress(received, total);
+
+  // The requests: [headLength, total) cut at section boundaries and into chunks within sections.
+  const cuts = new Set<number>([headLength, total]);
+  for (const s of h.sections) {
+    for (const at of [s.offset, s.offset + s.length]) if (at > headLength && at < total) cuts.add(at);
+    for (let at = s.offset + chunkSize; at < s.offset + s.length; at += chunkSize) if (at > headLength) cuts.add(at);
+  }
+  const bounds = [...cuts].sort((a, b) => a - b);
+  const within = (s: Section, start: number) => start >= s.offset && start < s.offset + s.length;
+  const pieces = bounds.slice(0, -1).map((start, i) => [start, bounds[i + 1]] as [number, number]);
+  const metaPieces = pieces.filter(([a]) => within(h.metacells, a));
+  const cellPieces = pieces.filter(([a]) => within(h.cells, a));
+  const before = pieces.filter(([a]) => !within(h.metacells, a) && !within(h.cells, a) && a < h.metacells.offset);
+  const after = pieces.filter(([a]) => !within(h.metacells, a) && !within(h.cells, a) && a >= h.metacells.offset);
+
+  const crcs = new Map<Section, Crc32>(h.sections.map((s) => [s, new Crc32()]));
+  const done = new Set<Section>();
+  // Bytes of each section received from its start (each section's pieces arrive in order).
+  const have = new Map<Section, number>(h.sections.map((s) => [s, Math.min(Math.max(headLength - s.offset, 0), s.length)]));
+  const fed = new Map<Section, number>(h.sections.map((s) => [s, 0]));
+  const blocks = file.subarray(h.blocks.offset, h.blocks.offset + h.blocks.length);
+  const meta = file.subarray(h.metacells.offset, h.metacells.offset + h.metacells.length);
+  const structure = new StructureCheck(h, blocks, meta);
+  const m = new DataView(meta.buffer, meta.byteOffset, meta.byteLength);
+  const bpc = h.precisionBits;
+  const clusterEnds: number[] = []; // cells end (exclusive) of each checked cluster
+  let nextCluster = 0; // clusters handed to the sink
+
+  const advance = () => {
+    for (const s of h.sections) {
+      const got = have.get(s)!;
+      const f = fed.get(s)!;
+      if (got > f) {
+        crcs.get(s)!.update(file.subarray(s.offset + f, s.offset + got));
+        fed.set(s, got);
+      }
+      if (got === s.length && !done.has(s)) {
+        checkSection(s, crcs.get(s)!);
+        done.add(s);
+      }
+    }
+    if (!done.has(h.blocks)) return;
+    const checked = structure.advance(Math.floor(have.get(h.metacells)! / SLOT_BYTES));
+    for (let k = clusterEnds.length; k < checked / CLUSTER_SLOTS; k++) {
+      let end = k === 0 ? 0 : clusterEnds[k - 1];
+      for (let s = 0; s < BOUND_SLOT; s++) {
+        const at = SLOT_BYTES * (k * CLUSTER_SLOTS + s);
+        const mask = m.getUint16(at + 6, true);
+        if (mask) {
+          let n = 0;
+          for (let b = 0; b < 8; b++) n += (mask >> b) & 1;
+          end = m.getUint32(at + 8, true) + n;
+        }
+      }
+      clusterEnds.push(end);
+    }
+    const cellsIn = Math.floor(have.get(h.cells)! / bpc);
+    let k = nextCluster;
+    while (k < clusterEnds.length && clusterEnds[k] <= cellsIn) k++;
+    if (k > nextCluster) {
+      const firstCell = nextCluster === 0 ? 0 : clusterEnds[nextCluster - 1];
+      const counts = [];
+      for (let c = nextCluster; c < k; c++) counts.push(clusterEnds[c] - (c === 0 ? 0 : clusterEnds[c - 1]));
+      const m0 = h.metacells.offset + nextCluster * CLUSTER_SLOTS * SLOT_BYTES;
+      sink.clusters(
+        nextCluster * CLUSTER_SLOTS,
+        file.subarray(m0, m0 + (k - nextCluster) * CLUSTER_SLOTS * SLOT_BYTES),
+        firstCell,
+        file.subarray(h.cells.offset + firstCell * bpc, h.cells.offset + clusterEnds[k - 1] * bpc),
+        counts,
+      );
+      nextCluster = k;
+    }
+  };
+  const fetchPiece = async ([start, end]: [number, number]) => {
+    const part = await src.read(start, end);
+    if (part.length !== end - start) {
+      throw new CgcError(`the file ended at ${start + part.length} bytes, before the ${total} its header promises (truncated?)`);
+    }
+    file.set(part, start);
+    received += end - start;
+    for (const s of h.sections) if (within(s, start)) have.set(s, end - s.offset);
+    sink.progress(received, total);
+    advance();
+  };
+  advance();
+  for (const p of before) await fetchPiece(p);
+  while (metaPieces.length || cellPieces.length) {
+    const cellsWanted = clusterEnds.length ? clusterEnds[clusterEnds.length - 1] * bpc : 0;
+    const cellsFirst = cellPieces.length && (!metaPieces.length || have.get(h.cells)! < cellsWanted);
+    await fetchPiece((cellsFirst ? cellPieces : metaPieces).shift()!);
+  }
+  for (const p of after) await fetchPiece(p);
+  structure.finish();
+  checkGaps(h.gaps.map(([s, e]) => file.subarray(s, e)));
+  return h;
+}

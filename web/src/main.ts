@@ -1,0 +1,345 @@
+// The viewer page: WebGPU set-up, loading (`?src=URL` or a dropped file), camera controls, the
+// facts panel, and `window.isogrid` for tests: `ready` settles after the first complete frame of
+// the whole file (rejects with the page's error message), `pixels()` gives the colour target.
+// URL parameters: `src`, `view=1|2` and `size=WxH` (the camera and canvas of
+// `isogrid render --view N --size WxH`).
+
+import { CgcError, CgcHeader, worldBounds } from './cgc.js';
+import { Camera, orbit, pan, presetCamera, zoom } from './camera.js';
+import { blobSource, ByteSource, streamCgc, urlSource } from './loader.js';
+import { COLOR_FORMAT, Renderer } from './renderer.js';
+
+const $ = <T extends HTMLElement>(id: string) => document.getElementById(id) as T;
+const canvas = $<HTMLCanvasElement>('canvas');
+const message = $('message');
+const params = new URLSearchParams(location.search);
+
+interface IsogridApi {
+  ready: Promise<void>;
+  pixels(): Promise<string>;
+  /** Draws `n` more frames of the current view one after another: median wall and GPU ms. */
+  frames(n: number): Promise<{ wallMs: number; gpuMs: number | null }>;
+  stats: Record<string, unknown>;
+}
+declare global {
+  interface Window {
+    isogrid: IsogridApi;
+  }
+}
+
+let settle!: { resolve: () => void; reject: (e: Error) => void };
+const ready = new Promise<void>((resolve, reject) => (settle = { resolve, reject }));
+ready.catch(() => {}); // reported in the page; a test reads the rejection itself
+const stats: Record<string, unknown> = {};
+window.isogrid = {
+  ready,
+  stats,
+  async pixels() {
+    if (!renderer) throw new Error('nothing rendered');
+    const px = await renderer.readPixels();
+    let s = '';
+    for (let i = 0; i < px.length; i += 0x8000) s += String.fromCharCode(...px.subarray(i, i + 0x8000));
+    return btoa(s);
+  },
+  async frames(n) {
+    const median = (v: number[]) => v.sort((a, b) => a - b)[Math.floor(v.length / 2)];
+    const wall: number[] = [];
+    const gpu: number[] = [];
+    for (let i = 0; i < n; i++) {
+      const t0 = performance.now();
+      renderer!.render(camera!, null);
+      await renderer!.readPixels();
+      wall.push(performance.now() - t0);
+      await new Promise((r) => setTimeout(r, 0));
+      if (renderer!.lastGpuMs != null) gpu.push(renderer!.lastGpuMs);
+    }
+    return { wallMs: median(wall), gpuMs: gpu.length ? median(gpu) : null };
+  },
+};
+
+function showMessage(text: string, notice = false): void {
+  message.textContent = text;
+  message.className = notice ? 'notice' : '';
+  message.style.display = 'block';
+}
+
+function fail(e: unknown, name: string): void {
+  const text = e instanceof CgcError ? `${name}: ${e.message}` : e instanceof Error ? e.message : String(e);
+  showMessage(text);
+  stats.error = text;
+  settle.reject(new Error(text));
+}
+
+function parseSize(s: string | null): [number, number] | null {
+  const m = s ? /^(\d+)x(\d+)$/.exec(s) : null;
+  if (!m) return null;
+  const [w, h] = [Number(m[1]), Number(m[2])];
+  return w > 0 && h > 0 && w <= 8192 && h <= 8192 ? [w, h] : null;
+}
+
+// Held for the page's life: a collected adapter can take the device's instance with it.
+let adapter: GPUAdapter | null = null;
+let device: GPUDevice | null = null;
+let fallbackAdapter = false;
+let context: GPUCanvasContext | null = null;
+/**
+ * Where the frame is shown on a fallback (software) adapter: a 2D canvas the colour target is
+ * read back into. Headless Chromium's SwiftShader loses its GPU instance once a WebGPU canvas is
+ * presented, after which no map or work-done promise settles.
+ */
+let context2d: CanvasRenderingContext2D | null = null;
+let renderer: Renderer | null = null;
+let rendererReady = false;
+let header: CgcHeader | null = null;
+let camera: Camera | null = null;
+let view = params.get('view') === '1' ? 1 : 2;
+const fixedSize = parseSize(params.get('size'));
+let complete = false;
+let frameQueued = false;
+let bytesIn = 0;
+
+async function initGpu(): Promise<GPUDevice> {
+  const noWebGpu =
+    'This browser has no WebGPU. The viewer works in Chrome or Edge 113+ and Chromium (with --enable-unsafe-webgpu on Linux), ' +
+    'Firefox 141+ on Windows (Firefox elsewhere with dom.webgpu.enabled and gfx.webgpu.ignore-blocklist in about:config), and Safari 26+.';
+  if (!('gpu' in navigator)) throw new Error(noWebGpu);
+  adapter = await navigator.gpu.requestAdapter();
+  if (!adapter) throw new Error(noWebGpu);
+  const features: GPUFeatureName[] = adapter.features.has('timestamp-query') ? ['timestamp-query'] : [];
+  const d = await adapter.requestDevice({
+    requiredFeatures: features,
+    requiredLimits: {
+      maxStorageBufferBindingSize: Math.min(adapter.limits.maxStorageBufferBindingSize, 128 << 20),
+      maxBufferSize: Math.min(adapter.limits.maxBufferSize, 256 << 20),
+      maxStorageBuffersPerShaderStage: Math.min(adapter.limits.maxStorageBuffersPerShaderStage, 10),
+    },
+  });
+  d.addEventListener('uncapturederror', (e) => fail(new Error(`WebGPU error: ${(e as GPUUncapturedErrorEvent).error.message}`), ''));
+  const info = adapter.info;
+  fallbackAdapter = Boolean((info as GPUAdapterInfo & { isFallbackAdapter?: boolean })?.isFallbackAdapter ?? (adapter as GPUAdapter & { isFallbackAdapter?: boolean }).isFallbackAdapter);
+  stats.adapter = info ? `${info.vendor} ${info.architecture} ${info.description}`.trim() : '';
+  return d;
+}
+
+function canvasSize(): [number, number] {
+  if (fixedSize) return fixedSize;
+  const r = $('stage').getBoundingClientRect();
+  const dpr = window.devicePixelRatio || 1;
+  return [Math.max(1, Math.round(r.width * dpr)), Math.max(1, Math.round(r.height * dpr))];
+}
+
+function resetCamera(): void {
+  if (!header) return;
+  const [w, h] = canvasSize();
+  const [lo, hi] = worldBounds(header);
+  camera = presetCamera(view, lo, hi, w, h);
+  requestFrame();
+}
+
+function requestFrame(): void {
+  if (frameQueued) return;
+  frameQueued = true;
+  const run = () => {
+    if (!frameQueued) return;
+    frameQueued = false;
+    drawFrame();
+  };
+  requestAnimationFrame(run);
+  setTimeout(run, 100); // headless pages may not run animation frames
+}
+
+let drawing = false;
+
+function drawFrame(): void {
+  if (!renderer || !rendererReady || !camera || !device || (!context && !context2d)) return;
+  if (drawing) {
+    requestFrame();
+    return;
+  }
+  if (canvas.width !== camera.width || canvas.height !== camera.height) {
+    canvas.width = camera.width;
+    canvas.height = camera.height;
+  }
+  const wasComplete = complete;
+  const t0 = performance.now();
+  const cam = camera;
+  renderer.render(cam, context ? context.getCurrentTexture() : null);
+  stats.pages = renderer.pageCount;
+  stats.frames = ((stats.frames as number) || 0) + 1;
+  if (!stats.firstFrameBytes && renderer.pageCount > 0) stats.firstFrameBytes = bytesIn;
+  drawing = true;
+  // Presented through the WebGPU canvas, or (fallback adapters) read back into a 2D canvas.
+  const shown: Promise<unknown> = context
+    ? device.queue.onSubmittedWorkDone()
+    : renderer.readPixels().then((px) => {
+        context2d!.putImageData(new ImageData(new Uint8ClampedArray(px.buffer as ArrayBuffer), cam.width, cam.height), 0, 0);
+      });
+  shown.then(
+    () => {
+      drawing = false;
+      stats.frameMs = performance.now() - t0;
+      if (!stats.firstFrameAt && (stats.pages as number) > 0) stats.firstFrameAt = performance.now();
+      showFacts();
+      if (wasComplete && !stats.readyAt) {
+        stats.readyAt = performance.now();
+        settle.resolve();
+      }
+    },
+    (e) => fail(e, ''),
+  );
+}
+
+function showFacts(): void {
+  if (!header) return;
+  const rows: [string, string][] = [
+    ['file', `${stats.name} (v${header.version})`],
+    ['grid', `${header.dims.join('×')} samples, ${header.precisionBits}-bit corners`],
+    ['cells', header.activeCells.toLocaleString()],
+    ['clusters', (header.slotCount / 16).toLocaleString()],
+    ['memory', `${((header.blocks.length + header.metacells.length + header.cells.length) / 2 ** 20).toFixed(1)} MiB in ${renderer?.pageCount ?? 0} pages`],
+    ['fetched', `${(bytesIn / 2 ** 20).toFixed(2)} of ${(header.fileLength / 2 ** 20).toFixed(2)} MiB`],
+    ['frame', renderer?.lastGpuMs != null ? `${renderer.lastGpuMs.toFixed(2)} ms (GPU timestamps)` : `${(stats.frameMs as number)?.toFixed(1)} ms (wall, no timestamp queries)`],
+  ];
+  const table = $('facts-table');
+  table.replaceChildren(
+    ...rows.map(([k, v]) => {
+      const tr = document.createElement('tr');
+      for (const t of [k, v]) tr.appendChild(document.createElement('td')).textContent = t;
+      return tr;
+    }),
+  );
+  $('facts').hidden = false;
+}
+
+async function load(src: ByteSource): Promise<void> {
+  stats.name = src.name;
+  $('hint').hidden = true;
+  const bar = $('progress').firstElementChild as HTMLElement;
+  try {
+    device ??= await initGpu();
+    if (!context && !context2d) {
+      if (fallbackAdapter) {
+        context2d = canvas.getContext('2d')!;
+      } else {
+        context = canvas.getContext('webgpu')!;
+        context.configure({ device, format: COLOR_FORMAT, usage: GPUTextureUsage.RENDER_ATTACHMENT | GPUTextureUsage.COPY_DST, alphaMode: 'opaque' });
+      }
+      stats.presentation = context ? 'webgpu canvas' : '2d canvas (read back)';
+    }
+    await streamCgc(src, {
+      header(h) {
+        header = h;
+        const [lo, hi] = worldBounds(h);
+        renderer = new Renderer(device!, { precisionBits: h.precisionBits, spacing: h.spacing, isoCode: h.isoCode, bounds: [lo, hi], slotCount: h.slotCount });
+        renderer.compiled.then(() => (rendererReady = true), (e) => fail(e, ''));
+        canvas.hidden = false;
+        if (!fixedSize) $('stage').classList.add('fill');
+        resetCamera();
+      },
+      clusters(firstSlot, metacells, firstCell, cells, counts) {
+        const r = renderer!;
+        r.compiled.then(() => {
+          r.addClusters(firstSlot, metacells, firstCell, cells, counts);
+          requestFrame();
+        });
+      },
+      progress(received, total) {
+        bytesIn = received;
+        stats.bytes = received;
+        stats.total = total;
+        bar.style.width = `${(100 * received) / total}%`;
+        if (src.notice) showMessage(src.notice, true);
+        showFacts();
+      },
+    });
+    stats.completeAt = performance.now();
+    // After the clusters queued behind the compilation (promise callbacks run in order).
+    await renderer!.compiled;
+    complete = true;
+    requestFrame();
+  } catch (e) {
+    fail(e, src.name);
+  }
+}
+
+// Controls: drag orbits, shift/right-drag pans, wheel zooms.
+let drag: { x: number; y: number; pan: boolean } | null = null;
+canvas.addEventListener('contextmenu', (e) => e.preventDefault());
+canvas.addEventListener('pointerdown', (e) => {
+  drag = { x: e.clientX, y: e.clientY, pan: e.shiftKey || e.button === 2 };
+  canvas.setPointerCapture(e.pointerId);
+});
+canvas.addEventListener('pointerup', () => (drag = null));
+canvas.addEventListener('pointermove', (e) => {
+  if (!drag || !camera) return;
+  const [dx, dy] = [e.clientX - drag.x, e.clientY - drag.y];
+  drag.x = e.clientX;
+  drag.y = e.clientY;
+  if (drag.pan) {
+    const dist = Math.hypot(...camera.eye.map((v, i) => v - camera!.target[i]));
+    const s = (2 * dist * Math.tan((camera.fovyDegrees * Math.PI) / 360)) / canvas.clientHeight;
+    camera = pan(camera, -dx * s, dy * s);
+  } else {
+    camera = orbit(camera, -dx * 0.01, -dy * 0.01);
+  }
+  requestFrame();
+});
+canvas.addEventListener('wheel', (e) => {
+  if (!camera) return;
+  e.preventDefault();
+  camera = zoom(camera, Math.exp(e.deltaY * 0.001));
+  requestFrame();
+}, { passive: false });
+$('view1').onclick = () => ((view = 1), resetCamera());
+$('view2').onclick = () => ((view = 2), resetCamera());
+$('fit').onclick = () => resetCamera();
+$('shot').onclick = async () => {
+  if (!renderer || !camera) return;
+  const px = await renderer.readPixels();
+  const c2 = document.createElement('canvas');
+  [c2.width, c2.height] = [camera.width, camera.height];
+  c2.getContext('2d')!.putImageData(new ImageData(new Uint8ClampedArray(px.buffer as ArrayBuffer), camera.width, camera.height), 0, 0);
+  c2.toBlob((b) => {
+    const a = document.createElement('a');
+    a.href = URL.createObjectURL(b!);
+    a.download = `${String(stats.name || 'isogrid').replace(/\.cgc$/, '')}.png`;
+    a.click();
+  });
+};
+window.addEventListener('resize', () => {
+  if (!fixedSize && camera) {
+    const [w, h] = canvasSize();
+    camera = { ...camera, width: w, height: h };
+    requestFrame();
+  }
+});
+
+// Loading: ?src=URL, the file input, or a drop anywhere on the page.
+const dropHint = $('drop');
+const openFile = (f: File | undefined) => {
+  if (!f || renderer) {
+    if (f) location.reload();
+    return;
+  }
+  load(blobSource(f));
+};
+$<HTMLInputElement>('file').onchange = (e) => openFile((e.target as HTMLInputElement).files?.[0]);
+document.addEventListener('dragover', (e) => {
+  e.preventDefault();
+  dropHint.style.display = 'flex';
+});
+document.addEventListener('dragleave', () => (dropHint.style.display = 'none'));
+document.addEventListener('drop', (e) => {
+  e.preventDefault();
+  dropHint.style.display = 'none';
+  openFile(e.dataTransfer?.files[0]);
+});
+const srcParam = params.get('src');
+if (srcParam) {
+  // Progress of a whole download (a server without Range support) before the header is parsed.
+  let whole = 0;
+  load(urlSource(srcParam, (n) => {
+    whole += n;
+    stats.downloaded = whole;
+  }));
+}

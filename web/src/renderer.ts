@@ -1,0 +1,399 @@
+// The paper's raster pipeline on WebGPU, pass for pass as crates/isogrid-gpu's hardware path
+// (render/frame_passes.rs) and on its shader modules (`isogrid:shaders`, composed from
+// crates/isogrid-gpu/shaders/modules.txt): cluster expansion with the visibility buffer
+// (expand), cell rasterisation (cells), visibility probes and the newly visible clusters (probe,
+// expand_new, cells again), EWA normal splats (ewa), the visibility update (visibility) and
+// deferred shading (shade). The bind group layouts are the native ones (passes/scene.rs,
+// upload.rs). Cell data is paged: each page is a whole number of clusters whose buffers stay
+// within the device's storage binding limit (128 MiB in Firefox), and a page is added as soon as
+// its cells have arrived, so the picture fills in while the file streams.
+
+import { SHADERS } from 'isogrid:shaders';
+import { Camera, frameUniforms, FLAG_EWA, FLAG_OCCLUSION } from './camera.js';
+import { CLUSTER_SLOTS, SLOT_BYTES } from './cgc.js';
+
+const DEPTH_FORMAT: GPUTextureFormat = 'depth32float';
+const SURFACE_FORMAT: GPUTextureFormat = 'rgba32float';
+const IDS_FORMAT: GPUTextureFormat = 'rg32uint';
+const EWA_FORMAT: GPUTextureFormat = 'rgba16float';
+export const COLOR_FORMAT: GPUTextureFormat = 'rgba8unorm';
+const FINAL_FORMAT: GPUTextureFormat = 'rgba32float';
+/** Six vertices (one rectangle) per instance; three lists: full, probe, new. */
+const EMPTY_ARGS = new Uint32Array([6, 0, 0, 0, 6, 0, 0, 0, 6, 0, 0, 0]);
+const LIST_FULL = 0;
+const LIST_PROBE = 1;
+const LIST_NEW = 2;
+/** Clusters the visibility buffers hold at least (as natively). */
+const MIN_VISIBILITY_CLUSTERS = 1 << 20;
+
+export interface GridDesc {
+  precisionBits: number;
+  spacing: number[];
+  isoCode: number;
+  bounds: [number[], number[]];
+  slotCount: number;
+}
+
+interface Page {
+  firstSlot: number;
+  slotCount: number;
+  firstCell: number;
+  cellCount: number;
+  buffers: GPUBuffer[];
+  args: GPUBuffer;
+  compute: GPUBindGroup;
+  render: GPUBindGroup[];
+}
+
+export interface FrameStats {
+  pages: number;
+  /** GPU time of the frame from timestamp queries, where offered (ms). */
+  gpuMs: number | null;
+}
+
+export class Renderer {
+  private pages: Page[] = [];
+  private frame = 0;
+  private uniforms: GPUBuffer;
+  private visibleLast: GPUBuffer;
+  private visibleNew: GPUBuffer;
+  private volume: GPUTexture;
+  private argsTemplate: GPUBuffer;
+  private layouts: Record<string, GPUBindGroupLayout> = {};
+  private pipelines: Record<string, GPURenderPipeline | GPUComputePipeline> = {};
+  private targets: { size: [number, number]; tex: Record<string, GPUTexture>; groups: Record<string, GPUBindGroup> } | null = null;
+  private sceneCompute: GPUBindGroup;
+  private sceneRender: GPUBindGroup;
+  private visibilityFor = '';
+  private query: { set: GPUQuerySet; resolve: GPUBuffer; read: GPUBuffer; busy: boolean } | null = null;
+  lastGpuMs: number | null = null;
+  /** Settles when every pipeline is compiled; draw no frame before. */
+  readonly compiled: Promise<void>;
+  /** Largest bytes of one page buffer (the storage binding limit, at most 128 MiB). */
+  readonly pageBytes: number;
+
+  constructor(readonly device: GPUDevice, readonly grid: GridDesc, readonly ewa = true, readonly occlusion = true) {
+    this.pageBytes = Math.min(device.limits.maxStorageBufferBindingSize, device.limits.maxBufferSize, 128 << 20);
+    const d = device;
+    const V = GPUShaderStage.VERTEX, F = GPUShaderStage.FRAGMENT, C = GPUShaderStage.COMPUTE;
+    const uniform = (binding: number, visibility: number): GPUBindGroupLayoutEntry => ({ binding, visibility, buffer: { type: 'uniform' } });
+    const storage = (binding: number, visibility: number, readOnly: boolean): GPUBindGroupLayoutEntry => ({
+      binding,
+      visibility,
+      buffer: { type: readOnly ? 'read-only-storage' : 'storage' },
+    });
+    const tex = (binding: number, visibility: number, sampleType: GPUTextureSampleType, viewDimension: GPUTextureViewDimension = '2d'): GPUBindGroupLayoutEntry => ({
+      binding,
+      visibility,
+      texture: { sampleType, viewDimension },
+    });
+    const layout = (label: string, entries: GPUBindGroupLayoutEntry[]) => (this.layouts[label] = d.createBindGroupLayout({ label, entries }));
+    // Group 0 (passes/scene.rs): frame uniforms, visibility bits (last frame, new), original volume.
+    layout('scene compute', [uniform(0, C), storage(1, C, false), tex(2, C, 'unfilterable-float', '3d'), storage(3, C, false)]);
+    layout('scene render', [uniform(0, V | F), tex(2, V | F, 'unfilterable-float', '3d'), storage(3, F, false)]);
+    // Group 1 (upload.rs): a page's uniforms, metacells, records, lists and draw arguments.
+    layout('page compute', [uniform(0, C), storage(1, C, true), storage(2, C, true), storage(3, C, false), storage(4, C, false), storage(5, C, false), storage(6, C, false)]);
+    layout('page render', [uniform(0, V), storage(1, V, true), storage(2, V, true), storage(3, V, true)]);
+    layout('depth input', [tex(0, F, 'depth')]);
+    layout('surface input', [tex(0, F, 'unfilterable-float')]);
+    layout('ids input', [tex(0, C, 'uint')]);
+    layout('shading inputs', [tex(0, F, 'unfilterable-float'), tex(1, F, 'unfilterable-float'), tex(2, F, 'uint')]);
+
+    const module = (name: keyof typeof SHADERS) => d.createShaderModule({ label: `${name} (shaders/modules.txt)`, code: SHADERS[name] });
+    const pl = (...names: string[]) => d.createPipelineLayout({ bindGroupLayouts: names.map((n) => this.layouts[n]) });
+    // Compiled while the file downloads (SwiftShader takes seconds): see `compiled`.
+    const pending: Promise<unknown>[] = [];
+    const set = (name: string, p: Promise<GPURenderPipeline | GPUComputePipeline>) => pending.push(p.then((x) => (this.pipelines[name] = x)));
+    const expand = module('expand');
+    const expandLayout = pl('scene compute', 'page compute');
+    set('expandVisible', d.createComputePipelineAsync({ label: 'expand visible', layout: expandLayout, compute: { module: expand, entryPoint: 'expand_visible' } }));
+    set('expandNew', d.createComputePipelineAsync({ label: 'expand new', layout: expandLayout, compute: { module: expand, entryPoint: 'expand_new' } }));
+    const cells = module('cells');
+    const rect = (label: string, layoutNames: string[], mod: GPUShaderModule, vs: string, fs: string, targets: GPUColorTargetState[], depth: boolean): Promise<GPURenderPipeline> =>
+      d.createRenderPipelineAsync({
+        label,
+        layout: pl(...layoutNames),
+        vertex: { module: mod, entryPoint: vs },
+        fragment: { module: mod, entryPoint: fs, targets },
+        primitive: { topology: 'triangle-list', cullMode: 'none' },
+        depthStencil: depth ? { format: DEPTH_FORMAT, depthWriteEnabled: true, depthCompare: 'greater' } : undefined,
+      });
+    set('cells', rect('cell raster', ['scene render', 'page render'], cells, 'vs_cell', 'fs_cell', [{ format: SURFACE_FORMAT }, { format: IDS_FORMAT }], true));
+    set('probe', rect('visibility probes', ['scene render', 'page render', 'depth input'], module('probe'), 'vs_probe', 'fs_probe', [{ format: IDS_FORMAT, writeMask: 0 }], false));
+    const add: GPUBlendComponent = { srcFactor: 'one', dstFactor: 'one', operation: 'add' };
+    set('ewa', rect('ewa normal splats', ['scene render', 'page render', 'surface input'], module('ewa'), 'vs_splat', 'fs_splat', [{ format: EWA_FORMAT, blend: { color: add, alpha: add } }], false));
+    set('visibility', d.createComputePipelineAsync({ label: 'visibility update', layout: pl('scene compute', 'ids input'), compute: { module: module('visibility'), entryPoint: 'update_visibility' } }));
+    set('shade', rect('deferred shading', ['scene render', 'shading inputs'], module('shade'), 'vs_fullscreen', 'fs_shade', [{ format: COLOR_FORMAT }, { format: FINAL_FORMAT }], false));
+
+    this.compiled = Promise.all(pending).then(() => undefined);
+    this.uniforms = d.createBuffer({ label: 'frame uniforms', size: 112, usage: GPUBufferUsage.UNIFORM | GPUBufferUsage.COPY_DST });
+    const clusters = Math.max(Math.ceil(grid.slotCount / CLUSTER_SLOTS), MIN_VISIBILITY_CLUSTERS);
+    const visBytes = Math.ceil(clusters / 32) * 4;
+    const vis = (label: string) => d.createBuffer({ label, size: visBytes, usage: GPUBufferUsage.STORAGE | GPUBufferUsage.COPY_DST });
+    this.visibleLast = vis('visible clusters (last frame)');
+    this.visibleNew = vis('newly visible clusters');
+    this.volume = d.createTexture({ label: 'unused volume', size: [1, 1, 1], dimension: '3d', format: 'r32float', usage: GPUTextureUsage.TEXTURE_BINDING });
+    this.argsTemplate = d.createBuffer({ label: 'empty draw arguments', size: 48, usage: GPUBufferUsage.COPY_SRC | GPUBufferUsage.COPY_DST });
+    d.queue.writeBuffer(this.argsTemplate, 0, EMPTY_ARGS);
+    const volumeView = this.volume.createView({ dimension: '3d' });
+    this.sceneCompute = d.createBindGroup({
+      layout: this.layouts['scene compute'],
+      entries: [
+        { binding: 0, resource: { buffer: this.uniforms } },
+        { binding: 1, resource: { buffer: this.visibleLast } },
+        { binding: 2, resource: volumeView },
+        { binding: 3, resource: { buffer: this.visibleNew } },
+      ],
+    });
+    this.sceneRender = d.createBindGroup({
+      layout: this.layouts['scene render'],
+      entries: [
+        { binding: 0, resource: { buffer: this.uniforms } },
+        { binding: 2, resource: volumeView },
+        { binding: 3, resource: { buffer: this.visibleNew } },
+      ],
+    });
+    if (d.features.has("timestamp-query")) {
+      this.query = {
+        set: d.createQuerySet({ type: 'timestamp', count: 2 }),
+        resolve: d.createBuffer({ size: 16, usage: GPUBufferUsage.QUERY_RESOLVE | GPUBufferUsage.COPY_SRC }),
+        read: d.createBuffer({ size: 16, usage: GPUBufferUsage.MAP_READ | GPUBufferUsage.COPY_DST }),
+        busy: false,
+      };
+    }
+  }
+
+  get pageCount(): number {
+    return this.pages.length;
+  }
+
+  /**
+   * Adds the clusters of slots [firstSlot, firstSlot + slots) (whole clusters) with their corner
+   * records (`cells`, starting at record `firstCell`), split into pages within the binding limit.
+   */
+  addClusters(firstSlot: number, metacells: Uint8Array, firstCell: number, cells: Uint8Array, cellCounts: number[]): void {
+    // cellCounts[k]: active cells of cluster k of this range.
+    const bpc = this.grid.precisionBits;
+    let k = 0;
+    const clusters = cellCounts.length;
+    let cellAt = 0;
+    while (k < clusters) {
+      let n = 0;
+      let c = 0;
+      // Largest run of clusters whose records and lists fit one binding (at least one cluster).
+      while (k + n < clusters) {
+        const c2 = c + cellCounts[k + n];
+        const slots2 = (n + 1) * CLUSTER_SLOTS;
+        if (n > 0 && Math.max(c2 * bpc, slots2 * SLOT_BYTES, c2 * 4) > this.pageBytes) break;
+        c = c2;
+        n++;
+      }
+      const slot0 = k * CLUSTER_SLOTS;
+      this.addPage(
+        firstSlot + slot0,
+        metacells.subarray(slot0 * SLOT_BYTES, (slot0 + n * CLUSTER_SLOTS) * SLOT_BYTES),
+        firstCell + cellAt,
+        cells.subarray(cellAt * bpc, (cellAt + c) * bpc),
+      );
+      cellAt += c;
+      k += n;
+    }
+  }
+
+  private addPage(firstSlot: number, metacells: Uint8Array, firstCell: number, cells: Uint8Array): void {
+    const d = this.device;
+    const slotCount = metacells.length / SLOT_BYTES;
+    const cellCount = cells.length / this.grid.precisionBits;
+    const init = (label: string, data: ArrayBufferView, usage: number, size = data.byteLength) => {
+      const b = d.createBuffer({ label, size: Math.max(16, Math.ceil(size / 4) * 4), usage: usage | GPUBufferUsage.COPY_DST });
+      if (data.byteLength) {
+        const padded = new Uint8Array(Math.ceil(data.byteLength / 4) * 4);
+        padded.set(new Uint8Array(data.buffer, data.byteOffset, data.byteLength));
+        d.queue.writeBuffer(b, 0, padded);
+      }
+      return b;
+    };
+    const S = GPUBufferUsage.STORAGE;
+    const p = this.pages.length;
+    const uniforms = init(`page ${p} uniforms`, new Uint32Array([firstSlot, firstCell, slotCount, 0]), GPUBufferUsage.UNIFORM);
+    const meta = init(`page ${p} metacells`, metacells, S);
+    const rec = init(`page ${p} corner records`, cells, S);
+    const list = (label: string, n: number) => d.createBuffer({ label: `page ${p} ${label}`, size: Math.max(16, 4 * n), usage: S });
+    const lists = [list('full list', cellCount), list('probe list', slotCount), list('new list', cellCount)];
+    const args = init(`page ${p} draw arguments`, EMPTY_ARGS, S | GPUBufferUsage.INDIRECT | GPUBufferUsage.COPY_SRC);
+    const buf = (binding: number, buffer: GPUBuffer): GPUBindGroupEntry => ({ binding, resource: { buffer } });
+    const compute = d.createBindGroup({
+      label: `page ${p} (compute)`,
+      layout: this.layouts['page compute'],
+      entries: [buf(0, uniforms), buf(1, meta), buf(2, rec), buf(3, lists[0]), buf(4, lists[1]), buf(5, lists[2]), buf(6, args)],
+    });
+    const render = lists.map((l, i) =>
+      d.createBindGroup({ label: `page ${p} list ${i}`, layout: this.layouts['page render'], entries: [buf(0, uniforms), buf(1, meta), buf(2, rec), buf(3, l)] }),
+    );
+    this.pages.push({ firstSlot, slotCount, firstCell, cellCount, buffers: [uniforms, meta, rec, ...lists], args, compute, render });
+  }
+
+  private ensureTargets(width: number, height: number): void {
+    if (this.targets && this.targets.size[0] === width && this.targets.size[1] === height) return;
+    if (this.targets) for (const t of Object.values(this.targets.tex)) t.destroy();
+    const d = this.device;
+    const U = GPUTextureUsage;
+    const t = (label: string, format: GPUTextureFormat, usage: number) => d.createTexture({ label, size: [width, height], format, usage });
+    const rt = U.RENDER_ATTACHMENT | U.TEXTURE_BINDING;
+    const tex = {
+      depth: t('raster depth (reversed-Z)', DEPTH_FORMAT, rt),
+      surface: t('raster normal + distance', SURFACE_FORMAT, rt),
+      ids: t('cluster ids', IDS_FORMAT, rt),
+      ewa: t('ewa normal accumulation', EWA_FORMAT, rt),
+      color: t('shaded colour', COLOR_FORMAT, U.RENDER_ATTACHMENT | U.COPY_SRC),
+      final: t('final normal + distance', FINAL_FORMAT, U.RENDER_ATTACHMENT),
+    };
+    const g = (layout: string, views: GPUTextureView[]) =>
+      d.createBindGroup({ layout: this.layouts[layout], entries: views.map((v, i) => ({ binding: i, resource: v })) });
+    this.targets = {
+      size: [width, height],
+      tex,
+      groups: {
+        depth: g('depth input', [tex.depth.createView()]),
+        surface: g('surface input', [tex.surface.createView()]),
+        ids: g('ids input', [tex.ids.createView()]),
+        shade: g('shading inputs', [tex.surface.createView(), tex.ewa.createView(), tex.ids.createView()]),
+      },
+    };
+  }
+
+  /** Resets the visibility bits to "every cluster visible", so the next frame is complete. */
+  resetVisibility(): void {
+    this.visibilityFor = '';
+  }
+
+  /** Encodes one frame of `camera` into the colour target, copied into `output` when given. */
+  render(camera: Camera, output: GPUTexture | null): GPUTexture {
+    const d = this.device;
+    this.ensureTargets(camera.width, camera.height);
+    const T = this.targets!;
+    // Visibility persists while the camera stays; anything else starts from "all visible".
+    const key = JSON.stringify([camera, this.pages.length]);
+    if (key !== this.visibilityFor) {
+      d.queue.writeBuffer(this.visibleLast, 0, new Uint8Array(this.visibleLast.size).fill(0xff));
+      d.queue.writeBuffer(this.visibleNew, 0, new Uint8Array(this.visibleNew.size));
+      this.visibilityFor = key;
+    }
+    let flags = 0;
+    if (this.occlusion) flags |= FLAG_OCCLUSION;
+    if (this.ewa) flags |= FLAG_EWA;
+    d.queue.writeBuffer(this.uniforms, 0, frameUniforms(camera, this.grid, flags, this.frame++));
+    const enc = d.createCommandEncoder({ label: 'frame' });
+    const timed = this.query && !this.query.busy ? this.query : null;
+    for (const p of this.pages) enc.copyBufferToBuffer(this.argsTemplate, 0, p.args, 0, 48);
+    this.expand(enc, 'expandVisible', timed ? { querySet: timed.set, beginningOfPassWriteIndex: 0 } : undefined);
+    const gbuffer = (clear: boolean): GPURenderPassDescriptor => ({
+      colorAttachments: [
+        { view: T.tex.surface.createView(), loadOp: clear ? 'clear' : 'load', clearValue: [0, 0, 0, 0], storeOp: 'store' },
+        { view: T.tex.ids.createView(), loadOp: clear ? 'clear' : 'load', clearValue: [0xffffffff, 0xffffffff, 0, 0], storeOp: 'store' },
+      ],
+      depthStencilAttachment: { view: T.tex.depth.createView(), depthLoadOp: clear ? 'clear' : 'load', depthClearValue: 0, depthStoreOp: 'store' },
+    });
+    let pass = enc.beginRenderPass(gbuffer(true));
+    this.draw(pass, 'cells', LIST_FULL, []);
+    pass.end();
+    if (this.occlusion) {
+      pass = enc.beginRenderPass({ colorAttachments: [{ view: T.tex.ids.createView(), loadOp: 'load', storeOp: 'store' }] });
+      this.draw(pass, 'probe', LIST_PROBE, [[2, T.groups.depth]]);
+      pass.end();
+      this.expand(enc, 'expandNew');
+      pass = enc.beginRenderPass(gbuffer(false));
+      this.draw(pass, 'cells', LIST_NEW, []);
+      pass.end();
+    }
+    pass = enc.beginRenderPass({ colorAttachments: [{ view: T.tex.ewa.createView(), loadOp: 'clear', clearValue: [0, 0, 0, 0], storeOp: 'store' }] });
+    if (this.ewa) {
+      this.draw(pass, 'ewa', LIST_FULL, [[2, T.groups.surface]]);
+      if (this.occlusion) this.draw(pass, 'ewa', LIST_NEW, [[2, T.groups.surface]]);
+    }
+    pass.end();
+    if (this.occlusion) {
+      enc.clearBuffer(this.visibleLast);
+      enc.clearBuffer(this.visibleNew);
+      const c = enc.beginComputePass();
+      c.setPipeline(this.pipelines.visibility as GPUComputePipeline);
+      c.setBindGroup(0, this.sceneCompute);
+      c.setBindGroup(1, T.groups.ids);
+      c.dispatchWorkgroups(Math.ceil(camera.width / 8), Math.ceil(camera.height / 8));
+      c.end();
+    }
+    pass = enc.beginRenderPass({
+      colorAttachments: [
+        { view: T.tex.color.createView(), loadOp: 'clear', clearValue: [0, 0, 0, 1], storeOp: 'store' },
+        { view: T.tex.final.createView(), loadOp: 'clear', clearValue: [0, 0, 0, 0], storeOp: 'store' },
+      ],
+      timestampWrites: timed ? { querySet: timed.set, endOfPassWriteIndex: 1 } : undefined,
+    });
+    pass.setPipeline(this.pipelines.shade as GPURenderPipeline);
+    pass.setBindGroup(0, this.sceneRender);
+    pass.setBindGroup(1, T.groups.shade);
+    pass.draw(3);
+    pass.end();
+    if (output) enc.copyTextureToTexture({ texture: T.tex.color }, { texture: output }, [camera.width, camera.height]);
+    if (timed) {
+      enc.resolveQuerySet(timed.set, 0, 2, timed.resolve, 0);
+      enc.copyBufferToBuffer(timed.resolve, 0, timed.read, 0, 16);
+    }
+    d.queue.submit([enc.finish()]);
+    if (timed) {
+      timed.busy = true;
+      timed.read.mapAsync(GPUMapMode.READ).then(
+        () => {
+          const t = new BigInt64Array(timed.read.getMappedRange().slice(0));
+          timed.read.unmap();
+          timed.busy = false;
+          const ns = Number(t[1] - t[0]);
+          this.lastGpuMs = ns > 0 ? ns / 1e6 : null;
+        },
+        () => (timed.busy = false),
+      );
+    }
+    return T.tex.color;
+  }
+
+  private expand(enc: GPUCommandEncoder, which: 'expandVisible' | 'expandNew', timestampWrites?: GPUComputePassTimestampWrites): void {
+    const c = enc.beginComputePass({ timestampWrites });
+    c.setPipeline(this.pipelines[which] as GPUComputePipeline);
+    c.setBindGroup(0, this.sceneCompute);
+    for (const p of this.pages) {
+      c.setBindGroup(1, p.compute);
+      const groups = Math.max(Math.ceil(p.slotCount / 64), 1);
+      const x = Math.min(groups, 65535);
+      c.dispatchWorkgroups(x, Math.ceil(groups / x));
+    }
+    c.end();
+  }
+
+  private draw(pass: GPURenderPassEncoder, pipeline: string, list: number, extra: [number, GPUBindGroup][]): void {
+    pass.setPipeline(this.pipelines[pipeline] as GPURenderPipeline);
+    pass.setBindGroup(0, this.sceneRender);
+    for (const [i, g] of extra) pass.setBindGroup(i, g);
+    for (const p of this.pages) {
+      pass.setBindGroup(1, p.render[list]);
+      pass.drawIndirect(p.args, 16 * list);
+    }
+  }
+
+  /** The colour target's pixels, RGBA8 rows top to bottom (for tests and screenshots). */
+  async readPixels(): Promise<Uint8Array> {
+    const T = this.targets!;
+    const [w, h] = T.size;
+    const row = Math.ceil((w * 4) / 256) * 256;
+    const buf = this.device.createBuffer({ size: row * h, usage: GPUBufferUsage.COPY_DST | GPUBufferUsage.MAP_READ });
+    const enc = this.device.createCommandEncoder();
+    enc.copyTextureToBuffer({ texture: T.tex.color }, { buffer: buf, bytesPerRow: row }, [w, h]);
+    this.device.queue.submit([enc.finish()]);
+    await buf.mapAsync(GPUMapMode.READ);
+    const src = new Uint8Array(buf.getMappedRange());
+    const out = new Uint8Array(w * h * 4);
+    for (let y = 0; y < h; y++) out.set(src.subarray(y * row, y * row + w * 4), y * w * 4);
+    buf.unmap();
+    buf.destroy();
+    return out;
+  }
+}

@@ -1,0 +1,227 @@
+// The viewer in real browsers (Debian's chromium and firefox-esr through puppeteer-core): its
+// picture against the native renderer's (`isogrid render --backend gpu`, lavapipe) for the same
+// file, camera and size; the messages of damaged, truncated and version-mismatch files; loading
+// with Range requests (first frame before the last byte, each byte requested once) and from a
+// server without Range support. Skips, saying why, where a browser, WebGPU or the isogrid binary
+// is missing.
+import { test } from 'node:test';
+import assert from 'node:assert/strict';
+import { existsSync, readFileSync, mkdtempSync } from 'node:fs';
+import { execFileSync, spawn } from 'node:child_process';
+import { createInterface } from 'node:readline';
+import { join, dirname } from 'node:path';
+import { tmpdir } from 'node:os';
+import { fileURLToPath } from 'node:url';
+import puppeteer from 'puppeteer-core';
+import { PNG } from 'pngjs';
+import { build } from '../build.mjs';
+import { startServer } from './server.mjs';
+import { isogridBinary, sphereFile, resealHeader, realFiles } from './fixtures.mjs';
+
+const web = join(dirname(fileURLToPath(import.meta.url)), '..');
+const BACKGROUND = [28, 30, 36];
+const SIZE = [160, 120];
+
+const BROWSERS = [
+  {
+    name: 'chromium',
+    path: '/usr/bin/chromium',
+    launch: { browser: 'chrome', args: ['--enable-unsafe-webgpu', '--no-sandbox', '--headless=new'] },
+  },
+  {
+    name: 'firefox',
+    path: '/usr/bin/firefox-esr',
+    launch: {
+      browser: 'firefox',
+      extraPrefsFirefox: { 'dom.webgpu.enabled': true, 'gfx.webgpu.ignore-blocklist': true },
+    },
+  },
+];
+
+// A fresh build of the current sources (web/dist, the committed one, is checked in shaders.test.mjs).
+const dist = join(web, 'build', 'dist');
+await build(dist);
+const bin = isogridBinary();
+const sphere = sphereFile();
+const sphereBytes = sphere ? new Uint8Array(readFileSync(sphere)) : null;
+const tiny = realFiles()[0][1];
+
+/** The native render of `file` with `view` at SIZE, RGBA8 rows. */
+function nativeRender(file, view) {
+  const out = join(mkdtempSync(join(tmpdir(), 'isogrid-web-ref-')), `view${view}.png`);
+  execFileSync(bin, ['render', file, '--backend', 'gpu', '--view', String(view), '--size', SIZE.join('x'), '-o', out], {
+    stdio: 'ignore',
+    env: { ...process.env, NODEVICE_SELECT: '1' },
+  });
+  return PNG.sync.read(readFileSync(out)).data;
+}
+
+/** Mask agreement and colour agreement (within 8/255 on every channel) of two RGBA8 images. */
+function compare(a, b) {
+  let same = 0;
+  let hits = 0;
+  let close = 0;
+  let worst = 0;
+  const n = a.length / 4;
+  for (let i = 0; i < n; i++) {
+    const miss = (p) => BACKGROUND.every((c, k) => p[4 * i + k] === c);
+    const [ma, mb] = [miss(a), miss(b)];
+    if (ma === mb) same++;
+    if (!ma && !mb) {
+      hits++;
+      const d = Math.max(...[0, 1, 2].map((k) => Math.abs(a[4 * i + k] - b[4 * i + k])));
+      worst = Math.max(worst, d);
+      if (d <= 8) close++;
+    }
+  }
+  return { mask: same / n, colour: hits ? close / hits : 0, hits, worst };
+}
+
+for (const B of BROWSERS) {
+  test(`viewer in ${B.name}`, { timeout: 240_000 }, async (t) => {
+    if (!existsSync(B.path)) {
+      t.skip(`no ${B.path}: install the Debian package to run this browser's tests`);
+      return;
+    }
+    const files = { 'tiny.cgc': tiny };
+    if (sphereBytes) {
+      files['sphere48.cgc'] = sphereBytes;
+      const damaged = sphereBytes.slice();
+      damaged[sphereBytes.length - 100] ^= 0x10;
+      files['damaged.cgc'] = damaged;
+      files['truncated.cgc'] = sphereBytes.slice(0, sphereBytes.length - 1000);
+      const future = sphereBytes.slice();
+      future[8] = 9;
+      files['future.cgc'] = resealHeader(future);
+    }
+    const server = await startServer({ dist, files });
+    const plain = await startServer({ dist, files, ranges: false });
+    const slow = await startServer({ dist, files, delayMs: 300 });
+    const browser = await puppeteer.launch({ executablePath: B.path, headless: true, ...B.launch });
+    const errors = [];
+    const open = async (base, query) => {
+      const page = await browser.newPage();
+      page.on('console', (m) => m.type() === 'error' && errors.push(m.text()));
+      await page.goto(`${base}/index.html?${query}`);
+      const outcome = await page.evaluate(() => window.isogrid.ready.then(() => 'ready', (e) => `error: ${e.message}`));
+      const stats = await page.evaluate(() => ({ ...window.isogrid.stats, message: document.getElementById('message').textContent }));
+      return { page, outcome, stats };
+    };
+    try {
+      const probe = await open(server.url, 'src=/tiny.cgc');
+      if (/no WebGPU/.test(probe.stats.message)) {
+        t.skip(`${B.name} offers no WebGPU adapter here: ${probe.stats.message}`);
+        return;
+      }
+      assert.equal(probe.outcome, 'ready', probe.stats.message);
+      if (!sphereBytes) {
+        t.skip('no isogrid binary built (cargo build -p isogrid-cli): no file to compare with the native renderer');
+        return;
+      }
+      await t.test('picture agrees with isogrid render on lavapipe, views 1 and 2', async () => {
+        for (const view of [1, 2]) {
+          const { page, outcome, stats } = await open(server.url, `src=/sphere48.cgc&view=${view}&size=${SIZE.join('x')}`);
+          assert.equal(outcome, 'ready', stats.message);
+          const px = Buffer.from(await page.evaluate(() => window.isogrid.pixels()), 'base64');
+          const c = compare(px, nativeRender(sphere, view));
+          t.diagnostic(`${B.name} (${stats.presentation}) view ${view}: mask ${(100 * c.mask).toFixed(2)} %, colour within 8/255 on ${(100 * c.colour).toFixed(2)} % of ${c.hits} hits (worst ${c.worst})`);
+          assert.ok(c.hits > 500, `only ${c.hits} common hits`);
+          assert.ok(c.mask >= 0.995, `mask agreement ${c.mask}`);
+          assert.ok(c.colour >= 0.99, `colour agreement ${c.colour}`);
+        }
+      });
+      await t.test('damaged, truncated and version-mismatch files show their message', async () => {
+        const expect = {
+          'damaged.cgc': /^damaged\.cgc: cells section checksum mismatch \(the data is damaged\)$/,
+          'truncated.cgc': /^truncated\.cgc: .*does not fit the 7\d+-byte file \(truncated\?\)$/,
+          'future.cgc': /^future\.cgc: format version 9; this viewer reads versions 1 and 2$/,
+        };
+        for (const [name, re] of Object.entries(expect)) {
+          const { outcome, stats } = await open(server.url, `src=/${name}`);
+          assert.match(stats.message, re);
+          assert.equal(outcome, `error: ${stats.message}`);
+        }
+      });
+      await t.test('range loading: first frame before the last byte, each byte requested once', async () => {
+        const { outcome, stats } = await open(slow.url, 'src=/sphere48.cgc&size=64x48');
+        assert.equal(outcome, 'ready', stats.message);
+        const ranges = slow.log.filter((r) => r.path === '/sphere48.cgc').sort((a, b) => a.start - b.start);
+        let at = 0;
+        for (const r of ranges) {
+          assert.equal(r.start, at, 'a byte range requested twice or never');
+          at = r.end;
+        }
+        assert.equal(at, sphereBytes.length);
+        assert.ok(stats.firstFrameBytes < sphereBytes.length, `first frame after ${stats.firstFrameBytes} of ${sphereBytes.length} bytes`);
+        t.diagnostic(`${B.name}: first frame after ${stats.firstFrameBytes} of ${sphereBytes.length} bytes, ${ranges.length} requests`);
+      });
+      await t.test('through isogrid serve, throttled to 0.125 Mbit/s: first frame before the last byte, ranges cover the file once', async (st) => {
+        if (B.name !== 'chromium') {
+          st.skip('download throttling needs the DevTools protocol (Chromium)');
+          return;
+        }
+        const child = spawn(bin, ['serve', sphere, '--port', '0'], { stdio: ['ignore', 'pipe', 'inherit'] });
+        try {
+          const line = await new Promise((resolve, reject) => {
+            createInterface({ input: child.stdout }).once('line', resolve);
+            child.once('exit', (code) => reject(new Error(`isogrid serve exited with ${code} before printing its URL`)));
+          });
+          const url = line.split(/\s+/).find((w) => w.startsWith('http://'));
+          const page = await browser.newPage();
+          const ranges = [];
+          page.on('request', (r) => {
+            const m = /bytes=(\d+)-(\d+)/.exec(r.headers().range || '');
+            if (m) ranges.push([Number(m[1]), Number(m[2]) + 1]);
+          });
+          await page.emulateNetworkConditions({ download: 0.125e6 / 8, upload: 0.125e6 / 8, latency: 20 });
+          await page.goto(`${url}&size=64x48`);
+          const outcome = await page.evaluate(() => window.isogrid.ready.then(() => 'ready', (e) => e.message));
+          assert.equal(outcome, 'ready');
+          const stats = await page.evaluate(() => window.isogrid.stats);
+          ranges.sort((a, b) => a[0] - b[0]);
+          let at = 0;
+          for (const [s0, e] of ranges) {
+            assert.equal(s0, at, 'a byte range requested twice or never');
+            at = Math.min(e, sphereBytes.length);
+          }
+          assert.equal(at, sphereBytes.length);
+          // Shown (read back into the page) before the last byte had arrived.
+          assert.ok(stats.firstFrameBytes < sphereBytes.length && stats.firstFrameAt < stats.completeAt, JSON.stringify(stats));
+          st.diagnostic(`isogrid serve at 0.125 Mbit/s: first frame shown at ${stats.firstFrameAt.toFixed(0)} ms (after ${stats.firstFrameBytes} of ${sphereBytes.length} bytes), last byte at ${stats.completeAt.toFixed(0)} ms, complete picture at ${stats.readyAt.toFixed(0)} ms`);
+          await page.close();
+        } finally {
+          child.kill();
+        }
+      });
+      await t.test('a server without Range support: one whole download and a notice', async () => {
+        plain.log.length = 0;
+        const { outcome, stats } = await open(plain.url, 'src=/sphere48.cgc&size=64x48');
+        assert.equal(outcome, 'ready', stats.message);
+        assert.match(stats.message, /does not support range requests/);
+        assert.equal(plain.log.filter((r) => r.path === '/sphere48.cgc').length, 1);
+      });
+      await t.test('without WebGPU the page says which browsers and flags work', async (st) => {
+        if (B.name !== 'chromium') {
+          st.skip('Chromium without --enable-unsafe-webgpu is the browser here that has no adapter');
+          return;
+        }
+        const plainChromium = await puppeteer.launch({ executablePath: B.path, headless: true, browser: 'chrome', args: ['--no-sandbox', '--headless=new'] });
+        try {
+          const page = await plainChromium.newPage();
+          await page.goto(`${server.url}/index.html?src=/tiny.cgc`);
+          const outcome = await page.evaluate(() => window.isogrid.ready.then(() => 'ready', (e) => e.message));
+          assert.match(outcome, /no WebGPU.*Chrome.*--enable-unsafe-webgpu.*Firefox.*dom\.webgpu\.enabled/);
+          assert.equal(await page.evaluate(() => document.getElementById('message').textContent), outcome);
+        } finally {
+          await plainChromium.close();
+        }
+      });
+      assert.deepEqual(errors.filter((e) => !/checksum|truncated|version|Failed to load resource/.test(e)), [], 'console errors');
+    } finally {
+      await browser.close();
+      await server.close();
+      await plain.close();
+      await slow.close();
+    }
+  });
+}
