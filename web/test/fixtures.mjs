@@ -34,12 +34,35 @@ export function sphereFile(size = 48) {
   return cgc;
 }
 
-/** Every .cgc in the repository's fixtures and, with the binary, the sphere: [name, bytes]. */
+/** The sphere coloured by a gyroid (`extract --color-by`: a cell attribute section), or null. */
+export function coloredSphereFile(size = 32) {
+  const bin = isogridBinary();
+  if (!bin) return null;
+  const key = createHash('sha1').update(`${bin} ${statSync(bin).mtimeMs}`).digest('hex').slice(0, 12);
+  const dir = join(tmpdir(), `isogrid-web-test-${key}`);
+  mkdirSync(dir, { recursive: true });
+  const cgc = join(dir, `colored${size}.cgc`);
+  if (!existsSync(cgc)) {
+    for (const field of ['sphere', 'gyroid']) {
+      execFileSync(bin, ['generate', field, '--size', String(size), '-o', join(dir, `${field}${size}.nrrd`)], { stdio: 'ignore' });
+    }
+    execFileSync(bin, ['extract', join(dir, `sphere${size}.nrrd`), '--iso-normalized', '0.5',
+      '--color-by', join(dir, `gyroid${size}.nrrd`), '-o', cgc], { stdio: 'ignore' });
+  }
+  return cgc;
+}
+
+/**
+ * Every .cgc in the repository's fixtures and, with the binary, the sphere and a sphere with a
+ * cell attribute: [name, bytes].
+ */
 export function realFiles() {
   const dir = join(repo, 'crates', 'isogrid', 'tests', 'fixtures');
   const files = readdirSync(dir).filter((f) => f.endsWith('.cgc')).map((f) => [f, new Uint8Array(readFileSync(join(dir, f)))]);
   const sphere = sphereFile();
   if (sphere) files.push(['sphere48.cgc', new Uint8Array(readFileSync(sphere))]);
+  const colored = coloredSphereFile();
+  if (colored) files.push(['colored32.cgc', new Uint8Array(readFileSync(colored))]);
   return files;
 }
 
