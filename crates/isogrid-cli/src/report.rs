@@ -91,39 +91,43 @@ impl GridReport {
         }
     }
 
-    pub fn print_human(&self) {
+    pub fn print_human(&self) -> Result<(), crate::stdout::StdoutError> {
         let [x, y, z] = self.dims;
-        println!(
+        outln!(
             "grid          {x} x {y} x {z} samples, iso {}, {}-bit corners",
-            self.iso, self.precision
+            self.iso,
+            self.precision
         );
-        println!("active cells  {}", group(self.active_cells));
-        println!(
+        outln!("active cells  {}", group(self.active_cells));
+        outln!(
             "metacells     {} occupied in {} slots ({} clusters)",
             group(self.metacells),
             group(self.metacell_slots),
             group(self.clusters)
         );
-        println!(
+        outln!(
             "blocks        {} ({} with cells)",
             group(self.blocks),
             group(self.nonempty_blocks)
         );
-        println!(
+        outln!(
             "memory        {} (metacells {} + cells {}; paper's Table 3 figure), block volume {}",
             mb(self.bytes.paper_total),
             mb(self.bytes.metacells),
             mb(self.bytes.cells),
             mb(self.bytes.blocks)
         );
-        println!(
+        outln!(
             "bytes/cell    {:.2} (blocks + metacells + cells)",
             self.bytes_per_cell
         );
-        println!(
+        outln!(
             "seconds       read {:.3}, extract {:.3}, write {:.3}",
-            self.seconds.read, self.seconds.extract, self.seconds.write
+            self.seconds.read,
+            self.seconds.extract,
+            self.seconds.write
         );
+        Ok(())
     }
 }
 
@@ -139,26 +143,29 @@ pub struct MeshReport {
 }
 
 impl MeshReport {
-    pub fn print_human(&self) {
-        println!(
+    pub fn print_human(&self) -> Result<(), crate::stdout::StdoutError> {
+        outln!(
             "mesh          {} vertices, {} triangles, iso {}",
             group(self.vertices),
             group(self.triangles),
             self.iso
         );
-        println!(
+        outln!(
             "memory        {} (6 B/vertex snorm16 + 12 B/triangle)",
             mb(self.bytes)
         );
-        println!(
+        outln!(
             "seconds       read {:.3}, extract {:.3}, write {:.3}",
-            self.seconds.read, self.seconds.extract, self.seconds.write
+            self.seconds.read,
+            self.seconds.extract,
+            self.seconds.write
         );
+        Ok(())
     }
 }
 
 pub fn print_json<T: Serialize>(value: &T) -> anyhow::Result<()> {
-    println!("{}", serde_json::to_string(value)?);
+    outln!("{}", serde_json::to_string(value)?);
     Ok(())
 }
 

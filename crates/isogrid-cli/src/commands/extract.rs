@@ -76,9 +76,9 @@ pub fn run(args: Args) -> Result<()> {
     if args.json {
         print_json(&report)
     } else {
-        report.print_human();
+        report.print_human()?;
         if let Some(out) = &args.output {
-            println!("wrote         {}", out.display());
+            outln!("wrote         {}", out.display());
         }
         Ok(())
     }

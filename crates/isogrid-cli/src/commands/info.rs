@@ -37,9 +37,9 @@ pub fn run(args: Args) -> Result<()> {
     if args.json {
         print_json(&report)
     } else {
-        report.print_human();
+        report.print_human()?;
         let info = grid.info();
-        println!(
+        outln!(
             "source        {} samples in [{}, {}], spacing {:?}",
             info.scalar_type.name(),
             info.value_range[0],

@@ -87,7 +87,7 @@ pub fn run(args: Args) -> Result<()> {
     if args.json {
         print_json(&report)
     } else {
-        report.print_human();
+        report.print_human()?;
         Ok(())
     }
 }

@@ -454,7 +454,7 @@ pub fn run(args: Args) -> Result<()> {
         Some(a) => format!("on the GPU ({a})"),
         None => "on the CPU".to_string(),
     };
-    println!(
+    outln!(
         "rendered      {width}x{height} {} {on} in {:.3} s ({} of {} pixels hit)",
         report.mode,
         report.seconds,
@@ -463,7 +463,7 @@ pub fn run(args: Args) -> Result<()> {
     );
     if let Some(t) = &report.gpu_ms {
         let ms = |v: Option<f64>| v.map_or("n/a".to_string(), |v| format!("{v:.2} ms"));
-        println!(
+        outln!(
             "gpu passes    raster {} (without EWA {}), shade {}, cull {}, trace {}, frame {}",
             ms(t.raster_ms),
             ms(t.raster_no_ewa_ms),
@@ -474,7 +474,7 @@ pub fn run(args: Args) -> Result<()> {
         );
     }
     if let Some(out) = &args.output {
-        println!("wrote         {}", out.display());
+        outln!("wrote         {}", out.display());
     }
     Ok(())
 }

@@ -418,3 +418,49 @@ fn an_interrupt_during_a_write_leaves_no_temporary_file() {
     assert!(caught, "never interrupted a write in progress");
     std::fs::remove_dir_all(dir).unwrap();
 }
+
+/// Runs the binary with its stdout going to `stdout`.
+fn with_stdout(stdout: impl Into<Stdio>, args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_isogrid"))
+        .args(args)
+        .stdout(stdout)
+        .stderr(Stdio::piped())
+        .output()
+        .expect("runs the binary")
+}
+
+#[test]
+fn printing_to_a_closed_pipe_ends_quietly_and_to_a_full_disk_fails_in_one_line() {
+    let dir = temp_dir("stdout");
+    let (volume, grid) = sphere_grid(&dir, 24);
+    let mesh = dir.join("m.obj");
+    let every_printing_command: [Vec<&str>; 6] = [
+        vec!["info", s(&grid)],
+        vec!["info", s(&grid), "--json"],
+        vec!["extract", s(&volume), "--iso", "0.5", "-o", s(&grid)],
+        vec!["mc", s(&volume), "--iso", "0.5", "-o", s(&mesh)],
+        vec!["generate", "sphere", "--size", "8", "-o", s(&volume)],
+        vec!["--help"],
+    ];
+    for args in &every_printing_command {
+        // A reader that went away before anything was printed (`| head -0`).
+        let (reader, writer) = std::io::pipe().unwrap();
+        drop(reader);
+        let out = with_stdout(writer, args);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success(), "{args:?} to a closed pipe: {stderr}");
+        assert!(stderr.is_empty(), "{args:?} to a closed pipe: {stderr}");
+        // A device that takes nothing.
+        let full = std::fs::OpenOptions::new()
+            .write(true)
+            .open("/dev/full")
+            .unwrap();
+        let out = with_stdout(full, args);
+        one_line_error(
+            &out,
+            "cannot write to standard output: No space left on device",
+        );
+        assert!(!String::from_utf8_lossy(&out.stderr).contains("panicked"));
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
