@@ -657,3 +657,55 @@ fn mc_mesh_is_placed_at_the_volume_origin() {
     }
     std::fs::remove_dir_all(dir).unwrap();
 }
+
+/// `cargo install` builds the release profile: with line tables the binary was 232 MB. Profilers
+/// get them from the `profiling` profile instead (release code, `debug = 1`).
+#[test]
+fn release_profile_carries_no_debug_info_and_profiling_does() {
+    let manifest =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../../Cargo.toml"))
+            .expect("reads the workspace manifest");
+    // The `key = value` lines of each `[section]`, comments dropped.
+    let section = |name: &str| -> Vec<(String, String)> {
+        let header = format!("[{name}]");
+        manifest
+            .lines()
+            .map(|l| l.split('#').next().unwrap_or("").trim())
+            .skip_while(|l| *l != header)
+            .skip(1)
+            .take_while(|l| !l.starts_with('['))
+            .filter_map(|l| l.split_once('='))
+            .map(|(k, v)| (k.trim().to_string(), v.trim().trim_matches('"').to_string()))
+            .collect()
+    };
+    let release = section("profile.release");
+    assert!(!release.is_empty(), "no [profile.release] in the manifest");
+    let debug = release
+        .iter()
+        .find(|(k, _)| k == "debug")
+        .map(|(_, v)| v.as_str());
+    assert!(
+        matches!(debug, None | Some("0") | Some("false") | Some("none")),
+        "[profile.release] keeps debug info: debug = {debug:?}"
+    );
+    let profiling = section("profile.profiling");
+    let get = |k: &str| {
+        profiling
+            .iter()
+            .find(|(key, _)| key == k)
+            .map(|(_, v)| v.as_str())
+    };
+    assert_eq!(get("inherits"), Some("release"), "{profiling:?}");
+    assert!(
+        matches!(
+            get("debug"),
+            Some("1")
+                | Some("2")
+                | Some("true")
+                | Some("line-tables-only")
+                | Some("limited")
+                | Some("full")
+        ),
+        "{profiling:?}"
+    );
+}
