@@ -68,15 +68,7 @@ pub fn read_dicom_series(path: &Path) -> Result<Volume> {
 /// folder, or the file at fault.
 pub fn read_dicom(path: &Path, opts: &ReadOptions) -> Result<(Volume, Vec<String>)> {
     let files = if path.is_dir() {
-        let mut files = Vec::new();
-        for entry in std::fs::read_dir(path).at_path(path)? {
-            let p = entry.at_path(path)?.path();
-            if p.is_file() && file::looks_like_dicom(&p) {
-                files.push(p);
-            }
-        }
-        files.sort();
-        files
+        folder_files(path)?
     } else {
         vec![path.to_path_buf()]
     };
@@ -94,6 +86,19 @@ pub fn read_dicom(path: &Path, opts: &ReadOptions) -> Result<(Volume, Vec<String
     let (volume, notice) = stack(frames).at_path(path)?;
     notices.extend(notice);
     Ok((volume, notices))
+}
+
+/// The files of the folder `path` that look like DICOM (see the module doc), sorted.
+pub(crate) fn folder_files(path: &Path) -> Result<Vec<PathBuf>> {
+    let mut files = Vec::new();
+    for entry in std::fs::read_dir(path).at_path(path)? {
+        let p = entry.at_path(path)?.path();
+        if p.is_file() && file::looks_like_dicom(&p) {
+            files.push(p);
+        }
+    }
+    files.sort();
+    Ok(files)
 }
 
 /// The files of the requested series, or of the one with the most frames, and a notice naming

@@ -464,3 +464,80 @@ fn printing_to_a_closed_pipe_ends_quietly_and_to_a_full_disk_fails_in_one_line()
     }
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// The output must never be a file the input reads, not only the path given: a detached header's
+/// data file, a slice of a DICOM folder. A new file in the DICOM folder is not read, so it may be
+/// written.
+#[test]
+fn outputs_never_overwrite_a_file_the_input_reads() {
+    let fixtures =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../isogrid-io/tests/fixtures");
+    let dir = temp_dir("reads");
+    let unchanged = |path: &std::path::Path, bytes: &[u8]| {
+        assert_eq!(
+            std::fs::read(path).unwrap(),
+            bytes,
+            "{} changed",
+            path.display()
+        );
+    };
+    // A detached NRRD whose data file is named like a grid.
+    let header = std::fs::read_to_string(fixtures.join("u8_detached.nhdr")).unwrap();
+    let nhdr = dir.join("det.nhdr");
+    std::fs::write(&nhdr, header.replace("u8_detached.raw", "data.cgc")).unwrap();
+    let raw = std::fs::read(fixtures.join("u8_detached.raw")).unwrap();
+    let data = dir.join("data.cgc");
+    std::fs::write(&data, &raw).unwrap();
+    fails(
+        &["extract", s(&nhdr), "--iso", "100", "-o", s(&data)],
+        "would overwrite",
+    );
+    unchanged(&data, &raw);
+    // A MetaImage header's ElementDataFile.
+    let header = std::fs::read_to_string(fixtures.join("i16_z.mhd")).unwrap();
+    let mhd = dir.join("m.mhd");
+    std::fs::write(&mhd, header.replace("i16_z.zraw", "m.cgc")).unwrap();
+    let zraw = std::fs::read(fixtures.join("i16_z.zraw")).unwrap();
+    let mdata = dir.join("m.cgc");
+    std::fs::write(&mdata, &zraw).unwrap();
+    fails(
+        &["extract", s(&mhd), "--iso", "100", "-o", s(&mdata)],
+        &format!("which the input {} reads", s(&mhd)),
+    );
+    unchanged(&mdata, &zraw);
+    // DICOM slices named like the outputs (names do not matter to DICOM).
+    let dcm = dir.join("dcm");
+    std::fs::create_dir_all(&dcm).unwrap();
+    for (from, to) in [("a.dcm", "s001"), ("b.dcm", "s003.cgc"), ("c.dcm", "x.obj")] {
+        std::fs::copy(fixtures.join("dicom_ct").join(from), dcm.join(to)).unwrap();
+    }
+    let slice = std::fs::read(dcm.join("s003.cgc")).unwrap();
+    fails(
+        &[
+            "extract",
+            s(&dcm),
+            "--iso",
+            "0",
+            "-o",
+            s(&dcm.join("s003.cgc")),
+        ],
+        "which the input",
+    );
+    unchanged(&dcm.join("s003.cgc"), &slice);
+    let obj = std::fs::read(dcm.join("x.obj")).unwrap();
+    fails(
+        &["mc", s(&dcm), "--iso", "0", "-o", s(&dcm.join("x.obj"))],
+        "which the input",
+    );
+    unchanged(&dcm.join("x.obj"), &obj);
+    // A new file in the folder is not read: written.
+    let fresh = dcm.join("new.cgc");
+    let out = isogrid(&["extract", s(&dcm), "--iso", "0", "-o", s(&fresh)]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(fresh.is_file());
+    std::fs::remove_dir_all(&dir).unwrap();
+}
