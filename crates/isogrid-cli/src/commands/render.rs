@@ -431,21 +431,33 @@ pub fn run(args: Args) -> Result<()> {
     let (width, height) = args.size;
     let (report, rendered) = RenderReport::new(&args, &grid, rendered);
 
+    // Every output is written before any replaces its file: a failure (a full disk) leaves all
+    // of them as they were.
+    let mut staged = Vec::new();
     if let Some(out) = &args.output {
-        isogrid_io::image::write_png(out, width, height, 3, &rendered.rgb8)?;
+        staged.push(isogrid_io::image::stage_png(
+            out,
+            width,
+            height,
+            3,
+            &rendered.rgb8,
+        )?);
     }
     for (aov, path) in args.aov.as_ref().map(Aovs::files).unwrap_or_default() {
-        match aov {
+        staged.push(match aov {
             Aov::Depth => {
-                isogrid_io::image::write_npy_f32_hw(path, width, height, &rendered.depth)?
+                isogrid_io::image::stage_npy_f32_hw(path, width, height, &rendered.depth)?
             }
             Aov::Normal => {
-                isogrid_io::image::write_npy_f32_hw3(path, width, height, &rendered.normal)?
+                isogrid_io::image::stage_npy_f32_hw3(path, width, height, &rendered.normal)?
             }
             Aov::Cluster => {
-                isogrid_io::image::write_npy_u32_hw(path, width, height, &rendered.cluster)?
+                isogrid_io::image::stage_npy_u32_hw(path, width, height, &rendered.cluster)?
             }
-        }
+        });
+    }
+    for file in staged {
+        file.commit()?;
     }
     if args.json {
         return print_json(&report);

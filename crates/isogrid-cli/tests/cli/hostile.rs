@@ -541,3 +541,56 @@ fn outputs_never_overwrite_a_file_the_input_reads() {
     assert!(fresh.is_file());
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// `render -o r.png --aov depth=d.npy`: every output is checked before any is written (a folder
+/// named `d.npy`), and none is replaced unless all are written (a write that fails part way).
+#[test]
+fn render_writes_all_its_outputs_or_none() {
+    let dir = temp_dir("render-all-or-none");
+    let (_, grid) = sphere_grid(&dir, 16);
+    let png = dir.join("r.png");
+    std::fs::write(&png, b"old picture").unwrap();
+    let folder = dir.join("d.npy");
+    std::fs::create_dir_all(&folder).unwrap();
+    let args = |depth: &std::path::Path| {
+        vec![
+            "render".to_string(),
+            s(&grid).to_string(),
+            "--backend".into(),
+            "cpu".into(),
+            "--size".into(),
+            "64x64".into(),
+            "-o".into(),
+            s(&png).to_string(),
+            "--aov".into(),
+            format!("depth={}", s(depth)),
+        ]
+    };
+    let folder_args = args(&folder);
+    let folder_args: Vec<&str> = folder_args.iter().map(String::as_str).collect();
+    fails(&folder_args, "it is a folder");
+    assert_eq!(std::fs::read(&png).unwrap(), b"old picture");
+    // A file-size limit that the PNG fits (64x64 RGB, compressed, under 8 KiB) and the depth AOV
+    // does not (64 x 64 x 4 bytes = 16 KiB).
+    let depth = dir.join("d2.npy");
+    let out = Command::new("sh")
+        .arg("-c")
+        .arg("ulimit -f 16 && exec \"$0\" \"$@\"")
+        .arg(env!("CARGO_BIN_EXE_isogrid"))
+        .args(args(&depth))
+        .output()
+        .unwrap();
+    one_line_error(&out, "d2.npy");
+    assert_eq!(
+        std::fs::read(&png).unwrap(),
+        b"old picture",
+        "r.png replaced"
+    );
+    assert!(!depth.exists());
+    let left: Vec<String> = names_in(&dir)
+        .into_iter()
+        .filter(|n| n.contains(".tmp"))
+        .collect();
+    assert!(left.is_empty(), "left behind: {left:?}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
