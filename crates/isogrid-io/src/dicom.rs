@@ -36,8 +36,10 @@
 //!   grid of the mean step with a notice giving the largest distance that moves a slice. Without positions, frames are ordered by InstanceNumber and
 //!   the k spacing is SpacingBetweenSlices, else SliceThickness, else 1.
 //! - **Grid:** i along a row (Columns samples), j down the columns (Rows samples), k = frame.
-//!   Spacing i = PixelSpacing[1], j = PixelSpacing[0] (mm). Origin = position of the first
-//!   frame (patient LPS, mm). Direction rows: row cosine, column cosine, normal.
+//!   Spacing i = PixelSpacing[1], j = PixelSpacing[0] (mm), the same in every frame; a
+//!   PixelSpacing of 0, NaN or a negative size, or frames that differ in it, are errors. Origin =
+//!   position of the first frame (patient LPS, mm). Direction rows: row cosine, column cosine,
+//!   normal.
 //! - **Values:** stored values are masked to BitsStored and sign-extended when
 //!   PixelRepresentation is 1, then RescaleSlope and RescaleIntercept are applied per frame.
 //!   When every slope is 1 and every intercept an integer, values stay integers in the narrowest
@@ -197,6 +199,7 @@ fn stack(mut frames: Vec<Frame>) -> Result<(Volume, Option<String>)> {
             )));
         }
     }
+    check_pixel_spacing(&frames)?;
     let positioned = frames
         .iter()
         .all(|f| f.position.is_some() && f.orientation.is_some());
@@ -250,6 +253,43 @@ fn stack(mut frames: Vec<Frame>) -> Result<(Volume, Option<String>)> {
     }
     let data = values(&frames, total);
     Ok((Volume::with_geometry(geometry, data)?, notice))
+}
+
+/// Every frame's PixelSpacing is two positive sizes, the same in every frame: a regular grid has
+/// one spacing, and 0, NaN or a negative size is no spacing at all (NRRD, MetaImage and NIfTI
+/// refuse such spacings too).
+fn check_pixel_spacing(frames: &[Frame]) -> Result<()> {
+    let first = &frames[0];
+    for f in frames {
+        if let Some([r, c]) = f.pixel_spacing {
+            if !(r.is_finite() && c.is_finite() && r > 0.0 && c > 0.0) {
+                return Err(Error::corrupt(format!(
+                    "{}: PixelSpacing {r}\\{c} is not two positive sizes in mm",
+                    f.describe()
+                )));
+            }
+        }
+        let same = match (f.pixel_spacing, first.pixel_spacing) {
+            (Some(a), Some(b)) => a
+                .iter()
+                .zip(b)
+                .all(|(x, y)| (x - y).abs() <= 1e-6 * y.abs()),
+            (a, b) => a == b,
+        };
+        if !same {
+            let show =
+                |s: Option<[f64; 2]>| s.map_or("none".to_string(), |[r, c]| format!("{r}\\{c} mm"));
+            return Err(Error::invalid(format!(
+                "slices differ in PixelSpacing: {} has {}, {} has {}; a regular grid cannot hold \
+                 them",
+                first.describe(),
+                show(first.pixel_spacing),
+                f.describe(),
+                show(f.pixel_spacing)
+            )));
+        }
+    }
+    Ok(())
 }
 
 /// The even step between sorted frames along `normal` and a notice when positions leave that

@@ -293,10 +293,14 @@ impl<'a> Attributes<'a> {
             normalized([v[3], v[4], v[5]])?,
         ))
     }
+    /// PixelSpacing as given, checked by the stack; a value that is not two numbers reads as
+    /// two NaNs, which the check refuses too.
     fn pixel_spacing(self) -> Option<[f64; 2]> {
-        self.floats(tags::PIXEL_SPACING)
-            .filter(|v| v.len() == 2 && v.iter().all(|x| x.is_finite() && *x > 0.0))
-            .map(|v| [v[0], v[1]])
+        self.element(tags::PIXEL_SPACING)
+            .map(|e| match e.to_multi_float64() {
+                Ok(v) if v.len() == 2 => [v[0], v[1]],
+                _ => [f64::NAN; 2],
+            })
     }
     fn rescale(self) -> Option<(f64, f64)> {
         let slope = self.float(tags::RESCALE_SLOPE).filter(|&s| s != 0.0);

@@ -305,6 +305,48 @@ fn dicom_positions_rounded_by_the_scanner_read_with_a_notice_but_a_missing_slice
 }
 
 #[test]
+fn dicom_pixel_spacing_that_is_not_a_size_or_differs_between_slices_is_refused() {
+    // One slice's PixelSpacing replaced; the others keep 0.5\\0.25.
+    let series_with = |tag: &str, spacing: &str| {
+        let dir = TempDir::new(tag);
+        for k in 0..3 {
+            let mut obj = slice("1.2.3", k + 1, [0.0, 0.0, k as f64], |i, j| {
+                stored(i, j, k as usize)
+            });
+            if k == 1 {
+                obj.put(DataElement::new(
+                    tags::PIXEL_SPACING,
+                    VR::DS,
+                    PrimitiveValue::from(spacing),
+                ));
+            }
+            save(
+                obj,
+                &dir.path(&format!("s{k}")),
+                uids::EXPLICIT_VR_LITTLE_ENDIAN,
+            );
+        }
+        dir
+    };
+    for bad in ["0\\0.25", "0.5\\-0.25", "NaN\\0.25", "0.5"] {
+        let dir = series_with("dicom-bad-spacing", bad);
+        let err = read_err(&dir.0, &ReadOptions::default());
+        assert!(
+            err.message().contains("s1: PixelSpacing")
+                && err.message().contains("not two positive sizes"),
+            "{bad}: {err}"
+        );
+    }
+    let dir = series_with("dicom-mixed-spacing", "0.5\\0.3");
+    let err = read_err(&dir.0, &ReadOptions::default());
+    assert!(
+        err.message()
+            .contains("slices differ in PixelSpacing: s0 has 0.5\\0.25 mm, s1 has 0.5\\0.3 mm"),
+        "{err}"
+    );
+}
+
+#[test]
 fn dicom_gantry_tilt_is_an_error() {
     let dir = TempDir::new("dicom-tilt");
     for k in 0..4 {
