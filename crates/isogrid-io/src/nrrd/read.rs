@@ -114,6 +114,8 @@ pub(crate) fn region_layout(path: &Path) -> Result<Option<crate::mapped_layout::
         ),
         DataFiles::Detached(_) => return Ok(None),
     };
+    // A FIFO or a device has no length to check (and /dev/zero never ends): name what it is.
+    isogrid::fs::ensure_regular(&data_path)?;
     let file_len = std::fs::metadata(&data_path).at_path(&data_path)?.len();
     let available = file_len.saturating_sub(start);
     let data_offset = if header.byte_skip == -1 {

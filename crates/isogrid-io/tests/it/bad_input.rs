@@ -713,3 +713,57 @@ fn binary_stl_with_a_count_too_low_is_refused() {
         2
     );
 }
+
+/// A detached NRRD's data file, or a raw file, that is a FIFO or a device: the region reader
+/// (streamed extraction) said "file is truncated … only 0 are there" for /dev/zero; it must say
+/// what the file is, as the whole-volume reader does.
+#[cfg(unix)]
+#[test]
+fn data_file_that_is_a_fifo_or_a_device_is_not_a_regular_file() {
+    let dir = TempDir::new("special-data-file");
+    let fifo = dir.path("fifo.raw");
+    let made = std::process::Command::new("mkfifo")
+        .arg(&fifo)
+        .status()
+        .unwrap();
+    assert!(made.success());
+    let header = String::from_utf8(fixture_bytes("u8_detached.nhdr")).unwrap();
+    for (data, what) in [
+        (fifo.as_path(), "a pipe or FIFO"),
+        (Path::new("/dev/zero"), "a device"),
+    ] {
+        let nhdr = dir.file(
+            "d.nhdr",
+            header
+                .replace("u8_detached.raw", data.to_str().unwrap())
+                .as_bytes(),
+        );
+        for streamed in [true, false] {
+            let result = if streamed {
+                isogrid_io::open_region(&nhdr, &ReadOptions::default()).map(|_| ())
+            } else {
+                read_volume(&nhdr, &ReadOptions::default()).map(|_| ())
+            };
+            let err = result.expect_err("a special data file must not read");
+            let text = err.to_string();
+            assert!(
+                text.contains(data.to_str().unwrap())
+                    && text.contains(what)
+                    && text.contains("not a regular file"),
+                "streamed {streamed}: {text}"
+            );
+        }
+        let raw = ReadOptions {
+            raw: Some(RawSpec {
+                dims: [7, 5, 3],
+                scalar: ScalarType::U8,
+                big_endian: false,
+            }),
+            ..ReadOptions::default()
+        };
+        let err = isogrid_io::open_region(data, &raw)
+            .map(|_| ())
+            .expect_err("raw special file");
+        assert!(err.to_string().contains("not a regular file"), "{err}");
+    }
+}
