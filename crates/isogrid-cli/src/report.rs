@@ -5,24 +5,36 @@
 //! `metacells`, `cells`, `paper_total`}, `bytes_per_cell`, `seconds` {`read`, `extract`, `write`};
 //! Marching Cubes: `vertices`, `triangles`, `bytes`, `seconds`.
 
-use isogrid::{CellGrid, GridStats};
+use isogrid::{CellGrid, GridStats, Volume};
 use serde::Serialize;
 use std::path::Path;
 
 /// One line on stderr when `grid` (from `source`) has no active cell, saying why: an empty
 /// surface is a valid result, but a blank image or zero hits alone look like a failure elsewhere.
-pub fn note_if_empty(source: &Path, grid: &CellGrid) {
-    note_if_no_cells(source, grid.info(), grid.active_cells() as u64);
+/// `volume`: the samples it was extracted from, when at hand (not for a .cgc file).
+pub fn note_if_empty(source: &Path, grid: &CellGrid, volume: Option<&Volume>) {
+    note_if_no_cells(source, grid.info(), grid.active_cells() as u64, || {
+        volume.is_some_and(|v| v.view().value_range().is_none())
+    });
 }
 
 /// [`note_if_empty`] from a grid's header and cell count (a streamed grid is never in memory).
-pub fn note_if_no_cells(source: &Path, info: &isogrid::GridInfo, active_cells: u64) {
+/// `all_nan` says whether the volume has no finite sample; asked only for an empty surface.
+pub fn note_if_no_cells(
+    source: &Path,
+    info: &isogrid::GridInfo,
+    active_cells: u64,
+    all_nan: impl FnOnce() -> bool,
+) {
     if active_cells != 0 {
         return;
     }
     let [lo, hi] = info.value_range;
     let why = if info.cell_dims().contains(&0) {
         "the volume is one sample thick, so it has no cells".to_string()
+    } else if all_nan() {
+        // The grid records [0, 0] as the range of a volume without finite samples.
+        "every sample is NaN".to_string()
     } else if info.iso > hi {
         format!("every sample is below it: they lie in [{lo}, {hi}]")
     } else if info.iso <= lo {

@@ -658,6 +658,52 @@ fn mc_mesh_is_placed_at_the_volume_origin() {
     std::fs::remove_dir_all(dir).unwrap();
 }
 
+/// A volume whose every sample is NaN has no cells at any isovalue; the note must say so, not
+/// that every sample is at or above the isovalue in [0, 0] (the range a grid records for it).
+#[test]
+fn an_all_nan_volume_is_noted_as_such() {
+    let dir = temp_dir("all-nan");
+    let nrrd = dir.join("nan.nrrd");
+    let mut bytes =
+        b"NRRD0004\ntype: float\ndimension: 3\nsizes: 6 5 4\nencoding: raw\nendian: little\n\n"
+            .to_vec();
+    for _ in 0..6 * 5 * 4 {
+        bytes.extend(f32::NAN.to_le_bytes());
+    }
+    std::fs::write(&nrrd, &bytes).unwrap();
+    let cgc = dir.join("nan.cgc");
+    let png = dir.join("n.png");
+    // extract reads a raw NRRD by slabs; render extracts it in memory.
+    let runs: [&[&str]; 2] = [
+        &["extract", s(&nrrd), "--iso", "0", "-o", s(&cgc)],
+        &[
+            "render",
+            s(&nrrd),
+            "--iso",
+            "0",
+            "--backend",
+            "cpu",
+            "--size",
+            "16x16",
+            "-o",
+            s(&png),
+        ],
+    ];
+    for args in runs {
+        let out = isogrid(args);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success(), "{args:?}: {stderr}");
+        let notes: Vec<&str> = stderr.lines().filter(|l| l.contains("note:")).collect();
+        assert_eq!(notes.len(), 1, "{args:?}: {stderr}");
+        assert!(
+            notes[0].contains("every sample is NaN"),
+            "{args:?}: {}",
+            notes[0]
+        );
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 /// `cargo install` builds the release profile: with line tables the binary was 232 MB. Profilers
 /// get them from the `profiling` profile instead (release code, `debug = 1`).
 #[test]

@@ -99,7 +99,7 @@ fn in_memory(
         .with_context(|| format!("{}: extraction failed", args.input.display()))?;
     let extract_seconds = start.elapsed().as_secs_f64();
     spinner.finish_and_clear();
-    crate::report::note_if_empty(&args.input, &grid);
+    crate::report::note_if_empty(&args.input, &grid, Some(&volume));
     let mut write = 0.0;
     if let Some(out) = &args.output {
         let start = Instant::now();
@@ -159,8 +159,32 @@ fn stream_to_file(
         let _ = std::fs::remove_file(out);
     }
     let summary = result.with_context(|| format!("{}: extraction failed", args.input.display()))?;
-    crate::report::note_if_no_cells(&args.input, &summary.info, summary.stats.active_cells);
+    crate::report::note_if_no_cells(
+        &args.input,
+        &summary.info,
+        summary.stats.active_cells,
+        || {
+            // Only a range of [0, 0] can hide a volume without finite samples.
+            summary.info.value_range == [0.0, 0.0] && has_no_finite_sample(source).unwrap_or(false)
+        },
+    );
     Ok(summary.stats)
+}
+
+/// Whether `source` holds no finite sample (every sample NaN), read one plane at a time.
+fn has_no_finite_sample(source: &mut dyn RegionSource) -> isogrid::Result<bool> {
+    if source.scalar_type() != isogrid::ScalarType::F32 {
+        return Ok(false);
+    }
+    let [nx, ny, nz] = source.geometry().dims;
+    let mut plane = vec![0f32; nx * ny];
+    for z in 0..nz {
+        source.read_planes(z..z + 1, isogrid::extract::stream::SlabMut::F32(&mut plane))?;
+        if plane.iter().any(|v| v.is_finite()) {
+            return Ok(false);
+        }
+    }
+    Ok(true)
 }
 
 /// A quarter of the machine's memory (4 GiB where it cannot be read).

@@ -26,7 +26,7 @@ pub fn run(args: Args) -> Result<()> {
     let start = Instant::now();
     let grid = isogrid::cgc::open(&args.file)?;
     let read = start.elapsed().as_secs_f64();
-    crate::report::note_if_empty(&args.file, &grid);
+    crate::report::note_if_empty(&args.file, &grid, None);
     let report = GridReport::new(
         &GridStats::of(&grid),
         Seconds {
