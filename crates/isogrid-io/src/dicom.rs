@@ -54,7 +54,7 @@ mod lengths;
 use crate::geometry::{cross, dot, normalized, Vec3};
 use crate::read_options::ReadOptions;
 use crate::samples::sample_count;
-pub(crate) use file::is_dicom_head;
+pub(crate) use file::{is_dicom_head, looks_like_dicom};
 use file::{Frame, Header};
 use isogrid::{Error, Geometry, Result, ResultExt, Volume, VolumeData};
 use std::collections::BTreeMap;
@@ -95,7 +95,7 @@ pub(crate) fn folder_files(path: &Path) -> Result<Vec<PathBuf>> {
     let mut files = Vec::new();
     for entry in std::fs::read_dir(path).at_path(path)? {
         let p = entry.at_path(path)?.path();
-        if p.is_file() && file::looks_like_dicom(&p) {
+        if p.is_file() && looks_like_dicom(&p) {
             files.push(p);
         }
     }

@@ -58,6 +58,10 @@ pub fn run(args: Args) -> Result<()> {
     let read = start.elapsed().as_secs_f64();
     let (stats, seconds) = match region {
         Some(mut source) => {
+            // What the whole-volume reader's notices would say (other files of a TIFF folder).
+            if let Some(notice) = isogrid_io::region::slices::skipped_files_notice(&args.input) {
+                eprintln!("isogrid: note: {notice}");
+            }
             let max_memory = args.max_memory.unwrap_or_else(default_max_memory);
             let stats =
                 pool.install(|| stream_to_file(&args, source.as_mut(), &options, max_memory))?;

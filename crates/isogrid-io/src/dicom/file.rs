@@ -142,7 +142,7 @@ fn head(path: &Path) -> std::io::Result<Vec<u8>> {
 }
 
 /// Whether `path` looks like a DICOM file (any [`Layout`] but `NotDicom`).
-pub(super) fn looks_like_dicom(path: &Path) -> bool {
+pub(crate) fn looks_like_dicom(path: &Path) -> bool {
     head(path).is_ok_and(|head| is_dicom_head(&head))
 }
 
