@@ -47,26 +47,13 @@ why (as the command line's one-line note does).
 
 from __future__ import annotations
 
+import contextlib
 import operator
 import os
 import warnings
-from typing import Any, Callable, Dict, Optional, Sequence, Tuple, Union
+from typing import Any, Callable, Dict, Iterator, Optional, Sequence, Tuple, Union
 
 import numpy as np
-
-def _quiet_vulkan_device_select() -> None:
-    """Mesa's Vulkan device-selection layer asks a Wayland compositor for the default GPU, and where
-    there is no session libwayland prints ``error: XDG_RUNTIME_DIR is invalid or not set`` once per
-    adapter lookup. On headless machines (no display, no runtime directory) there is no default to
-    ask for: turn the layer off with its documented switch, unless the user steers it."""
-    env = os.environ
-    headless = not any(k in env for k in ("XDG_RUNTIME_DIR", "WAYLAND_DISPLAY", "DISPLAY"))
-    steered = any(k in env for k in ("NODEVICE_SELECT", "DRI_PRIME", "MESA_VK_DEVICE_SELECT"))
-    if headless and not steered:
-        env["NODEVICE_SELECT"] = "1"
-
-
-_quiet_vulkan_device_select()
 
 from . import _isogrid  # noqa: E402
 from ._isogrid import CellGrid, IsogridError  # noqa: E402
@@ -90,6 +77,27 @@ __all__ = [
 
 Triple = Tuple[float, float, float]
 PathLike = Union[str, "os.PathLike[str]"]
+
+
+@contextlib.contextmanager
+def _vulkan_device_select_quieted() -> Iterator[None]:
+    """Mesa's Vulkan device-selection layer asks a Wayland compositor for the default GPU, and where
+    there is no session libwayland prints ``error: XDG_RUNTIME_DIR is invalid or not set`` once per
+    adapter lookup. On headless machines (no display, no runtime directory) there is no default to
+    ask for: the layer is turned off with its documented switch, ``NODEVICE_SELECT=1``, while a
+    render looks for a GPU, unless the user steers it. Only then: set at import, the variable would
+    reach every child process the user's program starts."""
+    env = os.environ
+    headless = not any(k in env for k in ("XDG_RUNTIME_DIR", "WAYLAND_DISPLAY", "DISPLAY"))
+    steered = any(k in env for k in ("NODEVICE_SELECT", "DRI_PRIME", "MESA_VK_DEVICE_SELECT"))
+    if not headless or steered:
+        yield
+        return
+    env["NODEVICE_SELECT"] = "1"
+    try:
+        yield
+    finally:
+        env.pop("NODEVICE_SELECT", None)
 
 
 class EmptySurfaceWarning(RuntimeWarning):
@@ -432,21 +440,22 @@ def render(
     for name in names:
         if name not in ("depth", "normal", "cluster", "backend"):
             raise ValueError(f"unknown AOV {name!r} (depth, normal, cluster or backend)")
-    out = _isogrid.render(
-        grid,
-        camera,
-        w,
-        h,
-        str(mode),
-        str(backend),
-        frames=_int(frames, "frames", 1),
-        spp=_int(spp, "spp", 1),
-        bounces=_int(bounces, "bounces"),
-        threads=None if threads is None else _int(threads, "threads", 1),
-        traversal=str(traversal),
-        env=None if env is None else os.fspath(env),
-        progress=progress,
-    )
+    with _vulkan_device_select_quieted():
+        out = _isogrid.render(
+            grid,
+            camera,
+            w,
+            h,
+            str(mode),
+            str(backend),
+            frames=_int(frames, "frames", 1),
+            spp=_int(spp, "spp", 1),
+            bounces=_int(bounces, "bounces"),
+            threads=None if threads is None else _int(threads, "threads", 1),
+            traversal=str(traversal),
+            env=None if env is None else os.fspath(env),
+            progress=progress,
+        )
     if not names:
         return out["image"]
     return out["image"], {name: out[name] for name in names}
