@@ -55,7 +55,30 @@ from typing import Any, Callable, Dict, Iterator, Optional, Sequence, Tuple, Uni
 
 import numpy as np
 
-from . import _isogrid  # noqa: E402
+def _extension_missing() -> bool:
+    """Whether this package folder lacks the compiled extension ``_isogrid``."""
+    import importlib.machinery
+
+    here = os.path.dirname(__file__)
+    return not any(
+        os.path.exists(os.path.join(here, "_isogrid" + suffix))
+        for suffix in importlib.machinery.EXTENSION_SUFFIXES
+    )
+
+
+try:
+    from . import _isogrid
+except ImportError as err:
+    # Run from python/ (or with it on sys.path), `isogrid` is the source folder, which has no
+    # compiled extension; Python then blames "a circular import", which sends people the wrong way.
+    if not _extension_missing():
+        raise
+    raise ImportError(
+        f"isogrid's compiled extension (_isogrid) is not in {os.path.dirname(__file__)}: that is "
+        "isogrid's source folder, found first because it is in the current directory or on "
+        "sys.path. Run Python from another folder to use the installed package, or build the "
+        "extension in place (maturin develop)."
+    ) from err
 from ._isogrid import CellGrid, IsogridError  # noqa: E402
 
 __version__: str = _isogrid.__version__
