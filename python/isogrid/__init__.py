@@ -35,6 +35,10 @@ For scikit-image's conventions (array-axis order, ``level=``, four return values
 volumes that do not fit in memory, :func:`isogrid.dask.extract` (``import isogrid.dask``, with the
 ``dask`` extra) spreads the extraction over a Dask cluster and writes the ``.cgc`` file.
 
+An array with more than three axes is accepted when the extra ones have length 1 and are the
+slowest in memory: ``(nx, ny, nz, 1)`` in Fortran order, as nibabel returns many NIfTI volumes, or
+``(1, nz, ny, nx)`` in C order.
+
 Samples of type uint8, uint16, int16 and float32 are used as they are; int8 becomes int16, bool
 becomes uint8 and other numeric types become float32 (a copy). A sample is *inside* when
 ``value >= iso``.
@@ -512,6 +516,12 @@ def _prepare(array: Any) -> Tuple[np.ndarray, bool]:
     if isinstance(array, Volume):
         array = array.array
     a = np.asarray(array)
+    if a.ndim > 3:
+        # nibabel returns many NIfTI volumes as (x, y, z, 1): length-1 axes after the volume's
+        # three (the slowest in memory: last in Fortran order, first in C order) are dropped.
+        _, fortran = _layout(a)
+        while a.ndim > 3 and (a.shape[-1] if fortran else a.shape[0]) == 1:
+            a = a[..., 0] if fortran else a[0]
     if a.ndim != 3:
         raise ValueError(
             f"expected a 3-D array, got {a.ndim} dimension{'' if a.ndim == 1 else 's'} (shape {a.shape})"
