@@ -23,9 +23,10 @@ with at most one axis longer than 1, counts as C order).
 
 Everything else is in (x, y, z) order: ``spacing=(sx, sy, sz)``, ``origin``, grid ``dims``
 ``(nx, ny, nz)``, cell positions, and world coordinates. Mesh vertices (:func:`marching_cubes`)
-are the volume's world coordinates: sample (i, j, k) sits at ``origin + (i·sx, j·sy, k·sz)``,
-the origin being a :class:`Volume`'s (e.g. the file's, or the mesh frame :func:`voxelize`
-returns), else zero. A :class:`CellGrid` keeps the origin and directions in ``info``, as the
+are the volume's world (patient) coordinates by default: sample (i, j, k) sits at
+``origin + i·sx·d_i + j·sy·d_j + k·sz·d_k``, the origin and direction rows being a
+:class:`Volume`'s (e.g. the file's, or the mesh frame :func:`voxelize` returns), else zero and
+identity; ``space="index"`` gives (i, j, k) instead. A :class:`CellGrid` keeps the origin and directions in ``info``, as the
 ``.cgc`` files of the command line do; its ``world_bounds`` and the renderer place sample (0, 0, 0)
 at zero. :func:`load_volume` follows the same rule: it returns a C array of shape
 ``(nz, ny, nx)`` and ``spacing``/``origin`` as (x, y, z).
@@ -322,17 +323,21 @@ def marching_cubes(
     spacing: Optional[Sequence[float]] = None,
     threads: Optional[int] = None,
     series: Optional[str] = None,
+    space: str = "world",
 ) -> Tuple[np.ndarray, np.ndarray]:
     """Marching Cubes isosurface of a 3-D volume: the indexed mesh baseline of the paper.
 
     ``array``, ``iso``, ``iso_normalized``, ``spacing`` and ``series`` are read as by
-    :func:`extract`.
+    :func:`extract`. ``space`` is ``"world"`` or ``"index"`` (see below).
 
     Returns:
-        ``(vertices, faces)``: vertices float32 of shape (V, 3) as **(x, y, z)** world
-        coordinates, sample (i, j, k) at ``origin + (i·sx, j·sy, k·sz)`` with a :class:`Volume`'s
-        origin (zero for a bare array) — for a C array ``a[z, y, x]`` the columns are reversed
-        relative to its axes; faces uint32 of shape (T, 3), counter-clockwise seen from outside
+        ``(vertices, faces)``: vertices float32 of shape (V, 3) as **(x, y, z)**. In ``"world"``
+        space (the default) sample (i, j, k) is at ``origin + i·sx·d_i + j·sy·d_j + k·sz·d_k``
+        with a :class:`Volume`'s origin and direction rows ``d_i, d_j, d_k`` (zero and identity
+        for a bare array): the volume's patient space, where nibabel's affine, 3D Slicer and
+        ITK-SNAP place the image. In ``"index"`` space it is at ``(i, j, k)``. For a C array
+        ``a[z, y, x]`` the columns are reversed relative to its axes. Faces uint32 of shape
+        (T, 3), counter-clockwise seen from outside
         (where value < iso). One vertex per crossed edge, no duplicates: where crossings fall
         exactly on a sample (integer data at an integer iso), the edges meeting there share one
         vertex and the triangles that collapse are dropped, so no triangle has zero area.
@@ -340,7 +345,10 @@ def marching_cubes(
     iso, iso_normalized = _iso_pair(iso, iso_normalized)
     array = _volume_of(array, series)
     spacing3 = _spacing_of(array, spacing)
+    if space not in ("world", "index"):
+        raise ValueError(f"space must be 'world' or 'index', not {space!r}")
     origin = array.origin if isinstance(array, Volume) else None
+    direction = array.direction if isinstance(array, Volume) else None
     prepared, fortran = _prepare(array)
     return _isogrid.marching_cubes(
         prepared,
@@ -350,6 +358,8 @@ def marching_cubes(
         iso_normalized=iso_normalized,
         threads=None if threads is None else _int(threads, "threads", 1),
         origin=origin,
+        direction=direction,
+        index_space=space == "index",
     )
 
 

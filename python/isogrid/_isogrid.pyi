@@ -68,6 +68,8 @@ def marching_cubes(
     threads: Optional[int] = None,
     origin: Optional[Sequence[float]] = None,
     above: bool = False,
+    direction: Optional[Sequence[Sequence[float]]] = None,
+    index_space: bool = False,
 ) -> Tuple[npt.NDArray[np.float32], npt.NDArray[np.uint32]]: ...
 def skimage_normals_values(
     array: np.ndarray,
