@@ -45,7 +45,7 @@ pub fn marching_cubes<'py>(
         } else {
             MeshSpace::World
         };
-        mesh.place(&view.geometry(), space);
+        mesh.place(&view.geometry(), space)?;
         Ok::<_, isogrid::Error>(mesh)
     })?
     .map_err(to_py)?;

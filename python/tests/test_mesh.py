@@ -93,6 +93,16 @@ def test_marching_cubes_of_a_nifti_is_in_nibabels_world_space(tmp_path, name):
         isogrid.marching_cubes(vol, iso=0.0, space="voxel")
 
 
+def test_marching_cubes_vertices_beyond_float32_are_an_error():
+    # A finite but huge origin put the vertices at inf.
+    vol = isogrid.Volume(sphere(), (1.0, 1.0, 1.0), (1e200, 0.0, 0.0))
+    with pytest.raises(ValueError, match="beyond the range of 32-bit floats"):
+        isogrid.marching_cubes(vol, iso=0.0)
+    # In index space the origin plays no part.
+    v, _ = isogrid.marching_cubes(vol, iso=0.0, space="index")
+    assert np.isfinite(v).all()
+
+
 def test_voxelize_cube():
     vol = isogrid.voxelize(CUBE_V * 10, CUBE_F, resolution=24, supersample=1, padding=2)
     assert isinstance(vol, isogrid.Volume)

@@ -77,7 +77,8 @@ pub fn run(args: Args) -> Result<()> {
         Space::World => MeshSpace::World,
         Space::Index => MeshSpace::Index,
     };
-    mesh.place(&volume.geometry(), space);
+    mesh.place(&volume.geometry(), space)
+        .with_context(|| args.input.display().to_string())?;
     spinner.finish_and_clear();
     let mut write = 0.0;
     if let Some(out) = &args.output {

@@ -594,3 +594,31 @@ fn render_writes_all_its_outputs_or_none() {
     assert!(left.is_empty(), "left behind: {left:?}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// A finite but huge spacing or origin put `mc`'s vertices at `inf`, written with exit 0.
+#[test]
+fn mc_vertices_beyond_f32_are_an_error() {
+    let dir = temp_dir("mc-huge");
+    for (name, directions, origin) in [
+        ("spacing", "(1e39,0,0) (0,1,0) (0,0,1)", "(0,0,0)"),
+        ("origin", "(1,0,0) (0,1,0) (0,0,1)", "(1e200,0,0)"),
+    ] {
+        let mut bytes = format!(
+            "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 4 4 4\nspace: left-posterior-superior\n\
+             space directions: {directions}\nspace origin: {origin}\nencoding: raw\n\n"
+        )
+        .into_bytes();
+        // One bright sample in the middle: a small closed surface.
+        bytes.extend((0..64).map(|n| if n == 21 { 200u8 } else { 0 }));
+        let volume = dir.join(format!("{name}.nrrd"));
+        std::fs::write(&volume, bytes).unwrap();
+        let mesh = dir.join(format!("{name}.obj"));
+        let err = fails(
+            &["mc", s(&volume), "--iso", "100.5", "-o", s(&mesh)],
+            "beyond the range of 32-bit floats",
+        );
+        assert!(err.contains(s(&volume)), "{err}");
+        assert!(!mesh.exists());
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}

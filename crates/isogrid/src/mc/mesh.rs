@@ -20,6 +20,8 @@ pub struct McMesh {
     pub triangles: Vec<[u32; 3]>,
 }
 
+use crate::error::{Error, Result};
+
 /// The frame [`McMesh::place`] puts the vertices in.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum MeshSpace {
@@ -37,8 +39,9 @@ impl McMesh {
     /// origin + i·sx·d_i + j·sy·d_j + k·sz·d_k, d_i, d_j, d_k being the direction rows. Directions
     /// that mirror (a flipped axis: negative determinant) would turn the triangles inside out, so
     /// their winding is reversed to stay counter-clockwise seen from outside. Sums are taken in
-    /// f64 and rounded once to f32.
-    pub fn place(&mut self, geometry: &crate::volume::Geometry, space: MeshSpace) {
+    /// f64 and rounded once to f32. A vertex beyond f32's range (a spacing or origin of 1e200) is
+    /// an error: a mesh file of `inf` coordinates is no mesh.
+    pub fn place(&mut self, geometry: &crate::volume::Geometry, space: MeshSpace) -> Result<()> {
         let s = geometry.spacing;
         match space {
             MeshSpace::Index => {
@@ -63,6 +66,18 @@ impl McMesh {
                 }
             }
         }
+        if let Some(p) = self
+            .positions
+            .iter()
+            .find(|p| p.iter().any(|c| !c.is_finite()))
+        {
+            return Err(Error::too_large(format!(
+                "a mesh vertex lands at {p:?}, beyond the range of 32-bit floats: the spacing {:?} \
+                 or origin {:?} is too large",
+                geometry.spacing, geometry.origin
+            )));
+        }
+        Ok(())
     }
 }
 
@@ -84,11 +99,23 @@ mod tests {
             triangles: vec![[0, 1, 2]],
         };
         let mut index = mesh.clone();
-        mesh.place(&g, MeshSpace::World);
+        mesh.place(&g, MeshSpace::World).unwrap();
         assert_eq!(mesh.positions[0], [8.0, 26.0, 42.0]);
         assert_eq!(mesh.triangles, vec![[0, 2, 1]]);
-        index.place(&g, MeshSpace::Index);
+        index.place(&g, MeshSpace::Index).unwrap();
         assert_eq!(index.positions[0], [1.0, 2.0, 3.0]);
         assert_eq!(index.triangles, vec![[0, 1, 2]]);
+        // A finite but huge origin gives vertices beyond f32: an error, not `inf`.
+        g.origin = [1e200, 0.0, 0.0];
+        let mut huge = McMesh {
+            positions: vec![[2.0, 6.0, 12.0]],
+            triangles: vec![],
+        };
+        let err = huge.place(&g, MeshSpace::World).unwrap_err();
+        assert!(
+            err.to_string()
+                .contains("beyond the range of 32-bit floats"),
+            "{err}"
+        );
     }
 }
