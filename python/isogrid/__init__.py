@@ -205,6 +205,8 @@ def extract(
     precision: Optional[int] = None,
     threads: Optional[int] = None,
     series: Optional[str] = None,
+    origin: Optional[Sequence[float]] = None,
+    direction: Optional[Sequence[Sequence[float]]] = None,
 ) -> CellGrid:
     """Extracts the active cells of a 3-D volume into clustered grid cells.
 
@@ -224,6 +226,9 @@ def extract(
         threads: worker threads (default all cores); the result is the same for any count.
         series: when ``array`` is the path of a DICOM folder, the SeriesInstanceUID to read, as
             :func:`load_volume` (and the CLI's ``--series``) takes it.
+        origin, direction: the position ``(x, y, z)`` of sample (0, 0, 0) and the rows of world
+            directions of the x, y, z axes, kept in the grid's ``info``; default the Volume's, else
+            zero and identity.
 
     The GIL is released while extracting; do not modify ``array`` from another thread meanwhile.
 
@@ -235,6 +240,10 @@ def extract(
     array = _volume_of(array, series)
     spacing3 = _spacing_of(array, spacing)
     placed = array if isinstance(array, Volume) else None
+    if origin is None and placed is not None:
+        origin = placed.origin
+    if direction is None and placed is not None:
+        direction = placed.direction
     prepared, fortran = _prepare(array)
     grid = _isogrid.extract(
         prepared,
@@ -244,8 +253,8 @@ def extract(
         iso_normalized=iso_normalized,
         precision=None if precision is None else _int(precision, "precision"),
         threads=None if threads is None else _int(threads, "threads", 1),
-        origin=None if placed is None else placed.origin,
-        direction=None if placed is None else placed.direction,
+        origin=None if origin is None else _triple(origin, "origin"),
+        direction=None if direction is None else [_triple(row, "direction row") for row in direction],
     )
     _warn_if_empty(grid)
     return grid
