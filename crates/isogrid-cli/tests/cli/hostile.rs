@@ -622,3 +622,32 @@ fn mc_vertices_beyond_f32_are_an_error() {
     }
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// Under an address-space limit (`ulimit -v`, `prlimit --as`) a volume larger than the room left
+/// aborted in the allocator ("memory allocation ... failed", exit 134): the memory check now
+/// counts that limit and refuses in one line.
+#[cfg(unix)]
+#[test]
+fn an_address_space_limit_is_a_one_line_error_not_an_abort() {
+    let dir = temp_dir("ulimit-v");
+    let out_path = dir.join("big.nrrd");
+    // 1300³ bytes = 2.0 GiB under a 1.9 GiB address space (ulimit -v counts KiB).
+    let out = Command::new("sh")
+        .arg("-c")
+        .arg(format!(
+            "ulimit -v 2000000 && exec \"$0\" generate sphere --size 1300 -o '{}'",
+            s(&out_path)
+        ))
+        .arg(env!("CARGO_BIN_EXE_isogrid"))
+        .output()
+        .unwrap();
+    one_line_error(&out, "needs 2.");
+    assert!(
+        String::from_utf8_lossy(&out.stderr).contains("memory"),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert_eq!(out.status.code(), Some(1));
+    assert!(names_in(&dir).is_empty());
+    std::fs::remove_dir_all(dir).unwrap();
+}
