@@ -189,6 +189,28 @@ fn gzip_data_longer_than_declared_or_damaged_is_corrupt() {
 }
 
 #[test]
+fn damaged_gzip_that_decodes_too_long_is_invalid_gzip_not_long_data() {
+    // A bit flip in a .nii.gz's deflate stream often decodes to more bytes than the header
+    // declares; the gzip checksum at the end tells the two apart. Made here: the volume plus 16
+    // bytes, compressed, with its CRC-32 damaged.
+    let dir = TempDir::new("gzip-crc");
+    let nii = fixture_bytes("u8.nii");
+    let mut gz = gzip(&[nii.clone(), vec![7u8; 16]].concat());
+    let crc_at = gz.len() - 8;
+    gz[crc_at] ^= 0x01;
+    let err = read_volume(&dir.file("flip.nii.gz", &gz), &ReadOptions::default()).unwrap_err();
+    assert_eq!(err.kind(), ErrorKind::Corrupt, "{err}");
+    assert!(err.message().contains("gzip data is invalid"), "{err}");
+    // With a right checksum the same bytes are long data.
+    let gz = gzip(&[nii, vec![7u8; 16]].concat());
+    let err = read_volume(&dir.file("long.nii.gz", &gz), &ReadOptions::default()).unwrap_err();
+    assert!(
+        err.message().contains("longer than the header declares"),
+        "{err}"
+    );
+}
+
+#[test]
 fn absurd_sizes_fail_before_allocating() {
     let dir = TempDir::new("absurd");
     let none = ReadOptions::default();
