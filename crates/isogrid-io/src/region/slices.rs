@@ -29,13 +29,17 @@ pub(crate) fn tiff_slices_and_others(dir: &Path) -> Result<Option<(Vec<PathBuf>,
         }
         if is_tiff(&path) {
             files.push(path);
-        } else if crate::dicom::looks_like_dicom(&path) {
-            return Ok(None);
         } else {
             others.push(path);
         }
     }
-    if files.is_empty() {
+    // Only a folder with TIFF files has its other files opened (a Zarr store's chunks are not),
+    // and only regular ones: opening a FIFO would wait for a writer.
+    if files.is_empty()
+        || others
+            .iter()
+            .any(|p| p.is_file() && crate::dicom::looks_like_dicom(p))
+    {
         return Ok(None);
     }
     files.sort_by(|a, b| natural_order(&a.to_string_lossy(), &b.to_string_lossy()));
