@@ -651,3 +651,38 @@ fn an_address_space_limit_is_a_one_line_error_not_an_abort() {
     assert!(names_in(&dir).is_empty());
     std::fs::remove_dir_all(dir).unwrap();
 }
+
+/// A FIFO inside a Zarr store, as a chunk or as `.zarray`, blocked the read forever.
+#[cfg(unix)]
+#[test]
+fn a_fifo_inside_a_zarr_store_is_refused_not_waited_on() {
+    let fixtures =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../isogrid-io/tests/fixtures/zarr");
+    let dir = temp_dir("zarr-fifo");
+    for key in ["0.1.0", ".zarray"] {
+        let store = dir.join(format!("v{}.zarr", key.replace('.', "_")));
+        let copied = Command::new("cp")
+            .arg("-r")
+            .arg(fixtures.join("v2_blosc.zarr"))
+            .arg(&store)
+            .status()
+            .unwrap();
+        assert!(copied.success());
+        std::fs::remove_file(store.join(key)).unwrap();
+        let made = Command::new("mkfifo")
+            .arg(store.join(key))
+            .status()
+            .unwrap();
+        assert!(made.success());
+        for command in ["extract", "mc"] {
+            let out = within(
+                Duration::from_secs(60),
+                &[command, s(&store), "--iso", "100"],
+            );
+            one_line_error(&out, "is not a regular file");
+            let stderr = String::from_utf8_lossy(&out.stderr);
+            assert!(stderr.contains(key), "{command} {key}: {stderr}");
+        }
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -15,6 +15,7 @@
 //! - Sample types: u8, u16, i16 and f32 are kept; i8 and bool widen, the other integers and f64
 //!   become f32, as for every other format of this crate.
 
+mod file_store;
 mod rows;
 
 use super::ZarrOptions;
@@ -703,7 +704,7 @@ impl RegionSource for ZarrSource {
 pub fn open_path(path: &std::path::Path, options: &ZarrOptions) -> Result<ZarrSource> {
     let store = zarrs::filesystem::FilesystemStore::new(path)
         .map_err(|e| Error::invalid(format!("cannot open as a Zarr store: {e}")).with_path(path))?;
-    let store: ReadableStorage = Arc::new(store);
+    let store: ReadableStorage = Arc::new(file_store::RegularFileStore(store));
     ZarrSource::open(store, &path.display().to_string(), options)
 }
 
