@@ -8,7 +8,7 @@ use crate::interrupt::cancel_on_interrupt;
 use crate::outputs::{self, Output};
 use crate::progress;
 use crate::report::print_json;
-use anyhow::{bail, Result};
+use anyhow::{bail, Context, Result};
 use clap::builder::{PossibleValuesParser, TypedValueParser};
 use isogrid::{Camera, Progress};
 use isogrid_render::{
@@ -426,7 +426,7 @@ pub fn run(args: Args) -> Result<()> {
         Err(e) if e.kind() == isogrid::ErrorKind::Cancelled => {
             return Err(anyhow::Error::from(e).context("render stopped by Ctrl-C, nothing written"))
         }
-        r => r?,
+        r => r.with_context(|| args.source.input.display().to_string())?,
     };
     let (width, height) = args.size;
     let (report, rendered) = RenderReport::new(&args, &grid, rendered);

@@ -686,3 +686,31 @@ fn a_fifo_inside_a_zarr_store_is_refused_not_waited_on() {
     }
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// A volume with a huge spacing failed to render with "camera eye coordinate NaN is beyond
+/// ±1e15": no file name, and a value that is not the volume's.
+#[test]
+fn render_of_a_volume_too_large_to_trace_names_the_file_and_its_extent() {
+    let dir = temp_dir("render-huge");
+    let mut bytes = b"ObjectType = Image\nNDims = 3\nDimSize = 4 4 4\nElementSpacing = 1e200 1 1\n\
+                      ElementType = MET_UCHAR\nElementDataFile = LOCAL\n"
+        .to_vec();
+    bytes.extend((0..64).map(|n| if n == 21 { 200u8 } else { 0 }));
+    let volume = dir.join("huge.mha");
+    std::fs::write(&volume, bytes).unwrap();
+    let err = fails(
+        &[
+            "render",
+            s(&volume),
+            "--iso",
+            "100.5",
+            "--backend",
+            "cpu",
+            "--size",
+            "16x16",
+        ],
+        "the grid's box reaches 3e200, beyond ±1e15",
+    );
+    assert!(err.contains(s(&volume)) && !err.contains("NaN"), "{err}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
