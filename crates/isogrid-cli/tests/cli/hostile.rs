@@ -714,3 +714,46 @@ fn render_of_a_volume_too_large_to_trace_names_the_file_and_its_extent() {
     assert!(err.contains(s(&volume)) && !err.contains("NaN"), "{err}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// An HTTP server that accepts the connection and never answers stalled a read for minutes; the
+/// deadline is configurable (`ISOGRID_HTTP_TIMEOUT`), and past it the read fails naming the URL.
+#[test]
+fn a_silent_http_server_times_out_as_configured() {
+    let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    let port = listener.local_addr().unwrap().port();
+    // Accepts every connection and keeps it open without a word.
+    std::thread::spawn(move || {
+        let mut held = Vec::new();
+        for stream in listener.incoming() {
+            held.push(stream);
+        }
+    });
+    let url = format!("http://127.0.0.1:{port}/silent.zarr");
+    let start = Instant::now();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_isogrid"))
+        .args(["extract", &url, "--iso", "1"])
+        .env("ISOGRID_HTTP_TIMEOUT", "1")
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    while child.try_wait().unwrap().is_none() {
+        if start.elapsed() > Duration::from_secs(30) {
+            child.kill().unwrap();
+            panic!("still waiting on a silent server after 30 s");
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let out = child.wait_with_output().unwrap();
+    one_line_error(&out, &url);
+    // A deadline that is not a number of seconds is refused, not ignored.
+    let out = Command::new(env!("CARGO_BIN_EXE_isogrid"))
+        .args(["extract", &url, "--iso", "1"])
+        .env("ISOGRID_HTTP_TIMEOUT", "soon")
+        .output()
+        .unwrap();
+    one_line_error(
+        &out,
+        "ISOGRID_HTTP_TIMEOUT=soon: not a positive number of seconds",
+    );
+}
