@@ -26,9 +26,9 @@ Everything else is in (x, y, z) order: ``spacing=(sx, sy, sz)``, ``origin``, gri
 are the volume's world (patient) coordinates by default: sample (i, j, k) sits at
 ``origin + i·sx·d_i + j·sy·d_j + k·sz·d_k``, the origin and direction rows being a
 :class:`Volume`'s (e.g. the file's, or the mesh frame :func:`voxelize` returns), else zero and
-identity; ``space="index"`` gives (i, j, k) instead. A :class:`CellGrid` keeps the origin and directions in ``info``, as the
-``.cgc`` files of the command line do; its ``world_bounds`` and the renderer place sample (0, 0, 0)
-at zero. :func:`load_volume` follows the same rule: it returns a C array of shape
+identity; ``space="index"`` gives (i, j, k) instead. A :class:`CellGrid` keeps the origin and
+directions in ``info``, as the ``.cgc`` files of the command line do; its ``world_bounds`` and the
+renderer place sample (0, 0, 0) at zero. :func:`load_volume` follows the same rule: it returns a C array of shape
 ``(nz, ny, nx)`` and ``spacing``/``origin`` as (x, y, z).
 
 For scikit-image's conventions (array-axis order, ``level=``, four return values) use

@@ -12,7 +12,8 @@ from conftest import REPO
 HEADLESS = {
     k: v
     for k, v in os.environ.items()
-    if k not in ("DISPLAY", "WAYLAND_DISPLAY", "XDG_RUNTIME_DIR", "NODEVICE_SELECT", "DRI_PRIME", "MESA_VK_DEVICE_SELECT")
+    if k
+    not in ("DISPLAY", "WAYLAND_DISPLAY", "XDG_RUNTIME_DIR", "NODEVICE_SELECT", "DRI_PRIME", "MESA_VK_DEVICE_SELECT")
 }
 
 
