@@ -9,6 +9,7 @@ import numpy.typing as npt
 _Path = Union[str, "os.PathLike[str]"]
 
 __version__: str
+BLOCK_CELLS: int
 
 class IsogridError(ValueError):
     """A file isogrid cannot use: malformed, truncated, inconsistent or of an unsupported kind."""

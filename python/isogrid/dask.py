@@ -62,7 +62,8 @@ from . import _isogrid, _int, _iso_pair, _sample_dtype, _triple, _warn_if_empty
 
 __all__ = ["extract"]
 
-BLOCK_CELLS = 16
+# Cells per block edge, from the extension: the tiles follow the library's blocks.
+BLOCK_CELLS: int = _isogrid.BLOCK_CELLS
 DEFAULT_TILE_BYTES = 64 << 20
 
 

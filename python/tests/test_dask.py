@@ -118,6 +118,15 @@ def test_tiles_stay_within_the_budget_on_any_plane(dims, chunks, itemsize):
         assert tile[axis] % step == 0 or 16 * tile[axis] + 1 >= dims[axis], (axis, tile)
 
 
+def test_block_size_comes_from_the_extension():
+    # One rule for the tile geometry: the library's block edge, not a copy in dask.py.
+    from isogrid import _isogrid
+
+    assert isogrid.dask.BLOCK_CELLS == _isogrid.BLOCK_CELLS == 16
+    grid = isogrid.extract(volume(), iso=0.0)
+    assert grid.info["dims"] and len(grid.blocks) == np.prod([-(-(n - 1) // _isogrid.BLOCK_CELLS) for n in SHAPE])
+
+
 def test_tile_shape_must_be_whole_blocks(tmp_path):
     with pytest.raises(ValueError, match="multiples of 16"):
         isogrid.dask.extract(da.zeros((20, 20, 20)), iso=0.5, output=tmp_path / "out.cgc", tile_shape=(16, 20, 16))
