@@ -124,6 +124,21 @@ pub fn stage_npy<T: NpyElement>(path: &Path, shape: &[usize], data: &[T]) -> Res
     })
 }
 
+/// float32 `height × width` (e.g. a depth buffer).
+pub fn write_npy_f32_hw(path: &Path, width: u32, height: u32, data: &[f32]) -> Result<()> {
+    stage_npy_f32_hw(path, width, height, data)?.commit()
+}
+
+/// float32 `height × width × 3` (e.g. normals).
+pub fn write_npy_f32_hw3(path: &Path, width: u32, height: u32, data: &[[f32; 3]]) -> Result<()> {
+    stage_npy_f32_hw3(path, width, height, data)?.commit()
+}
+
+/// uint32 `height × width` (e.g. cluster ids).
+pub fn write_npy_u32_hw(path: &Path, width: u32, height: u32, data: &[u32]) -> Result<()> {
+    stage_npy_u32_hw(path, width, height, data)?.commit()
+}
+
 /// float32 `height × width` (e.g. a depth buffer), staged.
 pub fn stage_npy_f32_hw(path: &Path, width: u32, height: u32, data: &[f32]) -> Result<Staged> {
     stage_npy(path, &[height as usize, width as usize], data)
