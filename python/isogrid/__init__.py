@@ -23,17 +23,22 @@ with at most one axis longer than 1, counts as C order).
 
 Everything else is in (x, y, z) order: ``spacing=(sx, sy, sz)``, ``origin``, grid ``dims``
 ``(nx, ny, nz)``, cell positions, and world coordinates. Mesh vertices (:func:`marching_cubes`)
-are the volume's world coordinates: sample (i, j, k) sits at ``origin + (i·sx, j·sy, k·sz)``,
-the origin being a :class:`Volume`'s (e.g. the file's, or the mesh frame :func:`voxelize`
-returns), else zero. A :class:`CellGrid` keeps the origin and directions in ``info``, as the
-``.cgc`` files of the command line do; its ``world_bounds`` and the renderer place sample (0, 0, 0)
-at zero. :func:`load_volume` follows the same rule: it returns a C array of shape
+are the volume's world (patient) coordinates by default: sample (i, j, k) sits at
+``origin + i·sx·d_i + j·sy·d_j + k·sz·d_k``, the origin and direction rows being a
+:class:`Volume`'s (e.g. the file's, or the mesh frame :func:`voxelize` returns), else zero and
+identity; ``space="index"`` gives (i, j, k) instead. A :class:`CellGrid` keeps the origin and
+directions in ``info``, as the ``.cgc`` files of the command line do; its ``world_bounds`` and the
+renderer place sample (0, 0, 0) at zero. :func:`load_volume` follows the same rule: it returns a C array of shape
 ``(nz, ny, nx)`` and ``spacing``/``origin`` as (x, y, z).
 
 For scikit-image's conventions (array-axis order, ``level=``, four return values) use
 :func:`isogrid.skimage.marching_cubes`, a drop-in for ``skimage.measure.marching_cubes``. For
 volumes that do not fit in memory, :func:`isogrid.dask.extract` (``import isogrid.dask``, with the
 ``dask`` extra) spreads the extraction over a Dask cluster and writes the ``.cgc`` file.
+
+An array with more than three axes is accepted when the extra ones have length 1 and are the
+slowest in memory: ``(nx, ny, nz, 1)`` in Fortran order, as nibabel returns many NIfTI volumes, or
+``(1, nz, ny, nx)`` in C order.
 
 Samples of type uint8, uint16, int16 and float32 are used as they are; int8 becomes int16, bool
 becomes uint8 and other numeric types become float32 (a copy). A sample is *inside* when
@@ -47,28 +52,38 @@ why (as the command line's one-line note does).
 
 from __future__ import annotations
 
+import contextlib
 import operator
 import os
 import warnings
-from typing import Any, Callable, Dict, Optional, Sequence, Tuple, Union
+from typing import Any, Callable, Dict, Iterator, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
-def _quiet_vulkan_device_select() -> None:
-    """Mesa's Vulkan device-selection layer asks a Wayland compositor for the default GPU, and where
-    there is no session libwayland prints ``error: XDG_RUNTIME_DIR is invalid or not set`` once per
-    adapter lookup. On headless machines (no display, no runtime directory) there is no default to
-    ask for: turn the layer off with its documented switch, unless the user steers it."""
-    env = os.environ
-    headless = not any(k in env for k in ("XDG_RUNTIME_DIR", "WAYLAND_DISPLAY", "DISPLAY"))
-    steered = any(k in env for k in ("NODEVICE_SELECT", "DRI_PRIME", "MESA_VK_DEVICE_SELECT"))
-    if headless and not steered:
-        env["NODEVICE_SELECT"] = "1"
+def _extension_missing() -> bool:
+    """Whether this package folder lacks the compiled extension ``_isogrid``."""
+    import importlib.machinery
+
+    here = os.path.dirname(__file__)
+    return not any(
+        os.path.exists(os.path.join(here, "_isogrid" + suffix))
+        for suffix in importlib.machinery.EXTENSION_SUFFIXES
+    )
 
 
-_quiet_vulkan_device_select()
-
-from . import _isogrid  # noqa: E402
+try:
+    from . import _isogrid
+except ImportError as err:
+    # Run from python/ (or with it on sys.path), `isogrid` is the source folder, which has no
+    # compiled extension; Python then blames "a circular import", which sends people the wrong way.
+    if not _extension_missing():
+        raise
+    raise ImportError(
+        f"isogrid's compiled extension (_isogrid) is not in {os.path.dirname(__file__)}: that is "
+        "isogrid's source folder, found first because it is in the current directory or on "
+        "sys.path. Run Python from another folder to use the installed package, or build the "
+        "extension in place (maturin develop)."
+    ) from err
 from ._isogrid import CellGrid, IsogridError  # noqa: E402
 
 __version__: str = _isogrid.__version__
@@ -90,6 +105,27 @@ __all__ = [
 
 Triple = Tuple[float, float, float]
 PathLike = Union[str, "os.PathLike[str]"]
+
+
+@contextlib.contextmanager
+def _vulkan_device_select_quieted() -> Iterator[None]:
+    """Mesa's Vulkan device-selection layer asks a Wayland compositor for the default GPU, and where
+    there is no session libwayland prints ``error: XDG_RUNTIME_DIR is invalid or not set`` once per
+    adapter lookup. On headless machines (no display, no runtime directory) there is no default to
+    ask for: the layer is turned off with its documented switch, ``NODEVICE_SELECT=1``, while a
+    render looks for a GPU, unless the user steers it. Only then: set at import, the variable would
+    reach every child process the user's program starts."""
+    env = os.environ
+    headless = not any(k in env for k in ("XDG_RUNTIME_DIR", "WAYLAND_DISPLAY", "DISPLAY"))
+    steered = any(k in env for k in ("NODEVICE_SELECT", "DRI_PRIME", "MESA_VK_DEVICE_SELECT"))
+    if not headless or steered:
+        yield
+        return
+    env["NODEVICE_SELECT"] = "1"
+    try:
+        yield
+    finally:
+        env.pop("NODEVICE_SELECT", None)
 
 
 class EmptySurfaceWarning(RuntimeWarning):
@@ -169,6 +205,8 @@ def extract(
     precision: Optional[int] = None,
     threads: Optional[int] = None,
     series: Optional[str] = None,
+    origin: Optional[Sequence[float]] = None,
+    direction: Optional[Sequence[Sequence[float]]] = None,
     attribute: Union[np.ndarray, Volume, PathLike, None] = None,
     attribute_precision: int = 16,
 ) -> CellGrid:
@@ -190,6 +228,9 @@ def extract(
         threads: worker threads (default all cores); the result is the same for any count.
         series: when ``array`` is the path of a DICOM folder, the SeriesInstanceUID to read, as
             :func:`load_volume` (and the CLI's ``--series``) takes it.
+        origin, direction: the position ``(x, y, z)`` of sample (0, 0, 0) and the rows of world
+            directions of the x, y, z axes, kept in the grid's ``info``; default the Volume's, else
+            zero and identity.
         attribute: a second volume to colour the surface by (``isogrid extract --color-by``):
             each active cell stores its value at the cell's surface point (the centroid of the
             edge crossings). An array of the surface's shape lies on the surface's samples; a
@@ -209,11 +250,15 @@ def extract(
     array = _volume_of(array, series)
     spacing3 = _spacing_of(array, spacing)
     placed = array if isinstance(array, Volume) else None
+    if origin is None and placed is not None:
+        origin = placed.origin
+    if direction is None and placed is not None:
+        direction = placed.direction
     prepared, fortran = _prepare(array)
     attribute_arg = None
     if attribute is not None:
         attribute_arg = _attribute_arg(
-            attribute, prepared, fortran, spacing3, placed, _int(attribute_precision, "attribute_precision")
+            attribute, prepared, fortran, spacing3, origin, direction, _int(attribute_precision, "attribute_precision")
         )
     grid = _isogrid.extract(
         prepared,
@@ -223,8 +268,8 @@ def extract(
         iso_normalized=iso_normalized,
         precision=None if precision is None else _int(precision, "precision"),
         threads=None if threads is None else _int(threads, "threads", 1),
-        origin=None if placed is None else placed.origin,
-        direction=None if placed is None else placed.direction,
+        origin=None if origin is None else _triple(origin, "origin"),
+        direction=None if direction is None else [_triple(row, "direction row") for row in direction],
         attribute=attribute_arg,
     )
     _warn_if_empty(grid)
@@ -232,7 +277,13 @@ def extract(
 
 
 def _attribute_arg(
-    attribute: Any, surface: np.ndarray, fortran: bool, spacing: Triple, placed: Optional[Volume], bits: int
+    attribute: Any,
+    surface: np.ndarray,
+    fortran: bool,
+    spacing: Triple,
+    origin: Optional[Sequence[float]],
+    direction: Optional[Sequence[Sequence[float]]],
+    bits: int,
 ) -> Tuple[Any, ...]:
     """The attribute of :func:`extract` as the extension takes it: (array, fortran, spacing,
     origin, direction, name, bits)."""
@@ -248,9 +299,15 @@ def _attribute_arg(
             f"an attribute array of {tuple(dims)} samples (x, y, z) lies on the surface's grid of "
             f"{tuple(surface_dims)}; pass a Volume with its own geometry to resample it"
         )
-    origin = None if placed is None else placed.origin
-    direction = None if placed is None else placed.direction
-    return (prepared, attribute_fortran, spacing, origin, direction, name, bits)
+    return (
+        prepared,
+        attribute_fortran,
+        spacing,
+        None if origin is None else _triple(origin, "origin"),
+        None if direction is None else [_triple(row, "direction row") for row in direction],
+        name,
+        bits,
+    )
 
 
 def load(path: PathLike) -> CellGrid:
@@ -325,17 +382,21 @@ def marching_cubes(
     spacing: Optional[Sequence[float]] = None,
     threads: Optional[int] = None,
     series: Optional[str] = None,
+    space: str = "world",
 ) -> Tuple[np.ndarray, np.ndarray]:
     """Marching Cubes isosurface of a 3-D volume: the indexed mesh baseline of the paper.
 
     ``array``, ``iso``, ``iso_normalized``, ``spacing`` and ``series`` are read as by
-    :func:`extract`.
+    :func:`extract`. ``space`` is ``"world"`` or ``"index"`` (see below).
 
     Returns:
-        ``(vertices, faces)``: vertices float32 of shape (V, 3) as **(x, y, z)** world
-        coordinates, sample (i, j, k) at ``origin + (i·sx, j·sy, k·sz)`` with a :class:`Volume`'s
-        origin (zero for a bare array) — for a C array ``a[z, y, x]`` the columns are reversed
-        relative to its axes; faces uint32 of shape (T, 3), counter-clockwise seen from outside
+        ``(vertices, faces)``: vertices float32 of shape (V, 3) as **(x, y, z)**. In ``"world"``
+        space (the default) sample (i, j, k) is at ``origin + i·sx·d_i + j·sy·d_j + k·sz·d_k``
+        with a :class:`Volume`'s origin and direction rows ``d_i, d_j, d_k`` (zero and identity
+        for a bare array): the volume's patient space, where nibabel's affine, 3D Slicer and
+        ITK-SNAP place the image. In ``"index"`` space it is at ``(i, j, k)``. For a C array
+        ``a[z, y, x]`` the columns are reversed relative to its axes. Faces uint32 of shape
+        (T, 3), counter-clockwise seen from outside
         (where value < iso). One vertex per crossed edge, no duplicates: where crossings fall
         exactly on a sample (integer data at an integer iso), the edges meeting there share one
         vertex and the triangles that collapse are dropped, so no triangle has zero area.
@@ -343,7 +404,10 @@ def marching_cubes(
     iso, iso_normalized = _iso_pair(iso, iso_normalized)
     array = _volume_of(array, series)
     spacing3 = _spacing_of(array, spacing)
+    if space not in ("world", "index"):
+        raise ValueError(f"space must be 'world' or 'index', not {space!r}")
     origin = array.origin if isinstance(array, Volume) else None
+    direction = array.direction if isinstance(array, Volume) else None
     prepared, fortran = _prepare(array)
     return _isogrid.marching_cubes(
         prepared,
@@ -353,6 +417,8 @@ def marching_cubes(
         iso_normalized=iso_normalized,
         threads=None if threads is None else _int(threads, "threads", 1),
         origin=origin,
+        direction=direction,
+        index_space=space == "index",
     )
 
 
@@ -480,23 +546,24 @@ def render(
             raise ValueError(f"unknown AOV {name!r} (depth, normal, cluster, value or backend)")
     if "value" in names and grid.attribute is None:
         raise ValueError("the value AOV is the grid's attribute, and the grid has none")
-    out = _isogrid.render(
-        grid,
-        camera,
-        w,
-        h,
-        str(mode),
-        str(backend),
-        frames=_int(frames, "frames", 1),
-        spp=_int(spp, "spp", 1),
-        bounces=_int(bounces, "bounces"),
-        threads=None if threads is None else _int(threads, "threads", 1),
-        traversal=str(traversal),
-        env=None if env is None else os.fspath(env),
-        progress=progress,
-        cmap=None if cmap is None else str(cmap),
-        clim=None if clim is None else (float(clim[0]), float(clim[1])),
-    )
+    with _vulkan_device_select_quieted():
+        out = _isogrid.render(
+            grid,
+            camera,
+            w,
+            h,
+            str(mode),
+            str(backend),
+            frames=_int(frames, "frames", 1),
+            spp=_int(spp, "spp", 1),
+            bounces=_int(bounces, "bounces"),
+            threads=None if threads is None else _int(threads, "threads", 1),
+            traversal=str(traversal),
+            env=None if env is None else os.fspath(env),
+            progress=progress,
+            cmap=None if cmap is None else str(cmap),
+            clim=None if clim is None else (float(clim[0]), float(clim[1])),
+        )
     if not names:
         return out["image"]
     return out["image"], {name: out[name] for name in names}
@@ -530,6 +597,12 @@ def _prepare(array: Any) -> Tuple[np.ndarray, bool]:
     if isinstance(array, Volume):
         array = array.array
     a = np.asarray(array)
+    if a.ndim > 3:
+        # nibabel returns many NIfTI volumes as (x, y, z, 1): length-1 axes after the volume's
+        # three (the slowest in memory: last in Fortran order, first in C order) are dropped.
+        _, fortran = _layout(a)
+        while a.ndim > 3 and (a.shape[-1] if fortran else a.shape[0]) == 1:
+            a = a[..., 0] if fortran else a[0]
     if a.ndim != 3:
         raise ValueError(
             f"expected a 3-D array, got {a.ndim} dimension{'' if a.ndim == 1 else 's'} (shape {a.shape})"

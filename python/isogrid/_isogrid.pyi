@@ -9,6 +9,7 @@ import numpy.typing as npt
 _Path = Union[str, "os.PathLike[str]"]
 
 __version__: str
+BLOCK_CELLS: int
 
 class IsogridError(ValueError):
     """A file isogrid cannot use: malformed, truncated, inconsistent or of an unsupported kind."""
@@ -75,6 +76,8 @@ def marching_cubes(
     threads: Optional[int] = None,
     origin: Optional[Sequence[float]] = None,
     above: bool = False,
+    direction: Optional[Sequence[Sequence[float]]] = None,
+    index_space: bool = False,
 ) -> Tuple[npt.NDArray[np.float32], npt.NDArray[np.uint32]]: ...
 def skimage_normals_values(
     array: np.ndarray,

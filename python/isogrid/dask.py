@@ -41,6 +41,7 @@ varies fastest, and ``spacing`` and ``origin`` are (x, y, z).
 
 from __future__ import annotations
 
+import errno
 import itertools
 import os
 import queue
@@ -57,11 +58,12 @@ try:
 except ImportError as err:  # pragma: no cover - depends on the environment
     raise ImportError("isogrid.dask needs dask: pip install 'isogrid[dask]'") from err
 
-from . import _isogrid, _int, _iso_pair, _sample_dtype, _triple
+from . import _isogrid, _int, _iso_pair, _sample_dtype, _triple, _warn_if_empty
 
 __all__ = ["extract"]
 
-BLOCK_CELLS = 16
+# Cells per block edge, from the extension: the tiles follow the library's blocks.
+BLOCK_CELLS: int = _isogrid.BLOCK_CELLS
 DEFAULT_TILE_BYTES = 64 << 20
 
 
@@ -185,6 +187,9 @@ def extract(
     emits = chunks.tasks(_emit, [(samples, (job, index)) for index, (samples, job) in enumerate(jobs)])
     stats = extraction.write(out, run.as_completed(emits))
     stats["seconds"] = {"read": read, "extract": time.perf_counter() - start - read, "write": 0.0}
+    if stats["active_cells"] == 0:
+        # As isogrid.extract warns; the empty grid's file is small, its header says why.
+        _warn_if_empty(_isogrid.load(out))
     return stats
 
 
@@ -367,6 +372,9 @@ def _dask_array(
     geometry: Dict[str, Any] = {"spacing": (1.0, 1.0, 1.0), "origin": (0.0, 0.0, 0.0), "direction": None}
     if isinstance(source, (str, os.PathLike)):
         path = os.fspath(source)
+        # A local path that is not there is the same error isogrid.extract and load_volume give.
+        if "://" not in path and not os.path.exists(path):
+            raise FileNotFoundError(errno.ENOENT, "no such file or folder", path)
         import zarr
 
         try:

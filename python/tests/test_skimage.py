@@ -191,6 +191,29 @@ def test_mask():
     assert report["faces"][0] == report["faces"][1]
 
 
+def test_a_small_mask_marches_only_its_bounding_box(monkeypatch):
+    """A mask of 6 x 8 x 7 samples in the ball: the marched array is the box of the cells the mask
+    allows (cell c where the mask holds at c + 1), not the whole volume, and the mesh is the one
+    scikit-image makes."""
+    import isogrid.skimage as isk
+
+    vol = ball().astype(np.float32)
+    mask = np.zeros(vol.shape, dtype=bool)
+    mask[10:16, 4:12, 9:16] = True
+    shapes = []
+    native = isk._isogrid.marching_cubes
+
+    def recording(array, *args, **kwargs):
+        shapes.append(array.shape)
+        return native(array, *args, **kwargs)
+
+    monkeypatch.setattr(isk._isogrid, "marching_cubes", recording)
+    report = compare(vol, 0.0, mask=mask)
+    assert report["faces"][0] == report["faces"][1]
+    # Cells 9..14 x 3..10 x 8..14: samples 9..15 x 3..11 x 8..15.
+    assert shapes == [(7, 9, 8)]
+
+
 def test_integer_data_at_an_integer_level():
     """Crossings on samples: scikit-image makes coincident vertices and zero-area faces unless
     allow_degenerate=False; isogrid's mesh is that merged one with either setting."""

@@ -83,7 +83,7 @@ impl GridSource {
                 );
             }
             let grid = isogrid::cgc::open(&self.input)?;
-            crate::report::note_if_empty(&self.input, &grid);
+            crate::report::note_if_empty(&self.input, &grid, None);
             return Ok((grid, None));
         }
         let iso = match (self.iso.iso, self.iso.iso_normalized) {
@@ -103,7 +103,7 @@ impl GridSource {
         let grid = extract(&volume.view(), &options)
             .with_context(|| format!("{}: extraction failed", self.input.display()))?;
         spinner.finish_and_clear();
-        crate::report::note_if_empty(&self.input, &grid);
+        crate::report::note_if_empty(&self.input, &grid, Some(&volume));
         Ok((grid, Some(volume)))
     }
 }

@@ -1,5 +1,8 @@
 //! `isogrid`: extract, inspect and compare clustered grid cell isosurfaces from the command line.
 
+// First: the `outln!` macro is used by the modules below.
+#[macro_use]
+mod stdout;
 mod args;
 mod color_by;
 mod commands;
@@ -97,7 +100,14 @@ fn main() -> ExitCode {
     #[cfg(unix)]
     interrupt::install();
     quiet_vulkan_device_select();
-    let cli = Cli::parse();
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        // Help and version text on a terminal: clap's own printing keeps its colours.
+        Err(e) if e.use_stderr() || std::io::IsTerminal::is_terminal(&std::io::stdout()) => {
+            e.exit()
+        }
+        Err(e) => return finish(stdout::write_text(&e.render().to_string()).map_err(Into::into)),
+    };
     let result = match cli.command {
         Command::Extract(a) => commands::extract::run(a),
         Command::Info(a) => commands::info::run(a),
@@ -110,8 +120,22 @@ fn main() -> ExitCode {
         Command::View(a) => commands::view::run(a),
         Command::Serve(a) => commands::serve::run(a),
     };
+    finish(result)
+}
+
+/// The exit code of a command's result, after its output is flushed; the error, if any, on stderr.
+fn finish(result: anyhow::Result<()>) -> ExitCode {
+    let result = result.and_then(|()| Ok(stdout::flush()?));
+    let stdout_error = |err: &anyhow::Error| {
+        err.chain()
+            .find_map(|cause| cause.downcast_ref::<stdout::StdoutError>())
+            .is_some_and(stdout::StdoutError::reader_went_away)
+    };
     match result {
         Ok(()) => ExitCode::SUCCESS,
+        // The reader of the output closed the pipe (`isogrid info x.cgc | head -1`): nothing is
+        // wrong and nobody is left to tell, so the command ends quietly, as ripgrep does.
+        Err(err) if stdout_error(&err) => ExitCode::SUCCESS,
         Err(err) if was_cancelled(&err) => {
             eprintln!("isogrid: {}", one_line(&err));
             // 128 + SIGINT, as shells report a command that Ctrl-C ended.

@@ -1,6 +1,7 @@
 //! The files a request will write, checked together before any work so that nothing is lost:
 //! each output's extension names the format written into it, no output is one of the inputs
-//! (same path, link or hard link), and no two outputs are the same file.
+//! (same path, link or hard link) or a file an input reads (a header's data file, a slice of a
+//! folder), no output is a folder, and no two outputs are the same file.
 //!
 //! Every subcommand that writes calls [`check`] once with all its inputs and outputs.
 
@@ -29,9 +30,30 @@ pub fn check(inputs: &[&Path], outputs: &[Output]) -> Result<()> {
                     input.display()
                 );
             }
+            // The data file of a header, a slice of a folder.
+            if let Some(file) = isogrid_io::files_read(input)
+                .into_iter()
+                .find(|f| same_file(out.path, f))
+            {
+                bail!(
+                    "{}: {} would overwrite {}, which the input {} reads; choose another name",
+                    out.path.display(),
+                    out.role,
+                    file.display(),
+                    input.display()
+                );
+            }
         }
     }
     for out in outputs {
+        // Found before any work: the write would fail only after the others had been written.
+        if out.path.is_dir() {
+            bail!(
+                "{}: {} is to be written there, but it is a folder; name a file",
+                out.path.display(),
+                out.role
+            );
+        }
         let name = out
             .path
             .file_name()

@@ -5,24 +5,36 @@
 //! `metacells`, `cells`, `paper_total`}, `bytes_per_cell`, `seconds` {`read`, `extract`, `write`};
 //! Marching Cubes: `vertices`, `triangles`, `bytes`, `seconds`.
 
-use isogrid::{CellGrid, GridStats};
+use isogrid::{CellGrid, GridStats, Volume};
 use serde::Serialize;
 use std::path::Path;
 
 /// One line on stderr when `grid` (from `source`) has no active cell, saying why: an empty
 /// surface is a valid result, but a blank image or zero hits alone look like a failure elsewhere.
-pub fn note_if_empty(source: &Path, grid: &CellGrid) {
-    note_if_no_cells(source, grid.info(), grid.active_cells() as u64);
+/// `volume`: the samples it was extracted from, when at hand (not for a .cgc file).
+pub fn note_if_empty(source: &Path, grid: &CellGrid, volume: Option<&Volume>) {
+    note_if_no_cells(source, grid.info(), grid.active_cells() as u64, || {
+        volume.is_some_and(|v| v.view().value_range().is_none())
+    });
 }
 
 /// [`note_if_empty`] from a grid's header and cell count (a streamed grid is never in memory).
-pub fn note_if_no_cells(source: &Path, info: &isogrid::GridInfo, active_cells: u64) {
+/// `all_nan` says whether the volume has no finite sample; asked only for an empty surface.
+pub fn note_if_no_cells(
+    source: &Path,
+    info: &isogrid::GridInfo,
+    active_cells: u64,
+    all_nan: impl FnOnce() -> bool,
+) {
     if active_cells != 0 {
         return;
     }
     let [lo, hi] = info.value_range;
     let why = if info.cell_dims().contains(&0) {
         "the volume is one sample thick, so it has no cells".to_string()
+    } else if all_nan() {
+        // The grid records [0, 0] as the range of a volume without finite samples.
+        "every sample is NaN".to_string()
     } else if info.iso > hi {
         format!("every sample is below it: they lie in [{lo}, {hi}]")
     } else if info.iso <= lo {
@@ -128,37 +140,38 @@ impl GridReport {
         self
     }
 
-    pub fn print_human(&self) {
+    pub fn print_human(&self) -> Result<(), crate::stdout::StdoutError> {
         let [x, y, z] = self.dims;
-        println!(
+        outln!(
             "grid          {x} x {y} x {z} samples, iso {}, {}-bit corners",
-            self.iso, self.precision
+            self.iso,
+            self.precision
         );
-        println!("active cells  {}", group(self.active_cells));
-        println!(
+        outln!("active cells  {}", group(self.active_cells));
+        outln!(
             "metacells     {} occupied in {} slots ({} clusters)",
             group(self.metacells),
             group(self.metacell_slots),
             group(self.clusters)
         );
-        println!(
+        outln!(
             "blocks        {} ({} with cells)",
             group(self.blocks),
             group(self.nonempty_blocks)
         );
-        println!(
+        outln!(
             "memory        {} (metacells {} + cells {}; paper's Table 3 figure), block volume {}",
             mb(self.bytes.paper_total),
             mb(self.bytes.metacells),
             mb(self.bytes.cells),
             mb(self.bytes.blocks)
         );
-        println!(
+        outln!(
             "bytes/cell    {:.2} (blocks + metacells + cells)",
             self.bytes_per_cell
         );
         if let Some(a) = &self.attribute {
-            println!(
+            outln!(
                 "attribute     {:?}: {}-bit values in [{}, {}] on the surface, {} ({} B/cell)",
                 a.name,
                 a.bits,
@@ -168,10 +181,13 @@ impl GridReport {
                 a.bytes_per_cell
             );
         }
-        println!(
+        outln!(
             "seconds       read {:.3}, extract {:.3}, write {:.3}",
-            self.seconds.read, self.seconds.extract, self.seconds.write
+            self.seconds.read,
+            self.seconds.extract,
+            self.seconds.write
         );
+        Ok(())
     }
 }
 
@@ -187,26 +203,29 @@ pub struct MeshReport {
 }
 
 impl MeshReport {
-    pub fn print_human(&self) {
-        println!(
+    pub fn print_human(&self) -> Result<(), crate::stdout::StdoutError> {
+        outln!(
             "mesh          {} vertices, {} triangles, iso {}",
             group(self.vertices),
             group(self.triangles),
             self.iso
         );
-        println!(
+        outln!(
             "memory        {} (6 B/vertex snorm16 + 12 B/triangle)",
             mb(self.bytes)
         );
-        println!(
+        outln!(
             "seconds       read {:.3}, extract {:.3}, write {:.3}",
-            self.seconds.read, self.seconds.extract, self.seconds.write
+            self.seconds.read,
+            self.seconds.extract,
+            self.seconds.write
         );
+        Ok(())
     }
 }
 
 pub fn print_json<T: Serialize>(value: &T) -> anyhow::Result<()> {
-    println!("{}", serde_json::to_string(value)?);
+    outln!("{}", serde_json::to_string(value)?);
     Ok(())
 }
 

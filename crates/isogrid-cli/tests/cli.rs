@@ -659,3 +659,244 @@ fn mc_mesh_is_placed_at_the_volume_origin() {
     }
     std::fs::remove_dir_all(dir).unwrap();
 }
+
+/// Vertices and 0-based faces of an OBJ written by `mc`.
+fn read_obj(path: &Path) -> (Vec<[f64; 3]>, Vec<[usize; 3]>) {
+    let text = std::fs::read_to_string(path).unwrap();
+    let (mut v, mut f) = (Vec::new(), Vec::new());
+    for line in text.lines() {
+        let mut words = line.split_whitespace();
+        match words.next() {
+            Some("v") => {
+                let x: Vec<f64> = words.map(|w| w.parse().unwrap()).collect();
+                v.push([x[0], x[1], x[2]]);
+            }
+            Some("f") => {
+                let i: Vec<usize> = words
+                    .map(|w| w.split('/').next().unwrap().parse::<usize>().unwrap() - 1)
+                    .collect();
+                f.push([i[0], i[1], i[2]]);
+            }
+            _ => {}
+        }
+    }
+    (v, f)
+}
+
+/// `mc` writes the mesh in the volume's world space, directions included, by default, and in
+/// sample indices with `--space index`: a ball in an NRRD with a flipped axis (a mirror) and in
+/// one with oblique axes lies where the header's affine puts it, and its triangles keep their
+/// orientation (the signed volume has the sign of the index-space mesh's).
+#[test]
+fn mc_mesh_is_in_world_space_with_directions_or_in_index_space() {
+    let dir = temp_dir("mc-world");
+    let (dims, spacing, origin) = ([21usize, 17, 13], [0.5, 1.0, 2.0], [-10.0, 20.0, 30.0]);
+    let centre = [10.0, 8.0, 6.0]; // sample indices
+    let (c, s30) = (30f64.to_radians().cos(), 30f64.to_radians().sin());
+    let cases: [(&str, [[f64; 3]; 3]); 2] = [
+        (
+            "flipped",
+            [[-1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+        ),
+        (
+            "oblique",
+            [
+                [c, s30, 0.0],
+                [-s30 * c, c * c, s30],
+                [s30 * s30, -s30 * c, c],
+            ],
+        ),
+    ];
+    for (name, d) in cases {
+        let dirs: Vec<String> = (0..3)
+            .map(|a| {
+                format!(
+                    "({},{},{})",
+                    d[a][0] * spacing[a],
+                    d[a][1] * spacing[a],
+                    d[a][2] * spacing[a]
+                )
+            })
+            .collect();
+        let mut bytes = format!(
+            "NRRD0004\ntype: float\ndimension: 3\nsizes: {} {} {}\nspace: left-posterior-superior\n\
+             space directions: {}\nspace origin: ({},{},{})\nencoding: raw\nendian: little\n\n",
+            dims[0], dims[1], dims[2], dirs.join(" "), origin[0], origin[1], origin[2]
+        )
+        .into_bytes();
+        for k in 0..dims[2] {
+            for j in 0..dims[1] {
+                for i in 0..dims[0] {
+                    let idx = [i as f64, j as f64, k as f64];
+                    let r = (0..3)
+                        .map(|a| ((idx[a] - centre[a]) * spacing[a]).powi(2))
+                        .sum::<f64>()
+                        .sqrt();
+                    bytes.extend_from_slice(&(r as f32).to_le_bytes());
+                }
+            }
+        }
+        let volume = dir.join(format!("{name}.nrrd"));
+        std::fs::write(&volume, bytes).unwrap();
+        let (world, index) = (
+            dir.join(format!("{name}-w.obj")),
+            dir.join(format!("{name}-i.obj")),
+        );
+        ok_json(&["mc", s(&volume), "--iso", "5", "-o", s(&world), "--json"]);
+        ok_json(&[
+            "mc",
+            s(&volume),
+            "--iso",
+            "5",
+            "--space",
+            "index",
+            "-o",
+            s(&index),
+            "--json",
+        ]);
+        let (wv, wf) = read_obj(&world);
+        let (iv, i_f) = read_obj(&index);
+        assert_eq!((wv.len(), wf.len()), (iv.len(), i_f.len()));
+        assert!(wv.len() > 100);
+        // The header's affine applied to the index-space vertices gives the world ones.
+        for (w, i) in wv.iter().zip(&iv) {
+            let expected: [f64; 3] = [0, 1, 2]
+                .map(|x| origin[x] + (0..3).map(|a| i[a] * spacing[a] * d[a][x]).sum::<f64>());
+            for x in 0..3 {
+                assert!(
+                    (w[x] - expected[x]).abs() < 1e-3,
+                    "{name}: {w:?} != {expected:?}"
+                );
+            }
+        }
+        // The ball's centre is where the affine puts sample (10, 8, 6).
+        let world_centre: [f64; 3] = [0, 1, 2].map(|x| {
+            origin[x]
+                + (0..3)
+                    .map(|a| centre[a] * spacing[a] * d[a][x])
+                    .sum::<f64>()
+        });
+        let mean = [0, 1, 2].map(|x| wv.iter().map(|p| p[x]).sum::<f64>() / wv.len() as f64);
+        for x in 0..3 {
+            assert!(
+                (mean[x] - world_centre[x]).abs() < 0.1,
+                "{name}: {mean:?} vs {world_centre:?}"
+            );
+        }
+        // Index space is scaled, not mirrored: its winding is the reference.
+        let signed_volume = |v: &[[f64; 3]], f: &[[usize; 3]]| {
+            f.iter()
+                .map(|t| {
+                    let [a, b, c] = t.map(|i| v[i]);
+                    a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0])
+                        + a[2] * (b[0] * c[1] - b[1] * c[0])
+                })
+                .sum::<f64>()
+                / 6.0
+        };
+        let (sw, si) = (signed_volume(&wv, &wf), signed_volume(&iv, &i_f));
+        assert!(
+            sw * si > 0.0,
+            "{name}: signed volumes {sw} (world) and {si} (index)"
+        );
+    }
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+/// A volume whose every sample is NaN has no cells at any isovalue; the note must say so, not
+/// that every sample is at or above the isovalue in [0, 0] (the range a grid records for it).
+#[test]
+fn an_all_nan_volume_is_noted_as_such() {
+    let dir = temp_dir("all-nan");
+    let nrrd = dir.join("nan.nrrd");
+    let mut bytes =
+        b"NRRD0004\ntype: float\ndimension: 3\nsizes: 6 5 4\nencoding: raw\nendian: little\n\n"
+            .to_vec();
+    for _ in 0..6 * 5 * 4 {
+        bytes.extend(f32::NAN.to_le_bytes());
+    }
+    std::fs::write(&nrrd, &bytes).unwrap();
+    let cgc = dir.join("nan.cgc");
+    let png = dir.join("n.png");
+    // extract reads a raw NRRD by slabs; render extracts it in memory.
+    let runs: [&[&str]; 2] = [
+        &["extract", s(&nrrd), "--iso", "0", "-o", s(&cgc)],
+        &[
+            "render",
+            s(&nrrd),
+            "--iso",
+            "0",
+            "--backend",
+            "cpu",
+            "--size",
+            "16x16",
+            "-o",
+            s(&png),
+        ],
+    ];
+    for args in runs {
+        let out = isogrid(args);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success(), "{args:?}: {stderr}");
+        let notes: Vec<&str> = stderr.lines().filter(|l| l.contains("note:")).collect();
+        assert_eq!(notes.len(), 1, "{args:?}: {stderr}");
+        assert!(
+            notes[0].contains("every sample is NaN"),
+            "{args:?}: {}",
+            notes[0]
+        );
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// `cargo install` builds the release profile: with line tables the binary was 232 MB. Profilers
+/// get them from the `profiling` profile instead (release code, `debug = 1`).
+#[test]
+fn release_profile_carries_no_debug_info_and_profiling_does() {
+    let manifest =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../../Cargo.toml"))
+            .expect("reads the workspace manifest");
+    // The `key = value` lines of each `[section]`, comments dropped.
+    let section = |name: &str| -> Vec<(String, String)> {
+        let header = format!("[{name}]");
+        manifest
+            .lines()
+            .map(|l| l.split('#').next().unwrap_or("").trim())
+            .skip_while(|l| *l != header)
+            .skip(1)
+            .take_while(|l| !l.starts_with('['))
+            .filter_map(|l| l.split_once('='))
+            .map(|(k, v)| (k.trim().to_string(), v.trim().trim_matches('"').to_string()))
+            .collect()
+    };
+    let release = section("profile.release");
+    assert!(!release.is_empty(), "no [profile.release] in the manifest");
+    let debug = release
+        .iter()
+        .find(|(k, _)| k == "debug")
+        .map(|(_, v)| v.as_str());
+    assert!(
+        matches!(debug, None | Some("0") | Some("false") | Some("none")),
+        "[profile.release] keeps debug info: debug = {debug:?}"
+    );
+    let profiling = section("profile.profiling");
+    let get = |k: &str| {
+        profiling
+            .iter()
+            .find(|(key, _)| key == k)
+            .map(|(_, v)| v.as_str())
+    };
+    assert_eq!(get("inherits"), Some("release"), "{profiling:?}");
+    assert!(
+        matches!(
+            get("debug"),
+            Some("1")
+                | Some("2")
+                | Some("true")
+                | Some("line-tables-only")
+                | Some("limited")
+                | Some("full")
+        ),
+        "{profiling:?}"
+    );
+}

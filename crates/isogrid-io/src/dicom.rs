@@ -16,8 +16,8 @@
 //!   (not subfolders) that looks like DICOM: `DICM` at byte 128, or at byte 0 (no preamble), the
 //!   file meta group at byte 0 without `DICM`, or a bare implicit- or explicit-VR little-endian
 //!   data set (no file meta group), as pydicom reads them with `force=True`. Group-0000
-//!   (command) elements in the data set are read like any other. Names and extensions do not
-//!   matter.
+//!   (command) elements in the data set are read like any other. Zero bytes after the data set
+//!   (padding) are ignored, as pydicom and GDCM do. Names and extensions do not matter.
 //!   Files without Rows (DICOMDIR, reports, RT plans) are skipped; an image file without
 //!   PixelData, or one that does not parse, is an error naming it.
 //! - **Series:** files are grouped by SeriesInstanceUID. [`ReadOptions::series`] picks one;
@@ -28,14 +28,18 @@
 //!   place frame k at ImagePositionPatient + offset_k · normal, the offsets from
 //!   GridFrameOffsetVector, else k · SpacingBetweenSlices, else k · SliceThickness.
 //! - **Order and spacing:** frames are sorted by their position projected on the slice normal
-//!   (row × column of ImageOrientationPatient); the k spacing is the mean step. Steps that
-//!   differ by more than 1 % (a gap, a missing slice), a stack whose positions do not follow the
-//!   normal (gantry tilt), mixed orientations or two frames at one position are errors: a
-//!   regular grid cannot hold them. Without positions, frames are ordered by InstanceNumber and
+//!   (row × column of ImageOrientationPatient); the k spacing is the mean step. A step of 1.5×
+//!   the median step or more (a gap, a missing slice) or of 1/1.5 of it or less (an extra
+//!   slice), a stack whose positions do not follow the normal (gantry tilt), mixed orientations
+//!   or two frames at one position are errors naming the slices: a regular grid cannot hold
+//!   them. Smaller unevenness (positions rounded by the scanner, e.g. to 0.1 mm) is read on the
+//!   grid of the mean step with a notice giving the largest distance that moves a slice. Without positions, frames are ordered by InstanceNumber and
 //!   the k spacing is SpacingBetweenSlices, else SliceThickness, else 1.
 //! - **Grid:** i along a row (Columns samples), j down the columns (Rows samples), k = frame.
-//!   Spacing i = PixelSpacing[1], j = PixelSpacing[0] (mm). Origin = position of the first
-//!   frame (patient LPS, mm). Direction rows: row cosine, column cosine, normal.
+//!   Spacing i = PixelSpacing[1], j = PixelSpacing[0] (mm), the same in every frame; a
+//!   PixelSpacing of 0, NaN or a negative size, or frames that differ in it, are errors. Origin =
+//!   position of the first frame (patient LPS, mm). Direction rows: row cosine, column cosine,
+//!   normal.
 //! - **Values:** stored values are masked to BitsStored and sign-extended when
 //!   PixelRepresentation is 1, then RescaleSlope and RescaleIntercept are applied per frame.
 //!   When every slope is 1 and every intercept an integer, values stay integers in the narrowest
@@ -50,7 +54,7 @@ mod lengths;
 use crate::geometry::{cross, dot, normalized, Vec3};
 use crate::read_options::ReadOptions;
 use crate::samples::sample_count;
-pub(crate) use file::is_dicom_head;
+pub(crate) use file::{is_dicom_head, looks_like_dicom};
 use file::{Frame, Header};
 use isogrid::{Error, Geometry, Result, ResultExt, Volume, VolumeData};
 use std::collections::BTreeMap;
@@ -66,15 +70,7 @@ pub fn read_dicom_series(path: &Path) -> Result<Volume> {
 /// folder, or the file at fault.
 pub fn read_dicom(path: &Path, opts: &ReadOptions) -> Result<(Volume, Vec<String>)> {
     let files = if path.is_dir() {
-        let mut files = Vec::new();
-        for entry in std::fs::read_dir(path).at_path(path)? {
-            let p = entry.at_path(path)?.path();
-            if p.is_file() && file::looks_like_dicom(&p) {
-                files.push(p);
-            }
-        }
-        files.sort();
-        files
+        folder_files(path)?
     } else {
         vec![path.to_path_buf()]
     };
@@ -84,13 +80,27 @@ pub fn read_dicom(path: &Path, opts: &ReadOptions) -> Result<(Volume, Vec<String
             headers.push(h);
         }
     }
-    let (chosen, notices) = pick_series(headers, opts.series.as_deref()).at_path(path)?;
+    let (chosen, mut notices) = pick_series(headers, opts.series.as_deref()).at_path(path)?;
     let mut frames = Vec::new();
     for p in &chosen {
         frames.extend(file::read_frames(p).at_path(p)?);
     }
-    let volume = stack(frames).at_path(path)?;
+    let (volume, notice) = stack(frames).at_path(path)?;
+    notices.extend(notice);
     Ok((volume, notices))
+}
+
+/// The files of the folder `path` that look like DICOM (see the module doc), sorted.
+pub(crate) fn folder_files(path: &Path) -> Result<Vec<PathBuf>> {
+    let mut files = Vec::new();
+    for entry in std::fs::read_dir(path).at_path(path)? {
+        let p = entry.at_path(path)?.path();
+        if p.is_file() && looks_like_dicom(&p) {
+            files.push(p);
+        }
+    }
+    files.sort();
+    Ok(files)
 }
 
 /// The files of the requested series, or of the one with the most frames, and a notice naming
@@ -151,11 +161,21 @@ fn pick_series(headers: Vec<Header>, wanted: Option<&str>) -> Result<(Vec<PathBu
     Ok((files, notices))
 }
 
-/// Relative tolerance on slice steps and on the alignment of the stack with the normal.
-const STEP_TOLERANCE: f64 = 0.01;
+/// Relative tolerance on the alignment of the stack with the normal (gantry tilt).
+const SHEAR_TOLERANCE: f64 = 0.01;
 
-/// Sorts the frames into a regular stack and builds the volume (see the module doc).
-fn stack(mut frames: Vec<Frame>) -> Result<Volume> {
+/// A step this many times the median or more is a gap (a missing slice gives 2×); one this
+/// many times smaller or less is an extra slice. Steps in between are scanner rounding of the
+/// positions (0.1 mm in a GE MR series: 1 % of a 7 mm step) and are read as even, with a notice.
+const GAP_RATIO: f64 = 1.5;
+
+/// Slice positions that leave the regular grid by less than this fraction of the step are read
+/// without a notice (decimal rounding of exactly even positions).
+const QUIET_DEVIATION: f64 = 1e-3;
+
+/// Sorts the frames into a regular stack and builds the volume (see the module doc), with a
+/// notice when the slice positions are not exactly even.
+fn stack(mut frames: Vec<Frame>) -> Result<(Volume, Option<String>)> {
     let Some(first) = frames.first() else {
         return Err(Error::invalid("holds no DICOM image slices"));
     };
@@ -179,6 +199,7 @@ fn stack(mut frames: Vec<Frame>) -> Result<Volume> {
             )));
         }
     }
+    check_pixel_spacing(&frames)?;
     let positioned = frames
         .iter()
         .all(|f| f.position.is_some() && f.orientation.is_some());
@@ -208,9 +229,12 @@ fn stack(mut frames: Vec<Frame>) -> Result<Volume> {
     } else if frames.iter().all(|f| f.instance.is_some()) {
         frames.sort_by_key(|f| f.instance);
     }
-    let step = match normal {
-        Some(n) => Some(regular_step(&frames, n)?),
-        None => None,
+    let (step, notice) = match normal {
+        Some(n) => {
+            let (step, notice) = regular_step(&frames, n)?;
+            (Some(step), notice)
+        }
+        None => (None, None),
     };
 
     let first = &frames[0];
@@ -228,12 +252,49 @@ fn stack(mut frames: Vec<Frame>) -> Result<Volume> {
         geometry.direction = [row, col, normal];
     }
     let data = values(&frames, total);
-    Volume::with_geometry(geometry, data)
+    Ok((Volume::with_geometry(geometry, data)?, notice))
 }
 
-/// The even step between sorted frames along `normal`, or an error for duplicates, gaps and
-/// a stack sheared off the normal (gantry tilt).
-fn regular_step(frames: &[Frame], normal: Vec3) -> Result<f64> {
+/// Every frame's PixelSpacing is two positive sizes, the same in every frame: a regular grid has
+/// one spacing, and 0, NaN or a negative size is no spacing at all (NRRD, MetaImage and NIfTI
+/// refuse such spacings too).
+fn check_pixel_spacing(frames: &[Frame]) -> Result<()> {
+    let first = &frames[0];
+    for f in frames {
+        if let Some([r, c]) = f.pixel_spacing {
+            if !(r.is_finite() && c.is_finite() && r > 0.0 && c > 0.0) {
+                return Err(Error::corrupt(format!(
+                    "{}: PixelSpacing {r}\\{c} is not two positive sizes in mm",
+                    f.describe()
+                )));
+            }
+        }
+        let same = match (f.pixel_spacing, first.pixel_spacing) {
+            (Some(a), Some(b)) => a
+                .iter()
+                .zip(b)
+                .all(|(x, y)| (x - y).abs() <= 1e-6 * y.abs()),
+            (a, b) => a == b,
+        };
+        if !same {
+            let show =
+                |s: Option<[f64; 2]>| s.map_or("none".to_string(), |[r, c]| format!("{r}\\{c} mm"));
+            return Err(Error::invalid(format!(
+                "slices differ in PixelSpacing: {} has {}, {} has {}; a regular grid cannot hold \
+                 them",
+                first.describe(),
+                show(first.pixel_spacing),
+                f.describe(),
+                show(f.pixel_spacing)
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// The even step between sorted frames along `normal` and a notice when positions leave that
+/// grid, or an error for duplicates, gaps and a stack sheared off the normal (gantry tilt).
+fn regular_step(frames: &[Frame], normal: Vec3) -> Result<(f64, Option<String>)> {
     let n = frames.len();
     let pos = |f: &Frame| f.position.unwrap_or_default();
     let along = |f: &Frame| dot(pos(f), normal);
@@ -247,26 +308,49 @@ fn regular_step(frames: &[Frame], normal: Vec3) -> Result<f64> {
         }
     }
     if n < 2 {
-        return Ok(frames[0].slice_step.unwrap_or(1.0));
+        return Ok((frames[0].slice_step.unwrap_or(1.0), None));
     }
     let mean = (along(&frames[n - 1]) - along(&frames[0])) / (n - 1) as f64;
-    // The step furthest from the mean: a gap, when there is one.
-    let worst = frames
+    let mut steps: Vec<f64> = frames
         .windows(2)
-        .map(|pair| (along(&pair[1]) - along(&pair[0]), pair))
-        .max_by(|a, b| (a.0 - mean).abs().total_cmp(&(b.0 - mean).abs()));
-    if let Some((d, pair)) = worst {
-        if (d - mean).abs() > STEP_TOLERANCE * mean {
-            return Err(Error::invalid(format!(
-                "slices are unevenly spaced: {:.4} mm from {} to {}, {:.4} mm on average \
-                 (a gap or a missing slice); a regular grid cannot hold them",
-                d,
-                pair[0].describe(),
-                pair[1].describe(),
-                mean
-            )));
-        }
+        .map(|pair| along(&pair[1]) - along(&pair[0]))
+        .collect();
+    steps.sort_by(f64::total_cmp);
+    let median = steps[steps.len() / 2];
+    // A gap or an extra slice: a step far from the median (the mean would be pulled by it).
+    let irregular = frames.windows(2).find_map(|pair| {
+        let d = along(&pair[1]) - along(&pair[0]);
+        (d >= GAP_RATIO * median || d * GAP_RATIO <= median).then_some((d, pair))
+    });
+    if let Some((d, pair)) = irregular {
+        return Err(Error::invalid(format!(
+            "slices are unevenly spaced: {:.4} mm from {} to {}, {:.4} mm between most slices \
+             (a gap or a missing slice); a regular grid cannot hold them",
+            d,
+            pair[0].describe(),
+            pair[1].describe(),
+            median
+        )));
     }
+    // Steps that vary less: rounded positions, read on the grid of the mean step. The notice
+    // says how far the grid moves a slice.
+    let (deviation, worst) = frames
+        .iter()
+        .enumerate()
+        .map(|(k, f)| ((along(f) - along(&frames[0]) - k as f64 * mean).abs(), f))
+        .max_by(|a, b| a.0.total_cmp(&b.0))
+        .unwrap_or((0.0, &frames[0]));
+    let notice = (deviation > QUIET_DEVIATION * mean).then(|| {
+        format!(
+            "slice positions are not evenly spaced (steps {:.4} to {:.4} mm): read on a regular \
+             grid of {:.4} mm steps, which moves a slice by at most {:.4} mm ({})",
+            steps[0],
+            steps[steps.len() - 1],
+            mean,
+            deviation,
+            worst.describe()
+        )
+    });
     // The stack's direction: from the first to the last position, per slice.
     let (a, b) = (pos(&frames[0]), pos(&frames[n - 1]));
     let walk = [
@@ -280,14 +364,14 @@ fn regular_step(frames: &[Frame], normal: Vec3) -> Result<f64> {
         walk[2] - mean * normal[2],
     ];
     let shear = dot(sideways, sideways).sqrt();
-    if shear > STEP_TOLERANCE * mean {
+    if shear > SHEAR_TOLERANCE * mean {
         return Err(Error::unsupported(format!(
             "slices are stacked {:.2}° off their normal (gantry tilt); a regular grid cannot hold \
              them, resample the series first",
             shear.atan2(mean).to_degrees()
         )));
     }
-    Ok(mean)
+    Ok((mean, notice))
 }
 
 /// Rescaled samples of all frames in order, in the narrowest type that holds them exactly.

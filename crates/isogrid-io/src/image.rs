@@ -5,15 +5,27 @@
 //!   `H×W` (depth) and `H×W×3` (normals), uint32 `H×W` (cluster ids), C order, rows from the top.
 //! * Equirectangular environment maps from Radiance `.hdr` or OpenEXR `.exr` (via `image`).
 //!
-//! Every writer goes through [`isogrid::fs::write_atomic`].
+//! Every writer goes through [`isogrid::fs::stage`]: `write_*` writes and commits at once, `stage_*`
+//! leaves the commit to the caller, who commits once every output of a command is staged.
 
-use isogrid::fs::write_atomic;
+use isogrid::fs::{stage, Staged};
 use isogrid::EnvMap;
 use isogrid::{Error, Result};
 use std::path::Path;
 
 /// Writes an 8-bit PNG of `width × height` pixels with `channels` (3 = RGB, 4 = RGBA) bytes each.
 pub fn write_png(path: &Path, width: u32, height: u32, channels: u8, pixels: &[u8]) -> Result<()> {
+    stage_png(path, width, height, channels, pixels)?.commit()
+}
+
+/// [`write_png`] staged, not yet committed.
+pub fn stage_png(
+    path: &Path,
+    width: u32,
+    height: u32,
+    channels: u8,
+    pixels: &[u8],
+) -> Result<Staged> {
     let color = match channels {
         3 => png::ColorType::Rgb,
         4 => png::ColorType::Rgba,
@@ -29,7 +41,7 @@ pub fn write_png(path: &Path, width: u32, height: u32, channels: u8, pixels: &[u
         ))
         .with_path(path));
     }
-    write_atomic(path, |out| {
+    stage(path, |out| {
         let mut encoder = png::Encoder::new(out, width, height);
         encoder.set_color(color);
         encoder.set_depth(png::BitDepth::Eight);
@@ -86,6 +98,11 @@ fn npy_header(descr: &str, shape: &[usize]) -> Vec<u8> {
 
 /// Writes `data` (C order) as a `.npy` array of `shape`.
 pub fn write_npy<T: NpyElement>(path: &Path, shape: &[usize], data: &[T]) -> Result<()> {
+    stage_npy(path, shape, data)?.commit()
+}
+
+/// [`write_npy`] staged, not yet committed.
+pub fn stage_npy<T: NpyElement>(path: &Path, shape: &[usize], data: &[T]) -> Result<Staged> {
     if shape.iter().product::<usize>() != data.len() {
         return Err(Error::invalid(format!(
             "{} values do not fill an array of shape {shape:?}",
@@ -93,7 +110,7 @@ pub fn write_npy<T: NpyElement>(path: &Path, shape: &[usize], data: &[T]) -> Res
         ))
         .with_path(path));
     }
-    write_atomic(path, |out| {
+    stage(path, |out| {
         out.write_all(&npy_header(T::DESCR, shape))?;
         let mut buf = Vec::with_capacity(1 << 16);
         for chunk in data.chunks(1 << 14) {
@@ -109,21 +126,41 @@ pub fn write_npy<T: NpyElement>(path: &Path, shape: &[usize], data: &[T]) -> Res
 
 /// float32 `height × width` (e.g. a depth buffer).
 pub fn write_npy_f32_hw(path: &Path, width: u32, height: u32, data: &[f32]) -> Result<()> {
-    write_npy(path, &[height as usize, width as usize], data)
+    stage_npy_f32_hw(path, width, height, data)?.commit()
 }
 
 /// float32 `height × width × 3` (e.g. normals).
 pub fn write_npy_f32_hw3(path: &Path, width: u32, height: u32, data: &[[f32; 3]]) -> Result<()> {
-    write_npy(
+    stage_npy_f32_hw3(path, width, height, data)?.commit()
+}
+
+/// uint32 `height × width` (e.g. cluster ids).
+pub fn write_npy_u32_hw(path: &Path, width: u32, height: u32, data: &[u32]) -> Result<()> {
+    stage_npy_u32_hw(path, width, height, data)?.commit()
+}
+
+/// float32 `height × width` (e.g. a depth buffer), staged.
+pub fn stage_npy_f32_hw(path: &Path, width: u32, height: u32, data: &[f32]) -> Result<Staged> {
+    stage_npy(path, &[height as usize, width as usize], data)
+}
+
+/// float32 `height × width × 3` (e.g. normals), staged.
+pub fn stage_npy_f32_hw3(
+    path: &Path,
+    width: u32,
+    height: u32,
+    data: &[[f32; 3]],
+) -> Result<Staged> {
+    stage_npy(
         path,
         &[height as usize, width as usize, 3],
         data.as_flattened(),
     )
 }
 
-/// uint32 `height × width` (e.g. cluster ids).
-pub fn write_npy_u32_hw(path: &Path, width: u32, height: u32, data: &[u32]) -> Result<()> {
-    write_npy(path, &[height as usize, width as usize], data)
+/// uint32 `height × width` (e.g. cluster ids), staged.
+pub fn stage_npy_u32_hw(path: &Path, width: u32, height: u32, data: &[u32]) -> Result<Staged> {
+    stage_npy(path, &[height as usize, width as usize], data)
 }
 
 /// Largest environment map accepted, in texels (16K × 8K).

@@ -25,6 +25,7 @@ pub mod tiff;
 pub mod voxelize;
 
 mod data_file;
+mod files_read;
 mod geometry;
 mod mapped_layout;
 mod read;
@@ -32,6 +33,7 @@ mod read_options;
 mod samples;
 
 pub use dicom::{read_dicom, read_dicom_series};
+pub use files_read::files_read;
 pub use metaimage::read_metaimage;
 pub use mrc::read_mrc;
 pub use nifti::read_nifti;

@@ -31,8 +31,9 @@
 //! - Stacks: an image stack (`.mrcs`, ISPG 0) reads as a volume whose k is the image index; a
 //!   stack of volumes (ISPG 401 and up with NZ > MZ) is `Unsupported`.
 //! - Sizes: checked against the file before allocating. Bytes after the data are ignored (mrcfile
-//!   only warns). A file exactly one data block past the 1024-byte header whose `NSYMBT` promises
-//!   an extended header it lacks (some EMDB maps) is read from byte 1024, as ChimeraX does.
+//!   only warns). A file shorter than its header, `NSYMBT` bytes of extended header and the data
+//!   is refused, as mrcfile does: whether the extended header or the data is short cannot be told,
+//!   and reading from byte 1024 would take extended-header bytes for samples.
 
 use crate::data_file::open_regular;
 use crate::geometry::{geometry, normalized, Vec3};
@@ -100,16 +101,17 @@ fn read(path: &Path) -> Result<Volume> {
     let header = parse_header(&raw)?;
     let count = sample_count(header.crs)?;
     let needed = byte_count(count, header.mode.elem())?;
-    let mut offset = HEADER_SIZE as u64 + header.nsymbt;
+    let offset = HEADER_SIZE as u64 + header.nsymbt;
     if offset.saturating_add(needed) > file_len {
-        if header.nsymbt > 0 && HEADER_SIZE as u64 + needed == file_len {
-            offset = HEADER_SIZE as u64;
-        } else {
-            let [nc, nr, ns] = header.crs;
-            return Err(Error::corrupt(format!(
-                "file is truncated: {nc}x{nr}x{ns} samples need {needed} bytes after {offset} header bytes, but the file has {file_len}"
-            )));
-        }
+        let [nc, nr, ns] = header.crs;
+        // Where the samples would start is unknown: after the declared extended header the file
+        // is short; from byte 1024 the extended header's bytes would be taken as samples if the
+        // data is what is short. mrcfile refuses such files too.
+        return Err(Error::corrupt(format!(
+            "file is truncated: {nc}x{nr}x{ns} samples need {needed} bytes after {offset} header \
+             bytes (1024 + an extended header of NSYMBT = {}), but the file has {file_len}",
+            header.nsymbt
+        )));
     }
     reader.seek(SeekFrom::Start(offset))?;
     let mut data = read_samples(&mut reader, header.mode.elem(), header.big_endian, count)?;

@@ -26,7 +26,8 @@ pub fn read_volume_noted(path: &Path, opts: &ReadOptions) -> Result<(Volume, Vec
     }
     if crate::region::is_tiff_slices(path) {
         let volume = crate::region::read_all(&mut crate::region::slices::TiffSlices::open(path)?)?;
-        return Ok((volume, Vec::new()));
+        let notices = crate::region::slices::skipped_files_notice(path);
+        return Ok((volume, notices.into_iter().collect()));
     }
     if path.is_dir() || (opts.raw.is_none() && is_dicom_file(path)) {
         return crate::dicom::read_dicom(path, opts);

@@ -236,13 +236,21 @@ pub(crate) fn read_text_samples<R: Read>(
     from_f64_values(&values, elem)
 }
 
-/// Fails if `reader` has any byte left: a stream longer than declared is inconsistent.
+/// Fails if `reader` has any byte left: a stream longer than declared is inconsistent. A
+/// decompressing reader is read on to its end first (up to 64 MiB): a damaged deflate stream
+/// often decodes to too many bytes, and its checksum, at the end, says the data is corrupt rather
+/// than long (the caller's `gzip_error` turns that I/O error into "gzip data is invalid").
 pub(crate) fn expect_end<R: Read + ?Sized>(reader: &mut R) -> Result<()> {
     let mut byte = [0u8; 1];
     loop {
         match reader.read(&mut byte) {
             Ok(0) => return Ok(()),
-            Ok(_) => return Err(Error::corrupt("data is longer than the header declares")),
+            Ok(_) => {
+                // At most 64 MiB more: a stream that inflates without end is read no further.
+                std::io::copy(&mut reader.take(64 << 20), &mut std::io::sink())
+                    .map_err(Error::io)?;
+                return Err(Error::corrupt("data is longer than the header declares"));
+            }
             Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
             Err(e) => return Err(Error::io(e)),
         }

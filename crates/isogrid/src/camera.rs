@@ -63,6 +63,17 @@ impl Camera {
     /// view 2 is oblique, from the (+x, +y, +z) side, elevated about 25°. Both frame the box's
     /// bounding sphere with a small margin.
     pub fn preset(view: u8, lo: [f64; 3], hi: [f64; 3], width: u32, height: u32) -> Result<Camera> {
+        // A box past the limit (a huge spacing) would put the eye at inf or NaN: say so here.
+        if let Some(c) = lo
+            .iter()
+            .chain(&hi)
+            .find(|c| !(c.abs() <= MAX_CAMERA_COORDINATE))
+        {
+            return Err(Error::invalid(format!(
+                "the grid's box reaches {c:e}, beyond ±{MAX_CAMERA_COORDINATE:e}, where f64 \
+                 positions are too coarse to trace: its spacing is too large to render"
+            )));
+        }
         let center = [0, 1, 2].map(|a| 0.5 * (lo[a] + hi[a]));
         let radius = 0.5 * dot(sub(hi, lo), sub(hi, lo)).sqrt().max(1e-9);
         let half = PRESET_FOVY.to_radians() * 0.5;

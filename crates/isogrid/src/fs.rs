@@ -43,6 +43,30 @@ pub fn write_atomic_file<F>(path: &Path, write: F) -> Result<()>
 where
     F: FnOnce(&mut File) -> Result<()>,
 {
+    stage_file(path, write)?.commit()
+}
+
+/// Writes the complete new content of `path` into a temporary file beside it, flushed to disk,
+/// without touching `path` yet: [`Staged::commit`] renames it into place, dropping it removes it.
+/// A command with several outputs stages them all and commits only when every one was written,
+/// so that a failure (a full disk) leaves all of them as they were. Errors name `path`.
+pub fn stage<F>(path: &Path, write: F) -> Result<Staged>
+where
+    F: FnOnce(&mut dyn Write) -> Result<()>,
+{
+    stage_file(path, |file| {
+        let mut out = BufWriter::with_capacity(1 << 20, file);
+        write(&mut out)?;
+        out.flush()?;
+        Ok(())
+    })
+}
+
+/// [`stage`], handing `write` the temporary file itself (see [`write_atomic_file`]).
+pub fn stage_file<F>(path: &Path, write: F) -> Result<Staged>
+where
+    F: FnOnce(&mut File) -> Result<()>,
+{
     let dir = match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d,
         _ => Path::new("."),
@@ -62,22 +86,19 @@ where
         .lock()
         .unwrap_or_else(|e| e.into_inner())
         .push(tmp.clone());
-    let mut guard = TempFile {
-        path: &tmp,
+    let staged = Staged {
+        tmp,
+        path: path.to_path_buf(),
         renamed: false,
     };
     let result = (|| -> Result<()> {
-        let mut file = File::create(&tmp)?;
+        let mut file = File::create(&staged.tmp)?;
         write(&mut file)?;
         file.sync_all()?;
-        std::fs::rename(&tmp, path)?;
         Ok(())
     })();
-    if result.is_ok() {
-        guard.renamed = true; // nothing left to remove
-    }
-    drop(guard);
-    result.map_err(|e| e.with_path(path))
+    result.map_err(|e| e.with_path(path))?;
+    Ok(staged)
 }
 
 /// A file a program writes for its own use and removes when done: removed when the guard is
@@ -124,20 +145,31 @@ impl Drop for ScratchFile {
     }
 }
 
-/// A temporary file removed when dropped unless it was renamed into place; either way it leaves
-/// the list of unfinished writes.
-struct TempFile<'a> {
-    path: &'a Path,
+/// A complete temporary file waiting to replace its target; removed when dropped uncommitted.
+/// Either way it leaves the list of unfinished writes.
+#[must_use = "a staged file is removed unless committed"]
+pub struct Staged {
+    tmp: PathBuf,
+    path: PathBuf,
     renamed: bool,
 }
 
-impl Drop for TempFile<'_> {
+impl Staged {
+    /// Renames the temporary file onto the target. Errors name the target.
+    pub fn commit(mut self) -> Result<()> {
+        std::fs::rename(&self.tmp, &self.path).map_err(|e| Error::io(e).with_path(&self.path))?;
+        self.renamed = true;
+        Ok(())
+    }
+}
+
+impl Drop for Staged {
     fn drop(&mut self) {
         if !self.renamed {
-            let _ = std::fs::remove_file(self.path);
+            let _ = std::fs::remove_file(&self.tmp);
         }
         let mut unfinished = UNFINISHED.lock().unwrap_or_else(|e| e.into_inner());
-        if let Some(at) = unfinished.iter().position(|p| p == self.path) {
+        if let Some(at) = unfinished.iter().position(|p| p == &self.tmp) {
             unfinished.swap_remove(at);
         }
     }

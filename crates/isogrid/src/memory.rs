@@ -7,7 +7,8 @@
 //!
 //! - `MemAvailable` of `/proc/meminfo` (the kernel's estimate of what can be allocated without
 //!   swapping), lowered to the room left under the cgroup's memory limit (v2 `memory.max`, v1
-//!   `memory.limit_in_bytes`) when the process runs in a limited cgroup (a container);
+//!   `memory.limit_in_bytes`) when the process runs in a limited cgroup (a container), and to the
+//!   room left under the address-space limit (`ulimit -v`, `RLIMIT_AS`) when there is one;
 //! - lowered again to `ISOGRID_MEMORY_LIMIT` (bytes, or with a K/M/G/T suffix, powers of 1024)
 //!   when that is set, and to [`set_limit`] in-process: the way tests exercise the check without
 //!   allocating gigabytes;
@@ -40,6 +41,10 @@ pub fn available() -> Option<(u64, &'static str)> {
     };
     lower(mem_available(), "available memory");
     lower(cgroup_room(), "the cgroup's memory limit");
+    lower(
+        address_space_room(),
+        "the room under the address-space limit (ulimit -v)",
+    );
     lower(
         std::env::var("ISOGRID_MEMORY_LIMIT")
             .ok()
@@ -119,6 +124,26 @@ fn mem_available() -> Option<u64> {
     let line = text.lines().find(|l| l.starts_with("MemAvailable:"))?;
     let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
     Some(kib.saturating_mul(1024))
+}
+
+/// Room left under this process's address-space limit (`RLIMIT_AS`, `ulimit -v`, `prlimit
+/// --as`), when it has one: the limit of `/proc/self/limits` less the `VmSize` of
+/// `/proc/self/status`. Past it every allocation fails, and Rust's allocator aborts.
+fn address_space_room() -> Option<u64> {
+    let limits = std::fs::read_to_string("/proc/self/limits").ok()?;
+    let line = limits
+        .lines()
+        .find(|l| l.starts_with("Max address space"))?;
+    // "Max address space  <soft>  <hard>  bytes"; "unlimited" does not parse.
+    let soft: u64 = line["Max address space".len()..]
+        .split_whitespace()
+        .next()?
+        .parse()
+        .ok()?;
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let size = status.lines().find(|l| l.starts_with("VmSize:"))?;
+    let kib: u64 = size.split_whitespace().nth(1)?.parse().ok()?;
+    Some(soft.saturating_sub(kib.saturating_mul(1024)))
 }
 
 /// Room left under this process's cgroup memory limit, when it has one: cgroup v2 `memory.max`

@@ -246,7 +246,7 @@ fn rays(args: RaysArgs) -> Result<()> {
     if args.json {
         print_json(&report)
     } else {
-        println!(
+        outln!(
             "traced        {} rays ({} hits) in {:.3} s on {} threads, {} crossing, {} traversal, {} box tests",
             report.rays,
             report.hits,
@@ -256,8 +256,8 @@ fn rays(args: RaysArgs) -> Result<()> {
             report.traversal,
             report.simd
         );
-        println!("rays/second   {:.0}", report.rays_per_second);
-        println!(
+        outln!("rays/second   {:.0}", report.rays_per_second);
+        outln!(
             "memory        {:.2} MB (blocks + metacells + cells + traversal)",
             report.bytes as f64 / 1e6
         );

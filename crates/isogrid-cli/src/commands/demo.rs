@@ -155,33 +155,34 @@ pub fn run(args: Args) -> Result<()> {
             image: args.image.clone(),
         });
     }
-    println!(
+    outln!(
         "isogrid demo: built-in '{}' volume, {}³ u8, generated in {generated:.2} s",
-        args.field, args.size
+        args.field,
+        args.size
     );
-    println!("isovalue: normalised 0.5 (= {})\n", grid.info().iso);
-    println!("== clustered grid cells (paper §3.1)");
-    cgc.print_human();
-    println!("\n== Marching Cubes mesh (indexed, snorm16 positions, u32 indices)");
-    mc.print_human();
-    println!("\n== comparison (paper Table 3: CGC uses about 37 % of the MC mesh's memory)");
-    println!(
+    outln!("isovalue: normalised 0.5 (= {})\n", grid.info().iso);
+    outln!("== clustered grid cells (paper §3.1)");
+    cgc.print_human()?;
+    outln!("\n== Marching Cubes mesh (indexed, snorm16 positions, u32 indices)");
+    mc.print_human()?;
+    outln!("\n== comparison (paper Table 3: CGC uses about 37 % of the MC mesh's memory)");
+    outln!(
         "memory        CGC {} vs MC {}: {:.1} %",
         mb(stats.bytes.paper_total),
         mb(mc.bytes),
         100.0 * memory_ratio
     );
-    println!(
+    outln!(
         "extraction    CGC {:.3} s vs MC {:.3} s: {speedup:.1}x faster ({} cells vs {} triangles)",
         cgc_seconds,
         mc_seconds,
         group(stats.active_cells),
         group(mc.triangles)
     );
-    println!("\n== picture (view 2, cell rasterisation with EWA normals and deferred shading on a GPU; ray traced on the CPU otherwise)");
-    println!("wrote         {} ({renderer})", args.image.display());
+    outln!("\n== picture (view 2, cell rasterisation with EWA normals and deferred shading on a GPU; ray traced on the CPU otherwise)");
+    outln!("wrote         {} ({renderer})", args.image.display());
     if let Some(out) = &args.output {
-        println!("wrote         {}", out.display());
+        outln!("wrote         {}", out.display());
     }
     Ok(())
 }

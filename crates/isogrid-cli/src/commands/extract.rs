@@ -76,6 +76,10 @@ pub fn run(args: Args) -> Result<()> {
     let read = start.elapsed().as_secs_f64();
     let (stats, attribute_report, seconds) = match region {
         Some(mut source) => {
+            // What the whole-volume reader's notices would say (other files of a TIFF folder).
+            if let Some(notice) = isogrid_io::region::slices::skipped_files_notice(&args.input) {
+                eprintln!("isogrid: note: {notice}");
+            }
             let max_memory = args.max_memory.unwrap_or_else(default_max_memory);
             let (stats, attribute_report) = pool.install(|| {
                 stream_to_file(
@@ -103,9 +107,9 @@ pub fn run(args: Args) -> Result<()> {
     if args.json {
         print_json(&report)
     } else {
-        report.print_human();
+        report.print_human()?;
         if let Some(out) = &args.output {
-            println!("wrote         {}", out.display());
+            outln!("wrote         {}", out.display());
         }
         Ok(())
     }
@@ -127,7 +131,7 @@ fn in_memory(
         .with_context(|| format!("{}: extraction failed", args.input.display()))?;
     let extract_seconds = start.elapsed().as_secs_f64();
     spinner.finish_and_clear();
-    crate::report::note_if_empty(&args.input, &grid);
+    crate::report::note_if_empty(&args.input, &grid, Some(&volume));
     let grid = match attribute {
         Some(attribute) => pool.install(|| with_attribute(args, grid, attribute))?,
         None => grid,
@@ -196,7 +200,16 @@ fn stream_to_file(
     let finished = (|| -> Result<(GridStats, Option<AttributeReport>)> {
         let summary =
             result.with_context(|| format!("{}: extraction failed", args.input.display()))?;
-        crate::report::note_if_no_cells(&args.input, &summary.info, summary.stats.active_cells);
+        crate::report::note_if_no_cells(
+            &args.input,
+            &summary.info,
+            summary.stats.active_cells,
+            || {
+                // Only a range of [0, 0] can hide a volume without finite samples.
+                summary.info.value_range == [0.0, 0.0]
+                    && has_no_finite_sample(source).unwrap_or(false)
+            },
+        );
         let mut attribute_report = None;
         if let Some(attribute) = attribute {
             let grid = isogrid::cgc::open(out)?;
@@ -224,6 +237,22 @@ fn with_attribute(args: &Args, grid: CellGrid, attribute: &AttributeInput) -> Re
     );
     spinner.finish_and_clear();
     Ok(grid.with_attribute(values?)?)
+}
+
+/// Whether `source` holds no finite sample (every sample NaN), read one plane at a time.
+fn has_no_finite_sample(source: &mut dyn RegionSource) -> isogrid::Result<bool> {
+    if source.scalar_type() != isogrid::ScalarType::F32 {
+        return Ok(false);
+    }
+    let [nx, ny, nz] = source.geometry().dims;
+    let mut plane = vec![0f32; nx * ny];
+    for z in 0..nz {
+        source.read_planes(z..z + 1, isogrid::extract::stream::SlabMut::F32(&mut plane))?;
+        if plane.iter().any(|v| v.is_finite()) {
+            return Ok(false);
+        }
+    }
+    Ok(true)
 }
 
 /// A quarter of the machine's memory (4 GiB where it cannot be read).

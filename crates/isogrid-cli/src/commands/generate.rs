@@ -39,7 +39,7 @@ pub fn run(args: Args) -> Result<()> {
     let volume = generate(args.field, args.size as usize, args.seed);
     let seconds = start.elapsed().as_secs_f64();
     isogrid_io::write_nrrd(&output, &volume)?;
-    println!(
+    outln!(
         "{}: {}³ u8 in {seconds:.2} s, wrote {}",
         args.field,
         args.size,

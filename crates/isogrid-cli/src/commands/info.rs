@@ -26,7 +26,7 @@ pub fn run(args: Args) -> Result<()> {
     let start = Instant::now();
     let grid = isogrid::cgc::open(&args.file)?;
     let read = start.elapsed().as_secs_f64();
-    crate::report::note_if_empty(&args.file, &grid);
+    crate::report::note_if_empty(&args.file, &grid, None);
     let report = GridReport::new(
         &GridStats::of(&grid),
         Seconds {
@@ -38,9 +38,9 @@ pub fn run(args: Args) -> Result<()> {
     if args.json {
         print_json(&report)
     } else {
-        report.print_human();
+        report.print_human()?;
         let info = grid.info();
-        println!(
+        outln!(
             "source        {} samples in [{}, {}], spacing {:?}",
             info.scalar_type.name(),
             info.value_range[0],

@@ -5,7 +5,7 @@ use crate::outputs::{self, Output};
 use crate::report::{print_json, MeshReport, Seconds};
 use crate::{input, progress};
 use anyhow::{bail, Context, Result};
-use isogrid::mc::{marching_cubes, McMesh};
+use isogrid::mc::{marching_cubes, McMesh, MeshSpace};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -26,6 +26,17 @@ pub struct Args {
     /// Print one JSON object instead of a table.
     #[arg(long)]
     pub json: bool,
+    /// Vertex coordinates: `world` (the volume's patient space: origin, spacing and directions,
+    /// where 3D Slicer, ITK-SNAP and nibabel's affine place the image) or `index` (sample indices).
+    #[arg(long, value_enum, default_value_t = Space::World)]
+    pub space: Space,
+}
+
+/// `--space`.
+#[derive(clap::ValueEnum, Clone, Copy, Debug)]
+pub enum Space {
+    World,
+    Index,
 }
 
 pub fn write_mesh(mesh: &McMesh, path: &Path) -> Result<()> {
@@ -61,9 +72,13 @@ pub fn run(args: Args) -> Result<()> {
     let start = Instant::now();
     let mut mesh = pool.install(|| marching_cubes(&volume.view(), iso));
     let extract = start.elapsed().as_secs_f64();
-    // World coordinates, as the .cgc and Python's marching_cubes place the surface: the library
-    // leaves the origin out (the renderer's frame).
-    mesh.translate(volume.geometry().origin);
+    // The library's positions are in the renderer's frame (origin and directions left out).
+    let space = match args.space {
+        Space::World => MeshSpace::World,
+        Space::Index => MeshSpace::Index,
+    };
+    mesh.place(&volume.geometry(), space)
+        .with_context(|| args.input.display().to_string())?;
     spinner.finish_and_clear();
     let mut write = 0.0;
     if let Some(out) = &args.output {
@@ -87,7 +102,7 @@ pub fn run(args: Args) -> Result<()> {
     if args.json {
         print_json(&report)
     } else {
-        report.print_human();
+        report.print_human()?;
         Ok(())
     }
 }

@@ -8,7 +8,7 @@ use crate::interrupt::cancel_on_interrupt;
 use crate::outputs::{self, Output};
 use crate::progress;
 use crate::report::print_json;
-use anyhow::{bail, Result};
+use anyhow::{bail, Context, Result};
 use clap::builder::{PossibleValuesParser, TypedValueParser};
 use isogrid::colormap::ColorMap;
 use isogrid::{Camera, Progress};
@@ -494,32 +494,44 @@ pub fn run(args: Args) -> Result<()> {
         Err(e) if e.kind() == isogrid::ErrorKind::Cancelled => {
             return Err(anyhow::Error::from(e).context("render stopped by Ctrl-C, nothing written"))
         }
-        r => r?,
+        r => r.with_context(|| args.source.input.display().to_string())?,
     };
     let (width, height) = args.size;
     let (report, rendered) = RenderReport::new(&args, &grid, rendered);
 
+    // Every output is written before any replaces its file: a failure (a full disk) leaves all
+    // of them as they were.
+    let mut staged = Vec::new();
     if let Some(out) = &args.output {
-        isogrid_io::image::write_png(out, width, height, 3, &rendered.rgb8)?;
+        staged.push(isogrid_io::image::stage_png(
+            out,
+            width,
+            height,
+            3,
+            &rendered.rgb8,
+        )?);
     }
     for (aov, path) in args.aov.as_ref().map(Aovs::files).unwrap_or_default() {
-        match aov {
+        staged.push(match aov {
             Aov::Depth => {
-                isogrid_io::image::write_npy_f32_hw(path, width, height, &rendered.depth)?
+                isogrid_io::image::stage_npy_f32_hw(path, width, height, &rendered.depth)?
             }
             Aov::Normal => {
-                isogrid_io::image::write_npy_f32_hw3(path, width, height, &rendered.normal)?
+                isogrid_io::image::stage_npy_f32_hw3(path, width, height, &rendered.normal)?
             }
             Aov::Cluster => {
-                isogrid_io::image::write_npy_u32_hw(path, width, height, &rendered.cluster)?
+                isogrid_io::image::stage_npy_u32_hw(path, width, height, &rendered.cluster)?
             }
             Aov::Value => {
                 let value = rendered.value.as_ref().ok_or_else(|| {
                     anyhow::anyhow!("the value AOV came back empty from the renderer")
                 })?;
-                isogrid_io::image::write_npy_f32_hw(path, width, height, value)?
+                isogrid_io::image::stage_npy_f32_hw(path, width, height, value)?
             }
-        }
+        });
+    }
+    for file in staged {
+        file.commit()?;
     }
     if args.json {
         return print_json(&report);
@@ -528,7 +540,7 @@ pub fn run(args: Args) -> Result<()> {
         Some(a) => format!("on the GPU ({a})"),
         None => "on the CPU".to_string(),
     };
-    println!(
+    outln!(
         "rendered      {width}x{height} {} {on} in {:.3} s ({} of {} pixels hit)",
         report.mode,
         report.seconds,
@@ -537,7 +549,7 @@ pub fn run(args: Args) -> Result<()> {
     );
     if let Some(t) = &report.gpu_ms {
         let ms = |v: Option<f64>| v.map_or("n/a".to_string(), |v| format!("{v:.2} ms"));
-        println!(
+        outln!(
             "gpu passes    raster {} (without EWA {}), shade {}, cull {}, trace {}, frame {}",
             ms(t.raster_ms),
             ms(t.raster_no_ewa_ms),
@@ -548,7 +560,7 @@ pub fn run(args: Args) -> Result<()> {
         );
     }
     if let Some(out) = &args.output {
-        println!("wrote         {}", out.display());
+        outln!("wrote         {}", out.display());
     }
     Ok(())
 }

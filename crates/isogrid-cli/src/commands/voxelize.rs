@@ -61,7 +61,7 @@ pub fn run(args: Args) -> Result<()> {
     let seconds = start.elapsed().as_secs_f64();
     isogrid_io::write_nrrd(&output, &volume)?;
     let [x, y, z] = volume.dims();
-    println!(
+    outln!(
         "{}: {} vertices, {} triangles -> {x} x {y} x {z} u8 coverage in {seconds:.2} s (read {read:.2} s), wrote {}",
         args.mesh.display(),
         mesh.vertices.len(),

@@ -418,3 +418,342 @@ fn an_interrupt_during_a_write_leaves_no_temporary_file() {
     assert!(caught, "never interrupted a write in progress");
     std::fs::remove_dir_all(dir).unwrap();
 }
+
+/// Runs the binary with its stdout going to `stdout`.
+fn with_stdout(stdout: impl Into<Stdio>, args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_isogrid"))
+        .args(args)
+        .stdout(stdout)
+        .stderr(Stdio::piped())
+        .output()
+        .expect("runs the binary")
+}
+
+#[test]
+fn printing_to_a_closed_pipe_ends_quietly_and_to_a_full_disk_fails_in_one_line() {
+    let dir = temp_dir("stdout");
+    let (volume, grid) = sphere_grid(&dir, 24);
+    let mesh = dir.join("m.obj");
+    let every_printing_command: [Vec<&str>; 6] = [
+        vec!["info", s(&grid)],
+        vec!["info", s(&grid), "--json"],
+        vec!["extract", s(&volume), "--iso", "0.5", "-o", s(&grid)],
+        vec!["mc", s(&volume), "--iso", "0.5", "-o", s(&mesh)],
+        vec!["generate", "sphere", "--size", "8", "-o", s(&volume)],
+        vec!["--help"],
+    ];
+    for args in &every_printing_command {
+        // A reader that went away before anything was printed (`| head -0`).
+        let (reader, writer) = std::io::pipe().unwrap();
+        drop(reader);
+        let out = with_stdout(writer, args);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success(), "{args:?} to a closed pipe: {stderr}");
+        assert!(stderr.is_empty(), "{args:?} to a closed pipe: {stderr}");
+        // A device that takes nothing.
+        let full = std::fs::OpenOptions::new()
+            .write(true)
+            .open("/dev/full")
+            .unwrap();
+        let out = with_stdout(full, args);
+        one_line_error(
+            &out,
+            "cannot write to standard output: No space left on device",
+        );
+        assert!(!String::from_utf8_lossy(&out.stderr).contains("panicked"));
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// The output must never be a file the input reads, not only the path given: a detached header's
+/// data file, a slice of a DICOM folder. A new file in the DICOM folder is not read, so it may be
+/// written.
+#[test]
+fn outputs_never_overwrite_a_file_the_input_reads() {
+    let fixtures =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../isogrid-io/tests/fixtures");
+    let dir = temp_dir("reads");
+    let unchanged = |path: &std::path::Path, bytes: &[u8]| {
+        assert_eq!(
+            std::fs::read(path).unwrap(),
+            bytes,
+            "{} changed",
+            path.display()
+        );
+    };
+    // A detached NRRD whose data file is named like a grid.
+    let header = std::fs::read_to_string(fixtures.join("u8_detached.nhdr")).unwrap();
+    let nhdr = dir.join("det.nhdr");
+    std::fs::write(&nhdr, header.replace("u8_detached.raw", "data.cgc")).unwrap();
+    let raw = std::fs::read(fixtures.join("u8_detached.raw")).unwrap();
+    let data = dir.join("data.cgc");
+    std::fs::write(&data, &raw).unwrap();
+    fails(
+        &["extract", s(&nhdr), "--iso", "100", "-o", s(&data)],
+        "would overwrite",
+    );
+    unchanged(&data, &raw);
+    // A MetaImage header's ElementDataFile.
+    let header = std::fs::read_to_string(fixtures.join("i16_z.mhd")).unwrap();
+    let mhd = dir.join("m.mhd");
+    std::fs::write(&mhd, header.replace("i16_z.zraw", "m.cgc")).unwrap();
+    let zraw = std::fs::read(fixtures.join("i16_z.zraw")).unwrap();
+    let mdata = dir.join("m.cgc");
+    std::fs::write(&mdata, &zraw).unwrap();
+    fails(
+        &["extract", s(&mhd), "--iso", "100", "-o", s(&mdata)],
+        &format!("which the input {} reads", s(&mhd)),
+    );
+    unchanged(&mdata, &zraw);
+    // DICOM slices named like the outputs (names do not matter to DICOM).
+    let dcm = dir.join("dcm");
+    std::fs::create_dir_all(&dcm).unwrap();
+    for (from, to) in [("a.dcm", "s001"), ("b.dcm", "s003.cgc"), ("c.dcm", "x.obj")] {
+        std::fs::copy(fixtures.join("dicom_ct").join(from), dcm.join(to)).unwrap();
+    }
+    let slice = std::fs::read(dcm.join("s003.cgc")).unwrap();
+    fails(
+        &[
+            "extract",
+            s(&dcm),
+            "--iso",
+            "0",
+            "-o",
+            s(&dcm.join("s003.cgc")),
+        ],
+        "which the input",
+    );
+    unchanged(&dcm.join("s003.cgc"), &slice);
+    let obj = std::fs::read(dcm.join("x.obj")).unwrap();
+    fails(
+        &["mc", s(&dcm), "--iso", "0", "-o", s(&dcm.join("x.obj"))],
+        "which the input",
+    );
+    unchanged(&dcm.join("x.obj"), &obj);
+    // A new file in the folder is not read: written.
+    let fresh = dcm.join("new.cgc");
+    let out = isogrid(&["extract", s(&dcm), "--iso", "0", "-o", s(&fresh)]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(fresh.is_file());
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// `render -o r.png --aov depth=d.npy`: every output is checked before any is written (a folder
+/// named `d.npy`), and none is replaced unless all are written (a write that fails part way).
+#[test]
+fn render_writes_all_its_outputs_or_none() {
+    let dir = temp_dir("render-all-or-none");
+    let (_, grid) = sphere_grid(&dir, 16);
+    let png = dir.join("r.png");
+    std::fs::write(&png, b"old picture").unwrap();
+    let folder = dir.join("d.npy");
+    std::fs::create_dir_all(&folder).unwrap();
+    let args = |depth: &std::path::Path| {
+        vec![
+            "render".to_string(),
+            s(&grid).to_string(),
+            "--backend".into(),
+            "cpu".into(),
+            "--size".into(),
+            "64x64".into(),
+            "-o".into(),
+            s(&png).to_string(),
+            "--aov".into(),
+            format!("depth={}", s(depth)),
+        ]
+    };
+    let folder_args = args(&folder);
+    let folder_args: Vec<&str> = folder_args.iter().map(String::as_str).collect();
+    fails(&folder_args, "it is a folder");
+    assert_eq!(std::fs::read(&png).unwrap(), b"old picture");
+    // A file-size limit that the PNG fits (64x64 RGB, compressed, under 8 KiB) and the depth AOV
+    // does not (64 x 64 x 4 bytes = 16 KiB).
+    let depth = dir.join("d2.npy");
+    let out = Command::new("sh")
+        .arg("-c")
+        .arg("ulimit -f 16 && exec \"$0\" \"$@\"")
+        .arg(env!("CARGO_BIN_EXE_isogrid"))
+        .args(args(&depth))
+        .output()
+        .unwrap();
+    one_line_error(&out, "d2.npy");
+    assert_eq!(
+        std::fs::read(&png).unwrap(),
+        b"old picture",
+        "r.png replaced"
+    );
+    assert!(!depth.exists());
+    let left: Vec<String> = names_in(&dir)
+        .into_iter()
+        .filter(|n| n.contains(".tmp"))
+        .collect();
+    assert!(left.is_empty(), "left behind: {left:?}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A finite but huge spacing or origin put `mc`'s vertices at `inf`, written with exit 0.
+#[test]
+fn mc_vertices_beyond_f32_are_an_error() {
+    let dir = temp_dir("mc-huge");
+    for (name, directions, origin) in [
+        ("spacing", "(1e39,0,0) (0,1,0) (0,0,1)", "(0,0,0)"),
+        ("origin", "(1,0,0) (0,1,0) (0,0,1)", "(1e200,0,0)"),
+    ] {
+        let mut bytes = format!(
+            "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 4 4 4\nspace: left-posterior-superior\n\
+             space directions: {directions}\nspace origin: {origin}\nencoding: raw\n\n"
+        )
+        .into_bytes();
+        // One bright sample in the middle: a small closed surface.
+        bytes.extend((0..64).map(|n| if n == 21 { 200u8 } else { 0 }));
+        let volume = dir.join(format!("{name}.nrrd"));
+        std::fs::write(&volume, bytes).unwrap();
+        let mesh = dir.join(format!("{name}.obj"));
+        let err = fails(
+            &["mc", s(&volume), "--iso", "100.5", "-o", s(&mesh)],
+            "beyond the range of 32-bit floats",
+        );
+        assert!(err.contains(s(&volume)), "{err}");
+        assert!(!mesh.exists());
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// Under an address-space limit (`ulimit -v`, `prlimit --as`) a volume larger than the room left
+/// aborted in the allocator ("memory allocation ... failed", exit 134): the memory check now
+/// counts that limit and refuses in one line.
+#[cfg(unix)]
+#[test]
+fn an_address_space_limit_is_a_one_line_error_not_an_abort() {
+    let dir = temp_dir("ulimit-v");
+    let out_path = dir.join("big.nrrd");
+    // 1300³ bytes = 2.0 GiB under a 1.9 GiB address space (ulimit -v counts KiB).
+    let out = Command::new("sh")
+        .arg("-c")
+        .arg(format!(
+            "ulimit -v 2000000 && exec \"$0\" generate sphere --size 1300 -o '{}'",
+            s(&out_path)
+        ))
+        .arg(env!("CARGO_BIN_EXE_isogrid"))
+        .output()
+        .unwrap();
+    one_line_error(&out, "needs 2.");
+    assert!(
+        String::from_utf8_lossy(&out.stderr).contains("memory"),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert_eq!(out.status.code(), Some(1));
+    assert!(names_in(&dir).is_empty());
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+/// A FIFO inside a Zarr store, as a chunk or as `.zarray`, blocked the read forever.
+#[cfg(unix)]
+#[test]
+fn a_fifo_inside_a_zarr_store_is_refused_not_waited_on() {
+    let fixtures =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../isogrid-io/tests/fixtures/zarr");
+    let dir = temp_dir("zarr-fifo");
+    for key in ["0.1.0", ".zarray"] {
+        let store = dir.join(format!("v{}.zarr", key.replace('.', "_")));
+        let copied = Command::new("cp")
+            .arg("-r")
+            .arg(fixtures.join("v2_blosc.zarr"))
+            .arg(&store)
+            .status()
+            .unwrap();
+        assert!(copied.success());
+        std::fs::remove_file(store.join(key)).unwrap();
+        let made = Command::new("mkfifo")
+            .arg(store.join(key))
+            .status()
+            .unwrap();
+        assert!(made.success());
+        for command in ["extract", "mc"] {
+            let out = within(
+                Duration::from_secs(60),
+                &[command, s(&store), "--iso", "100"],
+            );
+            one_line_error(&out, "is not a regular file");
+            let stderr = String::from_utf8_lossy(&out.stderr);
+            assert!(stderr.contains(key), "{command} {key}: {stderr}");
+        }
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A volume with a huge spacing failed to render with "camera eye coordinate NaN is beyond
+/// ±1e15": no file name, and a value that is not the volume's.
+#[test]
+fn render_of_a_volume_too_large_to_trace_names_the_file_and_its_extent() {
+    let dir = temp_dir("render-huge");
+    let mut bytes = b"ObjectType = Image\nNDims = 3\nDimSize = 4 4 4\nElementSpacing = 1e200 1 1\n\
+                      ElementType = MET_UCHAR\nElementDataFile = LOCAL\n"
+        .to_vec();
+    bytes.extend((0..64).map(|n| if n == 21 { 200u8 } else { 0 }));
+    let volume = dir.join("huge.mha");
+    std::fs::write(&volume, bytes).unwrap();
+    let err = fails(
+        &[
+            "render",
+            s(&volume),
+            "--iso",
+            "100.5",
+            "--backend",
+            "cpu",
+            "--size",
+            "16x16",
+        ],
+        "the grid's box reaches 3e200, beyond ±1e15",
+    );
+    assert!(err.contains(s(&volume)) && !err.contains("NaN"), "{err}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// An HTTP server that accepts the connection and never answers stalled a read for minutes; the
+/// deadline is configurable (`ISOGRID_HTTP_TIMEOUT`), and past it the read fails naming the URL.
+#[test]
+fn a_silent_http_server_times_out_as_configured() {
+    let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    let port = listener.local_addr().unwrap().port();
+    // Accepts every connection and keeps it open without a word.
+    std::thread::spawn(move || {
+        let mut held = Vec::new();
+        for stream in listener.incoming() {
+            held.push(stream);
+        }
+    });
+    let url = format!("http://127.0.0.1:{port}/silent.zarr");
+    let start = Instant::now();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_isogrid"))
+        .args(["extract", &url, "--iso", "1"])
+        .env("ISOGRID_HTTP_TIMEOUT", "1")
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    while child.try_wait().unwrap().is_none() {
+        if start.elapsed() > Duration::from_secs(30) {
+            child.kill().unwrap();
+            panic!("still waiting on a silent server after 30 s");
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let out = child.wait_with_output().unwrap();
+    one_line_error(&out, &url);
+    // A deadline that is not a number of seconds is refused, not ignored.
+    let out = Command::new(env!("CARGO_BIN_EXE_isogrid"))
+        .args(["extract", &url, "--iso", "1"])
+        .env("ISOGRID_HTTP_TIMEOUT", "soon")
+        .output()
+        .unwrap();
+    one_line_error(
+        &out,
+        "ISOGRID_HTTP_TIMEOUT=soon: not a positive number of seconds",
+    );
+}

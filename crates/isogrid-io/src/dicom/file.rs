@@ -142,7 +142,7 @@ fn head(path: &Path) -> std::io::Result<Vec<u8>> {
 }
 
 /// Whether `path` looks like a DICOM file (any [`Layout`] but `NotDicom`).
-pub(super) fn looks_like_dicom(path: &Path) -> bool {
+pub(crate) fn looks_like_dicom(path: &Path) -> bool {
     head(path).is_ok_and(|head| is_dicom_head(&head))
 }
 
@@ -166,14 +166,16 @@ fn open(path: &Path, header_only: bool) -> Result<DefaultDicomObject> {
         // without any header is most likely to be: a lying length is then refused up front.
         Layout::NotDicom => (None, false),
     };
-    super::lengths::check_declared_lengths(path, meta_at, bare_explicit)
+    // Zero bytes padding the file after the data set are left out, as pydicom and GDCM read
+    // such files.
+    let data_set_end = super::lengths::check_declared_lengths(path, meta_at, bare_explicit)
         .map_err(|e| e.with_path(path))?;
     let invalid = |e: &dyn std::fmt::Display| {
         Error::corrupt(format!("invalid DICOM file: {}", one_line(&e.to_string())))
     };
     let reader = || {
         std::fs::File::open(path)
-            .map(std::io::BufReader::new)
+            .map(|f| std::io::BufReader::new(f).take(data_set_end.unwrap_or(u64::MAX)))
             .map_err(|e| Error::from(e).with_path(path))
     };
     let mut options = OpenFileOptions::new();
@@ -207,6 +209,17 @@ fn open(path: &Path, header_only: bool) -> Result<DefaultDicomObject> {
             options
                 .read_preamble(ReadPreamble::Never)
                 .from_reader(std::io::Read::chain(&b"DICM"[..], reader()?))
+                .map_err(|e| invalid(&e))
+        }
+        Layout::Standard if data_set_end.is_some() => {
+            let preamble = if has_magic_after_preamble(&head) {
+                ReadPreamble::Always
+            } else {
+                ReadPreamble::Never
+            };
+            options
+                .read_preamble(preamble)
+                .from_reader(reader()?)
                 .map_err(|e| invalid(&e))
         }
         // The default preamble detection also reads files that start with `DICM`.
@@ -280,10 +293,14 @@ impl<'a> Attributes<'a> {
             normalized([v[3], v[4], v[5]])?,
         ))
     }
+    /// PixelSpacing as given, checked by the stack; a value that is not two numbers reads as
+    /// two NaNs, which the check refuses too.
     fn pixel_spacing(self) -> Option<[f64; 2]> {
-        self.floats(tags::PIXEL_SPACING)
-            .filter(|v| v.len() == 2 && v.iter().all(|x| x.is_finite() && *x > 0.0))
-            .map(|v| [v[0], v[1]])
+        self.element(tags::PIXEL_SPACING)
+            .map(|e| match e.to_multi_float64() {
+                Ok(v) if v.len() == 2 => [v[0], v[1]],
+                _ => [f64::NAN; 2],
+            })
     }
     fn rescale(self) -> Option<(f64, f64)> {
         let slope = self.float(tags::RESCALE_SLOPE).filter(|&s| s != 0.0);

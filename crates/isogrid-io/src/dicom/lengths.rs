@@ -8,6 +8,10 @@
 //! and names it. Anything else the walk cannot parse is left to the real parser and its own
 //! error. A deflated data set is inflated first (within [`isogrid::memory`]'s limit): its
 //! lengths count inflated bytes.
+//!
+//! The same walk finds where the data set ends in a file padded with zero bytes after its last
+//! element (a GE MR series does this): dicom-rs reads those bytes as empty (0000,0000) elements
+//! and fails on the last, partial one, while pydicom and GDCM ignore them.
 
 use dicom_core::header::{DataElementHeader, HasLength as _, Header as _};
 use dicom_encoding::transfer_syntax::{Codec, TransferSyntax, TransferSyntaxIndex};
@@ -23,18 +27,19 @@ use std::path::Path;
 /// Fails when an element of the file declares more bytes than the file has after its header.
 /// `meta_at`: where the file meta group starts (after `DICM`, or at byte 0 in a file without
 /// it), or `None` for a bare little-endian data set, explicit VR when `bare_explicit`.
+/// Returns where the data set ends when only zero bytes follow it (padding to be ignored).
 pub(super) fn check_declared_lengths(
     path: &Path,
     meta_at: Option<u64>,
     bare_explicit: bool,
-) -> Result<()> {
+) -> Result<Option<u64>> {
     let file = isogrid::fs::open_regular(path)?;
     let file_len = file.metadata().map_err(Error::from)?.len();
     let mut file = BufReader::new(file);
     let (data_set_at, ts_uid) = match meta_at {
         Some(at) => match walk_meta_group(&mut file, at, file_len)? {
             Some(found) => found,
-            None => return Ok(()),
+            None => return Ok(None),
         },
         None if bare_explicit => (
             0,
@@ -46,13 +51,17 @@ pub(super) fn check_declared_lengths(
         ),
     };
     let Some(ts) = TransferSyntaxRegistry.get(&ts_uid) else {
-        return Ok(());
+        return Ok(None);
     };
-    if file.seek(SeekFrom::Start(data_set_at)).is_err() {
-        return Ok(());
-    }
     if !matches!(ts.codec(), Codec::Dataset(_)) {
-        return walk_data_set(file, ts, file_len);
+        let zeros_from = zero_tail_start(&mut file, file_len).map_err(Error::from)?;
+        if file.seek(SeekFrom::Start(data_set_at)).is_err() {
+            return Ok(None);
+        }
+        return walk_data_set(file, ts, file_len, zeros_from);
+    }
+    if file.seek(SeekFrom::Start(data_set_at)).is_err() {
+        return Ok(None);
     }
     // Deflated: the lengths count inflated bytes, so walk the inflated data set, itself held
     // to the memory there is.
@@ -67,18 +76,48 @@ pub(super) fn check_declared_lengths(
         .get(dicom_dictionary_std::uids::EXPLICIT_VR_LITTLE_ENDIAN)
         .expect("the registry knows explicit VR little endian");
     let len = inflated.len() as u64;
-    walk_data_set(std::io::Cursor::new(inflated), explicit_le, len)
+    // Zero bytes after a deflated data set are not looked for: the inflater stops at the end of
+    // the stream and never hands them to dicom-rs.
+    walk_data_set(std::io::Cursor::new(inflated), explicit_le, len, u64::MAX).map(|_| None)
+}
+
+/// Where the run of zero bytes that ends the file starts (`file_len` when the last byte is not
+/// zero).
+fn zero_tail_start<S: Read + Seek>(file: &mut S, file_len: u64) -> std::io::Result<u64> {
+    let mut start = file_len;
+    let mut chunk = vec![0u8; 64 * 1024];
+    while start > 0 {
+        let n = chunk.len().min(start as usize);
+        file.seek(SeekFrom::Start(start - n as u64))?;
+        file.read_exact(&mut chunk[..n])?;
+        match chunk[..n].iter().rposition(|&b| b != 0) {
+            Some(i) => return Ok(start - n as u64 + i as u64 + 1),
+            None => start -= n as u64,
+        }
+    }
+    Ok(0)
 }
 
 /// Walks the data set from the source's position to `end` without reading values, failing on
-/// the first declared length that passes `end`.
-fn walk_data_set<S: Read + Seek>(source: S, ts: &TransferSyntax, end: u64) -> Result<()> {
+/// the first declared length that passes `end`. Returns where the data set ends when an empty
+/// (0000,0000) element starts at or after `zeros_from`, the start of the zero bytes that end the
+/// file: that element and all after it are padding.
+fn walk_data_set<S: Read + Seek>(
+    source: S,
+    ts: &TransferSyntax,
+    end: u64,
+    zeros_from: u64,
+) -> Result<Option<u64>> {
+    // All-zero bytes read as tag (0000,0000), in explicit VR with the unknown VR "\0\0" (read as
+    // UN: 2 reserved bytes and a 4-byte length follow) or implicit VR (a 4-byte length).
+    let implicit = ts.uid() == dicom_dictionary_std::uids::IMPLICIT_VR_LITTLE_ENDIAN;
+    let zero_header_len = if implicit { 8 } else { 12 };
     // Odd lengths are walked as declared: the lazy reader's default refuses them, which would
     // end the walk where dicom-object's reader goes on.
     let mut options = LazyDataSetReaderOptions::default();
     options.odd_length = OddLengthStrategy::Accept;
     let Ok(mut reader) = LazyDataSetReader::new_with_ts_options(source, ts, options) else {
-        return Ok(());
+        return Ok(None);
     };
     while let Some(Ok(token)) = reader.advance() {
         let (tag, len, at) = match &token {
@@ -90,6 +129,12 @@ fn walk_data_set<S: Read + Seek>(source: S, ts: &TransferSyntax, end: u64) -> Re
             LazyDataToken::LazyItemValue { len, decoder } => (None, Some(*len), decoder.position()),
             _ => continue,
         };
+        if tag == Some(dicom_core::Tag(0, 0)) && len == Some(0) {
+            let header_at = at.saturating_sub(zero_header_len);
+            if header_at >= zeros_from && header_at < end {
+                return Ok(Some(header_at));
+            }
+        }
         if let Some(len) = len {
             check_fits(tag, len, at, end)?;
         }
@@ -100,7 +145,7 @@ fn walk_data_set<S: Read + Seek>(source: S, ts: &TransferSyntax, end: u64) -> Re
             break;
         }
     }
-    Ok(())
+    Ok(None)
 }
 
 /// Walks the file meta group from `at` as dicom-object reads it: the group length element

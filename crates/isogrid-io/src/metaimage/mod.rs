@@ -79,6 +79,34 @@ pub fn read_metaimage(path: &Path) -> Result<Volume> {
     Volume::with_geometry(g, data).at_path(path)
 }
 
+/// The data files a MetaImage header at `path` names (none for `LOCAL` data), resolved against
+/// its folder; `None` when the header does not parse (reading it fails anyway).
+pub(crate) fn data_files(path: &Path) -> Option<Vec<std::path::PathBuf>> {
+    let mut reader = BufReader::new(open_regular(path).ok()?);
+    let mut budget = MAX_HEADER_BYTES;
+    let (lines, _) = read_header_lines(&mut reader, &mut budget).ok()?;
+    let header = header::parse(&lines).ok()?;
+    let names = match &header.data {
+        DataFile::Local => Vec::new(),
+        DataFile::Single(name) => vec![name.clone()],
+        DataFile::List { piece_dims } => {
+            let files = files_for_pieces(&header, *piece_dims);
+            read_list(&mut reader, files, &mut budget).ok()?
+        }
+        DataFile::Pattern {
+            pattern,
+            first,
+            last,
+            step,
+        } => {
+            let files = files_for_pieces(&header, header.ndims - 1);
+            pattern_names(pattern, *first, *last, *step, files).ok()?
+        }
+    };
+    let base = path.parent().unwrap_or(Path::new("."));
+    Some(names.iter().map(|n| resolve(base, n)).collect())
+}
+
 /// Reads header lines up to and including `ElementDataFile`; returns them and the byte offset
 /// right after that line (where `LOCAL` data starts).
 fn read_header_lines<R: BufRead>(reader: &mut R, budget: &mut u64) -> Result<(Vec<String>, u64)> {

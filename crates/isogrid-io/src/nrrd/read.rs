@@ -72,6 +72,19 @@ pub fn read_nrrd(path: &Path) -> Result<Volume> {
     Volume::with_geometry(g, data).at_path(path)
 }
 
+/// The data files a detached NRRD header at `path` names (none for attached data), resolved
+/// against its folder; `None` when the header does not parse (reading it fails anyway).
+pub(crate) fn data_files(path: &Path) -> Option<Vec<std::path::PathBuf>> {
+    let mut reader = BufReader::new(isogrid::fs::open_regular(path).ok()?);
+    let (lines, _) = read_header_lines(&mut reader).ok()?;
+    let header = header::parse(&lines).ok()?;
+    let base = path.parent().unwrap_or(Path::new("."));
+    Some(match &header.data {
+        DataFiles::Attached => Vec::new(),
+        DataFiles::Detached(names) => names.iter().map(|n| resolve(base, n)).collect(),
+    })
+}
+
 /// Where a raw-encoded NRRD (attached, or detached into one file, without line skips) keeps its
 /// samples, for reading by region; `None` for other encodings and layouts, which are read whole.
 /// Errors name the file at fault.
@@ -101,6 +114,8 @@ pub(crate) fn region_layout(path: &Path) -> Result<Option<crate::mapped_layout::
         ),
         DataFiles::Detached(_) => return Ok(None),
     };
+    // A FIFO or a device has no length to check (and /dev/zero never ends): name what it is.
+    isogrid::fs::ensure_regular(&data_path)?;
     let file_len = std::fs::metadata(&data_path).at_path(&data_path)?.len();
     let available = file_len.saturating_sub(start);
     let data_offset = if header.byte_skip == -1 {

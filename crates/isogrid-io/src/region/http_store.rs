@@ -17,6 +17,24 @@ use zarrs::storage::{
     Bytes, MaybeBytes, MaybeBytesIterator, ReadableStorageTraits, StorageError, StoreKey,
 };
 
+/// The deadline in seconds the environment variable `name` gives (`default` when unset): how long
+/// a connection may take (`ISOGRID_HTTP_CONNECT_TIMEOUT`, 30 s), and how long a server may keep
+/// an answer or the next bytes of one waiting (`ISOGRID_HTTP_TIMEOUT`, 120 s).
+fn seconds_from_env(name: &str, default: f64) -> isogrid::Result<Duration> {
+    let seconds = match std::env::var(name) {
+        Ok(text) => text
+            .trim()
+            .parse::<f64>()
+            .ok()
+            .filter(|s| s.is_finite() && *s > 0.0 && *s < 1e9)
+            .ok_or_else(|| {
+                isogrid::Error::invalid(format!("{name}={text}: not a positive number of seconds"))
+            })?,
+        Err(_) => default,
+    };
+    Ok(Duration::from_secs_f64(seconds))
+}
+
 /// A Zarr store rooted at an HTTP(S) URL.
 pub struct HttpStore {
     agent: ureq::Agent,
@@ -29,12 +47,14 @@ impl HttpStore {
     /// when it is `None`, to Mozilla's roots. Fails only when an `https://` store's `trusted` cannot be
     /// read or holds no certificate.
     pub fn new(base_url: &str, trusted: Option<&std::path::Path>) -> isogrid::Result<Self> {
+        let connect = seconds_from_env("ISOGRID_HTTP_CONNECT_TIMEOUT", 30.0)?;
+        let answer = seconds_from_env("ISOGRID_HTTP_TIMEOUT", 120.0)?;
         let config = ureq::Agent::config_builder()
             // Statuses are answers to interpret (404 = missing key), not transport errors.
             .http_status_as_error(false)
-            .timeout_connect(Some(Duration::from_secs(30)))
-            .timeout_recv_response(Some(Duration::from_secs(120)))
-            .timeout_per_read(Some(Duration::from_secs(120)));
+            .timeout_connect(Some(connect))
+            .timeout_recv_response(Some(answer))
+            .timeout_per_read(Some(answer));
         // Only https:// reads the trusted certificates: a bad SSL_CERT_FILE must not stop a
         // plain http:// store.
         let is_https = base_url

@@ -153,6 +153,8 @@ pub(crate) fn raw_layout(path: &Path, spec: &crate::RawSpec) -> Result<MappedLay
         ScalarType::I16 => ElemType::I16,
         ScalarType::F32 => ElemType::F32,
     };
+    // A FIFO or a device has no length to check: name what it is.
+    isogrid::fs::ensure_regular(path)?;
     let actual = std::fs::metadata(path).at_path(path)?.len();
     let expected = count as u64 * spec.scalar.size() as u64;
     if actual != expected {

@@ -14,9 +14,11 @@ fn is_tiff(path: &Path) -> bool {
         .unwrap_or(false)
 }
 
-/// The visible files of `dir`; `None` unless they are all TIFF files (and there is one at least).
-pub(crate) fn tiff_slices(dir: &Path) -> Result<Option<Vec<PathBuf>>> {
-    let mut files = Vec::new();
+/// The TIFF files of `dir` in natural order, and its other visible files, which are skipped (a
+/// `readme.md`, Windows' `Thumbs.db`); hidden files and subfolders are skipped silently. `None`
+/// when `dir` holds no TIFF file, or holds a DICOM file (then it is a DICOM folder).
+pub(crate) fn tiff_slices_and_others(dir: &Path) -> Result<Option<(Vec<PathBuf>, Vec<PathBuf>)>> {
+    let (mut files, mut others) = (Vec::new(), Vec::new());
     for entry in std::fs::read_dir(dir).at_path(dir)? {
         let path = entry.at_path(dir)?.path();
         let hidden = path
@@ -25,16 +27,48 @@ pub(crate) fn tiff_slices(dir: &Path) -> Result<Option<Vec<PathBuf>>> {
         if hidden || path.is_dir() {
             continue;
         }
-        if !is_tiff(&path) {
-            return Ok(None);
+        if is_tiff(&path) {
+            files.push(path);
+        } else {
+            others.push(path);
         }
-        files.push(path);
     }
-    if files.is_empty() {
+    // Only a folder with TIFF files has its other files opened (a Zarr store's chunks are not),
+    // and only regular ones: opening a FIFO would wait for a writer.
+    if files.is_empty()
+        || others
+            .iter()
+            .any(|p| p.is_file() && crate::dicom::looks_like_dicom(p))
+    {
         return Ok(None);
     }
     files.sort_by(|a, b| natural_order(&a.to_string_lossy(), &b.to_string_lossy()));
-    Ok(Some(files))
+    others.sort();
+    Ok(Some((files, others)))
+}
+
+/// The TIFF slices of `dir` (see [`tiff_slices_and_others`]).
+pub(crate) fn tiff_slices(dir: &Path) -> Result<Option<Vec<PathBuf>>> {
+    Ok(tiff_slices_and_others(dir)?.map(|(files, _)| files))
+}
+
+/// The notice for the files a TIFF slice folder holds besides its slices, if any.
+pub fn skipped_files_notice(dir: &Path) -> Option<String> {
+    let (_, others) = tiff_slices_and_others(dir).ok()??;
+    let names: Vec<String> = others
+        .iter()
+        .filter_map(|p| p.file_name())
+        .map(|n| n.to_string_lossy().into_owned())
+        .collect();
+    (!names.is_empty()).then(|| {
+        format!(
+            "{}: reading its TIFF slices; skipped {} other file{}: {}",
+            dir.display(),
+            names.len(),
+            if names.len() == 1 { "" } else { "s" },
+            names.join(", ")
+        )
+    })
 }
 
 /// Compares runs of digits by value and everything else by character.
@@ -81,7 +115,7 @@ impl TiffSlices {
     /// the slice size and type.
     pub fn open(dir: &Path) -> Result<Self> {
         let files = tiff_slices(dir)?.ok_or_else(|| {
-            Error::invalid("not a folder of TIFF slices (it holds other files, or none)")
+            Error::invalid("not a folder of TIFF slices (it holds none, or DICOM files)")
                 .with_path(dir)
         })?;
         if files.len() > MAX_DIM {

@@ -15,6 +15,7 @@
 //! - Sample types: u8, u16, i16 and f32 are kept; i8 and bool widen, the other integers and f64
 //!   become f32, as for every other format of this crate.
 
+mod file_store;
 mod rows;
 
 use super::ZarrOptions;
@@ -394,7 +395,18 @@ fn select_axes(
             .with_path(location))
         }
     };
-    for (name, _) in &options.indices {
+    for (n, (name, index)) in options.indices.iter().enumerate() {
+        // `t=0,t=1` would otherwise read t=0 and ignore the second value without a word.
+        if let Some((earlier, other)) = options.indices[..n]
+            .iter()
+            .find(|(earlier, _)| earlier.eq_ignore_ascii_case(name))
+        {
+            return Err(Error::invalid(format!(
+                "--index gives axis {name} twice ({earlier}={other} and {name}={index}); give each \
+                 axis once"
+            ))
+            .with_path(location));
+        }
         if find(name).is_none() || spatial.contains(&find(name).unwrap()) {
             return Err(Error::invalid(format!(
                 "--index names {name}, which is not a non-spatial axis of [{}]",
@@ -692,7 +704,7 @@ impl RegionSource for ZarrSource {
 pub fn open_path(path: &std::path::Path, options: &ZarrOptions) -> Result<ZarrSource> {
     let store = zarrs::filesystem::FilesystemStore::new(path)
         .map_err(|e| Error::invalid(format!("cannot open as a Zarr store: {e}")).with_path(path))?;
-    let store: ReadableStorage = Arc::new(store);
+    let store: ReadableStorage = Arc::new(file_store::RegularFileStore(store));
     ZarrSource::open(store, &path.display().to_string(), options)
 }
 

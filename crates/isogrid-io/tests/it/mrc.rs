@@ -137,9 +137,20 @@ fn an_extended_header_is_skipped() {
         ScalarType::F32,
         expected,
     );
-    // NSYMBT promises an extended header the file lacks (some EMDB maps): data at byte 1024.
-    let missing = dir.file("noext.mrc", &full);
-    check_samples(&read(&missing), ScalarType::F32, expected);
+}
+
+#[test]
+fn an_extended_header_longer_than_the_file_is_refused() {
+    let dir = TempDir::new("mrc-short-ext");
+    // NSYMBT = 32 in a file 32 bytes short of header + extended header + data: reading from byte
+    // 1024 would take the declared extended header's bytes for samples. mrcfile refuses it.
+    let short = dir.file("short.mrc", &patched("f32.mrc", &[(92, 32)]));
+    expect_err(
+        &short,
+        &ReadOptions::default(),
+        ErrorKind::Corrupt,
+        "after 1056 header bytes (1024 + an extended header of NSYMBT = 32)",
+    );
 }
 
 #[test]

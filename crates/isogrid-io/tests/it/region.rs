@@ -4,7 +4,7 @@
 use crate::common::{fixture, TempDir};
 use isogrid::extract::stream::{extract_planned, MemoryPlan};
 use isogrid::{cgc, extract, ExtractOptions, Iso, ScalarType, Volume, VolumeData};
-use isogrid_io::{open_region, read_volume, write_nrrd, ReadOptions};
+use isogrid_io::{open_region, read_volume, read_volume_noted, write_nrrd, ReadOptions};
 use std::path::Path;
 
 pub fn check(volume: &Volume, dims: [usize; 3], expected: impl Fn(usize, usize, usize) -> f64) {
@@ -148,6 +148,33 @@ fn write_tiff_u16(path: &Path, width: u32, height: u32, samples: &[u16]) {
     encoder
         .write_image::<tiff::encoder::colortype::Gray16>(width, height, samples)
         .unwrap();
+}
+
+#[test]
+fn tiff_slice_folder_with_other_files_skips_them_with_a_notice() {
+    // A readme and Windows' thumbnail cache beside the slices, and a hidden file: the folder was
+    // taken for DICOM ("holds no DICOM image slices").
+    let dir = TempDir::new("slices-others");
+    for k in 0..3u16 {
+        write_tiff_u16(&dir.path(&format!("z{k}.tif")), 4, 3, &[100 * k; 12]);
+    }
+    dir.file("readme.md", b"# scan of 2026-11-27\n");
+    dir.file("Thumbs.db", &[0xD0, 0xCF, 0x11, 0xE0, 0, 0, 0, 0]);
+    dir.file(".DS_Store", b"\0\0\0\x01Bud1");
+    let (v, notices) =
+        read_volume_noted(&dir.0, &ReadOptions::default()).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(v.dims(), [4, 3, 3]);
+    assert_eq!(v.get(2, 1, 2), 200.0);
+    assert_eq!(notices.len(), 1, "{notices:?}");
+    assert!(
+        notices[0].contains("skipped 2 other files: Thumbs.db, readme.md"),
+        "{notices:?}"
+    );
+    // The streamed reader reads the same slices.
+    let source = open_region(&dir.0, &ReadOptions::default())
+        .unwrap()
+        .unwrap();
+    assert_eq!(source.geometry().dims, [4, 3, 3]);
 }
 
 #[test]

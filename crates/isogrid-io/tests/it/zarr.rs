@@ -162,6 +162,21 @@ fn bad_zarr_inputs_get_one_line_naming_the_problem() {
 }
 
 #[test]
+fn an_axis_indexed_twice_is_refused() {
+    // `--index t=0,t=1,c=0`: which t was meant is unknown, so neither is read.
+    let err = error_of(
+        &zarr("ome_v04.zarr"),
+        &options(0, &[("t", 0), ("t", 1), ("c", 0)]),
+    );
+    assert!(err.contains("axis t twice (t=0 and t=1)"), "{err}");
+    let err = error_of(
+        &zarr("ome_v04.zarr"),
+        &options(0, &[("t", 0), ("c", 0), ("C", 1)]),
+    );
+    assert!(err.contains("axis C twice (c=0 and C=1)"), "{err}");
+}
+
+#[test]
 fn zarr_streams_byte_identically() {
     let isos = [
         ExtractOptions::new(Iso::Normalized(0.5)),

@@ -34,7 +34,7 @@ mod snorm;
 mod table;
 mod write;
 
-pub use mesh::{Inside, McMesh};
+pub use mesh::{Inside, McMesh, MeshSpace};
 pub use snorm::SnormMesh;
 
 use crate::error::Result;
