@@ -130,3 +130,28 @@ def test_bad_attributes_and_colour_keywords_are_refused():
         isogrid.render(coloured, size=(32, 24), clim=(1.0, 1.0))
     with pytest.raises(Exception, match="does not colour"):
         isogrid.render(coloured, size=(32, 24), backend="gpu")
+
+
+def test_mc_color_by_writes_a_vertex_scalar_that_meshlab_reads(cli, tmp_path):
+    """``isogrid mc --color-by`` writes the attribute as the PLY vertex property ``quality``,
+    which MeshLab (through pymeshlab) loads as its vertex scalar, vertex for vertex."""
+    import subprocess
+
+    import pymeshlab
+
+    z, y, x = np.mgrid[:28, :28, :28]
+    np.save(tmp_path / "s.npy", _sphere(28))
+    np.save(tmp_path / "f.npy", (x + 2.0 * y - z).astype(np.float32))
+    ply = tmp_path / "m.ply"
+    subprocess.run(
+        [cli, "mc", tmp_path / "s.npy", "--iso", "127.5", "--color-by", tmp_path / "f.npy", "-o", ply],
+        check=True,
+        capture_output=True,
+    )
+    ms = pymeshlab.MeshSet()
+    ms.load_new_mesh(str(ply))
+    mesh = ms.current_mesh()
+    assert mesh.has_vertex_scalar()
+    p = mesh.vertex_matrix()  # world = index (x, y, z) here: spacing 1, origin 0
+    np.testing.assert_allclose(mesh.vertex_scalar_array(), p[:, 0] + 2 * p[:, 1] - p[:, 2], atol=1e-3)
+    assert len(p) > 300

@@ -9,7 +9,8 @@
 use crate::args::parse_indices;
 use anyhow::{anyhow, Result};
 use isogrid::extract::attribute::{
-    alignment, grid_geometry, sample_attribute, sample_attribute_in_memory, Alignment,
+    alignment, grid_geometry, sample_attribute, sample_attribute_in_memory,
+    sample_points_in_memory, Alignment,
 };
 use isogrid::{AttributePrecision, CellAttribute, CellGrid};
 use isogrid_io::ReadOptions;
@@ -59,6 +60,25 @@ impl AttributeInput {
             path: as_path,
             options,
             name,
+        })
+    }
+
+    /// The attribute at `points`, in the index space of `surface`'s volume of `geometry` (a
+    /// mesh's vertices), the attribute read whole.
+    pub fn sample_points(
+        &self,
+        geometry: &isogrid::Geometry,
+        points: &[[f64; 3]],
+        surface: &Path,
+    ) -> Result<Vec<f32>> {
+        let (volume, _) = crate::input::read_volume(&self.path, &self.options)?;
+        sample_points_in_memory(geometry, points, &volume.view()).map_err(|e| {
+            anyhow!(
+                "{}: {} (the surface is {})",
+                self.path.display(),
+                e,
+                surface.display()
+            )
         })
     }
 

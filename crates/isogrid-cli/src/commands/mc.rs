@@ -1,6 +1,7 @@
 //! `isogrid mc`: the Marching Cubes mesh the paper compares with (Table 3).
 
 use crate::args::{InputArgs, IsoArgs, ThreadArgs};
+use crate::color_by::AttributeInput;
 use crate::outputs::{self, Output};
 use crate::report::{print_json, MeshReport, Seconds};
 use crate::{input, progress};
@@ -30,6 +31,11 @@ pub struct Args {
     /// where 3D Slicer, ITK-SNAP and nibabel's affine place the image) or `index` (sample indices).
     #[arg(long, value_enum, default_value_t = Space::World)]
     pub space: Space,
+    /// Sample another volume at every vertex (trilinear; resampled in world space when its grid
+    /// differs, NaN outside it) and write it as the PLY vertex property `quality` (MeshLab's
+    /// vertex scalar).
+    #[arg(long, value_name = "ATTR")]
+    pub color_by: Option<String>,
 }
 
 /// `--space`.
@@ -39,14 +45,18 @@ pub enum Space {
     Index,
 }
 
-pub fn write_mesh(mesh: &McMesh, path: &Path) -> Result<()> {
+pub fn write_mesh(mesh: &McMesh, path: &Path, values: Option<&[f32]>) -> Result<()> {
     match path
         .extension()
         .and_then(|e| e.to_str())
         .map(str::to_ascii_lowercase)
         .as_deref()
     {
-        Some("ply") => mesh.write_ply(path)?,
+        Some("ply") => mesh.write_ply_with_values(path, values)?,
+        Some("obj") if values.is_some() => bail!(
+            "{}: OBJ has no per-vertex values; write the mesh as .ply with --color-by",
+            path.display()
+        ),
         Some("obj") => mesh.write_obj(path)?,
         _ => bail!("{}: mesh output must end in .ply or .obj", path.display()),
     }
@@ -60,8 +70,24 @@ pub fn run(args: Args) -> Result<()> {
         path,
         extensions: &[".ply", ".obj"],
     });
-    outputs::check(&[&args.input], output.as_slice())?;
-    let (volume, read) = input::read_volume(&args.input, &args.input_args.read_options()?)?;
+    let read_options = args.input_args.read_options()?;
+    let attribute = args
+        .color_by
+        .as_deref()
+        .map(|text| AttributeInput::new(text, &args.input, &read_options))
+        .transpose()?;
+    let mut inputs = vec![args.input.as_path()];
+    inputs.extend(attribute.as_ref().map(|a| a.path.as_path()));
+    outputs::check(&inputs, output.as_slice())?;
+    if let (Some(_), Some(out)) = (&attribute, &args.output) {
+        if !out.to_string_lossy().to_ascii_lowercase().ends_with(".ply") {
+            bail!(
+                "{}: OBJ has no per-vertex values; write the mesh as .ply with --color-by",
+                out.display()
+            );
+        }
+    }
+    let (volume, read) = input::read_volume(&args.input, &read_options)?;
     let iso = args
         .iso
         .iso()
@@ -72,6 +98,19 @@ pub fn run(args: Args) -> Result<()> {
     let start = Instant::now();
     let mut mesh = pool.install(|| marching_cubes(&volume.view(), iso));
     let extract = start.elapsed().as_secs_f64();
+    // Vertices in index space (the library's are sample (i, j, k) at (i·sx, j·sy, k·sz)).
+    let values = match &attribute {
+        Some(attribute) => {
+            let spacing = volume.geometry().spacing;
+            let points: Vec<[f64; 3]> = mesh
+                .positions
+                .iter()
+                .map(|p| [0, 1, 2].map(|a| p[a] as f64 / spacing[a]))
+                .collect();
+            Some(pool.install(|| attribute.sample_points(volume.geometry(), &points, &args.input))?)
+        }
+        None => None,
+    };
     // The library's positions are in the renderer's frame (origin and directions left out).
     let space = match args.space {
         Space::World => MeshSpace::World,
@@ -83,7 +122,7 @@ pub fn run(args: Args) -> Result<()> {
     let mut write = 0.0;
     if let Some(out) = &args.output {
         let start = Instant::now();
-        write_mesh(&mesh, out)?;
+        write_mesh(&mesh, out, values.as_deref())?;
         write = start.elapsed().as_secs_f64();
     }
     let dims = volume.dims().map(|d| d as u32);

@@ -237,3 +237,70 @@ fn color_by_resamples_other_grids_and_refuses_bad_attributes() {
     assert!(left.is_empty(), "left behind: {left:?}");
     std::fs::remove_dir_all(dir).unwrap();
 }
+
+/// `mc --color-by`: the attribute at every vertex as the PLY property `quality`, against the
+/// analytic field (linear in position, which trilinear sampling reproduces exactly); OBJ, which
+/// has no per-vertex values, is refused.
+#[test]
+fn mc_color_by_writes_each_vertex_value_into_the_ply() {
+    let dir = temp_dir("color-mc");
+    let surface = generated(&dir, "sphere", 32);
+    let field = dir.join("field.nrrd");
+    let f = |w: [f64; 3]| (2.0 * w[0] - w[1] + 0.5 * w[2]) as f32;
+    float_nrrd(&field, [32, 32, 32], [1.0; 3], [0.0; 3], f);
+    let ply = dir.join("m.ply");
+    let report = ok_json(&[
+        "mc",
+        s(&surface),
+        "--iso",
+        "127.5",
+        "--color-by",
+        s(&field),
+        "-o",
+        s(&ply),
+        "--json",
+    ]);
+    let bytes = std::fs::read(&ply).unwrap();
+    let end = bytes
+        .windows(11)
+        .position(|w| w == b"end_header\n")
+        .unwrap()
+        + 11;
+    let header = std::str::from_utf8(&bytes[..end]).unwrap();
+    assert!(
+        header.contains("property float z\nproperty float quality\n"),
+        "{header}"
+    );
+    let vertices = report["vertices"].as_u64().unwrap() as usize;
+    let mut checked = 0;
+    for v in bytes[end..end + 16 * vertices].chunks_exact(16) {
+        let x: Vec<f32> = v
+            .chunks_exact(4)
+            .map(|b| f32::from_le_bytes(b.try_into().unwrap()))
+            .collect();
+        // World space = index space here (spacing 1, origin 0).
+        let expected = f([x[0] as f64, x[1] as f64, x[2] as f64]);
+        assert!(
+            (x[3] - expected).abs() <= 1e-3 * expected.abs().max(1.0),
+            "{x:?} vs {expected}"
+        );
+        checked += 1;
+    }
+    assert!(checked > 500, "{checked} vertices");
+    let err = fails(
+        &[
+            "mc",
+            s(&surface),
+            "--iso",
+            "127.5",
+            "--color-by",
+            s(&field),
+            "-o",
+            s(&dir.join("m.obj")),
+        ],
+        "OBJ has no per-vertex values",
+    );
+    assert!(err.contains("m.obj"), "{err}");
+    assert!(!dir.join("m.obj").exists());
+    std::fs::remove_dir_all(dir).unwrap();
+}

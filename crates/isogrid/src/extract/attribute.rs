@@ -462,6 +462,41 @@ pub fn sample_attribute_in_memory(
     Ok(CellAttribute::from_values(name, precision, &values))
 }
 
+/// The attribute of a volume in memory at `points`, given in the index space of the volume of
+/// `geometry` (a mesh's vertices: sample (i, j, k) at (i, j, k)); NaN outside the attribute.
+pub fn sample_points_in_memory(
+    geometry: &Geometry,
+    points: &[[f64; 3]],
+    volume: &VolumeView<'_>,
+) -> Result<Vec<f32>> {
+    let alignment = alignment(geometry, volume.geometry())?;
+    let dims = volume.geometry().dims;
+    macro_rules! with {
+        ($samples:expr) => {{
+            let lattice = Lattice {
+                samples: $samples,
+                dims,
+                planes: 0..dims[2],
+            };
+            points
+                .par_iter()
+                .map(|&p| match &alignment {
+                    Alignment::SameGrid => lattice.trilinear(p),
+                    Alignment::Resampled { to_attribute } => {
+                        lattice.trilinear(apply(to_attribute, p))
+                    }
+                })
+                .collect()
+        }};
+    }
+    Ok(match volume.samples() {
+        Samples::U8(s) => with!(s),
+        Samples::U16(s) => with!(s),
+        Samples::I16(s) => with!(s),
+        Samples::F32(s) => with!(s),
+    })
+}
+
 /// The attribute planes the surface points of block layer `bz` can reach.
 fn layer_planes(
     info: &GridInfo,

@@ -15,19 +15,41 @@ impl McMesh {
     /// Writes a binary little-endian PLY: `float x, y, z` per vertex and a
     /// `list uchar uint vertex_indices` per face. Errors name `path`.
     pub fn write_ply(&self, path: &Path) -> Result<()> {
+        self.write_ply_with_values(path, None)
+    }
+
+    /// [`McMesh::write_ply`] with a per-vertex scalar, `property float quality` after x, y, z (the
+    /// attribute of `isogrid mc --color-by`; NaN where there is none). `quality` is the name
+    /// MeshLab reads as the vertex scalar (VTK's PLY reader keeps no extra vertex property under
+    /// any name). Errors name `path`.
+    ///
+    /// # Panics
+    /// When `values` does not hold one value per vertex.
+    pub fn write_ply_with_values(&self, path: &Path, values: Option<&[f32]>) -> Result<()> {
+        if let Some(values) = values {
+            assert_eq!(values.len(), self.positions.len(), "one value per vertex");
+        }
         write_atomic(path, |out| {
             write!(
                 out,
                 "ply\nformat binary_little_endian 1.0\ncomment isogrid marching cubes\n\
-                 element vertex {}\nproperty float x\nproperty float y\nproperty float z\n\
+                 element vertex {}\nproperty float x\nproperty float y\nproperty float z\n{}\
                  element face {}\nproperty list uchar uint vertex_indices\nend_header\n",
                 self.positions.len(),
+                if values.is_some() {
+                    "property float quality\n"
+                } else {
+                    ""
+                },
                 self.triangles.len()
             )?;
             let mut buf = Vec::with_capacity(CHUNK + 16);
-            for p in &self.positions {
+            for (i, p) in self.positions.iter().enumerate() {
                 for c in p {
                     buf.extend_from_slice(&c.to_le_bytes());
+                }
+                if let Some(values) = values {
+                    buf.extend_from_slice(&values[i].to_le_bytes());
                 }
                 if buf.len() >= CHUNK {
                     out.write_all(&buf)?;
