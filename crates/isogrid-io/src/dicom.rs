@@ -33,7 +33,8 @@
 //!   slice), a stack whose positions do not follow the normal (gantry tilt), mixed orientations
 //!   or two frames at one position are errors naming the slices: a regular grid cannot hold
 //!   them. Smaller unevenness (positions rounded by the scanner, e.g. to 0.1 mm) is read on the
-//!   grid of the mean step with a notice giving the largest distance that moves a slice. Without positions, frames are ordered by InstanceNumber and
+//!   grid of the mean step with a notice giving the largest distance that moves a slice; a slice
+//!   more than a quarter of a step off that grid is an error. Without positions, frames are ordered by InstanceNumber and
 //!   the k spacing is SpacingBetweenSlices, else SliceThickness, else 1.
 //! - **Grid:** i along a row (Columns samples), j down the columns (Rows samples), k = frame.
 //!   Spacing i = PixelSpacing[1], j = PixelSpacing[0] (mm), the same in every frame; a
@@ -172,6 +173,11 @@ const GAP_RATIO: f64 = 1.5;
 /// Slice positions that leave the regular grid by less than this fraction of the step are read
 /// without a notice (decimal rounding of exactly even positions).
 const QUIET_DEVIATION: f64 = 1e-3;
+
+/// Slice positions that leave the regular grid by more than this fraction of the step are an
+/// error: rounding moves a slice by a few percent of a step (1 % in the GE series), not by a
+/// quarter of one.
+const MAX_DEVIATION: f64 = 0.25;
 
 /// Sorts the frames into a regular stack and builds the volume (see the module doc), with a
 /// notice when the slice positions are not exactly even.
@@ -340,6 +346,17 @@ fn regular_step(frames: &[Frame], normal: Vec3) -> Result<(f64, Option<String>)>
         .map(|(k, f)| ((along(f) - along(&frames[0]) - k as f64 * mean).abs(), f))
         .max_by(|a, b| a.0.total_cmp(&b.0))
         .unwrap_or((0.0, &frames[0]));
+    // Steps that vary within 1.5x of each other can still add up (a series reconstructed at two
+    // pitches): a slice this far off the grid is misplaced, not rounded.
+    if deviation > MAX_DEVIATION * mean {
+        return Err(Error::invalid(format!(
+            "slices are unevenly spaced: {} is {deviation:.4} mm from where a regular grid of \
+             {mean:.4} mm steps puts it (steps {:.4} to {:.4} mm); a regular grid cannot hold them",
+            worst.describe(),
+            steps[0],
+            steps[steps.len() - 1]
+        )));
+    }
     let notice = (deviation > QUIET_DEVIATION * mean).then(|| {
         format!(
             "slice positions are not evenly spaced (steps {:.4} to {:.4} mm): read on a regular \

@@ -294,6 +294,17 @@ fn dicom_positions_rounded_by_the_scanner_read_with_a_notice_but_a_missing_slice
             && notices[0].contains("at most 0.0429 mm (s5)"),
         "{notices:?}"
     );
+    // Two pitches, 2.5 and 3 mm, each step within 1.5x of the median: s4 is 1 mm (36 % of the
+    // 2.75 mm mean step) off the regular grid, which no rounding explains.
+    let pitches = TempDir::new("dicom-two-pitches");
+    let zs = [0.0, 2.5, 5.0, 7.5, 10.0, 13.0, 16.0, 19.0, 22.0];
+    write_series(&pitches, "1.2.3", &zs, |k| format!("s{k}"));
+    let err = read_err(&pitches.0, &ReadOptions::default());
+    assert!(
+        err.message()
+            .contains("s4 is 1.0000 mm from where a regular grid of 2.7500 mm steps puts it"),
+        "{err}"
+    );
     // The same positions without s5: a step of 2 × 2.4 mm, 2× the median, is a missing slice.
     std::fs::remove_file(dir.path("s5")).unwrap();
     let err = read_err(&dir.0, &ReadOptions::default());
