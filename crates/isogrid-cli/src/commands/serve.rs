@@ -124,8 +124,12 @@ pub fn run(args: Args) -> Result<()> {
             }
         };
         let url = format!("http://{host}:{}/?src={url_path}", addr.port());
-        println!("serving     {} at {url}", file.display());
-        println!("            add &view=1|2 and &size=WxH for the camera of `isogrid render`; Ctrl-C stops");
+        // Written as every command writes stdout: a closed pipe ends the server quietly, a full
+        // disk in one line (crate::stdout).
+        outln!("serving     {} at {url}", file.display());
+        outln!(
+            "            add &view=1|2 and &size=WxH for the camera of `isogrid render`; Ctrl-C stops"
+        );
         if args.open {
             open_browser(&url);
         }

@@ -434,8 +434,10 @@ fn printing_to_a_closed_pipe_ends_quietly_and_to_a_full_disk_fails_in_one_line()
     let dir = temp_dir("stdout");
     let (volume, grid) = sphere_grid(&dir, 24);
     let mesh = dir.join("m.obj");
-    let every_printing_command: [Vec<&str>; 6] = [
+    let every_printing_command: [Vec<&str>; 7] = [
         vec!["info", s(&grid)],
+        // The server prints its URL first: without a reader it must end, not serve on.
+        vec!["serve", s(&grid), "--port", "0"],
         vec!["info", s(&grid), "--json"],
         vec!["extract", s(&volume), "--iso", "0.5", "-o", s(&grid)],
         vec!["mc", s(&volume), "--iso", "0.5", "-o", s(&mesh)],
