@@ -152,7 +152,8 @@ def write_report(path, results, args, load):
         "isogrid stores one value per active cell, the attribute at the cell's surface point "
         "([design/attributes.md](design/attributes.md)); vtkFlyingEdges3D interpolates the second "
         "point array onto every vertex (`InterpolateAttributes`); scikit-image gives the mesh and "
-        "`scipy.ndimage.map_coordinates` samples the attribute at its vertices."
+        "`scipy.ndimage.map_coordinates` samples the attribute at its vertices. The vtk wheel's "
+        "SMP backend is named in each row: with `Sequential` its 2-thread column runs on one thread."
     )
     for name, iso, ours, vtk_rows, backend, sk, verts, tris in results:
         cells = ours[("surface", 1)][1].active_cells
