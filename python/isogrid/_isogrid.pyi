@@ -26,7 +26,8 @@ class CellGrid:
     @property
     def stats(self) -> Dict[str, Any]:
         """dims, iso, precision, active_cells, metacells, metacell_slots, clusters, blocks,
-        nonempty_blocks, bytes {blocks, metacells, cells, paper_total}, bytes_per_cell."""
+        nonempty_blocks, bytes {blocks, metacells, cells, paper_total}, bytes_per_cell, attribute
+        (None, or {name, bits, range, bytes, bytes_per_cell})."""
     @property
     def info(self) -> Dict[str, Any]:
         """dims, spacing, origin, direction, scalar_type, value_range, iso, precision, iso_code,

@@ -96,8 +96,13 @@ type AttributeArg<'a, 'py> = (
     u32,
 );
 
-/// `stats` as a dict with the names of the CLI's `--json` output (without `seconds`).
-pub fn stats_dict<'py>(py: Python<'py>, s: &GridStats) -> PyResult<Bound<'py, PyDict>> {
+/// `stats` as a dict with the names of the CLI's `--json` output (without `seconds`), with the
+/// grid's `attribute` (`None` without one) as `isogrid extract --color-by --json` gives it.
+pub fn stats_dict<'py>(
+    py: Python<'py>,
+    s: &GridStats,
+    attribute: Option<&isogrid::CellAttribute>,
+) -> PyResult<Bound<'py, PyDict>> {
     let d = PyDict::new(py);
     d.set_item("dims", tuple3(s.dims))?;
     d.set_item("iso", s.iso)?;
@@ -115,6 +120,22 @@ pub fn stats_dict<'py>(py: Python<'py>, s: &GridStats) -> PyResult<Bound<'py, Py
     bytes.set_item("paper_total", s.bytes.paper_total)?;
     d.set_item("bytes", bytes)?;
     d.set_item("bytes_per_cell", s.bytes_per_cell())?;
+    match attribute {
+        None => d.set_item("attribute", py.None())?,
+        Some(a) => {
+            let info = a.info();
+            let entry = PyDict::new(py);
+            entry.set_item("name", &info.name)?;
+            entry.set_item("bits", info.precision.bits())?;
+            entry.set_item("range", vec![info.range[0], info.range[1]])?;
+            entry.set_item(
+                "bytes",
+                (a.head_bytes().len() + a.value_bytes().len()) as u64,
+            )?;
+            entry.set_item("bytes_per_cell", info.precision.bytes() as f64)?;
+            d.set_item("attribute", entry)?;
+        }
+    }
     Ok(d)
 }
 
@@ -208,7 +229,7 @@ impl CellGrid {
     /// Counts and sizes, with the names of the CLI's `--json` output (without `seconds`).
     #[getter]
     fn stats<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        stats_dict(py, &GridStats::of(&self.inner))
+        stats_dict(py, &GridStats::of(&self.inner), self.inner.attribute())
     }
 
     /// Geometry, isovalue and value mapping (the `.cgc` header).

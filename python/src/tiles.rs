@@ -199,6 +199,6 @@ impl _TileExtraction {
         if let Some(err) = raised {
             return Err(err);
         }
-        stats_dict(py, &summary.map_err(to_py)?.stats)
+        stats_dict(py, &summary.map_err(to_py)?.stats, None)
     }
 }

@@ -155,3 +155,21 @@ def test_mc_color_by_writes_a_vertex_scalar_that_meshlab_reads(cli, tmp_path):
     p = mesh.vertex_matrix()  # world = index (x, y, z) here: spacing 1, origin 0
     np.testing.assert_allclose(mesh.vertex_scalar_array(), p[:, 0] + 2 * p[:, 1] - p[:, 2], atol=1e-3)
     assert len(p) > 300
+
+
+def test_stats_carry_the_attribute_as_the_cli_json_does(cli, tmp_path):
+    import json
+    import subprocess
+
+    np.save(tmp_path / "s.npy", _sphere(24))
+    np.save(tmp_path / "a.npy", _sphere(24).astype(np.float32) * 0.5)
+    report = json.loads(
+        subprocess.run(
+            [cli, "extract", tmp_path / "s.npy", "--iso", "127.5", "--color-by", tmp_path / "a.npy", "--json"],
+            check=True,
+            capture_output=True,
+        ).stdout
+    )
+    grid = isogrid.extract(tmp_path / "s.npy", iso=127.5, attribute=tmp_path / "a.npy")
+    assert grid.stats["attribute"] == report["attribute"]
+    assert isogrid.extract(_sphere(24), iso=127.5).stats["attribute"] is None
