@@ -82,8 +82,9 @@ def test_stats_names_match_the_cli_json(grid):
     s = grid.stats
     assert set(s) == {
         "dims", "iso", "precision", "active_cells", "metacells", "metacell_slots", "clusters",
-        "blocks", "nonempty_blocks", "bytes", "bytes_per_cell",
+        "blocks", "nonempty_blocks", "bytes", "bytes_per_cell", "attribute",
     }
+    assert s["attribute"] is None
     assert s["clusters"] * 16 == s["metacell_slots"]
     total = s["bytes"]["blocks"] + s["bytes"]["paper_total"]
     assert s["bytes_per_cell"] == pytest.approx(total / s["active_cells"])
