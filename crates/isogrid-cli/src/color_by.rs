@@ -37,6 +37,23 @@ pub struct AttributeInput {
 }
 
 impl AttributeInput {
+    /// The attribute of a `--color-by` flag (`None` without one) for a surface of `input`.
+    pub fn from_flag(
+        flag: Option<&str>,
+        input: &Path,
+        input_options: &ReadOptions,
+    ) -> Result<Option<Self>> {
+        flag.map(|text| Self::new(text, input, input_options))
+            .transpose()
+    }
+
+    /// The files a command reads: `input`, and the attribute's file (which no output may be).
+    pub fn inputs<'a>(input: &'a Path, attribute: Option<&'a AttributeInput>) -> Vec<&'a Path> {
+        let mut inputs = vec![input];
+        inputs.extend(attribute.map(|a| a.path.as_path()));
+        inputs
+    }
+
     /// `--color-by TEXT` for a surface of `input` read with `input_options`.
     pub fn new(text: &str, input: &Path, input_options: &ReadOptions) -> Result<Self> {
         let as_path = PathBuf::from(text);

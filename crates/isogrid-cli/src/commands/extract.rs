@@ -57,14 +57,12 @@ pub fn run(args: Args) -> Result<()> {
         extensions: &[".cgc"],
     });
     let read_options = args.input_args.read_options()?;
-    let attribute = args
-        .color_by
-        .as_deref()
-        .map(|text| AttributeInput::new(text, &args.input, &read_options))
-        .transpose()?;
-    let mut inputs = vec![args.input.as_path()];
-    inputs.extend(attribute.as_ref().map(|a| a.path.as_path()));
-    outputs::check(&inputs, output.as_slice())?;
+    let attribute =
+        AttributeInput::from_flag(args.color_by.as_deref(), &args.input, &read_options)?;
+    outputs::check(
+        &AttributeInput::inputs(&args.input, attribute.as_ref()),
+        output.as_slice(),
+    )?;
     let options = ExtractOptions {
         iso: args.iso.iso(),
         precision: args.precision,
