@@ -881,3 +881,73 @@ fn colour_options_fail_clearly_where_they_cannot_be_drawn() {
     assert!(png_rgb(&a) == png_rgb(&b), "the same colours");
     std::fs::remove_dir_all(dir).unwrap();
 }
+
+/// `--colorbar`: every row of the bar is the colour table's entry for it (the table of
+/// `isogrid::colormap`, itself checked against the published viridis ends), labels are drawn
+/// beside it, and the rest of the image is the render without the bar.
+#[test]
+fn the_colour_bar_shows_the_table_and_leaves_the_picture_alone() {
+    let dir = temp_dir("colorbar");
+    let sphere = volume(&dir);
+    let field = dir.join("field.nrrd");
+    float_field(&field, 24, |p| p[0] - p[2]);
+    let cgc = colored_cgc(&sphere, &field);
+    let (plain, barred) = (dir.join("plain.png"), dir.join("bar.png"));
+    let (w, h) = (320u32, 240u32);
+    for (out, extra) in [(&plain, None), (&barred, Some("--colorbar"))] {
+        let mut args = vec![
+            "render",
+            s(&cgc),
+            "--backend",
+            "cpu",
+            "--size",
+            "320x240",
+            "--cmap",
+            "magma",
+            "-o",
+            s(out),
+            "--json",
+        ];
+        args.extend(extra);
+        json_of(&isogrid(&args));
+    }
+    let (a, b) = (png_rgb(&plain), png_rgb(&barred));
+    let table = isogrid::colormap::ColorMap::Magma.table();
+    let (left, top, bottom) = isogrid_render::colorbar::bar_box(w, h);
+    let at = |img: &[u8], x: u32, y: u32| {
+        let i = 3 * (x + w * y) as usize;
+        [img[i], img[i + 1], img[i + 2]]
+    };
+    for y in top..=bottom {
+        let expected = table[isogrid_render::colorbar::entry_of_row(top, bottom, y)];
+        assert_eq!(at(&b, left + 5, y), expected, "row {y}");
+    }
+    assert_eq!(at(&b, left + 5, bottom), table[0]);
+    assert_eq!(at(&b, left + 5, top), table[255]);
+    // Labels: white pixels left of the bar at its top, middle and bottom rows.
+    for row in [top, (top + bottom) / 2, bottom] {
+        let lit = (left - 70..left - 2)
+            .flat_map(|x| (row.saturating_sub(5)..row + 5).map(move |y| (x, y)))
+            .filter(|&(x, y)| at(&b, x, y) == [255, 255, 255])
+            .count();
+        assert!(lit > 5, "no label at row {row}");
+    }
+    // Left of the labels the picture is untouched.
+    for y in 0..h {
+        for x in 0..left - 80 {
+            assert_eq!(at(&a, x, y), at(&b, x, y), "pixel {x},{y}");
+        }
+    }
+    let out = isogrid(&[
+        "render",
+        s(&cgc),
+        "--colorbar",
+        "--size",
+        "64x48",
+        "-o",
+        s(&barred),
+    ]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--colorbar needs an image of at least"));
+    std::fs::remove_dir_all(dir).unwrap();
+}

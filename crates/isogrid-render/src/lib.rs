@@ -28,6 +28,7 @@
 //! # Ok(()) }
 //! ```
 
+pub mod colorbar;
 mod context;
 mod cpu;
 mod dispatch;

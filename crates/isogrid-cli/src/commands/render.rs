@@ -10,7 +10,7 @@ use crate::progress;
 use crate::report::print_json;
 use anyhow::{bail, Context, Result};
 use clap::builder::{PossibleValuesParser, TypedValueParser};
-use isogrid::colormap::ColorMap;
+use isogrid::colormap::{ColorMap, Coloring};
 use isogrid::{Camera, Progress};
 use isogrid_render::{
     Aov, Backend, CameraSpec, CellRaster, ColorSpec, Crossing, EnvSource, Mode, Placement, Primary,
@@ -125,6 +125,10 @@ pub struct Args {
     /// Values the colour map spans, LO,HI (default: the attribute's range on the surface).
     #[arg(long, value_name = "LO,HI", value_parser = parse_clim, allow_hyphen_values = true)]
     pub clim: Option<[f64; 2]>,
+    /// Draw a colour bar of the attribute's map, labelled with its range, at the image's right
+    /// edge.
+    #[arg(long)]
+    pub colorbar: bool,
     /// Print one JSON object.
     #[arg(long)]
     pub json: bool,
@@ -365,6 +369,7 @@ fn check_outputs(args: &Args) -> Result<()> {
 fn color_asked(args: &Args) -> bool {
     args.cmap.is_some()
         || args.clim.is_some()
+        || args.colorbar
         || args.source.color_by.is_some()
         || args.aov.as_ref().is_some_and(|a| a.value.is_some())
 }
@@ -457,12 +462,20 @@ pub fn run(args: Args) -> Result<()> {
     // Everything that does not need the data first.
     check_outputs(&args)?;
     request(&args, color_asked(&args))?;
+    let (min_w, min_h) = isogrid_render::colorbar::MIN_SIZE;
+    if args.colorbar && (args.size.0 < min_w || args.size.1 < min_h) {
+        bail!(
+            "--colorbar needs an image of at least {min_w}x{min_h} pixels, not {}x{}",
+            args.size.0,
+            args.size.1
+        );
+    }
     // The input before the GPU: a bad file or a missing --iso fails without starting a device
     // (whose drivers may print their own lines).
     let (grid, volume) = args.threads.install(|| args.source.load_with_volume())??;
     if color_asked(&args) && grid.attribute().is_none() {
         bail!(
-            "{}: --cmap, --clim and the value AOV colour by the grid's attribute, and it has none \
+            "{}: --cmap, --clim, --colorbar and the value AOV colour by the grid's attribute, and it has none \
              (extract with --color-by ATTR, or give --color-by here)",
             args.source.input.display()
         );
@@ -497,7 +510,17 @@ pub fn run(args: Args) -> Result<()> {
         r => r.with_context(|| args.source.input.display().to_string())?,
     };
     let (width, height) = args.size;
-    let (report, rendered) = RenderReport::new(&args, &grid, rendered);
+    let (report, mut rendered) = RenderReport::new(&args, &grid, rendered);
+    if let (true, Some(color)) = (args.colorbar, &request.parts().color) {
+        let attribute = grid
+            .attribute()
+            .expect("coloured requests have an attribute");
+        let clim = color
+            .clim
+            .unwrap_or_else(|| Coloring::default_clim(attribute.info().range));
+        let coloring = Coloring::new(color.map, clim)?;
+        isogrid_render::colorbar::draw(&mut rendered.rgb8, width, height, &coloring)?;
+    }
 
     // Every output is written before any replaces its file: a failure (a full disk) leaves all
     // of them as they were.
