@@ -383,11 +383,15 @@ def marching_cubes(
     threads: Optional[int] = None,
     series: Optional[str] = None,
     space: str = "world",
-) -> Tuple[np.ndarray, np.ndarray]:
+    attribute: Union[np.ndarray, Volume, PathLike, None] = None,
+) -> Tuple[np.ndarray, ...]:
     """Marching Cubes isosurface of a 3-D volume: the indexed mesh baseline of the paper.
 
     ``array``, ``iso``, ``iso_normalized``, ``spacing`` and ``series`` are read as by
-    :func:`extract`. ``space`` is ``"world"`` or ``"index"`` (see below).
+    :func:`extract`. ``space`` is ``"world"`` or ``"index"`` (see below). ``attribute`` is a
+    second volume as :func:`extract` takes it (an array on the same samples, or a
+    :class:`Volume` or path resampled in world space): its trilinear value at every vertex comes
+    back as a third array, float32 of shape (V,), NaN outside it.
 
     Returns:
         ``(vertices, faces)``: vertices float32 of shape (V, 3) as **(x, y, z)**. In ``"world"``
@@ -409,7 +413,10 @@ def marching_cubes(
     origin = array.origin if isinstance(array, Volume) else None
     direction = array.direction if isinstance(array, Volume) else None
     prepared, fortran = _prepare(array)
-    return _isogrid.marching_cubes(
+    attribute_arg = None
+    if attribute is not None:
+        attribute_arg = _attribute_arg(attribute, prepared, fortran, spacing3, origin, direction, 32)
+    return _isogrid.marching_cubes(  # type: ignore[no-any-return]
         prepared,
         fortran,
         spacing3,
@@ -419,6 +426,7 @@ def marching_cubes(
         origin=origin,
         direction=direction,
         index_space=space == "index",
+        attribute=attribute_arg,
     )
 
 

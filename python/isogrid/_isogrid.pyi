@@ -79,7 +79,8 @@ def marching_cubes(
     above: bool = False,
     direction: Optional[Sequence[Sequence[float]]] = None,
     index_space: bool = False,
-) -> Tuple[npt.NDArray[np.float32], npt.NDArray[np.uint32]]: ...
+    attribute: Optional[Tuple[Any, ...]] = None,
+) -> Tuple[np.ndarray, ...]: ...
 def skimage_normals_values(
     array: np.ndarray,
     fortran: bool,

@@ -85,8 +85,9 @@ pub fn extract(
     Ok(CellGrid { inner })
 }
 
-/// The attribute volume of `extract`: (array, fortran, spacing, origin, direction, name, bits).
-type AttributeArg<'a, 'py> = (
+/// The attribute volume of `extract` and `marching_cubes`: (array, fortran, spacing, origin,
+/// direction, name, bits).
+pub(crate) type AttributeArg<'a, 'py> = (
     Bound<'py, PyAny>,
     bool,
     Vec<f64>,

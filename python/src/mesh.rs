@@ -2,18 +2,20 @@
 
 use crate::array::{spacing3, VolumeArg};
 use crate::errors::to_py;
-use crate::grid::{iso_arg, to_array2};
+use crate::grid::{iso_arg, to_array2, AttributeArg};
+use isogrid::extract::attribute::sample_points_in_memory;
 use crate::pool::run_detached;
 use isogrid::mc::{Inside, MeshSpace};
-use numpy::PyArray2;
+use numpy::IntoPyArray;
 use pyo3::prelude::*;
+use pyo3::types::PyTuple;
 
 /// Vertices (V, 3) float32 in world space (x, y, z) = origin + i·sx·d_i + j·sy·d_j + k·sz·d_k
 /// (`direction` rows d_i, d_j, d_k; `index_space`: (i, j, k) instead), and faces (T, 3) uint32,
 /// counter-clockwise seen from outside (value < iso). With `above`, inside is `value > iso`
 /// (scikit-image's rule) instead of `value >= iso`. See `isogrid.marching_cubes`.
 #[pyfunction]
-#[pyo3(signature = (array, fortran, spacing, iso=None, iso_normalized=None, threads=None, origin=None, above=false, direction=None, index_space=false))]
+#[pyo3(signature = (array, fortran, spacing, iso=None, iso_normalized=None, threads=None, origin=None, above=false, direction=None, index_space=false, attribute=None))]
 #[allow(clippy::type_complexity, clippy::too_many_arguments)]
 pub fn marching_cubes<'py>(
     py: Python<'py>,
@@ -27,7 +29,8 @@ pub fn marching_cubes<'py>(
     above: bool,
     direction: Option<Vec<Vec<f64>>>,
     index_space: bool,
-) -> PyResult<(Bound<'py, PyArray2<f32>>, Bound<'py, PyArray2<u32>>)> {
+    attribute: Option<AttributeArg<'_, 'py>>,
+) -> PyResult<Bound<'py, PyTuple>> {
     let volume = VolumeArg::new(array, fortran, spacing3(spacing)?)?.place(origin, direction)?;
     let view = volume.view()?;
     let iso = iso_arg(iso, iso_normalized)?;
@@ -36,9 +39,29 @@ pub fn marching_cubes<'py>(
     } else {
         Inside::AtOrAbove
     };
-    let mesh = run_detached(py, threads, move || {
+    let attribute = attribute
+        .map(|(array, fortran, spacing, origin, direction, _, _)| {
+            VolumeArg::new(&array, fortran, spacing3(spacing)?)?.place(origin, direction)
+        })
+        .transpose()?;
+    let attribute_view = attribute.as_ref().map(|a| a.view()).transpose()?;
+    let (mesh, values) = run_detached(py, threads, move || {
         let iso = iso.resolve(&view)?;
         let mut mesh = isogrid::mc::try_marching_cubes_with(&view, iso, inside)?;
+        // The attribute at each vertex, from its index-space position (the library's are
+        // sample (i, j, k) at (i·sx, j·sy, k·sz)).
+        let values = match &attribute_view {
+            Some(attribute) => {
+                let s = view.geometry().spacing;
+                let points: Vec<[f64; 3]> = mesh
+                    .positions
+                    .iter()
+                    .map(|p| [0, 1, 2].map(|a| p[a] as f64 / s[a]))
+                    .collect();
+                Some(sample_points_in_memory(view.geometry(), &points, attribute)?)
+            }
+            None => None,
+        };
         // The library's positions are in the renderer's frame (origin and directions left out).
         let space = if index_space {
             MeshSpace::Index
@@ -46,11 +69,13 @@ pub fn marching_cubes<'py>(
             MeshSpace::World
         };
         mesh.place(&view.geometry(), space)?;
-        Ok::<_, isogrid::Error>(mesh)
+        Ok::<_, isogrid::Error>((mesh, values))
     })?
     .map_err(to_py)?;
-    Ok((
-        to_array2(py, mesh.positions)?,
-        to_array2(py, mesh.triangles)?,
-    ))
+    let vertices = to_array2(py, mesh.positions)?.into_any();
+    let faces = to_array2(py, mesh.triangles)?.into_any();
+    match values {
+        Some(values) => PyTuple::new(py, [vertices, faces, values.into_pyarray(py).into_any()]),
+        None => PyTuple::new(py, [vertices, faces]),
+    }
 }

@@ -173,3 +173,25 @@ def test_stats_carry_the_attribute_as_the_cli_json_does(cli, tmp_path):
     grid = isogrid.extract(tmp_path / "s.npy", iso=127.5, attribute=tmp_path / "a.npy")
     assert grid.stats["attribute"] == report["attribute"]
     assert isogrid.extract(_sphere(24), iso=127.5).stats["attribute"] is None
+
+
+def test_marching_cubes_returns_the_attribute_at_every_vertex():
+    """The third array is the attribute at each vertex: exact for a field linear in position (on
+    the same samples, and through a Volume of other geometry in world space)."""
+    sphere = isogrid.Volume(_sphere(30), spacing=(1.0, 1.5, 0.5), origin=(3.0, -2.0, 1.0))
+    z, y, x = np.mgrid[:30, :30, :30].astype(np.float64)
+    world = [1.0 * x + 3.0, 1.5 * y - 2.0, 0.5 * z + 1.0]
+    field = (world[0] - 2 * world[1] + world[2]).astype(np.float32)
+    vertices, faces, values = isogrid.marching_cubes(sphere, iso=127.5, attribute=field)
+    assert len(values) == len(vertices) > 500
+    expected = vertices[:, 0] - 2 * vertices[:, 1] + vertices[:, 2]  # world-space vertices
+    np.testing.assert_allclose(values, expected, atol=1e-3)
+    # Another sampling of the same field: half the resolution, shifted origin.
+    coarse_z, coarse_y, coarse_x = np.mgrid[:18, :26, :17].astype(np.float64)
+    coarse = isogrid.Volume(
+        (2.0 * coarse_x - 1.0 - 2 * (3.0 * coarse_y - 4.0) + (1.2 * coarse_z)).astype(np.float32),
+        spacing=(2.0, 3.0, 1.2), origin=(-1.0, -4.0, 0.0),
+    )
+    _, _, resampled = isogrid.marching_cubes(sphere, iso=127.5, attribute=coarse)
+    np.testing.assert_allclose(resampled, expected, atol=1e-3)
+    assert len(isogrid.marching_cubes(sphere, iso=127.5)) == 2
