@@ -168,6 +168,24 @@ fn color_by_resamples_other_grids_and_refuses_bad_attributes() {
     );
     assert!(!out.exists());
 
+    // A 2-D array is a plane, not an attribute volume.
+    let flat = dir.join("flat.nrrd");
+    float_nrrd(&flat, [20, 20, 1], [1.0; 3], [0.0; 3], |w| w[0] as f32);
+    let err = fails(
+        &[
+            "extract",
+            s(&surface),
+            "--iso",
+            "127.5",
+            "--color-by",
+            s(&flat),
+            "-o",
+            s(&out),
+        ],
+        "is not 3-D",
+    );
+    assert!(err.contains("flat.nrrd"), "{err}");
+    assert!(!out.exists());
     let broken = dir.join("broken.nrrd");
     std::fs::write(&broken, b"NRRD0004\ntype: float\n").unwrap();
     fails(

@@ -116,6 +116,13 @@ pub fn grid_geometry(info: &GridInfo) -> Geometry {
 /// How `attribute` lines up with `grid`. Fails when the attribute volume does not overlap the
 /// grid's box in world space, or when either geometry has no inverse.
 pub fn alignment(grid: &Geometry, attribute: &Geometry) -> Result<Alignment> {
+    if attribute.dims.iter().any(|&n| n < 2) {
+        let [x, y, z] = attribute.dims;
+        return Err(Error::invalid(format!(
+            "the attribute volume of {x}x{y}x{z} samples is not 3-D: an attribute needs two or \
+             more samples along every axis (an array of more axes needs --index)"
+        )));
+    }
     let close = |a: f64, b: f64| (a - b).abs() <= 1e-9 * a.abs().max(b.abs()).max(1.0);
     let same = grid.dims == attribute.dims
         && (0..3).all(|a| close(grid.spacing[a], attribute.spacing[a]))
