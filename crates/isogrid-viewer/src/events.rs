@@ -19,6 +19,8 @@ pub struct SourceInfo {
     pub value_range: Option<(f64, f64)>,
     /// A `.cgc` file's header: it fixes the isovalue and precision, and there is no volume.
     pub grid_info: Option<GridInfo>,
+    /// The name of a `.cgc` file's per-cell attribute, when it has one.
+    pub attribute: Option<String>,
 }
 
 impl SourceInfo {

@@ -215,6 +215,7 @@ impl Worker {
                     scalar_type: volume.scalar_type(),
                     value_range: range,
                     grid_info: None,
+                    attribute: None,
                 };
                 self.notify.send(Event::Opened {
                     generation: request.generation,
@@ -239,6 +240,7 @@ impl Worker {
                         scalar_type: info.scalar_type,
                         value_range: Some((info.value_range[0], info.value_range[1])),
                         grid_info: Some(info),
+                        attribute: grid.attribute().map(|a| a.info().name.clone()),
                     },
                 });
                 let stats = GridStats::of(&grid);
@@ -475,6 +477,33 @@ mod tests {
             );
             assert!(d1 <= t1, "{what}: {d1} done of {t1}");
         }
+    }
+
+    /// A `.cgc` file's attribute reaches the UI by name (the window says the viewer draws one
+    /// colour), and a file without one says none.
+    #[test]
+    fn opening_a_cgc_file_tells_the_ui_its_attribute() {
+        let dir =
+            std::env::temp_dir().join(format!("isogrid-viewer-attribute-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let volume = generate(Field::Sphere, 32, 1);
+        let grid = reference(&volume, Iso::Normalized(0.5), None);
+        let values: Vec<f32> = (0..grid.active_cells()).map(|i| i as f32).collect();
+        let attribute =
+            isogrid::CellAttribute::from_values("pet", isogrid::AttributePrecision::Code8, &values);
+        let cgc_path = dir.join("colored.cgc");
+        isogrid::cgc::write(&cgc_path, &grid.with_attribute(attribute).unwrap()).unwrap();
+        let (worker, _render_rx, event_rx) = spawn_opening(&cgc_path);
+        let opened = loop {
+            match event_rx.recv_timeout(WAIT).expect("the worker reports") {
+                Event::Opened { info, .. } => break info,
+                Event::Error { message, .. } => panic!("{message}"),
+                _ => continue,
+            }
+        };
+        assert_eq!(opened.attribute.as_deref(), Some("pet"));
+        drop(worker);
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]

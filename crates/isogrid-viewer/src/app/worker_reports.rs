@@ -105,7 +105,14 @@ impl App {
             ));
             self.mode = Mode::Cgc;
         }
-        self.note(format!("opened {}", info.path.display()), false);
+        // The viewer's GPU renderer draws one colour: say so rather than look uncoloured.
+        let colour = match &info.attribute {
+            Some(name) => format!(
+                "; its attribute {name:?} is drawn in colour by `isogrid render` (the viewer draws one colour)"
+            ),
+            None => String::new(),
+        };
+        self.note(format!("opened {}{colour}", info.path.display()), false);
         self.source = Some(info);
         self.texture = None;
         self.shown = None;
