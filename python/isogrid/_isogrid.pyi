@@ -68,6 +68,13 @@ def extract(
     attribute: Optional[Tuple[Any, ...]] = None,
 ) -> CellGrid: ...
 def load(path: _Path) -> CellGrid: ...
+def _attach_attribute(
+    path: _Path,
+    attribute_path: Optional[_Path] = None,
+    array: Optional[Tuple[Any, ...]] = None,
+    bits: int = 16,
+    threads: Optional[int] = None,
+) -> None: ...
 def marching_cubes(
     array: np.ndarray,
     fortran: bool,

@@ -58,7 +58,7 @@ try:
 except ImportError as err:  # pragma: no cover - depends on the environment
     raise ImportError("isogrid.dask needs dask: pip install 'isogrid[dask]'") from err
 
-from . import _isogrid, _int, _iso_pair, _sample_dtype, _triple, _warn_if_empty
+from . import _isogrid, _int, _iso_pair, _prepare, _sample_dtype, _triple, _warn_if_empty
 
 __all__ = ["extract"]
 
@@ -82,6 +82,8 @@ def extract(
     index: Optional[Dict[str, int]] = None,
     tile_bytes: int = DEFAULT_TILE_BYTES,
     tile_shape: Optional[Sequence[int]] = None,
+    attribute: Any = None,
+    attribute_precision: int = 16,
 ) -> Dict[str, Any]:
     """Extracts the active cells of a 3-D volume on Dask and writes them to the ``.cgc`` ``output``.
 
@@ -111,6 +113,13 @@ def extract(
             never holds less than one block (17³ samples).
         tile_shape: the (z, y, x) samples a tile covers, each a multiple of 16 (a tile reads one
             more along each axis, its halo); default: picked from ``tile_bytes`` and the chunks.
+        attribute: a second volume to colour the surface by, as :func:`isogrid.extract` takes
+            it: the path of a volume file or Zarr store (read by region where its format allows,
+            resampled in world space when its grid differs), or an array indexed ``[z, y, x]`` on
+            the surface's samples (a dask array is computed into memory). Sampled by the driver
+            once the surface is extracted; the file is the one ``isogrid.extract(...,
+            attribute=...)`` writes.
+        attribute_precision: bits per stored attribute value, 8, 16 or 32.
 
     Returns:
         The statistics ``isogrid extract --json`` prints: dims, iso, precision, active_cells,
@@ -185,12 +194,46 @@ def extract(
     # complete, after the one-pass tiles' output.
     jobs = extraction.plan_emits(tile, budget)
     emits = chunks.tasks(_emit, [(samples, (job, index)) for index, (samples, job) in enumerate(jobs)])
-    stats = extraction.write(out, run.as_completed(emits))
+    if attribute is None:
+        stats = extraction.write(out, run.as_completed(emits))
+    else:
+        # The surface goes to a file beside the output, gets its attribute, then takes the
+        # output's name: on any error nothing is left under it.
+        surface = os.path.join(parent, f".{os.path.basename(out)}.surface{os.getpid()}")
+        try:
+            stats = extraction.write(surface, run.as_completed(emits))
+            _attach_attribute(surface, attribute, (nx, ny, nz), spacing3, origin3, geometry["direction"],
+                              _int(attribute_precision, "attribute_precision"))
+            os.replace(surface, out)
+        finally:
+            if os.path.exists(surface):
+                os.remove(surface)
+        stats["attribute"] = _isogrid.load(out).stats["attribute"]
     stats["seconds"] = {"read": read, "extract": time.perf_counter() - start - read, "write": 0.0}
     if stats["active_cells"] == 0:
         # As isogrid.extract warns; the empty grid's file is small, its header says why.
         _warn_if_empty(_isogrid.load(out))
     return stats
+
+
+def _attach_attribute(path: str, attribute: Any, dims: Tuple[int, int, int], spacing: Tuple[float, ...],
+                      origin: Tuple[float, ...], direction: Any, bits: int) -> None:
+    """Samples `attribute` (a path, or an array [z, y, x] on the surface's samples) at the cells
+    of the `.cgc` file `path`, rewriting it."""
+    if isinstance(attribute, (str, os.PathLike)):
+        _isogrid._attach_attribute(path, attribute_path=os.fspath(attribute), bits=bits)
+        return
+    array = np.asarray(attribute)
+    if array.shape != dims[::-1]:
+        raise ValueError(
+            f"an attribute array of shape {array.shape} (z, y, x) lies on the surface's samples, "
+            f"shape {dims[::-1]}; give a path to resample another grid"
+        )
+    prepared, fortran = _prepare(array)
+    direction = [list(map(float, row)) for row in direction]
+    _isogrid._attach_attribute(
+        path, array=(prepared, fortran, list(spacing), list(origin), direction, "attribute", bits), bits=bits
+    )
 
 
 Box = Tuple[Tuple[int, int], Tuple[int, int], Tuple[int, int]]

@@ -4,7 +4,7 @@
 use crate::array::{spacing3, VolumeArg};
 use crate::errors::{invalid, to_py};
 use crate::pool::run_detached;
-use isogrid::extract::attribute::sample_attribute_in_memory;
+use isogrid::extract::attribute::{sample_attribute, sample_attribute_in_memory};
 use isogrid::{layout, AttributePrecision, ExtractOptions, GridStats, Iso, Precision, ScalarType};
 use numpy::ndarray::{ArrayView1, ArrayView2};
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyArrayDescr, PyArrayMethods};
@@ -83,6 +83,57 @@ pub fn extract(
         inner.set_attribute(sampled).map_err(to_py)?;
     }
     Ok(CellGrid { inner })
+}
+
+/// Gives the `.cgc` file `path` the attribute of the volume file `attribute_path` (read by region
+/// where its format allows, as `isogrid extract --color-by`), or of `array` (an `AttributeArg`),
+/// sampled at each active cell's surface point; the file is rewritten atomically. For
+/// `isogrid.dask.extract`, whose driver writes the surface first.
+#[pyfunction]
+#[pyo3(signature = (path, attribute_path=None, array=None, bits=16, threads=None))]
+pub fn _attach_attribute(
+    py: Python<'_>,
+    path: PathBuf,
+    attribute_path: Option<PathBuf>,
+    array: Option<AttributeArg<'_, '_>>,
+    bits: u32,
+    threads: Option<usize>,
+) -> PyResult<()> {
+    let precision = AttributePrecision::from_bits(bits)
+        .ok_or_else(|| invalid(format!("attribute precision must be 8, 16 or 32, not {bits}")))?;
+    let grid = py.detach(|| isogrid::cgc::open(&path)).map_err(to_py)?;
+    let sampled = match (attribute_path, array) {
+        (Some(attribute_path), None) => {
+            let name = attribute_path
+                .file_name()
+                .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
+            let options = isogrid_io::ReadOptions::default();
+            let grid = &grid;
+            run_detached(py, threads, move || -> isogrid::Result<_> {
+                match isogrid_io::open_region(&attribute_path, &options)? {
+                    Some(mut region) => sample_attribute(grid, region.as_mut(), &name, precision),
+                    None => {
+                        let volume = isogrid_io::read_volume(&attribute_path, &options)?;
+                        sample_attribute_in_memory(grid, &volume.view(), &name, precision)
+                    }
+                }
+                .map_err(|e| e.with_path(&attribute_path))
+            })?
+        }
+        (None, Some((array, fortran, spacing, origin, direction, name, _))) => {
+            let volume =
+                VolumeArg::new(&array, fortran, spacing3(spacing)?)?.place(origin, direction)?;
+            let view = volume.view()?;
+            let grid = &grid;
+            run_detached(py, threads, move || {
+                sample_attribute_in_memory(grid, &view, &name, precision)
+            })?
+        }
+        _ => return Err(invalid("give the attribute as a path or as an array, once")),
+    }
+    .map_err(to_py)?;
+    let grid = grid.with_attribute(sampled).map_err(to_py)?;
+    py.detach(|| isogrid::cgc::write(&path, &grid)).map_err(to_py)
 }
 
 /// The attribute volume of `extract` and `marching_cubes`: (array, fortran, spacing, origin,

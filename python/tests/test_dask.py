@@ -406,3 +406,26 @@ def test_the_driver_stopping_ends_a_local_pass(tmp_path):
     assert len(next(results)) >= 1000
     results.close()  # joins the pass's thread: returns only if the pass ended
     assert not any(t.name == "isogrid-dask-pass" for t in threading.enumerate())
+
+
+def test_an_attribute_gives_the_bytes_of_extract_with_it(tmp_path):
+    """``attribute=`` as a path (read by region in the driver) and as an array: the file is
+    ``isogrid.extract(..., attribute=...)``'s, byte for byte, and a bad one leaves no file."""
+    a = volume(np.uint16)
+    field = (volume(np.float32) * 3.0 + np.arange(SHAPE[2], dtype=np.float32)).astype(np.float32)
+    np.save(tmp_path / "field.npy", field)
+    store = tmp_path / "volume.zarr"
+    z = zarr.open(str(store), mode="w", shape=a.shape, chunks=CHUNKS, dtype=a.dtype)
+    z[...] = a
+    for attribute, name in [(tmp_path / "field.npy", "path"), (field, "array")]:
+        expected = in_process_bytes(a, tmp_path, iso_normalized=0.5, attribute=attribute)
+        out = tmp_path / f"{name}.cgc"
+        stats = isogrid.dask.extract(str(store), iso_normalized=0.5, output=out, tile_bytes=TILE_BYTES,
+                                     attribute=attribute)
+        assert out.read_bytes() == expected, name
+        assert stats["attribute"] == isogrid.load(out).stats["attribute"] != None  # noqa: E711
+    with pytest.raises(ValueError, match="surface's samples"):
+        isogrid.dask.extract(str(store), iso_normalized=0.5, output=tmp_path / "bad.cgc",
+                             attribute=np.zeros((3, 3, 3), np.float32))
+    assert not (tmp_path / "bad.cgc").exists()
+    assert not [p for p in os.listdir(tmp_path) if p.startswith(".")]
