@@ -4,7 +4,6 @@ use crate::mode::Mode;
 use crate::output::{CpuStats, Rendered};
 use crate::policy::Placement;
 use crate::request::RenderRequest;
-use isogrid::colormap::Coloring;
 use isogrid::{Camera, CellGrid, Error, Progress, Result};
 use isogrid_trace::{render_with_progress, Crossing, PathTraceOptions, RenderOptions, Shading};
 use std::time::Instant;
@@ -34,10 +33,7 @@ pub(crate) fn render(
             let attribute = grid.attribute().ok_or_else(|| {
                 Error::invalid("colouring asks for the grid's attribute, and the grid has none")
             })?;
-            let clim = spec
-                .clim
-                .unwrap_or_else(|| Coloring::default_clim(attribute.info().range));
-            Some(Coloring::new(spec.map, clim)?)
+            Some(spec.coloring(attribute)?)
         }
     };
     let options = RenderOptions {

@@ -79,6 +79,20 @@ pub struct ColorSpec {
     pub clim: Option<[f64; 2]>,
 }
 
+impl ColorSpec {
+    /// How `attribute`'s values become colours: the map over `clim`, or over the attribute's
+    /// range on the surface.
+    pub fn coloring(
+        &self,
+        attribute: &isogrid::CellAttribute,
+    ) -> Result<isogrid::colormap::Coloring> {
+        let clim = self
+            .clim
+            .unwrap_or_else(|| isogrid::colormap::Coloring::default_clim(attribute.info().range));
+        isogrid::colormap::Coloring::new(self.map, clim)
+    }
+}
+
 impl Default for RequestParts {
     fn default() -> Self {
         RequestParts {

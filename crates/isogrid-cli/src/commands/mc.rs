@@ -45,6 +45,13 @@ pub enum Space {
     Index,
 }
 
+fn obj_has_no_values(path: &Path) -> anyhow::Error {
+    anyhow::anyhow!(
+        "{}: OBJ has no per-vertex values; write the mesh as .ply with --color-by",
+        path.display()
+    )
+}
+
 pub fn write_mesh(mesh: &McMesh, path: &Path, values: Option<&[f32]>) -> Result<()> {
     match path
         .extension()
@@ -53,10 +60,7 @@ pub fn write_mesh(mesh: &McMesh, path: &Path, values: Option<&[f32]>) -> Result<
         .as_deref()
     {
         Some("ply") => mesh.write_ply_with_values(path, values)?,
-        Some("obj") if values.is_some() => bail!(
-            "{}: OBJ has no per-vertex values; write the mesh as .ply with --color-by",
-            path.display()
-        ),
+        Some("obj") if values.is_some() => return Err(obj_has_no_values(path)),
         Some("obj") => mesh.write_obj(path)?,
         _ => bail!("{}: mesh output must end in .ply or .obj", path.display()),
     }
@@ -77,12 +81,10 @@ pub fn run(args: Args) -> Result<()> {
         &AttributeInput::inputs(&args.input, attribute.as_ref()),
         output.as_slice(),
     )?;
+    // Refused before the work, as write_mesh would refuse it after.
     if let (Some(_), Some(out)) = (&attribute, &args.output) {
         if !out.to_string_lossy().to_ascii_lowercase().ends_with(".ply") {
-            bail!(
-                "{}: OBJ has no per-vertex values; write the mesh as .ply with --color-by",
-                out.display()
-            );
+            return Err(obj_has_no_values(out));
         }
     }
     let (volume, read) = input::read_volume(&args.input, &read_options)?;

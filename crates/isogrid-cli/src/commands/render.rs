@@ -286,7 +286,12 @@ struct ColorReport {
 }
 
 impl RenderReport {
-    fn new(args: &Args, grid: &isogrid::CellGrid, r: Rendered) -> (Self, Rendered) {
+    fn new(
+        args: &Args,
+        grid: &isogrid::CellGrid,
+        r: Rendered,
+        coloring: Option<&Coloring>,
+    ) -> (Self, Rendered) {
         let path_trace = args.mode == Mode::PathTrace;
         let cpu = r.cpu.as_ref();
         let gpu = r.gpu.as_ref();
@@ -321,12 +326,10 @@ impl RenderReport {
                 CellRaster::Hardware => "hardware",
                 _ => "compute",
             }),
-            color: grid.attribute().map(|a| ColorReport {
+            color: grid.attribute().zip(coloring).map(|(a, c)| ColorReport {
                 attribute: a.info().name.clone(),
-                cmap: args.cmap.unwrap_or_default().name(),
-                clim: args
-                    .clim
-                    .unwrap_or_else(|| isogrid::colormap::Coloring::default_clim(a.info().range)),
+                cmap: c.map.name(),
+                clim: c.clim,
             }),
             output: args.output.clone(),
         };
@@ -510,16 +513,13 @@ pub fn run(args: Args) -> Result<()> {
         r => r.with_context(|| args.source.input.display().to_string())?,
     };
     let (width, height) = args.size;
-    let (report, mut rendered) = RenderReport::new(&args, &grid, rendered);
-    if let (true, Some(color)) = (args.colorbar, &request.parts().color) {
-        let attribute = grid
-            .attribute()
-            .expect("coloured requests have an attribute");
-        let clim = color
-            .clim
-            .unwrap_or_else(|| Coloring::default_clim(attribute.info().range));
-        let coloring = Coloring::new(color.map, clim)?;
-        isogrid_render::colorbar::draw(&mut rendered.rgb8, width, height, &coloring)?;
+    let coloring = match (&request.parts().color, grid.attribute()) {
+        (Some(spec), Some(attribute)) => Some(spec.coloring(attribute)?),
+        _ => None,
+    };
+    let (report, mut rendered) = RenderReport::new(&args, &grid, rendered, coloring.as_ref());
+    if let (true, Some(coloring)) = (args.colorbar, &coloring) {
+        isogrid_render::colorbar::draw(&mut rendered.rgb8, width, height, coloring)?;
     }
 
     // Every output is written before any replaces its file: a failure (a full disk) leaves all
