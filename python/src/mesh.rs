@@ -48,16 +48,10 @@ pub fn marching_cubes<'py>(
     let (mesh, values) = run_detached(py, threads, move || {
         let iso = iso.resolve(&view)?;
         let mut mesh = isogrid::mc::try_marching_cubes_with(&view, iso, inside)?;
-        // The attribute at each vertex, from its index-space position (the library's are
-        // sample (i, j, k) at (i·sx, j·sy, k·sz)).
+        // The attribute at each vertex, from its index-space position.
         let values = match &attribute_view {
             Some(attribute) => {
-                let s = view.geometry().spacing;
-                let points: Vec<[f64; 3]> = mesh
-                    .positions
-                    .iter()
-                    .map(|p| [0, 1, 2].map(|a| p[a] as f64 / s[a]))
-                    .collect();
+                let points = mesh.index_positions(view.geometry().spacing);
                 Some(sample_points_in_memory(view.geometry(), &points, attribute)?)
             }
             None => None,

@@ -129,7 +129,7 @@ def test_bad_attributes_and_colour_keywords_are_refused():
     with pytest.raises(ValueError):
         isogrid.render(coloured, size=(32, 24), clim=(1.0, 1.0))
     with pytest.raises(Exception, match="does not colour"):
-        isogrid.render(coloured, size=(32, 24), backend="gpu")
+        isogrid.render(coloured, size=(32, 24), mode="pathtrace", backend="gpu")
 
 
 def test_mc_color_by_writes_a_vertex_scalar_that_meshlab_reads(cli, tmp_path):

@@ -18,6 +18,9 @@ const IDS_FORMAT: GPUTextureFormat = 'rg32uint';
 const EWA_FORMAT: GPUTextureFormat = 'rgba16float';
 export const COLOR_FORMAT: GPUTextureFormat = 'rgba8unorm';
 const FINAL_FORMAT: GPUTextureFormat = 'rgba32float';
+const VALUE_FORMAT: GPUTextureFormat = 'r32float';
+/** Bytes of `ColorUniforms` (gpu_types.rs): mapping, params, NaN albedo, 256 table entries. */
+const COLOR_UNIFORMS_BYTES = 48 + 16 * 256;
 /** Six vertices (one rectangle) per instance; three lists: full, probe, new. */
 const EMPTY_ARGS = new Uint32Array([6, 0, 0, 0, 6, 0, 0, 0, 6, 0, 0, 0]);
 const LIST_FULL = 0;
@@ -58,6 +61,8 @@ export class Renderer {
   private visibleLast: GPUBuffer;
   private visibleNew: GPUBuffer;
   private volume: GPUTexture;
+  private coloring: GPUBuffer;
+  private attributeCodes: GPUBuffer;
   private argsTemplate: GPUBuffer;
   private layouts: Record<string, GPUBindGroupLayout> = {};
   private pipelines: Record<string, GPURenderPipeline | GPUComputePipeline> = {};
@@ -97,7 +102,8 @@ export class Renderer {
     layout('depth input', [tex(0, F, 'depth')]);
     layout('surface input', [tex(0, F, 'unfilterable-float')]);
     layout('ids input', [tex(0, C, 'uint')]);
-    layout('shading inputs', [tex(0, F, 'unfilterable-float'), tex(1, F, 'unfilterable-float'), tex(2, F, 'uint')]);
+    // Group 1 of shade.wgsl (passes/shade.rs): G-buffer, EWA sums, ids, colouring, attribute codes.
+    layout('shading inputs', [tex(0, F, 'unfilterable-float'), tex(1, F, 'unfilterable-float'), tex(2, F, 'uint'), uniform(3, F), storage(4, F, true)]);
 
     const module = (name: keyof typeof SHADERS) => d.createShaderModule({ label: `${name} (shaders/modules.txt)`, code: SHADERS[name] });
     const pl = (...names: string[]) => d.createPipelineLayout({ bindGroupLayouts: names.map((n) => this.layouts[n]) });
@@ -123,10 +129,15 @@ export class Renderer {
     const add: GPUBlendComponent = { srcFactor: 'one', dstFactor: 'one', operation: 'add' };
     set('ewa', rect('ewa normal splats', ['scene render', 'page render', 'surface input'], module('ewa'), 'vs_splat', 'fs_splat', [{ format: EWA_FORMAT, blend: { color: add, alpha: add } }], false));
     set('visibility', d.createComputePipelineAsync({ label: 'visibility update', layout: pl('scene compute', 'ids input'), compute: { module: module('visibility'), entryPoint: 'update_visibility' } }));
-    set('shade', rect('deferred shading', ['scene render', 'shading inputs'], module('shade'), 'vs_fullscreen', 'fs_shade', [{ format: COLOR_FORMAT }, { format: FINAL_FORMAT }], false));
+    set('shade', rect('deferred shading', ['scene render', 'shading inputs'], module('shade'), 'vs_fullscreen', 'fs_shade', [{ format: COLOR_FORMAT }, { format: FINAL_FORMAT }, { format: VALUE_FORMAT }], false));
 
     this.compiled = Promise.all(pending).then(() => undefined);
     this.uniforms = d.createBuffer({ label: 'frame uniforms', size: 112, usage: GPUBufferUsage.UNIFORM | GPUBufferUsage.COPY_DST });
+    // ColorUniforms of shade.wgsl (gpu_types.rs): COLOR_NONE, the one fixed albedo.
+    this.coloring = d.createBuffer({ label: 'colouring', size: COLOR_UNIFORMS_BYTES, usage: GPUBufferUsage.UNIFORM | GPUBufferUsage.COPY_DST });
+    this.attributeCodes = d.createBuffer({ label: 'no attribute codes', size: 16, usage: GPUBufferUsage.STORAGE });
+    // params.z: the bits of a NaN (WGSL has no NaN constant).
+    d.queue.writeBuffer(this.coloring, 24, new Uint32Array([0x7fc00000]));
     const clusters = Math.max(Math.ceil(grid.slotCount / CLUSTER_SLOTS), MIN_VISIBILITY_CLUSTERS);
     const visBytes = Math.ceil(clusters / 32) * 4;
     const vis = (label: string) => d.createBuffer({ label, size: visBytes, usage: GPUBufferUsage.STORAGE | GPUBufferUsage.COPY_DST });
@@ -247,6 +258,7 @@ export class Renderer {
       ewa: t('ewa normal accumulation', EWA_FORMAT, rt),
       color: t('shaded colour', COLOR_FORMAT, U.RENDER_ATTACHMENT | U.COPY_SRC),
       final: t('final normal + distance', FINAL_FORMAT, U.RENDER_ATTACHMENT),
+      value: t('shaded attribute value', VALUE_FORMAT, U.RENDER_ATTACHMENT),
     };
     const g = (layout: string, views: GPUTextureView[]) =>
       d.createBindGroup({ layout: this.layouts[layout], entries: views.map((v, i) => ({ binding: i, resource: v })) });
@@ -257,7 +269,14 @@ export class Renderer {
         depth: g('depth input', [tex.depth.createView()]),
         surface: g('surface input', [tex.surface.createView()]),
         ids: g('ids input', [tex.ids.createView()]),
-        shade: g('shading inputs', [tex.surface.createView(), tex.ewa.createView(), tex.ids.createView()]),
+        shade: d.createBindGroup({
+          layout: this.layouts['shading inputs'],
+          entries: [
+            ...[tex.surface, tex.ewa, tex.ids].map((x, i) => ({ binding: i, resource: x.createView() })),
+            { binding: 3, resource: { buffer: this.coloring } },
+            { binding: 4, resource: { buffer: this.attributeCodes } },
+          ],
+        }),
       },
     };
   }
@@ -326,6 +345,7 @@ export class Renderer {
       colorAttachments: [
         { view: T.tex.color.createView(), loadOp: 'clear', clearValue: [0, 0, 0, 1], storeOp: 'store' },
         { view: T.tex.final.createView(), loadOp: 'clear', clearValue: [0, 0, 0, 0], storeOp: 'store' },
+        { view: T.tex.value.createView(), loadOp: 'clear', clearValue: [0, 0, 0, 0], storeOp: 'store' },
       ],
       timestampWrites: timed ? { querySet: timed.set, endOfPassWriteIndex: 1 } : undefined,
     });

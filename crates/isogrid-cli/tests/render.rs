@@ -484,9 +484,7 @@ fn gpu_and_cpu_backends_agree_on_depth() {
         ];
         args.extend(extra);
         let out = isogrid(&args);
-        if !out.status.success() {
-            let err = String::from_utf8_lossy(&out.stderr);
-            assert!(err.contains("no GPU adapter"), "{backend}: {err}");
+        if failed_for_want_of_a_gpu(&out, backend) {
             return None;
         }
         if !extra.is_empty() {
@@ -669,6 +667,61 @@ fn png_rgb(path: &Path) -> Vec<u8> {
     buf
 }
 
+/// Whether a run failed, which it may only for want of a GPU adapter (asserted).
+fn failed_for_want_of_a_gpu(out: &std::process::Output, label: &str) -> bool {
+    if out.status.success() {
+        return false;
+    }
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("no GPU adapter"), "{label}: {err}");
+    true
+}
+
+/// ≥ 99 % of the hit pixels of a render show a value within 1 % of the colour range `clim` of
+/// `f` at the exact hit point (eye + depth × the pixel's ray); misses show NaN.
+fn assert_values_follow_the_hits(
+    label: &str,
+    values: &[f32],
+    depths: &[f32],
+    camera: &isogrid::Camera,
+    f: impl Fn([f64; 3]) -> f64,
+    [lo, hi]: [f64; 2],
+) {
+    let (mut hits, mut close) = (0, 0);
+    let mut errors = Vec::new();
+    for y in 0..camera.height {
+        for x in 0..camera.width {
+            let i = (x + camera.width * y) as usize;
+            if !depths[i].is_finite() {
+                assert!(
+                    values[i].is_nan(),
+                    "{label}: pixel {x},{y}: a miss with value {}",
+                    values[i]
+                );
+                continue;
+            }
+            let ray = camera.ray(x, y);
+            let p = [0, 1, 2].map(|a| ray.origin[a] + depths[i] as f64 * ray.direction[a]);
+            let error = (values[i] as f64 - f(p)).abs() / (hi - lo);
+            hits += 1;
+            close += (error <= 0.01) as usize;
+            errors.push(error);
+        }
+    }
+    errors.sort_by(f64::total_cmp);
+    eprintln!(
+        "{label}: {hits} hits, {close} within 1 % of the range; median {:.4}, p99 {:.4}, max {:.4}",
+        errors[errors.len() / 2],
+        errors[errors.len() * 99 / 100],
+        errors[errors.len() - 1]
+    );
+    assert!(hits > 1500, "{label}: {hits} hits");
+    assert!(
+        close as f64 >= 0.99 * hits as f64,
+        "{label}: {close} of {hits} within 1 %"
+    );
+}
+
 /// The value AOV against an independent reference: the attribute (linear in position, so the
 /// trilinear field equals it) at the exact hit point, eye + depth × the pixel's ray. A cell stores
 /// the value at its surface point, so a pixel sees that value wherever in the cell its ray hits;
@@ -710,39 +763,51 @@ fn the_value_aov_is_the_attribute_at_the_hit_and_colours_follow_the_map() {
     let (lo, hi) = (clim[0].as_f64().unwrap(), clim[1].as_f64().unwrap());
     let (values, depths) = (npy_f32(&value), npy_f32(&depth));
     let camera = isogrid::Camera::preset(2, [0.0; 3], [(size - 1) as f64; 3], w, h).unwrap();
-    let (mut hits, mut close) = (0, 0);
-    let mut errors = Vec::new();
-    for y in 0..h {
-        for x in 0..w {
-            let i = (x + w * y) as usize;
-            if !depths[i].is_finite() {
-                assert!(
-                    values[i].is_nan(),
-                    "pixel {x},{y}: a miss with value {}",
-                    values[i]
-                );
-                continue;
-            }
-            let ray = camera.ray(x, y);
-            let p = [0, 1, 2].map(|a| ray.origin[a] + depths[i] as f64 * ray.direction[a]);
-            let error = (values[i] as f64 - f(p)).abs() / (hi - lo);
-            hits += 1;
-            close += (error <= 0.01) as usize;
-            errors.push(error);
+    assert_values_follow_the_hits("cpu", &values, &depths, &camera, f, [lo, hi]);
+    // Every GPU raster mode colours the same surface the same way: cgc with either raster,
+    // without EWA, CR and the MC mesh (vertex values from the cells they lie on).
+    let gpu_modes: [&[&str]; 5] = [
+        &["--cell-raster", "hardware"],
+        &["--cell-raster", "compute"],
+        &["--mode", "cgc-noewa"],
+        &["--mode", "cr"],
+        &["--mode", "mc"],
+    ];
+    let (gpu_png, gpu_value, gpu_depth) =
+        (dir.join("g.png"), dir.join("g.npy"), dir.join("gd.npy"));
+    let gpu_aovs = format!("value={},depth={}", s(&gpu_value), s(&gpu_depth));
+    for extra in gpu_modes {
+        let label = extra.join(" ");
+        let mut args = vec![
+            "render",
+            s(&sphere),
+            "--iso",
+            "127.5",
+            "--color-by",
+            s(&field),
+            "--backend",
+            "gpu",
+            "--view",
+            "2",
+            "--size",
+            "160x120",
+            "--aov",
+            &gpu_aovs,
+            "-o",
+            s(&gpu_png),
+            "--json",
+        ];
+        args.extend(extra);
+        let out = isogrid(&args);
+        if failed_for_want_of_a_gpu(&out, &label) {
+            eprintln!("{label}: skipped, no GPU adapter");
+            break;
         }
+        let report: Value = serde_json::from_slice(&out.stdout).unwrap();
+        assert_eq!(report["backend"], "gpu", "{label}: {report}");
+        let (gpu_values, gpu_depths) = (npy_f32(&gpu_value), npy_f32(&gpu_depth));
+        assert_values_follow_the_hits(&label, &gpu_values, &gpu_depths, &camera, f, [lo, hi]);
     }
-    errors.sort_by(f64::total_cmp);
-    eprintln!(
-        "{hits} hits, {close} within 1 % of the range; median {:.4}, p99 {:.4}, max {:.4}",
-        errors[errors.len() / 2],
-        errors[errors.len() * 99 / 100],
-        errors[errors.len() - 1]
-    );
-    assert!(hits > 1500, "{hits} hits");
-    assert!(
-        close as f64 >= 0.99 * hits as f64,
-        "{close} of {hits} within 1 %"
-    );
     // Viridis: the lowest visible values are bluer, the highest yellower (map order).
     let rgb = png_rgb(&png);
     let mut visible: Vec<f32> = values.iter().copied().filter(|v| v.is_finite()).collect();
@@ -823,12 +888,30 @@ fn colour_options_fail_clearly_where_they_cannot_be_drawn() {
     let png = dir.join("x.png");
     for (args, words) in [
         (
-            vec!["render", s(&cgc), "--backend", "gpu", "-o", s(&png)],
+            vec![
+                "render",
+                s(&cgc),
+                "--mode",
+                "pathtrace",
+                "--backend",
+                "gpu",
+                "-o",
+                s(&png),
+            ],
             "does not colour",
         ),
         (
-            vec!["render", s(&cgc), "--mode", "mc", "-o", s(&png)],
-            "cannot colour",
+            vec![
+                "render",
+                s(&cgc),
+                "--mode",
+                "pathtrace",
+                "--primary",
+                "traced",
+                "-o",
+                s(&png),
+            ],
+            "does not colour",
         ),
         (
             vec!["render", s(&plain), "--cmap", "magma", "-o", s(&png)],

@@ -1,7 +1,9 @@
 // The Marching Cubes baseline (paper Table 4, "MC"): an indexed triangle mesh with snorm16
 // positions (Table 3 layout: 6 bytes per vertex, pulled from a storage buffer because there is no
 // 3-component 16-bit vertex format) and no stored normals; the face normal comes from screen-space
-// derivatives of the world position. Writes the same G-buffer as the cell passes.
+// derivatives of the world position. Writes the same G-buffer as the cell passes; the record
+// channel of the ID target carries the vertex attribute interpolated to the pixel (f32 bits) for
+// the shading pass's `COLOR_MESH`.
 
 @group(0) @binding(0) var<uniform> frame: FrameUniforms;
 
@@ -13,6 +15,9 @@ struct MeshUniforms {
 
 @group(1) @binding(0) var<uniform> mesh: MeshUniforms;
 @group(1) @binding(1) var<storage, read> positions: array<u32>;
+// One attribute value per vertex, or a dummy when the mesh has none (the shading pass then
+// ignores the record channel).
+@group(1) @binding(2) var<storage, read> vertex_values: array<f32>;
 
 fn snorm16(index: u32) -> f32 {
     let half_word = (positions[index / 2u] >> (16u * (index % 2u))) & 0xffffu;
@@ -23,6 +28,7 @@ fn snorm16(index: u32) -> f32 {
 struct MeshVarying {
     @builtin(position) position: vec4<f32>,
     @location(0) world: vec3<f32>,
+    @location(1) value: f32,
 }
 
 @vertex
@@ -32,6 +38,7 @@ fn vs_mesh(@builtin(vertex_index) vertex: u32) -> MeshVarying {
     var out: MeshVarying;
     out.position = clip_from_world(frame, p);
     out.world = p;
+    out.value = vertex_values[min(vertex, arrayLength(&vertex_values) - 1u)];
     return out;
 }
 
@@ -53,6 +60,6 @@ fn fs_mesh(in: MeshVarying, @builtin(front_facing) front: bool) -> MeshOut {
     }
     var out: MeshOut;
     out.surface = vec4<f32>(n, length(to_eye));
-    out.ids = vec2<u32>(0u, 0u);
+    out.ids = vec2<u32>(0u, bitcast<u32>(in.value));
     return out;
 }

@@ -1,16 +1,35 @@
 // Deferred normalised Blinn–Phong shading (paper §3.2) of the G-buffer, with the EWA-accumulated
-// normals (§3.4) when present: a full-screen fragment pass after the hardware raster, a compute
+// normals (§3.4) when present, and the albedo of a colour map over the hit cell's attribute value
+// (one value per cell, `isogrid::attribute`) or the MC mesh's interpolated vertex value: a full-screen fragment pass after the hardware raster, a compute
 // pass after the compute raster (the same `shade_pixel`; on GPUs with a weak graphics pipeline
 // the fragment pass alone costs more than the whole compute raster). Keep the constants and the formula in sync with
-// `crates/isogrid/src/shading.rs` (`shade`, `to_srgb8`, `BACKGROUND_SRGB`).
+// `crates/isogrid/src/shading.rs` (`shade_albedo`, `to_srgb8`, `BACKGROUND_SRGB`) and the colour
+// rule with `isogrid::colormap::Coloring::index`.
 
 @group(0) @binding(0) var<uniform> frame: FrameUniforms;
 @group(1) @binding(0) var raster_surface: texture_2d<f32>;
 @group(1) @binding(1) var ewa_normals: texture_2d<f32>;
 @group(1) @binding(2) var cluster_ids: texture_2d<u32>;
+
+// Keep in sync with `ColorUniforms` in src/gpu_types.rs.
+struct ColorUniforms {
+    mapping: vec4<f32>,  // value of code 0, value step per code, colour range low end, 1 / its width
+    params: vec4<u32>,   // x: COLOR_* source; y: the NaN code; z: the bits of a NaN (WGSL has no NaN constant)
+    nan_albedo: vec4<f32>,
+    table: array<vec4<f32>, 256>, // linear albedo of the colour map's entries
+}
+const COLOR_NONE: u32 = 0u;
+const COLOR_RECORDS: u32 = 1u;
+const COLOR_MESH: u32 = 2u;
+
+@group(1) @binding(3) var<uniform> coloring: ColorUniforms;
+// One 16-bit attribute code per corner record (global record index), two per word; a dummy word
+// when the surface is not coloured by records.
+@group(1) @binding(4) var<storage, read> attribute_codes: array<u32>;
 // The compute pass's outputs (the fragment pass writes the same as render targets).
 @group(2) @binding(0) var shaded_color: texture_storage_2d<rgba8unorm, write>;
 @group(2) @binding(1) var shaded_normal: texture_storage_2d<rgba32float, write>;
+@group(2) @binding(2) var shaded_value: texture_storage_2d<r32float, write>;
 
 const KEY_LIGHT_DIR: vec3<f32> = vec3<f32>(-0.40, 0.55, 0.73);
 const KEY_LIGHT_RADIANCE: f32 = 2.6;
@@ -23,9 +42,9 @@ const SHININESS: f32 = 48.0;
 const BACKGROUND_SRGB: vec3<f32> = vec3<f32>(28.0, 30.0, 36.0);
 const PI: f32 = 3.14159265358979;
 
-fn blinn_phong(n_in: vec3<f32>, view: vec3<f32>) -> vec3<f32> {
+fn blinn_phong(n_in: vec3<f32>, view: vec3<f32>, albedo: vec3<f32>) -> vec3<f32> {
     let n = select(n_in, -n_in, dot(n_in, view) < 0.0);
-    var rgb = ALBEDO * AMBIENT;
+    var rgb = albedo * AMBIENT;
     var dirs = array<vec3<f32>, 2>(KEY_LIGHT_DIR, FILL_LIGHT_DIR);
     var radiance = array<f32, 2>(KEY_LIGHT_RADIANCE, FILL_LIGHT_RADIANCE);
     for (var i = 0; i < 2; i++) {
@@ -36,7 +55,7 @@ fn blinn_phong(n_in: vec3<f32>, view: vec3<f32>) -> vec3<f32> {
         }
         let h = normalize(l + view);
         let spec = SPECULAR * (SHININESS + 8.0) / (8.0 * PI) * pow(max(dot(n, h), 0.0), SHININESS);
-        rgb += radiance[i] * ndl * (ALBEDO / PI + vec3<f32>(spec));
+        rgb += radiance[i] * ndl * (albedo / PI + vec3<f32>(spec));
     }
     return rgb;
 }
@@ -44,6 +63,31 @@ fn blinn_phong(n_in: vec3<f32>, view: vec3<f32>) -> vec3<f32> {
 struct ShadeOut {
     @location(0) color: vec4<f32>,
     @location(1) normal: vec4<f32>, // final world normal (EWA or raster), eye distance
+    @location(2) value: vec4<f32>,  // x: the attribute value the colour shows; NaN on a miss or uncoloured
+}
+
+// The attribute value under a hit pixel with IDs `ids` (cluster, record; the mesh pass writes the
+// value's bits as the record).
+fn surface_value(ids: vec2<u32>) -> f32 {
+    if coloring.params.x == COLOR_MESH {
+        return bitcast<f32>(ids.y);
+    }
+    let code = (attribute_codes[ids.y >> 1u] >> (16u * (ids.y & 1u))) & 0xffffu;
+    if code == coloring.params.y {
+        return bitcast<f32>(coloring.params.z);
+    }
+    return coloring.mapping.x + f32(code) * coloring.mapping.y;
+}
+
+// `Coloring::index`: the nearest of the 256 entries over the colour range, clamped; NaN apart.
+fn albedo_of(value: f32) -> vec3<f32> {
+    // By its bits: compilers may assume floats are never NaN and fold `value != value` away.
+    if (bitcast<u32>(value) & 0x7fffffffu) > 0x7f800000u {
+        return coloring.nan_albedo.rgb;
+    }
+    let t = clamp((value - coloring.mapping.z) * coloring.mapping.w, 0.0, 1.0);
+    // Halves round up, as Rust's `f64::round` does for these non-negative values.
+    return coloring.table[min(u32(floor(t * 255.0 + 0.5)), 255u)].rgb;
 }
 
 @vertex
@@ -55,10 +99,20 @@ fn vs_fullscreen(@builtin(vertex_index) vertex: u32) -> @builtin(position) vec4<
 fn shade_pixel(position: vec2<f32>) -> ShadeOut {
     let pixel = vec2<i32>(position);
     var out: ShadeOut;
-    if textureLoad(cluster_ids, pixel, 0).r == NO_CLUSTER {
+    let nan = bitcast<f32>(coloring.params.z);
+    let ids = textureLoad(cluster_ids, pixel, 0).rg;
+    if ids.x == NO_CLUSTER {
         out.color = vec4<f32>(BACKGROUND_SRGB / 255.0, 1.0);
         out.normal = vec4<f32>(0.0);
+        out.value = vec4<f32>(nan);
         return out;
+    }
+    var albedo = ALBEDO;
+    out.value = vec4<f32>(nan);
+    if coloring.params.x != COLOR_NONE {
+        let value = surface_value(ids);
+        albedo = albedo_of(value);
+        out.value = vec4<f32>(value);
     }
     let surface = textureLoad(raster_surface, pixel, 0);
     var n = surface.xyz;
@@ -73,7 +127,7 @@ fn shade_pixel(position: vec2<f32>) -> ShadeOut {
     // Camera space: x right, y up, z towards the viewer.
     let n_cam = vec3<f32>(dot(n, frame.right.xyz), dot(n, frame.up.xyz), -dot(n, frame.forward.xyz));
     let view = -vec3<f32>(dot(dir, frame.right.xyz), dot(dir, frame.up.xyz), -dot(dir, frame.forward.xyz));
-    let rgb = blinn_phong(n_cam, normalize(view));
+    let rgb = blinn_phong(n_cam, normalize(view), albedo);
     out.color = vec4<f32>(to_srgb8(rgb.x), to_srgb8(rgb.y), to_srgb8(rgb.z), 1.0);
     out.normal = vec4<f32>(n, surface.w);
     return out;
@@ -92,4 +146,5 @@ fn shade_pixels(@builtin(global_invocation_id) gid: vec3<u32>) {
     let out = shade_pixel(vec2<f32>(gid.xy) + 0.5);
     textureStore(shaded_color, vec2<i32>(gid.xy), out.color);
     textureStore(shaded_normal, vec2<i32>(gid.xy), out.normal);
+    textureStore(shaded_value, vec2<i32>(gid.xy), out.value);
 }

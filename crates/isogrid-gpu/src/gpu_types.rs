@@ -31,6 +31,32 @@ pub(crate) const FLAG_OCCLUSION: u32 = 1;
 pub(crate) const FLAG_BACKFACE: u32 = 2;
 pub(crate) const FLAG_EWA: u32 = 4;
 
+/// How the shading pass colours the surface (group 1, binding 3 of the shading passes). Keep in
+/// sync with `ColorUniforms` in `shaders/shade.wgsl`.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub(crate) struct ColorUniforms {
+    /// x: attribute value of code 0; y: value step per code; z: colour range low end; w: 1 / the
+    /// colour range's width.
+    pub mapping: [f32; 4],
+    /// x: `COLOR_*` source; y: the NaN code; z: the bits of a quiet NaN (WGSL rejects NaN
+    /// constants, so shaders read one from here); w unused.
+    pub params: [u32; 4],
+    /// Linear albedo of NaN values (rgb).
+    pub nan_albedo: [f32; 4],
+    /// The colour map's entries as linear albedo (rgb), `isogrid::colormap::TABLE_SIZE` of them.
+    pub table: [[f32; 4]; isogrid::colormap::TABLE_SIZE],
+}
+
+/// One fixed albedo (`isogrid::shading::ALBEDO`): no colour map.
+pub(crate) const COLOR_NONE: u32 = 0;
+/// The value of the cell's record, a 16-bit code in the uploaded attribute.
+pub(crate) const COLOR_RECORDS: u32 = 1;
+/// The value the mesh pass wrote, as f32 bits, in the record channel of the ID target.
+pub(crate) const COLOR_MESH: u32 = 2;
+
+const _: () = assert!(std::mem::size_of::<ColorUniforms>() == 48 + 16 * 256);
+
 /// One page of a grid's buffers (group 1, binding 0 of the cell passes). Keep in sync with
 /// `PageUniforms` in `shaders/common.wgsl`.
 #[repr(C)]

@@ -72,7 +72,7 @@ impl std::fmt::Display for Mode {
 }
 
 /// How to render.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct RenderOptions {
     /// Renders the same view this many times (at least 1); the visibility buffer converges over
     /// frames and timings are the median over frames after the first.
@@ -84,6 +84,11 @@ pub struct RenderOptions {
     pub backface_culling: bool,
     /// Which raster draws the cells; see [`CellRaster`].
     pub cell_raster: CellRaster,
+    /// Colours the surface by its attribute through this map and range: the grid's cell attribute
+    /// ([`crate::GpuGrid::has_attribute`]) or the mesh's vertex values
+    /// ([`crate::Renderer::upload_colored_mesh`]); `None` draws the one fixed albedo. The value
+    /// each pixel shows is read back as [`crate::Frame::value`]. Not for path tracing.
+    pub coloring: Option<isogrid::colormap::Coloring>,
 }
 
 impl Default for RenderOptions {
@@ -93,6 +98,7 @@ impl Default for RenderOptions {
             occlusion_culling: true,
             backface_culling: true,
             cell_raster: CellRaster::Auto,
+            coloring: None,
         }
     }
 }

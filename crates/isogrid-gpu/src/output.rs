@@ -16,6 +16,9 @@ pub struct Frame {
     pub normal: Vec<[f32; 3]>,
     /// Cluster index of the hit (global, slot / 16); `u32::MAX` on a miss, 0 for MC hits.
     pub cluster: Vec<u32>,
+    /// With [`crate::RenderOptions::coloring`]: the attribute value each pixel is coloured by
+    /// (the hit cell's, or the mesh's interpolated), NaN on a miss or a NaN value; empty otherwise.
+    pub value: Vec<f32>,
     pub timings: PassTimings,
     /// Cells fully rasterised in the last frame (both visibility passes; 0 for MC).
     pub drawn_cells: u64,

@@ -136,14 +136,25 @@ impl Renderer {
     }
 
     /// Uploads blocks, metacell slots and corner records, split into pages when they exceed one
-    /// storage binding.
+    /// storage binding, and the cell attribute when the grid has one (2 bytes per active cell,
+    /// in one binding).
     pub fn upload_grid(&self, grid: &CellGrid) -> Result<GpuGrid, GpuError> {
         self.uploader().upload_grid(grid)
     }
 
     /// Uploads an MC mesh as snorm16 positions scaled by its bounds and u32 indices (paper Table 3).
     pub fn upload_mesh(&self, mesh: &isogrid::mc::McMesh) -> Result<GpuMesh, GpuError> {
-        self.uploader().upload_mesh(mesh)
+        self.uploader().upload_mesh(mesh, None)
+    }
+
+    /// Uploads an MC mesh with one attribute value per vertex (4 bytes each), which renders with
+    /// [`crate::RenderOptions::coloring`] draw through a colour map, interpolated across triangles.
+    pub fn upload_colored_mesh(
+        &self,
+        mesh: &isogrid::mc::McMesh,
+        values: &[f32],
+    ) -> Result<GpuMesh, GpuError> {
+        self.uploader().upload_mesh(mesh, Some(values))
     }
 
     /// Uploads the original samples (as f32 data values) for the CR baseline; `grid` must have

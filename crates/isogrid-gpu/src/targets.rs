@@ -13,6 +13,8 @@ pub(crate) const EWA_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Fl
 pub(crate) const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
 /// Final world normal (xyz) and eye distance (w).
 pub(crate) const FINAL_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
+/// The attribute value the shading coloured each pixel by (NaN on a miss or uncoloured).
+pub(crate) const VALUE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Float;
 
 /// Render targets of one image size, with a whole view of each.
 pub(crate) struct Targets {
@@ -21,12 +23,14 @@ pub(crate) struct Targets {
     pub ids: wgpu::Texture,
     pub color: wgpu::Texture,
     pub final_normal: wgpu::Texture,
+    pub value: wgpu::Texture,
     pub depth_view: wgpu::TextureView,
     pub surface_view: wgpu::TextureView,
     pub ids_view: wgpu::TextureView,
     pub ewa_view: wgpu::TextureView,
     pub color_view: wgpu::TextureView,
     pub final_view: wgpu::TextureView,
+    pub value_view: wgpu::TextureView,
 }
 
 impl Targets {
@@ -77,7 +81,15 @@ impl Targets {
             // Texture binding: the path tracer's primary hits.
             U::RENDER_ATTACHMENT | U::COPY_SRC | U::TEXTURE_BINDING | written,
         );
+        let value = gpu.texture_2d(
+            "shaded attribute value",
+            size,
+            VALUE_FORMAT,
+            U::RENDER_ATTACHMENT | U::COPY_SRC | written,
+        );
         Targets {
+            value_view: view(&value),
+            value,
             depth_view: view(&depth),
             surface_view: view(&surface),
             ids_view: view(&ids),

@@ -1,6 +1,7 @@
 //! Scene data on the GPU, uploaded once and drawn by any number of views: clustered grid cells
 //! split into pages of whole clusters (paper §3.1, byte for byte `isogrid::layout`), the Marching
-//! Cubes mesh (Table 3 layout) and the original volume as a 3D texture for the CR baseline; with
+//! Cubes mesh (Table 3 layout) with optional per-vertex values, a grid's cell attribute as 16-bit
+//! codes (2 bytes per active cell), and the original volume as a 3D texture for the CR baseline; with
 //! the bind-group layouts through which passes read them.
 
 use crate::error::GpuError;
@@ -54,7 +55,11 @@ impl GridLayouts {
                 ],
             ),
             dispatch_args: layout(device, "dispatch arguments", &[storage(0, c, false)]),
-            mesh: layout(device, "mc mesh", &[uniform(0, v), storage(1, v, true)]),
+            mesh: layout(
+                device,
+                "mc mesh",
+                &[uniform(0, v), storage(1, v, true), storage(2, v, true)],
+            ),
         }
     }
 }
@@ -105,8 +110,20 @@ pub struct GpuGrid {
     /// No sample of the grid's border is inside, so a ray from an eye outside the grid box first
     /// meets the surface from outside and back-face culling is safe.
     pub(crate) border_outside: bool,
+    /// The cell attribute as 16-bit codes, one per corner record (global record order).
+    pub(crate) attribute: Option<GpuAttribute>,
+    /// Why a grid with an attribute has none uploaded (it exceeds one storage binding): what a
+    /// coloured render of it reports.
+    pub(crate) attribute_refused: Option<String>,
     active_cells: u64,
     clusters: u64,
+}
+
+/// A grid's cell attribute on the GPU: one 16-bit code per active cell, two per word, decoded by
+/// the shading pass with `mapping` (`isogrid::CellAttribute::codes16`).
+pub(crate) struct GpuAttribute {
+    pub codes: wgpu::Buffer,
+    pub mapping: isogrid::CodeMapping,
 }
 
 impl GpuGrid {
@@ -123,6 +140,10 @@ impl GpuGrid {
     pub fn clusters(&self) -> u64 {
         self.clusters
     }
+    /// Whether the grid's cell attribute was uploaded (renders can colour by it).
+    pub fn has_attribute(&self) -> bool {
+        self.attribute.is_some()
+    }
 }
 
 static NEXT_GRID_ID: AtomicU64 = AtomicU64::new(1);
@@ -132,6 +153,8 @@ pub struct GpuMesh {
     pub(crate) positions: wgpu::Buffer,
     pub(crate) indices: wgpu::Buffer,
     pub(crate) index_count: u32,
+    /// Whether the mesh carries one attribute value per vertex (renders can colour by them).
+    pub(crate) has_values: bool,
     pub(crate) bind_group: wgpu::BindGroup,
     /// World-space box of the vertices.
     pub(crate) bounds: ([f64; 3], [f64; 3]),
@@ -140,6 +163,9 @@ pub struct GpuMesh {
 impl GpuMesh {
     pub fn triangle_count(&self) -> u32 {
         self.index_count / 3
+    }
+    pub fn has_values(&self) -> bool {
+        self.has_values
     }
     /// Bytes as the paper counts them (Table 3): positions + indices.
     pub fn memory_bytes(&self) -> u64 {
@@ -349,9 +375,21 @@ impl Uploader<'_> {
                 storage,
             )?)
         };
+        // An attribute too large for one binding leaves the grid drawable in one colour.
+        let (attribute, attribute_refused) =
+            match grid.attribute().map(|a| self.upload_attribute(a)) {
+                None => (None, None),
+                Some(Ok(a)) => (Some(a), None),
+                Some(Err(e)) if e.kind() == crate::GpuErrorKind::TooLarge => {
+                    (None, Some(e.to_string()))
+                }
+                Some(Err(e)) => return Err(e),
+            };
         Ok(GpuGrid {
             id: NEXT_GRID_ID.fetch_add(1, Ordering::Relaxed),
             border_outside: border_is_outside(grid),
+            attribute,
+            attribute_refused,
             info,
             pages,
             blocks,
@@ -360,8 +398,48 @@ impl Uploader<'_> {
         })
     }
 
-    /// Uploads an MC mesh as snorm16 positions scaled by its bounds and u32 indices (paper Table 3).
-    pub fn upload_mesh(&self, mesh: &isogrid::mc::McMesh) -> Result<GpuMesh, GpuError> {
+    /// A cell attribute as 16-bit codes in one storage binding.
+    fn upload_attribute(
+        &self,
+        attribute: &isogrid::CellAttribute,
+    ) -> Result<GpuAttribute, GpuError> {
+        let (mut codes, mapping) = attribute.codes16();
+        if codes.len() % 2 == 1 {
+            codes.push(0);
+        }
+        let bytes = 2 * codes.len().max(2) as u64;
+        if bytes > self.gpu.binding_limit() {
+            return Err(GpuError::too_large(format!(
+                "the attribute of {} cells takes {bytes} bytes, more than a storage binding holds ({} bytes)",
+                attribute.len(),
+                self.gpu.binding_limit()
+            )));
+        }
+        if codes.is_empty() {
+            codes = vec![0, 0];
+        }
+        let codes = self.gpu.buffer_init(
+            "cell attribute codes",
+            bytemuck::cast_slice(&codes),
+            wgpu::BufferUsages::STORAGE,
+        )?;
+        Ok(GpuAttribute { codes, mapping })
+    }
+
+    /// Uploads an MC mesh as snorm16 positions scaled by its bounds and u32 indices (paper Table 3),
+    /// and `values`, one attribute value per vertex, when given.
+    pub fn upload_mesh(
+        &self,
+        mesh: &isogrid::mc::McMesh,
+        values: Option<&[f32]>,
+    ) -> Result<GpuMesh, GpuError> {
+        if let Some(v) = values.filter(|v| v.len() != mesh.positions.len()) {
+            return Err(GpuError::invalid(format!(
+                "{} vertex values for a mesh of {} vertices",
+                v.len(),
+                mesh.positions.len()
+            )));
+        }
         self.gpu.scoped("uploading the mesh", || {
             let snorm = mesh.to_snorm16();
             let index_count = u32::try_from(mesh.triangles.len() * 3)
@@ -390,6 +468,11 @@ impl Uploader<'_> {
                 bytemuck::bytes_of(&uniforms),
                 wgpu::BufferUsages::UNIFORM,
             )?;
+            let vertex_values = self.gpu.buffer_init(
+                "mc vertex values",
+                bytemuck::cast_slice(values.filter(|v| !v.is_empty()).unwrap_or(&[f32::NAN])),
+                wgpu::BufferUsages::STORAGE,
+            )?;
             let bind_group = self
                 .gpu
                 .device
@@ -405,6 +488,10 @@ impl Uploader<'_> {
                             binding: 1,
                             resource: positions.as_entire_binding(),
                         },
+                        wgpu::BindGroupEntry {
+                            binding: 2,
+                            resource: vertex_values.as_entire_binding(),
+                        },
                     ],
                 });
             let lo = std::array::from_fn(|a| (snorm.center[a] - snorm.half_extent[a]) as f64);
@@ -413,6 +500,7 @@ impl Uploader<'_> {
                 positions,
                 indices,
                 index_count,
+                has_values: values.is_some(),
                 bind_group,
                 bounds: (lo, hi),
             })

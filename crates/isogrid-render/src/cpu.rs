@@ -33,7 +33,7 @@ pub(crate) fn render(
             let attribute = grid.attribute().ok_or_else(|| {
                 Error::invalid("colouring asks for the grid's attribute, and the grid has none")
             })?;
-            Some(spec.coloring(attribute)?)
+            Some(spec.coloring(attribute.info())?)
         }
     };
     let options = RenderOptions {

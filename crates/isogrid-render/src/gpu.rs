@@ -7,6 +7,7 @@ use crate::mode::Mode;
 use crate::output::Rendered;
 use crate::request::RenderRequest;
 use crate::scene::{SceneView, UploadedScene};
+use isogrid::extract::attribute::values_at_surface_points;
 use isogrid::mc::marching_cubes;
 use isogrid::{CellGrid, Error, Progress, Result, Volume};
 use isogrid_gpu::Renderer;
@@ -31,7 +32,17 @@ pub(crate) fn render(
     let mut scene = UploadedScene::on(renderer, grid.info());
     match (mode, volume) {
         (Mode::Mc, Some(volume)) => {
-            scene.show_mesh(&marching_cubes(&volume.view(), grid.info().iso))?
+            let mesh = marching_cubes(&volume.view(), grid.info().iso);
+            // Coloured, each vertex takes the attribute of the cells it lies on (the values the
+            // cell modes show there).
+            let values = match (request.parts().color.as_ref(), grid.attribute()) {
+                (Some(_), Some(attribute)) => {
+                    let points = mesh.index_positions(grid.info().spacing);
+                    Some((values_at_surface_points(grid, &points)?, attribute.info()))
+                }
+                _ => None,
+            };
+            scene.show_mesh(&mesh, values.as_ref().map(|(v, info)| (&v[..], *info)))?
         }
         (Mode::Cr, Some(volume)) => {
             scene.show_grid(grid)?;

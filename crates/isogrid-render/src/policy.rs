@@ -3,8 +3,8 @@
 //!
 //! - `cpu`: the CPU tracer; GPU-only modes are refused when the request is built.
 //! - `gpu`: the GPU renderer on any adapter, lavapipe included; an error where there is none.
-//! - colour by an attribute: the CPU tracer draws it (`auto` goes there with a note; `gpu` is
-//!   refused rather than drawing one colour).
+//! - colour by an attribute: every raster mode draws it on the GPU; coloured path tracing runs on
+//!   the CPU tracer (`auto` goes there with a note; the request refuses `gpu`).
 //! - `auto`: a hardware adapter when there is one. Where the only adapter is a software one
 //!   (lavapipe, llvmpipe: wgpu's `DeviceType::Cpu`), the backend measured faster for the mode
 //!   ([`software_adapter_wins`]). The CPU where there is no adapter. GPU-only modes and requests
@@ -63,13 +63,9 @@ pub fn decide(
     let colored = request.parts().color.is_some();
     match request.backend() {
         Backend::Cpu => cpu(None),
-        // The GPU renderer draws one colour; asked for colour, it would draw the wrong picture.
-        Backend::Gpu if colored => Err(Error::unsupported(
-            "the GPU renderer does not colour surfaces by an attribute; the CPU tracer does \
-             (--backend cpu or auto)",
-        )),
-        Backend::Auto if colored => cpu(Some(
-            "colouring by the attribute: rendering on the CPU tracer".into(),
+        // The GPU path tracer draws one albedo; the CPU one colours.
+        Backend::Auto if colored && mode == Mode::PathTrace => cpu(Some(
+            "colouring by the attribute: path tracing on the CPU tracer".into(),
         )),
         Backend::Gpu => match adapter() {
             Some(_) => gpu(None),

@@ -66,8 +66,9 @@ pub struct RequestParts {
     pub occlusion_culling: bool,
     /// GPU: which raster draws the cells.
     pub cell_raster: isogrid_gpu::CellRaster,
-    /// Colour the surface by the grid's attribute; `None`: one colour. The CPU tracer draws it
-    /// (Phong and path tracing); the policy places such requests there.
+    /// Colour the surface by the grid's attribute; `None`: one colour. Every raster mode of the
+    /// GPU renderer and the CPU tracer (Phong and path tracing) draw it; the policy places
+    /// coloured path tracing on the CPU.
     pub color: Option<ColorSpec>,
 }
 
@@ -80,15 +81,12 @@ pub struct ColorSpec {
 }
 
 impl ColorSpec {
-    /// How `attribute`'s values become colours: the map over `clim`, or over the attribute's
-    /// range on the surface.
-    pub fn coloring(
-        &self,
-        attribute: &isogrid::CellAttribute,
-    ) -> Result<isogrid::colormap::Coloring> {
+    /// How the values of the attribute `info` describes become colours: the map over `clim`, or
+    /// over the attribute's range on the surface.
+    pub fn coloring(&self, info: &isogrid::AttributeInfo) -> Result<isogrid::colormap::Coloring> {
         let clim = self
             .clim
-            .unwrap_or_else(|| isogrid::colormap::Coloring::default_clim(attribute.info().range));
+            .unwrap_or_else(|| isogrid::colormap::Coloring::default_clim(info.range));
         isogrid::colormap::Coloring::new(self.map, clim)
     }
 }
@@ -200,11 +198,13 @@ impl RenderRequest {
         if let Some(clim) = parts.color.as_ref().and_then(|c| c.clim) {
             isogrid::colormap::check_clim(clim)?;
         }
-        if parts.color.is_some() && !cpu_draws(parts.mode) {
-            return Err(Error::unsupported(format!(
-                "mode {} cannot colour the surface by an attribute; modes cgc and pathtrace can",
-                parts.mode
-            )));
+        // The GPU path tracer multiplies paths by one albedo; colour would be silently lost.
+        let gpu_path_trace = parts.backend == Backend::Gpu || parts.primary.is_some();
+        if parts.color.is_some() && parts.mode == Mode::PathTrace && gpu_path_trace {
+            return Err(Error::unsupported(
+                "the GPU path tracer does not colour surfaces by an attribute; the CPU path tracer \
+                 does (--backend cpu or auto, without --primary)",
+            ));
         }
         for (i, aov) in parts.aovs.iter().enumerate() {
             if parts.aovs[..i].contains(aov) {

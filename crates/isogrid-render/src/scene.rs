@@ -29,6 +29,8 @@ pub struct UploadedScene<'r> {
     /// The input's world box: standard views ([`crate::CameraSpec::View`]) frame it.
     world_bounds: ([f64; 3], [f64; 3]),
     grid: Option<GpuGrid>,
+    /// The attribute of the shown grid or mesh (its range is the default colour range).
+    attribute: Option<isogrid::AttributeInfo>,
     volume: Option<GpuVolume>,
     mesh: Option<GpuMesh>,
     /// The environment map of the last path-traced request, kept while requests name the same
@@ -62,6 +64,7 @@ impl<'r> UploadedScene<'r> {
             renderer,
             world_bounds: info.world_bounds(),
             grid: None,
+            attribute: None,
             volume: None,
             mesh: None,
             environment: None,
@@ -77,6 +80,7 @@ impl<'r> UploadedScene<'r> {
         }
         self.grid = None;
         self.grid = Some(self.renderer.upload_grid(grid)?);
+        self.attribute = grid.attribute().map(|a| a.info().clone());
         Ok(())
     }
 
@@ -92,10 +96,21 @@ impl<'r> UploadedScene<'r> {
         Ok(())
     }
 
-    /// Uploads `mesh` for [`Mode::Mc`], replacing the one shown so far.
-    pub fn show_mesh(&mut self, mesh: &McMesh) -> Result<()> {
+    /// Uploads `mesh` for [`Mode::Mc`], replacing the one shown so far; with `values` (one per
+    /// vertex, of the attribute `info` describes) coloured requests colour it.
+    pub fn show_mesh(
+        &mut self,
+        mesh: &McMesh,
+        values: Option<(&[f32], &isogrid::AttributeInfo)>,
+    ) -> Result<()> {
         self.mesh = None;
-        self.mesh = Some(self.renderer.upload_mesh(mesh)?);
+        self.mesh = Some(match values {
+            Some((v, info)) => {
+                self.attribute = Some(info.clone());
+                self.renderer.upload_colored_mesh(mesh, v)?
+            }
+            None => self.renderer.upload_mesh(mesh)?,
+        });
         Ok(())
     }
 
@@ -174,10 +189,20 @@ impl<'r> UploadedScene<'r> {
         } else {
             // One step: raster frames are too quick to count one by one.
             progress.start(1);
+            let coloring = match (&parts.color, &self.attribute) {
+                (None, _) => None,
+                (Some(spec), Some(info)) => Some(spec.coloring(info)?),
+                (Some(_), None) => {
+                    return Err(Error::invalid(
+                        "colouring asks for the grid's attribute, and the grid has none",
+                    ))
+                }
+            };
             let options = isogrid_gpu::RenderOptions {
                 frames: parts.frames,
                 occlusion_culling: parts.occlusion_culling,
                 cell_raster: parts.cell_raster,
+                coloring,
                 ..Default::default()
             };
             let scene = self.drawable(mode).expect("can_draw checked the data");
@@ -229,6 +254,6 @@ fn rendered(renderer: &Renderer, f: Frame, frames: u32, seconds: f64, mode: Mode
         depth: f.depth,
         normal: f.normal,
         cluster: f.cluster,
-        value: None,
+        value: (!f.value.is_empty()).then_some(f.value),
     }
 }

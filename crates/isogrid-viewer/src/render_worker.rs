@@ -213,7 +213,7 @@ fn apply<'r>(
             let Some(s) = shown.as_mut().filter(|s| s.generation == generation) else {
                 return;
             };
-            match s.scene.show_mesh(&mesh) {
+            match s.scene.show_mesh(&mesh, None) {
                 Ok(()) => notify.send(Event::MeshShown {
                     generation,
                     iso,

@@ -155,14 +155,30 @@ impl AttributeInfo {
         }
     }
 
+    /// How codes map to values, for renderers that decode them (the GPU's shading pass): value =
+    /// `zero + code × step`, except `nan_code`. The rule [`AttributeInfo::decode`] applies;
+    /// `None` for f32 values, which are stored as they are.
+    pub fn code_mapping(&self) -> Option<CodeMapping> {
+        if self.precision == AttributePrecision::F32 {
+            return None;
+        }
+        let nan_code = self.precision.nan_code();
+        let [lo, hi] = self.range;
+        Some(CodeMapping {
+            zero: lo,
+            step: (hi - lo) / (nan_code - 1) as f64,
+            nan_code,
+        })
+    }
+
     /// The value stored as `bytes` (NaN for the NaN code).
     pub fn decode(&self, bytes: &[u8]) -> f32 {
-        let [lo, hi] = self.range;
         let from_code = |code: u32| -> f32 {
-            if code == self.precision.nan_code() {
+            let m = self.code_mapping().expect("8- or 16-bit codes");
+            if code == m.nan_code {
                 f32::NAN
             } else {
-                (lo + code as f64 * (hi - lo) / (self.precision.nan_code() - 1) as f64) as f32
+                (m.zero + code as f64 * m.step) as f32
             }
         };
         match self.precision {
@@ -173,6 +189,14 @@ impl AttributeInfo {
             AttributePrecision::F32 => f32::from_le_bytes(bytes[..4].try_into().unwrap()),
         }
     }
+}
+
+/// How stored codes become values: `zero + code × step`, and `nan_code` is NaN.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CodeMapping {
+    pub zero: f64,
+    pub step: f64,
+    pub nan_code: u32,
 }
 
 /// The longest prefix of `s` of at most `max` bytes that ends on a character boundary.
@@ -247,5 +271,37 @@ impl CellAttribute {
     /// The stored values, as the section holds them after its head.
     pub fn value_bytes(&self) -> &[u8] {
         &self.values
+    }
+
+    /// The values as 16-bit codes and their mapping, for renderers that hold 2 bytes per cell:
+    /// 8- and 16-bit codes as stored; f32 values coded at 16 bits over the attribute's range (an
+    /// error of at most 1/131070 of the range).
+    pub fn codes16(&self) -> (Vec<u16>, CodeMapping) {
+        let info = match self.info.precision {
+            AttributePrecision::F32 => AttributeInfo {
+                precision: AttributePrecision::Code16,
+                ..self.info.clone()
+            },
+            _ => self.info.clone(),
+        };
+        let mapping = info.code_mapping().expect("8- or 16-bit codes");
+        let codes = match self.info.precision {
+            AttributePrecision::Code8 => self.values.iter().map(|&c| c as u16).collect(),
+            AttributePrecision::Code16 => self
+                .values
+                .chunks_exact(2)
+                .map(|b| u16::from_le_bytes([b[0], b[1]]))
+                .collect(),
+            AttributePrecision::F32 => self
+                .values
+                .chunks_exact(4)
+                .map(|b| {
+                    let mut code = [0u8; 2];
+                    info.encode(f32::from_le_bytes(b.try_into().unwrap()), &mut code);
+                    u16::from_le_bytes(code)
+                })
+                .collect(),
+        };
+        (codes, mapping)
     }
 }

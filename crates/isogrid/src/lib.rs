@@ -46,7 +46,7 @@ pub mod skip;
 pub mod stats;
 pub mod volume;
 
-pub use attribute::{AttributeInfo, AttributePrecision, CellAttribute};
+pub use attribute::{AttributeInfo, AttributePrecision, CellAttribute, CodeMapping};
 pub use camera::{Camera, Ray};
 pub use env_map::EnvMap;
 pub use error::{Error, ErrorKind, Result, ResultExt};

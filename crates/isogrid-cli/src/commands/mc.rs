@@ -98,15 +98,9 @@ pub fn run(args: Args) -> Result<()> {
     let start = Instant::now();
     let mut mesh = pool.install(|| marching_cubes(&volume.view(), iso));
     let extract = start.elapsed().as_secs_f64();
-    // Vertices in index space (the library's are sample (i, j, k) at (i·sx, j·sy, k·sz)).
     let values = match &attribute {
         Some(attribute) => {
-            let spacing = volume.geometry().spacing;
-            let points: Vec<[f64; 3]> = mesh
-                .positions
-                .iter()
-                .map(|p| [0, 1, 2].map(|a| p[a] as f64 / spacing[a]))
-                .collect();
+            let points = mesh.index_positions(volume.geometry().spacing);
             Some(pool.install(|| attribute.sample_points(volume.geometry(), &points, &args.input))?)
         }
         None => None,

@@ -514,7 +514,7 @@ pub fn run(args: Args) -> Result<()> {
     };
     let (width, height) = args.size;
     let coloring = match (&request.parts().color, grid.attribute()) {
-        (Some(spec), Some(attribute)) => Some(spec.coloring(attribute)?),
+        (Some(spec), Some(attribute)) => Some(spec.coloring(attribute.info())?),
         _ => None,
     };
     let (report, mut rendered) = RenderReport::new(&args, &grid, rendered, coloring.as_ref());

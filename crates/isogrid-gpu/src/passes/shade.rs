@@ -1,14 +1,15 @@
 //! Deferred shading (`shaders/shade.wgsl`): normalised Blinn–Phong (`isogrid::shading`) of the
 //! G-buffer, with EWA normals where the splats covered the pixel, into the sRGB colour and the
-//! final normal + distance targets; as a full-screen fragment pass, or per pixel in a compute
+//! final normal + distance targets, coloured by a colour map over the surface's attribute where
+//! the render asks for it (the value each pixel shows goes to the value target); as a full-screen fragment pass, or per pixel in a compute
 //! pass after the compute raster.
 
 use super::scene::SceneLayouts;
 use crate::shaders::SHADE;
-use crate::targets::{Targets, COLOR_FORMAT, FINAL_FORMAT};
+use crate::targets::{Targets, COLOR_FORMAT, FINAL_FORMAT, VALUE_FORMAT};
 use crate::wgpu_util::{
-    compute, layout, module, pipeline_layout, render_pipeline, target, texture, texture_entry,
-    written_texture, Gpu, RenderSpec, D2, FLOAT,
+    buffer_entry, compute, layout, module, pipeline_layout, render_pipeline, storage, target,
+    texture, texture_entry, uniform, written_texture, Gpu, RenderSpec, D2, FLOAT,
 };
 use wgpu::ShaderStages;
 
@@ -30,6 +31,8 @@ impl Shading {
                 texture(0, fc, FLOAT, D2),
                 texture(1, fc, FLOAT, D2),
                 texture(2, fc, wgpu::TextureSampleType::Uint, D2),
+                uniform(3, fc),
+                storage(4, fc, true),
             ],
         );
         let outputs = layout(
@@ -38,6 +41,7 @@ impl Shading {
             &[
                 written_texture(0, COLOR_FORMAT),
                 written_texture(1, FINAL_FORMAT),
+                written_texture(2, VALUE_FORMAT),
             ],
         );
         let shade_module = module(device, "shade.wgsl", SHADE);
@@ -50,7 +54,11 @@ impl Shading {
                 module: &shade_module,
                 vertex: "vs_fullscreen",
                 fragment: "fs_shade",
-                targets: &[target(COLOR_FORMAT), target(FINAL_FORMAT)],
+                targets: &[
+                    target(COLOR_FORMAT),
+                    target(FINAL_FORMAT),
+                    target(VALUE_FORMAT),
+                ],
                 depth: None,
             },
         );
@@ -73,8 +81,15 @@ impl Shading {
         }
     }
 
-    /// Group 1: the raster G-buffer, the EWA sums and the cluster ids of `targets`.
-    pub fn bind_inputs(&self, gpu: &Gpu, targets: &Targets) -> wgpu::BindGroup {
+    /// Group 1: the raster G-buffer, the EWA sums and the cluster ids of `targets`, the colouring
+    /// (`ColorUniforms`) and the attribute codes of the grid's records (a dummy when uncoloured).
+    pub fn bind_inputs(
+        &self,
+        gpu: &Gpu,
+        targets: &Targets,
+        coloring: &wgpu::Buffer,
+        attribute_codes: &wgpu::Buffer,
+    ) -> wgpu::BindGroup {
         gpu.bind_group(
             "shading inputs",
             &self.inputs,
@@ -82,6 +97,8 @@ impl Shading {
                 texture_entry(0, &targets.surface_view),
                 texture_entry(1, &targets.ewa_view),
                 texture_entry(2, &targets.ids_view),
+                buffer_entry(3, coloring),
+                buffer_entry(4, attribute_codes),
             ],
         )
     }
@@ -94,6 +111,7 @@ impl Shading {
             &[
                 texture_entry(0, &targets.color_view),
                 texture_entry(1, &targets.final_view),
+                texture_entry(2, &targets.value_view),
             ],
         )
     }

@@ -2,6 +2,7 @@
 //! shared by its frames; each pass builds its own groups from the targets.
 
 use super::plan::FramePlan;
+use super::uniforms::color_uniforms;
 use crate::gpu_types::{FrameUniforms, PageDrawArgs};
 use crate::passes::{ComputeRasterGroups, RasterPasses, SceneGroups, SceneInputs};
 use crate::targets::Targets;
@@ -67,6 +68,22 @@ impl FrameBindings {
             view_formats: &[],
         });
         let dummy_volume_view = view(&dummy_volume);
+        let attribute = plan.grid.and_then(|g| g.attribute.as_ref());
+        // Its own dummy: a buffer bound read-write (the visibility bits) cannot also be read-only.
+        let no_codes = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("no attribute codes"),
+            size: 16,
+            usage: wgpu::BufferUsages::STORAGE,
+            mapped_at_creation: false,
+        });
+        let coloring = gpu.uniform_buffer(
+            "colouring",
+            bytemuck::bytes_of(&color_uniforms(
+                plan.coloring,
+                plan.color_source,
+                attribute.map(|a| a.mapping),
+            )),
+        );
         let (visible_last_frame, visible_new) = match visibility {
             Some(v) => (&v.last_frame, &v.new),
             None => (&dummy_storage, &dummy_storage),
@@ -119,7 +136,12 @@ impl FrameBindings {
             depth_input: passes.hardware.bind_depth(gpu, &targets),
             surface_input: passes.ewa.bind(gpu, &targets),
             ids_input: passes.visibility.bind(gpu, &targets),
-            shade_inputs: passes.shading.bind_inputs(gpu, &targets),
+            shade_inputs: passes.shading.bind_inputs(
+                gpu,
+                &targets,
+                &coloring,
+                attribute.map_or(&no_codes, |a| &a.codes),
+            ),
             targets,
             uniforms,
             args_template,

@@ -327,6 +327,7 @@ impl FramePasses<'_> {
                 color_attachments: &[
                     color_attachment(&t.color_view, Some(wgpu::Color::BLACK)),
                     color_attachment(&t.final_view, Some(wgpu::Color::TRANSPARENT)),
+                    color_attachment(&t.value_view, Some(wgpu::Color::TRANSPARENT)),
                 ],
                 depth_stencil_attachment: None,
                 timestamp_writes: self.clock.render(TS_SHADE),

@@ -64,6 +64,26 @@ pub(crate) fn render(
             )))
         }
     };
+    if options.coloring.is_some() {
+        let missing = match (mode, grid, mesh) {
+            (Mode::PathTrace, _, _) => Some(
+                "the GPU path tracer draws one albedo; colour by an attribute in a raster mode"
+                    .to_string(),
+            ),
+            (_, Some(g), _) if g.attribute.is_none() => Some(
+                g.attribute_refused
+                    .clone()
+                    .unwrap_or_else(|| "the grid has no attribute to colour by".into()),
+            ),
+            (_, None, Some(m)) if !m.has_values => {
+                Some("the mesh was uploaded without vertex values to colour by".into())
+            }
+            _ => None,
+        };
+        if let Some(why) = missing {
+            return Err(GpuError::invalid(why));
+        }
+    }
     let plan = FramePlan::new((grid, volume, mesh), camera, mode, options, path_trace);
     ctx.gpu.scoped("rendering", || {
         render_unscoped(ctx, view, &plan, camera, mode, path_trace)
@@ -91,7 +111,7 @@ fn render_unscoped(
     let bindings = FrameBindings::new(gpu, ctx.passes, camera, plan, visibility.as_ref());
     let timestamps = Timestamps::new(gpu, frames);
     let page_count = plan.grid.map_or(0, |g| g.pages.len()) as u64;
-    let readbacks = Readbacks::new(gpu, &bindings.targets, page_count);
+    let readbacks = Readbacks::new(gpu, &bindings.targets, page_count, plan.coloring.is_some());
     let t = &bindings.targets;
     let path_pass = match (path_trace, plan.grid) {
         (Some(o), Some(g)) => Some(PathTracePass::prepare(

@@ -1,7 +1,9 @@
 //! Which passes a render call's frames run, decided once from the mode, the options, the scene
 //! and where the eye is.
 
-use crate::gpu_types::{FLAG_BACKFACE, FLAG_EWA, FLAG_OCCLUSION};
+use crate::gpu_types::{
+    COLOR_MESH, COLOR_NONE, COLOR_RECORDS, FLAG_BACKFACE, FLAG_EWA, FLAG_OCCLUSION,
+};
 use crate::options::{CellRaster, Mode, PathTraceOptions, PrimaryRays, RenderOptions};
 use crate::upload::{GpuGrid, GpuMesh, GpuVolume};
 use isogrid::Camera;
@@ -27,6 +29,9 @@ pub(super) struct FramePlan<'a> {
     pub bounds: ([f64; 3], [f64; 3]),
     /// `FLAG_*` bits of the frame uniforms.
     pub flags: u32,
+    /// Where the shading pass finds each pixel's attribute value (`COLOR_*`).
+    pub color_source: u32,
+    pub coloring: Option<&'a isogrid::colormap::Coloring>,
 }
 
 impl<'a> FramePlan<'a> {
@@ -38,7 +43,7 @@ impl<'a> FramePlan<'a> {
         ),
         camera: &Camera,
         mode: Mode,
-        options: &RenderOptions,
+        options: &'a RenderOptions,
         path_trace: Option<&PathTraceOptions>,
     ) -> Self {
         let frames = options.frames.max(1);
@@ -67,7 +72,14 @@ impl<'a> FramePlan<'a> {
         if ewa {
             flags |= FLAG_EWA;
         }
+        let color_source = match (&options.coloring, grid, mesh) {
+            (None, _, _) => COLOR_NONE,
+            (Some(_), Some(_), _) => COLOR_RECORDS,
+            (Some(_), None, _) => COLOR_MESH,
+        };
         FramePlan {
+            color_source,
+            coloring: options.coloring.as_ref(),
             frames,
             grid,
             volume,

@@ -1,5 +1,5 @@
-//! Read-back of a render call's last frame: colour, final normal and cluster id targets and the
-//! pages' draw arguments are copied to mappable buffers, then unpacked into a [`Frame`].
+//! Read-back of a render call's last frame: colour, final normal and cluster id targets (and the
+//! value target of a coloured render) and the pages' draw arguments are copied to mappable buffers, then unpacked into a [`Frame`].
 
 use crate::error::GpuError;
 use crate::gpu_types::{PageDrawArgs, LIST_FULL, LIST_NEW, LIST_PROBE};
@@ -13,6 +13,8 @@ use crate::wgpu_util::Gpu;
 pub(super) struct Readbacks<'a> {
     /// Colour, final normal and cluster ids, each with its padded row pitch in bytes.
     targets: [(&'a wgpu::Texture, u32, wgpu::Buffer); 3],
+    /// The value target, when the render colours by an attribute.
+    value: Option<(&'a wgpu::Texture, u32, wgpu::Buffer)>,
     args: wgpu::Buffer,
     page_count: u64,
 }
@@ -26,24 +28,22 @@ fn padded_row(width: u32, texel_bytes: u32) -> u32 {
 const ARGS_SIZE: u64 = std::mem::size_of::<PageDrawArgs>() as u64;
 
 impl<'a> Readbacks<'a> {
-    /// Read-back buffers for `targets` and the draw arguments of `page_count` pages.
-    pub fn new(gpu: &Gpu, targets: &'a Targets, page_count: u64) -> Readbacks<'a> {
-        let size = targets.color.size();
-        let targets = [
-            (&targets.color, 4u32, "colour readback"),
-            (&targets.final_normal, 16, "normal readback"),
-            (&targets.ids, 8, "cluster id readback"),
-        ]
-        .map(|(texture, texel, label)| {
+    /// Read-back buffers for `targets` (the value target too when `value`) and the draw
+    /// arguments of `page_count` pages.
+    pub fn new(gpu: &Gpu, all: &'a Targets, page_count: u64, value: bool) -> Readbacks<'a> {
+        let size = all.color.size();
+        let copy = |(texture, texel, label): (&'a wgpu::Texture, u32, &str)| {
             let row = padded_row(size.width, texel);
-            let buffer = gpu.device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some(label),
-                size: row as u64 * size.height as u64,
-                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-                mapped_at_creation: false,
-            });
+            let buffer = gpu.readback_buffer(label, row as u64 * size.height as u64);
             (texture, row, buffer)
-        });
+        };
+        let targets = [
+            (&all.color, 4u32, "colour readback"),
+            (&all.final_normal, 16, "normal readback"),
+            (&all.ids, 8, "cluster id readback"),
+        ]
+        .map(copy);
+        let value = value.then(|| copy((&all.value, 4, "value readback")));
         let args = gpu.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("draw arguments readback"),
             size: (ARGS_SIZE * page_count).max(ARGS_SIZE),
@@ -52,6 +52,7 @@ impl<'a> Readbacks<'a> {
         });
         Readbacks {
             targets,
+            value,
             args,
             page_count,
         }
@@ -70,7 +71,7 @@ impl Readbacks<'_> {
                 ARGS_SIZE,
             );
         }
-        for (texture, row, buffer) in &self.targets {
+        for (texture, row, buffer) in self.targets.iter().chain(&self.value) {
             encoder.copy_texture_to_buffer(
                 texture.as_image_copy(),
                 wgpu::TexelCopyBufferInfo {
@@ -115,6 +116,7 @@ impl Readbacks<'_> {
             depth: Vec::with_capacity(w * h),
             normal: Vec::with_capacity(w * h),
             cluster: Vec::with_capacity(w * h),
+            value: Vec::new(),
             timings,
             drawn_cells: count(LIST_FULL) + if occlusion { count(LIST_NEW) } else { 0 },
             probed_cells: if occlusion { count(LIST_PROBE) } else { 0 },
@@ -136,6 +138,20 @@ impl Readbacks<'_> {
                 } else {
                     [f32::NAN; 3]
                 });
+            }
+        }
+        if let Some((_, row, buffer)) = &self.value {
+            let mapped = gpu.read_buffer(buffer)?;
+            for (r, ids) in mapped.chunks(*row as usize).zip(frame.cluster.chunks(w)) {
+                let values: &[f32] = bytemuck::cast_slice(&r[..4 * w]);
+                // Misses hold NaN whatever the target was cleared to.
+                frame.value.extend(values.iter().zip(ids).map(|(&v, &id)| {
+                    if id == u32::MAX {
+                        f32::NAN
+                    } else {
+                        v
+                    }
+                }));
             }
         }
         Ok(frame)

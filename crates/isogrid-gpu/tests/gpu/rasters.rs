@@ -21,6 +21,7 @@ fn render(
         occlusion_culling: culling,
         backface_culling: culling,
         cell_raster: raster,
+        coloring: None,
     };
     let frame = r.render_with(scene, cam, mode, &options).unwrap();
     assert_eq!(

@@ -18,6 +18,7 @@ const OPTIONS: RenderOptions = RenderOptions {
     occlusion_culling: true,
     backface_culling: true,
     cell_raster: CellRaster::Compute,
+    coloring: None,
 };
 
 fn assert_same(label: &str, got: &Frame, want: &Frame) {

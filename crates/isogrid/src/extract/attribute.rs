@@ -504,6 +504,67 @@ pub fn sample_points_in_memory(
     })
 }
 
+/// Values at points on the surface of `grid` from its cell attribute, for meshes of the same
+/// surface (the MC baseline drawn in colour): each point (index space) takes the mean of the
+/// finite values of the active cells it touches (within 1e-4 of a cell, so a vertex on an edge
+/// averages the up to four cells sharing the edge), NaN where they are all NaN or it touches
+/// none. Fails when the grid has no attribute.
+pub fn values_at_surface_points(grid: &CellGrid, points: &[[f64; 3]]) -> Result<Vec<f32>> {
+    let attribute = grid
+        .attribute()
+        .ok_or_else(|| Error::invalid("the grid has no attribute to take values from"))?;
+    let dims = grid.info().cell_dims().map(|d| d as u64);
+    crate::memory::ensure_fits("the cell lookup", grid.active_cells() as u64 * 24)?;
+    let mut record_of = std::collections::HashMap::with_capacity(grid.active_cells());
+    let mut record = 0usize;
+    for (s, m) in grid.metacells().iter().enumerate() {
+        if s % CLUSTER_SLOTS == BOUND_SLOT || m.is_empty() {
+            continue;
+        }
+        for bit in 0..8 {
+            if m.cell_mask >> bit & 1 != 0 {
+                let [i, j, k] = m.cell_position(bit).map(|c| c as u64);
+                record_of.insert(i + dims[0] * (j + dims[1] * k), record);
+                record += 1;
+            }
+        }
+    }
+    const TOUCH: f64 = 1e-4;
+    Ok(points
+        .iter()
+        .map(|p| {
+            let (mut sum, mut finite, mut touched) = (0.0f64, 0u32, [usize::MAX; 8]);
+            for (n, corner) in (0..8u32).enumerate() {
+                let cell: [f64; 3] = std::array::from_fn(|a| {
+                    let side = if corner >> a & 1 == 0 { -TOUCH } else { TOUCH };
+                    (p[a] + side).floor()
+                });
+                if (0..3).any(|a| cell[a] < 0.0 || cell[a] >= dims[a] as f64) {
+                    continue;
+                }
+                let [i, j, k] = cell.map(|c| c as u64);
+                let Some(&r) = record_of.get(&(i + dims[0] * (j + dims[1] * k))) else {
+                    continue;
+                };
+                if touched[..n].contains(&r) {
+                    continue;
+                }
+                touched[n] = r;
+                let v = attribute.value(r);
+                if v.is_finite() {
+                    sum += v as f64;
+                    finite += 1;
+                }
+            }
+            if finite == 0 {
+                f32::NAN
+            } else {
+                (sum / finite as f64) as f32
+            }
+        })
+        .collect())
+}
+
 /// The attribute planes the surface points of block layer `bz` can reach.
 fn layer_planes(
     info: &GridInfo,

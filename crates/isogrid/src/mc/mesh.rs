@@ -41,6 +41,15 @@ impl McMesh {
     /// their winding is reversed to stay counter-clockwise seen from outside. Sums are taken in
     /// f64 and rounded once to f32. A vertex beyond f32's range (a spacing or origin of 1e200) is
     /// an error: a mesh file of `inf` coordinates is no mesh.
+    /// The vertices in index space (sample (i, j, k) at (i, j, k)), in f64, from the library's
+    /// (i·sx, j·sy, k·sz) with `spacing`: where per-vertex values are looked up.
+    pub fn index_positions(&self, spacing: [f64; 3]) -> Vec<[f64; 3]> {
+        self.positions
+            .iter()
+            .map(|p| [0, 1, 2].map(|a| p[a] as f64 / spacing[a]))
+            .collect()
+    }
+
     pub fn place(&mut self, geometry: &crate::volume::Geometry, space: MeshSpace) -> Result<()> {
         let s = geometry.spacing;
         match space {
