@@ -5,10 +5,13 @@
 //! not installed or the machine has no GPU adapter at all (Mesa lavapipe counts as one); the drop
 //! tests also when python3 with python-xlib is missing.
 
+use isogrid::colormap::{ColorMap, Coloring};
+use isogrid::extract::attribute::sample_attribute_in_memory;
 use isogrid::generate::{generate, Field};
 use isogrid::shading::BACKGROUND_SRGB;
+use isogrid::AttributePrecision;
 use isogrid::{extract, Camera, ExtractOptions, Iso};
-use isogrid_gpu::{GpuErrorKind, Mode, Renderer, Scene};
+use isogrid_gpu::{GpuErrorKind, Mode, RenderOptions, Renderer, Scene};
 use std::ffi::OsStr;
 use std::io::Read;
 use std::path::{Path, PathBuf};
@@ -182,12 +185,93 @@ fn scripted_window_shows_the_headless_image() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+/// A volume coloured by a second one (`--color-by`, `--cmap`) shows, in the window, what the
+/// headless renderer draws with the same colour map over the attribute's range; and the picture is
+/// in colour, not grey.
+#[test]
+fn scripted_window_shows_the_coloured_headless_image() {
+    let Some(xvfb) = xvfb_run() else { return };
+    let Some(renderer) = renderer() else { return };
+    let dir = temp_dir("coloured");
+    let volume = generate(Field::Torus, 40, 1);
+    let attribute = generate(Field::Gyroid, 40, 1);
+    let (input, colour_by) = (dir.join("torus.nrrd"), dir.join("gyroid.nrrd"));
+    isogrid_io::write_nrrd(&input, &volume).unwrap();
+    isogrid_io::write_nrrd(&colour_by, &attribute).unwrap();
+    let shot = dir.join("window.png");
+    let (w, h) = (320u32, 240u32);
+    let out = isogrid_in_xvfb(
+        &xvfb,
+        &[
+            "view",
+            input.to_str().unwrap(),
+            "--iso-normalized",
+            "0.5",
+            "--color-by",
+            colour_by.to_str().unwrap(),
+            "--cmap",
+            "magma",
+            "--size",
+            &format!("{w}x{h}"),
+            "--frames",
+            "3",
+            "--screenshot",
+            shot.to_str().unwrap(),
+        ],
+        Duration::from_secs(240),
+    );
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "view failed: {stderr}\n{stdout}");
+    assert_window_shows_colored(
+        &renderer,
+        &volume,
+        Some((&attribute, ColorMap::Magma)),
+        &shot,
+        &stdout,
+        [w, h],
+    );
+    // Magma runs from black through purple and red to pale yellow: hit pixels differ in hue.
+    let [x, y, _, _] = image_region(&stdout).unwrap();
+    let (sw, _, pixels) = read_png(&shot);
+    let (mut hits, mut chromatic) = (0, 0);
+    for py in 0..h {
+        for px in 0..w {
+            let s = (((y + py) * sw + x + px) * 3) as usize;
+            let p = &pixels[s..s + 3];
+            if !is_background(p) {
+                hits += 1;
+                let (max, min) = (p.iter().max().unwrap(), p.iter().min().unwrap());
+                chromatic += (max - min > 40) as u32;
+            }
+        }
+    }
+    assert!(
+        chromatic * 2 > hits,
+        "{chromatic} of {hits} hit pixels in colour"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 /// The rendered image region of screenshot `shot` (located from the viewer's `stdout`) shows what
 /// the headless renderer draws for `volume` at normalised isovalue 0.5, camera view 2, `[w, h]`
 /// pixels, CGC mode.
 fn assert_window_shows(
     renderer: &Renderer,
     volume: &isogrid::Volume,
+    shot: &Path,
+    stdout: &str,
+    size: [u32; 2],
+) {
+    assert_window_shows_colored(renderer, volume, None, shot, stdout, size);
+}
+
+/// As [`assert_window_shows`], the surface coloured by `attribute` (a volume on the same grid,
+/// 16-bit values) through `map` over the attribute's range, when given.
+fn assert_window_shows_colored(
+    renderer: &Renderer,
+    volume: &isogrid::Volume,
+    attribute: Option<(&isogrid::Volume, ColorMap)>,
     shot: &Path,
     stdout: &str,
     [w, h]: [u32; 2],
@@ -207,12 +291,24 @@ fn assert_window_shows(
     );
 
     // The same camera, headless.
-    let grid = extract(&volume.view(), &ExtractOptions::new(Iso::Normalized(0.5))).unwrap();
+    let mut grid = extract(&volume.view(), &ExtractOptions::new(Iso::Normalized(0.5))).unwrap();
+    let mut options = RenderOptions {
+        frames: 3,
+        ..Default::default()
+    };
+    if let Some((attribute, map)) = attribute {
+        let values =
+            sample_attribute_in_memory(&grid, &attribute.view(), "a", AttributePrecision::Code16)
+                .unwrap();
+        let clim = Coloring::default_clim(values.info().range);
+        options.coloring = Some(Coloring::new(map, clim).unwrap());
+        grid = grid.with_attribute(values).unwrap();
+    }
     let gpu = renderer.upload_grid(&grid).unwrap();
     let (lo, hi) = grid.info().world_bounds();
     let camera = Camera::preset(2, lo, hi, w, h).unwrap();
     let frame = renderer
-        .render(Scene::Grid(&gpu), &camera, Mode::Cgc, 3)
+        .render_with(Scene::Grid(&gpu), &camera, Mode::Cgc, &options)
         .unwrap();
 
     let (mut agree, mut hits, mut colour_diff, mut both) = (0u64, 0u64, 0u64, 0u64);

@@ -29,7 +29,7 @@ use crate::panel::{self, Measurements};
 use crate::render_worker::RenderWorker;
 use crate::{Mode, ViewerOptions};
 use eframe::egui;
-use state::{App, Script, ScriptState, MEASUREMENTS_WIDTH, PANEL_WIDTH};
+use state::{App, ColorState, Script, ScriptState, MEASUREMENTS_WIDTH, PANEL_WIDTH};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
@@ -83,6 +83,14 @@ impl App {
             texture: None,
             shown: None,
             shown_pixels: None,
+            shown_values: None,
+            color: ColorState {
+                attribute: None,
+                on: true,
+                map: options.cmap,
+                clim: options.clim,
+                under_cursor: None,
+            },
             shown_samples: 0,
             in_flight: None,
             refused: None,

@@ -92,6 +92,8 @@ pub enum Event {
         precision: Precision,
         stats: GridStats,
         extract_seconds: f64,
+        /// The grid's attribute, which the view can be coloured by.
+        attribute: Option<isogrid::AttributeInfo>,
     },
     /// A Marching Cubes mesh is uploaded and drawn in MC mode from now on.
     MeshShown {

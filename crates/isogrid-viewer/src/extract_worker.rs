@@ -14,7 +14,9 @@
 use crate::events::{guarded, Event, Failure, Notifier, SourceInfo, Task};
 use crate::render_worker::RenderMsg;
 use crate::source::{self, Source};
+use isogrid::extract::attribute::sample_attribute_in_memory;
 use isogrid::mc::try_marching_cubes_with_progress;
+use isogrid::AttributePrecision;
 use isogrid::{extract_with_progress, ExtractOptions, GridStats, Iso, Precision, Progress, Volume};
 use std::path::PathBuf;
 use std::sync::mpsc::Sender;
@@ -28,6 +30,8 @@ pub struct OpenRequest {
     pub generation: u64,
     pub path: PathBuf,
     pub read_options: isogrid_io::ReadOptions,
+    /// What a volume's surfaces are coloured by (ignored for `.cgc` files).
+    pub attribute: Option<crate::AttributeSource>,
 }
 
 /// What the scene should be.
@@ -96,6 +100,8 @@ struct Worker {
     /// The open input's generation and, for volumes, the volume and its value range.
     generation: Option<u64>,
     volume: Option<OpenVolume>,
+    /// The open volume's attribute volume and name, sampled on every grid extracted from it.
+    attribute: Option<(Arc<Volume>, String)>,
     /// What was last extracted (or failed to; not retried until something changes).
     grid_done: Option<GridKey>,
     mesh_done: Option<MeshKey>,
@@ -108,6 +114,7 @@ impl Worker {
             notify,
             generation: None,
             volume: None,
+            attribute: None,
             grid_done: None,
             mesh_done: None,
         }
@@ -202,6 +209,7 @@ impl Worker {
         // Forget the old input first: a failed open leaves nothing half-shown.
         self.generation = Some(request.generation);
         self.volume = None;
+        self.attribute = None;
         self.grid_done = None;
         self.mesh_done = None;
         match source::open(&request.path, &request.read_options, &progress) {
@@ -226,6 +234,19 @@ impl Worker {
                         Failure::Open,
                         "the volume has no finite sample: nothing to show",
                     );
+                }
+                if let Some(a) = &request.attribute {
+                    match source::open(&a.path, &a.read_options, &progress) {
+                        Ok(Source::Volume(v)) => self.attribute = Some((v, a.name.clone())),
+                        Ok(Source::Grid(_)) => self.notify.error(
+                            Failure::Open,
+                            format!(
+                                "{}: a .cgc file holds no samples to colour by",
+                                a.path.display()
+                            ),
+                        ),
+                        Err(e) => self.notify.error(Failure::Open, e.to_string()),
+                    }
                 }
                 self.volume = Some((volume, range));
             }
@@ -270,7 +291,23 @@ impl Worker {
             iso: Iso::Value(iso),
             precision,
         };
-        match extract_with_progress(&volume.view(), &options, &progress) {
+        let extracted =
+            extract_with_progress(&volume.view(), &options, &progress).and_then(|grid| {
+                // Sampled again at every isovalue: the slider keeps the colouring.
+                match &self.attribute {
+                    Some((attribute, name)) => {
+                        let values = sample_attribute_in_memory(
+                            &grid,
+                            &attribute.view(),
+                            name,
+                            AttributePrecision::Code16,
+                        )?;
+                        grid.with_attribute(values)
+                    }
+                    None => Ok(grid),
+                }
+            });
+        match extracted {
             Ok(grid) => {
                 let stats = GridStats::of(&grid);
                 let _ = self.render.send(RenderMsg::Grid {
@@ -348,6 +385,7 @@ mod tests {
             generation,
             path: path.to_path_buf(),
             read_options: Default::default(),
+            attribute: None,
         }
     }
 

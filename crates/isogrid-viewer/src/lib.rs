@@ -67,6 +67,21 @@ pub struct ViewerOptions {
     /// window; then the dropped file's frames are rendered, or, when it cannot be opened, its
     /// error is shown in the window (not a failure of the run) and captured.
     pub wait_for_drop: bool,
+    /// A second volume the surface of a volume input is coloured by, sampled again after every
+    /// extraction (a `.cgc` file brings its own attribute).
+    pub attribute: Option<AttributeSource>,
+    /// The initial colour map and range (`None`: the attribute's range on the surface).
+    pub cmap: isogrid::colormap::ColorMap,
+    pub clim: Option<[f64; 2]>,
+}
+
+/// Where an attribute's samples come from: a volume file (or another entry of the input's extra
+/// axes, read with `read_options`), and what to call it.
+#[derive(Debug, Clone)]
+pub struct AttributeSource {
+    pub path: PathBuf,
+    pub read_options: isogrid_io::ReadOptions,
+    pub name: String,
 }
 
 impl Default for ViewerOptions {
@@ -82,6 +97,9 @@ impl Default for ViewerOptions {
             frames: None,
             screenshot: None,
             wait_for_drop: false,
+            attribute: None,
+            cmap: Default::default(),
+            clim: None,
         }
     }
 }

@@ -11,6 +11,7 @@
 
 use crate::events::{guarded, Event, Failure, Notifier, RenderedFrame};
 use crate::Mode;
+use isogrid::extract::attribute::values_at_surface_points;
 use isogrid::mc::McMesh;
 use isogrid::{CellGrid, GridStats, Progress, Volume};
 use isogrid_render::{RenderContext, RenderRequest, SceneView, UploadedScene};
@@ -103,6 +104,8 @@ struct Shown<'r> {
     scene: UploadedScene<'r>,
     /// The grid's source volume on the CPU, uploaded to the scene when CR first needs it.
     volume: Option<Arc<Volume>>,
+    /// The grid shown, when it has an attribute: MC meshes take their vertex values from it.
+    colored_grid: Option<Box<CellGrid>>,
 }
 
 fn run(rx: Receiver<RenderMsg>, notify: Notifier) {
@@ -179,6 +182,7 @@ fn apply<'r>(
                             generation,
                             scene,
                             volume: None,
+                            colored_grid: None,
                         })
                     }
                     Err(e) => {
@@ -198,7 +202,9 @@ fn apply<'r>(
                         precision: info.precision,
                         stats,
                         extract_seconds,
+                        attribute: grid.attribute().map(|a| a.info().clone()),
                     });
+                    s.colored_grid = grid.attribute().is_some().then_some(grid);
                 }
                 Err(e) => notify.error(Failure::Render, format!("uploading the cells: {e}")),
             }
@@ -213,7 +219,21 @@ fn apply<'r>(
             let Some(s) = shown.as_mut().filter(|s| s.generation == generation) else {
                 return;
             };
-            match s.scene.show_mesh(&mesh, None) {
+            // Coloured like the cells: each vertex takes the values of the cells it lies on, from
+            // the grid of the same isovalue.
+            let values = s
+                .colored_grid
+                .as_ref()
+                .filter(|g| g.info().iso.to_bits() == iso.to_bits())
+                .and_then(|g| {
+                    let points = mesh.index_positions(g.info().spacing);
+                    let values = values_at_surface_points(g, &points).ok()?;
+                    Some((values, g.attribute()?.info().clone()))
+                });
+            let shown_mesh = s
+                .scene
+                .show_mesh(&mesh, values.as_ref().map(|(v, info)| (&v[..], info)));
+            match shown_mesh {
                 Ok(()) => notify.send(Event::MeshShown {
                     generation,
                     iso,

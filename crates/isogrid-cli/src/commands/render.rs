@@ -134,12 +134,12 @@ pub struct Args {
     pub json: bool,
 }
 
-fn parse_cmap(s: &str) -> Result<ColorMap, String> {
+pub(crate) fn parse_cmap(s: &str) -> Result<ColorMap, String> {
     ColorMap::from_name(s).map_err(|e| e.to_string())
 }
 
 /// "LO,HI" → [LO, HI], finite with LO < HI.
-fn parse_clim(s: &str) -> Result<[f64; 2], String> {
+pub(crate) fn parse_clim(s: &str) -> Result<[f64; 2], String> {
     let bad = || format!("--clim takes LO,HI with finite LO < HI, not {s:?}");
     let (lo, hi) = s.split_once(',').ok_or_else(bad)?;
     let clim = [

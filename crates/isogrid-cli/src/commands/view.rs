@@ -2,9 +2,11 @@
 //! that renders a few frames in a real window, saves a screenshot and exits.
 
 use crate::args::{parse_precision, InputArgs};
+use crate::color_by::AttributeInput;
 use anyhow::{bail, Result};
+use isogrid::colormap::ColorMap;
 use isogrid::{Iso, Precision};
-use isogrid_viewer::{Mode, ViewerOptions};
+use isogrid_viewer::{AttributeSource, Mode, ViewerOptions};
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
@@ -45,6 +47,17 @@ pub struct Args {
     /// renders it, or captures the window showing why it cannot be opened (exit status 0).
     #[arg(long, hide = true, requires = "frames")]
     pub wait_for_drop: bool,
+    /// Colour the surface by another volume, sampled again at every isovalue (as `extract
+    /// --color-by`: a volume isogrid reads, or AXIS=I,... for another entry of INPUT's extra
+    /// axes). A .cgc file with an attribute brings its own.
+    #[arg(long, value_name = "ATTR", requires = "input")]
+    pub color_by: Option<String>,
+    /// Initial colour map: viridis (default), magma, inferno, plasma, cividis, turbo, gray or rdbu.
+    #[arg(long, value_name = "NAME", value_parser = super::render::parse_cmap)]
+    pub cmap: Option<ColorMap>,
+    /// Initial values the colour map spans, LO,HI (default: the attribute's range on the surface).
+    #[arg(long, value_name = "LO,HI", value_parser = super::render::parse_clim, allow_hyphen_values = true)]
+    pub clim: Option<[f64; 2]>,
     #[command(flatten)]
     pub input_args: InputArgs,
 }
@@ -71,9 +84,24 @@ pub fn run(args: Args) -> Result<()> {
             }],
         )?;
     }
+    let read_options = args.input_args.read_options()?;
+    let attribute = match (&args.input, args.color_by.as_deref()) {
+        (Some(input), Some(text)) => {
+            if crate::grid_source::is_cgc(input) {
+                bail!("--color-by colours a volume's surfaces; {} is a .cgc file, which brings its own attribute", input.display());
+            }
+            let a = AttributeInput::new(text, input, &read_options)?;
+            Some(AttributeSource {
+                path: a.path,
+                read_options: a.options,
+                name: a.name,
+            })
+        }
+        _ => None,
+    };
     isogrid_viewer::run(ViewerOptions {
         input: args.input,
-        read_options: args.input_args.read_options()?,
+        read_options,
         iso,
         precision: args.precision,
         mode,
@@ -82,6 +110,9 @@ pub fn run(args: Args) -> Result<()> {
         frames: args.frames,
         screenshot: args.screenshot,
         wait_for_drop: args.wait_for_drop,
+        attribute,
+        cmap: args.cmap.unwrap_or_default(),
+        clim: args.clim,
     })?;
     Ok(())
 }

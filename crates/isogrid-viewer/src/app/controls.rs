@@ -6,6 +6,7 @@ use crate::panel;
 use crate::screenshot;
 use crate::Mode;
 use eframe::egui;
+use isogrid::colormap::{check_clim, ColorMap, Coloring};
 use isogrid::{Iso, Precision};
 use std::path::PathBuf;
 
@@ -81,6 +82,7 @@ impl App {
             let mesh = self.wants_mesh();
             self.extractor.update(|w| w.mesh = mesh);
         }
+        self.color_controls(ui);
         ui.separator();
 
         ui.label("View (drag: orbit, right/middle drag: pan, wheel: zoom)");
@@ -156,6 +158,64 @@ impl App {
         }
     }
 
+    /// Colour by the grid's attribute: on/off, map, range (auto follows the surface), the colour
+    /// bar and the value under the pointer.
+    fn color_controls(&mut self, ui: &mut egui::Ui) {
+        let Some(info) = self.color.attribute.clone() else {
+            return;
+        };
+        ui.separator();
+        ui.checkbox(&mut self.color.on, format!("Colour by {:?}", info.name));
+        if !self.color.on {
+            return;
+        }
+        if self.mode == Mode::PathTrace {
+            ui.label(
+                egui::RichText::new("path tracing on the GPU draws one colour (one albedo)")
+                    .small(),
+            );
+        }
+        egui::ComboBox::from_label("colour map")
+            .selected_text(self.color.map.name())
+            .show_ui(ui, |ui| {
+                for map in ColorMap::ALL {
+                    ui.selectable_value(&mut self.color.map, map, map.name());
+                }
+            });
+        let Some([lo, hi]) = self.color.effective_clim() else {
+            return;
+        };
+        let (mut new_lo, mut new_hi) = (lo, hi);
+        let speed = (hi - lo) / 200.0;
+        ui.horizontal(|ui| {
+            ui.label("range");
+            let changed = ui
+                .add(egui::DragValue::new(&mut new_lo).speed(speed))
+                .changed()
+                | ui.add(egui::DragValue::new(&mut new_hi).speed(speed))
+                    .changed();
+            if changed && check_clim([new_lo, new_hi]).is_ok() {
+                self.color.clim = Some([new_lo, new_hi]);
+            }
+            if ui
+                .selectable_label(self.color.clim.is_none(), "auto")
+                .on_hover_text("the attribute's range on the surface")
+                .clicked()
+            {
+                self.color.clim = None;
+            }
+        });
+        if let Ok(coloring) = Coloring::new(self.color.map, [lo, hi]) {
+            color_bar(ui, &coloring);
+        }
+        let under = match self.color.under_cursor {
+            Some(v) if v.is_nan() => "NaN".to_string(),
+            Some(v) => panel::fmt_value(v as f64),
+            None => "–".to_string(),
+        };
+        ui.label(format!("value under the pointer: {under}"));
+    }
+
     fn iso_controls(&mut self, ui: &mut egui::Ui) {
         let Some(source) = &self.source else {
             ui.label("Isovalue: open a volume first");
@@ -209,4 +269,28 @@ impl App {
             }
         });
     }
+}
+
+/// The colour map's table as a horizontal bar, labelled with its range.
+fn color_bar(ui: &mut egui::Ui, coloring: &Coloring) {
+    let width = PANEL_WIDTH - 24.0;
+    let (rect, _) = ui.allocate_exact_size(egui::vec2(width, 14.0), egui::Sense::hover());
+    let table = coloring.table();
+    let step = rect.width() / table.len() as f32;
+    let painter = ui.painter_at(rect);
+    for (i, [r, g, b]) in table.iter().enumerate() {
+        let x = rect.left() + i as f32 * step;
+        let cell = egui::Rect::from_min_max(
+            egui::pos2(x, rect.top()),
+            egui::pos2(x + step + 0.5, rect.bottom()),
+        );
+        painter.rect_filled(cell, 0.0, egui::Color32::from_rgb(*r, *g, *b));
+    }
+    ui.horizontal(|ui| {
+        let [lo, hi] = coloring.clim;
+        ui.label(egui::RichText::new(panel::fmt_value(lo)).small());
+        ui.with_layout(egui::Layout::right_to_left(egui::Align::Center), |ui| {
+            ui.label(egui::RichText::new(panel::fmt_value(hi)).small());
+        });
+    });
 }

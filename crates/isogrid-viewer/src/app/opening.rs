@@ -48,11 +48,18 @@ impl App {
         // over the new input's error or in place of its first frame.
         self.in_flight = None;
         let generation = self.generation;
+        // `--color-by` belongs to the input it was given with, not to files opened later.
+        let attribute = self
+            .options
+            .attribute
+            .clone()
+            .filter(|_| self.options.input.as_ref() == Some(&path));
         self.extractor.update(|w| {
             w.open = Some(OpenRequest {
                 generation,
                 path,
                 read_options,
+                attribute,
             });
             w.iso = iso;
         });

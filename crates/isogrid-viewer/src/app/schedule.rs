@@ -5,7 +5,7 @@ use super::state::{App, ViewKey};
 use crate::render_worker::RenderMsg;
 use crate::Mode;
 use isogrid::Camera;
-use isogrid_render::{Backend, CameraSpec, RenderRequest, RequestParts};
+use isogrid_render::{Backend, CameraSpec, ColorSpec, RenderRequest, RequestParts};
 use std::time::Duration;
 
 /// Samples per pixel the viewer accumulates while the camera rests in path-tracing mode.
@@ -60,6 +60,8 @@ impl App {
             camera: self.orbit.camera(size[0], size[1]),
             mode: self.mode,
             scene,
+            // The GPU path tracer draws one albedo.
+            color: self.color.spec().filter(|_| self.mode != Mode::PathTrace),
         };
         let recheck = settling.map(|e| SETTLE - e);
         // Path tracing refines while the camera rests: the same view is asked for again, each
@@ -105,6 +107,7 @@ fn render_request(key: &ViewKey) -> isogrid::Result<RenderRequest> {
         size: (c.width, c.height),
         samples: 1,
         frames: 1,
+        color: key.color.map(|(map, clim)| ColorSpec { map, clim }),
         ..RequestParts::default()
     })
 }
@@ -128,6 +131,7 @@ mod tests {
             camera: orbit.camera(320, 240),
             mode: Mode::PathTrace,
             scene: 1,
+            color: None,
         };
         let request = render_request(&key).unwrap();
         assert_eq!(request.mode(), Mode::PathTrace);

@@ -10,6 +10,7 @@ use crate::panel::Measurements;
 use crate::render_worker::RenderWorker;
 use crate::{Mode, ViewerOptions};
 use eframe::egui;
+use isogrid::colormap::{ColorMap, Coloring};
 use isogrid::{Camera, Precision};
 use std::path::PathBuf;
 use std::sync::mpsc::Receiver;
@@ -45,6 +46,10 @@ pub(super) struct App {
     pub(super) shown: Option<ViewKey>,
     /// The frame's image (sRGB, 3 bytes per pixel), kept for saving the render alone.
     pub(super) shown_pixels: Option<(u32, u32, Vec<u8>)>,
+    /// The attribute value under each pixel of the frame on screen (width, values; `None` off the
+    /// surface), when coloured.
+    pub(super) shown_values: Option<(u32, Vec<Option<f32>>)>,
+    pub(super) color: ColorState,
     /// Path-tracing samples accumulated in the shown image.
     pub(super) shown_samples: u32,
     pub(super) in_flight: Option<(u64, ViewKey)>,
@@ -71,6 +76,36 @@ pub(super) struct App {
     pub(super) failure: Arc<Mutex<Option<String>>>,
 }
 
+/// Colouring by the grid's attribute: what the panel sets and the requests carry.
+pub(super) struct ColorState {
+    /// The attribute of the grid shown (`None`: nothing to colour by).
+    pub(super) attribute: Option<isogrid::AttributeInfo>,
+    /// Colour by it (off: the one fixed colour).
+    pub(super) on: bool,
+    pub(super) map: ColorMap,
+    /// `None`: the attribute's range on the surface, which follows the isovalue.
+    pub(super) clim: Option<[f64; 2]>,
+    /// The value under the mouse pointer in the frame on screen (NaN: a NaN value; `None`: not
+    /// over the surface).
+    pub(super) under_cursor: Option<f32>,
+}
+
+impl ColorState {
+    /// The request's colouring: map and range, when there is an attribute and colouring is on.
+    pub(super) fn spec(&self) -> Option<(ColorMap, Option<[f64; 2]>)> {
+        self.attribute
+            .as_ref()
+            .filter(|_| self.on)
+            .map(|_| (self.map, self.clim))
+    }
+
+    /// The range the map spans now.
+    pub(super) fn effective_clim(&self) -> Option<[f64; 2]> {
+        let range = self.attribute.as_ref()?.range;
+        Some(self.clim.unwrap_or_else(|| Coloring::default_clim(range)))
+    }
+}
+
 /// The window pixels from egui's capture, and where to save them.
 pub(super) type Capture = Arc<Mutex<Option<Arc<egui::ColorImage>>>>;
 
@@ -87,6 +122,8 @@ pub(super) struct ViewKey {
     pub(super) mode: Mode,
     /// Grid (or, in MC mode, mesh) uploads so far.
     pub(super) scene: u64,
+    /// The colour map and range (`None` range: the attribute's), or `None` for one colour.
+    pub(super) color: Option<(ColorMap, Option<[f64; 2]>)>,
 }
 
 #[derive(Clone, Copy)]

@@ -21,6 +21,9 @@ impl App {
         ));
 
         self.orbit_with_pointer(ui, &response, rect);
+        self.color.under_cursor = response
+            .hover_pos()
+            .and_then(|pos| self.value_at(pos, rect));
 
         let painter = ui.painter_at(area);
         painter.rect_filled(area, 0.0, background());
@@ -55,6 +58,20 @@ impl App {
             let corner = area.center() - galley.size() * 0.5;
             painter.galley(corner, galley, colour);
         }
+    }
+
+    /// The attribute value of the frame on screen at `pos` (points) in the image `rect`; `None`
+    /// off the image or off the surface.
+    fn value_at(&self, pos: egui::Pos2, rect: egui::Rect) -> Option<f32> {
+        let (width, values) = self.shown_values.as_ref()?;
+        let height = values.len() as u32 / width.max(&1);
+        if !rect.contains(pos) || height == 0 {
+            return None;
+        }
+        let u = (pos - rect.min) / rect.size();
+        let x = ((u.x * *width as f32) as u32).min(width - 1);
+        let y = ((u.y * height as f32) as u32).min(height - 1);
+        values[(x + width * y) as usize]
     }
 
     /// Render size in pixels: fixed, or the image area of the last frame.

@@ -24,7 +24,9 @@ impl App {
                     precision,
                     stats,
                     extract_seconds,
+                    attribute,
                 } if generation == self.generation => {
+                    self.color.attribute = attribute;
                     self.measurements.grid = Some(GridFacts {
                         iso,
                         precision,
@@ -105,11 +107,8 @@ impl App {
             ));
             self.mode = Mode::Cgc;
         }
-        // The viewer's GPU renderer draws one colour: say so rather than look uncoloured.
         let colour = match &info.attribute {
-            Some(name) => format!(
-                "; its attribute {name:?} is drawn in colour by `isogrid render` (the viewer draws one colour)"
-            ),
+            Some(name) => format!("; coloured by its attribute {name:?}"),
             None => String::new(),
         };
         self.note(format!("opened {}{colour}", info.path.display()), false);
@@ -117,6 +116,7 @@ impl App {
         self.texture = None;
         self.shown = None;
         self.shown_pixels = None;
+        self.shown_values = None;
         self.set_view(self.options.view, full_size);
         self.script_on_opened();
     }
@@ -127,6 +127,7 @@ impl App {
         self.texture = None;
         self.shown = None;
         self.shown_pixels = None;
+        self.shown_values = None;
     }
 
     fn on_frame(&mut self, ctx: &egui::Context, rendered: RenderedFrame, full_size: [u32; 2]) {
@@ -174,6 +175,11 @@ impl App {
         self.shown = Some(key);
         self.shown_samples = image.samples.unwrap_or(0);
         self.shown_pixels = Some((image.width, image.height, image.rgb8));
+        self.shown_values = image.value.map(|values| {
+            let hits = values.iter().zip(&image.cluster);
+            let values = hits.map(|(&v, &c)| (c != u32::MAX).then_some(v));
+            (image.width, values.collect())
+        });
         if let Some(script) = &mut self.script {
             if let ScriptState::Rendering { done } = &mut script.state {
                 if full {
