@@ -179,19 +179,39 @@ const EDGES: [(usize, usize, usize); 12] = {
     edges
 };
 
+/// For each set of inside corners (bit c: corner c), the edges of [`EDGES`] that the surface
+/// crosses (bit e: edge e): those whose two corners lie on different sides.
+const CROSSING_EDGES: [u16; 256] = {
+    let mut table = [0u16; 256];
+    let mut inside = 0;
+    while inside < 256 {
+        let mut e = 0;
+        while e < 12 {
+            let (c, d, _) = EDGES[e];
+            if (inside >> c ^ inside >> d) & 1 == 1 {
+                table[inside] |= 1 << e;
+            }
+            e += 1;
+        }
+        inside += 1;
+    }
+    table
+};
+
 /// The centroid of the points where the isosurface crosses a cell's edges, in the cell's own
 /// coordinates `[0, 1]³`, from its eight stored corners (codes, or f32 values at 32 bits) and the
 /// threshold in the same units. The cell's centre when no edge crosses.
 pub fn surface_point(corners: &[f32; 8], iso_code: f32) -> [f64; 3] {
-    let mut inside = 0u8;
+    let mut inside = 0usize;
     for (c, &v) in corners.iter().enumerate() {
-        inside |= ((v >= iso_code) as u8) << c;
+        inside |= ((v >= iso_code) as usize) << c;
     }
     let (mut sum, mut n) = ([0.0f32; 3], 0u32);
-    for &(c, d, axis) in &EDGES {
-        if (inside >> c ^ inside >> d) & 1 == 0 {
-            continue;
-        }
+    // The crossing edges in `EDGES` order, so the sums add up in the same order for every path.
+    let mut crossing = CROSSING_EDGES[inside];
+    while crossing != 0 {
+        let (c, d, axis) = EDGES[crossing.trailing_zeros() as usize];
+        crossing &= crossing - 1;
         let (a, b) = (corners[c], corners[d]);
         if a.is_nan() || b.is_nan() {
             continue;
@@ -231,28 +251,22 @@ fn lerp(a: f32, b: f32, t: f32) -> f32 {
 }
 
 impl<T: Scalar> Lattice<'_, T> {
-    /// The samples of the block whose first sample is `corner` (17 per axis, fewer at the
-    /// volume's far sides), copied into `out` as a lattice of their own (index space shifted by
-    /// `corner`).
-    fn copy_box<'b>(&self, corner: [usize; 3], out: &'b mut Vec<f32>) -> Lattice<'b, f32> {
-        let dims = [0, 1, 2].map(|a| (BLOCK_CELLS + 1).min(self.dims[a] - corner[a]));
+    /// Trilinear interpolation inside the cell whose low corner is sample `origin`, at `t` in the
+    /// cell's own coordinates: what [`Lattice::trilinear`] gives at `origin + t`, without its
+    /// bounds work (the cell lies inside the lattice and its planes are held).
+    #[inline]
+    fn in_cell(&self, origin: [u32; 3], t: [f64; 3]) -> f32 {
         let (nx, ny) = (self.dims[0], self.dims[1]);
-        out.clear();
-        for z in corner[2]..corner[2] + dims[2] {
-            for y in corner[1]..corner[1] + dims[1] {
-                let at = corner[0] + nx * (y + ny * (z - self.planes.start));
-                out.extend(
-                    self.samples[at..at + dims[0]]
-                        .iter()
-                        .map(|v| v.to_f64() as f32),
-                );
-            }
-        }
-        Lattice {
-            samples: out,
-            dims,
-            planes: 0..dims[2],
-        }
+        let [x, y, z] = origin.map(|c| c as usize);
+        let at = x + nx * (y + ny * (z - self.planes.start));
+        let (sy, sz) = (nx, nx * ny);
+        let s = |o: usize| self.samples[at + o].to_f64() as f32;
+        let t = t.map(|v| v as f32);
+        let x00 = lerp(s(0), s(1), t[0]);
+        let x10 = lerp(s(sy), s(sy + 1), t[0]);
+        let x01 = lerp(s(sz), s(sz + 1), t[0]);
+        let x11 = lerp(s(sz + sy), s(sz + sy + 1), t[0]);
+        lerp(lerp(x00, x10, t[1]), lerp(x01, x11, t[1]), t[2])
     }
 
     /// Trilinear interpolation at attribute index point `q`; NaN outside the volume or outside
@@ -331,7 +345,6 @@ fn sample_blocks<T: Scalar>(
     let mut runs = Vec::new();
     let mut rest: &mut [f32] = values;
     let mut next = 0usize;
-    let [nbx, nby, _] = info.block_dims().map(|b| b as usize);
     for b in blocks {
         let block = &grid.blocks()[b];
         if block.metacell_count == 0 {
@@ -350,43 +363,33 @@ fn sample_blocks<T: Scalar>(
         let (run, tail) = tail.split_at_mut(count);
         rest = tail;
         next = first + count;
-        let corner = [b % nbx, b / nbx % nby, b / (nbx * nby)].map(|i| i * BLOCK_CELLS);
-        runs.push((block.slots(), corner, first, run));
+        runs.push((block.slots(), first, run));
     }
-    runs.into_par_iter()
-        .for_each_init(Vec::new, |local, (slots, corner, first, run)| {
-            // On the same grid a block reads only its own 17³ samples: copied row by row first, so
-            // that the cells' Morton order does not turn each interpolation into cache misses.
-            let block_lattice = match alignment {
-                Alignment::SameGrid => Some(lattice.copy_box(corner, local)),
-                Alignment::Resampled { .. } => None,
-            };
-            let mut cell = first;
-            for (s, m) in grid.metacells()[slots].iter().enumerate() {
-                if s % CLUSTER_SLOTS == BOUND_SLOT || m.is_empty() {
+    runs.into_par_iter().for_each(|(slots, first, run)| {
+        let mut cell = first;
+        for (s, m) in grid.metacells()[slots].iter().enumerate() {
+            if s % CLUSTER_SLOTS == BOUND_SLOT || m.is_empty() {
+                continue;
+            }
+            for bit in 0..8 {
+                if m.cell_mask >> bit & 1 == 0 {
                     continue;
                 }
-                for bit in 0..8 {
-                    if m.cell_mask >> bit & 1 == 0 {
-                        continue;
+                let corners = read_corners(grid.cell_record(cell), precision);
+                let t = surface_point(&corners, iso_code);
+                let origin = m.cell_position(bit).map(|c| c as f64);
+                let p = [0, 1, 2].map(|a| origin[a] + t[a]);
+                run[cell - first] = match alignment {
+                    Alignment::Resampled { to_attribute } => {
+                        lattice.trilinear(apply(to_attribute, p))
                     }
-                    let corners = read_corners(grid.cell_record(cell), precision);
-                    let t = surface_point(&corners, iso_code);
-                    let origin = m.cell_position(bit).map(|c| c as f64);
-                    let p = [0, 1, 2].map(|a| origin[a] + t[a]);
-                    run[cell - first] = match (alignment, &block_lattice) {
-                        (Alignment::Resampled { to_attribute }, _) => {
-                            lattice.trilinear(apply(to_attribute, p))
-                        }
-                        (Alignment::SameGrid, Some(block)) => {
-                            block.trilinear([0, 1, 2].map(|a| p[a] - corner[a] as f64))
-                        }
-                        (Alignment::SameGrid, None) => unreachable!("copied above"),
-                    };
-                    cell += 1;
-                }
+                    // The cell's own eight attribute samples, at the point inside it.
+                    Alignment::SameGrid => lattice.in_cell(m.cell_position(bit), t),
+                };
+                cell += 1;
             }
-        });
+        }
+    });
 }
 
 /// Samples `source` at every active cell's surface point of `grid` and stores the values at
