@@ -534,8 +534,8 @@ def render(
             the built-in sky.
         cmap: colour map of a grid with an attribute: ``"viridis"`` (default), ``"magma"``,
             ``"inferno"``, ``"plasma"``, ``"cividis"``, ``"turbo"``, ``"gray"`` or ``"rdbu"``. A grid
-            with an attribute is always drawn in colour, on the CPU tracer (the GPU renderer
-            draws one colour: ``backend="gpu"`` is refused).
+            with an attribute is always drawn in colour, by either backend in every mode (path
+            tracing takes the colour as albedo).
         clim: ``(lo, hi)``, the values the map spans (default the attribute's range on the surface).
         progress: called as ``progress(done, total)`` about ten times a second while the render
             runs, with ``done`` increasing (image rows of each pass on the CPU, frames on the GPU)

@@ -764,14 +764,16 @@ fn the_value_aov_is_the_attribute_at_the_hit_and_colours_follow_the_map() {
     let (values, depths) = (npy_f32(&value), npy_f32(&depth));
     let camera = isogrid::Camera::preset(2, [0.0; 3], [(size - 1) as f64; 3], w, h).unwrap();
     assert_values_follow_the_hits("cpu", &values, &depths, &camera, f, [lo, hi]);
-    // Every GPU raster mode colours the same surface the same way: cgc with either raster,
-    // without EWA, CR and the MC mesh (vertex values from the cells they lie on).
-    let gpu_modes: [&[&str]; 5] = [
+    // Every GPU mode colours the same surface the same way: cgc with either raster, without
+    // EWA, CR, the MC mesh (vertex values from the cells they lie on) and path tracing.
+    let gpu_modes: [&[&str]; 6] = [
         &["--cell-raster", "hardware"],
         &["--cell-raster", "compute"],
         &["--mode", "cgc-noewa"],
         &["--mode", "cr"],
         &["--mode", "mc"],
+        // The value under each pixel is the raster primary's, where the paths start.
+        &["--mode", "pathtrace", "--spp", "2"],
     ];
     let (gpu_png, gpu_value, gpu_depth) =
         (dir.join("g.png"), dir.join("g.npy"), dir.join("gd.npy"));
@@ -893,25 +895,14 @@ fn colour_options_fail_clearly_where_they_cannot_be_drawn() {
                 s(&cgc),
                 "--mode",
                 "pathtrace",
-                "--backend",
-                "gpu",
-                "-o",
-                s(&png),
-            ],
-            "does not colour",
-        ),
-        (
-            vec![
-                "render",
-                s(&cgc),
-                "--mode",
-                "pathtrace",
                 "--primary",
                 "traced",
+                "--aov",
+                "value=v.npy",
                 "-o",
                 s(&png),
             ],
-            "does not colour",
+            "drop --primary traced",
         ),
         (
             vec!["render", s(&plain), "--cmap", "magma", "-o", s(&png)],

@@ -27,6 +27,12 @@
 // and 5 are trace.wgsl's `rays` and `hits`.
 @group(2) @binding(6) var primary_surface: texture_storage_2d<rgba32float, write>;
 @group(2) @binding(7) var primary_ids: texture_storage_2d<rg32uint, write>;
+// Colour by the grid's attribute (color.wgsl): every surface's albedo is its colour, when
+// `coloring.params.x` is COLOR_RECORDS, else `trace.albedo`. Raster primaries take their value
+// from the shading pass's value target (NaN off the surface).
+@group(0) @binding(4) var<uniform> coloring: ColorUniforms;
+@group(0) @binding(5) var<storage, read> attribute_codes: array<u32>;
+@group(0) @binding(6) var primary_values: texture_2d<f32>;
 
 const PI: f32 = 3.14159265358979;
 
@@ -126,6 +132,22 @@ fn bounce_ray(p: vec3<f32>, n: vec3<f32>, rng: ptr<function, u32>) -> BounceRay 
     return BounceRay(p + trace.cell_dims.w * n, cosine_direction(n, u1, u2));
 }
 
+// The diffuse albedo of the surface of corner record `record`.
+fn record_albedo(record: u32) -> vec3<f32> {
+    if coloring.params.x == COLOR_RECORDS {
+        return albedo_of(record_value(record));
+    }
+    return trace.albedo.rgb;
+}
+
+// The albedo of pixel `pixel`'s raster primary hit (the value the shading pass coloured it by).
+fn raster_primary_albedo(pixel: vec2<u32>) -> vec3<f32> {
+    if coloring.params.x == COLOR_RECORDS {
+        return albedo_of(textureLoad(primary_values, vec2<i32>(pixel), 0).r);
+    }
+    return trace.albedo.rgb;
+}
+
 // Adds a path's radiance to pixel `pixel`'s sum and writes the tone-mapped mean.
 fn add_sample(index: u32, pixel: vec2<u32>, radiance: vec3<f32>) {
     let sum = accumulation[index] + vec4<f32>(radiance, 1.0);
@@ -135,9 +157,10 @@ fn add_sample(index: u32, pixel: vec2<u32>, radiance: vec3<f32>) {
 }
 
 // Follows the path of pixel `pixel` (ray direction `dir` from the eye) from its primary hit
-// `primary` (world normal xyz, zero on a miss; eye distance w), and adds its radiance to the
-// pixel's sum and tone-mapped mean. wavefront.wgsl takes the same steps, one pass each.
-fn follow_path(pixel: vec2<u32>, dir: vec3<f32>, primary: vec4<f32>) {
+// `primary` (world normal xyz, zero on a miss; eye distance w) of albedo `albedo`, and adds its
+// radiance to the pixel's sum and tone-mapped mean. wavefront.wgsl takes the same steps, one pass
+// each.
+fn follow_path(pixel: vec2<u32>, dir: vec3<f32>, primary: vec4<f32>, albedo: vec3<f32>) {
     let index = pixel_index(pixel);
     var rng = path_rng(index);
     var radiance = vec3<f32>(0.0);
@@ -146,7 +169,7 @@ fn follow_path(pixel: vec2<u32>, dir: vec3<f32>, primary: vec4<f32>) {
     } else {
         var p = frame.eye.xyz + primary.w * dir;
         var n = facing(primary.xyz, dir);
-        var throughput = trace.albedo.rgb;
+        var throughput = albedo;
         for (var bounce = 0u; bounce < trace.block_dims.w; bounce++) {
             let ray = bounce_ray(p, n, &rng);
             let hit = trace_ray(ray.origin, ray.direction, 0.0, NO_HIT);
@@ -156,7 +179,7 @@ fn follow_path(pixel: vec2<u32>, dir: vec3<f32>, primary: vec4<f32>) {
             }
             p = ray.origin + hit.t * ray.direction;
             n = facing(hit.normal, ray.direction);
-            throughput *= trace.albedo.rgb;
+            throughput *= record_albedo(hit.record);
         }
     }
     add_sample(index, pixel, radiance);
@@ -173,7 +196,7 @@ fn path_trace(@builtin(global_invocation_id) gid: vec3<u32>) {
         return;
     }
     let dir = ray_direction(frame, vec2<f32>(gid.xy) + 0.5);
-    follow_path(gid.xy, dir, textureLoad(gbuffer, vec2<i32>(gid.xy), 0));
+    follow_path(gid.xy, dir, textureLoad(gbuffer, vec2<i32>(gid.xy), 0), raster_primary_albedo(gid.xy));
 }
 
 // Traced primaries: from the eye through the pixel centre, exactly the raster's ray.
@@ -187,5 +210,5 @@ fn path_trace_traced_primary(@builtin(global_invocation_id) gid: vec3<u32>) {
     let primary = select(vec4<f32>(0.0), vec4<f32>(hit.normal, hit.t), hit.t < NO_HIT);
     textureStore(primary_surface, vec2<i32>(gid.xy), primary);
     textureStore(primary_ids, vec2<i32>(gid.xy), vec4<u32>(hit.cluster, 0u, 0u, 0u));
-    follow_path(gid.xy, dir, primary);
+    follow_path(gid.xy, dir, primary, record_albedo(hit.record));
 }

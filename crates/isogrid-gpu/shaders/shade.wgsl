@@ -1,26 +1,15 @@
 // Deferred normalised Blinn–Phong shading (paper §3.2) of the G-buffer, with the EWA-accumulated
-// normals (§3.4) when present, and the albedo of a colour map over the hit cell's attribute value
-// (one value per cell, `isogrid::attribute`) or the MC mesh's interpolated vertex value: a full-screen fragment pass after the hardware raster, a compute
-// pass after the compute raster (the same `shade_pixel`; on GPUs with a weak graphics pipeline
-// the fragment pass alone costs more than the whole compute raster). Keep the constants and the formula in sync with
-// `crates/isogrid/src/shading.rs` (`shade_albedo`, `to_srgb8`, `BACKGROUND_SRGB`) and the colour
-// rule with `isogrid::colormap::Coloring::index`.
+// normals (§3.4) when present, and the albedo of a colour map (color.wgsl) over the hit cell's
+// attribute value or the MC mesh's interpolated vertex value: a full-screen fragment pass after
+// the hardware raster, a compute pass after the compute raster (the same `shade_pixel`; on GPUs
+// with a weak graphics pipeline the fragment pass alone costs more than the whole compute
+// raster). Keep the constants and the formula in sync with `crates/isogrid/src/shading.rs`
+// (`shade_albedo`, `to_srgb8`, `BACKGROUND_SRGB`).
 
 @group(0) @binding(0) var<uniform> frame: FrameUniforms;
 @group(1) @binding(0) var raster_surface: texture_2d<f32>;
 @group(1) @binding(1) var ewa_normals: texture_2d<f32>;
 @group(1) @binding(2) var cluster_ids: texture_2d<u32>;
-
-// Keep in sync with `ColorUniforms` in src/gpu_types.rs.
-struct ColorUniforms {
-    mapping: vec4<f32>,  // value of code 0, value step per code, colour range low end, 1 / its width
-    params: vec4<u32>,   // x: COLOR_* source; y: the NaN code; z: the bits of a NaN (WGSL has no NaN constant)
-    nan_albedo: vec4<f32>,
-    table: array<vec4<f32>, 256>, // linear albedo of the colour map's entries
-}
-const COLOR_NONE: u32 = 0u;
-const COLOR_RECORDS: u32 = 1u;
-const COLOR_MESH: u32 = 2u;
 
 @group(1) @binding(3) var<uniform> coloring: ColorUniforms;
 // One 16-bit attribute code per corner record (global record index), two per word; a dummy word
@@ -72,22 +61,7 @@ fn surface_value(ids: vec2<u32>) -> f32 {
     if coloring.params.x == COLOR_MESH {
         return bitcast<f32>(ids.y);
     }
-    let code = (attribute_codes[ids.y >> 1u] >> (16u * (ids.y & 1u))) & 0xffffu;
-    if code == coloring.params.y {
-        return bitcast<f32>(coloring.params.z);
-    }
-    return coloring.mapping.x + f32(code) * coloring.mapping.y;
-}
-
-// `Coloring::index`: the nearest of the 256 entries over the colour range, clamped; NaN apart.
-fn albedo_of(value: f32) -> vec3<f32> {
-    // By its bits: compilers may assume floats are never NaN and fold `value != value` away.
-    if (bitcast<u32>(value) & 0x7fffffffu) > 0x7f800000u {
-        return coloring.nan_albedo.rgb;
-    }
-    let t = clamp((value - coloring.mapping.z) * coloring.mapping.w, 0.0, 1.0);
-    // Halves round up, as Rust's `f64::round` does for these non-negative values.
-    return coloring.table[min(u32(floor(t * 255.0 + 0.5)), 255u)].rgb;
+    return record_value(ids.y);
 }
 
 @vertex

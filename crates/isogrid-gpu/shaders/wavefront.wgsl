@@ -18,6 +18,7 @@ struct PathState {
     hit: vec4<f32>,        // nearest crossing of the ray over the groups traced so far: normal xyz, t w (NO_HIT)
     throughput: vec3<f32>, // albedo product of the surfaces so far
     cluster: u32,          // cluster of the nearest crossing (NO_CLUSTER)
+    record: u32,           // and its corner record (the index of its attribute)
 }
 
 const PATH_DONE: u32 = 0xffffffffu;
@@ -25,13 +26,13 @@ const PATH_DONE: u32 = 0xffffffffu;
 @group(2) @binding(8) var<storage, read_write> paths: array<PathState>;
 
 fn no_path() -> PathState {
-    return PathState(vec3<f32>(0.0), PATH_DONE, vec3<f32>(0.0), 0u, vec4<f32>(0.0, 0.0, 0.0, NO_HIT), vec3<f32>(0.0), NO_CLUSTER);
+    return PathState(vec3<f32>(0.0), PATH_DONE, vec3<f32>(0.0), 0u, vec4<f32>(0.0, 0.0, 0.0, NO_HIT), vec3<f32>(0.0), NO_CLUSTER, 0u);
 }
 
 // Starts the path of pixel `pixel` (eye ray direction `dir`) from its primary hit `primary`
 // (world normal xyz, zero on a miss; eye distance w): a miss, or a hit with no bounces to take,
 // adds its sample at once; otherwise the first bounce ray waits for the traces.
-fn wave_begin(pixel: vec2<u32>, dir: vec3<f32>, primary: vec4<f32>) {
+fn wave_begin(pixel: vec2<u32>, dir: vec3<f32>, primary: vec4<f32>, albedo: vec3<f32>) {
     let index = pixel_index(pixel);
     var rng = path_rng(index);
     if dot(primary.xyz, primary.xyz) == 0.0 {
@@ -43,7 +44,7 @@ fn wave_begin(pixel: vec2<u32>, dir: vec3<f32>, primary: vec4<f32>) {
     } else {
         let p = frame.eye.xyz + primary.w * dir;
         let ray = bounce_ray(p, facing(primary.xyz, dir), &rng);
-        paths[index] = PathState(ray.origin, 0u, ray.direction, rng, vec4<f32>(0.0, 0.0, 0.0, NO_HIT), trace.albedo.rgb, NO_CLUSTER);
+        paths[index] = PathState(ray.origin, 0u, ray.direction, rng, vec4<f32>(0.0, 0.0, 0.0, NO_HIT), albedo, NO_CLUSTER, 0u);
     }
 }
 
@@ -54,7 +55,7 @@ fn wave_start(@builtin(global_invocation_id) gid: vec3<u32>) {
         return;
     }
     let dir = ray_direction(frame, vec2<f32>(gid.xy) + 0.5);
-    wave_begin(gid.xy, dir, textureLoad(gbuffer, vec2<i32>(gid.xy), 0));
+    wave_begin(gid.xy, dir, textureLoad(gbuffer, vec2<i32>(gid.xy), 0), raster_primary_albedo(gid.xy));
 }
 
 // Traced primaries: the eye ray through the pixel centre, traced next like a bounce.
@@ -65,7 +66,7 @@ fn wave_start_traced(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let index = pixel_index(gid.xy);
     let dir = ray_direction(frame, vec2<f32>(gid.xy) + 0.5);
-    paths[index] = PathState(frame.eye.xyz, 0u, dir, 0u, vec4<f32>(0.0, 0.0, 0.0, NO_HIT), vec3<f32>(0.0), NO_CLUSTER);
+    paths[index] = PathState(frame.eye.xyz, 0u, dir, 0u, vec4<f32>(0.0, 0.0, 0.0, NO_HIT), vec3<f32>(0.0), NO_CLUSTER, 0u);
 }
 
 // One group of pages: each path's ray keeps the nearer of its crossing so far and this group's.
@@ -83,6 +84,7 @@ fn wave_trace(@builtin(global_invocation_id) gid: vec3<u32>) {
     if hit.t < s.hit.w {
         paths[index].hit = vec4<f32>(hit.normal, hit.t);
         paths[index].cluster = hit.cluster;
+        paths[index].record = hit.record;
     }
 }
 
@@ -97,7 +99,7 @@ fn wave_resolve_primary(@builtin(global_invocation_id) gid: vec3<u32>) {
     let primary = select(vec4<f32>(0.0), s.hit, s.hit.w < NO_HIT);
     textureStore(primary_surface, vec2<i32>(gid.xy), primary);
     textureStore(primary_ids, vec2<i32>(gid.xy), vec4<u32>(s.cluster, 0u, 0u, 0u));
-    wave_begin(gid.xy, s.direction, primary);
+    wave_begin(gid.xy, s.direction, primary, record_albedo(s.record));
 }
 
 // A bounce, after its traces: an escaped path adds the environment, a path out of bounces adds
@@ -125,5 +127,5 @@ fn wave_resolve(@builtin(global_invocation_id) gid: vec3<u32>) {
     let p = s.origin + s.hit.w * s.direction;
     var rng = s.rng;
     let ray = bounce_ray(p, facing(s.hit.xyz, s.direction), &rng);
-    paths[index] = PathState(ray.origin, s.bounce + 1u, ray.direction, rng, vec4<f32>(0.0, 0.0, 0.0, NO_HIT), s.throughput * trace.albedo.rgb, NO_CLUSTER);
+    paths[index] = PathState(ray.origin, s.bounce + 1u, ray.direction, rng, vec4<f32>(0.0, 0.0, 0.0, NO_HIT), s.throughput * record_albedo(s.record), NO_CLUSTER, 0u);
 }

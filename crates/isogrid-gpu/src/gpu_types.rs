@@ -57,6 +57,47 @@ pub(crate) const COLOR_MESH: u32 = 2;
 
 const _: () = assert!(std::mem::size_of::<ColorUniforms>() == 48 + 16 * 256);
 
+impl ColorUniforms {
+    /// The colouring of the shading pass and the path tracer: `coloring`'s table as linear albedo
+    /// over its range, codes decoded with `mapping` (the grid's attribute; mesh values need none);
+    /// `source` is a `COLOR_*`. Without a colouring, [`COLOR_NONE`]: the one fixed albedo.
+    pub fn new(
+        coloring: Option<&isogrid::colormap::Coloring>,
+        source: u32,
+        mapping: Option<isogrid::CodeMapping>,
+    ) -> ColorUniforms {
+        use isogrid::colormap::{srgb8_to_linear, NAN_SRGB};
+        let mut u: ColorUniforms = Zeroable::zeroed();
+        u.params[2] = f32::NAN.to_bits();
+        let Some(c) = coloring.filter(|_| source != COLOR_NONE) else {
+            return u;
+        };
+        let m = mapping.unwrap_or(isogrid::CodeMapping {
+            zero: 0.0,
+            step: 0.0,
+            nan_code: u32::MAX,
+        });
+        let [lo, hi] = c.clim;
+        u.mapping = [
+            m.zero as f32,
+            m.step as f32,
+            lo as f32,
+            (1.0 / (hi - lo)) as f32,
+        ];
+        u.params[0] = source;
+        u.params[1] = m.nan_code;
+        let linear = |rgb: [u8; 3]| {
+            let [r, g, b] = rgb.map(srgb8_to_linear);
+            [r, g, b, 0.0]
+        };
+        u.nan_albedo = linear(NAN_SRGB);
+        for (entry, rgb) in u.table.iter_mut().zip(c.table()) {
+            *entry = linear(*rgb);
+        }
+        u
+    }
+}
+
 /// One page of a grid's buffers (group 1, binding 0 of the cell passes). Keep in sync with
 /// `PageUniforms` in `shaders/common.wgsl`.
 #[repr(C)]

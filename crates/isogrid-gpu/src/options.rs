@@ -206,6 +206,9 @@ pub struct PathTraceOptions<'a> {
     /// Counts finished frames and is checked before each frame: with it, at most two frames are
     /// in flight and a cancel ends the call within a frame ([`crate::GpuErrorKind::Cancelled`]).
     pub progress: Option<&'a Progress>,
+    /// Colours every surface by the grid's attribute through this map and range: the colour is
+    /// the albedo at every bounce (`albedo` is then unused), as the CPU path tracer does.
+    pub coloring: Option<&'a isogrid::colormap::Coloring>,
 }
 
 impl Default for PathTraceOptions<'_> {
@@ -219,6 +222,7 @@ impl Default for PathTraceOptions<'_> {
             backface_culling: true,
             primary: PrimaryRays::Raster,
             progress: None,
+            coloring: None,
         }
     }
 }

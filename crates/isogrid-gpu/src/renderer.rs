@@ -234,6 +234,7 @@ impl Renderer {
             frames: options.frames,
             occlusion_culling: options.occlusion_culling,
             backface_culling: options.backface_culling,
+            coloring: options.coloring.as_ref(),
             ..Default::default()
         });
         let ctx = self.frame_context();
@@ -276,10 +277,12 @@ impl Renderer {
         camera: &Camera,
         options: &PathTraceOptions<'_>,
     ) -> Result<Frame, GpuError> {
+        // The raster primaries are shaded in colour too: their value is where paths start.
         let raster = RenderOptions {
             frames: options.frames,
             occlusion_culling: options.occlusion_culling,
             backface_culling: options.backface_culling,
+            coloring: options.coloring.cloned(),
             ..Default::default()
         };
         let ctx = self.frame_context();

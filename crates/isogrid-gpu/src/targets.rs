@@ -85,7 +85,8 @@ impl Targets {
             "shaded attribute value",
             size,
             VALUE_FORMAT,
-            U::RENDER_ATTACHMENT | U::COPY_SRC | written,
+            // Texture binding: the path tracer's raster primaries take their colour from it.
+            U::RENDER_ATTACHMENT | U::COPY_SRC | U::TEXTURE_BINDING | written,
         );
         Targets {
             value_view: view(&value),

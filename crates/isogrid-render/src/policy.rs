@@ -3,8 +3,6 @@
 //!
 //! - `cpu`: the CPU tracer; GPU-only modes are refused when the request is built.
 //! - `gpu`: the GPU renderer on any adapter, lavapipe included; an error where there is none.
-//! - colour by an attribute: every raster mode draws it on the GPU; coloured path tracing runs on
-//!   the CPU tracer (`auto` goes there with a note; the request refuses `gpu`).
 //! - `auto`: a hardware adapter when there is one. Where the only adapter is a software one
 //!   (lavapipe, llvmpipe: wgpu's `DeviceType::Cpu`), the backend measured faster for the mode
 //!   ([`software_adapter_wins`]). The CPU where there is no adapter. GPU-only modes and requests
@@ -60,13 +58,8 @@ pub fn decide(
             }
         ))
     };
-    let colored = request.parts().color.is_some();
     match request.backend() {
         Backend::Cpu => cpu(None),
-        // The GPU path tracer draws one albedo; the CPU one colours.
-        Backend::Auto if colored && mode == Mode::PathTrace => cpu(Some(
-            "colouring by the attribute: path tracing on the CPU tracer".into(),
-        )),
         Backend::Gpu => match adapter() {
             Some(_) => gpu(None),
             None => Err(no_adapter()),

@@ -66,9 +66,8 @@ pub struct RequestParts {
     pub occlusion_culling: bool,
     /// GPU: which raster draws the cells.
     pub cell_raster: isogrid_gpu::CellRaster,
-    /// Colour the surface by the grid's attribute; `None`: one colour. Every raster mode of the
-    /// GPU renderer and the CPU tracer (Phong and path tracing) draw it; the policy places
-    /// coloured path tracing on the CPU.
+    /// Colour the surface by the grid's attribute; `None`: one colour. Every mode of both
+    /// renderers draws it (path tracing with the colour as albedo).
     pub color: Option<ColorSpec>,
 }
 
@@ -198,12 +197,9 @@ impl RenderRequest {
         if let Some(clim) = parts.color.as_ref().and_then(|c| c.clim) {
             isogrid::colormap::check_clim(clim)?;
         }
-        // The GPU path tracer multiplies paths by one albedo; colour would be silently lost.
-        let gpu_path_trace = parts.backend == Backend::Gpu || parts.primary.is_some();
-        if parts.color.is_some() && parts.mode == Mode::PathTrace && gpu_path_trace {
-            return Err(Error::unsupported(
-                "the GPU path tracer does not colour surfaces by an attribute; the CPU path tracer \
-                 does (--backend cpu or auto, without --primary)",
+        if parts.aovs.contains(&Aov::Value) && parts.primary == Some(Primary::Traced) {
+            return Err(Error::invalid(
+                "the value AOV of path tracing is read from the raster primaries; drop --primary traced",
             ));
         }
         for (i, aov) in parts.aovs.iter().enumerate() {

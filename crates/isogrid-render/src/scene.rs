@@ -168,6 +168,15 @@ impl<'r> UploadedScene<'r> {
             )));
         }
         progress.check()?;
+        let coloring = match (&parts.color, &self.attribute) {
+            (None, _) => None,
+            (Some(spec), Some(info)) => Some(spec.coloring(info)?),
+            (Some(_), None) => {
+                return Err(Error::invalid(
+                    "colouring asks for the grid's attribute, and the grid has none",
+                ))
+            }
+        };
         let start = Instant::now();
         let (frame, frames) = if mode == Mode::PathTrace {
             self.load_environment(request)?;
@@ -179,6 +188,7 @@ impl<'r> UploadedScene<'r> {
                 primary: parts.primary.unwrap_or_default().gpu(),
                 occlusion_culling: parts.occlusion_culling,
                 progress: Some(progress),
+                coloring: coloring.as_ref(),
                 ..Default::default()
             };
             let grid = self.grid.as_ref().expect("can_draw checked the grid");
@@ -189,15 +199,6 @@ impl<'r> UploadedScene<'r> {
         } else {
             // One step: raster frames are too quick to count one by one.
             progress.start(1);
-            let coloring = match (&parts.color, &self.attribute) {
-                (None, _) => None,
-                (Some(spec), Some(info)) => Some(spec.coloring(info)?),
-                (Some(_), None) => {
-                    return Err(Error::invalid(
-                        "colouring asks for the grid's attribute, and the grid has none",
-                    ))
-                }
-            };
             let options = isogrid_gpu::RenderOptions {
                 frames: parts.frames,
                 occlusion_culling: parts.occlusion_culling,

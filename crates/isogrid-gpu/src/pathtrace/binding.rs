@@ -3,9 +3,12 @@
 
 use super::trace_pipelines::{TraceEntryPoints, TracePipelines};
 use crate::error::GpuError;
-use crate::gpu_types::{TracePages, TraceUniforms, TRACE_PAGES};
+use crate::gpu_types::{
+    ColorUniforms, TracePages, TraceUniforms, COLOR_NONE, COLOR_RECORDS, TRACE_PAGES,
+};
+use crate::targets::VALUE_FORMAT;
 use crate::upload::{GpuGrid, Page};
-use crate::wgpu_util::{buffer_entry, Gpu};
+use crate::wgpu_util::{buffer_entry, texture_entry, view, Gpu};
 
 /// Secondary rays start this far (in cells of the smallest spacing) off the surface along the
 /// normal, well above the raster's and the tracer's crossing error (≈ 1e-4 cell after bisection).
@@ -19,6 +22,58 @@ pub(super) struct TraceBinding {
     /// [`TRACE_PAGES`] consecutive pages, and are traced in passes ([`super::wavefront`]).
     pub(super) page_groups: Vec<wgpu::BindGroup>,
     pub(super) entry: TraceEntryPoints,
+}
+
+/// Group 0's colouring (pathtrace.wgsl bindings 4–6): the `ColorUniforms`, the grid's attribute
+/// codes and the value target the shading pass wrote for raster primaries.
+pub(super) struct TraceColoring {
+    uniforms: wgpu::Buffer,
+    codes: Option<wgpu::Buffer>,
+    values: wgpu::TextureView,
+}
+
+impl TraceColoring {
+    /// `coloring` of `grid`'s attribute (one albedo without it), raster primaries' values in
+    /// `values` (a 1×1 dummy where there are none). Fails when colouring asks for an attribute
+    /// the grid does not have uploaded.
+    pub(super) fn new(
+        gpu: &Gpu,
+        grid: &GpuGrid,
+        coloring: Option<&isogrid::colormap::Coloring>,
+        values: Option<&wgpu::TextureView>,
+    ) -> Result<TraceColoring, GpuError> {
+        let attribute = match (coloring, &grid.attribute) {
+            (None, _) => None,
+            (Some(_), Some(a)) => Some(a),
+            (Some(_), None) => {
+                return Err(GpuError::invalid(
+                    grid.attribute_refused
+                        .clone()
+                        .unwrap_or_else(|| "the grid has no attribute to colour by".into()),
+                ))
+            }
+        };
+        let source = if attribute.is_some() {
+            COLOR_RECORDS
+        } else {
+            COLOR_NONE
+        };
+        let u = ColorUniforms::new(coloring, source, attribute.map(|a| a.mapping));
+        let values = match values {
+            Some(v) => v.clone(),
+            None => view(&gpu.texture_2d(
+                "no primary values",
+                (1, 1),
+                VALUE_FORMAT,
+                wgpu::TextureUsages::TEXTURE_BINDING,
+            )),
+        };
+        Ok(TraceColoring {
+            uniforms: gpu.uniform_buffer("trace colouring", bytemuck::bytes_of(&u)),
+            codes: attribute.map(|a| a.codes.clone()),
+            values,
+        })
+    }
 }
 
 /// The trace uniforms of `grid` with `bounces` and `albedo`; sample 0, the built-in sky.
@@ -55,6 +110,7 @@ pub(super) fn trace_binding(
     grid: &GpuGrid,
     frame: &wgpu::Buffer,
     uniforms: &wgpu::Buffer,
+    coloring: &TraceColoring,
 ) -> Result<TraceBinding, GpuError> {
     let dummy = || {
         gpu.device.create_buffer(&wgpu::BufferDescriptor {
@@ -65,6 +121,7 @@ pub(super) fn trace_binding(
         })
     };
     let blocks = grid.blocks.clone().unwrap_or_else(dummy);
+    let codes = coloring.codes.clone().unwrap_or_else(dummy);
     let group0 = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
         label: Some("trace grid"),
         layout: &t.grid,
@@ -72,6 +129,9 @@ pub(super) fn trace_binding(
             buffer_entry(0, frame),
             buffer_entry(1, uniforms),
             buffer_entry(3, &blocks),
+            buffer_entry(4, &coloring.uniforms),
+            buffer_entry(5, &codes),
+            texture_entry(6, &coloring.values),
         ],
     });
     if grid.pages.len() <= 1 {
@@ -94,7 +154,8 @@ pub(super) fn trace_binding(
             entry: t.one_page.clone(),
         });
     }
-    let needed = 2 * TRACE_PAGES as u32 + 3;
+    // Pages, then blocks, the attribute codes, the accumulation and the path states.
+    let needed = 2 * TRACE_PAGES as u32 + 4;
     let allowed = gpu.limits.max_storage_buffers_per_shader_stage;
     if allowed < needed {
         return Err(GpuError::too_large(format!(

@@ -3,7 +3,7 @@
 //! passes (one dispatch, or a [`Wavefront`] for grids of several page groups), and the
 //! accumulated sums read back into the [`Frame`].
 
-use super::binding::{trace_binding, trace_uniforms};
+use super::binding::{trace_binding, trace_uniforms, TraceColoring};
 use super::trace_pipelines::TracePipelines;
 use super::wavefront::Wavefront;
 use crate::error::GpuError;
@@ -50,6 +50,7 @@ impl PathTracePass {
         camera: &Camera,
         options: &PathTraceOptions<'_>,
         targets: [&wgpu::Texture; 3],
+        values: &wgpu::TextureView,
         frame_uniforms: &wgpu::Buffer,
     ) -> Result<PathTracePass, GpuError> {
         if options.bounces > MAX_BOUNCES {
@@ -70,7 +71,8 @@ impl PathTracePass {
             u
         };
         let uniforms = gpu.uniform_buffer("trace uniforms", bytemuck::bytes_of(&base));
-        let binding = trace_binding(gpu, pipelines, grid, frame_uniforms, &uniforms)?;
+        let coloring = TraceColoring::new(gpu, grid, options.coloring, Some(values))?;
+        let binding = trace_binding(gpu, pipelines, grid, frame_uniforms, &uniforms, &coloring)?;
         let pixels = camera.width as u64 * camera.height as u64;
         let sum_bytes = 16 * pixels;
         if sum_bytes > gpu.binding_limit() {
@@ -80,12 +82,13 @@ impl PathTracePass {
             )));
         }
         let key = format!(
-            "grid {} {camera:?} bounces {} albedo {:?} env {} primary {:?}",
+            "grid {} {camera:?} bounces {} albedo {:?} env {} primary {:?} colour {:?}",
             grid.id,
             options.bounces,
             options.albedo,
             options.env.map_or(0, |e| e.id),
-            options.primary
+            options.primary,
+            options.coloring.map(|c| (c.map, c.clim)),
         );
         let (sum, first_sample) = {
             let acc = &mut view.accumulation;

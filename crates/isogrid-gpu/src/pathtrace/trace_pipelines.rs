@@ -162,11 +162,19 @@ pub(crate) struct TracePipelines {
 impl TracePipelines {
     pub fn new(device: &wgpu::Device) -> Self {
         let c = wgpu::ShaderStages::COMPUTE;
-        // Group 0: frame uniforms, trace uniforms, blocks.
+        // Group 0: frame uniforms, trace uniforms, blocks; the colouring, the attribute codes and
+        // the value of each raster primary (pathtrace.wgsl).
         let grid = layout(
             device,
             "trace grid",
-            &[uniform(0, c), uniform(1, c), storage(3, c, true)],
+            &[
+                uniform(0, c),
+                uniform(1, c),
+                storage(3, c, true),
+                uniform(4, c),
+                storage(5, c, true),
+                texture(6, c, FLOAT, D2),
+            ],
         );
         // Group 1: the (single) page's uniforms, metacell slots and corner records.
         let page = layout(

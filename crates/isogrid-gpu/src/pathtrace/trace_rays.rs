@@ -2,7 +2,7 @@
 //! run on a list of world-space rays, returning each one's nearest isosurface crossing; one
 //! dispatch per group of bound pages, each keeping the nearer crossing.
 
-use super::binding::{trace_binding, trace_uniforms};
+use super::binding::{trace_binding, trace_uniforms, TraceColoring};
 use super::trace_pipelines::TracePipelines;
 use crate::error::GpuError;
 use crate::gpu_types::{FrameUniforms, SOURCE_RECORDS};
@@ -70,7 +70,8 @@ pub(crate) fn trace_ray_batch(
         let mut uniforms = trace_uniforms(grid, 0, [0.0; 3]);
         uniforms.sample[2] = rays.len() as u32;
         let uniforms = gpu.uniform_buffer("trace uniforms", bytemuck::bytes_of(&uniforms));
-        let binding = trace_binding(gpu, t, grid, &frame, &uniforms)?;
+        let coloring = TraceColoring::new(gpu, grid, None, None)?;
+        let binding = trace_binding(gpu, t, grid, &frame, &uniforms, &coloring)?;
         let storage = wgpu::BufferUsages::STORAGE;
         let ray_buffer = gpu
             .device

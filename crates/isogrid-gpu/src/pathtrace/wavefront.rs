@@ -9,7 +9,7 @@ use crate::error::GpuError;
 use crate::wgpu_util::{buffer_entry, Gpu};
 
 /// Bytes of one pixel's `PathState` in `shaders/wavefront.wgsl`.
-const PATH_STATE_BYTES: u64 = 64;
+const PATH_STATE_BYTES: u64 = 80;
 
 /// One render call's wavefront: its bindings and kernels.
 pub(super) struct Wavefront {

@@ -2,8 +2,7 @@
 //! shared by its frames; each pass builds its own groups from the targets.
 
 use super::plan::FramePlan;
-use super::uniforms::color_uniforms;
-use crate::gpu_types::{FrameUniforms, PageDrawArgs};
+use crate::gpu_types::{ColorUniforms, FrameUniforms, PageDrawArgs};
 use crate::passes::{ComputeRasterGroups, RasterPasses, SceneGroups, SceneInputs};
 use crate::targets::Targets;
 use crate::view::Visibility;
@@ -78,7 +77,7 @@ impl FrameBindings {
         });
         let coloring = gpu.uniform_buffer(
             "colouring",
-            bytemuck::bytes_of(&color_uniforms(
+            bytemuck::bytes_of(&ColorUniforms::new(
                 plan.coloring,
                 plan.color_source,
                 attribute.map(|a| a.mapping),

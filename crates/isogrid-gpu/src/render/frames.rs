@@ -66,10 +66,6 @@ pub(crate) fn render(
     };
     if options.coloring.is_some() {
         let missing = match (mode, grid, mesh) {
-            (Mode::PathTrace, _, _) => Some(
-                "the GPU path tracer draws one albedo; colour by an attribute in a raster mode"
-                    .to_string(),
-            ),
             (_, Some(g), _) if g.attribute.is_none() => Some(
                 g.attribute_refused
                     .clone()
@@ -111,7 +107,9 @@ fn render_unscoped(
     let bindings = FrameBindings::new(gpu, ctx.passes, camera, plan, visibility.as_ref());
     let timestamps = Timestamps::new(gpu, frames);
     let page_count = plan.grid.map_or(0, |g| g.pages.len()) as u64;
-    let readbacks = Readbacks::new(gpu, &bindings.targets, page_count, plan.coloring.is_some());
+    // Traced primaries run no shading pass, which writes the values.
+    let values = plan.coloring.is_some() && !plan.traced;
+    let readbacks = Readbacks::new(gpu, &bindings.targets, page_count, values);
     let t = &bindings.targets;
     let path_pass = match (path_trace, plan.grid) {
         (Some(o), Some(g)) => Some(PathTracePass::prepare(
@@ -122,6 +120,7 @@ fn render_unscoped(
             camera,
             o,
             [&t.final_normal, &t.color, &t.ids],
+            &t.value_view,
             &bindings.uniforms,
         )?),
         _ => None,

@@ -1,47 +1,9 @@
 //! The per-frame uniforms every cell, mesh and shading shader reads: camera basis and near plane,
 //! viewport, cell spacing, the isovalue in the scene's units, and the frame's flags.
 
-use crate::gpu_types::{ColorUniforms, FrameUniforms, COLOR_NONE, SOURCE_RECORDS, SOURCE_VOLUME};
+use crate::gpu_types::{FrameUniforms, SOURCE_RECORDS, SOURCE_VOLUME};
 use crate::upload::GpuGrid;
-use isogrid::colormap::{srgb8_to_linear, Coloring, NAN_SRGB};
-use isogrid::{Camera, CodeMapping};
-
-/// The shading pass's colouring: `coloring`'s table as linear albedo over its range, codes decoded
-/// with `mapping` (the grid's attribute; mesh values need none). `source` is a `COLOR_*`.
-pub(super) fn color_uniforms(
-    coloring: Option<&Coloring>,
-    source: u32,
-    mapping: Option<CodeMapping>,
-) -> ColorUniforms {
-    let mut u: ColorUniforms = bytemuck::Zeroable::zeroed();
-    u.params[2] = f32::NAN.to_bits();
-    let Some(c) = coloring.filter(|_| source != COLOR_NONE) else {
-        return u;
-    };
-    let m = mapping.unwrap_or(CodeMapping {
-        zero: 0.0,
-        step: 0.0,
-        nan_code: u32::MAX,
-    });
-    let [lo, hi] = c.clim;
-    u.mapping = [
-        m.zero as f32,
-        m.step as f32,
-        lo as f32,
-        (1.0 / (hi - lo)) as f32,
-    ];
-    u.params[0] = source;
-    u.params[1] = m.nan_code;
-    let linear = |rgb: [u8; 3]| {
-        let [r, g, b] = rgb.map(srgb8_to_linear);
-        [r, g, b, 0.0]
-    };
-    u.nan_albedo = linear(NAN_SRGB);
-    for (entry, rgb) in u.table.iter_mut().zip(c.table()) {
-        *entry = linear(*rgb);
-    }
-    u
-}
+use isogrid::Camera;
 
 /// EWA Gaussian standard deviation in cells: neighbours one cell apart weigh exp(−1/(2·0.7²)) ≈ 0.36.
 const EWA_SIGMA_CELLS: f64 = 0.7;

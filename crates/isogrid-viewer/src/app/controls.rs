@@ -169,12 +169,6 @@ impl App {
         if !self.color.on {
             return;
         }
-        if self.mode == Mode::PathTrace {
-            ui.label(
-                egui::RichText::new("path tracing on the GPU draws one colour (one albedo)")
-                    .small(),
-            );
-        }
         egui::ComboBox::from_label("colour map")
             .selected_text(self.color.map.name())
             .show_ui(ui, |ui| {

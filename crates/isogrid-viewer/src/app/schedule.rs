@@ -60,8 +60,7 @@ impl App {
             camera: self.orbit.camera(size[0], size[1]),
             mode: self.mode,
             scene,
-            // The GPU path tracer draws one albedo.
-            color: self.color.spec().filter(|_| self.mode != Mode::PathTrace),
+            color: self.color.spec(),
         };
         let recheck = settling.map(|e| SETTLE - e);
         // Path tracing refines while the camera rests: the same view is asked for again, each

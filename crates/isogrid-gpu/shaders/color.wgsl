@@ -1,0 +1,37 @@
+// Colour by an attribute (`isogrid::colormap`, `isogrid::attribute`): the colouring uniforms and
+// the rules that turn a corner record's attribute code into a value and a value into an albedo,
+// shared by the deferred shading pass (shade.wgsl) and the path tracer (pathtrace.wgsl). Each of
+// those declares, at its own group and binding, `coloring: ColorUniforms` and
+// `attribute_codes: array<u32>` (one 16-bit code per corner record, global record index, two per
+// word). Twins: `Coloring::index` (the table entry), `AttributeInfo::code_mapping` (the decoding).
+
+// Keep in sync with `ColorUniforms` in src/gpu_types.rs.
+struct ColorUniforms {
+    mapping: vec4<f32>,  // value of code 0, value step per code, colour range low end, 1 / its width
+    params: vec4<u32>,   // x: COLOR_* source; y: the NaN code; z: the bits of a NaN (WGSL has no NaN constant)
+    nan_albedo: vec4<f32>,
+    table: array<vec4<f32>, 256>, // linear albedo of the colour map's entries
+}
+const COLOR_NONE: u32 = 0u;
+const COLOR_RECORDS: u32 = 1u;
+const COLOR_MESH: u32 = 2u;
+
+// The attribute value of corner record `record` (global index); NaN for the NaN code.
+fn record_value(record: u32) -> f32 {
+    let code = (attribute_codes[record >> 1u] >> (16u * (record & 1u))) & 0xffffu;
+    if code == coloring.params.y {
+        return bitcast<f32>(coloring.params.z);
+    }
+    return coloring.mapping.x + f32(code) * coloring.mapping.y;
+}
+
+// `Coloring::index`: the nearest of the 256 entries over the colour range, clamped; NaN apart.
+fn albedo_of(value: f32) -> vec3<f32> {
+    // By its bits: compilers may assume floats are never NaN and fold `value != value` away.
+    if (bitcast<u32>(value) & 0x7fffffffu) > 0x7f800000u {
+        return coloring.nan_albedo.rgb;
+    }
+    let t = clamp((value - coloring.mapping.z) * coloring.mapping.w, 0.0, 1.0);
+    // Halves round up, as Rust's `f64::round` does for these non-negative values.
+    return coloring.table[min(u32(floor(t * 255.0 + 0.5)), 255u)].rgb;
+}
