@@ -40,6 +40,9 @@ class CellGrid:
     def attribute(self) -> Optional[npt.NDArray[np.float32]]:
         """The per-cell attribute's values (one per active cell, NaN where none), or None."""
     @property
+    def attribute_codes(self) -> Optional[np.ndarray]:
+        """The attribute as stored: a read-only view of uint8/uint16 codes or float32 values."""
+    @property
     def attribute_info(self) -> Optional[Dict[str, Any]]:
         """name, bits (8, 16 or 32) and range (finite, on the surface) of the attribute, or None."""
     @property

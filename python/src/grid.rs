@@ -322,6 +322,26 @@ impl CellGrid {
         Some(values.into_pyarray(py))
     }
 
+    /// The attribute as stored, one per active cell: a read-only view (no copy) of uint8 or
+    /// uint16 codes (value = lo + code·(hi − lo)/(2^bits − 2) over `attribute_info["range"]`,
+    /// code 2^bits − 1 for NaN), or of the float32 values at 32 bits; `None` without one.
+    #[getter]
+    fn attribute_codes<'py>(slf: &Bound<'py, Self>) -> PyResult<Option<Bound<'py, PyAny>>> {
+        let Some(a) = slf.get().inner.attribute() else {
+            return Ok(None);
+        };
+        let dtype = match a.info().precision.bits() {
+            8 => "<u1",
+            16 => "<u2",
+            _ => "<f4",
+        };
+        let view = ArrayView1::from(a.value_bytes());
+        // SAFETY: as in `byte_view`: the attribute's bytes live, unmoved, as long as the grid.
+        let array = unsafe { PyArray1::borrow_from_array(&view, slf.clone().into_any()) };
+        drop(array.readwrite().make_nonwriteable());
+        Ok(Some(array.call_method1("view", (dtype,))?))
+    }
+
     /// The attribute's name, stored bits (8, 16 or 32) and finite range on the surface; `None`
     /// without an attribute.
     #[getter]

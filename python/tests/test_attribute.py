@@ -96,6 +96,12 @@ def test_attributes_survive_files_and_pickles_and_render_in_colour(tmp_path):
     import pickle
 
     np.testing.assert_array_equal(pickle.loads(pickle.dumps(grid)).attribute, grid.attribute)
+    # The stored codes, without a copy: they decode to the values.
+    codes = grid.attribute_codes
+    assert codes.dtype == np.uint16 and not codes.flags.writeable and codes.base is not None
+    lo_, hi_ = grid.attribute_info["range"]
+    decoded = np.where(codes == 0xFFFF, np.nan, lo_ + codes * ((hi_ - lo_) / 0xFFFE))
+    np.testing.assert_allclose(decoded, grid.attribute, rtol=1e-6, atol=1e-6 * (hi_ - lo_))
     image, aovs = isogrid.render(grid, size=(64, 48), backend="cpu", aovs=("value", "depth"), cmap="gray")
     hit = np.isfinite(aovs["depth"])
     assert hit.sum() > 200

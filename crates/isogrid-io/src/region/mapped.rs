@@ -3,28 +3,31 @@
 //! Samples stored as they are kept (u8, u16, i16, f32, unscaled) are read with one positioned
 //! read straight into the slab, byte-swapped in place where the file's order is not the
 //! machine's: one copy out of the page cache, with no page faults and no map to tear down.
-//! Samples that must be converted are read through a memory map of a bounded chunk at a time,
-//! unmapped before the next (a map of the whole file would keep every page it ever touched
-//! resident until the end), and converted exactly as the in-memory readers convert them (the same
-//! `read_samples`), so both paths see the same values.
+//! Samples that must be converted are read a bounded chunk at a time into a reused buffer and
+//! converted exactly as the in-memory readers convert them (the same `read_samples`), so both
+//! paths see the same values. Nothing is memory-mapped: a file truncated by another process while
+//! it is read ends in an error naming it, where a mapped page past the new end would kill the
+//! process with SIGBUS.
 
 use crate::mapped_layout::MappedLayout;
 use crate::samples::{read_samples, ElemType};
 use isogrid::extract::stream::{RegionSource, SlabMut};
 use isogrid::{Error, Geometry, Result, ResultExt, ScalarType, VolumeData};
-use memmap2::{Advice, MmapOptions};
 use std::fs::File;
+use std::io::{Read, Seek, SeekFrom};
 use std::ops::Range;
 use std::path::Path;
 
 /// Bytes converted at a time: bounds the temporary of the conversion.
 const CONVERT_BYTES: usize = 4 << 20;
 
-/// A file read through per-slab memory maps.
+/// A file read plane range by plane range with positioned reads.
 pub struct MappedSource {
     layout: MappedLayout,
     file: File,
     scalar: ScalarType,
+    /// The stored bytes of one chunk of samples that are converted.
+    chunk: Vec<u8>,
 }
 
 impl MappedSource {
@@ -42,6 +45,7 @@ impl MappedSource {
             layout,
             file,
             scalar,
+            chunk: Vec::new(),
         })
     }
 
@@ -55,32 +59,21 @@ impl MappedSource {
             return Ok(());
         }
         if self.stored_as_kept() {
-            use std::io::{Read, Seek, SeekFrom};
-            (&self.file).seek(SeekFrom::Start(offset))?;
-            (&self.file).read_exact(out.as_bytes_mut())?;
+            read_exact_at(&self.file, offset, out.as_bytes_mut())?;
             if self.layout.big_endian != cfg!(target_endian = "big") {
                 out.swap_bytes();
             }
             return Ok(());
         }
-        // Mapped a bounded chunk at a time: resident pages of a map count against the process
-        // until it is unmapped.
         let per_chunk = (CONVERT_BYTES / size).max(1) as u64 * size as u64;
         let mut done = 0u64;
         while done < len {
             let chunk = per_chunk.min(len - done);
-            // SAFETY: the map is read-only and lives only for this chunk; a file truncated by
-            // another process meanwhile would fault, as it would for any reader of a mapped file.
-            let map = unsafe {
-                MmapOptions::new()
-                    .offset(offset + done)
-                    .len(chunk as usize)
-                    .map(&self.file)?
-            };
-            let _ = map.advise(Advice::Sequential);
+            self.chunk.resize(chunk as usize, 0);
+            read_exact_at(&self.file, offset + done, &mut self.chunk)?;
             let count = chunk as usize / size;
             let data = read_samples(
-                &mut &map[..],
+                &mut &self.chunk[..],
                 self.layout.elem,
                 self.layout.big_endian,
                 count,
@@ -94,6 +87,20 @@ impl MappedSource {
         }
         Ok(())
     }
+}
+
+/// Fills `buf` from byte `offset` of `file`; a file that ends first (truncated since it was opened
+/// and checked) is an error saying so.
+fn read_exact_at(mut file: &File, offset: u64, buf: &mut [u8]) -> Result<()> {
+    file.seek(SeekFrom::Start(offset))?;
+    file.read_exact(buf).map_err(|e| match e.kind() {
+        std::io::ErrorKind::UnexpectedEof => Error::invalid(format!(
+            "the data ends before byte {}: the file is shorter than its header declares \
+             (truncated while it was read?)",
+            offset + buf.len() as u64
+        )),
+        _ => e.into(),
+    })
 }
 
 /// Copies `data` into `out` from sample `at` on.
@@ -137,7 +144,7 @@ impl RegionSource for MappedSource {
         if self.stored_as_kept() {
             return 0;
         }
-        // One mapped chunk, its converted samples and, for scaled data, their scaled copy.
+        // One chunk of stored bytes, its converted samples and, for scaled data, their scaled copy.
         let samples = (CONVERT_BYTES / self.layout.elem.size()) as u64;
         let scaled = if self.layout.scale.is_some() { 4 } else { 0 };
         CONVERT_BYTES as u64 + samples * (self.scalar.size() as u64 + scaled)

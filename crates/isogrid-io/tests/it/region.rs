@@ -218,3 +218,54 @@ fn tiff_slice_folders_sort_naturally_and_stream_byte_identically() {
     assert!(err.contains("slice_99.tif") && err.contains("5x5"), "{err}");
     assert!(!dir.path("out.cgc").exists());
 }
+
+/// A data file truncated by another process after it was opened and checked ends the read in an
+/// error that says so, for samples read as they are (f32) and for converted ones (int8): nothing
+/// is memory-mapped, where a page past the new end would kill the process with SIGBUS.
+#[test]
+fn a_file_truncated_while_it_is_streamed_is_an_error_not_a_crash() {
+    use isogrid::extract::stream::SlabMut;
+    let dir = TempDir::new("truncated-while-read");
+    let n = 32usize;
+    for (kind, bytes_per_sample) in [("float", 4usize), ("int8", 1)] {
+        let data = dir.path(&format!("{kind}.raw"));
+        let header = dir.path(&format!("{kind}.nhdr"));
+        std::fs::write(
+            &header,
+            format!(
+                "NRRD0004\ntype: {kind}\ndimension: 3\nsizes: {n} {n} {n}\nendian: little\n\
+                 encoding: raw\ndata file: {kind}.raw\n\n"
+            ),
+        )
+        .unwrap();
+        std::fs::write(&data, vec![1u8; n * n * n * bytes_per_sample]).unwrap();
+        let mut source = open_region(&header, &ReadOptions::default())
+            .unwrap()
+            .expect("a raw NRRD opens by region");
+        // Truncated after the open checked its length.
+        std::fs::OpenOptions::new()
+            .write(true)
+            .open(&data)
+            .unwrap()
+            .set_len((n * n * n * bytes_per_sample / 2) as u64)
+            .unwrap();
+        let planes = n / 2..n;
+        let err = match source.scalar_type() {
+            ScalarType::F32 => {
+                let mut slab = vec![0f32; n * n * planes.len()];
+                source.read_planes(planes, SlabMut::F32(&mut slab))
+            }
+            ScalarType::I16 => {
+                let mut slab = vec![0i16; n * n * planes.len()];
+                source.read_planes(planes, SlabMut::I16(&mut slab))
+            }
+            other => panic!("{kind} kept as {other:?}"),
+        }
+        .expect_err("the missing half cannot be read");
+        let text = err.to_string();
+        assert!(
+            text.contains(&format!("{kind}.raw")) && text.contains("shorter than its header"),
+            "{kind}: {text}"
+        );
+    }
+}
