@@ -135,7 +135,7 @@ pub fn run(args: Args) -> Result<()> {
         // disk in one line (crate::stdout).
         outln!("serving     {} at {url}", file.display());
         outln!(
-            "            add &view=1|2 and &size=WxH for the camera of `isogrid render`; Ctrl-C stops"
+            "            add &view=1|2 and &size=WxH for the camera of `isogrid render`, &clip=x|y|z[:F] for a clip plane; Ctrl-C stops"
         );
         if args.open {
             open_browser(&url);
