@@ -102,10 +102,32 @@ export interface GridUniformInfo {
 }
 
 /**
- * `FrameUniforms` (common.wgsl) as 112 bytes: eye+near, right+tan·aspect, up+tan,
- * forward+sigma, viewport, spacing+iso code, params (precision, source, flags, frame).
+ * A clip plane across world axis `axis` (0 x, 1 y, 2 z) at world coordinate `at`: the surface
+ * beyond it (larger coordinates; smaller when `flip`) is cut away.
  */
-export function frameUniforms(c: Camera, g: GridUniformInfo, flags: number, frame: number): ArrayBuffer {
+export interface ClipPlane {
+  axis: number;
+  at: number;
+  flip: boolean;
+}
+
+/** The clip plane as `FrameUniforms.clip`: (n, w) with dot(n, p) > w cut away; zeros for none. */
+export function clipUniform(clip: ClipPlane | null): [number, number, number, number] {
+  if (!clip) return [0, 0, 0, 0];
+  const s = clip.flip ? -1 : 1;
+  const n: [number, number, number, number] = [0, 0, 0, s * clip.at];
+  n[clip.axis] = s;
+  return n;
+}
+
+/** Bytes of `FrameUniforms` (the size assert in gpu_types.rs). */
+export const FRAME_UNIFORM_BYTES = 128;
+
+/**
+ * `FrameUniforms` (common.wgsl): eye+near, right+tan·aspect, up+tan, forward+sigma, viewport,
+ * spacing+iso code, params (precision, source, flags, frame), clip plane.
+ */
+export function frameUniforms(c: Camera, g: GridUniformInfo, flags: number, frame: number, clip: ClipPlane | null = null): ArrayBuffer {
   const [right, up, forward] = basis(c);
   const tan = Math.tan(((c.fovyDegrees * Math.PI) / 180) * 0.5);
   const aspect = c.width / c.height;
@@ -114,13 +136,14 @@ export function frameUniforms(c: Camera, g: GridUniformInfo, flags: number, fram
   const radius = Math.sqrt([0, 1, 2].map((a) => (hi[a] - lo[a]) ** 2).reduce((x, y) => x + y)) * 0.5;
   const distance = Math.sqrt([0, 1, 2].map((a) => (c.eye[a] - center[a]) ** 2).reduce((x, y) => x + y));
   const near = 1e-5 * Math.max(distance + radius, 1e-6);
-  const buf = new ArrayBuffer(112);
+  const buf = new ArrayBuffer(FRAME_UNIFORM_BYTES);
   const f = new Float32Array(buf);
   const u = new Uint32Array(buf);
   f.set([...c.eye, near, ...right, tan * aspect, ...up, tan, ...forward, EWA_SIGMA_CELLS], 0);
   f.set([c.width, c.height, 1 / c.width, 1 / c.height], 16);
   f.set([g.spacing[0], g.spacing[1], g.spacing[2], g.isoCode], 20);
   u.set([g.precisionBits, 0, flags, frame], 24);
+  f.set(clipUniform(clip), 28);
   return buf;
 }
 

@@ -2,10 +2,12 @@
 // facts panel, and `window.isogrid` for tests: `ready` settles after the first complete frame of
 // the whole file (rejects with the page's error message), `pixels()` gives the colour target.
 // URL parameters: `src`, `view=1|2` and `size=WxH` (the camera and canvas of
-// `isogrid render --view N --size WxH`).
+// `isogrid render --view N --size WxH`), `clip=[-]x|y|z[:F]` (a clip plane across that axis at
+// fraction F of the grid's extent, 0.5 by default, cutting away the larger coordinates, or the
+// smaller ones with `-`).
 
 import { CgcError, CgcHeader, worldBounds } from './cgc.js';
-import { Camera, orbit, pan, presetCamera, zoom } from './camera.js';
+import { Camera, ClipPlane, orbit, pan, presetCamera, zoom } from './camera.js';
 import { blobSource, ByteSource, streamCgc, urlSource } from './loader.js';
 import { COLOR_FORMAT, Renderer } from './renderer.js';
 
@@ -47,7 +49,7 @@ window.isogrid = {
     const gpu: number[] = [];
     for (let i = 0; i < n; i++) {
       const t0 = performance.now();
-      renderer!.render(camera!, null);
+      renderer!.render(camera!, null, clipPlane());
       await renderer!.readPixels();
       wall.push(performance.now() - t0);
       await new Promise((r) => setTimeout(r, 0));
@@ -77,6 +79,21 @@ function parseSize(s: string | null): [number, number] | null {
   return w > 0 && h > 0 && w <= 8192 && h <= 8192 ? [w, h] : null;
 }
 
+function parseClip(s: string | null): { axis: number | null; fraction: number; flip: boolean } {
+  const m = s ? /^(-?)([xyz])(?::([0-9.]+))?$/.exec(s) : null;
+  const fraction = m?.[3] !== undefined ? Number(m[3]) : 0.5;
+  if (!m || !(fraction >= 0 && fraction <= 1)) return { axis: null, fraction: 0.5, flip: false };
+  return { axis: 'xyz'.indexOf(m[2]), fraction, flip: m[1] === '-' };
+}
+
+/** The clip plane in world space (index × spacing) from the control and the grid's bounds. */
+function clipPlane(): ClipPlane | null {
+  if (clipControl.axis === null || !header) return null;
+  const [lo, hi] = worldBounds(header);
+  const a = clipControl.axis;
+  return { axis: a, at: lo[a] + clipControl.fraction * (hi[a] - lo[a]), flip: clipControl.flip };
+}
+
 // Held for the page's life: a collected adapter can take the device's instance with it.
 let adapter: GPUAdapter | null = null;
 let device: GPUDevice | null = null;
@@ -94,6 +111,8 @@ let header: CgcHeader | null = null;
 let camera: Camera | null = null;
 let view = params.get('view') === '1' ? 1 : 2;
 const fixedSize = parseSize(params.get('size'));
+/** The clip control: axis (null: no plane), position as a fraction of the extent, side. */
+const clipControl = parseClip(params.get('clip'));
 let complete = false;
 let frameQueued = false;
 let bytesIn = 0;
@@ -163,7 +182,7 @@ function drawFrame(): void {
   const wasComplete = complete;
   const t0 = performance.now();
   const cam = camera;
-  renderer.render(cam, context ? context.getCurrentTexture() : null);
+  renderer.render(cam, context ? context.getCurrentTexture() : null, clipPlane());
   stats.pages = renderer.pageCount;
   stats.frames = ((stats.frames as number) || 0) + 1;
   if (!stats.firstFrameBytes && renderer.pageCount > 0) stats.firstFrameBytes = bytesIn;
@@ -293,6 +312,31 @@ canvas.addEventListener('wheel', (e) => {
 $('view1').onclick = () => ((view = 1), resetCamera());
 $('view2').onclick = () => ((view = 2), resetCamera());
 $('fit').onclick = () => resetCamera();
+// The clip plane: axis (or none), flip, and position along the axis.
+const clipAxis = $<HTMLSelectElement>('clip-axis');
+const clipFlip = $<HTMLButtonElement>('clip-flip');
+const clipAt = $<HTMLInputElement>('clip-at');
+const showClip = () => {
+  clipAxis.value = clipControl.axis === null ? '' : String(clipControl.axis);
+  clipAt.value = String(Math.round(clipControl.fraction * 1000));
+  clipFlip.disabled = clipAt.disabled = clipControl.axis === null;
+  clipFlip.setAttribute('aria-pressed', String(clipControl.flip));
+};
+showClip();
+clipAxis.onchange = () => {
+  clipControl.axis = clipAxis.value === '' ? null : Number(clipAxis.value);
+  showClip();
+  requestFrame();
+};
+clipFlip.onclick = () => {
+  clipControl.flip = !clipControl.flip;
+  showClip();
+  requestFrame();
+};
+clipAt.oninput = () => {
+  clipControl.fraction = Number(clipAt.value) / 1000;
+  requestFrame();
+};
 $('shot').onclick = async () => {
   if (!renderer || !camera) return;
   const px = await renderer.readPixels();

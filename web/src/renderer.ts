@@ -9,7 +9,7 @@
 // its cells have arrived, so the picture fills in while the file streams.
 
 import { SHADERS } from 'isogrid:shaders';
-import { Camera, frameUniforms, FLAG_EWA, FLAG_OCCLUSION } from './camera.js';
+import { Camera, ClipPlane, frameUniforms, FLAG_EWA, FLAG_OCCLUSION, FRAME_UNIFORM_BYTES } from './camera.js';
 import { CLUSTER_SLOTS, SLOT_BYTES } from './cgc.js';
 
 const DEPTH_FORMAT: GPUTextureFormat = 'depth32float';
@@ -132,7 +132,7 @@ export class Renderer {
     set('shade', rect('deferred shading', ['scene render', 'shading inputs'], module('shade'), 'vs_fullscreen', 'fs_shade', [{ format: COLOR_FORMAT }, { format: FINAL_FORMAT }, { format: VALUE_FORMAT }], false));
 
     this.compiled = Promise.all(pending).then(() => undefined);
-    this.uniforms = d.createBuffer({ label: 'frame uniforms', size: 112, usage: GPUBufferUsage.UNIFORM | GPUBufferUsage.COPY_DST });
+    this.uniforms = d.createBuffer({ label: 'frame uniforms', size: FRAME_UNIFORM_BYTES, usage: GPUBufferUsage.UNIFORM | GPUBufferUsage.COPY_DST });
     // ColorUniforms of shade.wgsl (gpu_types.rs): COLOR_NONE, the one fixed albedo.
     this.coloring = d.createBuffer({ label: 'colouring', size: COLOR_UNIFORMS_BYTES, usage: GPUBufferUsage.UNIFORM | GPUBufferUsage.COPY_DST });
     this.attributeCodes = d.createBuffer({ label: 'no attribute codes', size: 16, usage: GPUBufferUsage.STORAGE });
@@ -286,13 +286,16 @@ export class Renderer {
     this.visibilityFor = '';
   }
 
-  /** Encodes one frame of `camera` into the colour target, copied into `output` when given. */
-  render(camera: Camera, output: GPUTexture | null): GPUTexture {
+  /**
+   * Encodes one frame of `camera` into the colour target, copied into `output` when given; the
+   * surface beyond `clip` is cut away (the shaders clip each cell's ray segment).
+   */
+  render(camera: Camera, output: GPUTexture | null, clip: ClipPlane | null = null): GPUTexture {
     const d = this.device;
     this.ensureTargets(camera.width, camera.height);
     const T = this.targets!;
-    // Visibility persists while the camera stays; anything else starts from "all visible".
-    const key = JSON.stringify([camera, this.pages.length]);
+    // Visibility persists while the camera and clip plane stay; anything else starts from "all visible".
+    const key = JSON.stringify([camera, clip, this.pages.length]);
     if (key !== this.visibilityFor) {
       d.queue.writeBuffer(this.visibleLast, 0, new Uint8Array(this.visibleLast.size).fill(0xff));
       d.queue.writeBuffer(this.visibleNew, 0, new Uint8Array(this.visibleNew.size));
@@ -301,7 +304,7 @@ export class Renderer {
     let flags = 0;
     if (this.occlusion) flags |= FLAG_OCCLUSION;
     if (this.ewa) flags |= FLAG_EWA;
-    d.queue.writeBuffer(this.uniforms, 0, frameUniforms(camera, this.grid, flags, this.frame++));
+    d.queue.writeBuffer(this.uniforms, 0, frameUniforms(camera, this.grid, flags, this.frame++, clip));
     const enc = d.createCommandEncoder({ label: 'frame' });
     const timed = this.query && !this.query.busy ? this.query : null;
     for (const p of this.pages) enc.copyBufferToBuffer(this.argsTemplate, 0, p.args, 0, 48);

@@ -17,6 +17,7 @@ import { PNG } from 'pngjs';
 import { build } from '../build.mjs';
 import { startServer } from './server.mjs';
 import { isogridBinary, sphereFile, resealHeader, realFiles } from './fixtures.mjs';
+import { basis, presetCamera } from '../build/node/camera.js';
 
 const web = join(dirname(fileURLToPath(import.meta.url)), '..');
 const BACKGROUND = [28, 30, 36];
@@ -77,6 +78,54 @@ function compare(a, b) {
   return { mask: same / n, colour: hits ? close / hits : 0, hits, worst };
 }
 
+/**
+ * The clipped sphere of `sphereFile()` (`generate sphere --size 48`: centre 23.5, radius 0.4·47,
+ * index = world units) by ray casting the exact sphere, independently of the shaders: per pixel
+ * of SIZE under `view`, 'near' where the first crossing is kept by the plane (axis `axis`, at
+ * `at`, cutting away the larger coordinates, or the smaller with `flip`), 'far' where only the
+ * second is, 'miss' otherwise; 'edge' within `margin` voxels of the plane or the silhouette,
+ * where the sampled surface may fall either way.
+ */
+function clippedSphere(view, axis, at, flip, margin = 0.75) {
+  const [w, h] = SIZE;
+  const cam = presetCamera(view, [0, 0, 0], [47, 47, 47], w, h);
+  const [right, up, forward] = basis(cam);
+  const tan = Math.tan((cam.fovyDegrees * Math.PI) / 360);
+  const centre = 23.5;
+  const radius = 0.4 * 47;
+  const kept = (p) => (flip ? p[axis] >= at : p[axis] <= at);
+  const out = [];
+  for (let y = 0; y < h; y++) {
+    for (let x = 0; x < w; x++) {
+      const sx = (2 * (x + 0.5) / w - 1) * tan * (w / h);
+      const sy = (1 - 2 * (y + 0.5) / h) * tan;
+      let d = [0, 1, 2].map((a) => forward[a] + sx * right[a] + sy * up[a]);
+      const n = Math.hypot(...d);
+      d = d.map((v) => v / n);
+      const o = cam.eye.map((v) => v - centre);
+      const b = o[0] * d[0] + o[1] * d[1] + o[2] * d[2];
+      const disc = b * b - (o[0] ** 2 + o[1] ** 2 + o[2] ** 2 - radius * radius);
+      // The ray's distance from the centre against the radius: near the silhouette either way.
+      if (Math.abs(Math.sqrt(Math.max(0, o[0] ** 2 + o[1] ** 2 + o[2] ** 2 - b * b)) - radius) < margin) {
+        out.push('edge');
+        continue;
+      }
+      if (disc <= 0) {
+        out.push('miss');
+        continue;
+      }
+      const ts = [-b - Math.sqrt(disc), -b + Math.sqrt(disc)];
+      const pts = ts.map((t) => cam.eye.map((v, a) => v + t * d[a]));
+      if (pts.some((p) => Math.abs(p[axis] - at) < margin)) {
+        out.push('edge');
+        continue;
+      }
+      out.push(kept(pts[0]) ? 'near' : kept(pts[1]) ? 'far' : 'miss');
+    }
+  }
+  return out;
+}
+
 for (const B of BROWSERS) {
   test(`viewer in ${B.name}`, { timeout: 240_000 }, async (t) => {
     if (!existsSync(B.path)) {
@@ -128,6 +177,42 @@ for (const B of BROWSERS) {
           assert.ok(c.hits > 500, `only ${c.hits} common hits`);
           assert.ok(c.mask >= 0.995, `mask agreement ${c.mask}`);
           assert.ok(c.colour >= 0.99, `colour agreement ${c.colour}`);
+        }
+      });
+      await t.test('clip plane: the cut-away side shows the far surface or the background', async () => {
+        const size = SIZE.join('x');
+        const shown = async (query) => {
+          const { page, outcome, stats } = await open(server.url, `src=/sphere48.cgc&size=${size}&${query}`);
+          assert.equal(outcome, 'ready', stats.message);
+          const px = Buffer.from(await page.evaluate(() => window.isogrid.pixels()), 'base64');
+          await page.close();
+          return px;
+        };
+        // The kept side away from the eye shows the far surface; towards it (the flipped plane seen
+        // from +z), the near surface or nothing.
+        const cases = [[2, 'x:0.6', 0, 0.6, false, ['near', 'far', 'miss']], [1, '-x:0.4', 0, 0.4, true, ['near', 'miss']]];
+        for (const [view, clip, axis, fraction, flip, kinds] of cases) {
+          const whole = await shown(`view=${view}`);
+          const cut = await shown(`view=${view}&clip=${clip}`);
+          const ref = clippedSphere(view, axis, 47 * fraction, flip);
+          const count = { near: 0, far: 0, miss: 0 };
+          const agree = { near: 0, far: 0, miss: 0 };
+          let nearSame = 0;
+          for (let i = 0; i < ref.length; i++) {
+            if (ref[i] === 'edge') continue;
+            const hit = !BACKGROUND.every((c, k) => cut[4 * i + k] === c);
+            count[ref[i]]++;
+            if (hit === (ref[i] !== 'miss')) agree[ref[i]]++;
+            const d = Math.max(...[0, 1, 2].map((k) => Math.abs(cut[4 * i + k] - whole[4 * i + k])));
+            if (ref[i] === 'near' && d <= 8) nearSame++;
+          }
+          t.diagnostic(`${B.name} view ${view} clip ${clip}: ${JSON.stringify(agree)} of ${JSON.stringify(count)} pixels agree with the ray-cast sphere; ${nearSame} of ${count.near} kept pixels as unclipped`);
+          // Each kind of pixel is present, so the test tells a plane from no plane and from a discard.
+          for (const k of ['near', 'far', 'miss']) {
+            if (kinds.includes(k)) assert.ok(count[k] > 200, `only ${count[k]} ${k} pixels`);
+            assert.ok(agree[k] >= 0.99 * count[k], `${k}: ${agree[k]} of ${count[k]} agree`);
+          }
+          assert.ok(nearSame >= 0.99 * count.near, `kept surface changed: ${nearSame} of ${count.near}`);
         }
       });
       await t.test('damaged, truncated and version-mismatch files show their message', async () => {

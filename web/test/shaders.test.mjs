@@ -54,3 +54,24 @@ test('the committed bundle (web/dist, embedded by isogrid serve) is the build of
     );
   }
 });
+
+test('the frame uniforms the viewer writes match the WGSL struct and its Rust twin (size, clip plane place)', async () => {
+  const { frameUniforms, presetCamera, FRAME_UNIFORM_BYTES } = await import('../build/node/camera.js');
+  const wgsl = readFileSync(join(SHADER_DIR, 'common.wgsl'), 'utf8');
+  const body = /struct FrameUniforms \{([^}]*)\}/.exec(wgsl)[1];
+  // Every field is a 16-byte vector (gpu_types.rs keeps the layout rule-free that way).
+  const fields = [...body.matchAll(/^\s*(\w+): (vec4<(?:f32|u32)>),/gm)].map((m) => m[1]);
+  assert.equal(body.split('\n').filter((l) => /^\s*\w+:/.test(l)).length, fields.length, 'a FrameUniforms field that is not a vec4');
+  const rust = readFileSync(join(SHADER_DIR, '..', 'src', 'gpu_types.rs'), 'utf8');
+  const rustBytes = Number(/size_of::<FrameUniforms>\(\) == (\d+)/.exec(rust)[1]);
+  assert.equal(16 * fields.length, rustBytes);
+  assert.equal(FRAME_UNIFORM_BYTES, rustBytes);
+  const camera = presetCamera(2, [0, 0, 0], [9, 9, 9], 40, 30);
+  const grid = { spacing: [1, 1, 1], isoCode: 127.5, precisionBits: 8, bounds: [[0, 0, 0], [9, 9, 9]] };
+  const clipAt = 4 * fields.indexOf('clip');
+  const none = new Float32Array(frameUniforms(camera, grid, 0, 0));
+  assert.equal(none.byteLength, rustBytes);
+  assert.deepEqual([...none.subarray(clipAt, clipAt + 4)], [0, 0, 0, 0]);
+  const flipped = new Float32Array(frameUniforms(camera, grid, 0, 0, { axis: 1, at: 5, flip: true }));
+  assert.deepEqual([...flipped.subarray(clipAt, clipAt + 4)], [0, -1, 0, -5]);
+});

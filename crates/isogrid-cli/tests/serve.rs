@@ -56,6 +56,16 @@ impl Drop for Server {
     }
 }
 
+/// A sphere .cgc in a fresh directory named after `test`, its bytes, and a server for it.
+fn sphere_server(test: &str) -> (PathBuf, Vec<u8>, Server) {
+    let dir = std::env::temp_dir().join(format!("isogrid-serve-{test}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = sphere(&dir);
+    let bytes = std::fs::read(&file).unwrap();
+    let server = serve(&file);
+    (dir, bytes, server)
+}
+
 fn serve(file: &Path) -> Server {
     serve_args(&[file.to_str().unwrap()])
 }
@@ -93,7 +103,48 @@ fn serve_args(input: &[&str]) -> Server {
     }
 }
 
-/// One HTTP/1.1 GET: (status, headers in lower case, body).
+/// The body of a `Transfer-Encoding: chunked` response (hex size line, data, CRLF; 0 ends it).
+fn dechunk(mut raw: &[u8]) -> Vec<u8> {
+    let mut out = Vec::new();
+    loop {
+        let line = raw.windows(2).position(|w| w == b"\r\n").unwrap();
+        let size_text = String::from_utf8_lossy(&raw[..line]);
+        let size = usize::from_str_radix(size_text.split(';').next().unwrap().trim(), 16).unwrap();
+        if size == 0 {
+            return out;
+        }
+        out.extend_from_slice(&raw[line + 2..line + 2 + size]);
+        raw = &raw[line + 2 + size + 2..];
+    }
+}
+
+/// The body of a response with the `content-encoding` in `head` (lower case) decoded by an
+/// independent decoder (flate2, brotli-decompressor, zstd), or as it came without one.
+fn decode(head: &str, body: &[u8]) -> Vec<u8> {
+    let encoding = head
+        .lines()
+        .find_map(|l| l.strip_prefix("content-encoding:"))
+        .map(str::trim);
+    let mut out = Vec::new();
+    match encoding {
+        None => out = body.to_vec(),
+        Some("gzip") => {
+            flate2::read::GzDecoder::new(body)
+                .read_to_end(&mut out)
+                .unwrap();
+        }
+        Some("br") => {
+            brotli_decompressor::Decompressor::new(body, 4096)
+                .read_to_end(&mut out)
+                .unwrap();
+        }
+        Some("zstd") => out = zstd::decode_all(body).unwrap(),
+        Some(other) => panic!("unexpected content-encoding {other}"),
+    }
+    out
+}
+
+/// One HTTP/1.1 GET: (status, headers in lower case, body as sent, chunked framing removed).
 fn get(addr: &str, path: &str, extra: &str) -> (u16, String, Vec<u8>) {
     let mut s = TcpStream::connect(addr).unwrap();
     write!(
@@ -106,16 +157,18 @@ fn get(addr: &str, path: &str, extra: &str) -> (u16, String, Vec<u8>) {
     let split = raw.windows(4).position(|w| w == b"\r\n\r\n").unwrap();
     let head = String::from_utf8_lossy(&raw[..split]).to_lowercase();
     let status = head.split_whitespace().nth(1).unwrap().parse().unwrap();
-    (status, head, raw[split + 4..].to_vec())
+    let body = &raw[split + 4..];
+    let body = if head.contains("transfer-encoding: chunked") {
+        dechunk(body)
+    } else {
+        body.to_vec()
+    };
+    (status, head, body)
 }
 
 #[test]
 fn serves_the_viewer_and_the_file_with_ranges_and_nothing_else() {
-    let dir = std::env::temp_dir().join(format!("isogrid-serve-test-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let file = sphere(&dir);
-    let bytes = std::fs::read(&file).unwrap();
-    let server = serve(&file);
+    let (dir, bytes, server) = sphere_server("test");
     assert!(server.url.ends_with("/?src=/sphere.cgc"), "{}", server.url);
     assert!(
         server.addr.starts_with("127.0.0.1:"),
@@ -167,6 +220,57 @@ fn serves_the_viewer_and_the_file_with_ranges_and_nothing_else() {
         let (status, _, body) = get(a, path, "");
         assert_eq!(status, 404, "{path}: {}", String::from_utf8_lossy(&body));
     }
+    drop(server);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn compresses_whole_responses_and_never_ranges() {
+    let (dir, bytes, server) = sphere_server("gzip");
+    let a = server.addr.as_str();
+    let web = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../web");
+    let page = std::fs::read(web.join("src/index.html")).unwrap();
+    let bundle = std::fs::read(web.join("dist/viewer.js")).unwrap();
+
+    for encoding in ["gzip", "br", "zstd"] {
+        let accept = format!("Accept-Encoding: {encoding}\r\n");
+        for (path, expected) in [
+            ("/", &page),
+            ("/viewer.js", &bundle),
+            ("/sphere.cgc", &bytes),
+        ] {
+            let (status, head, body) = get(a, path, &accept);
+            assert_eq!(status, 200, "{path}");
+            assert!(
+                head.contains(&format!("content-encoding: {encoding}")),
+                "{path} {encoding}: {head}"
+            );
+            assert!(
+                body.len() < expected.len(),
+                "{path} {encoding} did not shrink"
+            );
+            assert!(&decode(&head, &body) == expected, "{path} {encoding}");
+            // An encoded whole file offers no ranges: they would count the encoded bytes.
+            assert!(!head.contains("accept-ranges"), "{path}: {head}");
+        }
+        // Ranges come as the file's bytes, never encoded, and add up to the file.
+        let mut joined = Vec::new();
+        for range in ["0-319", "320-999", "1000-"] {
+            let (status, head, body) = get(
+                a,
+                "/sphere.cgc",
+                &format!("{accept}Range: bytes={range}\r\n"),
+            );
+            assert_eq!(status, 206, "{range}");
+            assert!(!head.contains("content-encoding"), "{range}: {head}");
+            joined.extend(body);
+        }
+        assert!(joined == bytes, "ranges under Accept-Encoding: {encoding}");
+    }
+    // Without Accept-Encoding the file comes as it is.
+    let (status, head, body) = get(a, "/sphere.cgc", "");
+    assert_eq!(status, 200);
+    assert!(!head.contains("content-encoding") && body == bytes);
     drop(server);
     std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -1,7 +1,7 @@
 // The per-pixel work of cell rasterisation (paper §3.2, Figure 3), shared by the hardware raster
 // (cells.wgsl, one fragment per pixel) and the compute raster (cells_compute.wgsl, one thread per
 // cell looping over its pixels), so both find bit-identical crossings: the pixel's ray is clipped
-// to the cell (slab test), three samples of the trilinear interpolant of the 8 corner values along
+// to the cell (slab test) and to the kept side of the clip plane, three samples of the trilinear interpolant of the 8 corner values along
 // the segment find the first sign change relative to the isovalue, and the crossing is refined
 // between the bracketing samples.
 //
@@ -58,8 +58,9 @@ fn cell_pixel_hit(lo: vec4<f32>, hi: vec4<f32>, cell: vec3<f32>, pixel: vec2<f32
     let iso = frame.cell_to_world.w;
     let span = slab_unit_box(origin, dir_local);
     let cos_view = dot(dir, frame.forward.xyz);
-    let t_enter = max(span.x, frame.eye.w / cos_view);
-    let t_exit = span.y;
+    let kept = clip_segment(frame, dir, vec2<f32>(max(span.x, frame.eye.w / cos_view), span.y));
+    let t_enter = kept.x;
+    let t_exit = kept.y;
     if !(t_exit > t_enter) {
         return hit;
     }

@@ -15,6 +15,7 @@ struct FrameUniforms {
     viewport: vec4<f32>,      // width, height, 1 / width, 1 / height (pixels)
     cell_to_world: vec4<f32>, // spacing xyz; w = isovalue in corner units (codes, or data units for the volume)
     params: vec4<u32>,        // x: precision bits (4, 8, 16, 32); y: corner source; z: FLAG_*; w: frame index
+    clip: vec4<f32>,          // clip plane (world): points with dot(xyz, p) > w are cut away; all 0: none
 }
 
 const SOURCE_RECORDS: u32 = 0u;
@@ -37,6 +38,40 @@ fn ray_direction(frame: FrameUniforms, pixel: vec2<f32>) -> vec3<f32> {
     let sx = (2.0 * pixel.x * frame.viewport.z - 1.0) * frame.right.w;
     let sy = (1.0 - 2.0 * pixel.y * frame.viewport.w) * frame.up.w;
     return normalize(frame.forward.xyz + sx * frame.right.xyz + sy * frame.up.xyz);
+}
+
+// Whether the frame has a clip plane (`clip` all zero: none; every point then keeps 0 <= 0).
+fn clip_enabled(frame: FrameUniforms) -> bool {
+    return any(frame.clip.xyz != vec3<f32>(0.0));
+}
+
+// Whether a world point survives the clip plane.
+fn clip_keeps(frame: FrameUniforms, p: vec3<f32>) -> bool {
+    return dot(frame.clip.xyz, p) <= frame.clip.w;
+}
+
+// Whether a whole world box [lo, hi] is cut away by the clip plane (its lowest corner along the
+// plane normal is on the clipped side).
+fn clip_removes_box(frame: FrameUniforms, lo: vec3<f32>, hi: vec3<f32>) -> bool {
+    let n = frame.clip.xyz;
+    let lowest = min(n * lo, n * hi);
+    return lowest.x + lowest.y + lowest.z > frame.clip.w;
+}
+
+// The part [t.x, t.y] of the ray eye + t·dir (world, t in world units along the unit `dir`) kept
+// by the clip plane; empty (t.y < t.x) when the plane cuts it all away. The raster clips each
+// cell's segment before looking for the crossing, so a cell cut by the plane shows the surface
+// behind the cut (the far side of the solid) rather than nothing.
+fn clip_segment(frame: FrameUniforms, dir: vec3<f32>, t: vec2<f32>) -> vec2<f32> {
+    let a = dot(frame.clip.xyz, dir);
+    let b = frame.clip.w - dot(frame.clip.xyz, frame.eye.xyz);
+    if a > 0.0 {
+        return vec2<f32>(t.x, min(t.y, b / a));
+    }
+    if a < 0.0 {
+        return vec2<f32>(max(t.x, b / a), t.y);
+    }
+    return select(vec2<f32>(1.0, 0.0), t, b >= 0.0);
 }
 
 // Clip position of a world point: x, y as the camera's perspective, depth = near / z_view.

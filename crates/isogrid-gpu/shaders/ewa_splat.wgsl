@@ -37,7 +37,8 @@ fn cell_splat(instance: u32) -> Splat {
 // The splat's weight at `pixel` (pixels from the top-left, at a pixel centre) over the raster
 // surface texel there (normal, eye distance; w = 0 where nothing was hit); 0 adds nothing.
 fn splat_weight(center: vec3<f32>, normal: vec3<f32>, pixel: vec2<f32>, surface: vec4<f32>) -> f32 {
-    if surface.w <= 0.0 || dot(surface.xyz, normal) <= 0.0 {
+    // A splat cut away by the clip plane adds nothing (its cell draws nothing there either).
+    if surface.w <= 0.0 || dot(surface.xyz, normal) <= 0.0 || !clip_keeps(frame, center * frame.cell_to_world.xyz) {
         return 0.0;
     }
     let dir = ray_direction(frame, pixel);

@@ -29,7 +29,8 @@ fn cluster_bit(bits_index: u32) -> vec2<u32> {
     return vec2<u32>(bits_index >> 5u, 1u << (bits_index & 31u));
 }
 
-// Whether a cell can show a surface point to the eye. Back faces: the first crossing seen from
+// Whether a cell can show a surface point to the eye. Cells wholly on the clipped side of the clip
+// plane cannot. Back faces: the first crossing seen from
 // outside the solid has f increasing along the ray, ∇f·(x − eye) ≥ 0; the cell is dropped only
 // when an interval bound of that product over the whole cell is negative (conservative: the
 // gradient's components are bilinear, so their extremes are edge differences).
@@ -39,7 +40,11 @@ fn cell_is_drawable(cell: vec3<u32>, record: u32) -> bool {
     if any(rect.hi < vec2<f32>(-1.0)) || any(rect.lo > vec2<f32>(1.0)) {
         return false;
     }
-    if (frame.params.z & FLAG_BACKFACE) == 0u {
+    if clip_removes_box(frame, box[0], box[1]) {
+        return false;
+    }
+    // Through a cut the eye sees the inside of the solid, so back faces are drawable then.
+    if (frame.params.z & FLAG_BACKFACE) == 0u || clip_enabled(frame) {
         return true;
     }
     let k = cell_corners(cell, record);

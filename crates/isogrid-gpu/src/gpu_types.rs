@@ -23,6 +23,9 @@ pub(crate) struct FrameUniforms {
     pub cell_to_world: [f32; 4],
     /// x: precision bits; y: corner source (`SOURCE_*`); z: `FLAG_*`; w: frame index.
     pub params: [u32; 4],
+    /// Clip plane (world): points p with dot(xyz, p) > w are cut away; all zero = no plane (the
+    /// native renderer sets none; the web viewer's clip control does).
+    pub clip: [f32; 4],
 }
 
 pub(crate) const SOURCE_RECORDS: u32 = 0;
@@ -158,7 +161,7 @@ impl PageDrawArgs {
     }
 }
 
-const _: () = assert!(std::mem::size_of::<FrameUniforms>() == 112);
+const _: () = assert!(std::mem::size_of::<FrameUniforms>() == 128);
 const _: () = assert!(std::mem::size_of::<PageDrawArgs>() == 48);
 const _: () = assert!(std::mem::size_of::<PageDispatchArgs>() == 36);
 

@@ -2,7 +2,9 @@
 //! binary) and one `.cgc` file (a volume input is extracted into a temporary one first), which the viewer reads with Range requests. It serves exactly
 //! three paths — `/` (the page), `/viewer.js` and `/NAME` (the file, by its own name) — and
 //! answers everything else with 404: no directory listing, nothing outside them. Ranges, 206 and
-//! 416 come from tower-http's `ServeFile`.
+//! 416 come from tower-http's `ServeFile`; gzip, brotli or zstd (as the client accepts) from its
+//! `CompressionLayer`, which encodes whole responses only: a 206's Content-Range counts the
+//! file's bytes, so range requests get them as they are (docs/benchmarks-web.md has the ratios).
 
 use crate::grid_source::{is_cgc, GridSource};
 use anyhow::{Context, Result};
@@ -11,6 +13,7 @@ use axum::routing::get;
 use axum::Router;
 use std::net::{IpAddr, SocketAddr};
 use std::path::PathBuf;
+use tower_http::compression::CompressionLayer;
 use tower_http::services::ServeFile;
 
 /// The viewer: its page, and its bundle as `npm run build` writes it (web/dist/viewer.js, committed
@@ -105,7 +108,11 @@ pub fn run(args: Args) -> Result<()> {
             }),
         )
         .route_service(&url_path, ServeFile::new(&file))
-        .fallback(|| async { (StatusCode::NOT_FOUND, "not found\n") });
+        .fallback(|| async { (StatusCode::NOT_FOUND, "not found\n") })
+        // The bundle shrinks 5× (gzip) to 7× (brotli); a whole-file download of the .cgc about
+        // 1.5–1.7× (docs/benchmarks-web.md). tower-http never encodes a response that carries
+        // Content-Range.
+        .layer(CompressionLayer::new());
     let runtime = tokio::runtime::Builder::new_multi_thread()
         .worker_threads(2)
         .enable_io()
@@ -128,7 +135,7 @@ pub fn run(args: Args) -> Result<()> {
         // disk in one line (crate::stdout).
         outln!("serving     {} at {url}", file.display());
         outln!(
-            "            add &view=1|2 and &size=WxH for the camera of `isogrid render`; Ctrl-C stops"
+            "            add &view=1|2 and &size=WxH for the camera of `isogrid render`, &clip=x|y|z[:F] for a clip plane; Ctrl-C stops"
         );
         if args.open {
             open_browser(&url);

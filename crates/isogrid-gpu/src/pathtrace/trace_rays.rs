@@ -65,6 +65,7 @@ pub(crate) fn trace_ray_batch(
             viewport: [1.0; 4],
             cell_to_world: spacing_and_iso(grid),
             params: [grid.info.precision.bits(), SOURCE_RECORDS, 0, 0],
+            clip: [0.0; 4],
         };
         let frame = gpu.uniform_buffer("trace frame uniforms", bytemuck::bytes_of(&frame));
         let mut uniforms = trace_uniforms(grid, 0, [0.0; 3]);

@@ -72,5 +72,6 @@ pub(super) fn frame_uniforms(
             flags,
             frame,
         ],
+        clip: [0.0; 4],
     }
 }
