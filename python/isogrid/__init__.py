@@ -209,6 +209,7 @@ def extract(
     direction: Optional[Sequence[Sequence[float]]] = None,
     attribute: Union[np.ndarray, Volume, PathLike, None] = None,
     attribute_precision: int = 16,
+    progress: Optional[Callable[[int, int], Any]] = None,
 ) -> CellGrid:
     """Extracts the active cells of a 3-D volume into clustered grid cells.
 
@@ -239,6 +240,9 @@ def extract(
             ``grid.attribute``; :func:`render` draws it through a colour map.
         attribute_precision: bits per stored attribute value: 8 or 16 (codes over the values'
             range on the surface) or 32 (float32).
+        progress: called as ``progress(done, total)`` about ten times a second while the surface
+            is extracted (blocks scanned and emitted). If it raises, or on Ctrl-C, extraction
+            stops within a block row and the exception is raised.
 
     The GIL is released while extracting; do not modify ``array`` from another thread meanwhile.
 
@@ -271,6 +275,7 @@ def extract(
         origin=None if origin is None else _triple(origin, "origin"),
         direction=None if direction is None else [_triple(row, "direction row") for row in direction],
         attribute=attribute_arg,
+        progress=progress,
     )
     _warn_if_empty(grid)
     return grid
@@ -384,6 +389,7 @@ def marching_cubes(
     series: Optional[str] = None,
     space: str = "world",
     attribute: Union[np.ndarray, Volume, PathLike, None] = None,
+    progress: Optional[Callable[[int, int], Any]] = None,
 ) -> Tuple[np.ndarray, ...]:
     """Marching Cubes isosurface of a 3-D volume: the indexed mesh baseline of the paper.
 
@@ -391,7 +397,9 @@ def marching_cubes(
     :func:`extract`. ``space`` is ``"world"`` or ``"index"`` (see below). ``attribute`` is a
     second volume as :func:`extract` takes it (an array on the same samples, or a
     :class:`Volume` or path resampled in world space): its trilinear value at every vertex comes
-    back as a third array, float32 of shape (V,), NaN outside it.
+    back as a third array, float32 of shape (V,), NaN outside it. ``progress`` is called as
+    ``progress(done, total)`` (sample planes) while it runs; if it raises, or on Ctrl-C, the work
+    stops within a slab and the exception is raised.
 
     Returns:
         ``(vertices, faces)``: vertices float32 of shape (V, 3) as **(x, y, z)**. In ``"world"``
@@ -427,6 +435,7 @@ def marching_cubes(
         direction=direction,
         index_space=space == "index",
         attribute=attribute_arg,
+        progress=progress,
     )
 
 

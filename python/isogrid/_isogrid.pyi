@@ -69,6 +69,7 @@ def extract(
     origin: Optional[Sequence[float]] = None,
     direction: Optional[Sequence[Sequence[float]]] = None,
     attribute: Optional[Tuple[Any, ...]] = None,
+    progress: Optional[Callable[[int, int], Any]] = None,
 ) -> CellGrid: ...
 def load(path: _Path) -> CellGrid: ...
 def _attach_attribute(
@@ -90,6 +91,7 @@ def marching_cubes(
     direction: Optional[Sequence[Sequence[float]]] = None,
     index_space: bool = False,
     attribute: Optional[Tuple[Any, ...]] = None,
+    progress: Optional[Callable[[int, int], Any]] = None,
 ) -> Tuple[np.ndarray, ...]: ...
 def skimage_normals_values(
     array: np.ndarray,

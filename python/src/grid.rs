@@ -3,9 +3,11 @@
 
 use crate::array::{spacing3, VolumeArg};
 use crate::errors::{invalid, to_py};
-use crate::pool::run_detached;
+use crate::pool::{check_callback, run_detached, run_watched};
 use isogrid::extract::attribute::{sample_attribute, sample_attribute_in_memory};
-use isogrid::{layout, AttributePrecision, ExtractOptions, GridStats, Iso, Precision, ScalarType};
+use isogrid::{
+    layout, AttributePrecision, ExtractOptions, GridStats, Iso, Precision, Progress, ScalarType,
+};
 use numpy::ndarray::{ArrayView1, ArrayView2};
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyArrayDescr, PyArrayMethods};
 use pyo3::prelude::*;
@@ -47,7 +49,7 @@ impl CellGrid {
 
 /// Extracts the active cells of a 3-D array (see `isogrid.extract`, which prepares `array`).
 #[pyfunction]
-#[pyo3(signature = (array, fortran, spacing, iso=None, iso_normalized=None, precision=None, threads=None, origin=None, direction=None, attribute=None))]
+#[pyo3(signature = (array, fortran, spacing, iso=None, iso_normalized=None, precision=None, threads=None, origin=None, direction=None, attribute=None, progress=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn extract(
     py: Python<'_>,
@@ -61,13 +63,18 @@ pub fn extract(
     origin: Option<Vec<f64>>,
     direction: Option<Vec<Vec<f64>>>,
     attribute: Option<AttributeArg<'_, '_>>,
+    progress: Option<Bound<'_, PyAny>>,
 ) -> PyResult<CellGrid> {
     let volume = VolumeArg::new(array, fortran, spacing3(spacing)?)?.place(origin, direction)?;
     let view = volume.view()?;
     let mut options = ExtractOptions::new(iso_arg(iso, iso_normalized)?);
     options.precision = precision.map(precision_arg).transpose()?;
-    let inner = run_detached(py, threads, move || isogrid::extract(&view, &options))?;
-    let mut inner = inner.map_err(to_py)?;
+    check_callback(progress.as_ref())?;
+    // Ctrl-C and the callback are watched while the extraction runs; either stops it.
+    let watch = Progress::new();
+    let mut inner = run_watched(py, threads, &watch, progress.as_ref(), || {
+        isogrid::extract_with_progress(&view, &options, &watch)
+    })?;
     if let Some((array, fortran, spacing, origin, direction, name, bits)) = attribute {
         let precision = AttributePrecision::from_bits(bits).ok_or_else(|| {
             invalid(format!("attribute precision must be 8, 16 or 32, not {bits}"))

@@ -1,10 +1,9 @@
 //! Marching Cubes on a numpy array: the indexed triangle mesh baseline (paper Table 3).
 
 use crate::array::{spacing3, VolumeArg};
-use crate::errors::to_py;
 use crate::grid::{iso_arg, to_array2, AttributeArg};
 use isogrid::extract::attribute::sample_points_in_memory;
-use crate::pool::run_detached;
+use crate::pool::{check_callback, run_watched};
 use isogrid::mc::{Inside, MeshSpace};
 use numpy::IntoPyArray;
 use pyo3::prelude::*;
@@ -15,7 +14,7 @@ use pyo3::types::PyTuple;
 /// counter-clockwise seen from outside (value < iso). With `above`, inside is `value > iso`
 /// (scikit-image's rule) instead of `value >= iso`. See `isogrid.marching_cubes`.
 #[pyfunction]
-#[pyo3(signature = (array, fortran, spacing, iso=None, iso_normalized=None, threads=None, origin=None, above=false, direction=None, index_space=false, attribute=None))]
+#[pyo3(signature = (array, fortran, spacing, iso=None, iso_normalized=None, threads=None, origin=None, above=false, direction=None, index_space=false, attribute=None, progress=None))]
 #[allow(clippy::type_complexity, clippy::too_many_arguments)]
 pub fn marching_cubes<'py>(
     py: Python<'py>,
@@ -30,7 +29,9 @@ pub fn marching_cubes<'py>(
     direction: Option<Vec<Vec<f64>>>,
     index_space: bool,
     attribute: Option<AttributeArg<'_, 'py>>,
+    progress: Option<Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyTuple>> {
+    check_callback(progress.as_ref())?;
     let volume = VolumeArg::new(array, fortran, spacing3(spacing)?)?.place(origin, direction)?;
     let view = volume.view()?;
     let iso = iso_arg(iso, iso_normalized)?;
@@ -45,9 +46,12 @@ pub fn marching_cubes<'py>(
         })
         .transpose()?;
     let attribute_view = attribute.as_ref().map(|a| a.view()).transpose()?;
-    let (mesh, values) = run_detached(py, threads, move || {
+    // Ctrl-C and the callback are watched while Marching Cubes runs; either stops it.
+    let watch = isogrid::Progress::new();
+    let (mesh, values) = run_watched(py, threads, &watch, progress.as_ref(), || {
         let iso = iso.resolve(&view)?;
-        let mut mesh = isogrid::mc::try_marching_cubes_with(&view, iso, inside)?;
+        let mut mesh =
+            isogrid::mc::try_marching_cubes_with_progress(&view, iso, inside, &watch)?;
         // The attribute at each vertex, from its index-space position.
         let values = match &attribute_view {
             Some(attribute) => {
@@ -64,8 +68,7 @@ pub fn marching_cubes<'py>(
         };
         mesh.place(&view.geometry(), space)?;
         Ok::<_, isogrid::Error>((mesh, values))
-    })?
-    .map_err(to_py)?;
+    })?;
     let vertices = to_array2(py, mesh.positions)?.into_any();
     let faces = to_array2(py, mesh.triangles)?.into_any();
     match values {

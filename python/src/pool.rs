@@ -30,6 +30,16 @@ pub fn run_detached<T: Send>(
     }))
 }
 
+/// Fails unless `callback` (a `progress=` argument) is absent or callable.
+pub fn check_callback(callback: Option<&Bound<'_, PyAny>>) -> PyResult<()> {
+    match callback {
+        Some(f) if !f.is_callable() => Err(crate::errors::invalid(
+            "progress must be a callable taking (done, total)",
+        )),
+        _ => Ok(()),
+    }
+}
+
 /// How often a watched computation's caller looks for Ctrl-C and new progress.
 const WATCH_INTERVAL: std::time::Duration = std::time::Duration::from_millis(100);
 

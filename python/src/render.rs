@@ -100,11 +100,7 @@ pub fn render<'py>(
         ..RequestParts::default()
     })
     .map_err(to_py)?;
-    if let Some(callback) = &progress {
-        if !callback.is_callable() {
-            return Err(invalid("progress must be a callable taking (done, total)"));
-        }
-    }
+    crate::pool::check_callback(progress.as_ref())?;
     // The adapter lookup loads the Vulkan drivers: without the GIL.
     let decision = py.detach(|| CONTEXT.decide(&request)).map_err(to_py)?;
     let watch = Progress::new();

@@ -15,7 +15,7 @@ use crate::events::{guarded, Event, Failure, Notifier, SourceInfo, Task};
 use crate::render_worker::RenderMsg;
 use crate::source::{self, Source};
 use isogrid::extract::attribute::sample_attribute_in_memory;
-use isogrid::mc::try_marching_cubes_with_progress;
+use isogrid::mc::{try_marching_cubes_with_progress, Inside};
 use isogrid::AttributePrecision;
 use isogrid::{extract_with_progress, ExtractOptions, GridStats, Iso, Precision, Progress, Volume};
 use std::path::PathBuf;
@@ -335,7 +335,7 @@ impl Worker {
             crate::panel::fmt_value(iso)
         ));
         let start = Instant::now();
-        match try_marching_cubes_with_progress(&volume.view(), iso, &progress) {
+        match try_marching_cubes_with_progress(&volume.view(), iso, Inside::AtOrAbove, &progress) {
             Ok(mesh) => {
                 let _ = self.render.send(RenderMsg::Mesh {
                     generation,

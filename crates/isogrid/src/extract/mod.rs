@@ -189,9 +189,13 @@ fn extract_typed<T: ExtractScalar>(
     outputs
         .into_par_iter()
         .for_each_init(emit::BlockScratch::default, |scratch, out| {
+            if progress.is_cancelled() {
+                return;
+            }
             emit::emit_block(samples, dims, threshold, &quantizer, out, scratch);
             progress.advance(1);
         });
+    progress.check()?;
 
     let info = GridInfo {
         dims: dims.map(|d| d as u32),
@@ -228,6 +232,11 @@ fn scan_blocks_counted<T: ExtractScalar>(
     (0..nby * nbz)
         .into_par_iter()
         .map_init(scan::RowScratch::default, |scratch, row| {
+            // Once cancelled, the remaining rows are skipped; the caller checks before using
+            // the scans.
+            if progress.is_some_and(|p| p.is_cancelled()) {
+                return Vec::new();
+            }
             let scans =
                 scan::scan_block_row(samples, dims, row % nby, row / nby, threshold, scratch);
             if let Some(p) = progress {

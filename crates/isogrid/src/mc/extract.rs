@@ -220,6 +220,8 @@ fn extract_typed<T: Threshold>(
     let slabs: Vec<Slab> = (0..slab_count)
         .into_par_iter()
         .map(|s| {
+            // A cancelled run stops at the next slab.
+            progress.check()?;
             let k0 = s * slab_planes;
             let k1 = (k0 + slab_planes).min(dims[2]);
             let slab = extract_slab(&grid, k0, k1);

@@ -70,17 +70,19 @@ pub fn try_marching_cubes_with(volume: &VolumeView, iso: f64, inside: Inside) ->
     )
 }
 
-/// [`try_marching_cubes`], counting in `progress` the sample planes whose slab is done (`total`
-/// is the volume's planes, reached with the mesh).
+/// [`try_marching_cubes_with`], counting in `progress` the sample planes whose slab is done
+/// (`total` is the volume's planes, reached with the mesh); once [`Progress::cancel`] is called it
+/// stops at the next slab with an error of kind [`crate::ErrorKind::Cancelled`].
 pub fn try_marching_cubes_with_progress(
     volume: &VolumeView,
     iso: f64,
+    inside: Inside,
     progress: &Progress,
 ) -> Result<McMesh> {
     extract::extract(
         volume,
         iso,
-        Inside::AtOrAbove,
+        inside,
         extract::default_slab_planes(volume.dims()[2]),
         progress,
     )

@@ -390,4 +390,6 @@ fn progress_counts_two_steps_per_block_and_cancel_stops_between_the_passes() {
     cancelled.cancel();
     let err = isogrid::extract_with_progress(&volume.view(), &options, &cancelled).unwrap_err();
     assert_eq!(err.kind(), isogrid::ErrorKind::Cancelled, "{err}");
+    // Cancelled before it began, it scanned and emitted nothing.
+    assert_eq!(cancelled.counts(), (0, 54));
 }

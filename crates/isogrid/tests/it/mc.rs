@@ -918,12 +918,21 @@ fn memory_and_snorm16_follow_table_3() {
 fn progress_counts_every_sample_plane_once() {
     let vol = sphere(21, Ty::F32, 7.0);
     let progress = isogrid::Progress::new();
-    let mesh = try_marching_cubes_with_progress(&vol.view(), 100.0, &progress).unwrap();
+    let mesh =
+        try_marching_cubes_with_progress(&vol.view(), 100.0, Inside::AtOrAbove, &progress).unwrap();
     assert_eq!(mesh, marching_cubes(&vol.view(), 100.0));
     assert!(mesh.triangle_count() > 100);
     assert_eq!(progress.counts(), (21, 21));
     // No sample can be inside: the planes count as done all the same.
     let empty = isogrid::Progress::new();
-    let mesh = try_marching_cubes_with_progress(&vol.view(), f64::NAN, &empty).unwrap();
+    let mesh =
+        try_marching_cubes_with_progress(&vol.view(), f64::NAN, Inside::AtOrAbove, &empty).unwrap();
     assert_eq!((mesh, empty.counts()), (McMesh::default(), (21, 21)));
+    // Cancelled, it stops at the next slab (here before the first) with a Cancelled error.
+    let cancelled = isogrid::Progress::new();
+    cancelled.cancel();
+    let err = try_marching_cubes_with_progress(&vol.view(), 100.0, Inside::AtOrAbove, &cancelled)
+        .unwrap_err();
+    assert_eq!(err.kind(), isogrid::ErrorKind::Cancelled, "{err}");
+    assert_eq!(cancelled.counts(), (0, 21));
 }
