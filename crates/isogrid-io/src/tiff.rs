@@ -124,7 +124,8 @@ fn check_page_fits(
     Ok(bytes)
 }
 
-/// Appends a decoded page to the stack, converting to a kept type; all pages must share a type.
+/// Appends a decoded page to the stack as its own type (i8 widened to i16, f16 to f32, both
+/// exactly); all pages must share a type.
 fn append(stack: Option<VolumeData>, page: DecodingResult, index: usize) -> Result<VolumeData> {
     let page = match page {
         DecodingResult::U8(v) => VolumeData::U8(v),
@@ -132,11 +133,11 @@ fn append(stack: Option<VolumeData>, page: DecodingResult, index: usize) -> Resu
         DecodingResult::I16(v) => VolumeData::I16(v),
         DecodingResult::F32(v) => VolumeData::F32(v),
         DecodingResult::I8(v) => VolumeData::I16(v.into_iter().map(i16::from).collect()),
-        DecodingResult::U32(v) => VolumeData::F32(v.into_iter().map(|x| x as f32).collect()),
-        DecodingResult::I32(v) => VolumeData::F32(v.into_iter().map(|x| x as f32).collect()),
-        DecodingResult::U64(v) => VolumeData::F32(v.into_iter().map(|x| x as f32).collect()),
-        DecodingResult::I64(v) => VolumeData::F32(v.into_iter().map(|x| x as f32).collect()),
-        DecodingResult::F64(v) => VolumeData::F32(v.into_iter().map(|x| x as f32).collect()),
+        DecodingResult::U32(v) => VolumeData::U32(v),
+        DecodingResult::I32(v) => VolumeData::I32(v),
+        DecodingResult::U64(v) => VolumeData::U64(v),
+        DecodingResult::I64(v) => VolumeData::I64(v),
+        DecodingResult::F64(v) => VolumeData::F64(v),
         DecodingResult::F16(v) => VolumeData::F32(v.into_iter().map(|x| x.to_f32()).collect()),
     };
     let Some(stack) = stack else { return Ok(page) };

@@ -73,9 +73,9 @@ fn nrrd_big_endian_float() {
 }
 
 #[test]
-fn nrrd_gzip_double_becomes_f32() {
+fn nrrd_gzip_double_stays_f64() {
     let v = read("f64_gzip.nrrd");
-    check_samples(&v, ScalarType::F32, |i, j, k| 0.25 * base(i, j, k) - 3.5);
+    check_samples(&v, ScalarType::F64, |i, j, k| 0.25 * base(i, j, k) - 3.5);
 }
 
 #[test]
@@ -160,8 +160,8 @@ fn npy_big_endian_u16() {
 }
 
 #[test]
-fn npy_f64_becomes_f32_and_i8_becomes_i16() {
-    check_samples(&read("f64_c.npy"), ScalarType::F32, |i, j, k| {
+fn npy_f64_stays_f64_and_i8_becomes_i16() {
+    check_samples(&read("f64_c.npy"), ScalarType::F64, |i, j, k| {
         0.25 * base(i, j, k) - 3.5
     });
     check_samples(&read("i8_c.npy"), ScalarType::I16, |i, j, k| {
