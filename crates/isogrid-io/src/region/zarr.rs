@@ -400,18 +400,9 @@ fn select_axes(
             .with_path(location))
         }
     };
-    for (n, (name, index)) in options.indices.iter().enumerate() {
-        // `t=0,t=1` would otherwise read t=0 and ignore the second value without a word.
-        if let Some((earlier, other)) = options.indices[..n]
-            .iter()
-            .find(|(earlier, _)| earlier.eq_ignore_ascii_case(name))
-        {
-            return Err(Error::invalid(format!(
-                "--index gives axis {name} twice ({earlier}={other} and {name}={index}); give each \
-                 axis once"
-            ))
-            .with_path(location));
-        }
+    crate::read_options::refuse_repeated_axes(&options.indices)
+        .map_err(|e| e.with_path(location))?;
+    for (name, _) in &options.indices {
         if find(name).is_none() || spatial.contains(&find(name).unwrap()) {
             return Err(Error::invalid(format!(
                 "--index names {name}, which is not a non-spatial axis of [{}]",

@@ -256,6 +256,42 @@ fn tiff_stacks_u8_u16_deflate_f32() {
 }
 
 #[test]
+fn tiff_channels_of_imagej_and_ome_stacks_by_index() {
+    let with_index = |indices: &[(&str, u64)]| {
+        let mut options = ReadOptions::default();
+        options.zarr.indices = indices.iter().map(|&(a, i)| (a.to_string(), i)).collect();
+        options
+    };
+    for c in 0..2 {
+        let options = with_index(&[("c", c)]);
+        let v = read_volume(&fixture("ij_zcyx.tif"), &options).unwrap();
+        check_samples(&v, ScalarType::U16, |i, j, k| {
+            200.0 * base(i, j, k) + c as f64
+        });
+        let v = read_volume(&fixture("ome_zcyx.tif"), &options).unwrap();
+        check_samples(&v, ScalarType::U32, |i, j, k| {
+            16_777_216.0 + base(i, j, k) + c as f64
+        });
+    }
+    for name in ["ij_zcyx.tif", "ome_zcyx.tif"] {
+        let err = read_volume(&fixture(name), &ReadOptions::default()).unwrap_err();
+        assert!(
+            err.to_string()
+                .contains("2 channels (c=0..1), 3 slices: pass --index c=N"),
+            "{err}"
+        );
+        let err = read_volume(&fixture(name), &with_index(&[("c", 2)])).unwrap_err();
+        assert!(
+            err.to_string().contains("--index c=2 is out of range"),
+            "{err}"
+        );
+    }
+    // A plain stack takes no index.
+    let err = read_volume(&fixture("u8_stack.tif"), &with_index(&[("c", 0)])).unwrap_err();
+    assert!(err.to_string().contains("plain stack"), "{err}");
+}
+
+#[test]
 fn unknown_extension_is_sniffed() {
     let dir = TempDir::new("sniff");
     for (fixture_name, scalar) in [
