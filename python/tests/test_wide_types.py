@@ -128,3 +128,52 @@ def test_zarr_of_each_wide_type_reads_back_as_zarr_python_wrote_it(tmp_path, dty
     np.testing.assert_array_equal(v.array, ref)
     iso = CASES[[c[0] for c in CASES].index(dtype)][3]
     assert isogrid.extract(tmp_path / "a.zarr", iso=iso).active_cells == isogrid.extract(ref, iso=iso).active_cells
+
+
+def test_dicom_series_with_an_intercept_of_2e9_is_exact(tmp_path):
+    """Written by pydicom: stored 0 or 1, RescaleIntercept 2e9; pydicom's rescaled values
+    (float64) are the reference, split at 2e9 + 0.5."""
+    pydicom = pytest.importorskip("pydicom")
+    from pydicom.dataset import Dataset, FileMetaDataset
+    from pydicom.uid import ExplicitVRLittleEndian, generate_uid
+
+    stored = two_values(np.uint16, 0, 1, shape=(4, 6, 7))  # [k, j, i]
+    series = generate_uid()
+    for k in range(stored.shape[0]):
+        meta = FileMetaDataset()
+        meta.MediaStorageSOPClassUID = "1.2.840.10008.5.1.4.1.1.2"
+        meta.MediaStorageSOPInstanceUID = generate_uid()
+        meta.TransferSyntaxUID = ExplicitVRLittleEndian
+        ds = Dataset()
+        ds.file_meta = meta
+        ds.SOPClassUID = meta.MediaStorageSOPClassUID
+        ds.SOPInstanceUID = meta.MediaStorageSOPInstanceUID
+        ds.SeriesInstanceUID = series
+        ds.Modality = "CT"
+        ds.InstanceNumber = k + 1
+        ds.ImagePositionPatient = [0.0, 0.0, 2.0 * k]
+        ds.ImageOrientationPatient = [1, 0, 0, 0, 1, 0]
+        ds.PixelSpacing = [1.0, 1.0]
+        ds.Rows, ds.Columns = stored.shape[1], stored.shape[2]
+        ds.SamplesPerPixel = 1
+        ds.PhotometricInterpretation = "MONOCHROME2"
+        ds.BitsAllocated = ds.BitsStored = 16
+        ds.HighBit = 15
+        ds.PixelRepresentation = 0
+        ds.RescaleSlope = 1
+        ds.RescaleIntercept = 2000000000
+        ds.PixelData = np.ascontiguousarray(stored[k]).astype("<u2").tobytes()
+        ds.save_as(tmp_path / f"{k}.dcm", enforce_file_format=True)
+    from pydicom.pixels import apply_rescale
+
+    ref = np.stack(
+        [apply_rescale(d.pixel_array, d) for d in sorted(
+            (pydicom.dcmread(p) for p in tmp_path.glob("*.dcm")), key=lambda d: d.InstanceNumber
+        )]
+    )
+    v = isogrid.load_volume(tmp_path)
+    assert v.array.dtype == np.int32
+    np.testing.assert_array_equal(v.array, ref)
+    expected = brute_force_count(ref, ref > 2e9 + 0.5)
+    assert expected > 0
+    assert isogrid.extract(tmp_path, iso=2e9 + 0.5).active_cells == expected
