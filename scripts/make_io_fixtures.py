@@ -174,6 +174,17 @@ def write_tiff():
     tifffile.imwrite(path("u16_stack.tif"), zyx(u16()), compression="zlib", **gray)
     tifffile.imwrite(path("f32_stack.tif"), zyx(f32()), **gray)
     tifffile.imwrite(path("rgb.tif"), np.zeros((2, 3, 3), np.uint8), photometric="rgb")
+    write_tiff_channels()
+
+
+def write_tiff_channels():
+    """Two-channel stacks (pages interleave the channels): channel c is u16() + c for ImageJ,
+    and u32 16777216 + base + c (no f32 tells neighbours apart) for OME."""
+    zyx = lambda a: np.ascontiguousarray(a.transpose(2, 1, 0))
+    zcyx = lambda f: np.stack([zyx(f(c)) for c in range(2)], axis=1)
+    tifffile.imwrite(path("ij_zcyx.tif"), zcyx(lambda c: u16() + c), imagej=True, metadata={"axes": "ZCYX"})
+    big = lambda c: (16777216 + BASE + c).astype(np.uint32)
+    tifffile.imwrite(path("ome_zcyx.tif"), zcyx(big), ome=True, metadata={"axes": "ZCYX"})
 
 
 def write_metaimage():
@@ -227,6 +238,7 @@ WRITERS = {
     "npy": write_npy,
     "dicom": write_dicom,
     "tiff": write_tiff,
+    "tiff_channels": write_tiff_channels,
     "metaimage": write_metaimage,
     "mrc": write_mrc,
 }

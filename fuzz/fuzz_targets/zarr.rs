@@ -58,6 +58,11 @@ libfuzzer_sys::fuzz_target!(|data: &[u8]| {
             ScalarType::U16 => first_slab(&mut source, planes, len, |s| SlabMut::U16(s)),
             ScalarType::I16 => first_slab(&mut source, planes, len, |s| SlabMut::I16(s)),
             ScalarType::F32 => first_slab(&mut source, planes, len, |s| SlabMut::F32(s)),
+            ScalarType::U32 => first_slab(&mut source, planes, len, |s| SlabMut::U32(s)),
+            ScalarType::I32 => first_slab(&mut source, planes, len, |s| SlabMut::I32(s)),
+            ScalarType::U64 => first_slab(&mut source, planes, len, |s| SlabMut::U64(s)),
+            ScalarType::I64 => first_slab(&mut source, planes, len, |s| SlabMut::I64(s)),
+            ScalarType::F64 => first_slab(&mut source, planes, len, |s| SlabMut::F64(s)),
         };
     }
     // `read_volume`: the whole array, for the commands that need the volume itself.

@@ -40,9 +40,10 @@ An array with more than three axes is accepted when the extra ones have length 1
 slowest in memory: ``(nx, ny, nz, 1)`` in Fortran order, as nibabel returns many NIfTI volumes, or
 ``(1, nz, ny, nx)`` in C order.
 
-Samples of type uint8, uint16, int16 and float32 are used as they are; int8 becomes int16, bool
-becomes uint8 and other numeric types become float32 (a copy). A sample is *inside* when
-``value >= iso``.
+Samples of type uint8, uint16, int16, uint32, int32, uint64, int64, float32 and float64 are used as
+they are (no copy); int8 becomes int16, bool becomes uint8 and float16 becomes float32 (exact
+copies). A sample is *inside* when ``value >= iso``, decided exactly in the sample's own type (a
+uint32 16777217 is above 16777216.5, though no float32 tells the two apart).
 
 Errors: bad arguments raise ``ValueError``; files that cannot be opened raise ``OSError`` (e.g.
 ``FileNotFoundError``); malformed or unsupported files raise :class:`IsogridError`, a ``ValueError``.
@@ -217,7 +218,7 @@ def extract(
         array: 3-D samples, a :class:`Volume` (which also supplies its spacing), or the path of a
             volume file, read with :func:`load_volume`. The axis that varies
             fastest in memory is x: a C array of shape (nz, ny, nx) and a Fortran array of shape
-            (nx, ny, nz) are read in place. uint8, uint16, int16 and float32 are not copied when
+            (nx, ny, nz) are read in place. The module's kept dtypes are not copied when
             contiguous; other types and layouts are converted first (see the module docs).
         iso: isovalue in data units; a sample is inside when ``value >= iso``.
         iso_normalized: isovalue as a fraction of the finite value range, ``min + t·(max − min)``
@@ -349,7 +350,8 @@ def load_volume(
     Args:
         raw_shape: for raw files, samples per axis **(nx, ny, nz)**, x fastest — the order of the
             CLI's ``--raw-shape X,Y,Z``, i.e. the reverse of the returned array's shape.
-        raw_dtype: for raw files, uint8, uint16, int16 or float32 (any NumPy dtype spelling;
+        raw_dtype: for raw files, uint8, uint16, int16, uint32, int32, uint64, int64, float32 or
+            float64 (any NumPy dtype spelling;
             an explicit ``'>'`` byte order implies ``big_endian``).
         big_endian: raw samples are big-endian.
         series: for DICOM, the SeriesInstanceUID to read (the CLI's ``--series``); by default
@@ -357,7 +359,9 @@ def load_volume(
             A UID the folder does not hold is an error that lists the series it has.
         level: OME-Zarr resolution level (0 = full resolution).
         index: Zarr axes other than x, y, z and the entry to read of each, e.g.
-            ``{"t": 0, "c": 1}``; 4-D and 5-D arrays need it (the error names the axes).
+            ``{"t": 0, "c": 1}``; 4-D and 5-D arrays need it (the error names the axes). It also
+            picks the channel and time point of an ImageJ hyperstack or OME-TIFF with several
+            (``{"c": 1}``).
     """
     dtype_name = None
     if raw_dtype is not None:
@@ -491,7 +495,20 @@ def voxelize(
 
 # --- preparing arguments -------------------------------------------------------------------------
 
-_KEPT = {np.dtype(t) for t in (np.uint8, np.uint16, np.int16, np.float32)}
+_KEPT = {
+    np.dtype(t)
+    for t in (
+        np.uint8,
+        np.uint16,
+        np.int16,
+        np.float32,
+        np.uint32,
+        np.int32,
+        np.uint64,
+        np.int64,
+        np.float64,
+    )
+}
 
 
 def render(
@@ -597,7 +614,9 @@ def _sample_dtype(dtype: np.dtype) -> np.dtype:
         return native
     if native == np.dtype(np.int8):
         return np.dtype(np.int16)
-    return np.dtype(np.float32)
+    if native == np.dtype(np.float16):
+        return np.dtype(np.float32)
+    raise ValueError(f"unsupported sample dtype {dtype}")
 
 
 def _layout(a: np.ndarray) -> Tuple[np.ndarray, bool]:

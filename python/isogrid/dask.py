@@ -93,8 +93,8 @@ def extract(
             array. Zarr sources are read as :func:`isogrid.load_volume` and ``isogrid extract``
             read them: axes mapped to x, y and z by name, spacing and origin from the OME-Zarr
             ``coordinateTransformations``. Other arrays are 3-D, indexed ``[z, y, x]``. Samples
-            are read as :func:`isogrid.extract` reads them: uint8, uint16, int16 and float32 as
-            they are, int8 as int16, bool as uint8, other real types as float32.
+            are read as :func:`isogrid.extract` reads them: 8 to 64-bit integers, float32 and
+            float64 as they are, int8 as int16, bool as uint8, float16 as float32.
         iso, iso_normalized: the isovalue in data units, or as a fraction of the value range
             (exactly one).
         output: the ``.cgc`` file, written atomically (nothing is left under its name on error).

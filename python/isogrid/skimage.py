@@ -111,6 +111,10 @@ def marching_cubes(
         raise ValueError("volume and mask must have the same shape.")
 
     samples = volume[::step, ::step, ::step] if step > 1 else volume
+    if samples.dtype.kind in "iuf" and samples.dtype.itemsize >= 4:
+        # scikit-image marches float32 samples: 32/64-bit ones are rounded as it rounds them
+        # (isogrid.marching_cubes keeps them exact).
+        samples = samples.astype(np.float32, copy=False)
     prepared, fortran = _prepare(samples)
     # With a mask, only the samples of the cells it marches (cell c where the mask holds at
     # c + 1) are marched: the box around them, one sample below for the cells' low corners.

@@ -12,12 +12,18 @@ use isogrid::{Geometry, Samples, VolumeView};
 use numpy::{Element, PyReadonlyArrayDyn, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 
-/// A read-only borrow of a numpy array of one of the four sample types.
+/// A read-only borrow of a numpy array of one of the sample types, kept as it is (no conversion:
+/// a sample's side of the isovalue is decided in its own type).
 pub enum BorrowedArray<'py> {
     U8(PyReadonlyArrayDyn<'py, u8>),
     U16(PyReadonlyArrayDyn<'py, u16>),
     I16(PyReadonlyArrayDyn<'py, i16>),
     F32(PyReadonlyArrayDyn<'py, f32>),
+    U32(PyReadonlyArrayDyn<'py, u32>),
+    I32(PyReadonlyArrayDyn<'py, i32>),
+    U64(PyReadonlyArrayDyn<'py, u64>),
+    I64(PyReadonlyArrayDyn<'py, i64>),
+    F64(PyReadonlyArrayDyn<'py, f64>),
 }
 
 /// The borrowed array and where its samples sit.
@@ -38,9 +44,20 @@ impl<'py> VolumeArg<'py> {
             BorrowedArray::I16(a)
         } else if let Ok(a) = array.extract() {
             BorrowedArray::F32(a)
+        } else if let Ok(a) = array.extract() {
+            BorrowedArray::U32(a)
+        } else if let Ok(a) = array.extract() {
+            BorrowedArray::I32(a)
+        } else if let Ok(a) = array.extract() {
+            BorrowedArray::U64(a)
+        } else if let Ok(a) = array.extract() {
+            BorrowedArray::I64(a)
+        } else if let Ok(a) = array.extract() {
+            BorrowedArray::F64(a)
         } else {
             return Err(invalid(
-                "expected a numpy array of uint8, uint16, int16 or float32 in native byte order",
+                "expected a numpy array of uint8, uint16, int16, uint32, int32, uint64, int64, \
+                 float32 or float64 in native byte order",
             ));
         };
         let (shape, c_order, f_order) = match &borrowed {
@@ -48,6 +65,11 @@ impl<'py> VolumeArg<'py> {
             BorrowedArray::U16(a) => layout(a),
             BorrowedArray::I16(a) => layout(a),
             BorrowedArray::F32(a) => layout(a),
+            BorrowedArray::U32(a) => layout(a),
+            BorrowedArray::I32(a) => layout(a),
+            BorrowedArray::U64(a) => layout(a),
+            BorrowedArray::I64(a) => layout(a),
+            BorrowedArray::F64(a) => layout(a),
         };
         let shape: [usize; 3] = shape.try_into().map_err(|shape: Vec<usize>| {
             invalid(format!(
@@ -105,6 +127,11 @@ impl<'py> VolumeArg<'py> {
             BorrowedArray::U16(a) => Samples::U16(slice(a)?),
             BorrowedArray::I16(a) => Samples::I16(slice(a)?),
             BorrowedArray::F32(a) => Samples::F32(slice(a)?),
+            BorrowedArray::U32(a) => Samples::U32(slice(a)?),
+            BorrowedArray::I32(a) => Samples::I32(slice(a)?),
+            BorrowedArray::U64(a) => Samples::U64(slice(a)?),
+            BorrowedArray::I64(a) => Samples::I64(slice(a)?),
+            BorrowedArray::F64(a) => Samples::F64(slice(a)?),
         };
         VolumeView::new(self.geometry, samples).map_err(crate::errors::to_py)
     }

@@ -77,7 +77,9 @@ pub fn extract(
     })?;
     if let Some((array, fortran, spacing, origin, direction, name, bits)) = attribute {
         let precision = AttributePrecision::from_bits(bits).ok_or_else(|| {
-            invalid(format!("attribute precision must be 8, 16 or 32, not {bits}"))
+            invalid(format!(
+                "attribute precision must be 8, 16 or 32, not {bits}"
+            ))
         })?;
         let volume =
             VolumeArg::new(&array, fortran, spacing3(spacing)?)?.place(origin, direction)?;
@@ -106,8 +108,11 @@ pub fn _attach_attribute(
     bits: u32,
     threads: Option<usize>,
 ) -> PyResult<()> {
-    let precision = AttributePrecision::from_bits(bits)
-        .ok_or_else(|| invalid(format!("attribute precision must be 8, 16 or 32, not {bits}")))?;
+    let precision = AttributePrecision::from_bits(bits).ok_or_else(|| {
+        invalid(format!(
+            "attribute precision must be 8, 16 or 32, not {bits}"
+        ))
+    })?;
     let grid = py.detach(|| isogrid::cgc::open(&path)).map_err(to_py)?;
     let sampled = match (attribute_path, array) {
         (Some(attribute_path), None) => {
@@ -140,7 +145,8 @@ pub fn _attach_attribute(
     }
     .map_err(to_py)?;
     let grid = grid.with_attribute(sampled).map_err(to_py)?;
-    py.detach(|| isogrid::cgc::write(&path, &grid)).map_err(to_py)
+    py.detach(|| isogrid::cgc::write(&path, &grid))
+        .map_err(to_py)
 }
 
 /// The attribute volume of `extract` and `marching_cubes`: (array, fortran, spacing, origin,
@@ -225,6 +231,11 @@ pub fn dtype_name(t: ScalarType) -> &'static str {
         ScalarType::U16 => "uint16",
         ScalarType::I16 => "int16",
         ScalarType::F32 => "float32",
+        ScalarType::U32 => "uint32",
+        ScalarType::I32 => "int32",
+        ScalarType::U64 => "uint64",
+        ScalarType::I64 => "int64",
+        ScalarType::F64 => "float64",
     }
 }
 
@@ -362,7 +373,6 @@ impl CellGrid {
         d.set_item("range", (a.info().range[0], a.info().range[1]))?;
         Ok(Some(d))
     }
-
 
     /// Whether the buffers are views of a memory-mapped `.cgc` file.
     #[getter]

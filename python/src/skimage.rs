@@ -63,6 +63,11 @@ fn lewiner_normals_values(
         Samples::U16(s) => normals_values_typed(s, dims, positions, faces, level),
         Samples::I16(s) => normals_values_typed(s, dims, positions, faces, level),
         Samples::F32(s) => normals_values_typed(s, dims, positions, faces, level),
+        Samples::U32(s) => normals_values_typed(s, dims, positions, faces, level),
+        Samples::I32(s) => normals_values_typed(s, dims, positions, faces, level),
+        Samples::U64(s) => normals_values_typed(s, dims, positions, faces, level),
+        Samples::I64(s) => normals_values_typed(s, dims, positions, faces, level),
+        Samples::F64(s) => normals_values_typed(s, dims, positions, faces, level),
     }
 }
 

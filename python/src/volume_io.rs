@@ -89,9 +89,8 @@ pub fn _zarr_selection<'py>(
         indices: index.unwrap_or_default(),
         ..ZarrOptions::default()
     };
-    let selection =
-        isogrid_io::region::zarr::select(group_attrs, axes, &shape, &options, location)
-            .map_err(to_py)?;
+    let selection = isogrid_io::region::zarr::select(group_attrs, axes, &shape, &options, location)
+        .map_err(to_py)?;
     let g = selection.geometry;
     let d = PyDict::new(py);
     d.set_item("spatial", selection.spatial)?;
@@ -102,20 +101,19 @@ pub fn _zarr_selection<'py>(
     Ok(d)
 }
 
-/// The sample type a dtype name (`uint8`, `uint16`, `int16`, `float32`) names; errors name the
-/// argument `what`.
+/// The sample type a numpy dtype name (`uint8`, ..., `float64`: [`crate::grid::dtype_name`])
+/// names; errors name the argument `what`.
 pub fn scalar_type_named(name: &str, what: &str) -> PyResult<ScalarType> {
-    Ok(match name {
-        "uint8" => ScalarType::U8,
-        "uint16" => ScalarType::U16,
-        "int16" => ScalarType::I16,
-        "float32" => ScalarType::F32,
-        _ => {
-            return Err(invalid(format!(
-                "{what} must be uint8, uint16, int16 or float32, not {name}"
-            )))
-        }
-    })
+    ScalarType::ALL
+        .into_iter()
+        .find(|&t| crate::grid::dtype_name(t) == name)
+        .ok_or_else(|| {
+            let names: Vec<&str> = ScalarType::ALL.map(crate::grid::dtype_name).to_vec();
+            invalid(format!(
+                "{what} must be one of {}, not {name}",
+                names.join(", ")
+            ))
+        })
 }
 
 /// Solid voxelisation into an 8-bit coverage volume (paper §4). See `isogrid.voxelize`.
@@ -171,24 +169,17 @@ fn volume_dict(py: Python<'_>, volume: Volume) -> PyResult<Bound<'_, PyDict>> {
     let [nx, ny, nz] = g.dims;
     let shape = (nz, ny, nx);
     let shape_err = |e: numpy::ndarray::ShapeError| invalid(e.to_string());
-    let array = match volume.into_data() {
-        VolumeData::U8(v) => Array3::from_shape_vec(shape, v)
-            .map_err(shape_err)?
-            .into_pyarray(py)
-            .into_any(),
-        VolumeData::U16(v) => Array3::from_shape_vec(shape, v)
-            .map_err(shape_err)?
-            .into_pyarray(py)
-            .into_any(),
-        VolumeData::I16(v) => Array3::from_shape_vec(shape, v)
-            .map_err(shape_err)?
-            .into_pyarray(py)
-            .into_any(),
-        VolumeData::F32(v) => Array3::from_shape_vec(shape, v)
-            .map_err(shape_err)?
-            .into_pyarray(py)
-            .into_any(),
-    };
+    macro_rules! array {
+        ($($v:ident),*) => {
+            match volume.into_data() {
+                $(VolumeData::$v(v) => Array3::from_shape_vec(shape, v)
+                    .map_err(shape_err)?
+                    .into_pyarray(py)
+                    .into_any(),)*
+            }
+        };
+    }
+    let array = array!(U8, U16, I16, F32, U32, I32, U64, I64, F64);
     let d = PyDict::new(py);
     d.set_item("array", array)?;
     d.set_item("spacing", tuple3(g.spacing))?;

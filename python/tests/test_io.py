@@ -32,7 +32,9 @@ def test_loaded_array_is_an_owned_writable_numpy_array(tmp_path):
     assert vol.array[0, 0, 0] == 42
 
 
-@pytest.mark.parametrize("dtype", ["uint8", "uint16", "int16", "float32"])
+@pytest.mark.parametrize(
+    "dtype", ["uint8", "uint16", "int16", "float32", "uint32", "int32", "uint64", "int64", "float64"]
+)
 @pytest.mark.parametrize("big_endian", [False, True])
 def test_raw(tmp_path, dtype, big_endian):
     c = np.round(sphere() * 3 + 50).astype(dtype)
@@ -60,7 +62,7 @@ def test_raw_errors(tmp_path):
     with pytest.raises(ValueError, match="need both raw_shape"):
         isogrid.load_volume(path, raw_shape=(10, 10, 1))
     with pytest.raises(ValueError, match="raw_dtype must be"):
-        isogrid.load_volume(path, raw_shape=(25, 1, 1), raw_dtype=np.float64)
+        isogrid.load_volume(path, raw_shape=(100, 1, 1), raw_dtype=np.int8)
     with pytest.raises(ValueError, match="raw_shape must be"):
         isogrid.load_volume(path, raw_shape=(100, 1))
     with pytest.raises(ValueError, match="at least 1"):

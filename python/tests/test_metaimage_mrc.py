@@ -31,11 +31,11 @@ META_TYPES = [
     (np.int8, ramp(np.int8, offset=-100), np.int16),
     (np.uint16, ramp(np.uint16, scale=300), np.uint16),
     (np.int16, ramp(np.int16, scale=-100), np.int16),
-    (np.uint32, ramp(np.uint32, scale=70_000), np.float32),
-    (np.int32, ramp(np.int32, scale=-70_000), np.float32),
-    (np.int64, ramp(np.int64, scale=-3), np.float32),
+    (np.uint32, ramp(np.uint32, scale=70_000), np.uint32),
+    (np.int32, ramp(np.int32, scale=-70_000), np.int32),
+    (np.int64, ramp(np.int64, scale=-3), np.int64),
     (np.float32, ramp(np.float32, scale=0.25, offset=-3.5), np.float32),
-    (np.float64, ramp(np.float64, scale=0.125, offset=1e3), np.float32),
+    (np.float64, ramp(np.float64, scale=0.125, offset=1e3), np.float64),
 ]
 
 

@@ -34,7 +34,7 @@ pub struct InputArgs {
     #[arg(long, value_name = "X,Y,Z", value_parser = parse_shape)]
     pub raw_shape: Option<[usize; 3]>,
     /// Sample type of a raw file.
-    #[arg(long, value_name = "TYPE", value_parser = ["u8", "u16", "i16", "f32"], requires = "raw_shape")]
+    #[arg(long, value_name = "TYPE", value_parser = ["u8", "u16", "i16", "f32", "u32", "i32", "u64", "i64", "f64"], requires = "raw_shape")]
     pub raw_type: Option<String>,
     /// Raw samples are big-endian.
     #[arg(long, requires = "raw_shape")]
@@ -58,12 +58,9 @@ impl InputArgs {
             ..ReadOptions::default()
         };
         if let Some(shape) = &self.raw_shape {
-            let scalar = match self.raw_type.as_deref() {
-                Some("u8") => ScalarType::U8,
-                Some("u16") => ScalarType::U16,
-                Some("i16") => ScalarType::I16,
-                Some("f32") => ScalarType::F32,
-                _ => bail!("--raw-shape needs --raw-type u8|u16|i16|f32"),
+            let Some(scalar) = self.raw_type.as_deref().and_then(ScalarType::named) else {
+                let names: Vec<&str> = ScalarType::ALL.iter().map(|t| t.name()).collect();
+                bail!("--raw-shape needs --raw-type {}", names.join("|"));
             };
             options.raw = Some(RawSpec {
                 dims: *shape,

@@ -391,11 +391,15 @@ fn regular_step(frames: &[Frame], normal: Vec3) -> Result<(f64, Option<String>)>
     Ok((mean, notice))
 }
 
-/// Rescaled samples of all frames in order, in the narrowest type that holds them exactly.
+/// Rescaled samples of all frames in order, in the narrowest type that holds them exactly: with
+/// slope 1 and integral intercepts (of magnitude below 2^53) an integer type chosen by the
+/// shifted values' range (u8, i16, u16, i32, i64: an intercept of 2e9 stays exact); otherwise
+/// f32 where every value is below 2^24 in magnitude and f64 beyond (where f32 would merge
+/// neighbouring values).
 fn values(frames: &[Frame], total: usize) -> VolumeData {
     let integral = frames
         .iter()
-        .all(|f| f.slope == 1.0 && f.intercept.fract() == 0.0 && f.intercept.abs() < 1e9);
+        .all(|f| f.slope == 1.0 && f.intercept.fract() == 0.0 && f.intercept.abs() < 9.007e15);
     if integral {
         let lo = frames
             .iter()
@@ -421,10 +425,20 @@ fn values(frames: &[Frame], total: usize) -> VolumeData {
         if fits(-32768, 32767) {
             return VolumeData::I16(gather(frames, total, |f, i| shifted(f, i) as i16));
         }
+        if fits(i32::MIN as i64, i32::MAX as i64) {
+            return VolumeData::I32(gather(frames, total, |f, i| shifted(f, i) as i32));
+        }
+        return VolumeData::I64(gather(frames, total, shifted));
     }
-    VolumeData::F32(gather(frames, total, |f, i| {
-        (f.stored(i) as f64 * f.slope + f.intercept) as f32
-    }))
+    let value = |f: &Frame, i: usize| f.stored(i) as f64 * f.slope + f.intercept;
+    let bound = frames
+        .iter()
+        .flat_map(|f| [f.range.0, f.range.1].map(|s| (s as f64 * f.slope + f.intercept).abs()))
+        .fold(0.0, f64::max);
+    if bound < 16_777_216.0 {
+        return VolumeData::F32(gather(frames, total, |f, i| value(f, i) as f32));
+    }
+    VolumeData::F64(gather(frames, total, value))
 }
 
 /// Every sample of every frame, in frame order, through `convert`.

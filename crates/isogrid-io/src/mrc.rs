@@ -314,6 +314,11 @@ fn permute(data: VolumeData, crs: [usize; 3], axis_of: [usize; 3]) -> VolumeData
         VolumeData::U16(v) => VolumeData::U16(apply(v, crs, axis_of)),
         VolumeData::I16(v) => VolumeData::I16(apply(v, crs, axis_of)),
         VolumeData::F32(v) => VolumeData::F32(apply(v, crs, axis_of)),
+        VolumeData::U32(v) => VolumeData::U32(apply(v, crs, axis_of)),
+        VolumeData::I32(v) => VolumeData::I32(apply(v, crs, axis_of)),
+        VolumeData::U64(v) => VolumeData::U64(apply(v, crs, axis_of)),
+        VolumeData::I64(v) => VolumeData::I64(apply(v, crs, axis_of)),
+        VolumeData::F64(v) => VolumeData::F64(apply(v, crs, axis_of)),
     }
 }
 

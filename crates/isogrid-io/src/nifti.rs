@@ -21,9 +21,9 @@
 use crate::geometry::{cross, geometry, normalized, Vec3};
 use crate::samples::{
     byte_count, check_available, check_deflate_budget, expect_end, gzip_error, read_samples,
-    sample_count, skip_bytes, ElemType,
+    rescaled, sample_count, skip_bytes, ElemType,
 };
-use isogrid::{Error, Result, ResultExt, Volume, VolumeData};
+use isogrid::{Error, Result, ResultExt, Volume};
 use std::io::{BufReader, Read, Seek, SeekFrom};
 use std::path::Path;
 
@@ -83,7 +83,7 @@ fn read(path: &Path) -> Result<Volume> {
     })()
     .map_err(|e| if gzipped { gzip_error(e) } else { e })?;
     let data = match header.scale {
-        Some((slope, inter)) => VolumeData::F32(scaled(&data, slope, inter)),
+        Some((slope, inter)) => rescaled(&data, header.elem, slope as f64, inter as f64),
         None => data,
     };
     let g = geometry(header.dims, header.spacing, header.origin, header.direction)?;
@@ -126,13 +126,6 @@ pub(crate) fn region_layout(path: &Path) -> Result<Option<crate::mapped_layout::
         }))
     })()
     .at_path(path)
-}
-
-pub(crate) fn scaled(data: &VolumeData, slope: f32, inter: f32) -> Vec<f32> {
-    let s = data.samples();
-    (0..s.len())
-        .map(|i| s.get_f64(i) as f32 * slope + inter)
-        .collect()
 }
 
 fn parse_header(raw: &[u8; HEADER_SIZE]) -> Result<Header> {

@@ -24,12 +24,7 @@ pub fn read_raw(path: &Path, spec: &RawSpec) -> Result<Volume> {
 
 fn read(path: &Path, spec: &RawSpec) -> Result<Volume> {
     let count = sample_count(spec.dims)?;
-    let elem = match spec.scalar {
-        ScalarType::U8 => ElemType::U8,
-        ScalarType::U16 => ElemType::U16,
-        ScalarType::I16 => ElemType::I16,
-        ScalarType::F32 => ElemType::F32,
-    };
+    let elem = ElemType::of(spec.scalar);
     let file = isogrid::fs::open_regular(path)?;
     let actual = file.metadata()?.len();
     let expected = count as u64 * spec.scalar.size() as u64;

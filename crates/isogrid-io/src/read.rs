@@ -89,7 +89,7 @@ fn read_single(path: &Path, opts: &ReadOptions) -> Result<Volume> {
         return crate::read_npy(path);
     }
     if ends(".tif") || ends(".tiff") {
-        return crate::read_tiff(path);
+        return crate::tiff::read_tiff_indexed(path, &opts.zarr.indices);
     }
     if ends(".mha") || ends(".mhd") {
         return crate::read_metaimage(path);
@@ -126,7 +126,7 @@ fn sniff(path: &Path, opts: &ReadOptions) -> Result<Volume> {
         || head.starts_with(b"II+\0")
         || head.starts_with(b"MM\0+")
     {
-        crate::read_tiff(path)
+        crate::tiff::read_tiff_indexed(path, &opts.zarr.indices)
     } else if head.len() == 348 && &head[344..347] == b"n+1" {
         crate::read_nifti(path)
     } else if head.len() >= 212 && &head[208..211] == b"MAP" {

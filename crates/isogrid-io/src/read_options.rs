@@ -10,7 +10,8 @@ pub struct ReadOptions {
     pub raw: Option<RawSpec>,
     /// DICOM: read this SeriesInstanceUID (default: the series with the most slices).
     pub series: Option<String>,
-    /// Level and extra-axis indices of a Zarr / OME-Zarr input.
+    /// Level and extra-axis indices of a Zarr / OME-Zarr input; the indices also pick the
+    /// channel and time point of an ImageJ or OME-TIFF hyperstack.
     pub zarr: ZarrOptions,
 }
 
@@ -33,4 +34,21 @@ pub fn ssl_cert_file_from_env() -> Option<std::path::PathBuf> {
     std::env::var_os("SSL_CERT_FILE")
         .filter(|path| !path.is_empty())
         .map(std::path::PathBuf::from)
+}
+
+/// Refuses an `--index` that names an axis twice (`t=0,t=1` would otherwise read t=0 and ignore
+/// the second value without a word).
+pub(crate) fn refuse_repeated_axes(indices: &[(String, u64)]) -> isogrid::Result<()> {
+    for (n, (name, index)) in indices.iter().enumerate() {
+        if let Some((earlier, other)) = indices[..n]
+            .iter()
+            .find(|(earlier, _)| earlier.eq_ignore_ascii_case(name))
+        {
+            return Err(isogrid::Error::invalid(format!(
+                "--index gives axis {name} twice ({earlier}={other} and {name}={index}); give each \
+                 axis once"
+            )));
+        }
+    }
+    Ok(())
 }

@@ -1,20 +1,22 @@
 //! Decoding sample arrays stored in files into [`VolumeData`], shared by every reader.
 //!
-//! Files store many element types; a [`Volume`](isogrid::Volume) keeps four (u8, u16, i16, f32).
-//! The conversion rule, the same for every format:
+//! A [`Volume`](isogrid::Volume) keeps the file's element type (the rule, the same for every
+//! format, is [`ElemType::kept`]):
 //!
-//! | file type               | kept as | note |
-//! |-------------------------|---------|------|
-//! | u8, u16, i16, f32       | same    | bit-exact |
-//! | bool                    | u8      | 0 / 1 |
-//! | i8                      | i16     | exact |
-//! | u32, i32, u64, i64, f64 | f32     | **lossy**: integers above 2²⁴ and f64 mantissas are rounded to f32 |
+//! | file type                                  | kept as | note |
+//! |--------------------------------------------|---------|------|
+//! | u8, u16, i16, u32, i32, u64, i64, f32, f64 | same    | bit-exact |
+//! | bool                                       | u8      | 0 / 1 |
+//! | i8                                         | i16     | exact |
+//!
+//! Rescaled samples (NIfTI `scl_slope`/`scl_inter`, DICOM RescaleSlope/Intercept) follow
+//! [`rescaled_type`].
 //!
 //! Reading never trusts a declared size: callers check it against the file first, and streams
 //! (gzip) are read in bounded chunks so that a tiny file claiming a huge volume fails after
 //! reading what it really holds, not after allocating what it claims.
 
-use isogrid::{Error, Result, VolumeData, MAX_DIM};
+use isogrid::{Error, Result, Samples, ScalarType, VolumeData, MAX_DIM};
 use std::io::Read;
 
 /// An element type as a file declares it.
@@ -33,6 +35,48 @@ pub(crate) enum ElemType {
 }
 
 impl ElemType {
+    /// The sample type a volume keeps this element type as: itself, i8 widened to i16.
+    pub(crate) fn kept(self) -> ScalarType {
+        match self {
+            ElemType::U8 => ScalarType::U8,
+            ElemType::I8 | ElemType::I16 => ScalarType::I16,
+            ElemType::U16 => ScalarType::U16,
+            ElemType::U32 => ScalarType::U32,
+            ElemType::I32 => ScalarType::I32,
+            ElemType::U64 => ScalarType::U64,
+            ElemType::I64 => ScalarType::I64,
+            ElemType::F32 => ScalarType::F32,
+            ElemType::F64 => ScalarType::F64,
+        }
+    }
+    /// The element type that stores `scalar` as it is.
+    pub(crate) fn of(scalar: ScalarType) -> ElemType {
+        match scalar {
+            ScalarType::U8 => ElemType::U8,
+            ScalarType::U16 => ElemType::U16,
+            ScalarType::I16 => ElemType::I16,
+            ScalarType::F32 => ElemType::F32,
+            ScalarType::U32 => ElemType::U32,
+            ScalarType::I32 => ElemType::I32,
+            ScalarType::U64 => ElemType::U64,
+            ScalarType::I64 => ElemType::I64,
+            ScalarType::F64 => ElemType::F64,
+        }
+    }
+    /// Smallest and largest value of an integer type (`None` for floats).
+    fn integer_range(self) -> Option<(i128, i128)> {
+        Some(match self {
+            ElemType::U8 => (0, u8::MAX as i128),
+            ElemType::I8 => (i8::MIN as i128, i8::MAX as i128),
+            ElemType::U16 => (0, u16::MAX as i128),
+            ElemType::I16 => (i16::MIN as i128, i16::MAX as i128),
+            ElemType::U32 => (0, u32::MAX as i128),
+            ElemType::I32 => (i32::MIN as i128, i32::MAX as i128),
+            ElemType::U64 => (0, u64::MAX as i128),
+            ElemType::I64 => (i64::MIN as i128, i64::MAX as i128),
+            ElemType::F32 | ElemType::F64 => return None,
+        })
+    }
     pub(crate) fn size(self) -> usize {
         match self {
             ElemType::U8 | ElemType::I8 => 1,
@@ -94,13 +138,12 @@ pub(crate) fn check_deflate_budget(needed: u64, compressed: u64) -> Result<()> {
 
 /// Fails with a `TooLarge` error naming the limit when decoding `count` elements of `elem` needs
 /// more memory than the machine has ([`isogrid::memory`]): the file's element array plus, for a
-/// converted type, the kept array built from it.
+/// widened type (i8), the kept array built from it.
 pub(crate) fn ensure_memory(count: usize, elem: ElemType) -> Result<()> {
     let file_bytes = count as u64 * elem.size() as u64;
     let kept_bytes = match elem {
-        ElemType::U8 | ElemType::U16 | ElemType::I16 | ElemType::F32 => 0,
         ElemType::I8 => count as u64 * 2,
-        _ => count as u64 * 4,
+        _ => 0,
     };
     isogrid::memory::ensure_fits(
         &format!("a volume of {count} samples"),
@@ -108,10 +151,10 @@ pub(crate) fn ensure_memory(count: usize, elem: ElemType) -> Result<()> {
     )
 }
 
-/// Reads exactly `count` elements of `elem` (byte order `big_endian`) and converts them to one of
-/// the kept types. The memory this needs is checked first ([`ensure_memory`]); then it grows with
-/// the data actually read (in chunks), so a short stream fails without the full allocation. A
-/// short read is a `Corrupt` error naming expected and actual bytes.
+/// Reads exactly `count` elements of `elem` (byte order `big_endian`) as [`ElemType::kept`]. The
+/// memory this needs is checked first ([`ensure_memory`]); then it grows with the data actually
+/// read (in chunks), so a short stream fails without the full allocation. A short read is a
+/// `Corrupt` error naming expected and actual bytes.
 pub(crate) fn read_samples<R: Read + ?Sized>(
     reader: &mut R,
     elem: ElemType,
@@ -128,19 +171,11 @@ pub(crate) fn read_samples<R: Read + ?Sized>(
         ElemType::I8 => VolumeData::I16(convert(read_vec::<i8, R>(reader, count, false)?, |v| {
             v as i16
         })),
-        ElemType::U32 => VolumeData::F32(convert(read_vec::<u32, R>(reader, count, swap)?, |v| {
-            v as f32
-        })),
-        ElemType::I32 => VolumeData::F32(convert(read_vec::<i32, R>(reader, count, swap)?, |v| {
-            v as f32
-        })),
-        ElemType::U64 => VolumeData::F32(convert(read_vec::<u64, R>(reader, count, swap)?, |v| {
-            v as f32
-        })),
-        ElemType::I64 => VolumeData::F32(convert(read_vec::<i64, R>(reader, count, swap)?, |v| {
-            v as f32
-        })),
-        ElemType::F64 => VolumeData::F32(f64_to_f32(&read_vec::<f64, R>(reader, count, swap)?)?),
+        ElemType::U32 => VolumeData::U32(read_vec(reader, count, swap)?),
+        ElemType::I32 => VolumeData::I32(read_vec(reader, count, swap)?),
+        ElemType::U64 => VolumeData::U64(read_vec(reader, count, swap)?),
+        ElemType::I64 => VolumeData::I64(read_vec(reader, count, swap)?),
+        ElemType::F64 => VolumeData::F64(read_vec(reader, count, swap)?),
     })
 }
 
@@ -152,7 +187,7 @@ fn f64_to_f32(values: &[f64]) -> Result<Vec<f32>> {
         .position(|v| v.is_finite() && (*v as f32).is_infinite())
     {
         return Err(Error::unsupported(format!(
-            "sample {i} is {:e}, beyond the f32 range (±{:e}) in which volumes are kept",
+            "sample {i} is {:e}, beyond the f32 range (±{:e}) of the declared type",
             values[i],
             f32::MAX
         )));
@@ -160,24 +195,21 @@ fn f64_to_f32(values: &[f64]) -> Result<Vec<f32>> {
     Ok(values.iter().map(|&v| v as f32).collect())
 }
 
-/// Builds kept-type data from values given as f64 (text encodings), converting like
-/// [`read_samples`]. A value an integer type cannot hold exactly (out of range, or with a
-/// fraction) is an error naming it, not a silently saturated sample.
+/// Builds kept-type data from values given as f64 (text encodings), as [`read_samples`] keeps
+/// them. A value an integer type cannot hold exactly (out of range, or with a fraction, or
+/// beyond ±2^53 where the f64 it was parsed into is not that integer) is an error naming it, not
+/// a silently saturated or rounded sample.
 pub(crate) fn from_f64_values(values: &[f64], elem: ElemType) -> Result<VolumeData> {
-    let range = match elem {
-        ElemType::U8 => Some((0.0, u8::MAX as f64)),
-        ElemType::I8 => Some((i8::MIN as f64, i8::MAX as f64)),
-        ElemType::U16 => Some((0.0, u16::MAX as f64)),
-        ElemType::I16 => Some((i16::MIN as f64, i16::MAX as f64)),
-        _ => None,
-    };
-    if let Some((lo, hi)) = range {
+    if let Some((lo, hi)) = elem.integer_range() {
+        const EXACT: f64 = 9_007_199_254_740_992.0; // 2^53
+        let (lo, hi) = ((lo as f64).max(-EXACT), (hi as f64).min(EXACT));
         if let Some(i) = values
             .iter()
             .position(|&v| !(v >= lo && v <= hi && v.fract() == 0.0))
         {
             return Err(Error::corrupt(format!(
-                "value {} (number {i}) is not an integer in [{lo}, {hi}] as the type declares",
+                "value {} (number {i}) is not an integer in [{lo}, {hi}] as the type declares \
+                 (text values are exact up to ±2^53)",
                 values[i]
             )));
         }
@@ -187,8 +219,88 @@ pub(crate) fn from_f64_values(values: &[f64], elem: ElemType) -> Result<VolumeDa
         ElemType::U16 => VolumeData::U16(values.iter().map(|&v| v as u16).collect()),
         ElemType::I16 => VolumeData::I16(values.iter().map(|&v| v as i16).collect()),
         ElemType::I8 => VolumeData::I16(values.iter().map(|&v| v as i8 as i16).collect()),
-        _ => VolumeData::F32(f64_to_f32(values)?),
+        ElemType::U32 => VolumeData::U32(values.iter().map(|&v| v as u32).collect()),
+        ElemType::I32 => VolumeData::I32(values.iter().map(|&v| v as i32).collect()),
+        ElemType::U64 => VolumeData::U64(values.iter().map(|&v| v as u64).collect()),
+        ElemType::I64 => VolumeData::I64(values.iter().map(|&v| v as i64).collect()),
+        ElemType::F32 => VolumeData::F32(f64_to_f32(values)?),
+        ElemType::F64 => VolumeData::F64(values.to_vec()),
     })
+}
+
+/// The type samples of `elem` rescaled to `stored · slope + inter` are kept as, from the header
+/// alone (so a streamed read agrees with a whole one):
+/// - an integer type with slope 1 and an integral intercept: the narrowest of i16, i32 and i64
+///   (or u8/u16 for the unsigned types they hold) that holds the type's whole shifted range,
+///   exactly; beyond i64, f64;
+/// - otherwise f32 where every rescaled value of a type of at most 16 bits stays below 2^24 in
+///   magnitude (f32 then resolves it to better than one stored step: CT's −1024 intercepts),
+///   and f64 for wider types or larger values (an intercept of 2e9, where f32 steps are 128).
+pub(crate) fn rescaled_type(elem: ElemType, slope: f64, inter: f64) -> ScalarType {
+    const EXACT: f64 = 9_007_199_254_740_992.0; // 2^53
+    if let Some((lo, hi)) = elem.integer_range() {
+        if slope == 1.0 && inter.fract() == 0.0 && inter.abs() < EXACT {
+            let (lo, hi) = (lo + inter as i128, hi + inter as i128);
+            let fits = |a: i128, b: i128| lo >= a && hi <= b;
+            return if fits(0, u8::MAX as i128) {
+                ScalarType::U8
+            } else if fits(i16::MIN as i128, i16::MAX as i128) {
+                ScalarType::I16
+            } else if fits(0, u16::MAX as i128) {
+                ScalarType::U16
+            } else if fits(i32::MIN as i128, i32::MAX as i128) {
+                ScalarType::I32
+            } else if fits(i64::MIN as i128, i64::MAX as i128) {
+                ScalarType::I64
+            } else {
+                ScalarType::F64
+            };
+        }
+        let bound = (lo as f64 * slope + inter)
+            .abs()
+            .max((hi as f64 * slope + inter).abs());
+        if elem.size() <= 2 && bound < 16_777_216.0 {
+            return ScalarType::F32;
+        }
+    }
+    ScalarType::F64
+}
+
+/// `data` rescaled to `stored · slope + inter`, computed in f64 (in i128 for integer shifts) and
+/// kept as [`rescaled_type`] says.
+pub(crate) fn rescaled(data: &VolumeData, elem: ElemType, slope: f64, inter: f64) -> VolumeData {
+    let s = data.samples();
+    let kept = rescaled_type(elem, slope, inter);
+    fn map<U>(samples: Samples<'_>, f: impl Fn(f64) -> U) -> Vec<U> {
+        (0..samples.len()).map(|i| f(samples.get_f64(i))).collect()
+    }
+    // Integer shifts are exact through i128 whatever the stored width (u64 beyond 2^53 included).
+    let shifted = |i: usize| -> i128 { integer_at(s, i) + inter as i128 };
+    let n = s.len();
+    match kept {
+        ScalarType::U8 => VolumeData::U8((0..n).map(|i| shifted(i) as u8).collect()),
+        ScalarType::I16 => VolumeData::I16((0..n).map(|i| shifted(i) as i16).collect()),
+        ScalarType::U16 => VolumeData::U16((0..n).map(|i| shifted(i) as u16).collect()),
+        ScalarType::I32 => VolumeData::I32((0..n).map(|i| shifted(i) as i32).collect()),
+        ScalarType::I64 => VolumeData::I64((0..n).map(|i| shifted(i) as i64).collect()),
+        ScalarType::F32 => VolumeData::F32(map(s, |v| (v * slope + inter) as f32)),
+        _ => VolumeData::F64(map(s, |v| v * slope + inter)),
+    }
+}
+
+/// Sample `i` of integer samples, exactly.
+fn integer_at(s: Samples<'_>, i: usize) -> i128 {
+    match s {
+        Samples::U8(v) => v[i] as i128,
+        Samples::U16(v) => v[i] as i128,
+        Samples::I16(v) => v[i] as i128,
+        Samples::U32(v) => v[i] as i128,
+        Samples::I32(v) => v[i] as i128,
+        Samples::U64(v) => v[i] as i128,
+        Samples::I64(v) => v[i] as i128,
+        Samples::F32(v) => v[i] as i128,
+        Samples::F64(v) => v[i] as i128,
+    }
 }
 
 /// Reads `count` decimal values separated by whitespace or commas from the next `available` bytes
@@ -343,25 +455,18 @@ pub(crate) fn append(
     a: VolumeData,
     b: VolumeData,
 ) -> std::result::Result<VolumeData, (VolumeData, VolumeData)> {
-    Ok(match (a, b) {
-        (VolumeData::U8(mut a), VolumeData::U8(b)) => {
-            a.extend(b);
-            VolumeData::U8(a)
-        }
-        (VolumeData::U16(mut a), VolumeData::U16(b)) => {
-            a.extend(b);
-            VolumeData::U16(a)
-        }
-        (VolumeData::I16(mut a), VolumeData::I16(b)) => {
-            a.extend(b);
-            VolumeData::I16(a)
-        }
-        (VolumeData::F32(mut a), VolumeData::F32(b)) => {
-            a.extend(b);
-            VolumeData::F32(a)
-        }
-        (a, b) => return Err((a, b)),
-    })
+    macro_rules! joined {
+        ($($v:ident),*) => {
+            match (a, b) {
+                $((VolumeData::$v(mut a), VolumeData::$v(b)) => {
+                    a.extend(b);
+                    VolumeData::$v(a)
+                })*
+                (a, b) => return Err((a, b)),
+            }
+        };
+    }
+    Ok(joined!(U8, U16, I16, F32, U32, I32, U64, I64, F64))
 }
 
 #[cfg(test)]
@@ -378,12 +483,31 @@ mod tests {
     }
 
     #[test]
-    fn wide_types_become_f32_and_i8_becomes_i16() {
-        let bytes = (-3i32).to_be_bytes();
+    fn wide_types_are_kept_and_i8_becomes_i16() {
+        let bytes = (-100_000_001i32).to_be_bytes();
         let data = read_samples(&mut &bytes[..], ElemType::I32, true, 1).unwrap();
-        assert_eq!(data, VolumeData::F32(vec![-3.0]));
+        assert_eq!(data, VolumeData::I32(vec![-100_000_001]));
+        let bytes = (u64::MAX - 1).to_le_bytes();
+        let data = read_samples(&mut &bytes[..], ElemType::U64, false, 1).unwrap();
+        assert_eq!(data, VolumeData::U64(vec![u64::MAX - 1]));
         let data = read_samples(&mut &[0xFFu8][..], ElemType::I8, false, 1).unwrap();
         assert_eq!(data, VolumeData::I16(vec![-1]));
+    }
+
+    #[test]
+    fn rescaling_keeps_large_intercepts_exact() {
+        // An intercept of 2e9 on i16: i32 holds every shifted value, exactly.
+        let data = VolumeData::I16(vec![-5, 0, 1]);
+        assert_eq!(rescaled_type(ElemType::I16, 1.0, 2e9), ScalarType::I32);
+        assert_eq!(
+            rescaled(&data, ElemType::I16, 1.0, 2e9),
+            VolumeData::I32(vec![1_999_999_995, 2_000_000_000, 2_000_000_001])
+        );
+        // CT's −1024 on u16 fits i32 but not i16 from the header alone.
+        assert_eq!(rescaled_type(ElemType::U16, 1.0, -1024.0), ScalarType::I32);
+        assert_eq!(rescaled_type(ElemType::I16, 0.5, -1024.0), ScalarType::F32);
+        assert_eq!(rescaled_type(ElemType::I16, 0.5, 2e9), ScalarType::F64);
+        assert_eq!(rescaled_type(ElemType::U64, 1.0, 1.0), ScalarType::F64);
     }
 
     #[test]

@@ -7,7 +7,10 @@
 //! threshold is pulled to the nearest code on its own side. Renderers compare interpolated codes
 //! with [`ValueMapping::iso_code`]: `code >= iso_code` holds for a stored corner exactly when
 //! `value >= iso` held for the original sample, so the set of active cells and every corner's side
-//! survive quantisation. 32-bit precision stores the values themselves.
+//! survive quantisation. 32-bit precision stores the values themselves as f32; a wider sample
+//! (u32, i32, 64-bit) whose f32 would cross the threshold is stored as the nearest f32 on its own
+//! side instead. Integer data is stored exactly only where its range lies within ±2^53, where the
+//! f64 range and every sample are exact.
 
 use crate::layout::Precision;
 
@@ -78,19 +81,22 @@ impl Quantizer {
         };
         let max_code = max_code as f64;
         let span = max - min;
-        let (offset, step, exact) = if integer_data && span <= max_code {
-            // Keep raw codes when they already fit, e.g. u8 at 8 bits stores the samples themselves.
-            let offset = if min >= 0.0 && max <= max_code {
-                0.0
+        // Beyond ±2^53 the range (and the offset below) would be a rounded 64-bit integer.
+        let exactly_f64 = |x: f64| x.abs() < 9_007_199_254_740_992.0;
+        let (offset, step, exact) =
+            if integer_data && span <= max_code && exactly_f64(min) && exactly_f64(max) {
+                // Keep raw codes when they already fit, e.g. u8 at 8 bits stores the samples themselves.
+                let offset = if min >= 0.0 && max <= max_code {
+                    0.0
+                } else {
+                    min
+                };
+                (offset, 1.0, true)
+            } else if span > 0.0 {
+                (min, span / max_code, false)
             } else {
-                min
+                (min, 1.0, false)
             };
-            (offset, 1.0, true)
-        } else if span > 0.0 {
-            (min, span / max_code, false)
-        } else {
-            (min, 1.0, false)
-        };
         let x = (iso - offset) / step;
         let first_inside = x.ceil();
         // iso_code must separate first_inside - 1 (outside) from first_inside (inside).
@@ -152,8 +158,19 @@ impl Quantizer {
     pub fn encode_cell(&self, values: &[f64; 8], inside: u8, out: &mut [u8]) {
         match self.precision {
             Precision::Float32 => {
+                let t = self.mapping.iso_code;
                 for (c, v) in values.iter().enumerate() {
-                    out[4 * c..4 * c + 4].copy_from_slice(&(*v as f32).to_le_bytes());
+                    // An f32 sample keeps its side as it is (t is the least f32 >= iso); a wider
+                    // one may round across t and is pulled back to the nearest f32 on its side.
+                    let mut code = *v as f32;
+                    if inside >> c & 1 != 0 {
+                        if !(code >= t) {
+                            code = t;
+                        }
+                    } else if code >= t {
+                        code = t.next_down();
+                    }
+                    out[4 * c..4 * c + 4].copy_from_slice(&code.to_le_bytes());
                 }
             }
             Precision::Bits16 => {

@@ -10,21 +10,45 @@ use crate::error::{Error, Result};
 /// Largest number of samples per axis: metacell positions are 16-bit in units of 2 cells (§3.1).
 pub const MAX_DIM: usize = 131_072;
 
-/// The scalar types a volume stores. Other file types are converted on read.
+/// The scalar types a volume stores. Readers keep a file's type where it is one of these (i8
+/// widens to i16 exactly); a sample's side of the isovalue is decided in its own type, never after
+/// a rounding conversion (see `extract::scalar`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum ScalarType {
     U8,
     U16,
     I16,
     F32,
+    U32,
+    I32,
+    U64,
+    I64,
+    F64,
 }
 
 impl ScalarType {
+    /// Every sample type.
+    pub const ALL: [ScalarType; 9] = [
+        ScalarType::U8,
+        ScalarType::U16,
+        ScalarType::I16,
+        ScalarType::F32,
+        ScalarType::U32,
+        ScalarType::I32,
+        ScalarType::U64,
+        ScalarType::I64,
+        ScalarType::F64,
+    ];
+    /// The type of a [`ScalarType::name`] ("u8", "f64", ...).
+    pub fn named(name: &str) -> Option<ScalarType> {
+        Self::ALL.into_iter().find(|t| t.name() == name)
+    }
     pub fn size(self) -> usize {
         match self {
             ScalarType::U8 => 1,
             ScalarType::U16 | ScalarType::I16 => 2,
-            ScalarType::F32 => 4,
+            ScalarType::F32 | ScalarType::U32 | ScalarType::I32 => 4,
+            ScalarType::U64 | ScalarType::I64 | ScalarType::F64 => 8,
         }
     }
     pub fn name(self) -> &'static str {
@@ -33,43 +57,41 @@ impl ScalarType {
             ScalarType::U16 => "u16",
             ScalarType::I16 => "i16",
             ScalarType::F32 => "f32",
+            ScalarType::U32 => "u32",
+            ScalarType::I32 => "i32",
+            ScalarType::U64 => "u64",
+            ScalarType::I64 => "i64",
+            ScalarType::F64 => "f64",
         }
     }
     pub fn is_integer(self) -> bool {
-        self != ScalarType::F32
+        !matches!(self, ScalarType::F32 | ScalarType::F64)
+    }
+    /// Whether every value of the type is exactly an f64 (wider integers round beyond 2^53).
+    pub fn fits_f64(self) -> bool {
+        !matches!(self, ScalarType::U64 | ScalarType::I64)
     }
 }
 
 /// A sample type the extraction is generic over.
 pub trait Scalar: Copy + PartialOrd + Send + Sync + bytemuck::Pod + 'static {
     const TYPE: ScalarType;
+    /// The sample as f64: exact for every type but u64 and i64 beyond ±2^53, which round to
+    /// nearest (classification never goes through it).
     fn to_f64(self) -> f64;
 }
 
-impl Scalar for u8 {
-    const TYPE: ScalarType = ScalarType::U8;
-    fn to_f64(self) -> f64 {
-        self as f64
-    }
+macro_rules! scalar {
+    ($($t:ty => $variant:ident),*) => {$(
+        impl Scalar for $t {
+            const TYPE: ScalarType = ScalarType::$variant;
+            fn to_f64(self) -> f64 {
+                self as f64
+            }
+        }
+    )*};
 }
-impl Scalar for u16 {
-    const TYPE: ScalarType = ScalarType::U16;
-    fn to_f64(self) -> f64 {
-        self as f64
-    }
-}
-impl Scalar for i16 {
-    const TYPE: ScalarType = ScalarType::I16;
-    fn to_f64(self) -> f64 {
-        self as f64
-    }
-}
-impl Scalar for f32 {
-    const TYPE: ScalarType = ScalarType::F32;
-    fn to_f64(self) -> f64 {
-        self as f64
-    }
-}
+scalar!(u8 => U8, u16 => U16, i16 => I16, f32 => F32, u32 => U32, i32 => I32, u64 => U64, i64 => I64, f64 => F64);
 
 /// Owned samples of one of the supported types.
 #[derive(Debug, Clone, PartialEq)]
@@ -78,6 +100,11 @@ pub enum VolumeData {
     U16(Vec<u16>),
     I16(Vec<i16>),
     F32(Vec<f32>),
+    U32(Vec<u32>),
+    I32(Vec<i32>),
+    U64(Vec<u64>),
+    I64(Vec<i64>),
+    F64(Vec<f64>),
 }
 
 /// Borrowed samples of one of the supported types (e.g. a numpy array's buffer).
@@ -87,6 +114,11 @@ pub enum Samples<'a> {
     U16(&'a [u16]),
     I16(&'a [i16]),
     F32(&'a [f32]),
+    U32(&'a [u32]),
+    I32(&'a [i32]),
+    U64(&'a [u64]),
+    I64(&'a [i64]),
+    F64(&'a [f64]),
 }
 
 impl VolumeData {
@@ -105,6 +137,11 @@ impl VolumeData {
             VolumeData::U16(v) => Samples::U16(v),
             VolumeData::I16(v) => Samples::I16(v),
             VolumeData::F32(v) => Samples::F32(v),
+            VolumeData::U32(v) => Samples::U32(v),
+            VolumeData::I32(v) => Samples::I32(v),
+            VolumeData::U64(v) => Samples::U64(v),
+            VolumeData::I64(v) => Samples::I64(v),
+            VolumeData::F64(v) => Samples::F64(v),
         }
     }
 }
@@ -116,6 +153,11 @@ impl<'a> Samples<'a> {
             Samples::U16(v) => v.len(),
             Samples::I16(v) => v.len(),
             Samples::F32(v) => v.len(),
+            Samples::U32(v) => v.len(),
+            Samples::I32(v) => v.len(),
+            Samples::U64(v) => v.len(),
+            Samples::I64(v) => v.len(),
+            Samples::F64(v) => v.len(),
         }
     }
     pub fn is_empty(&self) -> bool {
@@ -127,6 +169,11 @@ impl<'a> Samples<'a> {
             Samples::U16(_) => ScalarType::U16,
             Samples::I16(_) => ScalarType::I16,
             Samples::F32(_) => ScalarType::F32,
+            Samples::U32(_) => ScalarType::U32,
+            Samples::I32(_) => ScalarType::I32,
+            Samples::U64(_) => ScalarType::U64,
+            Samples::I64(_) => ScalarType::I64,
+            Samples::F64(_) => ScalarType::F64,
         }
     }
     /// Sample `index` as f64 (for tests and slow paths; hot loops are generic over [`Scalar`]).
@@ -136,6 +183,11 @@ impl<'a> Samples<'a> {
             Samples::U16(v) => v[index] as f64,
             Samples::I16(v) => v[index] as f64,
             Samples::F32(v) => v[index] as f64,
+            Samples::U32(v) => v[index].to_f64(),
+            Samples::I32(v) => v[index].to_f64(),
+            Samples::U64(v) => v[index].to_f64(),
+            Samples::I64(v) => v[index].to_f64(),
+            Samples::F64(v) => v[index].to_f64(),
         }
     }
     /// Smallest and largest finite sample, ignoring NaN and ±∞ (an infinite sample would make
@@ -159,6 +211,11 @@ impl<'a> Samples<'a> {
             Samples::U16(v) => range(v),
             Samples::I16(v) => range(v),
             Samples::F32(v) => range(v),
+            Samples::U32(v) => range(v),
+            Samples::I32(v) => range(v),
+            Samples::U64(v) => range(v),
+            Samples::I64(v) => range(v),
+            Samples::F64(v) => range(v),
         }
     }
 }

@@ -322,3 +322,44 @@ fn mc_color_by_writes_each_vertex_value_into_the_ply() {
     assert!(!dir.join("m.obj").exists());
     std::fs::remove_dir_all(dir).unwrap();
 }
+
+/// `--index c=0 --color-by c=1` on a two-channel ImageJ hyperstack (written by tifffile): channel 1
+/// is channel 0 plus one, so at every surface point of channel 0's isosurface it is iso + 1.
+#[test]
+fn color_by_another_channel_of_an_imagej_hyperstack() {
+    let dir = temp_dir("color-tiff-channel");
+    let input = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../isogrid-io/tests/fixtures/ij_zcyx.tif");
+    let out = dir.join("out.cgc");
+    let iso = 200.0 * 125.5; // between samples: channel 0 is 200·(i + 10j + 100k)
+    let run = isogrid(&[
+        "extract",
+        s(&input),
+        "--iso",
+        &iso.to_string(),
+        "--index",
+        "c=0",
+        "--color-by",
+        "c=1",
+        "-o",
+        s(&out),
+        "--json",
+    ]);
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(run.status.success(), "{stderr}");
+    let report: serde_json::Value = serde_json::from_slice(&run.stdout).unwrap();
+    assert!(report["active_cells"].as_u64().unwrap() > 0, "{report}");
+    let range = report["attribute"]["range"].as_array().unwrap();
+    for v in range {
+        assert!((v.as_f64().unwrap() - (iso + 1.0)).abs() < 0.01, "{report}");
+    }
+    // Without an index the error names the channels.
+    let run = isogrid(&["extract", s(&input), "--iso", "1", "-o", s(&out)]);
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(!run.status.success());
+    assert!(
+        stderr.contains("2 channels (c=0..1)") && stderr.contains("--index c=N"),
+        "{stderr}"
+    );
+    std::fs::remove_dir_all(dir).unwrap();
+}

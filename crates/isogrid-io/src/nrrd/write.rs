@@ -25,6 +25,11 @@ fn header_text(volume: &Volume) -> String {
         VolumeData::U16(_) => "uint16",
         VolumeData::I16(_) => "int16",
         VolumeData::F32(_) => "float",
+        VolumeData::U32(_) => "uint32",
+        VolumeData::I32(_) => "int32",
+        VolumeData::U64(_) => "uint64",
+        VolumeData::I64(_) => "int64",
+        VolumeData::F64(_) => "double",
     };
     let vector = |v: [f64; 3]| format!("({},{},{})", v[0], v[1], v[2]);
     let directions: Vec<String> = (0..3)
@@ -73,5 +78,10 @@ fn write_samples_le(out: &mut dyn Write, data: &VolumeData) -> Result<()> {
         VolumeData::U16(v) => write(out, v, |x| x.to_le()),
         VolumeData::I16(v) => write(out, v, |x| x.to_le()),
         VolumeData::F32(v) => write(out, v, |x| f32::from_bits(x.to_bits().to_le())),
+        VolumeData::U32(v) => write(out, v, |x| u32::from_le_bytes(x.to_ne_bytes())),
+        VolumeData::I32(v) => write(out, v, |x| i32::from_le_bytes(x.to_ne_bytes())),
+        VolumeData::U64(v) => write(out, v, |x| u64::from_le_bytes(x.to_ne_bytes())),
+        VolumeData::I64(v) => write(out, v, |x| i64::from_le_bytes(x.to_ne_bytes())),
+        VolumeData::F64(v) => write(out, v, |x| f64::from_le_bytes(x.to_ne_bytes())),
     }
 }

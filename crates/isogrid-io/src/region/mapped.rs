@@ -10,7 +10,7 @@
 //! process with SIGBUS.
 
 use crate::mapped_layout::MappedLayout;
-use crate::samples::{read_samples, ElemType};
+use crate::samples::{read_samples, rescaled, rescaled_type, ElemType};
 use isogrid::extract::stream::{RegionSource, SlabMut};
 use isogrid::{Error, Geometry, Result, ResultExt, ScalarType, VolumeData};
 use std::fs::File;
@@ -33,13 +33,10 @@ pub struct MappedSource {
 impl MappedSource {
     pub(crate) fn open(layout: MappedLayout) -> Result<Self> {
         let file = File::open(&layout.data_path).at_path(&layout.data_path)?;
-        // The kept type: what `read_samples` (and scaling) turns the stored type into.
-        let scalar = match (layout.scale, layout.elem) {
-            (Some(_), _) => ScalarType::F32,
-            (None, ElemType::U8) => ScalarType::U8,
-            (None, ElemType::U16) => ScalarType::U16,
-            (None, ElemType::I16 | ElemType::I8) => ScalarType::I16,
-            (None, _) => ScalarType::F32,
+        // The kept type: what `read_samples` (and rescaling) turns the stored type into.
+        let scalar = match layout.scale {
+            Some((slope, inter)) => rescaled_type(layout.elem, slope as f64, inter as f64),
+            None => layout.elem.kept(),
         };
         Ok(MappedSource {
             layout,
@@ -79,7 +76,9 @@ impl MappedSource {
                 count,
             )?;
             let data = match self.layout.scale {
-                Some((slope, inter)) => VolumeData::F32(crate::nifti::scaled(&data, slope, inter)),
+                Some((slope, inter)) => {
+                    rescaled(&data, self.layout.elem, slope as f64, inter as f64)
+                }
                 None => data,
             };
             copy_into(&data, &mut out, (done / size as u64) as usize)?;
@@ -110,6 +109,11 @@ fn copy_into(data: &VolumeData, out: &mut SlabMut<'_>, at: usize) -> Result<()> 
         (VolumeData::U16(d), SlabMut::U16(o)) => o[at..at + d.len()].copy_from_slice(d),
         (VolumeData::I16(d), SlabMut::I16(o)) => o[at..at + d.len()].copy_from_slice(d),
         (VolumeData::F32(d), SlabMut::F32(o)) => o[at..at + d.len()].copy_from_slice(d),
+        (VolumeData::U32(d), SlabMut::U32(o)) => o[at..at + d.len()].copy_from_slice(d),
+        (VolumeData::I32(d), SlabMut::I32(o)) => o[at..at + d.len()].copy_from_slice(d),
+        (VolumeData::U64(d), SlabMut::U64(o)) => o[at..at + d.len()].copy_from_slice(d),
+        (VolumeData::I64(d), SlabMut::I64(o)) => o[at..at + d.len()].copy_from_slice(d),
+        (VolumeData::F64(d), SlabMut::F64(o)) => o[at..at + d.len()].copy_from_slice(d),
         _ => return Err(Error::invalid("slab buffer type differs from the file's")),
     }
     Ok(())
@@ -118,14 +122,7 @@ fn copy_into(data: &VolumeData, out: &mut SlabMut<'_>, at: usize) -> Result<()> 
 impl MappedSource {
     /// Whether the stored samples are the kept ones, byte order aside.
     fn stored_as_kept(&self) -> bool {
-        self.layout.scale.is_none()
-            && matches!(
-                (self.layout.elem, self.scalar),
-                (ElemType::U8, ScalarType::U8)
-                    | (ElemType::U16, ScalarType::U16)
-                    | (ElemType::I16, ScalarType::I16)
-                    | (ElemType::F32, ScalarType::F32)
-            )
+        self.layout.scale.is_none() && ElemType::of(self.scalar) == self.layout.elem
     }
 }
 
@@ -146,7 +143,7 @@ impl RegionSource for MappedSource {
         }
         // One chunk of stored bytes, its converted samples and, for scaled data, their scaled copy.
         let samples = (CONVERT_BYTES / self.layout.elem.size()) as u64;
-        let scaled = if self.layout.scale.is_some() { 4 } else { 0 };
+        let scaled = if self.layout.scale.is_some() { 8 } else { 0 };
         CONVERT_BYTES as u64 + samples * (self.scalar.size() as u64 + scaled)
     }
 }
@@ -154,12 +151,7 @@ impl RegionSource for MappedSource {
 /// A raw file as described by its spec.
 pub(crate) fn raw_layout(path: &Path, spec: &crate::RawSpec) -> Result<MappedLayout> {
     let count = crate::samples::sample_count(spec.dims).at_path(path)?;
-    let elem = match spec.scalar {
-        ScalarType::U8 => ElemType::U8,
-        ScalarType::U16 => ElemType::U16,
-        ScalarType::I16 => ElemType::I16,
-        ScalarType::F32 => ElemType::F32,
-    };
+    let elem = ElemType::of(spec.scalar);
     // A FIFO or a device has no length to check: name what it is.
     isogrid::fs::ensure_regular(path)?;
     let actual = std::fs::metadata(path).at_path(path)?.len();

@@ -117,12 +117,22 @@ pub fn read_all_with_progress(
         isogrid::ScalarType::U16 => VolumeData::U16(vec![0; count]),
         isogrid::ScalarType::I16 => VolumeData::I16(vec![0; count]),
         isogrid::ScalarType::F32 => VolumeData::F32(vec![0.0; count]),
+        isogrid::ScalarType::U32 => VolumeData::U32(vec![Default::default(); count]),
+        isogrid::ScalarType::I32 => VolumeData::I32(vec![Default::default(); count]),
+        isogrid::ScalarType::U64 => VolumeData::U64(vec![Default::default(); count]),
+        isogrid::ScalarType::I64 => VolumeData::I64(vec![Default::default(); count]),
+        isogrid::ScalarType::F64 => VolumeData::F64(vec![Default::default(); count]),
     };
     let out = match &mut data {
         VolumeData::U8(v) => SlabMut::U8(v),
         VolumeData::U16(v) => SlabMut::U16(v),
         VolumeData::I16(v) => SlabMut::I16(v),
         VolumeData::F32(v) => SlabMut::F32(v),
+        VolumeData::U32(v) => SlabMut::U32(v),
+        VolumeData::I32(v) => SlabMut::I32(v),
+        VolumeData::U64(v) => SlabMut::U64(v),
+        VolumeData::I64(v) => SlabMut::I64(v),
+        VolumeData::F64(v) => SlabMut::F64(v),
     };
     read_in_steps(source, out, nz, progress)?;
     Volume::with_geometry(geometry, data)
@@ -149,6 +159,11 @@ fn read_in_steps(
             SlabMut::U16(v) => SlabMut::U16(&mut v[part]),
             SlabMut::I16(v) => SlabMut::I16(&mut v[part]),
             SlabMut::F32(v) => SlabMut::F32(&mut v[part]),
+            SlabMut::U32(v) => SlabMut::U32(&mut v[part]),
+            SlabMut::I32(v) => SlabMut::I32(&mut v[part]),
+            SlabMut::U64(v) => SlabMut::U64(&mut v[part]),
+            SlabMut::I64(v) => SlabMut::I64(&mut v[part]),
+            SlabMut::F64(v) => SlabMut::F64(&mut v[part]),
         };
         source.read_planes(z.clone(), slab)?;
         progress.advance(z.len() as u64);

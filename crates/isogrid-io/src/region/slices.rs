@@ -155,6 +155,11 @@ impl RegionSource for TiffSlices {
                 (VolumeData::U16(d), SlabMut::U16(o)) => o[at].copy_from_slice(d),
                 (VolumeData::I16(d), SlabMut::I16(o)) => o[at].copy_from_slice(d),
                 (VolumeData::F32(d), SlabMut::F32(o)) => o[at].copy_from_slice(d),
+                (VolumeData::U32(d), SlabMut::U32(o)) => o[at].copy_from_slice(d),
+                (VolumeData::I32(d), SlabMut::I32(o)) => o[at].copy_from_slice(d),
+                (VolumeData::U64(d), SlabMut::U64(o)) => o[at].copy_from_slice(d),
+                (VolumeData::I64(d), SlabMut::I64(o)) => o[at].copy_from_slice(d),
+                (VolumeData::F64(d), SlabMut::F64(o)) => o[at].copy_from_slice(d),
                 _ => {
                     return Err(Error::corrupt(format!(
                         "slice {k} holds {} samples but the first slice holds {}",

@@ -73,7 +73,12 @@ impl Stored {
             Stored::Bool | Stored::U8 => ScalarType::U8,
             Stored::U16 => ScalarType::U16,
             Stored::I8 | Stored::I16 => ScalarType::I16,
-            _ => ScalarType::F32,
+            Stored::U32 => ScalarType::U32,
+            Stored::I32 => ScalarType::I32,
+            Stored::U64 => ScalarType::U64,
+            Stored::I64 => ScalarType::I64,
+            Stored::F32 => ScalarType::F32,
+            Stored::F64 => ScalarType::F64,
         }
     }
 }
@@ -395,18 +400,9 @@ fn select_axes(
             .with_path(location))
         }
     };
-    for (n, (name, index)) in options.indices.iter().enumerate() {
-        // `t=0,t=1` would otherwise read t=0 and ignore the second value without a word.
-        if let Some((earlier, other)) = options.indices[..n]
-            .iter()
-            .find(|(earlier, _)| earlier.eq_ignore_ascii_case(name))
-        {
-            return Err(Error::invalid(format!(
-                "--index gives axis {name} twice ({earlier}={other} and {name}={index}); give each \
-                 axis once"
-            ))
-            .with_path(location));
-        }
+    crate::read_options::refuse_repeated_axes(&options.indices)
+        .map_err(|e| e.with_path(location))?;
+    for (name, _) in &options.indices {
         if find(name).is_none() || spatial.contains(&find(name).unwrap()) {
             return Err(Error::invalid(format!(
                 "--index names {name}, which is not a non-spatial axis of [{}]",
@@ -624,8 +620,8 @@ impl ZarrSource {
         Ok(())
     }
 
-    /// Reads planes `z` into `out`, converting the stored type to the kept one as
-    /// `crate::samples::read_samples` does.
+    /// Reads planes `z` into `out`, as the kept type (`Stored::kept`, as
+    /// `crate::samples::read_samples` keeps them: bool as u8, i8 widened to i16).
     fn read_converted(
         &mut self,
         z: Range<usize>,
@@ -641,21 +637,11 @@ impl ZarrSource {
             (Stored::I16, SlabMut::I16(o)) => self.read_into::<i16, i16>(&z, o, wanted, |v| v),
             (Stored::I8, SlabMut::I16(o)) => self.read_into::<i8, i16>(&z, o, wanted, |v| v as i16),
             (Stored::F32, SlabMut::F32(o)) => self.read_into::<f32, f32>(&z, o, wanted, |v| v),
-            (Stored::U32, SlabMut::F32(o)) => {
-                self.read_into::<u32, f32>(&z, o, wanted, |v| v as f32)
-            }
-            (Stored::I32, SlabMut::F32(o)) => {
-                self.read_into::<i32, f32>(&z, o, wanted, |v| v as f32)
-            }
-            (Stored::U64, SlabMut::F32(o)) => {
-                self.read_into::<u64, f32>(&z, o, wanted, |v| v as f32)
-            }
-            (Stored::I64, SlabMut::F32(o)) => {
-                self.read_into::<i64, f32>(&z, o, wanted, |v| v as f32)
-            }
-            (Stored::F64, SlabMut::F32(o)) => {
-                self.read_into::<f64, f32>(&z, o, wanted, |v| v as f32)
-            }
+            (Stored::U32, SlabMut::U32(o)) => self.read_into::<u32, u32>(&z, o, wanted, |v| v),
+            (Stored::I32, SlabMut::I32(o)) => self.read_into::<i32, i32>(&z, o, wanted, |v| v),
+            (Stored::U64, SlabMut::U64(o)) => self.read_into::<u64, u64>(&z, o, wanted, |v| v),
+            (Stored::I64, SlabMut::I64(o)) => self.read_into::<i64, i64>(&z, o, wanted, |v| v),
+            (Stored::F64, SlabMut::F64(o)) => self.read_into::<f64, f64>(&z, o, wanted, |v| v),
             _ => Err(Error::invalid("slab buffer type differs from the array's")),
         }
     }

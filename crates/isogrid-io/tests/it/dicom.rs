@@ -408,7 +408,7 @@ fn dicom_rescale_picks_a_type_that_holds_the_values() {
     let obj = slice("1.2.3", 1, [0.0; 3], |i, _| if i == 0 { 65535 } else { 0 });
     let p = save(obj, &dir.path("wide.dcm"), uids::EXPLICIT_VR_LITTLE_ENDIAN);
     let v = read_volume(&p, &ReadOptions::default()).unwrap();
-    assert_eq!(v.scalar_type(), ScalarType::F32);
+    assert_eq!(v.scalar_type(), ScalarType::I32);
     assert_eq!((v.get(0, 0, 0), v.get(1, 0, 0)), (64511.0, -1024.0));
     // A non-integer slope gives f32.
     let mut obj = slice("1.2.3", 1, [0.0; 3], |i, j| stored(i, j, 0));
@@ -421,6 +421,65 @@ fn dicom_rescale_picks_a_type_that_holds_the_values() {
     let v = read_volume(&p, &ReadOptions::default()).unwrap();
     assert_eq!(v.scalar_type(), ScalarType::F32);
     assert_eq!(v.get(2, 1, 0), stored(2, 1, 0) as f64 * 0.5 - 1024.0);
+    // The same slope with an intercept of 2e9: f32 steps are 128 there, so f64.
+    let mut obj = slice("1.2.3", 1, [0.0; 3], |i, j| stored(i, j, 0));
+    obj.put(DataElement::new(
+        tags::RESCALE_SLOPE,
+        VR::DS,
+        PrimitiveValue::from("0.5"),
+    ));
+    obj.put(DataElement::new(
+        tags::RESCALE_INTERCEPT,
+        VR::DS,
+        PrimitiveValue::from("2000000000"),
+    ));
+    let p = save(obj, &dir.path("far.dcm"), uids::EXPLICIT_VR_LITTLE_ENDIAN);
+    let v = read_volume(&p, &ReadOptions::default()).unwrap();
+    assert_eq!(v.scalar_type(), ScalarType::F64);
+    assert_eq!(v.get(2, 1, 0), stored(2, 1, 0) as f64 * 0.5 + 2e9);
+}
+
+#[test]
+fn dicom_intercept_2e9_is_classified_exactly() {
+    // Stored 0 or 1 plus an intercept of 2e9: one f32, two values. At 2e9 + 0.5 the cells whose
+    // corners hold both straddle it.
+    let dir = TempDir::new("dicom-2e9");
+    let bit = |i: usize, j: usize, k: usize| ((i * 7 + j * 3 + k * 5) % 4 == 0) as u16;
+    let series = dir.path("series");
+    std::fs::create_dir_all(&series).unwrap();
+    for k in 0..3 {
+        let mut obj = slice("1.2.9", k as i32 + 1, [0.0, 0.0, k as f64], |i, j| {
+            bit(i, j, k)
+        });
+        obj.put(DataElement::new(
+            tags::RESCALE_INTERCEPT,
+            VR::DS,
+            PrimitiveValue::from("2000000000"),
+        ));
+        save(
+            obj,
+            &series.join(format!("{k}.dcm")),
+            uids::EXPLICIT_VR_LITTLE_ENDIAN,
+        );
+    }
+    let v = read_volume(&series, &ReadOptions::default()).unwrap();
+    assert_eq!(v.scalar_type(), ScalarType::I32);
+    assert_eq!(v.dims(), [COLS, ROWS, 3]);
+    assert_eq!(v.value_range(), Some((2e9, 2e9 + 1.0)));
+    let mut expected = 0;
+    for k in 0..2 {
+        for j in 0..ROWS - 1 {
+            for i in 0..COLS - 1 {
+                let ones = (0..8)
+                    .map(|c| bit(i + (c & 1), j + (c >> 1 & 1), k + (c >> 2 & 1)))
+                    .sum::<u16>();
+                expected += (ones != 0 && ones != 8) as usize;
+            }
+        }
+    }
+    assert!(expected > 0);
+    let grid = extract(&v.view(), &ExtractOptions::new(Iso::Value(2e9 + 0.5))).unwrap();
+    assert_eq!(grid.active_cells(), expected);
 }
 
 #[test]

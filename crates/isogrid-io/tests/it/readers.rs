@@ -73,9 +73,9 @@ fn nrrd_big_endian_float() {
 }
 
 #[test]
-fn nrrd_gzip_double_becomes_f32() {
+fn nrrd_gzip_double_stays_f64() {
     let v = read("f64_gzip.nrrd");
-    check_samples(&v, ScalarType::F32, |i, j, k| 0.25 * base(i, j, k) - 3.5);
+    check_samples(&v, ScalarType::F64, |i, j, k| 0.25 * base(i, j, k) - 3.5);
 }
 
 #[test]
@@ -160,8 +160,8 @@ fn npy_big_endian_u16() {
 }
 
 #[test]
-fn npy_f64_becomes_f32_and_i8_becomes_i16() {
-    check_samples(&read("f64_c.npy"), ScalarType::F32, |i, j, k| {
+fn npy_f64_stays_f64_and_i8_becomes_i16() {
+    check_samples(&read("f64_c.npy"), ScalarType::F64, |i, j, k| {
         0.25 * base(i, j, k) - 3.5
     });
     check_samples(&read("i8_c.npy"), ScalarType::I16, |i, j, k| {
@@ -253,6 +253,42 @@ fn tiff_stacks_u8_u16_deflate_f32() {
     check_samples(&read("f32_stack.tif"), ScalarType::F32, |i, j, k| {
         0.25 * base(i, j, k) - 3.5
     });
+}
+
+#[test]
+fn tiff_channels_of_imagej_and_ome_stacks_by_index() {
+    let with_index = |indices: &[(&str, u64)]| {
+        let mut options = ReadOptions::default();
+        options.zarr.indices = indices.iter().map(|&(a, i)| (a.to_string(), i)).collect();
+        options
+    };
+    for c in 0..2 {
+        let options = with_index(&[("c", c)]);
+        let v = read_volume(&fixture("ij_zcyx.tif"), &options).unwrap();
+        check_samples(&v, ScalarType::U16, |i, j, k| {
+            200.0 * base(i, j, k) + c as f64
+        });
+        let v = read_volume(&fixture("ome_zcyx.tif"), &options).unwrap();
+        check_samples(&v, ScalarType::U32, |i, j, k| {
+            16_777_216.0 + base(i, j, k) + c as f64
+        });
+    }
+    for name in ["ij_zcyx.tif", "ome_zcyx.tif"] {
+        let err = read_volume(&fixture(name), &ReadOptions::default()).unwrap_err();
+        assert!(
+            err.to_string()
+                .contains("2 channels (c=0..1), 3 slices: pass --index c=N"),
+            "{err}"
+        );
+        let err = read_volume(&fixture(name), &with_index(&[("c", 2)])).unwrap_err();
+        assert!(
+            err.to_string().contains("--index c=2 is out of range"),
+            "{err}"
+        );
+    }
+    // A plain stack takes no index.
+    let err = read_volume(&fixture("u8_stack.tif"), &with_index(&[("c", 0)])).unwrap_err();
+    assert!(err.to_string().contains("plain stack"), "{err}");
 }
 
 #[test]

@@ -105,7 +105,7 @@ fn mapped_raw_nrrd_and_nifti_stream_byte_identically() {
     };
     streams_like_memory(&raw, &raw_options, &isos);
 
-    // int32 samples become f32: read through bounded maps and converted, not read straight in.
+    // int32 samples are kept as they are: read straight in like f32.
     let converted = dir.path("wave_i32.nrrd");
     let mut bytes = format!(
         "NRRD0004\ntype: int32\ndimension: 3\nsizes: {} {} {}\nencoding: raw\nendian: little\n\n",
@@ -119,9 +119,55 @@ fn mapped_raw_nrrd_and_nifti_stream_byte_identically() {
     );
     std::fs::write(&converted, bytes).unwrap();
     streams_like_memory(&converted, &ReadOptions::default(), &isos[..1]);
+    assert_eq!(
+        read_volume(&converted, &ReadOptions::default())
+            .unwrap()
+            .scalar_type(),
+        ScalarType::I32
+    );
+
+    // Big-endian u64 beyond 2^53 (swapped in place) and i8 (widened through bounded maps).
+    let wide = dir.path("wave.u64");
+    let ids: Vec<u64> = values
+        .iter()
+        .map(|v| (1u64 << 60) + (v * 1000.0 + 2000.0) as u64)
+        .collect();
+    std::fs::write(
+        &wide,
+        ids.iter()
+            .flat_map(|v| v.to_be_bytes())
+            .collect::<Vec<u8>>(),
+    )
+    .unwrap();
+    let wide_options = ReadOptions {
+        raw: Some(isogrid_io::RawSpec {
+            dims,
+            scalar: ScalarType::U64,
+            big_endian: true,
+        }),
+        ..Default::default()
+    };
+    let v = read_volume(&wide, &wide_options).unwrap();
+    assert_eq!(v.data(), &VolumeData::U64(ids));
+    streams_like_memory(
+        &wide,
+        &wide_options,
+        &[ExtractOptions::new(Iso::Value(
+            ((1u64 << 60) + 2000) as f64,
+        ))],
+    );
+    let small = dir.path("wave_i8.nrrd");
+    let mut bytes = format!(
+        "NRRD0004\ntype: int8\ndimension: 3\nsizes: {} {} {}\nencoding: raw\n\n",
+        dims[0], dims[1], dims[2]
+    )
+    .into_bytes();
+    bytes.extend(values.iter().map(|v| (v * 60.0) as i8 as u8));
+    std::fs::write(&small, bytes).unwrap();
+    streams_like_memory(&small, &ReadOptions::default(), &isos[..1]);
 
     // Fixtures written by nibabel and pynrrd (scripts/make_io_fixtures.py), some of which convert.
-    for name in ["f32_qform.nii", "f32_big.nrrd"] {
+    for name in ["f32_qform.nii", "f32_big.nrrd", "scaled.nii"] {
         let path = fixture(name);
         assert!(
             open_region(&path, &ReadOptions::default())

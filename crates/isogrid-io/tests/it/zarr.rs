@@ -438,3 +438,61 @@ fn reading_a_store_whole_counts_its_planes_and_stops_when_cancelled() {
     assert_eq!(err.kind(), ErrorKind::Cancelled, "{err}");
     assert!(err.to_string().contains(&*path.to_string_lossy()), "{err}");
 }
+
+/// A uint64 array beyond 2^53 (connectomics IDs) is kept as u64, read and streamed exactly.
+#[test]
+fn a_uint64_zarr_array_beyond_2_53_is_kept_exactly() {
+    let dir = TempDir::new("zarr-u64");
+    let [nx, ny, nz] = DIMS;
+    let array = format!(
+        r#"{{"zarr_format": 3, "node_type": "array", "shape": [{nz}, {ny}, {nx}],
+        "data_type": "uint64",
+        "chunk_grid": {{"name": "regular", "configuration": {{"chunk_shape": [{nz}, {ny}, {nx}]}}}},
+        "chunk_key_encoding": {{"name": "default", "configuration": {{"separator": "/"}}}},
+        "fill_value": 0, "codecs": [{{"name": "bytes", "configuration": {{"endian": "little"}}}}]}}"#
+    );
+    let root = store(&dir, &[("zarr.json", &array)]);
+    // 2^53 + 1 and 2^53 + 2 are one f64: only a comparison in u64 tells them apart.
+    let id = |i: usize, j: usize, k: usize| (1u64 << 53) + 1 + f(i, j, k) as u64 % 3;
+    let mut bytes = Vec::new();
+    for k in 0..nz {
+        for j in 0..ny {
+            for i in 0..nx {
+                bytes.extend(id(i, j, k).to_le_bytes());
+            }
+        }
+    }
+    std::fs::create_dir_all(root.join("c/0/0")).unwrap();
+    std::fs::write(root.join("c/0/0/0"), bytes).unwrap();
+    let v = read_volume(&root, &ReadOptions::default()).unwrap();
+    let isogrid::VolumeData::U64(values) = v.data() else {
+        panic!("{:?}", v.scalar_type())
+    };
+    for k in 0..nz {
+        for j in 0..ny {
+            for i in 0..nx {
+                assert_eq!(values[i + nx * (j + ny * k)], id(i, j, k));
+            }
+        }
+    }
+    let iso = ExtractOptions::new(Iso::Value(((1u64 << 53) + 2) as f64));
+    let mut expected = 0;
+    for k in 0..nz - 1 {
+        for j in 0..ny - 1 {
+            for i in 0..nx - 1 {
+                let inside = (0..8)
+                    .filter(|c| {
+                        id(i + (c & 1), j + (c >> 1 & 1), k + (c >> 2 & 1)) >= (1 << 53) + 2
+                    })
+                    .count();
+                expected += (inside != 0 && inside != 8) as usize;
+            }
+        }
+    }
+    assert!(expected > 0);
+    assert_eq!(
+        isogrid::extract(&v.view(), &iso).unwrap().active_cells(),
+        expected
+    );
+    streams_like_memory(&root, &ReadOptions::default(), &[iso]);
+}

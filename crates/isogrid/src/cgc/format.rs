@@ -120,11 +120,17 @@ pub(crate) fn align16(n: u64) -> u64 {
     n.div_ceil(16) * 16
 }
 
+/// The header's source sample type codes (docs/design/file-format.md), in code order.
+const SCALAR_CODES: [crate::ScalarType; 9] = {
+    use crate::ScalarType::*;
+    [U8, U16, I16, F32, U32, I32, U64, I64, F64]
+};
+
 pub(crate) fn scalar_code(t: crate::ScalarType) -> u32 {
-    match t {
-        crate::ScalarType::U8 => 0,
-        crate::ScalarType::U16 => 1,
-        crate::ScalarType::I16 => 2,
-        crate::ScalarType::F32 => 3,
-    }
+    SCALAR_CODES.iter().position(|&s| s == t).unwrap() as u32
+}
+
+/// The sample type of a header code; `None` for an unknown code.
+pub(crate) fn scalar_of_code(code: u32) -> Option<crate::ScalarType> {
+    SCALAR_CODES.get(code as usize).copied()
 }

@@ -11,7 +11,7 @@
 //! | 8 | 4 | format version, u32 = 2 |
 //! | 12 | 4 | header size, u32 = 320 |
 //! | 16 | 12 | dims: samples per axis, 3×u32 |
-//! | 28 | 4 | source scalar type, u32: 0 u8, 1 u16, 2 i16, 3 f32 |
+//! | 28 | 4 | source scalar type, u32: 0 u8, 1 u16, 2 i16, 3 f32, 4 u32, 5 i32, 6 u64, 7 i64, 8 f64 (4–8 since the wide sample types; a reader that predates them refuses the file by its code) |
 //! | 32 | 24 | spacing, 3×f64 |
 //! | 56 | 24 | origin, 3×f64 |
 //! | 80 | 16 | value range (min, max) of the source, 2×f64 |

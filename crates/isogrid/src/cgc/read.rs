@@ -4,8 +4,8 @@
 //! and no grid is returned before every checksum, pointer and position has been checked.
 
 use super::format::{
-    SectionKind, TableEntry, FLAG_REQUIRED, HEADER_CRC_AT, HEADER_SIZE, MAGIC, MAX_SECTIONS,
-    TABLE_ENTRY_SIZE, TABLE_FIELDS_AT, VERSION, VERSION_1,
+    scalar_of_code, SectionKind, TableEntry, FLAG_REQUIRED, HEADER_CRC_AT, HEADER_SIZE, MAGIC,
+    MAX_SECTIONS, TABLE_ENTRY_SIZE, TABLE_FIELDS_AT, VERSION, VERSION_1,
 };
 use crate::attribute::{AttributeInfo, AttributePrecision, CellAttribute, ATTRIBUTE_HEAD_SIZE};
 use crate::error::{Error, Result, ResultExt};
@@ -13,7 +13,7 @@ use crate::grid::{CellGrid, GridInfo, Storage};
 use crate::layout::{Block, Metacell, Precision, BLOCK_METACELLS, BOUND_SLOT, CLUSTER_SLOTS};
 use crate::progress::Progress;
 use crate::quantize::ValueMapping;
-use crate::volume::{ScalarType, MAX_DIM};
+use crate::volume::MAX_DIM;
 use std::io::{Read, Seek, SeekFrom};
 use std::ops::Range;
 use std::path::Path;
@@ -91,13 +91,9 @@ fn parse_header(h: &[u8], file_len: u64) -> Result<Header> {
             "dims {dims:?} outside 1..={MAX_DIM}"
         )));
     }
-    let scalar_type = match c.u32() {
-        0 => ScalarType::U8,
-        1 => ScalarType::U16,
-        2 => ScalarType::I16,
-        3 => ScalarType::F32,
-        t => return Err(Error::corrupt(format!("unknown scalar type code {t}"))),
-    };
+    let code = c.u32();
+    let scalar_type = scalar_of_code(code)
+        .ok_or_else(|| Error::corrupt(format!("unknown scalar type code {code}")))?;
     let spacing = [c.f64(), c.f64(), c.f64()];
     if spacing.iter().any(|s| !(s.is_finite() && *s > 0.0)) {
         return Err(Error::corrupt(format!(

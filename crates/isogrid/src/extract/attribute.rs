@@ -323,6 +323,11 @@ fn read_f32(source: &mut dyn RegionSource, z: Range<usize>, out: &mut Vec<f32>) 
         ScalarType::U8 => via!(u8, U8),
         ScalarType::U16 => via!(u16, U16),
         ScalarType::I16 => via!(i16, I16),
+        ScalarType::U32 => via!(u32, U32),
+        ScalarType::I32 => via!(i32, I32),
+        ScalarType::U64 => via!(u64, U64),
+        ScalarType::I64 => via!(i64, I64),
+        ScalarType::F64 => via!(f64, F64),
         ScalarType::F32 => {
             out.resize(n, 0.0);
             source.read_planes(z, SlabMut::F32(out))?;
@@ -468,6 +473,11 @@ pub fn sample_attribute_in_memory(
         Samples::U16(s) => with!(s),
         Samples::I16(s) => with!(s),
         Samples::F32(s) => with!(s),
+        Samples::U32(s) => with!(s),
+        Samples::I32(s) => with!(s),
+        Samples::U64(s) => with!(s),
+        Samples::I64(s) => with!(s),
+        Samples::F64(s) => with!(s),
     }
     Ok(CellAttribute::from_values(name, precision, &values))
 }
@@ -504,6 +514,11 @@ pub fn sample_points_in_memory(
         Samples::U16(s) => with!(s),
         Samples::I16(s) => with!(s),
         Samples::F32(s) => with!(s),
+        Samples::U32(s) => with!(s),
+        Samples::I32(s) => with!(s),
+        Samples::U64(s) => with!(s),
+        Samples::I64(s) => with!(s),
+        Samples::F64(s) => with!(s),
     })
 }
 

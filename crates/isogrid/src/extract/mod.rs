@@ -9,7 +9,7 @@
 pub mod attribute;
 mod emit;
 mod file_layout;
-mod scalar;
+pub(crate) mod scalar;
 mod scan;
 pub mod stream;
 pub mod tiles;
@@ -118,6 +118,11 @@ pub fn extract_with_progress(
         Samples::U16(s) => extract_typed(volume, s, options, progress),
         Samples::I16(s) => extract_typed(volume, s, options, progress),
         Samples::F32(s) => extract_typed(volume, s, options, progress),
+        Samples::U32(s) => extract_typed(volume, s, options, progress),
+        Samples::I32(s) => extract_typed(volume, s, options, progress),
+        Samples::U64(s) => extract_typed(volume, s, options, progress),
+        Samples::I64(s) => extract_typed(volume, s, options, progress),
+        Samples::F64(s) => extract_typed(volume, s, options, progress),
     }
 }
 

@@ -43,21 +43,40 @@ pub(crate) trait ExtractScalar: Scalar {
     }
 }
 
+/// The smallest integer in `min..=max` that is `>= iso`, compared exactly (no rounding of either
+/// side: `ceil` of an f64 is an integer-valued f64, which i128 holds exactly); `None` when none is
+/// (or `iso` is NaN). For every integer `v` of the range, `v >= iso ⇔ v >= result`.
+pub(crate) fn integer_at_or_above(iso: f64, min: i128, max: i128) -> Option<i128> {
+    if iso.is_nan() {
+        return None;
+    }
+    // `as` saturates ±∞ and magnitudes beyond i128, which the clamp below handles alike.
+    let c = iso.ceil() as i128;
+    (c <= max).then_some(c.max(min))
+}
+
+/// The smallest integer in `min..=max` that is `> iso`, exactly: floor(iso) + 1 in i128 (in f64
+/// the + 1 would vanish beyond 2^53).
+pub(crate) fn integer_above(iso: f64, min: i128, max: i128) -> Option<i128> {
+    if iso.is_nan() {
+        return None;
+    }
+    let c = (iso.floor() as i128).saturating_add(1);
+    (c <= max).then_some(c.max(min))
+}
+
 macro_rules! integer_scalar {
     ($t:ty) => {
         impl ExtractScalar for $t {
             const HIGHEST: Self = <$t>::MAX;
             const LOWEST: Self = <$t>::MIN;
             fn threshold(iso: f64) -> Option<Self> {
-                let c = iso.ceil();
-                if c > <$t>::MAX as f64 {
-                    None
-                } else {
-                    Some(c.max(<$t>::MIN as f64) as $t)
-                }
+                integer_at_or_above(iso, <$t>::MIN as i128, <$t>::MAX as i128).map(|c| c as $t)
             }
             #[inline]
             fn exact_code(self, offset: i64) -> u32 {
+                // Exact mappings only exist for ranges within ±2^53 (see `Quantizer::new`), where
+                // every sample fits an i64.
                 (self as i64 - offset) as u32
             }
         }
@@ -68,12 +87,7 @@ impl ExtractScalar for u8 {
     const HIGHEST: Self = u8::MAX;
     const LOWEST: Self = u8::MIN;
     fn threshold(iso: f64) -> Option<Self> {
-        let c = iso.ceil();
-        if c > 255.0 {
-            None
-        } else {
-            Some(c.max(0.0) as u8)
-        }
+        integer_at_or_above(iso, 0, 255).map(|c| c as u8)
     }
 
     #[inline]
@@ -111,6 +125,23 @@ impl ExtractScalar for u8 {
 }
 integer_scalar!(u16);
 integer_scalar!(i16);
+integer_scalar!(u32);
+integer_scalar!(i32);
+integer_scalar!(u64);
+integer_scalar!(i64);
+
+/// f64 samples compare with the (f64) isovalue itself: exact.
+impl ExtractScalar for f64 {
+    const MAY_BE_NAN: bool = true;
+    const HIGHEST: Self = f64::INFINITY;
+    const LOWEST: Self = f64::NEG_INFINITY;
+    fn threshold(iso: f64) -> Option<Self> {
+        Some(iso)
+    }
+    fn exact_code(self, _offset: i64) -> u32 {
+        unreachable!("float samples are quantised through the affine path")
+    }
+}
 
 impl ExtractScalar for f32 {
     const MAY_BE_NAN: bool = true;
@@ -145,5 +176,64 @@ impl ExtractScalar for f32 {
             }
         }
         m
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The thresholds against comparisons made in i128 with integer isovalues, which are exact
+    /// (f64 integers up to 2^64 convert to i128 without rounding).
+    #[test]
+    fn integer_thresholds_are_exact_at_the_edges_of_64_bit_types() {
+        let two63 = 2f64.powi(63);
+        let two64 = 2f64.powi(64);
+        for iso in [
+            0.0,
+            -1.0,
+            two63,
+            -two63,
+            two64,
+            2f64.powi(60),
+            2f64.powi(53) + 2.0,
+        ] {
+            let i = iso as i128;
+            for v in [
+                0u64,
+                1,
+                u64::MAX,
+                1 << 60,
+                (1 << 60) - 1,
+                (1 << 53) + 1,
+                (1 << 53) + 2,
+            ] {
+                let t = u64::threshold(iso);
+                assert_eq!(
+                    t.is_some_and(|t| v >= t),
+                    v as i128 >= i,
+                    "u64 {v} >= {iso}"
+                );
+            }
+            for v in [0i64, -1, i64::MIN, i64::MAX, (1 << 53) + 1, -(1 << 53) - 1] {
+                let t = i64::threshold(iso);
+                assert_eq!(
+                    t.is_some_and(|t| v >= t),
+                    v as i128 >= i,
+                    "i64 {v} >= {iso}"
+                );
+                let above = integer_above(iso, i64::MIN as i128, i64::MAX as i128);
+                assert_eq!(
+                    above.is_some_and(|t| v as i128 >= t),
+                    v as i128 > i,
+                    "i64 {v} > {iso}"
+                );
+            }
+        }
+        // A fractional isovalue between two integers an f32 cannot tell apart.
+        assert_eq!(u32::threshold(16_777_216.5), Some(16_777_217));
+        assert_eq!(i32::threshold(-99_999_999.5), Some(-99_999_999));
+        assert_eq!(u8::threshold(f64::NAN), None);
+        assert_eq!(f64::threshold(0.1), Some(0.1));
     }
 }

@@ -46,8 +46,8 @@ impl<T: ExtractScalar> LaneRanges<T> {
             edge_hi: vec![T::LOWEST; blocks],
         }
     }
-    /// (min, max) of block `bx`, NaN ignored.
-    fn block(&self, bx: usize) -> (f64, f64) {
+    /// (min, max) of block `bx` in the sample type, NaN ignored.
+    fn block_native(&self, bx: usize) -> (T, T) {
         let fold = |init: T, lanes: &[T; 16], pick: fn(T, T) -> T| {
             lanes.iter().fold(init, |a, &b| pick(a, b))
         };
@@ -61,6 +61,11 @@ impl<T: ExtractScalar> LaneRanges<T> {
             &self.hi[bx],
             |a, b| if b > a { b } else { a },
         );
+        (lo, hi)
+    }
+    /// (min, max) of block `bx` as f64 (rounded to nearest for 64-bit integers beyond 2^53).
+    fn block(&self, bx: usize) -> (f64, f64) {
+        let (lo, hi) = self.block_native(bx);
         (lo.to_f64(), hi.to_f64())
     }
 }
@@ -149,13 +154,13 @@ pub(crate) fn scan_block_row<T: ExtractScalar>(
     }
 
     // Blocks entirely on one side need no cell-level work. NaN (outside, but invisible to the
-    // range) only allows the "all outside" shortcut.
-    let iso_threshold = threshold.map(|t| t.to_f64());
+    // range) only allows the "all outside" shortcut. Compared in the sample type: as f64, a
+    // 64-bit block minimum could round up onto the threshold.
     let uniform: Vec<bool> = (0..nbx)
         .map(|bx| {
-            let (min, max) = ranges.block(bx);
-            let all_outside = iso_threshold.is_none_or(|t| max < t);
-            let all_inside = !T::MAY_BE_NAN && iso_threshold.is_some_and(|t| min >= t);
+            let (min, max) = ranges.block_native(bx);
+            let all_outside = threshold.is_none_or(|t| max < t);
+            let all_inside = !T::MAY_BE_NAN && threshold.is_some_and(|t| min >= t);
             all_outside || all_inside
         })
         .collect();

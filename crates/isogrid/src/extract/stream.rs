@@ -67,6 +67,11 @@ pub enum SlabMut<'a> {
     U16(&'a mut [u16]),
     I16(&'a mut [i16]),
     F32(&'a mut [f32]),
+    U32(&'a mut [u32]),
+    I32(&'a mut [i32]),
+    U64(&'a mut [u64]),
+    I64(&'a mut [i64]),
+    F64(&'a mut [f64]),
 }
 
 impl SlabMut<'_> {
@@ -76,6 +81,11 @@ impl SlabMut<'_> {
             SlabMut::U16(s) => s.len(),
             SlabMut::I16(s) => s.len(),
             SlabMut::F32(s) => s.len(),
+            SlabMut::U32(s) => s.len(),
+            SlabMut::I32(s) => s.len(),
+            SlabMut::U64(s) => s.len(),
+            SlabMut::I64(s) => s.len(),
+            SlabMut::F64(s) => s.len(),
         }
     }
     pub fn is_empty(&self) -> bool {
@@ -87,6 +97,11 @@ impl SlabMut<'_> {
             SlabMut::U16(_) => ScalarType::U16,
             SlabMut::I16(_) => ScalarType::I16,
             SlabMut::F32(_) => ScalarType::F32,
+            SlabMut::U32(_) => ScalarType::U32,
+            SlabMut::I32(_) => ScalarType::I32,
+            SlabMut::U64(_) => ScalarType::U64,
+            SlabMut::I64(_) => ScalarType::I64,
+            SlabMut::F64(_) => ScalarType::F64,
         }
     }
     /// The buffer as bytes in native byte order (for sources that copy stored bytes in).
@@ -96,6 +111,11 @@ impl SlabMut<'_> {
             SlabMut::U16(s) => bytemuck::cast_slice_mut(s),
             SlabMut::I16(s) => bytemuck::cast_slice_mut(s),
             SlabMut::F32(s) => bytemuck::cast_slice_mut(s),
+            SlabMut::U32(s) => bytemuck::cast_slice_mut(s),
+            SlabMut::I32(s) => bytemuck::cast_slice_mut(s),
+            SlabMut::U64(s) => bytemuck::cast_slice_mut(s),
+            SlabMut::I64(s) => bytemuck::cast_slice_mut(s),
+            SlabMut::F64(s) => bytemuck::cast_slice_mut(s),
         }
     }
     /// Swaps every sample's bytes (stored byte order differs from the machine's).
@@ -107,6 +127,13 @@ impl SlabMut<'_> {
             SlabMut::F32(s) => s
                 .iter_mut()
                 .for_each(|v| *v = f32::from_bits(v.to_bits().swap_bytes())),
+            SlabMut::U32(s) => s.iter_mut().for_each(|v| *v = v.swap_bytes()),
+            SlabMut::I32(s) => s.iter_mut().for_each(|v| *v = v.swap_bytes()),
+            SlabMut::U64(s) => s.iter_mut().for_each(|v| *v = v.swap_bytes()),
+            SlabMut::I64(s) => s.iter_mut().for_each(|v| *v = v.swap_bytes()),
+            SlabMut::F64(s) => s
+                .iter_mut()
+                .for_each(|v| *v = f64::from_bits(v.to_bits().swap_bytes())),
         }
     }
 }
@@ -199,6 +226,11 @@ impl RegionSource for VolumeView<'_> {
             (Samples::U16(s), SlabMut::U16(o)) => o.copy_from_slice(&s[span]),
             (Samples::I16(s), SlabMut::I16(o)) => o.copy_from_slice(&s[span]),
             (Samples::F32(s), SlabMut::F32(o)) => o.copy_from_slice(&s[span]),
+            (Samples::U32(s), SlabMut::U32(o)) => o.copy_from_slice(&s[span]),
+            (Samples::I32(s), SlabMut::I32(o)) => o.copy_from_slice(&s[span]),
+            (Samples::U64(s), SlabMut::U64(o)) => o.copy_from_slice(&s[span]),
+            (Samples::I64(s), SlabMut::I64(o)) => o.copy_from_slice(&s[span]),
+            (Samples::F64(s), SlabMut::F64(o)) => o.copy_from_slice(&s[span]),
             _ => return Err(Error::invalid("slab buffer type differs from the volume's")),
         }
         Ok(())
@@ -358,6 +390,11 @@ pub fn extract_planned(
         ScalarType::U16 => run.extract::<u16>(options, path),
         ScalarType::I16 => run.extract::<i16>(options, path),
         ScalarType::F32 => run.extract::<f32>(options, path),
+        ScalarType::U32 => run.extract::<u32>(options, path),
+        ScalarType::I32 => run.extract::<i32>(options, path),
+        ScalarType::U64 => run.extract::<u64>(options, path),
+        ScalarType::I64 => run.extract::<i64>(options, path),
+        ScalarType::F64 => run.extract::<f64>(options, path),
     }
 }
 
@@ -383,6 +420,11 @@ slab_scalar!(u8, U8);
 slab_scalar!(u16, U16);
 slab_scalar!(i16, I16);
 slab_scalar!(f32, F32);
+slab_scalar!(u32, U32);
+slab_scalar!(i32, I32);
+slab_scalar!(u64, U64);
+slab_scalar!(i64, I64);
+slab_scalar!(f64, F64);
 
 struct Run<'a> {
     source: &'a mut dyn RegionSource,

@@ -16,6 +16,7 @@
 use super::mesh::{Inside, McMesh};
 use super::table::{cases, edge_corners};
 use crate::error::{Error, Result};
+use crate::extract::scalar::{integer_above, integer_at_or_above};
 use crate::progress::Progress;
 use crate::volume::{Samples, Scalar, VolumeView};
 use rayon::prelude::*;
@@ -40,6 +41,11 @@ pub(crate) fn extract(
         Samples::U16(s) => extract_typed(volume, s, iso, inside, slab_planes, progress),
         Samples::I16(s) => extract_typed(volume, s, iso, inside, slab_planes, progress),
         Samples::F32(s) => extract_typed(volume, s, iso, inside, slab_planes, progress),
+        Samples::U32(s) => extract_typed(volume, s, iso, inside, slab_planes, progress),
+        Samples::I32(s) => extract_typed(volume, s, iso, inside, slab_planes, progress),
+        Samples::U64(s) => extract_typed(volume, s, iso, inside, slab_planes, progress),
+        Samples::I64(s) => extract_typed(volume, s, iso, inside, slab_planes, progress),
+        Samples::F64(s) => extract_typed(volume, s, iso, inside, slab_planes, progress),
     }
 }
 
@@ -61,23 +67,25 @@ macro_rules! integer_threshold {
     ($($t:ty),*) => {$(
         impl Threshold for $t {
             fn threshold(iso: f64) -> Option<Self> {
-                let lowest = iso.ceil();
-                if iso.is_nan() || lowest > <$t>::MAX as f64 {
-                    None
-                } else if lowest <= <$t>::MIN as f64 {
-                    Some(<$t>::MIN)
-                } else {
-                    Some(lowest as $t)
-                }
+                integer_at_or_above(iso, <$t>::MIN as i128, <$t>::MAX as i128).map(|c| c as $t)
             }
             fn threshold_above(iso: f64) -> Option<Self> {
-                // The lowest integer above iso is floor(iso) + 1.
-                Self::threshold(iso.floor() + 1.0)
+                integer_above(iso, <$t>::MIN as i128, <$t>::MAX as i128).map(|c| c as $t)
             }
         }
     )*};
 }
-integer_threshold!(u8, u16, i16);
+integer_threshold!(u8, u16, i16, u32, i32, u64, i64);
+
+/// f64 samples compare with the isovalue itself.
+impl Threshold for f64 {
+    fn threshold(iso: f64) -> Option<Self> {
+        (!iso.is_nan()).then_some(iso)
+    }
+    fn threshold_above(iso: f64) -> Option<Self> {
+        (!iso.is_nan() && iso < f64::INFINITY).then(|| iso.next_up())
+    }
+}
 
 impl Threshold for f32 {
     fn threshold(iso: f64) -> Option<Self> {

@@ -179,8 +179,14 @@ fn check(volume: &Volume, grid: &CellGrid, iso: f64, exact: bool) {
                         "cell {p:?} corner {c}: {decoded} != {v}"
                     );
                 } else if !v.is_nan() {
+                    // 32-bit corners of wider samples are f32s: off by up to one f32 step.
+                    let f32_step = (v.abs() as f32).next_up() as f64 - v.abs() as f32 as f64;
+                    let tolerance = match precision {
+                        Precision::Float32 => f32_step,
+                        _ => mapping.step,
+                    };
                     assert!(
-                        (decoded - v).abs() <= mapping.step * 1.0000001,
+                        (decoded - v).abs() <= tolerance * 1.0000001,
                         "cell {p:?} corner {c}: {decoded} vs {v}"
                     );
                 }
@@ -392,4 +398,155 @@ fn progress_counts_two_steps_per_block_and_cancel_stops_between_the_passes() {
     assert_eq!(err.kind(), isogrid::ErrorKind::Cancelled, "{err}");
     // Cancelled before it began, it scanned and emitted nothing.
     assert_eq!(cancelled.counts(), (0, 54));
+}
+
+/// Active cells and crossed edges of `samples` counted by brute force, the side of each sample
+/// decided by `inside` (which the callers write in the sample's own type).
+fn count_straddling<T: Copy>(
+    dims: [usize; 3],
+    samples: &[T],
+    inside: impl Fn(T) -> bool,
+) -> (usize, usize) {
+    let [nx, ny, nz] = dims;
+    let at = |i: usize, j: usize, k: usize| inside(samples[i + nx * (j + ny * k)]);
+    let mut cells = 0;
+    for k in 0..nz - 1 {
+        for j in 0..ny - 1 {
+            for i in 0..nx - 1 {
+                let n = (0..8)
+                    .filter(|c| at(i + (c & 1), j + (c >> 1 & 1), k + (c >> 2 & 1)))
+                    .count();
+                cells += (n != 0 && n != 8) as usize;
+            }
+        }
+    }
+    let mut edges = 0;
+    for k in 0..nz {
+        for j in 0..ny {
+            for i in 0..nx {
+                let here = at(i, j, k);
+                edges += (i + 1 < nx && at(i + 1, j, k) != here) as usize
+                    + (j + 1 < ny && at(i, j + 1, k) != here) as usize
+                    + (k + 1 < nz && at(i, j, k + 1) != here) as usize;
+            }
+        }
+    }
+    (cells, edges)
+}
+
+/// Every precision's active cells and corner sides, and Marching Cubes' vertices (one per crossed
+/// edge), against `count_straddling`; the header's value range is the samples' true one.
+fn check_wide(volume: &Volume, iso: f64, expected: (usize, usize), range: [f64; 2]) {
+    let name = volume.scalar_type().name();
+    assert!(
+        expected.0 > 0,
+        "{name}: the test volume must straddle {iso}"
+    );
+    for precision in Precision::ALL {
+        let grid = run(volume, iso, Some(precision));
+        assert_eq!(
+            grid.active_cells(),
+            expected.0,
+            "{name} {precision:?} at {iso}"
+        );
+        assert_eq!(grid.info().value_range, range, "{name} {precision:?}");
+        if volume.scalar_type().fits_f64() {
+            // Samples are exact as f64 here, so the brute force of `check` applies, corners included.
+            check(volume, &grid, iso, false);
+        }
+    }
+    let mesh = isogrid::mc::marching_cubes(&volume.view(), iso);
+    assert_eq!(
+        mesh.positions.len(),
+        expected.1,
+        "{name}: Marching Cubes vertices"
+    );
+}
+
+#[test]
+fn wide_samples_are_classified_in_their_own_type() {
+    let mut rng = Rng::new(42);
+    let dims = [19, 17, 18];
+    let n = dims.iter().product::<usize>();
+    let mut pick = |lo, hi| -> Vec<usize> {
+        (0..n)
+            .map(|_| if rng.below(2) == 0 { lo } else { hi })
+            .collect()
+    };
+
+    // 16777216 and 16777217 are one f32: converted, every sample fell on one side of 16777216.5.
+    let v: Vec<u32> = pick(0, 1).iter().map(|&b| 16_777_216 + b as u32).collect();
+    let expected = count_straddling(dims, &v, |x| x > 16_777_216);
+    let volume = Volume::new(dims, VolumeData::U32(v)).unwrap();
+    check_wide(
+        &volume,
+        16_777_216.5,
+        expected,
+        [16_777_216.0, 16_777_217.0],
+    );
+
+    // i32 near 1e8 (f32 steps are 8 there).
+    let v: Vec<i32> = pick(0, 3)
+        .iter()
+        .map(|&b| -100_000_001 + b as i32)
+        .collect();
+    let expected = count_straddling(dims, &v, |x| x >= -99_999_999);
+    let volume = Volume::new(dims, VolumeData::I32(v)).unwrap();
+    check_wide(
+        &volume,
+        -99_999_999.0,
+        expected,
+        [-100_000_001.0, -99_999_998.0],
+    );
+
+    // f64 values 1e-12 apart.
+    let (a, b) = (0.25, 0.25 + 1e-12);
+    let v: Vec<f64> = pick(0, 1)
+        .iter()
+        .map(|&s| if s == 0 { a } else { b })
+        .collect();
+    let iso = 0.25 + 0.5e-12;
+    let expected = count_straddling(dims, &v, |x| x >= iso);
+    let volume = Volume::new(dims, VolumeData::F64(v)).unwrap();
+    check_wide(&volume, iso, expected, [a, b]);
+
+    // u64 IDs beyond 2^53, split at an isovalue that is an f64 integer: compared as u64.
+    let base = (1u64 << 60) + 4096;
+    let v: Vec<u64> = pick(0, 512).iter().map(|&s| base + s as u64).collect();
+    let expected = count_straddling(dims, &v, |x| x >= base + 256);
+    let volume = Volume::new(dims, VolumeData::U64(v)).unwrap();
+    check_wide(
+        &volume,
+        (base + 256) as f64,
+        expected,
+        [base as f64, (base + 512) as f64],
+    );
+
+    // i64 on both sides of zero, far beyond f32.
+    let v: Vec<i64> = pick(0, 1)
+        .iter()
+        .map(|&s| if s == 0 { -(1 << 40) } else { (1 << 40) + 1 })
+        .collect();
+    let expected = count_straddling(dims, &v, |x| x >= 1 << 40);
+    let volume = Volume::new(dims, VolumeData::I64(v)).unwrap();
+    check_wide(
+        &volume,
+        (1u64 << 40) as f64,
+        expected,
+        [-(2f64.powi(40)), 2f64.powi(40) + 1.0],
+    );
+}
+
+#[test]
+fn u64_isovalues_at_the_top_of_the_type_are_exact() {
+    // 2^64 is above u64::MAX: nothing is inside (a saturating conversion made u64::MAX inside).
+    let dims = [3, 3, 3];
+    let v: Vec<u64> = (0..27)
+        .map(|i| if i % 2 == 0 { u64::MAX } else { 0 })
+        .collect();
+    let volume = Volume::new(dims, VolumeData::U64(v.clone())).unwrap();
+    assert_eq!(run(&volume, 2f64.powi(64), None).active_cells(), 0);
+    let expected = count_straddling(dims, &v, |x| x >= 1 << 63);
+    assert_eq!(run(&volume, 2f64.powi(63), None).active_cells(), expected.0);
+    assert!(expected.0 > 0);
 }

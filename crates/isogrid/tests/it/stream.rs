@@ -91,7 +91,43 @@ pub(crate) fn volumes() -> Vec<(&'static str, Volume)> {
         ("u8 thin", random_u8([9, 2, 33], 5, 2)),
         ("u8 2x2x2", random_u8([2, 2, 2], 11, 2)),
         ("u8 single plane", random_u8([8, 8, 1], 13, 4)),
+        // Two values an f32 cannot tell apart, and 64-bit values beyond f64's integers.
+        (
+            "u32 near 2^24",
+            Volume::new(
+                [21, 18, 19],
+                VolumeData::U32(two_levels(&mut rng, 21 * 18 * 19, 16_777_216, 16_777_217)),
+            )
+            .unwrap(),
+        ),
+        (
+            "i64 beyond 2^53",
+            Volume::new(
+                [18, 33, 17],
+                VolumeData::I64(
+                    (0..18 * 33 * 17)
+                        .map(|_| (1i64 << 53) + rng.below(5) as i64)
+                        .collect(),
+                ),
+            )
+            .unwrap(),
+        ),
+        (
+            "f64 1e-12 apart",
+            Volume::new(
+                [17, 20, 22],
+                VolumeData::F64(two_levels(&mut rng, 17 * 20 * 22, 1.0, 1.0 + 1e-12)),
+            )
+            .unwrap(),
+        ),
     ]
+}
+
+/// `n` samples, each `lo` or `hi` at random.
+pub(crate) fn two_levels<T: Copy>(rng: &mut Rng, n: usize, lo: T, hi: T) -> Vec<T> {
+    (0..n)
+        .map(|_| if rng.below(2) == 0 { lo } else { hi })
+        .collect()
 }
 
 pub(crate) fn option_sets() -> Vec<ExtractOptions> {
@@ -156,7 +192,7 @@ fn streamed_files_are_byte_identical_to_in_memory_ones() {
             }
         }
     }
-    assert_eq!(compared, 7 * 4 * 4 * 2);
+    assert_eq!(compared, 10 * 4 * 4 * 2);
     assert_eq!(dir.entries(), vec!["out.cgc".to_string()]);
 }
 

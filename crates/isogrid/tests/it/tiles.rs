@@ -31,6 +31,11 @@ fn box_of(volume: &Volume, [x, y, z]: [Range<usize>; 3]) -> Volume {
         Samples::U16(s) => VolumeData::U16(pick(s, nx, ny, &b)),
         Samples::I16(s) => VolumeData::I16(pick(s, nx, ny, &b)),
         Samples::F32(s) => VolumeData::F32(pick(s, nx, ny, &b)),
+        Samples::U32(s) => VolumeData::U32(pick(s, nx, ny, &b)),
+        Samples::I32(s) => VolumeData::I32(pick(s, nx, ny, &b)),
+        Samples::U64(s) => VolumeData::U64(pick(s, nx, ny, &b)),
+        Samples::I64(s) => VolumeData::I64(pick(s, nx, ny, &b)),
+        Samples::F64(s) => VolumeData::F64(pick(s, nx, ny, &b)),
     };
     Volume::new([x.len(), y.len(), z.len()], data).unwrap()
 }
@@ -137,7 +142,7 @@ fn tiled_files_are_byte_identical_to_in_memory_ones() {
         write(&run, &jobs, Vec::new(), &out).unwrap();
         assert!(std::fs::read(&out).unwrap() == expected, "{options:?}");
     }
-    assert_eq!(compared, 7 * 4 * 6);
+    assert_eq!(compared, 10 * 4 * 6);
     // The budgets did cut some volumes into many jobs, and some jobs into several runs.
     assert!(job_counts.iter().any(|&n| n >= 10), "{job_counts:?}");
     assert_eq!(dir.entries(), vec!["out.cgc".to_string()]);

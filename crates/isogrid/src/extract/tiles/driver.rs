@@ -93,6 +93,9 @@ pub struct TileExtraction {
     /// The block table. While scanning, `metacell_count` holds the block's occupied metacells
     /// (slots and pointers come with the prefix sums).
     blocks: Vec<Block>,
+    /// Each block's (min, max) in f64 while scanning: the file's f32 block bounds would round the
+    /// header's value range of 32- and 64-bit samples.
+    ranges: Vec<[f64; 2]>,
     /// Active cells per block while scanning; then the index of each block's first cell.
     cells: Vec<u32>,
     /// Which blocks a scan fragment covered (emptied once settled).
@@ -143,6 +146,7 @@ impl TileExtraction {
             iso,
             value_range: if needs_range { range } else { None },
             blocks: vec![bytemuck::Zeroable::zeroed(); block_count],
+            ranges: vec![[0.0; 2]; block_count],
             cells: vec![0; block_count],
             scanned: vec![false; block_count],
             scanned_count: 0,
@@ -208,7 +212,7 @@ impl TileExtraction {
             Some(max) => match self.scalar_type {
                 ScalarType::U8 => max >= u8::MAX as u32,
                 ScalarType::U16 => max >= u16::MAX as u32,
-                ScalarType::I16 | ScalarType::F32 => false,
+                _ => false,
             },
         };
         free.then_some((0.0, 0.0))
@@ -303,11 +307,11 @@ impl TileExtraction {
             let start = self.block_index([blocks[0].start, y, z]);
             for i in start..start + blocks[0].len() {
                 let record = records.next().unwrap();
+                let f64_at = |at: usize| f64::from_le_bytes(record[at..at + 8].try_into().unwrap());
+                self.ranges[i] = [f64_at(8), f64_at(16)];
                 self.blocks[i] = Block {
                     metacell_count: u32::from_le_bytes(word(record, 0)),
-                    metacell_pointer: 0,
-                    min: f32::from_le_bytes(word(record, 2)),
-                    max: f32::from_le_bytes(word(record, 3)),
+                    ..bytemuck::Zeroable::zeroed()
                 };
                 self.cells[i] = u32::from_le_bytes(word(record, 1));
                 self.scanned[i] = true;
@@ -339,26 +343,32 @@ impl TileExtraction {
                 self.blocks.len()
             )));
         }
-        let scan_of = |block: &Block, active_cells: u32| scan::BlockScan {
+        let scan_of = |block: &Block, &[min, max]: &[f64; 2], active_cells: u32| scan::BlockScan {
             occupied_metacells: block.metacell_count,
             active_cells,
-            min: block.min as f64,
-            max: block.max as f64,
+            min,
+            max,
         };
         // A first pass only checks the 32-bit limits, so that an error leaves the table as it was.
         let mut totals = Totals::default();
-        for (block, &active) in self.blocks.iter().zip(&self.cells) {
-            totals.add(&scan_of(block, active))?;
+        for ((block, r), &active) in self.blocks.iter().zip(&self.ranges).zip(&self.cells) {
+            totals.add(&scan_of(block, r, active))?;
         }
         let mut totals = Totals::default();
         let mut range = (f64::INFINITY, f64::NEG_INFINITY);
-        for (block, cells) in self.blocks.iter_mut().zip(&mut self.cells) {
-            let scan = scan_of(block, *cells);
+        for ((block, r), cells) in self
+            .blocks
+            .iter_mut()
+            .zip(&self.ranges)
+            .zip(&mut self.cells)
+        {
+            let scan = scan_of(block, r, *cells);
             range = (range.0.min(scan.min), range.1.max(scan.max));
             *cells = totals.cells as u32;
             *block = totals.add(&scan)?;
         }
         self.scanned = Vec::new();
+        self.ranges = Vec::new();
         self.settled = Some((totals, range));
         Ok((totals, range))
     }

@@ -10,7 +10,7 @@
 //! settled between two rounds of tasks:
 //!
 //! 1. [`scan_tile`] on every tile, anywhere: a *scan fragment* with each block's active cells,
-//!    occupied metacells and value range (16 bytes a block);
+//!    occupied metacells and value range (24 bytes a block: the range as f64);
 //! 2. [`TileExtraction::add_scan`], in any order, on the machine that writes the file; then
 //!    [`TileExtraction::plan_emits`] takes prefix sums in block order (every block's record and
 //!    place, the file's exact size) and cuts the tiles that hold active cells into *emit jobs*

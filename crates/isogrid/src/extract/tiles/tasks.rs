@@ -43,14 +43,18 @@ fn scan_records(
         Samples::U16(s) => scan_blocks(s, tile.dims(), u16::threshold(iso)),
         Samples::I16(s) => scan_blocks(s, tile.dims(), i16::threshold(iso)),
         Samples::F32(s) => scan_blocks(s, tile.dims(), f32::threshold(iso)),
+        Samples::U32(s) => scan_blocks(s, tile.dims(), u32::threshold(iso)),
+        Samples::I32(s) => scan_blocks(s, tile.dims(), i32::threshold(iso)),
+        Samples::U64(s) => scan_blocks(s, tile.dims(), u64::threshold(iso)),
+        Samples::I64(s) => scan_blocks(s, tile.dims(), i64::threshold(iso)),
+        Samples::F64(s) => scan_blocks(s, tile.dims(), f64::threshold(iso)),
     };
     out.reserve(scans.len() * SCAN_RECORD);
     for s in &scans {
         put_u32(out, s.occupied_metacells);
         put_u32(out, s.active_cells);
-        // Exact: every supported sample type is exactly an f32.
-        out.extend_from_slice(&(s.min as f32).to_le_bytes());
-        out.extend_from_slice(&(s.max as f32).to_le_bytes());
+        out.extend_from_slice(&s.min.to_le_bytes());
+        out.extend_from_slice(&s.max.to_le_bytes());
     }
     scans
 }
@@ -221,6 +225,11 @@ impl TileJob<'_> {
             Samples::U16(s) => self.emit(s),
             Samples::I16(s) => self.emit(s),
             Samples::F32(s) => self.emit(s),
+            Samples::U32(s) => self.emit(s),
+            Samples::I32(s) => self.emit(s),
+            Samples::U64(s) => self.emit(s),
+            Samples::I64(s) => self.emit(s),
+            Samples::F64(s) => self.emit(s),
         }
     }
 

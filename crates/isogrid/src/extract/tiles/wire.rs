@@ -13,8 +13,9 @@ pub(super) const OUTPUT_TAG: &[u8; 4] = b"IGTO";
 pub(super) const TASK_TAG: &[u8; 4] = b"IGTT";
 pub(super) const TILE_TAG: &[u8; 4] = b"IGTX";
 
-/// Bytes per block of a scan fragment: occupied metacells, active cells, min, max.
-pub(super) const SCAN_RECORD: usize = 16;
+/// Bytes per block of a scan fragment: occupied metacells, active cells (u32), min, max (f64: exact
+/// for every sample type up to 32 bits, nearest beyond 2^53 for 64-bit integers).
+pub(super) const SCAN_RECORD: usize = 24;
 /// Bytes per block of an emit job: metacell slots, active cells.
 pub(super) const JOB_RECORD: usize = 8;
 

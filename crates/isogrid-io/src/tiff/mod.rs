@@ -1,12 +1,16 @@
 //! Multi-page TIFF stacks: page n is z slice n (k = n), its columns i and rows j.
 //!
 //! Decoded with the `tiff` crate (baseline TIFF 6.0 plus BigTIFF; uncompressed, LZW, deflate and
-//! PackBits). Only single-channel grayscale pages are volumes: 8/16-bit unsigned, 16-bit signed
-//! and 32-bit float are kept; 8-bit signed becomes i16, 32/64-bit integers and 64-bit floats
-//! become f32, as in the crate docs. RGB, palette, alpha and bilevel pages are `Unsupported`.
-//! Every page must have the size and type of the first. TIFF has no standard voxel spacing for
-//! stacks, so spacing is 1 and origin 0.
+//! PackBits). Only single-channel grayscale pages are volumes: 8 to 64-bit integers and 32/64-bit
+//! floats are kept as they are, 8-bit signed is widened to i16 and 16-bit float to f32 (both
+//! exactly). RGB, palette, alpha and bilevel pages are `Unsupported`. Every page must have the
+//! size and type of the first. An ImageJ hyperstack or OME-TIFF with several channels or time
+//! points is read one channel and time point at a time, picked with `--index c=N,t=N`
+//! ([`hyperstack`]). TIFF has no standard voxel spacing for stacks, so spacing is 1 and origin 0.
 
+mod hyperstack;
+
+use hyperstack::Hyperstack;
 use isogrid::{Error, Result, ResultExt, Volume, VolumeData, MAX_DIM};
 use std::fs::File;
 use std::io::BufReader;
@@ -20,17 +24,52 @@ const MAX_EXPANSION: u64 = 4096;
 
 /// Reads every page of a grayscale TIFF as one volume. Errors name `path`.
 pub fn read_tiff(path: &Path) -> Result<Volume> {
-    read(path).at_path(path)
+    read_tiff_indexed(path, &[])
 }
 
-fn read(path: &Path) -> Result<Volume> {
+/// Reads the z slices of a grayscale TIFF: every page of a plain stack, or of a hyperstack the
+/// pages of the channel and time point `indices` pick (`--index c=N,t=N`). Errors name `path`.
+pub fn read_tiff_indexed(path: &Path, indices: &[(String, u64)]) -> Result<Volume> {
+    read(path, indices).at_path(path)
+}
+
+fn read(path: &Path, indices: &[(String, u64)]) -> Result<Volume> {
     let file = isogrid::fs::open_regular(path)?;
     let file_len = file.metadata()?.len();
     let mut decoder = Decoder::new(BufReader::new(file)).map_err(tiff_error)?;
+    let stack = decoder
+        .get_tag_ascii_string(Tag::ImageDescription)
+        .ok()
+        .and_then(|d| Hyperstack::parse(&d));
+    // The pages to read, in z order: all of a plain stack, one channel and time of a hyperstack.
+    let wanted: Option<Vec<usize>> = match &stack {
+        Some(h) => {
+            let (c, t) = h.pick(indices)?;
+            Some((0..h.sizes[1]).map(|z| h.page([c, z, t])).collect())
+        }
+        None if !indices.is_empty() => {
+            return Err(Error::invalid(
+                "--index picks a channel or time point, but this TIFF is a plain stack (its \
+                 ImageJ or OME metadata declares neither)",
+            ))
+        }
+        None => None,
+    };
+    let keep = |page: usize| wanted.as_ref().is_none_or(|w| w.contains(&page));
+    let mut stacked: Vec<(usize, VolumeData)> = Vec::new();
     let mut slices: Option<VolumeData> = None;
     let mut first_size = None;
     let mut pages = 0usize;
+    let mut page_index = 0usize;
     loop {
+        if !keep(page_index) {
+            if !decoder.more_images() {
+                break;
+            }
+            decoder.next_image().map_err(tiff_error)?;
+            page_index += 1;
+            continue;
+        }
         let (w, h) = decoder.dimensions().map_err(tiff_error)?;
         match decoder.colortype().map_err(tiff_error)? {
             ColorType::Gray(8 | 16 | 32 | 64) => {}
@@ -54,15 +93,38 @@ fn read(path: &Path) -> Result<Volume> {
             (pages as u64 + 2).saturating_mul(page_bytes),
         )?;
         let page = decoder.read_image().map_err(tiff_error)?;
-        slices = Some(append(slices, page, pages)?);
+        match &wanted {
+            None => slices = Some(append(slices, kept(page), pages)?),
+            // A hyperstack's pages may come in another order than z (OME's XYCTZ).
+            Some(_) => stacked.push((page_index, kept(page))),
+        }
         pages += 1;
         if pages > MAX_DIM {
             return Err(Error::too_large(format!("more than {MAX_DIM} pages")));
         }
-        if !decoder.more_images() {
+        if !decoder.more_images() || wanted.as_ref().is_some_and(|w| pages == w.len()) {
             break;
         }
         decoder.next_image().map_err(tiff_error)?;
+        page_index += 1;
+    }
+    if let (Some(w), Some(h)) = (&wanted, &stack) {
+        if pages < w.len() {
+            return Err(Error::corrupt(format!(
+                "the {} declares {} pages ({} channels x {} slices x {} time points) but the \
+                 file has {}",
+                h.source,
+                h.pages(),
+                h.sizes[0],
+                h.sizes[1],
+                h.sizes[2],
+                page_index + 1
+            )));
+        }
+        stacked.sort_by_key(|(page, _)| w.iter().position(|p| p == page));
+        for (page, data) in stacked {
+            slices = Some(append(slices, data, page)?);
+        }
     }
     let (w, h) = first_size.unwrap_or((0, 0));
     let data = slices.ok_or_else(|| Error::corrupt("TIFF has no pages"))?;
@@ -87,7 +149,7 @@ pub(crate) fn read_page(path: &Path) -> Result<(usize, usize, VolumeData)> {
         }
         check_page_fits(&mut decoder, w, h, file_len)?;
         let page = decoder.read_image().map_err(tiff_error)?;
-        Ok((w as usize, h as usize, append(None, page, 0)?))
+        Ok((w as usize, h as usize, kept(page)))
     })()
     .at_path(path)
 }
@@ -124,21 +186,25 @@ fn check_page_fits(
     Ok(bytes)
 }
 
-/// Appends a decoded page to the stack, converting to a kept type; all pages must share a type.
-fn append(stack: Option<VolumeData>, page: DecodingResult, index: usize) -> Result<VolumeData> {
-    let page = match page {
+/// A decoded page as its own type (i8 widened to i16, f16 to f32, both exactly).
+fn kept(page: DecodingResult) -> VolumeData {
+    match page {
         DecodingResult::U8(v) => VolumeData::U8(v),
         DecodingResult::U16(v) => VolumeData::U16(v),
         DecodingResult::I16(v) => VolumeData::I16(v),
         DecodingResult::F32(v) => VolumeData::F32(v),
         DecodingResult::I8(v) => VolumeData::I16(v.into_iter().map(i16::from).collect()),
-        DecodingResult::U32(v) => VolumeData::F32(v.into_iter().map(|x| x as f32).collect()),
-        DecodingResult::I32(v) => VolumeData::F32(v.into_iter().map(|x| x as f32).collect()),
-        DecodingResult::U64(v) => VolumeData::F32(v.into_iter().map(|x| x as f32).collect()),
-        DecodingResult::I64(v) => VolumeData::F32(v.into_iter().map(|x| x as f32).collect()),
-        DecodingResult::F64(v) => VolumeData::F32(v.into_iter().map(|x| x as f32).collect()),
+        DecodingResult::U32(v) => VolumeData::U32(v),
+        DecodingResult::I32(v) => VolumeData::I32(v),
+        DecodingResult::U64(v) => VolumeData::U64(v),
+        DecodingResult::I64(v) => VolumeData::I64(v),
+        DecodingResult::F64(v) => VolumeData::F64(v),
         DecodingResult::F16(v) => VolumeData::F32(v.into_iter().map(|x| x.to_f32()).collect()),
-    };
+    }
+}
+
+/// Appends page `index` to the stack; all pages must share a type.
+fn append(stack: Option<VolumeData>, page: VolumeData, index: usize) -> Result<VolumeData> {
     let Some(stack) = stack else { return Ok(page) };
     crate::samples::append(stack, page).map_err(|(a, b)| {
         Error::corrupt(format!(
