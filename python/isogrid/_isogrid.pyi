@@ -43,6 +43,12 @@ class CellGrid:
     def attribute_info(self) -> Optional[Dict[str, Any]]:
         """name, bits (8, 16 or 32) and range (finite, on the surface) of the attribute, or None."""
     @property
+    def labels(self) -> Optional[List[Dict[str, Any]]]:
+        """For a label volume's grid: value, name, color (r, g, b, a), cells, lo, hi per label."""
+    @property
+    def cluster_labels(self) -> Optional[npt.NDArray[np.uint32]]:
+        """For a label volume's grid: each cluster's index into ``labels``."""
+    @property
     def blocks(self) -> np.ndarray:
         """Read-only, fields metacell_count u4, metacell_pointer u4, min f4, max f4."""
     @property
@@ -66,6 +72,17 @@ def extract(
     origin: Optional[Sequence[float]] = None,
     direction: Optional[Sequence[Sequence[float]]] = None,
     attribute: Optional[Tuple[Any, ...]] = None,
+) -> CellGrid: ...
+def extract_labels(
+    array: np.ndarray,
+    fortran: bool,
+    spacing: Sequence[float],
+    labels: str,
+    smooth: float = 0.0,
+    precision: Optional[int] = None,
+    threads: Optional[int] = None,
+    origin: Optional[Sequence[float]] = None,
+    direction: Optional[Sequence[Sequence[float]]] = None,
 ) -> CellGrid: ...
 def load(path: _Path) -> CellGrid: ...
 def _attach_attribute(

@@ -435,6 +435,10 @@ fn distinct(keys: &[u64]) -> Vec<u64> {
 /// and z, into `scratch.smooth` on the block's `cube` of samples, which starts at `at` inside the
 /// region. Samples beyond the region repeat its border: the region reaches the kernel's radius
 /// past the block wherever the volume does, so this is the volume's border.
+///
+/// Every output is `Σₖ wₖ·vₖ` summed in kernel order from 0 in f32, whichever path computes it:
+/// a row of the x pass whose samples are all 0 or all 1 is 0 or `Σₖ wₖ` without the products (most
+/// rows of a block are), and the y and z passes run over whole rows so they vectorise.
 fn smooth_indicator(
     key: u64,
     region: [usize; 3],
@@ -447,6 +451,7 @@ fn smooth_indicator(
     let [rx, ry, rz] = region;
     let [cx, cy, cz] = cube;
     let clamp = |i: isize, n: usize| i.clamp(0, n as isize - 1) as usize;
+    let ones = kernel.iter().fold(0.0f32, |s, &w| s + w);
     scratch.field.clear();
     scratch
         .field
@@ -454,32 +459,37 @@ fn smooth_indicator(
     // Along x: cube x × region y × region z.
     scratch.pass_x.clear();
     scratch.pass_x.resize(cx * ry * rz, 0.0);
-    for z in 0..rz {
-        for y in 0..ry {
-            let row = &scratch.field[rx * (y + ry * z)..][..rx];
-            let out = &mut scratch.pass_x[cx * (y + ry * z)..][..cx];
-            for (x, o) in out.iter_mut().enumerate() {
-                let c = (at[0] + x) as isize;
-                let mut s = 0.0f32;
-                for (k, w) in kernel.iter().enumerate() {
-                    s += w * row[clamp(c + k as isize - r, rx)];
-                }
-                *o = s;
+    for (row, out) in scratch
+        .field
+        .chunks_exact(rx)
+        .zip(scratch.pass_x.chunks_exact_mut(cx))
+    {
+        let first = row[0];
+        if row.iter().all(|&v| v == first) {
+            out.fill(if first == 0.0 { 0.0 } else { ones });
+            continue;
+        }
+        for (x, o) in out.iter_mut().enumerate() {
+            let c = (at[0] + x) as isize;
+            let mut s = 0.0f32;
+            for (k, w) in kernel.iter().enumerate() {
+                s += w * row[clamp(c + k as isize - r, rx)];
             }
+            *o = s;
         }
     }
-    // Along y: cube x × cube y × region z.
+    // Along y, a row of x at a time: cube x × cube y × region z.
     scratch.pass_y.clear();
     scratch.pass_y.resize(cx * cy * rz, 0.0);
     for z in 0..rz {
         for y in 0..cy {
             let c = (at[1] + y) as isize;
-            for x in 0..cx {
-                let mut s = 0.0f32;
-                for (k, w) in kernel.iter().enumerate() {
-                    s += w * scratch.pass_x[x + cx * (clamp(c + k as isize - r, ry) + ry * z)];
+            let out = &mut scratch.pass_y[cx * (y + cy * z)..][..cx];
+            for (k, &w) in kernel.iter().enumerate() {
+                let input = &scratch.pass_x[cx * (clamp(c + k as isize - r, ry) + ry * z)..][..cx];
+                for (o, &v) in out.iter_mut().zip(input) {
+                    *o += w * v;
                 }
-                scratch.pass_y[x + cx * (y + cy * z)] = s;
             }
         }
     }
@@ -488,13 +498,11 @@ fn smooth_indicator(
     scratch.smooth.resize(cx * cy * cz, 0.0);
     for z in 0..cz {
         let c = (at[2] + z) as isize;
-        for y in 0..cy {
-            for x in 0..cx {
-                let mut s = 0.0f32;
-                for (k, w) in kernel.iter().enumerate() {
-                    s += w * scratch.pass_y[x + cx * (y + cy * clamp(c + k as isize - r, rz))];
-                }
-                scratch.smooth[x + cx * (y + cy * z)] = s;
+        let out = &mut scratch.smooth[cx * cy * z..][..cx * cy];
+        for (k, &w) in kernel.iter().enumerate() {
+            let input = &scratch.pass_y[cx * cy * clamp(c + k as isize - r, rz)..][..cx * cy];
+            for (o, &v) in out.iter_mut().zip(input) {
+                *o += w * v;
             }
         }
     }
