@@ -170,6 +170,13 @@ impl CellGrid {
         self.labels = Some(labels);
         Ok(self)
     }
+    /// [`CellGrid::with_labels`] for labels the extraction built, which hold by construction
+    /// (checked in debug builds).
+    pub(crate) fn with_built_labels(mut self, labels: GridLabels) -> Self {
+        debug_assert!(labels.check(self.metacells()).is_ok());
+        self.labels = Some(labels);
+        self
+    }
     /// The labels of a grid extracted from a label volume.
     pub fn labels(&self) -> Option<&GridLabels> {
         self.labels.as_ref()

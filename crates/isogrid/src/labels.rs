@@ -519,14 +519,13 @@ impl GridLabels {
                             &format!("cluster {c} in its runs has another label"),
                         ));
                     }
-                    for m in &metacells[c * CLUSTER_SLOTS..c * CLUSTER_SLOTS + BOUND_SLOT] {
+                    let slots = &metacells[c * CLUSTER_SLOTS..c * CLUSTER_SLOTS + BOUND_SLOT];
+                    for m in slots.iter().filter(|m| !m.is_empty()) {
                         cells += m.active_cells() as u64;
-                        for bit in (0..8).filter(|b| m.cell_mask >> b & 1 == 1) {
-                            let p = m.cell_position(bit);
-                            for a in 0..3 {
-                                lo[a] = lo[a].min(p[a]);
-                                hi[a] = hi[a].max(p[a] + 1);
-                            }
+                        let (l, h) = m.cell_box();
+                        for a in 0..3 {
+                            lo[a] = lo[a].min(l[a]);
+                            hi[a] = hi[a].max(h[a]);
                         }
                     }
                 }

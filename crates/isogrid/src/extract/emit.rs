@@ -281,6 +281,12 @@ fn encode_cell<T: ExtractScalar>(
                     .copy_from_slice(&(values[c].exact_code(offset) as u16).to_le_bytes());
             }
         }
-        _ => quantizer.encode_cell(&values.map(|v| v.to_f64()), inside, out),
+        (_, Precision::Float32) => quantizer.encode_cell(&values.map(|v| v.to_f64()), inside, out),
+        _ => match values.map(|v| v.as_u8()) {
+            [Some(a), Some(b), Some(c), Some(d), Some(e), Some(f), Some(g), Some(h)] => {
+                quantizer.encode_u8_cell(&[a, b, c, d, e, f, g, h], out)
+            }
+            _ => quantizer.encode_cell(&values.map(|v| v.to_f64()), inside, out),
+        },
     }
 }

@@ -264,7 +264,7 @@ fn extract_typed<T: LabelSample>(
 
     let info = GridInfo::new(geometry, T::TYPE, [0.0, 1.0], LABEL_ISO, &pass.quantizer);
     let grid = CellGrid::from_parts(info, block_records, metacells, cells);
-    grid.with_labels(GridLabels::from_parts(table, cluster_labels, index, runs))
+    Ok(grid.with_built_labels(GridLabels::from_parts(table, cluster_labels, index, runs)))
 }
 
 impl<T: LabelSample> Pass<'_, T> {
@@ -383,13 +383,13 @@ impl<T: LabelSample> Pass<'_, T> {
             }
             let (mut lo, mut hi) = ([u32::MAX; 3], [0u32; 3]);
             let label_slots = out.metacells[first_slot..].iter().enumerate();
-            for (_, m) in label_slots.filter(|(s, _)| s % CLUSTER_SLOTS != BOUND_SLOT) {
-                for bit in (0..8).filter(|b| m.cell_mask >> b & 1 == 1) {
-                    let p = m.cell_position(bit);
-                    for a in 0..3 {
-                        lo[a] = lo[a].min(p[a]);
-                        hi[a] = hi[a].max(p[a] + 1);
-                    }
+            for (_, m) in
+                label_slots.filter(|(s, m)| s % CLUSTER_SLOTS != BOUND_SLOT && !m.is_empty())
+            {
+                let (l, h) = m.cell_box();
+                for a in 0..3 {
+                    lo[a] = lo[a].min(l[a]);
+                    hi[a] = hi[a].max(h[a]);
                 }
             }
             out.parts.push(LabelPart {
