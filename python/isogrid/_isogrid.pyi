@@ -27,7 +27,7 @@ class CellGrid:
     def stats(self) -> Dict[str, Any]:
         """dims, iso, precision, active_cells, metacells, metacell_slots, clusters, blocks,
         nonempty_blocks, bytes {blocks, metacells, cells, paper_total}, bytes_per_cell, attribute
-        (None, or {name, bits, range, bytes, bytes_per_cell})."""
+        (None, or {name, bits, range, bytes, bytes_per_cell}), and labels for a label volume's grid."""
     @property
     def info(self) -> Dict[str, Any]:
         """dims, spacing, origin, direction, scalar_type, value_range, iso, precision, iso_code,
@@ -44,7 +44,7 @@ class CellGrid:
         """name, bits (8, 16 or 32) and range (finite, on the surface) of the attribute, or None."""
     @property
     def labels(self) -> Optional[List[Dict[str, Any]]]:
-        """For a label volume's grid: value, name, color (r, g, b, a), cells, lo, hi per label."""
+        """For a label volume's grid: value, name, color ("#rrggbbaa"), cells, lo, hi per label."""
     @property
     def cluster_labels(self) -> Optional[npt.NDArray[np.uint32]]:
         """For a label volume's grid: each cluster's index into ``labels``."""

@@ -314,7 +314,11 @@ impl CellGrid {
     /// Counts and sizes, with the names of the CLI's `--json` output (without `seconds`).
     #[getter]
     fn stats<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        stats_dict(py, &GridStats::of(&self.inner), self.inner.attribute())
+        let d = stats_dict(py, &GridStats::of(&self.inner), self.inner.attribute())?;
+        if let Some(labels) = self.labels(py)? {
+            d.set_item("labels", labels)?;
+        }
+        Ok(d)
     }
 
     /// Geometry, isovalue and value mapping (the `.cgc` header).
@@ -370,9 +374,10 @@ impl CellGrid {
     }
 
 
-    /// The labels of a label volume's grid, in increasing value: one dict each with `value`,
-    /// `name`, `color` (sRGB and alpha, 0–255), `cells` (active cells of its surface) and `lo`,
-    /// `hi` (its cells' box in cell indices, `[lo, hi)`); `None` for an isosurface.
+    /// The labels of a label volume's grid, in increasing value, as `isogrid extract --labels
+    /// --json` lists them: one dict each with `value`, `name`, `color` (`#rrggbbaa`), `cells`
+    /// (active cells of its surface) and `lo`, `hi` (its cells' box in cell indices, `[lo, hi)`);
+    /// `None` for an isosurface.
     #[getter]
     fn labels<'py>(&self, py: Python<'py>) -> PyResult<Option<Vec<Bound<'py, PyDict>>>> {
         let Some(labels) = self.inner.labels() else {
@@ -391,10 +396,10 @@ impl CellGrid {
                     d.set_item("value", label.value)?;
                 }
                 d.set_item("name", &label.name)?;
-                d.set_item("color", (label.rgba[0], label.rgba[1], label.rgba[2], label.rgba[3]))?;
+                d.set_item("color", label.color_hex())?;
                 d.set_item("cells", entry.cell_count)?;
-                d.set_item("lo", tuple3(entry.lo))?;
-                d.set_item("hi", tuple3(entry.hi))?;
+                d.set_item("lo", entry.lo.to_vec())?;
+                d.set_item("hi", entry.hi.to_vec())?;
                 Ok(d)
             })
             .collect::<PyResult<Vec<_>>>()

@@ -2,6 +2,7 @@
 ``grid.cluster_labels``, against a brute-force numpy reference: a cell belongs to label L's surface
 when its eight corners are neither all L nor all other labels."""
 
+import json
 import subprocess
 
 import numpy as np
@@ -61,10 +62,10 @@ def test_each_label_has_the_cells_of_the_brute_force_reference():
         got = np.array(sorted(map(tuple, got.tolist())), dtype=np.int64).reshape(-1, 3)
         np.testing.assert_array_equal(got, expected)
         assert label["cells"] == len(expected)
-        assert label["lo"] == tuple(expected.min(axis=0).tolist())
-        assert label["hi"] == tuple((expected.max(axis=0) + 1).tolist())
+        assert label["lo"] == expected.min(axis=0).tolist()
+        assert label["hi"] == (expected.max(axis=0) + 1).tolist()
         assert label["name"] == f"label {label['value']}"
-        assert len(label["color"]) == 4 and label["color"][3] == 255
+        assert len(label["color"]) == 9 and label["color"].startswith("#") and label["color"].endswith("ff")
 
 
 def test_binary_corners_are_the_indicator():
@@ -129,5 +130,15 @@ def test_cli_and_python_write_the_same_labelled_file(cli, tmp_path):
     np.save(path, a)
     for extra, kwargs in [((), {}), (("--smooth", "1.5"), {"smooth": 1.5})]:
         out = tmp_path / "cli.cgc"
-        subprocess.run([cli, "extract", path, "--labels", "all", *extra, "-o", out], check=True)
-        assert out.read_bytes() == isogrid.extract(a, labels="all", **kwargs).to_bytes()
+        report = subprocess.run(
+            [cli, "extract", path, "--labels", "all", *extra, "-o", out, "--json"],
+            check=True,
+            capture_output=True,
+            text=True,
+        ).stdout
+        grid = isogrid.extract(a, labels="all", **kwargs)
+        assert out.read_bytes() == grid.to_bytes()
+        report = json.loads(report)
+        report.pop("seconds")
+        report["dims"] = tuple(report["dims"])
+        assert report == grid.stats

@@ -79,7 +79,8 @@ pub struct GridReport {
     pub bytes_per_cell: f64,
     /// The per-cell attribute (`--color-by`), or null.
     pub attribute: Option<AttributeReport>,
-    /// The labels of a label volume's grid (`--labels`), or null.
+    /// The labels of a label volume's grid (`--labels`); absent for an isosurface.
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub labels: Option<Vec<LabelReport>>,
     pub seconds: Seconds,
 }
@@ -180,11 +181,7 @@ impl GridReport {
                         LabelValue::Unsigned(label.value)
                     },
                     name: label.name.clone(),
-                    color: label
-                        .rgba
-                        .iter()
-                        .map(|c| format!("{c:02x}"))
-                        .fold("#".into(), |s, c| s + &c),
+                    color: label.color_hex(),
                     cells: entry.cell_count,
                     lo: entry.lo,
                     hi: entry.hi,

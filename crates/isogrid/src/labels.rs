@@ -193,6 +193,13 @@ pub struct Label {
 }
 
 impl Label {
+    /// The colour as `#rrggbbaa`, as reports show it.
+    pub fn color_hex(&self) -> String {
+        self.rgba
+            .iter()
+            .fold("#".to_string(), |s, c| s + &format!("{c:02x}"))
+    }
+
     /// The default name and colour of label `value` (until a file names them).
     pub fn default_for(value: u64, signed: bool) -> Label {
         Label {

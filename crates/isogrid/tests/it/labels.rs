@@ -59,11 +59,10 @@ fn cells_of(
     let mut out = BTreeMap::new();
     for c in clusters {
         for m in &metacells[c * CLUSTER_SLOTS..c * CLUSTER_SLOTS + BOUND_SLOT] {
-            let mut k = 0;
-            for bit in (0..8).filter(|b| m.cell_mask >> b & 1 == 1) {
+            let bits = (0..8).filter(|b| m.cell_mask >> b & 1 == 1);
+            for (k, bit) in bits.enumerate() {
                 let record = grid.cell_record(m.cell_pointer as usize + k).to_vec();
                 assert!(out.insert(m.cell_position(bit), record).is_none());
-                k += 1;
             }
         }
     }
