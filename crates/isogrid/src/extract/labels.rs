@@ -132,6 +132,9 @@ struct Scratch {
     field: Vec<f32>,
     pass_x: Vec<f32>,
     pass_y: Vec<f32>,
+    /// Which rows of `pass_x` and planes of `pass_y` are all zero.
+    zero_x: Vec<bool>,
+    zero_y: Vec<bool>,
     smooth: Vec<f32>,
     block: BlockScratch,
 }
@@ -438,7 +441,8 @@ fn distinct(keys: &[u64]) -> Vec<u64> {
 ///
 /// Every output is `Σₖ wₖ·vₖ` summed in kernel order from 0 in f32, whichever path computes it:
 /// a row of the x pass whose samples are all 0 or all 1 is 0 or `Σₖ wₖ` without the products (most
-/// rows of a block are), and the y and z passes run over whole rows so they vectorise.
+/// rows of a block are), rows and planes of the y and z passes whose inputs are all zero stay 0,
+/// and the y and z passes run over whole rows so they vectorise.
 fn smooth_indicator(
     key: u64,
     region: [usize; 3],
@@ -459,13 +463,16 @@ fn smooth_indicator(
     // Along x: cube x × region y × region z.
     scratch.pass_x.clear();
     scratch.pass_x.resize(cx * ry * rz, 0.0);
+    scratch.zero_x.clear();
     for (row, out) in scratch
         .field
         .chunks_exact(rx)
         .zip(scratch.pass_x.chunks_exact_mut(cx))
     {
         let first = row[0];
-        if row.iter().all(|&v| v == first) {
+        let uniform = row.iter().all(|&v| v == first);
+        scratch.zero_x.push(uniform && first == 0.0);
+        if uniform {
             out.fill(if first == 0.0 { 0.0 } else { ones });
             continue;
         }
@@ -481,26 +488,39 @@ fn smooth_indicator(
     // Along y, a row of x at a time: cube x × cube y × region z.
     scratch.pass_y.clear();
     scratch.pass_y.resize(cx * cy * rz, 0.0);
+    scratch.zero_y.clear();
     for z in 0..rz {
+        let mut plane_zero = true;
         for y in 0..cy {
             let c = (at[1] + y) as isize;
+            let rows = (0..kernel.len()).map(|k| clamp(c + k as isize - r, ry) + ry * z);
+            // Rows whose inputs are all zero stay zero (0 + w·0 is 0 in every order).
+            if rows.clone().all(|row| scratch.zero_x[row]) {
+                continue;
+            }
+            plane_zero = false;
             let out = &mut scratch.pass_y[cx * (y + cy * z)..][..cx];
-            for (k, &w) in kernel.iter().enumerate() {
-                let input = &scratch.pass_x[cx * (clamp(c + k as isize - r, ry) + ry * z)..][..cx];
+            for (row, &w) in rows.zip(kernel) {
+                let input = &scratch.pass_x[cx * row..][..cx];
                 for (o, &v) in out.iter_mut().zip(input) {
                     *o += w * v;
                 }
             }
         }
+        scratch.zero_y.push(plane_zero);
     }
     // Along z: the cube.
     scratch.smooth.clear();
     scratch.smooth.resize(cx * cy * cz, 0.0);
     for z in 0..cz {
         let c = (at[2] + z) as isize;
+        let planes = (0..kernel.len()).map(|k| clamp(c + k as isize - r, rz));
+        if planes.clone().all(|plane| scratch.zero_y[plane]) {
+            continue;
+        }
         let out = &mut scratch.smooth[cx * cy * z..][..cx * cy];
-        for (k, &w) in kernel.iter().enumerate() {
-            let input = &scratch.pass_y[cx * cy * clamp(c + k as isize - r, rz)..][..cx * cy];
+        for (plane, &w) in planes.zip(kernel) {
+            let input = &scratch.pass_y[cx * cy * plane..][..cx * cy];
             for (o, &v) in out.iter_mut().zip(input) {
                 *o += w * v;
             }
