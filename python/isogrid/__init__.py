@@ -57,7 +57,7 @@ import contextlib
 import operator
 import os
 import warnings
-from typing import Any, Callable, Dict, Iterator, Optional, Sequence, Tuple, Union
+from typing import Any, Callable, Dict, Iterable, Iterator, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
@@ -211,6 +211,8 @@ def extract(
     attribute: Union[np.ndarray, Volume, PathLike, None] = None,
     attribute_precision: int = 16,
     progress: Optional[Callable[[int, int], Any]] = None,
+    labels: Union[str, int, Iterable[int], None] = None,
+    smooth: Optional[float] = None,
 ) -> CellGrid:
     """Extracts the active cells of a 3-D volume into clustered grid cells.
 
@@ -244,6 +246,14 @@ def extract(
         progress: called as ``progress(done, total)`` about ten times a second while the surface
             is extracted (blocks scanned and emitted). If it raises, or on Ctrl-C, extraction
             stops within a block row and the exception is raised.
+        labels: instead of an isovalue, the surface of each label of a label volume
+            (``isogrid extract --labels``): ``"all"`` (every label but 0, the background), a label,
+            a list of labels, or a string such as ``"1,5-9"``. Each label's surface is the
+            isosurface at 1/2 of its indicator; ``grid.labels`` lists them with names, colours and
+            cell counts. Integer arrays hold labels; a float array only if every value is an
+            integer.
+        smooth: with ``labels``, the σ in voxels of a Gaussian that smooths each indicator first
+            (0 or None: none).
 
     The GIL is released while extracting; do not modify ``array`` from another thread meanwhile.
 
@@ -251,7 +261,12 @@ def extract(
         The :class:`CellGrid`; where it has no active cell, an :class:`EmptySurfaceWarning` says
         why (the isovalue outside the samples' range, or a volume one sample thick).
     """
-    iso, iso_normalized = _iso_pair(iso, iso_normalized)
+    if labels is None:
+        iso, iso_normalized = _iso_pair(iso, iso_normalized)
+        if smooth is not None:
+            raise ValueError("smooth smooths label indicators, and needs labels")
+    elif iso is not None or iso_normalized is not None or attribute is not None:
+        raise ValueError("labels takes the place of iso and iso_normalized, and has no attribute")
     array = _volume_of(array, series)
     spacing3 = _spacing_of(array, spacing)
     placed = array if isinstance(array, Volume) else None
@@ -260,6 +275,18 @@ def extract(
     if direction is None and placed is not None:
         direction = placed.direction
     prepared, fortran = _prepare(array)
+    if labels is not None:
+        return _isogrid.extract_labels(
+            prepared,
+            fortran,
+            spacing3,
+            _label_selection(labels),
+            smooth=0.0 if smooth is None else float(smooth),
+            precision=None if precision is None else _int(precision, "precision"),
+            threads=None if threads is None else _int(threads, "threads", 1),
+            origin=None if origin is None else _triple(origin, "origin"),
+            direction=None if direction is None else [_triple(row, "direction row") for row in direction],
+        )
     attribute_arg = None
     if attribute is not None:
         attribute_arg = _attribute_arg(
@@ -280,6 +307,21 @@ def extract(
     )
     _warn_if_empty(grid)
     return grid
+
+
+def _label_selection(labels: Any) -> str:
+    """`labels` of :func:`extract` as the selection text the extension parses (``all``, ``1,5-9``)."""
+    if isinstance(labels, str):
+        return labels
+    if isinstance(labels, (int, np.integer)) and not isinstance(labels, bool):
+        return str(int(labels))
+    try:
+        values = [_int(v, "a label", minimum=-(2**63)) for v in labels]
+    except TypeError:
+        raise ValueError(f"labels must be 'all', a label or a list of labels, not {labels!r}") from None
+    if not values:
+        raise ValueError("labels is an empty list")
+    return ",".join(str(v) for v in values)
 
 
 def _attribute_arg(

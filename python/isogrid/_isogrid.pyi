@@ -27,7 +27,7 @@ class CellGrid:
     def stats(self) -> Dict[str, Any]:
         """dims, iso, precision, active_cells, metacells, metacell_slots, clusters, blocks,
         nonempty_blocks, bytes {blocks, metacells, cells, paper_total}, bytes_per_cell, attribute
-        (None, or {name, bits, range, bytes, bytes_per_cell})."""
+        (None, or {name, bits, range, bytes, bytes_per_cell}), and labels for a label volume's grid."""
     @property
     def info(self) -> Dict[str, Any]:
         """dims, spacing, origin, direction, scalar_type, value_range, iso, precision, iso_code,
@@ -45,6 +45,12 @@ class CellGrid:
     @property
     def attribute_info(self) -> Optional[Dict[str, Any]]:
         """name, bits (8, 16 or 32) and range (finite, on the surface) of the attribute, or None."""
+    @property
+    def labels(self) -> Optional[List[Dict[str, Any]]]:
+        """For a label volume's grid: value, name, color ("#rrggbbaa"), cells, lo, hi per label."""
+    @property
+    def cluster_labels(self) -> Optional[npt.NDArray[np.uint32]]:
+        """For a label volume's grid: each cluster's index into ``labels``."""
     @property
     def blocks(self) -> np.ndarray:
         """Read-only, fields metacell_count u4, metacell_pointer u4, min f4, max f4."""
@@ -70,6 +76,17 @@ def extract(
     direction: Optional[Sequence[Sequence[float]]] = None,
     attribute: Optional[Tuple[Any, ...]] = None,
     progress: Optional[Callable[[int, int], Any]] = None,
+) -> CellGrid: ...
+def extract_labels(
+    array: np.ndarray,
+    fortran: bool,
+    spacing: Sequence[float],
+    labels: str,
+    smooth: float = 0.0,
+    precision: Optional[int] = None,
+    threads: Optional[int] = None,
+    origin: Optional[Sequence[float]] = None,
+    direction: Optional[Sequence[Sequence[float]]] = None,
 ) -> CellGrid: ...
 def load(path: _Path) -> CellGrid: ...
 def _attach_attribute(

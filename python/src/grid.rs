@@ -6,7 +6,8 @@ use crate::errors::{invalid, to_py};
 use crate::pool::{check_callback, run_detached, run_watched};
 use isogrid::extract::attribute::{sample_attribute, sample_attribute_in_memory};
 use isogrid::{
-    layout, AttributePrecision, ExtractOptions, GridStats, Iso, Precision, Progress, ScalarType,
+    layout, AttributePrecision, ExtractOptions, GridStats, Iso, LabelOptions, LabelSelection,
+    Precision, Progress, ScalarType,
 };
 use numpy::ndarray::{ArrayView1, ArrayView2};
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyArrayDescr, PyArrayMethods};
@@ -92,6 +93,36 @@ pub fn extract(
         inner.set_attribute(sampled).map_err(to_py)?;
     }
     Ok(CellGrid { inner })
+}
+
+/// Extracts the surface of each selected label of a 3-D label array (see `isogrid.extract`, which
+/// prepares `array` and writes `labels` as `all` or a list such as `1,5-9`).
+#[pyfunction]
+#[pyo3(signature = (array, fortran, spacing, labels, smooth=0.0, precision=None, threads=None, origin=None, direction=None))]
+#[allow(clippy::too_many_arguments)]
+pub fn extract_labels(
+    py: Python<'_>,
+    array: &Bound<'_, PyAny>,
+    fortran: bool,
+    spacing: Vec<f64>,
+    labels: &str,
+    smooth: f64,
+    precision: Option<u32>,
+    threads: Option<usize>,
+    origin: Option<Vec<f64>>,
+    direction: Option<Vec<Vec<f64>>>,
+) -> PyResult<CellGrid> {
+    let volume = VolumeArg::new(array, fortran, spacing3(spacing)?)?.place(origin, direction)?;
+    let view = volume.view()?;
+    let options = LabelOptions {
+        selection: LabelSelection::parse(labels).map_err(to_py)?,
+        smooth,
+        precision: precision.map(precision_arg).transpose()?,
+    };
+    let inner = run_detached(py, threads, move || isogrid::extract_labels(&view, &options))?;
+    Ok(CellGrid {
+        inner: inner.map_err(to_py)?,
+    })
 }
 
 /// Gives the `.cgc` file `path` the attribute of the volume file `attribute_path` (read by region
@@ -299,7 +330,11 @@ impl CellGrid {
     /// Counts and sizes, with the names of the CLI's `--json` output (without `seconds`).
     #[getter]
     fn stats<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        stats_dict(py, &GridStats::of(&self.inner), self.inner.attribute())
+        let d = stats_dict(py, &GridStats::of(&self.inner), self.inner.attribute())?;
+        if let Some(labels) = self.labels(py)? {
+            d.set_item("labels", labels)?;
+        }
+        Ok(d)
     }
 
     /// Geometry, isovalue and value mapping (the `.cgc` header).
@@ -372,6 +407,46 @@ impl CellGrid {
         d.set_item("bits", a.info().precision.bits())?;
         d.set_item("range", (a.info().range[0], a.info().range[1]))?;
         Ok(Some(d))
+    }
+
+
+    /// The labels of a label volume's grid, in increasing value, as `isogrid extract --labels
+    /// --json` lists them: one dict each with `value`, `name`, `color` (`#rrggbbaa`), `cells`
+    /// (active cells of its surface) and `lo`, `hi` (its cells' box in cell indices, `[lo, hi)`);
+    /// `None` for an isosurface.
+    #[getter]
+    fn labels<'py>(&self, py: Python<'py>) -> PyResult<Option<Vec<Bound<'py, PyDict>>>> {
+        let Some(labels) = self.inner.labels() else {
+            return Ok(None);
+        };
+        let signed = isogrid::labels::signed_labels(self.inner.info().scalar_type);
+        labels
+            .table()
+            .iter()
+            .zip(labels.index())
+            .map(|(label, entry)| {
+                let d = PyDict::new(py);
+                if signed {
+                    d.set_item("value", label.value as i64)?;
+                } else {
+                    d.set_item("value", label.value)?;
+                }
+                d.set_item("name", &label.name)?;
+                d.set_item("color", label.color_hex())?;
+                d.set_item("cells", entry.cell_count)?;
+                d.set_item("lo", entry.lo.to_vec())?;
+                d.set_item("hi", entry.hi.to_vec())?;
+                Ok(d)
+            })
+            .collect::<PyResult<Vec<_>>>()
+            .map(Some)
+    }
+
+    /// The label of every cluster, as an index into `labels` (uint32, one per 16 metacell slots);
+    /// `None` for an isosurface.
+    #[getter]
+    fn cluster_labels<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray1<u32>>> {
+        Some(self.inner.labels()?.cluster_labels().to_vec().into_pyarray(py))
     }
 
     /// Whether the buffers are views of a memory-mapped `.cgc` file.

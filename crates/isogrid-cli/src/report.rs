@@ -79,7 +79,32 @@ pub struct GridReport {
     pub bytes_per_cell: f64,
     /// The per-cell attribute (`--color-by`), or null.
     pub attribute: Option<AttributeReport>,
+    /// The labels of a label volume's grid (`--labels`); absent for an isosurface.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub labels: Option<Vec<LabelReport>>,
     pub seconds: Seconds,
+}
+
+/// A label value: signed for a signed volume.
+#[derive(Serialize)]
+#[serde(untagged)]
+pub enum LabelValue {
+    Signed(i64),
+    Unsigned(u64),
+}
+
+/// One label of a grid in a report.
+#[derive(Serialize)]
+pub struct LabelReport {
+    pub value: LabelValue,
+    pub name: String,
+    /// sRGB and alpha as `#rrggbbaa`.
+    pub color: String,
+    /// Active cells of its surface.
+    pub cells: u64,
+    /// Its active cells' box in cell indices, `[lo, hi)` per axis (index space).
+    pub lo: [u32; 3],
+    pub hi: [u32; 3],
 }
 
 /// A grid's per-cell attribute in a report.
@@ -130,6 +155,7 @@ impl GridReport {
             },
             bytes_per_cell: stats.bytes_per_cell(),
             attribute: None,
+            labels: None,
             seconds,
         }
     }
@@ -137,6 +163,31 @@ impl GridReport {
     /// The report with the grid's attribute, when it has one.
     pub fn with_attribute(mut self, attribute: Option<&isogrid::CellAttribute>) -> Self {
         self.attribute = attribute.map(AttributeReport::new);
+        self
+    }
+
+    /// The report with the grid's labels, when it has them.
+    pub fn with_labels(mut self, grid: &CellGrid) -> Self {
+        let signed = isogrid::labels::signed_labels(grid.info().scalar_type);
+        self.labels = grid.labels().map(|labels| {
+            labels
+                .table()
+                .iter()
+                .zip(labels.index())
+                .map(|(label, entry)| LabelReport {
+                    value: if signed {
+                        LabelValue::Signed(label.value as i64)
+                    } else {
+                        LabelValue::Unsigned(label.value)
+                    },
+                    name: label.name.clone(),
+                    color: label.color_hex(),
+                    cells: entry.cell_count,
+                    lo: entry.lo,
+                    hi: entry.hi,
+                })
+                .collect()
+        });
         self
     }
 
@@ -180,6 +231,26 @@ impl GridReport {
                 mb(a.bytes),
                 a.bytes_per_cell
             );
+        }
+        if let Some(labels) = &self.labels {
+            outln!(
+                "labels        {} (value, cells, cell box [lo, hi), colour, name)",
+                group(labels.len() as u64)
+            );
+            for l in labels {
+                let value = match l.value {
+                    LabelValue::Signed(v) => v.to_string(),
+                    LabelValue::Unsigned(v) => v.to_string(),
+                };
+                outln!(
+                    "  {value:>8} {:>12}  {:?}..{:?}  {}  {}",
+                    group(l.cells),
+                    l.lo,
+                    l.hi,
+                    l.color,
+                    l.name
+                );
+            }
         }
         outln!(
             "seconds       read {:.3}, extract {:.3}, write {:.3}",

@@ -4,6 +4,8 @@
 mod color;
 #[path = "cli/hostile.rs"]
 mod hostile;
+#[path = "cli/labels.rs"]
+mod labels;
 
 use serde_json::Value;
 use std::path::{Path, PathBuf};
@@ -355,8 +357,14 @@ fn bad_input_gets_one_clear_line() {
 fn nrrd_u8_as_npy(nrrd: &Path, size: usize, npy: &Path) {
     let bytes = std::fs::read(nrrd).unwrap();
     let data = &bytes[bytes.len() - size * size * size..];
+    write_npy(npy, "|u1", [size; 3], data);
+}
+
+/// `data` as a C-order .npy of numpy type `descr` and shape `shape` (z, y, x).
+fn write_npy(path: &Path, descr: &str, shape: [usize; 3], data: &[u8]) {
+    let [a, b, c] = shape;
     let mut header =
-        format!("{{'descr': '|u1', 'fortran_order': False, 'shape': ({size}, {size}, {size}), }}");
+        format!("{{'descr': '{descr}', 'fortran_order': False, 'shape': ({a}, {b}, {c}), }}");
     while (10 + header.len() + 1) % 64 != 0 {
         header.push(' ');
     }
@@ -365,7 +373,7 @@ fn nrrd_u8_as_npy(nrrd: &Path, size: usize, npy: &Path) {
     out.extend_from_slice(&(header.len() as u16).to_le_bytes());
     out.extend_from_slice(header.as_bytes());
     out.extend_from_slice(data);
-    std::fs::write(npy, out).unwrap();
+    std::fs::write(path, out).unwrap();
 }
 
 /// Region-readable inputs stream within `--max-memory`; every budget from the least that works

@@ -1,6 +1,7 @@
 //! [`CellGrid`]: an extracted clustered grid cell structure, owned or memory-mapped from a `.cgc` file.
 
 use crate::attribute::CellAttribute;
+use crate::labels::GridLabels;
 use crate::layout::{
     Block, ClusterBound, Metacell, Precision, BLOCK_CELLS, BOUND_SLOT, CLUSTER_SLOTS,
 };
@@ -29,6 +30,26 @@ pub struct GridInfo {
 }
 
 impl GridInfo {
+    /// The header of a grid of `geometry`'s volume whose corners `quantizer` encodes.
+    pub(crate) fn new(
+        geometry: &crate::volume::Geometry,
+        scalar_type: ScalarType,
+        value_range: [f64; 2],
+        iso: f64,
+        quantizer: &crate::quantize::Quantizer,
+    ) -> Self {
+        GridInfo {
+            dims: geometry.dims.map(|d| d as u32),
+            spacing: geometry.spacing,
+            origin: geometry.origin,
+            direction: geometry.direction,
+            scalar_type,
+            value_range,
+            iso,
+            precision: quantizer.precision(),
+            mapping: quantizer.mapping(),
+        }
+    }
     pub fn cell_dims(&self) -> [u32; 3] {
         self.dims.map(|n| n.saturating_sub(1))
     }
@@ -80,6 +101,8 @@ pub struct CellGrid {
     storage: Storage,
     /// A second quantity per active cell, to colour the surface by.
     attribute: Option<CellAttribute>,
+    /// The label of every cluster and the label table, for a grid of a label volume.
+    labels: Option<GridLabels>,
 }
 
 impl std::fmt::Debug for CellGrid {
@@ -90,6 +113,7 @@ impl std::fmt::Debug for CellGrid {
             .field("metacell_slots", &self.metacells().len())
             .field("active_cells", &self.active_cells())
             .field("attribute", &self.attribute.as_ref().map(|a| a.info()))
+            .field("labels", &self.labels.as_ref().map(|l| l.table().len()))
             .finish()
     }
 }
@@ -109,6 +133,7 @@ impl CellGrid {
                 cells,
             },
             attribute: None,
+            labels: None,
         }
     }
     pub(crate) fn from_storage(info: GridInfo, storage: Storage) -> Self {
@@ -116,6 +141,7 @@ impl CellGrid {
             info,
             storage,
             attribute: None,
+            labels: None,
         }
     }
 
@@ -137,6 +163,29 @@ impl CellGrid {
         self.attribute = Some(attribute);
         Ok(())
     }
+    /// The grid with `labels` (replacing any it had). Fails unless they index exactly its clusters
+    /// (see [`GridLabels`]).
+    pub fn with_labels(mut self, labels: GridLabels) -> crate::Result<Self> {
+        labels.check(self.metacells())?;
+        self.labels = Some(labels);
+        Ok(self)
+    }
+    /// [`CellGrid::with_labels`] for labels the extraction built, which hold by construction
+    /// (checked in debug builds).
+    pub(crate) fn with_built_labels(mut self, labels: GridLabels) -> Self {
+        debug_assert!(labels.check(self.metacells()).is_ok());
+        self.labels = Some(labels);
+        self
+    }
+    /// The labels of a grid extracted from a label volume.
+    pub fn labels(&self) -> Option<&GridLabels> {
+        self.labels.as_ref()
+    }
+    /// Mutable labels, to rename or recolour them ([`GridLabels::set_table`]).
+    pub fn labels_mut(&mut self) -> Option<&mut GridLabels> {
+        self.labels.as_mut()
+    }
+
     /// The per-cell attribute, when the grid carries one.
     pub fn attribute(&self) -> Option<&CellAttribute> {
         self.attribute.as_ref()

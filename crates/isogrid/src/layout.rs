@@ -92,6 +92,17 @@ impl Metacell {
     pub fn as_bound(&self) -> ClusterBound {
         bytemuck::cast(*self)
     }
+    /// The box of its active cells in cell indices, `[lo, hi)` per axis (an empty metacell's is
+    /// meaningless). From the mask alone: along x, cells 0, 2, 4, 6 are the low half.
+    #[inline]
+    pub fn cell_box(&self) -> ([u32; 3], [u32; 3]) {
+        const LOW: [u16; 3] = [0x55, 0x33, 0x0f];
+        let m = self.cell_mask & 0xff;
+        let lo = [0, 1, 2].map(|a| 2 * self.position[a] as u32 + (m & LOW[a] == 0) as u32);
+        let hi =
+            [0, 1, 2].map(|a| 2 * self.position[a] as u32 + 1 + (m & !LOW[a] & 0xff != 0) as u32);
+        (lo, hi)
+    }
     /// Grid index of cell `bit` of this metacell.
     #[inline]
     pub fn cell_position(&self, bit: u32) -> [u32; 3] {

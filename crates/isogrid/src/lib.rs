@@ -35,6 +35,7 @@ pub mod extract;
 pub mod fs;
 pub mod generate;
 pub mod grid;
+pub mod labels;
 pub mod layout;
 pub mod mc;
 pub mod memory;
@@ -50,8 +51,10 @@ pub use attribute::{AttributeInfo, AttributePrecision, CellAttribute, CodeMappin
 pub use camera::{Camera, Ray};
 pub use env_map::EnvMap;
 pub use error::{Error, ErrorKind, Result, ResultExt};
+pub use extract::labels::{extract_labels, LabelOptions};
 pub use extract::{extract, extract_with_progress, ExtractOptions, Iso};
 pub use grid::{CellGrid, GridInfo};
+pub use labels::{GridLabels, Label, LabelSelection};
 pub use layout::{Block, ClusterBound, Metacell, Precision};
 pub use progress::Progress;
 pub use quantize::ValueMapping;

@@ -50,6 +50,9 @@ pub struct Quantizer {
     /// Smallest code that counts as inside (integer precisions).
     first_inside: f64,
     exact: bool,
+    /// The code of every u8 sample value, its side being `value >= iso` (integer precisions):
+    /// u8 volumes at 4 bits and label indicators look their codes up instead of rounding.
+    u8_codes: [u16; 256],
 }
 
 /// Smallest f32 that is `>= x`, so that `v >= x ⇔ v >= result` for every f32 `v`.
@@ -77,6 +80,7 @@ impl Quantizer {
                 max_code: f64::MAX,
                 first_inside: 0.0,
                 exact: true,
+                u8_codes: [0; 256],
             };
         };
         let max_code = max_code as f64;
@@ -107,7 +111,7 @@ impl Quantizer {
         if t as f64 <= first_inside - 1.0 {
             t = ((first_inside - 1.0) as f32).next_up();
         }
-        Quantizer {
+        let mut q = Quantizer {
             precision,
             mapping: ValueMapping {
                 offset,
@@ -118,7 +122,10 @@ impl Quantizer {
             max_code,
             first_inside,
             exact,
-        }
+            u8_codes: [0; 256],
+        };
+        q.u8_codes = std::array::from_fn(|v| q.code(v as f64, v as f64 >= iso) as u16);
+        q
     }
 
     /// The integer offset when codes are `sample − offset` exactly (integer data that fits).
@@ -156,41 +163,53 @@ impl Quantizer {
     /// Writes the corner record of one cell (`values` in corner order, `inside` bit c = corner c's side).
     #[inline]
     pub fn encode_cell(&self, values: &[f64; 8], inside: u8, out: &mut [u8]) {
-        match self.precision {
-            Precision::Float32 => {
-                let t = self.mapping.iso_code;
-                for (c, v) in values.iter().enumerate() {
-                    // An f32 sample keeps its side as it is (t is the least f32 >= iso); a wider
-                    // one may round across t and is pulled back to the nearest f32 on its side.
-                    let mut code = *v as f32;
-                    if inside >> c & 1 != 0 {
-                        if !(code >= t) {
-                            code = t;
-                        }
-                    } else if code >= t {
-                        code = t.next_down();
+        if self.precision == Precision::Float32 {
+            let t = self.mapping.iso_code;
+            for (c, v) in values.iter().enumerate() {
+                // An f32 sample keeps its side as it is (t is the least f32 >= iso); a wider one
+                // may round across t and is pulled back to the nearest f32 on its side.
+                let mut code = *v as f32;
+                if inside >> c & 1 != 0 {
+                    if !(code >= t) {
+                        code = t;
                     }
-                    out[4 * c..4 * c + 4].copy_from_slice(&code.to_le_bytes());
+                } else if code >= t {
+                    code = t.next_down();
                 }
+                out[4 * c..4 * c + 4].copy_from_slice(&code.to_le_bytes());
             }
+            return;
+        }
+        let codes = std::array::from_fn(|c| self.code(values[c], inside >> c & 1 != 0) as u16);
+        self.pack_codes(&codes, out);
+    }
+
+    /// [`Quantizer::encode_cell`] of u8 samples, whose codes are looked up (integer precisions).
+    #[inline]
+    pub(crate) fn encode_u8_cell(&self, values: &[u8; 8], out: &mut [u8]) {
+        self.pack_codes(&values.map(|v| self.u8_codes[v as usize]), out);
+    }
+
+    /// Packs eight integer codes into a corner record at the precision's width.
+    #[inline]
+    fn pack_codes(&self, codes: &[u16; 8], out: &mut [u8]) {
+        match self.precision {
             Precision::Bits16 => {
-                for (c, v) in values.iter().enumerate() {
-                    let code = self.code(*v, inside >> c & 1 != 0) as u16;
+                for (c, code) in codes.iter().enumerate() {
                     out[2 * c..2 * c + 2].copy_from_slice(&code.to_le_bytes());
                 }
             }
             Precision::Bits8 => {
-                for (c, v) in values.iter().enumerate() {
-                    out[c] = self.code(*v, inside >> c & 1 != 0) as u8;
+                for (c, &code) in codes.iter().enumerate() {
+                    out[c] = code as u8;
                 }
             }
             Precision::Bits4 => {
                 for pair in 0..4 {
-                    let lo = self.code(values[2 * pair], inside >> (2 * pair) & 1 != 0);
-                    let hi = self.code(values[2 * pair + 1], inside >> (2 * pair + 1) & 1 != 0);
-                    out[pair] = (lo | hi << 4) as u8;
+                    out[pair] = (codes[2 * pair] | codes[2 * pair + 1] << 4) as u8;
                 }
             }
+            Precision::Float32 => unreachable!("32-bit records hold values, not codes"),
         }
     }
 }

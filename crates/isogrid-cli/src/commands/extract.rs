@@ -11,7 +11,10 @@ use crate::report::{print_json, AttributeReport, GridReport, Seconds};
 use crate::{input, progress};
 use anyhow::{Context, Result};
 use isogrid::extract::stream::{self, Progress, RegionSource, Stage};
-use isogrid::{extract, AttributePrecision, CellGrid, ExtractOptions, GridStats, Precision};
+use isogrid::{
+    extract, extract_labels, AttributePrecision, CellGrid, ExtractOptions, GridStats, LabelOptions,
+    LabelSelection, Precision,
+};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -42,6 +45,16 @@ pub struct Args {
     /// surface) or 32 (f32) [default: 16].
     #[arg(long, value_name = "BITS", value_parser = parse_attribute_precision, requires = "color_by")]
     pub attribute_precision: Option<AttributePrecision>,
+    /// Extract the surface of each label of a label volume instead of an isosurface: `all` (every
+    /// label but 0, the background) or values and ranges such as `1,5-9`. Each label's surface is
+    /// the isosurface at 1/2 of its indicator; the file lists the labels with names and colours.
+    // In the isovalue's group: one of --iso, --iso-normalized and --labels is required.
+    #[arg(long, value_name = "all|1,5-9", value_parser = parse_labels, group = "IsoArgs", conflicts_with = "color_by")]
+    pub labels: Option<LabelSelection>,
+    /// With --labels: smooth each label's indicator by a Gaussian of SIGMA voxels before its
+    /// surface is taken, so surfaces are not chamfered; 0 for none [default: 0].
+    #[arg(long, value_name = "SIGMA", requires = "labels")]
+    pub smooth: Option<f64>,
     /// Write the grid to this .cgc file.
     #[arg(short, long, value_name = "OUT.cgc")]
     pub output: Option<PathBuf>,
@@ -50,7 +63,20 @@ pub struct Args {
     pub json: bool,
 }
 
+/// `--smooth` when not given (docs/benchmarks-labels.md says why).
+pub const DEFAULT_SMOOTH: f64 = 0.0;
+
+fn parse_labels(text: &str) -> Result<LabelSelection, String> {
+    LabelSelection::parse(text).map_err(|e| e.message().to_string())
+}
+
 pub fn run(args: Args) -> Result<()> {
+    if args.labels.is_some() {
+        return run_labels(args);
+    }
+    if args.smooth.is_some() {
+        anyhow::bail!("--smooth smooths label indicators, and needs --labels");
+    }
     let output = args.output.as_deref().map(|path| Output {
         role: "the grid",
         path,
@@ -102,8 +128,13 @@ pub fn run(args: Args) -> Result<()> {
     };
     let mut report = GridReport::new(&stats, seconds);
     report.attribute = attribute_report;
+    print_report(&args, &report)
+}
+
+/// The report on stdout: JSON, or a table and where the grid went.
+fn print_report(args: &Args, report: &GridReport) -> Result<()> {
     if args.json {
-        print_json(&report)
+        print_json(report)
     } else {
         report.print_human()?;
         if let Some(out) = &args.output {
@@ -111,6 +142,77 @@ pub fn run(args: Args) -> Result<()> {
         }
         Ok(())
     }
+}
+
+/// `--labels`: the whole volume in memory, every selected label's surface in one pass, the file.
+fn run_labels(args: Args) -> Result<()> {
+    let selection = args.labels.clone().expect("called with --labels");
+    if args.max_memory.is_some() {
+        anyhow::bail!(
+            "{}: --labels reads the whole volume; it cannot stream within --max-memory yet",
+            args.input.display()
+        );
+    }
+    let output = args.output.as_deref().map(|path| Output {
+        role: "the grid",
+        path,
+        extensions: &[".cgc"],
+    });
+    outputs::check(&[args.input.as_path()], output.as_slice())?;
+    let read_options = args.input_args.read_options()?;
+    let pool = args.threads.pool()?;
+    let (volume, read) = input::read_volume(&args.input, &read_options)?;
+    let options = LabelOptions {
+        selection: selection.clone(),
+        smooth: args.smooth.unwrap_or(DEFAULT_SMOOTH),
+        precision: args.precision,
+    };
+    let spinner = progress::spinner("extracting labels".into());
+    let start = Instant::now();
+    let grid = pool
+        .install(|| extract_labels(&volume.view(), &options))
+        .with_context(|| format!("{}: label extraction failed", args.input.display()))?;
+    let extract_seconds = start.elapsed().as_secs_f64();
+    spinner.finish_and_clear();
+    let labels = grid.labels().expect("a label grid has labels");
+    if let LabelSelection::Values(ranges) = &selection {
+        // A single value asked for and absent is worth a line; ranges may have gaps.
+        let signed = isogrid::labels::signed_labels(grid.info().scalar_type);
+        let missing: Vec<String> = ranges
+            .iter()
+            .filter(|r| r.start() == r.end() && labels.find(*r.start()).is_none())
+            .map(|r| isogrid::labels::display_value(*r.start(), signed))
+            .collect();
+        if !missing.is_empty() {
+            eprintln!(
+                "isogrid: note: {}: no label {} in the volume",
+                args.input.display(),
+                missing.join(", ")
+            );
+        }
+    }
+    if labels.table().is_empty() {
+        eprintln!(
+            "isogrid: note: {}: the volume holds no selected label; the surface is empty",
+            args.input.display()
+        );
+    }
+    let mut write = 0.0;
+    if let Some(out) = &args.output {
+        let start = Instant::now();
+        isogrid::cgc::write(out, &grid)?;
+        write = start.elapsed().as_secs_f64();
+    }
+    let report = GridReport::new(
+        &GridStats::of(&grid),
+        Seconds {
+            read,
+            extract: extract_seconds,
+            write,
+        },
+    )
+    .with_labels(&grid);
+    print_report(&args, &report)
 }
 
 /// The whole volume in memory, then the grid, then the file.

@@ -34,12 +34,21 @@ pub fn run(args: Args) -> Result<()> {
             ..Default::default()
         },
     )
-    .with_attribute(grid.attribute());
+    .with_attribute(grid.attribute())
+    .with_labels(&grid);
     if args.json {
         print_json(&report)
     } else {
         report.print_human()?;
         let info = grid.info();
+        if grid.labels().is_some() {
+            outln!(
+                "source        {} label volume; the corners hold each label's indicator (0 to 1), spacing {:?}",
+                info.scalar_type.name(),
+                info.spacing
+            );
+            return Ok(());
+        }
         outln!(
             "source        {} samples in [{}, {}], spacing {:?}",
             info.scalar_type.name(),

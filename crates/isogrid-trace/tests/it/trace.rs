@@ -645,3 +645,42 @@ fn white_furnace_every_pixel_is_one() {
         / image.hits() as f64;
     assert!((hit_mean - 0.5).abs() < 0.05, "hit mean {hit_mean}");
 }
+
+/// A label volume's grid (one cluster per label, boundary cells stored once per label) traces as
+/// the union of its label surfaces: the closest crossing over all its cells, as the brute force
+/// finds it.
+#[test]
+fn a_labelled_grid_traces_as_the_union_of_its_label_surfaces() {
+    let volume = blobs_u8([30, 26, 34]);
+    let VolumeData::U8(samples) = volume.data() else {
+        unreachable!("blobs are u8")
+    };
+    // Four bands of the blobs' values: background 0 and three nested, touching labels.
+    let labels: Vec<u8> = samples.iter().map(|v| v / 64).collect();
+    let labelled = Volume::new(volume.dims(), VolumeData::U8(labels)).unwrap();
+    let grid = isogrid::extract_labels(
+        &labelled.view(),
+        &isogrid::LabelOptions::new(isogrid::LabelSelection::All),
+    )
+    .unwrap();
+    assert!(grid.labels().unwrap().table().len() >= 2);
+    let cells = reference_cells(&grid);
+    let spacing = grid.info().spacing;
+    let iso = grid.info().mapping.iso_code as f64;
+    let (lo, hi) = world_box(&grid);
+    let tracer = Tracer::new(&grid, Crossing::Exact);
+    let mut hits = 0;
+    for (i, ray) in random_rays(lo, hi, 300, 29).iter().enumerate() {
+        let reference = reference_hit(&cells, spacing, iso, ray, 0.0, f64::INFINITY);
+        let hit = tracer.closest_hit(ray, 0.0, f64::INFINITY);
+        match (reference, hit) {
+            (Some(r), Some(h)) => {
+                assert!((r.t - h.t).abs() <= 1e-4, "ray {i}: {} vs {}", h.t, r.t);
+                hits += 1;
+            }
+            (None, None) => {}
+            (r, h) => panic!("ray {i}: {:?} vs {:?}", h.map(|h| h.t), r.map(|r| r.t)),
+        }
+    }
+    assert!(hits > 50, "{hits}");
+}

@@ -28,14 +28,29 @@ pub enum SectionKind {
     Cells,
     /// A per-cell attribute ([`super::attribute`]; optional: a reader without it still has the surface).
     CellAttribute,
+    /// The label of every cluster ([`crate::labels`]; optional, with the two below).
+    ClusterLabels,
+    /// Per label: cells, bounds and runs of clusters ([`crate::labels`]).
+    LabelIndex,
+    /// Per label: value, name and colour ([`crate::labels`]).
+    LabelTable,
 }
 
 impl SectionKind {
-    pub const ALL: [SectionKind; 4] = [
+    pub const ALL: [SectionKind; 7] = [
         SectionKind::Blocks,
         SectionKind::Metacells,
         SectionKind::Cells,
         SectionKind::CellAttribute,
+        SectionKind::ClusterLabels,
+        SectionKind::LabelIndex,
+        SectionKind::LabelTable,
+    ];
+    /// The label sections, which a file holds all or none of, in this order.
+    pub const LABELS: [SectionKind; 3] = [
+        SectionKind::ClusterLabels,
+        SectionKind::LabelIndex,
+        SectionKind::LabelTable,
     ];
     /// The `kind` code in the section table.
     pub fn code(self) -> u32 {
@@ -44,6 +59,9 @@ impl SectionKind {
             SectionKind::Metacells => 2,
             SectionKind::Cells => 3,
             SectionKind::CellAttribute => 4,
+            SectionKind::ClusterLabels => 5,
+            SectionKind::LabelIndex => 6,
+            SectionKind::LabelTable => 7,
         }
     }
     pub fn from_code(code: u32) -> Option<SectionKind> {
@@ -66,6 +84,9 @@ impl SectionKind {
             SectionKind::Metacells => "metacells",
             SectionKind::Cells => "cells",
             SectionKind::CellAttribute => "cell attribute",
+            SectionKind::ClusterLabels => "cluster labels",
+            SectionKind::LabelIndex => "label index",
+            SectionKind::LabelTable => "label table",
         }
     }
 }

@@ -41,6 +41,14 @@
 //! | 2 | metacells | required | [`crate::layout::Metacell`] slots |
 //! | 3 | cells | required | corner records at the header's precision |
 //! | 4 | cell attribute | optional | one value per active cell ([`crate::attribute`]) |
+//! | 5 | cluster labels | optional | a u32 label per cluster ([`crate::labels`]) |
+//! | 6 | label index | optional | per label: cells, bounds, runs of clusters ([`crate::labels`]) |
+//! | 7 | label table | optional | per label: value, colour, name ([`crate::labels`]) |
+//!
+//! A file holds the three label sections together or none of them; the reader checks them
+//! against each other and against the metacells (every cluster's label in range, the index
+//! consistent with the clusters, names UTF-8). In a file of a label volume the corner records
+//! hold each label's indicator (header value range `[0, 1]`, isovalue ½).
 //!
 //! A reader skips optional sections of kinds it does not know (checking their CRC) and refuses
 //! required ones. Version 1 files, still read, have no table: header bytes 160..208 hold

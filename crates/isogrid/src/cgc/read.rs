@@ -10,6 +10,7 @@ use super::format::{
 use crate::attribute::{AttributeInfo, AttributePrecision, CellAttribute, ATTRIBUTE_HEAD_SIZE};
 use crate::error::{Error, Result, ResultExt};
 use crate::grid::{CellGrid, GridInfo, Storage};
+use crate::labels::GridLabels;
 use crate::layout::{Block, Metacell, Precision, BLOCK_METACELLS, BOUND_SLOT, CLUSTER_SLOTS};
 use crate::progress::Progress;
 use crate::quantize::ValueMapping;
@@ -26,6 +27,8 @@ struct Header {
     checksummed: Vec<(String, Range<usize>, u32)>,
     /// The cell attribute section, when there is one.
     attribute: Option<Range<usize>>,
+    /// The cluster labels, label index and label table, when the file has labels.
+    labels: Option<[Range<usize>; 3]>,
     /// Bytes between sections, which must be zero (version 2).
     gaps: Vec<Range<usize>>,
     occupied: u64,
@@ -169,6 +172,7 @@ fn parse_header(h: &[u8], file_len: u64) -> Result<Header> {
         sections: Default::default(),
         checksummed: Vec::new(),
         attribute: None,
+        labels: None,
         gaps: Vec::new(),
         occupied,
     };
@@ -217,6 +221,7 @@ fn parse_header(h: &[u8], file_len: u64) -> Result<Header> {
     }
     let mut end = (HEADER_SIZE + table_len) as u64;
     let mut seen = Vec::new();
+    let mut labels: [Option<Range<usize>>; 3] = Default::default();
     for (i, raw) in table.chunks_exact(TABLE_ENTRY_SIZE).enumerate() {
         let (entry, reserved_zero) = TableEntry::from_bytes(raw.try_into().unwrap());
         let kind = SectionKind::from_code(entry.kind);
@@ -254,6 +259,8 @@ fn parse_header(h: &[u8], file_len: u64) -> Result<Header> {
                     header.sections[s] = range.clone();
                 } else if kind == SectionKind::CellAttribute {
                     header.attribute = Some(range.clone());
+                } else if let Some(l) = SectionKind::LABELS.iter().position(|&k| k == kind) {
+                    labels[l] = Some(range.clone());
                 }
             }
         }
@@ -267,6 +274,15 @@ fn parse_header(h: &[u8], file_len: u64) -> Result<Header> {
             "the file is {file_len} bytes but its sections end at {end} (truncated or appended to?)"
         )));
     }
+    header.labels = match labels {
+        [Some(c), Some(i), Some(t)] => Some([c, i, t]),
+        [None, None, None] => None,
+        _ => {
+            return Err(Error::corrupt(
+                "the file has some of the three label sections but not all",
+            ))
+        }
+    };
     Ok(header)
 }
 
@@ -470,16 +486,32 @@ pub fn read_bytes(bytes: &[u8]) -> Result<CellGrid> {
         &Progress::new(),
     )?;
     let grid = CellGrid::from_parts(header.info.clone(), blocks, metacells, cells);
-    with_attribute(grid, header.attribute.map(|r| &bytes[r]))
+    with_optional(
+        grid,
+        header.attribute.map(|r| &bytes[r]),
+        header.labels.map(|l| l.map(|r| &bytes[r])),
+    )
 }
 
-/// `grid` with the attribute of section bytes `attribute`, when there is one (checksum checked).
-fn with_attribute(grid: CellGrid, attribute: Option<&[u8]>) -> Result<CellGrid> {
-    match attribute {
-        None => Ok(grid),
+/// `grid` with the attribute of section bytes `attribute` and the labels of the three label
+/// sections' bytes, when it has them (checksums checked), validated against the grid.
+fn with_optional(
+    grid: CellGrid,
+    attribute: Option<&[u8]>,
+    labels: Option<[&[u8]; 3]>,
+) -> Result<CellGrid> {
+    let grid = match attribute {
+        None => grid,
         Some(bytes) => {
             let attribute = parse_attribute(bytes, grid.active_cells())?;
-            grid.with_attribute(attribute)
+            grid.with_attribute(attribute)?
+        }
+    };
+    match labels {
+        None => Ok(grid),
+        Some([clusters, index, table]) => {
+            let labels = GridLabels::from_sections(clusters, index, table, grid.metacells())?;
+            grid.with_labels(labels)
         }
     }
 }
@@ -538,23 +570,35 @@ pub fn read(path: &Path) -> Result<CellGrid> {
             bytemuck::cast_slice(&metacells),
             &cells,
         ];
-        let mut attribute = None;
         let sections: Vec<&[u8]> = header
             .checksummed
             .iter()
             .map(
                 |(_, range, _)| match header.sections.iter().position(|r| r == range) {
                     Some(s) => grid_bytes[s],
-                    None => {
-                        let bytes = others_iter.next().expect("read above").as_slice();
-                        if header.attribute.as_ref() == Some(range) {
-                            attribute = Some(bytes);
-                        }
-                        bytes
-                    }
+                    None => others_iter.next().expect("read above").as_slice(),
                 },
             )
             .collect();
+        // An optional section's bytes, by its range.
+        let optional: Vec<(&Range<usize>, &[u8])> = header
+            .checksummed
+            .iter()
+            .map(|(_, r, _)| r)
+            .filter(|r| !header.sections.contains(r))
+            .zip(others.iter().map(|o| o.as_slice()))
+            .collect();
+        let bytes_of = |range: &Range<usize>| -> &[u8] {
+            optional
+                .iter()
+                .find(|(r, _)| *r == range)
+                .map_or(&[], |(_, bytes)| bytes)
+        };
+        let attribute = header.attribute.as_ref().map(bytes_of);
+        let labels = header
+            .labels
+            .as_ref()
+            .map(|l| [0, 1, 2].map(|i| bytes_of(&l[i])));
         validate(
             &header,
             &sections,
@@ -564,7 +608,7 @@ pub fn read(path: &Path) -> Result<CellGrid> {
             &Progress::new(),
         )?;
         let grid = CellGrid::from_parts(header.info.clone(), blocks, metacells, cells);
-        with_attribute(grid, attribute)
+        with_optional(grid, attribute, labels)
     })()
     .at_path(path)
 }
@@ -609,7 +653,20 @@ pub fn open_with_progress(path: &Path, progress: &Progress) -> Result<CellGrid> 
             .clone()
             .map(|r| parse_attribute(&map[r], c.len() / header.info.precision.bytes_per_cell()))
             .transpose()?;
-        let grid = CellGrid::from_storage(
+        let labels = header
+            .labels
+            .as_ref()
+            .map(|[l, i, t]| {
+                let metacells: &[Metacell] = bytemuck::cast_slice(&map[m.clone()]);
+                GridLabels::from_sections(
+                    &map[l.clone()],
+                    &map[i.clone()],
+                    &map[t.clone()],
+                    metacells,
+                )
+            })
+            .transpose()?;
+        let mut grid = CellGrid::from_storage(
             header.info,
             Storage::Mapped {
                 map,
@@ -618,8 +675,11 @@ pub fn open_with_progress(path: &Path, progress: &Progress) -> Result<CellGrid> 
                 cells: c,
             },
         );
-        match attribute {
-            Some(attribute) => grid.with_attribute(attribute),
+        if let Some(attribute) = attribute {
+            grid = grid.with_attribute(attribute)?;
+        }
+        match labels {
+            Some(labels) => grid.with_labels(labels),
             None => Ok(grid),
         }
     })()

@@ -250,7 +250,10 @@ fn header_bytes(
 }
 
 /// The sections of an extracted grid, in file order, each as the pieces of its bytes.
-fn grid_sections(grid: &CellGrid) -> Vec<(SectionKind, Vec<&[u8]>)> {
+fn grid_sections<'a>(
+    grid: &'a CellGrid,
+    labels: &'a Option<[Vec<u8>; 3]>,
+) -> Vec<(SectionKind, Vec<&'a [u8]>)> {
     let mut sections = vec![
         (
             SectionKind::Blocks,
@@ -268,11 +271,17 @@ fn grid_sections(grid: &CellGrid) -> Vec<(SectionKind, Vec<&[u8]>)> {
             vec![attribute.head_bytes(), attribute.value_bytes()],
         ));
     }
+    if let Some(labels) = labels {
+        for (kind, bytes) in SectionKind::LABELS.into_iter().zip(labels) {
+            sections.push((kind, vec![bytes.as_slice()]));
+        }
+    }
     sections
 }
 
 fn write_to(grid: &CellGrid, target: &mut dyn WriteAt) -> Result<()> {
-    let sections = grid_sections(grid);
+    let labels = grid.labels().map(|l| l.section_bytes());
+    let sections = grid_sections(grid, &labels);
     let plan = FilePlan::new(
         &sections
             .iter()

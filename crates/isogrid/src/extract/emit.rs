@@ -54,12 +54,34 @@ pub(crate) fn emit_block<T: ExtractScalar>(
     out: BlockOutput<'_>,
     scratch: &mut BlockScratch,
 ) {
-    let [nx, ny, nz] = dims;
-    // Sample offsets of the block inside the caller's samples (a slab or tile starts at a block).
-    let origin = [0, 1, 2].map(|a| (out.block[a] - out.slab_block[a]) * BLOCK_CELLS);
-    let cells = [0, 1, 2].map(|a| (dims[a] - 1 - origin[a]).min(BLOCK_CELLS));
-    let slab = nx * ny;
+    classify_block(samples, dims, out.block, out.slab_block, threshold, scratch);
+    emit_classified_block(samples, dims, quantizer, out, scratch);
+}
 
+/// Sample offsets of block `block` inside samples that start at block `slab_block` (see
+/// [`BlockOutput::slab_block`]), and the block's cells per axis.
+fn block_extent(
+    dims: [usize; 3],
+    block: [usize; 3],
+    slab_block: [usize; 3],
+) -> ([usize; 3], [usize; 3]) {
+    let origin = [0, 1, 2].map(|a| (block[a] - slab_block[a]) * BLOCK_CELLS);
+    let cells = [0, 1, 2].map(|a| (dims[a] - 1 - origin[a]).min(BLOCK_CELLS));
+    (origin, cells)
+}
+
+/// The first half of [`emit_block`]: the block's inside bits and Morton-ordered metacell masks,
+/// into `scratch`. [`BlockScratch::counts`] then gives what pass 1 counts for the block.
+pub(crate) fn classify_block<T: ExtractScalar>(
+    samples: &[T],
+    dims: [usize; 3],
+    block: [usize; 3],
+    slab_block: [usize; 3],
+    threshold: Option<T>,
+    scratch: &mut BlockScratch,
+) {
+    let [nx, ny, _] = dims;
+    let (origin, cells) = block_extent(dims, block, slab_block);
     // The block's 17×17 sample rows are scattered over the volume and were last read in pass 1:
     // ask for all of them up front so the misses overlap instead of queueing behind each other.
     #[cfg(target_arch = "x86_64")]
@@ -121,7 +143,30 @@ pub(crate) fn emit_block<T: ExtractScalar>(
             }
         }
     }
+}
 
+impl BlockScratch {
+    /// Active cells and occupied metacells of the block last classified.
+    pub(crate) fn counts(&self) -> (u32, u32) {
+        self.metacell_masks
+            .iter()
+            .fold((0, 0), |(cells, occupied), &m| {
+                (cells + m.count_ones(), occupied + (m != 0) as u32)
+            })
+    }
+}
+
+/// The second half of [`emit_block`]: writes the block `scratch` holds the classification of.
+pub(crate) fn emit_classified_block<T: ExtractScalar>(
+    samples: &[T],
+    dims: [usize; 3],
+    quantizer: &Quantizer,
+    out: BlockOutput<'_>,
+    scratch: &mut BlockScratch,
+) {
+    let [nx, ny, _] = dims;
+    let (origin, _) = block_extent(dims, out.block, out.slab_block);
+    let slab = nx * ny;
     // Metacells, bounds and corner records in Morton order.
     let block_mc = out.block.map(|b| (b * BLOCK_METACELLS) as u16);
     let record = quantizer.precision().bytes_per_cell();
@@ -212,7 +257,6 @@ pub(crate) fn emit_block<T: ExtractScalar>(
         out.cells.len(),
         "pass 1 and pass 2 disagree on cells"
     );
-    let _ = nz;
 }
 
 /// Writes one corner record. Integer data stored exactly skips floating point altogether (the
@@ -237,6 +281,12 @@ fn encode_cell<T: ExtractScalar>(
                     .copy_from_slice(&(values[c].exact_code(offset) as u16).to_le_bytes());
             }
         }
-        _ => quantizer.encode_cell(&values.map(|v| v.to_f64()), inside, out),
+        (_, Precision::Float32) => quantizer.encode_cell(&values.map(|v| v.to_f64()), inside, out),
+        _ => match values.map(|v| v.as_u8()) {
+            [Some(a), Some(b), Some(c), Some(d), Some(e), Some(f), Some(g), Some(h)] => {
+                quantizer.encode_u8_cell(&[a, b, c, d, e, f, g, h], out)
+            }
+            _ => quantizer.encode_cell(&values.map(|v| v.to_f64()), inside, out),
+        },
     }
 }

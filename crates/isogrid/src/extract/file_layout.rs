@@ -39,17 +39,7 @@ impl FileLayout {
         };
         let quantizer = Quantizer::new(precision, scalar_type.is_integer(), lo, hi, iso);
         let record = precision.bytes_per_cell() as u64;
-        let info = GridInfo {
-            dims: geometry.dims.map(|d| d as u32),
-            spacing: geometry.spacing,
-            origin: geometry.origin,
-            direction: geometry.direction,
-            scalar_type,
-            value_range: [lo, hi],
-            iso,
-            precision,
-            mapping: quantizer.mapping(),
-        };
+        let info = GridInfo::new(geometry, scalar_type, [lo, hi], iso, &quantizer);
         let counts = HeaderCounts {
             blocks: block_count,
             metacell_slots: totals.slots,

@@ -9,6 +9,7 @@
 pub mod attribute;
 mod emit;
 mod file_layout;
+pub mod labels;
 pub(crate) mod scalar;
 mod scan;
 pub mod stream;
@@ -202,17 +203,7 @@ fn extract_typed<T: ExtractScalar>(
         });
     progress.check()?;
 
-    let info = GridInfo {
-        dims: dims.map(|d| d as u32),
-        spacing: geometry.spacing,
-        origin: geometry.origin,
-        direction: geometry.direction,
-        scalar_type: T::TYPE,
-        value_range: [lo, hi],
-        iso,
-        precision,
-        mapping: quantizer.mapping(),
-    };
+    let info = GridInfo::new(geometry, T::TYPE, [lo, hi], iso, &quantizer);
     Ok(CellGrid::from_parts(info, blocks, metacells, cells))
 }
 
@@ -270,16 +261,32 @@ struct Totals {
 impl Totals {
     /// The next block's record; errors past the format's 32-bit pointers.
     fn add(&mut self, s: &scan::BlockScan) -> Result<Block> {
-        let slots = metacell_slots(s.occupied_metacells);
+        self.add_block(
+            metacell_slots(s.occupied_metacells),
+            s.active_cells,
+            s.occupied_metacells,
+            [s.min, s.max],
+        )
+    }
+
+    /// The next block's record from its slots (whole clusters), active cells, occupied metacells
+    /// and value range; errors past the format's 32-bit pointers.
+    fn add_block(
+        &mut self,
+        slots: u64,
+        active_cells: u32,
+        occupied_metacells: u32,
+        [min, max]: [f64; 2],
+    ) -> Result<Block> {
         let block = Block {
             metacell_count: slots as u32,
             metacell_pointer: self.slots as u32,
-            min: s.min as f32,
-            max: s.max as f32,
+            min: min as f32,
+            max: max as f32,
         };
         self.slots += slots;
-        self.cells += s.active_cells as u64;
-        self.occupied_metacells += s.occupied_metacells as u64;
+        self.cells += active_cells as u64;
+        self.occupied_metacells += occupied_metacells as u64;
         self.nonempty_blocks += (slots > 0) as u64;
         if self.slots > u32::MAX as u64 || self.cells > u32::MAX as u64 {
             return Err(Error::too_large("more than 2^32 metacell slots or active cells: beyond the 32-bit pointers of the format"));

@@ -18,6 +18,12 @@ pub(crate) trait ExtractScalar: Scalar {
     /// The integer code of an integer sample under an exact (`step = 1`) mapping with this offset.
     fn exact_code(self, offset: i64) -> u32;
 
+    /// The sample as a u8, for u8 samples (whose codes are looked up).
+    #[inline]
+    fn as_u8(self) -> Option<u8> {
+        None
+    }
+
     /// Bit i set when `chunk[i] >= t`.
     #[inline]
     fn mask_chunk(chunk: &[Self; 16], t: Self) -> u16 {
@@ -93,6 +99,11 @@ impl ExtractScalar for u8 {
     #[inline]
     fn exact_code(self, offset: i64) -> u32 {
         (self as i64 - offset) as u32
+    }
+
+    #[inline]
+    fn as_u8(self) -> Option<u8> {
+        Some(self)
     }
 
     #[cfg(target_arch = "x86_64")]

@@ -1,6 +1,7 @@
 //! `.cgc` files: round trips, golden bytes, and rejection of damaged files.
 
 use crate::common::{blobs_u8, Rng};
+use crate::labels::tiny_labelled_grid;
 use isogrid::{
     cgc, extract, CellGrid, ErrorKind, ExtractOptions, Iso, Precision, Volume, VolumeData,
 };
@@ -150,11 +151,14 @@ fn round_trip_through_files_and_memory_maps() {
 
 #[test]
 fn every_truncation_is_rejected() {
-    let bytes = cgc::to_bytes(&tiny_grid());
-    for len in 0..bytes.len() {
-        let err = cgc::read_bytes(&bytes[..len]).unwrap_err();
-        assert_eq!(err.kind(), ErrorKind::Corrupt, "len {len}: {err}");
+    for grid in [tiny_grid(), tiny_labelled_grid()] {
+        let bytes = cgc::to_bytes(&grid);
+        for len in 0..bytes.len() {
+            let err = cgc::read_bytes(&bytes[..len]).unwrap_err();
+            assert_eq!(err.kind(), ErrorKind::Corrupt, "len {len}: {err}");
+        }
     }
+    let bytes = cgc::to_bytes(&tiny_grid());
     let path = temp_path("truncated.cgc");
     std::fs::write(&path, &bytes[..400]).unwrap();
     for err in [cgc::read(&path).unwrap_err(), cgc::open(&path).unwrap_err()] {
@@ -170,13 +174,15 @@ fn every_truncation_is_rejected() {
 fn damaged_bytes_are_rejected_without_panicking() {
     // Every bit of a small file: the header, the table, the padding between sections and every
     // section are covered by a checksum or a zero check, so no flip goes unnoticed.
-    let bytes = cgc::to_bytes(&tiny_grid());
-    for at in 0..bytes.len() {
-        for bit in 0..8 {
-            let mut damaged = bytes.clone();
-            damaged[at] ^= 1 << bit;
-            let err = cgc::read_bytes(&damaged).unwrap_err();
-            assert_eq!(err.kind(), ErrorKind::Corrupt, "byte {at} bit {bit}: {err}");
+    for grid in [tiny_grid(), tiny_labelled_grid()] {
+        let bytes = cgc::to_bytes(&grid);
+        for at in 0..bytes.len() {
+            for bit in 0..8 {
+                let mut damaged = bytes.clone();
+                damaged[at] ^= 1 << bit;
+                let err = cgc::read_bytes(&damaged).unwrap_err();
+                assert_eq!(err.kind(), ErrorKind::Corrupt, "byte {at} bit {bit}: {err}");
+            }
         }
     }
     let volume = blobs_u8([30, 30, 30]);
@@ -218,7 +224,7 @@ fn crc32_by_hand(data: &[u8]) -> u32 {
 /// A version 2 file assembled by this test, independently of the library's writer: the header
 /// fields 16..160 and the direction of `model` (a file the library wrote), then a table of
 /// `sections` (kind, flags, bytes) in this order.
-fn assemble(model: &[u8], sections: &[(u32, u32, &[u8])]) -> Vec<u8> {
+pub(crate) fn assemble(model: &[u8], sections: &[(u32, u32, &[u8])]) -> Vec<u8> {
     let table_end = 320 + 32 * sections.len();
     let mut offsets = Vec::new();
     let mut end = table_end;
@@ -249,7 +255,7 @@ fn assemble(model: &[u8], sections: &[(u32, u32, &[u8])]) -> Vec<u8> {
 }
 
 /// The bytes of section `e` of a version 2 file.
-fn section(file: &[u8], e: usize) -> &[u8] {
+pub(crate) fn section(file: &[u8], e: usize) -> &[u8] {
     let u64_at = |o: usize| u64::from_le_bytes(file[o..o + 8].try_into().unwrap()) as usize;
     let (offset, len) = (u64_at(320 + 32 * e + 8), u64_at(320 + 32 * e + 16));
     &file[offset..offset + len]

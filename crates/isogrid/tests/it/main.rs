@@ -6,6 +6,7 @@ mod cgc;
 #[allow(dead_code)]
 mod common;
 mod extract;
+mod labels;
 mod mc;
 mod stream;
 mod tiles;

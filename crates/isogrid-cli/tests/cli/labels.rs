@@ -1,0 +1,172 @@
+//! `extract --labels`: the file is the library's byte for byte, `info` lists the labels, and bad
+//! requests fail in one line without writing anything.
+
+use super::{fails, isogrid, ok_json, s, temp_dir};
+use isogrid::{LabelOptions, LabelSelection, Volume, VolumeData};
+use std::path::Path;
+
+const DIMS: [usize; 3] = [34, 21, 27];
+
+/// Touching boxes (5 and 700), a ball (9), a sheet (2) and background 0, as (x, y, z) u16.
+fn labels() -> Vec<u16> {
+    let [nx, ny, nz] = DIMS;
+    let mut v = vec![0u16; nx * ny * nz];
+    for z in 0..nz {
+        for y in 0..ny {
+            for x in 0..nx {
+                let d = [x as f64 - 10.0, y as f64 - 10.0, z as f64 - 12.0];
+                v[x + nx * (y + ny * z)] = if d.iter().map(|c| c * c).sum::<f64>() < 36.0 {
+                    9
+                } else if (3..16).contains(&y) && (4..24).contains(&z) {
+                    if x > 16 {
+                        700
+                    } else {
+                        5
+                    }
+                } else if y == 18 {
+                    2
+                } else {
+                    0
+                };
+            }
+        }
+    }
+    v
+}
+
+/// `data` as a C-order .npy of shape (z, y, x) with numpy type `descr`.
+fn write_npy(path: &Path, descr: &str, data: &[u8]) {
+    let [nx, ny, nz] = DIMS;
+    super::write_npy(path, descr, [nz, ny, nx], data);
+}
+
+#[test]
+fn labels_give_the_librarys_file_and_info_lists_them() {
+    let dir = temp_dir("labels");
+    let data = labels();
+    let npy = dir.join("labels.npy");
+    let bytes: Vec<u8> = data.iter().flat_map(|v| v.to_le_bytes()).collect();
+    write_npy(&npy, "<u2", &bytes);
+    let volume = Volume::new(DIMS, VolumeData::U16(data)).unwrap();
+    for (smooth, selection) in [("0", "all"), ("1.25", "all"), ("0", "2,5-9")] {
+        let out = dir.join(format!("labels-{smooth}-{selection}.cgc"));
+        let mut files = Vec::new();
+        for threads in ["1", "2"] {
+            let report = ok_json(&[
+                "extract",
+                s(&npy),
+                "--labels",
+                selection,
+                "--smooth",
+                smooth,
+                "--threads",
+                threads,
+                "-o",
+                s(&out),
+                "--json",
+            ]);
+            files.push(std::fs::read(&out).unwrap());
+            let mut options = LabelOptions::new(LabelSelection::parse(selection).unwrap());
+            options.smooth = smooth.parse().unwrap();
+            let grid = isogrid::extract_labels(&volume.view(), &options).unwrap();
+            assert_eq!(files.last().unwrap(), &isogrid::cgc::to_bytes(&grid));
+            let listed: Vec<(u64, u64)> = report["labels"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|l| (l["value"].as_u64().unwrap(), l["cells"].as_u64().unwrap()))
+                .collect();
+            let expected: Vec<(u64, u64)> = grid
+                .labels()
+                .unwrap()
+                .table()
+                .iter()
+                .zip(grid.labels().unwrap().index())
+                .map(|(l, e)| (l.value, e.cell_count))
+                .collect();
+            assert_eq!(listed, expected);
+            let info = ok_json(&["info", s(&out), "--json"]);
+            assert_eq!(info["labels"], report["labels"]);
+        }
+        assert_eq!(files[0], files[1], "thread count changed the file");
+    }
+    let info = ok_json(&["info", s(&dir.join("labels-0-2,5-9.cgc")), "--json"]);
+    let names: Vec<&str> = info["labels"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|l| l["name"].as_str().unwrap())
+        .collect();
+    assert_eq!(names, ["label 2", "label 5", "label 9"]);
+    let human = isogrid(&["info", s(&dir.join("labels-0-all.cgc"))]);
+    let text = String::from_utf8_lossy(&human.stdout);
+    assert!(
+        text.contains("labels        4") && text.contains("label 700"),
+        "{text}"
+    );
+}
+
+#[test]
+fn bad_label_requests_fail_in_one_line_and_write_nothing() {
+    let dir = temp_dir("labels-bad");
+    let npy = dir.join("float.npy");
+    let floats: Vec<u8> = labels()
+        .iter()
+        .enumerate()
+        .map(|(i, &v)| if i == 7 { 0.5 } else { v as f32 })
+        .flat_map(|v| v.to_le_bytes())
+        .collect();
+    write_npy(&npy, "<f4", &floats);
+    let out = dir.join("out.cgc");
+    fails(
+        &["extract", s(&npy), "--labels", "all", "-o", s(&out)],
+        "integer label values",
+    );
+    let good = dir.join("labels.npy");
+    let bytes: Vec<u8> = labels().iter().flat_map(|v| v.to_le_bytes()).collect();
+    write_npy(&good, "<u2", &bytes);
+    fails(
+        &[
+            "extract",
+            s(&good),
+            "--labels",
+            "all",
+            "--max-memory",
+            "1G",
+            "-o",
+            s(&out),
+        ],
+        "--max-memory",
+    );
+    fails(
+        &[
+            "extract",
+            s(&good),
+            "--iso",
+            "3",
+            "--smooth",
+            "1",
+            "-o",
+            s(&out),
+        ],
+        "--labels",
+    );
+    fails(
+        &[
+            "extract",
+            s(&good),
+            "--labels",
+            "all",
+            "--smooth=-1",
+            "-o",
+            s(&out),
+        ],
+        "smoothing",
+    );
+    assert!(!out.exists());
+    // A value asked for and absent is a notice, not an error.
+    let report = isogrid(&["extract", s(&good), "--labels", "5,6", "-o", s(&out)]);
+    assert!(report.status.success());
+    let stderr = String::from_utf8_lossy(&report.stderr);
+    assert!(stderr.contains("no label 6"), "{stderr}");
+}

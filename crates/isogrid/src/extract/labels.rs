@@ -1,0 +1,536 @@
+//! Label extraction: the surface of every selected label of a label volume, in one pass over the
+//! volume, as clustered grid cells (paper §3.1) whose clusters each hold one label's cells.
+//!
+//! Label L's surface is the isosurface at ½ of its indicator (1 where the sample is L, 0
+//! elsewhere), or of the indicator smoothed by a Gaussian of σ voxels. Every 16³ block is visited
+//! once: its samples (with smoothing, plus a halo of the kernel's radius) are gathered as label
+//! keys, their distinct values found, and for each selected label among them the indicator is
+//! built on the block's 17³ samples and handed to the ordinary extraction's block classifier and
+//! emitter (`emit.rs`), with the grid's one quantiser. A block's clusters are therefore sorted by
+//! label, each label's in Morton order, and a cell on the boundary of labels A and B is stored
+//! twice: once in A's clusters with A's indicator, once in B's with B's. The work grows with the
+//! volume and the surface (blocks with one label in reach cost one sweep of their samples), not
+//! with the number of labels.
+//!
+//! Blocks are processed in parallel, each into its own buffers numbered from its first cell; the
+//! buffers are then concatenated in block order with their cell pointers moved, so the grid is
+//! byte-identical for any thread count.
+
+use super::emit::{self, BlockOutput, BlockScratch};
+use super::scalar::ExtractScalar;
+use super::{metacell_slots, Totals};
+use crate::error::{Error, Result};
+use crate::grid::{CellGrid, GridInfo};
+use crate::labels::{
+    check_label_samples, ClusterRun, GridLabels, Label, LabelEntry, LabelSample, LabelSelection,
+};
+use crate::layout::{Metacell, Precision, BLOCK_CELLS, BOUND_SLOT, CLUSTER_SLOTS};
+use crate::quantize::Quantizer;
+use crate::volume::{Samples, VolumeView};
+use rayon::prelude::*;
+
+/// The isovalue of an indicator.
+pub const LABEL_ISO: f64 = 0.5;
+
+/// What to extract from a label volume.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LabelOptions {
+    pub selection: LabelSelection,
+    /// σ of the Gaussian that smooths each indicator, in voxels (index space); 0 for none.
+    pub smooth: f64,
+    /// Corner precision; `None` picks [`LabelOptions::default_precision`].
+    pub precision: Option<Precision>,
+}
+
+impl LabelOptions {
+    pub fn new(selection: LabelSelection) -> Self {
+        LabelOptions {
+            selection,
+            smooth: 0.0,
+            precision: None,
+        }
+    }
+    /// 4 bits per corner for a binary indicator (its codes are 0 and 15), 8 for a smoothed one.
+    pub fn default_precision(&self) -> Precision {
+        if self.smooth > 0.0 {
+            Precision::Bits8
+        } else {
+            Precision::Bits4
+        }
+    }
+}
+
+/// The quantiser of every label grid: the indicator's range `[0, 1]` over the precision's codes,
+/// isovalue ½.
+pub fn label_quantizer(precision: Precision) -> Quantizer {
+    Quantizer::new(precision, false, 0.0, 1.0, LABEL_ISO)
+}
+
+/// The smoothing kernel for σ voxels: weights `exp(−k²/2σ²)` for `|k| ≤ ⌈3σ⌉`, normalised to
+/// sum 1 (in f64, then rounded to f32). Applied along x, then y, then z; samples beyond the volume
+/// repeat the nearest border sample.
+pub fn gaussian_kernel(sigma: f64) -> Vec<f32> {
+    let r = (3.0 * sigma).ceil() as i64;
+    let w: Vec<f64> = (-r..=r)
+        .map(|k| (-(k * k) as f64 / (2.0 * sigma * sigma)).exp())
+        .collect();
+    let sum: f64 = w.iter().sum();
+    w.iter().map(|v| (v / sum) as f32).collect()
+}
+
+/// Largest σ accepted: the kernel's halo stays within a few blocks.
+pub const MAX_SMOOTH: f64 = 16.0;
+
+/// Extracts the surfaces of the labels `options` selects. Integer volumes hold labels; a float
+/// volume only when every sample is an integer (see [`LabelSample`]).
+pub fn extract_labels(volume: &VolumeView, options: &LabelOptions) -> Result<CellGrid> {
+    if !(options.smooth.is_finite() && (0.0..=MAX_SMOOTH).contains(&options.smooth)) {
+        return Err(Error::invalid(format!(
+            "smoothing σ {} is outside 0..={MAX_SMOOTH} voxels",
+            options.smooth
+        )));
+    }
+    match volume.samples() {
+        Samples::U8(s) => extract_typed(volume, s, options),
+        Samples::U16(s) => extract_typed(volume, s, options),
+        Samples::I16(s) => extract_typed(volume, s, options),
+        Samples::U32(s) => extract_typed(volume, s, options),
+        Samples::I32(s) => extract_typed(volume, s, options),
+        Samples::U64(s) => extract_typed(volume, s, options),
+        Samples::I64(s) => extract_typed(volume, s, options),
+        Samples::F32(s) => {
+            check_label_samples(s)?;
+            extract_typed(volume, s, options)
+        }
+        Samples::F64(s) => {
+            check_label_samples(s)?;
+            extract_typed(volume, s, options)
+        }
+    }
+}
+
+/// What one block holds: its labels' clusters and cells, numbered from the block's first cell.
+#[derive(Default)]
+struct BlockLabels {
+    /// Distinct label keys among the samples gathered (selected or not), ascending.
+    present: Vec<u64>,
+    parts: Vec<LabelPart>,
+    metacells: Vec<Metacell>,
+    cells: Vec<u8>,
+}
+
+/// One label's share of a block.
+struct LabelPart {
+    key: u64,
+    clusters: u32,
+    cells: u32,
+    occupied: u32,
+    lo: [u32; 3],
+    hi: [u32; 3],
+    /// Smallest and largest indicator value on the block's samples.
+    range: [f64; 2],
+}
+
+/// Per-thread buffers.
+#[derive(Default)]
+struct Scratch {
+    keys: Vec<u64>,
+    binary: Vec<u8>,
+    field: Vec<f32>,
+    pass_x: Vec<f32>,
+    pass_y: Vec<f32>,
+    /// Which rows of `pass_x` and planes of `pass_y` are all zero.
+    zero_x: Vec<bool>,
+    zero_y: Vec<bool>,
+    smooth: Vec<f32>,
+    block: BlockScratch,
+}
+
+/// What every block shares.
+struct Pass<'a, T> {
+    samples: &'a [T],
+    dims: [usize; 3],
+    block_dims: [usize; 3],
+    selection: &'a LabelSelection,
+    kernel: Option<Vec<f32>>,
+    quantizer: Quantizer,
+}
+
+fn extract_typed<T: LabelSample>(
+    volume: &VolumeView,
+    samples: &[T],
+    options: &LabelOptions,
+) -> Result<CellGrid> {
+    let geometry = volume.geometry();
+    let dims = geometry.dims;
+    let precision = options.precision.unwrap_or(options.default_precision());
+    let block_dims = geometry.cell_dims().map(|c| c.div_ceil(BLOCK_CELLS));
+    let block_count: usize = block_dims.iter().product();
+    let pass = Pass {
+        samples,
+        dims,
+        block_dims,
+        selection: &options.selection,
+        kernel: (options.smooth > 0.0).then(|| gaussian_kernel(options.smooth)),
+        quantizer: label_quantizer(precision),
+    };
+    let blocks: Vec<BlockLabels> = (0..block_count)
+        .into_par_iter()
+        .map_init(Scratch::default, |scratch, b| pass.block(b, scratch))
+        .collect();
+
+    // The table: every selected label the volume holds, in increasing key.
+    let mut keys: Vec<u64> = blocks
+        .iter()
+        .flat_map(|b| b.present.iter().copied())
+        .filter(|&k| options.selection.selects(k))
+        .collect();
+    keys.par_sort_unstable();
+    keys.dedup();
+    if keys.len() > u32::MAX as usize {
+        return Err(Error::too_large(
+            "more than 2^32 labels: beyond the 32-bit cluster labels of the format",
+        ));
+    }
+    let signed = crate::labels::signed_labels(T::TYPE);
+    let table: Vec<Label> = keys
+        .iter()
+        .map(|&k| Label::default_for(k, signed))
+        .collect();
+    let table_index =
+        |key: u64| keys.binary_search(&key).expect("a part's label is present") as u32;
+
+    // Prefix sums, then the blocks' buffers in block order with their cell pointers moved.
+    let mut totals = Totals::default();
+    let mut block_records = Vec::with_capacity(block_count);
+    for b in &blocks {
+        let cells: u32 = b.parts.iter().map(|p| p.cells).sum();
+        let occupied: u32 = b.parts.iter().map(|p| p.occupied).sum();
+        let range = b
+            .parts
+            .iter()
+            .fold([f64::INFINITY, f64::NEG_INFINITY], |r, p| {
+                [r[0].min(p.range[0]), r[1].max(p.range[1])]
+            });
+        let range = if b.parts.is_empty() { [0.0; 2] } else { range };
+        block_records.push(totals.add_block(b.metacells.len() as u64, cells, occupied, range)?);
+    }
+    let record = precision.bytes_per_cell();
+    let mut metacells = Vec::with_capacity(totals.slots as usize);
+    let mut cells = Vec::with_capacity(totals.cells as usize * record);
+    let mut cluster_labels = Vec::with_capacity(totals.slots as usize / CLUSTER_SLOTS);
+    let mut runs: Vec<(u32, ClusterRun)> = Vec::new();
+    let mut index = vec![
+        LabelEntry {
+            lo: [u32::MAX; 3],
+            ..Default::default()
+        };
+        keys.len()
+    ];
+    for b in &blocks {
+        let first_cell = (cells.len() / record) as u32;
+        metacells.extend(b.metacells.iter().enumerate().map(|(s, m)| {
+            let mut m = *m;
+            if s % CLUSTER_SLOTS != BOUND_SLOT && !m.is_empty() {
+                m.cell_pointer += first_cell;
+            }
+            m
+        }));
+        cells.extend_from_slice(&b.cells);
+        for p in &b.parts {
+            let label = table_index(p.key);
+            runs.push((
+                label,
+                ClusterRun {
+                    first_cluster: cluster_labels.len() as u32,
+                    cluster_count: p.clusters,
+                },
+            ));
+            cluster_labels.extend(std::iter::repeat_n(label, p.clusters as usize));
+            let e = &mut index[label as usize];
+            e.cell_count += p.cells as u64;
+            for a in 0..3 {
+                e.lo[a] = e.lo[a].min(p.lo[a]);
+                e.hi[a] = e.hi[a].max(p.hi[a]);
+            }
+        }
+    }
+    // Each label's runs together, in cluster order (the sort is stable).
+    runs.sort_by_key(|&(label, _)| label);
+    let mut next = 0u64;
+    for (label, e) in index.iter_mut().enumerate() {
+        e.first_run = next;
+        e.run_count = runs[next as usize..]
+            .iter()
+            .take_while(|(l, _)| *l as usize == label)
+            .count() as u64;
+        next += e.run_count;
+        if e.cell_count == 0 {
+            e.lo = [0; 3];
+        }
+    }
+    let runs = runs.into_iter().map(|(_, r)| r).collect();
+    drop(blocks);
+
+    let info = GridInfo::new(geometry, T::TYPE, [0.0, 1.0], LABEL_ISO, &pass.quantizer);
+    let grid = CellGrid::from_parts(info, block_records, metacells, cells);
+    Ok(grid.with_built_labels(GridLabels::from_parts(table, cluster_labels, index, runs)))
+}
+
+impl<T: LabelSample> Pass<'_, T> {
+    /// Block `b` (in block order): its labels' clusters and cells.
+    fn block(&self, b: usize, scratch: &mut Scratch) -> BlockLabels {
+        let [nbx, nby, _] = self.block_dims;
+        let block = [b % nbx, b / nbx % nby, b / (nbx * nby)];
+        let origin = block.map(|c| c * BLOCK_CELLS);
+        let cube = [0, 1, 2].map(|a| (self.dims[a] - 1 - origin[a]).min(BLOCK_CELLS) + 1);
+        // The samples gathered: the block's, plus the kernel's radius where the volume goes on.
+        let radius = self.kernel.as_ref().map_or(0, |k| k.len() / 2);
+        let lo = origin.map(|o| o.saturating_sub(radius));
+        let hi = [0, 1, 2].map(|a| (origin[a] + cube[a] - 1 + radius).min(self.dims[a] - 1));
+        let region = [0, 1, 2].map(|a| hi[a] - lo[a] + 1);
+        let [nx, ny, _] = self.dims;
+        scratch.keys.clear();
+        for z in lo[2]..=hi[2] {
+            for y in lo[1]..=hi[1] {
+                let start = lo[0] + nx * (y + ny * z);
+                scratch.keys.extend(
+                    self.samples[start..start + region[0]]
+                        .iter()
+                        .map(|v| v.key()),
+                );
+            }
+        }
+        let mut out = BlockLabels {
+            present: distinct(&scratch.keys),
+            ..Default::default()
+        };
+        if out.present.len() < 2 {
+            // One label in reach: its indicator is 1 on every sample, the others' 0.
+            return out;
+        }
+        let quantizer = &self.quantizer;
+        let record = quantizer.precision().bytes_per_cell();
+        for i in 0..out.present.len() {
+            let key = out.present[i];
+            if !self.selection.selects(key) {
+                continue;
+            }
+            // The indicator on the block's samples, classified.
+            let range = match &self.kernel {
+                None => {
+                    scratch.binary.clear();
+                    scratch
+                        .binary
+                        .extend(scratch.keys.iter().map(|&k| (k == key) as u8));
+                    emit::classify_block(
+                        &scratch.binary,
+                        cube,
+                        block,
+                        block,
+                        u8::threshold(LABEL_ISO),
+                        &mut scratch.block,
+                    );
+                    [0.0, 1.0]
+                }
+                Some(kernel) => {
+                    smooth_indicator(
+                        key,
+                        region,
+                        [0, 1, 2].map(|a| origin[a] - lo[a]),
+                        cube,
+                        kernel,
+                        scratch,
+                    );
+                    emit::classify_block(
+                        &scratch.smooth,
+                        cube,
+                        block,
+                        block,
+                        f32::threshold(LABEL_ISO),
+                        &mut scratch.block,
+                    );
+                    scratch
+                        .smooth
+                        .iter()
+                        .fold([f64::INFINITY, f64::NEG_INFINITY], |r, &v| {
+                            [r[0].min(v as f64), r[1].max(v as f64)]
+                        })
+                }
+            };
+            let (cells, occupied) = scratch.block.counts();
+            if cells == 0 {
+                continue;
+            }
+            let first_slot = out.metacells.len();
+            let slots = metacell_slots(occupied) as usize;
+            out.metacells
+                .resize(first_slot + slots, bytemuck::Zeroable::zeroed());
+            let first_byte = out.cells.len();
+            out.cells.resize(first_byte + cells as usize * record, 0);
+            let output = BlockOutput {
+                block,
+                slots: &mut out.metacells[first_slot..],
+                cells: &mut out.cells[first_byte..],
+                first_cell: (first_byte / record) as u32,
+                slab_block: block,
+            };
+            match &self.kernel {
+                None => emit::emit_classified_block(
+                    &scratch.binary,
+                    cube,
+                    quantizer,
+                    output,
+                    &mut scratch.block,
+                ),
+                Some(_) => emit::emit_classified_block(
+                    &scratch.smooth,
+                    cube,
+                    quantizer,
+                    output,
+                    &mut scratch.block,
+                ),
+            }
+            let (mut lo, mut hi) = ([u32::MAX; 3], [0u32; 3]);
+            let label_slots = out.metacells[first_slot..].iter().enumerate();
+            for (_, m) in
+                label_slots.filter(|(s, m)| s % CLUSTER_SLOTS != BOUND_SLOT && !m.is_empty())
+            {
+                let (l, h) = m.cell_box();
+                for a in 0..3 {
+                    lo[a] = lo[a].min(l[a]);
+                    hi[a] = hi[a].max(h[a]);
+                }
+            }
+            out.parts.push(LabelPart {
+                key,
+                clusters: (slots / CLUSTER_SLOTS) as u32,
+                cells,
+                occupied,
+                lo,
+                hi,
+                range,
+            });
+        }
+        out
+    }
+}
+
+/// The distinct values of `keys`, ascending. Samples of a block repeat their neighbours', so the
+/// list of values seen is searched only when the value changes, and sorted once at the end.
+fn distinct(keys: &[u64]) -> Vec<u64> {
+    let mut seen: Vec<u64> = Vec::new();
+    let mut last = None;
+    for &k in keys {
+        if last == Some(k) {
+            continue;
+        }
+        last = Some(k);
+        if !seen.contains(&k) {
+            seen.push(k);
+            if seen.len() > 64 {
+                // Many labels in one block (supervoxels): sort the block instead.
+                let mut all = keys.to_vec();
+                all.sort_unstable();
+                all.dedup();
+                return all;
+            }
+        }
+    }
+    seen.sort_unstable();
+    seen
+}
+
+/// Label `key`'s indicator on the gathered `region` (x fastest), smoothed by `kernel` along x, y
+/// and z, into `scratch.smooth` on the block's `cube` of samples, which starts at `at` inside the
+/// region. Samples beyond the region repeat its border: the region reaches the kernel's radius
+/// past the block wherever the volume does, so this is the volume's border.
+///
+/// Every output is `Σₖ wₖ·vₖ` summed in kernel order from 0 in f32, whichever path computes it:
+/// a row of the x pass whose samples are all 0 or all 1 is 0 or `Σₖ wₖ` without the products (most
+/// rows of a block are), rows and planes of the y and z passes whose inputs are all zero stay 0,
+/// and the y and z passes run over whole rows so they vectorise.
+fn smooth_indicator(
+    key: u64,
+    region: [usize; 3],
+    at: [usize; 3],
+    cube: [usize; 3],
+    kernel: &[f32],
+    scratch: &mut Scratch,
+) {
+    let r = (kernel.len() / 2) as isize;
+    let [rx, ry, rz] = region;
+    let [cx, cy, cz] = cube;
+    let clamp = |i: isize, n: usize| i.clamp(0, n as isize - 1) as usize;
+    let ones = kernel.iter().fold(0.0f32, |s, &w| s + w);
+    scratch.field.clear();
+    scratch
+        .field
+        .extend(scratch.keys.iter().map(|&k| (k == key) as u8 as f32));
+    // Along x: cube x × region y × region z.
+    scratch.pass_x.clear();
+    scratch.pass_x.resize(cx * ry * rz, 0.0);
+    scratch.zero_x.clear();
+    for (row, out) in scratch
+        .field
+        .chunks_exact(rx)
+        .zip(scratch.pass_x.chunks_exact_mut(cx))
+    {
+        let first = row[0];
+        let uniform = row.iter().all(|&v| v == first);
+        scratch.zero_x.push(uniform && first == 0.0);
+        if uniform {
+            out.fill(if first == 0.0 { 0.0 } else { ones });
+            continue;
+        }
+        for (x, o) in out.iter_mut().enumerate() {
+            let c = (at[0] + x) as isize;
+            let mut s = 0.0f32;
+            for (k, w) in kernel.iter().enumerate() {
+                s += w * row[clamp(c + k as isize - r, rx)];
+            }
+            *o = s;
+        }
+    }
+    // Along y, a row of x at a time: cube x × cube y × region z.
+    scratch.pass_y.clear();
+    scratch.pass_y.resize(cx * cy * rz, 0.0);
+    scratch.zero_y.clear();
+    for z in 0..rz {
+        let mut plane_zero = true;
+        for y in 0..cy {
+            let c = (at[1] + y) as isize;
+            let rows = (0..kernel.len()).map(|k| clamp(c + k as isize - r, ry) + ry * z);
+            // Rows whose inputs are all zero stay zero (0 + w·0 is 0 in every order).
+            if rows.clone().all(|row| scratch.zero_x[row]) {
+                continue;
+            }
+            plane_zero = false;
+            let out = &mut scratch.pass_y[cx * (y + cy * z)..][..cx];
+            for (row, &w) in rows.zip(kernel) {
+                let input = &scratch.pass_x[cx * row..][..cx];
+                for (o, &v) in out.iter_mut().zip(input) {
+                    *o += w * v;
+                }
+            }
+        }
+        scratch.zero_y.push(plane_zero);
+    }
+    // Along z: the cube.
+    scratch.smooth.clear();
+    scratch.smooth.resize(cx * cy * cz, 0.0);
+    for z in 0..cz {
+        let c = (at[2] + z) as isize;
+        let planes = (0..kernel.len()).map(|k| clamp(c + k as isize - r, rz));
+        if planes.clone().all(|plane| scratch.zero_y[plane]) {
+            continue;
+        }
+        let out = &mut scratch.smooth[cx * cy * z..][..cx * cy];
+        for (plane, &w) in planes.zip(kernel) {
+            let input = &scratch.pass_y[cx * cy * plane..][..cx * cy];
+            for (o, &v) in out.iter_mut().zip(input) {
+                *o += w * v;
+            }
+        }
+    }
+}

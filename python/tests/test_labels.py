@@ -1,0 +1,144 @@
+"""Label volumes: ``extract(volume, labels=..., smooth=...)``, ``grid.labels`` and
+``grid.cluster_labels``, against a brute-force numpy reference: a cell belongs to label L's surface
+when its eight corners are neither all L nor all other labels."""
+
+import json
+import subprocess
+
+import numpy as np
+import pytest
+
+import isogrid
+
+
+def _labels(shape=(26, 29, 33)):
+    """(z, y, x) uint16 labels: touching boxes, a ball, a one-voxel sheet, a lone voxel, 0 around."""
+    z, y, x = np.mgrid[: shape[0], : shape[1], : shape[2]]
+    a = np.zeros(shape, np.uint16)
+    a[(x > 3) & (x < 17) & (y > 4) & (y < 20) & (z > 2) & (z < 20)] = 4
+    a[(x >= 17) & (x < 30) & (y > 4) & (y < 20) & (z > 2) & (z < 20)] = 9
+    a[(x - 12) ** 2 + (y - 22) ** 2 + (z - 14) ** 2 < 25] = 60000
+    a[5, 2:27, 2:30] = 17
+    a[22, 25, 5] = 3
+    return a
+
+
+def _reference_cells(a, value):
+    """(x, y, z) of every cell whose corners are neither all `value` nor all others, sorted."""
+    inside = a == value
+    corners = [
+        inside[dz : dz + a.shape[0] - 1, dy : dy + a.shape[1] - 1, dx : dx + a.shape[2] - 1]
+        for dz in (0, 1)
+        for dy in (0, 1)
+        for dx in (0, 1)
+    ]
+    stack = np.stack(corners)
+    active = stack.any(axis=0) & ~stack.all(axis=0)
+    z, y, x = np.nonzero(active)
+    return np.array(sorted(zip(x.tolist(), y.tolist(), z.tolist())), dtype=np.int64).reshape(-1, 3)
+
+
+def _cell_labels(grid):
+    """Index into ``grid.labels`` of every active cell, in cell order."""
+    metacells = grid.metacells
+    slot = np.arange(len(metacells))
+    mask = metacells["cell_mask"].astype(np.int64)
+    occupied = (slot % 16 != 15) & (mask != 0)
+    counts = np.array([bin(m).count("1") for m in mask[occupied]], dtype=np.int64)
+    return grid.cluster_labels[np.repeat(slot[occupied] // 16, counts)]
+
+
+def test_each_label_has_the_cells_of_the_brute_force_reference():
+    a = _labels()
+    grid = isogrid.extract(a, labels="all", threads=2)
+    values = sorted(set(np.unique(a).tolist()) - {0})
+    assert [l["value"] for l in grid.labels] == values
+    cell_label = _cell_labels(grid)
+    positions = grid.cell_positions().astype(np.int64)
+    assert len(cell_label) == grid.active_cells == len(positions)
+    for index, label in enumerate(grid.labels):
+        expected = _reference_cells(a, label["value"])
+        got = positions[cell_label == index]
+        got = np.array(sorted(map(tuple, got.tolist())), dtype=np.int64).reshape(-1, 3)
+        np.testing.assert_array_equal(got, expected)
+        assert label["cells"] == len(expected)
+        assert label["lo"] == expected.min(axis=0).tolist()
+        assert label["hi"] == (expected.max(axis=0) + 1).tolist()
+        assert label["name"] == f"label {label['value']}"
+        assert len(label["color"]) == 9 and label["color"].startswith("#") and label["color"].endswith("ff")
+
+
+def test_binary_corners_are_the_indicator():
+    a = _labels()
+    grid = isogrid.extract(a, labels=[4, 9])
+    assert grid.info["precision"] == 4 and grid.info["iso"] == 0.5
+    corners = grid.corners()  # codes: 0 outside, 15 inside
+    cell_label = _cell_labels(grid)
+    positions = grid.cell_positions().astype(np.int64)
+    offsets = [(c & 1, c >> 1 & 1, c >> 2 & 1) for c in range(8)]
+    for index, label in enumerate(grid.labels):
+        for cell in np.nonzero(cell_label == index)[0][::37]:
+            x, y, z = positions[cell]
+            for c, (dx, dy, dz) in enumerate(offsets):
+                assert corners[cell, c] == 15 * (a[z + dz, y + dy, x + dx] == label["value"])
+
+
+def test_selections_smoothing_and_refusals():
+    a = _labels()
+    assert [l["value"] for l in isogrid.extract(a, labels="9,17-100").labels] == [9, 17]
+    assert [l["value"] for l in isogrid.extract(a, labels=60000).labels] == [60000]
+    smooth = isogrid.extract(a, labels="all", smooth=1.0)
+    assert smooth.info["precision"] == 8
+    # Smoothing rounds the boxes' edges: fewer, or at least other, cells than the binary surface.
+    binary = isogrid.extract(a, labels="all")
+    assert smooth.to_bytes() != binary.to_bytes()
+    # The lone voxel's smoothed indicator stays below 1/2: it is listed with no cells.
+    assert [l["cells"] for l in smooth.labels if l["value"] == 3] == [0]
+    # Integral floats are labels too: the same cells (the header keeps the source type).
+    floats = isogrid.extract(a.astype(np.float32), labels="all")
+    assert floats.info["scalar_type"] == "float32"
+    np.testing.assert_array_equal(floats.metacells, binary.metacells)
+    np.testing.assert_array_equal(floats.cells, binary.cells)
+    assert floats.labels == binary.labels
+    bad = a.astype(np.float32)
+    bad[0, 0, 0] = 0.25
+    with pytest.raises(ValueError, match="integer label values"):
+        isogrid.extract(bad, labels="all")
+    with pytest.raises(ValueError):
+        isogrid.extract(a, labels="all", iso=1)
+    with pytest.raises(ValueError):
+        isogrid.extract(a, iso=1, smooth=1.0)
+    with pytest.raises(ValueError):
+        isogrid.extract(a, labels="1-x")
+
+
+def test_labels_survive_files_and_pickling(tmp_path):
+    a = _labels()
+    grid = isogrid.extract(a, labels="all")
+    path = tmp_path / "labels.cgc"
+    grid.save(path)
+    loaded = isogrid.load(path)
+    assert loaded.labels == grid.labels
+    np.testing.assert_array_equal(loaded.cluster_labels, grid.cluster_labels)
+    assert loaded.to_bytes() == grid.to_bytes()
+    assert isogrid.extract(a, iso=1).labels is None
+
+
+def test_cli_and_python_write_the_same_labelled_file(cli, tmp_path):
+    a = _labels()
+    path = tmp_path / "labels.npy"
+    np.save(path, a)
+    for extra, kwargs in [((), {}), (("--smooth", "1.5"), {"smooth": 1.5})]:
+        out = tmp_path / "cli.cgc"
+        report = subprocess.run(
+            [cli, "extract", path, "--labels", "all", *extra, "-o", out, "--json"],
+            check=True,
+            capture_output=True,
+            text=True,
+        ).stdout
+        grid = isogrid.extract(a, labels="all", **kwargs)
+        assert out.read_bytes() == grid.to_bytes()
+        report = json.loads(report)
+        report.pop("seconds")
+        report["dims"] = tuple(report["dims"])
+        assert report == grid.stats

@@ -1,0 +1,237 @@
+#!/usr/bin/env python3
+"""Label surfaces: isogrid's `extract(..., labels="all")` against VTK's vtkSurfaceNets3D, on the
+Desikan-Killiany atlas (data/atlas-desikankilliany.nii.gz, scripts/fetch_data.sh atlas) and the
+frog tissues (data/frogtissue.mhd), at one thread. Each run is a fresh process that loads the
+labels from a .npy copy first, so its peak-memory growth is the extraction's. Prints markdown
+tables for docs/benchmarks-labels.md.
+
+    python scripts/bench_labels.py            # needs isogrid (python/), vtk, nibabel, SimpleITK,
+                                              # scipy in the running Python
+    python scripts/bench_labels.py --smooth   # also the --smooth table (scipy)
+"""
+
+import json
+import os
+import subprocess
+import sys
+import time
+
+import numpy as np
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+DATA = os.path.join(ROOT, "data")
+VOLUMES = {
+    "atlas": "atlas-desikankilliany.nii.gz",
+    "frog": "frogtissue.mhd",
+    # Generated here: 256³ supervoxels, the Voronoi cells of 6,250 random seeds (the density of
+    # 50,000 labels in 512³), as u16.
+    "supervoxels": None,
+}
+SUPERVOXELS = (256, 6250)
+REPEATS = 5
+
+
+def npy_of(name):
+    """The volume as data/bench-labels-NAME.npy, (z, y, x) C order, with its spacing (x, y, z)."""
+    path = os.path.join(DATA, f"bench-labels-{name}.npy")
+    if VOLUMES[name] is None:
+        n, seeds = SUPERVOXELS
+        if not os.path.exists(path):
+            from scipy.spatial import cKDTree
+
+            rng = np.random.default_rng(40)
+            tree = cKDTree(rng.uniform(0, n, size=(seeds, 3)))
+            grid = np.stack(np.meshgrid(*[np.arange(n)] * 3, indexing="ij"), axis=-1).reshape(-1, 3)
+            labels = np.empty(n**3, np.uint16)
+            for start in range(0, n**3, 1 << 22):
+                labels[start : start + (1 << 22)] = tree.query(grid[start : start + (1 << 22)], workers=2)[1] + 1
+            np.save(path, labels.reshape(n, n, n))
+        return path, (1.0, 1.0, 1.0), "uint16", (n, n, n)
+    src = os.path.join(DATA, VOLUMES[name])
+    if src.endswith(".nii.gz"):
+        import nibabel
+
+        img = nibabel.load(src)
+        a = np.asarray(img.dataobj)
+        spacing = tuple(float(s) for s in img.header.get_zooms()[:3])
+        a = np.ascontiguousarray(a.transpose(2, 1, 0))  # (x, y, z) → (z, y, x)
+    else:
+        import SimpleITK as sitk
+
+        img = sitk.ReadImage(src)
+        a = sitk.GetArrayFromImage(img)  # (z, y, x)
+        spacing = tuple(float(s) for s in img.GetSpacing())
+    if not os.path.exists(path):
+        np.save(path, a)
+    return path, spacing, str(a.dtype), a.shape
+
+
+def rss_bytes():
+    with open("/proc/self/statm") as f:
+        return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
+
+
+def peak_rss_bytes():
+    """This process's peak resident memory. VmHWM, not getrusage's ru_maxrss: Linux carries
+    ru_maxrss over exec, so a child would report its parent's peak."""
+    with open("/proc/self/status") as f:
+        line = next(l for l in f if l.startswith("VmHWM:"))
+    return int(line.split()[1]) * 1024
+
+
+def run_isogrid(path, spacing, smooth):
+    import isogrid
+
+    a = np.load(path)
+    before = rss_bytes()
+    times = []
+    grid = None
+    for _ in range(REPEATS):
+        grid = None  # one grid alive at a time, as VTK keeps one output
+        start = time.perf_counter()
+        grid = isogrid.extract(a, labels="all", smooth=smooth, spacing=spacing, threads=1)
+        times.append(time.perf_counter() - start)
+    peak = peak_rss_bytes()
+    data = grid.to_bytes()
+    labels = grid.labels
+    return {
+        "seconds": min(times),
+        "peak_growth": peak - before,
+        "bytes": len(data),
+        "cells": grid.active_cells,
+        "labels": len(labels),
+        "empty_labels": sum(1 for l in labels if l["cells"] == 0),
+    }
+
+
+def run_vtk(path, spacing, smooth):
+    import vtk
+    from vtk.util import numpy_support
+
+    vtk.vtkSMPTools.SetBackend("Sequential")
+    a = np.load(path)
+    image = vtk.vtkImageData()
+    image.SetDimensions(a.shape[2], a.shape[1], a.shape[0])
+    image.SetSpacing(*spacing)
+    scalars = numpy_support.numpy_to_vtk(a.ravel(order="C"), deep=False)
+    image.GetPointData().SetScalars(scalars)
+    before = rss_bytes()
+    times = []
+    for _ in range(REPEATS):
+        nets = vtk.vtkSurfaceNets3D()
+        nets.SetInputData(image)
+        nets.SetBackgroundLabel(0)
+        nets.SetOutputMeshTypeToQuads()
+        if smooth:
+            nets.SmoothingOn()
+        else:
+            nets.SmoothingOff()
+        values = np.unique(a)
+        values = values[values != 0]
+        nets.SetNumberOfLabels(len(values))
+        for i, v in enumerate(values):
+            nets.SetLabel(i, float(v))
+        start = time.perf_counter()
+        nets.Update()
+        times.append(time.perf_counter() - start)
+    peak = peak_rss_bytes()
+    mesh = nets.GetOutput()
+    points = mesh.GetNumberOfPoints()
+    quads = mesh.GetNumberOfCells()
+    return {
+        "seconds": min(times),
+        "peak_growth": peak - before,
+        "points": points,
+        "quads": quads,
+        # VTK's own count of the mesh in memory (points, quads, boundary labels), in KiB.
+        "vtk_bytes": mesh.GetActualMemorySize() * 1024,
+        # The mesh as compact as the paper's Table 3 counts MC meshes: 6 B per vertex (snorm16),
+        # 4 B per index, plus the two labels of each quad at 2 B each.
+        "compact_bytes": points * 6 + quads * (16 + 4),
+    }
+
+
+def child(tool, path, spacing, smooth):
+    fn = {"isogrid": run_isogrid, "vtk": run_vtk}[tool]
+    print(json.dumps(fn(path, tuple(spacing), smooth)))
+
+
+def measure(tool, path, spacing, smooth):
+    out = subprocess.run(
+        [sys.executable, __file__, "child", tool, path, json.dumps(spacing), json.dumps(smooth)],
+        check=True,
+        capture_output=True,
+        text=True,
+        env={**os.environ, "OMP_NUM_THREADS": "1", "RAYON_NUM_THREADS": "1"},
+    )
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def mb(n):
+    return f"{n / 1e6:.1f} MB"
+
+
+def flips(a, sigma):
+    """Fraction of each label's voxels (summed over labels) whose membership the smoothing changes:
+    samples of L whose smoothed indicator is below 1/2, plus others at or above it."""
+    from scipy import ndimage
+
+    changed = 0
+    total = 0
+    for v in np.unique(a):
+        if v == 0:
+            continue
+        inside = a == v
+        s = ndimage.gaussian_filter(inside.astype(np.float32), sigma, mode="nearest", truncate=3.0)
+        changed += int(np.count_nonzero(inside != (s >= 0.5)))
+        total += int(np.count_nonzero(inside))
+    return changed / total
+
+
+def main():
+    smooth_table = "--smooth" in sys.argv
+    print("| volume | dims (x×y×z) | type | labels | tool | seconds | peak memory growth | active cells / vertices, quads | output bytes |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    for name in VOLUMES:
+        path, spacing, dtype, shape = npy_of(name)
+        dims = "×".join(str(d) for d in shape[::-1])
+        for smooth in (0.0, 1.0):
+            g = measure("isogrid", path, list(spacing), smooth)
+            v = measure("vtk", path, list(spacing), bool(smooth))
+            tag = " (smoothed)" if smooth else ""
+            print(
+                f"| {name} | {dims} | {dtype} | {g['labels']} | isogrid{tag} σ={smooth:g} | {g['seconds']:.3f} | "
+                f"{mb(g['peak_growth'])} | {g['cells']:,} cells | {mb(g['bytes'])} (.cgc) |"
+            )
+            print(
+                f"| {name} | {dims} | {dtype} | {g['labels']} | vtkSurfaceNets3D{tag} | {v['seconds']:.3f} | "
+                f"{mb(v['peak_growth'])} | {v['points']:,} / {v['quads']:,} | {mb(v['vtk_bytes'])} in VTK, "
+                f"{mb(v['compact_bytes'])} compact |"
+            )
+            print(
+                f"| | | | | ratio | {g['seconds'] / v['seconds']:.2f} | | | {g['bytes'] / v['vtk_bytes']:.2f} of VTK's, "
+                f"{g['bytes'] / v['compact_bytes']:.2f} of compact |",
+                flush=True,
+            )
+    if smooth_table:
+        print()
+        print("| volume | σ | seconds | active cells | .cgc bytes | labels without cells | voxels changing label |")
+        print("|---|---|---|---|---|---|---|")
+        for name in ("atlas", "frog"):  # the flip count takes one filter per label
+            path, spacing, _, _ = npy_of(name)
+            a = np.load(path)
+            for sigma in (0.0, 0.5, 0.75, 1.0, 1.5, 2.0):
+                g = measure("isogrid", path, list(spacing), sigma)
+                flip = flips(a, sigma) if sigma else 0.0
+                print(
+                    f"| {name} | {sigma:g} | {g['seconds']:.3f} | {g['cells']:,} | {mb(g['bytes'])} | "
+                    f"{g['empty_labels']} of {g['labels']} | {100 * flip:.1f} % |",
+                    flush=True,
+                )
+
+
+if __name__ == "__main__":
+    if len(sys.argv) > 1 and sys.argv[1] == "child":
+        child(sys.argv[2], sys.argv[3], json.loads(sys.argv[4]), json.loads(sys.argv[5]))
+    else:
+        main()
