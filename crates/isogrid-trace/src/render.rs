@@ -78,17 +78,23 @@ impl Default for RenderOptions {
     }
 }
 
-/// The diffuse albedo of each hit cell: the attribute's colour, or one albedo for all.
+/// The diffuse albedo of each hit cell: the attribute's colour, the colour of its cluster's label
+/// in a label grid, or one albedo for all.
 struct Albedo<'a> {
     colored: Option<(&'a isogrid::CellAttribute, &'a Coloring)>,
+    labels: Option<&'a isogrid::labels::GridLabels>,
     constant: [f32; 3],
 }
 
 impl Albedo<'_> {
     fn of(&self, hit: &Hit) -> [f32; 3] {
-        match self.colored {
-            Some((attribute, coloring)) => coloring.albedo(attribute.value(hit.cell as usize)),
-            None => self.constant,
+        match (self.colored, self.labels) {
+            (Some((attribute, coloring)), _) => coloring.albedo(attribute.value(hit.cell as usize)),
+            (None, Some(labels)) => {
+                let label = labels.cluster_labels()[hit.cluster as usize] as usize;
+                labels.table()[label].albedo()
+            }
+            (None, None) => self.constant,
         }
     }
 }
@@ -178,6 +184,7 @@ pub fn render_with_progress(
             }
             (None, _) => None,
         },
+        labels: grid.labels(),
         constant,
     };
     progress.start(passes * h as u64);

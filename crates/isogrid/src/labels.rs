@@ -203,6 +203,13 @@ pub struct Label {
 }
 
 impl Label {
+    /// The label's surfaces' diffuse albedo: its sRGB colour decoded, as a colour map's entry is
+    /// (`colormap::Coloring::albedo`); every renderer draws a label with it.
+    pub fn albedo(&self) -> [f32; 3] {
+        let [r, g, b, _] = self.rgba;
+        [r, g, b].map(crate::colormap::srgb8_to_linear)
+    }
+
     /// The colour as `#rrggbbaa`, as reports show it.
     pub fn color_hex(&self) -> String {
         self.rgba

@@ -684,3 +684,103 @@ fn a_labelled_grid_traces_as_the_union_of_its_label_surfaces() {
     }
     assert!(hits > 50, "{hits}");
 }
+
+/// A label grid is drawn in its labels' colours: path traced under a white furnace (radiance 1
+/// everywhere, one bounce: a path that meets a second surface adds nothing), a pixel's radiance
+/// is its surface's albedo times the share of its bounces that escape, so over the pixels of each label the mean colour has the direction of that label's
+/// albedo, and labels of different colours give different directions.
+#[test]
+fn a_labelled_grid_is_drawn_in_its_label_colours() {
+    // A ball cut into three labels side by side along x; the oblique view sees at least two.
+    let n = 40usize;
+    let labels: Vec<u8> = (0..n * n * n)
+        .map(|i| {
+            let p = [i % n, i / n % n, i / (n * n)].map(|c| c as f64 - 19.5);
+            let inside = p.iter().map(|c| c * c).sum::<f64>() < 15.0 * 15.0;
+            if inside {
+                1 + ((p[0] + 15.0) / 10.0).clamp(0.0, 2.0) as u8
+            } else {
+                0
+            }
+        })
+        .collect();
+    let labelled = Volume::new([n; 3], VolumeData::U8(labels)).unwrap();
+    let grid = isogrid::extract_labels(
+        &labelled.view(),
+        &isogrid::LabelOptions::new(isogrid::LabelSelection::All),
+    )
+    .unwrap();
+    let table = grid.labels().unwrap().table().to_vec();
+    assert_eq!(table.len(), 3);
+    let (lo, hi) = world_box(&grid);
+    let (w, h) = (128usize, 96usize);
+    let camera = Camera::preset(2, lo, hi, w as u32, h as u32).unwrap();
+    let options = RenderOptions {
+        shading: Shading::PathTrace(PathTraceOptions {
+            samples_per_pixel: 16,
+            bounces: 1,
+            environment: Environment::Uniform([1.0; 3]),
+            ..Default::default()
+        }),
+        ..Default::default()
+    };
+    let image = render(&grid, &camera, &options).unwrap();
+    let cluster_labels = grid.labels().unwrap().cluster_labels();
+    let label_at = |i: usize| match image.cluster[i] {
+        u32::MAX => None,
+        c => Some(cluster_labels[c as usize]),
+    };
+    let mut sums = vec![([0.0f64; 3], 0u32); table.len()];
+    // Pixels whose four neighbours show the same label: no sample of theirs sees another.
+    for i in 0..w * h {
+        let (x, y) = (i % w, i / w);
+        if x == 0 || y == 0 || x + 1 == w || y + 1 == h {
+            continue;
+        }
+        let Some(l) = label_at(i) else { continue };
+        if [i - 1, i + 1, i - w, i + w]
+            .iter()
+            .any(|&j| label_at(j) != Some(l))
+        {
+            continue;
+        }
+        let l = l as usize;
+        for c in 0..3 {
+            sums[l].0[c] += image.radiance[i][c] as f64;
+        }
+        sums[l].1 += 1;
+    }
+    let unit = |v: [f64; 3]| {
+        let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+        v.map(|x| x / n)
+    };
+    let mut seen = 0;
+    for (l, (sum, n)) in sums.iter().enumerate() {
+        if *n < 30 {
+            continue;
+        }
+        seen += 1;
+        let got = unit(*sum);
+        let cos = |k: usize| -> f64 {
+            let want = unit(table[k].albedo().map(|a| a as f64));
+            (0..3).map(|c| got[c] * want[c]).sum()
+        };
+        // Near its own colour (jittered samples at a pixel's edge may see a neighbour's), and
+        // nearer to it than to any other label's.
+        assert!(
+            cos(l) > 0.99,
+            "label {}: colour {got:?}, cos {}",
+            table[l].value,
+            cos(l)
+        );
+        for k in (0..table.len()).filter(|&k| k != l && table[k].rgba != table[l].rgba) {
+            assert!(
+                cos(l) > cos(k),
+                "label {}: nearer label {}'s colour",
+                table[l].value,
+                table[k].value
+            );
+        }
+    }
+    assert!(seen >= 2, "{seen} labels seen");
+}
