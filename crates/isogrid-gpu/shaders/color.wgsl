@@ -1,9 +1,12 @@
-// Colour by an attribute (`isogrid::colormap`, `isogrid::attribute`): the colouring uniforms and
-// the rules that turn a corner record's attribute code into a value and a value into an albedo,
-// shared by the deferred shading pass (shade.wgsl) and the path tracer (pathtrace.wgsl). Each of
-// those declares, at its own group and binding, `coloring: ColorUniforms` and
-// `attribute_codes: array<u32>` (one 16-bit code per corner record, global record index, two per
-// word). Twins: `Coloring::index` (the table entry), `AttributeInfo::code_mapping` (the decoding).
+// Surface colour (`isogrid::colormap`, `isogrid::attribute`, `isogrid::labels`): the colouring
+// uniforms and the rules that turn a corner record's attribute code into a value and a value into
+// an albedo, or give a label grid's cluster its label's albedo; shared by the deferred shading
+// pass (shade.wgsl) and the path tracer (pathtrace.wgsl). Each of those declares, at its own group
+// and binding, `coloring: ColorUniforms` and `color_data: array<u32>`: for COLOR_RECORDS one
+// 16-bit attribute code per corner record (global record index, two per word), for COLOR_LABELS
+// the linear albedo of each cluster's label (f32 bits, four words per cluster). Twins:
+// `Coloring::index` (the table entry), `AttributeInfo::code_mapping` (the decoding),
+// `Label::albedo` (uploaded as it is).
 
 // Keep in sync with `ColorUniforms` in src/gpu_types.rs.
 struct ColorUniforms {
@@ -15,10 +18,17 @@ struct ColorUniforms {
 const COLOR_NONE: u32 = 0u;
 const COLOR_RECORDS: u32 = 1u;
 const COLOR_MESH: u32 = 2u;
+const COLOR_LABELS: u32 = 3u;
+
+// The albedo of cluster `cluster` of a label grid (COLOR_LABELS).
+fn cluster_albedo(cluster: u32) -> vec3<f32> {
+    let at = 4u * cluster;
+    return bitcast<vec3<f32>>(vec3<u32>(color_data[at], color_data[at + 1u], color_data[at + 2u]));
+}
 
 // The attribute value of corner record `record` (global index); NaN for the NaN code.
 fn record_value(record: u32) -> f32 {
-    let code = (attribute_codes[record >> 1u] >> (16u * (record & 1u))) & 0xffffu;
+    let code = (color_data[record >> 1u] >> (16u * (record & 1u))) & 0xffffu;
     if code == coloring.params.y {
         return bitcast<f32>(coloring.params.z);
     }

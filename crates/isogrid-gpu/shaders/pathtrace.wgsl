@@ -27,11 +27,11 @@
 // and 5 are trace.wgsl's `rays` and `hits`.
 @group(2) @binding(6) var primary_surface: texture_storage_2d<rgba32float, write>;
 @group(2) @binding(7) var primary_ids: texture_storage_2d<rg32uint, write>;
-// Colour by the grid's attribute (color.wgsl): every surface's albedo is its colour, when
-// `coloring.params.x` is COLOR_RECORDS, else `trace.albedo`. Raster primaries take their value
-// from the shading pass's value target (NaN off the surface).
+// Surface colour (color.wgsl): every surface's albedo is its attribute's colour (COLOR_RECORDS)
+// or its label's (COLOR_LABELS), else `trace.albedo`. Raster primaries take their value, or for
+// labels their cluster's bits, from the shading pass's value target.
 @group(0) @binding(4) var<uniform> coloring: ColorUniforms;
-@group(0) @binding(5) var<storage, read> attribute_codes: array<u32>;
+@group(0) @binding(5) var<storage, read> color_data: array<u32>;
 @group(0) @binding(6) var primary_values: texture_2d<f32>;
 
 const PI: f32 = 3.14159265358979;
@@ -132,18 +132,25 @@ fn bounce_ray(p: vec3<f32>, n: vec3<f32>, rng: ptr<function, u32>) -> BounceRay 
     return BounceRay(p + trace.cell_dims.w * n, cosine_direction(n, u1, u2));
 }
 
-// The diffuse albedo of the surface of corner record `record`.
-fn record_albedo(record: u32) -> vec3<f32> {
+// The diffuse albedo of the surface of corner record `record` in cluster `cluster`.
+fn surface_albedo(record: u32, cluster: u32) -> vec3<f32> {
     if coloring.params.x == COLOR_RECORDS {
         return albedo_of(record_value(record));
+    }
+    if coloring.params.x == COLOR_LABELS {
+        return cluster_albedo(cluster);
     }
     return trace.albedo.rgb;
 }
 
 // The albedo of pixel `pixel`'s raster primary hit (the value the shading pass coloured it by).
 fn raster_primary_albedo(pixel: vec2<u32>) -> vec3<f32> {
+    let value = textureLoad(primary_values, vec2<i32>(pixel), 0).r;
     if coloring.params.x == COLOR_RECORDS {
-        return albedo_of(textureLoad(primary_values, vec2<i32>(pixel), 0).r);
+        return albedo_of(value);
+    }
+    if coloring.params.x == COLOR_LABELS {
+        return cluster_albedo(bitcast<u32>(value));
     }
     return trace.albedo.rgb;
 }
@@ -179,7 +186,7 @@ fn follow_path(pixel: vec2<u32>, dir: vec3<f32>, primary: vec4<f32>, albedo: vec
             }
             p = ray.origin + hit.t * ray.direction;
             n = facing(hit.normal, ray.direction);
-            throughput *= record_albedo(hit.record);
+            throughput *= surface_albedo(hit.record, hit.cluster);
         }
     }
     add_sample(index, pixel, radiance);
@@ -210,5 +217,5 @@ fn path_trace_traced_primary(@builtin(global_invocation_id) gid: vec3<u32>) {
     let primary = select(vec4<f32>(0.0), vec4<f32>(hit.normal, hit.t), hit.t < NO_HIT);
     textureStore(primary_surface, vec2<i32>(gid.xy), primary);
     textureStore(primary_ids, vec2<i32>(gid.xy), vec4<u32>(hit.cluster, 0u, 0u, 0u));
-    follow_path(gid.xy, dir, primary, record_albedo(hit.record));
+    follow_path(gid.xy, dir, primary, surface_albedo(hit.record, hit.cluster));
 }

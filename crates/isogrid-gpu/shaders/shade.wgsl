@@ -12,9 +12,8 @@
 @group(1) @binding(2) var cluster_ids: texture_2d<u32>;
 
 @group(1) @binding(3) var<uniform> coloring: ColorUniforms;
-// One 16-bit attribute code per corner record (global record index), two per word; a dummy word
-// when the surface is not coloured by records.
-@group(1) @binding(4) var<storage, read> attribute_codes: array<u32>;
+// The colour data of color.wgsl (attribute codes or label albedos); a dummy when uncoloured.
+@group(1) @binding(4) var<storage, read> color_data: array<u32>;
 // The compute pass's outputs (the fragment pass writes the same as render targets).
 @group(2) @binding(0) var shaded_color: texture_storage_2d<rgba8unorm, write>;
 @group(2) @binding(1) var shaded_normal: texture_storage_2d<rgba32float, write>;
@@ -83,7 +82,11 @@ fn shade_pixel(position: vec2<f32>) -> ShadeOut {
     }
     var albedo = ALBEDO;
     out.value = vec4<f32>(nan);
-    if coloring.params.x != COLOR_NONE {
+    if coloring.params.x == COLOR_LABELS {
+        albedo = cluster_albedo(ids.x);
+        // The path tracer's raster primaries find their cluster here (no value AOV for labels).
+        out.value = vec4<f32>(bitcast<f32>(ids.x));
+    } else if coloring.params.x != COLOR_NONE {
         let value = surface_value(ids);
         albedo = albedo_of(value);
         out.value = vec4<f32>(value);

@@ -99,7 +99,7 @@ fn wave_resolve_primary(@builtin(global_invocation_id) gid: vec3<u32>) {
     let primary = select(vec4<f32>(0.0), s.hit, s.hit.w < NO_HIT);
     textureStore(primary_surface, vec2<i32>(gid.xy), primary);
     textureStore(primary_ids, vec2<i32>(gid.xy), vec4<u32>(s.cluster, 0u, 0u, 0u));
-    wave_begin(gid.xy, s.direction, primary, record_albedo(s.record));
+    wave_begin(gid.xy, s.direction, primary, surface_albedo(s.record, s.cluster));
 }
 
 // A bounce, after its traces: an escaped path adds the environment, a path out of bounces adds
@@ -127,5 +127,5 @@ fn wave_resolve(@builtin(global_invocation_id) gid: vec3<u32>) {
     let p = s.origin + s.hit.w * s.direction;
     var rng = s.rng;
     let ray = bounce_ray(p, facing(s.hit.xyz, s.direction), &rng);
-    paths[index] = PathState(ray.origin, s.bounce + 1u, ray.direction, rng, vec4<f32>(0.0, 0.0, 0.0, NO_HIT), s.throughput * record_albedo(s.record), NO_CLUSTER, 0u);
+    paths[index] = PathState(ray.origin, s.bounce + 1u, ray.direction, rng, vec4<f32>(0.0, 0.0, 0.0, NO_HIT), s.throughput * surface_albedo(s.record, s.cluster), NO_CLUSTER, 0u);
 }

@@ -57,6 +57,8 @@ pub(crate) const COLOR_NONE: u32 = 0;
 pub(crate) const COLOR_RECORDS: u32 = 1;
 /// The value the mesh pass wrote, as f32 bits, in the record channel of the ID target.
 pub(crate) const COLOR_MESH: u32 = 2;
+/// The albedo of the hit cluster's label (a label grid), four words per cluster.
+pub(crate) const COLOR_LABELS: u32 = 3;
 
 const _: () = assert!(std::mem::size_of::<ColorUniforms>() == 48 + 16 * 256);
 
@@ -72,6 +74,11 @@ impl ColorUniforms {
         use isogrid::colormap::{srgb8_to_linear, NAN_SRGB};
         let mut u: ColorUniforms = Zeroable::zeroed();
         u.params[2] = f32::NAN.to_bits();
+        // A label grid's colours are uploaded with it; no map or range applies.
+        if source == COLOR_LABELS {
+            u.params[0] = COLOR_LABELS;
+            return u;
+        }
         let Some(c) = coloring.filter(|_| source != COLOR_NONE) else {
             return u;
         };

