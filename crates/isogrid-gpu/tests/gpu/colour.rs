@@ -138,22 +138,10 @@ fn gpu_path_tracing_takes_each_surface_colour_as_its_albedo_like_the_cpu() {
     }
 }
 
-/// A ball cut into three labels side by side along x.
+/// The built-in ball of three labels side by side along x, as a label grid.
 fn labelled_ball() -> CellGrid {
-    let n = 40usize;
-    let labels: Vec<u8> = (0..n * n * n)
-        .map(|i| {
-            let p = [i % n, i / n % n, i / (n * n)].map(|c| c as f64 - 19.5);
-            if p.iter().map(|c| c * c).sum::<f64>() < 15.0 * 15.0 {
-                1 + ((p[0] + 15.0) / 10.0).clamp(0.0, 2.0) as u8
-            } else {
-                0
-            }
-        })
-        .collect();
-    let volume = Volume::new([n; 3], VolumeData::U8(labels)).unwrap();
     isogrid::extract_labels(
-        &volume.view(),
+        &isogrid::generate::labelled_ball(40).view(),
         &isogrid::LabelOptions::new(isogrid::LabelSelection::All),
     )
     .unwrap()

@@ -692,19 +692,7 @@ fn a_labelled_grid_traces_as_the_union_of_its_label_surfaces() {
 #[test]
 fn a_labelled_grid_is_drawn_in_its_label_colours() {
     // A ball cut into three labels side by side along x; the oblique view sees at least two.
-    let n = 40usize;
-    let labels: Vec<u8> = (0..n * n * n)
-        .map(|i| {
-            let p = [i % n, i / n % n, i / (n * n)].map(|c| c as f64 - 19.5);
-            let inside = p.iter().map(|c| c * c).sum::<f64>() < 15.0 * 15.0;
-            if inside {
-                1 + ((p[0] + 15.0) / 10.0).clamp(0.0, 2.0) as u8
-            } else {
-                0
-            }
-        })
-        .collect();
-    let labelled = Volume::new([n; 3], VolumeData::U8(labels)).unwrap();
+    let labelled = isogrid::generate::labelled_ball(40);
     let grid = isogrid::extract_labels(
         &labelled.view(),
         &isogrid::LabelOptions::new(isogrid::LabelSelection::All),

@@ -298,3 +298,22 @@ mod tests {
         assert_ne!(v, generate(Field::Hairball, size, 43), "seed changes it");
     }
 }
+
+/// A label volume (u8) of `size`³ samples: a ball of radius `0.375·size` in the middle cut into
+/// three labels 1, 2, 3 side by side along x (thirds of its diameter), background 0; every label
+/// touches the next. For tests and demos of label grids.
+pub fn labelled_ball(size: usize) -> Volume {
+    let centre = (size as f64 - 1.0) / 2.0;
+    let radius = 0.375 * size as f64;
+    let labels: Vec<u8> = (0..size * size * size)
+        .map(|i| {
+            let p = [i % size, i / size % size, i / (size * size)].map(|c| c as f64 - centre);
+            if p.iter().map(|c| c * c).sum::<f64>() < radius * radius {
+                1 + ((p[0] + radius) / (2.0 * radius / 3.0)).clamp(0.0, 2.0) as u8
+            } else {
+                0
+            }
+        })
+        .collect();
+    Volume::new([size; 3], crate::VolumeData::U8(labels)).expect("a cube of u8 labels")
+}
