@@ -107,6 +107,26 @@ pub enum VolumeData {
     F64(Vec<f64>),
 }
 
+/// Evaluates `$body` with `$s` bound to the typed slice that `$samples` (a [`Samples`]) holds,
+/// whichever sample type it is: the one place that lists every type for code generic over
+/// [`Scalar`].
+macro_rules! with_samples {
+    ($samples:expr, $s:ident => $body:expr) => {
+        match $samples {
+            $crate::volume::Samples::U8($s) => $body,
+            $crate::volume::Samples::U16($s) => $body,
+            $crate::volume::Samples::I16($s) => $body,
+            $crate::volume::Samples::F32($s) => $body,
+            $crate::volume::Samples::U32($s) => $body,
+            $crate::volume::Samples::I32($s) => $body,
+            $crate::volume::Samples::U64($s) => $body,
+            $crate::volume::Samples::I64($s) => $body,
+            $crate::volume::Samples::F64($s) => $body,
+        }
+    };
+}
+pub(crate) use with_samples;
+
 /// Borrowed samples of one of the supported types (e.g. a numpy array's buffer).
 #[derive(Debug, Clone, Copy)]
 pub enum Samples<'a> {

@@ -29,7 +29,7 @@ use crate::attribute::{AttributePrecision, CellAttribute};
 use crate::error::{Error, Result};
 use crate::grid::{CellGrid, GridInfo};
 use crate::layout::{read_corners, BLOCK_CELLS, BOUND_SLOT, CLUSTER_SLOTS};
-use crate::volume::{Geometry, Samples, Scalar, ScalarType, VolumeView};
+use crate::volume::{Geometry, Scalar, ScalarType, VolumeView};
 use rayon::prelude::*;
 use std::ops::Range;
 
@@ -468,17 +468,7 @@ pub fn sample_attribute_in_memory(
             )
         };
     }
-    match volume.samples() {
-        Samples::U8(s) => with!(s),
-        Samples::U16(s) => with!(s),
-        Samples::I16(s) => with!(s),
-        Samples::F32(s) => with!(s),
-        Samples::U32(s) => with!(s),
-        Samples::I32(s) => with!(s),
-        Samples::U64(s) => with!(s),
-        Samples::I64(s) => with!(s),
-        Samples::F64(s) => with!(s),
-    }
+    crate::volume::with_samples!(volume.samples(), s => with!(s));
     Ok(CellAttribute::from_values(name, precision, &values))
 }
 
@@ -509,17 +499,7 @@ pub fn sample_points_in_memory(
                 .collect()
         }};
     }
-    Ok(match volume.samples() {
-        Samples::U8(s) => with!(s),
-        Samples::U16(s) => with!(s),
-        Samples::I16(s) => with!(s),
-        Samples::F32(s) => with!(s),
-        Samples::U32(s) => with!(s),
-        Samples::I32(s) => with!(s),
-        Samples::U64(s) => with!(s),
-        Samples::I64(s) => with!(s),
-        Samples::F64(s) => with!(s),
-    })
+    Ok(crate::volume::with_samples!(volume.samples(), s => with!(s)))
 }
 
 /// Values at points on the surface of `grid` from its cell attribute, for meshes of the same

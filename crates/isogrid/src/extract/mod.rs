@@ -20,7 +20,7 @@ use crate::grid::{CellGrid, GridInfo};
 use crate::layout::{Block, Metacell, Precision, BLOCK_CELLS, CLUSTER_METACELLS, CLUSTER_SLOTS};
 use crate::progress::Progress;
 use crate::quantize::Quantizer;
-use crate::volume::{Samples, VolumeView};
+use crate::volume::VolumeView;
 use rayon::prelude::*;
 use scalar::ExtractScalar;
 
@@ -114,17 +114,7 @@ pub fn extract_with_progress(
     options: &ExtractOptions,
     progress: &Progress,
 ) -> Result<CellGrid> {
-    match volume.samples() {
-        Samples::U8(s) => extract_typed(volume, s, options, progress),
-        Samples::U16(s) => extract_typed(volume, s, options, progress),
-        Samples::I16(s) => extract_typed(volume, s, options, progress),
-        Samples::F32(s) => extract_typed(volume, s, options, progress),
-        Samples::U32(s) => extract_typed(volume, s, options, progress),
-        Samples::I32(s) => extract_typed(volume, s, options, progress),
-        Samples::U64(s) => extract_typed(volume, s, options, progress),
-        Samples::I64(s) => extract_typed(volume, s, options, progress),
-        Samples::F64(s) => extract_typed(volume, s, options, progress),
-    }
+    crate::volume::with_samples!(volume.samples(), s => extract_typed(volume, s, options, progress))
 }
 
 fn extract_typed<T: ExtractScalar>(

@@ -18,7 +18,7 @@ use super::table::{cases, edge_corners};
 use crate::error::{Error, Result};
 use crate::extract::scalar::{integer_above, integer_at_or_above};
 use crate::progress::Progress;
-use crate::volume::{Samples, Scalar, VolumeView};
+use crate::volume::{Scalar, VolumeView};
 use rayon::prelude::*;
 use std::collections::HashMap;
 
@@ -36,17 +36,7 @@ pub(crate) fn extract(
     progress: &Progress,
 ) -> Result<McMesh> {
     progress.start(volume.dims()[2] as u64);
-    match volume.samples() {
-        Samples::U8(s) => extract_typed(volume, s, iso, inside, slab_planes, progress),
-        Samples::U16(s) => extract_typed(volume, s, iso, inside, slab_planes, progress),
-        Samples::I16(s) => extract_typed(volume, s, iso, inside, slab_planes, progress),
-        Samples::F32(s) => extract_typed(volume, s, iso, inside, slab_planes, progress),
-        Samples::U32(s) => extract_typed(volume, s, iso, inside, slab_planes, progress),
-        Samples::I32(s) => extract_typed(volume, s, iso, inside, slab_planes, progress),
-        Samples::U64(s) => extract_typed(volume, s, iso, inside, slab_planes, progress),
-        Samples::I64(s) => extract_typed(volume, s, iso, inside, slab_planes, progress),
-        Samples::F64(s) => extract_typed(volume, s, iso, inside, slab_planes, progress),
-    }
+    crate::volume::with_samples!(volume.samples(), s => extract_typed(volume, s, iso, inside, slab_planes, progress))
 }
 
 /// The smallest sample value that counts as inside (`v as f64 >= iso`), so the hot loop compares

@@ -220,17 +220,7 @@ struct TileJob<'a> {
 impl TileJob<'_> {
     /// [`Self::emit`] on `tile`'s samples, whatever their type.
     fn emit_view(&self, tile: &VolumeView) -> (Vec<Metacell>, Vec<u8>) {
-        match tile.samples() {
-            Samples::U8(s) => self.emit(s),
-            Samples::U16(s) => self.emit(s),
-            Samples::I16(s) => self.emit(s),
-            Samples::F32(s) => self.emit(s),
-            Samples::U32(s) => self.emit(s),
-            Samples::I32(s) => self.emit(s),
-            Samples::U64(s) => self.emit(s),
-            Samples::I64(s) => self.emit(s),
-            Samples::F64(s) => self.emit(s),
-        }
+        crate::volume::with_samples!(tile.samples(), s => self.emit(s))
     }
 
     /// The slots and then the corner records of the box's block rows, each row's where the
