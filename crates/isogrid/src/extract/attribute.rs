@@ -179,54 +179,129 @@ const EDGES: [(usize, usize, usize); 12] = {
     edges
 };
 
-/// For each set of inside corners (bit c: corner c), the edges of [`EDGES`] that the surface
-/// crosses (bit e: edge e): those whose two corners lie on different sides.
-const CROSSING_EDGES: [u16; 256] = {
-    let mut table = [0u16; 256];
-    let mut inside = 0;
-    while inside < 256 {
-        let mut e = 0;
-        while e < 12 {
-            let (c, d, _) = EDGES[e];
-            if (inside >> c ^ inside >> d) & 1 == 1 {
-                table[inside] |= 1 << e;
-            }
-            e += 1;
-        }
-        inside += 1;
-    }
-    table
-};
-
 /// The centroid of the points where the isosurface crosses a cell's edges, in the cell's own
 /// coordinates `[0, 1]³`, from its eight stored corners (codes, or f32 values at 32 bits) and the
 /// threshold in the same units. The cell's centre when no edge crosses.
 pub fn surface_point(corners: &[f32; 8], iso_code: f32) -> [f64; 3] {
-    let mut inside = 0usize;
-    for (c, &v) in corners.iter().enumerate() {
-        inside |= ((v >= iso_code) as usize) << c;
+    cell_point(corners, iso_code).map(|t| t as f64)
+}
+
+/// [`surface_point`] in the f32 it is computed in. All twelve edges are computed, four per axis,
+/// and the ones the surface does not cross are masked out rather than skipped: the number of
+/// crossings varies from cell to cell, and a loop over them cost a mispredicted branch per cell.
+/// Coordinate `k` sums the crossings' `t` along axis `k` (lanes in [`EDGES`] order, added as
+/// `(t₀ + t₂) + (t₁ + t₃)`) and the count of the other crossings whose low corner lies on the
+/// high side of axis `k`, an exact integer.
+#[inline]
+fn cell_point(corners: &[f32; 8], iso_code: f32) -> [f32; 3] {
+    #[cfg(target_arch = "x86_64")]
+    {
+        cell_point_sse(corners, iso_code)
     }
-    let (mut sum, mut n) = ([0.0f32; 3], 0u32);
-    // The crossing edges in `EDGES` order, so the sums add up in the same order for every path.
-    let mut crossing = CROSSING_EDGES[inside];
-    while crossing != 0 {
-        let (c, d, axis) = EDGES[crossing.trailing_zeros() as usize];
-        crossing &= crossing - 1;
-        let (a, b) = (corners[c], corners[d]);
-        if a.is_nan() || b.is_nan() {
-            continue;
-        }
-        let t = ((iso_code - a) / (b - a)).clamp(0.0, 1.0);
-        // The edge's other two coordinates are the low corner's bits.
-        for (k, s) in sum.iter_mut().enumerate() {
-            *s += if k == axis { t } else { (c >> k & 1) as f32 };
-        }
-        n += 1;
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        cell_point_portable(corners, iso_code)
     }
+}
+
+/// For each axis `k`, the lanes (bit `e`: edge `4·axis + e` of [`EDGES`]) of the edges along
+/// each axis whose low corner has bit `k` set.
+const HIGH_SIDE_LANES: [[u32; 3]; 3] = {
+    let mut lanes = [[0u32; 3]; 3];
+    let mut k = 0;
+    while k < 3 {
+        let mut e = 0;
+        while e < 12 {
+            if EDGES[e].0 >> k & 1 == 1 {
+                lanes[k][e / 4] |= 1 << (e % 4);
+            }
+            e += 1;
+        }
+        k += 1;
+    }
+    lanes
+};
+
+/// Set bits of a 4-lane mask: a table, as `count_ones` without the POPCNT instruction (not in
+/// the x86-64 baseline) vectorises into a long bit trick here.
+const LANES_SET: [u8; 16] = [0, 1, 1, 2, 1, 2, 2, 3, 1, 2, 2, 3, 2, 3, 3, 4];
+
+/// The centroid from each axis's crossing mask (4 lanes) and sum of `t`.
+#[inline]
+fn centroid(masks: [u32; 3], t_sums: [f32; 3]) -> [f32; 3] {
+    let set = |m: u32| LANES_SET[(m & 0xf) as usize] as u32;
+    let n = set(masks[0]) + set(masks[1]) + set(masks[2]);
     if n == 0 {
-        [0.5; 3]
-    } else {
-        sum.map(|s| (s / n as f32) as f64)
+        return [0.5; 3];
+    }
+    std::array::from_fn(|k| {
+        let others: u32 = (0..3)
+            .filter(|&axis| axis != k)
+            .map(|axis| set(masks[axis] & HIGH_SIDE_LANES[k][axis]))
+            .sum();
+        (t_sums[k] + others as f32) / n as f32
+    })
+}
+
+/// [`cell_point`] in plain Rust: what [`cell_point_sse`] computes, lane for lane.
+#[cfg_attr(target_arch = "x86_64", allow(dead_code))]
+fn cell_point_portable(corners: &[f32; 8], iso_code: f32) -> [f32; 3] {
+    let mut masks = [0u32; 3];
+    let mut t_sums = [0.0f32; 3];
+    for axis in 0..3 {
+        let mut t = [0.0f32; 4];
+        for e in 0..4 {
+            let (c, d, _) = EDGES[4 * axis + e];
+            let (a, b) = (corners[c], corners[d]);
+            // A NaN corner is outside (as in the inside mask) and its edges carry no crossing.
+            if (a >= iso_code) != (b >= iso_code) && !a.is_nan() && !b.is_nan() {
+                masks[axis] |= 1 << e;
+                t[e] = ((iso_code - a) / (b - a)).clamp(0.0, 1.0);
+            }
+        }
+        t_sums[axis] = (t[0] + t[2]) + (t[1] + t[3]);
+    }
+    centroid(masks, t_sums)
+}
+
+/// [`cell_point`] four edges at a time (SSE is part of the x86-64 baseline).
+#[cfg(target_arch = "x86_64")]
+#[inline]
+fn cell_point_sse(corners: &[f32; 8], iso_code: f32) -> [f32; 3] {
+    use std::arch::x86_64::*;
+    // SAFETY: SSE is part of the x86-64 baseline; the loads read the 8 lanes of `corners`.
+    unsafe {
+        let low = _mm_loadu_ps(corners.as_ptr());
+        let high = _mm_loadu_ps(corners.as_ptr().add(4));
+        // Each axis's edges as (low corners, high corners), lanes in `EDGES` order:
+        // x (0,1) (2,3) (4,5) (6,7); y (0,2) (1,3) (4,6) (5,7); z (0,4) (1,5) (2,6) (3,7).
+        let ends = [
+            (
+                _mm_shuffle_ps::<0b10_00_10_00>(low, high),
+                _mm_shuffle_ps::<0b11_01_11_01>(low, high),
+            ),
+            (_mm_movelh_ps(low, high), _mm_movehl_ps(high, low)),
+            (low, high),
+        ];
+        let iso = _mm_set1_ps(iso_code);
+        let (zero, one) = (_mm_setzero_ps(), _mm_set1_ps(1.0));
+        let mut masks = [0u32; 3];
+        let mut t_sums = [0.0f32; 3];
+        for (axis, &(a, b)) in ends.iter().enumerate() {
+            // `>=` is false for NaN, and `ord` drops an edge with a NaN end.
+            let crosses = _mm_and_ps(
+                _mm_xor_ps(_mm_cmpge_ps(a, iso), _mm_cmpge_ps(b, iso)),
+                _mm_cmpord_ps(a, b),
+            );
+            // max then min with t second, so a NaN t stays NaN as f32::clamp keeps it.
+            let t = _mm_div_ps(_mm_sub_ps(iso, a), _mm_sub_ps(b, a));
+            let t = _mm_and_ps(crosses, _mm_min_ps(one, _mm_max_ps(zero, t)));
+            // (t₀ + t₂) + (t₁ + t₃)
+            let pairs = _mm_add_ps(t, _mm_movehl_ps(t, t));
+            t_sums[axis] = _mm_cvtss_f32(_mm_add_ss(pairs, _mm_shuffle_ps::<0b01>(pairs, pairs)));
+            masks[axis] = _mm_movemask_ps(crosses) as u32;
+        }
+        centroid(masks, t_sums)
     }
 }
 
@@ -239,14 +314,18 @@ struct Lattice<'a, T> {
 }
 
 /// `a` to `b` at `t`; the end itself at `t` = 0 or 1, so a NaN with no weight stays out.
-#[inline]
+///
+/// Written as selects of values computed either way, not as branches: `t` is 0 or 1 on some axes
+/// of many cells and not of others, a branch the processor cannot predict, and each miss would
+/// also drop the attribute loads already issued for the cells ahead.
+#[inline(always)]
 fn lerp(a: f32, b: f32, t: f32) -> f32 {
+    let between = a + (b - a) * t;
+    let end = if t == 1.0 { b } else { between };
     if t == 0.0 {
         a
-    } else if t == 1.0 {
-        b
     } else {
-        a + (b - a) * t
+        end
     }
 }
 
@@ -255,18 +334,36 @@ impl<T: Scalar> Lattice<'_, T> {
     /// cell's own coordinates: what [`Lattice::trilinear`] gives at `origin + t`, without its
     /// bounds work (the cell lies inside the lattice and its planes are held).
     #[inline]
-    fn in_cell(&self, origin: [u32; 3], t: [f64; 3]) -> f32 {
-        let (nx, ny) = (self.dims[0], self.dims[1]);
-        let [x, y, z] = origin.map(|c| c as usize);
-        let at = x + nx * (y + ny * (z - self.planes.start));
-        let (sy, sz) = (nx, nx * ny);
+    fn in_cell(&self, origin: [u32; 3], t: [f32; 3]) -> f32 {
+        let at = self.cell_offset(origin);
+        let (sy, sz) = (self.dims[0], self.dims[0] * self.dims[1]);
         let s = |o: usize| self.samples[at + o].to_f64() as f32;
-        let t = t.map(|v| v as f32);
         let x00 = lerp(s(0), s(1), t[0]);
         let x10 = lerp(s(sy), s(sy + 1), t[0]);
         let x01 = lerp(s(sz), s(sz + 1), t[0]);
         let x11 = lerp(s(sz + sy), s(sz + sy + 1), t[0]);
         lerp(lerp(x00, x10, t[1]), lerp(x01, x11, t[1]), t[2])
+    }
+
+    /// The index in `samples` of the sample at `origin`, a cell's low corner.
+    #[inline]
+    fn cell_offset(&self, origin: [u32; 3]) -> usize {
+        let (nx, ny) = (self.dims[0], self.dims[1]);
+        let [x, y, z] = origin.map(|c| c as usize);
+        x + nx * (y + ny * (z - self.planes.start))
+    }
+
+    /// Asks the cache for the four sample rows [`Lattice::in_cell`] will read for the cell at
+    /// `origin`.
+    #[inline]
+    fn prefetch_cell(&self, origin: [u32; 3]) {
+        let at = self.cell_offset(origin);
+        let (sy, sz) = (self.dims[0], self.dims[0] * self.dims[1]);
+        for o in [0, sy, sz, sz + sy] {
+            if let Some(row) = self.samples.get(at + o..at + o + 2) {
+                super::prefetch_row(row);
+            }
+        }
     }
 
     /// Trilinear interpolation at attribute index point `q`; NaN outside the volume or outside
@@ -370,31 +467,49 @@ fn sample_blocks<T: Scalar>(
         next = first + count;
         runs.push((block.slots(), first, run));
     }
-    runs.into_par_iter().for_each(|(slots, first, run)| {
-        let mut cell = first;
-        for (s, m) in grid.metacells()[slots].iter().enumerate() {
-            if s % CLUSTER_SLOTS == BOUND_SLOT || m.is_empty() {
-                continue;
-            }
-            for bit in 0..8 {
-                if m.cell_mask >> bit & 1 == 0 {
+    // Each block first finds its cells' surface points (compute only), then interpolates the
+    // attribute at them, asking for the rows of the cell `LOOKAHEAD` places ahead: the gathers
+    // from the attribute volume are what the pass waits on, and they overlap only when issued
+    // early.
+    const LOOKAHEAD: usize = 32;
+    runs.into_par_iter()
+        .for_each_init(Vec::new, |points, (slots, first, run)| {
+            points.clear();
+            let record_bytes = precision.bytes_per_cell();
+            let mut records = grid.cells()[first * record_bytes..].chunks_exact(record_bytes);
+            for (s, m) in grid.metacells()[slots].iter().enumerate() {
+                if s % CLUSTER_SLOTS == BOUND_SLOT {
                     continue;
                 }
-                let corners = read_corners(grid.cell_record(cell), precision);
-                let t = surface_point(&corners, iso_code);
-                let origin = m.cell_position(bit).map(|c| c as f64);
-                let p = [0, 1, 2].map(|a| origin[a] + t[a]);
-                run[cell - first] = match alignment {
-                    Alignment::Resampled { to_attribute } => {
-                        lattice.trilinear(apply(to_attribute, p))
-                    }
-                    // The cell's own eight attribute samples, at the point inside it.
-                    Alignment::SameGrid => lattice.in_cell(m.cell_position(bit), t),
-                };
-                cell += 1;
+                // The active cells in bit order, the order of their records.
+                let mut mask = m.cell_mask;
+                while mask != 0 {
+                    let bit = mask.trailing_zeros();
+                    mask &= mask - 1;
+                    let record = records.next().expect("a record per active cell");
+                    let corners = read_corners(record, precision);
+                    points.push((m.cell_position(bit), cell_point(&corners, iso_code)));
+                }
             }
-        }
-    });
+            match alignment {
+                // The cell's own eight attribute samples, at the point inside it.
+                Alignment::SameGrid => {
+                    for (i, (value, &(origin, t))) in run.iter_mut().zip(points.iter()).enumerate()
+                    {
+                        if let Some(&(ahead, _)) = points.get(i + LOOKAHEAD) {
+                            lattice.prefetch_cell(ahead);
+                        }
+                        *value = lattice.in_cell(origin, t);
+                    }
+                }
+                Alignment::Resampled { to_attribute } => {
+                    for (value, &(origin, t)) in run.iter_mut().zip(points.iter()) {
+                        let p = [0, 1, 2].map(|a| origin[a] as f64 + t[a] as f64);
+                        *value = lattice.trilinear(apply(to_attribute, p));
+                    }
+                }
+            }
+        });
 }
 
 /// Samples `source` at every active cell's surface point of `grid` and stores the values at
@@ -596,6 +711,54 @@ fn layer_planes(
             let start = lo.floor().max(0.0) as usize;
             let end = ((hi.ceil() + 1.0).max(0.0) as usize).min(dims[2]);
             start.min(end)..end
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The SSE surface point equals the plain one bit for bit, NaN and infinite corners included,
+    /// so files do not depend on the machine that wrote them.
+    #[test]
+    fn sse_and_portable_surface_points_agree_bit_for_bit() {
+        let specials = [
+            f32::NAN,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            0.0,
+            1.0,
+            2.0,
+            2.5,
+        ];
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        };
+        for _ in 0..200_000 {
+            let r = next();
+            let corners: [f32; 8] = std::array::from_fn(|c| {
+                let bits = (r >> (8 * c)) as u8;
+                if bits < 24 {
+                    specials[bits as usize % specials.len()]
+                } else {
+                    (next() % 5000) as f32 / 1000.0
+                }
+            });
+            let iso = [2.5, 1.0, 0.001, 4.999][(r >> 62) as usize];
+            let (a, b) = (
+                cell_point(&corners, iso),
+                cell_point_portable(&corners, iso),
+            );
+            assert_eq!(
+                a.map(f32::to_bits),
+                b.map(f32::to_bits),
+                "{corners:?} at {iso}: {a:?} {b:?}"
+            );
         }
     }
 }

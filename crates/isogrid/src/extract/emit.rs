@@ -84,17 +84,10 @@ pub(crate) fn classify_block<T: ExtractScalar>(
     let (origin, cells) = block_extent(dims, block, slab_block);
     // The block's 17×17 sample rows are scattered over the volume and were last read in pass 1:
     // ask for all of them up front so the misses overlap instead of queueing behind each other.
-    #[cfg(target_arch = "x86_64")]
     for lz in 0..=cells[2] {
         for ly in 0..=cells[1] {
             let start = origin[0] + nx * (origin[1] + ly + ny * (origin[2] + lz));
-            let row = samples[start..=start + cells[0]].as_ptr_range();
-            // SAFETY: prefetch is a hint and never faults; both addresses are inside the row.
-            unsafe {
-                use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
-                _mm_prefetch::<_MM_HINT_T0>(row.start.cast());
-                _mm_prefetch::<_MM_HINT_T0>(row.end.wrapping_sub(1).cast());
-            }
+            super::prefetch_row(&samples[start..=start + cells[0]]);
         }
     }
 
