@@ -270,17 +270,39 @@ pub struct MeshReport {
     pub triangles: u64,
     /// 6 B per vertex (snorm16 xyz) + 12 B per triangle (u32 indices), as the paper's Table 3.
     pub bytes: u64,
+    /// With `--labels`: the labels with a surface, one mesh each (vertices and triangles are
+    /// their sums).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub labels: Option<u64>,
     pub seconds: Seconds,
 }
 
 impl MeshReport {
+    /// One JSON object with `json`, else the human table.
+    pub fn print(&self, json: bool) -> anyhow::Result<()> {
+        if json {
+            print_json(self)
+        } else {
+            self.print_human()?;
+            Ok(())
+        }
+    }
+
     pub fn print_human(&self) -> Result<(), crate::stdout::StdoutError> {
-        outln!(
-            "mesh          {} vertices, {} triangles, iso {}",
-            group(self.vertices),
-            group(self.triangles),
-            self.iso
-        );
+        match self.labels {
+            Some(labels) => outln!(
+                "meshes        {} labels, {} vertices, {} triangles",
+                group(labels),
+                group(self.vertices),
+                group(self.triangles)
+            ),
+            None => outln!(
+                "mesh          {} vertices, {} triangles, iso {}",
+                group(self.vertices),
+                group(self.triangles),
+                self.iso
+            ),
+        }
         outln!(
             "memory        {} (6 B/vertex snorm16 + 12 B/triangle)",
             mb(self.bytes)

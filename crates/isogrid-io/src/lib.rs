@@ -13,6 +13,7 @@
 
 pub mod dicom;
 pub mod image;
+pub mod label_meshes;
 pub mod mesh;
 pub mod metaimage;
 pub mod mrc;

@@ -19,7 +19,16 @@ static UNFINISHED: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
 pub fn remove_unfinished() {
     let mut unfinished = UNFINISHED.lock().unwrap_or_else(|e| e.into_inner());
     for tmp in unfinished.drain(..) {
-        let _ = std::fs::remove_file(tmp);
+        remove_temporary(&tmp);
+    }
+}
+
+/// Removes a temporary file, or a staged folder with what it holds.
+fn remove_temporary(path: &Path) {
+    if std::fs::symlink_metadata(path).is_ok_and(|m| m.is_dir()) {
+        let _ = std::fs::remove_dir_all(path);
+    } else {
+        let _ = std::fs::remove_file(path);
     }
 }
 
@@ -67,34 +76,39 @@ pub fn stage_file<F>(path: &Path, write: F) -> Result<Staged>
 where
     F: FnOnce(&mut File) -> Result<()>,
 {
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d,
-        _ => Path::new("."),
-    };
-    let name = path
-        .file_name()
-        .ok_or_else(|| Error::invalid("output path has no file name").with_path(path))?;
-    let tmp = dir.join(format!(
-        ".{}.tmp{}",
-        name.to_string_lossy(),
-        std::process::id()
-    ));
     // Removes the temporary file on every way out of this function that runs code: an error, or
     // a panic in `write` unwinding through here. (A file-size limit must reach us as an error,
     // EFBIG: programs ignore SIGXFSZ, whose default action kills without running anything.)
-    UNFINISHED
-        .lock()
-        .unwrap_or_else(|e| e.into_inner())
-        .push(tmp.clone());
-    let staged = Staged {
-        tmp,
-        path: path.to_path_buf(),
-        renamed: false,
-    };
+    let staged = Staged::beside(path)?;
     let result = (|| -> Result<()> {
         let mut file = File::create(&staged.tmp)?;
         write(&mut file)?;
         file.sync_all()?;
+        Ok(())
+    })();
+    result.map_err(|e| e.with_path(path))?;
+    Ok(staged)
+}
+
+/// [`stage`] for an output that is a folder of files (neuroglancer's precomputed meshes):
+/// `write` fills a new temporary folder beside `path`, and [`Staged::commit`] renames it into
+/// place. A `path` that already exists is refused before anything is written: a folder is never
+/// merged into or replaced. Errors name `path`.
+pub fn stage_dir<F>(path: &Path, write: F) -> Result<Staged>
+where
+    F: FnOnce(&Path) -> Result<()>,
+{
+    if std::fs::symlink_metadata(path).is_ok() {
+        return Err(Error::invalid(
+            "already exists; a folder output is written only where nothing is",
+        )
+        .with_path(path));
+    }
+    let staged = Staged::beside(path)?;
+    let result = (|| -> Result<()> {
+        std::fs::create_dir(&staged.tmp)?;
+        write(&staged.tmp)?;
+        File::open(&staged.tmp)?.sync_all()?;
         Ok(())
     })();
     result.map_err(|e| e.with_path(path))?;
@@ -155,6 +169,32 @@ pub struct Staged {
 }
 
 impl Staged {
+    /// A temporary path beside `path` (same folder, so the rename stays on one disk), named after
+    /// it and this process, listed among the unfinished writes; nothing is created yet.
+    fn beside(path: &Path) -> Result<Staged> {
+        let dir = match path.parent() {
+            Some(d) if !d.as_os_str().is_empty() => d,
+            _ => Path::new("."),
+        };
+        let name = path
+            .file_name()
+            .ok_or_else(|| Error::invalid("output path has no file name").with_path(path))?;
+        let tmp = dir.join(format!(
+            ".{}.tmp{}",
+            name.to_string_lossy(),
+            std::process::id()
+        ));
+        UNFINISHED
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .push(tmp.clone());
+        Ok(Staged {
+            tmp,
+            path: path.to_path_buf(),
+            renamed: false,
+        })
+    }
+
     /// Renames the temporary file onto the target. Errors name the target.
     pub fn commit(mut self) -> Result<()> {
         std::fs::rename(&self.tmp, &self.path).map_err(|e| Error::io(e).with_path(&self.path))?;
@@ -166,7 +206,7 @@ impl Staged {
 impl Drop for Staged {
     fn drop(&mut self) {
         if !self.renamed {
-            let _ = std::fs::remove_file(&self.tmp);
+            remove_temporary(&self.tmp);
         }
         let mut unfinished = UNFINISHED.lock().unwrap_or_else(|e| e.into_inner());
         if let Some(at) = unfinished.iter().position(|p| p == &self.tmp) {

@@ -132,6 +132,7 @@ pub fn run(args: Args) -> Result<()> {
         vertices: mesh.vertex_count() as u64,
         triangles: mesh.triangle_count() as u64,
         bytes: mesh.memory_bytes(),
+        labels: None,
         seconds: Seconds {
             read: generated,
             extract: mc_seconds,

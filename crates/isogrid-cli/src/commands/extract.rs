@@ -66,7 +66,7 @@ pub struct Args {
 /// `--smooth` when not given (docs/benchmarks-labels.md says why).
 pub const DEFAULT_SMOOTH: f64 = 0.0;
 
-fn parse_labels(text: &str) -> Result<LabelSelection, String> {
+pub(crate) fn parse_labels(text: &str) -> Result<LabelSelection, String> {
     LabelSelection::parse(text).map_err(|e| e.message().to_string())
 }
 

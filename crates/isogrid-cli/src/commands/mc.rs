@@ -3,10 +3,12 @@
 use crate::args::{InputArgs, IsoArgs, ThreadArgs};
 use crate::color_by::AttributeInput;
 use crate::outputs::{self, Output};
-use crate::report::{print_json, MeshReport, Seconds};
+use crate::report::{MeshReport, Seconds};
 use crate::{input, progress};
 use anyhow::{bail, Context, Result};
-use isogrid::mc::{marching_cubes, McMesh, MeshSpace};
+use isogrid::mc::{label_meshes, marching_cubes, McMesh, MeshSpace};
+use isogrid::{extract_labels, LabelOptions, LabelSelection};
+use isogrid_io::label_meshes::{write_glb, write_precomputed, LabelMesh};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -21,9 +23,20 @@ pub struct Args {
     pub threads: ThreadArgs,
     #[command(flatten)]
     pub input_args: InputArgs,
-    /// Write the mesh: .ply (binary) or .obj.
-    #[arg(short, long, value_name = "MESH.ply|.obj")]
+    /// Write the mesh: .ply (binary) or .obj; with --labels, .glb (glTF 2.0) or a new folder of
+    /// neuroglancer precomputed meshes (any name without an extension).
+    #[arg(short, long, value_name = "MESH.ply|.obj|.glb|FOLDER")]
     pub output: Option<PathBuf>,
+    /// Mesh each label of a label volume instead of an isosurface: `all` (every label but 0) or
+    /// values and ranges such as `1,5-9`. Each label's mesh is Marching Cubes of its indicator at
+    /// 1/2 (smoothed with --smooth), the surface `isogrid extract --labels` stores; named and
+    /// coloured in the .glb, one segment each in the precomputed folder.
+    #[arg(long, value_name = "all|1,5-9", value_parser = super::extract::parse_labels, group = "IsoArgs", conflicts_with = "color_by")]
+    pub labels: Option<LabelSelection>,
+    /// With --labels: smooth each label's indicator by a Gaussian of SIGMA voxels first; 0 for
+    /// none [default: 0].
+    #[arg(long, value_name = "SIGMA", requires = "labels")]
+    pub smooth: Option<f64>,
     /// Print one JSON object instead of a table.
     #[arg(long)]
     pub json: bool,
@@ -43,6 +56,15 @@ pub struct Args {
 pub enum Space {
     World,
     Index,
+}
+
+impl Space {
+    fn mesh_space(self) -> MeshSpace {
+        match self {
+            Space::World => MeshSpace::World,
+            Space::Index => MeshSpace::Index,
+        }
+    }
 }
 
 fn obj_has_no_values(path: &Path) -> anyhow::Error {
@@ -68,6 +90,12 @@ pub fn write_mesh(mesh: &McMesh, path: &Path, values: Option<&[f32]>) -> Result<
 }
 
 pub fn run(args: Args) -> Result<()> {
+    if args.labels.is_some() {
+        return run_labels(args);
+    }
+    if args.smooth.is_some() {
+        bail!("--smooth smooths label indicators, and needs --labels");
+    }
     // Fail before the work, not after it.
     let output = args.output.as_deref().map(|path| Output {
         role: "the mesh",
@@ -106,10 +134,7 @@ pub fn run(args: Args) -> Result<()> {
         None => None,
     };
     // The library's positions are in the renderer's frame (origin and directions left out).
-    let space = match args.space {
-        Space::World => MeshSpace::World,
-        Space::Index => MeshSpace::Index,
-    };
+    let space = args.space.mesh_space();
     mesh.place(&volume.geometry(), space)
         .with_context(|| args.input.display().to_string())?;
     spinner.finish_and_clear();
@@ -126,16 +151,132 @@ pub fn run(args: Args) -> Result<()> {
         vertices: mesh.vertex_count() as u64,
         triangles: mesh.triangle_count() as u64,
         bytes: mesh.memory_bytes(),
+        labels: None,
         seconds: Seconds {
             read,
             extract,
             write,
         },
     };
-    if args.json {
-        print_json(&report)
-    } else {
-        report.print_human()?;
-        Ok(())
+    report.print(args.json)
+}
+
+/// Where `mc --labels` writes: a glTF binary or a neuroglancer precomputed folder.
+enum LabelOutput<'a> {
+    Glb(&'a Path),
+    Precomputed(&'a Path),
+}
+
+impl<'a> LabelOutput<'a> {
+    fn of(path: &'a Path) -> Result<Self> {
+        match path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase)
+        {
+            Some(e) if e == "glb" => Ok(LabelOutput::Glb(path)),
+            None => Ok(LabelOutput::Precomputed(path)),
+            Some(_) => bail!(
+                "{}: label meshes are written as .glb (glTF 2.0) or as a folder of neuroglancer \
+                 precomputed meshes (a name without an extension)",
+                path.display()
+            ),
+        }
     }
+}
+
+/// `--labels`: the label grid of the volume (`isogrid extract --labels`), one Marching Cubes mesh
+/// per label from its cells, placed in `--space`, written as .glb or precomputed meshes.
+fn run_labels(args: Args) -> Result<()> {
+    let selection = args.labels.clone().expect("called with --labels");
+    let output = args.output.as_deref().map(LabelOutput::of).transpose()?;
+    if let Some(LabelOutput::Glb(path)) = output {
+        let glb = Output {
+            role: "the meshes",
+            path,
+            extensions: &[".glb"],
+        };
+        outputs::check(&[args.input.as_path()], &[glb])?;
+    }
+    if let Some(LabelOutput::Precomputed(path)) = output {
+        if path.symlink_metadata().is_ok() {
+            bail!(
+                "{}: already exists; the precomputed meshes are written as a new folder",
+                path.display()
+            );
+        }
+    }
+    let read_options = args.input_args.read_options()?;
+    let pool = args.threads.pool()?;
+    let (volume, read) = input::read_volume(&args.input, &read_options)?;
+    let options = LabelOptions {
+        selection,
+        smooth: args.smooth.unwrap_or(super::extract::DEFAULT_SMOOTH),
+        precision: None,
+    };
+    let spinner = progress::spinner("meshing labels".into());
+    let start = Instant::now();
+    let (grid, mut meshes) = pool
+        .install(|| -> isogrid::Result<_> {
+            let grid = extract_labels(&volume.view(), &options)?;
+            let meshes = label_meshes(&grid)?;
+            Ok((grid, meshes))
+        })
+        .with_context(|| format!("{}: label meshing failed", args.input.display()))?;
+    let extract = start.elapsed().as_secs_f64();
+    let space = args.space.mesh_space();
+    for mesh in &mut meshes {
+        mesh.place(&volume.geometry(), space)
+            .with_context(|| args.input.display().to_string())?;
+    }
+    spinner.finish_and_clear();
+    let labels = grid.labels().expect("a label grid has labels");
+    let signed = isogrid::labels::signed_labels(grid.info().scalar_type);
+    let values: Vec<String> = labels
+        .table()
+        .iter()
+        .map(|l| isogrid::labels::display_value(l.value, signed))
+        .collect();
+    let label_meshes: Vec<LabelMesh> = labels
+        .table()
+        .iter()
+        .zip(&values)
+        .zip(&meshes)
+        .filter(|(_, mesh)| mesh.triangle_count() > 0)
+        .map(|((label, value), mesh)| LabelMesh { label, value, mesh })
+        .collect();
+    if label_meshes.is_empty() {
+        let message = format!(
+            "{}: the volume holds no selected label with a surface",
+            args.input.display()
+        );
+        if output.is_some() {
+            bail!("{message}; nothing written");
+        }
+        eprintln!("isogrid: note: {message}");
+    }
+    let mut write = 0.0;
+    if let Some(output) = &output {
+        let start = Instant::now();
+        match output {
+            LabelOutput::Glb(path) => write_glb(path, &label_meshes)?,
+            LabelOutput::Precomputed(path) => write_precomputed(path, &label_meshes)?,
+        }
+        write = start.elapsed().as_secs_f64();
+    }
+    let sum = |f: fn(&McMesh) -> usize| label_meshes.iter().map(|m| f(m.mesh) as u64).sum();
+    let report = MeshReport {
+        dims: volume.dims().map(|d| d as u32),
+        iso: isogrid::extract::labels::LABEL_ISO,
+        vertices: sum(McMesh::vertex_count),
+        triangles: sum(McMesh::triangle_count),
+        bytes: label_meshes.iter().map(|m| m.mesh.memory_bytes()).sum(),
+        labels: Some(label_meshes.len() as u64),
+        seconds: Seconds {
+            read,
+            extract,
+            write,
+        },
+    };
+    report.print(args.json)
 }

@@ -28,12 +28,14 @@
 //! [`Inside::Above`] switches to scikit-image's rule (`value > iso` is inside, as in Lewiner et
 //! al.'s implementation), for drop-in replacements of `skimage.measure.marching_cubes`.
 
+mod cells;
 mod extract;
 mod mesh;
 mod snorm;
 mod table;
 mod write;
 
+pub use cells::{label_mesh, label_meshes};
 pub use mesh::{Inside, McMesh, MeshSpace};
 pub use snorm::SnormMesh;
 

@@ -625,3 +625,52 @@ fn sixty_four_bit_labels_keep_their_values_and_cells() {
         );
     }
 }
+
+/// A mesh as the set of its triangles by vertex position, each rotated to start at its smallest
+/// vertex (winding kept), positions as bits: equal sets are the same surface with the same
+/// orientation, whatever the vertex numbering.
+fn triangle_set(mesh: &isogrid::mc::McMesh) -> BTreeSet<[[u32; 3]; 3]> {
+    mesh.triangles
+        .iter()
+        .map(|t| {
+            let p = t.map(|v| mesh.positions[v as usize].map(f32::to_bits));
+            let first = (0..3).min_by_key(|&i| p[i]).unwrap();
+            [p[first], p[(first + 1) % 3], p[(first + 2) % 3]]
+        })
+        .collect()
+}
+
+#[test]
+fn each_labels_mesh_is_marching_cubes_of_its_indicator() {
+    let data = label_volume();
+    let volume = volume_of(VolumeData::U16(data.clone()))
+        .with_spacing([0.5, 1.0, 2.0])
+        .unwrap();
+    let grid = extract_labels(&volume.view(), &LabelOptions::new(LabelSelection::All)).unwrap();
+    let meshes = isogrid::mc::label_meshes(&grid).unwrap();
+    let labels = grid.labels().unwrap();
+    assert_eq!(meshes.len(), labels.table().len());
+    for (label, mesh) in labels.table().iter().zip(&meshes) {
+        let indicator: Vec<u8> = data
+            .iter()
+            .map(|&v| (v as u64 == label.value) as u8)
+            .collect();
+        let reference = volume_of(VolumeData::U8(indicator))
+            .with_spacing([0.5, 1.0, 2.0])
+            .unwrap();
+        let expected = isogrid::mc::marching_cubes(&reference.view(), 0.5);
+        assert!(expected.triangle_count() > 0, "label {}", label.value);
+        assert_eq!(
+            mesh.vertex_count(),
+            expected.vertex_count(),
+            "label {}",
+            label.value
+        );
+        assert_eq!(
+            triangle_set(mesh),
+            triangle_set(&expected),
+            "label {}",
+            label.value
+        );
+    }
+}

@@ -1,0 +1,47 @@
+//! [`LabelMesh`], one label's mesh as the exporters take it, and the normals they write.
+
+use isogrid::mc::McMesh;
+use isogrid::Label;
+
+/// One label's mesh and its table entry (value, name, colour).
+#[derive(Debug, Clone, Copy)]
+pub struct LabelMesh<'a> {
+    pub label: &'a Label,
+    /// The label's value as text (`isogrid::labels::display_value`: signed volumes keep their
+    /// sign).
+    pub value: &'a str,
+    pub mesh: &'a McMesh,
+}
+
+/// Area-weighted vertex normals of `mesh`, unit length ((0, 0, 1) where the triangles around a
+/// vertex cancel out): triangles wind counter-clockwise seen from outside, so they point out.
+pub(crate) fn vertex_normals(mesh: &McMesh) -> Vec<[f32; 3]> {
+    let mut sums = vec![[0.0f64; 3]; mesh.positions.len()];
+    for t in &mesh.triangles {
+        let p = t.map(|v| mesh.positions[v as usize].map(|c| c as f64));
+        let (u, w) = (
+            [0, 1, 2].map(|a| p[1][a] - p[0][a]),
+            [0, 1, 2].map(|a| p[2][a] - p[0][a]),
+        );
+        let n = [
+            u[1] * w[2] - u[2] * w[1],
+            u[2] * w[0] - u[0] * w[2],
+            u[0] * w[1] - u[1] * w[0],
+        ];
+        for &v in t {
+            for a in 0..3 {
+                sums[v as usize][a] += n[a];
+            }
+        }
+    }
+    sums.iter()
+        .map(|n| {
+            let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+            if len > 0.0 && len.is_finite() {
+                n.map(|c| (c / len) as f32)
+            } else {
+                [0.0, 0.0, 1.0]
+            }
+        })
+        .collect()
+}

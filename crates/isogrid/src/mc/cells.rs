@@ -1,0 +1,105 @@
+//! Marching Cubes of a grid's stored cells: one indexed mesh per label of a label grid, built from
+//! the corners its cells store (the surface the renderers draw), for exports such as glTF and
+//! neuroglancer's precomputed meshes.
+//!
+//! Each label's cells are found through the label index (its runs of clusters), so a label costs
+//! its own cells, not a scan of the grid. A cell's corners are its stored codes, inside when
+//! `code >= iso_code` (the grid's rule); its triangles come from the Marching Cubes case table
+//! shared with `mc::marching_cubes` (same corner and edge numbering, same ambiguous-face rule,
+//! counter-clockwise seen from outside), so neighbouring cells of a label agree on the segments
+//! of their shared face and the mesh is closed wherever the label's surface is. A crossed edge gets
+//! one vertex per label, at the linear crossing of its two codes; the vertex is shared by every
+//! cell of that label that crosses the edge. A binary label grid stores codes 0 and the top code
+//! with `iso_code` halfway, so each vertex is an edge midpoint, as Marching Cubes of the label's
+//! indicator at ½ gives.
+//!
+//! Positions are in the frame of [`McMesh`]: sample `(i, j, k)` at `(i·sx, j·sy, k·sz)` (index
+//! × spacing); [`McMesh::place`] moves them to world or index space.
+
+use super::mesh::McMesh;
+use super::table::{cases, edge_corners};
+use crate::error::{Error, Result};
+use crate::grid::CellGrid;
+use crate::layout::{read_corners, BOUND_SLOT, CLUSTER_SLOTS};
+use rayon::prelude::*;
+use std::collections::HashMap;
+
+/// The mesh of every label of `grid`, in the order of its label table (empty for a label with no
+/// cells). Fails for a grid without labels, or a label of more than 2³²−1 vertices.
+pub fn label_meshes(grid: &CellGrid) -> Result<Vec<McMesh>> {
+    let labels = grid
+        .labels()
+        .ok_or_else(|| Error::invalid("the grid has no labels to mesh one by one"))?;
+    (0..labels.table().len())
+        .into_par_iter()
+        .map(|label| label_mesh(grid, label))
+        .collect()
+}
+
+/// The mesh of label `label` (its index in the table) of a label grid.
+pub fn label_mesh(grid: &CellGrid, label: usize) -> Result<McMesh> {
+    let labels = grid
+        .labels()
+        .ok_or_else(|| Error::invalid("the grid has no labels to mesh one by one"))?;
+    let info = grid.info();
+    let (precision, iso) = (info.precision, info.mapping.iso_code);
+    let [nx, ny, _] = info.dims.map(|d| d as u64);
+    let spacing = info.spacing;
+    let record_bytes = precision.bytes_per_cell();
+    let mut mesh = McMesh::default();
+    // Crossed edge (lower sample's index × 3 + axis) → its vertex.
+    let mut vertex_of: HashMap<u64, u32> = HashMap::new();
+    for run in labels.runs_of(label) {
+        for cluster in run.clusters() {
+            let slots = cluster * CLUSTER_SLOTS..(cluster + 1) * CLUSTER_SLOTS;
+            for (s, m) in grid.metacells()[slots].iter().enumerate() {
+                if s == BOUND_SLOT {
+                    continue;
+                }
+                let mut record = m.cell_pointer as usize;
+                let mut mask = m.cell_mask;
+                while mask != 0 {
+                    let bit = mask.trailing_zeros();
+                    mask &= mask - 1;
+                    let cell = &grid.cells()[record * record_bytes..(record + 1) * record_bytes];
+                    record += 1;
+                    let corners = read_corners(cell, precision);
+                    let pattern =
+                        (0..8).fold(0usize, |p, c| p | ((corners[c] >= iso) as usize) << c);
+                    let case = &cases()[pattern];
+                    let origin = m.cell_position(bit).map(|c| c as u64);
+                    let mut vertex = [0u32; 12];
+                    let mut crossed = case.edge_mask;
+                    while crossed != 0 {
+                        let e = crossed.trailing_zeros() as u8;
+                        crossed &= crossed - 1;
+                        let (lower, upper) = edge_corners(e);
+                        let axis = (e / 4) as usize;
+                        let at: [u64; 3] =
+                            std::array::from_fn(|a| origin[a] + (lower as u64 >> a & 1));
+                        let key = (at[0] + nx * (at[1] + ny * at[2])) * 3 + axis as u64;
+                        let next = mesh.positions.len();
+                        vertex[e as usize] = *vertex_of.entry(key).or_insert_with(|| next as u32);
+                        if vertex[e as usize] as usize == next {
+                            if next == u32::MAX as usize {
+                                return Err(Error::invalid(
+                                    "a label's mesh needs more than 2^32-1 vertices",
+                                ));
+                            }
+                            let (a, b) = (corners[lower as usize], corners[upper as usize]);
+                            let t = ((iso - a) / (b - a)).clamp(0.0, 1.0) as f64;
+                            mesh.positions.push(std::array::from_fn(|k| {
+                                let p = at[k] as f64 + if k == axis { t } else { 0.0 };
+                                (p * spacing[k]) as f32
+                            }));
+                        }
+                    }
+                    for triangle in &case.triangles[..case.triangle_count as usize] {
+                        mesh.triangles.push(triangle.map(|e| vertex[e as usize]));
+                    }
+                }
+            }
+        }
+    }
+    Ok(mesh)
+}
