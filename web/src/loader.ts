@@ -8,8 +8,8 @@
 
 import { Crc32 } from './crc32.js';
 import {
-  CgcError, CgcHeader, HEAD_READ, Section, SLOT_BYTES, CLUSTER_SLOTS, BOUND_SLOT,
-  checkGaps, checkSection, parseHeader, StructureCheck,
+  CgcError, CgcHeader, HEAD_READ, Section, SLOT_BYTES, CLUSTER_SLOTS, BOUND_SLOT, CellAttribute, GridLabels,
+  checkGaps, checkSection, parseAttribute, parseHeader, parseLabels, StructureCheck,
 } from './cgc.js';
 
 /**
@@ -101,14 +101,19 @@ export interface StreamSink {
   clusters(firstSlot: number, metacells: Uint8Array, firstCell: number, cells: Uint8Array, cellCounts: number[]): void;
   /** Bytes received so far (of the file's total). */
   progress(received: number, total: number): void;
+  /** The cell attribute, once its section is complete and checked. */
+  attribute?(a: CellAttribute): void;
+  /** The labels, once their sections and the metacells are complete and checked. */
+  labels?(l: GridLabels): void;
 }
 
 /**
  * Reads, validates and streams `src` into `sink`; resolves when every byte is in and checked.
- * Request order: the header (and table), the sections before the metacells (the blocks), then
+ * Request order: the header (and table), the sections before the metacells (the blocks) and the
+ * label sections (4 B per cluster and a few per label: colours and the index from the start), then
  * metacells and cells interleaved — the next chunk of cells as soon as the metacells checked so
- * far point at cells not yet fetched, else the next chunk of metacells — then the rest. Each byte
- * is requested once.
+ * far point at cells not yet fetched, else the next chunk of metacells — then the rest (the cell
+ * attribute). Each byte is requested once.
  */
 export async function streamCgc(src: ByteSource, sink: StreamSink, chunk?: number): Promise<CgcHeader> {
   const head = await src.read(0, HEAD_READ);
@@ -133,8 +138,9 @@ export async function streamCgc(src: ByteSource, sink: StreamSink, chunk?: numbe
   const pieces = bounds.slice(0, -1).map((start, i) => [start, bounds[i + 1]] as [number, number]);
   const metaPieces = pieces.filter(([a]) => within(h.metacells, a));
   const cellPieces = pieces.filter(([a]) => within(h.cells, a));
-  const before = pieces.filter(([a]) => !within(h.metacells, a) && !within(h.cells, a) && a < h.metacells.offset);
-  const after = pieces.filter(([a]) => !within(h.metacells, a) && !within(h.cells, a) && a >= h.metacells.offset);
+  const early = (a: number) => a < h.metacells.offset || (h.labels ?? []).some((s) => within(s, a));
+  const before = pieces.filter(([a]) => !within(h.metacells, a) && !within(h.cells, a) && early(a));
+  const after = pieces.filter(([a]) => !within(h.metacells, a) && !within(h.cells, a) && !early(a));
 
   const crcs = new Map<Section, Crc32>(h.sections.map((s) => [s, new Crc32()]));
   const done = new Set<Section>();
@@ -148,6 +154,9 @@ export async function streamCgc(src: ByteSource, sink: StreamSink, chunk?: numbe
   const bpc = h.precisionBits;
   const clusterEnds: number[] = []; // cells end (exclusive) of each checked cluster
   let nextCluster = 0; // clusters handed to the sink
+  let labelsOut = !h.labels;
+  let attributeOut = !h.attribute;
+  const part = (s: Section) => file.subarray(s.offset, s.offset + s.length);
 
   const advance = () => {
     for (const s of h.sections) {
@@ -162,8 +171,16 @@ export async function streamCgc(src: ByteSource, sink: StreamSink, chunk?: numbe
         done.add(s);
       }
     }
+    if (!attributeOut && done.has(h.attribute!)) {
+      attributeOut = true;
+      sink.attribute?.(parseAttribute(part(h.attribute!), h.activeCells));
+    }
     if (!done.has(h.blocks)) return;
     const checked = structure.advance(Math.floor(have.get(h.metacells)! / SLOT_BYTES));
+    if (!labelsOut && checked === h.slotCount && done.has(h.metacells) && h.labels!.every((s) => done.has(s))) {
+      labelsOut = true;
+      sink.labels?.(parseLabels(part(h.labels![0]), part(h.labels![1]), part(h.labels![2]), meta));
+    }
     for (let k = clusterEnds.length; k < checked / CLUSTER_SLOTS; k++) {
       let end = k === 0 ? 0 : clusterEnds[k - 1];
       for (let s = 0; s < BOUND_SLOT; s++) {
