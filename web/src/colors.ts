@@ -9,7 +9,7 @@
 import { CodeMapping, GridLabels } from './cgc.js';
 import { COLOR_MAPS, NAN_SRGB, SRGB8_TO_LINEAR, TABLE_SIZE } from './colormaps.generated.js';
 
-/** color.wgsl's colour sources. */
+/** The colour sources of color.wgsl. */
 export const COLOR_NONE = 0;
 export const COLOR_RECORDS = 1;
 export const COLOR_LABELS = 3;
