@@ -5,7 +5,8 @@
 // `isogrid render --view N --size WxH`), `clip=[-]x|y|z[:F]` (a clip plane across that axis at
 // fraction F of the grid's extent, 0.5 by default, cutting away the larger coordinates, or the
 // smaller ones with `-`); colour: `cmap=NAME` and `clim=LO,HI` (the attribute's colour map and
-// range; default viridis over the stored range), `hide=V,...` (label values hidden at the start).
+// range; default viridis over the stored range), `hide=V,...` (label values hidden at the start),
+// `ewa=0` (no EWA normal splats: `isogrid render --mode cgc-noewa`).
 
 import { CgcError, CgcHeader, CodeMapping, GridLabels, codes16, labelText, worldBounds } from './cgc.js';
 import {
@@ -269,7 +270,7 @@ async function load(src: ByteSource): Promise<void> {
       header(h) {
         header = h;
         const [lo, hi] = worldBounds(h);
-        renderer = new Renderer(device!, { precisionBits: h.precisionBits, spacing: h.spacing, isoCode: h.isoCode, bounds: [lo, hi], slotCount: h.slotCount });
+        renderer = new Renderer(device!, { precisionBits: h.precisionBits, spacing: h.spacing, isoCode: h.isoCode, bounds: [lo, hi], slotCount: h.slotCount }, params.get('ewa') !== '0');
         renderer.compiled.then(() => (rendererReady = true), (e) => fail(e, ''));
         canvas.hidden = false;
         if (!fixedSize) $('stage').classList.add('fill');
