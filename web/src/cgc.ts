@@ -449,8 +449,11 @@ const text = (b: Uint8Array): string | null => {
   }
 };
 
-/** The cell attribute in `bytes` (its whole section), checked as `parse_attribute` (cgc/read.rs) does. */
-export function parseAttribute(bytes: Uint8Array, activeCells: number): CellAttribute {
+/**
+ * The head of an attribute section (its first ATTRIBUTE_HEAD_SIZE bytes), checked as
+ * `AttributeInfo::from_head` does, and the value count it gives.
+ */
+export function parseAttributeHead(bytes: Uint8Array): { info: AttributeInfo; count: bigint } {
   if (bytes.length < ATTRIBUTE_HEAD_SIZE) throw corrupt('cell attribute section is shorter than its head');
   const v = new DataView(bytes.buffer, bytes.byteOffset, ATTRIBUTE_HEAD_SIZE);
   const perCell = v.getUint32(0, true);
@@ -467,6 +470,13 @@ export function parseAttribute(bytes: Uint8Array, activeCells: number): CellAttr
   if (field.subarray(nameLength).some((b) => b !== 0)) throw corrupt('cell attribute name is not zero-padded');
   const name = text(field.subarray(0, nameLength));
   if (name === null) throw corrupt('cell attribute name is not UTF-8');
+  return { info: { name, bits, range }, count };
+}
+
+/** The cell attribute in `bytes` (its whole section), checked as `parse_attribute` (cgc/read.rs) does. */
+export function parseAttribute(bytes: Uint8Array, activeCells: number): CellAttribute {
+  const { info, count } = parseAttributeHead(bytes);
+  const { bits, range } = info;
   const values = bytes.subarray(ATTRIBUTE_HEAD_SIZE);
   if (count !== BigInt(activeCells) || BigInt(values.length) !== count * BigInt(bits / 8)) {
     throw corrupt(
@@ -482,7 +492,7 @@ export function parseAttribute(bytes: Uint8Array, activeCells: number): CellAttr
       }
     }
   }
-  return { info: { name, bits, range }, values };
+  return { info, values };
 }
 
 /** How stored codes become values: `zero + code × step`, and `nanCode` is NaN (`CodeMapping`). */
@@ -493,30 +503,43 @@ export interface CodeMapping {
 }
 
 /**
- * The values as 16-bit codes and their mapping, for the GPU (2 bytes per cell, as the native
- * renderer uploads them): `CellAttribute::codes16` with `AttributeInfo::code_mapping` and, for
- * f32 values, `AttributeInfo::encode` at 16 bits. Checked against the Rust rule by
+ * The mapping of the 16-bit codes `codesOf` gives (`AttributeInfo::code_mapping` of 8- and 16-bit
+ * codes; f32 values are coded at 16 bits).
+ */
+export function codeMapping(info: AttributeInfo): CodeMapping {
+  const [lo, hi] = info.range;
+  const nanCode = 2 ** (info.bits === 8 ? 8 : 16) - 1;
+  return { zero: lo, step: (hi - lo) / (nanCode - 1), nanCode };
+}
+
+/**
+ * Stored values (`values`: whole values of the section, any run of them) as 16-bit codes, as the
+ * native renderer uploads them (2 bytes per cell): `CellAttribute::codes16`, with
+ * `AttributeInfo::encode` at 16 bits for f32 values. Checked against the Rust rule by
  * web/test/cgc.test.mjs (vectors generated from Rust).
  */
-export function codes16(a: CellAttribute): { codes: Uint16Array; mapping: CodeMapping } {
-  const [lo, hi] = a.info.range;
-  const bits = a.info.bits === 8 ? 8 : 16;
-  const nanCode = 2 ** bits - 1;
-  const mapping = { zero: lo, step: (hi - lo) / (nanCode - 1), nanCode };
-  const n = a.values.length / (a.info.bits / 8);
+export function codesOf(info: AttributeInfo, values: Uint8Array): Uint16Array {
+  const [lo, hi] = info.range;
+  const top = codeMapping(info).nanCode - 1;
+  const n = values.length / (info.bits / 8);
   const codes = new Uint16Array(n);
-  const v = new DataView(a.values.buffer, a.values.byteOffset, a.values.byteLength);
-  if (a.info.bits === 8) {
-    codes.set(a.values);
-  } else if (a.info.bits === 16) {
+  const v = new DataView(values.buffer, values.byteOffset, values.byteLength);
+  if (info.bits === 8) {
+    codes.set(values);
+  } else if (info.bits === 16) {
     for (let i = 0; i < n; i++) codes[i] = v.getUint16(2 * i, true);
   } else {
     for (let i = 0; i < n; i++) {
       const x = v.getFloat32(4 * i, true);
-      codes[i] = Number.isNaN(x) ? nanCode : hi > lo ? Math.round(Math.min(Math.max((x - lo) / (hi - lo), 0), 1) * (nanCode - 1)) : 0;
+      codes[i] = Number.isNaN(x) ? top + 1 : hi > lo ? Math.round(Math.min(Math.max((x - lo) / (hi - lo), 0), 1) * top) : 0;
     }
   }
-  return { codes, mapping };
+  return codes;
+}
+
+/** A whole attribute's codes and their mapping. */
+export function codes16(a: CellAttribute): { codes: Uint16Array; mapping: CodeMapping } {
+  return { codes: codesOf(a.info, a.values), mapping: codeMapping(a.info) };
 }
 
 // ---- Labels (kinds 5, 6, 7; crates/isogrid/src/labels.rs) ----

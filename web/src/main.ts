@@ -8,7 +8,7 @@
 // range; default viridis over the stored range), `hide=V,...` (label values hidden at the start),
 // `ewa=0` (no EWA normal splats: `isogrid render --mode cgc-noewa`).
 
-import { CgcError, CgcHeader, CodeMapping, GridLabels, codes16, labelText, worldBounds } from './cgc.js';
+import { AttributeInfo, CgcError, CgcHeader, CodeMapping, GridLabels, codeMapping, codesOf, labelText, worldBounds } from './cgc.js';
 import {
   COLOR_LABELS, COLOR_RECORDS, MAP_NAMES, clusterAlbedos, colorUniforms, defaultClim, hiddenClusters, mapTable, parseClim,
 } from './colors.js';
@@ -283,16 +283,24 @@ async function load(src: ByteSource): Promise<void> {
           requestFrame();
         });
       },
-      attribute(a) {
-        const { codes, mapping } = codes16(a);
-        const refused = renderer!.setColorData(codes, 'cell attribute codes');
-        stats.attribute = a.info.name;
+      attributeHead(info) {
+        // Codes arrive with the cells (loader.ts) and are uploaded as they come, two per word.
+        stats.attribute = info.name;
+        attributeCodes = new Uint16Array(header!.activeCells + (header!.activeCells & 1));
+        const refused = renderer!.setColorData(2 * attributeCodes.length, 'cell attribute codes');
         if (refused) {
           showMessage(`${src.name}: ${refused}`, true);
           return;
         }
-        attribute = { name: a.info.name, range: a.info.range, mapping };
+        attribute = { name: info.name, range: info.range, mapping: codeMapping(info), info };
         applyColoring();
+      },
+      attributeValues(first, values) {
+        if (!attribute) return;
+        const codes = codesOf(attribute.info, values);
+        attributeCodes.set(codes, first);
+        const [from, to] = [first & ~1, Math.min(attributeCodes.length, first + codes.length + 1) & ~1];
+        if (to > from) renderer!.writeColorData(2 * from, attributeCodes.subarray(from, to));
       },
       labels(l) {
         labels = l;
@@ -331,7 +339,9 @@ const colour = {
   /** null: auto, the attribute's range on the surface as stored (`Coloring::default_clim`). */
   clim: parseClim(params.get('clim')),
 };
-let attribute: { name: string; range: [number, number]; mapping: CodeMapping } | null = null;
+let attribute: { name: string; range: [number, number]; mapping: CodeMapping; info: AttributeInfo } | null = null;
+/** The attribute's 16-bit codes, as far as they have arrived (a whole number of words). */
+let attributeCodes = new Uint16Array(0);
 let labels: GridLabels | null = null;
 /** Label-table indices of the hidden labels. */
 const hiddenLabels = new Set<number>();

@@ -197,27 +197,34 @@ export class Renderer {
 
   /**
    * Uploads the colour data the uniforms' source reads (attribute codes, two per word, or label
-   * albedos), or none. Like the native renderer (upload.rs), data larger than one storage binding
+   * albedos), or allocates that many zero bytes (a number; filled by `writeColorData` as they
+   * arrive), or none. Like the native renderer (upload.rs), data larger than one storage binding
    * is refused: the shaders read it through one binding by global record or cluster. Returns why
    * it was refused, or null.
    */
-  setColorData(data: ArrayBufferView | null, what: string): string | null {
+  setColorData(data: ArrayBufferView | number | null, what: string): string | null {
     if (this.colorData !== this.noColorData) this.colorData.destroy();
     this.colorData = this.noColorData;
-    if (data) {
-      const size = Math.max(16, Math.ceil(data.byteLength / 4) * 4);
+    if (data !== null) {
+      const bytes = typeof data === 'number' ? data : data.byteLength;
+      const size = Math.max(16, Math.ceil(bytes / 4) * 4);
       if (size > this.pageBytes) {
-        return `the ${what} takes ${data.byteLength} bytes, more than a storage binding holds (${this.pageBytes} bytes): drawn in one colour`;
+        return `the ${what} takes ${bytes} bytes, more than a storage binding holds (${this.pageBytes} bytes): drawn in one colour`;
       }
-      const padded = new Uint8Array(size);
-      padded.set(new Uint8Array(data.buffer, data.byteOffset, data.byteLength));
       this.colorData = this.device.createBuffer({ label: what, size, usage: GPUBufferUsage.STORAGE | GPUBufferUsage.COPY_DST });
-      this.device.queue.writeBuffer(this.colorData, 0, padded);
+      if (typeof data !== 'number') this.writeColorData(0, data);
     }
     // The shading bind group names the buffer: made again with the targets.
     if (this.targets) for (const t of Object.values(this.targets.tex)) t.destroy();
     this.targets = null;
     return null;
+  }
+
+  /** Writes `data` into the colour data at `offset` (both multiples of 4 bytes but for the end). */
+  writeColorData(offset: number, data: ArrayBufferView): void {
+    const padded = new Uint8Array(Math.ceil(data.byteLength / 4) * 4);
+    padded.set(new Uint8Array(data.buffer, data.byteOffset, data.byteLength));
+    this.device.queue.writeBuffer(this.colorData, offset, padded);
   }
 
   /**

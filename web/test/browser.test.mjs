@@ -408,6 +408,12 @@ for (const B of BROWSERS) {
         assert.equal(at, sphereBytes.length);
         assert.ok(stats.firstFrameBytes < sphereBytes.length, `first frame after ${stats.firstFrameBytes} of ${sphereBytes.length} bytes`);
         t.diagnostic(`${B.name}: first frame after ${stats.firstFrameBytes} of ${sphereBytes.length} bytes, ${ranges.length} requests`);
+        // With an attribute: its values stream with the cells they colour, so the first frame
+        // still comes before the last byte.
+        const coloured = await open(slow.url, 'src=/colored.cgc&size=64x48');
+        assert.equal(coloured.outcome, 'ready', coloured.stats.message);
+        assert.ok(coloured.stats.firstFrameBytes < coloredBytes.length, `first coloured frame after ${coloured.stats.firstFrameBytes} of ${coloredBytes.length} bytes`);
+        t.diagnostic(`${B.name}: coloured file, first frame after ${coloured.stats.firstFrameBytes} of ${coloredBytes.length} bytes`);
       });
       await t.test('through isogrid serve, throttled to 0.125 Mbit/s: first frame before the last byte, ranges cover the file once', async (st) => {
         if (B.name !== 'chromium') {

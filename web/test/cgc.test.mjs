@@ -296,16 +296,31 @@ test('damaged label and attribute sections that pass their checksums are refused
   }
 });
 
-test('streaming hands over the attribute and the labels, the labels before the last cells', async () => {
+test('streaming hands over the attribute with the cells it colours, and the labels before the last cells', async () => {
   for (const [name, bytes] of versions.filter(([n]) => /colored|labels/.test(n))) {
     const src = memorySource(bytes);
-    const got = {};
+    const got = { values: [] };
     let received = 0;
+    let valuesIn = 0;
+    let cellsOut = 0;
+    let firstClustersAt = null;
     await streamCgc(src, {
       header() {},
-      clusters() {},
+      clusters(firstSlot, metacells, firstCell, cells, counts) {
+        cellsOut = firstCell + counts.reduce((a, b) => a + b, 0);
+        if (got.head) assert.ok(valuesIn >= cellsOut, `${name}: cells up to ${cellsOut} handed over with values up to ${valuesIn}`);
+        firstClustersAt ??= received;
+      },
       progress(r) {
         received = r;
+      },
+      attributeHead(info) {
+        got.head = info;
+      },
+      attributeValues(first, values) {
+        assert.equal(first, valuesIn);
+        valuesIn += values.length / (got.head.bits / 8);
+        got.values.push(values.slice());
       },
       attribute(a) {
         got.attribute = a;
@@ -318,6 +333,11 @@ test('streaming hands over the attribute and the labels, the labels before the l
     const whole = parseCgc(bytes);
     assert.deepEqual(got.attribute ?? null, whole.attribute, name);
     assert.deepEqual(got.labels ?? null, whole.labels, name);
+    if (whole.attribute) {
+      assert.deepEqual(got.head, whole.attribute.info);
+      assert.deepEqual(Buffer.concat(got.values), Buffer.from(whole.attribute.values), name);
+    }
+    assert.ok(firstClustersAt < bytes.length, `${name}: first clusters after ${firstClustersAt} of ${bytes.length} bytes`);
     if (whole.labels) assert.ok(got.labelsAt < bytes.length, `${name}: labels only after ${got.labelsAt} of ${bytes.length} bytes`);
   }
 });
