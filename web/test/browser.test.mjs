@@ -278,6 +278,8 @@ for (const B of BROWSERS) {
         // --clim; the readout shows the value the native value AOV has under the pointer.
         const { page, outcome, stats } = await open(server.url, `src=/colored.cgc&view=1&size=${SIZE.join('x')}`);
         assert.equal(outcome, 'ready', stats.message);
+        const shownPanels = () => page.evaluate(() => ['colour', 'labels'].filter((id) => getComputedStyle(document.getElementById(id)).display !== 'none'));
+        assert.deepEqual(await shownPanels(), ['colour'], 'a coloured grid shows the colour controls only');
         await page.select('#cmap', 'magma');
         for (const [id, v] of [['#clim-lo', clim[0]], ['#clim-hi', clim[1]]]) {
           await page.$eval(id, (el, v) => {
@@ -373,6 +375,11 @@ for (const B of BROWSERS) {
           await page.mouse.click(box[0] + (x + 0.5) * box[2], box[1] + (y + 0.5) * box[2]);
           await page.waitForFunction(() => document.getElementById('picked').textContent !== '');
           assert.equal(await page.$eval('#picked', (el) => el.textContent), name(labelOf[at]));
+          assert.deepEqual(
+            await page.evaluate(() => ['colour', 'labels'].filter((id) => getComputedStyle(document.getElementById(id)).display !== 'none')),
+            ['labels'],
+            'a label grid shows the label list only',
+          );
           await page.click('#labels-hide');
           await page.evaluate(() => window.isogrid.frames(1));
           const none = Buffer.from(await page.evaluate(() => window.isogrid.pixels()), 'base64');
