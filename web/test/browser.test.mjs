@@ -380,6 +380,11 @@ for (const B of BROWSERS) {
             ['labels'],
             'a label grid shows the label list only',
           );
+          // The list: every label with its swatch, and a search narrows it.
+          const rows = () => page.$$eval('#label-list li', (li) => li.map((l) => [l.children[1].style.background, l.children[2].textContent]));
+          assert.deepEqual(await rows(), f.labels.table.map((l) => [`rgb(${l.rgba.slice(0, 3).join(', ')})`, l.name]));
+          await page.type('#label-search', name(3));
+          assert.deepEqual((await rows()).map(([, n]) => n), [name(3)]);
           await page.click('#labels-hide');
           await page.evaluate(() => window.isogrid.frames(1));
           const none = Buffer.from(await page.evaluate(() => window.isogrid.pixels()), 'base64');
