@@ -19,7 +19,7 @@ import puppeteer from 'puppeteer-core';
 import { PNG } from 'pngjs';
 import { build } from '../build.mjs';
 import { startServer } from './server.mjs';
-import { isogridBinary, sphereFile, resealHeader, realFiles, coloredSphereFile, labelFile } from './fixtures.mjs';
+import { isogridBinary, sphereFile, resealHeader, resealSection, realFiles, coloredSphereFile, labelFile } from './fixtures.mjs';
 import { basis, presetCamera } from '../build/node/camera.js';
 import { parseCgc, labelText } from '../build/node/cgc.js';
 
@@ -162,6 +162,16 @@ for (const B of BROWSERS) {
     if (sphereBytes) {
       files['colored.cgc'] = coloredBytes;
       files['labels.cgc'] = labelBytes;
+      // Optional sections damaged past their checksums: the page names the structural problem.
+      const edited = (bytes, kind, at, value) => {
+        const b = bytes.slice();
+        const sections = parseCgc(bytes).header.sections;
+        const entry = sections.findIndex((x) => x.kind === kind);
+        new DataView(b.buffer).setUint32(sections[entry].offset + at, value, true);
+        return resealSection(b, entry);
+      };
+      files['badlabels.cgc'] = edited(labelBytes, 5, 0, 4);
+      files['badattribute.cgc'] = edited(coloredBytes, 4, 4, 12);
       files['sphere48.cgc'] = sphereBytes;
       const damaged = sphereBytes.slice();
       damaged[sphereBytes.length - 100] ^= 0x10;
@@ -401,6 +411,8 @@ for (const B of BROWSERS) {
           'damaged.cgc': /^damaged\.cgc: cells section checksum mismatch \(the data is damaged\)$/,
           'truncated.cgc': /^truncated\.cgc: .*does not fit the 7\d+-byte file \(truncated\?\)$/,
           'future.cgc': /^future\.cgc: format version 9; this viewer reads versions 1 and 2$/,
+          'badlabels.cgc': /^badlabels\.cgc: cluster 0 has label 4 of 4$/,
+          'badattribute.cgc': /^badattribute\.cgc: cell attribute of 12 bits per value$/,
         };
         for (const [name, re] of Object.entries(expect)) {
           const { outcome, stats } = await open(server.url, `src=/${name}`);
