@@ -590,6 +590,17 @@ export function labelText(key: bigint, scalarType: number): string {
  * only its clusters, all runs covering every cluster once, cell counts and boxes exact.
  */
 export function parseLabels(clusters: Uint8Array, index: Uint8Array, table: Uint8Array, metacells: Uint8Array): GridLabels {
+  const labels = readLabels(clusters, index, table, metacells.length / SLOT_BYTES / CLUSTER_SLOTS);
+  checkLabels(labels, metacells);
+  return labels;
+}
+
+/**
+ * The three label sections parsed for a grid of `clusterCount` clusters, with every check of
+ * `parseLabels` that needs no metacells (lengths, values, names, cluster labels in range); the
+ * loader colours clusters with them before the metacells have arrived, and `checkLabels` then.
+ */
+export function readLabels(clusters: Uint8Array, index: Uint8Array, table: Uint8Array, clusterCount: number): GridLabels {
   const view = (b: Uint8Array) => new DataView(b.buffer, b.byteOffset, b.byteLength);
   // The table.
   if (table.length < LABEL_HEAD_SIZE) throw corrupt('label table section is shorter than its head');
@@ -621,7 +632,6 @@ export function parseLabels(clusters: Uint8Array, index: Uint8Array, table: Uint
   if (nameAt !== table.length) throw corrupt('label table names are longer than its entries say');
 
   // Cluster labels.
-  const clusterCount = metacells.length / SLOT_BYTES / CLUSTER_SLOTS;
   if (clusters.length !== clusterCount * 4) {
     throw corrupt(`cluster label section is ${clusters.length} bytes for ${clusterCount} clusters`);
   }
@@ -659,13 +669,11 @@ export function parseLabels(clusters: Uint8Array, index: Uint8Array, table: Uint
   const runCount = Number(runTotal);
   const runs = new Uint32Array(2 * runCount);
   for (let j = 0; j < 2 * runCount; j++) runs[j] = iv.getUint32(runsAt + 4 * j, true);
-  const grid: GridLabels = { table: labels, clusterLabels, index: entries, runs };
-  checkLabels(grid, metacells);
-  return grid;
+  return { table: labels, clusterLabels, index: entries, runs };
 }
 
 /** `GridLabels::check`: the index against the cluster labels and the metacells. */
-function checkLabels(g: GridLabels, metacells: Uint8Array): void {
+export function checkLabels(g: GridLabels, metacells: Uint8Array): void {
   const m = new DataView(metacells.buffer, metacells.byteOffset, metacells.byteLength);
   const clusterCount = metacells.length / SLOT_BYTES / CLUSTER_SLOTS;
   const fail = (i: number, what: string) => corrupt(`label index entry ${i}: ${what}`);

@@ -9,7 +9,7 @@
 import { Crc32 } from './crc32.js';
 import {
   CgcError, CgcHeader, HEAD_READ, Section, SLOT_BYTES, CLUSTER_SLOTS, BOUND_SLOT, ATTRIBUTE_HEAD_SIZE, AttributeInfo,
-  CellAttribute, GridLabels, checkGaps, checkSection, parseAttribute, parseAttributeHead, parseHeader, parseLabels,
+  CellAttribute, GridLabels, checkGaps, checkLabels, checkSection, parseAttribute, parseAttributeHead, parseHeader, readLabels,
   StructureCheck,
 } from './cgc.js';
 
@@ -111,7 +111,10 @@ export interface StreamSink {
   attributeValues?(first: number, values: Uint8Array): void;
   /** The whole cell attribute, once its section is complete and checked. */
   attribute?(a: CellAttribute): void;
-  /** The labels, once their sections and the metacells are complete and checked. */
+  /**
+   * The labels, once their sections are complete and checked on their own (before the metacells:
+   * their checks against the metacells follow, and fail the stream if the labels do not hold).
+   */
   labels?(l: GridLabels): void;
 }
 
@@ -167,7 +170,8 @@ export async function streamCgc(src: ByteSource, sink: StreamSink, chunk?: numbe
   const bpc = h.precisionBits;
   const clusterEnds: number[] = []; // cells end (exclusive) of each checked cluster
   let nextCluster = 0; // clusters handed to the sink
-  let labelsOut = !h.labels;
+  let labels: GridLabels | null = null;
+  let labelsChecked = !h.labels;
   let attributeOut = !h.attribute;
   const part = (s: Section) => file.subarray(s.offset, s.offset + s.length);
   let attrInfo: AttributeInfo | null = null;
@@ -206,11 +210,15 @@ export async function streamCgc(src: ByteSource, sink: StreamSink, chunk?: numbe
       attributeOut = true;
       sink.attribute?.(parseAttribute(part(attr!), h.activeCells));
     }
+    if (h.labels && !labels && h.labels.every((s) => done.has(s))) {
+      labels = readLabels(part(h.labels[0]), part(h.labels[1]), part(h.labels[2]), h.slotCount / CLUSTER_SLOTS);
+      sink.labels?.(labels);
+    }
     if (!done.has(h.blocks)) return;
     const checked = structure.advance(Math.floor(have.get(h.metacells)! / SLOT_BYTES));
-    if (!labelsOut && checked === h.slotCount && done.has(h.metacells) && h.labels!.every((s) => done.has(s))) {
-      labelsOut = true;
-      sink.labels?.(parseLabels(part(h.labels![0]), part(h.labels![1]), part(h.labels![2]), meta));
+    if (!labelsChecked && labels && checked === h.slotCount && done.has(h.metacells)) {
+      labelsChecked = true;
+      checkLabels(labels, meta);
     }
     for (let k = clusterEnds.length; k < checked / CLUSTER_SLOTS; k++) {
       let end = k === 0 ? 0 : clusterEnds[k - 1];
@@ -268,6 +276,7 @@ export async function streamCgc(src: ByteSource, sink: StreamSink, chunk?: numbe
   }
   for (const p of after) await fetchPiece(p);
   structure.finish();
+  if (!labelsChecked) throw new CgcError('the label sections were never checked against the metacells');
   checkGaps(h.gaps.map(([s, e]) => file.subarray(s, e)));
   return h;
 }

@@ -296,7 +296,7 @@ test('damaged label and attribute sections that pass their checksums are refused
   }
 });
 
-test('streaming hands over the attribute with the cells it colours, and the labels before the last cells', async () => {
+test('streaming hands over the attribute with the cells it colours, and the labels before the first clusters', async () => {
   for (const [name, bytes] of versions.filter(([n]) => /colored|labels/.test(n))) {
     const src = memorySource(bytes);
     const got = { values: [] };
@@ -338,6 +338,19 @@ test('streaming hands over the attribute with the cells it colours, and the labe
       assert.deepEqual(Buffer.concat(got.values), Buffer.from(whole.attribute.values), name);
     }
     assert.ok(firstClustersAt < bytes.length, `${name}: first clusters after ${firstClustersAt} of ${bytes.length} bytes`);
-    if (whole.labels) assert.ok(got.labelsAt < bytes.length, `${name}: labels only after ${got.labelsAt} of ${bytes.length} bytes`);
+    // Label colours before the first clusters are drawn.
+    if (whole.labels) assert.ok(got.labelsAt <= firstClustersAt, `${name}: labels after ${got.labelsAt} bytes, clusters after ${firstClustersAt}`);
   }
+});
+
+test('streaming checks the labels against the metacells after handing them over', { skip: !isogridBinary() && 'no isogrid binary' }, async () => {
+  const bytes = new Uint8Array(readFileSync(labelFile()));
+  const sections = parseCgc(bytes).header.sections;
+  const entry = sections.findIndex((s) => s.kind === 6);
+  const b = bytes.slice();
+  const v = new DataView(b.buffer, sections[entry].offset);
+  v.setBigUint64(16, v.getBigUint64(16, true) + 1n, true); // label 0's cell count
+  resealSection(b, entry);
+  const sink = { header() {}, clusters() {}, progress() {}, labels() {} };
+  await assert.rejects(streamCgc(memorySource(b), sink, 256), /^CgcError: label index entry 0: its cell count or bounds do not match its clusters$/);
 });
