@@ -37,11 +37,13 @@ export interface GridDesc {
   isoCode: number;
   bounds: [number[], number[]];
   slotCount: number;
+  /** Whether clusters can be hidden (a label grid): pages then keep a copy of their metacells. */
+  hideable: boolean;
 }
 
 interface Page {
-  /** The page's metacell slots as the file holds them (hidden clusters are emptied in a copy). */
-  metacells: Uint8Array;
+  /** The page's metacell slots as the file holds them, kept where clusters can be hidden. */
+  metacells: Uint8Array | null;
   meta: GPUBuffer;
   /** Whether the uploaded copy has emptied clusters. */
   masked: boolean;
@@ -237,15 +239,15 @@ export class Renderer {
     for (const p of this.pages) this.uploadMetacells(p);
   }
 
-  /** Writes page `p`'s metacells, emptied where their cluster is hidden. */
-  private uploadMetacells(p: Page, fresh = false): void {
+  /** Writes page `p`'s metacells (`fresh`: the file's, as the page is added), emptied where their cluster is hidden. */
+  private uploadMetacells(p: Page, fresh: Uint8Array | null = null): void {
     const first = p.firstSlot / CLUSTER_SLOTS;
     const count = p.slotCount / CLUSTER_SLOTS;
     const hides = this.hidden !== null && this.hidden.subarray(first, first + count).some((h) => h);
     if (!hides && !p.masked && !fresh) return;
-    let data = p.metacells;
+    let data = fresh ?? p.metacells!;
     if (hides) {
-      data = p.metacells.slice();
+      data = data.slice();
       for (let c = 0; c < count; c++) {
         if (this.hidden![first + c]) data.fill(0, c * CLUSTER_SLOTS * SLOT_BYTES, (c * CLUSTER_SLOTS + BOUND_SLOT) * SLOT_BYTES);
       }
@@ -317,8 +319,10 @@ export class Renderer {
     const render = lists.map((l, i) =>
       d.createBindGroup({ label: `page ${p} list ${i}`, layout: this.layouts['page render'], entries: [buf(0, uniforms), buf(1, meta), buf(2, rec), buf(3, l)] }),
     );
-    const page: Page = { metacells, meta, masked: false, firstSlot, slotCount, firstCell, cellCount, buffers: [uniforms, meta, rec, ...lists], args, compute, render };
-    this.uploadMetacells(page, true);
+    // A copy, not the view: the view would keep the loader's whole file alive.
+    const kept = this.grid.hideable ? metacells.slice() : null;
+    const page: Page = { metacells: kept, meta, masked: false, firstSlot, slotCount, firstCell, cellCount, buffers: [uniforms, meta, rec, ...lists], args, compute, render };
+    this.uploadMetacells(page, metacells);
     this.pages.push(page);
   }
 
