@@ -166,10 +166,11 @@ function canvasSize(): [number, number] {
   return [Math.max(1, Math.round(r.width * dpr)), Math.max(1, Math.round(r.height * dpr))];
 }
 
-function resetCamera(): void {
+/** The current view's camera framing world box [lo, hi] (default: the grid's bounds). */
+function resetCamera(box: [number[], number[]] | null = null): void {
   if (!header) return;
   const [w, h] = canvasSize();
-  const [lo, hi] = worldBounds(header);
+  const [lo, hi] = box ?? worldBounds(header);
   camera = presetCamera(view, lo, hi, w, h);
   requestFrame();
 }
@@ -428,7 +429,13 @@ function showLabels(): void {
     const swatch = document.createElement('span');
     swatch.className = 'swatch';
     swatch.style.background = `rgb(${label.rgba.slice(0, 3).join(',')})`;
-    const text = Object.assign(document.createElement('span'), { textContent: name });
+    // The name frames the label: its cell box from the index (cells [lo, hi), index space) in world
+    // space (index × spacing), as Fit frames the grid.
+    const text = Object.assign(document.createElement('span'), { textContent: name, title: 'frame this label', className: 'name' });
+    text.onclick = () => {
+      const e = l.index[i];
+      if (e.cellCount) resetCamera([e.lo.map((v, a) => v * header!.spacing[a]), e.hi.map((v, a) => v * header!.spacing[a])]);
+    };
     const count = Object.assign(document.createElement('span'), { className: 'count', textContent: l.index[i].cellCount.toLocaleString(), title: 'active cells' });
     li.append(box, swatch, text, count);
     rows.push(li);

@@ -395,6 +395,12 @@ for (const B of BROWSERS) {
           assert.deepEqual(await rows(), f.labels.table.map((l) => [`rgb(${l.rgba.slice(0, 3).join(', ')})`, l.name]));
           await page.type('#label-search', name(3));
           assert.deepEqual((await rows()).map(([, n]) => n), [name(3)]);
+          // Its name frames it: the picture's centre then shows that label, and Fit goes back.
+          await page.click('#label-list .name');
+          await page.evaluate(() => window.isogrid.frames(1));
+          const centre = await page.evaluate(([w, h]) => window.isogrid.pick(w >> 1, h >> 1), SIZE);
+          assert.equal(centre?.label, name(3));
+          await page.click('#fit');
           await page.click('#labels-hide');
           await page.evaluate(() => window.isogrid.frames(1));
           const none = Buffer.from(await page.evaluate(() => window.isogrid.pixels()), 'base64');
