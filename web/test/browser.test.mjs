@@ -52,6 +52,7 @@ const sphereBytes = sphere ? new Uint8Array(readFileSync(sphere)) : null;
 const tiny = realFiles()[0][1];
 const colored = bin && coloredSphereFile(48);
 const coloredBytes = colored && new Uint8Array(readFileSync(colored));
+const coloredF32 = bin && coloredSphereFile(48, 32);
 const labelled = bin && labelFile(48);
 const labelBytes = labelled && new Uint8Array(readFileSync(labelled));
 
@@ -161,6 +162,7 @@ for (const B of BROWSERS) {
     const files = { 'tiny.cgc': tiny };
     if (sphereBytes) {
       files['colored.cgc'] = coloredBytes;
+      files['colored-f32.cgc'] = new Uint8Array(readFileSync(coloredF32));
       files['labels.cgc'] = labelBytes;
       // Optional sections damaged past their checksums: the page names the structural problem.
       const edited = (bytes, kind, at, value) => {
@@ -258,14 +260,19 @@ for (const B of BROWSERS) {
         // over another range.
         const range = parseCgc(coloredBytes).attribute.info.range;
         const clim = [range[0] + 0.25 * (range[1] - range[0]), range[0] + 0.6 * (range[1] - range[0])];
-        const cases = [[1, '', []], [2, `&cmap=turbo&clim=${clim.join(',')}`, ['--cmap', 'turbo', '--clim', clim.join(',')]]];
-        for (const [view, query, flags] of cases) {
-          const { page, outcome, stats } = await open(server.url, `src=/colored.cgc&view=${view}&size=${SIZE.join('x')}${query}`);
+        // And f32 values, which the viewer codes at 16 bits itself (codesOf), as the native upload does.
+        const cases = [
+          ['colored.cgc', colored, 1, '', []],
+          ['colored.cgc', colored, 2, `&cmap=turbo&clim=${clim.join(',')}`, ['--cmap', 'turbo', '--clim', clim.join(',')]],
+          ['colored-f32.cgc', coloredF32, 2, '&cmap=rdbu', ['--cmap', 'rdbu']],
+        ];
+        for (const [file, path, view, query, flags] of cases) {
+          const { page, outcome, stats } = await open(server.url, `src=/${file}&view=${view}&size=${SIZE.join('x')}${query}`);
           assert.equal(outcome, 'ready', stats.message);
           const px = Buffer.from(await page.evaluate(() => window.isogrid.pixels()), 'base64');
           const values = new Float32Array(new Uint8Array(Buffer.from(await page.evaluate(() => window.isogrid.values()), 'base64')).buffer);
           await page.close();
-          const native = nativeRender(colored, view, flags, 'value');
+          const native = nativeRender(path, view, flags, 'value');
           const c = compare(px, native.png);
           // The value each pixel shows, against the native value AOV: the same code decoded.
           let both = 0;
@@ -278,7 +285,7 @@ for (const B of BROWSERS) {
           // Distinct colours on the surface: a one-colour picture cannot pass.
           const hues = new Set();
           for (let i = 0; i < px.length; i += 4) if (!BACKGROUND.every((b, k) => px[i + k] === b)) hues.add(`${px[i] >> 4},${px[i + 1] >> 4},${px[i + 2] >> 4}`);
-          t.diagnostic(`${B.name} coloured view ${view}${query}: mask ${(100 * c.mask).toFixed(2)} %, colour within 8/255 on ${(100 * c.colour).toFixed(2)} % of ${c.hits} hits (worst ${c.worst}); value equal on ${(100 * same / both).toFixed(2)} % of ${both} pixels; ${hues.size} colours`);
+          t.diagnostic(`${B.name} ${file} view ${view}${query}: mask ${(100 * c.mask).toFixed(2)} %, colour within 8/255 on ${(100 * c.colour).toFixed(2)} % of ${c.hits} hits (worst ${c.worst}); value equal on ${(100 * same / both).toFixed(2)} % of ${both} pixels; ${hues.size} colours`);
           assert.ok(c.hits > 500 && hues.size > 20, `${c.hits} hits, ${hues.size} colours`);
           assert.ok(c.mask >= 0.995, `mask agreement ${c.mask}`);
           assert.ok(c.colour >= 0.99, `colour agreement ${c.colour}`);
