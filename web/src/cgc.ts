@@ -30,7 +30,22 @@ export const SECTION_BLOCKS = 1;
 export const SECTION_METACELLS = 2;
 export const SECTION_CELLS = 3;
 export const SECTION_CELL_ATTRIBUTE = 4;
-const KIND_NAMES: Record<number, string> = { 1: 'blocks', 2: 'metacells', 3: 'cells', 4: 'cell attribute' };
+export const SECTION_CLUSTER_LABELS = 5;
+export const SECTION_LABEL_INDEX = 6;
+export const SECTION_LABEL_TABLE = 7;
+const KIND_NAMES: Record<number, string> = {
+  1: 'blocks',
+  2: 'metacells',
+  3: 'cells',
+  4: 'cell attribute',
+  5: 'cluster labels',
+  6: 'label index',
+  7: 'label table',
+};
+/** The three label sections, in the order `GridLabels` reads them (`SectionKind::LABELS`). */
+const LABEL_KINDS = [SECTION_CLUSTER_LABELS, SECTION_LABEL_INDEX, SECTION_LABEL_TABLE];
+/** Sample types by header code (`SCALAR_CODES` in crates/isogrid/src/cgc/format.rs). */
+export const SCALAR_TYPES = ['u8', 'u16', 'i16', 'f32', 'u32', 'i32', 'u64', 'i64', 'f64'];
 const GRID_KINDS = [SECTION_BLOCKS, SECTION_METACELLS, SECTION_CELLS];
 
 /** A damaged, truncated or unsupported file; `message` is one line naming the problem. */
@@ -74,6 +89,8 @@ export interface CgcHeader {
   metacells: Section;
   cells: Section;
   attribute: Section | null;
+  /** Cluster labels, label index and label table, when the file has labels. */
+  labels: [Section, Section, Section] | null;
   /** Every section in file order, each checked against its CRC once complete. */
   sections: Section[];
   /** Byte ranges [start, end) between sections that must be zero (version 2). */
@@ -120,7 +137,7 @@ export function parseHeader(head: Uint8Array, fileLength: number): CgcHeader {
     throw corrupt(`dims [${dims.join(', ')}] outside 1..=${MAX_DIM}`);
   }
   const scalarType = u32(28);
-  if (scalarType > 3) throw corrupt(`unknown scalar type code ${scalarType}`);
+  if (scalarType >= SCALAR_TYPES.length) throw corrupt(`unknown scalar type code ${scalarType}`);
   const spacing: [number, number, number] = [f64(32), f64(40), f64(48)];
   if (spacing.some((s) => !(Number.isFinite(s) && s > 0))) {
     throw corrupt(`spacing [${spacing.join(', ')}] is not positive and finite`);
@@ -164,6 +181,7 @@ export function parseHeader(head: Uint8Array, fileLength: number): CgcHeader {
   const sections: Section[] = [];
   const gaps: [number, number][] = [];
   let attribute: Section | null = null;
+  const labels: (Section | null)[] = [null, null, null];
   if (version === 1) {
     let end = BigInt(HEADER_SIZE);
     for (let s = 0; s < 3; s++) {
@@ -226,6 +244,8 @@ export function parseHeader(head: Uint8Array, fileLength: number): CgcHeader {
           grid[s] = section;
         } else if (kind === SECTION_CELL_ATTRIBUTE) {
           attribute = section;
+        } else if (LABEL_KINDS.includes(kind)) {
+          labels[LABEL_KINDS.indexOf(kind)] = section;
         }
       }
       sections.push(section);
@@ -235,6 +255,8 @@ export function parseHeader(head: Uint8Array, fileLength: number): CgcHeader {
     if (end !== file) {
       throw corrupt(`the file is ${fileLength} bytes but its sections end at ${end} (truncated or appended to?)`);
     }
+    const present = labels.filter((l) => l !== null).length;
+    if (present !== 0 && present !== 3) throw corrupt('the file has some of the three label sections but not all');
   }
   return {
     version,
@@ -258,6 +280,7 @@ export function parseHeader(head: Uint8Array, fileLength: number): CgcHeader {
     metacells: grid[1]!,
     cells: grid[2]!,
     attribute,
+    labels: labels[0] ? (labels as [Section, Section, Section]) : null,
     sections,
     gaps,
   };
@@ -396,11 +419,315 @@ export function validateStructure(h: CgcHeader, blocks: Uint8Array, metacells: U
   check.finish();
 }
 
+// ---- The cell attribute (kind 4; crates/isogrid/src/attribute.rs) ----
+
+/** Bytes of the head of an attribute section. */
+export const ATTRIBUTE_HEAD_SIZE = 96;
+const ATTRIBUTE_NAME_SIZE = 64;
+
+/** What an attribute is: `AttributeInfo` (name, bits per value, finite range). */
+export interface AttributeInfo {
+  name: string;
+  /** 8 or 16 (codes over the range) or 32 (f32 as it is). */
+  bits: number;
+  /** Smallest and largest finite value, in the attribute's units (`[0, 0]` when none is). */
+  range: [number, number];
+}
+
+/** An attribute's values: one per active cell, in corner-record order, as the section stores them. */
+export interface CellAttribute {
+  info: AttributeInfo;
+  values: Uint8Array;
+}
+
+const utf8 = new TextDecoder('utf-8', { fatal: true });
+const text = (b: Uint8Array): string | null => {
+  try {
+    return utf8.decode(b);
+  } catch {
+    return null;
+  }
+};
+
+/**
+ * The head of an attribute section (its first ATTRIBUTE_HEAD_SIZE bytes), checked as
+ * `AttributeInfo::from_head` does, and the value count it gives.
+ */
+export function parseAttributeHead(bytes: Uint8Array): { info: AttributeInfo; count: bigint } {
+  if (bytes.length < ATTRIBUTE_HEAD_SIZE) throw corrupt('cell attribute section is shorter than its head');
+  const v = new DataView(bytes.buffer, bytes.byteOffset, ATTRIBUTE_HEAD_SIZE);
+  const perCell = v.getUint32(0, true);
+  if (perCell !== 1) throw corrupt(`cell attribute has ${perCell} values per cell; 1 is defined`);
+  const bits = v.getUint32(4, true);
+  if (![8, 16, 32].includes(bits)) throw corrupt(`cell attribute of ${bits} bits per value`);
+  const range: [number, number] = [v.getFloat64(8, true), v.getFloat64(16, true)];
+  if (!(Number.isFinite(range[0]) && Number.isFinite(range[1]) && range[0] <= range[1])) {
+    throw corrupt(`cell attribute range [${range.join(', ')}] is not finite and ordered`);
+  }
+  const count = v.getBigUint64(24, true);
+  const field = bytes.subarray(32, 32 + ATTRIBUTE_NAME_SIZE);
+  const nameLength = field.indexOf(0) < 0 ? ATTRIBUTE_NAME_SIZE : field.indexOf(0);
+  if (field.subarray(nameLength).some((b) => b !== 0)) throw corrupt('cell attribute name is not zero-padded');
+  const name = text(field.subarray(0, nameLength));
+  if (name === null) throw corrupt('cell attribute name is not UTF-8');
+  return { info: { name, bits, range }, count };
+}
+
+/** The cell attribute in `bytes` (its whole section), checked as `parse_attribute` (cgc/read.rs) does. */
+export function parseAttribute(bytes: Uint8Array, activeCells: number): CellAttribute {
+  const { info, count } = parseAttributeHead(bytes);
+  const { bits, range } = info;
+  const values = bytes.subarray(ATTRIBUTE_HEAD_SIZE);
+  if (count !== BigInt(activeCells) || BigInt(values.length) !== count * BigInt(bits / 8)) {
+    throw corrupt(
+      `cell attribute section holds ${values.length} bytes of values, and ${count} values for ${activeCells} active cells`,
+    );
+  }
+  if (bits === 32) {
+    const f = new DataView(values.buffer, values.byteOffset, values.byteLength);
+    for (let i = 0; i < activeCells; i++) {
+      const x = f.getFloat32(4 * i, true);
+      if (!Number.isNaN(x) && !(x >= range[0] && x <= range[1])) {
+        throw corrupt(`cell attribute value ${x} lies outside its range [${range[0]}, ${range[1]}]`);
+      }
+    }
+  }
+  return { info, values };
+}
+
+/** How stored codes become values: `zero + code × step`, and `nanCode` is NaN (`CodeMapping`). */
+export interface CodeMapping {
+  zero: number;
+  step: number;
+  nanCode: number;
+}
+
+/**
+ * The mapping of the 16-bit codes `codesOf` gives (`AttributeInfo::code_mapping` of 8- and 16-bit
+ * codes; f32 values are coded at 16 bits).
+ */
+export function codeMapping(info: AttributeInfo): CodeMapping {
+  const [lo, hi] = info.range;
+  const nanCode = 2 ** (info.bits === 8 ? 8 : 16) - 1;
+  return { zero: lo, step: (hi - lo) / (nanCode - 1), nanCode };
+}
+
+/**
+ * Stored values (`values`: whole values of the section, any run of them) as 16-bit codes, as the
+ * native renderer uploads them (2 bytes per cell): `CellAttribute::codes16`, with
+ * `AttributeInfo::encode` at 16 bits for f32 values. Checked against the Rust rule by
+ * web/test/cgc.test.mjs (vectors generated from Rust).
+ */
+export function codesOf(info: AttributeInfo, values: Uint8Array): Uint16Array {
+  const [lo, hi] = info.range;
+  const top = codeMapping(info).nanCode - 1;
+  const n = values.length / (info.bits / 8);
+  const codes = new Uint16Array(n);
+  const v = new DataView(values.buffer, values.byteOffset, values.byteLength);
+  if (info.bits === 8) {
+    codes.set(values);
+  } else if (info.bits === 16) {
+    for (let i = 0; i < n; i++) codes[i] = v.getUint16(2 * i, true);
+  } else {
+    for (let i = 0; i < n; i++) {
+      const x = v.getFloat32(4 * i, true);
+      codes[i] = Number.isNaN(x) ? top + 1 : hi > lo ? Math.round(Math.min(Math.max((x - lo) / (hi - lo), 0), 1) * top) : 0;
+    }
+  }
+  return codes;
+}
+
+/** A whole attribute's codes and their mapping. */
+export function codes16(a: CellAttribute): { codes: Uint16Array; mapping: CodeMapping } {
+  return { codes: codesOf(a.info, a.values), mapping: codeMapping(a.info) };
+}
+
+// ---- Labels (kinds 5, 6, 7; crates/isogrid/src/labels.rs) ----
+
+const LABEL_HEAD_SIZE = 16;
+const LABEL_INDEX_ENTRY_SIZE = 48;
+const LABEL_RUN_SIZE = 8;
+const LABEL_TABLE_ENTRY_SIZE = 16;
+
+/** One label of a table (`Label`). */
+export interface Label {
+  /** The label value as a u64 key (a signed volume's value as its two's complement). */
+  value: bigint;
+  name: string;
+  /** sRGB red, green, blue and alpha. */
+  rgba: [number, number, number, number];
+}
+
+/** A label's entry in the label index (`LabelEntry`): cells, cell box `[lo, hi)` (index space), runs. */
+export interface LabelEntry {
+  cellCount: number;
+  firstRun: number;
+  runCount: number;
+  lo: [number, number, number];
+  hi: [number, number, number];
+}
+
+/** The labels of a grid (`GridLabels`). */
+export interface GridLabels {
+  table: Label[];
+  /** Label-table index of every cluster. */
+  clusterLabels: Uint32Array;
+  index: LabelEntry[];
+  /** Runs of one label's consecutive clusters: first cluster, cluster count (pairs). */
+  runs: Uint32Array;
+}
+
+/** How label value `key` is shown: signed when the volume's type is (`labels::display_value`). */
+export function labelText(key: bigint, scalarType: number): string {
+  return (SCALAR_TYPES[scalarType].startsWith('u') ? key : BigInt.asIntN(64, key)).toString();
+}
+
+/**
+ * The three label sections parsed and checked against the grid's metacell slots, rule for rule
+ * and message for message as `GridLabels::from_sections` and `GridLabels::check`: lengths against
+ * their counts before anything is allocated, values strictly increasing, names UTF-8, cluster
+ * labels in range, each label's runs following the previous label's in cluster order and holding
+ * only its clusters, all runs covering every cluster once, cell counts and boxes exact.
+ */
+export function parseLabels(clusters: Uint8Array, index: Uint8Array, table: Uint8Array, metacells: Uint8Array): GridLabels {
+  const labels = readLabels(clusters, index, table, metacells.length / SLOT_BYTES / CLUSTER_SLOTS);
+  checkLabels(labels, metacells);
+  return labels;
+}
+
+/**
+ * The three label sections parsed for a grid of `clusterCount` clusters, with every check of
+ * `parseLabels` that needs no metacells (lengths, values, names, cluster labels in range); the
+ * loader colours clusters with them before the metacells have arrived, and `checkLabels` then.
+ */
+export function readLabels(clusters: Uint8Array, index: Uint8Array, table: Uint8Array, clusterCount: number): GridLabels {
+  const view = (b: Uint8Array) => new DataView(b.buffer, b.byteOffset, b.byteLength);
+  // The table.
+  if (table.length < LABEL_HEAD_SIZE) throw corrupt('label table section is shorter than its head');
+  const tv = view(table);
+  const n64 = tv.getBigUint64(0, true);
+  const nameBytes = tv.getBigUint64(8, true);
+  // u64 arithmetic with overflow checks, as in Rust: an overflow cannot equal a section's length.
+  const limit = 1n << 64n;
+  const expectedTable = n64 * BigInt(LABEL_TABLE_ENTRY_SIZE) + BigInt(LABEL_HEAD_SIZE) + nameBytes;
+  if (expectedTable >= limit || n64 * BigInt(LABEL_TABLE_ENTRY_SIZE) >= limit || expectedTable !== BigInt(table.length)) {
+    throw corrupt(`label table section is ${table.length} bytes, not the head, ${n64} entries and ${nameBytes} name bytes`);
+  }
+  const n = Number(n64);
+  let nameAt = LABEL_HEAD_SIZE + LABEL_TABLE_ENTRY_SIZE * n;
+  const labels: Label[] = [];
+  for (let i = 0; i < n; i++) {
+    const e = LABEL_HEAD_SIZE + LABEL_TABLE_ENTRY_SIZE * i;
+    const value = tv.getBigUint64(e, true);
+    const len = tv.getUint32(e + 12, true);
+    if (labels.length && labels[labels.length - 1].value >= value) {
+      throw corrupt(`label table entry ${i}: values are not strictly increasing`);
+    }
+    if (len > table.length - nameAt) throw corrupt(`label table entry ${i}: its name runs past the names`);
+    const name = text(table.subarray(nameAt, nameAt + len));
+    if (name === null) throw corrupt(`label table entry ${i}: name is not UTF-8`);
+    nameAt += len;
+    labels.push({ value, name, rgba: [table[e + 8], table[e + 9], table[e + 10], table[e + 11]] });
+  }
+  if (nameAt !== table.length) throw corrupt('label table names are longer than its entries say');
+
+  // Cluster labels.
+  if (clusters.length !== clusterCount * 4) {
+    throw corrupt(`cluster label section is ${clusters.length} bytes for ${clusterCount} clusters`);
+  }
+  const cv = view(clusters);
+  const clusterLabels = new Uint32Array(clusterCount);
+  for (let c = 0; c < clusterCount; c++) {
+    clusterLabels[c] = cv.getUint32(4 * c, true);
+    if (clusterLabels[c] >= n) throw corrupt(`cluster ${c} has label ${clusterLabels[c]} of ${n}`);
+  }
+
+  // The index.
+  if (index.length < LABEL_HEAD_SIZE || view(index).getBigUint64(0, true) !== n64) {
+    throw corrupt(`label index section does not start with the table's ${n} labels`);
+  }
+  const iv = view(index);
+  const runTotal = iv.getBigUint64(8, true);
+  const expectedIndex = runTotal * BigInt(LABEL_RUN_SIZE) + BigInt(LABEL_HEAD_SIZE + LABEL_INDEX_ENTRY_SIZE * n);
+  if (runTotal * BigInt(LABEL_RUN_SIZE) >= limit || expectedIndex >= limit || expectedIndex !== BigInt(index.length)) {
+    throw corrupt(`label index section is ${index.length} bytes, not the head, ${n} entries and ${runTotal} runs`);
+  }
+  const entries: LabelEntry[] = [];
+  for (let i = 0; i < n; i++) {
+    const e = LABEL_HEAD_SIZE + LABEL_INDEX_ENTRY_SIZE * i;
+    // Counts past 2^53 cannot be right for any file a browser holds; kept as NaN-free numbers.
+    const big = (o: number) => iv.getBigUint64(e + o, true);
+    entries.push({
+      cellCount: Number(big(0)),
+      firstRun: Number(big(8)),
+      runCount: Number(big(16)),
+      lo: [0, 1, 2].map((a) => iv.getUint32(e + 24 + 4 * a, true)) as [number, number, number],
+      hi: [0, 1, 2].map((a) => iv.getUint32(e + 36 + 4 * a, true)) as [number, number, number],
+    });
+  }
+  const runsAt = LABEL_HEAD_SIZE + LABEL_INDEX_ENTRY_SIZE * n;
+  const runCount = Number(runTotal);
+  const runs = new Uint32Array(2 * runCount);
+  for (let j = 0; j < 2 * runCount; j++) runs[j] = iv.getUint32(runsAt + 4 * j, true);
+  return { table: labels, clusterLabels, index: entries, runs };
+}
+
+/** `GridLabels::check`: the index against the cluster labels and the metacells. */
+export function checkLabels(g: GridLabels, metacells: Uint8Array): void {
+  const m = new DataView(metacells.buffer, metacells.byteOffset, metacells.byteLength);
+  const clusterCount = metacells.length / SLOT_BYTES / CLUSTER_SLOTS;
+  const fail = (i: number, what: string) => corrupt(`label index entry ${i}: ${what}`);
+  if (g.table.length !== g.index.length || g.clusterLabels.length !== clusterCount) {
+    throw corrupt('label sections disagree on the number of labels or clusters');
+  }
+  const runCount = g.runs.length / 2;
+  // Metacell::cell_box: the low cell of an axis is present when a cell bit with that axis's bit 0 is.
+  const LOW = [0x55, 0x33, 0x0f];
+  let nextRun = 0;
+  let covered = 0;
+  g.index.forEach((e, i) => {
+    if (e.firstRun !== nextRun || e.runCount > runCount - nextRun) throw fail(i, "its runs do not follow the previous label's");
+    nextRun += e.runCount;
+    let cells = 0;
+    let lo = [0xffffffff, 0xffffffff, 0xffffffff];
+    const hi = [0, 0, 0];
+    let end = 0;
+    for (let r = e.firstRun; r < nextRun; r++) {
+      const first = g.runs[2 * r];
+      const count = g.runs[2 * r + 1];
+      if (count === 0 || first < end || first + count > clusterCount) throw fail(i, 'a run is empty, out of order or outside the grid');
+      end = first + count;
+      covered += count;
+      for (let c = first; c < end; c++) {
+        if (g.clusterLabels[c] !== i) throw fail(i, `cluster ${c} in its runs has another label`);
+        for (let s = 0; s < BOUND_SLOT; s++) {
+          const at = SLOT_BYTES * (c * CLUSTER_SLOTS + s);
+          const mask = m.getUint16(at + 6, true) & 0xff;
+          if (mask === 0) continue;
+          cells += popcount8(mask);
+          for (let a = 0; a < 3; a++) {
+            const p = 2 * m.getUint16(at + 2 * a, true);
+            lo[a] = Math.min(lo[a], p + ((mask & LOW[a]) === 0 ? 1 : 0));
+            hi[a] = Math.max(hi[a], p + 1 + ((mask & ~LOW[a] & 0xff) !== 0 ? 1 : 0));
+          }
+        }
+      }
+    }
+    if (cells === 0) lo = [0, 0, 0];
+    if (e.cellCount !== cells || e.lo.some((x, a) => x !== lo[a]) || e.hi.some((x, a) => x !== hi[a])) {
+      throw fail(i, 'its cell count or bounds do not match its clusters');
+    }
+  });
+  if (nextRun !== runCount || covered !== clusterCount) throw corrupt("the label index's runs do not cover every cluster once");
+}
+
 export interface CgcFile {
   header: CgcHeader;
   blocks: Uint8Array;
   metacells: Uint8Array;
   cells: Uint8Array;
+  attribute: CellAttribute | null;
+  labels: GridLabels | null;
 }
 
 /** Parses and validates a whole file in memory, in the Rust reader's order. */
@@ -409,7 +736,10 @@ export function parseCgc(bytes: Uint8Array): CgcFile {
   checkGaps(header.gaps.map(([s, e]) => bytes.subarray(s, e)));
   const part = (s: Section) => bytes.subarray(s.offset, s.offset + s.length);
   for (const s of header.sections) checkSection(s, part(s));
-  const file = { header, blocks: part(header.blocks), metacells: part(header.metacells), cells: part(header.cells) };
-  validateStructure(header, file.blocks, file.metacells);
-  return file;
+  const blocks = part(header.blocks);
+  const metacells = part(header.metacells);
+  validateStructure(header, blocks, metacells);
+  const attribute = header.attribute ? parseAttribute(part(header.attribute), header.activeCells) : null;
+  const labels = header.labels ? parseLabels(...(header.labels.map(part) as [Uint8Array, Uint8Array, Uint8Array]), metacells) : null;
+  return { header, blocks, metacells, cells: part(header.cells), attribute, labels };
 }

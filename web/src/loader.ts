@@ -8,8 +8,9 @@
 
 import { Crc32 } from './crc32.js';
 import {
-  CgcError, CgcHeader, HEAD_READ, Section, SLOT_BYTES, CLUSTER_SLOTS, BOUND_SLOT,
-  checkGaps, checkSection, parseHeader, StructureCheck,
+  CgcError, CgcHeader, HEAD_READ, Section, SLOT_BYTES, CLUSTER_SLOTS, BOUND_SLOT, ATTRIBUTE_HEAD_SIZE, AttributeInfo,
+  CellAttribute, GridLabels, checkGaps, checkLabels, checkSection, parseAttribute, parseAttributeHead, parseHeader, readLabels,
+  StructureCheck,
 } from './cgc.js';
 
 /**
@@ -101,14 +102,31 @@ export interface StreamSink {
   clusters(firstSlot: number, metacells: Uint8Array, firstCell: number, cells: Uint8Array, cellCounts: number[]): void;
   /** Bytes received so far (of the file's total). */
   progress(received: number, total: number): void;
+  /** The cell attribute's head (checked), as soon as it has arrived. */
+  attributeHead?(info: AttributeInfo): void;
+  /**
+   * Stored values [first, first + n) of the cell attribute (n = bytes / (bits / 8)), handed over
+   * before the clusters whose cells they colour.
+   */
+  attributeValues?(first: number, values: Uint8Array): void;
+  /** The whole cell attribute, once its section is complete and checked. */
+  attribute?(a: CellAttribute): void;
+  /**
+   * The labels, once their sections are complete and checked on their own (before the metacells:
+   * their checks against the metacells follow, and fail the stream if the labels do not hold).
+   */
+  labels?(l: GridLabels): void;
 }
 
 /**
  * Reads, validates and streams `src` into `sink`; resolves when every byte is in and checked.
- * Request order: the header (and table), the sections before the metacells (the blocks), then
- * metacells and cells interleaved — the next chunk of cells as soon as the metacells checked so
- * far point at cells not yet fetched, else the next chunk of metacells — then the rest. Each byte
- * is requested once.
+ * Request order: the header (and table), the sections before the metacells (the blocks) and the
+ * label sections (4 B per cluster and a few per label: colours and the index from the start), then
+ * metacells, cells and the cell attribute interleaved — the next chunk of the attribute while it
+ * covers fewer records than the cells fetched, else the next chunk of cells as soon as the
+ * metacells checked so far point at cells not yet fetched, else the next chunk of metacells — then
+ * the rest. A cluster is handed over once its corner records and, with an attribute, their values
+ * have arrived, so it is drawn in its colours from the start. Each byte is requested once.
  */
 export async function streamCgc(src: ByteSource, sink: StreamSink, chunk?: number): Promise<CgcHeader> {
   const head = await src.read(0, HEAD_READ);
@@ -133,8 +151,12 @@ export async function streamCgc(src: ByteSource, sink: StreamSink, chunk?: numbe
   const pieces = bounds.slice(0, -1).map((start, i) => [start, bounds[i + 1]] as [number, number]);
   const metaPieces = pieces.filter(([a]) => within(h.metacells, a));
   const cellPieces = pieces.filter(([a]) => within(h.cells, a));
-  const before = pieces.filter(([a]) => !within(h.metacells, a) && !within(h.cells, a) && a < h.metacells.offset);
-  const after = pieces.filter(([a]) => !within(h.metacells, a) && !within(h.cells, a) && a >= h.metacells.offset);
+  const attr = h.attribute;
+  const attrPieces = attr ? pieces.filter(([a]) => within(attr, a)) : [];
+  const early = (a: number) => a < h.metacells.offset || (h.labels ?? []).some((s) => within(s, a));
+  const rest = pieces.filter(([a]) => !within(h.metacells, a) && !within(h.cells, a) && !(attr && within(attr, a)));
+  const before = rest.filter(([a]) => early(a));
+  const after = rest.filter(([a]) => !early(a));
 
   const crcs = new Map<Section, Crc32>(h.sections.map((s) => [s, new Crc32()]));
   const done = new Set<Section>();
@@ -148,6 +170,22 @@ export async function streamCgc(src: ByteSource, sink: StreamSink, chunk?: numbe
   const bpc = h.precisionBits;
   const clusterEnds: number[] = []; // cells end (exclusive) of each checked cluster
   let nextCluster = 0; // clusters handed to the sink
+  let labels: GridLabels | null = null;
+  let labelsChecked = !h.labels;
+  let attributeOut = !h.attribute;
+  const part = (s: Section) => file.subarray(s.offset, s.offset + s.length);
+  let attrInfo: AttributeInfo | null = null;
+  let attrFed = 0; // attribute values handed to the sink
+  /** Attribute values arrived (all records when there is no attribute); checks the head first. */
+  const valuesIn = (): number => {
+    if (!attr) return Infinity;
+    if (!attrInfo) {
+      if (have.get(attr)! < ATTRIBUTE_HEAD_SIZE) return 0;
+      attrInfo = parseAttributeHead(part(attr)).info;
+      sink.attributeHead?.(attrInfo);
+    }
+    return Math.min(h.activeCells, Math.floor((have.get(attr)! - ATTRIBUTE_HEAD_SIZE) / (attrInfo.bits / 8)));
+  };
 
   const advance = () => {
     for (const s of h.sections) {
@@ -162,8 +200,26 @@ export async function streamCgc(src: ByteSource, sink: StreamSink, chunk?: numbe
         done.add(s);
       }
     }
+    const values = valuesIn();
+    if (attrInfo && values > attrFed) {
+      const w = attrInfo.bits / 8;
+      sink.attributeValues?.(attrFed, part(attr!).subarray(ATTRIBUTE_HEAD_SIZE + attrFed * w, ATTRIBUTE_HEAD_SIZE + values * w));
+      attrFed = values;
+    }
+    if (!attributeOut && done.has(attr!)) {
+      attributeOut = true;
+      sink.attribute?.(parseAttribute(part(attr!), h.activeCells));
+    }
+    if (h.labels && !labels && h.labels.every((s) => done.has(s))) {
+      labels = readLabels(part(h.labels[0]), part(h.labels[1]), part(h.labels[2]), h.slotCount / CLUSTER_SLOTS);
+      sink.labels?.(labels);
+    }
     if (!done.has(h.blocks)) return;
     const checked = structure.advance(Math.floor(have.get(h.metacells)! / SLOT_BYTES));
+    if (!labelsChecked && labels && checked === h.slotCount && done.has(h.metacells)) {
+      labelsChecked = true;
+      checkLabels(labels, meta);
+    }
     for (let k = clusterEnds.length; k < checked / CLUSTER_SLOTS; k++) {
       let end = k === 0 ? 0 : clusterEnds[k - 1];
       for (let s = 0; s < BOUND_SLOT; s++) {
@@ -177,7 +233,7 @@ export async function streamCgc(src: ByteSource, sink: StreamSink, chunk?: numbe
       }
       clusterEnds.push(end);
     }
-    const cellsIn = Math.floor(have.get(h.cells)! / bpc);
+    const cellsIn = Math.min(Math.floor(have.get(h.cells)! / bpc), values);
     let k = nextCluster;
     while (k < clusterEnds.length && clusterEnds[k] <= cellsIn) k++;
     if (k > nextCluster) {
@@ -208,13 +264,19 @@ export async function streamCgc(src: ByteSource, sink: StreamSink, chunk?: numbe
   };
   advance();
   for (const p of before) await fetchPiece(p);
-  while (metaPieces.length || cellPieces.length) {
+  while (metaPieces.length || cellPieces.length || attrPieces.length) {
+    const gridLeft = metaPieces.length || cellPieces.length;
+    if (attrPieces.length && (!gridLeft || valuesIn() < Math.floor(have.get(h.cells)! / bpc))) {
+      await fetchPiece(attrPieces.shift()!);
+      continue;
+    }
     const cellsWanted = clusterEnds.length ? clusterEnds[clusterEnds.length - 1] * bpc : 0;
     const cellsFirst = cellPieces.length && (!metaPieces.length || have.get(h.cells)! < cellsWanted);
     await fetchPiece((cellsFirst ? cellPieces : metaPieces).shift()!);
   }
   for (const p of after) await fetchPiece(p);
   structure.finish();
+  if (!labelsChecked) throw new CgcError('the label sections were never checked against the metacells');
   checkGaps(h.gaps.map(([s, e]) => file.subarray(s, e)));
   return h;
 }

@@ -4,9 +4,14 @@
 // URL parameters: `src`, `view=1|2` and `size=WxH` (the camera and canvas of
 // `isogrid render --view N --size WxH`), `clip=[-]x|y|z[:F]` (a clip plane across that axis at
 // fraction F of the grid's extent, 0.5 by default, cutting away the larger coordinates, or the
-// smaller ones with `-`).
+// smaller ones with `-`); colour: `cmap=NAME` and `clim=LO,HI` (the attribute's colour map and
+// range; default viridis over the stored range), `hide=V,...` (label values hidden at the start),
+// `ewa=0` (no EWA normal splats: `isogrid render --mode cgc-noewa`).
 
-import { CgcError, CgcHeader, worldBounds } from './cgc.js';
+import { AttributeInfo, CgcError, CgcHeader, CodeMapping, GridLabels, codeMapping, codesOf, labelText, worldBounds } from './cgc.js';
+import {
+  COLOR_LABELS, COLOR_RECORDS, MAP_NAMES, clusterAlbedos, colorUniforms, defaultClim, hiddenClusters, mapTable, parseClim,
+} from './colors.js';
 import { Camera, ClipPlane, orbit, pan, presetCamera, zoom } from './camera.js';
 import { blobSource, ByteSource, streamCgc, urlSource } from './loader.js';
 import { COLOR_FORMAT, Renderer } from './renderer.js';
@@ -21,6 +26,10 @@ interface IsogridApi {
   pixels(): Promise<string>;
   /** Draws `n` more frames of the current view one after another: median wall and GPU ms. */
   frames(n: number): Promise<{ wallMs: number; gpuMs: number | null }>;
+  /** The value target of the last frame: f32 rows top to bottom, base64 (NaN: miss or no value). */
+  values(): Promise<string>;
+  /** What pixel (x, y) of the last frame shows: cluster, record, value, and the label's name. */
+  pick(x: number, y: number): Promise<{ cluster: number; record: number; value: number; label: string | null } | null>;
   stats: Record<string, unknown>;
 }
 declare global {
@@ -42,6 +51,16 @@ window.isogrid = {
     let s = '';
     for (let i = 0; i < px.length; i += 0x8000) s += String.fromCharCode(...px.subarray(i, i + 0x8000));
     return btoa(s);
+  },
+  async values() {
+    const v = new Uint8Array((await renderer!.readValues()).buffer);
+    let s = '';
+    for (let i = 0; i < v.length; i += 0x8000) s += String.fromCharCode(...v.subarray(i, i + 0x8000));
+    return btoa(s);
+  },
+  async pick(x, y) {
+    const hit = await renderer!.readPixel(x, y);
+    return hit && { ...hit, label: labels ? labelName(labels.clusterLabels[hit.cluster]) : null };
   },
   async frames(n) {
     const median = (v: number[]) => v.sort((a, b) => a - b)[Math.floor(v.length / 2)];
@@ -147,10 +166,11 @@ function canvasSize(): [number, number] {
   return [Math.max(1, Math.round(r.width * dpr)), Math.max(1, Math.round(r.height * dpr))];
 }
 
-function resetCamera(): void {
+/** The current view's camera framing world box [lo, hi] (default: the grid's bounds). */
+function resetCamera(box: [number[], number[]] | null = null): void {
   if (!header) return;
   const [w, h] = canvasSize();
-  const [lo, hi] = worldBounds(header);
+  const [lo, hi] = box ?? worldBounds(header);
   camera = presetCamera(view, lo, hi, w, h);
   requestFrame();
 }
@@ -217,6 +237,8 @@ function showFacts(): void {
     ['clusters', (header.slotCount / 16).toLocaleString()],
     ['memory', `${((header.blocks.length + header.metacells.length + header.cells.length) / 2 ** 20).toFixed(1)} MiB in ${renderer?.pageCount ?? 0} pages`],
     ['fetched', `${(bytesIn / 2 ** 20).toFixed(2)} of ${(header.fileLength / 2 ** 20).toFixed(2)} MiB`],
+    ...(attribute ? [['colour by', `${attribute.name} (${attribute.range.map((v) => Number(v.toPrecision(5))).join(' to ')})`] as [string, string]] : []),
+    ...(labels ? [['labels', `${labels.table.length.toLocaleString()} (${hiddenLabels.size.toLocaleString()} hidden)`] as [string, string]] : []),
     ['frame', renderer?.lastGpuMs != null ? `${renderer.lastGpuMs.toFixed(2)} ms (GPU timestamps)` : `${(stats.frameMs as number)?.toFixed(1)} ms (wall, no timestamp queries)`],
   ];
   const table = $('facts-table');
@@ -249,7 +271,7 @@ async function load(src: ByteSource): Promise<void> {
       header(h) {
         header = h;
         const [lo, hi] = worldBounds(h);
-        renderer = new Renderer(device!, { precisionBits: h.precisionBits, spacing: h.spacing, isoCode: h.isoCode, bounds: [lo, hi], slotCount: h.slotCount });
+        renderer = new Renderer(device!, { precisionBits: h.precisionBits, spacing: h.spacing, isoCode: h.isoCode, bounds: [lo, hi], slotCount: h.slotCount, hideable: h.labels !== null }, params.get('ewa') !== '0');
         renderer.compiled.then(() => (rendererReady = true), (e) => fail(e, ''));
         canvas.hidden = false;
         if (!fixedSize) $('stage').classList.add('fill');
@@ -261,6 +283,36 @@ async function load(src: ByteSource): Promise<void> {
           r.addClusters(firstSlot, metacells, firstCell, cells, counts);
           requestFrame();
         });
+      },
+      attributeHead(info) {
+        // Codes arrive with the cells (loader.ts) and are uploaded as they come, two per word.
+        stats.attribute = info.name;
+        attributeCodes = new Uint16Array(header!.activeCells + (header!.activeCells & 1));
+        const refused = renderer!.setColorData(2 * attributeCodes.length, 'cell attribute codes');
+        if (refused) {
+          showMessage(`${src.name}: ${refused}`, true);
+          return;
+        }
+        attribute = { name: info.name, range: info.range, mapping: codeMapping(info), info };
+        applyColoring();
+      },
+      attributeValues(first, values) {
+        if (!attribute) return;
+        const codes = codesOf(attribute.info, values);
+        attributeCodes.set(codes, first);
+        const [from, to] = [first & ~1, Math.min(attributeCodes.length, first + codes.length + 1) & ~1];
+        if (to > from) renderer!.writeColorData(2 * from, attributeCodes.subarray(from, to));
+      },
+      labels(l) {
+        labels = l;
+        stats.labels = l.table.length;
+        const refused = renderer!.setColorData(clusterAlbedos(l), 'label albedo per cluster');
+        if (refused) showMessage(`${src.name}: ${refused}`, true);
+        else renderer!.setColoring(colorUniforms(COLOR_LABELS));
+        // ?hide=V,...: label values hidden from the start.
+        const hide = new Set((params.get('hide') ?? '').split(',').map((v) => v.trim()).filter(Boolean));
+        l.table.forEach((label, i) => hide.has(labelText(label.value, header!.scalarType)) && hiddenLabels.add(i));
+        applyHidden();
       },
       progress(received, total) {
         bytesIn = received;
@@ -281,17 +333,179 @@ async function load(src: ByteSource): Promise<void> {
   }
 }
 
+// Colour: an attribute's map and range, or a label grid's colours and visible labels.
+const cmapParam = (params.get('cmap') ?? '').toLowerCase();
+const colour = {
+  map: MAP_NAMES.includes(cmapParam) ? cmapParam : MAP_NAMES[0],
+  /** null: auto, the attribute's range on the surface as stored (`Coloring::default_clim`). */
+  clim: parseClim(params.get('clim')),
+};
+let attribute: { name: string; range: [number, number]; mapping: CodeMapping; info: AttributeInfo } | null = null;
+/** The attribute's 16-bit codes, as far as they have arrived (a whole number of words). */
+let attributeCodes = new Uint16Array(0);
+let labels: GridLabels | null = null;
+/** Label-table indices of the hidden labels. */
+const hiddenLabels = new Set<number>();
+const cmapSelect = $<HTMLSelectElement>('cmap');
+const climLo = $<HTMLInputElement>('clim-lo');
+const climHi = $<HTMLInputElement>('clim-hi');
+cmapSelect.replaceChildren(...MAP_NAMES.map((n) => Object.assign(document.createElement('option'), { value: n, textContent: n })));
+
+function applyColoring(): void {
+  if (!renderer || !attribute) return;
+  const clim = colour.clim ?? defaultClim(attribute.range);
+  renderer.setColoring(colorUniforms(COLOR_RECORDS, { map: colour.map, clim }, attribute.mapping));
+  $('colour').hidden = false;
+  cmapSelect.value = colour.map;
+  climLo.value = String(clim[0]);
+  climHi.value = String(clim[1]);
+  $('clim-auto').setAttribute('aria-pressed', String(colour.clim === null));
+  // The colour bar: the map's table left to right, between the range's two ends.
+  const bar = $<HTMLCanvasElement>('colorbar');
+  const ctx = bar.getContext('2d')!;
+  const img = ctx.createImageData(256, 1);
+  const table = mapTable(colour.map);
+  for (let i = 0; i < 256; i++) img.data.set([table[3 * i], table[3 * i + 1], table[3 * i + 2], 255], 4 * i);
+  ctx.putImageData(img, 0, 0);
+  bar.title = `${colour.map}: ${clim[0]} to ${clim[1]} (${attribute.name})`;
+  requestFrame();
+}
+cmapSelect.onchange = () => {
+  colour.map = cmapSelect.value;
+  applyColoring();
+};
+const rangeChanged = () => {
+  const clim = parseClim(`${climLo.value},${climHi.value}`);
+  if (clim) colour.clim = clim;
+  applyColoring();
+};
+climLo.onchange = rangeChanged;
+climHi.onchange = rangeChanged;
+$('clim-auto').onclick = () => {
+  colour.clim = null;
+  applyColoring();
+};
+
+function labelName(i: number): string {
+  const l = labels!.table[i];
+  const value = labelText(l.value, header!.scalarType);
+  return l.name === `label ${value}` ? l.name : `${l.name} (${value})`;
+}
+
+function applyHidden(): void {
+  if (!renderer || !labels) return;
+  renderer.setHiddenClusters(hiddenLabels.size ? hiddenClusters(labels, hiddenLabels) : null);
+  stats.hiddenLabels = hiddenLabels.size;
+  showLabels();
+  requestFrame();
+}
+
+/** Rows shown at most; a search narrows a longer list. */
+const MAX_LABEL_ROWS = 500;
+let pickedLabel: number | null = null;
+
+function showLabels(): void {
+  if (!labels) return;
+  const l = labels;
+  const query = $<HTMLInputElement>('label-search').value.trim().toLowerCase();
+  const rows: HTMLElement[] = [];
+  let more = 0;
+  l.table.forEach((label, i) => {
+    const name = labelName(i);
+    if (query && !name.toLowerCase().includes(query)) return;
+    if (rows.length >= MAX_LABEL_ROWS) {
+      more++;
+      return;
+    }
+    const li = document.createElement('li');
+    li.dataset.label = String(i);
+    if (i === pickedLabel) li.className = 'picked';
+    const box = Object.assign(document.createElement('input'), { type: 'checkbox', checked: !hiddenLabels.has(i), title: 'show or hide this label' });
+    box.onchange = () => {
+      if (box.checked) hiddenLabels.delete(i);
+      else hiddenLabels.add(i);
+      applyHidden();
+    };
+    const swatch = document.createElement('span');
+    swatch.className = 'swatch';
+    swatch.style.background = `rgb(${label.rgba.slice(0, 3).join(',')})`;
+    // The name frames the label: its cell box from the index (cells [lo, hi), index space) in world
+    // space (index × spacing), as Fit frames the grid.
+    const text = Object.assign(document.createElement('span'), { textContent: name, title: 'frame this label', className: 'name' });
+    text.onclick = () => {
+      const e = l.index[i];
+      if (e.cellCount) resetCamera([e.lo.map((v, a) => v * header!.spacing[a]), e.hi.map((v, a) => v * header!.spacing[a])]);
+    };
+    const count = Object.assign(document.createElement('span'), { className: 'count', textContent: l.index[i].cellCount.toLocaleString(), title: 'active cells' });
+    li.append(box, swatch, text, count);
+    rows.push(li);
+  });
+  if (more) rows.push(Object.assign(document.createElement('li'), { textContent: `… ${more.toLocaleString()} more: search to narrow the list` }));
+  $('label-list').replaceChildren(...rows);
+  $('labels').hidden = false;
+}
+$('label-search').oninput = showLabels;
+$('labels-show').onclick = () => {
+  hiddenLabels.clear();
+  applyHidden();
+};
+$('labels-hide').onclick = () => {
+  labels?.table.forEach((_, i) => hiddenLabels.add(i));
+  applyHidden();
+};
+
+/** The canvas pixel under a pointer event. */
+function pixelOf(e: PointerEvent | MouseEvent): [number, number] {
+  const r = canvas.getBoundingClientRect();
+  return [Math.floor(((e.clientX - r.left) * canvas.width) / r.width), Math.floor(((e.clientY - r.top) * canvas.height) / r.height)];
+}
+const formatValue = (v: number) => (Number.isNaN(v) ? 'no value (NaN)' : String(Number(v.toPrecision(5))));
+// The value under the pointer: read from the value target the shading pass wrote (one at a time).
+let hover: [number, number] | null = null;
+let hoverBusy = false;
+async function showHover(): Promise<void> {
+  if (hoverBusy || !hover || !renderer || !attribute) return;
+  hoverBusy = true;
+  const [x, y] = hover;
+  hover = null;
+  try {
+    const hit = await renderer.readPixel(x, y);
+    $('readout').textContent = hit ? `value ${formatValue(hit.value)}` : '';
+  } finally {
+    hoverBusy = false;
+    if (hover) showHover();
+  }
+}
+// Clicking a label grid's surface names the label under the cursor.
+async function pickLabel(x: number, y: number): Promise<void> {
+  if (!renderer || !labels) return;
+  const hit = await renderer.readPixel(x, y);
+  pickedLabel = hit ? labels.clusterLabels[hit.cluster] : null;
+  $('picked').textContent = pickedLabel === null ? 'no surface there' : labelName(pickedLabel);
+  showLabels();
+  document.querySelector('#label-list li.picked')?.scrollIntoView({ block: 'nearest' });
+}
+
 // Controls: drag orbits, shift/right-drag pans, wheel zooms.
-let drag: { x: number; y: number; pan: boolean } | null = null;
+let drag: { x: number; y: number; pan: boolean; moved: number } | null = null;
 canvas.addEventListener('contextmenu', (e) => e.preventDefault());
 canvas.addEventListener('pointerdown', (e) => {
-  drag = { x: e.clientX, y: e.clientY, pan: e.shiftKey || e.button === 2 };
+  drag = { x: e.clientX, y: e.clientY, pan: e.shiftKey || e.button === 2, moved: 0 };
   canvas.setPointerCapture(e.pointerId);
 });
-canvas.addEventListener('pointerup', () => (drag = null));
+canvas.addEventListener('pointerup', (e) => {
+  // A click (no drag) names the label under the cursor.
+  if (drag && drag.moved < 4 && e.button === 0) pickLabel(...pixelOf(e));
+  drag = null;
+});
 canvas.addEventListener('pointermove', (e) => {
+  if (!drag) {
+    hover = pixelOf(e);
+    showHover();
+  }
   if (!drag || !camera) return;
   const [dx, dy] = [e.clientX - drag.x, e.clientY - drag.y];
+  drag.moved += Math.abs(dx) + Math.abs(dy);
   drag.x = e.clientX;
   drag.y = e.clientY;
   if (drag.pan) {

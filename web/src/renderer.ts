@@ -6,11 +6,15 @@
 // deferred shading (shade). The bind group layouts are the native ones (passes/scene.rs,
 // upload.rs). Cell data is paged: each page is a whole number of clusters whose buffers stay
 // within the device's storage binding limit (128 MiB in Firefox), and a page is added as soon as
-// its cells have arrived, so the picture fills in while the file streams.
+// its cells have arrived, so the picture fills in while the file streams. Colour (colors.ts): the
+// shading pass's `ColorUniforms` and one colour data binding, the attribute's codes or the
+// clusters' label albedos; hidden labels' clusters get empty metacells in their page's copy, so
+// the expansion (expand.wgsl, which skips slots with no cells) never draws them.
 
 import { SHADERS } from 'isogrid:shaders';
 import { Camera, ClipPlane, frameUniforms, FLAG_EWA, FLAG_OCCLUSION, FRAME_UNIFORM_BYTES } from './camera.js';
-import { CLUSTER_SLOTS, SLOT_BYTES } from './cgc.js';
+import { BOUND_SLOT, CLUSTER_SLOTS, SLOT_BYTES } from './cgc.js';
+import { COLOR_NONE, COLOR_UNIFORMS_BYTES, colorUniforms } from './colors.js';
 
 const DEPTH_FORMAT: GPUTextureFormat = 'depth32float';
 const SURFACE_FORMAT: GPUTextureFormat = 'rgba32float';
@@ -19,8 +23,6 @@ const EWA_FORMAT: GPUTextureFormat = 'rgba16float';
 export const COLOR_FORMAT: GPUTextureFormat = 'rgba8unorm';
 const FINAL_FORMAT: GPUTextureFormat = 'rgba32float';
 const VALUE_FORMAT: GPUTextureFormat = 'r32float';
-/** Bytes of `ColorUniforms` (gpu_types.rs): mapping, params, NaN albedo, 256 table entries. */
-const COLOR_UNIFORMS_BYTES = 48 + 16 * 256;
 /** Six vertices (one rectangle) per instance; three lists: full, probe, new. */
 const EMPTY_ARGS = new Uint32Array([6, 0, 0, 0, 6, 0, 0, 0, 6, 0, 0, 0]);
 const LIST_FULL = 0;
@@ -35,9 +37,16 @@ export interface GridDesc {
   isoCode: number;
   bounds: [number[], number[]];
   slotCount: number;
+  /** Whether clusters can be hidden (a label grid): pages then keep a copy of their metacells. */
+  hideable: boolean;
 }
 
 interface Page {
+  /** The page's metacell slots as the file holds them, kept where clusters can be hidden. */
+  metacells: Uint8Array | null;
+  meta: GPUBuffer;
+  /** Whether the uploaded copy has emptied clusters. */
+  masked: boolean;
   firstSlot: number;
   slotCount: number;
   firstCell: number;
@@ -62,7 +71,11 @@ export class Renderer {
   private visibleNew: GPUBuffer;
   private volume: GPUTexture;
   private coloring: GPUBuffer;
-  private attributeCodes: GPUBuffer;
+  private colorData: GPUBuffer;
+  private noColorData: GPUBuffer;
+  /** Per cluster, 1 when hidden (a label grid's hidden labels); null: all shown. */
+  private hidden: Uint8Array | null = null;
+  private hiddenVersion = 0;
   private argsTemplate: GPUBuffer;
   private layouts: Record<string, GPUBindGroupLayout> = {};
   private pipelines: Record<string, GPURenderPipeline | GPUComputePipeline> = {};
@@ -133,11 +146,12 @@ export class Renderer {
 
     this.compiled = Promise.all(pending).then(() => undefined);
     this.uniforms = d.createBuffer({ label: 'frame uniforms', size: FRAME_UNIFORM_BYTES, usage: GPUBufferUsage.UNIFORM | GPUBufferUsage.COPY_DST });
-    // ColorUniforms of shade.wgsl (gpu_types.rs): COLOR_NONE, the one fixed albedo.
+    // ColorUniforms of color.wgsl (gpu_types.rs): COLOR_NONE, the one fixed albedo, until a
+    // colouring is set.
     this.coloring = d.createBuffer({ label: 'colouring', size: COLOR_UNIFORMS_BYTES, usage: GPUBufferUsage.UNIFORM | GPUBufferUsage.COPY_DST });
-    this.attributeCodes = d.createBuffer({ label: 'no attribute codes', size: 16, usage: GPUBufferUsage.STORAGE });
-    // params.z: the bits of a NaN (WGSL has no NaN constant).
-    d.queue.writeBuffer(this.coloring, 24, new Uint32Array([0x7fc00000]));
+    this.noColorData = d.createBuffer({ label: 'no colour data', size: 16, usage: GPUBufferUsage.STORAGE });
+    this.colorData = this.noColorData;
+    d.queue.writeBuffer(this.coloring, 0, colorUniforms(COLOR_NONE));
     const clusters = Math.max(Math.ceil(grid.slotCount / CLUSTER_SLOTS), MIN_VISIBILITY_CLUSTERS);
     const visBytes = Math.ceil(clusters / 32) * 4;
     const vis = (label: string) => d.createBuffer({ label, size: visBytes, usage: GPUBufferUsage.STORAGE | GPUBufferUsage.COPY_DST });
@@ -176,6 +190,70 @@ export class Renderer {
 
   get pageCount(): number {
     return this.pages.length;
+  }
+
+  /** Sets the shading pass's `ColorUniforms` (colors.ts `colorUniforms`). */
+  setColoring(uniforms: ArrayBuffer): void {
+    this.device.queue.writeBuffer(this.coloring, 0, uniforms);
+  }
+
+  /**
+   * Uploads the colour data the uniforms' source reads (attribute codes, two per word, or label
+   * albedos), or allocates that many zero bytes (a number; filled by `writeColorData` as they
+   * arrive), or none. Like the native renderer (upload.rs), data larger than one storage binding
+   * is refused: the shaders read it through one binding by global record or cluster. Returns why
+   * it was refused, or null.
+   */
+  setColorData(data: ArrayBufferView | number | null, what: string): string | null {
+    if (this.colorData !== this.noColorData) this.colorData.destroy();
+    this.colorData = this.noColorData;
+    if (data !== null) {
+      const bytes = typeof data === 'number' ? data : data.byteLength;
+      const size = Math.max(16, Math.ceil(bytes / 4) * 4);
+      if (size > this.pageBytes) {
+        return `the ${what} takes ${bytes} bytes, more than a storage binding holds (${this.pageBytes} bytes): drawn in one colour`;
+      }
+      this.colorData = this.device.createBuffer({ label: what, size, usage: GPUBufferUsage.STORAGE | GPUBufferUsage.COPY_DST });
+      if (typeof data !== 'number') this.writeColorData(0, data);
+    }
+    // The shading bind group names the buffer: made again with the targets.
+    if (this.targets) for (const t of Object.values(this.targets.tex)) t.destroy();
+    this.targets = null;
+    return null;
+  }
+
+  /** Writes `data` into the colour data at `offset` (both multiples of 4 bytes but for the end). */
+  writeColorData(offset: number, data: ArrayBufferView): void {
+    const padded = new Uint8Array(Math.ceil(data.byteLength / 4) * 4);
+    padded.set(new Uint8Array(data.buffer, data.byteOffset, data.byteLength));
+    this.device.queue.writeBuffer(this.colorData, offset, padded);
+  }
+
+  /**
+   * Hides the clusters marked 1 in `hidden` (one entry per cluster; null shows all): each page
+   * whose clusters change is uploaded again with the hidden clusters' metacells emptied.
+   */
+  setHiddenClusters(hidden: Uint8Array | null): void {
+    this.hidden = hidden && hidden.some((h) => h) ? hidden : null;
+    this.hiddenVersion++;
+    for (const p of this.pages) this.uploadMetacells(p);
+  }
+
+  /** Writes page `p`'s metacells (`fresh`: the file's, as the page is added), emptied where their cluster is hidden. */
+  private uploadMetacells(p: Page, fresh: Uint8Array | null = null): void {
+    const first = p.firstSlot / CLUSTER_SLOTS;
+    const count = p.slotCount / CLUSTER_SLOTS;
+    const hides = this.hidden !== null && this.hidden.subarray(first, first + count).some((h) => h);
+    if (!hides && !p.masked && !fresh) return;
+    let data = fresh ?? p.metacells!;
+    if (hides) {
+      data = data.slice();
+      for (let c = 0; c < count; c++) {
+        if (this.hidden![first + c]) data.fill(0, c * CLUSTER_SLOTS * SLOT_BYTES, (c * CLUSTER_SLOTS + BOUND_SLOT) * SLOT_BYTES);
+      }
+    }
+    if (data.byteLength) this.device.queue.writeBuffer(p.meta, 0, data.buffer as ArrayBuffer, data.byteOffset, data.byteLength);
+    p.masked = hides;
   }
 
   /**
@@ -227,7 +305,7 @@ export class Renderer {
     const S = GPUBufferUsage.STORAGE;
     const p = this.pages.length;
     const uniforms = init(`page ${p} uniforms`, new Uint32Array([firstSlot, firstCell, slotCount, 0]), GPUBufferUsage.UNIFORM);
-    const meta = init(`page ${p} metacells`, metacells, S);
+    const meta = d.createBuffer({ label: `page ${p} metacells`, size: Math.max(16, metacells.byteLength), usage: S | GPUBufferUsage.COPY_DST });
     const rec = init(`page ${p} corner records`, cells, S);
     const list = (label: string, n: number) => d.createBuffer({ label: `page ${p} ${label}`, size: Math.max(16, 4 * n), usage: S });
     const lists = [list('full list', cellCount), list('probe list', slotCount), list('new list', cellCount)];
@@ -241,7 +319,11 @@ export class Renderer {
     const render = lists.map((l, i) =>
       d.createBindGroup({ label: `page ${p} list ${i}`, layout: this.layouts['page render'], entries: [buf(0, uniforms), buf(1, meta), buf(2, rec), buf(3, l)] }),
     );
-    this.pages.push({ firstSlot, slotCount, firstCell, cellCount, buffers: [uniforms, meta, rec, ...lists], args, compute, render });
+    // A copy, not the view: the view would keep the loader's whole file alive.
+    const kept = this.grid.hideable ? metacells.slice() : null;
+    const page: Page = { metacells: kept, meta, masked: false, firstSlot, slotCount, firstCell, cellCount, buffers: [uniforms, meta, rec, ...lists], args, compute, render };
+    this.uploadMetacells(page, metacells);
+    this.pages.push(page);
   }
 
   private ensureTargets(width: number, height: number): void {
@@ -254,11 +336,11 @@ export class Renderer {
     const tex = {
       depth: t('raster depth (reversed-Z)', DEPTH_FORMAT, rt),
       surface: t('raster normal + distance', SURFACE_FORMAT, rt),
-      ids: t('cluster ids', IDS_FORMAT, rt),
+      ids: t('cluster ids', IDS_FORMAT, rt | U.COPY_SRC),
       ewa: t('ewa normal accumulation', EWA_FORMAT, rt),
       color: t('shaded colour', COLOR_FORMAT, U.RENDER_ATTACHMENT | U.COPY_SRC),
       final: t('final normal + distance', FINAL_FORMAT, U.RENDER_ATTACHMENT),
-      value: t('shaded attribute value', VALUE_FORMAT, U.RENDER_ATTACHMENT),
+      value: t('shaded attribute value', VALUE_FORMAT, U.RENDER_ATTACHMENT | U.COPY_SRC),
     };
     const g = (layout: string, views: GPUTextureView[]) =>
       d.createBindGroup({ layout: this.layouts[layout], entries: views.map((v, i) => ({ binding: i, resource: v })) });
@@ -274,7 +356,7 @@ export class Renderer {
           entries: [
             ...[tex.surface, tex.ewa, tex.ids].map((x, i) => ({ binding: i, resource: x.createView() })),
             { binding: 3, resource: { buffer: this.coloring } },
-            { binding: 4, resource: { buffer: this.attributeCodes } },
+            { binding: 4, resource: { buffer: this.colorData } },
           ],
         }),
       },
@@ -295,7 +377,7 @@ export class Renderer {
     this.ensureTargets(camera.width, camera.height);
     const T = this.targets!;
     // Visibility persists while the camera and clip plane stay; anything else starts from "all visible".
-    const key = JSON.stringify([camera, clip, this.pages.length]);
+    const key = JSON.stringify([camera, clip, this.pages.length, this.hiddenVersion]);
     if (key !== this.visibilityFor) {
       d.queue.writeBuffer(this.visibleLast, 0, new Uint8Array(this.visibleLast.size).fill(0xff));
       d.queue.writeBuffer(this.visibleNew, 0, new Uint8Array(this.visibleNew.size));
@@ -402,14 +484,44 @@ export class Renderer {
     }
   }
 
+  /**
+   * What the last frame shows at pixel (x, y): the hit's cluster and record (null on a miss) from
+   * the ID target and the attribute value the shading pass wrote (NaN where none).
+   */
+  async readPixel(x: number, y: number): Promise<{ cluster: number; record: number; value: number } | null> {
+    const T = this.targets;
+    if (!T || x < 0 || y < 0 || x >= T.size[0] || y >= T.size[1]) return null;
+    const buf = this.device.createBuffer({ size: 512, usage: GPUBufferUsage.COPY_DST | GPUBufferUsage.MAP_READ });
+    const enc = this.device.createCommandEncoder();
+    enc.copyTextureToBuffer({ texture: T.tex.ids, origin: [x, y] }, { buffer: buf, bytesPerRow: 256 }, [1, 1]);
+    enc.copyTextureToBuffer({ texture: T.tex.value, origin: [x, y] }, { buffer: buf, offset: 256, bytesPerRow: 256 }, [1, 1]);
+    this.device.queue.submit([enc.finish()]);
+    await buf.mapAsync(GPUMapMode.READ);
+    const ids = new Uint32Array(buf.getMappedRange(0, 8).slice(0));
+    const value = new Float32Array(buf.getMappedRange(256, 4).slice(0))[0];
+    buf.unmap();
+    buf.destroy();
+    return ids[0] === 0xffffffff ? null : { cluster: ids[0], record: ids[1], value };
+  }
+
+  /** The value target (f32 rows top to bottom; NaN on a miss or where uncoloured), for tests. */
+  async readValues(): Promise<Float32Array> {
+    return new Float32Array((await this.readTarget('value')).buffer);
+  }
+
   /** The colour target's pixels, RGBA8 rows top to bottom (for tests and screenshots). */
   async readPixels(): Promise<Uint8Array> {
+    return this.readTarget('color');
+  }
+
+  /** The bytes of a 4-byte-per-pixel target, rows top to bottom. */
+  private async readTarget(which: 'color' | 'value'): Promise<Uint8Array> {
     const T = this.targets!;
     const [w, h] = T.size;
     const row = Math.ceil((w * 4) / 256) * 256;
     const buf = this.device.createBuffer({ size: row * h, usage: GPUBufferUsage.COPY_DST | GPUBufferUsage.MAP_READ });
     const enc = this.device.createCommandEncoder();
-    enc.copyTextureToBuffer({ texture: T.tex.color }, { buffer: buf, bytesPerRow: row }, [w, h]);
+    enc.copyTextureToBuffer({ texture: T.tex[which] }, { buffer: buf, bytesPerRow: row }, [w, h]);
     this.device.queue.submit([enc.finish()]);
     await buf.mapAsync(GPUMapMode.READ);
     const src = new Uint8Array(buf.getMappedRange());

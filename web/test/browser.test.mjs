@@ -1,6 +1,9 @@
 // The viewer in real browsers (Debian's chromium and firefox-esr through puppeteer-core): its
 // picture against the native renderer's (`isogrid render --backend gpu`, lavapipe) for the same
-// file, camera and size; the messages of damaged, truncated and version-mismatch files; loading
+// file, camera and size, plain, coloured by an attribute (colours and the value under each pixel)
+// and a label grid in its labels' colours, with labels hidden (only their pixels change, against
+// the native cluster AOV) and picked by a click; the messages of damaged, truncated and
+// version-mismatch files; loading
 // with Range requests (first frame before the last byte, each byte requested once) and from a
 // server without Range support. Skips, saying why, where a browser, WebGPU or the isogrid binary
 // is missing.
@@ -16,8 +19,9 @@ import puppeteer from 'puppeteer-core';
 import { PNG } from 'pngjs';
 import { build } from '../build.mjs';
 import { startServer } from './server.mjs';
-import { isogridBinary, sphereFile, resealHeader, realFiles } from './fixtures.mjs';
+import { isogridBinary, sphereFile, resealHeader, resealSection, realFiles, coloredSphereFile, labelFile } from './fixtures.mjs';
 import { basis, presetCamera } from '../build/node/camera.js';
+import { parseCgc, labelText } from '../build/node/cgc.js';
 
 const web = join(dirname(fileURLToPath(import.meta.url)), '..');
 const BACKGROUND = [28, 30, 36];
@@ -46,15 +50,38 @@ const bin = isogridBinary();
 const sphere = sphereFile();
 const sphereBytes = sphere ? new Uint8Array(readFileSync(sphere)) : null;
 const tiny = realFiles()[0][1];
+const colored = bin && coloredSphereFile(48);
+const coloredBytes = colored && new Uint8Array(readFileSync(colored));
+const coloredF32 = bin && coloredSphereFile(48, 32);
+const labelled = bin && labelFile(48);
+const labelBytes = labelled && new Uint8Array(readFileSync(labelled));
 
-/** The native render of `file` with `view` at SIZE, RGBA8 rows. */
-function nativeRender(file, view) {
-  const out = join(mkdtempSync(join(tmpdir(), 'isogrid-web-ref-')), `view${view}.png`);
-  execFileSync(bin, ['render', file, '--backend', 'gpu', '--view', String(view), '--size', SIZE.join('x'), '-o', out], {
+/**
+ * The native render of `file` with `view` at SIZE, RGBA8 rows; with `aov` (e.g. 'value' or
+ * 'cluster') also that AOV's array ({ data, shape }). `extra`: more `isogrid render` flags.
+ */
+function nativeRender(file, view, extra = [], aov = null) {
+  const dir = mkdtempSync(join(tmpdir(), 'isogrid-web-ref-'));
+  const out = join(dir, `view${view}.png`);
+  const aovArgs = aov ? ['--aov', `${aov}=${join(dir, 'aov.npy')}`] : [];
+  execFileSync(bin, ['render', file, '--backend', 'gpu', '--view', String(view), '--size', SIZE.join('x'), ...extra, ...aovArgs, '-o', out], {
     stdio: 'ignore',
     env: { ...process.env, NODEVICE_SELECT: '1' },
   });
-  return PNG.sync.read(readFileSync(out)).data;
+  const png = PNG.sync.read(readFileSync(out)).data;
+  return aov ? { png, aov: readNpy(join(dir, 'aov.npy')) } : png;
+}
+
+/** A little-endian f4 or u4 .npy as a Float32Array or Uint32Array. */
+function readNpy(path) {
+  const b = readFileSync(path);
+  const headerLength = b.readUInt16LE(8);
+  const header = b.subarray(10, 10 + headerLength).toString('latin1');
+  const data = b.subarray(10 + headerLength);
+  const copy = new Uint8Array(data).buffer;
+  if (/'descr': '<f4'/.test(header)) return new Float32Array(copy);
+  if (/'descr': '<u4'/.test(header)) return new Uint32Array(copy);
+  throw new Error(`${path}: unexpected .npy header ${header}`);
 }
 
 /** Mask agreement and colour agreement (within 8/255 on every channel) of two RGBA8 images. */
@@ -134,6 +161,19 @@ for (const B of BROWSERS) {
     }
     const files = { 'tiny.cgc': tiny };
     if (sphereBytes) {
+      files['colored.cgc'] = coloredBytes;
+      files['colored-f32.cgc'] = new Uint8Array(readFileSync(coloredF32));
+      files['labels.cgc'] = labelBytes;
+      // Optional sections damaged past their checksums: the page names the structural problem.
+      const edited = (bytes, kind, at, value) => {
+        const b = bytes.slice();
+        const sections = parseCgc(bytes).header.sections;
+        const entry = sections.findIndex((x) => x.kind === kind);
+        new DataView(b.buffer).setUint32(sections[entry].offset + at, value, true);
+        return resealSection(b, entry);
+      };
+      files['badlabels.cgc'] = edited(labelBytes, 5, 0, 4);
+      files['badattribute.cgc'] = edited(coloredBytes, 4, 4, 12);
       files['sphere48.cgc'] = sphereBytes;
       const damaged = sphereBytes.slice();
       damaged[sphereBytes.length - 100] ^= 0x10;
@@ -215,11 +255,177 @@ for (const B of BROWSERS) {
           assert.ok(nearSame >= 0.99 * count.near, `kept surface changed: ${nearSame} of ${count.near}`);
         }
       });
+      await t.test('coloured by an attribute: colours and values agree with isogrid render (map, range)', async () => {
+        // (view, browser query, native flags): the default map over the stored range, another map
+        // over another range.
+        const range = parseCgc(coloredBytes).attribute.info.range;
+        const clim = [range[0] + 0.25 * (range[1] - range[0]), range[0] + 0.6 * (range[1] - range[0])];
+        // And f32 values, which the viewer codes at 16 bits itself (codesOf), as the native upload does.
+        const cases = [
+          ['colored.cgc', colored, 1, '', []],
+          ['colored.cgc', colored, 2, `&cmap=turbo&clim=${clim.join(',')}`, ['--cmap', 'turbo', '--clim', clim.join(',')]],
+          ['colored-f32.cgc', coloredF32, 2, '&cmap=rdbu', ['--cmap', 'rdbu']],
+        ];
+        for (const [file, path, view, query, flags] of cases) {
+          const { page, outcome, stats } = await open(server.url, `src=/${file}&view=${view}&size=${SIZE.join('x')}${query}`);
+          assert.equal(outcome, 'ready', stats.message);
+          const px = Buffer.from(await page.evaluate(() => window.isogrid.pixels()), 'base64');
+          const values = new Float32Array(new Uint8Array(Buffer.from(await page.evaluate(() => window.isogrid.values()), 'base64')).buffer);
+          await page.close();
+          const native = nativeRender(path, view, flags, 'value');
+          const c = compare(px, native.png);
+          // The value each pixel shows, against the native value AOV: the same code decoded.
+          let both = 0;
+          let same = 0;
+          for (let i = 0; i < values.length; i++) {
+            if (Number.isNaN(values[i]) || Number.isNaN(native.aov[i])) continue;
+            both++;
+            if (Math.abs(values[i] - native.aov[i]) <= 1e-5 * (range[1] - range[0])) same++;
+          }
+          // Distinct colours on the surface: a one-colour picture cannot pass.
+          const hues = new Set();
+          for (let i = 0; i < px.length; i += 4) if (!BACKGROUND.every((b, k) => px[i + k] === b)) hues.add(`${px[i] >> 4},${px[i + 1] >> 4},${px[i + 2] >> 4}`);
+          t.diagnostic(`${B.name} ${file} view ${view}${query}: mask ${(100 * c.mask).toFixed(2)} %, colour within 8/255 on ${(100 * c.colour).toFixed(2)} % of ${c.hits} hits (worst ${c.worst}); value equal on ${(100 * same / both).toFixed(2)} % of ${both} pixels; ${hues.size} colours`);
+          assert.ok(c.hits > 500 && hues.size > 20, `${c.hits} hits, ${hues.size} colours`);
+          assert.ok(c.mask >= 0.995, `mask agreement ${c.mask}`);
+          assert.ok(c.colour >= 0.99, `colour agreement ${c.colour}`);
+          assert.ok(same >= 0.99 * both && both > 500, `values agree on ${same} of ${both}`);
+        }
+        // The page's controls: the map menu and the range's ends give isogrid render's --cmap and
+        // --clim; the readout shows the value the native value AOV has under the pointer.
+        const { page, outcome, stats } = await open(server.url, `src=/colored.cgc&view=1&size=${SIZE.join('x')}`);
+        assert.equal(outcome, 'ready', stats.message);
+        const shownPanels = () => page.evaluate(() => ['colour', 'labels'].filter((id) => getComputedStyle(document.getElementById(id)).display !== 'none'));
+        assert.deepEqual(await shownPanels(), ['colour'], 'a coloured grid shows the colour controls only');
+        await page.select('#cmap', 'magma');
+        for (const [id, v] of [['#clim-lo', clim[0]], ['#clim-hi', clim[1]]]) {
+          await page.$eval(id, (el, v) => {
+            el.value = String(v);
+            el.dispatchEvent(new Event('change'));
+          }, v);
+        }
+        await page.evaluate(() => window.isogrid.frames(1));
+        const px = Buffer.from(await page.evaluate(() => window.isogrid.pixels()), 'base64');
+        const native = nativeRender(colored, 1, ['--cmap', 'magma', '--clim', clim.join(',')], 'value');
+        const c = compare(px, native.png);
+        t.diagnostic(`${B.name} coloured through the controls (magma, ${clim}): colour within 8/255 on ${(100 * c.colour).toFixed(2)} % of ${c.hits} hits`);
+        assert.ok(c.mask >= 0.995 && c.colour >= 0.99, JSON.stringify(c));
+        const [w] = SIZE;
+        const at = (SIZE[1] / 2) * w + w / 2;
+        assert.ok(!Number.isNaN(native.aov[at]), 'the centre pixel shows the surface');
+        const box = await page.$eval('#canvas', (el) => { const r = el.getBoundingClientRect(); return [r.left, r.top, r.width / el.width]; });
+        await page.mouse.move(box[0] + (at % w + 0.5) * box[2], box[1] + (Math.floor(at / w) + 0.5) * box[2]);
+        await page.waitForFunction(() => document.getElementById('readout').textContent !== '');
+        const shown = await page.$eval('#readout', (el) => el.textContent);
+        // The pointer's position is rounded to whole CSS pixels: the pixel or one of its neighbours.
+        const near = [-1, 0, 1].flatMap((dy) => [-1, 0, 1].map((dx) => native.aov[at + dy * w + dx]));
+        const value = Number(shown.replace('value ', ''));
+        assert.ok(near.some((v) => Math.abs(value - v) <= 1e-4 * Math.abs(v) + 1e-6), `readout ${shown}, native ${near.join(' ')}`);
+        await page.close();
+      });
+      await t.test('label grid: label colours as isogrid render; hiding a label changes its pixels only; a click names the label', async () => {
+        const size = SIZE.join('x');
+        const f = parseCgc(labelBytes);
+        const name = (i) => f.labels.table[i].name;
+        for (const view of [1, 2]) {
+          const { page, outcome, stats } = await open(server.url, `src=/labels.cgc&view=${view}&size=${size}`);
+          assert.equal(outcome, 'ready', stats.message);
+          const px = Buffer.from(await page.evaluate(() => window.isogrid.pixels()), 'base64');
+          const native = nativeRender(labelled, view, [], 'cluster');
+          const c = compare(px, native.png);
+          // The label each native pixel shows, from its cluster.
+          const labelOf = [...native.aov].map((k) => (k === 0xffffffff ? -1 : f.labels.clusterLabels[k]));
+          const counts = f.labels.table.map((_, i) => labelOf.filter((l) => l === i).length);
+          t.diagnostic(`${B.name} labels view ${view}: mask ${(100 * c.mask).toFixed(2)} %, colour within 8/255 on ${(100 * c.colour).toFixed(2)} % of ${c.hits} hits (worst ${c.worst}); pixels per label ${counts.join(', ')}`);
+          assert.ok(c.mask >= 0.995, `mask agreement ${c.mask}`);
+          // Each label's surface closes its own label, so in cells where labels meet the outer
+          // surface two labels' surfaces coincide, with opposite normals; their EWA splats nearly
+          // cancel there and the shading follows the summation order, which differs between the
+          // browser's blending and the native raster: 97 % with EWA, 99 % without.
+          assert.ok(c.colour >= 0.97, `colour agreement ${c.colour}`);
+          {
+            const { page: plainPage, outcome: o2, stats: s2 } = await open(server.url, `src=/labels.cgc&view=${view}&size=${size}&ewa=0`);
+            assert.equal(o2, 'ready', s2.message);
+            const plainPx = Buffer.from(await plainPage.evaluate(() => window.isogrid.pixels()), 'base64');
+            await plainPage.close();
+            const c2 = compare(plainPx, nativeRender(labelled, view, ['--mode', 'cgc-noewa']));
+            t.diagnostic(`${B.name} labels view ${view} without EWA: mask ${(100 * c2.mask).toFixed(2)} %, colour within 8/255 on ${(100 * c2.colour).toFixed(2)} % of ${c2.hits} hits (worst ${c2.worst})`);
+            assert.ok(c2.mask >= 0.995 && c2.colour >= 0.99, JSON.stringify(c2));
+          }
+          assert.ok(counts.filter((n) => n > 100).length >= 3, `labels on screen: ${counts}`);
+          // Hide each label seen in turn (?hide=V): its pixels change, the others stay, away from
+          // its silhouette (pixels next to one of its pixels may be covered by its surface's edge).
+          const [w, h] = SIZE;
+          for (const [i] of counts.map((n, i) => [i, n]).filter(([, n]) => n > 100)) {
+            const value = labelText(f.labels.table[i].value, f.header.scalarType);
+            const hidden = await open(server.url, `src=/labels.cgc&view=${view}&size=${size}&hide=${value}`);
+            assert.equal(hidden.outcome, 'ready', hidden.stats.message);
+            const hpx = Buffer.from(await hidden.page.evaluate(() => window.isogrid.pixels()), 'base64');
+            await hidden.page.close();
+            const near = (p) => {
+              const [x, y] = [p % w, Math.floor(p / w)];
+              for (let dy = -1; dy <= 1; dy++) for (let dx = -1; dx <= 1; dx++) {
+                const [u, v] = [x + dx, y + dy];
+                if (u >= 0 && v >= 0 && u < w && v < h && labelOf[v * w + u] === i) return true;
+              }
+              return false;
+            };
+            let own = 0, ownChanged = 0, other = 0, otherSame = 0;
+            for (let p = 0; p < w * h; p++) {
+              const d = Math.max(...[0, 1, 2].map((k) => Math.abs(hpx[4 * p + k] - px[4 * p + k])));
+              if (labelOf[p] === i) {
+                own++;
+                if (d > 8) ownChanged++;
+              } else if (!near(p)) {
+                other++;
+                if (d <= 8) otherSame++;
+              }
+            }
+            t.diagnostic(`${B.name} view ${view} hide ${name(i)}: ${ownChanged} of its ${own} pixels changed, ${otherSame} of ${other} other pixels unchanged`);
+            assert.ok(ownChanged >= 0.99 * own, `hiding ${name(i)}: ${ownChanged} of ${own} changed`);
+            assert.ok(otherSame >= 0.995 * other, `hiding ${name(i)}: ${otherSame} of ${other} others unchanged`);
+          }
+          // Clicking names the label the native image shows there; hide all and show all.
+          const at = labelOf.findIndex((l, p) => l >= 0 && p % w > 2 && labelOf[p + 1] === l && labelOf[p - 1] === l && labelOf[p + w] === l && labelOf[p - w] === l);
+          const [x, y] = [at % w, Math.floor(at / w)];
+          const box = await page.$eval('#canvas', (el) => { const r = el.getBoundingClientRect(); return [r.left, r.top, r.width / el.width]; });
+          await page.mouse.click(box[0] + (x + 0.5) * box[2], box[1] + (y + 0.5) * box[2]);
+          await page.waitForFunction(() => document.getElementById('picked').textContent !== '');
+          assert.equal(await page.$eval('#picked', (el) => el.textContent), name(labelOf[at]));
+          assert.deepEqual(
+            await page.evaluate(() => ['colour', 'labels'].filter((id) => getComputedStyle(document.getElementById(id)).display !== 'none')),
+            ['labels'],
+            'a label grid shows the label list only',
+          );
+          // The list: every label with its swatch, and a search narrows it.
+          const rows = () => page.$$eval('#label-list li', (li) => li.map((l) => [l.children[1].style.background, l.children[2].textContent]));
+          assert.deepEqual(await rows(), f.labels.table.map((l) => [`rgb(${l.rgba.slice(0, 3).join(', ')})`, l.name]));
+          await page.type('#label-search', name(3));
+          assert.deepEqual((await rows()).map(([, n]) => n), [name(3)]);
+          // Its name frames it: the picture's centre then shows that label, and Fit goes back.
+          await page.click('#label-list .name');
+          await page.evaluate(() => window.isogrid.frames(1));
+          const centre = await page.evaluate(([w, h]) => window.isogrid.pick(w >> 1, h >> 1), SIZE);
+          assert.equal(centre?.label, name(3));
+          await page.click('#fit');
+          await page.click('#labels-hide');
+          await page.evaluate(() => window.isogrid.frames(1));
+          const none = Buffer.from(await page.evaluate(() => window.isogrid.pixels()), 'base64');
+          assert.ok(compare(none, none).hits === 0, 'hide all leaves surface on screen');
+          await page.click('#labels-show');
+          await page.evaluate(() => window.isogrid.frames(1));
+          const again = Buffer.from(await page.evaluate(() => window.isogrid.pixels()), 'base64');
+          assert.ok(compare(again, px).colour >= 0.999, 'show all does not give the picture back');
+          await page.close();
+        }
+      });
       await t.test('damaged, truncated and version-mismatch files show their message', async () => {
         const expect = {
           'damaged.cgc': /^damaged\.cgc: cells section checksum mismatch \(the data is damaged\)$/,
           'truncated.cgc': /^truncated\.cgc: .*does not fit the 7\d+-byte file \(truncated\?\)$/,
           'future.cgc': /^future\.cgc: format version 9; this viewer reads versions 1 and 2$/,
+          'badlabels.cgc': /^badlabels\.cgc: cluster 0 has label 4 of 4$/,
+          'badattribute.cgc': /^badattribute\.cgc: cell attribute of 12 bits per value$/,
         };
         for (const [name, re] of Object.entries(expect)) {
           const { outcome, stats } = await open(server.url, `src=/${name}`);
@@ -239,6 +445,12 @@ for (const B of BROWSERS) {
         assert.equal(at, sphereBytes.length);
         assert.ok(stats.firstFrameBytes < sphereBytes.length, `first frame after ${stats.firstFrameBytes} of ${sphereBytes.length} bytes`);
         t.diagnostic(`${B.name}: first frame after ${stats.firstFrameBytes} of ${sphereBytes.length} bytes, ${ranges.length} requests`);
+        // With an attribute: its values stream with the cells they colour, so the first frame
+        // still comes before the last byte.
+        const coloured = await open(slow.url, 'src=/colored.cgc&size=64x48');
+        assert.equal(coloured.outcome, 'ready', coloured.stats.message);
+        assert.ok(coloured.stats.firstFrameBytes < coloredBytes.length, `first coloured frame after ${coloured.stats.firstFrameBytes} of ${coloredBytes.length} bytes`);
+        t.diagnostic(`${B.name}: coloured file, first frame after ${coloured.stats.firstFrameBytes} of ${coloredBytes.length} bytes`);
       });
       await t.test('through isogrid serve, throttled to 0.125 Mbit/s: first frame before the last byte, ranges cover the file once', async (st) => {
         if (B.name !== 'chromium') {

@@ -4,9 +4,11 @@
 // messages for the cases the page shows.
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
-import { parseCgc, CgcError, HEAD_READ } from '../build/node/cgc.js';
+import { readFileSync } from 'node:fs';
+import { parseCgc, CgcError, HEAD_READ, codes16, labelText } from '../build/node/cgc.js';
 import { streamCgc } from '../build/node/loader.js';
-import { realFiles, toVersion2, resealHeader, isogridBinary } from './fixtures.mjs';
+import { defaultClim, clusterAlbedos, hiddenClusters } from '../build/node/colors.js';
+import { realFiles, toVersion2, resealHeader, resealSection, isogridBinary, infoJson, labelFile, coloredSphereFile } from './fixtures.mjs';
 
 const files = realFiles();
 const versions = files.flatMap(([name, bytes]) => {
@@ -25,6 +27,8 @@ function positions(bytes) {
   const at = new Set();
   for (let i = 0; i < HEAD_READ + 64; i++) at.add(i);
   for (const s of f.header.sections) for (const e of [s.offset, s.offset + s.length]) for (let d = -2; d <= 2; d++) at.add(e + d);
+  // Every byte of the small optional sections (attribute heads, label sections).
+  for (const s of f.header.sections) if (s.kind >= 4) for (let i = s.offset; i < s.offset + Math.min(s.length, 2048); i++) at.add(i);
   for (let i = 0; i < bytes.length; i += 97) at.add(i);
   return [...at].filter((i) => i >= 0 && i < bytes.length).sort((a, b) => a - b);
 }
@@ -173,4 +177,180 @@ test('streaming refuses damaged and truncated files', async () => {
     cut.read = async (s, e) => (await read(s, e)).subarray(0, Math.max(0, Math.min(e, bytes.length - 7) - s));
     await assert.rejects(streamCgc(cut, sink, 64), /truncated/, name);
   }
+});
+
+const rules = JSON.parse(readFileSync(new URL('./rules.generated.json', import.meta.url), 'utf8'));
+
+test('attribute codes and the default colour range follow the Rust rules (vectors generated from isogrid::attribute)', () => {
+  assert.ok(rules.codes16.length >= 12);
+  for (const c of rules.codes16) {
+    const n = c.values.length;
+    // The section's value bytes as Rust stores them: codes for 8 and 16 bits, f32 values for 32.
+    const values = new Uint8Array((n * c.bits) / 8);
+    const v = new DataView(values.buffer);
+    for (let i = 0; i < n; i++) {
+      if (c.bits === 8) values[i] = c.codes[i];
+      else if (c.bits === 16) v.setUint16(2 * i, c.codes[i], true);
+      else v.setFloat32(4 * i, c.values[i] ?? NaN, true);
+    }
+    const { codes, mapping } = codes16({ info: { name: c.name, bits: c.bits, range: c.range }, values });
+    const what = `${c.name}, ${c.bits} bits`;
+    assert.deepEqual([...codes], c.codes, what);
+    assert.deepEqual([mapping.zero, mapping.step, mapping.nanCode], [c.zero, c.step, c.nan_code], what);
+    // Decoding as color.wgsl's record_value does (in f32 there; here the f64 rule rounded to f32).
+    const decoded = [...codes].map((k) => (k === mapping.nanCode ? null : Math.fround(mapping.zero + k * mapping.step)));
+    if (c.bits !== 32) assert.deepEqual(decoded, c.values.map((x) => (x === null ? null : Math.fround(x))), what);
+  }
+  for (const { range, clim } of rules.default_clim) assert.deepEqual(defaultClim(range), clim, JSON.stringify(range));
+});
+
+test('attribute sections of 8, 16 and 32 bits read as isogrid info reports them, and decode within half a code', { skip: !isogridBinary() && 'no isogrid binary' }, () => {
+  let prev16 = null;
+  for (const bits of [8, 16, 32]) {
+    const file = coloredSphereFile(24, bits);
+    const f = parseCgc(new Uint8Array(readFileSync(file)));
+    const info = infoJson(file).attribute;
+    assert.deepEqual([f.attribute.info.bits, f.attribute.info.range, f.attribute.info.name], [info.bits, info.range, info.name]);
+    assert.equal(96 + f.attribute.values.length, info.bytes);
+    assert.equal(f.attribute.values.length, (f.header.activeCells * bits) / 8);
+    // The same surface at every precision: the decoded codes agree within the coarser half step.
+    const { codes, mapping } = codes16(f.attribute);
+    const values = [...codes].map((k) => mapping.zero + k * mapping.step);
+    if (prev16) {
+      const [lo, hi] = info.range;
+      const tol = (hi - lo) / 254 / 2 + 1e-9 * (hi - lo);
+      values.forEach((x, i) => assert.ok(Math.abs(x - prev16[i]) <= tol, `${bits} bits, cell ${i}: ${x} vs ${prev16[i]}`));
+    }
+    if (bits === 8) prev16 = values;
+  }
+});
+
+test('label sections read as isogrid info reports them; hiding goes by the index', { skip: !isogridBinary() && 'no isogrid binary' }, () => {
+  const file = labelFile();
+  const f = parseCgc(new Uint8Array(readFileSync(file)));
+  const info = infoJson(file).labels;
+  const hex = (rgba) => '#' + rgba.map((c) => c.toString(16).padStart(2, '0')).join('');
+  assert.deepEqual(
+    f.labels.table.map((l, i) => ({ value: Number(labelText(l.value, f.header.scalarType)), name: l.name, color: hex(l.rgba), cells: f.labels.index[i].cellCount, lo: f.labels.index[i].lo, hi: f.labels.index[i].hi })),
+    info.map(({ value, name, color, cells, lo, hi }) => ({ value, name, color, cells, lo, hi })),
+  );
+  assert.deepEqual(info.map((l) => l.value), [1, 2, 3, 9]);
+  // Every cluster's albedo is its label's colour decoded; hiding a label marks exactly its clusters.
+  const albedo = clusterAlbedos(f.labels);
+  assert.equal(albedo.length, 4 * (f.labels.clusterLabels.length + 1));
+  const hidden = hiddenClusters(f.labels, [1]);
+  f.labels.clusterLabels.forEach((l, c) => {
+    assert.equal(hidden[c], l === 1 ? 1 : 0);
+    const [r] = f.labels.table[l].rgba;
+    assert.ok(Math.abs(albedo[4 * c] - ((r / 255 + 0.055) / 1.055) ** 2.4) < 1e-3 || r / 255 <= 0.04045);
+  });
+  assert.ok(hidden.some((h) => h) && hidden.some((h) => !h));
+});
+
+test('damaged label and attribute sections that pass their checksums are refused with the Rust messages', { skip: !isogridBinary() && 'no isogrid binary' }, () => {
+  const labels = new Uint8Array(readFileSync(labelFile()));
+  const h = parseCgc(labels).header;
+  const entry = (kind) => h.sections.findIndex((s) => s.kind === kind);
+  const edit = (bytes, kind, change) => {
+    const b = bytes.slice();
+    const s = h.sections[entry(kind)];
+    change(new DataView(b.buffer, s.offset, s.length), b.subarray(s.offset, s.offset + s.length));
+    return resealSection(b, entry(kind));
+  };
+  const cases = [
+    [edit(labels, 5, (v) => v.setUint32(0, 4, true)), 'cluster 0 has label 4 of 4'],
+    [edit(labels, 5, (v) => v.setUint32(0, v.getUint32(0, true) === 0 ? 1 : 0, true)), /^label index entry \d: cluster \d+ in its runs has another label$/],
+    [edit(labels, 6, (v) => v.setBigUint64(16, v.getBigUint64(16, true) + 1n, true)), 'label index entry 0: its cell count or bounds do not match its clusters'],
+    [edit(labels, 6, (v) => v.setUint32(16 + 24, v.getUint32(16 + 24, true) + 1, true)), 'label index entry 0: its cell count or bounds do not match its clusters'],
+    [edit(labels, 6, (v) => v.setBigUint64(8, 1n << 61n, true)), /^label index section is \d+ bytes, not the head, 4 entries and 2305843009213693952 runs$/],
+    [edit(labels, 7, (v) => v.setBigUint64(32, 1n, true)), 'label table entry 1: values are not strictly increasing'],
+    [edit(labels, 7, (v) => v.setBigUint64(0, 1n << 60n, true)), /^label table section is \d+ bytes, not the head, 1152921504606846976 entries/],
+    [edit(labels, 7, (v) => v.setUint32(16 + 12, 200, true)), 'label table entry 0: its name runs past the names'],
+    [edit(labels, 7, (v, b) => (b[b.length - 1] = 0xff)), 'label table entry 3: name is not UTF-8'],
+  ];
+  // A label section of a kind this reader does not know leaves the other two alone.
+  const unknown = labels.slice();
+  new DataView(unknown.buffer).setUint32(320 + 32 * entry(6), 99, true);
+  const uv = new DataView(unknown.buffer);
+  uv.setUint32(172, 0, true);
+  cases.push([resealSection(unknown, entry(6)), 'the file has some of the three label sections but not all']);
+  const colored = new Uint8Array(readFileSync(coloredSphereFile(24, 32)));
+  const ch = parseCgc(colored).header;
+  const at = ch.sections.findIndex((s) => s.kind === 4);
+  const editAttr = (change) => {
+    const b = colored.slice();
+    change(new DataView(b.buffer, ch.attribute.offset, ch.attribute.length));
+    return resealSection(b, at);
+  };
+  cases.push(
+    [editAttr((v) => v.setFloat32(96, 1e9, true)), /^cell attribute value 1000000000 lies outside its range \[/],
+    [editAttr((v) => v.setUint32(4, 12, true)), 'cell attribute of 12 bits per value'],
+    [editAttr((v) => v.setBigUint64(24, 7n, true)), /^cell attribute section holds \d+ bytes of values, and 7 values for \d+ active cells$/],
+    [editAttr((v) => v.setFloat64(8, NaN, true)), /^cell attribute range \[NaN, .*\] is not finite and ordered$/],
+    [editAttr((v) => v.setUint8(95, 1)), 'cell attribute name is not zero-padded'],
+  );
+  for (const [bytes, expected] of cases) {
+    const m = refused(bytes);
+    if (expected instanceof RegExp) assert.match(m ?? 'accepted', expected);
+    else assert.equal(m, expected);
+  }
+});
+
+test('streaming hands over the attribute with the cells it colours, and the labels before the first clusters', async () => {
+  for (const [name, bytes] of versions.filter(([n]) => /colored|labels/.test(n))) {
+    const src = memorySource(bytes);
+    const got = { values: [] };
+    let received = 0;
+    let valuesIn = 0;
+    let cellsOut = 0;
+    let firstClustersAt = null;
+    await streamCgc(src, {
+      header() {},
+      clusters(firstSlot, metacells, firstCell, cells, counts) {
+        cellsOut = firstCell + counts.reduce((a, b) => a + b, 0);
+        if (got.head) assert.ok(valuesIn >= cellsOut, `${name}: cells up to ${cellsOut} handed over with values up to ${valuesIn}`);
+        firstClustersAt ??= received;
+      },
+      progress(r) {
+        received = r;
+      },
+      attributeHead(info) {
+        got.head = info;
+      },
+      attributeValues(first, values) {
+        assert.equal(first, valuesIn);
+        valuesIn += values.length / (got.head.bits / 8);
+        got.values.push(values.slice());
+      },
+      attribute(a) {
+        got.attribute = a;
+      },
+      labels(l) {
+        got.labels = l;
+        got.labelsAt = received;
+      },
+    }, 256);
+    const whole = parseCgc(bytes);
+    assert.deepEqual(got.attribute ?? null, whole.attribute, name);
+    assert.deepEqual(got.labels ?? null, whole.labels, name);
+    if (whole.attribute) {
+      assert.deepEqual(got.head, whole.attribute.info);
+      assert.deepEqual(Buffer.concat(got.values), Buffer.from(whole.attribute.values), name);
+    }
+    assert.ok(firstClustersAt < bytes.length, `${name}: first clusters after ${firstClustersAt} of ${bytes.length} bytes`);
+    // Label colours before the first clusters are drawn.
+    if (whole.labels) assert.ok(got.labelsAt <= firstClustersAt, `${name}: labels after ${got.labelsAt} bytes, clusters after ${firstClustersAt}`);
+  }
+});
+
+test('streaming checks the labels against the metacells after handing them over', { skip: !isogridBinary() && 'no isogrid binary' }, async () => {
+  const bytes = new Uint8Array(readFileSync(labelFile()));
+  const sections = parseCgc(bytes).header.sections;
+  const entry = sections.findIndex((s) => s.kind === 6);
+  const b = bytes.slice();
+  const v = new DataView(b.buffer, sections[entry].offset);
+  v.setBigUint64(16, v.getBigUint64(16, true) + 1n, true); // label 0's cell count
+  resealSection(b, entry);
+  const sink = { header() {}, clusters() {}, progress() {}, labels() {} };
+  await assert.rejects(streamCgc(memorySource(b), sink, 256), /^CgcError: label index entry 0: its cell count or bounds do not match its clusters$/);
 });

@@ -2,7 +2,7 @@
 // samples, version as that binary writes), the repository's fixtures, and version 2 files made
 // from version 1 ones by `toVersion2` (the layout of the format spec in docs/design/web.md), so
 // that both versions are covered whichever the binary writes.
-import { existsSync, mkdirSync, readFileSync, readdirSync, statSync } from 'node:fs';
+import { existsSync, mkdirSync, readFileSync, readdirSync, statSync, writeFileSync } from 'node:fs';
 import { createHash } from 'node:crypto';
 import { execFileSync } from 'node:child_process';
 import { join, dirname } from 'node:path';
@@ -22,10 +22,7 @@ export function isogridBinary() {
 export function sphereFile(size = 48) {
   const bin = isogridBinary();
   if (!bin) return null;
-  // One folder per binary build, so a rebuilt binary (another format version) writes afresh.
-  const key = createHash('sha1').update(`${bin} ${statSync(bin).mtimeMs}`).digest('hex').slice(0, 12);
-  const dir = join(tmpdir(), `isogrid-web-test-${key}`);
-  mkdirSync(dir, { recursive: true });
+  const dir = binaryDir(bin);
   const cgc = join(dir, `sphere${size}.cgc`);
   if (!existsSync(cgc)) {
     execFileSync(bin, ['generate', 'sphere', '--size', String(size), '-o', join(dir, `sphere${size}.nrrd`)], { stdio: 'ignore' });
@@ -34,35 +31,91 @@ export function sphereFile(size = 48) {
   return cgc;
 }
 
-/** The sphere coloured by a gyroid (`extract --color-by`: a cell attribute section), or null. */
-export function coloredSphereFile(size = 32) {
-  const bin = isogridBinary();
-  if (!bin) return null;
+/** A folder for files the binary writes, one per binary build (a rebuilt binary writes afresh). */
+function binaryDir(bin) {
   const key = createHash('sha1').update(`${bin} ${statSync(bin).mtimeMs}`).digest('hex').slice(0, 12);
   const dir = join(tmpdir(), `isogrid-web-test-${key}`);
   mkdirSync(dir, { recursive: true });
-  const cgc = join(dir, `colored${size}.cgc`);
+  return dir;
+}
+
+/**
+ * The sphere coloured by a gyroid (`extract --color-by`: a cell attribute section of `bits` bits
+ * per value), or null.
+ */
+export function coloredSphereFile(size = 32, bits = 16) {
+  const bin = isogridBinary();
+  if (!bin) return null;
+  const dir = binaryDir(bin);
+  const cgc = join(dir, bits === 16 ? `colored${size}.cgc` : `colored${size}-${bits}.cgc`);
   if (!existsSync(cgc)) {
     for (const field of ['sphere', 'gyroid']) {
       execFileSync(bin, ['generate', field, '--size', String(size), '-o', join(dir, `${field}${size}.nrrd`)], { stdio: 'ignore' });
     }
     execFileSync(bin, ['extract', join(dir, `sphere${size}.nrrd`), '--iso-normalized', '0.5',
-      '--color-by', join(dir, `gyroid${size}.nrrd`), '-o', cgc], { stdio: 'ignore' });
+      '--color-by', join(dir, `gyroid${size}.nrrd`), '--attribute-precision', String(bits), '-o', cgc], { stdio: 'ignore' });
   }
   return cgc;
 }
 
 /**
- * Every .cgc in the repository's fixtures and, with the binary, the sphere and a sphere with a
- * cell attribute: [name, bytes].
+ * The label value of sample (x, y, z) of the test's label volume of n³ samples: two balls that
+ * touch (labels 1 and 2), a box cut into the first (3), and a small ball apart (label 9).
+ */
+export function labelAt(x, y, z, n) {
+  const s = n / 32;
+  const ball = (cx, cy, cz, r) => (x - cx * s) ** 2 + (y - cy * s) ** 2 + (z - cz * s) ** 2 < (r * s) ** 2;
+  if (x >= 4 * s && x < 13 * s && y >= 18 * s && y < 28 * s && z >= 8 * s && z < 24 * s) return 3;
+  if (ball(11, 13, 15, 8)) return 1;
+  if (ball(21, 14, 16, 7)) return 2;
+  if (ball(24, 25, 10, 4)) return 9;
+  return 0;
+}
+
+/** A .npy of u8 samples, x fastest (shape (z, y, x) in C order, as isogrid reads .npy). */
+function writeNpy(path, n, value) {
+  const data = new Uint8Array(n * n * n);
+  for (let z = 0; z < n; z++) for (let y = 0; y < n; y++) for (let x = 0; x < n; x++) data[(z * n + y) * n + x] = value(x, y, z, n);
+  let header = `{'descr': '|u1', 'fortran_order': False, 'shape': (${n}, ${n}, ${n}), }`;
+  header += ' '.repeat(63 - ((10 + header.length) % 64)) + '\n';
+  const head = Buffer.alloc(10);
+  head.write('\x93NUMPY', 0, 'latin1');
+  head[6] = 1;
+  head.writeUInt16LE(header.length, 8);
+  writeFileSync(path, Buffer.concat([head, Buffer.from(header, 'latin1'), Buffer.from(data)]));
+}
+
+/** The label grid of `labelAt` (`extract --labels all`: the three label sections), or null. */
+export function labelFile(n = 32) {
+  const bin = isogridBinary();
+  if (!bin) return null;
+  const dir = binaryDir(bin);
+  const cgc = join(dir, `labels${n}.cgc`);
+  if (!existsSync(cgc)) {
+    writeNpy(join(dir, `labels${n}.npy`), n, labelAt);
+    execFileSync(bin, ['extract', join(dir, `labels${n}.npy`), '--labels', 'all', '-o', cgc], { stdio: 'ignore' });
+  }
+  return cgc;
+}
+
+/** `isogrid info --json` of `file`. */
+export function infoJson(file) {
+  return JSON.parse(execFileSync(isogridBinary(), ['info', file, '--json'], { encoding: 'utf8' }));
+}
+
+/**
+ * Every .cgc in the repository's fixtures and, with the binary, the sphere, spheres with a cell
+ * attribute of 8, 16 and 32 bits and a label grid: [name, bytes].
  */
 export function realFiles() {
   const dir = join(repo, 'crates', 'isogrid', 'tests', 'fixtures');
   const files = readdirSync(dir).filter((f) => f.endsWith('.cgc')).map((f) => [f, new Uint8Array(readFileSync(join(dir, f)))]);
   const sphere = sphereFile();
   if (sphere) files.push(['sphere48.cgc', new Uint8Array(readFileSync(sphere))]);
-  const colored = coloredSphereFile();
-  if (colored) files.push(['colored32.cgc', new Uint8Array(readFileSync(colored))]);
+  if (isogridBinary()) {
+    for (const bits of [8, 16, 32]) files.push([`colored24-${bits}.cgc`, new Uint8Array(readFileSync(coloredSphereFile(24, bits)))]);
+    files.push(['labels32.cgc', new Uint8Array(readFileSync(labelFile()))]);
+  }
   return files;
 }
 
@@ -113,4 +166,19 @@ export function toVersion2(v1, extra = []) {
   v.setUint32(168, all.length, true);
   v.setUint32(172, crc32(out.subarray(320, 320 + 32 * all.length)), true);
   return resealHeader(out);
+}
+
+/**
+ * Sets the CRC of section table entry `entry` of version 2 file `b` to its bytes' CRC, then the
+ * table's and the header's: an edited section that passes every checksum, so the reader's
+ * structural checks are what must refuse it.
+ */
+export function resealSection(b, entry) {
+  const v = new DataView(b.buffer, b.byteOffset);
+  const e = 320 + 32 * entry;
+  const offset = Number(v.getBigUint64(e + 8, true));
+  const length = Number(v.getBigUint64(e + 16, true));
+  v.setUint32(e + 24, crc32(b.subarray(offset, offset + length)), true);
+  v.setUint32(172, crc32(b.subarray(320, 320 + 32 * v.getUint32(168, true))), true);
+  return resealHeader(b);
 }

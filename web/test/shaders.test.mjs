@@ -75,3 +75,31 @@ test('the frame uniforms the viewer writes match the WGSL struct and its Rust tw
   const flipped = new Float32Array(frameUniforms(camera, grid, 0, 0, { axis: 1, at: 5, flip: true }));
   assert.deepEqual([...flipped.subarray(clipAt, clipAt + 4)], [0, -1, 0, -5]);
 });
+
+test('the colour uniforms and sources the viewer writes match color.wgsl and their Rust twin', async () => {
+  const colors = await import('../build/node/colors.js');
+  const wgsl = readFileSync(join(SHADER_DIR, 'color.wgsl'), 'utf8');
+  const rust = readFileSync(join(SHADER_DIR, '..', 'src', 'gpu_types.rs'), 'utf8');
+  for (const name of ['COLOR_NONE', 'COLOR_RECORDS', 'COLOR_LABELS']) {
+    const w = Number(new RegExp(`const ${name}: u32 = (\\d+)u;`).exec(wgsl)[1]);
+    const r = Number(new RegExp(`const ${name}: u32 = (\\d+);`).exec(rust)[1]);
+    assert.deepEqual([colors[name], colors[name]], [w, r], name);
+  }
+  // struct ColorUniforms { mapping: vec4, params: vec4, nan_albedo: vec4, table: array<vec4, N> }.
+  const body = /struct ColorUniforms \{([^}]*)\}/.exec(wgsl)[1];
+  const fields = [...body.matchAll(/^\s*(\w+): ([^,]+),/gm)].map((m) => [m[1], m[2]]);
+  assert.deepEqual(fields.map(([n]) => n), ['mapping', 'params', 'nan_albedo', 'table']);
+  const entries = Number(/table: array<vec4<f32>, (\d+)>/.exec(body)[1]);
+  const rustBytes = /size_of::<ColorUniforms>\(\) == 48 \+ 16 \* (\d+)/.exec(rust);
+  assert.equal(colors.COLOR_UNIFORMS_BYTES, 48 + 16 * entries);
+  assert.equal(Number(rustBytes[1]), entries);
+  // The bytes: NaN bits in params.z, the source in params.x, the table's first entry at 48.
+  const mapping = { zero: 1, step: 0.5, nanCode: 65535 };
+  const u = colors.colorUniforms(colors.COLOR_RECORDS, { map: 'gray', clim: [0, 4] }, mapping);
+  const f32 = new Float32Array(u);
+  const u32 = new Uint32Array(u);
+  assert.deepEqual([...f32.subarray(0, 4)], [1, 0.5, 0, 0.25]);
+  assert.deepEqual([...u32.subarray(4, 7)], [colors.COLOR_RECORDS, 65535, 0x7fc00000]);
+  assert.ok(f32[12] < 0.01 && f32[12 + 4 * 255] > 0.9, 'gray runs from black to white');
+  assert.equal(new Uint32Array(colors.colorUniforms(colors.COLOR_LABELS))[4], colors.COLOR_LABELS);
+});

@@ -10,3 +10,4 @@ mod labels;
 mod mc;
 mod stream;
 mod tiles;
+mod web_tables;

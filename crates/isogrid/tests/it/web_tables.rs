@@ -1,0 +1,141 @@
+//! The browser viewer's colour data and rules come from this crate, not from copies typed into
+//! TypeScript: this test writes `web/src/colormaps.generated.ts` (the colour maps' tables, the NaN
+//! colour and the sRGB → linear decoding, which the viewer uploads as `ColorUniforms` and label
+//! albedos) and `web/test/rules.generated.json` (input/output vectors of the attribute code rule
+//! and the default colour range, which the viewer's own `codes16` and `defaultClim` must
+//! reproduce: `web/test/cgc.test.mjs`). It fails while a committed file differs from what
+//! `isogrid::colormap` and `isogrid::attribute` give; `ISOGRID_BLESS=1 cargo test -p isogrid --test
+//! it web_tables` rewrites them.
+
+use isogrid::colormap::{srgb8_to_linear, ColorMap, Coloring, NAN_SRGB, TABLE_SIZE};
+use isogrid::{AttributePrecision, CellAttribute};
+use std::fmt::Write;
+use std::path::PathBuf;
+
+fn web() -> PathBuf {
+    PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../web"))
+}
+
+fn tables_ts() -> String {
+    let mut s = String::new();
+    s += "// Generated from isogrid::colormap by crates/isogrid/tests/it/web_tables.rs: do not edit.\n";
+    s += "// `ISOGRID_BLESS=1 cargo test -p isogrid --test it web_tables` rewrites it; that test fails while\n";
+    s += "// it is stale.\n\n";
+    s += "/** Entries of a colour table (`colormap::TABLE_SIZE`). */\n";
+    writeln!(s, "export const TABLE_SIZE = {TABLE_SIZE};").unwrap();
+    s += "/** sRGB colour of NaN values (`colormap::NAN_SRGB`). */\n";
+    writeln!(
+        s,
+        "export const NAN_SRGB: [number, number, number] = [{}, {}, {}];",
+        NAN_SRGB[0], NAN_SRGB[1], NAN_SRGB[2]
+    )
+    .unwrap();
+    s += "/**\n * The colour maps (`ColorMap::ALL`, the first the default): name, and entry i (the colour at\n";
+    s += " * i / 255) as sRGB `rrggbb` hex, one after another.\n */\n";
+    s += "export const COLOR_MAPS: [string, string][] = [\n";
+    for map in ColorMap::ALL {
+        let hex: String = map
+            .table()
+            .iter()
+            .map(|[r, g, b]| format!("{r:02x}{g:02x}{b:02x}"))
+            .collect();
+        writeln!(s, "  ['{}', '{hex}'],", map.name()).unwrap();
+    }
+    s += "];\n";
+    s += "/** `colormap::srgb8_to_linear` of 0..=255, as f32. */\n";
+    s += "export const SRGB8_TO_LINEAR = new Float32Array([\n";
+    for row in (0..=255u8).collect::<Vec<_>>().chunks(8) {
+        let line: Vec<String> = row
+            .iter()
+            .map(|&v| format!("{:?}", srgb8_to_linear(v)))
+            .collect();
+        writeln!(s, "  {},", line.join(", ")).unwrap();
+    }
+    s += "]);\n";
+    s
+}
+
+/// A JSON number for an f32 or f64 (`null` for NaN), in the shortest form that reads back the same.
+fn num<T: std::fmt::Debug + Into<f64> + Copy>(v: T) -> String {
+    if v.into().is_nan() {
+        "null".into()
+    } else {
+        format!("{v:?}")
+    }
+}
+
+fn rules_json() -> String {
+    // Values that exercise the rule: the ends, clamping, halves, NaN, and a single-valued range.
+    let sets: [(&str, Vec<f32>); 4] = [
+        (
+            "ramp",
+            vec![-2.5, -1.0, 0.0, 0.1, 1.0 / 3.0, 0.5, 2.0, 7.25, 10.0],
+        ),
+        ("with NaN", vec![3.0, f32::NAN, 4.0, 3.000_1, 3.999_9]),
+        ("one value", vec![5.0, 5.0, f32::NAN]),
+        ("none finite", vec![f32::NAN, f32::NAN]),
+    ];
+    let mut cases = Vec::new();
+    for (name, values) in &sets {
+        for precision in AttributePrecision::ALL {
+            let a = CellAttribute::from_values(name, precision, values);
+            let stored: Vec<String> = (0..a.len()).map(|i| num(a.value(i))).collect();
+            let (codes, m) = a.codes16();
+            let info = a.info();
+            cases.push(format!(
+                "    {{\"name\": \"{name}\", \"bits\": {}, \"range\": [{}, {}], \"values\": [{}], \"codes\": [{}], \"zero\": {}, \"step\": {}, \"nan_code\": {}}}",
+                precision.bits(),
+                num(info.range[0]),
+                num(info.range[1]),
+                stored.join(", "),
+                codes.iter().map(|c| c.to_string()).collect::<Vec<_>>().join(", "),
+                num(m.zero),
+                num(m.step),
+                m.nan_code
+            ));
+        }
+    }
+    let clims: Vec<String> = [
+        [0.0, 1.0],
+        [-3.5, 2.0],
+        [5.0, 5.0],
+        [0.0, 0.0],
+        [-4e7, -4e7],
+    ]
+    .into_iter()
+    .map(|r| {
+        let c = Coloring::default_clim(r);
+        format!(
+            "    {{\"range\": [{}, {}], \"clim\": [{}, {}]}}",
+            num(r[0]),
+            num(r[1]),
+            num(c[0]),
+            num(c[1])
+        )
+    })
+    .collect();
+    format!(
+        "{{\n  \"generated_by\": \"crates/isogrid/tests/it/web_tables.rs (ISOGRID_BLESS=1 to rewrite)\",\n  \"codes16\": [\n{}\n  ],\n  \"default_clim\": [\n{}\n  ]\n}}\n",
+        cases.join(",\n"),
+        clims.join(",\n")
+    )
+}
+
+#[test]
+fn web_tables_are_generated_from_the_colour_maps_and_attribute_rules() {
+    let bless = std::env::var_os("ISOGRID_BLESS").is_some();
+    for (path, fresh) in [
+        (web().join("src/colormaps.generated.ts"), tables_ts()),
+        (web().join("test/rules.generated.json"), rules_json()),
+    ] {
+        if bless {
+            std::fs::write(&path, &fresh).unwrap();
+        }
+        let committed = std::fs::read_to_string(&path).unwrap_or_default();
+        assert!(
+            committed == fresh,
+            "{} is stale: ISOGRID_BLESS=1 cargo test -p isogrid --test it web_tables, then rebuild web/dist",
+            path.display()
+        );
+    }
+}
