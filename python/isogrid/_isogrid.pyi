@@ -61,6 +61,10 @@ class CellGrid:
     def cells(self) -> npt.NDArray[np.uint8]:
         """Read-only, shape (active_cells, bytes_per_cell)."""
     def cell_positions(self) -> npt.NDArray[np.uint32]: ...
+    def label_meshes(
+        self, space: str = "world", threads: Optional[int] = None
+    ) -> Optional[List[Tuple[npt.NDArray[np.float32], npt.NDArray[np.uint32]]]]:
+        """For a label volume's grid: each label's (vertices, faces), in the order of ``labels``."""
     def corners(self) -> npt.NDArray[np.float32]: ...
     def save(self, path: _Path) -> None: ...
 

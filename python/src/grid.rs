@@ -449,6 +449,48 @@ impl CellGrid {
         Some(self.inner.labels()?.cluster_labels().to_vec().into_pyarray(py))
     }
 
+    /// For a label volume's grid: each label's mesh, Marching Cubes over its stored cells (what
+    /// `isogrid mc --labels` writes), in the order of `labels`, as `(vertices, faces)`: vertices
+    /// float32 (V, 3) as (x, y, z), faces uint32 (F, 3) counter-clockwise seen from outside.
+    /// `space="world"` places sample (i, j, k) in the volume's patient space (origin, spacing,
+    /// directions), `"index"` at (i, j, k). `None` for an isosurface.
+    #[pyo3(signature = (space="world", threads=None))]
+    fn label_meshes<'py>(
+        &self,
+        py: Python<'py>,
+        space: &str,
+        threads: Option<usize>,
+    ) -> PyResult<Option<Vec<MeshArrays<'py>>>> {
+        let space = match space {
+            "world" => isogrid::mc::MeshSpace::World,
+            "index" => isogrid::mc::MeshSpace::Index,
+            other => {
+                return Err(invalid(format!(
+                    "space must be 'world' or 'index', not {other:?}"
+                )))
+            }
+        };
+        if self.inner.labels().is_none() {
+            return Ok(None);
+        }
+        let grid = &self.inner;
+        let meshes = run_detached(py, threads, move || -> isogrid::Result<_> {
+            let geometry = isogrid::extract::attribute::grid_geometry(grid.info());
+            let mut meshes = isogrid::mc::label_meshes(grid)?;
+            for mesh in &mut meshes {
+                mesh.place(&geometry, space)?;
+            }
+            Ok(meshes)
+        })?
+        .map_err(to_py)?;
+        Ok(Some(
+            meshes
+                .into_iter()
+                .map(|m| Ok((to_array2(py, m.positions)?, to_array2(py, m.triangles)?)))
+                .collect::<PyResult<Vec<_>>>()?,
+        ))
+    }
+
     /// Whether the buffers are views of a memory-mapped `.cgc` file.
     #[getter]
     fn is_mapped(&self) -> bool {
@@ -567,3 +609,6 @@ pub fn tuple3<T>(v: [T; 3]) -> (T, T, T) {
     let [a, b, c] = v;
     (a, b, c)
 }
+
+/// A mesh as NumPy arrays: vertices float32 (V, 3), faces uint32 (F, 3).
+type MeshArrays<'py> = (Bound<'py, PyArray2<f32>>, Bound<'py, PyArray2<u32>>);

@@ -149,3 +149,26 @@ def test_refusals_are_one_line_and_write_nothing(cli, tmp_path):
         assert message in failed.stderr, (args, failed.stderr)
         assert failed.stderr.strip().count("\n") == 0 or "Usage" in failed.stderr, failed.stderr
     assert sorted(p.name for p in tmp_path.iterdir()) == ["labels.npy"]
+
+
+def test_python_label_meshes_are_the_cli_glb_meshes(cli, tmp_path):
+    a = _labels()
+    path = tmp_path / "labels.npy"
+    np.save(path, a)
+    _mc(cli, path, tmp_path / "labels.glb")
+    glb = _glb_meshes(tmp_path / "labels.glb")
+    grid = isogrid.extract(a, labels="all")
+    meshes = grid.label_meshes(space="index")
+    assert len(meshes) == len(grid.labels)
+    for label, (vertices, faces) in zip(grid.labels, meshes):
+        assert vertices.dtype == np.float32 and vertices.shape[1] == 3
+        assert faces.dtype == np.uint32 and faces.shape[1] == 3
+        np.testing.assert_array_equal(vertices, glb[label["value"]][2])
+        np.testing.assert_array_equal(faces, glb[label["value"]][3])
+    # World space: the array's own frame here is index space scaled by the spacing.
+    spaced = isogrid.extract(a, labels="all", spacing=(0.5, 1.0, 2.0))
+    for (world, _), (index, _) in zip(spaced.label_meshes(), meshes):
+        np.testing.assert_allclose(world, index * np.array([0.5, 1.0, 2.0], np.float32), rtol=1e-6)
+    assert isogrid.extract(a.astype(np.float32), iso=1).label_meshes() is None
+    with pytest.raises(ValueError, match="space"):
+        grid.label_meshes(space="voxel")

@@ -1,0 +1,74 @@
+"""The paths into PyVista, trimesh and napari that docs/interop.md shows, and the napari example's
+surface: the meshes must arrive where the volume's surface is, closed and wound outwards."""
+
+import importlib.util
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import isogrid
+
+DOCS = Path(__file__).resolve().parents[2] / "docs"
+
+
+def _ball(n=40, radius=12.0):
+    """(z, y, x) float32 distance-like field: inside (>= 0) within `radius` of an off-centre point."""
+    z, y, x = np.mgrid[:n, :n, :n].astype(np.float32)
+    return radius - np.sqrt((x - 21.3) ** 2 + (y - 18.7) ** 2 + (z - 20.1) ** 2)
+
+
+def test_trimesh_takes_the_mesh_closed_with_the_balls_volume():
+    trimesh = pytest.importorskip("trimesh")
+    volume = isogrid.Volume(_ball(), spacing=(0.5, 1.0, 2.0), origin=(10.0, -5.0, 3.0))
+    vertices, faces = isogrid.marching_cubes(volume, iso=0.0)
+    mesh = trimesh.Trimesh(vertices, faces, process=False)
+    assert len(mesh.vertices) == len(vertices)
+    assert mesh.is_watertight and mesh.is_winding_consistent
+    # Wound outwards: a positive volume near the ellipsoid's (radius 12 voxels, scaled per axis).
+    expected = 4 / 3 * np.pi * 12**3 * 0.5 * 1.0 * 2.0
+    assert mesh.volume == pytest.approx(expected, rel=0.02)
+    # World space: the centre (21.3, 18.7, 20.1) voxels scaled by the spacing, plus the origin.
+    centre = np.array([10 + 0.5 * 21.3, -5 + 18.7, 3 + 2 * 20.1])
+    np.testing.assert_allclose(mesh.center_mass, centre, atol=0.05)
+
+
+def test_pyvista_takes_the_mesh_and_its_attribute():
+    pv = pytest.importorskip("pyvista")
+    ball = _ball()
+    z, y, x = np.mgrid[: ball.shape[0], : ball.shape[1], : ball.shape[2]]
+    attribute = (x + 2 * y).astype(np.float32)
+    vertices, faces, values = isogrid.marching_cubes(ball, iso=0.0, attribute=attribute)
+    mesh = pv.PolyData.from_regular_faces(vertices, faces)
+    mesh.point_data["attribute"] = values
+    assert mesh.n_points == len(vertices) and mesh.n_cells == len(faces)
+    points = np.asarray(mesh.points)
+    # The attribute is linear, so trilinear interpolation is exact: x + 2y at each vertex (x, y, z).
+    np.testing.assert_allclose(mesh.point_data["attribute"], points[:, 0] + 2 * points[:, 1], atol=1e-3)
+    # Outward normals: from the centre towards each vertex.
+    normals = np.asarray(mesh.compute_normals(point_normals=True, cell_normals=False, auto_orient_normals=False).point_data["Normals"])
+    outward = points - np.array([21.3, 18.7, 20.1])
+    assert (np.einsum("ij,ij->i", normals, outward) > 0).mean() > 0.99
+
+
+def test_napari_example_surface_lies_on_the_image():
+    pytest.importorskip("napari")
+    from napari.layers import Image, Surface
+
+    spec = importlib.util.spec_from_file_location("napari_example", DOCS / "napari-example.py")
+    example = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(example)  # defines functions only; main() is not run
+    volume = example.blob_volume(48)
+    for iso in (-0.5, 0.0, 0.7):
+        layer = Surface(example.surface_data(volume, iso))
+        vertices = np.asarray(layer.data[0])
+        assert len(vertices) > 100
+        # In the image's (z, y, x) data coordinates, each vertex is where the volume crosses iso:
+        # trilinear interpolation of the volume there gives iso.
+        from scipy.ndimage import map_coordinates
+
+        at = map_coordinates(volume, vertices.T, order=1)
+        np.testing.assert_allclose(at, iso, atol=1e-4)
+        image = Image(volume)
+        assert np.all(vertices >= 0) and np.all(vertices <= np.array(volume.shape) - 1)
+        assert image.ndim == layer.ndim == 3
