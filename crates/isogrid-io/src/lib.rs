@@ -13,6 +13,7 @@
 
 pub mod dicom;
 pub mod image;
+pub mod labels;
 pub mod mesh;
 pub mod metaimage;
 pub mod mrc;

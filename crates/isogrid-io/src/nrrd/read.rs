@@ -30,11 +30,30 @@ const MAX_HEADER_BYTES: u64 = 1 << 20;
 
 /// Reads an attached `.nrrd` or a detached `.nhdr` (+ data files). Errors name the file at fault.
 pub fn read_nrrd(path: &Path) -> Result<Volume> {
+    let (mut layers, _) = read_nrrd_layers(path, false)?;
+    Ok(layers.remove(0))
+}
+
+/// A NRRD file's volumes along a leading non-spatial axis (one for a 3-D file; the layers of a
+/// layered 3D Slicer segmentation), and its `key:=value` pairs. Without `layered`, a file with
+/// more than one is refused.
+pub(crate) fn read_nrrd_layers(
+    path: &Path,
+    layered: bool,
+) -> Result<(Vec<Volume>, Vec<(String, String)>)> {
     let file = isogrid::fs::open_regular(path)?;
     let mut reader = BufReader::new(file);
     let (lines, data_offset) = read_header_lines(&mut reader).at_path(path)?;
     let header = header::parse(&lines).at_path(path)?;
-    let count = sample_count(header.dims).at_path(path)?;
+    if header.layers > 1 && !layered {
+        return Err(layers_refused(header.layers).with_path(path));
+    }
+    let count = sample_count(header.dims)
+        .and_then(|c| {
+            c.checked_mul(header.layers)
+                .ok_or_else(|| Error::too_large("the layers hold more samples than fit in memory"))
+        })
+        .at_path(path)?;
     // Before the data: a bad spacing fails without reading gigabytes.
     let g = geometry(header.dims, header.spacing, header.origin, header.direction).at_path(path)?;
     let data = match &header.data {
@@ -69,7 +88,40 @@ pub fn read_nrrd(path: &Path) -> Result<Volume> {
             data.ok_or_else(|| Error::corrupt("no data files").with_path(path))?
         }
     };
-    Volume::with_geometry(g, data).at_path(path)
+    let volumes = if header.layers == 1 {
+        vec![Volume::with_geometry(g, data).at_path(path)?]
+    } else {
+        (0..header.layers)
+            .map(|l| Volume::with_geometry(g.clone(), layer(&data, header.layers, l)).at_path(path))
+            .collect::<Result<_>>()?
+    };
+    Ok((volumes, header.key_values))
+}
+
+/// The refusal of a layered file where one volume is read.
+fn layers_refused(layers: usize) -> Error {
+    Error::unsupported(format!(
+        "the NRRD file holds {layers} volumes along its first axis (a layered segmentation): \
+         it is read as labels (`--labels`), one volume at a time is not read"
+    ))
+}
+
+/// Entry `l` of every `layers` consecutive samples.
+fn layer(data: &VolumeData, layers: usize, l: usize) -> VolumeData {
+    fn pick<T: Copy>(v: &[T], layers: usize, l: usize) -> Vec<T> {
+        v.iter().skip(l).step_by(layers).copied().collect()
+    }
+    match data {
+        VolumeData::U8(v) => VolumeData::U8(pick(v, layers, l)),
+        VolumeData::U16(v) => VolumeData::U16(pick(v, layers, l)),
+        VolumeData::I16(v) => VolumeData::I16(pick(v, layers, l)),
+        VolumeData::F32(v) => VolumeData::F32(pick(v, layers, l)),
+        VolumeData::U32(v) => VolumeData::U32(pick(v, layers, l)),
+        VolumeData::I32(v) => VolumeData::I32(pick(v, layers, l)),
+        VolumeData::U64(v) => VolumeData::U64(pick(v, layers, l)),
+        VolumeData::I64(v) => VolumeData::I64(pick(v, layers, l)),
+        VolumeData::F64(v) => VolumeData::F64(pick(v, layers, l)),
+    }
 }
 
 /// The data files a detached NRRD header at `path` names (none for attached data), resolved
@@ -93,6 +145,9 @@ pub(crate) fn region_layout(path: &Path) -> Result<Option<crate::mapped_layout::
     let mut reader = BufReader::new(file);
     let (lines, data_offset) = read_header_lines(&mut reader).at_path(path)?;
     let header = header::parse(&lines).at_path(path)?;
+    if header.layers > 1 {
+        return Err(layers_refused(header.layers).with_path(path));
+    }
     if !matches!(header.encoding, Encoding::Raw) || header.line_skip != 0 {
         return Ok(None);
     }
