@@ -12,7 +12,8 @@
 //! - Data: `ElementDataFile = LOCAL` (after the header), one file (relative to the header's
 //!   folder), `LIST [ND]` (file names follow the header, one per line) or a printf pattern
 //!   `name%03d.raw first last step` (one file per slice). Raw, zlib (`CompressedData = True`,
-//!   each file its own stream, `CompressedDataSize` bounding a single one) or whitespace-separated
+//!   each file its own stream, read to its end marker whatever `CompressedDataSize` says; see
+//!   `read_part`) or whitespace-separated
 //!   decimal text (`BinaryData = False`). `HeaderSize = N` starts the data at byte N of its file
 //!   and `-1` takes its last bytes, as MetaIO does. `BinaryDataByteOrderMSB` /
 //!   `ElementByteOrderMSB` pick big-endian.
@@ -20,7 +21,10 @@
 //!   (`Origin`, `Position`) and axis directions from `TransformMatrix` (`Rotation`,
 //!   `Orientation`), whose row `a` is axis `a`'s world direction, as ITK's MetaImageIO reads it.
 //! - Checks: every declared size is checked against the file before anything is allocated; a
-//!   zlib stream must inflate to exactly the declared sample bytes.
+//!   zlib stream must inflate to exactly the declared sample bytes and end there, its checksum
+//!   checked. A `CompressedDataSize` that disagrees with the stream gives a notice, not an error
+//!   (PyVista's `frogtissue.mhd` declares 260020 bytes for a 262087-byte stream; MetaIO reads
+//!   the declared bytes only and fills the samples it could not inflate with zeros).
 
 mod header;
 

@@ -11,7 +11,9 @@
 //! spacing for that axis, as the spec says, and becomes 1; 0 or a zero-length direction vector is
 //! an error; a negative spacing flips the axis, see `geometry.rs`); origin from
 //! `space origin`; directions (unit `space directions`) kept as metadata. Grid order is the file's
-//! (first axis fastest).
+//! (first axis fastest). A 4-D file whose first axis has no space direction (a layered 3D Slicer
+//! segmentation) holds one volume per entry of that axis: read as labels
+//! ([`crate::labels`]), refused as one volume.
 
 use super::header::{self, clip, DataFiles, Encoding, Header};
 use crate::data_file::resolve;

@@ -342,3 +342,49 @@ fn a_float_volume_is_a_label_volume_only_when_its_values_are_integers() {
     assert_eq!(err.kind(), ErrorKind::InvalidInput);
     assert!(err.to_string().contains("2.5"), "{err}");
 }
+
+#[test]
+fn a_fourth_nrrd_axis_is_read_only_as_leading_layers() {
+    let dir = TempDir::new("nrrd-4d");
+    let data = [0u8; 2 * 2 * 2 * 2];
+    for (directions, what) in [
+        // A spatial first axis (a time series, say): not layers.
+        (
+            "space dimension: 3\nspace directions: (1,0,0) (0,1,0) (0,0,1) (1,1,1)\n",
+            "NRRD dimension 4 is not supported",
+        ),
+        // No space directions at all: nothing says which axis is the list.
+        ("", "NRRD dimension 4 is not supported"),
+    ] {
+        let head = format!(
+            "NRRD0004\ntype: uint8\ndimension: 4\nsizes: 2 2 2 2\n{directions}encoding: raw\n\n"
+        );
+        let path = dir.file("four.seg.nrrd", &[head.as_bytes(), &data].concat());
+        let err = read_label_volume(&path, &ReadOptions::default())
+            .err()
+            .expect("refused");
+        assert_eq!(err.kind(), ErrorKind::Unsupported, "{err}");
+        assert!(err.to_string().contains(what), "{err}");
+    }
+    // A segment in a layer the file lacks, and a colour that is not three numbers 0..1.
+    let head = "NRRD0004\ntype: uint8\ndimension: 3\nsizes: 2 2 2\nencoding: raw\n";
+    for (keys, what) in [
+        (
+            "Segment0_Layer:=1\n",
+            "Segment0_Layer 1 is beyond the file's 1 layer",
+        ),
+        (
+            "Segment0_Color:=0.5 2 0\n",
+            "Segment0_Color \"0.5 2 0\" is not three numbers 0..1",
+        ),
+    ] {
+        let text = format!("{head}{keys}\n");
+        let path = dir.file("bad.seg.nrrd", &[text.as_bytes(), &data[..8]].concat());
+        let err = read_label_volume(&path, &ReadOptions::default())
+            .err()
+            .expect("refused");
+        assert_eq!(err.kind(), ErrorKind::Corrupt, "{err}");
+        assert!(err.to_string().contains(what), "{err}");
+        assert!(err.to_string().contains("bad.seg.nrrd"), "{err}");
+    }
+}
