@@ -180,7 +180,7 @@ impl Placement {
 
     /// Gives `volume` the spacing, origin and directions given.
     pub fn apply(&self, volume: &mut isogrid::Volume) -> isogrid::Result<()> {
-        let mut g = volume.geometry().clone();
+        let mut g = *volume.geometry();
         g.spacing = self.spacing.unwrap_or(g.spacing);
         g.origin = self.origin.unwrap_or(g.origin);
         g.direction = self.direction.unwrap_or(g.direction);

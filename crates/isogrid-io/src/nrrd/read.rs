@@ -36,13 +36,13 @@ pub fn read_nrrd(path: &Path) -> Result<Volume> {
     Ok(layers.remove(0))
 }
 
+/// A NRRD file's `key:=value` pairs, in file order.
+pub(crate) type KeyValues = Vec<(String, String)>;
+
 /// A NRRD file's volumes along a leading non-spatial axis (one for a 3-D file; the layers of a
 /// layered 3D Slicer segmentation), and its `key:=value` pairs. Without `layered`, a file with
 /// more than one is refused.
-pub(crate) fn read_nrrd_layers(
-    path: &Path,
-    layered: bool,
-) -> Result<(Vec<Volume>, Vec<(String, String)>)> {
+pub(crate) fn read_nrrd_layers(path: &Path, layered: bool) -> Result<(Vec<Volume>, KeyValues)> {
     let file = isogrid::fs::open_regular(path)?;
     let mut reader = BufReader::new(file);
     let (lines, data_offset) = read_header_lines(&mut reader).at_path(path)?;
@@ -94,7 +94,7 @@ pub(crate) fn read_nrrd_layers(
         vec![Volume::with_geometry(g, data).at_path(path)?]
     } else {
         (0..header.layers)
-            .map(|l| Volume::with_geometry(g.clone(), layer(&data, header.layers, l)).at_path(path))
+            .map(|l| Volume::with_geometry(g, layer(&data, header.layers, l)).at_path(path))
             .collect::<Result<_>>()?
     };
     Ok((volumes, header.key_values))
