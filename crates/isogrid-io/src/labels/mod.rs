@@ -124,23 +124,20 @@ fn layer_value(v: u64, offset: u64) -> u64 {
     }
 }
 
-/// The values of `layer` that `selection` selects as file labels: those in `1..=max` whose
-/// value plus the offset is selected, and the background 0 in the first layer only.
+/// The values of `layer` that `selection` selects as file labels: those above 0 whose value plus
+/// the offset is selected (a layer holds no value above the next layer's offset, so these never
+/// reach the next layer's labels), and the background 0 in the first layer only.
 fn layer_selection(selection: &LabelSelection, layer: &LabelLayer, first: bool) -> LabelSelection {
-    let max = max_key(layer.volume.data().samples());
     let mut ranges = Vec::new();
     if first && selection.selects(0) {
         ranges.push(0..=0);
     }
-    if max >= 1 {
-        let (lo, hi) = (1 + layer.offset, max + layer.offset);
-        match selection {
-            LabelSelection::All => ranges.push(1..=max),
-            LabelSelection::Values(wanted) => ranges.extend(wanted.iter().filter_map(|r| {
-                let (a, b) = ((*r.start()).max(lo), (*r.end()).min(hi));
-                (a <= b).then(|| a - layer.offset..=b - layer.offset)
-            })),
-        }
+    match selection {
+        LabelSelection::All => ranges.push(1..=u64::MAX),
+        LabelSelection::Values(wanted) => ranges.extend(wanted.iter().filter_map(|r| {
+            let from = (*r.start()).max(layer.offset.saturating_add(1));
+            (from <= *r.end()).then(|| from - layer.offset..=*r.end() - layer.offset)
+        })),
     }
     LabelSelection::Values(ranges)
 }
@@ -148,7 +145,11 @@ fn layer_selection(selection: &LabelSelection, layer: &LabelLayer, first: bool) 
 /// The largest label key among `samples` (0 for none).
 pub(crate) fn max_key(samples: Samples<'_>) -> u64 {
     fn max<T: LabelSample>(s: &[T]) -> u64 {
-        s.iter().map(|v| v.key()).max().unwrap_or(0)
+        use rayon::prelude::*;
+        s.par_chunks(1 << 16)
+            .map(|c| c.iter().map(|v| v.key()).max().unwrap_or(0))
+            .max()
+            .unwrap_or(0)
     }
     match samples {
         Samples::U8(s) => max(s),

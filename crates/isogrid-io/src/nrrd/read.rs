@@ -93,8 +93,11 @@ pub(crate) fn read_nrrd_layers(path: &Path, layered: bool) -> Result<(Vec<Volume
     let volumes = if header.layers == 1 {
         vec![Volume::with_geometry(g, data).at_path(path)?]
     } else {
-        (0..header.layers)
-            .map(|l| Volume::with_geometry(g, layer(&data, header.layers, l)).at_path(path))
+        let parts = split_layers(&data, header.layers);
+        drop(data);
+        parts
+            .into_iter()
+            .map(|d| Volume::with_geometry(g, d).at_path(path))
             .collect::<Result<_>>()?
     };
     Ok((volumes, header.key_values))
@@ -108,22 +111,28 @@ fn layers_refused(layers: usize) -> Error {
     ))
 }
 
-/// Entry `l` of every `layers` consecutive samples.
-fn layer(data: &VolumeData, layers: usize, l: usize) -> VolumeData {
-    fn pick<T: Copy>(v: &[T], layers: usize, l: usize) -> Vec<T> {
-        v.iter().skip(l).step_by(layers).copied().collect()
+/// The volumes of interleaved samples, entry `l` of every `layers` consecutive samples being
+/// volume `l`'s; one pass over the samples.
+fn split_layers(data: &VolumeData, layers: usize) -> Vec<VolumeData> {
+    fn split<T: Copy>(v: &[T], layers: usize) -> Vec<Vec<T>> {
+        let mut out: Vec<Vec<T>> = (0..layers)
+            .map(|_| Vec::with_capacity(v.len() / layers))
+            .collect();
+        for entries in v.chunks_exact(layers) {
+            for (o, &e) in out.iter_mut().zip(entries) {
+                o.push(e);
+            }
+        }
+        out
     }
-    match data {
-        VolumeData::U8(v) => VolumeData::U8(pick(v, layers, l)),
-        VolumeData::U16(v) => VolumeData::U16(pick(v, layers, l)),
-        VolumeData::I16(v) => VolumeData::I16(pick(v, layers, l)),
-        VolumeData::F32(v) => VolumeData::F32(pick(v, layers, l)),
-        VolumeData::U32(v) => VolumeData::U32(pick(v, layers, l)),
-        VolumeData::I32(v) => VolumeData::I32(pick(v, layers, l)),
-        VolumeData::U64(v) => VolumeData::U64(pick(v, layers, l)),
-        VolumeData::I64(v) => VolumeData::I64(pick(v, layers, l)),
-        VolumeData::F64(v) => VolumeData::F64(pick(v, layers, l)),
+    macro_rules! each {
+        ($($t:ident),*) => {
+            match data {
+                $(VolumeData::$t(v) => split(v, layers).into_iter().map(VolumeData::$t).collect(),)*
+            }
+        };
     }
+    each!(U8, U16, I16, F32, U32, I32, U64, I64, F64)
 }
 
 /// The data files a detached NRRD header at `path` names (none for attached data), resolved
