@@ -213,6 +213,8 @@ def extract(
     progress: Optional[Callable[[int, int], Any]] = None,
     labels: Union[str, int, Iterable[int], None] = None,
     smooth: Optional[float] = None,
+    label_table: Optional[PathLike] = None,
+    labels_of: Optional[str] = None,
 ) -> CellGrid:
     """Extracts the active cells of a 3-D volume into clustered grid cells.
 
@@ -254,6 +256,14 @@ def extract(
             integer.
         smooth: with ``labels``, the σ in voxels of a Gaussian that smooths each indicator first
             (0 or None: none).
+        label_table: with ``labels``, a colour table file that names and colours the labels
+            (``isogrid extract --label-table``): a FreeSurfer LUT, a 3D Slicer ``.ctbl`` or an
+            ITK-SNAP label description, told apart by content. Labels it lists that the grid
+            lacks give a :class:`UserWarning`. When ``array`` is a path, the file's own names and
+            colours come first (a 3D Slicer ``.seg.nrrd``, whose overlapping layers become labels
+            of their own; an OME-Zarr label image), and the table's win over them.
+        labels_of: with ``labels`` and the path of an OME-Zarr image, the name of its label image
+            to extract (``image.zarr/labels/NAME``, ``isogrid extract --labels-of``).
 
     The GIL is released while extracting; do not modify ``array`` from another thread meanwhile.
 
@@ -265,8 +275,28 @@ def extract(
         iso, iso_normalized = _iso_pair(iso, iso_normalized)
         if smooth is not None:
             raise ValueError("smooth smooths label indicators, and needs labels")
+        if label_table is not None or labels_of is not None:
+            raise ValueError("label_table and labels_of name the labels of labels=, and need it")
     elif iso is not None or iso_normalized is not None or attribute is not None:
         raise ValueError("labels takes the place of iso and iso_normalized, and has no attribute")
+    if labels is not None and isinstance(array, (str, os.PathLike)):
+        # The file's own names and colours, and its layers, come with it.
+        grid, notices = _isogrid.extract_labels_file(
+            os.fspath(array),
+            _label_selection(labels),
+            smooth=0.0 if smooth is None else float(smooth),
+            precision=None if precision is None else _int(precision, "precision"),
+            threads=None if threads is None else _int(threads, "threads", 1),
+            labels_of=labels_of,
+            label_table=None if label_table is None else os.fspath(label_table),
+            series=series,
+            spacing=None if spacing is None else _triple(spacing, "spacing"),
+            origin=None if origin is None else _triple(origin, "origin"),
+            direction=None if direction is None else [_triple(row, "direction row") for row in direction],
+        )
+        return _with_notices(grid, notices)
+    if labels_of is not None:
+        raise ValueError("labels_of names a label image of an OME-Zarr image, and needs its path")
     array = _volume_of(array, series)
     spacing3 = _spacing_of(array, spacing)
     placed = array if isinstance(array, Volume) else None
@@ -276,7 +306,7 @@ def extract(
         direction = placed.direction
     prepared, fortran = _prepare(array)
     if labels is not None:
-        return _isogrid.extract_labels(
+        grid, notices = _isogrid.extract_labels(
             prepared,
             fortran,
             spacing3,
@@ -286,7 +316,9 @@ def extract(
             threads=None if threads is None else _int(threads, "threads", 1),
             origin=None if origin is None else _triple(origin, "origin"),
             direction=None if direction is None else [_triple(row, "direction row") for row in direction],
+            label_table=None if label_table is None else os.fspath(label_table),
         )
+        return _with_notices(grid, notices)
     attribute_arg = None
     if attribute is not None:
         attribute_arg = _attribute_arg(
@@ -306,6 +338,13 @@ def extract(
         progress=progress,
     )
     _warn_if_empty(grid)
+    return grid
+
+
+def _with_notices(grid: CellGrid, notices: Sequence[str]) -> CellGrid:
+    """The grid, after each notice of its extraction as a :class:`UserWarning`."""
+    for notice in notices:
+        warnings.warn(notice, UserWarning, stacklevel=3)
     return grid
 
 

@@ -91,7 +91,21 @@ def extract_labels(
     threads: Optional[int] = None,
     origin: Optional[Sequence[float]] = None,
     direction: Optional[Sequence[Sequence[float]]] = None,
-) -> CellGrid: ...
+    label_table: Optional[_Path] = None,
+) -> Tuple[CellGrid, List[str]]: ...
+def extract_labels_file(
+    path: _Path,
+    labels: str,
+    smooth: float = 0.0,
+    precision: Optional[int] = None,
+    threads: Optional[int] = None,
+    labels_of: Optional[str] = None,
+    label_table: Optional[_Path] = None,
+    series: Optional[str] = None,
+    spacing: Optional[Sequence[float]] = None,
+    origin: Optional[Sequence[float]] = None,
+    direction: Optional[Sequence[Sequence[float]]] = None,
+) -> Tuple[CellGrid, List[str]]: ...
 def load(path: _Path) -> CellGrid: ...
 def _attach_attribute(
     path: _Path,

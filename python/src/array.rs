@@ -106,17 +106,9 @@ impl<'py> VolumeArg<'py> {
         origin: Option<Vec<f64>>,
         direction: Option<Vec<Vec<f64>>>,
     ) -> PyResult<Self> {
-        if let Some(origin) = origin {
-            self.geometry.origin = triple(origin, "origin")?;
-        }
-        if let Some(rows) = direction {
-            let n = rows.len();
-            let rows: [Vec<f64>; 3] = rows
-                .try_into()
-                .map_err(|_| invalid(format!("direction must have 3 rows, got {n}")))?;
-            let [x, y, z] = rows.map(|r| triple(r, "direction row"));
-            self.geometry.direction = [x?, y?, z?];
-        }
+        let place = Placement::new(None, origin, direction)?;
+        self.geometry.origin = place.origin.unwrap_or(self.geometry.origin);
+        self.geometry.direction = place.direction.unwrap_or(self.geometry.direction);
         Ok(self)
     }
 
@@ -153,6 +145,50 @@ fn slice<'a, T: Element>(a: &'a PyReadonlyArrayDyn<'_, T>) -> PyResult<&'a [T]> 
 /// `spacing` as three positive finite numbers (the library checks them again).
 pub fn spacing3(spacing: Vec<f64>) -> PyResult<[f64; 3]> {
     triple(spacing, "spacing")
+}
+
+/// Spacing, origin and directions that replace a volume file's (each when given).
+pub struct Placement {
+    spacing: Option<[f64; 3]>,
+    origin: Option<[f64; 3]>,
+    direction: Option<[[f64; 3]; 3]>,
+}
+
+impl Placement {
+    pub fn new(
+        spacing: Option<Vec<f64>>,
+        origin: Option<Vec<f64>>,
+        direction: Option<Vec<Vec<f64>>>,
+    ) -> PyResult<Self> {
+        let direction = match direction {
+            None => None,
+            Some(rows) => {
+                let n = rows.len();
+                let rows: [Vec<f64>; 3] = rows
+                    .try_into()
+                    .map_err(|_| invalid(format!("direction must have 3 rows, got {n}")))?;
+                let [x, y, z] = rows.map(|r| triple(r, "direction row"));
+                Some([x?, y?, z?])
+            }
+        };
+        Ok(Placement {
+            spacing: spacing.map(spacing3).transpose()?,
+            origin: origin.map(|o| triple(o, "origin")).transpose()?,
+            direction,
+        })
+    }
+
+    /// Gives `volume` the spacing, origin and directions given.
+    pub fn apply(&self, volume: &mut isogrid::Volume) -> isogrid::Result<()> {
+        let mut g = *volume.geometry();
+        g.spacing = self.spacing.unwrap_or(g.spacing);
+        g.origin = self.origin.unwrap_or(g.origin);
+        g.direction = self.direction.unwrap_or(g.direction);
+        let empty = isogrid::Volume::new([1, 1, 1], isogrid::VolumeData::U8(vec![0]))?;
+        let data = std::mem::replace(volume, empty).into_data();
+        *volume = isogrid::Volume::with_geometry(g, data)?;
+        Ok(())
+    }
 }
 
 /// Three finite numbers (x, y, z).

@@ -96,9 +96,11 @@ pub fn extract(
 }
 
 /// Extracts the surface of each selected label of a 3-D label array (see `isogrid.extract`, which
-/// prepares `array` and writes `labels` as `all` or a list such as `1,5-9`).
+/// prepares `array` and writes `labels` as `all` or a list such as `1,5-9`), named and coloured by
+/// the colour table file `label_table` when given. Returns the grid and notices for the user (the
+/// table's labels the grid lacks).
 #[pyfunction]
-#[pyo3(signature = (array, fortran, spacing, labels, smooth=0.0, precision=None, threads=None, origin=None, direction=None))]
+#[pyo3(signature = (array, fortran, spacing, labels, smooth=0.0, precision=None, threads=None, origin=None, direction=None, label_table=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn extract_labels(
     py: Python<'_>,
@@ -111,18 +113,95 @@ pub fn extract_labels(
     threads: Option<usize>,
     origin: Option<Vec<f64>>,
     direction: Option<Vec<Vec<f64>>>,
-) -> PyResult<CellGrid> {
+    label_table: Option<PathBuf>,
+) -> PyResult<(CellGrid, Vec<String>)> {
     let volume = VolumeArg::new(array, fortran, spacing3(spacing)?)?.place(origin, direction)?;
     let view = volume.view()?;
-    let options = LabelOptions {
+    let options = label_options(labels, smooth, precision)?;
+    let table = read_table(py, label_table.as_deref())?;
+    let grid = run_detached(py, threads, move || {
+        isogrid::extract_labels(&view, &options)
+    })?;
+    named(grid.map_err(to_py)?, table)
+}
+
+/// Extracts the labels of a label volume file as `isogrid extract --labels` does: the names and
+/// colours its file gives (a 3D Slicer `.seg.nrrd`, layered or not; an OME-Zarr label image, or
+/// the image at `path` with `labels_of` naming one of its label images), then `label_table`'s.
+/// `spacing`, `origin` and `direction` replace the file's. Returns the grid and notices.
+#[pyfunction]
+#[pyo3(signature = (path, labels, smooth=0.0, precision=None, threads=None, labels_of=None, label_table=None, series=None, spacing=None, origin=None, direction=None))]
+#[allow(clippy::too_many_arguments)]
+pub fn extract_labels_file(
+    py: Python<'_>,
+    path: PathBuf,
+    labels: &str,
+    smooth: f64,
+    precision: Option<u32>,
+    threads: Option<usize>,
+    labels_of: Option<String>,
+    label_table: Option<PathBuf>,
+    series: Option<String>,
+    spacing: Option<Vec<f64>>,
+    origin: Option<Vec<f64>>,
+    direction: Option<Vec<Vec<f64>>>,
+) -> PyResult<(CellGrid, Vec<String>)> {
+    let options = label_options(labels, smooth, precision)?;
+    let table = read_table(py, label_table.as_deref())?;
+    let place = crate::array::Placement::new(spacing, origin, direction)?;
+    let read_options = isogrid_io::ReadOptions {
+        series,
+        ..Default::default()
+    };
+    let (mut source, mut notices) = py
+        .detach(|| isogrid_io::labels::read_labels_of(&path, labels_of.as_deref(), &read_options))
+        .map_err(to_py)?;
+    for layer in &mut source.layers {
+        place.apply(&mut layer.volume).map_err(to_py)?;
+    }
+    let grid = run_detached(py, threads, move || {
+        isogrid_io::labels::extract_label_volume(&source, &options)
+    })?;
+    let (grid, more) = named(grid.map_err(to_py)?, table)?;
+    notices.extend(more);
+    Ok((grid, notices))
+}
+
+fn label_options(labels: &str, smooth: f64, precision: Option<u32>) -> PyResult<LabelOptions> {
+    Ok(LabelOptions {
         selection: LabelSelection::parse(labels).map_err(to_py)?,
         smooth,
         precision: precision.map(precision_arg).transpose()?,
-    };
-    let inner = run_detached(py, threads, move || isogrid::extract_labels(&view, &options))?;
-    Ok(CellGrid {
-        inner: inner.map_err(to_py)?,
     })
+}
+
+/// A colour table file, read before the volume so that a malformed one fails first.
+fn read_table(
+    py: Python<'_>,
+    path: Option<&std::path::Path>,
+) -> PyResult<Option<(PathBuf, Vec<isogrid::Label>)>> {
+    path.map(|p| {
+        py.detach(|| isogrid_io::labels::read_label_table(p))
+            .map(|t| (p.to_path_buf(), t))
+            .map_err(to_py)
+    })
+    .transpose()
+}
+
+/// The grid named by the table, and the notice on the table's labels it lacks.
+fn named(
+    mut inner: isogrid::CellGrid,
+    table: Option<(PathBuf, Vec<isogrid::Label>)>,
+) -> PyResult<(CellGrid, Vec<String>)> {
+    let mut notices = Vec::new();
+    if let Some((path, table)) = table {
+        let absent = isogrid_io::labels::apply_label_names(&mut inner, &table);
+        let signed = isogrid::labels::signed_labels(inner.info().scalar_type);
+        notices.extend(isogrid_io::labels::absent_labels_notice(
+            &path, &absent, signed,
+        ));
+    }
+    Ok((CellGrid { inner }, notices))
 }
 
 /// Gives the `.cgc` file `path` the attribute of the volume file `attribute_path` (read by region
@@ -409,7 +488,6 @@ impl CellGrid {
         Ok(Some(d))
     }
 
-
     /// The labels of a label volume's grid, in increasing value, as `isogrid extract --labels
     /// --json` lists them: one dict each with `value`, `name`, `color` (`#rrggbbaa`), `cells`
     /// (active cells of its surface) and `lo`, `hi` (its cells' box in cell indices, `[lo, hi)`);
@@ -446,7 +524,13 @@ impl CellGrid {
     /// `None` for an isosurface.
     #[getter]
     fn cluster_labels<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray1<u32>>> {
-        Some(self.inner.labels()?.cluster_labels().to_vec().into_pyarray(py))
+        Some(
+            self.inner
+                .labels()?
+                .cluster_labels()
+                .to_vec()
+                .into_pyarray(py),
+        )
     }
 
     /// For a label volume's grid: each label's mesh, Marching Cubes over its stored cells (what

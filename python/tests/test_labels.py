@@ -142,3 +142,137 @@ def test_cli_and_python_write_the_same_labelled_file(cli, tmp_path):
         report.pop("seconds")
         report["dims"] = tuple(report["dims"])
         assert report == grid.stats
+
+
+# Names and colours from files other tools wrote, and from colour tables. Masks in (i, j, k), each
+# label's cells checked against the brute-force reference; slicerio and ome-zarr lay (z, y, x)
+# arrays out as (i, j, k) and (z, y, x) respectively.
+
+
+def _masks(shape=(20, 18, 16)):
+    """(i, j, k) masks: a box, a ball overlapping it, a box beside it (touching the ball)."""
+    i, j, k = np.meshgrid(*(np.arange(n) for n in shape), indexing="ij")
+    a = (i >= 3) & (i <= 12) & (j >= 3) & (j <= 12) & (k >= 2) & (k <= 10)
+    b = (i - 11) ** 2 + (j - 10) ** 2 + (k - 8) ** 2 <= 16
+    c = (i >= 14) & (i <= 17) & (j >= 2) & (j <= 15) & (k >= 3) & (k <= 12)
+    return a, b, c
+
+
+def _zyx(mask):
+    return np.ascontiguousarray(np.transpose(mask, (2, 1, 0)))
+
+
+def _summary(grid):
+    return [(l["value"], l["name"], l["color"], l["cells"]) for l in grid.labels]
+
+
+def test_a_layered_slicer_segmentation_keeps_overlapping_segments(tmp_path):
+    slicerio = pytest.importorskip("slicerio")
+    a, b, c = _masks()
+    seg = slicerio.create_segmentation(a.shape, np.eye(4))
+    for sid, mask, name, color in [("a", a, "liver", [0.2, 0.4, 0.6]), ("b", b, "tumour", [1.0, 0.0, 0.2]), ("c", c, "vein", [0.0, 0.6, 1.0])]:
+        slicerio.add_segment(seg, mask, {"id": sid, "name": name, "color": color})
+    # b overlaps a: a second layer, value 1; c joins a's layer with value 2.
+    assert seg["voxels"].ndim == 4
+    assert [(s["layer"], s["labelValue"]) for s in seg["segments"]] == [(0, 1), (1, 1), (0, 2)]
+    path = tmp_path / "seg.seg.nrrd"
+    slicerio.write_segmentation(str(path), seg)
+    grid = isogrid.extract(path, labels="all")
+    # Layer 0 holds values up to 2, so layer 1's value 1 is label 3.
+    assert _summary(grid) == [
+        (1, "liver", "#336699ff", len(_reference_cells(_zyx(a).astype(np.uint8), 1))),
+        (2, "vein", "#0099ffff", len(_reference_cells(_zyx(c).astype(np.uint8), 1))),
+        (3, "tumour", "#ff0033ff", len(_reference_cells(_zyx(b).astype(np.uint8), 1))),
+    ]
+    only = isogrid.extract(path, labels=[3])
+    assert [l["name"] for l in only.labels] == ["tumour"]
+
+
+def test_pynrrd_with_slicer_keys_and_a_colour_table(tmp_path):
+    nrrd = pytest.importorskip("nrrd")
+    a, b, c = _masks()
+    volume = np.zeros(a.shape, np.uint16)
+    volume[a], volume[c], volume[(b & ~a & ~c)] = 4, 9, 12
+    header = {
+        "space": "left-posterior-superior",
+        "space directions": np.eye(3) * 0.5,
+        "Segment0_Name": "four",
+        "Segment0_Color": "0 0 1",
+        "Segment0_LabelValue": "4",
+        "Segment0_Layer": "0",
+        "Segment1_Name": "nine",
+        "Segment1_Color": "1 1 0",
+        "Segment1_LabelValue": "9",
+        "Segment1_Layer": "0",
+    }
+    path = tmp_path / "seg.seg.nrrd"
+    nrrd.write(str(path), volume, header)
+    zyx = _zyx(volume)
+    cells = {v: len(_reference_cells(zyx, v)) for v in (4, 9, 12)}
+    grid = isogrid.extract(path, labels="all")
+    assert _summary(grid) == [
+        (4, "four", "#0000ffff", cells[4]),
+        (9, "nine", "#ffff00ff", cells[9]),
+        (12, "label 12", grid.labels[2]["color"], cells[12]),
+    ]
+    assert grid.info["spacing"] == (0.5, 0.5, 0.5)
+    # An ITK-SNAP table renames 9 and 12, lists 30 (absent: a warning), and wins over the file.
+    table = tmp_path / "labels.txt"
+    table.write_text(
+        '# ITK-SnAP Label Description File\n'
+        '    9   255    0    0        1  1  1    "Nine"\n'
+        '   12     0  255    0      0.5  1  1    "Twelve"\n'
+        '   30     1    2    3        1  1  1    "Thirty"\n'
+    )
+    with pytest.warns(UserWarning, match=r"1 label of the table is not among the labels extracted \(30\)"):
+        named = isogrid.extract(path, labels="all", label_table=table)
+    assert [(l["name"], l["color"]) for l in named.labels] == [
+        ("four", "#0000ffff"),
+        ("Nine", "#ff0000ff"),
+        ("Twelve", "#00ff0080"),
+    ]
+    # The same table on the array: the table's names, the palette's for the rest.
+    with pytest.warns(UserWarning):
+        from_array = isogrid.extract(zyx, labels="all", label_table=table)
+    assert [l["name"] for l in from_array.labels] == ["label 4", "Nine", "Twelve"]
+
+
+def test_ome_zarr_label_image_from_ome_zarr(tmp_path):
+    pytest.importorskip("zarr")
+    writer = pytest.importorskip("ome_zarr.writer")
+    import zarr
+
+    a, b, c = _masks()
+    cells = np.zeros(a.shape, np.uint32)
+    cells[a], cells[c] = 1, 5
+    image = tmp_path / "image.zarr"
+    root = zarr.open_group(str(image), mode="w")
+    writer.write_image(_zyx(a.astype(np.uint8) * 100), root, axes="zyx")
+    metadata = {
+        "colors": [{"label-value": 1, "rgba": [255, 0, 0, 255]}, {"label-value": 5, "rgba": [0, 0, 255, 128]}],
+        "properties": [{"label-value": 5, "name": "cytoplasm"}],
+    }
+    writer.write_labels(_zyx(cells), root, name="cells", axes="zyx", label_metadata=metadata)
+    zyx = _zyx(cells)
+    expected = [
+        (1, "label 1", "#ff0000ff", len(_reference_cells(zyx, 1))),
+        (5, "cytoplasm", "#0000ff80", len(_reference_cells(zyx, 5))),
+    ]
+    assert _summary(isogrid.extract(image, labels="all", labels_of="cells")) == expected
+    assert _summary(isogrid.extract(image / "labels" / "cells", labels="all")) == expected
+    with pytest.raises(ValueError, match=r'no label image "nuclei"; the image has "cells"'):
+        isogrid.extract(image, labels="all", labels_of="nuclei")
+
+
+def test_bad_tables_and_arguments_are_refused(tmp_path):
+    a = _labels()
+    table = tmp_path / "lut.txt"
+    table.write_text("0 Unknown 0 0 0 0\n4 Box 70 130 180\n9 Other 1 2 3 4 5\n")
+    with pytest.raises(isogrid.IsogridError, match=r"lut.txt: label table line 3: 7 fields"):
+        isogrid.extract(a, labels="all", label_table=table)
+    with pytest.raises(ValueError, match="need it"):
+        isogrid.extract(a, iso=1, label_table=table)
+    with pytest.raises(ValueError, match="needs its path"):
+        isogrid.extract(a, labels="all", labels_of="cells")
+    with pytest.raises(ValueError, match="integer label values"):
+        isogrid.extract(a.astype(np.float32) + 0.5, labels="all")

@@ -1,5 +1,6 @@
 //! Volume file formats for isogrid: NIfTI-1, NRRD, NumPy `.npy`, raw, DICOM series, TIFF
-//! stacks, MetaImage and MRC/CCP4 maps, read into an [`isogrid::Volume`], and NRRD written back; triangle meshes ([`mesh`]) and
+//! stacks, MetaImage and MRC/CCP4 maps, read into an [`isogrid::Volume`], and NRRD written back;
+//! label volumes with the names and colours their files give, and colour tables ([`labels`]); triangle meshes ([`mesh`]) and
 //! their solid voxelisation into coverage volumes ([`voxelize`], paper §4).
 //!
 //! Every reader keeps the file's storage order (voxel (i, j, k), i fastest; no reorientation or
@@ -14,6 +15,7 @@
 pub mod dicom;
 pub mod image;
 pub mod label_meshes;
+pub mod labels;
 pub mod mesh;
 pub mod metaimage;
 pub mod mrc;

@@ -32,6 +32,10 @@ pub fn read_volume_noted(path: &Path, opts: &ReadOptions) -> Result<(Volume, Vec
     if path.is_dir() || (opts.raw.is_none() && is_dicom_file(path)) {
         return crate::dicom::read_dicom(path, opts);
     }
+    let name = path.to_string_lossy().to_ascii_lowercase();
+    if opts.raw.is_none() && (name.ends_with(".mha") || name.ends_with(".mhd")) {
+        return crate::metaimage::read_metaimage_noted(path);
+    }
     read_single(path, opts).map(|volume| (volume, Vec::new()))
 }
 

@@ -12,8 +12,8 @@ use crate::{input, progress};
 use anyhow::{Context, Result};
 use isogrid::extract::stream::{self, Progress, RegionSource, Stage};
 use isogrid::{
-    extract, extract_labels, AttributePrecision, CellGrid, ExtractOptions, GridStats, LabelOptions,
-    LabelSelection, Precision,
+    extract, AttributePrecision, CellGrid, ExtractOptions, GridStats, LabelOptions, LabelSelection,
+    Precision,
 };
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -55,6 +55,15 @@ pub struct Args {
     /// surface is taken, so surfaces are not chamfered; 0 for none [default: 0].
     #[arg(long, value_name = "SIGMA", requires = "labels")]
     pub smooth: Option<f64>,
+    /// With --labels: name and colour the labels from a colour table: FreeSurfer LUT
+    /// (`FreeSurferColorLUT.txt`), 3D Slicer `.ctbl` or ITK-SNAP label description, told apart
+    /// by content. It wins over names and colours the volume's file gives (a .seg.nrrd's
+    /// segments, an OME-Zarr label image's metadata).
+    #[arg(long, value_name = "FILE", requires = "labels")]
+    pub label_table: Option<PathBuf>,
+    /// With --labels and an OME-Zarr image: extract its label image NAME (`INPUT/labels/NAME`).
+    #[arg(long, value_name = "NAME", requires = "labels")]
+    pub labels_of: Option<String>,
     /// Write the grid to this .cgc file.
     #[arg(short, long, value_name = "OUT.cgc")]
     pub output: Option<PathBuf>,
@@ -76,6 +85,9 @@ pub fn run(args: Args) -> Result<()> {
     }
     if args.smooth.is_some() {
         anyhow::bail!("--smooth smooths label indicators, and needs --labels");
+    }
+    if args.label_table.is_some() || args.labels_of.is_some() {
+        anyhow::bail!("--label-table and --labels-of name the labels of --labels, and need it");
     }
     let output = args.output.as_deref().map(|path| Output {
         role: "the grid",
@@ -158,10 +170,18 @@ fn run_labels(args: Args) -> Result<()> {
         path,
         extensions: &[".cgc"],
     });
-    outputs::check(&[args.input.as_path()], output.as_slice())?;
+    let mut inputs = vec![args.input.as_path()];
+    inputs.extend(args.label_table.as_deref());
+    outputs::check(&inputs, output.as_slice())?;
     let read_options = args.input_args.read_options()?;
     let pool = args.threads.pool()?;
-    let (volume, read) = input::read_volume(&args.input, &read_options)?;
+    // The table first: a malformed one fails before the volume is read.
+    let table = match &args.label_table {
+        Some(path) => Some(isogrid_io::labels::read_label_table(path)?),
+        None => None,
+    };
+    let (source, read) =
+        input::read_label_volume(&args.input, args.labels_of.as_deref(), &read_options)?;
     let options = LabelOptions {
         selection: selection.clone(),
         smooth: args.smooth.unwrap_or(DEFAULT_SMOOTH),
@@ -169,11 +189,18 @@ fn run_labels(args: Args) -> Result<()> {
     };
     let spinner = progress::spinner("extracting labels".into());
     let start = Instant::now();
-    let grid = pool
-        .install(|| extract_labels(&volume.view(), &options))
+    let mut grid = pool
+        .install(|| isogrid_io::labels::extract_label_volume(&source, &options))
         .with_context(|| format!("{}: label extraction failed", args.input.display()))?;
     let extract_seconds = start.elapsed().as_secs_f64();
     spinner.finish_and_clear();
+    if let (Some(table), Some(path)) = (&table, &args.label_table) {
+        let absent = isogrid_io::labels::apply_label_names(&mut grid, table);
+        let signed = isogrid::labels::signed_labels(grid.info().scalar_type);
+        if let Some(notice) = isogrid_io::labels::absent_labels_notice(path, &absent, signed) {
+            eprintln!("isogrid: note: {notice}");
+        }
+    }
     let labels = grid.labels().expect("a label grid has labels");
     if let LabelSelection::Values(ranges) = &selection {
         // A single value asked for and absent is worth a line; ranges may have gaps.

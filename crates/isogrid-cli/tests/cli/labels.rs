@@ -170,3 +170,149 @@ fn bad_label_requests_fail_in_one_line_and_write_nothing() {
     let stderr = String::from_utf8_lossy(&report.stderr);
     assert!(stderr.contains("no label 6"), "{stderr}");
 }
+
+/// A label fixture of isogrid-io (scripts/make_label_fixtures.py).
+fn label_fixture(name: &str) -> std::path::PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../isogrid-io/tests/fixtures/labels")
+        .join(name)
+}
+
+/// (value, name, colour) of every label `info --json` lists.
+fn listed(cgc: &Path) -> Vec<(u64, String, String)> {
+    ok_json(&["info", s(cgc), "--json"])["labels"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|l| {
+            (
+                l["value"].as_u64().unwrap(),
+                l["name"].as_str().unwrap().to_string(),
+                l["color"].as_str().unwrap().to_string(),
+            )
+        })
+        .collect()
+}
+
+#[test]
+fn names_and_colours_come_from_the_file_and_the_table() {
+    let dir = temp_dir("labels-names");
+    // slicerio's layered segmentation: the tumour overlaps the liver, in a layer of its own.
+    let out = dir.join("seg.cgc");
+    ok_json(&[
+        "extract",
+        s(&label_fixture("two_layers.seg.nrrd")),
+        "--labels",
+        "all",
+        "-o",
+        s(&out),
+        "--json",
+    ]);
+    let strings = |l: &[(u64, &str, &str)]| -> Vec<(u64, String, String)> {
+        l.iter()
+            .map(|&(v, n, c)| (v, n.to_string(), c.to_string()))
+            .collect()
+    };
+    assert_eq!(
+        listed(&out),
+        strings(&[
+            (1, "liver", "#336699ff"),
+            (2, "portal vein", "#ff0033ff"),
+            (3, "lesion 3", "#cccc00ff"),
+            (4, "tumour", "#0099ffff"),
+        ])
+    );
+    // The OME-Zarr image's label image, by name; a table wins over the file's names.
+    let table = dir.join("lut.txt");
+    std::fs::write(
+        &table,
+        "#No. Label Name: R G B A\n2 Cytosol 10 20 30 0\n8 Absent 1 1 1 0\n",
+    )
+    .unwrap();
+    let out = dir.join("cells.cgc");
+    let run = isogrid(&[
+        "extract",
+        s(&label_fixture("ome_v05.zarr")),
+        "--labels",
+        "all",
+        "--labels-of",
+        "cells",
+        "--label-table",
+        s(&table),
+        "-o",
+        s(&out),
+    ]);
+    assert!(run.status.success());
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(
+        stderr.contains("lut.txt: 1 label of the table is not among the labels extracted (8)"),
+        "{stderr}"
+    );
+    assert_eq!(
+        listed(&out),
+        strings(&[
+            (1, "nucleus", "#ff0000ff"),
+            (2, "Cytosol", "#0a141eff"),
+            (7, "label 7", "#0a141eff"),
+        ])
+    );
+    let text = String::from_utf8_lossy(&isogrid(&["info", s(&out)]).stdout).to_string();
+    assert!(
+        text.contains("nucleus") && text.contains("Cytosol"),
+        "{text}"
+    );
+}
+
+#[test]
+fn bad_tables_and_label_image_names_fail_in_one_line() {
+    let dir = temp_dir("labels-bad-tables");
+    let out = dir.join("out.cgc");
+    let seg = label_fixture("one_layer.seg.nrrd");
+    let table = dir.join("bad.ctbl");
+    std::fs::write(
+        &table,
+        "# Slicer\n1 tissue 128 174 128 255\n2 bone 241 214\n",
+    )
+    .unwrap();
+    let stderr = fails(
+        &[
+            "extract",
+            s(&seg),
+            "--labels",
+            "all",
+            "--label-table",
+            s(&table),
+            "-o",
+            s(&out),
+        ],
+        "label table line 3: 4 fields",
+    );
+    assert!(stderr.contains("bad.ctbl"), "{stderr}");
+    fails(
+        &[
+            "extract",
+            s(&label_fixture("ome_v04.zarr")),
+            "--labels",
+            "all",
+            "--labels-of",
+            "nuclei",
+            "-o",
+            s(&out),
+        ],
+        "no label image \"nuclei\"; the image has \"cells\"",
+    );
+    fails(
+        &[
+            "extract",
+            s(&seg),
+            "--iso",
+            "1",
+            "--label-table",
+            s(&table),
+            "-o",
+            s(&out),
+        ],
+        "--labels",
+    );
+    assert!(!out.exists());
+}

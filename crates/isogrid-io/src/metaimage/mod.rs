@@ -12,7 +12,8 @@
 //! - Data: `ElementDataFile = LOCAL` (after the header), one file (relative to the header's
 //!   folder), `LIST [ND]` (file names follow the header, one per line) or a printf pattern
 //!   `name%03d.raw first last step` (one file per slice). Raw, zlib (`CompressedData = True`,
-//!   each file its own stream, `CompressedDataSize` bounding a single one) or whitespace-separated
+//!   each file its own stream, read to its end marker whatever `CompressedDataSize` says; see
+//!   `read_part`) or whitespace-separated
 //!   decimal text (`BinaryData = False`). `HeaderSize = N` starts the data at byte N of its file
 //!   and `-1` takes its last bytes, as MetaIO does. `BinaryDataByteOrderMSB` /
 //!   `ElementByteOrderMSB` pick big-endian.
@@ -20,7 +21,10 @@
 //!   (`Origin`, `Position`) and axis directions from `TransformMatrix` (`Rotation`,
 //!   `Orientation`), whose row `a` is axis `a`'s world direction, as ITK's MetaImageIO reads it.
 //! - Checks: every declared size is checked against the file before anything is allocated; a
-//!   zlib stream must inflate to exactly the declared sample bytes.
+//!   zlib stream must inflate to exactly the declared sample bytes and end there, its checksum
+//!   checked. A `CompressedDataSize` that disagrees with the stream gives a notice, not an error
+//!   (PyVista's `frogtissue.mhd` declares 260020 bytes for a 262087-byte stream; MetaIO reads
+//!   the declared bytes only and fills the samples it could not inflate with zeros).
 
 mod header;
 
@@ -43,6 +47,13 @@ const MAX_HEADER_BYTES: u64 = 1 << 20;
 /// Reads a `.mha` or `.mhd` file and its data. Errors name the file at fault: the header, or the
 /// data file that is missing or short.
 pub fn read_metaimage(path: &Path) -> Result<Volume> {
+    read_metaimage_noted(path).map(|(volume, _)| volume)
+}
+
+/// [`read_metaimage`], also returning notices for the user: a `CompressedDataSize` that differs
+/// from the zlib stream it describes (the data, complete and checked, is read all the same).
+pub fn read_metaimage_noted(path: &Path) -> Result<(Volume, Vec<String>)> {
+    let mut notices = Vec::new();
     let mut reader = BufReader::new(open_regular(path)?);
     let mut budget = MAX_HEADER_BYTES;
     let (lines, data_offset) = read_header_lines(&mut reader, &mut budget).at_path(path)?;
@@ -52,12 +63,29 @@ pub fn read_metaimage(path: &Path) -> Result<Volume> {
     let data = match &header.data {
         DataFile::Local => {
             let file = reader.into_inner();
-            read_part(file, data_offset, &header, count, header.compressed_size).at_path(path)?
+            read_part(
+                file,
+                data_offset,
+                &header,
+                count,
+                header.compressed_size,
+                &mut notices,
+            )
+            .at_path(path)?
         }
         DataFile::Single(name) => {
             let data_path = resolve(base, name);
             let file = open_regular(&data_path)?;
-            read_part(file, 0, &header, count, header.compressed_size).at_path(&data_path)?
+            read_part(
+                file,
+                0,
+                &header,
+                count,
+                header.compressed_size,
+                &mut notices,
+            )
+            .at_path(&data_path)
+            .map_err(|e| e.with_path(path))?
         }
         DataFile::List { piece_dims } => {
             let files = files_for_pieces(&header, *piece_dims);
@@ -76,7 +104,12 @@ pub fn read_metaimage(path: &Path) -> Result<Volume> {
         }
     };
     let g = geometry(header.dims, header.spacing, header.origin, header.direction).at_path(path)?;
-    Volume::with_geometry(g, data).at_path(path)
+    let volume = Volume::with_geometry(g, data).at_path(path)?;
+    let notices = notices
+        .into_iter()
+        .map(|n| format!("{}: {n}", path.display()))
+        .collect();
+    Ok((volume, notices))
 }
 
 /// The data files a MetaImage header at `path` names (none for `LOCAL` data), resolved against
@@ -235,7 +268,7 @@ fn read_pieces(base: &Path, names: &[String], h: &Header, count: usize) -> Resul
     for name in names {
         let data_path = resolve(base, name);
         let file = open_regular(&data_path)?;
-        let piece = read_part(file, 0, h, part, None).at_path(&data_path)?;
+        let piece = read_part(file, 0, h, part, None, &mut Vec::new()).at_path(&data_path)?;
         data = Some(match data {
             None => piece,
             // Every piece is decoded with the same element type, so the variants always match.
@@ -247,12 +280,19 @@ fn read_pieces(base: &Path, names: &[String], h: &Header, count: usize) -> Resul
 
 /// Reads `count` samples from `file`, whose data starts at `after_header` unless `HeaderSize`
 /// says otherwise, in the header's encoding.
+///
+/// A zlib stream is read to its end marker from everything that follows, whatever
+/// `CompressedDataSize` says: the stream must end cleanly (its Adler-32 checked) right after the
+/// declared sample bytes. MetaIO (ITK, SimpleITK, VTK) reads only `CompressedDataSize` bytes and,
+/// when the field is too small, returns the samples past the inflated part as zeros without an
+/// error; a field that disagrees with the stream gives a notice here instead.
 fn read_part(
     file: File,
     after_header: u64,
     h: &Header,
     count: usize,
     compressed_size: Option<u64>,
+    notices: &mut Vec<String>,
 ) -> Result<VolumeData> {
     let file_len = file.metadata()?.len();
     let needed = byte_count(count, h.elem)?;
@@ -274,17 +314,89 @@ fn read_part(
         check_available(needed, available)?;
         return read_samples(&mut reader, h.elem, h.big_endian, count);
     }
-    let size = compressed_size.unwrap_or(available);
-    if size > available {
-        return Err(Error::corrupt(format!(
-            "CompressedDataSize is {size} bytes but only {available} follow the header"
-        )));
-    }
-    check_deflate_budget(needed, size)?;
-    let mut stream = flate2::read::ZlibDecoder::new(reader.take(size));
+    check_deflate_budget(needed, available)?;
+    let mut stream = ZlibStream::new(reader.take(available));
     let data = read_samples(&mut stream, h.elem, h.big_endian, count).map_err(zlib_error)?;
     expect_end(&mut stream).map_err(zlib_error)?;
+    if !stream.ended {
+        return Err(Error::corrupt(
+            "the zlib stream stops before its end marker: the file is truncated",
+        ));
+    }
+    let used = stream.z.total_in();
+    match compressed_size {
+        Some(declared) if declared != used && declared != 0 => notices.push(format!(
+            "CompressedDataSize says {declared} bytes but the zlib stream takes {used} \
+             (read to its end and checked: the field is wrong, the data complete)"
+        )),
+        _ => {}
+    }
     Ok(data)
+}
+
+/// A zlib stream as a reader that knows whether the stream reached its end marker (with its
+/// Adler-32 checked): `flate2`'s readers end the same way on a stream cut short.
+struct ZlibStream<R> {
+    inner: R,
+    buf: Box<[u8]>,
+    pos: usize,
+    len: usize,
+    z: flate2::Decompress,
+    ended: bool,
+}
+
+impl<R: Read> ZlibStream<R> {
+    fn new(inner: R) -> Self {
+        ZlibStream {
+            inner,
+            buf: vec![0; 64 << 10].into_boxed_slice(),
+            pos: 0,
+            len: 0,
+            z: flate2::Decompress::new(true),
+            ended: false,
+        }
+    }
+}
+
+impl<R: Read> Read for ZlibStream<R> {
+    fn read(&mut self, out: &mut [u8]) -> std::io::Result<usize> {
+        if self.ended || out.is_empty() {
+            return Ok(0);
+        }
+        loop {
+            if self.pos == self.len {
+                self.len = self.inner.read(&mut self.buf)?;
+                self.pos = 0;
+            }
+            let eof = self.len == 0;
+            let (before_in, before_out) = (self.z.total_in(), self.z.total_out());
+            let status = self
+                .z
+                .decompress(
+                    &self.buf[self.pos..self.len],
+                    out,
+                    flate2::FlushDecompress::None,
+                )
+                .map_err(|e| std::io::Error::new(std::io::ErrorKind::InvalidData, e))?;
+            let consumed = (self.z.total_in() - before_in) as usize;
+            let written = (self.z.total_out() - before_out) as usize;
+            self.pos += consumed;
+            if status == flate2::Status::StreamEnd {
+                self.ended = true;
+                return Ok(written);
+            }
+            if written > 0 || eof {
+                // At the end of the input without the end marker: 0, and `ended` stays false.
+                return Ok(written);
+            }
+            if consumed == 0 && self.pos < self.len {
+                return Err(std::io::Error::new(
+                    std::io::ErrorKind::InvalidData,
+                    "the zlib stream makes no progress",
+                ));
+            }
+        }
+    }
 }
 
 /// A decompressor's OS-level error means the zlib stream is damaged.

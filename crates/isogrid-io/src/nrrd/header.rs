@@ -40,6 +40,12 @@ pub(crate) struct Header {
     /// -1 means "the data is the last bytes of the file" (raw encoding only).
     pub byte_skip: i64,
     pub data: DataFiles,
+    /// Entries of a leading non-spatial axis (a 4-D file whose first axis has no space
+    /// direction, as a layered 3D Slicer segmentation); 1 for a 3-D file. Samples interleave
+    /// them: entry fastest.
+    pub layers: usize,
+    /// The `key:=value` pairs, in file order (3D Slicer keeps segment names and colours there).
+    pub key_values: Vec<(String, String)>,
 }
 
 /// Fields that are legal but carry nothing for a scalar grid.
@@ -80,6 +86,7 @@ pub(crate) fn parse(lines: &[String]) -> Result<Header> {
     let mut byte_skip = 0i64;
     let mut data = DataFiles::Attached;
     let mut space_dim = None;
+    let mut key_values = Vec::new();
 
     let mut index = 0;
     while index < lines.len() {
@@ -94,8 +101,10 @@ pub(crate) fn parse(lines: &[String]) -> Result<Header> {
                 clip(line)
             )));
         };
-        if line[colon + 1..].starts_with('=') {
-            continue; // key:=value pairs are free-form metadata
+        if let Some(value) = line[colon + 1..].strip_prefix('=') {
+            // key:=value pairs are free-form metadata, kept for the label reader.
+            key_values.push((line[..colon].to_string(), value.to_string()));
+            continue;
         }
         let name = line[..colon].trim().to_ascii_lowercase().replace(' ', "");
         let value = line[colon + 1..].trim();
@@ -146,17 +155,36 @@ pub(crate) fn parse(lines: &[String]) -> Result<Header> {
         dimension.ok_or_else(|| Error::corrupt("NRRD header has no 'dimension' field"))?;
     let sizes = sizes.ok_or_else(|| Error::corrupt("NRRD header has no 'sizes' field"))?;
     let encoding = encoding.ok_or_else(|| Error::corrupt("NRRD header has no 'encoding' field"))?;
-    if !(1..=3).contains(&dimension) {
-        return Err(Error::unsupported(format!(
-            "NRRD dimension {dimension} is not supported (a scalar volume has 1 to 3 axes)"
-        )));
-    }
     if sizes.len() != dimension {
         return Err(Error::corrupt(format!(
             "'sizes' has {} entries but dimension is {dimension}",
             sizes.len()
         )));
     }
+    // A 4th axis is read only as a leading list of volumes: the first axis, without a space
+    // direction (`none`), as 3D Slicer writes a segmentation's layers.
+    let layered = dimension == 4
+        && directions
+            .as_ref()
+            .is_some_and(|d| d.len() == 4 && d[0].is_none());
+    if !(1..=3).contains(&dimension) && !layered {
+        return Err(Error::unsupported(format!(
+            "NRRD dimension {dimension} is not supported (a scalar volume has 1 to 3 axes; 4 only \
+             with a first, non-spatial axis of layers)"
+        )));
+    }
+    let (layers, sizes, spacings, directions) = if layered {
+        let skip = |v: Option<Vec<f64>>| v.map(|v| v.get(1..).unwrap_or_default().to_vec());
+        (
+            sizes[0],
+            sizes[1..].to_vec(),
+            skip(spacings),
+            directions.map(|d| d[1..].to_vec()),
+        )
+    } else {
+        (1, sizes, spacings, directions)
+    };
+    let dimension = sizes.len();
     let big_endian = match endian {
         Some(e) => e,
         None if elem.size() == 1 || encoding == Encoding::Ascii => false,
@@ -218,6 +246,8 @@ pub(crate) fn parse(lines: &[String]) -> Result<Header> {
         line_skip,
         byte_skip,
         data,
+        layers,
+        key_values,
     })
 }
 

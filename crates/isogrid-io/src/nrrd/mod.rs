@@ -9,5 +9,6 @@ mod write;
 pub(crate) use header::clip;
 pub(crate) use read::data_files;
 pub use read::read_nrrd;
+pub(crate) use read::read_nrrd_layers;
 pub(crate) use read::region_layout;
 pub use write::write_nrrd;

@@ -11,7 +11,9 @@
 //! spacing for that axis, as the spec says, and becomes 1; 0 or a zero-length direction vector is
 //! an error; a negative spacing flips the axis, see `geometry.rs`); origin from
 //! `space origin`; directions (unit `space directions`) kept as metadata. Grid order is the file's
-//! (first axis fastest).
+//! (first axis fastest). A 4-D file whose first axis has no space direction (a layered 3D Slicer
+//! segmentation) holds one volume per entry of that axis: read as labels
+//! ([`crate::labels`]), refused as one volume.
 
 use super::header::{self, clip, DataFiles, Encoding, Header};
 use crate::data_file::resolve;
@@ -30,11 +32,30 @@ const MAX_HEADER_BYTES: u64 = 1 << 20;
 
 /// Reads an attached `.nrrd` or a detached `.nhdr` (+ data files). Errors name the file at fault.
 pub fn read_nrrd(path: &Path) -> Result<Volume> {
+    let (mut layers, _) = read_nrrd_layers(path, false)?;
+    Ok(layers.remove(0))
+}
+
+/// A NRRD file's `key:=value` pairs, in file order.
+pub(crate) type KeyValues = Vec<(String, String)>;
+
+/// A NRRD file's volumes along a leading non-spatial axis (one for a 3-D file; the layers of a
+/// layered 3D Slicer segmentation), and its `key:=value` pairs. Without `layered`, a file with
+/// more than one is refused.
+pub(crate) fn read_nrrd_layers(path: &Path, layered: bool) -> Result<(Vec<Volume>, KeyValues)> {
     let file = isogrid::fs::open_regular(path)?;
     let mut reader = BufReader::new(file);
     let (lines, data_offset) = read_header_lines(&mut reader).at_path(path)?;
     let header = header::parse(&lines).at_path(path)?;
-    let count = sample_count(header.dims).at_path(path)?;
+    if header.layers > 1 && !layered {
+        return Err(layers_refused(header.layers).with_path(path));
+    }
+    let count = sample_count(header.dims)
+        .and_then(|c| {
+            c.checked_mul(header.layers)
+                .ok_or_else(|| Error::too_large("the layers hold more samples than fit in memory"))
+        })
+        .at_path(path)?;
     // Before the data: a bad spacing fails without reading gigabytes.
     let g = geometry(header.dims, header.spacing, header.origin, header.direction).at_path(path)?;
     let data = match &header.data {
@@ -69,7 +90,49 @@ pub fn read_nrrd(path: &Path) -> Result<Volume> {
             data.ok_or_else(|| Error::corrupt("no data files").with_path(path))?
         }
     };
-    Volume::with_geometry(g, data).at_path(path)
+    let volumes = if header.layers == 1 {
+        vec![Volume::with_geometry(g, data).at_path(path)?]
+    } else {
+        let parts = split_layers(&data, header.layers);
+        drop(data);
+        parts
+            .into_iter()
+            .map(|d| Volume::with_geometry(g, d).at_path(path))
+            .collect::<Result<_>>()?
+    };
+    Ok((volumes, header.key_values))
+}
+
+/// The refusal of a layered file where one volume is read.
+fn layers_refused(layers: usize) -> Error {
+    Error::unsupported(format!(
+        "the NRRD file holds {layers} volumes along its first axis (a layered segmentation): \
+         it is read as labels (`--labels`), one volume at a time is not read"
+    ))
+}
+
+/// The volumes of interleaved samples, entry `l` of every `layers` consecutive samples being
+/// volume `l`'s; one pass over the samples.
+fn split_layers(data: &VolumeData, layers: usize) -> Vec<VolumeData> {
+    fn split<T: Copy>(v: &[T], layers: usize) -> Vec<Vec<T>> {
+        let mut out: Vec<Vec<T>> = (0..layers)
+            .map(|_| Vec::with_capacity(v.len() / layers))
+            .collect();
+        for entries in v.chunks_exact(layers) {
+            for (o, &e) in out.iter_mut().zip(entries) {
+                o.push(e);
+            }
+        }
+        out
+    }
+    macro_rules! each {
+        ($($t:ident),*) => {
+            match data {
+                $(VolumeData::$t(v) => split(v, layers).into_iter().map(VolumeData::$t).collect(),)*
+            }
+        };
+    }
+    each!(U8, U16, I16, F32, U32, I32, U64, I64, F64)
 }
 
 /// The data files a detached NRRD header at `path` names (none for attached data), resolved
@@ -93,6 +156,9 @@ pub(crate) fn region_layout(path: &Path) -> Result<Option<crate::mapped_layout::
     let mut reader = BufReader::new(file);
     let (lines, data_offset) = read_header_lines(&mut reader).at_path(path)?;
     let header = header::parse(&lines).at_path(path)?;
+    if header.layers > 1 {
+        return Err(layers_refused(header.layers).with_path(path));
+    }
     if !matches!(header.encoding, Encoding::Raw) || header.line_skip != 0 {
         return Ok(None);
     }

@@ -7,6 +7,7 @@ mod bad_input;
 mod common;
 mod dicom;
 mod fuzz_regressions;
+mod labels;
 mod metaimage;
 mod mrc;
 mod readers;

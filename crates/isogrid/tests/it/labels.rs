@@ -626,6 +626,115 @@ fn sixty_four_bit_labels_keep_their_values_and_cells() {
     }
 }
 
+/// A second layer over the same grid: a ball (1) and a slab (2) that cut across the first
+/// layer's labels, as a segmentation's overlapping segments do.
+fn second_layer() -> Vec<u16> {
+    let [nx, ny, nz] = DIMS;
+    (0..nx * ny * nz)
+        .map(|i| {
+            let (x, y, z) = (i % nx, i / nx % ny, i / (nx * ny));
+            let d = [x as f64 - 22.0, y as f64 - 12.0, z as f64 - 15.0];
+            if d.iter().map(|c| c * c).sum::<f64>() < 49.0 {
+                1
+            } else if (10..14).contains(&z) {
+                2
+            } else {
+                0
+            }
+        })
+        .collect()
+}
+
+#[test]
+fn merged_layers_keep_each_layers_cells_and_labels() {
+    for smooth in [0.0, 1.0] {
+        let mut options = LabelOptions::new(LabelSelection::All);
+        options.smooth = smooth;
+        let first =
+            extract_labels(&volume_of(VolumeData::U16(label_volume())).view(), &options).unwrap();
+        let second =
+            extract_labels(&volume_of(VolumeData::U16(second_layer())).view(), &options).unwrap();
+        // The second layer's labels follow the first's largest value, 65535.
+        let renamed = |grid: &CellGrid, offset: u64| -> Vec<isogrid::Label> {
+            grid.labels()
+                .unwrap()
+                .table()
+                .iter()
+                .map(|l| isogrid::Label {
+                    value: l.value + offset,
+                    name: format!("{} of {offset}", l.name),
+                    rgba: l.rgba,
+                })
+                .collect()
+        };
+        let parts = [
+            (&first, renamed(&first, 0)),
+            (&second, renamed(&second, 65535)),
+        ];
+        let merged = isogrid::merge_label_grids(&parts).unwrap();
+        let table = merged.labels().unwrap().table();
+        let count = |g: &CellGrid| g.labels().unwrap().table().len();
+        assert_eq!(table.len(), count(&first) + 2, "smooth {smooth}");
+        assert_eq!(count(&first), distinct_labels(&label_volume()).len());
+        assert_eq!(
+            merged.active_cells(),
+            first.active_cells() + second.active_cells()
+        );
+        for (grid, offset) in [(&first, 0), (&second, 65535)] {
+            for (l, e) in grid
+                .labels()
+                .unwrap()
+                .table()
+                .iter()
+                .zip(grid.labels().unwrap().index())
+            {
+                let cells = label_cells(&merged, l.value + offset);
+                assert_eq!(
+                    cells,
+                    label_cells(grid, l.value),
+                    "label {} + {offset}",
+                    l.value
+                );
+                let m = merged.labels().unwrap();
+                let entry = &m.index()[m.find(l.value + offset).unwrap()];
+                assert_eq!(
+                    (entry.cell_count, entry.lo, entry.hi),
+                    (e.cell_count, e.lo, e.hi)
+                );
+                assert_eq!(
+                    m.table()[m.find(l.value + offset).unwrap()].name,
+                    format!("{} of {offset}", l.name)
+                );
+            }
+        }
+        // Written and read back: the reader's checks of the label sections pass.
+        let bytes = cgc::to_bytes(&merged);
+        let back = cgc::read_bytes(&bytes).unwrap();
+        assert_eq!(back.labels(), merged.labels());
+        // Values that do not increase across the grids, a table of the wrong length, and grids
+        // of different volumes are refused.
+        let err = isogrid::merge_label_grids(&[
+            (&first, renamed(&first, 0)),
+            (&second, renamed(&second, 3)),
+        ])
+        .unwrap_err();
+        assert_eq!(err.kind(), ErrorKind::InvalidInput, "{err}");
+        let err = isogrid::merge_label_grids(&[(&first, renamed(&second, 0))]).unwrap_err();
+        assert_eq!(err.kind(), ErrorKind::InvalidInput, "{err}");
+    }
+    let small = Volume::new([5, 5, 5], VolumeData::U16(vec![1; 125])).unwrap();
+    let other = extract_labels(&small.view(), &LabelOptions::new(LabelSelection::All)).unwrap();
+    let first = extract_labels(
+        &volume_of(VolumeData::U16(label_volume())).view(),
+        &LabelOptions::new(LabelSelection::All),
+    )
+    .unwrap();
+    let table = |g: &CellGrid| g.labels().unwrap().table().to_vec();
+    let err = isogrid::merge_label_grids(&[(&first, table(&first)), (&other, table(&other))])
+        .unwrap_err();
+    assert!(err.to_string().contains("header"), "{err}");
+}
+
 /// A mesh as the set of its triangles by vertex position, each rotated to start at its smallest
 /// vertex (winding kept), positions as bits: equal sets are the same surface with the same
 /// orientation, whatever the vertex numbering.
