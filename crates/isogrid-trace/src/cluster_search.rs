@@ -66,6 +66,27 @@ pub(crate) struct ClusterSearch<'g> {
     margin: f64,
     cluster_boxes: AllClusterBoxes,
     lanes: Chosen,
+    /// A label grid: a cell may be stored once per label, and touching labels' surfaces coincide
+    /// there, so equal crossings are settled by [`wins_tie`].
+    ties: bool,
+}
+
+/// Crossings closer than this fraction of their cell's segment are one crossing, of two labels'
+/// coinciding surfaces (their indicators are complementary on a shared boundary, so their roots
+/// differ only by rounding, about 10⁻¹⁵).
+const TIE: f64 = 1e-6;
+
+/// Which of two coinciding crossings (`t` within [`TIE`]) a ray sees: the surface it enters
+/// (∇f along the ray: its front face) over the one it leaves; else the one found first. So a
+/// shared boundary shows one label, without speckle, and the label beyond it once the label
+/// before it is hidden. The GPU tracer settles ties the same way (`wins_tie` in trace.wgsl).
+#[inline(never)]
+fn wins_tie(found: (&Trilinear, [f64; 3]), best: (&Trilinear, [f64; 3]), delta: [f64; 3]) -> bool {
+    let enters = |(tri, u): (&Trilinear, [f64; 3])| {
+        let g = tri.gradient(u);
+        g[0] * delta[0] + g[1] * delta[1] + g[2] * delta[2] > 0.0
+    };
+    enters(found) && !enters(best)
 }
 
 /// Margin (cells) by which the f32 metacell test grows each box so that rounding never culls a
@@ -164,6 +185,7 @@ impl<'g> ClusterSearch<'g> {
             margin: metacell_margin(info.cell_dims().map(|c| c as f64)),
             cluster_boxes: AllClusterBoxes::new(clusters),
             lanes: Chosen::detect(),
+            ties: grid.labels().is_some(),
         }
     }
 
@@ -295,8 +317,11 @@ impl<'g> ClusterSearch<'g> {
         let mask = m.cell_mask & 0xff;
         let lo = xyz(|a| 2.0 * m.position[a] as f64);
         for (t0, t1, bit) in r.metacell_cells(lo, mask, tmin, best.t) {
-            // Cells come nearest first, so the first crossing is this metacell's closest.
-            let t1 = min(t1, best.t);
+            // Cells come nearest first, so the first crossing is this metacell's closest. In a
+            // label grid the window reaches past `best.t` by the tie tolerance, so that another
+            // label's crossing at the same point is found and the tie settled.
+            let tie = if self.ties { TIE * (t1 - t0) } else { 0.0 };
+            let t1 = min(t1, best.t + tie);
             if !(t0 < t1) {
                 break;
             }
@@ -311,10 +336,17 @@ impl<'g> ClusterSearch<'g> {
             let cubic = tri.along(start_local, delta, self.iso_code);
             if let Some(s) = cubic.first_crossing(self.crossing) {
                 let t = t0 + s * (t1 - t0);
-                if t < best.t || best.found.is_none() {
-                    let u = xyz(|a| (start_local[a] + s * delta[a]).clamp(0.0, 1.0));
+                let u = || xyz(|a| (start_local[a] + s * delta[a]).clamp(0.0, 1.0));
+                let wins = match &best.found {
+                    None => true,
+                    Some(b) if self.ties && (t - best.t).abs() <= tie => {
+                        wins_tie((&tri, u()), (&b.4, b.5), delta)
+                    }
+                    Some(_) => t < best.t,
+                };
+                if wins {
                     best.t = t;
-                    best.found = Some((t, index, pos, found_in, tri, u));
+                    best.found = Some((t, index, pos, found_in, tri, u()));
                 }
                 break;
             }

@@ -232,23 +232,107 @@ fn label_grids_are_drawn_in_their_label_colours_like_the_cpu() {
         eprintln!("label {gl}: GPU {gm:.1?} CPU {cm:.1?} cos {cos:.5}");
         assert!(cos > 0.998, "label {gl}: GPU {gm:?} CPU {cm:?}");
     }
-    // The GPU tracer's block walk cannot trace label grids yet: refused, not traced wrong.
-    for primary in [PrimaryRays::Raster, PrimaryRays::Traced] {
-        let options = PathTraceOptions {
-            primary,
+    // Path tracing: linear means within 0.03, with raster and traced primaries.
+    let cpu_pt = isogrid_trace::render(
+        &grid,
+        &camera,
+        &RenderOptions {
+            shading: Shading::PathTrace(isogrid_trace::PathTraceOptions {
+                samples_per_pixel: 32,
+                bounces: 2,
+                environment: Environment::Sky,
+                seed: 3,
+                ..Default::default()
+            }),
             ..Default::default()
-        };
-        let err = r.path_trace(&gpu_grid, &camera, &options).unwrap_err();
-        assert!(err.to_string().contains("label grids"), "{err}");
+        },
+    )
+    .unwrap();
+    let c = label_means(
+        &grid,
+        (w, h),
+        |i| cpu_pt.cluster[i],
+        |i| cpu_pt.radiance[i].map(|v| v as f64),
+    );
+    for primary in [PrimaryRays::Raster, PrimaryRays::Traced] {
+        let gpu = r
+            .path_trace(
+                &gpu_grid,
+                &camera,
+                &PathTraceOptions {
+                    frames: 32,
+                    bounces: 2,
+                    primary,
+                    ..Default::default()
+                },
+            )
+            .unwrap();
+        let g = label_means(
+            &grid,
+            (w, h),
+            |i| gpu.cluster[i],
+            |i| gpu.linear[i].map(|v| v as f64),
+        );
+        assert_eq!(g.len(), c.len(), "{primary:?}: labels seen");
+        for ((gl, gm), (cl, cm)) in g.iter().zip(&c) {
+            assert_eq!(gl, cl);
+            eprintln!("{primary:?} label {gl}: GPU {gm:.3?} CPU {cm:.3?}");
+            assert!(
+                (0..3).all(|k| (gm[k] - cm[k]).abs() <= 0.03),
+                "{primary:?} label {gl}: GPU {gm:?} CPU {cm:?}"
+            );
+        }
     }
-    let err = r
-        .trace_rays(
-            &gpu_grid,
-            &[isogrid::Ray {
-                origin: [0.0; 3],
-                direction: [1.0, 0.0, 0.0],
-            }],
-        )
-        .unwrap_err();
-    assert!(err.to_string().contains("label grids"), "{err}");
+}
+
+/// The GPU tracer's walk tests every label's metacell at a position (a label grid repeats
+/// positions across its labels' runs): its hits are the CPU tracer's, with the same label, on
+/// rays from outside the ball and from inside its labels (which meet the boundaries between
+/// touching labels from both sides).
+#[test]
+fn label_grid_rays_hit_like_the_cpu_tracer_with_the_same_label() {
+    let Some(r) = renderer() else { return };
+    let grid = labelled_ball();
+    let cluster_labels = grid.labels().unwrap().cluster_labels();
+    let cpu = isogrid_trace::Tracer::new(&grid, isogrid_trace::Crossing::Samples3);
+    let gpu_grid = r.upload_grid(&grid).unwrap();
+    let hi = grid.info().world_bounds().1;
+    let outside = crate::pathtrace::random_rays(hi, 3000, 5);
+    let mut rng = crate::pathtrace::Rng(17);
+    // Origins in the middle of the ball (radius 15 about 19.5), where the three labels touch.
+    let inside: Vec<isogrid::Ray> = (0..3000)
+        .map(|_| isogrid::Ray {
+            origin: std::array::from_fn(|_| 19.5 + 16.0 * (rng.next() - 0.5)),
+            direction: rng.direction(),
+        })
+        .collect();
+    for (what, rays) in [("from outside", outside), ("from inside", inside)] {
+        let gpu = r.trace_rays(&gpu_grid, &rays).unwrap();
+        let (mut agree, mut both, mut close, mut same_label) = (0, 0, 0, 0);
+        for (ray, got) in rays.iter().zip(&gpu) {
+            let want = cpu.closest_hit(ray, 0.0, f64::INFINITY);
+            agree += (want.is_some() == got.is_some()) as usize;
+            if let (Some(want), Some(got)) = (want, got) {
+                both += 1;
+                close += ((got.t as f64 - want.t).abs() <= 0.05) as usize;
+                same_label += (cluster_labels[want.cluster as usize]
+                    == cluster_labels[got.cluster as usize]) as usize;
+            }
+        }
+        let n = rays.len();
+        eprintln!(
+            "label ball, rays {what}: {n} rays, hit/miss agree {agree}, both hit {both}, \
+             same label {same_label}, within 0.05 {close}"
+        );
+        assert!(both >= n / 5, "{what}: too few hits ({both})");
+        assert!(agree as f64 >= 0.999 * n as f64, "{what}: {agree} of {n}");
+        assert!(
+            same_label as f64 >= 0.999 * both as f64,
+            "{what}: {same_label} of {both}"
+        );
+        assert!(
+            close as f64 >= 0.999 * both as f64,
+            "{what}: {close} of {both}"
+        );
+    }
 }
