@@ -246,3 +246,122 @@ fn label_aov_matches_a_march_of_the_label_volume_and_hiding_changes_what_it_says
         );
     }
 }
+
+/// Two labels touching on the plane x = 11.5 (label 1 below, 2 above) inside a box of 0.
+fn two_labels() -> CellGrid {
+    let n = 24usize;
+    let samples: Vec<u8> = (0..n * n * n)
+        .map(|i| {
+            let p = [i % n, i / n % n, i / (n * n)];
+            if p.iter().any(|&c| !(2..n - 2).contains(&c)) {
+                0
+            } else if p[0] < 12 {
+                1
+            } else {
+                2
+            }
+        })
+        .collect();
+    let volume = Volume::new([n; 3], isogrid::VolumeData::U8(samples)).unwrap();
+    extract_labels(&volume.view(), &LabelOptions::new(LabelSelection::All)).unwrap()
+}
+
+/// Where two labels touch both surfaces coincide. With label 1 hidden, seen from its side, the
+/// shared boundary shows label 2 on every backend, without speckle (pixels whose label differs
+/// from all four neighbours); with both drawn and the eye inside label 1, the GPU tracer shows
+/// label 2, the surface its rays enter, without speckle (the others are measured, see below).
+#[test]
+fn a_shared_boundary_shows_the_label_beyond_it_without_speckle() {
+    let grid = two_labels();
+    let ctx = RenderContext::new();
+    let mut cases = vec![("cpu cgc", Mode::Cgc, Backend::Cpu, None, CellRaster::Auto)];
+    if ctx.adapter().is_some() {
+        cases.extend([
+            (
+                "gpu cgc compute",
+                Mode::Cgc,
+                Backend::Gpu,
+                None,
+                CellRaster::Compute,
+            ),
+            (
+                "gpu cgc hardware",
+                Mode::Cgc,
+                Backend::Gpu,
+                None,
+                CellRaster::Hardware,
+            ),
+            (
+                "gpu pathtrace traced",
+                Mode::PathTrace,
+                Backend::Gpu,
+                Some(Primary::Traced),
+                CellRaster::Auto,
+            ),
+        ]);
+    }
+    let (w, h) = (48usize, 36usize);
+    let mut results: Vec<(&str, Option<&str>, usize, usize)> = Vec::new();
+    for (name, mode, backend, primary, raster) in cases {
+        for hide in [None, Some("1")] {
+            let request = RenderRequest::new(RequestParts {
+                mode,
+                backend,
+                primary,
+                cell_raster: raster,
+                // Inside label 1, looking along +x at the boundary, which fills the view.
+                camera: CameraSpec::LookAt {
+                    eye: [6.0, 11.3, 11.6],
+                    target: [12.0, 11.3, 11.6],
+                    up: [0.0, 1.0, 0.0],
+                    fovy_degrees: 60.0,
+                },
+                size: (w as u32, h as u32),
+                samples: 1,
+                aovs: vec![Aov::Label],
+                hide: hide.map(|h| LabelSelection::parse(h).unwrap()),
+                ..RequestParts::default()
+            })
+            .unwrap();
+            let placement = match backend {
+                Backend::Cpu => Placement::Cpu,
+                _ => Placement::Gpu,
+            };
+            let out = render(&ctx, &request, placement, &grid, None, &Progress::new()).unwrap();
+            let label = out.label.unwrap();
+            let beyond = label.iter().filter(|&&l| l == 2).count();
+            let speckle = (0..w * h)
+                .filter(|&i| {
+                    let (x, y) = (i % w, i / w);
+                    x > 0
+                        && y > 0
+                        && x + 1 < w
+                        && y + 1 < h
+                        && [i - 1, i + 1, i - w, i + w]
+                            .iter()
+                            .all(|&j| label[j] != label[i])
+                })
+                .count();
+            eprintln!(
+                "{name}, hide {hide:?}: {beyond} of {} pixels show label 2, {speckle} speckled",
+                w * h
+            );
+            results.push((name, hide, beyond, speckle));
+        }
+    }
+    for (name, hide, beyond, speckle) in results {
+        // With both labels drawn and the eye inside label 1, the rasters still z-fight on the
+        // coinciding surfaces (no front-face rule at equal depth yet), and the CPU tracer misses
+        // the tie where the two crossings fall in neighbouring cells (a couple of pixels): only
+        // the GPU tracer is held to it there.
+        if hide.is_none() && name != "gpu pathtrace traced" {
+            continue;
+        }
+        // The boundary square spans ±9.5 around the view axis at distance 5.5: the whole view.
+        assert!(
+            beyond as f64 >= 0.99 * (w * h) as f64,
+            "{name} hide {hide:?}: {beyond}"
+        );
+        assert_eq!(speckle, 0, "{name} hide {hide:?}");
+    }
+}
