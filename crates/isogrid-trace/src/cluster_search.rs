@@ -66,14 +66,16 @@ pub(crate) struct ClusterSearch<'g> {
     margin: f64,
     cluster_boxes: AllClusterBoxes,
     lanes: Chosen,
-    /// A label grid: a cell may be stored once per label, and touching labels' surfaces coincide
-    /// there, so equal crossings are settled by [`wins_tie`].
-    ties: bool,
+    /// In a label grid, crossings this close (world units) are one: a cell may be stored once
+    /// per label, and touching labels' surfaces coincide there, so such a tie is settled by
+    /// [`wins_tie`]. The search windows reach this far past the best crossing, so that the other
+    /// label's crossing is found even in the neighbouring cell. 0 for other grids.
+    tie_slack: f64,
 }
 
-/// Crossings closer than this fraction of their cell's segment are one crossing, of two labels'
-/// coinciding surfaces (their indicators are complementary on a shared boundary, so their roots
-/// differ only by rounding, about 10⁻¹⁵).
+/// [`ClusterSearch`]'s tie slack per world unit of the largest sample spacing: two labels'
+/// coinciding crossings come from complementary indicators and differ only by rounding (about
+/// 10⁻¹⁵ of a cell).
 const TIE: f64 = 1e-6;
 
 /// Which of two coinciding crossings (`t` within [`TIE`]) a ray sees: the surface it enters
@@ -185,7 +187,10 @@ impl<'g> ClusterSearch<'g> {
             margin: metacell_margin(info.cell_dims().map(|c| c as f64)),
             cluster_boxes: AllClusterBoxes::new(clusters),
             lanes: Chosen::detect(),
-            ties: grid.labels().is_some(),
+            tie_slack: match grid.labels() {
+                Some(_) => TIE * info.spacing.iter().fold(0.0f64, |m, &s| m.max(s)),
+                None => 0.0,
+            },
         }
     }
 
@@ -317,11 +322,8 @@ impl<'g> ClusterSearch<'g> {
         let mask = m.cell_mask & 0xff;
         let lo = xyz(|a| 2.0 * m.position[a] as f64);
         for (t0, t1, bit) in r.metacell_cells(lo, mask, tmin, best.t) {
-            // Cells come nearest first, so the first crossing is this metacell's closest. In a
-            // label grid the window reaches past `best.t` by the tie tolerance, so that another
-            // label's crossing at the same point is found and the tie settled.
-            let tie = if self.ties { TIE * (t1 - t0) } else { 0.0 };
-            let t1 = min(t1, best.t + tie);
+            // Cells come nearest first, so the first crossing is this metacell's closest.
+            let t1 = min(t1, best.t);
             if !(t0 < t1) {
                 break;
             }
@@ -337,15 +339,16 @@ impl<'g> ClusterSearch<'g> {
             if let Some(s) = cubic.first_crossing(self.crossing) {
                 let t = t0 + s * (t1 - t0);
                 let u = || xyz(|a| (start_local[a] + s * delta[a]).clamp(0.0, 1.0));
+                // `best.t` is the crossing found plus the tie slack (0 outside label grids).
                 let wins = match &best.found {
                     None => true,
-                    Some(b) if self.ties && (t - best.t).abs() <= tie => {
-                        wins_tie((&tri, u()), (&b.4, b.5), delta)
+                    Some(b) if (t - b.0).abs() <= self.tie_slack => {
+                        self.tie_slack > 0.0 && wins_tie((&tri, u()), (&b.4, b.5), delta)
                     }
-                    Some(_) => t < best.t,
+                    Some(b) => t < b.0,
                 };
                 if wins {
-                    best.t = t;
+                    best.t = t + self.tie_slack;
                     best.found = Some((t, index, pos, found_in, tri, u()));
                 }
                 break;

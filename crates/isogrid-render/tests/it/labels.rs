@@ -266,10 +266,11 @@ fn two_labels() -> CellGrid {
     extract_labels(&volume.view(), &LabelOptions::new(LabelSelection::All)).unwrap()
 }
 
-/// Where two labels touch both surfaces coincide. With label 1 hidden, seen from its side, the
-/// shared boundary shows label 2 on every backend, without speckle (pixels whose label differs
-/// from all four neighbours); with both drawn and the eye inside label 1, the GPU tracer shows
-/// label 2, the surface its rays enter, without speckle (the others are measured, see below).
+/// Where two labels touch both surfaces coincide. Seen from inside label 1, or with label 1
+/// hidden from its side, the shared boundary shows label 2 (the surface the rays enter: the
+/// tracers' tie rule, the rasters' back-face depth bias) on every backend, without speckle
+/// (pixels whose label differs from all four neighbours); before the rule the compute and
+/// hardware rasters speckled 59 and 90 of these 1728 pixels.
 #[test]
 fn a_shared_boundary_shows_the_label_beyond_it_without_speckle() {
     let grid = two_labels();
@@ -350,13 +351,6 @@ fn a_shared_boundary_shows_the_label_beyond_it_without_speckle() {
         }
     }
     for (name, hide, beyond, speckle) in results {
-        // With both labels drawn and the eye inside label 1, the rasters still z-fight on the
-        // coinciding surfaces (no front-face rule at equal depth yet), and the CPU tracer misses
-        // the tie where the two crossings fall in neighbouring cells (a couple of pixels): only
-        // the GPU tracer is held to it there.
-        if hide.is_none() && name != "gpu pathtrace traced" {
-            continue;
-        }
         // The boundary square spans ±9.5 around the view axis at distance 5.5: the whole view.
         assert!(
             beyond as f64 >= 0.99 * (w * h) as f64,
