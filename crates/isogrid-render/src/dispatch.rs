@@ -34,10 +34,11 @@ pub fn render(
     Ok(rendered)
 }
 
-/// The grid of the labels `--show` / `--hide` leave (through the label index, see
-/// [`CellGrid::showing_labels`]), `None` when they choose none; refuses them, and the label AOV,
-/// on a grid without labels.
-fn shown_labels(request: &RenderRequest, grid: &CellGrid) -> Result<Option<CellGrid>> {
+/// Which labels of `grid` the request's `show` / `hide` leave drawn, one flag per label, `None`
+/// when they choose none. Refuses them, and the label AOV, on a grid without labels, and a value
+/// naming no label of the grid; [`render`] checks this first, and a front end may call it to
+/// fail before choosing a backend.
+pub fn label_choice(request: &RenderRequest, grid: &CellGrid) -> Result<Option<Vec<bool>>> {
     let parts = request.parts();
     let choose = parts.show.is_some() || parts.hide.is_some();
     let Some(labels) = grid.labels() else {
@@ -52,8 +53,17 @@ fn shown_labels(request: &RenderRequest, grid: &CellGrid) -> Result<Option<CellG
         return Ok(None);
     }
     let signed = isogrid::labels::signed_labels(grid.info().scalar_type);
-    let shown = labels.shown(parts.show.as_ref(), parts.hide.as_ref(), signed)?;
-    Ok(Some(grid.showing_labels(&shown)?))
+    labels
+        .shown(parts.show.as_ref(), parts.hide.as_ref(), signed)
+        .map(Some)
+}
+
+/// The grid of the labels `show` / `hide` leave (through the label index, see
+/// [`CellGrid::showing_labels`]), `None` when they choose none.
+fn shown_labels(request: &RenderRequest, grid: &CellGrid) -> Result<Option<CellGrid>> {
+    label_choice(request, grid)?
+        .map(|shown| grid.showing_labels(&shown))
+        .transpose()
 }
 
 /// The label value under each pixel of a label grid's render, from the hit clusters;

@@ -502,6 +502,9 @@ pub fn run(args: Args) -> Result<()> {
         );
     }
     let request = request(&args, grid.attribute().is_some())?;
+    // --show / --hide name labels of this grid: checked before a backend is chosen.
+    isogrid_render::label_choice(&request, &grid)
+        .with_context(|| args.source.input.display().to_string())?;
     let ctx = RenderContext::new();
     let decision = ctx.decide(&request)?;
     if let Some(note) = &decision.note {
