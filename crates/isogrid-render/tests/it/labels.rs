@@ -359,3 +359,33 @@ fn a_shared_boundary_shows_the_label_beyond_it_without_speckle() {
         assert_eq!(speckle, 0, "{name} hide {hide:?}");
     }
 }
+
+/// `backend: auto` places a label grid like any other grid and the render runs wherever it lands
+/// (the GPU tracer once refused label grids, so auto on a hardware GPU failed for path tracing).
+#[test]
+fn auto_backend_renders_label_grids_in_every_mode_it_places() {
+    let (_, grid) = ball();
+    let ctx = RenderContext::new();
+    for (mode, primary) in [
+        (Mode::Cgc, None),
+        (Mode::PathTrace, None),
+        (Mode::PathTrace, Some(Primary::Traced)),
+    ] {
+        if primary.is_some() && ctx.adapter().is_none() {
+            continue; // naming primary rays asks for a GPU
+        }
+        let request = request(mode, Backend::Auto, primary, CellRaster::Auto, Some("1"));
+        let decision = ctx.decide(&request).unwrap();
+        let out = render(
+            &ctx,
+            &request,
+            decision.placement,
+            &grid,
+            None,
+            &Progress::new(),
+        )
+        .unwrap_or_else(|e| panic!("{mode:?} {primary:?} on {:?}: {e}", decision.placement));
+        let label = out.label.unwrap();
+        assert!(label.iter().any(|&l| l == 2 || l == 3) && !label.contains(&1));
+    }
+}
