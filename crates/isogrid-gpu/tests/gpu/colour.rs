@@ -292,21 +292,38 @@ fn label_grids_are_drawn_in_their_label_colours_like_the_cpu() {
 #[test]
 fn label_grid_rays_hit_like_the_cpu_tracer_with_the_same_label() {
     let Some(r) = renderer() else { return };
-    let grid = labelled_ball();
+    // The ball, and a 32³ checkerboard of 3³ cubes of 11 labels (every cube touches others on
+    // every side, and a block holds dozens of labels' runs, so positions repeat many times).
+    let cubes = isogrid::extract_labels(
+        &isogrid::generate::labelled_cubes(32).view(),
+        &isogrid::LabelOptions::new(isogrid::LabelSelection::All),
+    )
+    .unwrap();
+    for (name, grid, centre, reach) in [
+        ("ball", labelled_ball(), 19.5, 16.0),
+        ("cubes", cubes, 15.5, 28.0),
+    ] {
+        label_rays_agree(r, name, &grid, centre, reach);
+    }
+}
+
+/// GPU `trace_rays` against the CPU tracer on `grid`: random rays around the grid's box, and
+/// rays from a cube of side `reach` about `centre`, where labels touch.
+fn label_rays_agree(r: &Renderer, name: &str, grid: &CellGrid, centre: f64, reach: f64) {
     let cluster_labels = grid.labels().unwrap().cluster_labels();
-    let cpu = isogrid_trace::Tracer::new(&grid, isogrid_trace::Crossing::Samples3);
-    let gpu_grid = r.upload_grid(&grid).unwrap();
+    let cpu = isogrid_trace::Tracer::new(grid, isogrid_trace::Crossing::Samples3);
+    let gpu_grid = r.upload_grid(grid).unwrap();
     let hi = grid.info().world_bounds().1;
     let outside = crate::pathtrace::random_rays(hi, 3000, 5);
     let mut rng = crate::pathtrace::Rng(17);
-    // Origins in the middle of the ball (radius 15 about 19.5), where the three labels touch.
     let inside: Vec<isogrid::Ray> = (0..3000)
         .map(|_| isogrid::Ray {
-            origin: std::array::from_fn(|_| 19.5 + 16.0 * (rng.next() - 0.5)),
+            origin: std::array::from_fn(|_| centre + reach * (rng.next() - 0.5)),
             direction: rng.direction(),
         })
         .collect();
     for (what, rays) in [("from outside", outside), ("from inside", inside)] {
+        let what = format!("{name}, rays {what}");
         let gpu = r.trace_rays(&gpu_grid, &rays).unwrap();
         let (mut agree, mut both, mut close, mut same_label) = (0, 0, 0, 0);
         for (ray, got) in rays.iter().zip(&gpu) {
@@ -321,7 +338,7 @@ fn label_grid_rays_hit_like_the_cpu_tracer_with_the_same_label() {
         }
         let n = rays.len();
         eprintln!(
-            "label ball, rays {what}: {n} rays, hit/miss agree {agree}, both hit {both}, \
+            "{what}: {n} rays, hit/miss agree {agree}, both hit {both}, \
              same label {same_label}, within 0.05 {close}"
         );
         assert!(both >= n / 5, "{what}: too few hits ({both})");

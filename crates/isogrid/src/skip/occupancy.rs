@@ -334,7 +334,15 @@ mod tests {
     /// the lists hold nothing else: checked against a scan of every block's slots.
     #[test]
     fn every_label_metacell_is_listed_at_its_position() {
-        let volume = crate::generate::labelled_ball(40);
+        for volume in [
+            crate::generate::labelled_ball(40),
+            crate::generate::labelled_cubes(32),
+        ] {
+            labels_are_listed(&volume);
+        }
+    }
+
+    fn labels_are_listed(volume: &crate::Volume) {
         let grid = crate::extract_labels(
             &volume.view(),
             &crate::LabelOptions::new(crate::LabelSelection::All),
