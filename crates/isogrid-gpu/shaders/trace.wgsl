@@ -151,26 +151,31 @@ fn trace_metacell(slot: u32, o: vec3<f32>, d: vec3<f32>, inv: vec3<f32>, t_lo: f
     return best;
 }
 
-// The refined crossing t of a bracket found by `trace_metacell`.
-fn nearest_t(n: Nearest, o: vec3<f32>, d: vec3<f32>) -> f32 {
+// The refined crossing t of a bracket found by `trace_metacell`, and whether the ray enters the
+// solid there (∇f along the ray: the surface's front face).
+fn refined_crossing(n: Nearest, o: vec3<f32>, d: vec3<f32>) -> vec2<f32> {
     let k = record_corners_in(n.page, n.record);
-    return refine_crossing(k.lo, k.hi, o - vec3<f32>(n.cell), d, n.bracket.x, n.bracket.y, frame.cell_to_world.w, n.bracket.z > 0.5);
+    let local = o - vec3<f32>(n.cell);
+    let t = refine_crossing(k.lo, k.hi, local, d, n.bracket.x, n.bracket.y, frame.cell_to_world.w, n.bracket.z > 0.5);
+    let g = trilinear_gradient(k.lo, k.hi, clamp(local + t * d, vec3<f32>(0.0), vec3<f32>(1.0)));
+    return vec2<f32>(t, select(0.0, 1.0, dot(g, d) > 0.0));
 }
 
 // Whether `found` replaces `best` when both brackets start at the same t: two metacells at one
 // position, i.e. two labels' cells in one cell of a label grid (cells along a ray are otherwise
 // disjoint intervals). The nearer crossing wins; where touching labels share a boundary both
-// surfaces cross at the same point (to rounding), and the one the ray enters (outside at entry:
-// its front face) wins, then the first in slot order (the lower label), so the boundary shows
-// one label without speckle, and the label beyond it when the one before it is hidden.
+// surfaces cross at the same point (to rounding), and the one the ray enters (its front face, as
+// the CPU tracer's `wins_tie` judges it) wins, then the first in slot order (the lower label), so
+// the boundary shows one label without speckle, and the label beyond it when the one before it
+// is hidden.
 fn wins_tie(found: Nearest, best: Nearest, o: vec3<f32>, d: vec3<f32>) -> bool {
-    let tf = nearest_t(found, o, d);
-    let tb = nearest_t(best, o, d);
+    let f = refined_crossing(found, o, d);
+    let b = refined_crossing(best, o, d);
     let tie = 1e-3 * (found.bracket.y - found.bracket.x);
-    if abs(tf - tb) > tie {
-        return tf < tb;
+    if abs(f.x - b.x) > tie {
+        return f.x < b.x;
     }
-    return found.bracket.z < 0.5 && best.bracket.z > 0.5;
+    return f.y > 0.5 && b.y < 0.5;
 }
 
 // Nearest crossing in block `index` (at block position `block`) on [t_lo, t_hi]: a 3D DDA
