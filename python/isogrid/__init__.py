@@ -608,6 +608,8 @@ def render(
     progress: Optional[Callable[[int, int], Any]] = None,
     cmap: Optional[str] = None,
     clim: Optional[Tuple[float, float]] = None,
+    show: Optional[Union[str, Sequence[int]]] = None,
+    hide: Optional[Union[str, Sequence[int]]] = None,
 ) -> Any:
     """An image of the isosurface, as ``isogrid render`` draws it.
 
@@ -629,7 +631,9 @@ def render(
         aovs: any of ``"depth"`` (H×W float32 eye distance, +inf on misses), ``"normal"``
             (H×W×3 float32 unit world normal, NaN on misses), ``"cluster"`` (H×W uint32,
             4294967295 on misses), ``"value"`` (H×W float32, the grid's attribute at the hit
-            cell, NaN on misses; grids with an attribute), ``"backend"`` (which backend rendered).
+            cell, NaN on misses; grids with an attribute), ``"label"`` (H×W uint64, the label
+            value under the pixel, 18446744073709551615 on misses; label grids),
+            ``"backend"`` (which backend rendered).
         frames: on the GPU, how many times the view is rendered (the visibility buffer converges).
         spp: path tracing: samples per pixel, on either backend.
         bounces: path tracing: scatterings per path.
@@ -644,6 +648,11 @@ def render(
             with an attribute is always drawn in colour, by either backend in every mode (path
             tracing takes the colour as albedo).
         clim: ``(lo, hi)``, the values the map spans (default the attribute's range on the surface).
+        show: a label grid: draw only these labels, as ``"1,5-9"`` or a list of values (default
+            all).
+        hide: a label grid: do not draw these labels (``"0,3"`` or a list); their neighbours
+            show their own surfaces where they touched them. A value naming no label of the grid
+            raises ValueError.
         progress: called as ``progress(done, total)`` about ten times a second while the render
             runs, with ``done`` increasing (image rows of each pass on the CPU, frames on the GPU)
             and once at the end. If it raises, the render stops within a tile or a frame and the
@@ -657,10 +666,23 @@ def render(
     w, h = (_int(v, "size", 1) for v in size)
     names = tuple(aovs)
     for name in names:
-        if name not in ("depth", "normal", "cluster", "value", "backend"):
-            raise ValueError(f"unknown AOV {name!r} (depth, normal, cluster, value or backend)")
+        if name not in ("depth", "normal", "cluster", "value", "label", "backend"):
+            raise ValueError(
+                f"unknown AOV {name!r} (depth, normal, cluster, value, label or backend)"
+            )
     if "value" in names and grid.attribute is None:
         raise ValueError("the value AOV is the grid's attribute, and the grid has none")
+    if "label" in names and grid.labels is None:
+        raise ValueError("the label AOV needs a label grid (extract with labels=...)")
+
+    def selection(labels: Any, name: str) -> Optional[str]:
+        if labels is None or isinstance(labels, str):
+            return labels
+        try:
+            return ",".join(str(operator.index(v)) for v in labels)
+        except TypeError:
+            raise ValueError(f"{name} must be a string such as '1,5-9' or a list of label values")
+
     with _vulkan_device_select_quieted():
         out = _isogrid.render(
             grid,
@@ -678,6 +700,8 @@ def render(
             progress=progress,
             cmap=None if cmap is None else str(cmap),
             clim=None if clim is None else (float(clim[0]), float(clim[1])),
+            show=selection(show, "show"),
+            hide=selection(hide, "hide"),
         )
     if not names:
         return out["image"]

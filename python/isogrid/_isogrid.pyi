@@ -169,6 +169,8 @@ def render(
     progress: Optional[Callable[[int, int], Any]] = None,
     cmap: Optional[str] = None,
     clim: Optional[Tuple[float, float]] = None,
+    show: Optional[str] = None,
+    hide: Optional[str] = None,
 ) -> Dict[str, Any]: ...
 
 # Tiled extraction, driven by `isogrid.dask`.

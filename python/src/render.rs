@@ -5,7 +5,7 @@
 use crate::errors::{invalid, to_py};
 use crate::grid::CellGrid;
 use crate::pool::run_watched;
-use isogrid::Progress;
+use isogrid::{LabelSelection, Progress};
 use isogrid::colormap::ColorMap;
 use isogrid_render::{
     Backend, CameraSpec, ColorSpec, EnvSource, Mode, Placement, RenderContext, RenderRequest, RequestParts,
@@ -40,7 +40,7 @@ fn camera_spec(camera: &Bound<'_, PyAny>) -> PyResult<CameraSpec> {
 
 /// Renders `grid`; see `isogrid.render` for the arguments.
 #[pyfunction]
-#[pyo3(signature = (grid, camera, width, height, mode, backend, frames=1, spp=16, bounces=3, threads=None, traversal="blocks", env=None, progress=None, cmap=None, clim=None))]
+#[pyo3(signature = (grid, camera, width, height, mode, backend, frames=1, spp=16, bounces=3, threads=None, traversal="blocks", env=None, progress=None, cmap=None, clim=None, show=None, hide=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn render<'py>(
     py: Python<'py>,
@@ -59,6 +59,8 @@ pub fn render<'py>(
     progress: Option<Bound<'py, PyAny>>,
     cmap: Option<&str>,
     clim: Option<(f64, f64)>,
+    show: Option<&str>,
+    hide: Option<&str>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let grid = grid.inner();
     // A grid with an attribute is drawn in colour; a colour map or range needs one.
@@ -97,6 +99,8 @@ pub fn render<'py>(
         bounces,
         traversal,
         color,
+        show: show.map(LabelSelection::parse).transpose().map_err(to_py)?,
+        hide: hide.map(LabelSelection::parse).transpose().map_err(to_py)?,
         ..RequestParts::default()
     })
     .map_err(to_py)?;
@@ -143,6 +147,14 @@ pub fn render<'py>(
         dict.set_item(
             "value",
             Array2::from_shape_vec((h, w), value)
+                .map_err(shape_err)?
+                .into_pyarray(py),
+        )?;
+    }
+    if let Some(label) = out.label {
+        dict.set_item(
+            "label",
+            Array2::from_shape_vec((h, w), label)
                 .map_err(shape_err)?
                 .into_pyarray(py),
         )?;

@@ -144,6 +144,7 @@ def test_cli_and_python_write_the_same_labelled_file(cli, tmp_path):
         assert report == grid.stats
 
 
+<<<<<<< HEAD
 # Names and colours from files other tools wrote, and from colour tables. Masks in (i, j, k), each
 # label's cells checked against the brute-force reference; slicerio and ome-zarr lay (z, y, x)
 # arrays out as (i, j, k) and (z, y, x) respectively.
@@ -276,3 +277,33 @@ def test_bad_tables_and_arguments_are_refused(tmp_path):
         isogrid.extract(a, labels="all", labels_of="cells")
     with pytest.raises(ValueError, match="integer label values"):
         isogrid.extract(a.astype(np.float32) + 0.5, labels="all")
+=======
+def test_render_label_aov_show_and_hide():
+    """``render(..., aovs=["label"], show=, hide=)``: the label under each pixel (uint64, all
+    ones on a miss); hiding a label removes it and shows the labels beyond it where it stood;
+    showing one draws it alone; a label the grid lacks raises ValueError."""
+    a = _labels()
+    grid = isogrid.extract(a, labels="all", threads=2)
+    values = {l["value"] for l in grid.labels}
+    miss = np.iinfo(np.uint64).max
+    _, aov = isogrid.render(grid, camera=2, size=(64, 48), backend="cpu", aovs=["label"])
+    full = aov["label"]
+    assert full.dtype == np.uint64 and full.shape == (48, 64)
+    seen = set(np.unique(full).tolist()) - {miss}
+    assert seen and seen <= values
+    front = max(seen, key=lambda v: int((full == v).sum()))
+    _, hidden = isogrid.render(
+        grid, camera=2, size=(64, 48), backend="cpu", aovs=["label"], hide=[front]
+    )
+    hidden = hidden["label"]
+    assert front not in set(np.unique(hidden).tolist())
+    # Only the hidden label's pixels change, and some of them now show another label.
+    assert np.array_equal(hidden[full != front], full[full != front])
+    assert ((full == front) & (hidden != miss)).any()
+    _, alone = isogrid.render(
+        grid, camera=2, size=(64, 48), backend="cpu", aovs=["label"], show=str(front)
+    )
+    assert set(np.unique(alone["label"]).tolist()) <= {front, miss}
+    with pytest.raises(ValueError, match="no such label"):
+        isogrid.render(grid, camera=2, size=(16, 16), backend="cpu", hide="123456")
+>>>>>>> trace-walk

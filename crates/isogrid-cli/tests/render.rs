@@ -1025,3 +1025,114 @@ fn the_colour_bar_shows_the_table_and_leaves_the_picture_alone() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("--colorbar needs an image of at least"));
     std::fs::remove_dir_all(dir).unwrap();
 }
+
+/// A 24³ u8 label volume as .npy: three labels side by side along x in a ball, 0 around.
+fn label_volume(dir: &Path) -> PathBuf {
+    let n = 24usize;
+    let c = (n as f64 - 1.0) / 2.0;
+    let r = 0.375 * n as f64;
+    let mut data = Vec::with_capacity(n * n * n);
+    for z in 0..n {
+        for y in 0..n {
+            for x in 0..n {
+                let p = [x, y, z].map(|v| v as f64 - c);
+                let inside = p.iter().map(|v| v * v).sum::<f64>() < r * r;
+                data.push(match inside {
+                    true => 1 + ((p[0] + r) / (2.0 * r / 3.0)).clamp(0.0, 2.0) as u8,
+                    false => 0,
+                });
+            }
+        }
+    }
+    let mut header =
+        format!("{{'descr': '|u1', 'fortran_order': False, 'shape': ({n}, {n}, {n}), }}");
+    while (10 + header.len() + 1) % 64 != 0 {
+        header.push(' ');
+    }
+    header.push('\n');
+    let mut bytes = b"\x93NUMPY\x01\x00".to_vec();
+    bytes.extend((header.len() as u16).to_le_bytes());
+    bytes.extend(header.as_bytes());
+    bytes.extend(data);
+    let path = dir.join("labels.npy");
+    std::fs::write(&path, bytes).unwrap();
+    path
+}
+
+/// `--show` / `--hide` and the label AOV: a u64 H×W file of label values, all ones on a miss,
+/// without the hidden label; a label the grid lacks, or labels asked of a grid without them,
+/// fail in one line with exit status 1.
+#[test]
+fn render_shows_and_hides_labels_and_writes_the_label_aov() {
+    let dir = temp_dir("labels");
+    let cgc = dir.join("labels.cgc");
+    let out = isogrid(&[
+        "extract",
+        s(&label_volume(&dir)),
+        "--labels",
+        "all",
+        "-o",
+        s(&cgc),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let aov = dir.join("label.npy");
+    let png = dir.join("labels.png");
+    let label_arg = format!("label={}", s(&aov));
+    for hide in [None, Some("2")] {
+        let mut args = vec![
+            "render",
+            s(&cgc),
+            "--backend",
+            "cpu",
+            "--view",
+            "2",
+            "--size",
+            "48x32",
+        ];
+        args.extend(["--aov", &label_arg, "-o", s(&png), "--json"]);
+        if let Some(h) = hide {
+            args.extend(["--hide", h]);
+        }
+        json_of(&isogrid(&args));
+        let (descr, shape, off, _) = npy_header(&aov);
+        assert_eq!((descr.as_str(), shape), ("<u8", vec![32, 48]));
+        let labels: Vec<u64> = std::fs::read(&aov).unwrap()[off..]
+            .chunks_exact(8)
+            .map(|b| u64::from_le_bytes(b.try_into().unwrap()))
+            .collect();
+        let count = |v: u64| labels.iter().filter(|&&l| l == v).count();
+        assert!(
+            count(u64::MAX) > 0 && count(1) > 0 && count(3) > 0,
+            "{hide:?}"
+        );
+        assert_eq!(count(2) > 0, hide.is_none(), "{hide:?}");
+        assert_eq!(
+            count(1) + count(2) + count(3) + count(u64::MAX),
+            labels.len()
+        );
+    }
+    for flag in ["--show", "--hide"] {
+        let args = ["render", s(&cgc), flag, "1,7", "-o", s(&png)];
+        fails(&args, "label 7: no such label");
+        assert_eq!(isogrid(&args).status.code(), Some(1));
+    }
+    let sphere = volume(&dir);
+    fails(
+        &[
+            "render",
+            s(&sphere),
+            "--iso",
+            "0.5",
+            "--hide",
+            "1",
+            "-o",
+            s(&png),
+        ],
+        "need a label grid",
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}

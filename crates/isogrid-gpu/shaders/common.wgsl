@@ -23,6 +23,7 @@ const SOURCE_VOLUME: u32 = 1u;
 const FLAG_OCCLUSION: u32 = 1u;
 const FLAG_BACKFACE: u32 = 2u;
 const FLAG_EWA: u32 = 4u; // the EWA target holds the normals to shade with
+const FLAG_LABELS: u32 = 8u; // a label grid: at equal depth a front face wins (cell_hit.wgsl)
 const NO_CLUSTER: u32 = 0xffffffffu;
 
 // Keep in sync with `PageUniforms` in src/gpu_types.rs.

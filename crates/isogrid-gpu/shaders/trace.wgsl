@@ -99,7 +99,13 @@ struct Nearest {
 // Morton-order mask of the block's occupied metacells (words 0–15, code c at word c / 32, bit
 // c % 32), the number of occupied metacells before each mask word (words 16–23, two 16-bit
 // counts each, word w's in half w % 2 of word 16 + w / 2), and the box of the occupied metacells
-// (word 24: lowest x, y, z at bits 0, 3, 6, highest at bits 9, 12, 15; metacells within the block).
+// (word 24: lowest x, y, z at bits 0, 3, 6, highest at bits 9, 12, 15; metacells within the block;
+// bit 18 (OCCUPANCY_LISTED) set when the block is listed). A listed block (a label grid's block
+// holding several labels' runs, which may repeat positions) follows its record with the slots at
+// each occupied position: words OCCUPANCY_WORDS + rank and + rank + 1 are the offsets, from the
+// record's start, of the first slot at that rank and past its last.
+const OCCUPANCY_WORDS: u32 = 25u;
+const OCCUPANCY_LISTED: u32 = 0x40000u;
 fn occupancy_index(index: u32) -> u32 {
     let count = trace.block_dims.x * trace.block_dims.y * trace.block_dims.z;
     return blocks[4u * count + (8u * count + 3u) / 4u + index];
@@ -135,24 +141,50 @@ fn trace_metacell(slot: u32, o: vec3<f32>, d: vec3<f32>, inv: vec3<f32>, t_lo: f
         }
         let record = m.cell_pointer + countOneBits(m.mask & ((1u << bit) - 1u)) - trace_page_first_cell(p);
         let bracket = cell_bracket(record_corners_in(p, record), o - co, d, enter, exit);
+        let found = Nearest(bracket, cell, p, record, slot / 16u);
         if bracket.x < best.bracket.x {
-            best = Nearest(bracket, cell, p, record, slot / 16u);
+            best = found;
+        } else if bracket.x == best.bracket.x && bracket.x < NO_HIT && wins_tie(found, best, o, d) {
+            best = found;
         }
     }
     return best;
 }
 
+// The refined crossing t of a bracket found by `trace_metacell`.
+fn nearest_t(n: Nearest, o: vec3<f32>, d: vec3<f32>) -> f32 {
+    let k = record_corners_in(n.page, n.record);
+    return refine_crossing(k.lo, k.hi, o - vec3<f32>(n.cell), d, n.bracket.x, n.bracket.y, frame.cell_to_world.w, n.bracket.z > 0.5);
+}
+
+// Whether `found` replaces `best` when both brackets start at the same t: two metacells at one
+// position, i.e. two labels' cells in one cell of a label grid (cells along a ray are otherwise
+// disjoint intervals). The nearer crossing wins; where touching labels share a boundary both
+// surfaces cross at the same point (to rounding), and the one the ray enters (outside at entry:
+// its front face) wins, then the first in slot order (the lower label), so the boundary shows
+// one label without speckle, and the label beyond it when the one before it is hidden.
+fn wins_tie(found: Nearest, best: Nearest, o: vec3<f32>, d: vec3<f32>) -> bool {
+    let tf = nearest_t(found, o, d);
+    let tb = nearest_t(best, o, d);
+    let tie = 1e-3 * (found.bracket.y - found.bracket.x);
+    if abs(tf - tb) > tie {
+        return tf < tb;
+    }
+    return found.bracket.z < 0.5 && best.bracket.z > 0.5;
+}
+
 // Nearest crossing in block `index` (at block position `block`) on [t_lo, t_hi]: a 3D DDA
 // (Amanatides & Woo 1987) over the box of the block's occupied metacells visits them front to
 // back, each found at slot `first + k + k / 15` by its rank k in the Morton-order mask (the
-// extraction's order, paper §3.1), and the first metacell with a crossing holds the block's
-// nearest one. This replaces the paper's tests of every cluster bound and metacell box (§3.6):
+// extraction's order, paper §3.1) or, in a listed block, at the slots listed for rank k, and the
+// first position with a crossing holds the block's nearest one. This replaces the paper's tests of every cluster bound and metacell box (§3.6):
 // in a dense block those read and test dozens of boxes a ray never comes near.
 fn trace_block(index: u32, block: vec3<i32>, o: vec3<f32>, d: vec3<f32>, inv: vec3<f32>, positive: vec3<bool>, t_lo: f32, t_hi: f32, best_in: Nearest) -> Nearest {
     var best = best_in;
     let first = blocks[4u * index + 1u];
     let record = occupancy_index(index);
     let packed = blocks[record + 24u];
+    let listed = (packed & OCCUPANCY_LISTED) != 0u;
     let lowest = vec3<i32>(vec3<u32>(packed, packed >> 3u, packed >> 6u) & vec3<u32>(7u));
     let highest = vec3<i32>(vec3<u32>(packed >> 9u, packed >> 12u, packed >> 15u) & vec3<u32>(7u));
     if any(lowest > highest) {
@@ -177,12 +209,23 @@ fn trace_block(index: u32, block: vec3<i32>, o: vec3<f32>, d: vec3<f32>, inv: ve
         if ((word >> bit) & 1u) != 0u {
             let before = (blocks[record + 16u + (code >> 6u)] >> (16u * ((code >> 5u) & 1u))) & 0xffffu;
             let rank = before + countOneBits(word & ((1u << bit) - 1u));
-            let slot = first + rank + rank / 15u;
-            if trace_slot_is_bound(slot) {
-                best = trace_metacell(slot, o, d, inv, t_lo, t_hi, best);
-                if best.bracket.x < NO_HIT {
-                    break;
+            if !listed {
+                let slot = first + rank + rank / 15u;
+                if trace_slot_is_bound(slot) {
+                    best = trace_metacell(slot, o, d, inv, t_lo, t_hi, best);
                 }
+            } else {
+                // A label grid's position held by several labels: test every slot there.
+                let end = record + blocks[record + OCCUPANCY_WORDS + rank + 1u];
+                for (var e = record + blocks[record + OCCUPANCY_WORDS + rank]; e < end; e++) {
+                    let slot = blocks[e];
+                    if trace_slot_is_bound(slot) {
+                        best = trace_metacell(slot, o, d, inv, t_lo, t_hi, best);
+                    }
+                }
+            }
+            if best.bracket.x < NO_HIT {
+                break;
             }
         }
         // Face times afresh from the planes (no accumulated increments), so that one metacell's
@@ -318,7 +361,8 @@ fn trace_ray_until(origin: vec3<f32>, dir: vec3<f32>, t_min: f32, t_max: f32, t_
 }
 
 // Test entry point: one thread per ray. Rays: origin (xyz, w = t_min), direction (xyz, unit;
-// w = t_max). Hits: normal (xyz), t (w; NO_HIT on a miss), the nearest crossing so far: the
+// w = t_max). Hits, two vec4 per ray: normal (xyz), t (w; NO_HIT on a miss), then the hit's
+// cluster and record (bits of x and y); the nearest crossing so far: the
 // caller starts them at NO_HIT and runs one dispatch per group of bound pages, each keeping the
 // nearer crossing (ties keep the earlier group's).
 @group(2) @binding(4) var<storage, read> rays: array<vec4<f32>>;
@@ -332,9 +376,10 @@ fn trace_rays(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
     }
     let o = rays[2u * i];
     let d = rays[2u * i + 1u];
-    let nearest = hits[i].w;
+    let nearest = hits[2u * i].w;
     let h = trace_ray_until(o.xyz, d.xyz, o.w, d.w, nearest);
     if h.t < nearest {
-        hits[i] = vec4<f32>(h.normal, h.t);
+        hits[2u * i] = vec4<f32>(h.normal, h.t);
+        hits[2u * i + 1u] = vec4<f32>(bitcast<f32>(h.cluster), bitcast<f32>(h.record), 0.0, 0.0);
     }
 }

@@ -33,6 +33,8 @@ pub(crate) const SOURCE_VOLUME: u32 = 1;
 pub(crate) const FLAG_OCCLUSION: u32 = 1;
 pub(crate) const FLAG_BACKFACE: u32 = 2;
 pub(crate) const FLAG_EWA: u32 = 4;
+/// A label grid: the raster lets a front face win at equal depth (`cell_hit.wgsl`).
+pub(crate) const FLAG_LABELS: u32 = 8;
 
 /// How the shading pass colours the surface (group 1, binding 3 of the shading passes). Keep in
 /// sync with `ColorUniforms` in `shaders/shade.wgsl`.

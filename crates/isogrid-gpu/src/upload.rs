@@ -623,7 +623,11 @@ const OCCUPANCY_RECORD_WORDS: usize = 25;
 /// - per non-empty block, a record of [`OCCUPANCY_RECORD_WORDS`]: the 512-bit Morton-order mask
 ///   of its occupied metacells (16 words), the count of occupied metacells before each mask word
 ///   (8 words of two 16-bit counts) and the box of the occupied metacells (1 word: lowest x, y,
-///   z at bits 0, 3, 6, highest at 9, 12, 15).
+///   z at bits 0, 3, 6, highest at 9, 12, 15, and bit 18 set when the block is listed); a
+///   listed block (a label grid's block of several labels) follows it with its list, the slots
+///   at each occupied position (`isogrid::skip::occupancy`): `occupied + 1` word offsets from
+///   the record's start (rank `k`'s slots begin at the `k`-th, the last ends them), then the
+///   slots.
 fn tracer_block_words(grid: &CellGrid) -> Vec<u32> {
     let blocks = grid.blocks();
     let block_dims = grid.info().block_dims().map(|b| b as usize);
@@ -655,14 +659,19 @@ fn tracer_block_words(grid: &CellGrid) -> Vec<u32> {
             counts[w / 2] |= before << (16 * (w % 2));
             before += m.count_ones();
         }
-        let (lo, hi) = record.bounds();
-        let pack = |v: [i64; 3], shift: u32| {
-            (0..3).fold(0u32, |p, a| p | (v[a] as u32) << (shift + 3 * a as u32))
-        };
         words.extend(mask);
         words.extend(counts);
-        words.push(pack(lo, 0) | pack(hi, 9));
+        words.push(record.packed_bounds());
         debug_assert_eq!(words.len() - start, OCCUPANCY_RECORD_WORDS);
+        if let Some(list) = occupancy.list(record) {
+            let offsets = record.occupied() + 1;
+            words.extend(
+                list[..offsets]
+                    .iter()
+                    .map(|&o| o + OCCUPANCY_RECORD_WORDS as u32),
+            );
+            words.extend(&list[offsets..]);
+        }
     }
     words
 }

@@ -76,6 +76,12 @@ impl NpyElement for u32 {
         out.extend_from_slice(&self.to_le_bytes());
     }
 }
+impl NpyElement for u64 {
+    const DESCR: &'static str = "<u8";
+    fn write_le(self, out: &mut Vec<u8>) {
+        out.extend_from_slice(&self.to_le_bytes());
+    }
+}
 
 /// The `.npy` 1.0 header for a C-order array of `shape`, padded so the data starts at a multiple
 /// of 64 bytes.

@@ -62,6 +62,7 @@ pub(crate) fn render(
         normal: image.normal,
         cluster: image.cluster,
         value: image.value,
+        label: None,
         placement: Placement::Cpu,
         adapter: "CPU ray tracer".into(),
         seconds,

@@ -4,7 +4,7 @@ use crate::context::RenderContext;
 use crate::output::Rendered;
 use crate::policy::Placement;
 use crate::request::RenderRequest;
-use isogrid::{CellGrid, Progress, Result, Volume};
+use isogrid::{CellGrid, Error, Progress, Result, Volume};
 
 /// Renders `grid` (with its `volume` for the modes that need it) as `request` asks, on
 /// `placement` (from [`RenderContext::decide`]). `progress` counts finished work (image rows on
@@ -21,11 +21,63 @@ pub fn render(
     // Checked before anything is uploaded or traced.
     let (lo, hi) = grid.info().world_bounds();
     let camera = request.camera(lo, hi)?;
-    match placement {
+    let shown = shown_labels(request, grid)?;
+    let grid = shown.as_ref().unwrap_or(grid);
+    let mut rendered = match placement {
         Placement::Cpu => crate::cpu::render(request, grid, &camera, progress),
         Placement::Gpu => {
             let renderer = ctx.renderer()?;
             crate::gpu::render(renderer, request, grid, volume, progress)
         }
+    }?;
+    rendered.label = label_aov(grid, &rendered.cluster);
+    Ok(rendered)
+}
+
+/// Which labels of `grid` the request's `show` / `hide` leave drawn, one flag per label, `None`
+/// when they choose none. Refuses them, and the label AOV, on a grid without labels, and a value
+/// naming no label of the grid; [`render`] checks this first, and a front end may call it to
+/// fail before choosing a backend.
+pub fn label_choice(request: &RenderRequest, grid: &CellGrid) -> Result<Option<Vec<bool>>> {
+    let parts = request.parts();
+    let choose = parts.show.is_some() || parts.hide.is_some();
+    let Some(labels) = grid.labels() else {
+        if choose || parts.aovs.contains(&crate::mode::Aov::Label) {
+            return Err(Error::invalid(
+                "showing, hiding and the label AOV need a label grid (extract --labels), and this grid has no labels",
+            ));
+        }
+        return Ok(None);
+    };
+    if !choose {
+        return Ok(None);
     }
+    let signed = isogrid::labels::signed_labels(grid.info().scalar_type);
+    labels
+        .shown(parts.show.as_ref(), parts.hide.as_ref(), signed)
+        .map(Some)
+}
+
+/// The grid of the labels `show` / `hide` leave (through the label index, see
+/// [`CellGrid::showing_labels`]), `None` when they choose none.
+fn shown_labels(request: &RenderRequest, grid: &CellGrid) -> Result<Option<CellGrid>> {
+    label_choice(request, grid)?
+        .map(|shown| grid.showing_labels(&shown))
+        .transpose()
+}
+
+/// The label value under each pixel of a label grid's render, from the hit clusters;
+/// `u64::MAX` on a miss.
+fn label_aov(grid: &CellGrid, cluster: &[u32]) -> Option<Vec<u64>> {
+    let labels = grid.labels()?;
+    let (table, of_cluster) = (labels.table(), labels.cluster_labels());
+    Some(
+        cluster
+            .iter()
+            .map(|&c| match of_cluster.get(c as usize) {
+                Some(&l) => table[l as usize].value,
+                None => u64::MAX,
+            })
+            .collect(),
+    )
 }

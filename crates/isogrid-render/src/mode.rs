@@ -93,10 +93,18 @@ pub enum Aov {
     Cluster,
     /// f32 value of the grid's attribute at the hit cell, NaN on a miss (grids with an attribute).
     Value,
+    /// u64 value of the hit cell's label, `u64::MAX` (all ones) on a miss (label grids).
+    Label,
 }
 
 impl Aov {
-    pub const ALL: [Aov; 4] = [Aov::Depth, Aov::Normal, Aov::Cluster, Aov::Value];
+    pub const ALL: [Aov; 5] = [
+        Aov::Depth,
+        Aov::Normal,
+        Aov::Cluster,
+        Aov::Value,
+        Aov::Label,
+    ];
 
     pub fn name(self) -> &'static str {
         match self {
@@ -104,6 +112,7 @@ impl Aov {
             Aov::Normal => "normal",
             Aov::Cluster => "cluster",
             Aov::Value => "value",
+            Aov::Label => "label",
         }
     }
 }
@@ -116,7 +125,7 @@ impl FromStr for Aov {
             .find(|a| a.name() == s.trim())
             .ok_or_else(|| {
                 Error::invalid(format!(
-                    "unknown AOV {s:?} (depth, normal, cluster or value)"
+                    "unknown AOV {s:?} (depth, normal, cluster, value or label)"
                 ))
             })
     }

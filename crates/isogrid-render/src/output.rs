@@ -45,6 +45,8 @@ pub struct Rendered {
     /// The grid's attribute at the hit cell, NaN on a miss; `None` where the renderer does not
     /// give it (no attribute, or the GPU renderer).
     pub value: Option<Vec<f32>>,
+    /// A label grid's label value at the hit cell, `u64::MAX` on a miss; `None` for other grids.
+    pub label: Option<Vec<u64>>,
     pub placement: Placement,
     /// The adapter's name and API on the GPU, `CPU ray tracer` on the CPU.
     pub adapter: String,

@@ -4,6 +4,7 @@
 
 use crate::environment::{EnvSource, LoadedEnv};
 use crate::mode::{cpu_draws, Aov, Backend, Mode, Primary};
+use isogrid::LabelSelection;
 use isogrid::{Camera, Error, Result};
 use isogrid_trace::{Crossing, Traversal};
 
@@ -69,6 +70,10 @@ pub struct RequestParts {
     /// Colour the surface by the grid's attribute; `None`: one colour. Every mode of both
     /// renderers draws it (path tracing with the colour as albedo).
     pub color: Option<ColorSpec>,
+    /// A label grid: draw only these labels (`None`: all)...
+    pub show: Option<LabelSelection>,
+    /// ...except these (`None`: none). Values or ranges naming no label of the grid are refused.
+    pub hide: Option<LabelSelection>,
 }
 
 /// How a surface is coloured by its grid's attribute.
@@ -109,6 +114,8 @@ impl Default for RequestParts {
             occlusion_culling: true,
             cell_raster: isogrid_gpu::CellRaster::Auto,
             color: None,
+            show: None,
+            hide: None,
         }
     }
 }

@@ -256,5 +256,6 @@ fn rendered(renderer: &Renderer, f: Frame, frames: u32, seconds: f64, mode: Mode
         normal: f.normal,
         cluster: f.cluster,
         value: (!f.value.is_empty()).then_some(f.value),
+        label: None,
     }
 }

@@ -216,15 +216,40 @@ impl<'g> Tracer<'g> {
         tmin: f64,
         best: &mut Best,
     ) {
-        let slots = &self.metacells[block.slots()];
-        let first_cluster = block.metacell_pointer as usize / CLUSTER_SLOTS;
+        // A block holds at most 512 metacells, so at most 35 clusters of one isosurface; a label
+        // grid holds a run of clusters per label there, so its clusters go in groups of 35.
+        let packed = self.cluster_bounds.of_block(block);
+        if packed.len() <= MAX_BLOCK_CLUSTERS {
+            return self.closest_in_clusters(lanes, r, block, 0, packed, origin, tmin, best);
+        }
+        for first in (0..packed.len()).step_by(MAX_BLOCK_CLUSTERS) {
+            let group = &packed[first..packed.len().min(first + MAX_BLOCK_CLUSTERS)];
+            self.closest_in_clusters(lanes, r, block, first, group, origin, tmin, best);
+        }
+    }
+
+    /// The closest-hit search in `block`'s clusters `first..first + packed.len()` (`packed`: their
+    /// packed bounds, at most [`MAX_BLOCK_CLUSTERS`]).
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    fn closest_in_clusters<L: Lanes>(
+        &self,
+        lanes: L,
+        r: &CellRay,
+        block: &Block,
+        first: usize,
+        packed: &[u32],
+        origin: [f32; 3],
+        tmin: f64,
+        best: &mut Best,
+    ) {
+        let slots = &self.metacells[block.slots()][first * CLUSTER_SLOTS..];
+        let first_cluster = block.metacell_pointer as usize / CLUSTER_SLOTS + first;
         // Clusters whose bound the ray enters, nearest first, so that the search can stop at the
-        // first cluster that starts behind the best hit. A block holds at most 512 metacells, so
-        // at most 35 clusters.
+        // first cluster that starts behind the best hit.
         let mut order = [(0.0f32, 0u16); MAX_BLOCK_CLUSTERS];
         let mut count = 0;
         let mut entry = [0f32; CLUSTER_LANES];
-        let packed = self.cluster_bounds.of_block(block);
         let mut hits = cluster_hits(r, packed, origin, widen_f32(tmin, best.t), &mut entry);
         while hits != 0 {
             let ci = hits.trailing_zeros() as usize;
@@ -268,17 +293,21 @@ impl<'g> Tracer<'g> {
         let slots = &self.metacells[block.slots()];
         let mut entry = [0f32; CLUSTER_LANES];
         let packed = self.cluster_bounds.of_block(block);
-        let mut hits = cluster_hits(r, packed, origin, widen_f32(tmin, tmax), &mut entry);
-        while hits != 0 {
-            let ci = hits.trailing_zeros() as usize;
-            hits &= hits - 1;
-            let cluster = &slots[ci * CLUSTER_SLOTS..(ci + 1) * CLUSTER_SLOTS];
-            let index = (block.metacell_pointer as usize / CLUSTER_SLOTS + ci) as u32;
-            if self
-                .search
-                .any_box_in_cluster(lanes, r, cluster, index, tmin, tmax)
-            {
-                return true;
+        // In groups of at most 35 clusters, as `closest_in_block`.
+        for first in (0..packed.len()).step_by(MAX_BLOCK_CLUSTERS) {
+            let group = &packed[first..packed.len().min(first + MAX_BLOCK_CLUSTERS)];
+            let mut hits = cluster_hits(r, group, origin, widen_f32(tmin, tmax), &mut entry);
+            while hits != 0 {
+                let ci = first + hits.trailing_zeros() as usize;
+                hits &= hits - 1;
+                let cluster = &slots[ci * CLUSTER_SLOTS..(ci + 1) * CLUSTER_SLOTS];
+                let index = (block.metacell_pointer as usize / CLUSTER_SLOTS + ci) as u32;
+                if self
+                    .search
+                    .any_box_in_cluster(lanes, r, cluster, index, tmin, tmax)
+                {
+                    return true;
+                }
             }
         }
         false

@@ -325,7 +325,8 @@ impl ClusterBvh {
             for slot in block.slots() {
                 let m = grid.metacells()[slot];
                 if slot % CLUSTER_SLOTS != BOUND_SLOT && m.cell_mask & 0xff != 0 {
-                    expected.insert(m.position, (m, false));
+                    // Keyed by records too: a label grid holds a position once per label there.
+                    expected.insert((m.position, m.cell_pointer), (m, false));
                 }
             }
         }
@@ -336,7 +337,7 @@ impl ClusterBvh {
                 if m.is_empty() {
                     continue;
                 }
-                let Some((want, seen)) = expected.get_mut(&m.position) else {
+                let Some((want, seen)) = expected.get_mut(&(m.position, m.cell_pointer)) else {
                     return Err(format!(
                         "leaf {leaf} slot {k}: no such metacell in the grid"
                     ));

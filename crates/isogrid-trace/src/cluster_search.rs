@@ -66,6 +66,29 @@ pub(crate) struct ClusterSearch<'g> {
     margin: f64,
     cluster_boxes: AllClusterBoxes,
     lanes: Chosen,
+    /// In a label grid, crossings this close (world units) are one: a cell may be stored once
+    /// per label, and touching labels' surfaces coincide there, so such a tie is settled by
+    /// [`wins_tie`]. The search windows reach this far past the best crossing, so that the other
+    /// label's crossing is found even in the neighbouring cell. 0 for other grids.
+    tie_slack: f64,
+}
+
+/// [`ClusterSearch`]'s tie slack per world unit of the largest sample spacing: two labels'
+/// coinciding crossings come from complementary indicators and differ only by rounding (about
+/// 10⁻¹⁵ of a cell).
+const TIE: f64 = 1e-6;
+
+/// Which of two coinciding crossings (`t` within [`TIE`]) a ray sees: the surface it enters
+/// (∇f along the ray: its front face) over the one it leaves; else the one found first. So a
+/// shared boundary shows one label, without speckle, and the label beyond it once the label
+/// before it is hidden. The GPU tracer settles ties the same way (`wins_tie` in trace.wgsl).
+#[inline(never)]
+fn wins_tie(found: (&Trilinear, [f64; 3]), best: (&Trilinear, [f64; 3]), delta: [f64; 3]) -> bool {
+    let enters = |(tri, u): (&Trilinear, [f64; 3])| {
+        let g = tri.gradient(u);
+        g[0] * delta[0] + g[1] * delta[1] + g[2] * delta[2] > 0.0
+    };
+    enters(found) && !enters(best)
 }
 
 /// Margin (cells) by which the f32 metacell test grows each box so that rounding never culls a
@@ -164,6 +187,10 @@ impl<'g> ClusterSearch<'g> {
             margin: metacell_margin(info.cell_dims().map(|c| c as f64)),
             cluster_boxes: AllClusterBoxes::new(clusters),
             lanes: Chosen::detect(),
+            tie_slack: match grid.labels() {
+                Some(_) => TIE * info.spacing.iter().fold(0.0f64, |m, &s| m.max(s)),
+                None => 0.0,
+            },
         }
     }
 
@@ -311,10 +338,18 @@ impl<'g> ClusterSearch<'g> {
             let cubic = tri.along(start_local, delta, self.iso_code);
             if let Some(s) = cubic.first_crossing(self.crossing) {
                 let t = t0 + s * (t1 - t0);
-                if t < best.t || best.found.is_none() {
-                    let u = xyz(|a| (start_local[a] + s * delta[a]).clamp(0.0, 1.0));
-                    best.t = t;
-                    best.found = Some((t, index, pos, found_in, tri, u));
+                let u = || xyz(|a| (start_local[a] + s * delta[a]).clamp(0.0, 1.0));
+                // `best.t` is the crossing found plus the tie slack (0 outside label grids).
+                let wins = match &best.found {
+                    None => true,
+                    Some(b) if (t - b.0).abs() <= self.tie_slack => {
+                        self.tie_slack > 0.0 && wins_tie((&tri, u()), (&b.4, b.5), delta)
+                    }
+                    Some(b) => t < b.0,
+                };
+                if wins {
+                    best.t = t + self.tie_slack;
+                    best.found = Some((t, index, pos, found_in, tri, u()));
                 }
                 break;
             }

@@ -177,6 +177,93 @@ impl CellGrid {
         self.labels = Some(labels);
         self
     }
+    /// The grid of the labels `shown` alone (one flag per label-table entry), to draw a label
+    /// grid with some labels hidden: the clusters of the shown labels' runs, found through the
+    /// label index (no scan of the others), with their metacell slots and corner records; the
+    /// hidden labels stay in the table with no cells. Every renderer draws it as any label grid,
+    /// so a hidden label's neighbours show their own surfaces where they touched it. Fails on a
+    /// grid without labels, a flag count other than the table's, or a grid with an attribute.
+    pub fn showing_labels(&self, shown: &[bool]) -> crate::Result<CellGrid> {
+        use crate::labels::{ClusterRun, LabelEntry};
+        let labels = self
+            .labels()
+            .ok_or_else(|| crate::Error::invalid("the grid has no labels to show or hide"))?;
+        if shown.len() != labels.table().len() {
+            return Err(crate::Error::invalid(format!(
+                "{} show flags for {} labels",
+                shown.len(),
+                labels.table().len()
+            )));
+        }
+        if self.attribute.is_some() {
+            return Err(crate::Error::invalid(
+                "labels of a grid with an attribute cannot be hidden yet",
+            ));
+        }
+        // Old cluster → new cluster, for the kept ones.
+        let mut new_cluster = vec![u32::MAX; self.clusters()];
+        for (l, _) in shown.iter().enumerate().filter(|(_, &s)| s) {
+            for run in labels.runs_of(l) {
+                new_cluster[run.clusters()].fill(0);
+            }
+        }
+        let n = self.info.precision.bytes_per_cell();
+        let (old_metacells, old_cells) = (self.metacells(), self.cells());
+        let mut blocks = Vec::with_capacity(self.blocks().len());
+        let (mut metacells, mut cells) = (Vec::new(), Vec::new());
+        let mut cluster_labels = Vec::new();
+        for block in self.blocks() {
+            let pointer = metacells.len() as u32;
+            for c in block.slots().start / CLUSTER_SLOTS..block.slots().end / CLUSTER_SLOTS {
+                if new_cluster[c] == u32::MAX {
+                    continue;
+                }
+                new_cluster[c] = (metacells.len() / CLUSTER_SLOTS) as u32;
+                cluster_labels.push(labels.cluster_labels()[c]);
+                for (k, m) in old_metacells[c * CLUSTER_SLOTS..(c + 1) * CLUSTER_SLOTS]
+                    .iter()
+                    .enumerate()
+                {
+                    let mut m = *m;
+                    if k != BOUND_SLOT && !m.is_empty() {
+                        let start = m.cell_pointer as usize * n;
+                        let end = start + m.active_cells() as usize * n;
+                        m.cell_pointer = (cells.len() / n) as u32;
+                        cells.extend_from_slice(&old_cells[start..end]);
+                    }
+                    metacells.push(m);
+                }
+            }
+            blocks.push(Block {
+                metacell_count: metacells.len() as u32 - pointer,
+                metacell_pointer: pointer,
+                ..*block
+            });
+        }
+        let (mut index, mut runs) = (Vec::new(), Vec::new());
+        for (l, e) in labels.index().iter().enumerate() {
+            let first_run = runs.len() as u64;
+            if shown[l] {
+                runs.extend(labels.runs_of(l).iter().map(|r| ClusterRun {
+                    first_cluster: new_cluster[r.first_cluster as usize],
+                    cluster_count: r.cluster_count,
+                }));
+            }
+            index.push(match shown[l] {
+                true => LabelEntry { first_run, ..*e },
+                false => LabelEntry {
+                    first_run,
+                    ..Default::default()
+                },
+            });
+        }
+        let labels = GridLabels::from_parts(labels.table().to_vec(), cluster_labels, index, runs);
+        Ok(
+            CellGrid::from_parts(self.info.clone(), blocks, metacells, cells)
+                .with_built_labels(labels),
+        )
+    }
+
     /// The labels of a grid extracted from a label volume.
     pub fn labels(&self) -> Option<&GridLabels> {
         self.labels.as_ref()

@@ -320,6 +320,53 @@ impl GridLabels {
         let e = &self.index[label];
         &self.runs[e.first_run as usize..(e.first_run + e.run_count) as usize]
     }
+    /// Which labels to draw, one flag per table entry: those `show` selects (all when `None`)
+    /// that `hide` does not. Each value or range either names must hold a label of the table,
+    /// or it is refused in one line (`signed`: how values are written, [`display_value`]).
+    pub fn shown(
+        &self,
+        show: Option<&LabelSelection>,
+        hide: Option<&LabelSelection>,
+        signed: bool,
+    ) -> Result<Vec<bool>> {
+        for selection in [show, hide].into_iter().flatten() {
+            let LabelSelection::Values(ranges) = selection else {
+                continue;
+            };
+            for r in ranges {
+                let first = self.table.partition_point(|l| l.value < *r.start());
+                if self.table.get(first).is_none_or(|l| l.value > *r.end()) {
+                    let (lo, hi) = (
+                        display_value(*r.start(), signed),
+                        display_value(*r.end(), signed),
+                    );
+                    let named = if lo == hi {
+                        format!("label {lo}")
+                    } else {
+                        format!("labels {lo}-{hi}")
+                    };
+                    return Err(Error::invalid(format!(
+                        "{named}: no such label in the grid ({} labels, {} to {})",
+                        self.table.len(),
+                        self.table
+                            .first()
+                            .map_or(String::new(), |l| display_value(l.value, signed)),
+                        self.table
+                            .last()
+                            .map_or(String::new(), |l| display_value(l.value, signed)),
+                    )));
+                }
+            }
+        }
+        Ok(self
+            .table
+            .iter()
+            .map(|l| {
+                show.is_none_or(|s| s.selects(l.value)) && !hide.is_some_and(|h| h.selects(l.value))
+            })
+            .collect())
+    }
+
     /// The table index of the label with value `value`.
     pub fn find(&self, value: u64) -> Option<usize> {
         self.table.binary_search_by_key(&value, |l| l.value).ok()

@@ -90,7 +90,8 @@ pub struct Args {
     pub output: Option<PathBuf>,
     /// Per-pixel outputs as .npy: depth=D.npy (f32 HxW, inf on miss), normal=N.npy (f32 HxWx3,
     /// NaN on miss), cluster=C.npy (u32 HxW, 4294967295 on miss), value=V.npy (f32 HxW, the
-    /// attribute at the hit cell, NaN on a miss), comma-separated.
+    /// attribute at the hit cell, NaN on a miss), label=L.npy (u64 HxW, the label value under
+    /// the pixel of a label grid, 18446744073709551615 on a miss), comma-separated.
     #[arg(long, value_name = "NAME=FILE,...", value_parser = parse_aovs)]
     pub aov: Option<Aovs>,
     /// Path tracing: samples per pixel, on either backend (default 16, or --frames).
@@ -129,9 +130,20 @@ pub struct Args {
     /// edge.
     #[arg(long)]
     pub colorbar: bool,
+    /// A label grid: draw only these labels, e.g. 1,5-9 (all by default).
+    #[arg(long, value_name = "LABELS", value_parser = parse_labels, allow_hyphen_values = true)]
+    pub show: Option<isogrid::LabelSelection>,
+    /// A label grid: do not draw these labels, e.g. 0,3; their neighbours show their own
+    /// surfaces where they touched them.
+    #[arg(long, value_name = "LABELS", value_parser = parse_labels, allow_hyphen_values = true)]
+    pub hide: Option<isogrid::LabelSelection>,
     /// Print one JSON object.
     #[arg(long)]
     pub json: bool,
+}
+
+fn parse_labels(s: &str) -> Result<isogrid::LabelSelection, String> {
+    isogrid::LabelSelection::parse(s).map_err(|e| e.to_string())
 }
 
 pub(crate) fn parse_cmap(s: &str) -> Result<ColorMap, String> {
@@ -157,6 +169,7 @@ pub struct Aovs {
     pub normal: Option<PathBuf>,
     pub cluster: Option<PathBuf>,
     pub value: Option<PathBuf>,
+    pub label: Option<PathBuf>,
 }
 
 impl Aovs {
@@ -166,6 +179,7 @@ impl Aovs {
             Aov::Normal => &mut self.normal,
             Aov::Cluster => &mut self.cluster,
             Aov::Value => &mut self.value,
+            Aov::Label => &mut self.label,
         }
     }
 
@@ -176,6 +190,7 @@ impl Aovs {
             (Aov::Normal, &self.normal),
             (Aov::Cluster, &self.cluster),
             (Aov::Value, &self.value),
+            (Aov::Label, &self.label),
         ]
         .into_iter()
         .filter_map(|(aov, path)| path.as_ref().map(|p| (aov, p)))
@@ -355,6 +370,7 @@ fn check_outputs(args: &Args) -> Result<()> {
                 Aov::Normal => "the normal AOV",
                 Aov::Cluster => "the cluster AOV",
                 Aov::Value => "the value AOV",
+                Aov::Label => "the label AOV",
             },
             path,
             extensions: &[".npy"],
@@ -430,6 +446,8 @@ fn request(args: &Args, colored: bool) -> Result<RenderRequest> {
             map: args.cmap.unwrap_or_default(),
             clim: args.clim,
         }),
+        show: args.show.clone(),
+        hide: args.hide.clone(),
     };
     Ok(RenderRequest::new(parts)?)
 }
@@ -484,6 +502,9 @@ pub fn run(args: Args) -> Result<()> {
         );
     }
     let request = request(&args, grid.attribute().is_some())?;
+    // --show / --hide name labels of this grid: checked before a backend is chosen.
+    isogrid_render::label_choice(&request, &grid)
+        .with_context(|| args.source.input.display().to_string())?;
     let ctx = RenderContext::new();
     let decision = ctx.decide(&request)?;
     if let Some(note) = &decision.note {
@@ -550,6 +571,12 @@ pub fn run(args: Args) -> Result<()> {
                     anyhow::anyhow!("the value AOV came back empty from the renderer")
                 })?;
                 isogrid_io::image::stage_npy_f32_hw(path, width, height, value)?
+            }
+            Aov::Label => {
+                let label = rendered.label.as_ref().ok_or_else(|| {
+                    anyhow::anyhow!("the label AOV came back empty from the renderer")
+                })?;
+                isogrid_io::image::stage_npy(path, &[height as usize, width as usize], label)?
             }
         });
     }

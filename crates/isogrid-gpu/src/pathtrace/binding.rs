@@ -115,15 +115,6 @@ pub(super) fn trace_binding(
     uniforms: &wgpu::Buffer,
     coloring: &TraceColoring,
 ) -> Result<TraceBinding, GpuError> {
-    if grid.label_albedo.is_some() {
-        // The block walk finds a metacell by its position's rank in the block (one metacell per
-        // position); a label grid repeats positions across its labels' clusters, so rays would
-        // miss cells. Refused rather than traced wrong.
-        return Err(GpuError::invalid(
-            "the GPU tracer does not trace label grids yet (its block walk assumes one metacell \
-             per position); path trace them on the CPU tracer (--backend cpu)",
-        ));
-    }
     let dummy = || {
         gpu.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("unused trace data"),

@@ -18,6 +18,8 @@ pub struct RayHit {
     pub t: f32,
     /// Unit world normal −∇f of the stored trilinear field (out of the solid).
     pub normal: [f32; 3],
+    /// The grid's cluster holding the hit cell (its label in a label grid).
+    pub cluster: u32,
 }
 
 /// Traces world-space rays through the grid's hierarchy (see [`crate::Renderer::trace_rays`]).
@@ -81,9 +83,10 @@ pub(crate) fn trace_ray_batch(
                 contents: bytemuck::cast_slice(&packed),
                 usage: storage,
             });
-        let hit_bytes = ray_bytes / 2;
+        // Two vec4 per ray: normal and t, then cluster and record.
+        let hit_bytes = ray_bytes;
         // No crossing yet: each group's pass keeps the nearer of the hit so far and its own.
-        let no_hits = vec![[0.0, 0.0, 0.0, NO_HIT]; rays.len()];
+        let no_hits = vec![[0.0, 0.0, 0.0, NO_HIT]; 2 * rays.len()];
         let hits = gpu
             .device
             .create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -120,11 +123,12 @@ pub(crate) fn trace_ray_batch(
         gpu.queue.submit([encoder.finish()]);
         let hits: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&gpu.read_buffer(&readback)?);
         Ok(hits
-            .iter()
+            .chunks_exact(2)
             .map(|h| {
-                (h[3] < NO_HIT).then_some(RayHit {
-                    t: h[3],
-                    normal: [h[0], h[1], h[2]],
+                (h[0][3] < NO_HIT).then_some(RayHit {
+                    t: h[0][3],
+                    normal: [h[0][0], h[0][1], h[0][2]],
+                    cluster: h[1][0].to_bits(),
                 })
             })
             .collect())

@@ -1,7 +1,7 @@
 //! The per-frame uniforms every cell, mesh and shading shader reads: camera basis and near plane,
 //! viewport, cell spacing, the isovalue in the scene's units, and the frame's flags.
 
-use crate::gpu_types::{FrameUniforms, SOURCE_RECORDS, SOURCE_VOLUME};
+use crate::gpu_types::{FrameUniforms, FLAG_LABELS, SOURCE_RECORDS, SOURCE_VOLUME};
 use crate::upload::GpuGrid;
 use isogrid::Camera;
 
@@ -69,7 +69,10 @@ pub(super) fn frame_uniforms(
             } else {
                 SOURCE_RECORDS
             },
-            flags,
+            match grid {
+                Some(g) if g.label_albedo.is_some() => flags | FLAG_LABELS,
+                _ => flags,
+            },
             frame,
         ],
         clip: [0.0; 4],

@@ -232,23 +232,124 @@ fn label_grids_are_drawn_in_their_label_colours_like_the_cpu() {
         eprintln!("label {gl}: GPU {gm:.1?} CPU {cm:.1?} cos {cos:.5}");
         assert!(cos > 0.998, "label {gl}: GPU {gm:?} CPU {cm:?}");
     }
-    // The GPU tracer's block walk cannot trace label grids yet: refused, not traced wrong.
-    for primary in [PrimaryRays::Raster, PrimaryRays::Traced] {
-        let options = PathTraceOptions {
-            primary,
+    // Path tracing: linear means within 0.03, with raster and traced primaries.
+    let cpu_pt = isogrid_trace::render(
+        &grid,
+        &camera,
+        &RenderOptions {
+            shading: Shading::PathTrace(isogrid_trace::PathTraceOptions {
+                samples_per_pixel: 32,
+                bounces: 2,
+                environment: Environment::Sky,
+                seed: 3,
+                ..Default::default()
+            }),
             ..Default::default()
-        };
-        let err = r.path_trace(&gpu_grid, &camera, &options).unwrap_err();
-        assert!(err.to_string().contains("label grids"), "{err}");
+        },
+    )
+    .unwrap();
+    let c = label_means(
+        &grid,
+        (w, h),
+        |i| cpu_pt.cluster[i],
+        |i| cpu_pt.radiance[i].map(|v| v as f64),
+    );
+    for primary in [PrimaryRays::Raster, PrimaryRays::Traced] {
+        let gpu = r
+            .path_trace(
+                &gpu_grid,
+                &camera,
+                &PathTraceOptions {
+                    frames: 32,
+                    bounces: 2,
+                    primary,
+                    ..Default::default()
+                },
+            )
+            .unwrap();
+        let g = label_means(
+            &grid,
+            (w, h),
+            |i| gpu.cluster[i],
+            |i| gpu.linear[i].map(|v| v as f64),
+        );
+        assert_eq!(g.len(), c.len(), "{primary:?}: labels seen");
+        for ((gl, gm), (cl, cm)) in g.iter().zip(&c) {
+            assert_eq!(gl, cl);
+            eprintln!("{primary:?} label {gl}: GPU {gm:.3?} CPU {cm:.3?}");
+            assert!(
+                (0..3).all(|k| (gm[k] - cm[k]).abs() <= 0.03),
+                "{primary:?} label {gl}: GPU {gm:?} CPU {cm:?}"
+            );
+        }
     }
-    let err = r
-        .trace_rays(
-            &gpu_grid,
-            &[isogrid::Ray {
-                origin: [0.0; 3],
-                direction: [1.0, 0.0, 0.0],
-            }],
-        )
-        .unwrap_err();
-    assert!(err.to_string().contains("label grids"), "{err}");
+}
+
+/// The GPU tracer's walk tests every label's metacell at a position (a label grid repeats
+/// positions across its labels' runs): its hits are the CPU tracer's, with the same label, on
+/// rays from outside the ball and from inside its labels (which meet the boundaries between
+/// touching labels from both sides).
+#[test]
+fn label_grid_rays_hit_like_the_cpu_tracer_with_the_same_label() {
+    let Some(r) = renderer() else { return };
+    // The ball, and a 32³ checkerboard of 3³ cubes of 11 labels (every cube touches others on
+    // every side, and a block holds dozens of labels' runs, so positions repeat many times).
+    let cubes = isogrid::extract_labels(
+        &isogrid::generate::labelled_cubes(32).view(),
+        &isogrid::LabelOptions::new(isogrid::LabelSelection::All),
+    )
+    .unwrap();
+    for (name, grid, centre, reach) in [
+        ("ball", labelled_ball(), 19.5, 16.0),
+        ("cubes", cubes, 15.5, 28.0),
+    ] {
+        label_rays_agree(r, name, &grid, centre, reach);
+    }
+}
+
+/// GPU `trace_rays` against the CPU tracer on `grid`: random rays around the grid's box, and
+/// rays from a cube of side `reach` about `centre`, where labels touch.
+fn label_rays_agree(r: &Renderer, name: &str, grid: &CellGrid, centre: f64, reach: f64) {
+    let cluster_labels = grid.labels().unwrap().cluster_labels();
+    let cpu = isogrid_trace::Tracer::new(grid, isogrid_trace::Crossing::Samples3);
+    let gpu_grid = r.upload_grid(grid).unwrap();
+    let hi = grid.info().world_bounds().1;
+    let outside = crate::pathtrace::random_rays(hi, 3000, 5);
+    let mut rng = crate::pathtrace::Rng(17);
+    let inside: Vec<isogrid::Ray> = (0..3000)
+        .map(|_| isogrid::Ray {
+            origin: std::array::from_fn(|_| centre + reach * (rng.next() - 0.5)),
+            direction: rng.direction(),
+        })
+        .collect();
+    for (what, rays) in [("from outside", outside), ("from inside", inside)] {
+        let what = format!("{name}, rays {what}");
+        let gpu = r.trace_rays(&gpu_grid, &rays).unwrap();
+        let (mut agree, mut both, mut close, mut same_label) = (0, 0, 0, 0);
+        for (ray, got) in rays.iter().zip(&gpu) {
+            let want = cpu.closest_hit(ray, 0.0, f64::INFINITY);
+            agree += (want.is_some() == got.is_some()) as usize;
+            if let (Some(want), Some(got)) = (want, got) {
+                both += 1;
+                close += ((got.t as f64 - want.t).abs() <= 0.05) as usize;
+                same_label += (cluster_labels[want.cluster as usize]
+                    == cluster_labels[got.cluster as usize]) as usize;
+            }
+        }
+        let n = rays.len();
+        eprintln!(
+            "{what}: {n} rays, hit/miss agree {agree}, both hit {both}, \
+             same label {same_label}, within 0.05 {close}"
+        );
+        assert!(both >= n / 5, "{what}: too few hits ({both})");
+        assert!(agree as f64 >= 0.999 * n as f64, "{what}: {agree} of {n}");
+        assert!(
+            same_label as f64 >= 0.999 * both as f64,
+            "{what}: {same_label} of {both}"
+        );
+        assert!(
+            close as f64 >= 0.999 * both as f64,
+            "{what}: {close} of {both}"
+        );
+    }
 }

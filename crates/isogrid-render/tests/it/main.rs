@@ -2,6 +2,7 @@
 //! dispatch with progress and cancellation on both renderers.
 
 mod dispatch;
+mod labels;
 mod policy;
 mod request;
 mod scene;

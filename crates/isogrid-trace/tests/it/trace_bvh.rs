@@ -246,3 +246,21 @@ fn a_dropped_leaf_or_a_box_one_cell_short_is_caught() {
         assert!(caught * 2 > tried, "shrink {shrink}: {caught} of {tried}");
     }
 }
+
+/// A label grid with more clusters per block than one isosurface can have (a run per label, up
+/// to 11 labels in a block, beyond the block walk's 35 clusters per pass): both traversals find
+/// every cluster, the same hits.
+#[test]
+fn bvh_hits_equal_the_block_walk_on_a_label_grid_of_many_labels_per_block() {
+    let volume = isogrid::generate::labelled_cubes(32);
+    let grid = isogrid::extract_labels(
+        &volume.view(),
+        &isogrid::LabelOptions::new(isogrid::LabelSelection::All),
+    )
+    .unwrap();
+    let busiest = grid.blocks().iter().map(|b| b.cluster_count()).max();
+    assert!(busiest > Some(35), "busiest block: {busiest:?} clusters");
+    let rays = random_rays(&grid, 400, 11);
+    let (hits, _) = compare(&grid, Crossing::Samples3, &rays, "label cubes");
+    assert!(hits > 200, "label cubes: {hits} hits");
+}

@@ -1,0 +1,90 @@
+//! Showing and hiding labels (`CellGrid::showing_labels`, `GridLabels::shown`): the grid of a
+//! label grid with some labels hidden is the grid the extraction makes of the shown labels alone,
+//! slot for slot and record for record.
+
+use isogrid::generate::labelled_ball;
+use isogrid::{extract_labels, LabelOptions, LabelSelection};
+
+fn extracted(selection: &str) -> isogrid::CellGrid {
+    let volume = labelled_ball(40);
+    extract_labels(
+        &volume.view(),
+        &LabelOptions::new(LabelSelection::parse(selection).unwrap()),
+    )
+    .unwrap()
+}
+
+#[test]
+fn hiding_labels_gives_the_grid_of_the_others_extracted_alone() {
+    let all = extracted("1-3");
+    let labels = all.labels().unwrap();
+    for (hide, rest) in [("2", "1,3"), ("1,3", "2"), ("3", "1-2")] {
+        let shown = labels
+            .shown(None, Some(&LabelSelection::parse(hide).unwrap()), false)
+            .unwrap();
+        let view = all.showing_labels(&shown).unwrap();
+        let alone = extracted(rest);
+        assert_eq!(view.metacells(), alone.metacells(), "hide {hide}");
+        assert_eq!(view.cells(), alone.cells(), "hide {hide}");
+        let slots = |g: &isogrid::CellGrid| -> Vec<(u32, u32)> {
+            g.blocks()
+                .iter()
+                .map(|b| (b.metacell_count, b.metacell_pointer))
+                .collect()
+        };
+        assert_eq!(slots(&view), slots(&alone), "hide {hide}");
+        // Cluster by cluster the same label value; the hidden labels keep their entries, empty.
+        let values = |g: &isogrid::CellGrid| -> Vec<u64> {
+            let l = g.labels().unwrap();
+            l.cluster_labels()
+                .iter()
+                .map(|&i| l.table()[i as usize].value)
+                .collect()
+        };
+        assert_eq!(values(&view), values(&alone), "hide {hide}");
+        let vl = view.labels().unwrap();
+        for (i, label) in vl.table().iter().enumerate() {
+            match alone.labels().unwrap().find(label.value) {
+                Some(j) => assert_eq!(
+                    vl.index()[i].cell_count,
+                    alone.labels().unwrap().index()[j].cell_count
+                ),
+                None => assert_eq!(vl.index()[i].cell_count, 0),
+            }
+        }
+        // The reader's checks of the label sections against the slots pass on the view.
+        let again = isogrid::cgc::read_bytes(&isogrid::cgc::to_bytes(&view));
+        assert!(again.is_ok(), "hide {hide}: {:?}", again.err());
+    }
+}
+
+#[test]
+fn show_and_hide_name_labels_that_exist() {
+    let all = extracted("1-3");
+    let labels = all.labels().unwrap();
+    let sel = |s: &str| LabelSelection::parse(s).unwrap();
+    assert_eq!(
+        labels.shown(Some(&sel("1,3")), None, false).unwrap(),
+        [true, false, true]
+    );
+    assert_eq!(
+        labels
+            .shown(Some(&sel("1-3")), Some(&sel("2")), false)
+            .unwrap(),
+        [true, false, true]
+    );
+    assert_eq!(labels.shown(None, None, false).unwrap(), [true; 3]);
+    // A range holding some label is accepted; a value or range holding none is refused.
+    assert!(labels.shown(Some(&sel("3-9")), None, false).is_ok());
+    for bad in ["7", "4-9", "0"] {
+        let err = labels
+            .shown(None, Some(&sel(bad)), false)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("no such label") && !err.contains('\n'),
+            "{bad}: {err}"
+        );
+        assert!(labels.shown(Some(&sel(bad)), None, false).is_err());
+    }
+}
