@@ -144,7 +144,6 @@ def test_cli_and_python_write_the_same_labelled_file(cli, tmp_path):
         assert report == grid.stats
 
 
-<<<<<<< HEAD
 # Names and colours from files other tools wrote, and from colour tables. Masks in (i, j, k), each
 # label's cells checked against the brute-force reference; slicerio and ome-zarr lay (z, y, x)
 # arrays out as (i, j, k) and (z, y, x) respectively.
@@ -277,7 +276,7 @@ def test_bad_tables_and_arguments_are_refused(tmp_path):
         isogrid.extract(a, labels="all", labels_of="cells")
     with pytest.raises(ValueError, match="integer label values"):
         isogrid.extract(a.astype(np.float32) + 0.5, labels="all")
-=======
+
 def test_render_label_aov_show_and_hide():
     """``render(..., aovs=["label"], show=, hide=)``: the label under each pixel (uint64, all
     ones on a miss); hiding a label removes it and shows the labels beyond it where it stood;
@@ -306,4 +305,3 @@ def test_render_label_aov_show_and_hide():
     assert set(np.unique(alone["label"]).tolist()) <= {front, miss}
     with pytest.raises(ValueError, match="no such label"):
         isogrid.render(grid, camera=2, size=(16, 16), backend="cpu", hide="123456")
->>>>>>> trace-walk
