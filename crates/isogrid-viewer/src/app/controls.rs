@@ -83,6 +83,7 @@ impl App {
             self.extractor.update(|w| w.mesh = mesh);
         }
         self.color_controls(ui);
+        self.label_controls(ui);
         ui.separator();
 
         ui.label("View (drag: orbit, right/middle drag: pan, wheel: zoom)");

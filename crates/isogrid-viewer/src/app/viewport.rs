@@ -21,9 +21,15 @@ impl App {
         ));
 
         self.orbit_with_pointer(ui, &response, rect);
-        self.color.under_cursor = response
-            .hover_pos()
-            .and_then(|pos| self.value_at(pos, rect));
+        let hover = response.hover_pos();
+        self.color.under_cursor = hover.and_then(|pos| self.value_at(pos, rect));
+        self.labels.under_cursor = hover
+            .and_then(|pos| self.pixel_at(pos, rect))
+            .and_then(|(x, y)| self.labels.at_pixel(x, y));
+        // A click (not a drag) names the label there; off the surface it clears.
+        if response.clicked() && self.labels.list.is_some() {
+            self.labels.picked = self.labels.under_cursor;
+        }
 
         let painter = ui.painter_at(area);
         painter.rect_filled(area, 0.0, background());
@@ -64,14 +70,21 @@ impl App {
     /// off the image or off the surface.
     fn value_at(&self, pos: egui::Pos2, rect: egui::Rect) -> Option<f32> {
         let (width, values) = self.shown_values.as_ref()?;
-        let height = values.len() as u32 / width.max(&1);
-        if !rect.contains(pos) || height == 0 {
+        let (x, y) = self.pixel_at(pos, rect)?;
+        *values.get((x + width * y) as usize)?
+    }
+
+    /// The pixel of the frame on screen at `pos` (points) in the image `rect`; `None` off the
+    /// image.
+    fn pixel_at(&self, pos: egui::Pos2, rect: egui::Rect) -> Option<(u32, u32)> {
+        let (width, height, _) = self.shown_pixels.as_ref()?;
+        if !rect.contains(pos) || *width == 0 || *height == 0 {
             return None;
         }
         let u = (pos - rect.min) / rect.size();
         let x = ((u.x * *width as f32) as u32).min(width - 1);
-        let y = ((u.y * height as f32) as u32).min(height - 1);
-        values[(x + width * y) as usize]
+        let y = ((u.y * *height as f32) as u32).min(height - 1);
+        Some((x, y))
     }
 
     /// Render size in pixels: fixed, or the image area of the last frame.
