@@ -216,6 +216,16 @@ impl App {
             ui.label("Isovalue: open a volume first");
             return;
         };
+        if self.labels.list.is_some() {
+            ui.label(
+                egui::RichText::new(
+                    "A label grid: each label's surface at ½ of its indicator; no isovalue \
+                     applies.",
+                )
+                .small(),
+            );
+            return;
+        }
         if let Some(grid) = &source.grid_info {
             ui.label(format!(
                 "Isovalue {} ({}-bit corners)",
