@@ -499,6 +499,54 @@ fn scripted_window_reports_bad_inputs() {
         ],
         "needs the original volume",
     );
+    // --show / --hide name labels of a label grid: a value it lacks, or a grid without labels.
+    view_fails(
+        &xvfb,
+        &[
+            "view",
+            cgc.to_str().unwrap(),
+            "--hide",
+            "3",
+            "--frames",
+            "1",
+        ],
+        "has none",
+    );
+    let cubes = dir.join("cubes.nrrd");
+    isogrid_io::write_nrrd(&cubes, &isogrid::generate::labelled_cubes(12)).unwrap();
+    view_fails(
+        &xvfb,
+        &[
+            "view",
+            cubes.to_str().unwrap(),
+            "--labels",
+            "all",
+            "--show",
+            "40",
+            "--frames",
+            "1",
+        ],
+        "no such label",
+    );
+    // A float volume is no label volume.
+    let float = isogrid::Volume::new(
+        [8, 8, 8],
+        isogrid::VolumeData::F32((0..512).map(|i| i as f32 * 0.37).collect()),
+    )
+    .unwrap();
+    isogrid_io::write_nrrd(&dir.join("float.nrrd"), &float).unwrap();
+    view_fails(
+        &xvfb,
+        &[
+            "view",
+            dir.join("float.nrrd").to_str().unwrap(),
+            "--labels",
+            "all",
+            "--frames",
+            "1",
+        ],
+        "float.nrrd",
+    );
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
@@ -521,6 +569,12 @@ fn arguments_are_checked_before_any_window_opens() {
         ),
         (&["view", "x.nrrd", "--mode", "wireframe"], "wireframe"),
         (&["view", "x.nrrd", "--screenshot", "a.png"], "--frames"),
+        (&["view", "x.nrrd", "--smooth", "1"], "--labels"),
+        (&["view", "x.cgc", "--labels", "all"], "is a .cgc file"),
+        (
+            &["view", "x.nrrd", "--labels", "1-x"],
+            "not `all` or a list",
+        ),
     ] {
         let out = run(args);
         let stderr = String::from_utf8_lossy(&out.stderr);

@@ -100,6 +100,14 @@ pub fn run(args: Args) -> Result<()> {
         )?;
     }
     let read_options = args.input_args.read_options()?;
+    if let (Some(input), Some(_)) = (&args.input, &args.labels) {
+        if crate::grid_source::is_cgc(input) {
+            bail!(
+                "--labels reads a label volume; {} is a .cgc file, whose labels (if any) are listed as they are",
+                input.display()
+            );
+        }
+    }
     let attribute = match (&args.input, args.color_by.as_deref()) {
         (Some(input), Some(text)) => {
             if crate::grid_source::is_cgc(input) {

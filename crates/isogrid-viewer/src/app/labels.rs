@@ -17,6 +17,12 @@ impl App {
     pub(super) fn on_labels(&mut self, generation: u64, labels: Option<GridLabels>) {
         let Some(labels) = labels else {
             self.labels.list = None;
+            let chooses = self.options.show.is_some() || self.options.hide.is_some();
+            if chooses && self.options.input == self.source.as_ref().map(|s| s.path.clone()) {
+                self.fail_or_note(
+                    "--show / --hide choose labels of a label grid, and this grid has none".into(),
+                );
+            }
             return;
         };
         let signed = self
