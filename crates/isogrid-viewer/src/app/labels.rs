@@ -114,17 +114,20 @@ impl App {
             })
             .small(),
         );
+        // Always two lines, so that the list below does not jump as the pointer moves.
         for (what, value) in [
             ("under the pointer", state.under_cursor),
             ("clicked", state.picked),
         ] {
-            let Some(value) = value else { continue };
             ui.horizontal(|ui| {
                 ui.label(format!("{what}:"));
-                match list.find(value) {
-                    Some(i) => changed |= label_row(ui, list, i),
+                match value.map(|v| (v, list.find(v))) {
+                    Some((_, Some(i))) => changed |= label_row(ui, list, i),
+                    Some((v, None)) => {
+                        ui.label(format!("label {v} (not in the list)"));
+                    }
                     None => {
-                        ui.label(format!("label {value} (not in the list)"));
+                        ui.label("–");
                     }
                 }
             });

@@ -30,6 +30,17 @@ impl App {
         if response.clicked() && self.labels.list.is_some() {
             self.labels.picked = self.labels.under_cursor;
         }
+        // The label's value and name beside the pointer, while it rests on the surface.
+        if let (Some(value), Some(list), false) = (
+            self.labels.under_cursor,
+            &self.labels.list,
+            response.dragged(),
+        ) {
+            if let Some(i) = list.find(value) {
+                let text = format!("{} {}", list.value_text(i), list.labels().table()[i].name);
+                response.clone().on_hover_text_at_pointer(text);
+            }
+        }
 
         let painter = ui.painter_at(area);
         painter.rect_filled(area, 0.0, background());
