@@ -202,6 +202,50 @@ mod tests {
         assert!(list.matches().is_empty());
     }
 
+    /// 10⁵ labels (a 48×48×44 u32 volume of one-voxel labels): building the list and searching it
+    /// give the brute-force matches, in milliseconds (printed; the panel lists at most
+    /// [`MAX_ROWS`] of them).
+    #[test]
+    fn searches_a_hundred_thousand_labels() {
+        let dims = [48, 48, 44];
+        let n = dims[0] * dims[1] * dims[2];
+        let samples = (0..n).map(|i| (i + 1) as u32).collect();
+        let volume = Volume::new(dims, VolumeData::U32(samples)).unwrap();
+        let options = LabelOptions::new(LabelSelection::All);
+        let labels = extract_labels(&volume.view(), &options)
+            .unwrap()
+            .labels()
+            .unwrap()
+            .clone();
+        assert!(labels.table().len() >= 100_000, "{}", labels.table().len());
+        let start = std::time::Instant::now();
+        let mut list = LabelList::new(labels, false);
+        let built = start.elapsed();
+        for query in ["label 4242", "777", "100-199,5000", "LABEL 9999"] {
+            let start = std::time::Instant::now();
+            list.search(query);
+            let took = start.elapsed();
+            let q = query.to_lowercase();
+            let values = LabelSelection::parse(&q).ok();
+            let brute: Vec<usize> = (0..list.len())
+                .filter(|&i| {
+                    let l = &list.labels().table()[i];
+                    l.name.to_lowercase().contains(&q)
+                        || values.as_ref().is_some_and(|v| v.selects(l.value))
+                })
+                .collect();
+            assert_eq!(list.matches(), brute, "{query}");
+            assert!(!brute.is_empty(), "{query}");
+            eprintln!(
+                "{} labels: list built in {:.1} ms; {query:?}: {} matches in {:.2} ms",
+                list.len(),
+                built.as_secs_f64() * 1e3,
+                brute.len(),
+                took.as_secs_f64() * 1e3
+            );
+        }
+    }
+
     /// Show all / hide all / only matches and `--show` / `--hide` set the flags the renderer gets.
     #[test]
     fn visibility_follows_the_buttons_and_selections() {
