@@ -91,7 +91,7 @@ type MeshKey = (u64, u64);
 type OpenVolume = (Arc<Volume>, Option<(f64, f64)>);
 
 enum Step {
-    Open(OpenRequest),
+    Open(Box<OpenRequest>),
     Grid(Arc<Volume>, f64, Option<Precision>),
     Mesh(Arc<Volume>, f64),
     Shutdown,
@@ -142,7 +142,7 @@ impl Worker {
                 Step::Shutdown => return,
                 Step::Open(request) => {
                     let notify = self.notify.clone();
-                    guarded(&notify, Failure::Open, "opening", || self.open(request));
+                    guarded(&notify, Failure::Open, "opening", || self.open(*request));
                 }
                 Step::Grid(volume, iso, precision) => {
                     let notify = self.notify.clone();
@@ -178,7 +178,7 @@ impl Worker {
         }
         let open = wanted.open.as_ref()?;
         if self.generation != Some(open.generation) {
-            return Some(Step::Open(open.clone()));
+            return Some(Step::Open(Box::new(open.clone())));
         }
         let (volume, range) = self.volume.as_ref()?;
         let iso = Self::resolve(wanted.iso, *range)?;
