@@ -89,13 +89,7 @@ impl App {
     /// image.
     fn pixel_at(&self, pos: egui::Pos2, rect: egui::Rect) -> Option<(u32, u32)> {
         let (width, height, _) = self.shown_pixels.as_ref()?;
-        if !rect.contains(pos) || *width == 0 || *height == 0 {
-            return None;
-        }
-        let u = (pos - rect.min) / rect.size();
-        let x = ((u.x * *width as f32) as u32).min(width - 1);
-        let y = ((u.y * *height as f32) as u32).min(height - 1);
-        Some((x, y))
+        pixel_of(pos, rect, [*width, *height])
     }
 
     /// Render size in pixels: fixed, or the image area of the last frame.
@@ -114,6 +108,18 @@ impl App {
             None => [640, 480],
         }
     }
+}
+
+/// The pixel of a `size` image shown in `rect` that `pos` (both in points) falls on; `None` off
+/// the image.
+fn pixel_of(pos: egui::Pos2, rect: egui::Rect, [width, height]: [u32; 2]) -> Option<(u32, u32)> {
+    if !rect.contains(pos) || width == 0 || height == 0 {
+        return None;
+    }
+    let u = (pos - rect.min) / rect.size();
+    let x = ((u.x * width as f32) as u32).min(width - 1);
+    let y = ((u.y * height as f32) as u32).min(height - 1);
+    Some((x, y))
 }
 
 /// The renderer's background, so that the image blends with the area around it.
@@ -144,6 +150,32 @@ fn image_rect(area: egui::Rect, size: [u32; 2], fixed: bool, ppp: f32) -> egui::
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The pointer's pixel and the label named there: a frame's label AOV is row-major from the
+    /// top-left, and an image scaled down to fit still maps each point to the pixel under it.
+    #[test]
+    fn the_pointer_names_the_label_of_the_pixel_under_it() {
+        use super::super::state::LabelState;
+        let (w, h) = (40u32, 30u32);
+        // Each pixel's label: its own index; a miss in the top-left corner.
+        let mut aov: Vec<u64> = (0..(w * h) as u64).collect();
+        aov[0] = u64::MAX;
+        let labels = LabelState {
+            frame_labels: Some((w, aov)),
+            ..Default::default()
+        };
+        // Shown at half size, from (100, 50).
+        let rect = egui::Rect::from_min_size(egui::pos2(100.0, 50.0), egui::vec2(20.0, 15.0));
+        for (x, y) in [(0, 0), (39, 0), (0, 29), (17, 11), (39, 29)] {
+            let centre = rect.min + egui::vec2(x as f32 + 0.5, y as f32 + 0.5) * 0.5;
+            assert_eq!(pixel_of(centre, rect, [w, h]), Some((x, y)));
+            let named = labels.at_pixel(x, y);
+            let expected = (x + w * y) as u64;
+            assert_eq!(named, (expected != 0).then_some(expected), "pixel {x},{y}");
+        }
+        assert_eq!(pixel_of(egui::pos2(99.0, 60.0), rect, [w, h]), None);
+        assert_eq!(pixel_of(egui::pos2(121.0, 60.0), rect, [w, h]), None);
+    }
 
     #[test]
     fn fixed_images_sit_on_the_pixel_grid_at_one_texel_per_pixel() {
