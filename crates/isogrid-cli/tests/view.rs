@@ -253,6 +253,106 @@ fn scripted_window_shows_the_coloured_headless_image() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+/// A label volume opened with `--labels all --hide 4`: the window shows what `isogrid render
+/// --hide 4` draws of the same labels (through the render front door, the GPU path `render` takes
+/// for this request), and not what it draws with every label shown. On 3³ cubes of 11 touching
+/// labels, so hiding label 4 reveals its neighbours' faces.
+#[test]
+fn scripted_window_hides_labels_as_render_hide_does() {
+    let Some(xvfb) = xvfb_run() else { return };
+    if renderer().is_none() {
+        return;
+    }
+    let dir = temp_dir("labels");
+    let volume = isogrid::generate::labelled_cubes(24);
+    let input = dir.join("cubes.nrrd");
+    isogrid_io::write_nrrd(&input, &volume).unwrap();
+    let shot = dir.join("window.png");
+    let (w, h) = (320u32, 240u32);
+    let out = isogrid_in_xvfb(
+        &xvfb,
+        &[
+            "view",
+            input.to_str().unwrap(),
+            "--labels",
+            "all",
+            "--hide",
+            "4",
+            "--size",
+            &format!("{w}x{h}"),
+            "--frames",
+            "3",
+            "--screenshot",
+            shot.to_str().unwrap(),
+        ],
+        Duration::from_secs(240),
+    );
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "view failed: {stderr}\n{stdout}");
+
+    let grid = isogrid::extract_labels(
+        &volume.view(),
+        &isogrid::LabelOptions::new(isogrid::LabelSelection::All),
+    )
+    .unwrap();
+    let ctx = isogrid_render::RenderContext::new();
+    let render = |hide: Option<&str>| {
+        let request = isogrid_render::RenderRequest::new(isogrid_render::RequestParts {
+            backend: isogrid_render::Backend::Gpu,
+            camera: isogrid_render::CameraSpec::View(2),
+            size: (w, h),
+            frames: 3,
+            hide: hide.map(|v| isogrid::LabelSelection::parse(v).unwrap()),
+            ..Default::default()
+        })
+        .unwrap();
+        let placement = isogrid_render::Placement::Gpu;
+        isogrid_render::render(&ctx, &request, placement, &grid, None, &Default::default())
+            .unwrap()
+            .rgb8
+    };
+    let (hidden, all) = (render(Some("4")), render(None));
+
+    let [x, y, rw, rh] = image_region(&stdout).unwrap_or_else(|| panic!("no image: {stdout}"));
+    assert_eq!(
+        [rw, rh],
+        [w, h],
+        "the image is shown at one texel per pixel"
+    );
+    let (sw, _, pixels) = read_png(&shot);
+    let close = |a: &[u8], b: &[u8]| (0..3).all(|c| (a[c] as i32 - b[c] as i32).abs() <= 6);
+    let (mut same, mut changed, mut same_where_changed) = (0u64, 0u64, 0u64);
+    for py in 0..h {
+        for px in 0..w {
+            let s = (((y + py) * sw + x + px) * 3) as usize;
+            let window = &pixels[s..s + 3];
+            let i = 3 * (py * w + px) as usize;
+            let (hid, shown) = (&hidden[i..i + 3], &all[i..i + 3]);
+            same += close(window, hid) as u64;
+            if !close(hid, shown) {
+                changed += 1;
+                same_where_changed += close(window, hid) as u64;
+            }
+        }
+    }
+    let total = (w * h) as u64;
+    eprintln!(
+        "window = render --hide 4 on {same}/{total} pixels; on {same_where_changed}/{changed} of \
+         those hiding changes"
+    );
+    assert!(
+        changed > total / 100,
+        "hiding label 4 changed {changed} pixels"
+    );
+    assert!(same * 100 >= total * 98, "{same} of {total} pixels agree");
+    assert!(
+        same_where_changed * 100 >= changed * 95,
+        "{same_where_changed} of the {changed} pixels hiding changes agree"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 /// The rendered image region of screenshot `shot` (located from the viewer's `stdout`) shows what
 /// the headless renderer draws for `volume` at normalised isovalue 0.5, camera view 2, `[w, h]`
 /// pixels, CGC mode.
@@ -399,6 +499,54 @@ fn scripted_window_reports_bad_inputs() {
         ],
         "needs the original volume",
     );
+    // --show / --hide name labels of a label grid: a value it lacks, or a grid without labels.
+    view_fails(
+        &xvfb,
+        &[
+            "view",
+            cgc.to_str().unwrap(),
+            "--hide",
+            "3",
+            "--frames",
+            "1",
+        ],
+        "has none",
+    );
+    let cubes = dir.join("cubes.nrrd");
+    isogrid_io::write_nrrd(&cubes, &isogrid::generate::labelled_cubes(12)).unwrap();
+    view_fails(
+        &xvfb,
+        &[
+            "view",
+            cubes.to_str().unwrap(),
+            "--labels",
+            "all",
+            "--show",
+            "40",
+            "--frames",
+            "1",
+        ],
+        "no such label",
+    );
+    // A float volume is no label volume.
+    let float = isogrid::Volume::new(
+        [8, 8, 8],
+        isogrid::VolumeData::F32((0..512).map(|i| i as f32 * 0.37).collect()),
+    )
+    .unwrap();
+    isogrid_io::write_nrrd(&dir.join("float.nrrd"), &float).unwrap();
+    view_fails(
+        &xvfb,
+        &[
+            "view",
+            dir.join("float.nrrd").to_str().unwrap(),
+            "--labels",
+            "all",
+            "--frames",
+            "1",
+        ],
+        "float.nrrd",
+    );
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
@@ -421,6 +569,12 @@ fn arguments_are_checked_before_any_window_opens() {
         ),
         (&["view", "x.nrrd", "--mode", "wireframe"], "wireframe"),
         (&["view", "x.nrrd", "--screenshot", "a.png"], "--frames"),
+        (&["view", "x.nrrd", "--smooth", "1"], "--labels"),
+        (&["view", "x.cgc", "--labels", "all"], "is a .cgc file"),
+        (
+            &["view", "x.nrrd", "--labels", "1-x"],
+            "not `all` or a list",
+        ),
     ] {
         let out = run(args);
         let stderr = String::from_utf8_lossy(&out.stderr);

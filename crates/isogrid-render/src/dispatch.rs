@@ -4,6 +4,7 @@ use crate::context::RenderContext;
 use crate::output::Rendered;
 use crate::policy::Placement;
 use crate::request::RenderRequest;
+use isogrid::labels::GridLabels;
 use isogrid::{CellGrid, Error, Progress, Result, Volume};
 
 /// Renders `grid` (with its `volume` for the modes that need it) as `request` asks, on
@@ -30,7 +31,7 @@ pub fn render(
             crate::gpu::render(renderer, request, grid, volume, progress)
         }
     }?;
-    rendered.label = label_aov(grid, &rendered.cluster);
+    rendered.label = grid.labels().map(|l| label_aov(l, &rendered.cluster));
     Ok(rendered)
 }
 
@@ -66,18 +67,16 @@ fn shown_labels(request: &RenderRequest, grid: &CellGrid) -> Result<Option<CellG
         .transpose()
 }
 
-/// The label value under each pixel of a label grid's render, from the hit clusters;
-/// `u64::MAX` on a miss.
-fn label_aov(grid: &CellGrid, cluster: &[u32]) -> Option<Vec<u64>> {
-    let labels = grid.labels()?;
+/// The label value under each pixel of a render of the label grid with `labels`, from its cluster
+/// AOV (`cluster`, the drawn grid's cluster indices); `u64::MAX` on a miss. The viewer reads the
+/// label under its pointer with it from the grid it uploaded.
+pub fn label_aov(labels: &GridLabels, cluster: &[u32]) -> Vec<u64> {
     let (table, of_cluster) = (labels.table(), labels.cluster_labels());
-    Some(
-        cluster
-            .iter()
-            .map(|&c| match of_cluster.get(c as usize) {
-                Some(&l) => table[l as usize].value,
-                None => u64::MAX,
-            })
-            .collect(),
-    )
+    cluster
+        .iter()
+        .map(|&c| match of_cluster.get(c as usize) {
+            Some(&l) => table[l as usize].value,
+            None => u64::MAX,
+        })
+        .collect()
 }

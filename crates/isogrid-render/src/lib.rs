@@ -41,7 +41,7 @@ mod request;
 mod scene;
 
 pub use context::RenderContext;
-pub use dispatch::{label_choice, render};
+pub use dispatch::{label_aov, label_choice, render};
 pub use environment::EnvSource;
 pub use isogrid_gpu::{AdapterSummary, CellRaster};
 pub use isogrid_trace::{Crossing, Traversal};

@@ -10,6 +10,7 @@
 mod capture;
 mod controls;
 mod input;
+mod labels;
 mod messages;
 mod opening;
 mod schedule;
@@ -91,6 +92,7 @@ impl App {
                 clim: options.clim,
                 under_cursor: None,
             },
+            labels: Default::default(),
             shown_samples: 0,
             in_flight: None,
             refused: None,

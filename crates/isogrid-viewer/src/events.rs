@@ -94,6 +94,8 @@ pub enum Event {
         extract_seconds: f64,
         /// The grid's attribute, which the view can be coloured by.
         attribute: Option<isogrid::AttributeInfo>,
+        /// The labels of a label grid: their table, cell counts and index.
+        labels: Option<isogrid::GridLabels>,
     },
     /// A Marching Cubes mesh is uploaded and drawn in MC mode from now on.
     MeshShown {

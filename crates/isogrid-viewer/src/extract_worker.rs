@@ -16,8 +16,8 @@ use crate::render_worker::RenderMsg;
 use crate::source::{self, Source};
 use isogrid::extract::attribute::sample_attribute_in_memory;
 use isogrid::mc::{try_marching_cubes_with_progress, Inside};
-use isogrid::AttributePrecision;
 use isogrid::{extract_with_progress, ExtractOptions, GridStats, Iso, Precision, Progress, Volume};
+use isogrid::{AttributePrecision, ResultExt};
 use std::path::PathBuf;
 use std::sync::mpsc::Sender;
 use std::sync::{Arc, Condvar, Mutex};
@@ -32,6 +32,9 @@ pub struct OpenRequest {
     pub read_options: isogrid_io::ReadOptions,
     /// What a volume's surfaces are coloured by (ignored for `.cgc` files).
     pub attribute: Option<crate::AttributeSource>,
+    /// Read a volume as a label volume and extract these labels' surfaces, once (ignored for
+    /// `.cgc` files).
+    pub labels: Option<isogrid::LabelOptions>,
 }
 
 /// What the scene should be.
@@ -88,7 +91,7 @@ type MeshKey = (u64, u64);
 type OpenVolume = (Arc<Volume>, Option<(f64, f64)>);
 
 enum Step {
-    Open(OpenRequest),
+    Open(Box<OpenRequest>),
     Grid(Arc<Volume>, f64, Option<Precision>),
     Mesh(Arc<Volume>, f64),
     Shutdown,
@@ -139,7 +142,7 @@ impl Worker {
                 Step::Shutdown => return,
                 Step::Open(request) => {
                     let notify = self.notify.clone();
-                    guarded(&notify, Failure::Open, "opening", || self.open(request));
+                    guarded(&notify, Failure::Open, "opening", || self.open(*request));
                 }
                 Step::Grid(volume, iso, precision) => {
                     let notify = self.notify.clone();
@@ -175,7 +178,7 @@ impl Worker {
         }
         let open = wanted.open.as_ref()?;
         if self.generation != Some(open.generation) {
-            return Some(Step::Open(open.clone()));
+            return Some(Step::Open(Box::new(open.clone())));
         }
         let (volume, range) = self.volume.as_ref()?;
         let iso = Self::resolve(wanted.iso, *range)?;
@@ -212,6 +215,14 @@ impl Worker {
         self.attribute = None;
         self.grid_done = None;
         self.mesh_done = None;
+        if let Some(labels) = request
+            .labels
+            .as_ref()
+            .filter(|_| !source::is_cgc(&request.path))
+        {
+            self.open_labels(&request, labels);
+            return self.end_task();
+        }
         match source::open(&request.path, &request.read_options, &progress) {
             Err(e) => self.notify.error(Failure::Open, e.to_string()),
             Ok(Source::Volume(volume)) => {
@@ -275,6 +286,47 @@ impl Worker {
             }
         }
         self.end_task();
+    }
+
+    /// A label volume: its labels' surfaces, extracted once (no isovalue applies), shown as a
+    /// `.cgc` label grid is.
+    fn open_labels(&mut self, request: &OpenRequest, options: &isogrid::LabelOptions) {
+        let path = &request.path;
+        let start = Instant::now();
+        let extracted = isogrid_io::labels::read_label_volume(path, &request.read_options)
+            .and_then(|(source, _notices)| {
+                self.notify.send(Event::Busy(Some(Task {
+                    what: format!("extracting the labels of {}", path.display()),
+                    progress: Arc::new(Progress::new()),
+                })));
+                isogrid_io::labels::extract_label_volume(&source, options)
+            })
+            .at_path(path);
+        let grid = match extracted {
+            Ok(grid) => grid,
+            Err(e) => return self.notify.error(Failure::Open, e.to_string()),
+        };
+        let info = grid.info().clone();
+        self.notify.send(Event::Opened {
+            generation: request.generation,
+            info: SourceInfo {
+                path: path.clone(),
+                dims: info.dims,
+                spacing: info.spacing,
+                scalar_type: info.scalar_type,
+                value_range: Some((info.value_range[0], info.value_range[1])),
+                grid_info: Some(info),
+                attribute: None,
+            },
+        });
+        let stats = GridStats::of(&grid);
+        let _ = self.render.send(RenderMsg::Grid {
+            generation: request.generation,
+            grid: Box::new(grid),
+            volume: None,
+            stats,
+            extract_seconds: start.elapsed().as_secs_f64(),
+        });
     }
 
     fn extract_grid(&mut self, volume: &Arc<Volume>, iso: f64, precision: Option<Precision>) {
@@ -386,6 +438,7 @@ mod tests {
             path: path.to_path_buf(),
             read_options: Default::default(),
             attribute: None,
+            labels: None,
         }
     }
 

@@ -25,6 +25,7 @@ mod app;
 mod cost;
 mod events;
 mod extract_worker;
+mod label_list;
 mod logging;
 mod panel;
 mod render_worker;
@@ -73,6 +74,13 @@ pub struct ViewerOptions {
     /// The initial colour map and range (`None`: the attribute's range on the surface).
     pub cmap: isogrid::colormap::ColorMap,
     pub clim: Option<[f64; 2]>,
+    /// A label grid's labels drawn at first: those `show` selects (all when `None`) that `hide`
+    /// does not, as `isogrid render --show / --hide`; the label list changes them.
+    pub show: Option<isogrid::LabelSelection>,
+    pub hide: Option<isogrid::LabelSelection>,
+    /// Read `input`, a volume, as a label volume and show these labels' surfaces (extracted once,
+    /// as `isogrid extract --labels`); files opened later are read as usual.
+    pub labels: Option<isogrid::LabelOptions>,
 }
 
 /// Where an attribute's samples come from: a volume file (or another entry of the input's extra
@@ -100,6 +108,9 @@ impl Default for ViewerOptions {
             attribute: None,
             cmap: Default::default(),
             clim: None,
+            show: None,
+            hide: None,
+            labels: None,
         }
     }
 }

@@ -36,6 +36,11 @@ pub enum RenderMsg {
         mesh: McMesh,
         seconds: f64,
     },
+    /// Draw only the labels flagged (one flag per label of the label grid `generation` shows):
+    /// the grid of those labels (`CellGrid::showing_labels`, through the label index) replaces
+    /// the uploaded one; nothing is extracted again. Of several waiting, only the newest is
+    /// uploaded.
+    ShowLabels { generation: u64, shown: Vec<bool> },
     /// Render `request`; `id` names the frame (or the refusal) in the reply.
     Render { id: u64, request: RenderRequest },
     /// Free the scene and the renderer and end the thread, whoever else still holds a sender.
@@ -106,6 +111,23 @@ struct Shown<'r> {
     volume: Option<Arc<Volume>>,
     /// The grid shown, when it has an attribute: MC meshes take their vertex values from it.
     colored_grid: Option<Box<CellGrid>>,
+    /// The grid shown, when it is a label grid.
+    labels: Option<LabelScene>,
+}
+
+/// A label grid and the part of it uploaded.
+struct LabelScene {
+    /// Every label's cells, from which the grid of the shown labels is made.
+    full: Box<CellGrid>,
+    /// The grid of the shown labels when some are hidden (`None`: `full` is uploaded). Its labels
+    /// map the frames' cluster AOV to label values.
+    drawn: Option<Box<CellGrid>>,
+}
+
+impl LabelScene {
+    fn drawn(&self) -> &CellGrid {
+        self.drawn.as_deref().unwrap_or(&self.full)
+    }
 }
 
 fn run(rx: Receiver<RenderMsg>, notify: Notifier) {
@@ -130,7 +152,12 @@ fn run(rx: Receiver<RenderMsg>, notify: Notifier) {
     while let Ok(first) = rx.recv() {
         // Apply every scene change that is waiting, and keep only the newest render request.
         let mut newest: Option<(u64, RenderRequest)> = None;
-        for msg in std::iter::once(first).chain(rx.try_iter()) {
+        let batch: Vec<RenderMsg> = std::iter::once(first).chain(rx.try_iter()).collect();
+        // Label choices replace each other: a click on each of many checkboxes uploads once.
+        let last_choice = batch
+            .iter()
+            .rposition(|m| matches!(m, RenderMsg::ShowLabels { .. }));
+        for (i, msg) in batch.into_iter().enumerate() {
             match msg {
                 RenderMsg::Shutdown => return,
                 RenderMsg::Render { id, request } => {
@@ -138,6 +165,7 @@ fn run(rx: Receiver<RenderMsg>, notify: Notifier) {
                         notify.send(Event::NotRendered { request: old });
                     }
                 }
+                RenderMsg::ShowLabels { .. } if Some(i) != last_choice => {}
                 other => {
                     if ready {
                         guarded(&notify, Failure::Render, "uploading", || {
@@ -183,6 +211,7 @@ fn apply<'r>(
                             scene,
                             volume: None,
                             colored_grid: None,
+                            labels: None,
                         })
                     }
                     Err(e) => {
@@ -203,8 +232,17 @@ fn apply<'r>(
                         stats,
                         extract_seconds,
                         attribute: grid.attribute().map(|a| a.info().clone()),
+                        labels: grid.labels().cloned(),
                     });
-                    s.colored_grid = grid.attribute().is_some().then_some(grid);
+                    s.labels = None;
+                    if grid.labels().is_some() {
+                        s.labels = Some(LabelScene {
+                            full: grid,
+                            drawn: None,
+                        });
+                    } else {
+                        s.colored_grid = grid.attribute().is_some().then_some(grid);
+                    }
                 }
                 Err(e) => notify.error(Failure::Render, format!("uploading the cells: {e}")),
             }
@@ -245,6 +283,31 @@ fn apply<'r>(
                 Err(e) => notify.error(Failure::Render, format!("uploading the mesh: {e}")),
             }
         }
+        RenderMsg::ShowLabels {
+            generation,
+            shown: flags,
+        } => {
+            let Some(s) = shown.as_mut().filter(|s| s.generation == generation) else {
+                return;
+            };
+            let Some(labels) = s.labels.as_mut() else {
+                return;
+            };
+            let drawn = if flags.iter().all(|&f| f) {
+                None
+            } else {
+                match labels.full.showing_labels(&flags) {
+                    Ok(grid) => Some(Box::new(grid)),
+                    Err(e) => {
+                        return notify.error(Failure::Render, format!("hiding labels: {e}"));
+                    }
+                }
+            };
+            labels.drawn = drawn;
+            if let Err(e) = s.scene.show_grid(labels.drawn()) {
+                notify.error(Failure::Render, format!("uploading the shown labels: {e}"));
+            }
+        }
         RenderMsg::Render { .. } | RenderMsg::Shutdown => {}
     }
 }
@@ -276,11 +339,17 @@ fn render(
     }
     let start = Instant::now();
     match s.scene.render(view, request, &Progress::new()) {
-        Ok(image) => notify.send(Event::Frame(Box::new(RenderedFrame {
-            request: id,
-            image,
-            seconds: start.elapsed().as_secs_f64(),
-        }))),
+        Ok(mut image) => {
+            // The label under each pixel, through the labels of the grid uploaded.
+            if let Some(labels) = s.labels.as_ref().and_then(|l| l.drawn().labels()) {
+                image.label = Some(isogrid_render::label_aov(labels, &image.cluster));
+            }
+            notify.send(Event::Frame(Box::new(RenderedFrame {
+                request: id,
+                image,
+                seconds: start.elapsed().as_secs_f64(),
+            })))
+        }
         Err(e) => {
             notify.error(Failure::Render, format!("rendering: {e}"));
             refuse();
@@ -292,6 +361,7 @@ fn render(
 mod tests {
     use super::*;
     use eframe::egui;
+    use isogrid_render::Rendered;
 
     /// The extraction worker holds a sender of its own, so the channel closing cannot be what ends
     /// the thread: dropping the worker must, and must wait for it.
@@ -312,6 +382,141 @@ mod tests {
         assert!(
             extractors_sender.send(RenderMsg::Shutdown).is_err(),
             "the render thread outlived the dropped worker"
+        );
+    }
+
+    /// The frame the worker draws of a label grid with `shown` labels, as the window asks for it
+    /// (the grid uploaded once, the label choice uploaded after, one GPU frame of view 2); `None`
+    /// without a GPU adapter.
+    fn worker_frame(
+        grid: CellGrid,
+        shown: Option<Vec<bool>>,
+        size: (u32, u32),
+    ) -> Option<Rendered> {
+        let (tx, events) = std::sync::mpsc::channel();
+        let worker = RenderWorker::spawn(Notifier::new(tx, egui::Context::default()));
+        let wait = Duration::from_secs(300);
+        match events.recv_timeout(wait).expect("the renderer reports") {
+            Event::RendererReady { .. } => {}
+            Event::Error { message, .. } => {
+                eprintln!("skipping: no GPU renderer: {message}");
+                return None;
+            }
+            _ => panic!("the renderer reports first"),
+        }
+        let send = |m| worker.sender().send(m).unwrap();
+        send(RenderMsg::Grid {
+            generation: 1,
+            stats: GridStats::of(&grid),
+            grid: Box::new(grid),
+            volume: None,
+            extract_seconds: 0.0,
+        });
+        if let Some(shown) = shown {
+            send(RenderMsg::ShowLabels {
+                generation: 1,
+                shown,
+            });
+        }
+        send(RenderMsg::Render {
+            id: 7,
+            request: request(size, None),
+        });
+        loop {
+            match events.recv_timeout(wait).expect("the worker answers") {
+                Event::Frame(f) if f.request == 7 => return Some(f.image),
+                Event::NotRendered { .. } => panic!("the worker did not render"),
+                Event::Error { message, .. } => panic!("{message}"),
+                _ => {}
+            }
+        }
+    }
+
+    /// A GPU request for view 2 at `size`, hiding `hide`, with the label AOV.
+    fn request(size: (u32, u32), hide: Option<&str>) -> RenderRequest {
+        isogrid_render::RenderRequest::new(isogrid_render::RequestParts {
+            mode: Mode::Cgc,
+            backend: isogrid_render::Backend::Gpu,
+            camera: isogrid_render::CameraSpec::View(2),
+            size,
+            hide: hide.map(|h| isogrid::LabelSelection::parse(h).unwrap()),
+            aovs: vec![isogrid_render::Aov::Label],
+            ..Default::default()
+        })
+        .unwrap()
+    }
+
+    /// Hiding a label in the viewer (the label list's flags, uploaded by the worker) draws what
+    /// `isogrid render --hide V` draws of the same grid, and the label the viewer names under
+    /// each pixel is the label AOV of that render there. On 3³ cubes of 11 touching labels,
+    /// where hiding one reveals its neighbours' faces.
+    #[test]
+    fn hiding_a_label_draws_what_render_hide_draws_and_names_its_labels() {
+        let volume = isogrid::generate::labelled_cubes(18);
+        let options = isogrid::LabelOptions::new(isogrid::LabelSelection::All);
+        let extract = || isogrid::extract_labels(&volume.view(), &options).unwrap();
+        let grid = extract();
+        let labels = grid.labels().unwrap();
+        let hidden_value = 4u64;
+        let shown: Vec<bool> = labels
+            .table()
+            .iter()
+            .map(|l| l.value != hidden_value)
+            .collect();
+        assert_eq!(shown.iter().filter(|s| !**s).count(), 1);
+        let size = (160, 120);
+        let Some(viewer) = worker_frame(extract(), Some(shown), size) else {
+            return;
+        };
+        let all = worker_frame(extract(), None, size).unwrap();
+
+        let ctx = RenderContext::new();
+        let reference = isogrid_render::render(
+            &ctx,
+            &request(size, Some("4")),
+            isogrid_render::Placement::Gpu,
+            &grid,
+            None,
+            &Progress::new(),
+        )
+        .unwrap();
+        let n = (size.0 * size.1) as usize;
+        let same_pixels = (0..n)
+            .filter(|&i| viewer.rgb8[3 * i..3 * i + 3] == reference.rgb8[3 * i..3 * i + 3])
+            .count();
+        let changed = (0..n)
+            .filter(|&i| viewer.rgb8[3 * i..3 * i + 3] != all.rgb8[3 * i..3 * i + 3])
+            .count();
+        eprintln!(
+            "viewer = render --hide on {same_pixels}/{n} pixels; hiding changed {changed} pixels"
+        );
+        assert!(
+            changed > n / 50,
+            "hiding label 4 changed only {changed} pixels"
+        );
+        assert!(
+            same_pixels as f64 >= 0.999 * n as f64,
+            "viewer and render --hide agree on {same_pixels} of {n} pixels"
+        );
+
+        // The label under each pixel, as the window reads it, against the render's label AOV.
+        let viewer_labels = viewer.label.as_ref().expect("the worker names the labels");
+        let reference_labels = reference
+            .label
+            .as_ref()
+            .expect("render gives the label AOV");
+        let hits = reference_labels.iter().filter(|&&l| l != u64::MAX).count();
+        assert!(hits > n / 10, "{hits} of {n} pixels hit");
+        let same_labels = (0..n)
+            .filter(|&i| viewer_labels[i] == reference_labels[i])
+            .count();
+        eprintln!("viewer label = render label AOV on {same_labels}/{n} pixels");
+        assert!(same_labels as f64 >= 0.999 * n as f64);
+        assert!(!viewer_labels.contains(&hidden_value));
+        let all_labels = all.label.as_ref().unwrap();
+        assert!(
+            all_labels.contains(&hidden_value),
+            "label 4 shows when not hidden"
         );
     }
 }

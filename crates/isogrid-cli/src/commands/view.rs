@@ -58,6 +58,21 @@ pub struct Args {
     /// Initial values the colour map spans, LO,HI (default: the attribute's range on the surface).
     #[arg(long, value_name = "LO,HI", value_parser = super::render::parse_clim, allow_hyphen_values = true)]
     pub clim: Option<[f64; 2]>,
+    /// Show the surfaces of a label volume's labels (all but 0, or a list such as 1,5-9), as
+    /// `extract --labels` extracts them, with the label list; the isovalue does not apply.
+    #[arg(long, value_name = "all|1,5-9", value_parser = crate::commands::extract::parse_labels, conflicts_with_all = ["color_by", "iso", "iso_normalized"])]
+    pub labels: Option<isogrid::LabelSelection>,
+    /// With --labels: smooth each label's indicator by a Gaussian of SIGMA voxels (as `extract
+    /// --smooth`).
+    #[arg(long, value_name = "SIGMA", requires = "labels")]
+    pub smooth: Option<f64>,
+    /// A label grid: draw only these labels at first, e.g. 1,5-9 (as `render --show`); the
+    /// label list in the window changes them.
+    #[arg(long, value_name = "LABELS", value_parser = crate::commands::extract::parse_labels, allow_hyphen_values = true)]
+    pub show: Option<isogrid::LabelSelection>,
+    /// A label grid: hide these labels at first, e.g. 0,3 (as `render --hide`).
+    #[arg(long, value_name = "LABELS", value_parser = crate::commands::extract::parse_labels, allow_hyphen_values = true)]
+    pub hide: Option<isogrid::LabelSelection>,
     #[command(flatten)]
     pub input_args: InputArgs,
 }
@@ -85,6 +100,14 @@ pub fn run(args: Args) -> Result<()> {
         )?;
     }
     let read_options = args.input_args.read_options()?;
+    if let (Some(input), Some(_)) = (&args.input, &args.labels) {
+        if crate::grid_source::is_cgc(input) {
+            bail!(
+                "--labels reads a label volume; {} is a .cgc file, whose labels (if any) are listed as they are",
+                input.display()
+            );
+        }
+    }
     let attribute = match (&args.input, args.color_by.as_deref()) {
         (Some(input), Some(text)) => {
             if crate::grid_source::is_cgc(input) {
@@ -113,6 +136,15 @@ pub fn run(args: Args) -> Result<()> {
         attribute,
         cmap: args.cmap.unwrap_or_default(),
         clim: args.clim,
+        show: args.show,
+        hide: args.hide,
+        labels: args.labels.map(|selection| isogrid::LabelOptions {
+            selection,
+            smooth: args
+                .smooth
+                .unwrap_or(crate::commands::extract::DEFAULT_SMOOTH),
+            precision: args.precision,
+        }),
     })?;
     Ok(())
 }

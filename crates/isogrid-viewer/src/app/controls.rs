@@ -83,6 +83,7 @@ impl App {
             self.extractor.update(|w| w.mesh = mesh);
         }
         self.color_controls(ui);
+        self.label_controls(ui);
         ui.separator();
 
         ui.label("View (drag: orbit, right/middle drag: pan, wheel: zoom)");
@@ -215,6 +216,16 @@ impl App {
             ui.label("Isovalue: open a volume first");
             return;
         };
+        if self.labels.list.is_some() {
+            ui.label(
+                egui::RichText::new(
+                    "A label grid: each label's surface at ½ of its indicator; no isovalue \
+                     applies.",
+                )
+                .small(),
+            );
+            return;
+        }
         if let Some(grid) = &source.grid_info {
             ui.label(format!(
                 "Isovalue {} ({}-bit corners)",

@@ -54,12 +54,18 @@ impl App {
             .attribute
             .clone()
             .filter(|_| self.options.input.as_ref() == Some(&path));
+        let labels = self
+            .options
+            .labels
+            .clone()
+            .filter(|_| self.options.input.as_ref() == Some(&path));
         self.extractor.update(|w| {
             w.open = Some(OpenRequest {
                 generation,
                 path,
                 read_options,
                 attribute,
+                labels,
             });
             w.iso = iso;
         });

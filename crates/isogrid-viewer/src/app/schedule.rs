@@ -61,6 +61,7 @@ impl App {
             mode: self.mode,
             scene,
             color: self.color.spec(),
+            labels: self.labels.version,
         };
         let recheck = settling.map(|e| SETTLE - e);
         // Path tracing refines while the camera rests: the same view is asked for again, each
@@ -131,6 +132,7 @@ mod tests {
             mode: Mode::PathTrace,
             scene: 1,
             color: None,
+            labels: 0,
         };
         let request = render_request(&key).unwrap();
         assert_eq!(request.mode(), Mode::PathTrace);

@@ -5,6 +5,7 @@
 use crate::cost::CostModel;
 use crate::events::{Event, SourceInfo, Task};
 use crate::extract_worker::ExtractWorker;
+use crate::label_list::LabelList;
 use crate::orbit::Orbit;
 use crate::panel::Measurements;
 use crate::render_worker::RenderWorker;
@@ -50,6 +51,7 @@ pub(super) struct App {
     /// surface), when coloured.
     pub(super) shown_values: Option<(u32, Vec<Option<f32>>)>,
     pub(super) color: ColorState,
+    pub(super) labels: LabelState,
     /// Path-tracing samples accumulated in the shown image.
     pub(super) shown_samples: u32,
     pub(super) in_flight: Option<(u64, ViewKey)>,
@@ -106,6 +108,33 @@ impl ColorState {
     }
 }
 
+/// The label list of a label grid, and the labels under the pointer.
+#[derive(Default)]
+pub(super) struct LabelState {
+    /// The labels of the grid shown (`None`: not a label grid), with their flags.
+    pub(super) list: Option<LabelList>,
+    /// Label choices sent to the render worker so far: part of the view key, so that a frame
+    /// drawn before a choice is not taken for one after it.
+    pub(super) version: u64,
+    /// The search box's text.
+    pub(super) query: String,
+    /// The label value under each pixel of the frame on screen (width, values; `u64::MAX` off
+    /// the surface): the render's label AOV.
+    pub(super) frame_labels: Option<(u32, Vec<u64>)>,
+    /// The label value under the mouse pointer, and the one last clicked on.
+    pub(super) under_cursor: Option<u64>,
+    pub(super) picked: Option<u64>,
+}
+
+impl LabelState {
+    /// The label value at pixel `(x, y)` of the frame on screen; `None` off the surface.
+    pub(super) fn at_pixel(&self, x: u32, y: u32) -> Option<u64> {
+        let (width, values) = self.frame_labels.as_ref()?;
+        let v = *values.get((x + width * y) as usize)?;
+        (v != u64::MAX).then_some(v)
+    }
+}
+
 /// The window pixels from egui's capture, and where to save them.
 pub(super) type Capture = Arc<Mutex<Option<Arc<egui::ColorImage>>>>;
 
@@ -124,6 +153,8 @@ pub(super) struct ViewKey {
     pub(super) scene: u64,
     /// The colour map and range (`None` range: the attribute's), or `None` for one colour.
     pub(super) color: Option<(ColorMap, Option<[f64; 2]>)>,
+    /// The label choices sent ([`LabelState::version`]).
+    pub(super) labels: u64,
 }
 
 #[derive(Clone, Copy)]

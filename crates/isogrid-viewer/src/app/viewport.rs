@@ -21,9 +21,26 @@ impl App {
         ));
 
         self.orbit_with_pointer(ui, &response, rect);
-        self.color.under_cursor = response
-            .hover_pos()
-            .and_then(|pos| self.value_at(pos, rect));
+        let hover = response.hover_pos();
+        self.color.under_cursor = hover.and_then(|pos| self.value_at(pos, rect));
+        self.labels.under_cursor = hover
+            .and_then(|pos| self.pixel_at(pos, rect))
+            .and_then(|(x, y)| self.labels.at_pixel(x, y));
+        // A click (not a drag) names the label there; off the surface it clears.
+        if response.clicked() && self.labels.list.is_some() {
+            self.labels.picked = self.labels.under_cursor;
+        }
+        // The label's value and name beside the pointer, while it rests on the surface.
+        if let (Some(value), Some(list), false) = (
+            self.labels.under_cursor,
+            &self.labels.list,
+            response.dragged(),
+        ) {
+            if let Some(i) = list.find(value) {
+                let text = format!("{} {}", list.value_text(i), list.labels().table()[i].name);
+                response.clone().on_hover_text_at_pointer(text);
+            }
+        }
 
         let painter = ui.painter_at(area);
         painter.rect_filled(area, 0.0, background());
@@ -64,14 +81,15 @@ impl App {
     /// off the image or off the surface.
     fn value_at(&self, pos: egui::Pos2, rect: egui::Rect) -> Option<f32> {
         let (width, values) = self.shown_values.as_ref()?;
-        let height = values.len() as u32 / width.max(&1);
-        if !rect.contains(pos) || height == 0 {
-            return None;
-        }
-        let u = (pos - rect.min) / rect.size();
-        let x = ((u.x * *width as f32) as u32).min(width - 1);
-        let y = ((u.y * height as f32) as u32).min(height - 1);
-        values[(x + width * y) as usize]
+        let (x, y) = self.pixel_at(pos, rect)?;
+        *values.get((x + width * y) as usize)?
+    }
+
+    /// The pixel of the frame on screen at `pos` (points) in the image `rect`; `None` off the
+    /// image.
+    fn pixel_at(&self, pos: egui::Pos2, rect: egui::Rect) -> Option<(u32, u32)> {
+        let (width, height, _) = self.shown_pixels.as_ref()?;
+        pixel_of(pos, rect, [*width, *height])
     }
 
     /// Render size in pixels: fixed, or the image area of the last frame.
@@ -90,6 +108,18 @@ impl App {
             None => [640, 480],
         }
     }
+}
+
+/// The pixel of a `size` image shown in `rect` that `pos` (both in points) falls on; `None` off
+/// the image.
+fn pixel_of(pos: egui::Pos2, rect: egui::Rect, [width, height]: [u32; 2]) -> Option<(u32, u32)> {
+    if !rect.contains(pos) || width == 0 || height == 0 {
+        return None;
+    }
+    let u = (pos - rect.min) / rect.size();
+    let x = ((u.x * width as f32) as u32).min(width - 1);
+    let y = ((u.y * height as f32) as u32).min(height - 1);
+    Some((x, y))
 }
 
 /// The renderer's background, so that the image blends with the area around it.
@@ -120,6 +150,32 @@ fn image_rect(area: egui::Rect, size: [u32; 2], fixed: bool, ppp: f32) -> egui::
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The pointer's pixel and the label named there: a frame's label AOV is row-major from the
+    /// top-left, and an image scaled down to fit still maps each point to the pixel under it.
+    #[test]
+    fn the_pointer_names_the_label_of_the_pixel_under_it() {
+        use super::super::state::LabelState;
+        let (w, h) = (40u32, 30u32);
+        // Each pixel's label: its own index; a miss in the top-left corner.
+        let mut aov: Vec<u64> = (0..(w * h) as u64).collect();
+        aov[0] = u64::MAX;
+        let labels = LabelState {
+            frame_labels: Some((w, aov)),
+            ..Default::default()
+        };
+        // Shown at half size, from (100, 50).
+        let rect = egui::Rect::from_min_size(egui::pos2(100.0, 50.0), egui::vec2(20.0, 15.0));
+        for (x, y) in [(0, 0), (39, 0), (0, 29), (17, 11), (39, 29)] {
+            let centre = rect.min + egui::vec2(x as f32 + 0.5, y as f32 + 0.5) * 0.5;
+            assert_eq!(pixel_of(centre, rect, [w, h]), Some((x, y)));
+            let named = labels.at_pixel(x, y);
+            let expected = (x + w * y) as u64;
+            assert_eq!(named, (expected != 0).then_some(expected), "pixel {x},{y}");
+        }
+        assert_eq!(pixel_of(egui::pos2(99.0, 60.0), rect, [w, h]), None);
+        assert_eq!(pixel_of(egui::pos2(121.0, 60.0), rect, [w, h]), None);
+    }
 
     #[test]
     fn fixed_images_sit_on_the_pixel_grid_at_one_texel_per_pixel() {

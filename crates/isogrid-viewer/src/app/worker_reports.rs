@@ -25,8 +25,10 @@ impl App {
                     stats,
                     extract_seconds,
                     attribute,
+                    labels,
                 } if generation == self.generation => {
                     self.color.attribute = attribute;
+                    self.on_labels(generation, labels);
                     self.measurements.grid = Some(GridFacts {
                         iso,
                         precision,
@@ -117,6 +119,7 @@ impl App {
         self.shown = None;
         self.shown_pixels = None;
         self.shown_values = None;
+        self.labels = Default::default();
         self.set_view(self.options.view, full_size);
         self.script_on_opened();
     }
@@ -128,6 +131,7 @@ impl App {
         self.shown = None;
         self.shown_pixels = None;
         self.shown_values = None;
+        self.labels = Default::default();
     }
 
     fn on_frame(&mut self, ctx: &egui::Context, rendered: RenderedFrame, full_size: [u32; 2]) {
@@ -180,6 +184,7 @@ impl App {
             let values = hits.map(|(&v, &c)| (c != u32::MAX).then_some(v));
             (image.width, values.collect())
         });
+        self.labels.frame_labels = image.label.map(|labels| (image.width, labels));
         if let Some(script) = &mut self.script {
             if let ScriptState::Rendering { done } = &mut script.state {
                 if full {
