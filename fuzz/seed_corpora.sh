@@ -23,6 +23,7 @@ add dicom "$io"/dicom_*/*.dcm
 add metaimage "$io"/*.mha
 add mrc "$io"/*.mrc "$io"/*.map
 add cgc "$cgc"/*.cgc
+add seg_nrrd "$io"/labels/*.seg.nrrd
 for target in corpus-seeds/*/; do
     add "$(basename "$target")" "$target"*
 done
