@@ -45,16 +45,18 @@ pub fn watched<T>(message: &str, progress: &Arc<Progress>, work: impl FnOnce() -
     let bar = bar(message, 0);
     let finished = AtomicBool::new(false);
     let out = std::thread::scope(|scope| {
-        scope.spawn(|| {
+        let watcher = scope.spawn(|| {
             while !finished.load(Ordering::Relaxed) {
                 let (done, total) = progress.counts();
                 bar.set_length(total);
                 bar.set_position(done);
-                std::thread::sleep(Duration::from_millis(100));
+                std::thread::park_timeout(Duration::from_millis(100));
             }
         });
         let out = work();
         finished.store(true, Ordering::Relaxed);
+        // Woken, so that the command does not wait out its sleep (a cancel ends at once).
+        watcher.thread().unpark();
         out
     });
     bar.finish_and_clear();

@@ -576,7 +576,7 @@ impl Run<'_> {
         // the allocator cannot give aborts the process, which no guard survives; here it is an
         // error of kind TooLarge, and no file has been made.
         let mut groups = GroupBuffers::default();
-        groups.reserve(
+        let group_bytes = groups.reserve(
             &slabs,
             &blocks,
             &active_cells,
@@ -622,13 +622,7 @@ impl Run<'_> {
                 };
                 let mut index = first;
                 while index < end {
-                    let group = next_group(
-                        &blocks,
-                        &active_cells,
-                        index..end,
-                        record,
-                        self.plan.output_buffer,
-                    );
+                    let group = next_group(&blocks, &active_cells, index..end, record, group_bytes);
                     groups.emit(
                         &slab,
                         &blocks,
@@ -696,6 +690,16 @@ fn next_group(
     range.start..end
 }
 
+/// Metacell slots and active cells of the blocks `group`.
+fn group_size(blocks: &[Block], active_cells: &[u32], group: Range<usize>) -> (usize, usize) {
+    let slots = blocks[group.clone()]
+        .iter()
+        .map(|b| b.metacell_count as usize)
+        .sum();
+    let cells = active_cells[group].iter().map(|&c| c as usize).sum();
+    (slots, cells)
+}
+
 /// The output of one group of blocks, reused from group to group.
 #[derive(Default)]
 pub(super) struct GroupBuffers {
@@ -705,8 +709,10 @@ pub(super) struct GroupBuffers {
 
 impl GroupBuffers {
     /// Allocates room for the largest group the emit pass over `slabs` makes (as
-    /// [`next_group`] cuts them within `capacity` bytes), so that emitting allocates nothing.
-    /// Fails with kind TooLarge, instead of aborting, where the memory cannot be had.
+    /// [`next_group`] cuts them within `capacity` bytes), so that emitting allocates nothing, and
+    /// returns the capacity to cut groups with: `capacity`, or less (down to
+    /// `OUTPUT_BUFFER_MIN`) where [`crate::memory::available`] says less may be allocated now.
+    /// Fails with kind TooLarge, instead of aborting, where not even that can be had.
     pub(super) fn reserve(
         &mut self,
         slabs: &[(Range<usize>, Range<usize>)],
@@ -715,38 +721,42 @@ impl GroupBuffers {
         block_dims: [usize; 2],
         record: u64,
         capacity: u64,
-    ) -> Result<()> {
-        let (mut most_slots, mut most_cells) = (0usize, 0usize);
-        let layer = block_dims[0] * block_dims[1];
-        for (layers, _) in slabs {
-            let end = layers.end * layer;
-            let mut index = layers.start * layer;
-            while index < end {
-                let group = next_group(blocks, active_cells, index..end, record, capacity);
-                let slots = blocks[group.clone()]
-                    .iter()
-                    .map(|b| b.metacell_count as usize)
-                    .sum();
-                let cells: usize = active_cells[group.clone()]
-                    .iter()
-                    .map(|&c| c as usize)
-                    .sum();
-                most_slots = most_slots.max(slots);
-                most_cells = most_cells.max(cells * record as usize);
-                index = group.end;
+    ) -> Result<u64> {
+        // The largest group's slots and corner bytes when groups are cut within `capacity`.
+        let largest = |capacity: u64| {
+            let (mut most_slots, mut most_cells) = (0usize, 0usize);
+            let layer = block_dims[0] * block_dims[1];
+            for (layers, _) in slabs {
+                let end = layers.end * layer;
+                let mut index = layers.start * layer;
+                while index < end {
+                    let group = next_group(blocks, active_cells, index..end, record, capacity);
+                    let (slots, cells) = group_size(blocks, active_cells, group.clone());
+                    most_slots = most_slots.max(slots);
+                    most_cells = most_cells.max(cells * record as usize);
+                    index = group.end;
+                }
             }
+            (most_slots, most_cells)
+        };
+        let bytes = |(slots, cells): (usize, usize)| (slots * size_of::<Metacell>() + cells) as u64;
+        let mut capacity = capacity;
+        let mut most = largest(capacity);
+        while capacity > OUTPUT_BUFFER_MIN && crate::memory::ensure_fits("", bytes(most)).is_err() {
+            capacity = (capacity / 2).max(OUTPUT_BUFFER_MIN);
+            most = largest(capacity);
         }
-        let bytes = (most_slots * size_of::<Metacell>() + most_cells) as u64;
-        crate::memory::ensure_fits("the streamed extraction's output buffer", bytes)?;
+        let need = bytes(most);
+        crate::memory::ensure_fits("the streamed extraction's output buffer", need)?;
         let failed = |_| {
             Error::too_large(format!(
                 "the streamed extraction's output buffer needs {}, which cannot be allocated",
-                crate::memory::show_bytes(bytes)
+                crate::memory::show_bytes(need)
             ))
         };
-        self.slots.try_reserve_exact(most_slots).map_err(failed)?;
-        self.cells.try_reserve_exact(most_cells).map_err(failed)?;
-        Ok(())
+        self.slots.try_reserve_exact(most.0).map_err(failed)?;
+        self.cells.try_reserve_exact(most.1).map_err(failed)?;
+        Ok(capacity)
     }
 
     /// Emits the blocks of `group` into the buffers, counting each in `progress`; once it is
@@ -764,14 +774,7 @@ impl GroupBuffers {
         record: usize,
         progress: &Progress,
     ) {
-        let slot_count: usize = blocks[group.clone()]
-            .iter()
-            .map(|b| b.metacell_count as usize)
-            .sum();
-        let cell_count: usize = active_cells[group.clone()]
-            .iter()
-            .map(|&c| c as usize)
-            .sum();
+        let (slot_count, cell_count) = group_size(blocks, active_cells, group.clone());
         // Padding slots must be zero, as in the in-memory output.
         self.slots.clear();
         self.slots.resize(slot_count, bytemuck::Zeroable::zeroed());
