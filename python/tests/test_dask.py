@@ -7,7 +7,9 @@ import json
 import os
 import signal
 import subprocess
+import sys
 import threading
+import time
 from pathlib import Path
 
 import numpy as np
@@ -492,3 +494,33 @@ def test_progress_counts_every_task_and_an_exception_in_it_stops_the_run(tmp_pat
         assert os.listdir(tmp_path) == [], os.listdir(tmp_path)
     with pytest.raises(ValueError, match="callable"):
         isogrid.dask.extract(source, **kwargs, output=out, progress=3)
+
+
+def test_ctrl_c_stops_a_run_and_leaves_no_file(tmp_path):
+    # A real SIGINT to a process running a long extraction (4096 one-block tiles): it ends with
+    # KeyboardInterrupt soon after, and the output folder is empty.
+    out_dir = tmp_path / "out"
+    out_dir.mkdir()
+    script = f"""
+import sys, numpy as np, dask, dask.array as da, isogrid.dask
+x = np.linspace(-1, 1, 257, dtype=np.float32)
+a = np.sqrt(x[:, None, None] ** 2 + x[None, :, None] ** 2 + x[None, None, :] ** 2)
+def started(done, total):
+    if done == 1:
+        print("started", flush=True)
+with dask.config.set(scheduler="threads"):
+    isogrid.dask.extract(da.from_array(a, chunks=64), iso=0.5, output={str(out_dir / 'out.cgc')!r},
+                         tile_shape=(16, 16, 16), progress=started)
+print("finished", flush=True)
+"""
+    child = subprocess.Popen([sys.executable, "-c", script], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                             text=True)
+    assert child.stdout.readline().strip() == "started"
+    sent = time.perf_counter()
+    child.send_signal(signal.SIGINT)
+    stdout, stderr = child.communicate(timeout=60)
+    latency = time.perf_counter() - sent
+    assert child.returncode != 0 and "finished" not in stdout, stderr
+    assert "KeyboardInterrupt" in stderr, stderr
+    assert latency < 10, latency
+    assert os.listdir(out_dir) == []
