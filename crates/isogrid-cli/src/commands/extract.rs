@@ -12,7 +12,7 @@ use crate::{input, progress};
 use anyhow::{Context, Result};
 use isogrid::extract::stream::{self, RegionSource};
 use isogrid::{
-    extract, extract_labels, AttributePrecision, CellGrid, ExtractOptions, GridStats, LabelOptions,
+    extract_labels, AttributePrecision, CellGrid, ExtractOptions, GridStats, LabelOptions,
     LabelSelection, Precision, Progress,
 };
 use std::path::{Path, PathBuf};
@@ -225,13 +225,13 @@ fn in_memory(
     attribute: Option<&AttributeInput>,
 ) -> Result<(GridStats, Option<AttributeReport>, Seconds)> {
     let (volume, read) = input::read_volume(&args.input, read_options)?;
-    let spinner = progress::spinner("extracting".into());
     let start = Instant::now();
-    let grid = pool
-        .install(|| extract(&volume.view(), options))
-        .with_context(|| format!("{}: extraction failed", args.input.display()))?;
+    let progress = Arc::new(Progress::new());
+    let grid = progress::watched("extracting", &progress, || {
+        pool.install(|| isogrid::extract_with_progress(&volume.view(), options, &progress))
+    });
+    let grid = stopped_or(grid, args)?;
     let extract_seconds = start.elapsed().as_secs_f64();
-    spinner.finish_and_clear();
     crate::report::note_if_empty(&args.input, &grid, Some(&volume));
     let grid = match attribute {
         Some(attribute) => pool.install(|| with_attribute(args, grid, attribute))?,
@@ -281,14 +281,7 @@ fn stream_to_file(
     let result = progress::watched("extracting", &progress, || {
         stream::extract_to_file(source, options, max_memory, out, &progress)
     });
-    let summary = match result {
-        Err(e) if e.kind() == isogrid::ErrorKind::Cancelled => {
-            return Err(
-                anyhow::Error::from(e).context("extraction stopped by Ctrl-C, nothing written")
-            )
-        }
-        r => r.with_context(|| format!("{}: extraction failed", args.input.display()))?,
-    };
+    let summary = stopped_or(result, args)?;
     crate::report::note_if_no_cells(
         &args.input,
         &summary.info,
@@ -308,6 +301,16 @@ fn stream_to_file(
         }
     }
     Ok((summary.stats, attribute_report))
+}
+
+/// An extraction's result, with the error a Ctrl-C (a cancel) or a failure makes.
+fn stopped_or<T>(result: isogrid::Result<T>, args: &Args) -> Result<T> {
+    match result {
+        Err(e) if e.kind() == isogrid::ErrorKind::Cancelled => {
+            Err(anyhow::Error::from(e).context("extraction stopped by Ctrl-C, nothing written"))
+        }
+        r => r.with_context(|| format!("{}: extraction failed", args.input.display())),
+    }
 }
 
 /// `grid` with the attribute of `--color-by` sampled at its cells.
