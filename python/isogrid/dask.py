@@ -48,7 +48,7 @@ import queue
 import threading
 import time
 import warnings
-from typing import Any, Dict, Iterator, List, Optional, Sequence, Tuple
+from typing import Any, Callable, Dict, Iterable, Iterator, List, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -84,6 +84,7 @@ def extract(
     tile_shape: Optional[Sequence[int]] = None,
     attribute: Any = None,
     attribute_precision: int = 16,
+    progress: Optional[Callable[[int, int], Any]] = None,
 ) -> Dict[str, Any]:
     """Extracts the active cells of a 3-D volume on Dask and writes them to the ``.cgc`` ``output``.
 
@@ -120,6 +121,12 @@ def extract(
             once the surface is extracted; the file is the one ``isogrid.extract(...,
             attribute=...)`` writes.
         attribute_precision: bits per stored attribute value, 8, 16 or 32.
+        progress: called as ``progress(done, total)`` in this process each time a task finishes:
+            ``done`` tasks (tiles, then emit jobs) out of the ``total`` planned so far, which
+            grows by the emit jobs once the tiles are counted. If it raises, or on Ctrl-C
+            (``KeyboardInterrupt``), no further result is taken, tasks not yet started are
+            dropped (those running finish their tile), the exception is raised, and neither
+            ``output`` nor any temporary file is left.
 
     Returns:
         The statistics ``isogrid extract --json`` prints: dims, iso, precision, active_cells,
@@ -127,6 +134,9 @@ def extract(
         cells, paper_total}, bytes_per_cell and seconds {read, extract, write}.
     """
     start = time.perf_counter()
+    if progress is not None and not callable(progress):
+        raise ValueError("progress must be a callable taking (done, total)")
+    counter = _Counter(progress)
     iso, iso_normalized = _iso_pair(iso, iso_normalized)
     bits = None if precision is None else _int(precision, "precision")
     # Checked again in Rust; here so that a typo fails before the value-range pass.
@@ -183,25 +193,29 @@ def extract(
             sample_bytes = dtype.itemsize * int(np.prod([hi - lo for lo, hi in samples]))
             output_bytes = max(0, budget - sample_bytes)
             tiles.append((samples, (one_pass, tuple(b[0] for b in box), output_bytes)))
-        for fragment in run.as_completed(chunks.tasks(_extract, tiles)):
+        for fragment in counter.counted(run.as_completed(chunks.tasks(_extract, tiles)), len(tiles)):
             extraction.add_tile(fragment)
     else:
         scans = [(_samples(box, dims), (dims, tuple(b[0] for b in box), extraction.iso)) for box in _tiles(dims, tile)]
-        for fragment in run.in_order(chunks.tasks(_scan, scans)):
+        # In completion order (add_scan takes tiles in any order), so a stop ends the pass early.
+        for fragment in counter.counted(run.as_completed(chunks.tasks(_scan, scans)), len(scans)):
             extraction.add_scan(fragment)
 
     # Pass 2: emit jobs for the tiles that gave no output, written at their offsets as they
     # complete, after the one-pass tiles' output.
     jobs = extraction.plan_emits(tile, budget)
-    emits = chunks.tasks(_emit, [(samples, (job, index)) for index, (samples, job) in enumerate(jobs)])
+    emits = counter.counted(
+        run.as_completed(chunks.tasks(_emit, [(samples, (job, index)) for index, (samples, job) in enumerate(jobs)])),
+        len(jobs),
+    )
     if attribute is None:
-        stats = extraction.write(out, run.as_completed(emits))
+        stats = extraction.write(out, emits)
     else:
         # The surface goes to a file beside the output, gets its attribute, then takes the
         # output's name: on any error nothing is left under it.
         surface = os.path.join(parent, f".{os.path.basename(out)}.surface{os.getpid()}")
         try:
-            stats = extraction.write(surface, run.as_completed(emits))
+            stats = extraction.write(surface, emits)
             _attach_attribute(surface, attribute, (nx, ny, nz), spacing3, origin3, geometry["direction"],
                               _int(attribute_precision, "attribute_precision"))
             os.replace(surface, out)
@@ -214,6 +228,30 @@ def extract(
         # As isogrid.extract warns; the empty grid's file is small, its header says why.
         _warn_if_empty(_isogrid.load(out))
     return stats
+
+
+class _Counter:
+    """Tasks finished out of those planned, told to the caller's ``progress(done, total)``."""
+
+    def __init__(self, callback: Optional[Callable[[int, int], Any]]) -> None:
+        self.callback = callback
+        self.done = 0
+        self.total = 0
+
+    def counted(self, results: Iterable[Any], planned: int) -> Iterator[Any]:
+        """`results`, a pass of `planned` tasks, counting each as it is taken. An exception from
+        the callback leaves the pass's iterator, which ends the pass (see `_Runner`)."""
+        self.total += planned
+        try:
+            for result in results:
+                self.done += 1
+                if self.callback is not None:
+                    self.callback(self.done, self.total)
+                yield result
+        finally:
+            close = getattr(results, "close", None)
+            if close is not None:
+                close()
 
 
 def _attach_attribute(path: str, attribute: Any, dims: Tuple[int, int, int], spacing: Tuple[float, ...],
@@ -528,11 +566,12 @@ class _Runner:
     A pass is one graph, so that tiles reading the same chunk (one holding a halo) share one
     computation of it, and the scheduler's ordering keeps only a few tiles' chunks in memory. On a
     client results are gathered (and released) one by one. Dask's local schedulers return a
-    graph's results all at once, so a scan pass (16 bytes a block) is computed whole, and a pass
-    with output runs on the threaded or synchronous scheduler in a background thread, each task
-    handing its result to the driver through a bounded queue (tasks wait while it is full). On
-    another local scheduler (processes, whose tasks cannot reach the queue) such a pass runs a
-    window of tasks at a time, and a chunk that two windows read is computed in both.
+    graph's results all at once, so a pass runs on the threaded or synchronous scheduler in a
+    background thread, each task handing its result to the driver through a bounded queue (tasks
+    wait while it is full); the driver stopping (an error, the caller's progress callback
+    raising, Ctrl-C) therefore stops the pass after the tasks already running. On another local
+    scheduler (processes, whose tasks cannot reach the queue) a pass runs a window of tasks at a
+    time, and a chunk that two windows read is computed in both.
     """
 
     def __init__(self, client: Any) -> None:
@@ -603,19 +642,13 @@ class _Runner:
             channel.closed.set()
             thread.join()
 
-    def in_order(self, tasks: List[Any]) -> Iterator[Any]:
-        """Results in task order (small ones: without a client they are all held at once)."""
-        return self._results(tasks, ordered=True)
-
     def as_completed(self, tasks: List[Any]) -> Iterator[Any]:
-        """Results in completion order (in task order without a client)."""
-        return self._results(tasks, ordered=False)
-
-    def _results(self, tasks: List[Any], ordered: bool) -> Iterator[Any]:
+        """Results in completion order (in task order without a client). Closing the iterator
+        ends the pass: tasks not yet started do not run."""
         if self.client is None:
-            if ordered or not tasks:
-                yield from self._windows(tasks, max(1, len(tasks)))
-            elif _in_process_scheduler(tasks):
+            if not tasks:
+                return
+            if _in_process_scheduler(tasks):
                 yield from self._handed_over(tasks)
             else:
                 yield from self._windows(tasks, self.window)
@@ -624,7 +657,7 @@ class _Runner:
 
         futures = self.client.compute(tasks, optimize_graph=True)
         try:
-            for future in futures if ordered else as_completed(futures):
+            for future in as_completed(futures):
                 result = future.result()
                 future.release()
                 yield result

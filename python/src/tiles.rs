@@ -16,6 +16,13 @@ use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict};
 use std::path::PathBuf;
 
+/// The progress of one task. A task is one tile, which a Dask worker runs to its end (seconds at
+/// most, for `tile_bytes` of samples): the driver counts finished tasks and stops handing out new
+/// ones on Ctrl-C or when its `progress` callback raises.
+fn task_progress() -> isogrid::Progress {
+    isogrid::Progress::new()
+}
+
 /// Pass 1 of one tile: its scan fragment (see `isogrid.dask`).
 #[pyfunction]
 pub fn _scan_tile<'py>(
@@ -28,7 +35,7 @@ pub fn _scan_tile<'py>(
     let tile = VolumeArg::new(tile, false, [1.0; 3])?;
     let view = tile.view()?;
     let fragment = py
-        .detach(move || tiles::scan_tile(&view, volume_dims, first_block, iso))
+        .detach(move || tiles::scan_tile(&view, volume_dims, first_block, iso, &task_progress()))
         .map_err(to_py)?;
     Ok(PyBytes::new(py, &fragment))
 }
@@ -44,7 +51,7 @@ pub fn _emit_tile<'py>(
     let tile = VolumeArg::new(tile, false, [1.0; 3])?;
     let view = tile.view()?;
     let fragment = py
-        .detach(move || tiles::emit_tile(&view, job, index))
+        .detach(move || tiles::emit_tile(&view, job, index, &task_progress()))
         .map_err(to_py)?;
     Ok(PyBytes::new(py, &fragment))
 }
@@ -62,7 +69,7 @@ pub fn _extract_tile<'py>(
     let tile = VolumeArg::new(tile, false, [1.0; 3])?;
     let view = tile.view()?;
     let fragment = py
-        .detach(move || tiles::extract_tile(&view, task, first_block, output_bytes))
+        .detach(move || tiles::extract_tile(&view, task, first_block, output_bytes, &task_progress()))
         .map_err(to_py)?;
     Ok(PyBytes::new(py, &fragment))
 }

@@ -7,7 +7,9 @@ import json
 import os
 import signal
 import subprocess
+import sys
 import threading
+import time
 from pathlib import Path
 
 import numpy as np
@@ -429,3 +431,96 @@ def test_an_attribute_gives_the_bytes_of_extract_with_it(tmp_path):
                              attribute=np.zeros((3, 3, 3), np.float32))
     assert not (tmp_path / "bad.cgc").exists()
     assert not [p for p in os.listdir(tmp_path) if p.startswith(".")]
+
+
+class Stop(Exception):
+    pass
+
+
+def counting_tasks(monkeypatch):
+    """Counts the tile tasks (one-pass tiles, scans and emit jobs) that run, on dask's scheduler in
+    this process (a cluster another test left as the current client would run them elsewhere)."""
+    import functools
+
+    monkeypatch.setattr(isogrid.dask, "_client", lambda client: None)
+    monkeypatch.setitem(dask.config.config, "scheduler", "threads")
+    ran = []
+    for name in ("_extract", "_emit", "_scan"):
+        task = getattr(isogrid.dask, name)
+
+        def counted(*args, _task=task, _name=name):
+            ran.append(_name)
+            return _task(*args)
+
+        monkeypatch.setattr(isogrid.dask, name, functools.wraps(task)(counted))
+    return ran
+
+
+@pytest.mark.parametrize("dtype,kwargs", [(np.uint8, {"iso": 100}), (np.float32, {"iso": 0.0})])
+def test_progress_counts_every_task_and_an_exception_in_it_stops_the_run(tmp_path, monkeypatch, dtype, kwargs):
+    # 45 x 38 x 41 samples in tiles of one block: 3 x 3 x 3 = 27 tiles, then (float32: the
+    # quantiser waits for the range) one emit job per tile with cells.
+    a = volume(dtype)
+    source = da.from_array(a, chunks=CHUNKS)
+    ran = counting_tasks(monkeypatch)
+    calls = []
+    out = tmp_path / "out.cgc"
+    isogrid.dask.extract(source, **kwargs, output=out, tile_shape=(16, 16, 16),
+                         progress=lambda done, total: calls.append((done, total)))
+    assert out.read_bytes() == in_process_bytes(a, tmp_path, **kwargs)
+    assert [d for d, _ in calls] == list(range(1, len(ran) + 1))
+    assert calls[26][1] == 27 and calls[-1][1] == len(ran)
+    emits = ran.count("_emit")
+    assert (emits == 0) == (dtype == np.uint8)
+    os.remove(out)
+    os.remove(tmp_path / "reference.cgc")
+
+    # Stopped (as Ctrl-C stops it: KeyboardInterrupt comes out of the same call) after 3 tasks,
+    # in the tile pass and in the emit pass: the rest of the tasks do not run, and nothing is left.
+    for stop_at, error in [(3, Stop), (3, KeyboardInterrupt), (29, Stop)]:
+        if stop_at > 27 and dtype == np.uint8:
+            continue
+        ran.clear()
+
+        def stop(done, total, stop_at=stop_at, error=error):
+            if done == stop_at:
+                raise error(f"stopped at {done} of {total}")
+
+        with pytest.raises(error, match=f"stopped at {stop_at} of"):
+            isogrid.dask.extract(source, **kwargs, output=out, tile_shape=(16, 16, 16), progress=stop)
+        # Tasks already handed out finish; the local pass holds at most a window of results.
+        window = 2 * (os.cpu_count() or 1)
+        assert len(ran) < 27 + emits and len(ran) <= stop_at + 2 * window + 2, (stop_at, len(ran))
+        assert os.listdir(tmp_path) == [], os.listdir(tmp_path)
+    with pytest.raises(ValueError, match="callable"):
+        isogrid.dask.extract(source, **kwargs, output=out, progress=3)
+
+
+def test_ctrl_c_stops_a_run_and_leaves_no_file(tmp_path):
+    # A real SIGINT to a process running a long extraction (4096 one-block tiles): it ends with
+    # KeyboardInterrupt soon after, and the output folder is empty.
+    out_dir = tmp_path / "out"
+    out_dir.mkdir()
+    script = f"""
+import sys, numpy as np, dask, dask.array as da, isogrid.dask
+x = np.linspace(-1, 1, 257, dtype=np.float32)
+a = np.sqrt(x[:, None, None] ** 2 + x[None, :, None] ** 2 + x[None, None, :] ** 2)
+def started(done, total):
+    if done == 1:
+        print("started", flush=True)
+with dask.config.set(scheduler="threads"):
+    isogrid.dask.extract(da.from_array(a, chunks=64), iso=0.5, output={str(out_dir / 'out.cgc')!r},
+                         tile_shape=(16, 16, 16), progress=started)
+print("finished", flush=True)
+"""
+    child = subprocess.Popen([sys.executable, "-c", script], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                             text=True)
+    assert child.stdout.readline().strip() == "started"
+    sent = time.perf_counter()
+    child.send_signal(signal.SIGINT)
+    stdout, stderr = child.communicate(timeout=60)
+    latency = time.perf_counter() - sent
+    assert child.returncode != 0 and "finished" not in stdout, stderr
+    assert "KeyboardInterrupt" in stderr, stderr
+    assert latency < 10, latency
+    assert os.listdir(out_dir) == []

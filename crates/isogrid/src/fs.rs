@@ -23,6 +23,21 @@ pub fn remove_unfinished() {
     }
 }
 
+/// Calls `f` with the temporary file of every write in progress, without waiting for the list:
+/// for a handler of a fatal signal (SIGABRT when an allocation fails, SIGBUS), which may run while
+/// another thread holds it and must then do without. `f` must not allocate either (the heap may be
+/// what failed): see the CLI's `interrupt` module.
+pub fn for_each_unfinished_without_waiting(mut f: impl FnMut(&Path)) {
+    let unfinished = match UNFINISHED.try_lock() {
+        Ok(list) => list,
+        Err(std::sync::TryLockError::Poisoned(e)) => e.into_inner(),
+        Err(std::sync::TryLockError::WouldBlock) => return,
+    };
+    for tmp in unfinished.iter() {
+        f(tmp);
+    }
+}
+
 /// Removes a temporary file, or a staged folder with what it holds.
 fn remove_temporary(path: &Path) {
     if std::fs::symlink_metadata(path).is_ok_and(|m| m.is_dir()) {

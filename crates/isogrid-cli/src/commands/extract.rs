@@ -10,12 +10,13 @@ use crate::outputs::{self, Output};
 use crate::report::{print_json, AttributeReport, GridReport, Seconds};
 use crate::{input, progress};
 use anyhow::{Context, Result};
-use isogrid::extract::stream::{self, Progress, RegionSource, Stage};
+use isogrid::extract::stream::{self, RegionSource};
 use isogrid::{
-    extract, AttributePrecision, CellGrid, ExtractOptions, GridStats, LabelOptions, LabelSelection,
-    Precision,
+    AttributePrecision, CellGrid, ExtractOptions, GridStats, LabelOptions, LabelSelection,
+    Precision, Progress,
 };
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 use std::time::Instant;
 
 #[derive(clap::Args)]
@@ -116,7 +117,7 @@ pub fn run(args: Args) -> Result<()> {
             if let Some(notice) = isogrid_io::region::slices::skipped_files_notice(&args.input) {
                 eprintln!("isogrid: note: {notice}");
             }
-            let max_memory = args.max_memory.unwrap_or_else(default_max_memory);
+            let max_memory = budget(args.max_memory);
             let (stats, attribute_report) = pool.install(|| {
                 stream_to_file(
                     &args,
@@ -251,13 +252,13 @@ fn in_memory(
     attribute: Option<&AttributeInput>,
 ) -> Result<(GridStats, Option<AttributeReport>, Seconds)> {
     let (volume, read) = input::read_volume(&args.input, read_options)?;
-    let spinner = progress::spinner("extracting".into());
     let start = Instant::now();
-    let grid = pool
-        .install(|| extract(&volume.view(), options))
-        .with_context(|| format!("{}: extraction failed", args.input.display()))?;
+    let progress = Arc::new(Progress::new());
+    let grid = progress::watched("extracting", &progress, || {
+        pool.install(|| isogrid::extract_with_progress(&volume.view(), options, &progress))
+    });
+    let grid = stopped_or(grid, args)?;
     let extract_seconds = start.elapsed().as_secs_f64();
-    spinner.finish_and_clear();
     crate::report::note_if_empty(&args.input, &grid, Some(&volume));
     let grid = match attribute {
         Some(attribute) => pool.install(|| with_attribute(args, grid, attribute))?,
@@ -280,7 +281,8 @@ fn in_memory(
     ))
 }
 
-/// Slab by slab into `--output` (or a scratch file that is removed, for statistics only).
+/// Slab by slab into `--output` (or a scratch file that is removed, for statistics only), under
+/// a progress bar; Ctrl-C stops it between reads, block rows or blocks, and nothing is written.
 fn stream_to_file(
     args: &Args,
     source: &mut dyn RegionSource,
@@ -290,68 +292,52 @@ fn stream_to_file(
 ) -> Result<(GridStats, Option<AttributeReport>)> {
     // Checked before any pass, so a budget too small fails at once.
     stream::plan(source, max_memory).with_context(|| format!("{}", args.input.display()))?;
-    // With an attribute, the surface goes to a scratch file first: the attribute pass reads it
-    // back (memory-mapped) and the output is written whole, or not at all.
-    let final_out = match &args.output {
-        Some(out) => out.clone(),
-        None => std::env::temp_dir().join(format!("isogrid-extract-{}.cgc", std::process::id())),
-    };
-    let surface_scratch = match attribute {
-        Some(_) => Some(isogrid::fs::ScratchFile::beside(&final_out, "surface.tmp")?),
-        None => None,
-    };
-    let out: &Path = surface_scratch
-        .as_ref()
-        .map_or(final_out.as_path(), |s| s.path());
-    let mut bar: Option<(Stage, indicatif::ProgressBar)> = None;
-    let mut report = |p: Progress| {
-        if bar.as_ref().is_none_or(|(stage, _)| *stage != p.stage) {
-            if let Some((_, old)) = bar.take() {
-                old.finish_and_clear();
-            }
-            let label = match p.stage {
-                Stage::ValueRange => "value range",
-                Stage::Scan => "counting cells",
-                Stage::Emit => "writing cells",
-            };
-            bar = Some((p.stage, progress::bar(label, p.total)));
+    // Without an output the surface goes to a scratch file (for the statistics and the
+    // attribute), and with an attribute too: the attribute pass reads it back (memory-mapped)
+    // and the output is written whole, or not at all. Scratch files go when dropped, and on a
+    // signal.
+    let target = args
+        .output
+        .clone()
+        .unwrap_or_else(|| std::env::temp_dir().join("isogrid-extract.cgc"));
+    let scratch = (attribute.is_some() || args.output.is_none())
+        .then(|| isogrid::fs::ScratchFile::beside(&target, "surface.tmp"))
+        .transpose()?;
+    let out: &Path = scratch.as_ref().map_or(target.as_path(), |s| s.path());
+    let progress = Arc::new(Progress::new());
+    let result = progress::watched("extracting", &progress, || {
+        stream::extract_to_file(source, options, max_memory, out, &progress)
+    });
+    let summary = stopped_or(result, args)?;
+    crate::report::note_if_no_cells(
+        &args.input,
+        &summary.info,
+        summary.stats.active_cells,
+        || {
+            // Only a range of [0, 0] can hide a volume without finite samples.
+            summary.info.value_range == [0.0, 0.0] && has_no_finite_sample(source).unwrap_or(false)
+        },
+    );
+    let mut attribute_report = None;
+    if let Some(attribute) = attribute {
+        let grid = isogrid::cgc::open(out)?;
+        let grid = with_attribute(args, grid, attribute)?;
+        attribute_report = grid.attribute().map(AttributeReport::new);
+        if let Some(output) = &args.output {
+            isogrid::cgc::write(output, &grid)?;
         }
-        if let Some((_, b)) = &bar {
-            b.set_position(p.done);
-        }
-    };
-    let result = stream::extract_to_file(source, options, max_memory, out, &mut report);
-    if let Some((_, b)) = bar.take() {
-        b.finish_and_clear();
     }
-    let finished = (|| -> Result<(GridStats, Option<AttributeReport>)> {
-        let summary =
-            result.with_context(|| format!("{}: extraction failed", args.input.display()))?;
-        crate::report::note_if_no_cells(
-            &args.input,
-            &summary.info,
-            summary.stats.active_cells,
-            || {
-                // Only a range of [0, 0] can hide a volume without finite samples.
-                summary.info.value_range == [0.0, 0.0]
-                    && has_no_finite_sample(source).unwrap_or(false)
-            },
-        );
-        let mut attribute_report = None;
-        if let Some(attribute) = attribute {
-            let grid = isogrid::cgc::open(out)?;
-            let grid = with_attribute(args, grid, attribute)?;
-            attribute_report = grid.attribute().map(AttributeReport::new);
-            if let Some(output) = &args.output {
-                isogrid::cgc::write(output, &grid)?;
-            }
+    Ok((summary.stats, attribute_report))
+}
+
+/// An extraction's result, with the error a Ctrl-C (a cancel) or a failure makes.
+fn stopped_or<T>(result: isogrid::Result<T>, args: &Args) -> Result<T> {
+    match result {
+        Err(e) if e.kind() == isogrid::ErrorKind::Cancelled => {
+            Err(anyhow::Error::from(e).context("extraction stopped by Ctrl-C, nothing written"))
         }
-        Ok((summary.stats, attribute_report))
-    })();
-    if args.output.is_none() {
-        let _ = std::fs::remove_file(out);
+        r => r.with_context(|| format!("{}: extraction failed", args.input.display())),
     }
-    finished
 }
 
 /// `grid` with the attribute of `--color-by` sampled at its cells.
@@ -382,14 +368,31 @@ fn has_no_finite_sample(source: &mut dyn RegionSource) -> isogrid::Result<bool> 
     Ok(true)
 }
 
-/// A quarter of the machine's memory (4 GiB where it cannot be read).
-fn default_max_memory() -> u64 {
-    let total = std::fs::read_to_string("/proc/meminfo")
-        .ok()
-        .and_then(|text| {
-            let line = text.lines().find(|l| l.starts_with("MemTotal:"))?;
-            let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
-            Some(kib * 1024)
-        });
-    total.map_or(4 << 30, |t| t / 4)
+/// The memory budget of a streamed extraction: `--max-memory`, by default a quarter of the
+/// machine's memory (4 GiB where it cannot be read), lowered to what the process may allocate now
+/// ([`isogrid::memory::available`]: free memory, the cgroup's limit, `ulimit -v`). A budget past
+/// that would abort in the allocator, leaving nothing to clean up its temporary file.
+fn budget(max_memory: Option<u64>) -> u64 {
+    let asked = max_memory.unwrap_or_else(|| {
+        let total = std::fs::read_to_string("/proc/meminfo")
+            .ok()
+            .and_then(|text| {
+                let line = text.lines().find(|l| l.starts_with("MemTotal:"))?;
+                let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+                Some(kib * 1024)
+            });
+        total.map_or(4 << 30, |t| t / 4)
+    });
+    match isogrid::memory::available() {
+        Some((room, source)) if room < asked => {
+            if max_memory.is_some() {
+                eprintln!(
+                    "isogrid: note: --max-memory lowered to {}, {source}",
+                    stream::format_bytes(room)
+                );
+            }
+            room
+        }
+        _ => asked,
+    }
 }

@@ -4,7 +4,6 @@
 
 use crate::args::{ThreadArgs, TraversalArg};
 use crate::grid_source::GridSource;
-use crate::interrupt::cancel_on_interrupt;
 use crate::outputs::{self, Output};
 use crate::progress;
 use crate::report::print_json;
@@ -18,9 +17,7 @@ use isogrid_render::{
 };
 use serde::Serialize;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
-use std::time::Duration;
 
 /// Samples per pixel of path tracing when neither `--spp` nor `--frames` says.
 const DEFAULT_SAMPLES: u32 = 16;
@@ -452,33 +449,6 @@ fn request(args: &Args, colored: bool) -> Result<RenderRequest> {
     Ok(RenderRequest::new(parts)?)
 }
 
-/// Runs `work` while a progress bar follows `progress` (rows on the CPU, frames of GPU path
-/// tracing) and Ctrl-C cancels it.
-fn with_progress_bar<T: Send>(
-    message: &str,
-    progress: &Arc<Progress>,
-    work: impl FnOnce() -> T + Send,
-) -> T {
-    let _cancel = cancel_on_interrupt(progress.clone());
-    let bar = progress::bar(message, 0);
-    let finished = AtomicBool::new(false);
-    let out = std::thread::scope(|scope| {
-        scope.spawn(|| {
-            while !finished.load(Ordering::Relaxed) {
-                let (done, total) = progress.counts();
-                bar.set_length(total);
-                bar.set_position(done);
-                std::thread::sleep(Duration::from_millis(100));
-            }
-        });
-        let out = work();
-        finished.store(true, Ordering::Relaxed);
-        out
-    });
-    bar.finish_and_clear();
-    out
-}
-
 pub fn run(args: Args) -> Result<()> {
     // Everything that does not need the data first.
     check_outputs(&args)?;
@@ -515,7 +485,7 @@ pub fn run(args: Args) -> Result<()> {
         Placement::Cpu => "rendering on the CPU",
         Placement::Gpu => "rendering on the GPU",
     };
-    let rendered = with_progress_bar(message, &progress, || {
+    let rendered = progress::watched(message, &progress, || {
         args.threads.install(|| {
             isogrid_render::render(
                 &ctx,

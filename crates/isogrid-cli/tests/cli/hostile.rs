@@ -379,7 +379,31 @@ fn a_file_size_limit_leaves_no_temporary_file() {
 #[cfg(unix)]
 #[test]
 fn an_interrupt_during_a_write_leaves_no_temporary_file() {
-    let dir = temp_dir("interrupt");
+    a_signal_during_a_write_leaves_no_temporary_file("interrupt", libc::SIGINT);
+}
+
+/// Whether `isogrid info` reads the grid file `path`.
+#[cfg(unix)]
+fn isogrid_info_reads(path: &std::path::Path) -> bool {
+    isogrid(&["info", s(path)]).status.success()
+}
+
+/// SIGABRT (an allocation failure aborts) and SIGBUS (a memory-mapped input truncated under the
+/// reader) end the process in the thread that failed, where no interrupt thread can help: its
+/// handler still removes the temporary file of the write in progress, and the process ends by
+/// the signal.
+#[cfg(unix)]
+#[test]
+fn abort_and_bus_errors_during_a_write_leave_no_temporary_file() {
+    a_signal_during_a_write_leaves_no_temporary_file("abort", libc::SIGABRT);
+    a_signal_during_a_write_leaves_no_temporary_file("bus", libc::SIGBUS);
+}
+
+/// Sends `signal` to `generate` while it writes its output: the process ends by the signal, and
+/// its temporary file goes with it.
+#[cfg(unix)]
+fn a_signal_during_a_write_leaves_no_temporary_file(name: &str, signal: i32) {
+    let dir = temp_dir(name);
     let out_path = dir.join("v.nrrd");
     let is_tmp = |n: &str| n.starts_with(".v.nrrd.tmp");
     let listing = || names_in(&dir);
@@ -396,8 +420,8 @@ fn an_interrupt_during_a_write_leaves_no_temporary_file() {
         let start = Instant::now();
         while child.try_wait().unwrap().is_none() && start.elapsed() < Duration::from_secs(120) {
             if listing().iter().any(|n| is_tmp(n)) {
-                // SAFETY: sending SIGINT to our own child process.
-                unsafe { libc::kill(child.id() as i32, libc::SIGINT) };
+                // SAFETY: sending a signal to our own child process.
+                unsafe { libc::kill(child.id() as i32, signal) };
                 caught = true;
                 break;
             }
@@ -407,7 +431,7 @@ fn an_interrupt_during_a_write_leaves_no_temporary_file() {
         let left = listing();
         assert!(!left.iter().any(|n| is_tmp(n)), "left behind: {left:?}");
         use std::os::unix::process::ExitStatusExt;
-        if caught && status.signal() == Some(libc::SIGINT) {
+        if caught && status.signal() == Some(signal) {
             break;
         }
         // The signal came after the rename (the write had finished): try again.
@@ -415,7 +439,117 @@ fn an_interrupt_during_a_write_leaves_no_temporary_file() {
         caught = false;
         let _ = std::fs::remove_file(&out_path);
     }
-    assert!(caught, "never interrupted a write in progress");
+    assert!(caught, "never signalled ({signal}) a write in progress");
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+/// Ctrl-C during a streamed extraction (`--max-memory`, slab by slab) stops it within a read, a
+/// block row or a block: the command says so and exits 130, the old output stays as it was, and
+/// no temporary file is left. A signal that comes before the extraction starts ends the process
+/// by its default action, which leaves nothing either.
+#[cfg(unix)]
+#[test]
+fn ctrl_c_stops_a_streamed_extract_and_leaves_no_output() {
+    use std::os::unix::process::ExitStatusExt;
+    let dir = temp_dir("interrupt-stream");
+    let volume = generated(&dir, "gyroid", 512);
+    let out = dir.join("out.cgc");
+    std::fs::write(&out, b"old").unwrap();
+    let mut stopped = 0;
+    for delay_ms in [5, 15, 30, 45, 60, 90, 120] {
+        let child = Command::new(env!("CARGO_BIN_EXE_isogrid"))
+            .args(["extract", s(&volume), "--iso", "128", "--max-memory", "64M"])
+            .args(["-o", s(&out)])
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        std::thread::sleep(Duration::from_millis(delay_ms));
+        let sent = Instant::now();
+        // SAFETY: sending SIGINT to our own child process.
+        unsafe { libc::kill(child.id() as i32, libc::SIGINT) };
+        let done = child.wait_with_output().unwrap();
+        let latency = sent.elapsed();
+        let stderr = String::from_utf8_lossy(&done.stderr);
+        let mut left = names_in(&dir);
+        left.sort();
+        assert_eq!(
+            left,
+            ["gyroid.nrrd", "out.cgc"],
+            "after {delay_ms} ms: {stderr}"
+        );
+        let kept = std::fs::read(&out).unwrap() == b"old";
+        if done.status.success() {
+            // The signal came after the extraction had finished: a complete new output.
+            assert!(!kept && isogrid_info_reads(&out), "after {delay_ms} ms");
+            std::fs::write(&out, b"old").unwrap();
+            continue;
+        }
+        assert!(kept, "after {delay_ms} ms the old output changed: {stderr}");
+        if done.status.code() == Some(130) {
+            assert!(
+                stderr.contains("stopped by Ctrl-C, nothing written"),
+                "{stderr}"
+            );
+            assert_eq!(stderr.lines().count(), 1, "{stderr}");
+            assert!(latency < Duration::from_secs(2), "took {latency:?} to stop");
+            stopped += 1;
+        } else {
+            // Interrupted before the extraction began: the default action.
+            assert_eq!(done.status.signal(), Some(libc::SIGINT), "{stderr}");
+        }
+    }
+    assert!(stopped > 0, "no interrupt reached the extraction");
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+/// Under an address-space limit (`ulimit -v`, `prlimit --as`) a streamed extraction sizes its
+/// budget and output buffer to the room left, or fails with one line; it never aborts with its
+/// temporary file (the size of the output) left beside the output, over a range of limits that
+/// covers failing reads, failing buffers and success.
+#[cfg(target_os = "linux")]
+#[test]
+fn a_streamed_extract_under_an_address_space_limit_leaves_no_temporary_file() {
+    use std::os::unix::process::CommandExt;
+    let dir = temp_dir("rlimit-as");
+    // 640³: a 250 MiB slab, and a 70 MB output whose buffer, before the fix, was allocated (and
+    // failed, near 500 MiB) after the output's temporary file had been made at its full size.
+    let volume = generated(&dir, "gyroid", 640);
+    let out = dir.join("out.cgc");
+    let mut outcomes = Vec::new();
+    for mib in (250..=800).step_by(25) {
+        let _ = std::fs::remove_file(&out);
+        let limit = (mib as u64) << 20;
+        let mut command = Command::new(env!("CARGO_BIN_EXE_isogrid"));
+        command.args(["extract", s(&volume), "--iso", "128", "-o", s(&out)]);
+        // SAFETY: setrlimit is async-signal-safe, called in the child between fork and exec.
+        unsafe {
+            command.pre_exec(move || {
+                let rlimit = libc::rlimit {
+                    rlim_cur: limit,
+                    rlim_max: limit,
+                };
+                libc::setrlimit(libc::RLIMIT_AS, &rlimit);
+                Ok(())
+            });
+        }
+        let done = command.output().unwrap();
+        let stderr = String::from_utf8_lossy(&done.stderr);
+        let left: Vec<String> = names_in(&dir)
+            .into_iter()
+            .filter(|n| n.starts_with(".out.cgc"))
+            .collect();
+        assert!(left.is_empty(), "{mib} MiB: left {left:?}; {stderr}");
+        assert_eq!(
+            out.exists(),
+            done.status.success(),
+            "{mib} MiB: {:?} {stderr}",
+            done.status
+        );
+        outcomes.push((mib, done.status.code()));
+    }
+    // The range reaches success: the budget and the output buffer fit the room left.
+    assert!(outcomes.iter().any(|(_, c)| *c == Some(0)), "{outcomes:?}");
     std::fs::remove_dir_all(dir).unwrap();
 }
 

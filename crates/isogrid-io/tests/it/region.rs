@@ -50,7 +50,7 @@ pub fn streams_like_memory(path: &Path, opts: &ReadOptions, extract_options: &[E
                 options,
                 &plan(layers, buffer),
                 &out,
-                &mut |_| {},
+                &isogrid::Progress::new(),
             )
             .unwrap();
             assert!(
@@ -257,7 +257,7 @@ fn tiff_slice_folders_sort_naturally_and_stream_byte_identically() {
         &ExtractOptions::new(Iso::Value(3000.0)),
         &plan(1, 1 << 20),
         &dir.path("out.cgc"),
-        &mut |_| {},
+        &isogrid::Progress::new(),
     )
     .unwrap_err()
     .to_string();

@@ -215,18 +215,10 @@ fn extract_typed<T: ExtractScalar>(
     Ok(CellGrid::from_parts(info, blocks, metacells, cells))
 }
 
-/// Pass 1 over `samples` (a whole volume, or a slab of whole block layers plus its halo plane):
-/// one [`scan::BlockScan`] per block in block order. Runs on the current rayon pool.
-fn scan_blocks<T: ExtractScalar>(
-    samples: &[T],
-    dims: [usize; 3],
-    threshold: Option<T>,
-) -> Vec<scan::BlockScan> {
-    scan_blocks_counted(samples, dims, threshold, None)
-}
-
-/// [`scan_blocks`], adding each scanned row's blocks to `progress`.
-fn scan_blocks_counted<T: ExtractScalar>(
+/// Pass 1 over `samples` (a whole volume, a slab of whole block layers plus its halo plane, or a
+/// tile): one [`scan::BlockScan`] per block in block order, adding each scanned row's blocks to
+/// `progress`. Runs on the current rayon pool.
+pub(super) fn scan_blocks_counted<T: ExtractScalar>(
     samples: &[T],
     dims: [usize; 3],
     threshold: Option<T>,

@@ -35,11 +35,12 @@
 
 use super::file_layout::FileLayout;
 use super::scalar::ExtractScalar;
-use super::{emit, scan_blocks, split_outputs, ExtractOptions, Totals};
+use super::{emit, scan_blocks_counted, split_outputs, ExtractOptions, Totals};
 use crate::cgc::{CgcWriter, SectionKind};
 use crate::error::{Error, Result};
 use crate::grid::GridInfo;
 use crate::layout::{Block, Metacell, Precision, BLOCK_CELLS};
+use crate::progress::Progress;
 use crate::quantize::Quantizer;
 use crate::stats::GridStats;
 use crate::volume::{Geometry, Samples, ScalarType, VolumeView};
@@ -54,6 +55,10 @@ pub const PROCESS_BASELINE: u64 = 48 << 20;
 /// Output buffer bounds: one block's worst case is ~140 KB (4096 cells × 32 B plus its slots).
 const OUTPUT_BUFFER_MIN: u64 = 1 << 20;
 const OUTPUT_BUFFER_MAX: u64 = 64 << 20;
+
+/// Reads of a slab go in pieces of about this many bytes, so that a cancel waits for one piece,
+/// not a whole slab (which may be gigabytes).
+pub const READ_PIECE_BYTES: u64 = 64 << 20;
 
 /// Bytes of the block table kept for the whole run: the block record and its active cell count.
 const BLOCK_TABLE_BYTES: u64 = 16 + 4;
@@ -323,25 +328,6 @@ pub fn format_bytes(bytes: u64) -> String {
     }
 }
 
-/// Which pass a progress report is about.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Stage {
-    /// The value range for a normalised isovalue.
-    ValueRange,
-    /// Counting active cells per block.
-    Scan,
-    /// Writing metacells and corner records.
-    Emit,
-}
-
-/// Progress of one pass: `done` of `total` sample planes read.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Progress {
-    pub stage: Stage,
-    pub done: u64,
-    pub total: u64,
-}
-
 /// What a streaming extraction wrote.
 #[derive(Debug, Clone, PartialEq)]
 pub struct StreamSummary {
@@ -351,14 +337,21 @@ pub struct StreamSummary {
 }
 
 /// Extracts `source` at `options` into the `.cgc` file `path` within `max_memory` bytes, writing
-/// as it goes (atomically: on error no file is left under `path`). `progress` hears after every
-/// slab. The file is byte-identical to `cgc::write` of [`super::extract`] on the same samples.
+/// as it goes (atomically: on error, a cancel included, no file is left under `path` and no
+/// temporary file beside it). The file is byte-identical to `cgc::write` of [`super::extract`] on
+/// the same samples.
+///
+/// `progress` counts blocks: one step per block in each pass over the samples (two, or three
+/// with the value-range pass of a normalised isovalue), so `done` only grows and reaches `total`
+/// with the file. A [`Progress::cancel`] is honoured between reads of at most
+/// [`READ_PIECE_BYTES`], between block rows of the scan and between blocks of the emit, with an
+/// error of kind [`crate::ErrorKind::Cancelled`].
 pub fn extract_to_file(
     source: &mut dyn RegionSource,
     options: &ExtractOptions,
     max_memory: u64,
     path: &Path,
-    progress: &mut dyn FnMut(Progress),
+    progress: &Progress,
 ) -> Result<StreamSummary> {
     let plan = plan(source, max_memory)?;
     extract_planned(source, options, &plan, path, progress)
@@ -371,7 +364,7 @@ pub fn extract_planned(
     options: &ExtractOptions,
     plan: &MemoryPlan,
     path: &Path,
-    progress: &mut dyn FnMut(Progress),
+    progress: &Progress,
 ) -> Result<StreamSummary> {
     if plan.slab_layers == 0 {
         return Err(Error::invalid("a slab needs at least one block layer"));
@@ -430,7 +423,7 @@ struct Run<'a> {
     source: &'a mut dyn RegionSource,
     geometry: Geometry,
     plan: MemoryPlan,
-    progress: &'a mut dyn FnMut(Progress),
+    progress: &'a Progress,
     /// The planes the slab buffer holds (the run has one buffer), so that a pass asking for
     /// the planes the previous one ended on does not read them again: a volume that fits one
     /// slab is read once, not once per pass.
@@ -439,7 +432,8 @@ struct Run<'a> {
 
 impl Run<'_> {
     /// Reads planes `z` into `buffer`: all their samples, or (`wanted`) those of the marked
-    /// blocks only.
+    /// blocks only. Long reads go in pieces of about [`READ_PIECE_BYTES`] (cut at the source's
+    /// plane granularity), with a cancel check before each.
     fn read<T: SlabScalar>(
         &mut self,
         z: Range<usize>,
@@ -450,16 +444,29 @@ impl Run<'_> {
             return Ok(());
         }
         let [nx, ny, _] = self.geometry.dims;
+        let plane = nx * ny;
         self.held = None;
-        buffer.resize(nx * ny * z.len(), T::default());
-        match wanted {
-            Some(mask) => self.source.read_planes_within(z, T::slab(buffer), mask),
-            None => {
-                self.source.read_planes(z.clone(), T::slab(buffer))?;
-                self.held = Some(z);
-                Ok(())
+        buffer.resize(plane * z.len(), T::default());
+        let granularity = self.source.plane_granularity().max(1);
+        let piece = (READ_PIECE_BYTES as usize / (plane * size_of::<T>()).max(1))
+            .max(1)
+            .next_multiple_of(granularity);
+        let mut at = z.start;
+        while at < z.end {
+            self.progress.check()?;
+            // Pieces after the first start on a multiple of the granularity.
+            let end = (at + piece).next_multiple_of(granularity).min(z.end);
+            let out = T::slab(&mut buffer[plane * (at - z.start)..plane * (end - z.start)]);
+            match wanted {
+                Some(mask) => self.source.read_planes_within(at..end, out, mask)?,
+                None => self.source.read_planes(at..end, out)?,
             }
+            at = end;
         }
+        if wanted.is_none() {
+            self.held = Some(z);
+        }
+        Ok(())
     }
 
     /// Slabs as block layer ranges, and the sample planes each reads (its layers plus the halo).
@@ -477,21 +484,28 @@ impl Run<'_> {
     }
 
     /// NaN-free (min, max) over all samples, `None` without one: the in-memory `value_range`.
+    /// Counts a block in `progress` once the planes it reads are all read.
     fn value_range<T: SlabScalar>(&mut self, buffer: &mut Vec<T>) -> Result<Option<(f64, f64)>> {
         let nz = self.geometry.dims[2];
+        let [nbx, nby, nbz] = self.geometry.cell_dims().map(|c| c.div_ceil(BLOCK_CELLS));
         let step = BLOCK_CELLS * self.plan.slab_layers + 1;
         let mut range: Option<(f64, f64)> = None;
+        let mut layers_done = 0;
         for z0 in (0..nz).step_by(step) {
             let z = z0..(z0 + step).min(nz);
             self.read(z.clone(), buffer, None)?;
             if let Some((lo, hi)) = T::samples(buffer).value_range() {
                 range = Some(range.map_or((lo, hi), |(a, b)| (a.min(lo), b.max(hi))));
             }
-            (self.progress)(Progress {
-                stage: Stage::ValueRange,
-                done: z.end as u64,
-                total: nz as u64,
-            });
+            // Layer b reads planes 16·b ..= 16·b + 16.
+            let layers = if z.end == nz {
+                nbz
+            } else {
+                (z.end - 1) / BLOCK_CELLS
+            };
+            self.progress
+                .advance(((layers - layers_done) * nbx * nby) as u64);
+            layers_done = layers;
         }
         Ok(range)
     }
@@ -501,17 +515,18 @@ impl Run<'_> {
         options: &ExtractOptions,
         path: &Path,
     ) -> Result<StreamSummary> {
-        let [nx, ny, nz] = self.geometry.dims;
+        let [nx, ny, _] = self.geometry.dims;
         let precision = options.precision.unwrap_or(Precision::default_for(T::TYPE));
         let mut buffer: Vec<T> = Vec::new();
+        let [nbx, nby, nbz] = self.geometry.cell_dims().map(|c| c.div_ceil(BLOCK_CELLS));
+        let block_count = nbx * nby * nbz;
+        let passes = 2 + matches!(options.iso, super::Iso::Normalized(_)) as u64;
+        self.progress.start(passes * block_count as u64);
 
         let (iso, value_range) = options
             .iso
             .resolve_lazily(|| self.value_range(&mut buffer))?;
         let threshold = T::threshold(iso);
-
-        let [nbx, nby, nbz] = self.geometry.cell_dims().map(|c| c.div_ceil(BLOCK_CELLS));
-        let block_count = nbx * nby * nbz;
         let slabs = if block_count == 0 {
             Vec::new()
         } else {
@@ -525,18 +540,19 @@ impl Run<'_> {
         let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
         for (layers, planes) in &slabs {
             self.read(planes.clone(), &mut buffer, None)?;
-            let scans = scan_blocks(&buffer, [nx, ny, planes.len()], threshold);
+            let scans = scan_blocks_counted(
+                &buffer,
+                [nx, ny, planes.len()],
+                threshold,
+                Some(self.progress),
+            );
+            self.progress.check()?;
             debug_assert_eq!(scans.len(), nbx * nby * layers.len());
             for s in &scans {
                 (lo, hi) = (lo.min(s.min), hi.max(s.max));
                 blocks.push(totals.add(s)?);
                 active_cells.push(s.active_cells);
             }
-            (self.progress)(Progress {
-                stage: Stage::Scan,
-                done: planes.end as u64,
-                total: nz as u64,
-            });
         }
 
         let (lo, hi) = match value_range {
@@ -555,24 +571,38 @@ impl Run<'_> {
         );
         let record = precision.bytes_per_cell() as u64;
 
+        // Everything pass 2 allocates, allocated before the output's temporary file exists: the
+        // largest group's output (the slab buffer is already as large as it gets). An allocation
+        // the allocator cannot give aborts the process, which no guard survives; here it is an
+        // error of kind TooLarge, and no file has been made.
+        let mut groups = GroupBuffers::default();
+        let group_bytes = groups.reserve(
+            &slabs,
+            &blocks,
+            &active_cells,
+            [nbx, nby],
+            record,
+            self.plan.output_buffer,
+        )?;
+
         crate::fs::write_atomic_file(path, |file| {
             let mut writer = CgcWriter::new(file, layout.plan())?;
             writer.put(SectionKind::Blocks, 0, bytemuck::cast_slice(&blocks))?;
 
             // Pass 2: emit slab by slab, in block order, into the pre-sized sections.
             let (mut slot_at, mut cell_at) = (0u64, 0u64);
-            let mut groups = GroupBuffers::default();
             let mut next_cell = 0u32;
             for (layers, planes) in &slabs {
+                self.progress.check()?;
                 let first = layers.start * nbx * nby;
                 let end = layers.end * nbx * nby;
-                let progress = Progress {
-                    stage: Stage::Emit,
-                    done: planes.end as u64,
-                    total: nz as u64,
-                };
-                if blocks[first..end].iter().all(|b| b.metacell_count == 0) {
-                    (self.progress)(progress);
+                // Blocks without cells count once the slab is done.
+                let idle = blocks[first..end]
+                    .iter()
+                    .filter(|b| b.metacell_count == 0)
+                    .count() as u64;
+                if idle == (end - first) as u64 {
+                    self.progress.advance(idle);
                     continue;
                 }
                 // Only active blocks are emitted, and each reads its own samples alone.
@@ -592,13 +622,7 @@ impl Run<'_> {
                 };
                 let mut index = first;
                 while index < end {
-                    let group = next_group(
-                        &blocks,
-                        &active_cells,
-                        index..end,
-                        record,
-                        self.plan.output_buffer,
-                    );
+                    let group = next_group(&blocks, &active_cells, index..end, record, group_bytes);
                     groups.emit(
                         &slab,
                         &blocks,
@@ -608,7 +632,9 @@ impl Run<'_> {
                         threshold,
                         &layout.quantizer,
                         record as usize,
+                        self.progress,
                     );
+                    self.progress.check()?;
                     let slots: &[u8] = bytemuck::cast_slice(&groups.slots);
                     writer.put(SectionKind::Metacells, slot_at, slots)?;
                     writer.put(SectionKind::Cells, cell_at, &groups.cells)?;
@@ -616,7 +642,7 @@ impl Run<'_> {
                     cell_at += groups.cells.len() as u64;
                     index = group.end;
                 }
-                (self.progress)(progress);
+                self.progress.advance(idle);
             }
             writer.finish(&layout.info, &layout.counts)
         })?;
@@ -664,6 +690,16 @@ fn next_group(
     range.start..end
 }
 
+/// Metacell slots and active cells of the blocks `group`.
+fn group_size(blocks: &[Block], active_cells: &[u32], group: Range<usize>) -> (usize, usize) {
+    let slots = blocks[group.clone()]
+        .iter()
+        .map(|b| b.metacell_count as usize)
+        .sum();
+    let cells = active_cells[group].iter().map(|&c| c as usize).sum();
+    (slots, cells)
+}
+
 /// The output of one group of blocks, reused from group to group.
 #[derive(Default)]
 pub(super) struct GroupBuffers {
@@ -672,6 +708,59 @@ pub(super) struct GroupBuffers {
 }
 
 impl GroupBuffers {
+    /// Allocates room for the largest group the emit pass over `slabs` makes (as
+    /// [`next_group`] cuts them within `capacity` bytes), so that emitting allocates nothing, and
+    /// returns the capacity to cut groups with: `capacity`, or less (down to
+    /// `OUTPUT_BUFFER_MIN`) where [`crate::memory::available`] says less may be allocated now.
+    /// Fails with kind TooLarge, instead of aborting, where not even that can be had.
+    pub(super) fn reserve(
+        &mut self,
+        slabs: &[(Range<usize>, Range<usize>)],
+        blocks: &[Block],
+        active_cells: &[u32],
+        block_dims: [usize; 2],
+        record: u64,
+        capacity: u64,
+    ) -> Result<u64> {
+        // The largest group's slots and corner bytes when groups are cut within `capacity`.
+        let largest = |capacity: u64| {
+            let (mut most_slots, mut most_cells) = (0usize, 0usize);
+            let layer = block_dims[0] * block_dims[1];
+            for (layers, _) in slabs {
+                let end = layers.end * layer;
+                let mut index = layers.start * layer;
+                while index < end {
+                    let group = next_group(blocks, active_cells, index..end, record, capacity);
+                    let (slots, cells) = group_size(blocks, active_cells, group.clone());
+                    most_slots = most_slots.max(slots);
+                    most_cells = most_cells.max(cells * record as usize);
+                    index = group.end;
+                }
+            }
+            (most_slots, most_cells)
+        };
+        let bytes = |(slots, cells): (usize, usize)| (slots * size_of::<Metacell>() + cells) as u64;
+        let mut capacity = capacity;
+        let mut most = largest(capacity);
+        while capacity > OUTPUT_BUFFER_MIN && crate::memory::ensure_fits("", bytes(most)).is_err() {
+            capacity = (capacity / 2).max(OUTPUT_BUFFER_MIN);
+            most = largest(capacity);
+        }
+        let need = bytes(most);
+        crate::memory::ensure_fits("the streamed extraction's output buffer", need)?;
+        let failed = |_| {
+            Error::too_large(format!(
+                "the streamed extraction's output buffer needs {}, which cannot be allocated",
+                crate::memory::show_bytes(need)
+            ))
+        };
+        self.slots.try_reserve_exact(most.0).map_err(failed)?;
+        self.cells.try_reserve_exact(most.1).map_err(failed)?;
+        Ok(capacity)
+    }
+
+    /// Emits the blocks of `group` into the buffers, counting each in `progress`; once it is
+    /// cancelled the remaining blocks are skipped (the caller checks it before using the output).
     #[allow(clippy::too_many_arguments)]
     pub(super) fn emit<T: SlabScalar>(
         &mut self,
@@ -683,15 +772,9 @@ impl GroupBuffers {
         threshold: Option<T>,
         quantizer: &Quantizer,
         record: usize,
+        progress: &Progress,
     ) {
-        let slot_count: usize = blocks[group.clone()]
-            .iter()
-            .map(|b| b.metacell_count as usize)
-            .sum();
-        let cell_count: usize = active_cells[group.clone()]
-            .iter()
-            .map(|&c| c as usize)
-            .sum();
+        let (slot_count, cell_count) = group_size(blocks, active_cells, group.clone());
         // Padding slots must be zero, as in the in-memory output.
         self.slots.clear();
         self.slots.resize(slot_count, bytemuck::Zeroable::zeroed());
@@ -711,7 +794,11 @@ impl GroupBuffers {
         outputs
             .into_par_iter()
             .for_each_init(emit::BlockScratch::default, |scratch, out| {
-                emit::emit_block(slab.samples, slab.dims, threshold, quantizer, out, scratch)
+                if progress.is_cancelled() {
+                    return;
+                }
+                emit::emit_block(slab.samples, slab.dims, threshold, quantizer, out, scratch);
+                progress.advance(1);
             });
     }
 }

@@ -406,7 +406,8 @@ fn streamed_and_in_memory_grids_get_the_same_attribute_bytes() {
             fixed: 0,
             minimum: 0,
         };
-        stream::extract_planned(&mut view, &options, &plan, &path, &mut |_| {}).unwrap();
+        stream::extract_planned(&mut view, &options, &plan, &path, &isogrid::Progress::new())
+            .unwrap();
         let streamed = cgc::open(&path).unwrap();
         let values = sample_attribute(
             &streamed,

@@ -4,9 +4,11 @@
 
 use crate::common::{field, random_u8, Rng};
 use isogrid::extract::stream::{
-    self, extract_planned, extract_to_file, MemoryPlan, Progress, RegionSource, SlabMut, Stage,
+    self, extract_planned, extract_to_file, MemoryPlan, RegionSource, SlabMut,
 };
-use isogrid::{cgc, extract, ErrorKind, ExtractOptions, Iso, Precision, Volume, VolumeData};
+use isogrid::{
+    cgc, extract, ErrorKind, ExtractOptions, Iso, Precision, Progress, Volume, VolumeData,
+};
 use std::ops::Range;
 use std::path::PathBuf;
 
@@ -173,7 +175,7 @@ fn streamed_files_are_byte_identical_to_in_memory_ones() {
                                 &options,
                                 &plan(layers, buffer),
                                 &out,
-                                &mut |_| {},
+                                &Progress::new(),
                             )
                         })
                         .unwrap();
@@ -213,7 +215,8 @@ fn budgets_from_the_least_that_works_upwards_give_the_same_bytes() {
         1 << 40,
     ] {
         let mut source = volume.view();
-        let summary = extract_to_file(&mut source, &options, budget, &out, &mut |_| {}).unwrap();
+        let summary =
+            extract_to_file(&mut source, &options, budget, &out, &Progress::new()).unwrap();
         assert!(
             summary.plan.fixed + summary.plan.slab_bytes + summary.plan.output_buffer <= budget
         );
@@ -240,7 +243,7 @@ fn a_budget_below_one_slab_names_the_least_that_works_and_writes_nothing() {
         &ExtractOptions::new(Iso::Value(100.0)),
         minimum - 1,
         &out,
-        &mut |_| {},
+        &Progress::new(),
     )
     .unwrap_err();
     assert_eq!(err.kind(), ErrorKind::TooLarge);
@@ -325,7 +328,7 @@ fn a_read_error_in_any_pass_leaves_no_file_and_keeps_an_old_one() {
             &ExtractOptions::new(Iso::Normalized(0.5)),
             &plan(1, 1),
             &out,
-            &mut |_| {},
+            &Progress::new(),
         )
         .unwrap_err();
         assert!(err.to_string().contains("unreadable"), "{err}");
@@ -334,34 +337,103 @@ fn a_read_error_in_any_pass_leaves_no_file_and_keeps_an_old_one() {
     }
 }
 
+/// `done` reaches `total`: one step per block and pass (scan, emit, and the value-range pass of a
+/// normalised isovalue), whatever the slab size.
 #[test]
-fn progress_covers_every_pass_to_the_last_plane() {
+fn progress_counts_each_block_once_per_pass() {
     let dir = TempDir::new("progress");
-    let volume = random_u8([20, 20, 50], 9, 2);
-    let mut seen: Vec<Progress> = Vec::new();
-    extract_planned(
-        &mut volume.view(),
-        &ExtractOptions::new(Iso::Normalized(0.5)),
-        &plan(1, 1 << 20),
-        &dir.0.join("out.cgc"),
-        &mut |p| seen.push(p),
-    )
-    .unwrap();
-    for stage in [Stage::ValueRange, Stage::Scan, Stage::Emit] {
-        let last = seen.iter().rfind(|p| p.stage == stage).unwrap();
-        assert_eq!((last.done, last.total), (50, 50), "{stage:?}");
+    let volume = random_u8([40, 20, 50], 9, 2);
+    // ceil(39/16)·ceil(19/16)·ceil(49/16) blocks.
+    let blocks = 3 * 2 * 4;
+    for (iso, passes) in [(Iso::Normalized(0.5), 3), (Iso::Value(100.0), 2)] {
+        for layers in [1, 2, 64] {
+            let progress = Progress::new();
+            extract_planned(
+                &mut volume.view(),
+                &ExtractOptions::new(iso),
+                &plan(layers, 1 << 20),
+                &dir.0.join("out.cgc"),
+                &progress,
+            )
+            .unwrap();
+            let want = passes * blocks;
+            assert_eq!(progress.counts(), (want, want), "{iso:?}, {layers} layers");
+        }
     }
-    // A data-unit isovalue needs no range pass.
-    seen.clear();
-    extract_planned(
-        &mut volume.view(),
-        &ExtractOptions::new(Iso::Value(100.0)),
-        &plan(1, 1 << 20),
-        &dir.0.join("out.cgc"),
-        &mut |p| seen.push(p),
-    )
-    .unwrap();
-    assert!(seen.iter().all(|p| p.stage != Stage::ValueRange));
+}
+
+/// A source that cancels `progress` as its `cancel_at`-th read ends, and counts reads.
+struct Cancelling<'a> {
+    inner: isogrid::VolumeView<'a>,
+    progress: &'a Progress,
+    reads: usize,
+    cancel_at: usize,
+}
+
+impl RegionSource for Cancelling<'_> {
+    fn geometry(&self) -> isogrid::Geometry {
+        *self.inner.geometry()
+    }
+    fn scalar_type(&self) -> isogrid::ScalarType {
+        self.inner.scalar_type()
+    }
+    fn read_planes(&mut self, z: Range<usize>, out: SlabMut<'_>) -> isogrid::Result<()> {
+        self.reads += 1;
+        if self.reads == self.cancel_at {
+            self.progress.cancel();
+        }
+        self.inner.read_planes(z, out)
+    }
+}
+
+/// A cancel in any pass (the value range, the scan, the emit) stops the run before its next read
+/// and before the slab's blocks count, fails with kind Cancelled, and leaves no file and no
+/// temporary file: an old output stays as it was.
+#[test]
+fn a_cancelled_streamed_extraction_stops_at_once_and_leaves_no_file() {
+    let dir = TempDir::new("cancel");
+    let out = dir.0.join("out.cgc");
+    std::fs::write(&out, b"old").unwrap();
+    let volume = random_u8([40, 20, 50], 9, 2);
+    let options = ExtractOptions::new(Iso::Normalized(0.5));
+    // One-layer slabs: reads 1-3 are the range pass (17 planes each), 4-7 the scan, 8-11 the emit.
+    let uncancelled = Progress::new();
+    let mut source = Cancelling {
+        inner: volume.view(),
+        progress: &uncancelled,
+        reads: 0,
+        cancel_at: usize::MAX,
+    };
+    extract_planned(&mut source, &options, &plan(1, 1 << 20), &out, &uncancelled).unwrap();
+    assert_eq!(source.reads, 11);
+    std::fs::write(&out, b"old").unwrap();
+    let blocks_per_layer = 3 * 2;
+    for cancel_at in [1, 3, 4, 6, 8, 10] {
+        let progress = Progress::new();
+        let mut source = Cancelling {
+            inner: volume.view(),
+            progress: &progress,
+            reads: 0,
+            cancel_at,
+        };
+        let err =
+            extract_planned(&mut source, &options, &plan(1, 1 << 20), &out, &progress).unwrap_err();
+        assert_eq!(err.kind(), ErrorKind::Cancelled, "{err}");
+        assert_eq!(source.reads, cancel_at, "no read after the cancel");
+        // Block layers counted: the range pass counts a layer once its 17 planes are read (the
+        // cancelled read's chunk included: 1, 2, then all 4 layers), the scan and emit passes
+        // the slabs before the cancelled one (one layer each), none of its own.
+        let (done, total) = progress.counts();
+        assert_eq!(total, 3 * 24);
+        let before = if cancel_at == 3 { 4 } else { cancel_at };
+        assert_eq!(
+            done,
+            (before * blocks_per_layer) as u64,
+            "cancelled at read {cancel_at}"
+        );
+        assert_eq!(std::fs::read(&out).unwrap(), b"old");
+        assert_eq!(dir.entries(), vec!["out.cgc".to_string()]);
+    }
 }
 
 /// Streams `volume` through a [`Failing`] source that never fails, in slabs of `layers` layers:
@@ -378,7 +450,7 @@ fn stream_counted(
         options,
         &plan(layers, 1 << 20),
         out,
-        &mut |_| {},
+        &Progress::new(),
     )
     .unwrap();
     (

@@ -8,7 +8,7 @@ use isogrid::extract::tiles::{
     block_dims, emit_tile, extract_tile, scan_tile, tile_samples, tiles, EmitJob, TileExtraction,
     TileSummary,
 };
-use isogrid::{cgc, extract, ExtractOptions, Iso, Samples, Volume, VolumeData};
+use isogrid::{cgc, extract, ExtractOptions, Iso, Progress, Samples, Volume, VolumeData};
 use std::ops::Range;
 use std::path::Path;
 
@@ -61,8 +61,10 @@ fn scanned(
     for tile in tiles(dims, scan_blocks).unwrap().into_iter().rev() {
         let samples = box_of(volume, tile_samples(&tile, dims));
         let first = tile.map(|b| b.start);
-        run.add_scan(&scan_tile(&samples.view(), dims, first, run.iso()).unwrap())
-            .unwrap();
+        run.add_scan(
+            &scan_tile(&samples.view(), dims, first, run.iso(), &Progress::new()).unwrap(),
+        )
+        .unwrap();
     }
     let jobs = run.plan_emits(job_blocks, job_bytes).unwrap();
     (run, jobs)
@@ -73,7 +75,7 @@ fn fragments(volume: &Volume, jobs: &[EmitJob]) -> Vec<Vec<u8>> {
         .enumerate()
         .map(|(i, job)| {
             let samples = box_of(volume, job.samples.clone());
-            emit_tile(&samples.view(), &job.bytes, i as u32).unwrap()
+            emit_tile(&samples.view(), &job.bytes, i as u32, &Progress::new()).unwrap()
         })
         .collect()
 }
@@ -224,15 +226,22 @@ fn tiles_not_of_whole_blocks_or_overlapping_are_refused() {
         [16..32, 0..21, 0..17],
     ] {
         let first = [samples[0].start / 16, 0, 0];
-        let err = scan_tile(&box_of(&volume, samples).view(), dims, first, 1.0).unwrap_err();
+        let err = scan_tile(
+            &box_of(&volume, samples).view(),
+            dims,
+            first,
+            1.0,
+            &Progress::new(),
+        )
+        .unwrap_err();
         assert!(err.to_string().contains("not whole blocks"), "{err}");
     }
     // Layer 1 before layer 0 is fine; the same blocks twice are not.
     let second = box_of(&volume, [0..37, 0..21, 16..33]);
-    run.add_scan(&scan_tile(&second.view(), dims, [0, 0, 1], 1.0).unwrap())
+    run.add_scan(&scan_tile(&second.view(), dims, [0, 0, 1], 1.0, &Progress::new()).unwrap())
         .unwrap();
     let overlapping = box_of(&volume, [16..37, 16..21, 16..49]);
-    let fragment = scan_tile(&overlapping.view(), dims, [1, 1, 1], 1.0).unwrap();
+    let fragment = scan_tile(&overlapping.view(), dims, [1, 1, 1], 1.0, &Progress::new()).unwrap();
     let err = run.add_scan(&fragment).unwrap_err();
     assert!(
         err.to_string().contains("overlaps blocks already scanned"),
@@ -278,8 +287,16 @@ fn one_pass(
     for tile in tiles(dims, tile_blocks).unwrap().into_iter().rev() {
         let samples = box_of(volume, tile_samples(&tile, dims));
         let first = tile.map(|b| b.start);
-        let fragment = extract_tile(&samples.view(), &task, first, output_bytes).unwrap();
-        let scan_only = scan_tile(&samples.view(), dims, first, run.iso()).unwrap();
+        let fragment = extract_tile(
+            &samples.view(),
+            &task,
+            first,
+            output_bytes,
+            &Progress::new(),
+        )
+        .unwrap();
+        let scan_only =
+            scan_tile(&samples.view(), dims, first, run.iso(), &Progress::new()).unwrap();
         // The same scan records as a scan fragment, then the output flag.
         assert_eq!(fragment[4..scan_only.len()], scan_only[4..]);
         with_output += (fragment[scan_only.len()] == 1) as usize;
@@ -376,7 +393,14 @@ fn one_pass_plans_must_use_the_extracted_tiles() {
     let task = run.one_pass_task().unwrap();
     let tile = [0..3, 0..2, 1..2];
     let samples = box_of(&volume, tile_samples(&tile, dims));
-    let fragment = extract_tile(&samples.view(), &task, [0, 0, 1], u64::MAX).unwrap();
+    let fragment = extract_tile(
+        &samples.view(),
+        &task,
+        [0, 0, 1],
+        u64::MAX,
+        &Progress::new(),
+    )
+    .unwrap();
     // Output with nowhere to keep it is refused, and changes nothing.
     let err = run.add_tile(&fragment).unwrap_err();
     assert!(err.to_string().contains("no spool folder"), "{err}");
@@ -392,19 +416,104 @@ fn one_pass_plans_must_use_the_extracted_tiles() {
     let err = new_run().add_tile(&truncated).unwrap_err();
     assert!(err.to_string().contains("tile fragment"), "{err}");
     // Another tile's samples, or another volume's task.
-    let err = extract_tile(&samples.view(), &task, [0, 0, 3], u64::MAX).unwrap_err();
+    let err = extract_tile(
+        &samples.view(),
+        &task,
+        [0, 0, 3],
+        u64::MAX,
+        &Progress::new(),
+    )
+    .unwrap_err();
     assert!(err.to_string().contains("not whole blocks"), "{err}");
-    let err = extract_tile(&samples.view(), b"IGTS", [0, 0, 1], u64::MAX).unwrap_err();
+    let err = extract_tile(
+        &samples.view(),
+        b"IGTS",
+        [0, 0, 1],
+        u64::MAX,
+        &Progress::new(),
+    )
+    .unwrap_err();
     assert!(err.to_string().contains("not a valid tile task"), "{err}");
     for layer in [0, 2, 3] {
         let tile = [0..3, 0..2, layer..layer + 1];
         let samples = box_of(&volume, tile_samples(&tile, dims));
         let first = tile.map(|b| b.start);
-        run.add_tile(&extract_tile(&samples.view(), &task, first, u64::MAX).unwrap())
-            .unwrap();
+        run.add_tile(
+            &extract_tile(&samples.view(), &task, first, u64::MAX, &Progress::new()).unwrap(),
+        )
+        .unwrap();
     }
     // Planned with other tiles than those extracted.
     let err = run.plan_emits([1, 1, 1], u64::MAX).unwrap_err();
     assert!(err.to_string().contains("not tiles of the plan"), "{err}");
     assert!(dir.entries().is_empty(), "{:?}", dir.entries());
+}
+
+/// A tile's scan and emit count one step per block and pass, and a cancel stops them before any
+/// block is scanned or emitted, with kind Cancelled and no fragment.
+#[test]
+fn tile_tasks_count_their_blocks_and_stop_when_cancelled() {
+    let (_, volume) = volumes().remove(0); // 37 x 21 x 50: 3 x 2 x 4 blocks
+    let options = ExtractOptions::new(Iso::Normalized(0.5));
+    let geometry = *volume.geometry();
+    let dims = geometry.dims;
+    let run = TileExtraction::new(
+        geometry,
+        volume.scalar_type(),
+        &options,
+        Some(volume.value_range()),
+    )
+    .unwrap();
+    let task = run.one_pass_task().unwrap();
+    let tile = [0..3, 0..2, 1..3];
+    let blocks = 3 * 2 * 2;
+    let samples = box_of(&volume, tile_samples(&tile, dims));
+    let cancelled = || {
+        let p = Progress::new();
+        p.cancel();
+        p
+    };
+
+    let progress = Progress::new();
+    extract_tile(&samples.view(), &task, [0, 0, 1], u64::MAX, &progress).unwrap();
+    assert_eq!(progress.counts().0, 2 * blocks);
+    let progress = cancelled();
+    let err = extract_tile(&samples.view(), &task, [0, 0, 1], u64::MAX, &progress).unwrap_err();
+    assert_eq!(err.kind(), isogrid::ErrorKind::Cancelled, "{err}");
+    assert_eq!(progress.counts().0, 0);
+
+    let progress = Progress::new();
+    scan_tile(&samples.view(), dims, [0, 0, 1], run.iso(), &progress).unwrap();
+    assert_eq!(progress.counts().0, blocks);
+    let progress = cancelled();
+    let err = scan_tile(&samples.view(), dims, [0, 0, 1], run.iso(), &progress).unwrap_err();
+    assert_eq!(err.kind(), isogrid::ErrorKind::Cancelled, "{err}");
+    assert_eq!(progress.counts().0, 0);
+
+    // An emit job counts its blocks without cells at once, and no other once cancelled.
+    let (_, jobs) = scanned(&volume, &options, [3, 2, 4], [3, 2, 4], u64::MAX);
+    let job = &jobs[0];
+    let samples = box_of(&volume, job.samples.clone());
+    let job_blocks: u64 = job
+        .samples
+        .iter()
+        .map(|r| (r.len() as u64 - 1).div_ceil(16))
+        .product();
+    let progress = Progress::new();
+    emit_tile(&samples.view(), &job.bytes, 0, &progress).unwrap();
+    assert_eq!(progress.counts().0, job_blocks);
+    let progress = cancelled();
+    let err = emit_tile(&samples.view(), &job.bytes, 0, &progress).unwrap_err();
+    assert_eq!(err.kind(), isogrid::ErrorKind::Cancelled, "{err}");
+    let idle = volume_blocks_without_cells(&volume, &options);
+    assert_eq!(progress.counts().0, idle);
+}
+
+/// Blocks of `volume` without active cells, from the in-memory extraction.
+fn volume_blocks_without_cells(volume: &Volume, options: &ExtractOptions) -> u64 {
+    let grid = extract(&volume.view(), options).unwrap();
+    grid.blocks()
+        .iter()
+        .filter(|b| b.metacell_count == 0)
+        .count() as u64
 }

@@ -32,7 +32,7 @@
 //! pointers moved to the grid's numbering; only tiles whose output did not fit become emit jobs.
 //! The samples are then read once instead of twice.
 //!
-//! Scan and emit are [`super::scan_blocks`] and [`super::emit::emit_block`], the code of the
+//! Scan and emit are [`super::scan_blocks_counted`] and [`super::emit::emit_block`], the code of the
 //! in-memory and streaming extractions, run on the tile's samples, so the file is byte-identical
 //! to `cgc::write(extract(volume))` whatever the tiling and the order tasks finish in.
 //!

@@ -1,13 +1,19 @@
 //! What runs on one tile's samples, on any machine: the scan (pass 1), the emit of a planned job
 //! (pass 2), or both in one pass where the quantiser is known up front.
+//!
+//! Each takes a [`Progress`] and adds one step per block and pass (a scan, an emit) as it goes,
+//! without [`Progress::start`]ing it: a caller running many tiles on one `Progress` sets the total.
+//! A cancel is honoured between block rows of the scan and between blocks of the emit, with an
+//! error of kind [`crate::ErrorKind::Cancelled`] and no fragment.
 
 use super::geometry::{block_dims, tile_samples, BlockBox};
 use super::wire::*;
 use crate::cgc::scalar_code;
 use crate::error::{Error, Result};
 use crate::extract::scalar::ExtractScalar;
-use crate::extract::{emit, scan, scan_blocks, split_outputs, Totals};
+use crate::extract::{emit, scan, scan_blocks_counted, split_outputs, Totals};
 use crate::layout::{Block, Metacell, Precision, BLOCK_CELLS};
+use crate::progress::Progress;
 use crate::quantize::Quantizer;
 use crate::volume::{Samples, VolumeView};
 use rayon::prelude::*;
@@ -20,10 +26,19 @@ pub fn scan_tile(
     volume_dims: [usize; 3],
     first_block: [usize; 3],
     iso: f64,
+    progress: &Progress,
 ) -> Result<Vec<u8>> {
     let blocks = tile_blocks(tile.dims(), volume_dims, first_block)?;
     let mut out = Vec::new();
-    scan_records(tile, volume_dims, &blocks, iso, SCAN_TAG, &mut out);
+    scan_records(
+        tile,
+        volume_dims,
+        &blocks,
+        iso,
+        SCAN_TAG,
+        &mut out,
+        progress,
+    )?;
     Ok(out)
 }
 
@@ -36,19 +51,22 @@ fn scan_records(
     iso: f64,
     tag: &[u8; 4],
     out: &mut Vec<u8>,
-) -> Vec<scan::BlockScan> {
+    progress: &Progress,
+) -> Result<Vec<scan::BlockScan>> {
     put_header(out, tag, tile.scalar_type(), volume_dims, blocks);
+    let p = Some(progress);
     let scans = match tile.samples() {
-        Samples::U8(s) => scan_blocks(s, tile.dims(), u8::threshold(iso)),
-        Samples::U16(s) => scan_blocks(s, tile.dims(), u16::threshold(iso)),
-        Samples::I16(s) => scan_blocks(s, tile.dims(), i16::threshold(iso)),
-        Samples::F32(s) => scan_blocks(s, tile.dims(), f32::threshold(iso)),
-        Samples::U32(s) => scan_blocks(s, tile.dims(), u32::threshold(iso)),
-        Samples::I32(s) => scan_blocks(s, tile.dims(), i32::threshold(iso)),
-        Samples::U64(s) => scan_blocks(s, tile.dims(), u64::threshold(iso)),
-        Samples::I64(s) => scan_blocks(s, tile.dims(), i64::threshold(iso)),
-        Samples::F64(s) => scan_blocks(s, tile.dims(), f64::threshold(iso)),
+        Samples::U8(s) => scan_blocks_counted(s, tile.dims(), u8::threshold(iso), p),
+        Samples::U16(s) => scan_blocks_counted(s, tile.dims(), u16::threshold(iso), p),
+        Samples::I16(s) => scan_blocks_counted(s, tile.dims(), i16::threshold(iso), p),
+        Samples::F32(s) => scan_blocks_counted(s, tile.dims(), f32::threshold(iso), p),
+        Samples::U32(s) => scan_blocks_counted(s, tile.dims(), u32::threshold(iso), p),
+        Samples::I32(s) => scan_blocks_counted(s, tile.dims(), i32::threshold(iso), p),
+        Samples::U64(s) => scan_blocks_counted(s, tile.dims(), u64::threshold(iso), p),
+        Samples::I64(s) => scan_blocks_counted(s, tile.dims(), i64::threshold(iso), p),
+        Samples::F64(s) => scan_blocks_counted(s, tile.dims(), f64::threshold(iso), p),
     };
+    progress.check()?;
     out.reserve(scans.len() * SCAN_RECORD);
     for s in &scans {
         put_u32(out, s.occupied_metacells);
@@ -56,7 +74,7 @@ fn scan_records(
         out.extend_from_slice(&s.min.to_le_bytes());
         out.extend_from_slice(&s.max.to_le_bytes());
     }
-    scans
+    Ok(scans)
 }
 
 /// One pass over one tile, for a run whose quantiser is known before any tile is scanned (see
@@ -69,6 +87,7 @@ pub fn extract_tile(
     task: &[u8],
     first_block: [usize; 3],
     output_bytes: u64,
+    progress: &Progress,
 ) -> Result<Vec<u8>> {
     let mut r = Reader::new(task, TASK_TAG, "tile task")?;
     let scalar = r.u32()?;
@@ -84,7 +103,15 @@ pub fn extract_tile(
     }
     let blocks = tile_blocks(tile.dims(), volume_dims, first_block)?;
     let mut out = Vec::new();
-    let scans = scan_records(tile, volume_dims, &blocks, iso, TILE_TAG, &mut out);
+    let scans = scan_records(
+        tile,
+        volume_dims,
+        &blocks,
+        iso,
+        TILE_TAG,
+        &mut out,
+        progress,
+    )?;
     // The box's block table as an emit job holds it: slot counts, and active cells per block.
     let mut totals = Totals::default();
     let mut table = Vec::with_capacity(scans.len());
@@ -111,7 +138,7 @@ pub fn extract_tile(
         iso,
         quantizer: &quantizer,
     };
-    let (slots, cells) = job.emit_view(tile);
+    let (slots, cells) = job.emit_view(tile, progress)?;
     out.extend_from_slice(bytemuck::cast_slice(&slots));
     out.extend_from_slice(&cells);
     Ok(out)
@@ -147,7 +174,12 @@ fn tile_blocks(
 
 /// Pass 2 of one emit job: its output fragment, from `tile`, the samples [`super::EmitJob::samples`] of
 /// the volume.
-pub fn emit_tile(tile: &VolumeView, job: &[u8], index: u32) -> Result<Vec<u8>> {
+pub fn emit_tile(
+    tile: &VolumeView,
+    job: &[u8],
+    index: u32,
+    progress: &Progress,
+) -> Result<Vec<u8>> {
     let mut r = Reader::new(job, JOB_TAG, "emit job")?;
     let scalar = r.u32()?;
     let volume_dims = [r.u32()?, r.u32()?, r.u32()?].map(|d| d as usize);
@@ -194,7 +226,7 @@ pub fn emit_tile(tile: &VolumeView, job: &[u8], index: u32) -> Result<Vec<u8>> {
         iso,
         quantizer: &quantizer,
     };
-    let (slots, cells) = job.emit_view(tile);
+    let (slots, cells) = job.emit_view(tile, progress)?;
     let slots: &[u8] = bytemuck::cast_slice(&slots);
     let mut fragment = Vec::with_capacity(8 + slots.len() + cells.len());
     put_tag(&mut fragment, OUTPUT_TAG);
@@ -219,13 +251,24 @@ struct TileJob<'a> {
 
 impl TileJob<'_> {
     /// [`Self::emit`] on `tile`'s samples, whatever their type.
-    fn emit_view(&self, tile: &VolumeView) -> (Vec<Metacell>, Vec<u8>) {
-        crate::volume::with_samples!(tile.samples(), s => self.emit(s))
+    fn emit_view(
+        &self,
+        tile: &VolumeView,
+        progress: &Progress,
+    ) -> Result<(Vec<Metacell>, Vec<u8>)> {
+        let out = crate::volume::with_samples!(tile.samples(), s => self.emit(s, progress));
+        progress.check()?;
+        Ok(out)
     }
 
     /// The slots and then the corner records of the box's block rows, each row's where the
-    /// previous one's end, as [`super::TileExtraction::write`] expects them.
-    fn emit<T: ExtractScalar>(&self, samples: &[T]) -> (Vec<Metacell>, Vec<u8>) {
+    /// previous one's end, as [`super::TileExtraction::write`] expects them. Blocks without
+    /// cells count in `progress` at the start; once it is cancelled the rest are skipped.
+    fn emit<T: ExtractScalar>(
+        &self,
+        samples: &[T],
+        progress: &Progress,
+    ) -> (Vec<Metacell>, Vec<u8>) {
         let record = self.quantizer.precision().bytes_per_cell();
         let slot_count = self.blocks.iter().map(|b| b.metacell_count as usize).sum();
         let cell_count: usize = self.active_cells.iter().map(|&c| c as usize).sum();
@@ -270,10 +313,15 @@ impl TileJob<'_> {
             }));
         }
         let threshold = T::threshold(self.iso);
+        progress.advance((self.blocks.len() - outputs.len()) as u64);
         outputs
             .into_par_iter()
             .for_each_init(emit::BlockScratch::default, |scratch, out| {
-                emit::emit_block(samples, self.dims, threshold, self.quantizer, out, scratch)
+                if progress.is_cancelled() {
+                    return;
+                }
+                emit::emit_block(samples, self.dims, threshold, self.quantizer, out, scratch);
+                progress.advance(1);
             });
         (slots, cells)
     }
