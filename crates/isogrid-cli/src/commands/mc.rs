@@ -6,10 +6,12 @@ use crate::outputs::{self, Output};
 use crate::report::{MeshReport, Seconds};
 use crate::{input, progress};
 use anyhow::{bail, Context, Result};
-use isogrid::mc::{label_meshes, marching_cubes, McMesh, MeshSpace};
+use isogrid::mc::{label_meshes, try_marching_cubes_with_progress, Inside, McMesh, MeshSpace};
+use isogrid::Progress;
 use isogrid::{extract_labels, LabelOptions, LabelSelection};
 use isogrid_io::label_meshes::{write_glb, write_precomputed, LabelMesh};
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 use std::time::Instant;
 
 #[derive(clap::Args)]
@@ -121,10 +123,23 @@ pub fn run(args: Args) -> Result<()> {
         .iso()
         .resolve(&volume.view())
         .with_context(|| args.input.display().to_string())?;
-    let spinner = progress::spinner("marching cubes".into());
     let pool = args.threads.pool()?;
     let start = Instant::now();
-    let mut mesh = pool.install(|| marching_cubes(&volume.view(), iso));
+    // Slab by slab under a bar; Ctrl-C stops it at the next slab, with nothing written.
+    let watch = Arc::new(Progress::new());
+    let mesh = progress::watched("marching cubes", &watch, || {
+        pool.install(|| {
+            try_marching_cubes_with_progress(&volume.view(), iso, Inside::AtOrAbove, &watch)
+        })
+    });
+    let mut mesh = match mesh {
+        Err(e) if e.kind() == isogrid::ErrorKind::Cancelled => {
+            return Err(
+                anyhow::Error::from(e).context("Marching Cubes stopped by Ctrl-C, nothing written")
+            )
+        }
+        r => r.with_context(|| format!("{}: Marching Cubes failed", args.input.display()))?,
+    };
     let extract = start.elapsed().as_secs_f64();
     let values = match &attribute {
         Some(attribute) => {
@@ -137,7 +152,6 @@ pub fn run(args: Args) -> Result<()> {
     let space = args.space.mesh_space();
     mesh.place(&volume.geometry(), space)
         .with_context(|| args.input.display().to_string())?;
-    spinner.finish_and_clear();
     let mut write = 0.0;
     if let Some(out) = &args.output {
         let start = Instant::now();

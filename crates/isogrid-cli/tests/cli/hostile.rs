@@ -503,6 +503,63 @@ fn ctrl_c_stops_a_streamed_extract_and_leaves_no_output() {
     std::fs::remove_dir_all(dir).unwrap();
 }
 
+/// Ctrl-C during `mc` stops Marching Cubes at its next slab: exit 130, one line, the old output
+/// kept and no temporary file (or, when the signal comes before the work, the default action).
+#[cfg(unix)]
+#[test]
+fn ctrl_c_stops_marching_cubes_and_leaves_no_output() {
+    use std::os::unix::process::ExitStatusExt;
+    let dir = temp_dir("interrupt-mc");
+    let volume = generated(&dir, "gyroid", 512);
+    let out = dir.join("out.ply");
+    std::fs::write(&out, b"old").unwrap();
+    let mut stopped = 0;
+    for delay_ms in [60, 120, 250, 400, 600, 900] {
+        let child = Command::new(env!("CARGO_BIN_EXE_isogrid"))
+            .args(["mc", s(&volume), "--iso", "128", "-o", s(&out)])
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        std::thread::sleep(Duration::from_millis(delay_ms));
+        let sent = Instant::now();
+        // SAFETY: sending SIGINT to our own child process.
+        unsafe { libc::kill(child.id() as i32, libc::SIGINT) };
+        let done = child.wait_with_output().unwrap();
+        let latency = sent.elapsed();
+        let stderr = String::from_utf8_lossy(&done.stderr);
+        let mut left = names_in(&dir);
+        left.sort();
+        assert_eq!(
+            left,
+            ["gyroid.nrrd", "out.ply"],
+            "after {delay_ms} ms: {stderr}"
+        );
+        let kept = std::fs::read(&out).unwrap() == b"old";
+        if done.status.success() {
+            // The signal came after the mesh was written: a complete new output.
+            assert!(!kept, "after {delay_ms} ms");
+            std::fs::write(&out, b"old").unwrap();
+            continue;
+        }
+        assert!(kept, "after {delay_ms} ms the old output changed: {stderr}");
+        if done.status.code() == Some(130) {
+            assert!(
+                stderr.contains("Marching Cubes stopped by Ctrl-C, nothing written"),
+                "{stderr}"
+            );
+            assert_eq!(stderr.lines().count(), 1, "{stderr}");
+            assert!(latency < Duration::from_secs(2), "took {latency:?} to stop");
+            stopped += 1;
+        } else {
+            // Interrupted before Marching Cubes began (reading the volume): the default action.
+            assert_eq!(done.status.signal(), Some(libc::SIGINT), "{stderr}");
+        }
+    }
+    assert!(stopped > 0, "no interrupt reached Marching Cubes");
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
 /// Under an address-space limit (`ulimit -v`, `prlimit --as`) a streamed extraction sizes its
 /// budget and output buffer to the room left, or fails with one line; it never aborts with its
 /// temporary file (the size of the output) left beside the output, over a range of limits that
