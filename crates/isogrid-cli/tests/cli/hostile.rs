@@ -3,6 +3,7 @@
 //! destroy inputs or each other. Each fails with one clear line, quickly, allocating little.
 
 use super::{fails, generated, isogrid, s, temp_dir};
+use std::path::Path;
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
@@ -450,16 +451,52 @@ fn a_signal_during_a_write_leaves_no_temporary_file(name: &str, signal: i32) {
 #[cfg(unix)]
 #[test]
 fn ctrl_c_stops_a_streamed_extract_and_leaves_no_output() {
-    use std::os::unix::process::ExitStatusExt;
     let dir = temp_dir("interrupt-stream");
     let volume = generated(&dir, "gyroid", 512);
     let out = dir.join("out.cgc");
-    std::fs::write(&out, b"old").unwrap();
-    let mut stopped = 0;
-    for delay_ms in [5, 15, 30, 45, 60, 90, 120] {
+    let args = [
+        "extract",
+        s(&volume),
+        "--iso",
+        "128",
+        "--max-memory",
+        "64M",
+        "-o",
+        s(&out),
+    ];
+    let stopped = interrupt_at(&args, &out, &[5, 15, 30, 45, 60, 90, 120], |new| {
+        isogrid_info_reads(new)
+    });
+    assert!(stopped
+        .iter()
+        .any(|m| m.contains("extraction stopped by Ctrl-C, nothing written")));
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+/// Runs `isogrid args` and sends it SIGINT after each of `delays_ms`, checking that `out` (which
+/// holds "old" before each run) and its folder come out whole: either the command finished (a
+/// complete new `out`, as `complete` says), or it stopped with exit 130 in one line, within 2 s,
+/// with `out` kept and nothing else left, or the signal came before the work (its default
+/// action). Returns the stop messages; fails when no run stopped that way.
+#[cfg(unix)]
+fn interrupt_at(
+    args: &[&str],
+    out: &Path,
+    delays_ms: &[u64],
+    complete: impl Fn(&Path) -> bool,
+) -> Vec<String> {
+    use std::os::unix::process::ExitStatusExt;
+    let dir = out.parent().unwrap();
+    let before = {
+        std::fs::write(out, b"old").unwrap();
+        let mut names = names_in(dir);
+        names.sort();
+        names
+    };
+    let mut stopped = Vec::new();
+    for &delay_ms in delays_ms {
         let child = Command::new(env!("CARGO_BIN_EXE_isogrid"))
-            .args(["extract", s(&volume), "--iso", "128", "--max-memory", "64M"])
-            .args(["-o", s(&out)])
+            .args(args)
             .stdout(Stdio::null())
             .stderr(Stdio::piped())
             .spawn()
@@ -470,19 +507,15 @@ fn ctrl_c_stops_a_streamed_extract_and_leaves_no_output() {
         unsafe { libc::kill(child.id() as i32, libc::SIGINT) };
         let done = child.wait_with_output().unwrap();
         let latency = sent.elapsed();
-        let stderr = String::from_utf8_lossy(&done.stderr);
-        let mut left = names_in(&dir);
+        let stderr = String::from_utf8_lossy(&done.stderr).to_string();
+        let mut left = names_in(dir);
         left.sort();
-        assert_eq!(
-            left,
-            ["gyroid.nrrd", "out.cgc"],
-            "after {delay_ms} ms: {stderr}"
-        );
-        let kept = std::fs::read(&out).unwrap() == b"old";
+        assert_eq!(left, before, "after {delay_ms} ms: {stderr}");
+        let kept = std::fs::read(out).unwrap() == b"old";
         if done.status.success() {
-            // The signal came after the extraction had finished: a complete new output.
-            assert!(!kept && isogrid_info_reads(&out), "after {delay_ms} ms");
-            std::fs::write(&out, b"old").unwrap();
+            // The signal came after the work had finished: a complete new output.
+            assert!(!kept && complete(out), "after {delay_ms} ms");
+            std::fs::write(out, b"old").unwrap();
             continue;
         }
         assert!(kept, "after {delay_ms} ms the old output changed: {stderr}");
@@ -493,14 +526,14 @@ fn ctrl_c_stops_a_streamed_extract_and_leaves_no_output() {
             );
             assert_eq!(stderr.lines().count(), 1, "{stderr}");
             assert!(latency < Duration::from_secs(2), "took {latency:?} to stop");
-            stopped += 1;
+            stopped.push(stderr);
         } else {
-            // Interrupted before the extraction began: the default action.
+            // Interrupted before the work began: the default action.
             assert_eq!(done.status.signal(), Some(libc::SIGINT), "{stderr}");
         }
     }
-    assert!(stopped > 0, "no interrupt reached the extraction");
-    std::fs::remove_dir_all(dir).unwrap();
+    assert!(!stopped.is_empty(), "no interrupt reached the work");
+    stopped
 }
 
 /// Ctrl-C during `mc` stops Marching Cubes at its next slab: exit 130, one line, the old output
@@ -508,55 +541,16 @@ fn ctrl_c_stops_a_streamed_extract_and_leaves_no_output() {
 #[cfg(unix)]
 #[test]
 fn ctrl_c_stops_marching_cubes_and_leaves_no_output() {
-    use std::os::unix::process::ExitStatusExt;
     let dir = temp_dir("interrupt-mc");
     let volume = generated(&dir, "gyroid", 512);
     let out = dir.join("out.ply");
-    std::fs::write(&out, b"old").unwrap();
-    let mut stopped = 0;
-    for delay_ms in [60, 120, 250, 400, 600, 900] {
-        let child = Command::new(env!("CARGO_BIN_EXE_isogrid"))
-            .args(["mc", s(&volume), "--iso", "128", "-o", s(&out)])
-            .stdout(Stdio::null())
-            .stderr(Stdio::piped())
-            .spawn()
-            .unwrap();
-        std::thread::sleep(Duration::from_millis(delay_ms));
-        let sent = Instant::now();
-        // SAFETY: sending SIGINT to our own child process.
-        unsafe { libc::kill(child.id() as i32, libc::SIGINT) };
-        let done = child.wait_with_output().unwrap();
-        let latency = sent.elapsed();
-        let stderr = String::from_utf8_lossy(&done.stderr);
-        let mut left = names_in(&dir);
-        left.sort();
-        assert_eq!(
-            left,
-            ["gyroid.nrrd", "out.ply"],
-            "after {delay_ms} ms: {stderr}"
-        );
-        let kept = std::fs::read(&out).unwrap() == b"old";
-        if done.status.success() {
-            // The signal came after the mesh was written: a complete new output.
-            assert!(!kept, "after {delay_ms} ms");
-            std::fs::write(&out, b"old").unwrap();
-            continue;
-        }
-        assert!(kept, "after {delay_ms} ms the old output changed: {stderr}");
-        if done.status.code() == Some(130) {
-            assert!(
-                stderr.contains("Marching Cubes stopped by Ctrl-C, nothing written"),
-                "{stderr}"
-            );
-            assert_eq!(stderr.lines().count(), 1, "{stderr}");
-            assert!(latency < Duration::from_secs(2), "took {latency:?} to stop");
-            stopped += 1;
-        } else {
-            // Interrupted before Marching Cubes began (reading the volume): the default action.
-            assert_eq!(done.status.signal(), Some(libc::SIGINT), "{stderr}");
-        }
-    }
-    assert!(stopped > 0, "no interrupt reached Marching Cubes");
+    let args = ["mc", s(&volume), "--iso", "128", "-o", s(&out)];
+    let stopped = interrupt_at(&args, &out, &[60, 120, 250, 400, 600, 900], |new| {
+        std::fs::read(new).unwrap().starts_with(b"ply\n")
+    });
+    assert!(stopped
+        .iter()
+        .any(|m| m.contains("Marching Cubes stopped by Ctrl-C")));
     std::fs::remove_dir_all(dir).unwrap();
 }
 
