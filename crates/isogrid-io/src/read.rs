@@ -24,6 +24,7 @@ pub fn read_volume_noted(path: &Path, opts: &ReadOptions) -> Result<(Volume, Vec
             .at_path(path)?;
         return Ok((volume, Vec::new()));
     }
+    crate::read_options::refuse_unused_index(path, opts)?;
     if crate::region::is_tiff_slices(path) {
         let volume = crate::region::read_all(&mut crate::region::slices::TiffSlices::open(path)?)?;
         let notices = crate::region::slices::skipped_files_notice(path);

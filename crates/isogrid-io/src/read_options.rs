@@ -52,3 +52,39 @@ pub(crate) fn refuse_repeated_axes(indices: &[(String, u64)]) -> isogrid::Result
     }
     Ok(())
 }
+
+/// Refuses an `--index` for an input it cannot apply to: only Zarr arrays (read before this is
+/// asked) and TIFF files (ImageJ and OME hyperstacks) have axes beyond x, y and z to pick from,
+/// and any other reader would ignore the index without a word.
+pub(crate) fn refuse_unused_index(
+    path: &std::path::Path,
+    options: &ReadOptions,
+) -> isogrid::Result<()> {
+    if options.zarr.indices.is_empty() || is_tiff_file(path) {
+        return Ok(());
+    }
+    refuse_repeated_axes(&options.zarr.indices).map_err(|e| e.with_path(path))?;
+    Err(isogrid::Error::invalid(
+        "--index picks a channel or time point of a Zarr or TIFF image; this input has no axes \
+         beyond x, y and z",
+    )
+    .with_path(path))
+}
+
+/// A file named `.tif`/`.tiff`, or starting with a TIFF or BigTIFF byte-order mark.
+fn is_tiff_file(path: &std::path::Path) -> bool {
+    use std::io::Read;
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().to_ascii_lowercase())
+        .unwrap_or_default();
+    if name.ends_with(".tif") || name.ends_with(".tiff") {
+        return path.is_file();
+    }
+    let mut head = [0u8; 4];
+    path.is_file()
+        && std::fs::File::open(path)
+            .and_then(|mut f| f.read_exact(&mut head))
+            .is_ok()
+        && matches!(&head, b"II*\0" | b"MM\0*" | b"II+\0" | b"MM\0+")
+}

@@ -944,3 +944,32 @@ fn a_silent_http_server_times_out_as_configured() {
         "ISOGRID_HTTP_TIMEOUT=soon: not a positive number of seconds",
     );
 }
+
+/// `--index` applies to Zarr arrays and TIFF hyperstacks only; on any other input it would be
+/// ignored, so it is refused in one line naming the input, in memory and streamed, and an axis
+/// given twice is named as such.
+#[test]
+fn an_index_for_an_input_without_extra_axes_is_refused() {
+    let dir = temp_dir("index-unused");
+    let volume = generated(&dir, "sphere", 24);
+    for extra in [&[][..], &["--max-memory", "64M"][..]] {
+        let mut args = vec!["extract", s(&volume), "--iso", "1", "--index", "t=0"];
+        args.extend_from_slice(extra);
+        fails(&args, "--index picks a channel or time point");
+        let mut args = vec![
+            "extract",
+            s(&volume),
+            "--iso",
+            "1",
+            "--index",
+            "t=0,t=1,c=0",
+        ];
+        args.extend_from_slice(extra);
+        fails(&args, "gives axis t twice");
+    }
+    fails(
+        &["mc", s(&volume), "--iso", "1", "--index", "c=1"],
+        "sphere.nrrd",
+    );
+    std::fs::remove_dir_all(dir).unwrap();
+}

@@ -48,6 +48,9 @@ pub fn open_region(
     path: &Path,
     options: &ReadOptions,
 ) -> Result<Option<Box<dyn RegionSource + Send>>> {
+    if !is_zarr(path) {
+        crate::read_options::refuse_unused_index(path, options)?;
+    }
     if let Some(spec) = &options.raw {
         let layout = mapped::raw_layout(path, spec)?;
         return Ok(Some(Box::new(mapped::MappedSource::open(layout)?)));
