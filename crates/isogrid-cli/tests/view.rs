@@ -70,6 +70,27 @@ fn isogrid_in_xvfb(xvfb: &Path, args: &[&str], limit: Duration) -> Output {
     in_xvfb(xvfb, &command, limit)
 }
 
+/// Runs `isogrid view ARGS` on a fresh Xvfb screen at `w`×`h` for three frames, saving the last
+/// one as `shot`; fails unless it exits 0, and returns its stdout.
+fn scripted_view(xvfb: &Path, args: &[&str], [w, h]: [u32; 2], shot: &Path) -> String {
+    let size = format!("{w}x{h}");
+    let mut all = vec!["view"];
+    all.extend_from_slice(args);
+    all.extend([
+        "--size",
+        &size,
+        "--frames",
+        "3",
+        "--screenshot",
+        shot.to_str().unwrap(),
+    ]);
+    let out = isogrid_in_xvfb(xvfb, &all, Duration::from_secs(240));
+    let stdout = String::from_utf8_lossy(&out.stdout).to_string();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "view failed: {stderr}\n{stdout}");
+    stdout
+}
+
 /// Runs `isogrid ARGS` on a fresh Xvfb screen and drops `file` on its window once it shows.
 /// The exit status is the viewer's, or 100 + the helper's when the drop itself failed.
 fn isogrid_in_xvfb_with_drop(
@@ -162,25 +183,12 @@ fn scripted_window_shows_the_headless_image() {
     isogrid_io::write_nrrd(&input, &volume).unwrap();
     let shot = dir.join("window.png");
     let (w, h) = (320u32, 240u32);
-    let out = isogrid_in_xvfb(
+    let stdout = scripted_view(
         &xvfb,
-        &[
-            "view",
-            input.to_str().unwrap(),
-            "--iso-normalized",
-            "0.5",
-            "--size",
-            &format!("{w}x{h}"),
-            "--frames",
-            "3",
-            "--screenshot",
-            shot.to_str().unwrap(),
-        ],
-        Duration::from_secs(240),
+        &[input.to_str().unwrap(), "--iso-normalized", "0.5"],
+        [w, h],
+        &shot,
     );
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(out.status.success(), "view failed: {stderr}\n{stdout}");
     assert_window_shows(&renderer, &volume, &shot, &stdout, [w, h]);
     std::fs::remove_dir_all(&dir).unwrap();
 }
@@ -200,10 +208,9 @@ fn scripted_window_shows_the_coloured_headless_image() {
     isogrid_io::write_nrrd(&colour_by, &attribute).unwrap();
     let shot = dir.join("window.png");
     let (w, h) = (320u32, 240u32);
-    let out = isogrid_in_xvfb(
+    let stdout = scripted_view(
         &xvfb,
         &[
-            "view",
             input.to_str().unwrap(),
             "--iso-normalized",
             "0.5",
@@ -211,18 +218,10 @@ fn scripted_window_shows_the_coloured_headless_image() {
             colour_by.to_str().unwrap(),
             "--cmap",
             "magma",
-            "--size",
-            &format!("{w}x{h}"),
-            "--frames",
-            "3",
-            "--screenshot",
-            shot.to_str().unwrap(),
         ],
-        Duration::from_secs(240),
+        [w, h],
+        &shot,
     );
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(out.status.success(), "view failed: {stderr}\n{stdout}");
     assert_window_shows_colored(
         &renderer,
         &volume,
@@ -269,27 +268,12 @@ fn scripted_window_hides_labels_as_render_hide_does() {
     isogrid_io::write_nrrd(&input, &volume).unwrap();
     let shot = dir.join("window.png");
     let (w, h) = (320u32, 240u32);
-    let out = isogrid_in_xvfb(
+    let stdout = scripted_view(
         &xvfb,
-        &[
-            "view",
-            input.to_str().unwrap(),
-            "--labels",
-            "all",
-            "--hide",
-            "4",
-            "--size",
-            &format!("{w}x{h}"),
-            "--frames",
-            "3",
-            "--screenshot",
-            shot.to_str().unwrap(),
-        ],
-        Duration::from_secs(240),
+        &[input.to_str().unwrap(), "--labels", "all", "--hide", "4"],
+        [w, h],
+        &shot,
     );
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(out.status.success(), "view failed: {stderr}\n{stdout}");
 
     let grid = isogrid::extract_labels(
         &volume.view(),
