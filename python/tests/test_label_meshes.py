@@ -5,6 +5,7 @@ labels' names and colours from ``extract(..., labels=...)``."""
 
 import json
 import subprocess
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -172,3 +173,19 @@ def test_python_label_meshes_are_the_cli_glb_meshes(cli, tmp_path):
     assert isogrid.extract(a.astype(np.float32), iso=1).label_meshes() is None
     with pytest.raises(ValueError, match="space"):
         grid.label_meshes(space="voxel")
+
+
+def test_a_slicer_segmentation_meshes_with_its_own_names_and_layers(cli, tmp_path):
+    """mc --labels reads a .seg.nrrd as extract --labels does: every (layer, value) label of a
+    two-layer file, with the names and colours its segments give."""
+    seg = Path(__file__).resolve().parents[2] / "crates/isogrid-io/tests/fixtures/labels/two_layers.seg.nrrd"
+    grid = tmp_path / "seg.cgc"
+    subprocess.run([cli, "extract", seg, "--labels", "all", "-o", grid], check=True, capture_output=True)
+    info = json.loads(
+        subprocess.run([cli, "info", grid, "--json"], check=True, capture_output=True, text=True).stdout
+    )
+    _mc(cli, seg, tmp_path / "seg.glb")
+    meshes = _glb_meshes(tmp_path / "seg.glb")
+    listed = {int(l["value"]): l["name"] for l in info["labels"]}
+    assert len(listed) >= 4
+    assert {value: m[0] for value, m in meshes.items()} == listed

@@ -8,7 +8,7 @@ use crate::{input, progress};
 use anyhow::{bail, Context, Result};
 use isogrid::mc::{label_meshes, try_marching_cubes_with_progress, Inside, McMesh, MeshSpace};
 use isogrid::Progress;
-use isogrid::{extract_labels, LabelOptions, LabelSelection};
+use isogrid::{LabelOptions, LabelSelection};
 use isogrid_io::label_meshes::{write_glb, write_precomputed, LabelMesh};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -222,7 +222,8 @@ fn run_labels(args: Args) -> Result<()> {
     }
     let read_options = args.input_args.read_options()?;
     let pool = args.threads.pool()?;
-    let (volume, read) = input::read_volume(&args.input, &read_options)?;
+    // Read as `extract --labels` reads it: a .seg.nrrd's segments, layers, names and colours.
+    let (source, read) = input::read_label_volume(&args.input, None, &read_options)?;
     let options = LabelOptions {
         selection,
         smooth: args.smooth.unwrap_or(super::extract::DEFAULT_SMOOTH),
@@ -232,15 +233,16 @@ fn run_labels(args: Args) -> Result<()> {
     let start = Instant::now();
     let (grid, mut meshes) = pool
         .install(|| -> isogrid::Result<_> {
-            let grid = extract_labels(&volume.view(), &options)?;
+            let grid = isogrid_io::labels::extract_label_volume(&source, &options)?;
             let meshes = label_meshes(&grid)?;
             Ok((grid, meshes))
         })
         .with_context(|| format!("{}: label meshing failed", args.input.display()))?;
     let extract = start.elapsed().as_secs_f64();
     let space = args.space.mesh_space();
+    let geometry = isogrid::extract::attribute::grid_geometry(grid.info());
     for mesh in &mut meshes {
-        mesh.place(&volume.geometry(), space)
+        mesh.place(&geometry, space)
             .with_context(|| args.input.display().to_string())?;
     }
     spinner.finish_and_clear();
@@ -280,7 +282,7 @@ fn run_labels(args: Args) -> Result<()> {
     }
     let sum = |f: fn(&McMesh) -> usize| label_meshes.iter().map(|m| f(m.mesh) as u64).sum();
     let report = MeshReport {
-        dims: volume.dims().map(|d| d as u32),
+        dims: grid.info().dims,
         iso: isogrid::extract::labels::LABEL_ISO,
         vertices: sum(McMesh::vertex_count),
         triangles: sum(McMesh::triangle_count),
