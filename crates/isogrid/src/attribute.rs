@@ -383,13 +383,7 @@ mod tests {
     /// across piece boundaries, with NaN, infinities and zeros of both signs.
     #[test]
     fn range_and_codes_match_a_plain_reference() {
-        let mut state = 0x2545_f491_4f6c_dd1du64;
-        let mut next = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            state
-        };
+        let mut next = crate::test_rng::xorshift(0x2545_f491_4f6c_dd1d);
         for len in [0usize, 1, 7, 65_536, 65_537, 300_001] {
             let values: Vec<f32> = (0..len)
                 .map(|_| match next() % 50 {

@@ -46,6 +46,8 @@ pub mod quantize;
 pub mod shading;
 pub mod skip;
 pub mod stats;
+#[cfg(test)]
+mod test_rng;
 pub mod volume;
 
 pub use attribute::{AttributeInfo, AttributePrecision, CellAttribute, CodeMapping};

@@ -732,13 +732,7 @@ mod tests {
             2.0,
             2.5,
         ];
-        let mut state = 0x2545_f491_4f6c_dd1du64;
-        let mut next = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            state
-        };
+        let mut next = crate::test_rng::xorshift(0x2545_f491_4f6c_dd1d);
         for _ in 0..200_000 {
             let r = next();
             let corners: [f32; 8] = std::array::from_fn(|c| {
