@@ -1,5 +1,8 @@
 //! The `isogrid` binary end to end: JSON names, files it writes, and how it fails on bad input.
 
+#[path = "common/npy.rs"]
+mod npy;
+use npy::write_npy;
 #[path = "cli/color.rs"]
 mod color;
 #[path = "cli/hostile.rs"]
@@ -358,22 +361,6 @@ fn nrrd_u8_as_npy(nrrd: &Path, size: usize, npy: &Path) {
     let bytes = std::fs::read(nrrd).unwrap();
     let data = &bytes[bytes.len() - size * size * size..];
     write_npy(npy, "|u1", [size; 3], data);
-}
-
-/// `data` as a C-order .npy of numpy type `descr` and shape `shape` (z, y, x).
-fn write_npy(path: &Path, descr: &str, shape: [usize; 3], data: &[u8]) {
-    let [a, b, c] = shape;
-    let mut header =
-        format!("{{'descr': '{descr}', 'fortran_order': False, 'shape': ({a}, {b}, {c}), }}");
-    while (10 + header.len() + 1) % 64 != 0 {
-        header.push(' ');
-    }
-    header.push('\n');
-    let mut out = b"\x93NUMPY\x01\x00".to_vec();
-    out.extend_from_slice(&(header.len() as u16).to_le_bytes());
-    out.extend_from_slice(header.as_bytes());
-    out.extend_from_slice(data);
-    std::fs::write(path, out).unwrap();
 }
 
 /// Region-readable inputs stream within `--max-memory`; every budget from the least that works

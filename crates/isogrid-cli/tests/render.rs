@@ -1,6 +1,9 @@
 //! `isogrid render` and `isogrid bench rays` end to end: PNG and AOV files with the right shapes
 //! (headers parsed here), JSON names, and one-line errors.
 
+#[path = "common/npy.rs"]
+mod npy;
+use npy::write_npy;
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -1044,19 +1047,38 @@ fn label_volume(dir: &Path) -> PathBuf {
             }
         }
     }
-    let mut header =
-        format!("{{'descr': '|u1', 'fortran_order': False, 'shape': ({n}, {n}, {n}), }}");
-    while (10 + header.len() + 1) % 64 != 0 {
-        header.push(' ');
-    }
-    header.push('\n');
-    let mut bytes = b"\x93NUMPY\x01\x00".to_vec();
-    bytes.extend((header.len() as u16).to_le_bytes());
-    bytes.extend(header.as_bytes());
-    bytes.extend(data);
     let path = dir.join("labels.npy");
-    std::fs::write(&path, bytes).unwrap();
+    write_npy(&path, "|u1", [n; 3], &data);
     path
+}
+
+/// `isogrid extract INPUT --labels all` into `INPUT.cgc` beside it; the test fails when it does.
+fn extract_labels(input: &Path) -> PathBuf {
+    let cgc = input.with_extension("cgc");
+    let out = isogrid(&["extract", s(input), "--labels", "all", "-o", s(&cgc)]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    cgc
+}
+
+/// The arguments of a 48×32 CPU render of `cgc` (view 2) to `png` with the AOV `label_arg`.
+fn label_render<'a>(cgc: &'a Path, label_arg: &'a str, png: &'a Path) -> Vec<&'a str> {
+    let size = ["--backend", "cpu", "--view", "2", "--size", "48x32"];
+    let mut args = vec!["render", s(cgc)];
+    args.extend(size);
+    args.extend(["--aov", label_arg, "-o", s(png)]);
+    args
+}
+
+/// The values of a label AOV file (u64, row-major).
+fn read_label_aov(path: &Path) -> Vec<u64> {
+    std::fs::read(path).unwrap()[npy_header(path).2..]
+        .chunks_exact(8)
+        .map(|b| u64::from_le_bytes(b.try_into().unwrap()))
+        .collect()
 }
 
 /// `--show` / `--hide` and the label AOV: a u64 H×W file of label values, all ones on a miss,
@@ -1065,45 +1087,20 @@ fn label_volume(dir: &Path) -> PathBuf {
 #[test]
 fn render_shows_and_hides_labels_and_writes_the_label_aov() {
     let dir = temp_dir("labels");
-    let cgc = dir.join("labels.cgc");
-    let out = isogrid(&[
-        "extract",
-        s(&label_volume(&dir)),
-        "--labels",
-        "all",
-        "-o",
-        s(&cgc),
-    ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let cgc = extract_labels(&label_volume(&dir));
     let aov = dir.join("label.npy");
     let png = dir.join("labels.png");
     let label_arg = format!("label={}", s(&aov));
     for hide in [None, Some("2")] {
-        let mut args = vec![
-            "render",
-            s(&cgc),
-            "--backend",
-            "cpu",
-            "--view",
-            "2",
-            "--size",
-            "48x32",
-        ];
-        args.extend(["--aov", &label_arg, "-o", s(&png), "--json"]);
+        let mut args = label_render(&cgc, &label_arg, &png);
+        args.push("--json");
         if let Some(h) = hide {
             args.extend(["--hide", h]);
         }
         json_of(&isogrid(&args));
-        let (descr, shape, off, _) = npy_header(&aov);
+        let (descr, shape, _, _) = npy_header(&aov);
         assert_eq!((descr.as_str(), shape), ("<u8", vec![32, 48]));
-        let labels: Vec<u64> = std::fs::read(&aov).unwrap()[off..]
-            .chunks_exact(8)
-            .map(|b| u64::from_le_bytes(b.try_into().unwrap()))
-            .collect();
+        let labels = read_label_aov(&aov);
         let count = |v: u64| labels.iter().filter(|&&l| l == v).count();
         assert!(
             count(u64::MAX) > 0 && count(1) > 0 && count(3) > 0,
@@ -1134,5 +1131,47 @@ fn render_shows_and_hides_labels_and_writes_the_label_aov() {
         ],
         "need a label grid",
     );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// A signed label volume holding -1, whose value as u64 is all ones, the label AOV's miss: the
+/// AOV is refused in one line while -1 is drawn, and written once it is hidden, with -1 nowhere
+/// in it but on the misses.
+#[test]
+fn label_aov_refuses_a_shown_label_that_reads_as_a_miss() {
+    let dir = temp_dir("label-minus-one");
+    // The three-label ball as i32, label 1 turned into -1.
+    let u8_path = label_volume(&dir);
+    let bytes = std::fs::read(&u8_path).unwrap();
+    let (_, _, off, _) = npy_header(&u8_path);
+    let n = 24;
+    let data: Vec<u8> = bytes[off..]
+        .iter()
+        .flat_map(|&v| match v {
+            1 => (-1i32).to_le_bytes(),
+            v => (v as i32).to_le_bytes(),
+        })
+        .collect();
+    let npy = dir.join("signed.npy");
+    write_npy(&npy, "<i4", [n; 3], &data);
+    let cgc = extract_labels(&npy);
+    let aov = dir.join("label.npy");
+    let png = dir.join("signed.png");
+    let label_arg = format!("label={}", s(&aov));
+    let mut args = label_render(&cgc, &label_arg, &png);
+    fails(&args, "label -1 cannot be told from a miss");
+    assert_eq!(isogrid(&args).status.code(), Some(1));
+    assert!(!png.exists() && !aov.exists(), "nothing is written");
+    args.push("--hide=-1");
+    let out = isogrid(&args);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let labels = read_label_aov(&aov);
+    let count = |v: u64| labels.iter().filter(|&&l| l == v).count();
+    assert!(count(2) > 0 && count(3) > 0 && count(u64::MAX) > 0);
+    assert_eq!(count(2) + count(3) + count(u64::MAX), labels.len());
     std::fs::remove_dir_all(&dir).ok();
 }

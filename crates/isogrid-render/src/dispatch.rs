@@ -50,13 +50,29 @@ pub fn label_choice(request: &RenderRequest, grid: &CellGrid) -> Result<Option<V
         }
         return Ok(None);
     };
-    if !choose {
-        return Ok(None);
-    }
     let signed = isogrid::labels::signed_labels(grid.info().scalar_type);
-    labels
-        .shown(parts.show.as_ref(), parts.hide.as_ref(), signed)
-        .map(Some)
+    let shown = match choose {
+        true => Some(labels.shown(parts.show.as_ref(), parts.hide.as_ref(), signed)?),
+        false => None,
+    };
+    // The label AOV marks a miss with all ones, the value a label of u64::MAX (or -1 in a
+    // signed volume) also has: such a label, drawn, would read as background.
+    if parts.aovs.contains(&crate::mode::Aov::Label) {
+        let table = labels.table();
+        let all_ones = table
+            .iter()
+            .position(|l| l.value == u64::MAX)
+            .filter(|&l| shown.as_ref().is_none_or(|s| s[l]));
+        if let Some(l) = all_ones {
+            let value = isogrid::labels::display_value(table[l].value, signed);
+            return Err(Error::invalid(format!(
+                "label {value} cannot be told from a miss in the label AOV, which marks a miss \
+                 with all ones (u64 {}): hide it (--hide={value}) to write the AOV",
+                u64::MAX
+            )));
+        }
+    }
+    Ok(shown)
 }
 
 /// The grid of the labels `show` / `hide` leave (through the label index, see
