@@ -7,6 +7,7 @@ mod cgc;
 mod common;
 mod extract;
 mod labels;
+mod labels_many;
 mod labels_shown;
 mod mc;
 mod stream;
