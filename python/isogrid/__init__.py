@@ -230,7 +230,7 @@ def extract(
         spacing: sample spacing ``(sx, sy, sz)``; default the Volume's, else (1, 1, 1). A Volume's
             origin and directions are kept in the grid's ``info`` (as ``isogrid extract`` keeps
             them in the ``.cgc`` file).
-        precision: bits per stored corner, 4, 8, 16 or 32; default 8 for uint8, 16 otherwise.
+        precision: bits per stored corner, 1, 4, 8, 16 or 32; default 8 for uint8, 16 otherwise.
         threads: worker threads (default all cores); the result is the same for any count.
         series: when ``array`` is the path of a DICOM folder, the SeriesInstanceUID to read, as
             :func:`load_volume` (and the CLI's ``--series``) takes it.

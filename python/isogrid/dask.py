@@ -99,7 +99,7 @@ def extract(
         iso, iso_normalized: the isovalue in data units, or as a fraction of the value range
             (exactly one).
         output: the ``.cgc`` file, written atomically (nothing is left under its name on error).
-        precision: bits per stored corner, 4, 8, 16 or 32; default 8 for uint8, 16 otherwise.
+        precision: bits per stored corner, 1, 4, 8, 16 or 32; default 8 for uint8, 16 otherwise.
         spacing, origin: (x, y, z) sample spacing and position of sample (0, 0, 0); default the
             OME-Zarr image's, else 1 and 0.
         client: a ``distributed.Client``; default the current one, else dask's default scheduler
@@ -139,9 +139,9 @@ def extract(
     counter = _Counter(progress)
     iso, iso_normalized = _iso_pair(iso, iso_normalized)
     bits = None if precision is None else _int(precision, "precision")
-    # Checked again in Rust; here so that a typo fails before the value-range pass.
-    if bits is not None and bits not in (4, 8, 16, 32):
-        raise ValueError(f"precision must be 4, 8, 16 or 32, not {bits}")
+    # Checked here, by the Rust rule, so that a typo fails before the value-range pass.
+    if bits is not None:
+        _isogrid._check_precision(bits)
     if iso_normalized is not None and not 0.0 <= iso_normalized <= 1.0:
         raise ValueError(f"normalised isovalue {iso_normalized} is outside [0, 1]")
     budget = _int(tile_bytes, "tile_bytes", 1)

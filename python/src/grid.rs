@@ -331,8 +331,14 @@ pub fn iso_arg(iso: Option<f64>, iso_normalized: Option<f64>) -> PyResult<Iso> {
 }
 
 pub fn precision_arg(bits: u32) -> PyResult<Precision> {
-    Precision::from_bits(bits)
-        .ok_or_else(|| invalid(format!("precision must be 4, 8, 16 or 32, not {bits}")))
+    Precision::parse_bits(&bits.to_string()).map_err(invalid)
+}
+
+/// Checks a precision in bits before work starts (`isogrid.dask`), with the message of the Rust
+/// rule ([`Precision::parse_bits`]).
+#[pyfunction]
+pub fn _check_precision(bits: u32) -> PyResult<()> {
+    precision_arg(bits).map(|_| ())
 }
 
 pub fn dtype_name(t: ScalarType) -> &'static str {

@@ -30,6 +30,7 @@ fn _isogrid(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<grid::CellGrid>()?;
     m.add_function(wrap_pyfunction!(grid::extract, m)?)?;
     m.add_function(wrap_pyfunction!(grid::extract_labels, m)?)?;
+    m.add_function(wrap_pyfunction!(grid::_check_precision, m)?)?;
     m.add_function(wrap_pyfunction!(grid::extract_labels_file, m)?)?;
     m.add_function(wrap_pyfunction!(grid::load, m)?)?;
     m.add_function(wrap_pyfunction!(grid::_attach_attribute, m)?)?;

@@ -71,8 +71,8 @@ def test_each_label_has_the_cells_of_the_brute_force_reference():
 def test_binary_corners_are_the_indicator():
     a = _labels()
     grid = isogrid.extract(a, labels=[4, 9])
-    assert grid.info["precision"] == 4 and grid.info["iso"] == 0.5
-    corners = grid.corners()  # codes: 0 outside, 15 inside
+    assert grid.info["precision"] == 1 and grid.info["iso"] == 0.5
+    corners = grid.corners()  # codes: the corners' sides, 0 outside, 1 inside
     cell_label = _cell_labels(grid)
     positions = grid.cell_positions().astype(np.int64)
     offsets = [(c & 1, c >> 1 & 1, c >> 2 & 1) for c in range(8)]
@@ -80,7 +80,7 @@ def test_binary_corners_are_the_indicator():
         for cell in np.nonzero(cell_label == index)[0][::37]:
             x, y, z = positions[cell]
             for c, (dx, dy, dz) in enumerate(offsets):
-                assert corners[cell, c] == 15 * (a[z + dz, y + dy, x + dx] == label["value"])
+                assert corners[cell, c] == (a[z + dz, y + dy, x + dx] == label["value"])
 
 
 def test_selections_smoothing_and_refusals():

@@ -146,7 +146,7 @@ export function parseHeader(head: Uint8Array, fileLength: number): CgcHeader {
   const valueRange: [number, number] = [f64(80), f64(88)];
   const iso = f64(96);
   const precisionBits = u32(104);
-  if (![4, 8, 16, 32].includes(precisionBits)) throw corrupt(`unknown precision ${precisionBits} bits`);
+  if (![1, 4, 8, 16, 32].includes(precisionBits)) throw corrupt(`unknown precision ${precisionBits} bits`);
   const isoCode = v.getFloat32(108, true);
   const mappingOffset = f64(112);
   const mappingStep = f64(120);

@@ -116,10 +116,7 @@ impl ThreadArgs {
 }
 
 pub fn parse_precision(s: &str) -> Result<Precision, String> {
-    s.parse::<u32>()
-        .ok()
-        .and_then(Precision::from_bits)
-        .ok_or_else(|| format!("precision must be 4, 8, 16 or 32, not {s}"))
+    Precision::parse_bits(s)
 }
 
 /// "t=0,c=1" → [("t", 0), ("c", 1)].

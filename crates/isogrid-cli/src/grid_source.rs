@@ -28,7 +28,7 @@ pub struct GridSource {
     pub input: PathBuf,
     #[command(flatten)]
     pub iso: OptionalIso,
-    /// Bits per stored corner value when extracting: 4, 8, 16 or 32.
+    /// Bits per stored corner value when extracting: 1, 4, 8, 16 or 32.
     #[arg(long, value_name = "BITS", value_parser = parse_precision)]
     pub precision: Option<Precision>,
     #[command(flatten)]

@@ -32,6 +32,11 @@ fn cell_offset(bit: u32) -> vec3<u32> {
 // Corner c of a page's packed record, exactly `isogrid::layout::read_corner`.
 fn record_corner_in(page: u32, local_record: u32, c: u32) -> f32 {
     switch frame.params.x {
+        case 1u: {
+            // One byte per record, four records per word: corner c is bit c of the byte.
+            let word = record_word(page, local_record / 4u);
+            return f32((word >> (8u * (local_record % 4u) + c)) & 1u);
+        }
         case 4u: {
             return f32((record_word(page, local_record) >> (4u * c)) & 0xfu);
         }

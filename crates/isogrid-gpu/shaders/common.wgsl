@@ -14,7 +14,7 @@ struct FrameUniforms {
     forward: vec4<f32>,       // world view direction; w = EWA Gaussian sigma in cells
     viewport: vec4<f32>,      // width, height, 1 / width, 1 / height (pixels)
     cell_to_world: vec4<f32>, // spacing xyz; w = isovalue in corner units (codes, or data units for the volume)
-    params: vec4<u32>,        // x: precision bits (4, 8, 16, 32); y: corner source; z: FLAG_*; w: frame index
+    params: vec4<u32>,        // x: precision bits (1, 4, 8, 16, 32); y: corner source; z: FLAG_*; w: frame index
     clip: vec4<f32>,          // clip plane (world): points with dot(xyz, p) > w are cut away; all 0: none
 }
 

@@ -148,6 +148,10 @@ impl ClusterBound {
 /// Bits per stored corner value.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Precision {
+    /// 1-bit codes, the corners' sides alone (corner c in bit c of one byte): 1 byte per cell.
+    /// Enough for a binary indicator, a label's membership, whose surface crosses every edge at
+    /// its midpoint.
+    Bits1,
     /// 4-bit codes, two per byte (corner c in nibble c, low nibble first): 4 bytes per cell.
     Bits4,
     /// 8-bit codes: 8 bytes per cell.
@@ -159,7 +163,8 @@ pub enum Precision {
 }
 
 impl Precision {
-    pub const ALL: [Precision; 4] = [
+    pub const ALL: [Precision; 5] = [
+        Precision::Bits1,
         Precision::Bits4,
         Precision::Bits8,
         Precision::Bits16,
@@ -168,6 +173,7 @@ impl Precision {
 
     pub fn bits(self) -> u32 {
         match self {
+            Precision::Bits1 => 1,
             Precision::Bits4 => 4,
             Precision::Bits8 => 8,
             Precision::Bits16 => 16,
@@ -177,6 +183,22 @@ impl Precision {
     pub fn from_bits(bits: u32) -> Option<Self> {
         Self::ALL.into_iter().find(|p| p.bits() == bits)
     }
+    /// The precision of `bits` given as text (a flag, a keyword argument), or the one-line message
+    /// listing the precisions there are.
+    pub fn parse_bits(bits: &str) -> Result<Self, String> {
+        bits.trim()
+            .parse::<u32>()
+            .ok()
+            .and_then(Self::from_bits)
+            .ok_or_else(|| {
+                let names: Vec<String> = Self::ALL.iter().map(|p| p.bits().to_string()).collect();
+                let (last, rest) = names.split_last().expect("precisions");
+                format!(
+                    "precision must be {} or {last}, not {bits}",
+                    rest.join(", ")
+                )
+            })
+    }
     /// Bytes of one corner record (8 corners).
     pub fn bytes_per_cell(self) -> usize {
         self.bits() as usize
@@ -184,6 +206,7 @@ impl Precision {
     /// Largest integer code, or `None` for floats.
     pub fn max_code(self) -> Option<u32> {
         match self {
+            Precision::Bits1 => Some(1),
             Precision::Bits4 => Some(15),
             Precision::Bits8 => Some(255),
             Precision::Bits16 => Some(65535),
@@ -202,6 +225,7 @@ impl Precision {
 /// Reads corner `c` (0..8) of a packed corner record as a code (or, for floats, the value).
 pub fn read_corner(record: &[u8], precision: Precision, c: usize) -> f32 {
     match precision {
+        Precision::Bits1 => ((record[0] >> c) & 1) as f32,
         Precision::Bits4 => ((record[c / 2] >> (4 * (c % 2))) & 0xf) as f32,
         Precision::Bits8 => record[c] as f32,
         Precision::Bits16 => u16::from_le_bytes([record[2 * c], record[2 * c + 1]]) as f32,
@@ -237,6 +261,7 @@ fn widen_u16x8(words: std::arch::x86_64::__m128i, zero: std::arch::x86_64::__m12
 #[inline(always)]
 pub fn read_corners(record: &[u8], precision: Precision) -> [f32; 8] {
     match precision {
+        Precision::Bits1 => std::array::from_fn(|c| ((record[0] >> c) & 1) as f32),
         Precision::Bits4 => {
             let r: [u8; 4] = record[..4].try_into().unwrap();
             std::array::from_fn(|c| ((r[c / 2] >> (4 * (c % 2))) & 0xf) as f32)

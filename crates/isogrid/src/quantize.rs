@@ -204,6 +204,12 @@ impl Quantizer {
                     out[c] = code as u8;
                 }
             }
+            Precision::Bits1 => {
+                out[0] = codes
+                    .iter()
+                    .enumerate()
+                    .fold(0u8, |byte, (c, &code)| byte | ((code as u8 & 1) << c));
+            }
             Precision::Bits4 => {
                 for pair in 0..4 {
                     out[pair] = (codes[2 * pair] | codes[2 * pair + 1] << 4) as u8;

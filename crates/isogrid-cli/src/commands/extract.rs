@@ -26,7 +26,7 @@ pub struct Args {
     pub input: PathBuf,
     #[command(flatten)]
     pub iso: IsoArgs,
-    /// Bits per stored corner value: 4, 8, 16 or 32 (default: 8 for u8 volumes, 16 otherwise).
+    /// Bits per stored corner value: 1 (the corners' sides alone), 4, 8, 16 or 32 (default: 8 for u8 volumes, 16 otherwise; 1 for labels without smoothing).
     #[arg(long, value_name = "BITS", value_parser = parse_precision)]
     pub precision: Option<Precision>,
     #[command(flatten)]

@@ -24,7 +24,7 @@ pub struct Args {
     /// Initial isovalue as a fraction of the volume's value range.
     #[arg(long, value_name = "V")]
     pub iso_normalized: Option<f64>,
-    /// Bits per stored corner value: 4, 8, 16 or 32 (default: by sample type).
+    /// Bits per stored corner value: 1, 4, 8, 16 or 32 (default: by sample type).
     #[arg(long, value_name = "BITS", value_parser = parse_precision)]
     pub precision: Option<Precision>,
     /// What to draw: cgc, cgc-noewa, mc (Marching Cubes mesh), cr (needs the volume) or pathtrace

@@ -63,7 +63,7 @@ fn cgc_without_ewa_matches_the_reference_ray_caster() {
     }
 }
 
-/// 4-, 8-, 16- and 32-bit corner records decode as `layout::read_corner` does; the reference reads
+/// 1-, 4-, 8-, 16- and 32-bit corner records decode as `layout::read_corner` does; the reference reads
 /// the same records, so all precisions must agree equally well.
 #[test]
 fn every_corner_precision_decodes_like_the_core() {

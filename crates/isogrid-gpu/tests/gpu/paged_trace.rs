@@ -107,11 +107,13 @@ fn trace_rays_finds_the_same_hits_in_one_page_and_in_several() {
         return;
     };
     // Gyroid 17: a single 16³ block, so every page boundary cuts a block; gyroid 40: 27 blocks;
-    // 4-bit sphere: another record size.
+    // 4- and 1-bit spheres: other record sizes, the 1-bit one four records to a word, so pages
+    // start inside a word of the grid's records.
     for (field, size, precision) in [
         (Field::Gyroid, 17, None),
         (Field::Gyroid, 40, None),
         (Field::Sphere, 40, Some(Precision::Bits4)),
+        (Field::Sphere, 40, Some(Precision::Bits1)),
     ] {
         let label = format!("{field} {size}");
         let (_, grid) = scene(field, size, precision);
@@ -151,6 +153,7 @@ fn trace_rays_through_any_number_of_pages_finds_the_one_page_hits() {
     for (field, size, precision) in [
         (Field::Gyroid, 40, None),
         (Field::Sphere, 40, Some(Precision::Bits4)),
+        (Field::Sphere, 40, Some(Precision::Bits1)),
     ] {
         let (_, grid) = scene(field, size, precision);
         let a = one_page.upload_grid(&grid).unwrap();

@@ -262,10 +262,9 @@ impl App {
                 .selectable_value(&mut self.precision, None, "auto")
                 .on_hover_text("the default for the sample type")
                 .changed();
-            for bits in [4, 8, 16, 32] {
-                let p = Precision::from_bits(bits);
+            for p in Precision::ALL {
                 changed |= ui
-                    .selectable_value(&mut self.precision, p, bits.to_string())
+                    .selectable_value(&mut self.precision, Some(p), p.bits().to_string())
                     .changed();
             }
             if changed {

@@ -16,7 +16,7 @@
 //! | 56 | 24 | origin, 3×f64 |
 //! | 80 | 16 | value range (min, max) of the source, 2×f64 |
 //! | 96 | 8 | isovalue in data units, f64 |
-//! | 104 | 4 | precision in bits per corner, u32: 4, 8, 16 or 32 |
+//! | 104 | 4 | precision in bits per corner, u32: 1, 4, 8, 16 or 32 |
 //! | 108 | 4 | `iso_code`, f32: threshold in code units ([`crate::ValueMapping`]) |
 //! | 112 | 8 | mapping offset (data value of code 0), f64 |
 //! | 120 | 8 | mapping step (data units per code), f64 |

@@ -50,12 +50,13 @@ impl LabelOptions {
             precision: None,
         }
     }
-    /// 4 bits per corner for a binary indicator (its codes are 0 and 15), 8 for a smoothed one.
+    /// 1 bit per corner for a binary indicator (its codes are its sides, 0 and 1), 8 for a
+    /// smoothed one.
     pub fn default_precision(&self) -> Precision {
         if self.smooth > 0.0 {
             Precision::Bits8
         } else {
-            Precision::Bits4
+            Precision::Bits1
         }
     }
 }

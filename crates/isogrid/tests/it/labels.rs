@@ -99,7 +99,12 @@ fn distinct_labels(data: &[u16]) -> Vec<u64> {
 fn each_label_is_the_extraction_of_its_indicator() {
     let data = label_volume();
     let volume = volume_of(VolumeData::U16(data.clone()));
-    for precision in [Precision::Bits4, Precision::Bits8, Precision::Bits16] {
+    for precision in [
+        Precision::Bits1,
+        Precision::Bits4,
+        Precision::Bits8,
+        Precision::Bits16,
+    ] {
         let mut options = LabelOptions::new(LabelSelection::All);
         options.precision = Some(precision);
         let grid = extract_labels(&volume.view(), &options).unwrap();
