@@ -9,7 +9,7 @@
 import { Crc32 } from './crc32.js';
 import {
   CgcError, CgcHeader, HEAD_READ, Section, SLOT_BYTES, CLUSTER_SLOTS, BOUND_SLOT, ATTRIBUTE_HEAD_SIZE, AttributeInfo,
-  CellAttribute, GridLabels, checkGaps, checkLabels, checkSection, parseAttribute, parseAttributeHead, parseHeader, readLabels,
+  BorderCheck, CellAttribute, GridLabels, checkGaps, checkLabels, checkSection, parseAttribute, parseAttributeHead, parseHeader, readLabels,
   StructureCheck,
 } from './cgc.js';
 
@@ -102,6 +102,11 @@ export interface StreamSink {
   clusters(firstSlot: number, metacells: Uint8Array, firstCell: number, cells: Uint8Array, cellCounts: number[]): void;
   /** Bytes received so far (of the file's total). */
   progress(received: number, total: number): void;
+  /**
+   * Whether no border sample of the clusters so far is inside (BorderCheck: back-face culling is
+   * safe): told once the blocks are in, and again, before the clusters that change it, if it turns false.
+   */
+  borderOutside?(outside: boolean): void;
   /** The cell attribute's head (checked), as soon as it has arrived. */
   attributeHead?(info: AttributeInfo): void;
   /**
@@ -170,6 +175,7 @@ export async function streamCgc(src: ByteSource, sink: StreamSink, chunk?: numbe
   const bpc = h.precisionBits;
   const clusterEnds: number[] = []; // cells end (exclusive) of each checked cluster
   let nextCluster = 0; // clusters handed to the sink
+  let border: BorderCheck | null = null;
   let labels: GridLabels | null = null;
   let labelsChecked = !h.labels;
   let attributeOut = !h.attribute;
@@ -215,6 +221,10 @@ export async function streamCgc(src: ByteSource, sink: StreamSink, chunk?: numbe
       sink.labels?.(labels);
     }
     if (!done.has(h.blocks)) return;
+    if (!border) {
+      border = new BorderCheck(h, blocks);
+      sink.borderOutside?.(border.outside);
+    }
     const checked = structure.advance(Math.floor(have.get(h.metacells)! / SLOT_BYTES));
     if (!labelsChecked && labels && checked === h.slotCount && done.has(h.metacells)) {
       labelsChecked = true;
@@ -241,13 +251,12 @@ export async function streamCgc(src: ByteSource, sink: StreamSink, chunk?: numbe
       const counts = [];
       for (let c = nextCluster; c < k; c++) counts.push(clusterEnds[c] - (c === 0 ? 0 : clusterEnds[c - 1]));
       const m0 = h.metacells.offset + nextCluster * CLUSTER_SLOTS * SLOT_BYTES;
-      sink.clusters(
-        nextCluster * CLUSTER_SLOTS,
-        file.subarray(m0, m0 + (k - nextCluster) * CLUSTER_SLOTS * SLOT_BYTES),
-        firstCell,
-        file.subarray(h.cells.offset + firstCell * bpc, h.cells.offset + clusterEnds[k - 1] * bpc),
-        counts,
-      );
+      const slots = file.subarray(m0, m0 + (k - nextCluster) * CLUSTER_SLOTS * SLOT_BYTES);
+      const records = file.subarray(h.cells.offset + firstCell * bpc, h.cells.offset + clusterEnds[k - 1] * bpc);
+      const wasOutside = border.outside;
+      border.add(slots, firstCell, records);
+      if (border.outside !== wasOutside) sink.borderOutside?.(border.outside);
+      sink.clusters(nextCluster * CLUSTER_SLOTS, slots, firstCell, records, counts);
       nextCluster = k;
     }
   };
