@@ -109,7 +109,7 @@ for (const file of files) {
         break;
       }
       if (s.error) throw new Error(`${file}: ${s.error}`);
-      console.log(JSON.stringify({ file, total, browser: 'chromium', mbit, firstFrameMs: s.firstFrameAt, lastByteMs: s.completeAt, completeMs: s.readyAt ?? null, firstFrameBytes: s.firstFrameBytes, transferred, pages: s.pages, frames: s.frames, frameLog: s.frameLog }));
+      console.log(JSON.stringify({ file, total, browser: 'chromium', mbit, firstFrameMs: s.firstFrameAt, lastByteMs: s.completeAt, completeMs: s.readyAt ?? null, firstFrameBytes: s.firstFrameBytes, transferred, deviceMs: s.deviceAt, headerMs: s.headerAt, compiledMs: s.compiledAt, pages: s.pages, frames: s.frames, frameLog: s.frameLog }));
       await page.close();
     }
     await chromium?.close();

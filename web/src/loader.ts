@@ -1,6 +1,6 @@
 // Streams a .cgc file into the renderer: the header and section table first (one range request
 // for the first HEAD_READ bytes), then the rest of the file in file order (blocks, metacells, then
-// the cells in chunks), each byte requested once. Every section's CRC is checked when it is
+// the cells in chunks), each byte requested once, two requests in flight. Every section's CRC is checked when it is
 // complete; the structure (validateStructure) as soon as the blocks and metacells are in; and each
 // run of clusters is handed to the renderer once its corner records have arrived, so the first
 // frame comes long before the last byte. A server that ignores Range (answers 200) still works:
@@ -72,6 +72,32 @@ export function urlSource(url: string, onBytes: (n: number) => void): ByteSource
     },
   };
   return src;
+}
+
+/**
+ * `src` with its first read (the header and table, [0, HEAD_READ)) already started, so that the
+ * request overlaps what the page does before streaming (opening the GPU device).
+ */
+export function withHeadStarted(src: ByteSource): ByteSource {
+  const head = src.read(0, HEAD_READ);
+  head.catch(() => {}); // thrown where streamCgc takes it
+  let first = true;
+  return {
+    name: src.name,
+    get total() {
+      return src.total;
+    },
+    get notice() {
+      return src.notice;
+    },
+    read(start, end) {
+      if (first && start === 0 && end === HEAD_READ) {
+        first = false;
+        return head;
+      }
+      return src.read(start, end);
+    },
+  };
 }
 
 async function readBody(res: Response, onBytes: (n: number) => void): Promise<Uint8Array> {
@@ -260,8 +286,8 @@ export async function streamCgc(src: ByteSource, sink: StreamSink, chunk?: numbe
       nextCluster = k;
     }
   };
-  const fetchPiece = async ([start, end]: [number, number]) => {
-    const part = await src.read(start, end);
+  /** Takes in a piece that has arrived: its bytes, the counts, the checks and the hand-over. */
+  const takePiece = ([start, end]: [number, number], part: Uint8Array) => {
     if (part.length !== end - start) {
       throw new CgcError(`the file ended at ${start + part.length} bytes, before the ${total} its header promises (truncated?)`);
     }
@@ -271,19 +297,42 @@ export async function streamCgc(src: ByteSource, sink: StreamSink, chunk?: numbe
     sink.progress(received, total);
     advance();
   };
-  advance();
-  for (const p of before) await fetchPiece(p);
-  while (metaPieces.length || cellPieces.length || attrPieces.length) {
-    const gridLeft = metaPieces.length || cellPieces.length;
-    if (attrPieces.length && (!gridLeft || valuesIn() < Math.floor(have.get(h.cells)! / bpc))) {
-      await fetchPiece(attrPieces.shift()!);
-      continue;
+  // Bytes of each section requested so far (its pieces are requested in order).
+  const issued = new Map<Section, number>(have);
+  const requestedOf = (s: Section | null) => (s ? issued.get(s)! : 0);
+  /** The next piece to request, by the order above, judged on what has been requested. */
+  const nextPiece = (): [number, number] | undefined => {
+    if (before.length) return before.shift();
+    if (metaPieces.length || cellPieces.length || attrPieces.length) {
+      const gridLeft = metaPieces.length || cellPieces.length;
+      const cellsRequested = Math.floor(requestedOf(h.cells) / bpc);
+      // Values requested (a head requested but not yet read counts as ahead of the cells).
+      const valuesRequested = attrInfo
+        ? Math.floor((requestedOf(attr) - ATTRIBUTE_HEAD_SIZE) / (attrInfo.bits / 8))
+        : requestedOf(attr) > 0 ? Infinity : 0;
+      if (attrPieces.length && (!gridLeft || valuesRequested < cellsRequested)) return attrPieces.shift();
+      const cellsWanted = clusterEnds.length ? clusterEnds[clusterEnds.length - 1] * bpc : 0;
+      const cellsFirst = cellPieces.length && (!metaPieces.length || requestedOf(h.cells) < cellsWanted);
+      return (cellsFirst ? cellPieces : metaPieces).shift();
     }
-    const cellsWanted = clusterEnds.length ? clusterEnds[clusterEnds.length - 1] * bpc : 0;
-    const cellsFirst = cellPieces.length && (!metaPieces.length || have.get(h.cells)! < cellsWanted);
-    await fetchPiece((cellsFirst ? cellPieces : metaPieces).shift()!);
+    return after.shift();
+  };
+  // Two requests in flight, taken in the order they were made: the link is not idle while a
+  // piece is checked and handed over, nor for each request's round trip.
+  const inFlight: { piece: [number, number]; bytes: Promise<Uint8Array> }[] = [];
+  const request = () => {
+    const piece = nextPiece();
+    if (!piece) return;
+    for (const s of h.sections) if (within(s, piece[0])) issued.set(s, piece[1] - s.offset);
+    const bytes = src.read(piece[0], piece[1]);
+    bytes.catch(() => {}); // a failure is thrown where the piece is taken, not as an unhandled rejection
+    inFlight.push({ piece, bytes });
+  };
+  advance();
+  for (request(), request(); inFlight.length; request()) {
+    const { piece, bytes } = inFlight.shift()!;
+    takePiece(piece, await bytes);
   }
-  for (const p of after) await fetchPiece(p);
   structure.finish();
   if (!labelsChecked) throw new CgcError('the label sections were never checked against the metacells');
   checkGaps(h.gaps.map(([s, e]) => file.subarray(s, e)));

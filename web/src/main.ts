@@ -14,7 +14,7 @@ import {
   COLOR_LABELS, COLOR_RECORDS, MAP_NAMES, clusterAlbedos, colorUniforms, defaultClim, hiddenClusters, mapTable, parseClim,
 } from './colors.js';
 import { Camera, ClipPlane, orbit, pan, presetCamera, zoom } from './camera.js';
-import { blobSource, ByteSource, streamCgc, urlSource } from './loader.js';
+import { blobSource, ByteSource, streamCgc, urlSource, withHeadStarted } from './loader.js';
 import { CellRaster, COLOR_FORMAT, Renderer } from './renderer.js';
 
 const $ = <T extends HTMLElement>(id: string) => document.getElementById(id) as T;
@@ -78,11 +78,15 @@ window.isogrid = {
       const t0 = performance.now();
       renderer!.render(camera!, null, clipPlane());
       encode.push(renderer!.lastEncodeMs);
+      const timings = renderer!.lastTimed;
       await renderer!.readPixels();
       wall.push(performance.now() - t0);
-      await new Promise((r) => setTimeout(r, 0));
-      if (renderer!.lastGpuMs != null) gpu.push(renderer!.lastGpuMs);
-      for (const [k, v] of Object.entries(renderer!.lastPassMs ?? {})) (passes[k] ??= []).push(v);
+      // This frame's timestamps (none when the query set was still busy with an earlier frame's).
+      if (timings) {
+        await timings;
+        if (renderer!.lastGpuMs != null) gpu.push(renderer!.lastGpuMs);
+        for (const [k, v] of Object.entries(renderer!.lastPassMs ?? {})) (passes[k] ??= []).push(v);
+      }
     }
     const passMs = Object.keys(passes).length ? Object.fromEntries(Object.entries(passes).map(([k, v]) => [k, median(v)])) : null;
     return { wallMs: median(wall), encodeMs: median(encode), gpuMs: gpu.length ? median(gpu) : null, passMs, cells: await renderer!.listedCells() };
@@ -198,6 +202,8 @@ function resetCamera(box: [number[], number[]] | null = null): void {
  */
 const LOADING_GAP = 2;
 let frameTimer: ReturnType<typeof setTimeout> | null = null;
+/** When the scheduled frame is due (performance.now() ms). */
+let frameDue = 0;
 let frameWanted = false;
 /** The last frame shown: when it started and ended, and the bytes in when it started. */
 let lastFrame: { start: number; end: number; bytes: number } | null = null;
@@ -206,9 +212,12 @@ let loadStart = 0;
 
 function requestFrame(): void {
   frameWanted = true;
-  if (drawing || frameTimer !== null) return;
+  if (drawing) return;
   const delay = frameDelay();
   if (delay === null) return; // the complete file comes first: `load` asks again
+  // A frame already due no later stands; one due later (a loading gap) gives way.
+  if (frameTimer !== null && frameDue <= performance.now() + delay) return;
+  if (frameTimer !== null) clearTimeout(frameTimer);
   const run = () => {
     if (frameTimer !== timer) return; // run already (by the other of the two callbacks)
     clearTimeout(timer);
@@ -217,6 +226,7 @@ function requestFrame(): void {
   };
   const timer = setTimeout(run, delay > 0 ? delay : 100); // headless pages may not run animation frames
   frameTimer = timer;
+  frameDue = performance.now() + delay;
   if (delay <= 0) requestAnimationFrame(run);
 }
 
@@ -269,6 +279,7 @@ function drawFrame(): void {
       if (wasComplete && !stats.readyAt) {
         stats.readyAt = end;
         settle.resolve();
+        renderer!.compileRest();
       }
       if (frameWanted) requestFrame();
     },
@@ -306,7 +317,10 @@ async function load(src: ByteSource): Promise<void> {
   $('hint').hidden = true;
   const bar = $('progress').firstElementChild as HTMLElement;
   try {
+    // The header's request goes out while the device opens.
+    src = withHeadStarted(src);
     device ??= await initGpu();
+    stats.deviceAt = performance.now();
     if (!context && !context2d) {
       if (fallbackAdapter) {
         context2d = canvas.getContext('2d')!;
@@ -322,7 +336,11 @@ async function load(src: ByteSource): Promise<void> {
         loadStart = performance.now();
         const [lo, hi] = worldBounds(h);
         renderer = new Renderer(device!, { precisionBits: h.precisionBits, spacing: h.spacing, isoCode: h.isoCode, bounds: [lo, hi], slotCount: h.slotCount, hideable: h.labels !== null }, params.get('ewa') !== '0', true, cellRasterParam);
-        renderer.compiled.then(() => (rendererReady = true), (e) => fail(e, ''));
+        stats.headerAt = performance.now();
+        renderer.compiled.then(() => {
+          rendererReady = true;
+          stats.compiledAt = performance.now();
+        }, (e) => fail(e, ''));
         canvas.hidden = false;
         if (!fixedSize) $('stage').classList.add('fill');
         resetCamera();

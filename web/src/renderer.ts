@@ -118,8 +118,12 @@ export class Renderer {
   lastPassMs: Record<string, number> | null = null;
   /** Wall time the last `render` call took to encode and submit (ms): the frame's JS cost. */
   lastEncodeMs = 0;
-  /** Settles when every pipeline is compiled; draw no frame before. */
+  /** Settles once the last frame's timestamps are read (lastGpuMs, lastPassMs); null if it was not timed. */
+  lastTimed: Promise<void> | null = null;
+  /** Settles when the pipelines of a view's first frame are compiled; draw no frame before. */
   readonly compiled: Promise<void>;
+  /** Starts compiling the other pipelines (once; see the constructor). */
+  compileRest: () => void;
   /** Largest bytes of one page buffer (the storage binding limit, at most 128 MiB). */
   readonly pageBytes: number;
 
@@ -215,23 +219,28 @@ export class Renderer {
     if (raster === 'hardware') pending.push(hardware());
     this.compiled = Promise.all(pending).then(() => undefined);
     // The probes and the newly-visible passes: a view's first frame starts from "all visible" and
-    // has nothing to probe, so they are compiled after the first frame's pipelines; until they
-    // are, every frame is drawn as a first frame (complete, only without the culling's saving).
-    const later: Promise<unknown>[] = [];
-    const compileLater = (name: string, mod: GPUShaderModule, layoutNames: string[], entryPoint: string, constants?: Record<string, number>) =>
-      later.push(d.createComputePipelineAsync({ label: name, layout: pl(...layoutNames), compute: { module: mod, entryPoint, constants } }).then((x) => (this.pipelines[name] = x)));
-    this.compiled
-      .then(() => {
-        compileLater('expand new', expand, ['scene compute', 'page compute'], 'expand_new');
-        compileLater('raster probe', rasterModule, rasterLayout, 'probe_cells');
-        compileLater('raster depth new', rasterModule, rasterLayout, 'raster_cells', { RASTER_LIST: LIST_NEW, RASTER_RESOLVE: 0 });
-        compileLater('raster resolve new', rasterModule, rasterLayout, 'raster_cells', { RASTER_LIST: LIST_NEW, RASTER_RESOLVE: 1 });
-        compileLater('splats new', splats, splatLayout, 'splat_cells', { EWA_LIST: LIST_NEW });
-        return Promise.all(later);
-      })
-      .then(() => (this.probesCompiled = true))
-      .then(() => (raster === 'auto' ? hardware() : undefined))
-      .catch(() => {});
+    // has nothing to probe, so they (and the graphics pipeline raster) are compiled by
+    // `compileRest`, which the page calls once the file is in and drawn: on a CPU adapter compiling
+    // takes seconds of the cores the download needs. Until then every frame is drawn as a first
+    // frame (complete, only without the culling's saving) with the compute raster.
+    this.compileRest = () => {
+      this.compileRest = () => {};
+      const later = (name: string, mod: GPUShaderModule, layoutNames: string[], entryPoint: string, constants?: Record<string, number>) =>
+        d.createComputePipelineAsync({ label: name, layout: pl(...layoutNames), compute: { module: mod, entryPoint, constants } }).then((x) => (this.pipelines[name] = x));
+      this.compiled
+        .then(() =>
+          Promise.all([
+            later('expand new', expand, ['scene compute', 'page compute'], 'expand_new'),
+            later('raster probe', rasterModule, rasterLayout, 'probe_cells'),
+            later('raster depth new', rasterModule, rasterLayout, 'raster_cells', { RASTER_LIST: LIST_NEW, RASTER_RESOLVE: 0 }),
+            later('raster resolve new', rasterModule, rasterLayout, 'raster_cells', { RASTER_LIST: LIST_NEW, RASTER_RESOLVE: 1 }),
+            later('splats new', splats, splatLayout, 'splat_cells', { EWA_LIST: LIST_NEW }),
+          ]),
+        )
+        .then(() => (this.probesCompiled = true))
+        .then(() => (raster === 'auto' ? hardware() : undefined))
+        .catch(() => {}); // a failure shows as an uncaptured error; frames stay first frames
+    };
     this.uniforms = d.createBuffer({ label: 'frame uniforms', size: FRAME_UNIFORM_BYTES, usage: GPUBufferUsage.UNIFORM | GPUBufferUsage.COPY_DST });
     // ColorUniforms of color.wgsl (gpu_types.rs): COLOR_NONE, the one fixed albedo, until a
     // colouring is set.
@@ -625,12 +634,13 @@ export class Renderer {
     }
     d.queue.submit([enc.finish()]);
     this.lastEncodeMs = performance.now() - encodeStart;
+    this.lastTimed = null;
     if (timed) {
       timed.busy = true;
       const ran = PASS_NAMES.filter((n) =>
         PROBE_PASSES.includes(n) ? probing : n === 'visibility' ? this.occlusion : n === 'ewa' ? this.ewa && (this.pages.length > 0 || !compute) : true,
       );
-      timed.read.mapAsync(GPUMapMode.READ).then(
+      this.lastTimed = timed.read.mapAsync(GPUMapMode.READ).then(
         () => {
           const t = new BigInt64Array(timed.read.getMappedRange().slice(0));
           timed.read.unmap();
@@ -649,7 +659,9 @@ export class Renderer {
           this.lastGpuMs = ns > 0 ? ns / 1e6 : null;
           this.lastPassMs = ns > 0 ? passes : null;
         },
-        () => (timed.busy = false),
+        () => {
+          timed.busy = false;
+        },
       );
     }
     return T.tex.color;

@@ -185,7 +185,8 @@ for (const B of BROWSERS) {
     }
     const server = await startServer({ dist, files });
     const plain = await startServer({ dist, files, ranges: false });
-    const slow = await startServer({ dist, files, delayMs: 300 });
+    // Each response held back 600 ms: with two requests in flight the sphere takes about 2.4 s.
+    const slow = await startServer({ dist, files, delayMs: 600 });
     const browser = await puppeteer.launch({ executablePath: B.path, headless: true, ...B.launch });
     const errors = [];
     const open = async (base, query) => {
