@@ -1,6 +1,7 @@
 // Streams a .cgc file into the renderer: the header and section table first (one range request
 // for the first HEAD_READ bytes), then the rest of the file in file order (blocks, metacells, then
-// the cells in chunks), each byte requested once, two requests in flight. Every section's CRC is checked when it is
+// the cells in chunks), each byte requested once, two requests in flight once the first clusters
+// are drawn (one at a time before, and none past them until they are). Every section's CRC is checked when it is
 // complete; the structure (validateStructure) as soon as the blocks and metacells are in; and each
 // run of clusters is handed to the renderer once its corner records have arrived, so the first
 // frame comes long before the last byte. A server that ignores Range (answers 200) still works:
@@ -128,6 +129,13 @@ export interface StreamSink {
   clusters(firstSlot: number, metacells: Uint8Array, firstCell: number, cells: Uint8Array, cellCounts: number[]): void;
   /** Bytes received so far (of the file's total). */
   progress(received: number, total: number): void;
+  /**
+   * Settles once the first clusters handed over have been drawn (a frame of them started). The
+   * loader requests nothing more until then, so that the first frame shows what the first bytes
+   * give rather than whatever arrived while the renderer was getting ready (compiling its
+   * pipelines takes seconds on a CPU adapter, longer than a fast link needs for the whole file).
+   */
+  drawn?(): Promise<void>;
   /**
    * Whether no border sample of the clusters so far is inside (BorderCheck: back-face culling is
    * safe): told once the blocks are in, and again, before the clusters that change it, if it turns false.
@@ -311,7 +319,11 @@ export async function streamCgc(src: ByteSource, sink: StreamSink, chunk?: numbe
         ? Math.floor((requestedOf(attr) - ATTRIBUTE_HEAD_SIZE) / (attrInfo.bits / 8))
         : requestedOf(attr) > 0 ? Infinity : 0;
       if (attrPieces.length && (!gridLeft || valuesRequested < cellsRequested)) return attrPieces.shift();
-      const cellsWanted = clusterEnds.length ? clusterEnds[clusterEnds.length - 1] * bpc : 0;
+      // The cells the metacells requested point at: those checked exactly, those still in flight
+      // at the file's mean cells per slot.
+      const checkedCells = clusterEnds.length ? clusterEnds[clusterEnds.length - 1] : 0;
+      const inFlightSlots = (requestedOf(h.metacells) - have.get(h.metacells)!) / SLOT_BYTES;
+      const cellsWanted = (checkedCells + Math.ceil((inFlightSlots * h.activeCells) / Math.max(h.slotCount, 1))) * bpc;
       const cellsFirst = cellPieces.length && (!metaPieces.length || requestedOf(h.cells) < cellsWanted);
       return (cellsFirst ? cellPieces : metaPieces).shift();
     }
@@ -320,18 +332,27 @@ export async function streamCgc(src: ByteSource, sink: StreamSink, chunk?: numbe
   // Two requests in flight, taken in the order they were made: the link is not idle while a
   // piece is checked and handed over, nor for each request's round trip.
   const inFlight: { piece: [number, number]; bytes: Promise<Uint8Array> }[] = [];
-  const request = () => {
+  const request = (): boolean => {
     const piece = nextPiece();
-    if (!piece) return;
+    if (!piece) return false;
     for (const s of h.sections) if (within(s, piece[0])) issued.set(s, piece[1] - s.offset);
     const bytes = src.read(piece[0], piece[1]);
     bytes.catch(() => {}); // a failure is thrown where the piece is taken, not as an unhandled rejection
     inFlight.push({ piece, bytes });
+    return true;
   };
   advance();
-  for (request(), request(); inFlight.length; request()) {
+  // Until the first clusters are drawn (`sink.drawn`), one request at a time and none after them.
+  let opened = !sink.drawn;
+  for (;;) {
+    while (inFlight.length < (opened ? 2 : 1) && request());
+    if (!inFlight.length) break;
     const { piece, bytes } = inFlight.shift()!;
     takePiece(piece, await bytes);
+    if (!opened && nextCluster > 0) {
+      await sink.drawn!();
+      opened = true;
+    }
   }
   structure.finish();
   if (!labelsChecked) throw new CgcError('the label sections were never checked against the metacells');

@@ -44,6 +44,12 @@ declare global {
 }
 
 let settle!: { resolve: () => void; reject: (e: Error) => void };
+/** Settles when the first frame with clusters is started (or loading fails): the loader's gate. */
+const firstDrawn = (() => {
+  let resolve!: () => void;
+  const promise = new Promise<void>((r) => (resolve = r));
+  return { promise, resolve };
+})();
 const ready = new Promise<void>((resolve, reject) => (settle = { resolve, reject }));
 ready.catch(() => {}); // reported in the page; a test reads the rejection itself
 const stats: Record<string, unknown> = { frameLog: [] };
@@ -100,6 +106,7 @@ function showMessage(text: string, notice = false): void {
 }
 
 function fail(e: unknown, name: string): void {
+  firstDrawn.resolve();
   const text = e instanceof CgcError ? `${name}: ${e.message}` : e instanceof Error ? e.message : String(e);
   showMessage(text);
   stats.error = text;
@@ -207,8 +214,8 @@ let frameDue = 0;
 let frameWanted = false;
 /** The last frame shown: when it started and ended, and the bytes in when it started. */
 let lastFrame: { start: number; end: number; bytes: number } | null = null;
-/** When the header arrived (the download rate is measured from there). */
-let loadStart = 0;
+/** The first frame with clusters: when it started and the bytes in then. */
+let firstFrame: { start: number; bytes: number } | null = null;
 
 function requestFrame(): void {
   frameWanted = true;
@@ -222,7 +229,12 @@ function requestFrame(): void {
     if (frameTimer !== timer) return; // run already (by the other of the two callbacks)
     clearTimeout(timer);
     frameTimer = null;
-    if (frameWanted) drawFrame();
+    if (!frameWanted) return;
+    // Judged again when due: the rest of the file may now be about to arrive.
+    const still = frameDelay();
+    if (still === null) return;
+    if (still > 1) requestFrame();
+    else drawFrame();
   };
   const timer = setTimeout(run, delay > 0 ? delay : 100); // headless pages may not run animation frames
   frameTimer = timer;
@@ -237,7 +249,8 @@ function frameDelay(): number | null {
   const duration = lastFrame.end - lastFrame.start;
   // The next frame draws about bytesIn / lastFrame.bytes times the cells of the last one.
   const expected = duration * Math.max(1, bytesIn / lastFrame.bytes);
-  const rate = bytesIn / Math.max(now - loadStart, 1);
+  // The rate since the first frame: before it the loader waits for the renderer (`drawn`).
+  const rate = (bytesIn - firstFrame!.bytes) / Math.max(now - firstFrame!.start, 1);
   if ((header.fileLength - bytesIn) / rate < expected) return null;
   return Math.max(0, lastFrame.end + LOADING_GAP * duration - now);
 }
@@ -259,7 +272,11 @@ function drawFrame(): void {
   stats.pages = renderer.pageCount;
   stats.raster = renderer.lastRaster;
   stats.frames = ((stats.frames as number) || 0) + 1;
-  if (!stats.firstFrameBytes && renderer.pageCount > 0) stats.firstFrameBytes = bytesIn;
+  if (!stats.firstFrameBytes && renderer.pageCount > 0) {
+    stats.firstFrameBytes = bytesIn;
+    firstFrame = { start: t0, bytes: bytesIn };
+    firstDrawn.resolve();
+  }
   drawing = true;
   // Presented through the WebGPU canvas, or (fallback adapters) read back into a 2D canvas.
   const shown: Promise<unknown> = context
@@ -333,7 +350,6 @@ async function load(src: ByteSource): Promise<void> {
     await streamCgc(src, {
       header(h) {
         header = h;
-        loadStart = performance.now();
         const [lo, hi] = worldBounds(h);
         renderer = new Renderer(device!, { precisionBits: h.precisionBits, spacing: h.spacing, isoCode: h.isoCode, bounds: [lo, hi], slotCount: h.slotCount, hideable: h.labels !== null }, params.get('ewa') !== '0', true, cellRasterParam);
         stats.headerAt = performance.now();
@@ -386,6 +402,7 @@ async function load(src: ByteSource): Promise<void> {
         renderer!.setBorderOutside(outside);
         stats.backfaceCulling = outside;
       },
+      drawn: () => firstDrawn.promise,
       progress(received, total) {
         bytesIn = received;
         stats.bytes = received;

@@ -185,8 +185,7 @@ for (const B of BROWSERS) {
     }
     const server = await startServer({ dist, files });
     const plain = await startServer({ dist, files, ranges: false });
-    // Each response held back 600 ms: with two requests in flight the sphere takes about 2.4 s.
-    const slow = await startServer({ dist, files, delayMs: 600 });
+    const slow = await startServer({ dist, files, delayMs: 300 });
     const browser = await puppeteer.launch({ executablePath: B.path, headless: true, ...B.launch });
     const errors = [];
     const open = async (base, query) => {
