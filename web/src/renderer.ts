@@ -122,8 +122,8 @@ export class Renderer {
   lastTimed: Promise<void> | null = null;
   /** Settles when the pipelines of a view's first frame are compiled; draw no frame before. */
   readonly compiled: Promise<void>;
-  /** Starts compiling the other pipelines (once; see the constructor). */
-  compileRest: () => void;
+  /** Compiles the other pipelines (once; see the constructor); settles when they are in use. */
+  compileRest: () => Promise<void>;
   /** Largest bytes of one page buffer (the storage binding limit, at most 128 MiB). */
   readonly pageBytes: number;
 
@@ -170,12 +170,13 @@ export class Renderer {
 
     const module = (name: keyof typeof SHADERS) => d.createShaderModule({ label: `${name} (shaders/modules.txt)`, code: SHADERS[name] });
     const pl = (...names: string[]) => d.createPipelineLayout({ bindGroupLayouts: names.map((n) => this.layouts[n]) });
-    // Compiled while the file downloads (SwiftShader takes seconds): see `compiled`. The graphics
-    // pipeline raster, needed only for cells of more than 32 pixels, compiles after the rest.
+    // The pipelines of a view's first frame (with the compute raster), compiled while the file
+    // downloads (SwiftShader takes seconds): see `compiled`; the others by `compileRest`.
     const pending: Promise<unknown>[] = [];
     const set = (name: string, p: Promise<GPURenderPipeline | GPUComputePipeline>) => pending.push(p.then((x) => (this.pipelines[name] = x)));
-    const computePipeline = (name: string, mod: GPUShaderModule, layoutNames: string[], entryPoint: string, constants?: Record<string, number>) =>
-      set(name, d.createComputePipelineAsync({ label: name, layout: pl(...layoutNames), compute: { module: mod, entryPoint, constants } }));
+    const compiledCompute = (name: string, mod: GPUShaderModule, layoutNames: string[], entryPoint: string, constants?: Record<string, number>) =>
+      d.createComputePipelineAsync({ label: name, layout: pl(...layoutNames), compute: { module: mod, entryPoint, constants } }).then((x) => (this.pipelines[name] = x));
+    const computePipeline = (...args: Parameters<typeof compiledCompute>) => pending.push(compiledCompute(...args));
     const expand = module('expand');
     computePipeline('expand', expand, ['scene compute', 'page compute'], 'expand_visible');
     computePipeline('size dispatches', expand, ['scene compute', 'page compute', 'dispatch args'], 'size_dispatches');
@@ -184,11 +185,9 @@ export class Renderer {
     computePipeline('raster clear', rasterModule, rasterLayout, 'clear_targets');
     computePipeline('raster depth', rasterModule, rasterLayout, 'raster_cells', { RASTER_LIST: LIST_FULL, RASTER_RESOLVE: 0 });
     computePipeline('raster resolve', rasterModule, rasterLayout, 'raster_cells', { RASTER_LIST: LIST_FULL, RASTER_RESOLVE: 1 });
-
     const splats = module('ewa_compute');
     const splatLayout = ['scene compute', 'page compute', 'compute ewa targets'];
     computePipeline('splats', splats, splatLayout, 'splat_cells', { EWA_LIST: LIST_FULL });
-
     computePipeline('splats resolve', splats, splatLayout, 'resolve_splats');
     const rect = (label: string, layoutNames: string[], mod: GPUShaderModule, vs: string, fs: string, targets: GPUColorTargetState[], depth: boolean): Promise<GPURenderPipeline> =>
       d.createRenderPipelineAsync({
@@ -224,22 +223,21 @@ export class Renderer {
     // takes seconds of the cores the download needs. Until then every frame is drawn as a first
     // frame (complete, only without the culling's saving) with the compute raster.
     this.compileRest = () => {
-      this.compileRest = () => {};
-      const later = (name: string, mod: GPUShaderModule, layoutNames: string[], entryPoint: string, constants?: Record<string, number>) =>
-        d.createComputePipelineAsync({ label: name, layout: pl(...layoutNames), compute: { module: mod, entryPoint, constants } }).then((x) => (this.pipelines[name] = x));
-      this.compiled
+      const done = this.compiled
         .then(() =>
           Promise.all([
-            later('expand new', expand, ['scene compute', 'page compute'], 'expand_new'),
-            later('raster probe', rasterModule, rasterLayout, 'probe_cells'),
-            later('raster depth new', rasterModule, rasterLayout, 'raster_cells', { RASTER_LIST: LIST_NEW, RASTER_RESOLVE: 0 }),
-            later('raster resolve new', rasterModule, rasterLayout, 'raster_cells', { RASTER_LIST: LIST_NEW, RASTER_RESOLVE: 1 }),
-            later('splats new', splats, splatLayout, 'splat_cells', { EWA_LIST: LIST_NEW }),
+            compiledCompute('expand new', expand, ['scene compute', 'page compute'], 'expand_new'),
+            compiledCompute('raster probe', rasterModule, rasterLayout, 'probe_cells'),
+            compiledCompute('raster depth new', rasterModule, rasterLayout, 'raster_cells', { RASTER_LIST: LIST_NEW, RASTER_RESOLVE: 0 }),
+            compiledCompute('raster resolve new', rasterModule, rasterLayout, 'raster_cells', { RASTER_LIST: LIST_NEW, RASTER_RESOLVE: 1 }),
+            compiledCompute('splats new', splats, splatLayout, 'splat_cells', { EWA_LIST: LIST_NEW }),
           ]),
         )
         .then(() => (this.probesCompiled = true))
         .then(() => (raster === 'auto' ? hardware() : undefined))
         .catch(() => {}); // a failure shows as an uncaptured error; frames stay first frames
+      this.compileRest = () => done;
+      return done;
     };
     this.uniforms = d.createBuffer({ label: 'frame uniforms', size: FRAME_UNIFORM_BYTES, usage: GPUBufferUsage.UNIFORM | GPUBufferUsage.COPY_DST });
     // ColorUniforms of color.wgsl (gpu_types.rs): COLOR_NONE, the one fixed albedo, until a
