@@ -1,18 +1,26 @@
 // docs/benchmarks-web.md's measurements: for each .cgc given, served by `isogrid serve` on
 // 127.0.0.1, the time to the first frame and to the complete picture in headless Chromium with the
 // download throttled by the DevTools protocol (50 Mbit/s, 1 Gbit/s), the bytes transferred and the
-// bytes before the first frame; then the frame time (GPU timestamps and wall time with the read-back; median of 5) in Chromium
-// and Firefox at the given size.
+// bytes before the first frame (and each frame drawn while loading: start, duration, bytes in);
+// then the frame time in Chromium and Firefox at the given size (medians of FRAMES: wall time with
+// the read-back, JS time to encode, GPU timestamps of the frame and of each pass, cells listed),
+// for the view drawn again (visibility buffer converged) and for first frames of a view (every
+// cluster visible, as after a camera move).
 // Usage: node bench/bench.mjs SIZE FILE.cgc...   (e.g. 640x480; the isogrid binary as in the tests)
 //   CAP_S (default 1200): seconds a throttled load may take to its complete picture; past it the
 //   figures so far are printed with completeMs null. FRAMES (default 5): frames timed per browser.
 //   BROWSERS (default 'chromium,firefox'): the browsers of the frame-time part; THROTTLED=0 skips
 //   the throttled loads. MAX_RSS_GB (default 8): a browser whose processes hold more memory is
 //   closed and the figure reported as over the cap (SwiftShader's memory grows with the cells drawn;
-//   this machine is shared).
+//   this machine is shared). VIEWER_FROM=DIR: the page's bundle (/viewer.js) comes from DIR (e.g.
+//   web/dist after `npm run build`) instead of the one built into the binary, through a proxy on
+//   127.0.0.1 that passes every other request (the page, the .cgc's ranges) to `isogrid serve`
+//   unchanged: a viewer change is measured without rebuilding the binary.
 import { execSync, spawn } from 'node:child_process';
-import { statSync } from 'node:fs';
+import http from 'node:http';
+import { readFileSync, statSync } from 'node:fs';
 import { createInterface } from 'node:readline';
+import { loadavg } from 'node:os';
 import puppeteer from 'puppeteer-core';
 import { isogridBinary } from '../test/fixtures.mjs';
 
@@ -47,7 +55,25 @@ async function waitReady(browser, page, ms) {
 async function serve(file) {
   const child = spawn(isogridBinary(), ['serve', file, '--port', '0'], { stdio: ['ignore', 'pipe', 'inherit'] });
   const line = await new Promise((r) => createInterface({ input: child.stdout }).once('line', r));
-  return { child, url: line.split(/\s+/).find((w) => w.startsWith('http://')) };
+  const url = line.split(/\s+/).find((w) => w.startsWith('http://'));
+  if (!process.env.VIEWER_FROM) return { child, url };
+  const upstream = new URL(url);
+  const bundle = readFileSync(`${process.env.VIEWER_FROM}/viewer.js`);
+  const proxy = http.createServer((req, res) => {
+    if (new URL(req.url, 'http://x').pathname === '/viewer.js') {
+      res.writeHead(200, { 'Content-Type': 'text/javascript', 'Content-Length': bundle.length }).end(bundle);
+      return;
+    }
+    const up = http.request({ host: upstream.hostname, port: upstream.port, path: req.url, method: req.method, headers: req.headers }, (r) => {
+      res.writeHead(r.statusCode, r.headers);
+      r.pipe(res);
+    });
+    up.on('error', () => res.destroy());
+    req.pipe(up);
+  });
+  await new Promise((r) => proxy.listen(0, '127.0.0.1', r));
+  child.on('exit', () => proxy.close());
+  return { child, url: url.replace(upstream.host, `127.0.0.1:${proxy.address().port}`) };
 }
 
 const launch = {
@@ -55,6 +81,8 @@ const launch = {
   firefox: { executablePath: '/usr/bin/firefox-esr', browser: 'firefox', extraPrefsFirefox: { 'dom.webgpu.enabled': true, 'gfx.webgpu.ignore-blocklist': true } },
 };
 
+// The machine is shared: the load average goes with the figures.
+console.log(JSON.stringify({ loadAverage: loadavg() }));
 for (const file of files) {
   const { child, url } = await serve(file);
   const total = statSync(file).size;
@@ -81,7 +109,7 @@ for (const file of files) {
         break;
       }
       if (s.error) throw new Error(`${file}: ${s.error}`);
-      console.log(JSON.stringify({ file, total, browser: 'chromium', mbit, firstFrameMs: s.firstFrameAt, lastByteMs: s.completeAt, completeMs: s.readyAt ?? null, firstFrameBytes: s.firstFrameBytes, transferred, pages: s.pages, frames: s.frames }));
+      console.log(JSON.stringify({ file, total, browser: 'chromium', mbit, firstFrameMs: s.firstFrameAt, lastByteMs: s.completeAt, completeMs: s.readyAt ?? null, firstFrameBytes: s.firstFrameBytes, transferred, deviceMs: s.deviceAt, headerMs: s.headerAt, compiledMs: s.compiledAt, pages: s.pages, frames: s.frames, frameLog: s.frameLog }));
       await page.close();
     }
     await chromium?.close();
@@ -97,7 +125,10 @@ for (const file of files) {
         // Unthrottled load on 127.0.0.1 (ms from navigation start), then the frame time.
         const s = await page.evaluate(() => window.isogrid.stats);
         const f = await page.evaluate((n) => window.isogrid.frames(n), frames);
-        console.log(JSON.stringify({ file, browser: name, adapter: s.adapter, size, firstFrameMs: s.firstFrameAt, lastByteMs: s.completeAt, completeMs: s.readyAt ?? null, ...f }));
+        // Frames of the view drawn again (the visibility bits of the last frame hold) and first
+        // frames of a view (every cluster visible, as after a camera move).
+        const fresh = await page.evaluate((n) => window.isogrid.frames(n, true), frames);
+        console.log(JSON.stringify({ file, browser: name, adapter: s.adapter, size, firstFrameMs: s.firstFrameAt, lastByteMs: s.completeAt, completeMs: s.readyAt ?? null, redraw: f, firstOfView: fresh }));
       } finally {
         await browser.close();
       }
@@ -106,3 +137,4 @@ for (const file of files) {
     child.kill();
   }
 }
+console.log(JSON.stringify({ loadAverage: loadavg() }));

@@ -8,6 +8,7 @@ import http from 'node:http';
 import send from 'send';
 import { basename, dirname, join } from 'node:path';
 import { fileURLToPath } from 'node:url';
+import { loadavg } from 'node:os';
 import puppeteer from 'puppeteer-core';
 
 const [size, ...files] = process.argv.slice(2);
@@ -25,6 +26,8 @@ const browser = await puppeteer.launch({
   executablePath: '/usr/bin/chromium', browser: 'chrome', headless: true, protocolTimeout: 600_000,
   args: ['--enable-unsafe-webgpu', '--no-sandbox', '--headless=new'],
 });
+// The machine is shared: the load average goes with the figures.
+console.log(JSON.stringify({ loadAverage: loadavg() }));
 try {
   for (const file of files) {
     for (const mbit of [50, 1000]) {
@@ -49,3 +52,4 @@ try {
   await browser.close();
   server.close();
 }
+console.log(JSON.stringify({ loadAverage: loadavg() }));

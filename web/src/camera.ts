@@ -54,6 +54,21 @@ export function presetCamera(view: number, lo: number[], hi: number[], width: nu
   };
 }
 
+/** Widest a cell may project (pixels) for the compute raster (`MAX_COMPUTE_CELL_PIXELS`). */
+export const MAX_COMPUTE_CELL_PIXELS = 32;
+
+/**
+ * `widest_cell_pixels` (isogrid-gpu options.rs): an upper estimate of a cell's projected width in
+ * pixels, the cell diagonal seen at the grid box's nearest point (world bounds [lo, hi]) times 2 for
+ * the perspective stretch towards the image corners; infinite with the eye inside the box.
+ */
+export function widestCellPixels(c: Camera, spacing: number[], [lo, hi]: [number[], number[]]): number {
+  const distance = Math.sqrt([0, 1, 2].reduce((t, a) => t + Math.max(lo[a] - c.eye[a], c.eye[a] - hi[a], 0) ** 2, 0));
+  const diagonal = Math.sqrt(spacing.reduce((t, s) => t + s * s, 0));
+  const focalPixels = c.height / (2 * Math.tan((c.fovyDegrees * Math.PI) / 360));
+  return distance <= 0 ? Infinity : (2 * diagonal * focalPixels) / distance;
+}
+
 /** Orthonormal (right, up, forward), `Camera::basis`. */
 export function basis(c: Camera): [Vec3, Vec3, Vec3] {
   const forward = normalize(sub(c.target, c.eye));

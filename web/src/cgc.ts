@@ -109,6 +109,79 @@ export function worldBounds(h: CgcHeader): [number[], number[]] {
 }
 
 /**
+ * Whether no sample on the grid's border is inside the solid, which makes back-face culling safe
+ * for an eye outside the grid box: `border_is_outside` of crates/isogrid-gpu/src/upload.rs, fed
+ * cluster by cluster as they stream in. A border corner of an active cell at or above the iso code
+ * settles it false; otherwise it is true once a border corner below it was seen, or, where no
+ * active cell touches the border, when some border block's maximum is below the isovalue (the
+ * border is then wholly outside). Until the last cluster it is the answer for the clusters so far:
+ * it can only turn false as more arrive, never true again.
+ */
+export class BorderCheck {
+  private inside = false;
+  private seenOutside = false;
+  private readonly blockRule: boolean;
+  private readonly last: number[];
+
+  constructor(private readonly h: CgcHeader, blocks: Uint8Array) {
+    const n = blockDims(h);
+    const b = new DataView(blocks.buffer, blocks.byteOffset, blocks.byteLength);
+    this.last = h.dims.map((d) => Math.max(d - 1, 0));
+    let rule = false;
+    for (let i = 0; i < blocks.byteLength / BLOCK_BYTES && !rule; i++) {
+      const p = [i % n[0], Math.floor(i / n[0]) % n[1], Math.floor(i / (n[0] * n[1]))];
+      const border = p.some((v, a) => v === 0 || v + 1 === n[a]);
+      rule = border && b.getFloat32(BLOCK_BYTES * i + 12, true) < h.iso;
+    }
+    this.blockRule = rule;
+  }
+
+  get outside(): boolean {
+    return !this.inside && (this.seenOutside || this.blockRule);
+  }
+
+  /** The whole clusters of `metacells` (slots), whose records start at global record `firstCell` in `cells`. */
+  add(metacells: Uint8Array, firstCell: number, cells: Uint8Array): void {
+    if (this.inside) return;
+    const { last } = this;
+    const bits = this.h.precisionBits;
+    const iso = this.h.isoCode;
+    const m = new DataView(metacells.buffer, metacells.byteOffset, metacells.byteLength);
+    const r = new DataView(cells.buffer, cells.byteOffset, cells.byteLength);
+    const corner = (at: number, c: number): number =>
+      bits === 4 ? (r.getUint8(at + (c >> 1)) >> (4 * (c & 1))) & 0xf
+      : bits === 8 ? r.getUint8(at + c)
+      : bits === 16 ? r.getUint16(at + 2 * c, true)
+      : r.getFloat32(at + 4 * c, true);
+    for (let slot = 0; slot < metacells.byteLength / SLOT_BYTES; slot++) {
+      if (slot % CLUSTER_SLOTS === BOUND_SLOT) continue;
+      const w0 = m.getUint32(SLOT_BYTES * slot, true);
+      const w1 = m.getUint32(SLOT_BYTES * slot + 4, true);
+      const mask = (w1 >>> 16) & 0xff;
+      const origin = [2 * (w0 & 0xffff), 2 * (w0 >>> 16), 2 * (w1 & 0xffff)];
+      let record = m.getUint32(SLOT_BYTES * slot + 8, true);
+      for (let bit = 0; bit < 8; bit++) {
+        if (!(mask & (1 << bit))) continue;
+        const cell = [origin[0] + (bit & 1), origin[1] + ((bit >> 1) & 1), origin[2] + ((bit >> 2) & 1)];
+        if (cell.some((v, a) => v === 0 || v + 1 >= last[a])) {
+          const at = (record - firstCell) * bits;
+          for (let c = 0; c < 8; c++) {
+            const p = [cell[0] + (c & 1), cell[1] + ((c >> 1) & 1), cell[2] + ((c >> 2) & 1)];
+            if (!p.some((v, a) => v === 0 || v >= last[a])) continue;
+            if (corner(at, c) >= iso) {
+              this.inside = true;
+              return;
+            }
+            this.seenOutside = true;
+          }
+        }
+        record++;
+      }
+    }
+  }
+}
+
+/**
  * The header (and, in version 2, the section table) from `head`, the first HEAD_READ bytes of a
  * file of `fileLength` bytes (or the whole file when shorter).
  */

@@ -1,6 +1,7 @@
 // Streams a .cgc file into the renderer: the header and section table first (one range request
 // for the first HEAD_READ bytes), then the rest of the file in file order (blocks, metacells, then
-// the cells in chunks), each byte requested once. Every section's CRC is checked when it is
+// the cells in chunks), each byte requested once, two requests in flight once the first clusters
+// are drawn (one at a time before, and none past them until they are). Every section's CRC is checked when it is
 // complete; the structure (validateStructure) as soon as the blocks and metacells are in; and each
 // run of clusters is handed to the renderer once its corner records have arrived, so the first
 // frame comes long before the last byte. A server that ignores Range (answers 200) still works:
@@ -9,7 +10,7 @@
 import { Crc32 } from './crc32.js';
 import {
   CgcError, CgcHeader, HEAD_READ, Section, SLOT_BYTES, CLUSTER_SLOTS, BOUND_SLOT, ATTRIBUTE_HEAD_SIZE, AttributeInfo,
-  CellAttribute, GridLabels, checkGaps, checkLabels, checkSection, parseAttribute, parseAttributeHead, parseHeader, readLabels,
+  BorderCheck, CellAttribute, GridLabels, checkGaps, checkLabels, checkSection, parseAttribute, parseAttributeHead, parseHeader, readLabels,
   StructureCheck,
 } from './cgc.js';
 
@@ -74,6 +75,32 @@ export function urlSource(url: string, onBytes: (n: number) => void): ByteSource
   return src;
 }
 
+/**
+ * `src` with its first read (the header and table, [0, HEAD_READ)) already started, so that the
+ * request overlaps what the page does before streaming (opening the GPU device).
+ */
+export function withHeadStarted(src: ByteSource): ByteSource {
+  const head = src.read(0, HEAD_READ);
+  head.catch(() => {}); // thrown where streamCgc takes it
+  let first = true;
+  return {
+    name: src.name,
+    get total() {
+      return src.total;
+    },
+    get notice() {
+      return src.notice;
+    },
+    read(start, end) {
+      if (first && start === 0 && end === HEAD_READ) {
+        first = false;
+        return head;
+      }
+      return src.read(start, end);
+    },
+  };
+}
+
 async function readBody(res: Response, onBytes: (n: number) => void): Promise<Uint8Array> {
   const len = Number(res.headers.get('Content-Length') || 0);
   const reader = res.body!.getReader();
@@ -102,6 +129,18 @@ export interface StreamSink {
   clusters(firstSlot: number, metacells: Uint8Array, firstCell: number, cells: Uint8Array, cellCounts: number[]): void;
   /** Bytes received so far (of the file's total). */
   progress(received: number, total: number): void;
+  /**
+   * Settles once the first clusters handed over have been drawn (a frame of them started). The
+   * loader requests nothing more until then, so that the first frame shows what the first bytes
+   * give rather than whatever arrived while the renderer was getting ready (compiling its
+   * pipelines takes seconds on a CPU adapter, longer than a fast link needs for the whole file).
+   */
+  drawn?(): Promise<void>;
+  /**
+   * Whether no border sample of the clusters so far is inside (BorderCheck: back-face culling is
+   * safe): told once the blocks are in, and again, before the clusters that change it, if it turns false.
+   */
+  borderOutside?(outside: boolean): void;
   /** The cell attribute's head (checked), as soon as it has arrived. */
   attributeHead?(info: AttributeInfo): void;
   /**
@@ -170,6 +209,7 @@ export async function streamCgc(src: ByteSource, sink: StreamSink, chunk?: numbe
   const bpc = h.precisionBits;
   const clusterEnds: number[] = []; // cells end (exclusive) of each checked cluster
   let nextCluster = 0; // clusters handed to the sink
+  let border: BorderCheck | null = null;
   let labels: GridLabels | null = null;
   let labelsChecked = !h.labels;
   let attributeOut = !h.attribute;
@@ -215,6 +255,10 @@ export async function streamCgc(src: ByteSource, sink: StreamSink, chunk?: numbe
       sink.labels?.(labels);
     }
     if (!done.has(h.blocks)) return;
+    if (!border) {
+      border = new BorderCheck(h, blocks);
+      sink.borderOutside?.(border.outside);
+    }
     const checked = structure.advance(Math.floor(have.get(h.metacells)! / SLOT_BYTES));
     if (!labelsChecked && labels && checked === h.slotCount && done.has(h.metacells)) {
       labelsChecked = true;
@@ -241,18 +285,17 @@ export async function streamCgc(src: ByteSource, sink: StreamSink, chunk?: numbe
       const counts = [];
       for (let c = nextCluster; c < k; c++) counts.push(clusterEnds[c] - (c === 0 ? 0 : clusterEnds[c - 1]));
       const m0 = h.metacells.offset + nextCluster * CLUSTER_SLOTS * SLOT_BYTES;
-      sink.clusters(
-        nextCluster * CLUSTER_SLOTS,
-        file.subarray(m0, m0 + (k - nextCluster) * CLUSTER_SLOTS * SLOT_BYTES),
-        firstCell,
-        file.subarray(h.cells.offset + firstCell * bpc, h.cells.offset + clusterEnds[k - 1] * bpc),
-        counts,
-      );
+      const slots = file.subarray(m0, m0 + (k - nextCluster) * CLUSTER_SLOTS * SLOT_BYTES);
+      const records = file.subarray(h.cells.offset + firstCell * bpc, h.cells.offset + clusterEnds[k - 1] * bpc);
+      const wasOutside = border.outside;
+      border.add(slots, firstCell, records);
+      if (border.outside !== wasOutside) sink.borderOutside?.(border.outside);
+      sink.clusters(nextCluster * CLUSTER_SLOTS, slots, firstCell, records, counts);
       nextCluster = k;
     }
   };
-  const fetchPiece = async ([start, end]: [number, number]) => {
-    const part = await src.read(start, end);
+  /** Takes in a piece that has arrived: its bytes, the counts, the checks and the hand-over. */
+  const takePiece = ([start, end]: [number, number], part: Uint8Array) => {
     if (part.length !== end - start) {
       throw new CgcError(`the file ended at ${start + part.length} bytes, before the ${total} its header promises (truncated?)`);
     }
@@ -262,19 +305,55 @@ export async function streamCgc(src: ByteSource, sink: StreamSink, chunk?: numbe
     sink.progress(received, total);
     advance();
   };
-  advance();
-  for (const p of before) await fetchPiece(p);
-  while (metaPieces.length || cellPieces.length || attrPieces.length) {
-    const gridLeft = metaPieces.length || cellPieces.length;
-    if (attrPieces.length && (!gridLeft || valuesIn() < Math.floor(have.get(h.cells)! / bpc))) {
-      await fetchPiece(attrPieces.shift()!);
-      continue;
+  // Bytes of each section requested so far (its pieces are requested in order).
+  const issued = new Map<Section, number>(have);
+  const requestedOf = (s: Section | null) => (s ? issued.get(s)! : 0);
+  /** The next piece to request, by the order above, judged on what has been requested. */
+  const nextPiece = (): [number, number] | undefined => {
+    if (before.length) return before.shift();
+    if (metaPieces.length || cellPieces.length || attrPieces.length) {
+      const gridLeft = metaPieces.length || cellPieces.length;
+      const cellsRequested = Math.floor(requestedOf(h.cells) / bpc);
+      // Values requested (a head requested but not yet read counts as ahead of the cells).
+      const valuesRequested = attrInfo
+        ? Math.floor((requestedOf(attr) - ATTRIBUTE_HEAD_SIZE) / (attrInfo.bits / 8))
+        : requestedOf(attr) > 0 ? Infinity : 0;
+      if (attrPieces.length && (!gridLeft || valuesRequested < cellsRequested)) return attrPieces.shift();
+      // The cells the metacells requested point at: those checked exactly, those still in flight
+      // at the file's mean cells per slot.
+      const checkedCells = clusterEnds.length ? clusterEnds[clusterEnds.length - 1] : 0;
+      const inFlightSlots = (requestedOf(h.metacells) - have.get(h.metacells)!) / SLOT_BYTES;
+      const cellsWanted = (checkedCells + Math.ceil((inFlightSlots * h.activeCells) / Math.max(h.slotCount, 1))) * bpc;
+      const cellsFirst = cellPieces.length && (!metaPieces.length || requestedOf(h.cells) < cellsWanted);
+      return (cellsFirst ? cellPieces : metaPieces).shift();
     }
-    const cellsWanted = clusterEnds.length ? clusterEnds[clusterEnds.length - 1] * bpc : 0;
-    const cellsFirst = cellPieces.length && (!metaPieces.length || have.get(h.cells)! < cellsWanted);
-    await fetchPiece((cellsFirst ? cellPieces : metaPieces).shift()!);
+    return after.shift();
+  };
+  // Two requests in flight, taken in the order they were made: the link is not idle while a
+  // piece is checked and handed over, nor for each request's round trip.
+  const inFlight: { piece: [number, number]; bytes: Promise<Uint8Array> }[] = [];
+  const request = (): boolean => {
+    const piece = nextPiece();
+    if (!piece) return false;
+    for (const s of h.sections) if (within(s, piece[0])) issued.set(s, piece[1] - s.offset);
+    const bytes = src.read(piece[0], piece[1]);
+    bytes.catch(() => {}); // a failure is thrown where the piece is taken, not as an unhandled rejection
+    inFlight.push({ piece, bytes });
+    return true;
+  };
+  advance();
+  // Until the first clusters are drawn (`sink.drawn`), one request at a time and none after them.
+  let opened = !sink.drawn;
+  for (;;) {
+    while (inFlight.length < (opened ? 2 : 1) && request());
+    if (!inFlight.length) break;
+    const { piece, bytes } = inFlight.shift()!;
+    takePiece(piece, await bytes);
+    if (!opened && nextCluster > 0) {
+      await sink.drawn!();
+      opened = true;
+    }
   }
-  for (const p of after) await fetchPiece(p);
   structure.finish();
   if (!labelsChecked) throw new CgcError('the label sections were never checked against the metacells');
   checkGaps(h.gaps.map(([s, e]) => file.subarray(s, e)));

@@ -6,15 +6,16 @@
 // fraction F of the grid's extent, 0.5 by default, cutting away the larger coordinates, or the
 // smaller ones with `-`); colour: `cmap=NAME` and `clim=LO,HI` (the attribute's colour map and
 // range; default viridis over the stored range), `hide=V,...` (label values hidden at the start),
-// `ewa=0` (no EWA normal splats: `isogrid render --mode cgc-noewa`).
+// `ewa=0` (no EWA normal splats: `isogrid render --mode cgc-noewa`), `raster=compute|hardware`
+// (the cell raster, `isogrid render --cell-raster`; by default chosen per frame as natively).
 
 import { AttributeInfo, CgcError, CgcHeader, CodeMapping, GridLabels, codeMapping, codesOf, labelText, worldBounds } from './cgc.js';
 import {
   COLOR_LABELS, COLOR_RECORDS, MAP_NAMES, clusterAlbedos, colorUniforms, defaultClim, hiddenClusters, mapTable, parseClim,
 } from './colors.js';
 import { Camera, ClipPlane, orbit, pan, presetCamera, zoom } from './camera.js';
-import { blobSource, ByteSource, streamCgc, urlSource } from './loader.js';
-import { COLOR_FORMAT, Renderer } from './renderer.js';
+import { blobSource, ByteSource, streamCgc, urlSource, withHeadStarted } from './loader.js';
+import { CellRaster, COLOR_FORMAT, Renderer } from './renderer.js';
 
 const $ = <T extends HTMLElement>(id: string) => document.getElementById(id) as T;
 const canvas = $<HTMLCanvasElement>('canvas');
@@ -24,8 +25,12 @@ const params = new URLSearchParams(location.search);
 interface IsogridApi {
   ready: Promise<void>;
   pixels(): Promise<string>;
-  /** Draws `n` more frames of the current view one after another: median wall and GPU ms. */
-  frames(n: number): Promise<{ wallMs: number; gpuMs: number | null }>;
+  /**
+   * Draws `n` more frames of the current view one after another: median wall ms (with the
+   * read-back), JS ms to encode and submit, GPU ms of the frame and of each pass (timestamps).
+   * `fresh`: each frame starts from "every cluster visible", as the first frame of a view does.
+   */
+  frames(n: number, fresh?: boolean): Promise<{ wallMs: number; encodeMs: number; gpuMs: number | null; passMs: Record<string, number> | null; cells: { full: number; probe: number; new: number } }>;
   /** The value target of the last frame: f32 rows top to bottom, base64 (NaN: miss or no value). */
   values(): Promise<string>;
   /** What pixel (x, y) of the last frame shows: cluster, record, value, and the label's name. */
@@ -39,9 +44,15 @@ declare global {
 }
 
 let settle!: { resolve: () => void; reject: (e: Error) => void };
+/** Settles when the first frame with clusters is started (or loading fails): the loader's gate. */
+const firstDrawn = (() => {
+  let resolve!: () => void;
+  const promise = new Promise<void>((r) => (resolve = r));
+  return { promise, resolve };
+})();
 const ready = new Promise<void>((resolve, reject) => (settle = { resolve, reject }));
 ready.catch(() => {}); // reported in the page; a test reads the rejection itself
-const stats: Record<string, unknown> = {};
+const stats: Record<string, unknown> = { frameLog: [] };
 window.isogrid = {
   ready,
   stats,
@@ -62,19 +73,29 @@ window.isogrid = {
     const hit = await renderer!.readPixel(x, y);
     return hit && { ...hit, label: labels ? labelName(labels.clusterLabels[hit.cluster]) : null };
   },
-  async frames(n) {
+  async frames(n, fresh = false) {
     const median = (v: number[]) => v.sort((a, b) => a - b)[Math.floor(v.length / 2)];
     const wall: number[] = [];
+    const encode: number[] = [];
     const gpu: number[] = [];
+    const passes: Record<string, number[]> = {};
     for (let i = 0; i < n; i++) {
+      if (fresh) renderer!.resetVisibility();
       const t0 = performance.now();
       renderer!.render(camera!, null, clipPlane());
+      encode.push(renderer!.lastEncodeMs);
+      const timings = renderer!.lastTimed;
       await renderer!.readPixels();
       wall.push(performance.now() - t0);
-      await new Promise((r) => setTimeout(r, 0));
-      if (renderer!.lastGpuMs != null) gpu.push(renderer!.lastGpuMs);
+      // This frame's timestamps (none when the query set was still busy with an earlier frame's).
+      if (timings) {
+        await timings;
+        if (renderer!.lastGpuMs != null) gpu.push(renderer!.lastGpuMs);
+        for (const [k, v] of Object.entries(renderer!.lastPassMs ?? {})) (passes[k] ??= []).push(v);
+      }
     }
-    return { wallMs: median(wall), gpuMs: gpu.length ? median(gpu) : null };
+    const passMs = Object.keys(passes).length ? Object.fromEntries(Object.entries(passes).map(([k, v]) => [k, median(v)])) : null;
+    return { wallMs: median(wall), encodeMs: median(encode), gpuMs: gpu.length ? median(gpu) : null, passMs, cells: await renderer!.listedCells() };
   },
 };
 
@@ -85,6 +106,7 @@ function showMessage(text: string, notice = false): void {
 }
 
 function fail(e: unknown, name: string): void {
+  firstDrawn.resolve();
   const text = e instanceof CgcError ? `${name}: ${e.message}` : e instanceof Error ? e.message : String(e);
   showMessage(text);
   stats.error = text;
@@ -130,10 +152,11 @@ let header: CgcHeader | null = null;
 let camera: Camera | null = null;
 let view = params.get('view') === '1' ? 1 : 2;
 const fixedSize = parseSize(params.get('size'));
+/** `raster=compute|hardware` (`isogrid render --cell-raster`); auto by default. */
+const cellRasterParam: CellRaster = params.get('raster') === 'compute' || params.get('raster') === 'hardware' ? (params.get('raster') as CellRaster) : 'auto';
 /** The clip control: axis (null: no plane), position as a fraction of the extent, side. */
 const clipControl = parseClip(params.get('clip'));
 let complete = false;
-let frameQueued = false;
 let bytesIn = 0;
 
 async function initGpu(): Promise<GPUDevice> {
@@ -175,37 +198,85 @@ function resetCamera(box: [number[], number[]] | null = null): void {
   requestFrame();
 }
 
+/**
+ * Frame pacing. At most one frame is in flight; requests while one is (data arriving, camera
+ * moves) are coalesced into one frame after it. While the file loads, frames are spaced so that
+ * drawing takes at most a third of the time (the gap after a frame is twice its duration), and
+ * none is started when the rest of the file should arrive before it would end: on a CPU adapter
+ * a frame takes seconds and shares the cores with the download, and a frame cannot be stopped,
+ * so one started just before the last byte delays the complete picture by its whole duration.
+ * Once every byte is in, the complete picture is drawn as soon as no frame is in flight.
+ */
+const LOADING_GAP = 2;
+let frameTimer: ReturnType<typeof setTimeout> | null = null;
+/** When the scheduled frame is due (performance.now() ms). */
+let frameDue = 0;
+let frameWanted = false;
+/** The last frame shown: when it started and ended, and the bytes in when it started. */
+let lastFrame: { start: number; end: number; bytes: number } | null = null;
+/** The first frame with clusters: when it started and the bytes in then. */
+let firstFrame: { start: number; bytes: number } | null = null;
+
 function requestFrame(): void {
-  if (frameQueued) return;
-  frameQueued = true;
+  frameWanted = true;
+  if (drawing) return;
+  const delay = frameDelay();
+  if (delay === null) return; // the complete file comes first: `load` asks again
+  // A frame already due no later stands; one due later (a loading gap) gives way.
+  if (frameTimer !== null && frameDue <= performance.now() + delay) return;
+  if (frameTimer !== null) clearTimeout(frameTimer);
   const run = () => {
-    if (!frameQueued) return;
-    frameQueued = false;
-    drawFrame();
+    if (frameTimer !== timer) return; // run already (by the other of the two callbacks)
+    clearTimeout(timer);
+    frameTimer = null;
+    if (!frameWanted) return;
+    // Judged again when due: the rest of the file may now be about to arrive.
+    const still = frameDelay();
+    if (still === null) return;
+    if (still > 1) requestFrame();
+    else drawFrame();
   };
-  requestAnimationFrame(run);
-  setTimeout(run, 100); // headless pages may not run animation frames
+  const timer = setTimeout(run, delay > 0 ? delay : 100); // headless pages may not run animation frames
+  frameTimer = timer;
+  frameDue = performance.now() + delay;
+  if (delay <= 0) requestAnimationFrame(run);
+}
+
+/** Milliseconds to wait before the next frame, or null to wait for the last byte. */
+function frameDelay(): number | null {
+  if (complete || !lastFrame || !header || lastFrame.bytes === 0) return 0;
+  const now = performance.now();
+  const duration = lastFrame.end - lastFrame.start;
+  // The next frame draws about bytesIn / lastFrame.bytes times the cells of the last one.
+  const expected = duration * Math.max(1, bytesIn / lastFrame.bytes);
+  // The rate since the first frame: before it the loader waits for the renderer (`drawn`).
+  const rate = (bytesIn - firstFrame!.bytes) / Math.max(now - firstFrame!.start, 1);
+  if ((header.fileLength - bytesIn) / rate < expected) return null;
+  return Math.max(0, lastFrame.end + LOADING_GAP * duration - now);
 }
 
 let drawing = false;
 
 function drawFrame(): void {
   if (!renderer || !rendererReady || !camera || !device || (!context && !context2d)) return;
-  if (drawing) {
-    requestFrame();
-    return;
-  }
+  frameWanted = false;
   if (canvas.width !== camera.width || canvas.height !== camera.height) {
     canvas.width = camera.width;
     canvas.height = camera.height;
   }
   const wasComplete = complete;
   const t0 = performance.now();
+  const bytesAtStart = renderer.pageCount > 0 ? bytesIn : 0;
   const cam = camera;
   renderer.render(cam, context ? context.getCurrentTexture() : null, clipPlane());
   stats.pages = renderer.pageCount;
+  stats.raster = renderer.lastRaster;
   stats.frames = ((stats.frames as number) || 0) + 1;
-  if (!stats.firstFrameBytes && renderer.pageCount > 0) stats.firstFrameBytes = bytesIn;
+  if (!stats.firstFrameBytes && renderer.pageCount > 0) {
+    stats.firstFrameBytes = bytesIn;
+    firstFrame = { start: t0, bytes: bytesIn };
+    firstDrawn.resolve();
+  }
   drawing = true;
   // Presented through the WebGPU canvas, or (fallback adapters) read back into a 2D canvas.
   const shown: Promise<unknown> = context
@@ -216,13 +287,19 @@ function drawFrame(): void {
   shown.then(
     () => {
       drawing = false;
-      stats.frameMs = performance.now() - t0;
-      if (!stats.firstFrameAt && (stats.pages as number) > 0) stats.firstFrameAt = performance.now();
+      const end = performance.now();
+      stats.frameMs = end - t0;
+      lastFrame = { start: t0, end, bytes: bytesAtStart };
+      // The frames of the load, up to the complete picture (for the benchmark).
+      if (!stats.readyAt) (stats.frameLog as unknown[]).push({ at: Math.round(t0), ms: Math.round(end - t0), bytes: bytesAtStart, pages: stats.pages });
+      if (!stats.firstFrameAt && (stats.pages as number) > 0) stats.firstFrameAt = end;
       showFacts();
       if (wasComplete && !stats.readyAt) {
-        stats.readyAt = performance.now();
+        stats.readyAt = end;
         settle.resolve();
+        renderer!.compileRest().then(() => (stats.restCompiled = true));
       }
+      if (frameWanted) requestFrame();
     },
     (e) => fail(e, ''),
   );
@@ -240,6 +317,7 @@ function showFacts(): void {
     ...(attribute ? [['colour by', `${attribute.name} (${attribute.range.map((v) => Number(v.toPrecision(5))).join(' to ')})`] as [string, string]] : []),
     ...(labels ? [['labels', `${labels.table.length.toLocaleString()} (${hiddenLabels.size.toLocaleString()} hidden)`] as [string, string]] : []),
     ['frame', renderer?.lastGpuMs != null ? `${renderer.lastGpuMs.toFixed(2)} ms (GPU timestamps)` : `${(stats.frameMs as number)?.toFixed(1)} ms (wall, no timestamp queries)`],
+    ['cell raster', renderer?.lastRaster ?? ''],
   ];
   const table = $('facts-table');
   table.replaceChildren(
@@ -257,7 +335,10 @@ async function load(src: ByteSource): Promise<void> {
   $('hint').hidden = true;
   const bar = $('progress').firstElementChild as HTMLElement;
   try {
+    // The header's request goes out while the device opens.
+    src = withHeadStarted(src);
     device ??= await initGpu();
+    stats.deviceAt = performance.now();
     if (!context && !context2d) {
       if (fallbackAdapter) {
         context2d = canvas.getContext('2d')!;
@@ -271,8 +352,12 @@ async function load(src: ByteSource): Promise<void> {
       header(h) {
         header = h;
         const [lo, hi] = worldBounds(h);
-        renderer = new Renderer(device!, { precisionBits: h.precisionBits, spacing: h.spacing, isoCode: h.isoCode, bounds: [lo, hi], slotCount: h.slotCount, hideable: h.labels !== null }, params.get('ewa') !== '0');
-        renderer.compiled.then(() => (rendererReady = true), (e) => fail(e, ''));
+        renderer = new Renderer(device!, { precisionBits: h.precisionBits, spacing: h.spacing, isoCode: h.isoCode, bounds: [lo, hi], slotCount: h.slotCount, hideable: h.labels !== null }, params.get('ewa') !== '0', true, cellRasterParam);
+        stats.headerAt = performance.now();
+        renderer.compiled.then(() => {
+          rendererReady = true;
+          stats.compiledAt = performance.now();
+        }, (e) => fail(e, ''));
         canvas.hidden = false;
         if (!fixedSize) $('stage').classList.add('fill');
         resetCamera();
@@ -314,6 +399,11 @@ async function load(src: ByteSource): Promise<void> {
         l.table.forEach((label, i) => hide.has(labelText(label.value, header!.scalarType)) && hiddenLabels.add(i));
         applyHidden();
       },
+      borderOutside(outside) {
+        renderer!.setBorderOutside(outside);
+        stats.backfaceCulling = outside;
+      },
+      drawn: () => firstDrawn.promise,
       progress(received, total) {
         bytesIn = received;
         stats.bytes = received;

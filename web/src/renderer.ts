@@ -1,18 +1,24 @@
-// The paper's raster pipeline on WebGPU, pass for pass as crates/isogrid-gpu's hardware path
-// (render/frame_passes.rs) and on its shader modules (`isogrid:shaders`, composed from
-// crates/isogrid-gpu/shaders/modules.txt): cluster expansion with the visibility buffer
-// (expand), cell rasterisation (cells), visibility probes and the newly visible clusters (probe,
-// expand_new, cells again), EWA normal splats (ewa), the visibility update (visibility) and
-// deferred shading (shade). The bind group layouts are the native ones (passes/scene.rs,
-// upload.rs). Cell data is paged: each page is a whole number of clusters whose buffers stay
-// within the device's storage binding limit (128 MiB in Firefox), and a page is added as soon as
-// its cells have arrived, so the picture fills in while the file streams. Colour (colors.ts): the
-// shading pass's `ColorUniforms` and one colour data binding, the attribute's codes or the
-// clusters' label albedos; hidden labels' clusters get empty metacells in their page's copy, so
-// the expansion (expand.wgsl, which skips slots with no cells) never draws them.
+// The paper's raster pipeline on WebGPU, pass for pass as crates/isogrid-gpu's
+// render/frame_passes.rs, on its shader modules (`isogrid:shaders`, composed from
+// crates/isogrid-gpu/shaders/modules.txt) and bind group layouts (passes/scene.rs, upload.rs,
+// passes/compute_raster.rs): cluster expansion with the visibility buffer (expand), the cell
+// raster, visibility probes and the expansion and raster of newly visible clusters, EWA normal
+// splats, the visibility update (visibility) and deferred shading (shade).
+// The cell raster and the splats are those of render/frame_passes.rs in either form, chosen per
+// frame as `CellRaster::Auto` chooses natively (`widestCellPixels`): compute passes
+// (cells_compute.wgsl, ewa_compute.wgsl: one thread per listed cell, atomic depth, integer splat
+// sums) while cells project to at most 32 pixels, else screen rectangles through the graphics
+// pipeline (cells.wgsl, ewa.wgsl). Cell data is paged: each page is a whole number of clusters
+// whose buffers stay within the device's storage binding limit (128 MiB in Firefox), and a page is
+// added as soon as its cells have arrived, so the picture fills in while the file streams. Colour
+// (colors.ts): the shading pass's `ColorUniforms` and one colour data binding, the attribute's
+// codes or the clusters' label albedos; hidden labels' clusters get empty metacells in their page's
+// copy, so the expansion (expand.wgsl, which skips slots with no cells) never draws them.
+// Back faces are culled where the grid's border is outside the solid (BorderCheck) and the eye
+// outside the grid box, as natively.
 
 import { SHADERS } from 'isogrid:shaders';
-import { Camera, ClipPlane, frameUniforms, FLAG_EWA, FLAG_OCCLUSION, FRAME_UNIFORM_BYTES } from './camera.js';
+import { Camera, ClipPlane, frameUniforms, FLAG_BACKFACE, FLAG_EWA, FLAG_OCCLUSION, FRAME_UNIFORM_BYTES, MAX_COMPUTE_CELL_PIXELS, widestCellPixels } from './camera.js';
 import { BOUND_SLOT, CLUSTER_SLOTS, SLOT_BYTES } from './cgc.js';
 import { COLOR_NONE, COLOR_UNIFORMS_BYTES, colorUniforms } from './colors.js';
 
@@ -28,8 +34,17 @@ const EMPTY_ARGS = new Uint32Array([6, 0, 0, 0, 6, 0, 0, 0, 6, 0, 0, 0]);
 const LIST_FULL = 0;
 const LIST_PROBE = 1;
 const LIST_NEW = 2;
+/** Bytes of a page's compute dispatch arguments (`PageDispatchArgs`: x, y, z per list). */
+const DISPATCH_ARGS_BYTES = 36;
 /** Clusters the visibility buffers hold at least (as natively). */
 const MIN_VISIBILITY_CLUSTERS = 1 << 20;
+/** The passes of a frame, in order; each is bracketed by two timestamp queries where offered. */
+export const PASS_NAMES = ['expand', 'cells', 'probe', 'expand new', 'cells new', 'ewa', 'visibility', 'shade'] as const;
+type PassName = (typeof PASS_NAMES)[number];
+/** The passes that look for clusters coming into view (not in a view's first frame). */
+const PROBE_PASSES: PassName[] = ['probe', 'expand new', 'cells new'];
+
+export type CellRaster = 'auto' | 'compute' | 'hardware';
 
 export interface GridDesc {
   precisionBits: number;
@@ -53,11 +68,16 @@ interface Page {
   cellCount: number;
   buffers: GPUBuffer[];
   args: GPUBuffer;
+  /** The compute raster's workgroup counts (written by `size_dispatches`) and their bind group. */
+  dispatchArgs: GPUBuffer;
+  dispatch: GPUBindGroup;
   compute: GPUBindGroup;
   render: GPUBindGroup[];
 }
 
 export interface FrameStats {
+  /** Which cell raster drew the frame. */
+  raster?: 'compute' | 'hardware';
   pages: number;
   /** GPU time of the frame from timestamp queries, where offered (ms). */
   gpuMs: number | null;
@@ -79,18 +99,39 @@ export class Renderer {
   private argsTemplate: GPUBuffer;
   private layouts: Record<string, GPUBindGroupLayout> = {};
   private pipelines: Record<string, GPURenderPipeline | GPUComputePipeline> = {};
-  private targets: { size: [number, number]; tex: Record<string, GPUTexture>; groups: Record<string, GPUBindGroup> } | null = null;
+  private targets: { size: [number, number]; tex: Record<string, GPUTexture>; groups: Record<string, GPUBindGroup>; buffers: GPUBuffer[] } | null = null;
+  /** Whether the graphics-pipeline raster is compiled (after `compiled`; used for large cells). */
+  private hardwareCompiled = false;
+  /** Whether the probe and newly-visible pipelines are compiled (after `compiled`). */
+  private probesCompiled = false;
+  /** The cell raster of the last frame. */
+  lastRaster: 'compute' | 'hardware' = 'compute';
   private sceneCompute: GPUBindGroup;
   private sceneRender: GPUBindGroup;
   private visibilityFor = '';
+  /** Whether the grid's border is outside the solid (BorderCheck), so back faces may be culled. */
+  private borderOutside = false;
   private query: { set: GPUQuerySet; resolve: GPUBuffer; read: GPUBuffer; busy: boolean } | null = null;
+  /** GPU time of the last timed frame, first pass start to last pass end (ms), where offered. */
   lastGpuMs: number | null = null;
-  /** Settles when every pipeline is compiled; draw no frame before. */
+  /** GPU time of each pass of the last timed frame (ms), by pass name (PASS_NAMES). */
+  lastPassMs: Record<string, number> | null = null;
+  /** Wall time the last `render` call took to encode and submit (ms): the frame's JS cost. */
+  lastEncodeMs = 0;
+  /** Settles once the last frame's timestamps are read (lastGpuMs, lastPassMs); null if it was not timed. */
+  lastTimed: Promise<void> | null = null;
+  /** Settles when the pipelines of a view's first frame are compiled; draw no frame before. */
   readonly compiled: Promise<void>;
+  /** Compiles the other pipelines (once; see the constructor); settles when they are in use. */
+  compileRest: () => Promise<void>;
   /** Largest bytes of one page buffer (the storage binding limit, at most 128 MiB). */
   readonly pageBytes: number;
 
-  constructor(readonly device: GPUDevice, readonly grid: GridDesc, readonly ewa = true, readonly occlusion = true) {
+  /**
+   * `raster`: which cell raster draws (`isogrid render --cell-raster`): 'auto' as natively, or
+   * always 'compute' or 'hardware'.
+   */
+  constructor(readonly device: GPUDevice, readonly grid: GridDesc, readonly ewa = true, readonly occlusion = true, readonly raster: CellRaster = 'auto') {
     this.pageBytes = Math.min(device.limits.maxStorageBufferBindingSize, device.limits.maxBufferSize, 128 << 20);
     const d = device;
     const V = GPUShaderStage.VERTEX, F = GPUShaderStage.FRAGMENT, C = GPUShaderStage.COMPUTE;
@@ -117,17 +158,37 @@ export class Renderer {
     layout('ids input', [tex(0, C, 'uint')]);
     // Group 1 of shade.wgsl (passes/shade.rs): G-buffer, EWA sums, ids, colouring, attribute codes.
     layout('shading inputs', [tex(0, F, 'unfilterable-float'), tex(1, F, 'unfilterable-float'), tex(2, F, 'uint'), uniform(3, F), storage(4, F, true)]);
+    // Group 2 of `size_dispatches` (upload.rs) and of the compute raster (passes/compute_raster.rs).
+    const written = (binding: number, format: GPUTextureFormat): GPUBindGroupLayoutEntry => ({
+      binding,
+      visibility: C,
+      storageTexture: { access: 'write-only', format, viewDimension: '2d' },
+    });
+    layout('dispatch args', [storage(0, C, false)]);
+    layout('compute raster targets', [storage(0, C, false), written(1, SURFACE_FORMAT), written(2, IDS_FORMAT)]);
+    layout('compute ewa targets', [storage(0, C, false), tex(1, C, 'unfilterable-float'), written(2, EWA_FORMAT)]);
 
     const module = (name: keyof typeof SHADERS) => d.createShaderModule({ label: `${name} (shaders/modules.txt)`, code: SHADERS[name] });
     const pl = (...names: string[]) => d.createPipelineLayout({ bindGroupLayouts: names.map((n) => this.layouts[n]) });
-    // Compiled while the file downloads (SwiftShader takes seconds): see `compiled`.
+    // The pipelines of a view's first frame (with the compute raster), compiled while the file
+    // downloads (SwiftShader takes seconds): see `compiled`; the others by `compileRest`.
     const pending: Promise<unknown>[] = [];
     const set = (name: string, p: Promise<GPURenderPipeline | GPUComputePipeline>) => pending.push(p.then((x) => (this.pipelines[name] = x)));
+    const compiledCompute = (name: string, mod: GPUShaderModule, layoutNames: string[], entryPoint: string, constants?: Record<string, number>) =>
+      d.createComputePipelineAsync({ label: name, layout: pl(...layoutNames), compute: { module: mod, entryPoint, constants } }).then((x) => (this.pipelines[name] = x));
+    const computePipeline = (...args: Parameters<typeof compiledCompute>) => pending.push(compiledCompute(...args));
     const expand = module('expand');
-    const expandLayout = pl('scene compute', 'page compute');
-    set('expandVisible', d.createComputePipelineAsync({ label: 'expand visible', layout: expandLayout, compute: { module: expand, entryPoint: 'expand_visible' } }));
-    set('expandNew', d.createComputePipelineAsync({ label: 'expand new', layout: expandLayout, compute: { module: expand, entryPoint: 'expand_new' } }));
-    const cells = module('cells');
+    computePipeline('expand', expand, ['scene compute', 'page compute'], 'expand_visible');
+    computePipeline('size dispatches', expand, ['scene compute', 'page compute', 'dispatch args'], 'size_dispatches');
+    const rasterModule = module('cells_compute');
+    const rasterLayout = ['scene compute', 'page compute', 'compute raster targets'];
+    computePipeline('raster clear', rasterModule, rasterLayout, 'clear_targets');
+    computePipeline('raster depth', rasterModule, rasterLayout, 'raster_cells', { RASTER_LIST: LIST_FULL, RASTER_RESOLVE: 0 });
+    computePipeline('raster resolve', rasterModule, rasterLayout, 'raster_cells', { RASTER_LIST: LIST_FULL, RASTER_RESOLVE: 1 });
+    const splats = module('ewa_compute');
+    const splatLayout = ['scene compute', 'page compute', 'compute ewa targets'];
+    computePipeline('splats', splats, splatLayout, 'splat_cells', { EWA_LIST: LIST_FULL });
+    computePipeline('splats resolve', splats, splatLayout, 'resolve_splats');
     const rect = (label: string, layoutNames: string[], mod: GPUShaderModule, vs: string, fs: string, targets: GPUColorTargetState[], depth: boolean): Promise<GPURenderPipeline> =>
       d.createRenderPipelineAsync({
         label,
@@ -137,14 +198,47 @@ export class Renderer {
         primitive: { topology: 'triangle-list', cullMode: 'none' },
         depthStencil: depth ? { format: DEPTH_FORMAT, depthWriteEnabled: true, depthCompare: 'greater' } : undefined,
       });
-    set('cells', rect('cell raster', ['scene render', 'page render'], cells, 'vs_cell', 'fs_cell', [{ format: SURFACE_FORMAT }, { format: IDS_FORMAT }], true));
-    set('probe', rect('visibility probes', ['scene render', 'page render', 'depth input'], module('probe'), 'vs_probe', 'fs_probe', [{ format: IDS_FORMAT, writeMask: 0 }], false));
-    const add: GPUBlendComponent = { srcFactor: 'one', dstFactor: 'one', operation: 'add' };
-    set('ewa', rect('ewa normal splats', ['scene render', 'page render', 'surface input'], module('ewa'), 'vs_splat', 'fs_splat', [{ format: EWA_FORMAT, blend: { color: add, alpha: add } }], false));
-    set('visibility', d.createComputePipelineAsync({ label: 'visibility update', layout: pl('scene compute', 'ids input'), compute: { module: module('visibility'), entryPoint: 'update_visibility' } }));
+    computePipeline('visibility', module('visibility'), ['scene compute', 'ids input'], 'update_visibility');
     set('shade', rect('deferred shading', ['scene render', 'shading inputs'], module('shade'), 'vs_fullscreen', 'fs_shade', [{ format: COLOR_FORMAT }, { format: FINAL_FORMAT }, { format: VALUE_FORMAT }], false));
-
+    const add: GPUBlendComponent = { srcFactor: 'one', dstFactor: 'one', operation: 'add' };
+    // The graphics pipeline raster and splats, for cells of more than 32 pixels, compile after the
+    // rest (a failure shows as an uncaptured error; frames keep the compute raster), or with it
+    // where they are the only raster.
+    const hardware = () =>
+      Promise.all([
+        rect('cell raster', ['scene render', 'page render'], module('cells'), 'vs_cell', 'fs_cell', [{ format: SURFACE_FORMAT }, { format: IDS_FORMAT }], true),
+        rect('ewa normal splats', ['scene render', 'page render', 'surface input'], module('ewa'), 'vs_splat', 'fs_splat', [{ format: EWA_FORMAT, blend: { color: add, alpha: add } }], false),
+        rect('visibility probes', ['scene render', 'page render', 'depth input'], module('probe'), 'vs_probe', 'fs_probe', [{ format: IDS_FORMAT, writeMask: 0 }], false),
+      ]).then(([cells, ewa, probe]) => {
+        this.pipelines.cells = cells;
+        this.pipelines.ewa = ewa;
+        this.pipelines.probe = probe;
+        this.hardwareCompiled = true;
+      });
+    if (raster === 'hardware') pending.push(hardware());
     this.compiled = Promise.all(pending).then(() => undefined);
+    // The probes and the newly-visible passes: a view's first frame starts from "all visible" and
+    // has nothing to probe, so they (and the graphics pipeline raster) are compiled by
+    // `compileRest`, which the page calls once the file is in and drawn: on a CPU adapter compiling
+    // takes seconds of the cores the download needs. Until then every frame is drawn as a first
+    // frame (complete, only without the culling's saving) with the compute raster.
+    this.compileRest = () => {
+      const done = this.compiled
+        .then(() =>
+          Promise.all([
+            compiledCompute('expand new', expand, ['scene compute', 'page compute'], 'expand_new'),
+            compiledCompute('raster probe', rasterModule, rasterLayout, 'probe_cells'),
+            compiledCompute('raster depth new', rasterModule, rasterLayout, 'raster_cells', { RASTER_LIST: LIST_NEW, RASTER_RESOLVE: 0 }),
+            compiledCompute('raster resolve new', rasterModule, rasterLayout, 'raster_cells', { RASTER_LIST: LIST_NEW, RASTER_RESOLVE: 1 }),
+            compiledCompute('splats new', splats, splatLayout, 'splat_cells', { EWA_LIST: LIST_NEW }),
+          ]),
+        )
+        .then(() => (this.probesCompiled = true))
+        .then(() => (raster === 'auto' ? hardware() : undefined))
+        .catch(() => {}); // a failure shows as an uncaptured error; frames stay first frames
+      this.compileRest = () => done;
+      return done;
+    };
     this.uniforms = d.createBuffer({ label: 'frame uniforms', size: FRAME_UNIFORM_BYTES, usage: GPUBufferUsage.UNIFORM | GPUBufferUsage.COPY_DST });
     // ColorUniforms of color.wgsl (gpu_types.rs): COLOR_NONE, the one fixed albedo, until a
     // colouring is set.
@@ -180,9 +274,9 @@ export class Renderer {
     });
     if (d.features.has("timestamp-query")) {
       this.query = {
-        set: d.createQuerySet({ type: 'timestamp', count: 2 }),
-        resolve: d.createBuffer({ size: 16, usage: GPUBufferUsage.QUERY_RESOLVE | GPUBufferUsage.COPY_SRC }),
-        read: d.createBuffer({ size: 16, usage: GPUBufferUsage.MAP_READ | GPUBufferUsage.COPY_DST }),
+        set: d.createQuerySet({ type: 'timestamp', count: 2 * PASS_NAMES.length }),
+        resolve: d.createBuffer({ size: 16 * PASS_NAMES.length, usage: GPUBufferUsage.QUERY_RESOLVE | GPUBufferUsage.COPY_SRC }),
+        read: d.createBuffer({ size: 16 * PASS_NAMES.length, usage: GPUBufferUsage.MAP_READ | GPUBufferUsage.COPY_DST }),
         busy: false,
       };
     }
@@ -190,6 +284,14 @@ export class Renderer {
 
   get pageCount(): number {
     return this.pages.length;
+  }
+
+  /**
+   * Culls back faces (FLAG_BACKFACE) from now on where `outside`: no border sample is inside
+   * (BorderCheck), as natively (`border_outside`); only while the eye is outside the grid box.
+   */
+  setBorderOutside(outside: boolean): void {
+    this.borderOutside = outside;
   }
 
   /** Sets the shading pass's `ColorUniforms` (colors.ts `colorUniforms`). */
@@ -217,8 +319,7 @@ export class Renderer {
       if (typeof data !== 'number') this.writeColorData(0, data);
     }
     // The shading bind group names the buffer: made again with the targets.
-    if (this.targets) for (const t of Object.values(this.targets.tex)) t.destroy();
-    this.targets = null;
+    this.dropTargets();
     return null;
   }
 
@@ -304,13 +405,15 @@ export class Renderer {
     };
     const S = GPUBufferUsage.STORAGE;
     const p = this.pages.length;
+    const buf = (binding: number, buffer: GPUBuffer): GPUBindGroupEntry => ({ binding, resource: { buffer } });
     const uniforms = init(`page ${p} uniforms`, new Uint32Array([firstSlot, firstCell, slotCount, 0]), GPUBufferUsage.UNIFORM);
     const meta = d.createBuffer({ label: `page ${p} metacells`, size: Math.max(16, metacells.byteLength), usage: S | GPUBufferUsage.COPY_DST });
     const rec = init(`page ${p} corner records`, cells, S);
     const list = (label: string, n: number) => d.createBuffer({ label: `page ${p} ${label}`, size: Math.max(16, 4 * n), usage: S });
     const lists = [list('full list', cellCount), list('probe list', slotCount), list('new list', cellCount)];
     const args = init(`page ${p} draw arguments`, EMPTY_ARGS, S | GPUBufferUsage.INDIRECT | GPUBufferUsage.COPY_SRC);
-    const buf = (binding: number, buffer: GPUBuffer): GPUBindGroupEntry => ({ binding, resource: { buffer } });
+    const dispatchArgs = d.createBuffer({ label: `page ${p} dispatch arguments`, size: DISPATCH_ARGS_BYTES, usage: S | GPUBufferUsage.INDIRECT });
+    const dispatch = d.createBindGroup({ label: `page ${p} dispatch arguments`, layout: this.layouts['dispatch args'], entries: [buf(0, dispatchArgs)] });
     const compute = d.createBindGroup({
       label: `page ${p} (compute)`,
       layout: this.layouts['page compute'],
@@ -321,44 +424,49 @@ export class Renderer {
     );
     // A copy, not the view: the view would keep the loader's whole file alive.
     const kept = this.grid.hideable ? metacells.slice() : null;
-    const page: Page = { metacells: kept, meta, masked: false, firstSlot, slotCount, firstCell, cellCount, buffers: [uniforms, meta, rec, ...lists], args, compute, render };
+    const page: Page = { metacells: kept, meta, masked: false, firstSlot, slotCount, firstCell, cellCount, buffers: [uniforms, meta, rec, ...lists, dispatchArgs], args, dispatchArgs, dispatch, compute, render };
     this.uploadMetacells(page, metacells);
     this.pages.push(page);
   }
 
+  /** Frees the size-dependent targets (made again by the next frame). */
+  private dropTargets(): void {
+    if (this.targets) for (const t of [...Object.values(this.targets.tex), ...this.targets.buffers]) t.destroy();
+    this.targets = null;
+  }
+
   private ensureTargets(width: number, height: number): void {
     if (this.targets && this.targets.size[0] === width && this.targets.size[1] === height) return;
-    if (this.targets) for (const t of Object.values(this.targets.tex)) t.destroy();
+    this.dropTargets();
     const d = this.device;
     const U = GPUTextureUsage;
     const t = (label: string, format: GPUTextureFormat, usage: number) => d.createTexture({ label, size: [width, height], format, usage });
     const rt = U.RENDER_ATTACHMENT | U.TEXTURE_BINDING;
     const tex = {
       depth: t('raster depth (reversed-Z)', DEPTH_FORMAT, rt),
-      surface: t('raster normal + distance', SURFACE_FORMAT, rt),
-      ids: t('cluster ids', IDS_FORMAT, rt | U.COPY_SRC),
-      ewa: t('ewa normal accumulation', EWA_FORMAT, rt),
+      surface: t('raster normal + distance', SURFACE_FORMAT, rt | U.STORAGE_BINDING),
+      ids: t('cluster ids', IDS_FORMAT, rt | U.STORAGE_BINDING | U.COPY_SRC),
+      ewa: t('ewa normal accumulation', EWA_FORMAT, rt | U.STORAGE_BINDING),
       color: t('shaded colour', COLOR_FORMAT, U.RENDER_ATTACHMENT | U.COPY_SRC),
       final: t('final normal + distance', FINAL_FORMAT, U.RENDER_ATTACHMENT),
       value: t('shaded attribute value', VALUE_FORMAT, U.RENDER_ATTACHMENT | U.COPY_SRC),
     };
-    const g = (layout: string, views: GPUTextureView[]) =>
-      d.createBindGroup({ layout: this.layouts[layout], entries: views.map((v, i) => ({ binding: i, resource: v })) });
+    // The compute raster's per-pixel depth words and the splats' fixed-point sums (4 words a pixel).
+    const depthWords = d.createBuffer({ label: 'compute raster depth words', size: 4 * width * height, usage: GPUBufferUsage.STORAGE });
+    const ewaSum = d.createBuffer({ label: 'compute ewa sums', size: 16 * width * height, usage: GPUBufferUsage.STORAGE | GPUBufferUsage.COPY_DST });
+    const g = (layout: string, resources: GPUBindingResource[]) =>
+      d.createBindGroup({ layout: this.layouts[layout], entries: resources.map((resource, i) => ({ binding: i, resource })) });
     this.targets = {
       size: [width, height],
       tex,
+      buffers: [depthWords, ewaSum],
       groups: {
         depth: g('depth input', [tex.depth.createView()]),
         surface: g('surface input', [tex.surface.createView()]),
         ids: g('ids input', [tex.ids.createView()]),
-        shade: d.createBindGroup({
-          layout: this.layouts['shading inputs'],
-          entries: [
-            ...[tex.surface, tex.ewa, tex.ids].map((x, i) => ({ binding: i, resource: x.createView() })),
-            { binding: 3, resource: { buffer: this.coloring } },
-            { binding: 4, resource: { buffer: this.colorData } },
-          ],
-        }),
+        raster: g('compute raster targets', [{ buffer: depthWords }, tex.surface.createView(), tex.ids.createView()]),
+        splats: g('compute ewa targets', [{ buffer: ewaSum }, tex.surface.createView(), tex.ewa.createView()]),
+        shade: g('shading inputs', [tex.surface.createView(), tex.ewa.createView(), tex.ids.createView(), { buffer: this.coloring }, { buffer: this.colorData }]),
       },
     };
   }
@@ -373,66 +481,144 @@ export class Renderer {
    * surface beyond `clip` is cut away (the shaders clip each cell's ray segment).
    */
   render(camera: Camera, output: GPUTexture | null, clip: ClipPlane | null = null): GPUTexture {
+    const encodeStart = performance.now();
     const d = this.device;
     this.ensureTargets(camera.width, camera.height);
     const T = this.targets!;
-    // Visibility persists while the camera and clip plane stay; anything else starts from "all visible".
-    const key = JSON.stringify([camera, clip, this.pages.length, this.hiddenVersion]);
-    if (key !== this.visibilityFor) {
+    // Visibility persists while the camera, clip plane, hidden labels, culling and data stay;
+    // anything else starts from "all visible", so the frame after a change is complete.
+    const [lo, hi] = this.grid.bounds;
+    const eyeOutside = camera.eye.some((e, a) => e < lo[a] || e > hi[a]);
+    const backface = this.borderOutside && eyeOutside;
+    const key = JSON.stringify([camera, clip, this.pages.length, this.hiddenVersion, backface]);
+    // A first frame of a view has every cluster in the full list: no probes, no newly visible.
+    const fresh = key !== this.visibilityFor || !this.probesCompiled;
+    const probing = this.occlusion && !fresh;
+    if (fresh) {
       d.queue.writeBuffer(this.visibleLast, 0, new Uint8Array(this.visibleLast.size).fill(0xff));
       d.queue.writeBuffer(this.visibleNew, 0, new Uint8Array(this.visibleNew.size));
       this.visibilityFor = key;
     }
     let flags = 0;
     if (this.occlusion) flags |= FLAG_OCCLUSION;
+    if (backface) flags |= FLAG_BACKFACE;
     if (this.ewa) flags |= FLAG_EWA;
     d.queue.writeBuffer(this.uniforms, 0, frameUniforms(camera, this.grid, flags, this.frame++, clip));
     const enc = d.createCommandEncoder({ label: 'frame' });
     const timed = this.query && !this.query.busy ? this.query : null;
+    // Each pass's timestamps: begin at 2i, end at 2i + 1 (i its index in PASS_NAMES).
+    const at = (name: PassName) => {
+      const i = PASS_NAMES.indexOf(name);
+      return timed ? { querySet: timed.set, beginningOfPassWriteIndex: 2 * i, endOfPassWriteIndex: 2 * i + 1 } : undefined;
+    };
+    // `CellRaster::Auto`: the compute raster unless a cell can cover more than 32 pixels across
+    // (and the graphics pipeline raster is compiled).
+    const compute =
+      this.raster === 'compute' ||
+      (this.raster === 'auto' && (!this.hardwareCompiled || widestCellPixels(camera, this.grid.spacing, this.grid.bounds) <= MAX_COMPUTE_CELL_PIXELS));
+    this.lastRaster = compute ? 'compute' : 'hardware';
     for (const p of this.pages) enc.copyBufferToBuffer(this.argsTemplate, 0, p.args, 0, 48);
-    this.expand(enc, 'expandVisible', timed ? { querySet: timed.set, beginningOfPassWriteIndex: 0 } : undefined);
-    const gbuffer = (clear: boolean): GPURenderPassDescriptor => ({
-      colorAttachments: [
-        { view: T.tex.surface.createView(), loadOp: clear ? 'clear' : 'load', clearValue: [0, 0, 0, 0], storeOp: 'store' },
-        { view: T.tex.ids.createView(), loadOp: clear ? 'clear' : 'load', clearValue: [0xffffffff, 0xffffffff, 0, 0], storeOp: 'store' },
-      ],
-      depthStencilAttachment: { view: T.tex.depth.createView(), depthLoadOp: clear ? 'clear' : 'load', depthClearValue: 0, depthStoreOp: 'store' },
-    });
-    let pass = enc.beginRenderPass(gbuffer(true));
-    this.draw(pass, 'cells', LIST_FULL, []);
-    pass.end();
-    if (this.occlusion) {
-      pass = enc.beginRenderPass({ colorAttachments: [{ view: T.tex.ids.createView(), loadOp: 'load', storeOp: 'store' }] });
-      this.draw(pass, 'probe', LIST_PROBE, [[2, T.groups.depth]]);
+    this.expand(enc, 'expand', compute, at('expand'));
+    const pixels = [Math.ceil(camera.width / 8), Math.ceil(camera.height / 8)] as const;
+    if (compute) {
+      // render/frame_passes.rs with the compute raster: clear and the atomic depth of the visible
+      // clusters' cells; probes against that depth; the newly visible clusters' depth; then the
+      // cells whose depth won write the G-buffer (a first frame has no probes: depth and resolve).
+      const steps = (pass: GPUComputePassEncoder, names: string[], list: number) => {
+        for (const name of names) {
+          pass.setPipeline(this.pipelines[name] as GPUComputePipeline);
+          for (const p of this.pages) {
+            pass.setBindGroup(1, p.compute);
+            pass.dispatchWorkgroupsIndirect(p.dispatchArgs, 12 * list);
+          }
+        }
+      };
+      const raster = (name: PassName) => {
+        const r = enc.beginComputePass({ timestampWrites: at(name) });
+        r.setBindGroup(0, this.sceneCompute);
+        r.setBindGroup(2, T.groups.raster);
+        return r;
+      };
+      let r = raster('cells');
+      if (this.pages.length) {
+        r.setBindGroup(1, this.pages[0].compute); // in the layout, unused by the clear
+        r.setPipeline(this.pipelines['raster clear'] as GPUComputePipeline);
+        r.dispatchWorkgroups(...pixels);
+      }
+      steps(r, probing ? ['raster depth'] : ['raster depth', 'raster resolve'], LIST_FULL);
+      r.end();
+      if (probing) {
+        r = raster('probe');
+        steps(r, ['raster probe'], LIST_PROBE);
+        r.end();
+        this.expand(enc, 'expand new', true, at('expand new'));
+        r = raster('cells new');
+        steps(r, ['raster depth new'], LIST_NEW);
+        steps(r, ['raster resolve'], LIST_FULL);
+        steps(r, ['raster resolve new'], LIST_NEW);
+        r.end();
+      }
+      if (this.ewa && this.pages.length) {
+        enc.clearBuffer(T.buffers[1]);
+        const e = enc.beginComputePass({ timestampWrites: at('ewa') });
+        e.setBindGroup(0, this.sceneCompute);
+        e.setBindGroup(2, T.groups.splats);
+        steps(e, ['splats'], LIST_FULL);
+        if (probing) steps(e, ['splats new'], LIST_NEW);
+        e.setPipeline(this.pipelines['splats resolve'] as GPUComputePipeline);
+        e.dispatchWorkgroups(...pixels);
+        e.end();
+      } else {
+        enc.beginRenderPass({ colorAttachments: [{ view: T.tex.ewa.createView(), loadOp: 'clear', clearValue: [0, 0, 0, 0], storeOp: 'store' }] }).end();
+      }
+    } else {
+      const gbuffer = (clear: boolean, name: PassName): GPURenderPassDescriptor => ({
+        colorAttachments: [
+          { view: T.tex.surface.createView(), loadOp: clear ? 'clear' : 'load', clearValue: [0, 0, 0, 0], storeOp: 'store' },
+          { view: T.tex.ids.createView(), loadOp: clear ? 'clear' : 'load', clearValue: [0xffffffff, 0xffffffff, 0, 0], storeOp: 'store' },
+        ],
+        depthStencilAttachment: { view: T.tex.depth.createView(), depthLoadOp: clear ? 'clear' : 'load', depthClearValue: 0, depthStoreOp: 'store' },
+        timestampWrites: at(name),
+      });
+      let pass = enc.beginRenderPass(gbuffer(true, 'cells'));
+      this.draw(pass, 'cells', LIST_FULL, []);
       pass.end();
-      this.expand(enc, 'expandNew');
-      pass = enc.beginRenderPass(gbuffer(false));
-      this.draw(pass, 'cells', LIST_NEW, []);
+      if (probing) {
+        pass = enc.beginRenderPass({ colorAttachments: [{ view: T.tex.ids.createView(), loadOp: 'load', storeOp: 'store' }], timestampWrites: at('probe') });
+        this.draw(pass, 'probe', LIST_PROBE, [[2, T.groups.depth]]);
+        pass.end();
+        this.expand(enc, 'expand new', false, at('expand new'));
+        pass = enc.beginRenderPass(gbuffer(false, 'cells new'));
+        this.draw(pass, 'cells', LIST_NEW, []);
+        pass.end();
+      }
+      pass = enc.beginRenderPass({
+        colorAttachments: [{ view: T.tex.ewa.createView(), loadOp: 'clear', clearValue: [0, 0, 0, 0], storeOp: 'store' }],
+        timestampWrites: this.ewa ? at('ewa') : undefined,
+      });
+      if (this.ewa) {
+        this.draw(pass, 'ewa', LIST_FULL, [[2, T.groups.surface]]);
+        if (probing) this.draw(pass, 'ewa', LIST_NEW, [[2, T.groups.surface]]);
+      }
       pass.end();
     }
-    pass = enc.beginRenderPass({ colorAttachments: [{ view: T.tex.ewa.createView(), loadOp: 'clear', clearValue: [0, 0, 0, 0], storeOp: 'store' }] });
-    if (this.ewa) {
-      this.draw(pass, 'ewa', LIST_FULL, [[2, T.groups.surface]]);
-      if (this.occlusion) this.draw(pass, 'ewa', LIST_NEW, [[2, T.groups.surface]]);
-    }
-    pass.end();
     if (this.occlusion) {
       enc.clearBuffer(this.visibleLast);
       enc.clearBuffer(this.visibleNew);
-      const c = enc.beginComputePass();
-      c.setPipeline(this.pipelines.visibility as GPUComputePipeline);
-      c.setBindGroup(0, this.sceneCompute);
-      c.setBindGroup(1, T.groups.ids);
-      c.dispatchWorkgroups(Math.ceil(camera.width / 8), Math.ceil(camera.height / 8));
-      c.end();
+      const v = enc.beginComputePass({ timestampWrites: at('visibility') });
+      v.setPipeline(this.pipelines.visibility as GPUComputePipeline);
+      v.setBindGroup(0, this.sceneCompute);
+      v.setBindGroup(1, T.groups.ids);
+      v.dispatchWorkgroups(Math.ceil(camera.width / 8), Math.ceil(camera.height / 8));
+      v.end();
     }
-    pass = enc.beginRenderPass({
+    const pass = enc.beginRenderPass({
       colorAttachments: [
         { view: T.tex.color.createView(), loadOp: 'clear', clearValue: [0, 0, 0, 1], storeOp: 'store' },
         { view: T.tex.final.createView(), loadOp: 'clear', clearValue: [0, 0, 0, 0], storeOp: 'store' },
         { view: T.tex.value.createView(), loadOp: 'clear', clearValue: [0, 0, 0, 0], storeOp: 'store' },
       ],
-      timestampWrites: timed ? { querySet: timed.set, endOfPassWriteIndex: 1 } : undefined,
+      timestampWrites: at('shade'),
     });
     pass.setPipeline(this.pipelines.shade as GPURenderPipeline);
     pass.setBindGroup(0, this.sceneRender);
@@ -441,35 +627,65 @@ export class Renderer {
     pass.end();
     if (output) enc.copyTextureToTexture({ texture: T.tex.color }, { texture: output }, [camera.width, camera.height]);
     if (timed) {
-      enc.resolveQuerySet(timed.set, 0, 2, timed.resolve, 0);
-      enc.copyBufferToBuffer(timed.resolve, 0, timed.read, 0, 16);
+      enc.resolveQuerySet(timed.set, 0, 2 * PASS_NAMES.length, timed.resolve, 0);
+      enc.copyBufferToBuffer(timed.resolve, 0, timed.read, 0, timed.read.size);
     }
     d.queue.submit([enc.finish()]);
+    this.lastEncodeMs = performance.now() - encodeStart;
+    this.lastTimed = null;
     if (timed) {
       timed.busy = true;
-      timed.read.mapAsync(GPUMapMode.READ).then(
+      const ran = PASS_NAMES.filter((n) =>
+        PROBE_PASSES.includes(n) ? probing : n === 'visibility' ? this.occlusion : n === 'ewa' ? this.ewa && (this.pages.length > 0 || !compute) : true,
+      );
+      this.lastTimed = timed.read.mapAsync(GPUMapMode.READ).then(
         () => {
           const t = new BigInt64Array(timed.read.getMappedRange().slice(0));
           timed.read.unmap();
           timed.busy = false;
-          const ns = Number(t[1] - t[0]);
+          // Passes that ran (the others' queries are never written); the frame spans the first to the last.
+          const passes: Record<string, number> = {};
+          let first: bigint | null = null;
+          let last: bigint | null = null;
+          for (const name of ran) {
+            const i = PASS_NAMES.indexOf(name);
+            passes[name] = Number(t[2 * i + 1] - t[2 * i]) / 1e6;
+            if (first === null || t[2 * i] < first) first = t[2 * i];
+            if (last === null || t[2 * i + 1] > last) last = t[2 * i + 1];
+          }
+          const ns = first !== null && last !== null ? Number(last - first) : 0;
           this.lastGpuMs = ns > 0 ? ns / 1e6 : null;
+          this.lastPassMs = ns > 0 ? passes : null;
         },
-        () => (timed.busy = false),
+        () => {
+          timed.busy = false;
+        },
       );
     }
     return T.tex.color;
   }
 
-  private expand(enc: GPUCommandEncoder, which: 'expandVisible' | 'expandNew', timestampWrites?: GPUComputePassTimestampWrites): void {
+  /**
+   * The expansion of the visible clusters ('expand') or of the newly visible ones ('expand new')
+   * over every page; with the compute raster, the workgroup counts of its lists follow.
+   */
+  private expand(enc: GPUCommandEncoder, which: 'expand' | 'expand new', sizeDispatches: boolean, timestampWrites?: GPUComputePassTimestampWrites): void {
     const c = enc.beginComputePass({ timestampWrites });
-    c.setPipeline(this.pipelines[which] as GPUComputePipeline);
     c.setBindGroup(0, this.sceneCompute);
+    c.setPipeline(this.pipelines[which] as GPUComputePipeline);
     for (const p of this.pages) {
       c.setBindGroup(1, p.compute);
       const groups = Math.max(Math.ceil(p.slotCount / 64), 1);
       const x = Math.min(groups, 65535);
       c.dispatchWorkgroups(x, Math.ceil(groups / x));
+    }
+    if (sizeDispatches) {
+      c.setPipeline(this.pipelines['size dispatches'] as GPUComputePipeline);
+      for (const p of this.pages) {
+        c.setBindGroup(1, p.compute);
+        c.setBindGroup(2, p.dispatch);
+        c.dispatchWorkgroups(1);
+      }
     }
     c.end();
   }
@@ -482,6 +698,21 @@ export class Renderer {
       pass.setBindGroup(1, p.render[list]);
       pass.drawIndirect(p.args, 16 * list);
     }
+  }
+
+  /** Instances (cells) the last frame listed, summed over the pages: full, probe and new lists. */
+  async listedCells(): Promise<{ full: number; probe: number; new: number }> {
+    const n = Math.max(this.pages.length, 1);
+    const buf = this.device.createBuffer({ size: 48 * n, usage: GPUBufferUsage.COPY_DST | GPUBufferUsage.MAP_READ });
+    const enc = this.device.createCommandEncoder();
+    this.pages.forEach((p, i) => enc.copyBufferToBuffer(p.args, 0, buf, 48 * i, 48));
+    this.device.queue.submit([enc.finish()]);
+    await buf.mapAsync(GPUMapMode.READ);
+    const a = new Uint32Array(buf.getMappedRange().slice(0));
+    buf.unmap();
+    buf.destroy();
+    const sum = (list: number) => this.pages.reduce((t, _, i) => t + a[12 * i + 4 * list + 1], 0);
+    return { full: sum(LIST_FULL), probe: sum(LIST_PROBE), new: sum(LIST_NEW) };
   }
 
   /**

@@ -49,6 +49,7 @@ await build(dist);
 const bin = isogridBinary();
 const sphere = sphereFile();
 const sphereBytes = sphere ? new Uint8Array(readFileSync(sphere)) : null;
+const sphereCells = sphereBytes ? parseCgc(sphereBytes).header.activeCells : 0;
 const tiny = realFiles()[0][1];
 const colored = bin && coloredSphereFile(48);
 const coloredBytes = colored && new Uint8Array(readFileSync(colored));
@@ -207,17 +208,34 @@ for (const B of BROWSERS) {
         t.skip('no isogrid binary built (cargo build -p isogrid-cli): no file to compare with the native renderer');
         return;
       }
-      await t.test('picture agrees with isogrid render on lavapipe, views 1 and 2', async () => {
+      await t.test('picture agrees with isogrid render on lavapipe, views 1 and 2, both cell rasters', async () => {
         for (const view of [1, 2]) {
           const { page, outcome, stats } = await open(server.url, `src=/sphere48.cgc&view=${view}&size=${SIZE.join('x')}`);
           assert.equal(outcome, 'ready', stats.message);
+          assert.equal(stats.raster, 'compute', 'cells of a few pixels: the compute raster, as natively');
           const px = Buffer.from(await page.evaluate(() => window.isogrid.pixels()), 'base64');
           const c = compare(px, nativeRender(sphere, view));
           t.diagnostic(`${B.name} (${stats.presentation}) view ${view}: mask ${(100 * c.mask).toFixed(2)} %, colour within 8/255 on ${(100 * c.colour).toFixed(2)} % of ${c.hits} hits (worst ${c.worst})`);
           assert.ok(c.hits > 500, `only ${c.hits} common hits`);
           assert.ok(c.mask >= 0.995, `mask agreement ${c.mask}`);
           assert.ok(c.colour >= 0.99, `colour agreement ${c.colour}`);
+          // Redraws of the view go through the visibility buffer, the probes and the newly
+          // visible clusters (compiled after the first picture): the picture stays.
+          await page.waitForFunction(() => window.isogrid.stats.restCompiled, { polling: 100 });
+          const f = await page.evaluate(() => window.isogrid.frames(3));
+          assert.ok(f.cells.full < sphereCells && f.cells.probe > 0, `culling in redraws: ${JSON.stringify(f.cells)}`);
+          const again = compare(Buffer.from(await page.evaluate(() => window.isogrid.pixels()), 'base64'), nativeRender(sphere, view));
+          t.diagnostic(`${B.name} view ${view}, redrawn: mask ${(100 * again.mask).toFixed(2)} %, colour within 8/255 on ${(100 * again.colour).toFixed(2)} %; cells ${JSON.stringify(f.cells)}`);
+          assert.ok(again.mask >= 0.995 && again.colour >= 0.99, JSON.stringify(again));
         }
+        // The other cell raster (auto takes the compute one at these views), as natively.
+        const { page, outcome, stats } = await open(server.url, `src=/sphere48.cgc&view=2&size=${SIZE.join('x')}&raster=hardware`);
+        assert.equal(outcome, 'ready', stats.message);
+        assert.equal(stats.raster, 'hardware');
+        const px = Buffer.from(await page.evaluate(() => window.isogrid.pixels()), 'base64');
+        const c = compare(px, nativeRender(sphere, 2, ['--cell-raster', 'hardware']));
+        t.diagnostic(`${B.name} view 2, hardware raster: mask ${(100 * c.mask).toFixed(2)} %, colour within 8/255 on ${(100 * c.colour).toFixed(2)} % of ${c.hits} hits (worst ${c.worst})`);
+        assert.ok(c.hits > 500 && c.mask >= 0.995 && c.colour >= 0.99, JSON.stringify(c));
       });
       await t.test('clip plane: the cut-away side shows the far surface or the background', async () => {
         const size = SIZE.join('x');

@@ -8,7 +8,7 @@ import { readFileSync } from 'node:fs';
 import { parseCgc, CgcError, HEAD_READ, codes16, labelText } from '../build/node/cgc.js';
 import { streamCgc } from '../build/node/loader.js';
 import { defaultClim, clusterAlbedos, hiddenClusters } from '../build/node/colors.js';
-import { realFiles, toVersion2, resealHeader, resealSection, isogridBinary, infoJson, labelFile, coloredSphereFile } from './fixtures.mjs';
+import { realFiles, toVersion2, resealHeader, resealSection, isogridBinary, infoJson, labelFile, coloredSphereFile, ballFile } from './fixtures.mjs';
 
 const files = realFiles();
 const versions = files.flatMap(([name, bytes]) => {
@@ -353,4 +353,28 @@ test('streaming checks the labels against the metacells after handing them over'
   resealSection(b, entry);
   const sink = { header() {}, clusters() {}, progress() {}, labels() {} };
   await assert.rejects(streamCgc(memorySource(b), sink, 256), /^CgcError: label index entry 0: its cell count or bounds do not match its clusters$/);
+});
+
+test('back-face culling is allowed exactly when no border sample is inside (BorderCheck, streamed)', async (t) => {
+  if (!isogridBinary()) {
+    t.skip('no isogrid binary built: no volume to extract');
+    return;
+  }
+  const n = 40;
+  // A ball well inside, one cut by the x = 0 face, and one touching the far corner region.
+  for (const [cx, r] of [[20, 10], [3, 12], [36, 9]]) {
+    const { cgc, value } = ballFile(n, cx, r);
+    // Brute force over the volume's border samples: is any inside (value ≥ isovalue)?
+    let inside = false;
+    for (let z = 0; z < n; z++) for (let y = 0; y < n; y++) for (let x = 0; x < n; x++) {
+      const border = [x, y, z].some((v) => v === 0 || v === n - 1);
+      if (border && value(x, y, z) >= 100) inside = true;
+    }
+    const told = [];
+    await streamCgc(memorySource(new Uint8Array(readFileSync(cgc))), { header() {}, clusters() {}, progress() {}, borderOutside: (o) => told.push(o) }, 4096);
+    assert.ok(told.length >= 1, 'told once the blocks are in');
+    assert.equal(told.at(-1), !inside, `ball at x = ${cx}, radius ${r}: ${told}`);
+    // It only ever turns false as clusters arrive.
+    assert.ok(told.every((o, i) => i === 0 || (told[i - 1] && !o)), `${told}`);
+  }
 });

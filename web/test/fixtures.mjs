@@ -98,6 +98,23 @@ export function labelFile(n = 32) {
   return cgc;
 }
 
+/**
+ * A ball of value 200 in 0 (u8, n³ samples, centre (cx, n/2, n/2), radius r) extracted at isovalue
+ * 100, and the value of sample (x, y, z); null without the binary.
+ */
+export function ballFile(n, cx, r) {
+  const bin = isogridBinary();
+  if (!bin) return null;
+  const dir = binaryDir(bin);
+  const value = (x, y, z) => ((x - cx) ** 2 + (y - n / 2) ** 2 + (z - n / 2) ** 2 < r * r ? 200 : 0);
+  const cgc = join(dir, `ball${n}-${cx}-${r}.cgc`);
+  if (!existsSync(cgc)) {
+    writeNpy(join(dir, `ball${n}-${cx}-${r}.npy`), n, value);
+    execFileSync(bin, ['extract', join(dir, `ball${n}-${cx}-${r}.npy`), '--iso', '100', '-o', cgc], { stdio: 'ignore' });
+  }
+  return { cgc, value };
+}
+
 /** `isogrid info --json` of `file`. */
 export function infoJson(file) {
   return JSON.parse(execFileSync(isogridBinary(), ['info', file, '--json'], { encoding: 'utf8' }));
