@@ -248,6 +248,41 @@ fn names_and_colours_come_from_the_file_and_the_table() {
         text.contains("nucleus") && text.contains("Cytosol"),
         "{text}"
     );
+    // `mc --labels` takes the same flags: the .glb's meshes carry the same names.
+    let glb = dir.join("cells.glb");
+    let run = isogrid(&[
+        "mc",
+        s(&label_fixture("ome_v05.zarr")),
+        "--labels",
+        "all",
+        "--labels-of",
+        "cells",
+        "--label-table",
+        s(&table),
+        "-o",
+        s(&glb),
+    ]);
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(
+        stderr.contains("lut.txt: 1 label of the table is not among"),
+        "{stderr}"
+    );
+    // The JSON chunk of the glTF binary: after the 12-byte header, its length and type.
+    let bytes = std::fs::read(&glb).unwrap();
+    let len = u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
+    let json: serde_json::Value = serde_json::from_slice(&bytes[20..20 + len]).unwrap();
+    let names: Vec<&str> = json["meshes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|m| m["name"].as_str().unwrap())
+        .collect();
+    assert_eq!(names, ["nucleus", "Cytosol", "label 7"]);
 }
 
 #[test]
