@@ -20,6 +20,25 @@ use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict};
 use std::path::PathBuf;
 
+/// The geometry a driver is given: dims (x, y, z), spacing, origin and, when given, the rows of
+/// the world directions of x, y and z.
+fn driver_geometry(
+    dims: [usize; 3],
+    spacing: Vec<f64>,
+    origin: Vec<f64>,
+    direction: Option<[[f64; 3]; 3]>,
+) -> PyResult<Geometry> {
+    let mut geometry = Geometry {
+        spacing: spacing3(spacing)?,
+        origin: triple(origin, "origin")?,
+        ..Geometry::new(dims)
+    };
+    if let Some(direction) = direction {
+        geometry.direction = direction;
+    }
+    Ok(geometry)
+}
+
 /// The progress of one task. A task is one tile, which a Dask worker runs to its end (seconds at
 /// most, for `tile_bytes` of samples): the driver counts finished tasks and stops handing out new
 /// ones on Ctrl-C or when its `progress` callback raises.
@@ -105,14 +124,7 @@ impl _TileExtraction {
         direction: Option<[[f64; 3]; 3]>,
     ) -> PyResult<Self> {
         let scalar_type = scalar_type_named(dtype, "dtype")?;
-        let mut geometry = Geometry {
-            spacing: spacing3(spacing)?,
-            origin: triple(origin, "origin")?,
-            ..Geometry::new(dims)
-        };
-        if let Some(direction) = direction {
-            geometry.direction = direction;
-        }
+        let geometry = driver_geometry(dims, spacing, origin, direction)?;
         let mut options = ExtractOptions::new(iso_arg(iso, iso_normalized)?);
         options.precision = precision.map(precision_arg).transpose()?;
         let value_range =
@@ -281,14 +293,7 @@ impl _LabelWriter {
         direction: Option<[[f64; 3]; 3]>,
     ) -> PyResult<Self> {
         let scalar_type = scalar_type_named(dtype, "dtype")?;
-        let mut geometry = Geometry {
-            spacing: spacing3(spacing)?,
-            origin: triple(origin, "origin")?,
-            ..Geometry::new(dims)
-        };
-        if let Some(direction) = direction {
-            geometry.direction = direction;
-        }
+        let geometry = driver_geometry(dims, spacing, origin, direction)?;
         let options = label_options(labels, smooth, precision)?;
         let inner = label_stream::LabelWriter::new(geometry, scalar_type, &options, &spool_dir)
             .map_err(to_py)?;

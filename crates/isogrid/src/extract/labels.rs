@@ -13,7 +13,7 @@
 //! with the number of labels.
 //!
 //! Blocks are processed in parallel, each into its own buffers numbered from its first cell; the
-//! buffers are then taken in block order by a [`LabelTally`], which gives each block its place
+//! buffers are then taken in block order by a `LabelTally`, which gives each block its place
 //! (its record, its first cell) and gathers the label table, cluster labels and index, and are
 //! concatenated with their cell pointers moved, so the grid is byte-identical for any thread
 //! count. The streamed and Dask extractions ([`super::label_stream`]) run the same pass on slabs

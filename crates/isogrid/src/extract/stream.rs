@@ -274,6 +274,7 @@ pub fn plan(source: &dyn RegionSource, max_memory: u64) -> Result<MemoryPlan> {
             halo: 0,
             per_thread,
             per_block: BLOCK_SCAN_BYTES,
+            per_volume_block: 0,
         },
     )
 }
@@ -287,6 +288,8 @@ pub(super) struct SlabCosts {
     pub per_thread: u64,
     /// Bytes per block of the slab held while it is processed.
     pub per_block: u64,
+    /// Bytes per block of the whole volume held for the whole run, besides the block table.
+    pub per_volume_block: u64,
 }
 
 /// [`plan`] for a pass of `costs`: the largest slab that fits, or the least budget that works.
@@ -301,7 +304,9 @@ pub(super) fn plan_slabs(
     let [nbx, nby, nbz] = geometry.cell_dims().map(|c| c.div_ceil(BLOCK_CELLS) as u64);
     let threads = rayon::current_num_threads() as u64;
     let scratch = threads * costs.per_thread;
-    let fixed = PROCESS_BASELINE + nbx * nby * nbz * BLOCK_TABLE_BYTES + scratch;
+    let fixed = PROCESS_BASELINE
+        + nbx * nby * nbz * (BLOCK_TABLE_BYTES + costs.per_volume_block)
+        + scratch;
     let slab_cost = |layers: u64| -> u64 {
         let planes = (16 * layers + 1 + 2 * costs.halo as u64).min(nz);
         // Saturating: a source may declare an overhead no budget holds (a huge Zarr chunk).
