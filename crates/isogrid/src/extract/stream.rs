@@ -304,9 +304,8 @@ pub(super) fn plan_slabs(
     let [nbx, nby, nbz] = geometry.cell_dims().map(|c| c.div_ceil(BLOCK_CELLS) as u64);
     let threads = rayon::current_num_threads() as u64;
     let scratch = threads * costs.per_thread;
-    let fixed = PROCESS_BASELINE
-        + nbx * nby * nbz * (BLOCK_TABLE_BYTES + costs.per_volume_block)
-        + scratch;
+    let fixed =
+        PROCESS_BASELINE + nbx * nby * nbz * (BLOCK_TABLE_BYTES + costs.per_volume_block) + scratch;
     let slab_cost = |layers: u64| -> u64 {
         let planes = (16 * layers + 1 + 2 * costs.halo as u64).min(nz);
         // Saturating: a source may declare an overhead no budget holds (a huge Zarr chunk).
