@@ -32,6 +32,9 @@
 //!
 //! The distributed extraction ([`super::tiles`]) reuses the same split: tiles scan independently,
 //! the prefix sums are global, emit jobs write independently into their ranges of the sections.
+//! The label stream ([`super::label_stream`]) reads its slabs through the same `Run` (with the
+//! smoothing halo's planes, [`Run::slabs_reaching`]) and sizes them with the same planner
+//! (`plan_slabs`, its costs given).
 
 use super::file_layout::FileLayout;
 use super::scalar::ExtractScalar;
