@@ -482,11 +482,7 @@ fn ctrl_c_stops_a_streamed_label_extract_and_leaves_no_output() {
     let dir = temp_dir("interrupt-labels");
     let dims = [256, 256, 288];
     let raw = dir.join("sv.raw");
-    let bytes: Vec<u8> = super::labels::supervoxels(dims)
-        .iter()
-        .flat_map(|v| v.to_le_bytes())
-        .collect();
-    std::fs::write(&raw, bytes).unwrap();
+    std::fs::write(&raw, supervoxel_bytes(dims)).unwrap();
     let out = dir.join("out.cgc");
     let args = [
         "extract",
@@ -511,6 +507,14 @@ fn ctrl_c_stops_a_streamed_label_extract_and_leaves_no_output() {
     std::fs::remove_dir_all(dir).unwrap();
 }
 
+/// [`super::labels::supervoxels`] as little-endian u32 bytes.
+fn supervoxel_bytes(dims: [usize; 3]) -> Vec<u8> {
+    super::labels::supervoxels(dims)
+        .iter()
+        .flat_map(|v| v.to_le_bytes())
+        .collect()
+}
+
 /// Ctrl-C during an in-memory label extraction (a `.npy`, read whole) stops it between blocks, as
 /// the streamed one does: exit 130, the old output kept, nothing else left.
 #[cfg(unix)]
@@ -519,11 +523,7 @@ fn ctrl_c_stops_an_in_memory_label_extract_and_leaves_no_output() {
     let dir = temp_dir("interrupt-labels-memory");
     let dims = [256, 256, 288];
     let npy = dir.join("sv.npy");
-    let bytes: Vec<u8> = super::labels::supervoxels(dims)
-        .iter()
-        .flat_map(|v| v.to_le_bytes())
-        .collect();
-    super::write_npy(&npy, "<u4", [288, 256, 256], &bytes);
+    super::write_npy(&npy, "<u4", [288, 256, 256], &supervoxel_bytes(dims));
     let out = dir.join("out.cgc");
     let args = ["extract", s(&npy), "--labels", "all", "-o", s(&out)];
     let stopped = interrupt_at(&args, &out, &[100, 300, 600, 1000, 1500], |new| {
