@@ -8,8 +8,13 @@ tables for docs/benchmarks-labels.md.
     python scripts/bench_labels.py            # needs isogrid (python/), vtk, nibabel, SimpleITK,
                                               # scipy in the running Python
     python scripts/bench_labels.py --smooth   # also the --smooth table (scipy)
+    python scripts/bench_labels.py --stream   # only the streamed table: `isogrid extract --labels`
+                                              # of 512³ supervoxels in memory and within
+                                              # --max-memory (the CLI of target/release, or
+                                              # $ISOGRID_CLI; numpy, scipy)
 """
 
+import hashlib
 import json
 import os
 import subprocess
@@ -188,7 +193,72 @@ def flips(a, sigma):
     return changed / total
 
 
+# The streamed figure: 512³ supervoxels, the Voronoi cells of 50,000 random seeds, as u16.
+STREAMED = (512, 50_000)
+
+
+def supervoxels_512():
+    """data/bench-labels-supervoxels512.npy (read whole by `isogrid extract`) and the same samples
+    as data/bench-labels-supervoxels512.raw (read by region, so streamed within --max-memory)."""
+    n, seeds = STREAMED
+    npy = os.path.join(DATA, "bench-labels-supervoxels512.npy")
+    raw = npy[: -len(".npy")] + ".raw"
+    if not (os.path.exists(npy) and os.path.exists(raw)):
+        from scipy.spatial import cKDTree
+
+        rng = np.random.default_rng(40)
+        tree = cKDTree(rng.uniform(0, n, size=(seeds, 3)))
+        labels = np.lib.format.open_memmap(npy, mode="w+", dtype=np.uint16, shape=(n, n, n))
+        y, x = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
+        for z in range(n):
+            points = np.stack([np.full(n * n, z), y.ravel(), x.ravel()], axis=-1)
+            labels[z] = (tree.query(points, workers=2)[1] + 1).reshape(n, n)
+        labels.flush()
+        labels.tofile(raw)
+        del labels
+    return npy, raw, n
+
+
+def timed_cli(args):
+    """Wall seconds and peak resident memory (bytes) of `isogrid args`, from GNU time."""
+    cli = os.environ.get("ISOGRID_CLI") or os.path.join(ROOT, "target", "release", "isogrid")
+    report = os.path.join(DATA, "bench-labels-time.txt")
+    subprocess.run(["/usr/bin/time", "-f", "%e %M", "-o", report, cli] + args, check=True,
+                   stdout=subprocess.DEVNULL)
+    with open(report) as f:
+        seconds, kib = f.read().split()[-2:]
+    os.remove(report)
+    return float(seconds), int(kib) * 1024
+
+
+def stream_table():
+    """`isogrid extract --labels all` of the 512³ supervoxels read whole (.npy) and streamed (raw,
+    `--max-memory`), one run each; the two files must be byte-identical."""
+    npy, raw, n = supervoxels_512()
+    out = os.path.join(DATA, "bench-labels-out.cgc")
+    print("| 512³ supervoxels, 50,000 labels | --max-memory | seconds | peak resident memory | .cgc |")
+    print("|---|---|---|---|---|")
+    outputs = []
+    for how, args in [
+        ("in memory (.npy read whole)", [npy]),
+        ("streamed (raw, read by region)", [raw, "--raw-shape", f"{n},{n},{n}", "--raw-type", "u16",
+                                            "--max-memory", "512M"]),
+        ("streamed (raw, read by region)", [raw, "--raw-shape", f"{n},{n},{n}", "--raw-type", "u16",
+                                            "--max-memory", "128M"]),
+    ]:
+        seconds, peak = timed_cli(["extract"] + args + ["--labels", "all", "-o", out])
+        budget = args[-1] if "--max-memory" in args else "-"
+        size = os.path.getsize(out)
+        outputs.append(hashlib.sha256(open(out, "rb").read()).hexdigest())
+        os.remove(out)
+        print(f"| {how} | {budget} | {seconds:.1f} | {mb(peak)} | {mb(size)} |", flush=True)
+    print(f"byte-identical: {len(set(outputs)) == 1}")
+
+
 def main():
+    if "--stream" in sys.argv:
+        stream_table()
+        return
     smooth_table = "--smooth" in sys.argv
     print("| volume | dims (x×y×z) | type | labels | tool | seconds | peak memory growth | active cells / vertices, quads | output bytes |")
     print("|---|---|---|---|---|---|---|---|---|")

@@ -217,3 +217,36 @@ class _TileExtraction:
         self, tile_blocks: Tuple[int, int, int], job_bytes: int
     ) -> List[Tuple[Tuple[Tuple[int, int], Tuple[int, int], Tuple[int, int]], bytes]]: ...
     def write(self, path: _Path, fragments: Iterable[bytes]) -> Dict[str, Any]: ...
+
+# Label extraction by slabs of block layers, driven by `isogrid.dask`.
+def _label_slab(
+    slab: npt.NDArray[Any],
+    volume_dims: Tuple[int, int, int],
+    layers: Tuple[int, int],
+    labels: str,
+    smooth: float,
+    precision: Optional[int] = None,
+) -> bytes: ...
+
+class _LabelWriter:
+    """Collects label slab fragments in any order and writes the `.cgc` file."""
+
+    def __new__(
+        cls,
+        dims: Tuple[int, int, int],
+        dtype: str,
+        spacing: Sequence[float],
+        origin: Sequence[float],
+        labels: str,
+        smooth: float,
+        spool_dir: _Path,
+        precision: Optional[int] = None,
+        direction: Optional[Sequence[Sequence[float]]] = None,
+    ) -> "_LabelWriter": ...
+    @property
+    def halo(self) -> int: ...
+    def planes(self, layers: Tuple[int, int]) -> Tuple[int, int]: ...
+    def add(self, fragment: bytes) -> None: ...
+    def write(
+        self, path: _Path, label_table: Optional[_Path] = None, names_of: Optional[_Path] = None
+    ) -> Tuple[Dict[str, Any], List[str]]: ...

@@ -33,6 +33,16 @@ are the same bytes). The driver holds 21 bytes per block and one result at a tim
 holds one tile. Tasks read the source's chunks themselves, each pass being one graph, so that a
 chunk two tiles read (one holding a halo) is computed once per pass.
 
+**Label volumes** (``labels=``, as ``isogrid extract --labels``) go by *slabs* of whole block
+layers instead, each a task: a label's block reads its 17 samples per axis plus, with
+``smooth=σ``, the Gaussian's radius ⌈3σ⌉ more on every side, so a slab of layers ``l0..l1``
+reads the planes ``16·l0 − r .. 16·l1 + r`` (clipped), whole in x and y. Each task runs the label
+pass on its slab and returns its blocks' labels, counts and output; the driver keeps the output
+in a scratch file beside ``output``, adds the counts up in block order as slabs arrive (in any
+order), and writes the file once every slab is in: byte-identical to
+``isogrid.extract(volume, labels=...).save(output)`` and to ``isogrid extract --labels`` streamed
+within ``--max-memory``, for any slab size and worker count.
+
 Axes: a Zarr store or group is read as ``isogrid extract`` reads it (OME-Zarr levels, axes by
 name, ``index`` for the others, spacing and origin from the metadata), by the same Rust code.
 Any other source is indexed ``[z, y, x]`` (NumPy's C order): its last axis is x, the one that
@@ -58,7 +68,7 @@ try:
 except ImportError as err:  # pragma: no cover - depends on the environment
     raise ImportError("isogrid.dask needs dask: pip install 'isogrid[dask]'") from err
 
-from . import _isogrid, _int, _iso_pair, _prepare, _sample_dtype, _triple, _warn_if_empty
+from . import _isogrid, _int, _iso_pair, _label_selection, _prepare, _sample_dtype, _triple, _warn_if_empty
 
 __all__ = ["extract"]
 
@@ -85,6 +95,9 @@ def extract(
     attribute: Any = None,
     attribute_precision: int = 16,
     progress: Optional[Callable[[int, int], Any]] = None,
+    labels: Any = None,
+    smooth: Optional[float] = None,
+    label_table: "Optional[str | os.PathLike[str]]" = None,
 ) -> Dict[str, Any]:
     """Extracts the active cells of a 3-D volume on Dask and writes them to the ``.cgc`` ``output``.
 
@@ -121,6 +134,15 @@ def extract(
             once the surface is extracted; the file is the one ``isogrid.extract(...,
             attribute=...)`` writes.
         attribute_precision: bits per stored attribute value, 8, 16 or 32.
+        labels: instead of an isovalue, the surface of each label of a label volume, as
+            :func:`isogrid.extract` takes it (``"all"``, a label, a list, or ``"1,5-9"``); the
+            statistics then list the labels (``stats["labels"]``, as ``LabelGrid.labels``). An
+            OME-Zarr label image's ``image-label`` names and colours apply when ``source`` is
+            its local path.
+        smooth: with ``labels``, the σ in voxels of the Gaussian that smooths each indicator
+            (default 0, none).
+        label_table: with ``labels``, a colour table file that names and colours the labels
+            (FreeSurfer LUT, 3D Slicer ``.ctbl`` or ITK-SNAP), over the image's own names.
         progress: called as ``progress(done, total)`` in this process each time a task finishes:
             ``done`` tasks (tiles, then emit jobs) out of the ``total`` planned so far, which
             grows by the emit jobs once the tiles are counted. If it raises, or on Ctrl-C
@@ -137,12 +159,17 @@ def extract(
     if progress is not None and not callable(progress):
         raise ValueError("progress must be a callable taking (done, total)")
     counter = _Counter(progress)
-    iso, iso_normalized = _iso_pair(iso, iso_normalized)
+    if labels is None:
+        if smooth is not None or label_table is not None:
+            raise ValueError("smooth and label_table apply to labels=, and need it")
+        iso, iso_normalized = _iso_pair(iso, iso_normalized)
+    elif iso is not None or iso_normalized is not None or attribute is not None:
+        raise ValueError("labels takes the place of iso and iso_normalized, and has no attribute")
     bits = None if precision is None else _int(precision, "precision")
     # Checked here, by the Rust rule, so that a typo fails before the value-range pass.
     if bits is not None:
         _isogrid._check_precision(bits)
-    if iso_normalized is not None and not 0.0 <= iso_normalized <= 1.0:
+    if labels is None and iso_normalized is not None and not 0.0 <= iso_normalized <= 1.0:
         raise ValueError(f"normalised isovalue {iso_normalized} is outside [0, 1]")
     budget = _int(tile_bytes, "tile_bytes", 1)
     out = os.fspath(output)
@@ -165,6 +192,17 @@ def extract(
     read = time.perf_counter() - start
 
     run = _Runner(_client(client))
+    if labels is not None:
+        writer = _isogrid._LabelWriter(
+            (nx, ny, nz), dtype.name, spacing3, origin3, _label_selection(labels),
+            0.0 if smooth is None else float(smooth), parent, bits, geometry["direction"]
+        )
+        names_of = os.fspath(source) if isinstance(source, (str, os.PathLike)) else None
+        stats = _extract_labels(array, writer, run, counter, budget, (nx, ny, nz), dtype.itemsize,
+                                _label_selection(labels), 0.0 if smooth is None else float(smooth), bits,
+                                out, label_table, names_of)
+        stats["seconds"] = {"read": read, "extract": time.perf_counter() - start - read, "write": 0.0}
+        return stats
     blocks = 1
     for n in (nx, ny, nz):
         blocks *= -(-(n - 1) // BLOCK_CELLS)
@@ -228,6 +266,37 @@ def extract(
         # As isogrid.extract warns; the empty grid's file is small, its header says why.
         _warn_if_empty(_isogrid.load(out))
     return stats
+
+
+def _extract_labels(array: "da.Array", writer: Any, run: "_Runner", counter: "_Counter", budget: int,
+                    dims: Tuple[int, int, int], itemsize: int, selection: str, smooth: float, bits: Optional[int],
+                    out: str, label_table: Any, names_of: Optional[str]) -> Dict[str, Any]:
+    """`labels=` of :func:`extract`: one task per slab of block layers, whose planes (its own and
+    the smoothing halo) take about half of `budget`, the other half being left for its output."""
+    nx, ny, nz = dims
+    layers = -(-(nz - 1) // BLOCK_CELLS) if min(dims) > 1 else 0
+    plane = nx * ny * itemsize
+    # Planes of a slab of k layers: 16·k + 1, and the halo on both sides.
+    step = max(1, (budget // 2 // plane - 1 - 2 * writer.halo) // BLOCK_CELLS)
+    slabs = []
+    for l0 in range(0, layers, step):
+        l1 = min(l0 + step, layers)
+        z0, z1 = writer.planes((l0, l1))
+        slabs.append((((0, nx), (0, ny), (z0, z1)), (dims, (l0, l1), selection, smooth, bits)))
+    chunks = _Chunks(array)
+    for fragment in counter.counted(run.as_completed(chunks.tasks(_label_slab, slabs)), len(slabs)):
+        writer.add(fragment)
+    stats, notices = writer.write(out, None if label_table is None else os.fspath(label_table), names_of)
+    for notice in notices:
+        warnings.warn(notice, stacklevel=3)
+    return stats
+
+
+def _label_slab(pieces: List[np.ndarray], places: List[Tuple[int, int, int]], shape: Tuple[int, int, int],
+                dims: Tuple[int, int, int], layers: Tuple[int, int], selection: str, smooth: float,
+                bits: Optional[int]) -> bytes:
+    """Task: the label pass over one slab of block layers (GIL released in Rust)."""
+    return _isogrid._label_slab(_assemble(pieces, places, shape), dims, layers, selection, smooth, bits)
 
 
 class _Counter:

@@ -273,6 +273,33 @@ pub(crate) type AttributeArg<'a, 'py> = (
 
 /// `stats` as a dict with the names of the CLI's `--json` output (without `seconds`), with the
 /// grid's `attribute` (`None` without one) as `isogrid extract --color-by --json` gives it.
+/// Labels as `LabelGrid.labels` lists them (`signed`: values shown with their sign).
+pub fn label_dicts<'py>(
+    py: Python<'py>,
+    table: &[isogrid::Label],
+    index: &[isogrid::labels::LabelEntry],
+    signed: bool,
+) -> PyResult<Vec<Bound<'py, PyDict>>> {
+    table
+        .iter()
+        .zip(index)
+        .map(|(label, entry)| {
+            let d = PyDict::new(py);
+            if signed {
+                d.set_item("value", label.value as i64)?;
+            } else {
+                d.set_item("value", label.value)?;
+            }
+            d.set_item("name", &label.name)?;
+            d.set_item("color", label.color_hex())?;
+            d.set_item("cells", entry.cell_count)?;
+            d.set_item("lo", entry.lo.to_vec())?;
+            d.set_item("hi", entry.hi.to_vec())?;
+            Ok(d)
+        })
+        .collect()
+}
+
 pub fn stats_dict<'py>(
     py: Python<'py>,
     s: &GridStats,
@@ -504,26 +531,7 @@ impl CellGrid {
             return Ok(None);
         };
         let signed = isogrid::labels::signed_labels(self.inner.info().scalar_type);
-        labels
-            .table()
-            .iter()
-            .zip(labels.index())
-            .map(|(label, entry)| {
-                let d = PyDict::new(py);
-                if signed {
-                    d.set_item("value", label.value as i64)?;
-                } else {
-                    d.set_item("value", label.value)?;
-                }
-                d.set_item("name", &label.name)?;
-                d.set_item("color", label.color_hex())?;
-                d.set_item("cells", entry.cell_count)?;
-                d.set_item("lo", entry.lo.to_vec())?;
-                d.set_item("hi", entry.hi.to_vec())?;
-                Ok(d)
-            })
-            .collect::<PyResult<Vec<_>>>()
-            .map(Some)
+        label_dicts(py, labels.table(), labels.index(), signed).map(Some)
     }
 
     /// The label of every cluster, as an index into `labels` (uint32, one per 16 metacell slots);

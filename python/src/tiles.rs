@@ -3,18 +3,41 @@
 //! sides: one pass, or a scan and then an emit), and the coordinating object that collects their
 //! fragments, plans emit jobs and writes the `.cgc` file from their output.
 //!
+//! Label volumes go by slabs of whole block layers instead (`isogrid::extract::label_stream`):
+//! `_label_slab` runs the label pass on one, and `_LabelWriter` puts the file together.
+//!
 //! Tasks take a C-ordered array of shape (z, y, x) and return bytes; they run with the GIL
 //! released, on rayon's global pool. Blocks and sample ranges cross as (x, y, z).
 
 use crate::array::{spacing3, triple, VolumeArg};
 use crate::errors::{invalid, to_py};
-use crate::grid::{iso_arg, precision_arg, stats_dict};
+use crate::grid::{iso_arg, label_dicts, precision_arg, stats_dict};
 use crate::volume_io::scalar_type_named;
+use isogrid::extract::label_stream;
 use isogrid::extract::tiles::{self, EmitJob};
-use isogrid::{ExtractOptions, Geometry};
+use isogrid::{ExtractOptions, Geometry, LabelOptions, LabelSelection};
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict};
 use std::path::PathBuf;
+
+/// The geometry a driver is given: dims (x, y, z), spacing, origin and, when given, the rows of
+/// the world directions of x, y and z.
+fn driver_geometry(
+    dims: [usize; 3],
+    spacing: Vec<f64>,
+    origin: Vec<f64>,
+    direction: Option<[[f64; 3]; 3]>,
+) -> PyResult<Geometry> {
+    let mut geometry = Geometry {
+        spacing: spacing3(spacing)?,
+        origin: triple(origin, "origin")?,
+        ..Geometry::new(dims)
+    };
+    if let Some(direction) = direction {
+        geometry.direction = direction;
+    }
+    Ok(geometry)
+}
 
 /// The progress of one task. A task is one tile, which a Dask worker runs to its end (seconds at
 /// most, for `tile_bytes` of samples): the driver counts finished tasks and stops handing out new
@@ -101,14 +124,7 @@ impl _TileExtraction {
         direction: Option<[[f64; 3]; 3]>,
     ) -> PyResult<Self> {
         let scalar_type = scalar_type_named(dtype, "dtype")?;
-        let mut geometry = Geometry {
-            spacing: spacing3(spacing)?,
-            origin: triple(origin, "origin")?,
-            ..Geometry::new(dims)
-        };
-        if let Some(direction) = direction {
-            geometry.direction = direction;
-        }
+        let geometry = driver_geometry(dims, spacing, origin, direction)?;
         let mut options = ExtractOptions::new(iso_arg(iso, iso_normalized)?);
         options.precision = precision.map(precision_arg).transpose()?;
         let value_range =
@@ -207,5 +223,160 @@ impl _TileExtraction {
             return Err(err);
         }
         stats_dict(py, &summary.map_err(to_py)?.stats, None)
+    }
+}
+
+/// The label options of a Dask label extraction: the selection text (`all`, `1,5-9`), σ and
+/// corner bits.
+fn label_options(labels: &str, smooth: f64, precision: Option<u32>) -> PyResult<LabelOptions> {
+    Ok(LabelOptions {
+        selection: LabelSelection::parse(labels).map_err(to_py)?,
+        smooth,
+        precision: precision.map(precision_arg).transpose()?,
+    })
+}
+
+/// One task of a label extraction: the fragment of block layers `layers` (z0, z1) of a volume of
+/// `volume_dims` (x, y, z), from `slab`, the planes `_LabelWriter.planes` names, whole in x and y.
+#[pyfunction]
+#[pyo3(signature = (slab, volume_dims, layers, labels, smooth, precision=None))]
+pub fn _label_slab<'py>(
+    py: Python<'py>,
+    slab: &Bound<'py, PyAny>,
+    volume_dims: [usize; 3],
+    layers: (usize, usize),
+    labels: &str,
+    smooth: f64,
+    precision: Option<u32>,
+) -> PyResult<Bound<'py, PyBytes>> {
+    let options = label_options(labels, smooth, precision)?;
+    let slab = VolumeArg::new(slab, false, [1.0; 3])?;
+    let view = slab.view()?;
+    let fragment = py
+        .detach(move || {
+            label_stream::label_fragment(
+                &view,
+                volume_dims,
+                layers.0..layers.1,
+                &options,
+                &task_progress(),
+            )
+        })
+        .map_err(to_py)?;
+    Ok(PyBytes::new(py, &fragment))
+}
+
+/// The coordinating side of a label extraction on Dask: slab fragments in (any order), the file
+/// out, byte-identical to the in-memory and streamed extractions.
+#[pyclass(module = "isogrid")]
+pub struct _LabelWriter {
+    inner: Option<label_stream::LabelWriter>,
+    options: LabelOptions,
+    dims: [usize; 3],
+}
+
+#[pymethods]
+impl _LabelWriter {
+    /// `dims` (nx, ny, nz); `labels` the selection text; the scratch file goes in `spool_dir`.
+    #[new]
+    #[pyo3(signature = (dims, dtype, spacing, origin, labels, smooth, spool_dir, precision=None, direction=None))]
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        dims: [usize; 3],
+        dtype: &str,
+        spacing: Vec<f64>,
+        origin: Vec<f64>,
+        labels: &str,
+        smooth: f64,
+        spool_dir: PathBuf,
+        precision: Option<u32>,
+        direction: Option<[[f64; 3]; 3]>,
+    ) -> PyResult<Self> {
+        let scalar_type = scalar_type_named(dtype, "dtype")?;
+        let geometry = driver_geometry(dims, spacing, origin, direction)?;
+        let options = label_options(labels, smooth, precision)?;
+        let inner = label_stream::LabelWriter::new(geometry, scalar_type, &options, &spool_dir)
+            .map_err(to_py)?;
+        Ok(_LabelWriter {
+            inner: Some(inner),
+            options,
+            dims,
+        })
+    }
+
+    /// Planes a slab reads beyond its own on each side: the smoothing kernel's radius `⌈3σ⌉`.
+    #[getter]
+    fn halo(&self) -> usize {
+        isogrid::extract::labels::label_halo(self.options.smooth)
+    }
+
+    /// The sample planes (z0, z1) that the slab of block layers (l0, l1) reads: its own and the
+    /// smoothing halo (`⌈3σ⌉` planes each side), clipped to the volume.
+    fn planes(&self, layers: (usize, usize)) -> PyResult<(usize, usize)> {
+        let z = label_stream::fragment_planes(self.dims, layers.0..layers.1, &self.options)
+            .map_err(to_py)?;
+        Ok((z.start, z.end))
+    }
+
+    /// Adds a slab's fragment (slabs in any order, each block exactly once).
+    fn add(&mut self, fragment: &[u8]) -> PyResult<()> {
+        self.writer()?.add_fragment(fragment).map_err(to_py)
+    }
+
+    /// Writes `path` atomically, the labels named by the local OME-Zarr label image `names_of`
+    /// (its `image-label` metadata, if any), then by the colour table `label_table`; returns the
+    /// statistics with the labels, and the notices (a table's labels the grid lacks).
+    #[pyo3(signature = (path, label_table=None, names_of=None))]
+    fn write<'py>(
+        &mut self,
+        py: Python<'py>,
+        path: PathBuf,
+        label_table: Option<PathBuf>,
+        names_of: Option<PathBuf>,
+    ) -> PyResult<(Bound<'py, PyDict>, Vec<String>)> {
+        let table = label_table
+            .as_deref()
+            .map(isogrid_io::labels::read_label_table)
+            .transpose()
+            .map_err(to_py)?;
+        let names = match names_of.as_deref().filter(|p| p.is_dir()) {
+            Some(dir) => isogrid_io::labels::ome_label_names(dir).map_err(to_py)?,
+            None => Vec::new(),
+        };
+        let writer = self
+            .inner
+            .take()
+            .ok_or_else(|| invalid("this label extraction was written already"))?;
+        let mut absent = Vec::new();
+        let summary = py
+            .detach(|| {
+                writer.write(&path, &isogrid::Progress::new(), &mut |labels| {
+                    isogrid_io::labels::name_labels(labels, &names);
+                    if let Some(table) = &table {
+                        absent = isogrid_io::labels::name_labels(labels, table);
+                    }
+                })
+            })
+            .map_err(to_py)?;
+        let signed = isogrid::labels::signed_labels(summary.info.scalar_type);
+        let stats = stats_dict(py, &summary.stats, None)?;
+        stats.set_item(
+            "labels",
+            label_dicts(py, &summary.table, &summary.index, signed)?,
+        )?;
+        let notices = label_table
+            .as_deref()
+            .and_then(|t| isogrid_io::labels::absent_labels_notice(t, &absent, signed))
+            .into_iter()
+            .collect();
+        Ok((stats, notices))
+    }
+}
+
+impl _LabelWriter {
+    fn writer(&mut self) -> PyResult<&mut label_stream::LabelWriter> {
+        self.inner
+            .as_mut()
+            .ok_or_else(|| invalid("this label extraction was written already"))
     }
 }

@@ -167,13 +167,25 @@ impl GridReport {
     }
 
     /// The report with the grid's labels, when it has them.
-    pub fn with_labels(mut self, grid: &CellGrid) -> Self {
+    pub fn with_labels(self, grid: &CellGrid) -> Self {
         let signed = isogrid::labels::signed_labels(grid.info().scalar_type);
-        self.labels = grid.labels().map(|labels| {
-            labels
-                .table()
+        match grid.labels() {
+            Some(labels) => self.with_label_table(labels.table(), labels.index(), signed),
+            None => self,
+        }
+    }
+
+    /// The labels of a label grid from its table and index (`signed`: how values are shown).
+    pub fn with_label_table(
+        mut self,
+        table: &[isogrid::labels::Label],
+        index: &[isogrid::labels::LabelEntry],
+        signed: bool,
+    ) -> Self {
+        self.labels = Some(
+            table
                 .iter()
-                .zip(labels.index())
+                .zip(index)
                 .map(|(label, entry)| LabelReport {
                     value: if signed {
                         LabelValue::Signed(label.value as i64)
@@ -186,8 +198,8 @@ impl GridReport {
                     lo: entry.lo,
                     hi: entry.hi,
                 })
-                .collect()
-        });
+                .collect(),
+        );
         self
     }
 

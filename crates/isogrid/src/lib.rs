@@ -54,7 +54,7 @@ pub use attribute::{AttributeInfo, AttributePrecision, CellAttribute, CodeMappin
 pub use camera::{Camera, Ray};
 pub use env_map::EnvMap;
 pub use error::{Error, ErrorKind, Result, ResultExt};
-pub use extract::labels::{extract_labels, LabelOptions};
+pub use extract::labels::{extract_labels, extract_labels_with_progress, LabelOptions};
 pub use extract::{extract, extract_with_progress, ExtractOptions, Iso};
 pub use grid::{CellGrid, GridInfo};
 pub use label_merge::merge_label_grids;

@@ -2,7 +2,9 @@
 //!
 //! Inputs that can be read by region (Zarr, OME-Zarr, TIFF slice folders, raw, uncompressed NRRD
 //! and NIfTI) are extracted slab by slab within `--max-memory` and written as they go
-//! ([`isogrid::extract::stream`]); the others are read whole first. Both give the same bytes.
+//! ([`isogrid::extract::stream`]; with `--labels`, [`isogrid::extract::label_stream`], NRRD
+//! aside, which may be a layered Slicer segmentation); the others are read whole first. Both give
+//! the same bytes.
 
 use crate::args::{parse_precision, parse_size, InputArgs, IsoArgs, ThreadArgs};
 use crate::color_by::{parse_attribute_precision, AttributeInput, DEFAULT_PRECISION};
@@ -11,6 +13,7 @@ use crate::report::{print_json, AttributeReport, GridReport, Seconds};
 use crate::{input, progress};
 use anyhow::{Context, Result};
 use isogrid::extract::stream::{self, RegionSource};
+use isogrid::labels::{Label, LabelEntry};
 use isogrid::{
     AttributePrecision, CellGrid, ExtractOptions, GridStats, LabelOptions, LabelSelection,
     Precision, Progress,
@@ -157,15 +160,11 @@ fn print_report(args: &Args, report: &GridReport) -> Result<()> {
     }
 }
 
-/// `--labels`: the whole volume in memory, every selected label's surface in one pass, the file.
+/// `--labels`: every selected label's surface in one pass over the volume, then the file: slab
+/// by slab within `--max-memory` where the input reads by region, else the whole volume in
+/// memory. Both give the same bytes, named and coloured the same way.
 fn run_labels(args: Args) -> Result<()> {
     let selection = args.labels.clone().expect("called with --labels");
-    if args.max_memory.is_some() {
-        anyhow::bail!(
-            "{}: --labels reads the whole volume; it cannot stream within --max-memory yet",
-            args.input.display()
-        );
-    }
     let output = args.output.as_deref().map(|path| Output {
         role: "the grid",
         path,
@@ -181,34 +180,58 @@ fn run_labels(args: Args) -> Result<()> {
         Some(path) => Some(isogrid_io::labels::read_label_table(path)?),
         None => None,
     };
-    let (source, read) =
-        input::read_label_volume(&args.input, args.labels_of.as_deref(), &read_options)?;
     let options = LabelOptions {
         selection: selection.clone(),
         smooth: args.smooth.unwrap_or(DEFAULT_SMOOTH),
         precision: args.precision,
     };
-    let spinner = progress::spinner("extracting labels".into());
     let start = Instant::now();
-    let mut grid = pool
-        .install(|| isogrid_io::labels::extract_label_volume(&source, &options))
-        .with_context(|| format!("{}: label extraction failed", args.input.display()))?;
-    let extract_seconds = start.elapsed().as_secs_f64();
-    spinner.finish_and_clear();
-    if let (Some(table), Some(path)) = (&table, &args.label_table) {
-        let absent = isogrid_io::labels::apply_label_names(&mut grid, table);
-        let signed = isogrid::labels::signed_labels(grid.info().scalar_type);
+    let region = isogrid_io::labels::open_label_region(
+        &args.input,
+        args.labels_of.as_deref(),
+        &read_options,
+    )?;
+    let (stats, labels, absent, seconds) = match region {
+        Some((mut source, names)) => {
+            let read = start.elapsed().as_secs_f64();
+            let max_memory = budget(args.max_memory);
+            let (summary, absent) = pool.install(|| {
+                stream_labels(
+                    &args,
+                    source.as_mut(),
+                    &options,
+                    max_memory,
+                    &names,
+                    table.as_deref(),
+                )
+            })?;
+            let seconds = Seconds {
+                read,
+                extract: start.elapsed().as_secs_f64() - read,
+                write: 0.0,
+            };
+            let labels = (summary.info.scalar_type, summary.table, summary.index);
+            (summary.stats, labels, absent, seconds)
+        }
+        None => labels_in_memory(&args, &read_options, &options, &pool, table.as_deref())?,
+    };
+    let (scalar_type, table_written, index) = labels;
+    let signed = isogrid::labels::signed_labels(scalar_type);
+    if let (Some(path), Some(_)) = (&args.label_table, &table) {
         if let Some(notice) = isogrid_io::labels::absent_labels_notice(path, &absent, signed) {
             eprintln!("isogrid: note: {notice}");
         }
     }
-    let labels = grid.labels().expect("a label grid has labels");
     if let LabelSelection::Values(ranges) = &selection {
         // A single value asked for and absent is worth a line; ranges may have gaps.
-        let signed = isogrid::labels::signed_labels(grid.info().scalar_type);
         let missing: Vec<String> = ranges
             .iter()
-            .filter(|r| r.start() == r.end() && labels.find(*r.start()).is_none())
+            .filter(|r| {
+                r.start() == r.end()
+                    && table_written
+                        .binary_search_by_key(r.start(), |l| l.value)
+                        .is_err()
+            })
             .map(|r| isogrid::labels::display_value(*r.start(), signed))
             .collect();
         if !missing.is_empty() {
@@ -219,28 +242,109 @@ fn run_labels(args: Args) -> Result<()> {
             );
         }
     }
-    if labels.table().is_empty() {
+    if table_written.is_empty() {
         eprintln!(
             "isogrid: note: {}: the volume holds no selected label; the surface is empty",
             args.input.display()
         );
     }
+    let report = GridReport::new(&stats, seconds).with_label_table(&table_written, &index, signed);
+    print_report(&args, &report)
+}
+
+/// A label extraction's statistics; its sample type, label table and index; the colour table's
+/// labels it lacks; and its times.
+type LabelsDone = (
+    GridStats,
+    (isogrid::ScalarType, Vec<Label>, Vec<LabelEntry>),
+    Vec<u64>,
+    Seconds,
+);
+
+/// The whole label volume in memory (any reader, a layered `.seg.nrrd` included), then the grid,
+/// then the file.
+fn labels_in_memory(
+    args: &Args,
+    read_options: &isogrid_io::ReadOptions,
+    options: &LabelOptions,
+    pool: &rayon::ThreadPool,
+    table: Option<&[Label]>,
+) -> Result<LabelsDone> {
+    let (source, read) =
+        input::read_label_volume(&args.input, args.labels_of.as_deref(), read_options)?;
+    let start = Instant::now();
+    let progress = Arc::new(Progress::new());
+    let grid = progress::watched("extracting labels", &progress, || {
+        pool.install(|| {
+            isogrid_io::labels::extract_label_volume_with_progress(&source, options, &progress)
+        })
+    });
+    let mut grid = stopped_or(grid, args)?;
+    let extract = start.elapsed().as_secs_f64();
+    let absent = table.map_or(Vec::new(), |t| {
+        isogrid_io::labels::apply_label_names(&mut grid, t)
+    });
     let mut write = 0.0;
     if let Some(out) = &args.output {
         let start = Instant::now();
         isogrid::cgc::write(out, &grid)?;
         write = start.elapsed().as_secs_f64();
     }
-    let report = GridReport::new(
-        &GridStats::of(&grid),
+    let labels = grid.labels().expect("a label grid has labels");
+    Ok((
+        GridStats::of(&grid),
+        (
+            grid.info().scalar_type,
+            labels.table().to_vec(),
+            labels.index().to_vec(),
+        ),
+        absent,
         Seconds {
             read,
-            extract: extract_seconds,
+            extract,
             write,
         },
-    )
-    .with_labels(&grid);
-    print_report(&args, &report)
+    ))
+}
+
+/// Slab by slab into `--output` (or a scratch file that is removed, for the statistics alone),
+/// under a progress bar that Ctrl-C stops, with nothing written. The labels get the file's names
+/// (`names`), then the colour table's; returns the table's labels the grid lacks.
+fn stream_labels(
+    args: &Args,
+    source: &mut dyn RegionSource,
+    options: &LabelOptions,
+    max_memory: u64,
+    names: &[Label],
+    table: Option<&[Label]>,
+) -> Result<(isogrid::extract::label_stream::LabelSummary, Vec<u64>)> {
+    use isogrid::extract::label_stream;
+    // Checked before the pass, so a budget too small fails at once.
+    label_stream::plan_labels(source, options, max_memory)
+        .with_context(|| format!("{}", args.input.display()))?;
+    let target = args
+        .output
+        .clone()
+        .unwrap_or_else(|| std::env::temp_dir().join("isogrid-extract.cgc"));
+    let scratch = args
+        .output
+        .is_none()
+        .then(|| isogrid::fs::ScratchFile::beside(&target, "labels.tmp"))
+        .transpose()?;
+    let out: &Path = scratch.as_ref().map_or(target.as_path(), |s| s.path());
+    let progress = Arc::new(Progress::new());
+    let mut absent = Vec::new();
+    let mut name = |labels: &mut [Label]| {
+        isogrid_io::labels::name_labels(labels, names);
+        if let Some(table) = table {
+            absent = isogrid_io::labels::name_labels(labels, table);
+        }
+    };
+    let result = progress::watched("extracting labels", &progress, || {
+        label_stream::extract_labels_to_file(source, options, max_memory, out, &progress, &mut name)
+    });
+    let summary = stopped_or(result, args)?;
+    Ok((summary, absent))
 }
 
 /// The whole volume in memory, then the grid, then the file.

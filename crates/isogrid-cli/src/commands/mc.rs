@@ -39,6 +39,14 @@ pub struct Args {
     /// none [default: 0].
     #[arg(long, value_name = "SIGMA", requires = "labels")]
     pub smooth: Option<f64>,
+    /// With --labels: name and colour the labels from a colour table (FreeSurfer LUT, 3D Slicer
+    /// `.ctbl` or ITK-SNAP label description), over the names the volume's file gives, as
+    /// `isogrid extract --label-table` does.
+    #[arg(long, value_name = "FILE", requires = "labels")]
+    pub label_table: Option<PathBuf>,
+    /// With --labels and an OME-Zarr image: mesh its label image NAME (`INPUT/labels/NAME`).
+    #[arg(long, value_name = "NAME", requires = "labels")]
+    pub labels_of: Option<String>,
     /// Print one JSON object instead of a table.
     #[arg(long)]
     pub json: bool,
@@ -210,7 +218,9 @@ fn run_labels(args: Args) -> Result<()> {
             path,
             extensions: &[".glb"],
         };
-        outputs::check(&[args.input.as_path()], &[glb])?;
+        let mut inputs = vec![args.input.as_path()];
+        inputs.extend(args.label_table.as_deref());
+        outputs::check(&inputs, &[glb])?;
     }
     if let Some(LabelOutput::Precomputed(path)) = output {
         if path.symlink_metadata().is_ok() {
@@ -222,8 +232,14 @@ fn run_labels(args: Args) -> Result<()> {
     }
     let read_options = args.input_args.read_options()?;
     let pool = args.threads.pool()?;
+    // The table first: a malformed one fails before the volume is read.
+    let table = match &args.label_table {
+        Some(path) => Some(isogrid_io::labels::read_label_table(path)?),
+        None => None,
+    };
     // Read as `extract --labels` reads it: a .seg.nrrd's segments, layers, names and colours.
-    let (source, read) = input::read_label_volume(&args.input, None, &read_options)?;
+    let (source, read) =
+        input::read_label_volume(&args.input, args.labels_of.as_deref(), &read_options)?;
     let options = LabelOptions {
         selection,
         smooth: args.smooth.unwrap_or(super::extract::DEFAULT_SMOOTH),
@@ -231,9 +247,13 @@ fn run_labels(args: Args) -> Result<()> {
     };
     let spinner = progress::spinner("meshing labels".into());
     let start = Instant::now();
+    let mut absent = Vec::new();
     let (grid, mut meshes) = pool
         .install(|| -> isogrid::Result<_> {
-            let grid = isogrid_io::labels::extract_label_volume(&source, &options)?;
+            let mut grid = isogrid_io::labels::extract_label_volume(&source, &options)?;
+            if let Some(table) = &table {
+                absent = isogrid_io::labels::apply_label_names(&mut grid, table);
+            }
             let meshes = label_meshes(&grid)?;
             Ok((grid, meshes))
         })
@@ -248,6 +268,11 @@ fn run_labels(args: Args) -> Result<()> {
     spinner.finish_and_clear();
     let labels = grid.labels().expect("a label grid has labels");
     let signed = isogrid::labels::signed_labels(grid.info().scalar_type);
+    if let Some(path) = &args.label_table {
+        if let Some(notice) = isogrid_io::labels::absent_labels_notice(path, &absent, signed) {
+            eprintln!("isogrid: note: {notice}");
+        }
+    }
     let values: Vec<String> = labels
         .table()
         .iter()

@@ -473,6 +473,68 @@ fn ctrl_c_stops_a_streamed_extract_and_leaves_no_output() {
     std::fs::remove_dir_all(dir).unwrap();
 }
 
+/// Ctrl-C during a streamed label extraction (`--labels` within `--max-memory`, a raw volume read
+/// by region) stops it within a read or a block: exit 130, the old output kept, and no temporary
+/// or scratch file left.
+#[cfg(unix)]
+#[test]
+fn ctrl_c_stops_a_streamed_label_extract_and_leaves_no_output() {
+    let dir = temp_dir("interrupt-labels");
+    let dims = [256, 256, 288];
+    let raw = dir.join("sv.raw");
+    std::fs::write(&raw, supervoxel_bytes(dims)).unwrap();
+    let out = dir.join("out.cgc");
+    let args = [
+        "extract",
+        s(&raw),
+        "--raw-shape",
+        "256,256,288",
+        "--raw-type",
+        "u32",
+        "--labels",
+        "all",
+        "--max-memory",
+        "64M",
+        "-o",
+        s(&out),
+    ];
+    let stopped = interrupt_at(&args, &out, &[20, 100, 300, 600, 1000], |new| {
+        isogrid_info_reads(new)
+    });
+    assert!(stopped
+        .iter()
+        .any(|m| m.contains("extraction stopped by Ctrl-C, nothing written")));
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+/// [`super::labels::supervoxels`] as little-endian u32 bytes.
+fn supervoxel_bytes(dims: [usize; 3]) -> Vec<u8> {
+    super::labels::supervoxels(dims)
+        .iter()
+        .flat_map(|v| v.to_le_bytes())
+        .collect()
+}
+
+/// Ctrl-C during an in-memory label extraction (a `.npy`, read whole) stops it between blocks, as
+/// the streamed one does: exit 130, the old output kept, nothing else left.
+#[cfg(unix)]
+#[test]
+fn ctrl_c_stops_an_in_memory_label_extract_and_leaves_no_output() {
+    let dir = temp_dir("interrupt-labels-memory");
+    let dims = [256, 256, 288];
+    let npy = dir.join("sv.npy");
+    super::write_npy(&npy, "<u4", [288, 256, 256], &supervoxel_bytes(dims));
+    let out = dir.join("out.cgc");
+    let args = ["extract", s(&npy), "--labels", "all", "-o", s(&out)];
+    let stopped = interrupt_at(&args, &out, &[100, 300, 600, 1000, 1500], |new| {
+        isogrid_info_reads(new)
+    });
+    assert!(stopped
+        .iter()
+        .any(|m| m.contains("extraction stopped by Ctrl-C, nothing written")));
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
 /// Runs `isogrid args` and sends it SIGINT after each of `delays_ms`, checking that `out` (which
 /// holds "old" before each run) and its folder come out whole: either the command finished (a
 /// complete new `out`, as `complete` says), or it stopped with exit 130 in one line, within 2 s,

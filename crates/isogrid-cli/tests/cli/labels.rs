@@ -129,19 +129,6 @@ fn bad_label_requests_fail_in_one_line_and_write_nothing() {
         &[
             "extract",
             s(&good),
-            "--labels",
-            "all",
-            "--max-memory",
-            "1G",
-            "-o",
-            s(&out),
-        ],
-        "--max-memory",
-    );
-    fails(
-        &[
-            "extract",
-            s(&good),
             "--iso",
             "3",
             "--smooth",
@@ -261,6 +248,41 @@ fn names_and_colours_come_from_the_file_and_the_table() {
         text.contains("nucleus") && text.contains("Cytosol"),
         "{text}"
     );
+    // `mc --labels` takes the same flags: the .glb's meshes carry the same names.
+    let glb = dir.join("cells.glb");
+    let run = isogrid(&[
+        "mc",
+        s(&label_fixture("ome_v05.zarr")),
+        "--labels",
+        "all",
+        "--labels-of",
+        "cells",
+        "--label-table",
+        s(&table),
+        "-o",
+        s(&glb),
+    ]);
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(
+        stderr.contains("lut.txt: 1 label of the table is not among"),
+        "{stderr}"
+    );
+    // The JSON chunk of the glTF binary: after the 12-byte header, its length and type.
+    let bytes = std::fs::read(&glb).unwrap();
+    let len = u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
+    let json: serde_json::Value = serde_json::from_slice(&bytes[20..20 + len]).unwrap();
+    let names: Vec<&str> = json["meshes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|m| m["name"].as_str().unwrap())
+        .collect();
+    assert_eq!(names, ["nucleus", "Cytosol", "label 7"]);
 }
 
 #[test]
@@ -315,4 +337,129 @@ fn bad_tables_and_label_image_names_fail_in_one_line() {
         "--labels",
     );
     assert!(!out.exists());
+}
+
+/// Blocky supervoxels (x, y, z), labels 1.., every one touching its neighbours, with boundaries
+/// that shift along z so labels cross block layers and slabs at many heights.
+pub(super) fn supervoxels(dims: [usize; 3]) -> Vec<u32> {
+    let [nx, ny, nz] = dims;
+    let mut v = Vec::with_capacity(nx * ny * nz);
+    for z in 0..nz {
+        for y in 0..ny {
+            for x in 0..nx {
+                v.push((1 + x / 13 + 20 * (y / 11) + 400 * ((z + (x * y) % 7) / 9)) as u32);
+            }
+        }
+    }
+    v
+}
+
+/// Runs `isogrid args` under `/usr/bin/time`, and returns whether it succeeded, its stderr and
+/// its peak resident memory in bytes (GNU time's `%M`, the process's own `ru_maxrss`: measured
+/// from a small parent, since Linux carries a forking parent's peak across `exec`).
+#[cfg(target_os = "linux")]
+fn peak_rss(args: &[&str]) -> (bool, String, u64) {
+    let report = std::env::temp_dir().join(format!("isogrid-rss-{}.txt", std::process::id()));
+    let done = std::process::Command::new("/usr/bin/time")
+        .args(["-f", "%M", "-o", s(&report), env!("CARGO_BIN_EXE_isogrid")])
+        .args(args)
+        .stdout(std::process::Stdio::null())
+        .output()
+        .unwrap();
+    let text = std::fs::read_to_string(&report).unwrap();
+    std::fs::remove_file(&report).unwrap();
+    let kib: u64 = text
+        .lines()
+        .last()
+        .and_then(|l| l.trim().parse().ok())
+        .unwrap_or_else(|| panic!("no peak in {text:?}"));
+    let stderr = String::from_utf8_lossy(&done.stderr).into_owned();
+    (done.status.success(), stderr, kib * 1024)
+}
+
+/// `--labels` within `--max-memory` on a raw volume (read by region) larger than the budget: the
+/// file is the in-memory one byte for byte, with and without smoothing, at the least budget that
+/// works and above; the process stays within the budget; and a budget below the least fails
+/// naming it, writing nothing.
+#[cfg(target_os = "linux")]
+#[test]
+fn streamed_labels_match_in_memory_within_the_budget() {
+    if !Path::new("/usr/bin/time").exists() {
+        eprintln!("skipped: no /usr/bin/time to measure the peak with");
+        return;
+    }
+    let dir = temp_dir("labels-stream");
+    let dims = [256, 256, 288];
+    let data = supervoxels(dims);
+    let raw = dir.join("sv.raw");
+    let bytes: Vec<u8> = data.iter().flat_map(|v| v.to_le_bytes()).collect();
+    std::fs::write(&raw, &bytes).unwrap();
+    drop(bytes);
+    let volume_bytes = (data.len() * 4) as u64;
+    let volume = Volume::new(dims, VolumeData::U32(data)).unwrap();
+    let shape = "256,256,288";
+    let raw_args = ["--raw-shape", shape, "--raw-type", "u32"];
+    for smooth in ["0", "1"] {
+        let mut options = LabelOptions::new(LabelSelection::All);
+        options.smooth = smooth.parse().unwrap();
+        let expected =
+            isogrid::cgc::to_bytes(&isogrid::extract_labels(&volume.view(), &options).unwrap());
+        let out = dir.join(format!("out-{smooth}.cgc"));
+        let mut args = vec!["extract", s(&raw), "--labels", "all", "--smooth", smooth];
+        args.extend(raw_args);
+        let too_small = fails(
+            &[&args[..], &["--max-memory", "1M", "-o", s(&out)]].concat(),
+            "the least that works is",
+        );
+        let least: u64 = too_small
+            .split("the least that works is ")
+            .nth(1)
+            .and_then(|t| t.split(" MiB").next())
+            .and_then(|n| n.trim().parse().ok())
+            .unwrap_or_else(|| panic!("no size in {too_small}"));
+        assert!(!out.exists());
+        // Smoothing is slower: its least budget alone.
+        let budgets: &[(u64, &str)] = if smooth == "0" {
+            &[(least, "1"), (least + 8, "2"), (4096, "2")]
+        } else {
+            &[(least, "2")]
+        };
+        for &(budget, threads) in budgets {
+            let budget_arg = format!("{budget}M");
+            let run = [
+                &args[..],
+                &[
+                    "--max-memory",
+                    &budget_arg,
+                    "--threads",
+                    threads,
+                    "-o",
+                    s(&out),
+                ],
+            ]
+            .concat();
+            let (ok, stderr, rss) = peak_rss(&run);
+            assert!(ok, "{stderr}");
+            assert!(
+                std::fs::read(&out).unwrap() == expected,
+                "σ {smooth}, budget {budget_arg}: files differ"
+            );
+            eprintln!(
+                "σ {smooth}: budget {budget} MiB, peak RSS {:.1} MiB, volume {:.1} MiB",
+                rss as f64 / (1 << 20) as f64,
+                volume_bytes as f64 / (1 << 20) as f64
+            );
+            if budget < 1024 {
+                assert!(
+                    volume_bytes > budget << 20,
+                    "the volume must not fit the budget"
+                );
+                assert!(
+                    rss <= budget << 20,
+                    "σ {smooth}: peak {rss} B over a budget of {budget} MiB"
+                );
+            }
+        }
+    }
+    std::fs::remove_dir_all(dir).unwrap();
 }

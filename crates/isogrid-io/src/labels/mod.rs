@@ -20,8 +20,11 @@ pub use ome::{label_image_path, ome_label_names};
 pub use table::{parse_label_table, read_label_table};
 
 use crate::read_options::ReadOptions;
+use isogrid::extract::stream::RegionSource;
 use isogrid::labels::LabelSample;
-use isogrid::{CellGrid, Label, LabelOptions, LabelSelection, Result, ResultExt, Samples, Volume};
+use isogrid::{
+    CellGrid, Label, LabelOptions, LabelSelection, Progress, Result, ResultExt, Samples, Volume,
+};
 use std::path::Path;
 
 /// A label volume read from a file, with the names and colours the file gives.
@@ -65,6 +68,36 @@ pub fn read_label_volume(path: &Path, opts: &ReadOptions) -> Result<(LabelVolume
     Ok((source, notices))
 }
 
+/// A label volume read by region, and the names and colours its file gives (by label value).
+pub type LabelRegion = (Box<dyn RegionSource + Send>, Vec<Label>);
+
+/// Opens a label volume for reading by region (see [`crate::open_region`]), with the names and
+/// colours its file gives: `path`, or its OME-Zarr label image `labels_of`. `None` where it must
+/// be read whole with [`read_labels_of`]: a format without region reads, and any NRRD, which may
+/// be a 3D Slicer segmentation (layered, named by its header).
+pub fn open_label_region(
+    path: &Path,
+    labels_of: Option<&str>,
+    opts: &ReadOptions,
+) -> Result<Option<LabelRegion>> {
+    let path = match labels_of {
+        None => path.to_path_buf(),
+        Some(name) => label_image_path(path, name)?,
+    };
+    if is_nrrd(&path) && opts.raw.is_none() {
+        return Ok(None);
+    }
+    let Some(source) = crate::open_region(&path, opts)? else {
+        return Ok(None);
+    };
+    let names = if path.is_dir() {
+        ome_label_names(&path)?
+    } else {
+        Vec::new()
+    };
+    Ok(Some((source, names)))
+}
+
 fn is_nrrd(path: &Path) -> bool {
     let name = path
         .file_name()
@@ -77,13 +110,24 @@ fn is_nrrd(path: &Path) -> bool {
 /// documentation) and gives them the file's names and colours; the other labels keep the default
 /// ones ([`Label::default_for`]).
 pub fn extract_label_volume(source: &LabelVolume, options: &LabelOptions) -> Result<CellGrid> {
+    extract_label_volume_with_progress(source, options, &Progress::new())
+}
+
+/// [`extract_label_volume`], counting in `progress` as [`isogrid::extract_labels_with_progress`]
+/// does (a layered segmentation's layers one after another, each from 0) and honouring its
+/// cancel.
+pub fn extract_label_volume_with_progress(
+    source: &LabelVolume,
+    options: &LabelOptions,
+    progress: &Progress,
+) -> Result<CellGrid> {
     let mut grid = if let [layer] = source.layers.as_slice() {
         if layer.offset != 0 {
             return Err(isogrid::Error::invalid(
                 "a single layer's values are the file's labels",
             ));
         }
-        isogrid::extract_labels(&layer.volume.view(), options)?
+        isogrid::extract_labels_with_progress(&layer.volume.view(), options, progress)?
     } else {
         let mut grids = Vec::with_capacity(source.layers.len());
         for (l, layer) in source.layers.iter().enumerate() {
@@ -91,9 +135,10 @@ pub fn extract_label_volume(source: &LabelVolume, options: &LabelOptions) -> Res
                 selection: layer_selection(&options.selection, layer, l == 0),
                 ..options.clone()
             };
-            grids.push(isogrid::extract_labels(
+            grids.push(isogrid::extract_labels_with_progress(
                 &layer.volume.view(),
                 &layer_options,
+                progress,
             )?);
         }
         let signed = isogrid::labels::signed_labels(source.layers[0].volume.scalar_type());
@@ -171,6 +216,17 @@ pub fn apply_label_names(grid: &mut CellGrid, names: &[Label]) -> Vec<u64> {
         return Vec::new();
     };
     let mut table = labels.table().to_vec();
+    let absent = name_labels(&mut table, names);
+    labels
+        .set_table(table)
+        .expect("names and colours keep the values");
+    absent
+}
+
+/// Gives the labels of `table` (in increasing value) the names and colours `names` has for
+/// their values; returns the values `names` lists (but 0) that the table lacks. The rule of
+/// [`apply_label_names`], for a table not yet in a grid (a streamed extraction's).
+pub fn name_labels(table: &mut [Label], names: &[Label]) -> Vec<u64> {
     let mut absent = Vec::new();
     for named in names {
         match table.binary_search_by_key(&named.value, |l| l.value) {
@@ -182,9 +238,6 @@ pub fn apply_label_names(grid: &mut CellGrid, names: &[Label]) -> Vec<u64> {
             Err(_) => {}
         }
     }
-    labels
-        .set_table(table)
-        .expect("names and colours keep the values");
     absent
 }
 

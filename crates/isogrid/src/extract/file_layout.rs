@@ -17,6 +17,8 @@ pub(super) struct FileLayout {
     pub counts: HeaderCounts,
     /// Byte lengths of the block, metacell and cell sections.
     pub lengths: [u64; 3],
+    /// Sections after those three, with their byte lengths (a label grid's).
+    pub more: Vec<(SectionKind, u64)>,
     pub stats: GridStats,
 }
 
@@ -38,8 +40,31 @@ impl FileLayout {
             (0.0, 0.0)
         };
         let quantizer = Quantizer::new(precision, scalar_type.is_integer(), lo, hi, iso);
+        Self::with_quantizer(
+            geometry,
+            scalar_type,
+            quantizer,
+            [lo, hi],
+            iso,
+            block_count,
+            totals,
+        )
+    }
+
+    /// The layout of a grid whose corner values `quantizer` maps and whose header gives the
+    /// value range `range` (a label grid's: its indicators', `[0, 1]`).
+    pub(super) fn with_quantizer(
+        geometry: &Geometry,
+        scalar_type: ScalarType,
+        quantizer: Quantizer,
+        range: [f64; 2],
+        iso: f64,
+        block_count: u64,
+        totals: &Totals,
+    ) -> Self {
+        let precision = quantizer.precision();
         let record = precision.bytes_per_cell() as u64;
-        let info = GridInfo::new(geometry, scalar_type, [lo, hi], iso, &quantizer);
+        let info = GridInfo::new(geometry, scalar_type, range, iso, &quantizer);
         let counts = HeaderCounts {
             blocks: block_count,
             metacell_slots: totals.slots,
@@ -73,6 +98,7 @@ impl FileLayout {
             quantizer,
             counts,
             lengths,
+            more: Vec::new(),
             stats,
         }
     }
@@ -80,10 +106,12 @@ impl FileLayout {
     /// Where the file's sections go.
     pub(super) fn plan(&self) -> FilePlan {
         let [blocks, metacells, cells] = self.lengths;
-        FilePlan::new(&[
+        let mut sections = vec![
             (SectionKind::Blocks, blocks),
             (SectionKind::Metacells, metacells),
             (SectionKind::Cells, cells),
-        ])
+        ];
+        sections.extend_from_slice(&self.more);
+        FilePlan::new(&sections)
     }
 }

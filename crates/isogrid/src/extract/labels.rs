@@ -13,8 +13,11 @@
 //! with the number of labels.
 //!
 //! Blocks are processed in parallel, each into its own buffers numbered from its first cell; the
-//! buffers are then concatenated in block order with their cell pointers moved, so the grid is
-//! byte-identical for any thread count.
+//! buffers are then taken in block order by a `LabelTally`, which gives each block its place
+//! (its record, its first cell) and gathers the label table, cluster labels and index, and are
+//! concatenated with their cell pointers moved, so the grid is byte-identical for any thread
+//! count. The streamed and Dask extractions ([`super::label_stream`]) run the same pass on slabs
+//! of planes and the same tally, so their files are byte-identical to this one's.
 
 use super::emit::{self, BlockOutput, BlockScratch};
 use super::scalar::ExtractScalar;
@@ -24,10 +27,12 @@ use crate::grid::{CellGrid, GridInfo};
 use crate::labels::{
     check_label_samples, ClusterRun, GridLabels, Label, LabelEntry, LabelSample, LabelSelection,
 };
-use crate::layout::{Metacell, Precision, BLOCK_CELLS, BOUND_SLOT, CLUSTER_SLOTS};
+use crate::layout::{Block, Metacell, Precision, BLOCK_CELLS, BOUND_SLOT, CLUSTER_SLOTS};
+use crate::progress::Progress;
 use crate::quantize::Quantizer;
 use crate::volume::{Samples, VolumeView};
 use rayon::prelude::*;
+use std::ops::Range;
 
 /// The isovalue of an indicator.
 pub const LABEL_ISO: f64 = 0.5;
@@ -85,51 +90,85 @@ pub const MAX_SMOOTH: f64 = 16.0;
 /// Extracts the surfaces of the labels `options` selects. Integer volumes hold labels; a float
 /// volume only when every sample is an integer (see [`LabelSample`]).
 pub fn extract_labels(volume: &VolumeView, options: &LabelOptions) -> Result<CellGrid> {
-    if !(options.smooth.is_finite() && (0.0..=MAX_SMOOTH).contains(&options.smooth)) {
-        return Err(Error::invalid(format!(
-            "smoothing σ {} is outside 0..={MAX_SMOOTH} voxels",
-            options.smooth
-        )));
-    }
+    extract_labels_with_progress(volume, options, &Progress::new())
+}
+
+/// [`extract_labels`], counting one step in `progress` per block as the pass finishes it; `done`
+/// reaches `total` with the grid. A [`Progress::cancel`] is honoured between blocks, with an
+/// error of kind [`crate::ErrorKind::Cancelled`].
+pub fn extract_labels_with_progress(
+    volume: &VolumeView,
+    options: &LabelOptions,
+    progress: &Progress,
+) -> Result<CellGrid> {
+    let pass = LabelPass::new(options)?;
     match volume.samples() {
-        Samples::U8(s) => extract_typed(volume, s, options),
-        Samples::U16(s) => extract_typed(volume, s, options),
-        Samples::I16(s) => extract_typed(volume, s, options),
-        Samples::U32(s) => extract_typed(volume, s, options),
-        Samples::I32(s) => extract_typed(volume, s, options),
-        Samples::U64(s) => extract_typed(volume, s, options),
-        Samples::I64(s) => extract_typed(volume, s, options),
+        Samples::U8(s) => extract_typed(volume, s, &pass, progress),
+        Samples::U16(s) => extract_typed(volume, s, &pass, progress),
+        Samples::I16(s) => extract_typed(volume, s, &pass, progress),
+        Samples::U32(s) => extract_typed(volume, s, &pass, progress),
+        Samples::I32(s) => extract_typed(volume, s, &pass, progress),
+        Samples::U64(s) => extract_typed(volume, s, &pass, progress),
+        Samples::I64(s) => extract_typed(volume, s, &pass, progress),
         Samples::F32(s) => {
             check_label_samples(s)?;
-            extract_typed(volume, s, options)
+            extract_typed(volume, s, &pass, progress)
         }
         Samples::F64(s) => {
             check_label_samples(s)?;
-            extract_typed(volume, s, options)
+            extract_typed(volume, s, &pass, progress)
         }
+    }
+}
+
+/// Samples a block of the label pass reads beyond its own on each side, along every axis: the
+/// smoothing kernel's radius `⌈3σ⌉` (σ = 1 reads 3, σ = 16 reads 48), 0 without smoothing. A
+/// slab of block layers `bz0..bz1` therefore needs the planes `16·bz0 − r ..= 16·bz1 + r`
+/// (clipped to the volume): its own `16·(bz1 − bz0) + 1` and `r` more on each side.
+pub fn label_halo(smooth: f64) -> usize {
+    if smooth > 0.0 {
+        gaussian_kernel(smooth).len() / 2
+    } else {
+        0
     }
 }
 
 /// What one block holds: its labels' clusters and cells, numbered from the block's first cell.
-#[derive(Default)]
-struct BlockLabels {
+#[derive(Default, Debug, Clone, PartialEq)]
+pub(super) struct BlockLabels {
     /// Distinct label keys among the samples gathered (selected or not), ascending.
-    present: Vec<u64>,
-    parts: Vec<LabelPart>,
-    metacells: Vec<Metacell>,
-    cells: Vec<u8>,
+    pub present: Vec<u64>,
+    pub parts: Vec<LabelPart>,
+    pub metacells: Vec<Metacell>,
+    pub cells: Vec<u8>,
 }
 
 /// One label's share of a block.
-struct LabelPart {
-    key: u64,
-    clusters: u32,
-    cells: u32,
-    occupied: u32,
-    lo: [u32; 3],
-    hi: [u32; 3],
+#[derive(Debug, Clone, PartialEq)]
+pub(super) struct LabelPart {
+    pub key: u64,
+    pub clusters: u32,
+    pub cells: u32,
+    pub occupied: u32,
+    pub lo: [u32; 3],
+    pub hi: [u32; 3],
     /// Smallest and largest indicator value on the block's samples.
-    range: [f64; 2],
+    pub range: [f64; 2],
+}
+
+impl BlockLabels {
+    /// The block's metacell slots with their cell pointers moved from the block's numbering to
+    /// the grid's, where the block's first cell is `first_cell`. Cluster bounds and padding slots
+    /// hold no pointer.
+    pub(super) fn moved_metacells(&self, first_cell: u32) -> impl Iterator<Item = Metacell> + '_ {
+        self.metacells.iter().enumerate().map(move |(s, m)| {
+            let mut m = *m;
+            if s % CLUSTER_SLOTS != BOUND_SLOT && !m.is_empty() {
+                m.cell_pointer += first_cell;
+            }
+            m
+        })
+    }
 }
 
 /// Per-thread buffers.
@@ -147,64 +186,135 @@ struct Scratch {
     block: BlockScratch,
 }
 
-/// What every block shares.
-struct Pass<'a, T> {
-    samples: &'a [T],
-    dims: [usize; 3],
-    block_dims: [usize; 3],
-    selection: &'a LabelSelection,
+/// What every block of a label pass shares, whatever samples it reads: the selection, the
+/// smoothing kernel and the grid's quantiser.
+pub(super) struct LabelPass {
+    selection: LabelSelection,
     kernel: Option<Vec<f32>>,
     quantizer: Quantizer,
 }
 
-fn extract_typed<T: LabelSample>(
-    volume: &VolumeView,
-    samples: &[T],
-    options: &LabelOptions,
-) -> Result<CellGrid> {
-    let geometry = volume.geometry();
-    let dims = geometry.dims;
-    let precision = options.precision.unwrap_or(options.default_precision());
-    let block_dims = geometry.cell_dims().map(|c| c.div_ceil(BLOCK_CELLS));
-    let block_count: usize = block_dims.iter().product();
-    let pass = Pass {
-        samples,
-        dims,
-        block_dims,
-        selection: &options.selection,
-        kernel: (options.smooth > 0.0).then(|| gaussian_kernel(options.smooth)),
-        quantizer: label_quantizer(precision),
-    };
-    let blocks: Vec<BlockLabels> = (0..block_count)
-        .into_par_iter()
-        .map_init(Scratch::default, |scratch, b| pass.block(b, scratch))
-        .collect();
-
-    // The table: every selected label the volume holds, in increasing key.
-    let mut keys: Vec<u64> = blocks
-        .iter()
-        .flat_map(|b| b.present.iter().copied())
-        .filter(|&k| options.selection.selects(k))
-        .collect();
-    keys.par_sort_unstable();
-    keys.dedup();
-    if keys.len() > u32::MAX as usize {
-        return Err(Error::too_large(
-            "more than 2^32 labels: beyond the 32-bit cluster labels of the format",
-        ));
+impl LabelPass {
+    /// Checks `options` (σ within `0..=MAX_SMOOTH`) and makes the kernel and quantiser.
+    pub(super) fn new(options: &LabelOptions) -> Result<Self> {
+        if !(options.smooth.is_finite() && (0.0..=MAX_SMOOTH).contains(&options.smooth)) {
+            return Err(Error::invalid(format!(
+                "smoothing σ {} is outside 0..={MAX_SMOOTH} voxels",
+                options.smooth
+            )));
+        }
+        let precision = options.precision.unwrap_or(options.default_precision());
+        Ok(LabelPass {
+            selection: options.selection.clone(),
+            kernel: (options.smooth > 0.0).then(|| gaussian_kernel(options.smooth)),
+            quantizer: label_quantizer(precision),
+        })
     }
-    let signed = crate::labels::signed_labels(T::TYPE);
-    let table: Vec<Label> = keys
-        .iter()
-        .map(|&k| Label::default_for(k, signed))
-        .collect();
-    let table_index =
-        |key: u64| keys.binary_search(&key).expect("a part's label is present") as u32;
 
-    // Prefix sums, then the blocks' buffers in block order with their cell pointers moved.
-    let mut totals = Totals::default();
-    let mut block_records = Vec::with_capacity(block_count);
-    for b in &blocks {
+    pub(super) fn selection(&self) -> &LabelSelection {
+        &self.selection
+    }
+    pub(super) fn quantizer(&self) -> &Quantizer {
+        &self.quantizer
+    }
+    /// Samples a block reads beyond its own on each side ([`label_halo`]).
+    pub(super) fn halo(&self) -> usize {
+        self.kernel.as_ref().map_or(0, |k| k.len() / 2)
+    }
+
+    /// The blocks `blocks` (numbers in block order) of a volume of `dims` samples, in parallel on
+    /// the current rayon pool, from `samples`: whole sample planes of the volume from plane
+    /// `first_plane` on, which must hold every plane the blocks read (their own and
+    /// [`Self::halo`] more on each side, clipped to the volume). One step per block in
+    /// `progress`; once it is cancelled the remaining blocks come out empty (the caller checks).
+    pub(super) fn blocks<T: LabelSample>(
+        &self,
+        samples: &[T],
+        dims: [usize; 3],
+        first_plane: usize,
+        blocks: Range<usize>,
+        progress: &Progress,
+    ) -> Vec<BlockLabels> {
+        let pass = Pass {
+            samples,
+            dims,
+            first_plane,
+            block_dims: dims.map(|d| d.saturating_sub(1).div_ceil(BLOCK_CELLS)),
+            shared: self,
+        };
+        blocks
+            .into_par_iter()
+            .map_init(Scratch::default, |scratch, b| {
+                if progress.is_cancelled() {
+                    return BlockLabels::default();
+                }
+                let out = pass.block(b, scratch);
+                progress.advance(1);
+                out
+            })
+            .collect()
+    }
+}
+
+/// The samples one run of blocks reads.
+struct Pass<'a, T> {
+    samples: &'a [T],
+    /// Samples per axis of the whole volume.
+    dims: [usize; 3],
+    /// The volume's plane where `samples` begin: 0 for the whole volume, a slab's first plane.
+    first_plane: usize,
+    block_dims: [usize; 3],
+    shared: &'a LabelPass,
+}
+
+/// The label table, cluster labels, label index and block records of a label grid, gathered from
+/// its blocks' [`BlockLabels`] taken one after another in block order: the one place where a
+/// block gets its record and its first cell, and the labels their index, for the in-memory,
+/// streamed and Dask extractions alike.
+pub(super) struct LabelTally {
+    selection: LabelSelection,
+    totals: Totals,
+    blocks: Vec<Block>,
+    /// Selected keys seen (sorted and deduplicated now and then, and at the end).
+    keys: Vec<u64>,
+    /// Length of `keys` after its last sort.
+    sorted: usize,
+    /// Every part in block order, cut to what the index needs (40 B each).
+    parts: Vec<PartRecord>,
+}
+
+/// A part as the label index needs it.
+struct PartRecord {
+    key: u64,
+    clusters: u32,
+    cells: u32,
+    lo: [u32; 3],
+    hi: [u32; 3],
+}
+
+impl LabelTally {
+    pub(super) fn new(selection: &LabelSelection, block_count: usize) -> Self {
+        LabelTally {
+            selection: selection.clone(),
+            totals: Totals::default(),
+            blocks: Vec::with_capacity(block_count),
+            keys: Vec::new(),
+            sorted: 0,
+            parts: Vec::new(),
+        }
+    }
+
+    /// Blocks added so far.
+    pub(super) fn block_count(&self) -> usize {
+        self.blocks.len()
+    }
+
+    /// Adds the next block (in block order), its labels and parts (its output need not be
+    /// there: its slots are its parts' clusters); returns the grid's number of its first cell.
+    /// Errors past the format's 32-bit pointers.
+    pub(super) fn add(&mut self, b: &BlockLabels) -> Result<u32> {
+        let first_cell = self.totals.cells as u32;
+        let slots = b.parts.iter().map(|p| p.clusters as u64).sum::<u64>() * CLUSTER_SLOTS as u64;
         let cells: u32 = b.parts.iter().map(|p| p.cells).sum();
         let occupied: u32 = b.parts.iter().map(|p| p.occupied).sum();
         let range = b
@@ -214,31 +324,57 @@ fn extract_typed<T: LabelSample>(
                 [r[0].min(p.range[0]), r[1].max(p.range[1])]
             });
         let range = if b.parts.is_empty() { [0.0; 2] } else { range };
-        block_records.push(totals.add_block(b.metacells.len() as u64, cells, occupied, range)?);
-    }
-    let record = precision.bytes_per_cell();
-    let mut metacells = Vec::with_capacity(totals.slots as usize);
-    let mut cells = Vec::with_capacity(totals.cells as usize * record);
-    let mut cluster_labels = Vec::with_capacity(totals.slots as usize / CLUSTER_SLOTS);
-    let mut runs: Vec<(u32, ClusterRun)> = Vec::new();
-    let mut index = vec![
-        LabelEntry {
-            lo: [u32::MAX; 3],
-            ..Default::default()
-        };
-        keys.len()
-    ];
-    for b in &blocks {
-        let first_cell = (cells.len() / record) as u32;
-        metacells.extend(b.metacells.iter().enumerate().map(|(s, m)| {
-            let mut m = *m;
-            if s % CLUSTER_SLOTS != BOUND_SLOT && !m.is_empty() {
-                m.cell_pointer += first_cell;
-            }
-            m
+        let record = self.totals.add_block(slots, cells, occupied, range)?;
+        self.blocks.push(record);
+        let selection = &self.selection;
+        self.keys
+            .extend(b.present.iter().copied().filter(|&k| selection.selects(k)));
+        if self.keys.len() > 2 * self.sorted + (1 << 16) {
+            self.keys.sort_unstable();
+            self.keys.dedup();
+            self.sorted = self.keys.len();
+        }
+        self.parts.extend(b.parts.iter().map(|p| PartRecord {
+            key: p.key,
+            clusters: p.clusters,
+            cells: p.cells,
+            lo: p.lo,
+            hi: p.hi,
         }));
-        cells.extend_from_slice(&b.cells);
-        for p in &b.parts {
+        Ok(first_cell)
+    }
+
+    /// Slots, cells and occupied metacells of the blocks added so far.
+    pub(super) fn totals(&self) -> Totals {
+        self.totals
+    }
+
+    /// The block records and the labels (default names and colours, [`Label::default_for`]).
+    pub(super) fn finish(mut self, signed: bool) -> Result<(Vec<Block>, GridLabels)> {
+        self.keys.par_sort_unstable();
+        self.keys.dedup();
+        let keys = self.keys;
+        if keys.len() > u32::MAX as usize {
+            return Err(Error::too_large(
+                "more than 2^32 labels: beyond the 32-bit cluster labels of the format",
+            ));
+        }
+        let table: Vec<Label> = keys
+            .iter()
+            .map(|&k| Label::default_for(k, signed))
+            .collect();
+        let table_index =
+            |key: u64| keys.binary_search(&key).expect("a part's label is present") as u32;
+        let mut cluster_labels = Vec::with_capacity(self.totals.slots as usize / CLUSTER_SLOTS);
+        let mut runs: Vec<(u32, ClusterRun)> = Vec::with_capacity(self.parts.len());
+        let mut index = vec![
+            LabelEntry {
+                lo: [u32::MAX; 3],
+                ..Default::default()
+            };
+            keys.len()
+        ];
+        for p in &self.parts {
             let label = table_index(p.key);
             runs.push((
                 label,
@@ -255,27 +391,66 @@ fn extract_typed<T: LabelSample>(
                 e.hi[a] = e.hi[a].max(p.hi[a]);
             }
         }
-    }
-    // Each label's runs together, in cluster order (the sort is stable).
-    runs.sort_by_key(|&(label, _)| label);
-    let mut next = 0u64;
-    for (label, e) in index.iter_mut().enumerate() {
-        e.first_run = next;
-        e.run_count = runs[next as usize..]
-            .iter()
-            .take_while(|(l, _)| *l as usize == label)
-            .count() as u64;
-        next += e.run_count;
-        if e.cell_count == 0 {
-            e.lo = [0; 3];
+        drop(self.parts);
+        // Each label's runs together, in cluster order (the sort is stable).
+        runs.sort_by_key(|&(label, _)| label);
+        let mut next = 0u64;
+        for (label, e) in index.iter_mut().enumerate() {
+            e.first_run = next;
+            e.run_count = runs[next as usize..]
+                .iter()
+                .take_while(|(l, _)| *l as usize == label)
+                .count() as u64;
+            next += e.run_count;
+            if e.cell_count == 0 {
+                e.lo = [0; 3];
+            }
         }
+        let runs = runs.into_iter().map(|(_, r)| r).collect();
+        Ok((
+            self.blocks,
+            GridLabels::from_parts(table, cluster_labels, index, runs),
+        ))
     }
-    let runs = runs.into_iter().map(|(_, r)| r).collect();
+}
+
+fn extract_typed<T: LabelSample>(
+    volume: &VolumeView,
+    samples: &[T],
+    pass: &LabelPass,
+    progress: &Progress,
+) -> Result<CellGrid> {
+    let geometry = volume.geometry();
+    let dims = geometry.dims;
+    let block_count: usize = geometry
+        .cell_dims()
+        .map(|c| c.div_ceil(BLOCK_CELLS))
+        .iter()
+        .product();
+    progress.start(block_count as u64);
+    let blocks = pass.blocks(samples, dims, 0, 0..block_count, progress);
+    progress.check()?;
+
+    // Each block's place, then the blocks' buffers in block order with their cell pointers moved.
+    let mut tally = LabelTally::new(&pass.selection, block_count);
+    let first_cells = blocks
+        .iter()
+        .map(|b| tally.add(b))
+        .collect::<Result<Vec<u32>>>()?;
+    let totals = tally.totals();
+    let record = pass.quantizer.precision().bytes_per_cell();
+    let mut metacells = Vec::with_capacity(totals.slots as usize);
+    let mut cells = Vec::with_capacity(totals.cells as usize * record);
+    for (b, &first_cell) in blocks.iter().zip(&first_cells) {
+        metacells.extend(b.moved_metacells(first_cell));
+        cells.extend_from_slice(&b.cells);
+    }
     drop(blocks);
+    let (block_records, labels) = tally.finish(crate::labels::signed_labels(T::TYPE))?;
 
     let info = GridInfo::new(geometry, T::TYPE, [0.0, 1.0], LABEL_ISO, &pass.quantizer);
     let grid = CellGrid::from_parts(info, block_records, metacells, cells);
-    Ok(grid.with_built_labels(GridLabels::from_parts(table, cluster_labels, index, runs)))
+    Ok(grid.with_built_labels(labels))
 }
 
 impl<T: LabelSample> Pass<'_, T> {
@@ -286,15 +461,16 @@ impl<T: LabelSample> Pass<'_, T> {
         let origin = block.map(|c| c * BLOCK_CELLS);
         let cube = [0, 1, 2].map(|a| (self.dims[a] - 1 - origin[a]).min(BLOCK_CELLS) + 1);
         // The samples gathered: the block's, plus the kernel's radius where the volume goes on.
-        let radius = self.kernel.as_ref().map_or(0, |k| k.len() / 2);
+        let radius = self.shared.halo();
         let lo = origin.map(|o| o.saturating_sub(radius));
         let hi = [0, 1, 2].map(|a| (origin[a] + cube[a] - 1 + radius).min(self.dims[a] - 1));
         let region = [0, 1, 2].map(|a| hi[a] - lo[a] + 1);
         let [nx, ny, _] = self.dims;
         scratch.keys.clear();
+        debug_assert!(lo[2] >= self.first_plane);
         for z in lo[2]..=hi[2] {
             for y in lo[1]..=hi[1] {
-                let start = lo[0] + nx * (y + ny * z);
+                let start = lo[0] + nx * (y + ny * (z - self.first_plane));
                 scratch.keys.extend(
                     self.samples[start..start + region[0]]
                         .iter()
@@ -310,15 +486,15 @@ impl<T: LabelSample> Pass<'_, T> {
             // One label in reach: its indicator is 1 on every sample, the others' 0.
             return out;
         }
-        let quantizer = &self.quantizer;
+        let quantizer = &self.shared.quantizer;
         let record = quantizer.precision().bytes_per_cell();
         for i in 0..out.present.len() {
             let key = out.present[i];
-            if !self.selection.selects(key) {
+            if !self.shared.selection.selects(key) {
                 continue;
             }
             // The indicator on the block's samples, classified.
-            let range = match &self.kernel {
+            let range = match &self.shared.kernel {
                 None => {
                     scratch.binary.clear();
                     scratch
@@ -376,7 +552,7 @@ impl<T: LabelSample> Pass<'_, T> {
                 first_cell: (first_byte / record) as u32,
                 slab_block: block,
             };
-            match &self.kernel {
+            match &self.shared.kernel {
                 None => emit::emit_classified_block(
                     &scratch.binary,
                     cube,

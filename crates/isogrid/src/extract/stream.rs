@@ -32,6 +32,9 @@
 //!
 //! The distributed extraction ([`super::tiles`]) reuses the same split: tiles scan independently,
 //! the prefix sums are global, emit jobs write independently into their ranges of the sections.
+//! The label stream ([`super::label_stream`]) reads its slabs through the same `Run` (with the
+//! smoothing halo's planes, [`Run::slabs_reaching`]) and sizes them with the same planner
+//! (`plan_slabs`, its costs given).
 
 use super::file_layout::FileLayout;
 use super::scalar::ExtractScalar;
@@ -262,20 +265,54 @@ pub struct MemoryPlan {
 /// Plans slabs for `source` within `max_memory` bytes on the current rayon pool; errors with
 /// the least budget that works when even one block layer does not fit.
 pub fn plan(source: &dyn RegionSource, max_memory: u64) -> Result<MemoryPlan> {
+    let nx = source.geometry().dims[0] as u64;
+    let size = source.scalar_type().size() as u64;
+    // Pass 1 per thread: inside and active bit rows of one block row (`scan::RowScratch`), the
+    // lane ranges, and the stack the thread touches.
+    let per_thread = nx.div_ceil(64) * 8 * (17 * 17 + 16 * 16) + nx * 8 * size + (64 << 10);
+    plan_slabs(
+        source,
+        max_memory,
+        SlabCosts {
+            halo: 0,
+            per_thread,
+            per_block: BLOCK_SCAN_BYTES,
+            per_volume_block: 0,
+        },
+    )
+}
+
+/// What a pass over slabs spends besides the slab's own planes.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct SlabCosts {
+    /// Planes read beyond a slab's own on each side (its blocks' reach past their samples).
+    pub halo: usize,
+    /// Scratch bytes per thread of the pool.
+    pub per_thread: u64,
+    /// Bytes per block of the slab held while it is processed.
+    pub per_block: u64,
+    /// Bytes per block of the whole volume held for the whole run, besides the block table.
+    pub per_volume_block: u64,
+}
+
+/// [`plan`] for a pass of `costs`: the largest slab that fits, or the least budget that works.
+pub(super) fn plan_slabs(
+    source: &dyn RegionSource,
+    max_memory: u64,
+    costs: SlabCosts,
+) -> Result<MemoryPlan> {
     let geometry = source.geometry();
     let [nx, ny, nz] = geometry.dims.map(|d| d as u64);
     let size = source.scalar_type().size() as u64;
     let [nbx, nby, nbz] = geometry.cell_dims().map(|c| c.div_ceil(BLOCK_CELLS) as u64);
     let threads = rayon::current_num_threads() as u64;
-    // Pass 1 per thread: inside and active bit rows of one block row (`scan::RowScratch`), the
-    // lane ranges, and the stack the thread touches.
-    let scratch =
-        threads * (nx.div_ceil(64) * 8 * (17 * 17 + 16 * 16) + nx * 8 * size + (64 << 10));
-    let fixed = PROCESS_BASELINE + nbx * nby * nbz * BLOCK_TABLE_BYTES + scratch;
+    let scratch = threads * costs.per_thread;
+    let fixed =
+        PROCESS_BASELINE + nbx * nby * nbz * (BLOCK_TABLE_BYTES + costs.per_volume_block) + scratch;
     let slab_cost = |layers: u64| -> u64 {
-        let planes = (16 * layers + 1).min(nz);
+        let planes = (16 * layers + 1 + 2 * costs.halo as u64).min(nz);
         // Saturating: a source may declare an overhead no budget holds (a huge Zarr chunk).
-        (nx * ny * planes * size + nbx * nby * layers * BLOCK_SCAN_BYTES)
+        (nx * ny * planes * size + nbx * nby * layers * costs.per_block)
             .saturating_add(source.read_overhead(planes as usize))
     };
     let minimum = (fixed + OUTPUT_BUFFER_MIN).saturating_add(slab_cost(1));
@@ -285,7 +322,7 @@ pub fn plan(source: &dyn RegionSource, max_memory: u64) -> Result<MemoryPlan> {
             format_bytes(max_memory),
             nx,
             ny,
-            (17).min(nz),
+            (17 + 2 * costs.halo as u64).min(nz),
             format_bytes(minimum.checked_next_multiple_of(1 << 20).unwrap_or(minimum))
         )));
     }
@@ -393,6 +430,7 @@ pub fn extract_planned(
 
 /// Sample types a slab buffer can hold.
 pub(super) trait SlabScalar: ExtractScalar + Default {
+    /// The buffer as a [`RegionSource`] fills it.
     fn slab(samples: &mut [Self]) -> SlabMut<'_>;
     fn samples(samples: &[Self]) -> Samples<'_>;
 }
@@ -419,22 +457,36 @@ slab_scalar!(u64, U64);
 slab_scalar!(i64, I64);
 slab_scalar!(f64, F64);
 
-struct Run<'a> {
-    source: &'a mut dyn RegionSource,
-    geometry: Geometry,
-    plan: MemoryPlan,
-    progress: &'a Progress,
+pub(super) struct Run<'a> {
+    pub source: &'a mut dyn RegionSource,
+    pub geometry: Geometry,
+    pub plan: MemoryPlan,
+    pub progress: &'a Progress,
     /// The planes the slab buffer holds (the run has one buffer), so that a pass asking for
     /// the planes the previous one ended on does not read them again: a volume that fits one
     /// slab is read once, not once per pass.
     held: Option<Range<usize>>,
 }
 
-impl Run<'_> {
+impl<'a> Run<'a> {
+    pub(super) fn new(
+        source: &'a mut dyn RegionSource,
+        plan: &MemoryPlan,
+        progress: &'a Progress,
+    ) -> Self {
+        Run {
+            geometry: source.geometry(),
+            source,
+            plan: *plan,
+            progress,
+            held: None,
+        }
+    }
+
     /// Reads planes `z` into `buffer`: all their samples, or (`wanted`) those of the marked
     /// blocks only. Long reads go in pieces of about [`READ_PIECE_BYTES`] (cut at the source's
     /// plane granularity), with a cancel check before each.
-    fn read<T: SlabScalar>(
+    pub(super) fn read<T: SlabScalar>(
         &mut self,
         z: Range<usize>,
         buffer: &mut Vec<T>,
@@ -471,6 +523,12 @@ impl Run<'_> {
 
     /// Slabs as block layer ranges, and the sample planes each reads (its layers plus the halo).
     fn slabs(&self) -> Vec<(Range<usize>, Range<usize>)> {
+        self.slabs_reaching(0)
+    }
+
+    /// [`Self::slabs`] for blocks that read `reach` samples past their own on each side: each
+    /// slab's planes reach that much further down and up (clipped to the volume).
+    pub(super) fn slabs_reaching(&self, reach: usize) -> Vec<(Range<usize>, Range<usize>)> {
         let nz = self.geometry.dims[2];
         let nbz = (nz - 1).div_ceil(BLOCK_CELLS);
         let k = self.plan.slab_layers;
@@ -478,7 +536,8 @@ impl Run<'_> {
             .step_by(k)
             .map(|bz0| {
                 let bz1 = (bz0 + k).min(nbz);
-                (bz0..bz1, BLOCK_CELLS * bz0..(BLOCK_CELLS * bz1 + 1).min(nz))
+                let first = (BLOCK_CELLS * bz0).saturating_sub(reach);
+                (bz0..bz1, first..(BLOCK_CELLS * bz1 + 1 + reach).min(nz))
             })
             .collect()
     }

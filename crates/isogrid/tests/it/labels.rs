@@ -11,12 +11,12 @@ use isogrid::{
 };
 use std::collections::{BTreeMap, BTreeSet};
 
-const DIMS: [usize; 3] = [37, 30, 35];
+pub(crate) const DIMS: [usize; 3] = [37, 30, 35];
 
 /// Touching labels: a ball (1), a box against the ball and the +x border (65535), a shell piece
 /// (2) meeting both, a one-voxel-thick sheet (7), a single voxel (300), a patch of random labels
 /// (3, 4, 5) and background 0.
-fn label_volume() -> Vec<u16> {
+pub(crate) fn label_volume() -> Vec<u16> {
     let [nx, ny, nz] = DIMS;
     let mut rng = Rng::new(5);
     let mut v = vec![0u16; nx * ny * nz];

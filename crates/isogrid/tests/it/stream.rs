@@ -141,7 +141,7 @@ pub(crate) fn option_sets() -> Vec<ExtractOptions> {
     ]
 }
 
-fn plan(layers: usize, output_buffer: u64) -> MemoryPlan {
+pub(crate) fn plan(layers: usize, output_buffer: u64) -> MemoryPlan {
     MemoryPlan {
         max_memory: u64::MAX,
         slab_layers: layers,
@@ -363,11 +363,11 @@ fn progress_counts_each_block_once_per_pass() {
 }
 
 /// A source that cancels `progress` as its `cancel_at`-th read ends, and counts reads.
-struct Cancelling<'a> {
-    inner: isogrid::VolumeView<'a>,
-    progress: &'a Progress,
-    reads: usize,
-    cancel_at: usize,
+pub(crate) struct Cancelling<'a> {
+    pub inner: isogrid::VolumeView<'a>,
+    pub progress: &'a Progress,
+    pub reads: usize,
+    pub cancel_at: usize,
 }
 
 impl RegionSource for Cancelling<'_> {

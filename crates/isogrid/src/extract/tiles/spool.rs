@@ -14,7 +14,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// Appended bytes, read back by offset.
 #[derive(Debug)]
-pub(super) struct Spool {
+pub(in crate::extract) struct Spool {
     file: File,
     /// The file's name while it still has one.
     path: Option<PathBuf>,
@@ -23,7 +23,7 @@ pub(super) struct Spool {
 
 impl Spool {
     /// A new, empty spool in the folder `dir`.
-    pub(super) fn create(dir: &Path) -> Result<Self> {
+    pub(in crate::extract) fn create(dir: &Path) -> Result<Self> {
         static NEXT: AtomicUsize = AtomicUsize::new(0);
         let path = dir.join(format!(
             ".isogrid-spool-{}-{}",
@@ -49,7 +49,7 @@ impl Spool {
     }
 
     /// Appends `bytes`; returns their offset.
-    pub(super) fn append(&mut self, bytes: &[u8]) -> Result<u64> {
+    pub(in crate::extract) fn append(&mut self, bytes: &[u8]) -> Result<u64> {
         let at = self.len;
         self.file.seek(SeekFrom::Start(at))?;
         self.file.write_all(bytes)?;
@@ -58,7 +58,7 @@ impl Spool {
     }
 
     /// Reads `out.len()` bytes from `offset`.
-    pub(super) fn read(&self, offset: u64, out: &mut [u8]) -> Result<()> {
+    pub(in crate::extract) fn read(&self, offset: u64, out: &mut [u8]) -> Result<()> {
         let mut file = &self.file;
         file.seek(SeekFrom::Start(offset))?;
         file.read_exact(out)?;

@@ -47,28 +47,32 @@ pub(super) fn read_box(r: &mut Reader, block_dims: [usize; 3], what: &str) -> Re
     Ok([0, 1, 2].map(|a| first[a]..first[a] + count[a]))
 }
 
-pub(super) fn put_tag(out: &mut Vec<u8>, tag: &[u8; 4]) {
+pub(in crate::extract) fn put_tag(out: &mut Vec<u8>, tag: &[u8; 4]) {
     out.extend_from_slice(tag);
 }
 
-pub(super) fn put_u32(out: &mut Vec<u8>, v: u32) {
+pub(in crate::extract) fn put_u32(out: &mut Vec<u8>, v: u32) {
     out.extend_from_slice(&v.to_le_bytes());
 }
 
 /// Reads a fragment's fields, checking its tag and length.
-pub(super) struct Reader<'a> {
+pub(in crate::extract) struct Reader<'a> {
     bytes: &'a [u8],
     pub(super) what: &'static str,
 }
 
 impl<'a> Reader<'a> {
-    pub(super) fn new(bytes: &'a [u8], tag: &[u8; 4], what: &'static str) -> Result<Self> {
+    pub(in crate::extract) fn new(
+        bytes: &'a [u8],
+        tag: &[u8; 4],
+        what: &'static str,
+    ) -> Result<Self> {
         match bytes.split_first_chunk::<4>() {
             Some((t, rest)) if t == tag => Ok(Reader { bytes: rest, what }),
             _ => Err(Error::corrupt(format!("not a valid {what}"))),
         }
     }
-    pub(super) fn take<const N: usize>(&mut self) -> Result<[u8; N]> {
+    pub(in crate::extract) fn take<const N: usize>(&mut self) -> Result<[u8; N]> {
         let (head, rest) = self
             .bytes
             .split_first_chunk::<N>()
@@ -76,14 +80,14 @@ impl<'a> Reader<'a> {
         self.bytes = rest;
         Ok(*head)
     }
-    pub(super) fn u32(&mut self) -> Result<u32> {
+    pub(in crate::extract) fn u32(&mut self) -> Result<u32> {
         self.take().map(u32::from_le_bytes)
     }
-    pub(super) fn f64(&mut self) -> Result<f64> {
+    pub(in crate::extract) fn f64(&mut self) -> Result<f64> {
         self.take().map(f64::from_le_bytes)
     }
     /// The next `len` bytes.
-    pub(super) fn bytes(&mut self, len: usize) -> Result<&'a [u8]> {
+    pub(in crate::extract) fn bytes(&mut self, len: usize) -> Result<&'a [u8]> {
         if self.bytes.len() < len {
             return Err(Error::corrupt(format!("{} is truncated", self.what)));
         }
@@ -92,7 +96,7 @@ impl<'a> Reader<'a> {
         Ok(head)
     }
     /// The rest, which must be exactly `len` bytes.
-    pub(super) fn rest(self, len: usize) -> Result<&'a [u8]> {
+    pub(in crate::extract) fn rest(self, len: usize) -> Result<&'a [u8]> {
         if self.bytes.len() != len {
             return Err(Error::corrupt(format!(
                 "{} holds {} bytes of records where {len} were expected",

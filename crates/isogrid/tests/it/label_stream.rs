@@ -1,0 +1,389 @@
+//! Streamed and pieced label extraction: the file written slab by slab within a budget, or put
+//! together from Dask-style fragments in any order, must be byte-identical to the in-memory label
+//! extraction written with `cgc::to_bytes` (whose cells `labels.rs` checks against independent
+//! references), for any slab size, run size, thread count, smoothing halo and selection; cancels
+//! and failures leave no file behind.
+
+use crate::common::Rng;
+use crate::labels::{label_volume, DIMS};
+use crate::stream::{plan, Cancelling, TempDir};
+use isogrid::extract::label_stream::{
+    extract_labels_planned, extract_labels_to_file, fragment_planes, label_fragment, plan_labels,
+    LabelWriter,
+};
+use isogrid::extract::stream::MemoryPlan;
+use isogrid::labels::Label;
+use isogrid::{
+    cgc, extract_labels, ErrorKind, LabelOptions, LabelSelection, Progress, Volume, VolumeData,
+};
+use std::ops::Range;
+
+/// Supervoxel-like labels: each sample takes the label of its nearest of `seeds` random points
+/// (Voronoi cells: every label touches several others, and most cross several block layers).
+fn voronoi(dims: [usize; 3], seeds: usize, seed: u64) -> Vec<u32> {
+    let mut rng = Rng::new(seed);
+    let points: Vec<[f64; 3]> = (0..seeds)
+        .map(|_| [0, 1, 2].map(|a| rng.unit() * dims[a] as f64))
+        .collect();
+    let [nx, ny, nz] = dims;
+    let mut out = Vec::with_capacity(nx * ny * nz);
+    for z in 0..nz {
+        for y in 0..ny {
+            for x in 0..nx {
+                let p = [x as f64, y as f64, z as f64];
+                let nearest = (0..seeds)
+                    .min_by(|&a, &b| {
+                        let d = |q: [f64; 3]| (0..3).map(|i| (q[i] - p[i]).powi(2)).sum::<f64>();
+                        d(points[a]).total_cmp(&d(points[b]))
+                    })
+                    .unwrap();
+                // Values spread out, and 0 (background) for some cells.
+                out.push(if nearest % 7 == 0 {
+                    0
+                } else {
+                    1000 + 3 * nearest as u32
+                });
+            }
+        }
+    }
+    out
+}
+
+fn volumes() -> Vec<(&'static str, Volume)> {
+    let tall = [29, 23, 83];
+    vec![
+        (
+            "touching",
+            Volume::new(DIMS, VolumeData::U16(label_volume())).unwrap(),
+        ),
+        (
+            "voronoi",
+            Volume::new(tall, VolumeData::U32(voronoi(tall, 60, 3))).unwrap(),
+        ),
+    ]
+}
+
+fn options(selection: LabelSelection, smooth: f64) -> LabelOptions {
+    let mut o = LabelOptions::new(selection);
+    o.smooth = smooth;
+    o
+}
+
+fn option_sets() -> Vec<LabelOptions> {
+    vec![
+        options(LabelSelection::All, 0.0),
+        // Halo of 3 and of 5 planes (⌈3σ⌉).
+        options(LabelSelection::All, 1.0),
+        options(LabelSelection::parse("0-2,7,1000-1100,65535").unwrap(), 1.6),
+    ]
+}
+
+/// Names one label and recolours another, as a colour table would.
+fn rename(table: &mut [Label]) {
+    if let Some(first) = table.first_mut() {
+        first.name = "first one".into();
+    }
+    if let Some(last) = table.last_mut() {
+        last.rgba = [1, 2, 3, 4];
+    }
+}
+
+fn in_memory_bytes(volume: &Volume, options: &LabelOptions) -> Vec<u8> {
+    let mut grid = extract_labels(&volume.view(), options).unwrap();
+    let labels = grid.labels_mut().unwrap();
+    let mut table = labels.table().to_vec();
+    rename(&mut table);
+    labels.set_table(table).unwrap();
+    cgc::to_bytes(&grid)
+}
+
+#[test]
+fn streamed_label_files_are_byte_identical_to_in_memory_ones() {
+    let dir = TempDir::new("labels-identical");
+    let out = dir.0.join("out.cgc");
+    let mut compared = 0;
+    for (name, volume) in volumes() {
+        for options in option_sets() {
+            let expected = in_memory_bytes(&volume, &options);
+            // One-layer slabs with runs cut as small as they go (many slabs and runs), two
+            // layers, and the whole volume at once.
+            for (layers, buffer) in [(1, 1), (2, 1 << 16), (100, 64 << 20)] {
+                for threads in [1, 3] {
+                    let pool = rayon::ThreadPoolBuilder::new()
+                        .num_threads(threads)
+                        .build()
+                        .unwrap();
+                    let progress = Progress::new();
+                    let summary = pool
+                        .install(|| {
+                            extract_labels_planned(
+                                &mut volume.view(),
+                                &options,
+                                &plan(layers, buffer),
+                                &out,
+                                &progress,
+                                &mut rename,
+                            )
+                        })
+                        .unwrap();
+                    let bytes = std::fs::read(&out).unwrap();
+                    assert!(
+                        bytes == expected,
+                        "{name}, {options:?}, {layers} layers, {threads} threads"
+                    );
+                    let (done, total) = progress.counts();
+                    assert_eq!(done, total);
+                    let grid = cgc::read_bytes(&bytes).unwrap();
+                    assert_eq!(total, 2 * grid.blocks().len() as u64);
+                    let labels = grid.labels().unwrap();
+                    assert_eq!(summary.table, labels.table());
+                    assert_eq!(summary.index, labels.index());
+                    assert_eq!(summary.stats, isogrid::GridStats::of(&grid));
+                    assert_eq!(dir.entries(), vec!["out.cgc".to_string()]);
+                    compared += 1;
+                }
+            }
+        }
+    }
+    assert_eq!(compared, 2 * 3 * 3 * 2);
+}
+
+/// The touching-labels volume has labels crossing every block layer boundary, and the Voronoi
+/// volume has dozens of labels per block; both must actually reach the cases the test is for.
+#[test]
+fn the_test_volumes_cross_slab_boundaries_with_touching_labels() {
+    for (name, volume) in volumes() {
+        let grid = extract_labels(&volume.view(), &options(LabelSelection::All, 0.0)).unwrap();
+        let labels = grid.labels().unwrap();
+        let crossing = labels
+            .index()
+            .iter()
+            .filter(|e| e.lo[2] / 16 != (e.hi[2] - 1) / 16)
+            .count();
+        assert!(
+            crossing >= 3,
+            "{name}: {crossing} labels cross a layer boundary"
+        );
+    }
+}
+
+/// Dask's path: fragments of any cut into block layers, added in any order, give the same file;
+/// a fragment given twice, one missing, or one of other options is refused.
+#[test]
+fn fragments_in_any_order_give_the_in_memory_file() {
+    let dir = TempDir::new("labels-fragments");
+    let out = dir.0.join("out.cgc");
+    for (name, volume) in volumes() {
+        let dims = volume.dims();
+        let layers = (dims[2] - 1).div_ceil(16);
+        for options in option_sets() {
+            let expected = in_memory_bytes(&volume, &options);
+            for cut in [1, 2, layers] {
+                let mut fragments: Vec<Vec<u8>> = (0..layers)
+                    .step_by(cut)
+                    .map(|l0| {
+                        let l = l0..(l0 + cut).min(layers);
+                        let planes = fragment_planes(dims, l.clone(), &options).unwrap();
+                        let slab = slab_of(&volume, planes);
+                        label_fragment(&slab.view(), dims, l, &options, &Progress::new()).unwrap()
+                    })
+                    .collect();
+                fragments.reverse();
+                if fragments.len() > 2 {
+                    fragments.swap(0, 1);
+                }
+                let mut writer =
+                    LabelWriter::new(*volume.geometry(), volume.scalar_type(), &options, &dir.0)
+                        .unwrap();
+                for f in &fragments {
+                    writer.add_fragment(f).unwrap();
+                }
+                if fragments.len() > 1 {
+                    let err = writer.add_fragment(&fragments[1]).unwrap_err();
+                    assert!(err.to_string().contains("already given"), "{err}");
+                }
+                writer.write(&out, &Progress::new(), &mut rename).unwrap();
+                assert!(
+                    std::fs::read(&out).unwrap() == expected,
+                    "{name}, {options:?}, {cut} layers a fragment"
+                );
+                assert_eq!(dir.entries(), vec!["out.cgc".to_string()]);
+            }
+            // One fragment missing: nothing written.
+            if layers > 1 {
+                std::fs::remove_file(&out).unwrap();
+                let mut writer =
+                    LabelWriter::new(*volume.geometry(), volume.scalar_type(), &options, &dir.0)
+                        .unwrap();
+                let planes = fragment_planes(dims, 0..1, &options).unwrap();
+                let slab = slab_of(&volume, planes);
+                let f = label_fragment(&slab.view(), dims, 0..1, &options, &Progress::new());
+                writer.add_fragment(&f.unwrap()).unwrap();
+                let err = writer
+                    .write(&out, &Progress::new(), &mut |_| {})
+                    .unwrap_err();
+                assert!(err.to_string().contains("blocks given"), "{err}");
+                assert!(dir.entries().is_empty());
+            }
+        }
+        // A fragment of other options (another smoothing) is refused.
+        let a = options(LabelSelection::All, 0.0);
+        let b = options(LabelSelection::All, 1.0);
+        let planes = fragment_planes(dims, 0..1, &b).unwrap();
+        let slab = slab_of(&volume, planes);
+        let f = label_fragment(&slab.view(), dims, 0..1, &b, &Progress::new()).unwrap();
+        let mut writer =
+            LabelWriter::new(*volume.geometry(), volume.scalar_type(), &a, &dir.0).unwrap();
+        assert!(writer.add_fragment(&f).is_err());
+        // A slab without its halo is refused.
+        let short = slab_of(&volume, 0..17);
+        let err = label_fragment(&short.view(), dims, 0..1, &b, &Progress::new()).unwrap_err();
+        assert!(err.to_string().contains("is not the planes"), "{err}");
+        // Truncated fragments are refused, never a panic.
+        let f = label_fragment(&slab.view(), dims, 0..1, &b, &Progress::new()).unwrap();
+        for cut in [0, 3, 20, f.len() / 2, f.len() - 1] {
+            let mut writer =
+                LabelWriter::new(*volume.geometry(), volume.scalar_type(), &b, &dir.0).unwrap();
+            assert!(
+                writer.add_fragment(&f[..cut]).is_err(),
+                "{name}: cut at {cut}"
+            );
+        }
+    }
+}
+
+/// The planes `z` of `volume`, as a volume.
+fn slab_of(volume: &Volume, z: Range<usize>) -> Volume {
+    let [nx, ny, _] = volume.dims();
+    let data = match volume.view().samples() {
+        isogrid::Samples::U16(s) => VolumeData::U16(s[nx * ny * z.start..nx * ny * z.end].to_vec()),
+        isogrid::Samples::U32(s) => VolumeData::U32(s[nx * ny * z.start..nx * ny * z.end].to_vec()),
+        _ => unreachable!(),
+    };
+    Volume::new([nx, ny, z.len()], data).unwrap()
+}
+
+/// The budget decides the slabs: a budget below one slab (with its halo) is refused with the
+/// least that works, and the halo's planes are counted in the slab.
+#[test]
+fn label_plans_count_the_halo_and_refuse_budgets_below_one_slab() {
+    let volume = Volume::new([64, 64, 200], VolumeData::U32(vec![0; 64 * 64 * 200])).unwrap();
+    let plain = plan_labels(&volume.view(), &options(LabelSelection::All, 0.0), 1 << 30).unwrap();
+    let smooth = plan_labels(&volume.view(), &options(LabelSelection::All, 2.0), 1 << 30).unwrap();
+    // σ = 2: 6 planes more on each side.
+    let plane = 64 * 64 * 4;
+    let slab = |p: &MemoryPlan| (16 * p.slab_layers as u64 + 1).min(200);
+    assert!(plain.slab_bytes >= slab(&plain) * plane);
+    assert!(smooth.slab_bytes >= ((slab(&smooth) + 12).min(200)) * plane);
+    assert!(smooth.minimum > plain.minimum);
+    let err = plan_labels(
+        &volume.view(),
+        &options(LabelSelection::All, 2.0),
+        smooth.minimum - 1,
+    )
+    .unwrap_err();
+    assert_eq!(err.kind(), ErrorKind::TooLarge);
+    assert!(err.to_string().contains("the least that works"), "{err}");
+    assert!(err.to_string().contains("64x64x29"), "{err}");
+    let tight = plan_labels(
+        &volume.view(),
+        &options(LabelSelection::All, 2.0),
+        smooth.minimum,
+    )
+    .unwrap();
+    assert_eq!(tight.slab_layers, 1);
+}
+
+/// A float volume that is not a label volume is refused streamed as in memory, with the same
+/// line, and leaves no file.
+#[test]
+fn streamed_float_volumes_must_hold_integers() {
+    let dir = TempDir::new("labels-float");
+    let out = dir.0.join("out.cgc");
+    let mut data: Vec<f32> = label_volume().iter().map(|&v| v as f32).collect();
+    let volume = Volume::new(DIMS, VolumeData::F32(data.clone())).unwrap();
+    let o = options(LabelSelection::All, 0.0);
+    let expected = in_memory_bytes(&volume, &o);
+    extract_labels_to_file(
+        &mut volume.view(),
+        &o,
+        1 << 30,
+        &out,
+        &Progress::new(),
+        &mut rename,
+    )
+    .unwrap();
+    assert!(std::fs::read(&out).unwrap() == expected);
+    std::fs::remove_file(&out).unwrap();
+    data[DIMS[0] * DIMS[1] * 30 + 5] = 2.5;
+    let volume = Volume::new(DIMS, VolumeData::F32(data)).unwrap();
+    let memory = extract_labels(&volume.view(), &o).unwrap_err();
+    let streamed = extract_labels_planned(
+        &mut volume.view(),
+        &o,
+        &plan(1, 1 << 20),
+        &out,
+        &Progress::new(),
+        &mut |_| {},
+    )
+    .unwrap_err();
+    assert_eq!(memory.to_string(), streamed.to_string());
+    assert!(streamed.to_string().contains("2.5"), "{streamed}");
+    assert!(dir.entries().is_empty());
+}
+
+/// A cancel stops the run before its next read, fails with kind Cancelled, and leaves no file,
+/// no temporary file and no scratch file: an old output stays as it was.
+#[test]
+fn a_cancelled_streamed_label_extraction_stops_at_once_and_leaves_no_file() {
+    let dir = TempDir::new("labels-cancel");
+    let out = dir.0.join("out.cgc");
+    std::fs::write(&out, b"old").unwrap();
+    let volume = &volumes()[1].1;
+    let o = options(LabelSelection::All, 1.0);
+    // One-layer slabs: one read per slab, 6 slabs.
+    let slabs = (volume.dims()[2] - 1).div_ceil(16);
+    for cancel_at in 1..=slabs {
+        let progress = Progress::new();
+        let mut source = Cancelling {
+            inner: volume.view(),
+            progress: &progress,
+            reads: 0,
+            cancel_at,
+        };
+        let err = extract_labels_planned(
+            &mut source,
+            &o,
+            &plan(1, 1 << 20),
+            &out,
+            &progress,
+            &mut |_| {},
+        )
+        .unwrap_err();
+        assert_eq!(err.kind(), ErrorKind::Cancelled, "{err}");
+        assert_eq!(source.reads, cancel_at, "no read after the cancel");
+        let (done, total) = progress.counts();
+        assert!(done < total);
+        assert_eq!(std::fs::read(&out).unwrap(), b"old");
+        assert_eq!(dir.entries(), vec!["out.cgc".to_string()]);
+    }
+    // Cancelled while the file is written: after every block is made.
+    let progress = Progress::new();
+    let mut calls = 0;
+    let err = extract_labels_planned(
+        &mut volume.view(),
+        &o,
+        &plan(1, 1 << 20),
+        &out,
+        &progress,
+        &mut |_| {
+            calls += 1;
+            progress.cancel();
+        },
+    )
+    .unwrap_err();
+    assert_eq!(err.kind(), ErrorKind::Cancelled, "{err}");
+    assert_eq!(calls, 1);
+    assert_eq!(std::fs::read(&out).unwrap(), b"old");
+    assert_eq!(dir.entries(), vec!["out.cgc".to_string()]);
+}
