@@ -41,6 +41,7 @@ fn _isogrid(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(volume_io::_zarr_selection, m)?)?;
     m.add_function(wrap_pyfunction!(render::render, m)?)?;
     m.add_class::<tiles::_TileExtraction>()?;
+    m.add_class::<tiles::_TaskCancel>()?;
     m.add_function(wrap_pyfunction!(tiles::_scan_tile, m)?)?;
     m.add_function(wrap_pyfunction!(tiles::_emit_tile, m)?)?;
     m.add_function(wrap_pyfunction!(tiles::_extract_tile, m)?)?;

@@ -524,3 +524,94 @@ print("finished", flush=True)
     assert "KeyboardInterrupt" in stderr, stderr
     assert latency < 10, latency
     assert os.listdir(out_dir) == []
+
+
+# A slow tile: uint8 noise, nearly every cell active at 127.5 (uint8 at iso in data units runs in
+# one pass, so the tile's one task scans and writes its output), beside a thin quick one of zeros.
+SLOW_TILE = 416
+
+
+def quick_and_slow_tiles():
+    """(z, y, x) dask array of two tiles along z: noise (every cell active: seconds), `SLOW_TILE`
+    samples on a side plus the halo, then one block layer of zeros (no active cell: done in
+    moments). Its chunks are NumPy's, so that both tiles start at once and the quick one ends
+    while the slow one has nearly all of its work ahead."""
+    n = SLOW_TILE
+    a = np.zeros((n + 17, n + 1, n + 1), dtype=np.uint8)
+    a[: n + 1] = np.random.default_rng(7).integers(0, 256, a[: n + 1].shape, dtype=np.uint8)
+    return da.from_array(a, chunks=(n, n + 1, n + 1))
+
+
+def timed_run(source, out, tile_shape, **kwargs):
+    start = time.perf_counter()
+    isogrid.dask.extract(source, iso=127.5, output=out, tile_shape=tile_shape,
+                         tile_bytes=16 * SLOW_TILE ** 3, **kwargs)
+    return time.perf_counter() - start
+
+
+def stop_mid_tile(source, out_dir, tile_shape, error, **kwargs):
+    """Runs the two tiles, raising `error` from the progress callback once the quick tile is
+    done (the slow one has just started); returns the time of the raise (`time.perf_counter`)."""
+    raised = []
+
+    def progress(done, total):
+        if not raised:
+            raised.append(time.perf_counter())
+            raise error("stop")
+
+    with pytest.raises(error, match="stop"):
+        isogrid.dask.extract(source, iso=127.5, output=out_dir / "out.cgc", tile_shape=tile_shape,
+                             tile_bytes=16 * SLOW_TILE ** 3, progress=progress, **kwargs)
+    return raised[0]
+
+
+def running_tiles(dask_worker):
+    """The tile tasks a worker's threads still run: executing, or cancelled while executing (a
+    cancelled future's task runs on in its thread until it returns)."""
+    return sum(1 for key, task in dask_worker.state.tasks.items()
+               if str(key).startswith("('extract-") and "executing" in (task.state, task.previous))
+
+
+@pytest.mark.parametrize("error", [Stop, KeyboardInterrupt])
+@pytest.mark.parametrize("scheduler", ["threads", "client"])
+def test_a_stop_reaches_a_running_tile_task(tmp_path, monkeypatch, scheduler, error):
+    # The tile task running when the run stops ends within a block row of its tile, not at its
+    # end: it runs on for a small part of the slow tile's time, and nothing is left behind.
+    # (Before, a running task finished its tile: the driver waited for it on the threaded
+    # scheduler, and on a cluster the worker's thread ran it on after its future was cancelled.)
+    source = quick_and_slow_tiles()
+    tile_shape = (SLOW_TILE, SLOW_TILE, SLOW_TILE)
+    out_dir = tmp_path / "out"
+    out_dir.mkdir()
+    expected = in_process_bytes(source.compute(), tmp_path, iso=127.5)
+    if scheduler == "threads":
+        monkeypatch.setattr(isogrid.dask, "_client", lambda client: None)
+        monkeypatch.setitem(dask.config.config, "scheduler", "threads")
+        # The whole run: the quick tile and the slow one side by side, so about the slow one's time.
+        full = timed_run(source, out_dir / "full.cgc", tile_shape)
+        assert (out_dir / "full.cgc").read_bytes() == expected
+        os.remove(out_dir / "full.cgc")
+        assert full > 1.0, f"the slow tile took {full:.2f} s: too quick to stop mid-way"
+        raised = stop_mid_tile(source, out_dir, tile_shape, error)
+        after = time.perf_counter() - raised
+        assert after < 0.4 * full, f"returned {after:.2f} s after the raise; the slow tile takes {full:.2f} s"
+        assert os.listdir(out_dir) == [], os.listdir(out_dir)
+        return
+    # A worker process: the stop crosses to it through the run's distributed Event.
+    with distributed.LocalCluster(n_workers=1, processes=True, threads_per_worker=2, memory_limit="4GiB",
+                                  dashboard_address=None) as cluster, distributed.Client(cluster) as client:
+        with distributed.get_task_stream(client) as stream:
+            timed_run(source, out_dir / "full.cgc", tile_shape, client=client)
+        assert (out_dir / "full.cgc").read_bytes() == expected
+        os.remove(out_dir / "full.cgc")
+        slow = max(sum(s["stop"] - s["start"] for s in task["startstops"] if s["action"] == "compute")
+                   for task in stream.data if str(task["key"]).startswith("('extract-"))
+        assert slow > 1.0, f"the slow tile took {slow:.2f} s: too quick to stop mid-way"
+        raised = stop_mid_tile(source, out_dir, tile_shape, error, client=client)
+        assert os.listdir(out_dir) == [], os.listdir(out_dir)
+        # The driver does not wait for a worker's tasks: the slow tile must stop on the worker.
+        while sum(client.run(running_tiles).values()):
+            assert time.perf_counter() - raised < slow, "the slow tile ran on to its end"
+            time.sleep(0.02)
+        after = time.perf_counter() - raised
+        assert after < 0.4 * slow, f"the worker ran the tile {after:.2f} s after the raise; it takes {slow:.2f} s"
