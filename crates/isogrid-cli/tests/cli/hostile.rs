@@ -789,6 +789,13 @@ fn mc_vertices_beyond_f32_are_an_error() {
     for (name, directions, origin) in [
         ("spacing", "(1e39,0,0) (0,1,0) (0,0,1)", "(0,0,0)"),
         ("origin", "(1,0,0) (0,1,0) (0,0,1)", "(1e200,0,0)"),
+        // The issue's 1e200 as a spacing: its square overflows, and it was refused as "spacing
+        // inf", a value the file does not hold.
+        (
+            "spacing-1e200",
+            "(1e200,0,0) (0,1e200,0) (0,0,1e200)",
+            "(0,0,0)",
+        ),
     ] {
         let mut bytes = format!(
             "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 4 4 4\nspace: left-posterior-superior\n\
