@@ -373,8 +373,10 @@ def _emit(pieces: List[np.ndarray], places: List[Tuple[int, int, int]], shape: T
         return _isogrid._emit_tile(_assemble(pieces, places, shape), job, index, cancel)
 
 
-# How often a tile task on a distributed worker looks at its run's stop event, at most.
-STOP_WATCH_SECONDS = 0.1
+# How long one wait of a distributed tile task's watcher on its run's stop event lasts. Setting
+# the event ends the wait at once; the timeout only lets the watcher see that its task is done
+# (one scheduler call per running task per period).
+STOP_WATCH_SECONDS = 1.0
 
 
 @contextlib.contextmanager
