@@ -373,10 +373,11 @@ def _emit(pieces: List[np.ndarray], places: List[Tuple[int, int, int]], shape: T
         return _isogrid._emit_tile(_assemble(pieces, places, shape), job, index, cancel)
 
 
-# How long one wait of a distributed tile task's watcher on its run's stop event lasts. Setting
-# the event ends the wait at once; the timeout only lets the watcher see that its task is done
-# (one scheduler call per running task per period).
-STOP_WATCH_SECONDS = 1.0
+# How often a distributed tile task's watcher asks the scheduler whether its run's stop event is
+# set: a stop reaches a running tile within this, for one quick call per running task per period.
+# (Waiting on the event instead left a wait pending in the scheduler after each task, which the
+# scheduler logs as an error when the cluster closes right after a run.)
+STOP_WATCH_SECONDS = 0.2
 
 
 @contextlib.contextmanager
@@ -395,9 +396,9 @@ def _watching(stop: Any) -> Iterator[Any]:
     finished = threading.Event()
 
     def watch() -> None:
-        while not finished.is_set():
+        while not finished.wait(STOP_WATCH_SECONDS):
             try:
-                if event.wait(timeout=STOP_WATCH_SECONDS):
+                if event.is_set():
                     cancel.cancel()
                     return
             except Exception:  # the scheduler is gone: the task's result has nowhere to go
@@ -441,7 +442,7 @@ class _Chunks:
     """
 
     def __init__(self, array: "da.Array") -> None:
-        (self.array,) = dask.optimize(array)
+        (self.array,) = dask.optimize(_chunks_as_tasks(array))
         # Chunk bounds along z, y and x.
         self.bounds = [np.cumsum((0,) + tuple(c)) for c in array.chunks]
 
@@ -495,6 +496,23 @@ class _Chunks:
             keys.append(key)
         graph = HighLevelGraph.from_collections(name, layer, dependencies=[self.array])
         return [Delayed(key, graph, layer=name) for key in keys]
+
+
+def _chunks_as_tasks(array: "da.Array") -> "da.Array":
+    """`array`, with a task that passes each chunk on where its chunks are futures (an array
+    persisted on a cluster). A tile task names its chunks inside a list, and dask reads such a
+    name as the chunk only where the chunk is a task of the graph: a persisted chunk reached the
+    task as its name, a tuple ("'tuple' object has no attribute 'dtype'")."""
+    try:
+        from distributed import Future
+    except ImportError:
+        return array
+    from dask.highlevelgraph import MaterializedLayer
+
+    layer = array.dask.layers.get(array.name)
+    if isinstance(layer, MaterializedLayer) and any(isinstance(v, Future) for v in layer.mapping.values()):
+        return array.map_blocks(np.asarray, dtype=array.dtype)
+    return array
 
 
 def _dask_array(

@@ -270,6 +270,21 @@ def test_each_chunk_is_computed_once_per_pass_with_tiles_along_y_and_x(tmp_path,
 
 
 @pytest.mark.parametrize("dtype, iso", [(np.float32, 0.0), (np.uint8, 100)], ids=["scan-then-emit", "one-pass"])
+def test_an_array_persisted_on_the_cluster_gives_the_same_bytes(tmp_path, dtype, iso):
+    # A persisted array's chunks are futures, and the tile tasks got their names (tuples) in place
+    # of the samples: AttributeError "'tuple' object has no attribute 'dtype'".
+    a = volume(dtype)
+    expected = in_process_bytes(a, tmp_path, iso=iso)
+    with distributed.Client(processes=False, n_workers=1, threads_per_worker=2, dashboard_address=None) as c:
+        source = c.persist(da.from_array(a, chunks=CHUNKS))
+        isogrid.dask.extract(source, iso=iso, output=tmp_path / "persisted.cgc", client=c, tile_bytes=TILE_BYTES)
+        # And a view of it, whose chunks are tasks over the futures.
+        isogrid.dask.extract(source[:, :, :], iso=iso, output=tmp_path / "view.cgc", client=c, tile_bytes=TILE_BYTES)
+    assert (tmp_path / "persisted.cgc").read_bytes() == expected
+    assert (tmp_path / "view.cgc").read_bytes() == expected
+
+
+@pytest.mark.parametrize("dtype, iso", [(np.float32, 0.0), (np.uint8, 100)], ids=["scan-then-emit", "one-pass"])
 def test_a_worker_killed_mid_run_changes_nothing(tmp_path, two_workers, dtype, iso):
     a = volume(np.float32) if dtype == np.float32 else volume(np.uint8)
     expected = in_process_bytes(a, tmp_path, iso=iso)
