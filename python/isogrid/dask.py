@@ -373,32 +373,44 @@ def _emit(pieces: List[np.ndarray], places: List[Tuple[int, int, int]], shape: T
         return _isogrid._emit_tile(_assemble(pieces, places, shape), job, index, cancel)
 
 
-# How often a distributed tile task's watcher asks the scheduler whether its run's stop event is
-# set: a stop reaches a running tile within this, for one quick call per running task per period.
-# (Waiting on the event instead left a wait pending in the scheduler after each task, which the
-# scheduler logs as an error when the cluster closes right after a run.)
-STOP_WATCH_SECONDS = 0.2
+# How often a distributed tile task's watcher looks at its worker's own record of the task (the
+# driver cancels the futures of a stopped run; a client may cancel them too), and how often it
+# asks the scheduler whether its run's stop event is set (one quick call per running task per
+# period). Waiting on the event instead left a wait pending in the scheduler after each task,
+# which the scheduler logs as an error when the cluster closes right after a run.
+STOP_LOOK_SECONDS = 0.02
+STOP_ASK_SECONDS = 0.2
 
 
 @contextlib.contextmanager
 def _watching(stop: Any) -> Iterator[Any]:
     """The `_TaskCancel` flag a tile task runs on, from the run's `stop` (see `_Runner.stop`):
     the driver's own flag in this process; for a distributed run (`stop` is the name of a
-    `distributed.Event`), a flag of the task's own that a watcher thread cancels once the event
-    is set; None (the processes scheduler) for none."""
+    `distributed.Event`), a flag of the task's own that a watcher thread cancels once the
+    worker has marked the task cancelled or the event is set; None (the processes scheduler) for
+    none."""
     if not isinstance(stop, str):
         yield stop
         return
-    from distributed import Event, get_client
+    from distributed import Event, get_client, get_worker
+    from distributed.worker import thread_state
 
     cancel = _isogrid._TaskCancel()
     event = Event(stop, client=get_client())
+    worker, key = get_worker(), getattr(thread_state, "key", None)
     finished = threading.Event()
 
+    def cancelled_here() -> bool:
+        task = worker.state.tasks.get(key)
+        return task is not None and task.state == "cancelled"
+
     def watch() -> None:
-        while not finished.wait(STOP_WATCH_SECONDS):
+        looks = max(1, round(STOP_ASK_SECONDS / STOP_LOOK_SECONDS))
+        for look in itertools.count(1):
+            if finished.wait(STOP_LOOK_SECONDS):
+                return
             try:
-                if event.is_set():
+                if cancelled_here() or (look % looks == 0 and event.is_set()):
                     cancel.cancel()
                     return
             except Exception:  # the scheduler is gone: the task's result has nowhere to go
