@@ -184,12 +184,28 @@ def _zarr_selection(
     index: Optional[Sequence[Tuple[str, int]]] = None,
 ) -> Dict[str, Any]: ...
 def _check_precision(bits: int) -> None: ...
+class _TaskCancel:
+    """The stop flag the running tile tasks of one `isogrid.dask` pass watch, in this process."""
+
+    def __new__(cls) -> "_TaskCancel": ...
+    def cancel(self) -> None: ...
+    @property
+    def cancelled(self) -> bool: ...
+
 def _scan_tile(
-    tile: npt.NDArray[Any], volume_dims: Tuple[int, int, int], first_block: Tuple[int, int, int], iso: float
+    tile: npt.NDArray[Any],
+    volume_dims: Tuple[int, int, int],
+    first_block: Tuple[int, int, int],
+    iso: float,
+    cancel: Optional[_TaskCancel] = None,
 ) -> bytes: ...
-def _emit_tile(tile: npt.NDArray[Any], job: bytes, index: int) -> bytes: ...
+def _emit_tile(tile: npt.NDArray[Any], job: bytes, index: int, cancel: Optional[_TaskCancel] = None) -> bytes: ...
 def _extract_tile(
-    tile: npt.NDArray[Any], task: bytes, first_block: Tuple[int, int, int], output_bytes: int
+    tile: npt.NDArray[Any],
+    task: bytes,
+    first_block: Tuple[int, int, int],
+    output_bytes: int,
+    cancel: Optional[_TaskCancel] = None,
 ) -> bytes: ...
 
 class _TileExtraction:
@@ -226,6 +242,7 @@ def _label_slab(
     labels: str,
     smooth: float,
     precision: Optional[int] = None,
+    cancel: Optional[_TaskCancel] = None,
 ) -> bytes: ...
 
 class _LabelWriter:

@@ -51,12 +51,14 @@ varies fastest, and ``spacing`` and ``origin`` are (x, y, z).
 
 from __future__ import annotations
 
+import contextlib
 import errno
 import itertools
 import os
 import queue
 import threading
 import time
+import uuid
 import warnings
 from typing import Any, Callable, Dict, Iterable, Iterator, List, Optional, Sequence, Tuple
 
@@ -145,10 +147,12 @@ def extract(
             (FreeSurfer LUT, 3D Slicer ``.ctbl`` or ITK-SNAP), over the image's own names.
         progress: called as ``progress(done, total)`` in this process each time a task finishes:
             ``done`` tasks (tiles, then emit jobs) out of the ``total`` planned so far, which
-            grows by the emit jobs once the tiles are counted. If it raises, or on Ctrl-C
-            (``KeyboardInterrupt``), no further result is taken, tasks not yet started are
-            dropped (those running finish their tile), the exception is raised, and neither
-            ``output`` nor any temporary file is left.
+            grows by the emit jobs once the tiles are counted. If it raises, on Ctrl-C
+            (``KeyboardInterrupt``), or when a task fails or its future is cancelled, no further
+            result is taken, tasks not yet started are dropped, tasks running stop within a block
+            row of their tile, a label slab's between two blocks (on dask's threaded or synchronous scheduler and on a
+            ``distributed`` cluster; on the processes scheduler they finish their tile), the
+            exception is raised, and neither ``output`` nor any temporary file is left.
 
     Returns:
         The statistics ``isogrid extract --json`` prints: dims, iso, precision, active_cells,
@@ -203,6 +207,7 @@ def extract(
                                 out, label_table, names_of)
         stats["seconds"] = {"read": read, "extract": time.perf_counter() - start - read, "write": 0.0}
         return stats
+    stop = run.stop
     blocks = 1
     for n in (nx, ny, nz):
         blocks *= -(-(n - 1) // BLOCK_CELLS)
@@ -231,19 +236,21 @@ def extract(
             sample_bytes = dtype.itemsize * int(np.prod([hi - lo for lo, hi in samples]))
             output_bytes = max(0, budget - sample_bytes)
             tiles.append((samples, (one_pass, tuple(b[0] for b in box), output_bytes)))
-        for fragment in counter.counted(run.as_completed(chunks.tasks(_extract, tiles)), len(tiles)):
+        for fragment in counter.counted(run.as_completed(chunks.tasks(_extract, tiles, stop)), len(tiles)):
             extraction.add_tile(fragment)
     else:
         scans = [(_samples(box, dims), (dims, tuple(b[0] for b in box), extraction.iso)) for box in _tiles(dims, tile)]
         # In completion order (add_scan takes tiles in any order), so a stop ends the pass early.
-        for fragment in counter.counted(run.as_completed(chunks.tasks(_scan, scans)), len(scans)):
+        for fragment in counter.counted(run.as_completed(chunks.tasks(_scan, scans, stop)), len(scans)):
             extraction.add_scan(fragment)
 
     # Pass 2: emit jobs for the tiles that gave no output, written at their offsets as they
     # complete, after the one-pass tiles' output.
     jobs = extraction.plan_emits(tile, budget)
     emits = counter.counted(
-        run.as_completed(chunks.tasks(_emit, [(samples, (job, index)) for index, (samples, job) in enumerate(jobs)])),
+        run.as_completed(
+            chunks.tasks(_emit, [(samples, (job, index)) for index, (samples, job) in enumerate(jobs)], stop)
+        ),
         len(jobs),
     )
     if attribute is None:
@@ -284,7 +291,7 @@ def _extract_labels(array: "da.Array", writer: Any, run: "_Runner", counter: "_C
         z0, z1 = writer.planes((l0, l1))
         slabs.append((((0, nx), (0, ny), (z0, z1)), (dims, (l0, l1), selection, smooth, bits)))
     chunks = _Chunks(array)
-    for fragment in counter.counted(run.as_completed(chunks.tasks(_label_slab, slabs)), len(slabs)):
+    for fragment in counter.counted(run.as_completed(chunks.tasks(_label_slab, slabs, run.stop)), len(slabs)):
         writer.add(fragment)
     stats, notices = writer.write(out, None if label_table is None else os.fspath(label_table), names_of)
     for notice in notices:
@@ -293,10 +300,12 @@ def _extract_labels(array: "da.Array", writer: Any, run: "_Runner", counter: "_C
 
 
 def _label_slab(pieces: List[np.ndarray], places: List[Tuple[int, int, int]], shape: Tuple[int, int, int],
-                dims: Tuple[int, int, int], layers: Tuple[int, int], selection: str, smooth: float,
+                stop: Any, dims: Tuple[int, int, int], layers: Tuple[int, int], selection: str, smooth: float,
                 bits: Optional[int]) -> bytes:
     """Task: the label pass over one slab of block layers (GIL released in Rust)."""
-    return _isogrid._label_slab(_assemble(pieces, places, shape), dims, layers, selection, smooth, bits)
+    with _watching(stop) as cancel:
+        return _isogrid._label_slab(_assemble(pieces, places, shape), dims, layers, selection, smooth, bits,
+                                    cancel)
 
 
 class _Counter:
@@ -413,23 +422,78 @@ def _samples(box: Box, dims: Tuple[int, int, int]) -> Box:
     )
 
 
-def _scan(pieces: List[np.ndarray], places: List[Tuple[int, int, int]], shape: Tuple[int, int, int],
+def _scan(pieces: List[np.ndarray], places: List[Tuple[int, int, int]], shape: Tuple[int, int, int], stop: Any,
           dims: Tuple[int, int, int], first_block: Tuple[int, int, int], iso: float) -> bytes:
     """Task: pass 1 of one tile (GIL released in Rust)."""
-    return _isogrid._scan_tile(_assemble(pieces, places, shape), dims, first_block, iso)
+    with _watching(stop) as cancel:
+        return _isogrid._scan_tile(_assemble(pieces, places, shape), dims, first_block, iso, cancel)
 
 
-def _extract(pieces: List[np.ndarray], places: List[Tuple[int, int, int]], shape: Tuple[int, int, int],
+def _extract(pieces: List[np.ndarray], places: List[Tuple[int, int, int]], shape: Tuple[int, int, int], stop: Any,
              task: bytes, first_block: Tuple[int, int, int], output_bytes: int) -> bytes:
     """Task: one pass over one tile, scan and (when it fits `output_bytes`) output (GIL released
     in Rust)."""
-    return _isogrid._extract_tile(_assemble(pieces, places, shape), task, first_block, output_bytes)
+    with _watching(stop) as cancel:
+        return _isogrid._extract_tile(_assemble(pieces, places, shape), task, first_block, output_bytes, cancel)
 
 
-def _emit(pieces: List[np.ndarray], places: List[Tuple[int, int, int]], shape: Tuple[int, int, int],
+def _emit(pieces: List[np.ndarray], places: List[Tuple[int, int, int]], shape: Tuple[int, int, int], stop: Any,
           job: bytes, index: int) -> bytes:
     """Task: pass 2 of one emit job (GIL released in Rust)."""
-    return _isogrid._emit_tile(_assemble(pieces, places, shape), job, index)
+    with _watching(stop) as cancel:
+        return _isogrid._emit_tile(_assemble(pieces, places, shape), job, index, cancel)
+
+
+# How often a distributed tile task's watcher looks at its worker's own record of the task (the
+# driver cancels the futures of a stopped run; a client may cancel them too), and how often it
+# asks the scheduler whether its run's stop event is set (one quick call per running task per
+# period). Waiting on the event instead left a wait pending in the scheduler after each task,
+# which the scheduler logs as an error when the cluster closes right after a run.
+STOP_LOOK_SECONDS = 0.02
+STOP_ASK_SECONDS = 0.2
+
+
+@contextlib.contextmanager
+def _watching(stop: Any) -> Iterator[Any]:
+    """The `_TaskCancel` flag a tile task runs on, from the run's `stop` (see `_Runner.stop`):
+    the driver's own flag in this process; for a distributed run (`stop` is the name of a
+    `distributed.Event`), a flag of the task's own that a watcher thread cancels once the
+    worker has marked the task cancelled or the event is set; None (the processes scheduler) for
+    none."""
+    if not isinstance(stop, str):
+        yield stop
+        return
+    from distributed import Event, get_client, get_worker
+    from distributed.worker import thread_state
+
+    cancel = _isogrid._TaskCancel()
+    event = Event(stop, client=get_client())
+    worker, key = get_worker(), getattr(thread_state, "key", None)
+    finished = threading.Event()
+
+    def cancelled_here() -> bool:
+        task = worker.state.tasks.get(key)
+        return task is not None and task.state == "cancelled"
+
+    def watch() -> None:
+        looks = max(1, round(STOP_ASK_SECONDS / STOP_LOOK_SECONDS))
+        for look in itertools.count(1):
+            if finished.wait(STOP_LOOK_SECONDS):
+                return
+            try:
+                if cancelled_here() or (look % looks == 0 and event.is_set()):
+                    cancel.cancel()
+                    return
+            except Exception:  # the scheduler is gone: the task's result has nowhere to go
+                cancel.cancel()
+                return
+
+    watcher = threading.Thread(target=watch, name="isogrid-tile-stop", daemon=True)
+    watcher.start()
+    try:
+        yield cancel
+    finally:
+        finished.set()
 
 
 def _assemble(pieces: List[np.ndarray], places: List[Tuple[int, int, int]], shape: Tuple[int, int, int]) -> np.ndarray:
@@ -461,7 +525,7 @@ class _Chunks:
     """
 
     def __init__(self, array: "da.Array") -> None:
-        (self.array,) = dask.optimize(array)
+        (self.array,) = dask.optimize(_chunks_as_tasks(array))
         # Chunk bounds along z, y and x.
         self.bounds = [np.cumsum((0,) + tuple(c)) for c in array.chunks]
 
@@ -476,15 +540,18 @@ class _Chunks:
                 return
             yield index, max(lo, start) - start, min(hi, end) - start
 
-    def tasks(self, function: Any, items: Sequence[Tuple[Box, Tuple[Any, ...]]]) -> List[Any]:
-        """One delayed `function(pieces, places, shape, *args)` per (samples, args) of `items`,
-        `samples` being (x, y, z) sample ranges, all in one graph layer."""
+    def tasks(self, function: Any, items: Sequence[Tuple[Box, Tuple[Any, ...]]], stop: Any) -> List[Any]:
+        """One delayed `function(pieces, places, shape, stop, *args)` per (samples, args) of
+        `items`, `samples` being (x, y, z) sample ranges, all in one graph layer; `stop` is the
+        run's (`_Runner.stop`)."""
         from dask.base import tokenize
         from dask.delayed import Delayed
         from dask.highlevelgraph import HighLevelGraph
 
         source = self.array.name
-        name = f"{function.__name__.strip('_')}-{tokenize(source, function.__name__, items)}"
+        # The run's stop is in the name (not in the token: a flag is not hashed): two runs' tasks
+        # on one cluster watch their own.
+        name = f"{function.__name__.strip('_')}-{tokenize(source, function.__name__, items)}-{id(stop):x}"
         cut_name = f"cut-{source}"
         layer: Dict[Any, Any] = {}
         keys = []
@@ -508,10 +575,27 @@ class _Chunks:
             key = (name, number)
             shape = (z1 - z0, y1 - y0, x1 - x0)
             # Every other argument is numbers or bytes, which the graph cannot take for a task or key.
-            layer[key] = (function, pieces, places, shape) + tuple(args)
+            layer[key] = (function, pieces, places, shape, stop) + tuple(args)
             keys.append(key)
         graph = HighLevelGraph.from_collections(name, layer, dependencies=[self.array])
         return [Delayed(key, graph, layer=name) for key in keys]
+
+
+def _chunks_as_tasks(array: "da.Array") -> "da.Array":
+    """`array`, with a task that passes each chunk on where its chunks are futures (an array
+    persisted on a cluster). A tile task names its chunks inside a list, and dask reads such a
+    name as the chunk only where the chunk is a task of the graph: a persisted chunk reached the
+    task as its name, a tuple ("'tuple' object has no attribute 'dtype'")."""
+    try:
+        from distributed import Future
+    except ImportError:
+        return array
+    from dask.highlevelgraph import MaterializedLayer
+
+    layer = array.dask.layers.get(array.name)
+    if isinstance(layer, MaterializedLayer) and any(isinstance(v, Future) for v in layer.mapping.values()):
+        return array.map_blocks(np.asarray, dtype=array.dtype)
+    return array
 
 
 def _dask_array(
@@ -578,13 +662,13 @@ def _from_zarr(
     return array, picked
 
 
-def _in_process_scheduler(tasks: List[Any]) -> bool:
-    """Whether dask's scheduler for `tasks` (without a client) runs them in this process."""
+def _in_process_scheduler() -> bool:
+    """Whether dask's scheduler for delayed tasks (without a client) runs them in this process."""
     import dask.local
     import dask.threaded
     from dask.base import get_scheduler
 
-    return get_scheduler(collections=tasks) in (dask.threaded.get, dask.local.get_sync)
+    return get_scheduler(collections=[dask.delayed(0)]) in (dask.threaded.get, dask.local.get_sync)
 
 
 class _Channel:
@@ -637,15 +721,40 @@ class _Runner:
     client results are gathered (and released) one by one. Dask's local schedulers return a
     graph's results all at once, so a pass runs on the threaded or synchronous scheduler in a
     background thread, each task handing its result to the driver through a bounded queue (tasks
-    wait while it is full); the driver stopping (an error, the caller's progress callback
-    raising, Ctrl-C) therefore stops the pass after the tasks already running. On another local
-    scheduler (processes, whose tasks cannot reach the queue) a pass runs a window of tasks at a
-    time, and a chunk that two windows read is computed in both.
+    wait while it is full). On another local scheduler (processes, whose tasks cannot reach the
+    queue) a pass runs a window of tasks at a time, and a chunk that two windows read is computed
+    in both.
+
+    The driver stopping a pass before its end (an error, the caller's progress callback raising,
+    Ctrl-C, a cancelled future) drops the tasks not yet started and sets `stop`, which the tasks
+    running watch (see `_watching`): they end within a block row of their tile. In this process
+    `stop` is a `_TaskCancel` flag the tasks share; on a client it is the name of a
+    `distributed.Event`; on the processes scheduler None (running tasks finish their tile).
     """
 
     def __init__(self, client: Any) -> None:
         self.client = client
         self.window = 2 * (os.cpu_count() or 1)
+        self.local = client is None and _in_process_scheduler()
+        self.stop: Any = None
+        self._event: Any = None
+        if client is not None:
+            from distributed import Event
+
+            self.stop = f"isogrid-stop-{uuid.uuid4().hex}"
+            self._event = Event(self.stop, client=client)
+        elif self.local:
+            self.stop = _isogrid._TaskCancel()
+
+    def _stop_running(self) -> None:
+        """Tells the tasks still running to stop (the driver has stopped taking results)."""
+        if self._event is not None:
+            try:
+                self._event.set()
+            except Exception:  # the cluster is gone, and its tasks with it
+                pass
+        elif self.stop is not None:
+            self.stop.cancel()
 
     def value_range(self, array: "da.Array") -> Tuple[float, float]:
         """(min, max) of the samples, NaN ignored; (nan, nan) when none is finite."""
@@ -697,6 +806,7 @@ class _Runner:
 
         thread = threading.Thread(target=run, name="isogrid-dask-pass", daemon=True)
         thread.start()
+        ended = False
         try:
             while True:
                 item = channel.queue.get()
@@ -705,9 +815,12 @@ class _Runner:
                 yield item
             if failure and not isinstance(failure[0], _Channel.Closed):
                 raise failure[0]
+            ended = True
         finally:
-            # The driver stopped (an error, or it is done): tasks still running stop at their
-            # hand-over, and the pass ends.
+            # The driver stopped (an error, or it is done): tasks still running stop within a
+            # block row, or at their hand-over, and the pass ends.
+            if not ended:
+                self._stop_running()
             channel.closed.set()
             thread.join()
 
@@ -717,7 +830,7 @@ class _Runner:
         if self.client is None:
             if not tasks:
                 return
-            if _in_process_scheduler(tasks):
+            if self.local:
                 yield from self._handed_over(tasks)
             else:
                 yield from self._windows(tasks, self.window)
@@ -725,12 +838,16 @@ class _Runner:
         from distributed import as_completed
 
         futures = self.client.compute(tasks, optimize_graph=True)
+        ended = False
         try:
             for future in as_completed(futures):
                 result = future.result()
                 future.release()
                 yield result
+            ended = True
         finally:
-            for future in futures:
-                if not future.done():
-                    future.cancel()
+            if not ended:
+                self._stop_running()
+                for future in futures:
+                    if not future.done():
+                        future.cancel()

@@ -44,6 +44,7 @@ fn _isogrid(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<tiles::_TileExtraction>()?;
     m.add_class::<tiles::_LabelWriter>()?;
     m.add_function(wrap_pyfunction!(tiles::_label_slab, m)?)?;
+    m.add_class::<tiles::_TaskCancel>()?;
     m.add_function(wrap_pyfunction!(tiles::_scan_tile, m)?)?;
     m.add_function(wrap_pyfunction!(tiles::_emit_tile, m)?)?;
     m.add_function(wrap_pyfunction!(tiles::_extract_tile, m)?)?;

@@ -19,6 +19,7 @@ use isogrid::{ExtractOptions, Geometry, LabelOptions, LabelSelection};
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict};
 use std::path::PathBuf;
+use std::sync::Arc;
 
 /// The geometry a driver is given: dims (x, y, z), spacing, origin and, when given, the rows of
 /// the world directions of x, y and z.
@@ -39,42 +40,76 @@ fn driver_geometry(
     Ok(geometry)
 }
 
-/// The progress of one task. A task is one tile, which a Dask worker runs to its end (seconds at
-/// most, for `tile_bytes` of samples): the driver counts finished tasks and stops handing out new
-/// ones on Ctrl-C or when its `progress` callback raises.
-fn task_progress() -> isogrid::Progress {
-    isogrid::Progress::new()
+/// The stop flag of the tile tasks of one `isogrid.dask` pass in this process. The driver (or, on
+/// a distributed worker, the task's watcher of the run's stop event) cancels it, and every task
+/// running on it stops at its next block row (scan) or block (emit), raising the library's "interrupted" error:
+/// without it a running tile, seconds of work, would run to its end after the run had stopped.
+/// Its counts are those of all the tasks on it together, and nobody reads them.
+#[pyclass(module = "isogrid", frozen)]
+pub struct _TaskCancel {
+    progress: Arc<isogrid::Progress>,
+}
+
+#[pymethods]
+impl _TaskCancel {
+    #[new]
+    fn new() -> Self {
+        _TaskCancel {
+            progress: Arc::new(isogrid::Progress::new()),
+        }
+    }
+
+    /// Stops the tasks running on this flag, and those that start on it later.
+    fn cancel(&self) {
+        self.progress.cancel();
+    }
+
+    #[getter]
+    fn cancelled(&self) -> bool {
+        self.progress.is_cancelled()
+    }
+}
+
+/// The progress a task runs on: its `cancel` flag's, else a fresh one nobody cancels.
+fn task_progress(cancel: Option<&Bound<'_, _TaskCancel>>) -> Arc<isogrid::Progress> {
+    cancel.map_or_else(Default::default, |c| Arc::clone(&c.get().progress))
 }
 
 /// Pass 1 of one tile: its scan fragment (see `isogrid.dask`).
 #[pyfunction]
+#[pyo3(signature = (tile, volume_dims, first_block, iso, cancel=None))]
 pub fn _scan_tile<'py>(
     py: Python<'py>,
     tile: &Bound<'py, PyAny>,
     volume_dims: [usize; 3],
     first_block: [usize; 3],
     iso: f64,
+    cancel: Option<&Bound<'py, _TaskCancel>>,
 ) -> PyResult<Bound<'py, PyBytes>> {
     let tile = VolumeArg::new(tile, false, [1.0; 3])?;
     let view = tile.view()?;
+    let progress = task_progress(cancel);
     let fragment = py
-        .detach(move || tiles::scan_tile(&view, volume_dims, first_block, iso, &task_progress()))
+        .detach(move || tiles::scan_tile(&view, volume_dims, first_block, iso, &progress))
         .map_err(to_py)?;
     Ok(PyBytes::new(py, &fragment))
 }
 
 /// Pass 2 of one emit job: its output fragment (see `isogrid.dask`).
 #[pyfunction]
+#[pyo3(signature = (tile, job, index, cancel=None))]
 pub fn _emit_tile<'py>(
     py: Python<'py>,
     tile: &Bound<'py, PyAny>,
     job: &[u8],
     index: u32,
+    cancel: Option<&Bound<'py, _TaskCancel>>,
 ) -> PyResult<Bound<'py, PyBytes>> {
     let tile = VolumeArg::new(tile, false, [1.0; 3])?;
     let view = tile.view()?;
+    let progress = task_progress(cancel);
     let fragment = py
-        .detach(move || tiles::emit_tile(&view, job, index, &task_progress()))
+        .detach(move || tiles::emit_tile(&view, job, index, &progress))
         .map_err(to_py)?;
     Ok(PyBytes::new(py, &fragment))
 }
@@ -82,17 +117,20 @@ pub fn _emit_tile<'py>(
 /// One pass over one tile: its scan records, and its output when that fits `output_bytes` (see
 /// `isogrid.dask`).
 #[pyfunction]
+#[pyo3(signature = (tile, task, first_block, output_bytes, cancel=None))]
 pub fn _extract_tile<'py>(
     py: Python<'py>,
     tile: &Bound<'py, PyAny>,
     task: &[u8],
     first_block: [usize; 3],
     output_bytes: u64,
+    cancel: Option<&Bound<'py, _TaskCancel>>,
 ) -> PyResult<Bound<'py, PyBytes>> {
     let tile = VolumeArg::new(tile, false, [1.0; 3])?;
     let view = tile.view()?;
+    let progress = task_progress(cancel);
     let fragment = py
-        .detach(move || tiles::extract_tile(&view, task, first_block, output_bytes, &task_progress()))
+        .detach(move || tiles::extract_tile(&view, task, first_block, output_bytes, &progress))
         .map_err(to_py)?;
     Ok(PyBytes::new(py, &fragment))
 }
@@ -239,7 +277,8 @@ fn label_options(labels: &str, smooth: f64, precision: Option<u32>) -> PyResult<
 /// One task of a label extraction: the fragment of block layers `layers` (z0, z1) of a volume of
 /// `volume_dims` (x, y, z), from `slab`, the planes `_LabelWriter.planes` names, whole in x and y.
 #[pyfunction]
-#[pyo3(signature = (slab, volume_dims, layers, labels, smooth, precision=None))]
+#[pyo3(signature = (slab, volume_dims, layers, labels, smooth, precision=None, cancel=None))]
+#[allow(clippy::too_many_arguments)]
 pub fn _label_slab<'py>(
     py: Python<'py>,
     slab: &Bound<'py, PyAny>,
@@ -248,10 +287,12 @@ pub fn _label_slab<'py>(
     labels: &str,
     smooth: f64,
     precision: Option<u32>,
+    cancel: Option<&Bound<'py, _TaskCancel>>,
 ) -> PyResult<Bound<'py, PyBytes>> {
     let options = label_options(labels, smooth, precision)?;
     let slab = VolumeArg::new(slab, false, [1.0; 3])?;
     let view = slab.view()?;
+    let progress = task_progress(cancel);
     let fragment = py
         .detach(move || {
             label_stream::label_fragment(
@@ -259,7 +300,7 @@ pub fn _label_slab<'py>(
                 volume_dims,
                 layers.0..layers.1,
                 &options,
-                &task_progress(),
+                &progress,
             )
         })
         .map_err(to_py)?;

@@ -3,6 +3,7 @@ arrays with chunks that do not divide 16 and tiles cut along x, y and z, zarr ar
 0.4 and 0.5 images (levels, indexed t/c axes, transforms; also the CLI's bytes), a LocalCluster of
 two worker processes and a worker killed mid-run; its statistics are the CLI's."""
 
+import hashlib
 import json
 import os
 import signal
@@ -267,6 +268,21 @@ def test_each_chunk_is_computed_once_per_pass_with_tiles_along_y_and_x(tmp_path,
     counts = {loc: computed.count(loc) for loc in set(computed)}
     assert len(counts) == source.npartitions
     assert max(counts.values()) == passes, counts
+
+
+@pytest.mark.parametrize("dtype, iso", [(np.float32, 0.0), (np.uint8, 100)], ids=["scan-then-emit", "one-pass"])
+def test_an_array_persisted_on_the_cluster_gives_the_same_bytes(tmp_path, dtype, iso):
+    # A persisted array's chunks are futures, and the tile tasks got their names (tuples) in place
+    # of the samples: AttributeError "'tuple' object has no attribute 'dtype'".
+    a = volume(dtype)
+    expected = in_process_bytes(a, tmp_path, iso=iso)
+    with distributed.Client(processes=False, n_workers=1, threads_per_worker=2, dashboard_address=None) as c:
+        source = c.persist(da.from_array(a, chunks=CHUNKS))
+        isogrid.dask.extract(source, iso=iso, output=tmp_path / "persisted.cgc", client=c, tile_bytes=TILE_BYTES)
+        # And a view of it, whose chunks are tasks over the futures.
+        isogrid.dask.extract(source[:, :, :], iso=iso, output=tmp_path / "view.cgc", client=c, tile_bytes=TILE_BYTES)
+    assert (tmp_path / "persisted.cgc").read_bytes() == expected
+    assert (tmp_path / "view.cgc").read_bytes() == expected
 
 
 @pytest.mark.parametrize("dtype, iso", [(np.float32, 0.0), (np.uint8, 100)], ids=["scan-then-emit", "one-pass"])
@@ -608,3 +624,132 @@ def test_label_progress_counts_slabs_and_a_stop_leaves_no_file(tmp_path):
         with pytest.raises(error, match="stopped at 2 of 5"):
             isogrid.dask.extract(source, labels="all", smooth=smooth, output=out, tile_bytes=1, progress=stop)
         assert os.listdir(tmp_path) == [], os.listdir(tmp_path)
+
+
+# A slow tile: uint8 noise, nearly every cell active at 127.5 (uint8 at iso in data units runs in
+# one pass, so the tile's one task scans and writes its output), beside a thin quick one of zeros.
+SLOW_TILE = 416
+
+
+def quick_and_slow_tiles():
+    """(z, y, x) dask array of two tiles along z: noise (every cell active: seconds), `SLOW_TILE`
+    samples on a side plus the halo, then one block layer of zeros (no active cell: done in
+    moments). Its chunks are NumPy's, so that both tiles start at once and the quick one ends
+    while the slow one has nearly all of its work ahead."""
+    n = SLOW_TILE
+    a = np.zeros((n + 17, n + 1, n + 1), dtype=np.uint8)
+    a[: n + 1] = np.random.default_rng(7).integers(0, 256, a[: n + 1].shape, dtype=np.uint8)
+    return da.from_array(a, chunks=(n, n + 1, n + 1))
+
+
+def taken_digest(path):
+    """The SHA-256 of the file `path`, which is then removed."""
+    digest = hashlib.sha256()
+    with open(path, "rb") as f:
+        for piece in iter(lambda: f.read(1 << 24), b""):
+            digest.update(piece)
+    os.remove(path)
+    return digest.hexdigest()
+
+
+def run_tiles(source, out, tile_shape, **kwargs):
+    isogrid.dask.extract(source, iso=127.5, output=out, tile_shape=tile_shape,
+                         tile_bytes=16 * SLOW_TILE ** 3, **kwargs)
+
+
+def stop_mid_tile(source, out_dir, tile_shape, error, **kwargs):
+    """Runs the two tiles, raising `error` from the progress callback once the quick tile is
+    done (the slow one has just started); returns the time of the raise (`time.time`, which the
+    worker processes of a LocalCluster share)."""
+    raised = []
+
+    def progress(done, total):
+        if not raised:
+            raised.append(time.time())
+            raise error("stop")
+
+    with pytest.raises(error, match="stop"):
+        isogrid.dask.extract(source, iso=127.5, output=out_dir / "out.cgc", tile_shape=tile_shape,
+                             tile_bytes=16 * SLOW_TILE ** 3, progress=progress, **kwargs)
+    return raised[0]
+
+
+def running_tiles(dask_worker):
+    """The tile tasks a worker's threads still run: executing, or cancelled while executing (a
+    cancelled future's task runs on in its thread until it returns)."""
+    return sum(1 for key, task in dask_worker.state.tasks.items()
+               if str(key).startswith("('extract-")
+               and (task.state == "executing" or (task.state == "cancelled" and task.previous == "executing")))
+
+
+async def tiles_end(dask_worker, deadline):
+    """Run in a worker's event loop (which must go on, to hear of cancelled tasks): the time
+    (`time.time`) its last running tile task ended, looked at every 5 ms, or None at `deadline`."""
+    import asyncio
+
+    while running_tiles(dask_worker):
+        if time.time() > deadline:
+            return None
+        await asyncio.sleep(0.005)
+    return time.time()
+
+
+@pytest.mark.parametrize("error", [Stop, KeyboardInterrupt])
+@pytest.mark.parametrize("scheduler", ["threads", "client"])
+def test_a_stop_reaches_a_running_tile_task(tmp_path, monkeypatch, scheduler, error):
+    # The tile task running when the run stops ends within a block row of its tile, not at its
+    # end: it runs on for a small part of the slow tile's time, and nothing is left behind.
+    # (Before, a running task finished its tile: the driver waited for it on the threaded
+    # scheduler, and on a cluster the worker's thread ran it on after its future was cancelled.)
+    source = quick_and_slow_tiles()
+    tile_shape = (SLOW_TILE, SLOW_TILE, SLOW_TILE)
+    out_dir = tmp_path / "out"
+    out_dir.mkdir()
+    # The files are 650 MB each: compared by digest, and removed at once (pytest keeps its
+    # temporary folders).
+    reference = tmp_path / "reference.cgc"
+    isogrid.extract(source.compute(), iso=127.5).save(reference)
+    expected = taken_digest(reference)
+    if scheduler == "threads":
+        monkeypatch.setattr(isogrid.dask, "_client", lambda client: None)
+        monkeypatch.setitem(dask.config.config, "scheduler", "threads")
+        # The slow tile's own time: its task's (the run also copies the output into place).
+        seconds = []
+        task = isogrid.dask._extract
+
+        def timed(*args):
+            start = time.perf_counter()
+            try:
+                return task(*args)
+            finally:
+                seconds.append(time.perf_counter() - start)
+
+        monkeypatch.setattr(isogrid.dask, "_extract", timed)
+        run_tiles(source, out_dir / "full.cgc", tile_shape)
+        assert taken_digest(out_dir / "full.cgc") == expected
+        slow = max(seconds)
+        assert slow > 1.0, f"the slow tile took {slow:.2f} s: too quick to stop mid-way"
+        raised = stop_mid_tile(source, out_dir, tile_shape, error)
+        after = time.time() - raised
+        assert after < 0.4 * slow, f"returned {after:.2f} s after the raise; the slow tile takes {slow:.2f} s"
+        assert os.listdir(out_dir) == [], os.listdir(out_dir)
+        return
+    # A worker process: the stop crosses to it through the run's distributed Event.
+    # The tiles' Rust code on one thread: the worker's Python threads (its event loop, the task's
+    # watcher) keep a core, and the slow tile runs long enough to see it cut short.
+    with distributed.LocalCluster(n_workers=1, processes=True, threads_per_worker=2, memory_limit="4GiB",
+                                  dashboard_address=None, env={"RAYON_NUM_THREADS": "1"}) as cluster, \
+            distributed.Client(cluster) as client:
+        with distributed.get_task_stream(client) as stream:
+            run_tiles(source, out_dir / "full.cgc", tile_shape, client=client)
+        assert taken_digest(out_dir / "full.cgc") == expected
+        slow = max(sum(s["stop"] - s["start"] for s in task["startstops"] if s["action"] == "compute")
+                   for task in stream.data if str(task["key"]).startswith("('extract-"))
+        assert slow > 1.0, f"the slow tile took {slow:.2f} s: too quick to stop mid-way"
+        raised = stop_mid_tile(source, out_dir, tile_shape, error, client=client)
+        assert os.listdir(out_dir) == [], os.listdir(out_dir)
+        # The driver does not wait for a worker's tasks: the slow tile must stop on the worker.
+        (ended,) = client.run(tiles_end, deadline=raised + slow).values()
+        assert ended is not None, "the slow tile ran on to its end"
+        after = ended - raised
+        assert after < 0.4 * slow, f"the worker ran the tile {after:.2f} s after the raise; it takes {slow:.2f} s"

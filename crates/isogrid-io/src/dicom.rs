@@ -91,6 +91,12 @@ pub fn read_dicom(path: &Path, opts: &ReadOptions) -> Result<(Volume, Vec<String
     Ok((volume, notices))
 }
 
+/// Whether `path` is a DICOM file holding an image (its header read, not its pixels): a file that
+/// only starts like a bare data set (a file of zero bytes does) is not.
+pub(crate) fn is_dicom_image(path: &Path) -> bool {
+    looks_like_dicom(path) && matches!(file::read_header(path), Ok(Some(_)))
+}
+
 /// The files of the folder `path` that look like DICOM (see the module doc), sorted.
 pub(crate) fn folder_files(path: &Path) -> Result<Vec<PathBuf>> {
     let mut files = Vec::new();

@@ -23,8 +23,15 @@ pub(crate) fn cross(a: Vec3, b: Vec3) -> Vec3 {
     ]
 }
 
+/// `|a|`; finite for every finite `a`: a file's axis of length 1e200 (whose square overflows) or
+/// 1e-200 (whose square underflows) is that length, not ∞ or 0.
 pub(crate) fn norm(a: Vec3) -> f64 {
-    dot(a, a).sqrt()
+    let squared = dot(a, a);
+    if squared.is_finite() && squared >= f64::MIN_POSITIVE {
+        squared.sqrt()
+    } else {
+        a[0].hypot(a[1]).hypot(a[2])
+    }
 }
 
 /// `a / |a|`, or `None` for a zero or non-finite vector.

@@ -31,6 +31,24 @@ pub fn set_limit(bytes: Option<u64>) {
 
 /// Bytes a request may allocate now, and where that figure comes from; `None` when unknown.
 pub fn available() -> Option<(u64, &'static str)> {
+    room(0)
+}
+
+/// Address space glibc's malloc reserves for each thread's arena (`HEAP_MAX_SIZE` on 64-bit: 64
+/// MiB, mapped whole the first time a thread allocates, used or not).
+const ARENA_RESERVE: u64 = 64 << 20;
+
+/// [`available`] for a plan that fills the room over a run whose worker threads have not all
+/// allocated yet (a streamed extraction's budget): under an address-space limit, less one malloc
+/// arena reservation per thread of rayon's pool (the main thread's arena grows the heap instead).
+/// A budget of the whole room aborted in the allocator once the threads' arenas were mapped (exit
+/// 134, "memory allocation of N bytes failed").
+pub fn available_to_plan() -> Option<(u64, &'static str)> {
+    room(rayon::current_num_threads() as u64 * ARENA_RESERVE)
+}
+
+/// [`available`], with `arenas` bytes of address space kept back under an address-space limit.
+fn room(arenas: u64) -> Option<(u64, &'static str)> {
     let mut best: Option<(u64, &'static str)> = None;
     let mut lower = |bytes: Option<u64>, source: &'static str| {
         if let Some(b) = bytes {
@@ -42,7 +60,7 @@ pub fn available() -> Option<(u64, &'static str)> {
     lower(mem_available(), "available memory");
     lower(cgroup_room(), "the cgroup's memory limit");
     lower(
-        address_space_room(),
+        address_space_room().map(|room| room.saturating_sub(arenas)),
         "the room under the address-space limit (ulimit -v)",
     );
     lower(

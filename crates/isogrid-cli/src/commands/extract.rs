@@ -120,8 +120,9 @@ pub fn run(args: Args) -> Result<()> {
             if let Some(notice) = isogrid_io::region::slices::skipped_files_notice(&args.input) {
                 eprintln!("isogrid: note: {notice}");
             }
-            let max_memory = budget(args.max_memory);
             let (stats, attribute_report) = pool.install(|| {
+                // In the pool: the budget keeps back address space for its threads' arenas.
+                let max_memory = budget(args.max_memory);
                 stream_to_file(
                     &args,
                     source.as_mut(),
@@ -474,8 +475,8 @@ fn has_no_finite_sample(source: &mut dyn RegionSource) -> isogrid::Result<bool> 
 
 /// The memory budget of a streamed extraction: `--max-memory`, by default a quarter of the
 /// machine's memory (4 GiB where it cannot be read), lowered to what the process may allocate now
-/// ([`isogrid::memory::available`]: free memory, the cgroup's limit, `ulimit -v`). A budget past
-/// that would abort in the allocator, leaving nothing to clean up its temporary file.
+/// ([`isogrid::memory::available_to_plan`]: free memory, the cgroup's limit, `ulimit -v` less the
+/// threads' malloc arenas). A budget past that would abort in the allocator.
 fn budget(max_memory: Option<u64>) -> u64 {
     let asked = max_memory.unwrap_or_else(|| {
         let total = std::fs::read_to_string("/proc/meminfo")
@@ -487,7 +488,7 @@ fn budget(max_memory: Option<u64>) -> u64 {
             });
         total.map_or(4 << 30, |t| t / 4)
     });
-    match isogrid::memory::available() {
+    match isogrid::memory::available_to_plan() {
         Some((room, source)) if room < asked => {
             if max_memory.is_some() {
                 eprintln!(

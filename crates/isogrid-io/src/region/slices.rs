@@ -34,11 +34,13 @@ pub(crate) fn tiff_slices_and_others(dir: &Path) -> Result<Option<(Vec<PathBuf>,
         }
     }
     // Only a folder with TIFF files has its other files opened (a Zarr store's chunks are not),
-    // and only regular ones: opening a FIFO would wait for a writer.
+    // and only regular ones: opening a FIFO would wait for a writer. A DICOM image among them
+    // makes it a DICOM folder; a file that merely starts like a bare DICOM data set (zero bytes
+    // do) is another file, skipped with the notice.
     if files.is_empty()
         || others
             .iter()
-            .any(|p| p.is_file() && crate::dicom::looks_like_dicom(p))
+            .any(|p| p.is_file() && crate::dicom::is_dicom_image(p))
     {
         return Ok(None);
     }

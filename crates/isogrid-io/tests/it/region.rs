@@ -207,13 +207,16 @@ fn tiff_slice_folder_with_other_files_skips_them_with_a_notice() {
     dir.file("readme.md", b"# scan of 2026-11-27\n");
     dir.file("Thumbs.db", &[0xD0, 0xCF, 0x11, 0xE0, 0, 0, 0, 0]);
     dir.file(".DS_Store", b"\0\0\0\x01Bud1");
+    // Zero bytes start like a bare DICOM data set (an empty (0000,0000) element): the folder was
+    // taken for DICOM again.
+    dir.file("empty.bin", &[0; 200]);
     let (v, notices) =
         read_volume_noted(&dir.0, &ReadOptions::default()).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(v.dims(), [4, 3, 3]);
     assert_eq!(v.get(2, 1, 2), 200.0);
     assert_eq!(notices.len(), 1, "{notices:?}");
     assert!(
-        notices[0].contains("skipped 2 other files: Thumbs.db, readme.md"),
+        notices[0].contains("skipped 3 other files: Thumbs.db, empty.bin, readme.md"),
         "{notices:?}"
     );
     // The streamed reader reads the same slices.
