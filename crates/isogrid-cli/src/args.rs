@@ -2,8 +2,44 @@
 
 use anyhow::{bail, Result};
 use clap::Args;
-use isogrid::{Iso, Precision, ScalarType};
+use isogrid::{Iso, LabelSelection, Precision, ScalarType};
 use isogrid_io::{RawSpec, ReadOptions};
+use std::path::PathBuf;
+
+/// `--labels` and how its labels are smoothed and named: the surface of each label of a label
+/// volume, which `extract` stores and `mc` meshes.
+#[derive(Args, Debug, Clone)]
+pub struct LabelArgs {
+    /// The surface of each label of a label volume instead of an isosurface: `all` (every label
+    /// but 0, the background) or values and ranges such as `1,5-9`. Each label's surface is the
+    /// isosurface at 1/2 of its indicator; `extract` lists the labels in the file with names and
+    /// colours, `mc` names and colours them in a .glb and makes each a segment of a precomputed
+    /// folder.
+    // In the isovalue's group: one of --iso, --iso-normalized and --labels is required.
+    #[arg(long, value_name = "all|1,5-9", value_parser = parse_labels, group = "IsoArgs", conflicts_with = "color_by")]
+    pub labels: Option<LabelSelection>,
+    /// With --labels: smooth each label's indicator by a Gaussian of SIGMA voxels before its
+    /// surface is taken, so surfaces are not chamfered; 0 for none [default: 0].
+    #[arg(long, value_name = "SIGMA", requires = "labels")]
+    pub smooth: Option<f64>,
+    /// With --labels: name and colour the labels from a colour table: FreeSurfer LUT
+    /// (`FreeSurferColorLUT.txt`), 3D Slicer `.ctbl` or ITK-SNAP label description, told apart
+    /// by content. It wins over names and colours the volume's file gives (a .seg.nrrd's
+    /// segments, an OME-Zarr label image's metadata).
+    #[arg(long, value_name = "FILE", requires = "labels")]
+    pub label_table: Option<PathBuf>,
+    /// With --labels and an OME-Zarr image: take its label image NAME (`INPUT/labels/NAME`).
+    #[arg(long, value_name = "NAME", requires = "labels")]
+    pub labels_of: Option<String>,
+}
+
+/// `--smooth` when not given (docs/benchmarks-labels.md says why).
+pub const DEFAULT_SMOOTH: f64 = 0.0;
+
+/// A `--labels`, `--show` or `--hide` value: `all`, or values and ranges such as `1,5-9`.
+pub fn parse_labels(text: &str) -> Result<LabelSelection, String> {
+    LabelSelection::parse(text).map_err(|e| e.message().to_string())
+}
 
 /// `--iso V | --iso-normalized V`, exactly one.
 #[derive(Args, Debug, Clone)]

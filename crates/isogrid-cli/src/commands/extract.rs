@@ -6,7 +6,9 @@
 //! aside, which may be a layered Slicer segmentation); the others are read whole first. Both give
 //! the same bytes.
 
-use crate::args::{parse_precision, parse_size, InputArgs, IsoArgs, ThreadArgs};
+use crate::args::{
+    parse_precision, parse_size, InputArgs, IsoArgs, LabelArgs, ThreadArgs, DEFAULT_SMOOTH,
+};
 use crate::color_by::{parse_attribute_precision, AttributeInput, DEFAULT_PRECISION};
 use crate::outputs::{self, Output};
 use crate::report::{print_json, AttributeReport, GridReport, Seconds};
@@ -49,25 +51,8 @@ pub struct Args {
     /// surface) or 32 (f32) [default: 16].
     #[arg(long, value_name = "BITS", value_parser = parse_attribute_precision, requires = "color_by")]
     pub attribute_precision: Option<AttributePrecision>,
-    /// Extract the surface of each label of a label volume instead of an isosurface: `all` (every
-    /// label but 0, the background) or values and ranges such as `1,5-9`. Each label's surface is
-    /// the isosurface at 1/2 of its indicator; the file lists the labels with names and colours.
-    // In the isovalue's group: one of --iso, --iso-normalized and --labels is required.
-    #[arg(long, value_name = "all|1,5-9", value_parser = parse_labels, group = "IsoArgs", conflicts_with = "color_by")]
-    pub labels: Option<LabelSelection>,
-    /// With --labels: smooth each label's indicator by a Gaussian of SIGMA voxels before its
-    /// surface is taken, so surfaces are not chamfered; 0 for none [default: 0].
-    #[arg(long, value_name = "SIGMA", requires = "labels")]
-    pub smooth: Option<f64>,
-    /// With --labels: name and colour the labels from a colour table: FreeSurfer LUT
-    /// (`FreeSurferColorLUT.txt`), 3D Slicer `.ctbl` or ITK-SNAP label description, told apart
-    /// by content. It wins over names and colours the volume's file gives (a .seg.nrrd's
-    /// segments, an OME-Zarr label image's metadata).
-    #[arg(long, value_name = "FILE", requires = "labels")]
-    pub label_table: Option<PathBuf>,
-    /// With --labels and an OME-Zarr image: extract its label image NAME (`INPUT/labels/NAME`).
-    #[arg(long, value_name = "NAME", requires = "labels")]
-    pub labels_of: Option<String>,
+    #[command(flatten)]
+    pub label: LabelArgs,
     /// Write the grid to this .cgc file.
     #[arg(short, long, value_name = "OUT.cgc")]
     pub output: Option<PathBuf>,
@@ -76,21 +61,14 @@ pub struct Args {
     pub json: bool,
 }
 
-/// `--smooth` when not given (docs/benchmarks-labels.md says why).
-pub const DEFAULT_SMOOTH: f64 = 0.0;
-
-pub(crate) fn parse_labels(text: &str) -> Result<LabelSelection, String> {
-    LabelSelection::parse(text).map_err(|e| e.message().to_string())
-}
-
 pub fn run(args: Args) -> Result<()> {
-    if args.labels.is_some() {
+    if args.label.labels.is_some() {
         return run_labels(args);
     }
-    if args.smooth.is_some() {
+    if args.label.smooth.is_some() {
         anyhow::bail!("--smooth smooths label indicators, and needs --labels");
     }
-    if args.label_table.is_some() || args.labels_of.is_some() {
+    if args.label.label_table.is_some() || args.label.labels_of.is_some() {
         anyhow::bail!("--label-table and --labels-of name the labels of --labels, and need it");
     }
     let output = args.output.as_deref().map(|path| Output {
@@ -165,31 +143,31 @@ fn print_report(args: &Args, report: &GridReport) -> Result<()> {
 /// by slab within `--max-memory` where the input reads by region, else the whole volume in
 /// memory. Both give the same bytes, named and coloured the same way.
 fn run_labels(args: Args) -> Result<()> {
-    let selection = args.labels.clone().expect("called with --labels");
+    let selection = args.label.labels.clone().expect("called with --labels");
     let output = args.output.as_deref().map(|path| Output {
         role: "the grid",
         path,
         extensions: &[".cgc"],
     });
     let mut inputs = vec![args.input.as_path()];
-    inputs.extend(args.label_table.as_deref());
+    inputs.extend(args.label.label_table.as_deref());
     outputs::check(&inputs, output.as_slice())?;
     let read_options = args.input_args.read_options()?;
     let pool = args.threads.pool()?;
     // The table first: a malformed one fails before the volume is read.
-    let table = match &args.label_table {
+    let table = match &args.label.label_table {
         Some(path) => Some(isogrid_io::labels::read_label_table(path)?),
         None => None,
     };
     let options = LabelOptions {
         selection: selection.clone(),
-        smooth: args.smooth.unwrap_or(DEFAULT_SMOOTH),
+        smooth: args.label.smooth.unwrap_or(DEFAULT_SMOOTH),
         precision: args.precision,
     };
     let start = Instant::now();
     let region = isogrid_io::labels::open_label_region(
         &args.input,
-        args.labels_of.as_deref(),
+        args.label.labels_of.as_deref(),
         &read_options,
     )?;
     let (stats, labels, absent, seconds) = match region {
@@ -218,7 +196,7 @@ fn run_labels(args: Args) -> Result<()> {
     };
     let (scalar_type, table_written, index) = labels;
     let signed = isogrid::labels::signed_labels(scalar_type);
-    if let (Some(path), Some(_)) = (&args.label_table, &table) {
+    if let (Some(path), Some(_)) = (&args.label.label_table, &table) {
         if let Some(notice) = isogrid_io::labels::absent_labels_notice(path, &absent, signed) {
             eprintln!("isogrid: note: {notice}");
         }
@@ -272,7 +250,7 @@ fn labels_in_memory(
     table: Option<&[Label]>,
 ) -> Result<LabelsDone> {
     let (source, read) =
-        input::read_label_volume(&args.input, args.labels_of.as_deref(), read_options)?;
+        input::read_label_volume(&args.input, args.label.labels_of.as_deref(), read_options)?;
     let start = Instant::now();
     let progress = Arc::new(Progress::new());
     let grid = progress::watched("extracting labels", &progress, || {

@@ -1,14 +1,14 @@
 //! `isogrid mc`: the Marching Cubes mesh the paper compares with (Table 3).
 
-use crate::args::{InputArgs, IsoArgs, ThreadArgs};
+use crate::args::{InputArgs, IsoArgs, LabelArgs, ThreadArgs};
 use crate::color_by::AttributeInput;
 use crate::outputs::{self, Output};
 use crate::report::{MeshReport, Seconds};
 use crate::{input, progress};
 use anyhow::{bail, Context, Result};
 use isogrid::mc::{label_meshes, try_marching_cubes_with_progress, Inside, McMesh, MeshSpace};
+use isogrid::LabelOptions;
 use isogrid::Progress;
-use isogrid::{LabelOptions, LabelSelection};
 use isogrid_io::label_meshes::{write_glb, write_precomputed, LabelMesh};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -29,24 +29,8 @@ pub struct Args {
     /// neuroglancer precomputed meshes (any name without an extension).
     #[arg(short, long, value_name = "MESH.ply|.obj|.glb|FOLDER")]
     pub output: Option<PathBuf>,
-    /// Mesh each label of a label volume instead of an isosurface: `all` (every label but 0) or
-    /// values and ranges such as `1,5-9`. Each label's mesh is Marching Cubes of its indicator at
-    /// 1/2 (smoothed with --smooth), the surface `isogrid extract --labels` stores; named and
-    /// coloured in the .glb, one segment each in the precomputed folder.
-    #[arg(long, value_name = "all|1,5-9", value_parser = super::extract::parse_labels, group = "IsoArgs", conflicts_with = "color_by")]
-    pub labels: Option<LabelSelection>,
-    /// With --labels: smooth each label's indicator by a Gaussian of SIGMA voxels first; 0 for
-    /// none [default: 0].
-    #[arg(long, value_name = "SIGMA", requires = "labels")]
-    pub smooth: Option<f64>,
-    /// With --labels: name and colour the labels from a colour table (FreeSurfer LUT, 3D Slicer
-    /// `.ctbl` or ITK-SNAP label description), over the names the volume's file gives, as
-    /// `isogrid extract --label-table` does.
-    #[arg(long, value_name = "FILE", requires = "labels")]
-    pub label_table: Option<PathBuf>,
-    /// With --labels and an OME-Zarr image: mesh its label image NAME (`INPUT/labels/NAME`).
-    #[arg(long, value_name = "NAME", requires = "labels")]
-    pub labels_of: Option<String>,
+    #[command(flatten)]
+    pub label: LabelArgs,
     /// Print one JSON object instead of a table.
     #[arg(long)]
     pub json: bool,
@@ -100,10 +84,10 @@ pub fn write_mesh(mesh: &McMesh, path: &Path, values: Option<&[f32]>) -> Result<
 }
 
 pub fn run(args: Args) -> Result<()> {
-    if args.labels.is_some() {
+    if args.label.labels.is_some() {
         return run_labels(args);
     }
-    if args.smooth.is_some() {
+    if args.label.smooth.is_some() {
         bail!("--smooth smooths label indicators, and needs --labels");
     }
     // Fail before the work, not after it.
@@ -210,7 +194,7 @@ impl<'a> LabelOutput<'a> {
 /// `--labels`: the label grid of the volume (`isogrid extract --labels`), one Marching Cubes mesh
 /// per label from its cells, placed in `--space`, written as .glb or precomputed meshes.
 fn run_labels(args: Args) -> Result<()> {
-    let selection = args.labels.clone().expect("called with --labels");
+    let selection = args.label.labels.clone().expect("called with --labels");
     let output = args.output.as_deref().map(LabelOutput::of).transpose()?;
     if let Some(LabelOutput::Glb(path)) = output {
         let glb = Output {
@@ -219,7 +203,7 @@ fn run_labels(args: Args) -> Result<()> {
             extensions: &[".glb"],
         };
         let mut inputs = vec![args.input.as_path()];
-        inputs.extend(args.label_table.as_deref());
+        inputs.extend(args.label.label_table.as_deref());
         outputs::check(&inputs, &[glb])?;
     }
     if let Some(LabelOutput::Precomputed(path)) = output {
@@ -233,16 +217,16 @@ fn run_labels(args: Args) -> Result<()> {
     let read_options = args.input_args.read_options()?;
     let pool = args.threads.pool()?;
     // The table first: a malformed one fails before the volume is read.
-    let table = match &args.label_table {
+    let table = match &args.label.label_table {
         Some(path) => Some(isogrid_io::labels::read_label_table(path)?),
         None => None,
     };
     // Read as `extract --labels` reads it: a .seg.nrrd's segments, layers, names and colours.
     let (source, read) =
-        input::read_label_volume(&args.input, args.labels_of.as_deref(), &read_options)?;
+        input::read_label_volume(&args.input, args.label.labels_of.as_deref(), &read_options)?;
     let options = LabelOptions {
         selection,
-        smooth: args.smooth.unwrap_or(super::extract::DEFAULT_SMOOTH),
+        smooth: args.label.smooth.unwrap_or(crate::args::DEFAULT_SMOOTH),
         precision: None,
     };
     let spinner = progress::spinner("meshing labels".into());
@@ -268,7 +252,7 @@ fn run_labels(args: Args) -> Result<()> {
     spinner.finish_and_clear();
     let labels = grid.labels().expect("a label grid has labels");
     let signed = isogrid::labels::signed_labels(grid.info().scalar_type);
-    if let Some(path) = &args.label_table {
+    if let Some(path) = &args.label.label_table {
         if let Some(notice) = isogrid_io::labels::absent_labels_notice(path, &absent, signed) {
             eprintln!("isogrid: note: {notice}");
         }

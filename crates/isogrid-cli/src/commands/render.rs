@@ -2,7 +2,7 @@
 //! [`isogrid_render::RenderRequest`]; the front door's policy places it on the GPU renderer or the
 //! CPU tracer and runs it with a progress bar, and Ctrl-C stops it cleanly with nothing written.
 
-use crate::args::{ThreadArgs, TraversalArg};
+use crate::args::{parse_labels, ThreadArgs, TraversalArg};
 use crate::grid_source::GridSource;
 use crate::outputs::{self, Output};
 use crate::progress;
@@ -137,10 +137,6 @@ pub struct Args {
     /// Print one JSON object.
     #[arg(long)]
     pub json: bool,
-}
-
-fn parse_labels(s: &str) -> Result<isogrid::LabelSelection, String> {
-    isogrid::LabelSelection::parse(s).map_err(|e| e.to_string())
 }
 
 pub(crate) fn parse_cmap(s: &str) -> Result<ColorMap, String> {

@@ -60,7 +60,7 @@ pub struct Args {
     pub clim: Option<[f64; 2]>,
     /// Show the surfaces of a label volume's labels (all but 0, or a list such as 1,5-9), as
     /// `extract --labels` extracts them, with the label list; the isovalue does not apply.
-    #[arg(long, value_name = "all|1,5-9", value_parser = crate::commands::extract::parse_labels, conflicts_with_all = ["color_by", "iso", "iso_normalized"])]
+    #[arg(long, value_name = "all|1,5-9", value_parser = crate::args::parse_labels, conflicts_with_all = ["color_by", "iso", "iso_normalized"])]
     pub labels: Option<isogrid::LabelSelection>,
     /// With --labels: smooth each label's indicator by a Gaussian of SIGMA voxels (as `extract
     /// --smooth`).
@@ -68,10 +68,10 @@ pub struct Args {
     pub smooth: Option<f64>,
     /// A label grid: draw only these labels at first, e.g. 1,5-9 (as `render --show`); the
     /// label list in the window changes them.
-    #[arg(long, value_name = "LABELS", value_parser = crate::commands::extract::parse_labels, allow_hyphen_values = true)]
+    #[arg(long, value_name = "LABELS", value_parser = crate::args::parse_labels, allow_hyphen_values = true)]
     pub show: Option<isogrid::LabelSelection>,
     /// A label grid: hide these labels at first, e.g. 0,3 (as `render --hide`).
-    #[arg(long, value_name = "LABELS", value_parser = crate::commands::extract::parse_labels, allow_hyphen_values = true)]
+    #[arg(long, value_name = "LABELS", value_parser = crate::args::parse_labels, allow_hyphen_values = true)]
     pub hide: Option<isogrid::LabelSelection>,
     #[command(flatten)]
     pub input_args: InputArgs,
@@ -140,9 +140,7 @@ pub fn run(args: Args) -> Result<()> {
         hide: args.hide,
         labels: args.labels.map(|selection| isogrid::LabelOptions {
             selection,
-            smooth: args
-                .smooth
-                .unwrap_or(crate::commands::extract::DEFAULT_SMOOTH),
+            smooth: args.smooth.unwrap_or(crate::args::DEFAULT_SMOOTH),
             precision: args.precision,
         }),
     })?;
