@@ -464,12 +464,7 @@ fn ctrl_c_stops_a_streamed_extract_and_leaves_no_output() {
         "-o",
         s(&out),
     ];
-    let stopped = interrupt_at(&args, &out, &[5, 15, 30, 45, 60, 90, 120], |new| {
-        isogrid_info_reads(new)
-    });
-    assert!(stopped
-        .iter()
-        .any(|m| m.contains("extraction stopped by Ctrl-C, nothing written")));
+    extraction_stops_on_ctrl_c(&args, &out, &[5, 15, 30, 45, 60, 90, 120]);
     std::fs::remove_dir_all(dir).unwrap();
 }
 
@@ -498,12 +493,7 @@ fn ctrl_c_stops_a_streamed_label_extract_and_leaves_no_output() {
         "-o",
         s(&out),
     ];
-    let stopped = interrupt_at(&args, &out, &[20, 100, 300, 600, 1000], |new| {
-        isogrid_info_reads(new)
-    });
-    assert!(stopped
-        .iter()
-        .any(|m| m.contains("extraction stopped by Ctrl-C, nothing written")));
+    extraction_stops_on_ctrl_c(&args, &out, &[20, 100, 300, 600, 1000]);
     std::fs::remove_dir_all(dir).unwrap();
 }
 
@@ -526,13 +516,18 @@ fn ctrl_c_stops_an_in_memory_label_extract_and_leaves_no_output() {
     super::write_npy(&npy, "<u4", [288, 256, 256], &supervoxel_bytes(dims));
     let out = dir.join("out.cgc");
     let args = ["extract", s(&npy), "--labels", "all", "-o", s(&out)];
-    let stopped = interrupt_at(&args, &out, &[100, 300, 600, 1000, 1500], |new| {
-        isogrid_info_reads(new)
-    });
+    extraction_stops_on_ctrl_c(&args, &out, &[100, 300, 600, 1000, 1500]);
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+/// [`interrupt_at`] for `extract`: a finished run writes a `.cgc` that `isogrid info` reads, and
+/// at least one run stops with the extraction's Ctrl-C message.
+#[cfg(unix)]
+fn extraction_stops_on_ctrl_c(args: &[&str], out: &Path, delays_ms: &[u64]) {
+    let stopped = interrupt_at(args, out, delays_ms, isogrid_info_reads);
     assert!(stopped
         .iter()
         .any(|m| m.contains("extraction stopped by Ctrl-C, nothing written")));
-    std::fs::remove_dir_all(dir).unwrap();
 }
 
 /// Runs `isogrid args` and sends it SIGINT after each of `delays_ms`, checking that `out` (which
