@@ -33,6 +33,35 @@ pub struct LabelArgs {
     pub labels_of: Option<String>,
 }
 
+impl LabelArgs {
+    /// The label options of `--labels` and `--smooth`, at `precision` (`None`: the default).
+    pub fn options(&self, precision: Option<Precision>) -> Option<isogrid::LabelOptions> {
+        Some(isogrid::LabelOptions {
+            selection: self.labels.clone()?,
+            smooth: self.smooth.unwrap_or(DEFAULT_SMOOTH),
+            precision,
+        })
+    }
+
+    /// The `--label-table` file's labels, read before the volume so that a malformed table fails
+    /// first.
+    pub fn table(&self) -> Result<Option<Vec<isogrid::Label>>> {
+        Ok(match &self.label_table {
+            Some(path) => Some(isogrid_io::labels::read_label_table(path)?),
+            None => None,
+        })
+    }
+
+    /// Prints the notice naming the table's labels that the grid lacks (`absent`), if any.
+    pub fn note_absent(&self, absent: &[u64], signed: bool) {
+        if let Some(path) = &self.label_table {
+            if let Some(notice) = isogrid_io::labels::absent_labels_notice(path, absent, signed) {
+                eprintln!("isogrid: note: {notice}");
+            }
+        }
+    }
+}
+
 /// `--smooth` when not given (docs/benchmarks-labels.md says why).
 pub const DEFAULT_SMOOTH: f64 = 0.0;
 

@@ -6,9 +6,7 @@
 //! aside, which may be a layered Slicer segmentation); the others are read whole first. Both give
 //! the same bytes.
 
-use crate::args::{
-    parse_precision, parse_size, InputArgs, IsoArgs, LabelArgs, ThreadArgs, DEFAULT_SMOOTH,
-};
+use crate::args::{parse_precision, parse_size, InputArgs, IsoArgs, LabelArgs, ThreadArgs};
 use crate::color_by::{parse_attribute_precision, AttributeInput, DEFAULT_PRECISION};
 use crate::outputs::{self, Output};
 use crate::report::{print_json, AttributeReport, GridReport, Seconds};
@@ -143,7 +141,10 @@ fn print_report(args: &Args, report: &GridReport) -> Result<()> {
 /// by slab within `--max-memory` where the input reads by region, else the whole volume in
 /// memory. Both give the same bytes, named and coloured the same way.
 fn run_labels(args: Args) -> Result<()> {
-    let selection = args.label.labels.clone().expect("called with --labels");
+    let options = args
+        .label
+        .options(args.precision)
+        .expect("called with --labels");
     let output = args.output.as_deref().map(|path| Output {
         role: "the grid",
         path,
@@ -154,16 +155,7 @@ fn run_labels(args: Args) -> Result<()> {
     outputs::check(&inputs, output.as_slice())?;
     let read_options = args.input_args.read_options()?;
     let pool = args.threads.pool()?;
-    // The table first: a malformed one fails before the volume is read.
-    let table = match &args.label.label_table {
-        Some(path) => Some(isogrid_io::labels::read_label_table(path)?),
-        None => None,
-    };
-    let options = LabelOptions {
-        selection: selection.clone(),
-        smooth: args.label.smooth.unwrap_or(DEFAULT_SMOOTH),
-        precision: args.precision,
-    };
+    let table = args.label.table()?;
     let start = Instant::now();
     let region = isogrid_io::labels::open_label_region(
         &args.input,
@@ -196,12 +188,8 @@ fn run_labels(args: Args) -> Result<()> {
     };
     let (scalar_type, table_written, index) = labels;
     let signed = isogrid::labels::signed_labels(scalar_type);
-    if let (Some(path), Some(_)) = (&args.label.label_table, &table) {
-        if let Some(notice) = isogrid_io::labels::absent_labels_notice(path, &absent, signed) {
-            eprintln!("isogrid: note: {notice}");
-        }
-    }
-    if let LabelSelection::Values(ranges) = &selection {
+    args.label.note_absent(&absent, signed);
+    if let LabelSelection::Values(ranges) = &options.selection {
         // A single value asked for and absent is worth a line; ranges may have gaps.
         let missing: Vec<String> = ranges
             .iter()

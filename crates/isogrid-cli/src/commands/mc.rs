@@ -7,7 +7,6 @@ use crate::report::{MeshReport, Seconds};
 use crate::{input, progress};
 use anyhow::{bail, Context, Result};
 use isogrid::mc::{label_meshes, try_marching_cubes_with_progress, Inside, McMesh, MeshSpace};
-use isogrid::LabelOptions;
 use isogrid::Progress;
 use isogrid_io::label_meshes::{write_glb, write_precomputed, LabelMesh};
 use std::path::{Path, PathBuf};
@@ -194,7 +193,7 @@ impl<'a> LabelOutput<'a> {
 /// `--labels`: the label grid of the volume (`isogrid extract --labels`), one Marching Cubes mesh
 /// per label from its cells, placed in `--space`, written as .glb or precomputed meshes.
 fn run_labels(args: Args) -> Result<()> {
-    let selection = args.label.labels.clone().expect("called with --labels");
+    let options = args.label.options(None).expect("called with --labels");
     let output = args.output.as_deref().map(LabelOutput::of).transpose()?;
     if let Some(LabelOutput::Glb(path)) = output {
         let glb = Output {
@@ -216,19 +215,10 @@ fn run_labels(args: Args) -> Result<()> {
     }
     let read_options = args.input_args.read_options()?;
     let pool = args.threads.pool()?;
-    // The table first: a malformed one fails before the volume is read.
-    let table = match &args.label.label_table {
-        Some(path) => Some(isogrid_io::labels::read_label_table(path)?),
-        None => None,
-    };
+    let table = args.label.table()?;
     // Read as `extract --labels` reads it: a .seg.nrrd's segments, layers, names and colours.
     let (source, read) =
         input::read_label_volume(&args.input, args.label.labels_of.as_deref(), &read_options)?;
-    let options = LabelOptions {
-        selection,
-        smooth: args.label.smooth.unwrap_or(crate::args::DEFAULT_SMOOTH),
-        precision: None,
-    };
     let spinner = progress::spinner("meshing labels".into());
     let start = Instant::now();
     let mut absent = Vec::new();
@@ -252,11 +242,7 @@ fn run_labels(args: Args) -> Result<()> {
     spinner.finish_and_clear();
     let labels = grid.labels().expect("a label grid has labels");
     let signed = isogrid::labels::signed_labels(grid.info().scalar_type);
-    if let Some(path) = &args.label.label_table {
-        if let Some(notice) = isogrid_io::labels::absent_labels_notice(path, &absent, signed) {
-            eprintln!("isogrid: note: {notice}");
-        }
-    }
+    args.label.note_absent(&absent, signed);
     let values: Vec<String> = labels
         .table()
         .iter()
