@@ -8,6 +8,7 @@
 // Geometry: metacell positions are in metacell units (cell index / 2); cells are in index space.
 
 import { Crc32 } from './crc32.js';
+import { CORNER_PRECISION_BITS } from './colormaps.generated.js';
 
 export const MAGIC = [0x89, 0x43, 0x47, 0x43, 0x0d, 0x0a, 0x1a, 0x0a];
 export const HEADER_SIZE = 320;
@@ -219,7 +220,7 @@ export function parseHeader(head: Uint8Array, fileLength: number): CgcHeader {
   const valueRange: [number, number] = [f64(80), f64(88)];
   const iso = f64(96);
   const precisionBits = u32(104);
-  if (![1, 4, 8, 16, 32].includes(precisionBits)) throw corrupt(`unknown precision ${precisionBits} bits`);
+  if (!CORNER_PRECISION_BITS.includes(precisionBits)) throw corrupt(`unknown precision ${precisionBits} bits`);
   const isoCode = v.getFloat32(108, true);
   const mappingOffset = f64(112);
   const mappingStep = f64(120);

@@ -55,3 +55,5 @@ export const SRGB8_TO_LINEAR = new Float32Array([
   0.8713672, 0.87962234, 0.8879232, 0.8962694, 0.90466136, 0.9130987, 0.92158204, 0.9301109,
   0.9386859, 0.9473066, 0.9559735, 0.9646863, 0.9734455, 0.9822506, 0.9911022, 1.0,
 ]);
+/** Bits per stored corner a `.cgc` file may give (`layout::Precision::ALL`). */
+export const CORNER_PRECISION_BITS = [1, 4, 8, 16, 32];

@@ -1,14 +1,14 @@
 //! The browser viewer's colour data and rules come from this crate, not from copies typed into
 //! TypeScript: this test writes `web/src/colormaps.generated.ts` (the colour maps' tables, the NaN
 //! colour and the sRGB → linear decoding, which the viewer uploads as `ColorUniforms` and label
-//! albedos) and `web/test/rules.generated.json` (input/output vectors of the attribute code rule
+//! albedos, and the corner precisions its `.cgc` reader accepts) and `web/test/rules.generated.json` (input/output vectors of the attribute code rule
 //! and the default colour range, which the viewer's own `codes16` and `defaultClim` must
 //! reproduce: `web/test/cgc.test.mjs`). It fails while a committed file differs from what
 //! `isogrid::colormap` and `isogrid::attribute` give; `ISOGRID_BLESS=1 cargo test -p isogrid --test
 //! it web_tables` rewrites them.
 
 use isogrid::colormap::{srgb8_to_linear, ColorMap, Coloring, NAN_SRGB, TABLE_SIZE};
-use isogrid::{AttributePrecision, CellAttribute};
+use isogrid::{AttributePrecision, CellAttribute, Precision};
 use std::fmt::Write;
 use std::path::PathBuf;
 
@@ -52,6 +52,9 @@ fn tables_ts() -> String {
         writeln!(s, "  {},", line.join(", ")).unwrap();
     }
     s += "]);\n";
+    s += "/** Bits per stored corner a `.cgc` file may give (`layout::Precision::ALL`). */\n";
+    let bits: Vec<String> = Precision::ALL.iter().map(|p| p.bits().to_string()).collect();
+    writeln!(s, "export const CORNER_PRECISION_BITS = [{}];", bits.join(", ")).unwrap();
     s
 }
 
