@@ -752,4 +752,7 @@ def test_a_stop_reaches_a_running_tile_task(tmp_path, monkeypatch, scheduler, er
         (ended,) = client.run(tiles_end, deadline=raised + slow).values()
         assert ended is not None, "the slow tile ran on to its end"
         after = ended - raised
-        assert after < 0.4 * slow, f"the worker ran the tile {after:.2f} s after the raise; it takes {slow:.2f} s"
+        # Run to its end, the slow tile went on for 0.79-0.85 of its time after the raise (it has
+        # just started then); stopped, it ends as soon as the cancel crosses the scheduler to the
+        # worker, which on two busy cores has taken up to half of a 1.4 s tile.
+        assert after < 0.6 * slow, f"the worker ran the tile {after:.2f} s after the raise; it takes {slow:.2f} s"
