@@ -65,6 +65,18 @@ fn f32_at_or_above(x: f64) -> f32 {
     }
 }
 
+/// `x.round()` (halves away from zero) of a code `x` in `0..2⁵²`, in lane arithmetic: adding and
+/// taking away 2⁵² rounds to the nearest integer with ties to even (the sum's unit is 1), and a
+/// tie that went down (`x − r` = ½, exact since `r` is within ½ of `x`) goes up instead. No call
+/// to libm's `round` (which baseline x86-64 makes), no branch, and eight corners at a time
+/// vectorise.
+#[inline(always)]
+fn round_code(x: f64) -> f64 {
+    const TWO_52: f64 = 4_503_599_627_370_496.0;
+    let r = (x + TWO_52) - TWO_52;
+    r + if x - r == 0.5 { 1.0 } else { 0.0 }
+}
+
 impl Quantizer {
     /// Builds the mapping for values in `[min, max]` of an integer (`integer_data`) or float volume.
     pub fn new(precision: Precision, integer_data: bool, min: f64, max: f64, iso: f64) -> Self {
@@ -146,18 +158,32 @@ impl Quantizer {
         if self.exact {
             return (value - self.mapping.offset) as u32;
         }
-        let mut c = ((value - self.mapping.offset) * self.inv_step).round();
-        c = if c.is_nan() {
-            0.0
+        self.scaled_code(value, inside) as u32
+    }
+
+    /// [`Quantizer::code`] of a mapping that is not exact, as an f64. Selects rather than
+    /// branches (on NaN, on the side, which follows the surface and mispredicts), so that
+    /// [`Quantizer::encode_cell`]'s eight corners vectorise.
+    #[inline(always)]
+    fn scaled_code(&self, value: f64, inside: bool) -> f64 {
+        let x = (value - self.mapping.offset) * self.inv_step;
+        // Clamped to the codes, NaN to 0 (integers, so before or after rounding is the same).
+        let x = if x > 0.0 { x } else { 0.0 };
+        let x = if x < self.max_code { x } else { self.max_code };
+        let c = round_code(x);
+        // Then to the codes of the sample's side.
+        let lo = if inside { self.first_inside } else { 0.0 };
+        let hi = if inside {
+            self.max_code
         } else {
-            c.clamp(0.0, self.max_code)
+            self.first_inside - 1.0
         };
-        if inside && c < self.first_inside {
-            c = self.first_inside;
-        } else if !inside && c >= self.first_inside {
-            c = self.first_inside - 1.0;
+        let c = if c > lo { c } else { lo };
+        if c < hi {
+            c
+        } else {
+            hi
         }
-        c as u32
     }
 
     /// Writes the corner record of one cell (`values` in corner order, `inside` bit c = corner c's side).
@@ -180,7 +206,13 @@ impl Quantizer {
             }
             return;
         }
-        let codes = std::array::from_fn(|c| self.code(values[c], inside >> c & 1 != 0) as u16);
+        let codes = if self.exact {
+            std::array::from_fn(|c| self.code(values[c], inside >> c & 1 != 0) as u16)
+        } else {
+            let scaled: [f64; 8] =
+                std::array::from_fn(|c| self.scaled_code(values[c], inside >> c & 1 != 0));
+            scaled.map(|c| c as u16)
+        };
         self.pack_codes(&codes, out);
     }
 
@@ -224,6 +256,32 @@ impl Quantizer {
 mod tests {
     use super::*;
     use crate::layout::read_corner;
+
+    #[test]
+    fn code_rounding_is_f64_round() {
+        let mut values = vec![
+            0.0,
+            0.5,
+            1.5,
+            2.5,
+            254.5,
+            255.0,
+            65534.5,
+            65535.0,
+            4294967295.5,
+        ];
+        for base in [0.0f64, 1.0, 2.0, 127.0, 255.0, 65535.0] {
+            for v in [base + 0.5, base + 0.25, base + 0.75] {
+                values.extend([v, v.next_up(), v.next_down()]);
+            }
+            values.extend([base.next_up(), (base + 1.0).next_down()]);
+        }
+        let mut next = crate::test_rng::xorshift(7);
+        values.extend((0..10_000).map(|_| (next() >> 11) as f64 / (1u64 << 53) as f64 * 70_000.0));
+        for x in values {
+            assert_eq!(round_code(x).to_bits(), x.round().to_bits(), "{x:?}");
+        }
+    }
 
     /// Every value of a dense sweep around the isovalue keeps its side after quantisation.
     fn assert_sides_kept(

@@ -20,6 +20,9 @@
 //! of planes and the same tally, so their files are byte-identical to this one's.
 
 use super::emit::{self, BlockOutput, BlockScratch};
+use super::label_smooth::{
+    label_boxes, smooth_indicator, GatheredBlock, SmoothScratch, SmoothingKernel,
+};
 use super::scalar::ExtractScalar;
 use super::{metacell_slots, Totals};
 use crate::error::{Error, Result};
@@ -176,13 +179,7 @@ impl BlockLabels {
 struct Scratch {
     keys: Vec<u64>,
     binary: Vec<u8>,
-    field: Vec<f32>,
-    pass_x: Vec<f32>,
-    pass_y: Vec<f32>,
-    /// Which rows of `pass_x` and planes of `pass_y` are all zero.
-    zero_x: Vec<bool>,
-    zero_y: Vec<bool>,
-    smooth: Vec<f32>,
+    smooth: SmoothScratch,
     block: BlockScratch,
 }
 
@@ -190,7 +187,7 @@ struct Scratch {
 /// smoothing kernel and the grid's quantiser.
 pub(super) struct LabelPass {
     selection: LabelSelection,
-    kernel: Option<Vec<f32>>,
+    kernel: Option<SmoothingKernel>,
     quantizer: Quantizer,
 }
 
@@ -206,7 +203,8 @@ impl LabelPass {
         let precision = options.precision.unwrap_or(options.default_precision());
         Ok(LabelPass {
             selection: options.selection.clone(),
-            kernel: (options.smooth > 0.0).then(|| gaussian_kernel(options.smooth)),
+            kernel: (options.smooth > 0.0)
+                .then(|| SmoothingKernel::new(gaussian_kernel(options.smooth))),
             quantizer: label_quantizer(precision),
         })
     }
@@ -219,7 +217,7 @@ impl LabelPass {
     }
     /// Samples a block reads beyond its own on each side ([`label_halo`]).
     pub(super) fn halo(&self) -> usize {
-        self.kernel.as_ref().map_or(0, |k| k.len() / 2)
+        self.kernel.as_ref().map_or(0, SmoothingKernel::radius)
     }
 
     /// The blocks `blocks` (numbers in block order) of a volume of `dims` samples, in parallel on
@@ -488,6 +486,14 @@ impl<T: LabelSample> Pass<'_, T> {
         }
         let quantizer = &self.shared.quantizer;
         let record = quantizer.precision().bytes_per_cell();
+        if self.shared.kernel.is_some() {
+            label_boxes(
+                &scratch.keys,
+                region,
+                &out.present,
+                &mut scratch.smooth.boxes,
+            );
+        }
         for i in 0..out.present.len() {
             let key = out.present[i];
             if !self.shared.selection.selects(key) {
@@ -511,28 +517,30 @@ impl<T: LabelSample> Pass<'_, T> {
                     [0.0, 1.0]
                 }
                 Some(kernel) => {
-                    smooth_indicator(
-                        key,
+                    let gathered = GatheredBlock {
+                        keys: &scratch.keys,
                         region,
-                        [0, 1, 2].map(|a| origin[a] - lo[a]),
+                        at: [0, 1, 2].map(|a| origin[a] - lo[a]),
                         cube,
-                        kernel,
-                        scratch,
-                    );
+                    };
+                    let support = scratch.smooth.boxes[i];
+                    let range =
+                        smooth_indicator(gathered, key, support, kernel, &mut scratch.smooth);
+                    // Every sample of the cube on one side: no cell of the label's surface here
+                    // (the common case of a label that only grazes the block's halo).
+                    let threshold = f32::threshold(LABEL_ISO);
+                    if threshold.is_none_or(|t| range[1] < t || range[0] >= t) {
+                        continue;
+                    }
                     emit::classify_block(
-                        &scratch.smooth,
+                        &scratch.smooth.smooth,
                         cube,
                         block,
                         block,
-                        f32::threshold(LABEL_ISO),
+                        threshold,
                         &mut scratch.block,
                     );
-                    scratch
-                        .smooth
-                        .iter()
-                        .fold([f64::INFINITY, f64::NEG_INFINITY], |r, &v| {
-                            [r[0].min(v as f64), r[1].max(v as f64)]
-                        })
+                    range.map(f64::from)
                 }
             };
             let (cells, occupied) = scratch.block.counts();
@@ -561,7 +569,7 @@ impl<T: LabelSample> Pass<'_, T> {
                     &mut scratch.block,
                 ),
                 Some(_) => emit::emit_classified_block(
-                    &scratch.smooth,
+                    &scratch.smooth.smooth,
                     cube,
                     quantizer,
                     output,
@@ -616,98 +624,4 @@ fn distinct(keys: &[u64]) -> Vec<u64> {
     }
     seen.sort_unstable();
     seen
-}
-
-/// Label `key`'s indicator on the gathered `region` (x fastest), smoothed by `kernel` along x, y
-/// and z, into `scratch.smooth` on the block's `cube` of samples, which starts at `at` inside the
-/// region. Samples beyond the region repeat its border: the region reaches the kernel's radius
-/// past the block wherever the volume does, so this is the volume's border.
-///
-/// Every output is `Σₖ wₖ·vₖ` summed in kernel order from 0 in f32, whichever path computes it:
-/// a row of the x pass whose samples are all 0 or all 1 is 0 or `Σₖ wₖ` without the products (most
-/// rows of a block are), rows and planes of the y and z passes whose inputs are all zero stay 0,
-/// and the y and z passes run over whole rows so they vectorise.
-fn smooth_indicator(
-    key: u64,
-    region: [usize; 3],
-    at: [usize; 3],
-    cube: [usize; 3],
-    kernel: &[f32],
-    scratch: &mut Scratch,
-) {
-    let r = (kernel.len() / 2) as isize;
-    let [rx, ry, rz] = region;
-    let [cx, cy, cz] = cube;
-    let clamp = |i: isize, n: usize| i.clamp(0, n as isize - 1) as usize;
-    let ones = kernel.iter().fold(0.0f32, |s, &w| s + w);
-    scratch.field.clear();
-    scratch
-        .field
-        .extend(scratch.keys.iter().map(|&k| (k == key) as u8 as f32));
-    // Along x: cube x × region y × region z.
-    scratch.pass_x.clear();
-    scratch.pass_x.resize(cx * ry * rz, 0.0);
-    scratch.zero_x.clear();
-    for (row, out) in scratch
-        .field
-        .chunks_exact(rx)
-        .zip(scratch.pass_x.chunks_exact_mut(cx))
-    {
-        let first = row[0];
-        let uniform = row.iter().all(|&v| v == first);
-        scratch.zero_x.push(uniform && first == 0.0);
-        if uniform {
-            out.fill(if first == 0.0 { 0.0 } else { ones });
-            continue;
-        }
-        for (x, o) in out.iter_mut().enumerate() {
-            let c = (at[0] + x) as isize;
-            let mut s = 0.0f32;
-            for (k, w) in kernel.iter().enumerate() {
-                s += w * row[clamp(c + k as isize - r, rx)];
-            }
-            *o = s;
-        }
-    }
-    // Along y, a row of x at a time: cube x × cube y × region z.
-    scratch.pass_y.clear();
-    scratch.pass_y.resize(cx * cy * rz, 0.0);
-    scratch.zero_y.clear();
-    for z in 0..rz {
-        let mut plane_zero = true;
-        for y in 0..cy {
-            let c = (at[1] + y) as isize;
-            let rows = (0..kernel.len()).map(|k| clamp(c + k as isize - r, ry) + ry * z);
-            // Rows whose inputs are all zero stay zero (0 + w·0 is 0 in every order).
-            if rows.clone().all(|row| scratch.zero_x[row]) {
-                continue;
-            }
-            plane_zero = false;
-            let out = &mut scratch.pass_y[cx * (y + cy * z)..][..cx];
-            for (row, &w) in rows.zip(kernel) {
-                let input = &scratch.pass_x[cx * row..][..cx];
-                for (o, &v) in out.iter_mut().zip(input) {
-                    *o += w * v;
-                }
-            }
-        }
-        scratch.zero_y.push(plane_zero);
-    }
-    // Along z: the cube.
-    scratch.smooth.clear();
-    scratch.smooth.resize(cx * cy * cz, 0.0);
-    for z in 0..cz {
-        let c = (at[2] + z) as isize;
-        let planes = (0..kernel.len()).map(|k| clamp(c + k as isize - r, rz));
-        if planes.clone().all(|plane| scratch.zero_y[plane]) {
-            continue;
-        }
-        let out = &mut scratch.smooth[cx * cy * z..][..cx * cy];
-        for (plane, &w) in planes.zip(kernel) {
-            let input = &scratch.pass_y[cx * cy * plane..][..cx * cy];
-            for (o, &v) in out.iter_mut().zip(input) {
-                *o += w * v;
-            }
-        }
-    }
 }

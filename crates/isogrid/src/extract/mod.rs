@@ -9,6 +9,7 @@
 pub mod attribute;
 mod emit;
 mod file_layout;
+mod label_smooth;
 pub mod label_stream;
 pub mod labels;
 pub(crate) mod scalar;

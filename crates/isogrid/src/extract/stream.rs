@@ -323,7 +323,7 @@ pub(super) fn plan_slabs(
             nx,
             ny,
             (17 + 2 * costs.halo as u64).min(nz),
-            format_bytes(minimum.checked_next_multiple_of(1 << 20).unwrap_or(minimum))
+            format_bytes_at_least(minimum.checked_next_multiple_of(1 << 20).unwrap_or(minimum))
         )));
     }
     let spare = max_memory - fixed;
@@ -349,8 +349,18 @@ pub(super) fn plan_slabs(
     })
 }
 
-/// Bytes as `512 MiB`, `3.2 GiB` (binary units, as `--max-memory` reads them).
+/// Bytes as `512 MiB`, `3.2 GiB` (binary units, as `--max-memory` reads them), to the nearest
+/// figure shown.
 pub fn format_bytes(bytes: u64) -> String {
+    format_bytes_rounded(bytes, f64::round)
+}
+
+/// [`format_bytes`] rounded up, for a least amount: a budget of the figure shown is enough.
+pub fn format_bytes_at_least(bytes: u64) -> String {
+    format_bytes_rounded(bytes, f64::ceil)
+}
+
+fn format_bytes_rounded(bytes: u64, round: fn(f64) -> f64) -> String {
     const UNITS: [&str; 5] = ["B", "KiB", "MiB", "GiB", "TiB"];
     let mut value = bytes as f64;
     let mut unit = 0;
@@ -358,10 +368,16 @@ pub fn format_bytes(bytes: u64) -> String {
         value /= 1024.0;
         unit += 1;
     }
-    if unit == 0 || value >= 100.0 || value.fract() == 0.0 {
-        format!("{value:.0} {}", UNITS[unit])
+    let whole = unit == 0 || value >= 100.0 || value.fract() == 0.0;
+    let shown = if whole {
+        round(value)
     } else {
-        format!("{value:.1} {}", UNITS[unit])
+        round(value * 10.0) / 10.0
+    };
+    if whole {
+        format!("{shown:.0} {}", UNITS[unit])
+    } else {
+        format!("{shown:.1} {}", UNITS[unit])
     }
 }
 

@@ -247,13 +247,28 @@ fn a_budget_below_one_slab_names_the_least_that_works_and_writes_nothing() {
     )
     .unwrap_err();
     assert_eq!(err.kind(), ErrorKind::TooLarge);
-    let least = stream::format_bytes(minimum.next_multiple_of(1 << 20));
+    let least = stream::format_bytes_at_least(minimum.next_multiple_of(1 << 20));
     assert!(
         err.to_string()
             .contains(&format!("the least that works is {least}")),
         "{err}"
     );
     assert!(dir.entries().is_empty());
+}
+
+/// A least budget is shown rounded up, so that the figure given is enough; other sizes to the
+/// nearest figure.
+#[test]
+fn least_budgets_are_shown_rounded_up() {
+    let gib = 1u64 << 30;
+    let just_over_two = 2 * gib + 40 * (1 << 20);
+    assert_eq!(stream::format_bytes(just_over_two), "2.0 GiB");
+    assert_eq!(stream::format_bytes_at_least(just_over_two), "2.1 GiB");
+    assert_eq!(stream::format_bytes_at_least(2 * gib), "2 GiB");
+    assert_eq!(stream::format_bytes_at_least(gib - 1), "1024 MiB");
+    assert_eq!(stream::format_bytes_at_least(1536 * (1 << 10)), "1.5 MiB");
+    assert_eq!(stream::format_bytes_at_least(1537 * (1 << 10)), "1.6 MiB");
+    assert_eq!(stream::format_bytes(3 * gib + gib / 5), "3.2 GiB");
 }
 
 /// A source that counts its reads, fails on its `fail_at`-th (to check that nothing is left
