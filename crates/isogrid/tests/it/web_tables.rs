@@ -53,8 +53,16 @@ fn tables_ts() -> String {
     }
     s += "]);\n";
     s += "/** Bits per stored corner a `.cgc` file may give (`layout::Precision::ALL`). */\n";
-    let bits: Vec<String> = Precision::ALL.iter().map(|p| p.bits().to_string()).collect();
-    writeln!(s, "export const CORNER_PRECISION_BITS = [{}];", bits.join(", ")).unwrap();
+    let bits: Vec<String> = Precision::ALL
+        .iter()
+        .map(|p| p.bits().to_string())
+        .collect();
+    writeln!(
+        s,
+        "export const CORNER_PRECISION_BITS = [{}];",
+        bits.join(", ")
+    )
+    .unwrap();
     s
 }
 
