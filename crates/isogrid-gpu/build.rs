@@ -8,7 +8,8 @@ use std::path::Path;
 fn main() {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("shaders");
     let manifest = dir.join("modules.txt");
-    println!("cargo:rerun-if-changed={}", manifest.display());
+    // Relative to the package root, for the same reason.
+    println!("cargo:rerun-if-changed=shaders/modules.txt");
     let text = std::fs::read_to_string(&manifest)
         .unwrap_or_else(|e| panic!("{}: {e}", manifest.display()));
     let mut out = String::new();
@@ -41,7 +42,13 @@ fn main() {
         for f in &files {
             let path = dir.join(f);
             assert!(path.is_file(), "{}:{}: no {f}", manifest.display(), n + 1);
-            write!(out, "include_str!({:?}), ", path.display().to_string()).unwrap();
+            // Named from the package root, not by this checkout's absolute path, so that a
+            // target directory copied from another checkout recompiles this checkout's shaders.
+            write!(
+                out,
+                "include_str!(concat!(env!(\"CARGO_MANIFEST_DIR\"), \"/shaders/{f}\")), "
+            )
+            .unwrap();
         }
         writeln!(out, "];").unwrap();
     }

@@ -7,7 +7,8 @@
 // smaller ones with `-`); colour: `cmap=NAME` and `clim=LO,HI` (the attribute's colour map and
 // range; default viridis over the stored range), `hide=V,...` (label values hidden at the start),
 // `ewa=0` (no EWA normal splats: `isogrid render --mode cgc-noewa`), `raster=compute|hardware`
-// (the cell raster, `isogrid render --cell-raster`; by default chosen per frame as natively).
+// (the cell raster, `isogrid render --cell-raster`; by default chosen per frame as natively),
+// `pagebytes=N` (pages of at most N bytes instead of the storage binding limit: tests paging).
 
 import { AttributeInfo, CgcError, CgcHeader, CodeMapping, GridLabels, codeMapping, codesOf, labelText, worldBounds } from './cgc.js';
 import {
@@ -270,6 +271,7 @@ function drawFrame(): void {
   const cam = camera;
   renderer.render(cam, context ? context.getCurrentTexture() : null, clipPlane());
   stats.pages = renderer.pageCount;
+  stats.pageFirstRecords = renderer.pageFirstRecords;
   stats.raster = renderer.lastRaster;
   stats.frames = ((stats.frames as number) || 0) + 1;
   if (!stats.firstFrameBytes && renderer.pageCount > 0) {
@@ -352,7 +354,7 @@ async function load(src: ByteSource): Promise<void> {
       header(h) {
         header = h;
         const [lo, hi] = worldBounds(h);
-        renderer = new Renderer(device!, { precisionBits: h.precisionBits, spacing: h.spacing, isoCode: h.isoCode, bounds: [lo, hi], slotCount: h.slotCount, hideable: h.labels !== null }, params.get('ewa') !== '0', true, cellRasterParam);
+        renderer = new Renderer(device!, { precisionBits: h.precisionBits, spacing: h.spacing, isoCode: h.isoCode, bounds: [lo, hi], slotCount: h.slotCount, hideable: h.labels !== null }, params.get('ewa') !== '0', true, cellRasterParam, Number(params.get('pagebytes')) || undefined);
         stats.headerAt = performance.now();
         renderer.compiled.then(() => {
           rendererReady = true;
@@ -364,29 +366,22 @@ async function load(src: ByteSource): Promise<void> {
       },
       clusters(firstSlot, metacells, firstCell, cells, counts) {
         const r = renderer!;
+        // Their attribute codes have arrived before them (loader.ts) and go into their pages.
+        const codes = attribute ? attributeCodes.subarray(firstCell, firstCell + cells.length / header!.precisionBits) : null;
         r.compiled.then(() => {
-          r.addClusters(firstSlot, metacells, firstCell, cells, counts);
+          r.addClusters(firstSlot, metacells, firstCell, cells, counts, codes);
           requestFrame();
         });
       },
       attributeHead(info) {
-        // Codes arrive with the cells (loader.ts) and are uploaded as they come, two per word.
+        // Codes arrive before the cells they colour (loader.ts) and are paged with them.
         stats.attribute = info.name;
-        attributeCodes = new Uint16Array(header!.activeCells + (header!.activeCells & 1));
-        const refused = renderer!.setColorData(2 * attributeCodes.length, 'cell attribute codes');
-        if (refused) {
-          showMessage(`${src.name}: ${refused}`, true);
-          return;
-        }
+        attributeCodes = new Uint16Array(header!.activeCells);
         attribute = { name: info.name, range: info.range, mapping: codeMapping(info), info };
         applyColoring();
       },
       attributeValues(first, values) {
-        if (!attribute) return;
-        const codes = codesOf(attribute.info, values);
-        attributeCodes.set(codes, first);
-        const [from, to] = [first & ~1, Math.min(attributeCodes.length, first + codes.length + 1) & ~1];
-        if (to > from) renderer!.writeColorData(2 * from, attributeCodes.subarray(from, to));
+        if (attribute) attributeCodes.set(codesOf(attribute.info, values), first);
       },
       labels(l) {
         labels = l;
@@ -431,7 +426,7 @@ const colour = {
   clim: parseClim(params.get('clim')),
 };
 let attribute: { name: string; range: [number, number]; mapping: CodeMapping; info: AttributeInfo } | null = null;
-/** The attribute's 16-bit codes, as far as they have arrived (a whole number of words). */
+/** The attribute's 16-bit codes (one per record), as far as they have arrived. */
 let attributeCodes = new Uint16Array(0);
 let labels: GridLabels | null = null;
 /** Label-table indices of the hidden labels. */

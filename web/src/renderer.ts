@@ -11,9 +11,11 @@
 // pipeline (cells.wgsl, ewa.wgsl). Cell data is paged: each page is a whole number of clusters
 // whose buffers stay within the device's storage binding limit (128 MiB in Firefox), and a page is
 // added as soon as its cells have arrived, so the picture fills in while the file streams. Colour
-// (colors.ts): the shading pass's `ColorUniforms` and one colour data binding, the attribute's
-// codes or the clusters' label albedos; hidden labels' clusters get empty metacells in their page's
-// copy, so the expansion (expand.wgsl, which skips slots with no cells) never draws them.
+// (colors.ts): the shading pass's `ColorUniforms`; an attribute's codes are paged with the cells
+// (after each page's corner records, `recordBytes`, as upload.rs lays them out: the cell raster
+// writes the hit cell's code for the shading pass), and a label grid's cluster albedos are one
+// colour data binding; hidden labels' clusters get empty metacells in their page's copy, so the
+// expansion (expand.wgsl, which skips slots with no cells) never draws them.
 // Back faces are culled where the grid's border is outside the solid (BorderCheck) and the eye
 // outside the grid box, as natively.
 
@@ -129,10 +131,12 @@ export class Renderer {
 
   /**
    * `raster`: which cell raster draws (`isogrid render --cell-raster`): 'auto' as natively, or
-   * always 'compute' or 'hardware'.
+   * always 'compute' or 'hardware'. `pageBytes`: a smaller page buffer limit than the device's
+   * (at least 256 bytes, as `Renderer::set_page_bytes`), to test paging on small grids.
    */
-  constructor(readonly device: GPUDevice, readonly grid: GridDesc, readonly ewa = true, readonly occlusion = true, readonly raster: CellRaster = 'auto') {
-    this.pageBytes = Math.min(device.limits.maxStorageBufferBindingSize, device.limits.maxBufferSize, 128 << 20);
+  constructor(readonly device: GPUDevice, readonly grid: GridDesc, readonly ewa = true, readonly occlusion = true, readonly raster: CellRaster = 'auto', pageBytes?: number) {
+    const limit = Math.min(device.limits.maxStorageBufferBindingSize, device.limits.maxBufferSize, 128 << 20);
+    this.pageBytes = pageBytes ? Math.min(Math.max(256, pageBytes), limit) : limit;
     const d = device;
     const V = GPUShaderStage.VERTEX, F = GPUShaderStage.FRAGMENT, C = GPUShaderStage.COMPUTE;
     const uniform = (binding: number, visibility: number): GPUBindGroupLayoutEntry => ({ binding, visibility, buffer: { type: 'uniform' } });
@@ -286,6 +290,11 @@ export class Renderer {
     return this.pages.length;
   }
 
+  /** Global index of each page's first corner record (and attribute code). */
+  get pageFirstRecords(): number[] {
+    return this.pages.map((p) => p.firstCell);
+  }
+
   /**
    * Culls back faces (FLAG_BACKFACE) from now on where `outside`: no border sample is inside
    * (BorderCheck), as natively (`border_outside`); only while the eye is outside the grid box.
@@ -300,34 +309,36 @@ export class Renderer {
   }
 
   /**
-   * Uploads the colour data the uniforms' source reads (attribute codes, two per word, or label
-   * albedos), or allocates that many zero bytes (a number; filled by `writeColorData` as they
-   * arrive), or none. Like the native renderer (upload.rs), data larger than one storage binding
-   * is refused: the shaders read it through one binding by global record or cluster. Returns why
-   * it was refused, or null.
+   * Uploads a label grid's colour data (each cluster's label albedo), or none. Like the native
+   * renderer (upload.rs), albedos larger than one storage binding are refused: the shading pass
+   * reads them through one binding by global cluster. Returns why they were refused, or null.
    */
-  setColorData(data: ArrayBufferView | number | null, what: string): string | null {
+  setColorData(data: ArrayBufferView | null, what: string): string | null {
     if (this.colorData !== this.noColorData) this.colorData.destroy();
     this.colorData = this.noColorData;
     if (data !== null) {
-      const bytes = typeof data === 'number' ? data : data.byteLength;
-      const size = Math.max(16, Math.ceil(bytes / 4) * 4);
+      const size = Math.max(16, Math.ceil(data.byteLength / 4) * 4);
       if (size > this.pageBytes) {
-        return `the ${what} takes ${bytes} bytes, more than a storage binding holds (${this.pageBytes} bytes): drawn in one colour`;
+        return `the ${what} takes ${data.byteLength} bytes, more than a storage binding holds (${this.pageBytes} bytes): drawn in one colour`;
       }
       this.colorData = this.device.createBuffer({ label: what, size, usage: GPUBufferUsage.STORAGE | GPUBufferUsage.COPY_DST });
-      if (typeof data !== 'number') this.writeColorData(0, data);
+      const padded = new Uint8Array(size);
+      padded.set(new Uint8Array(data.buffer, data.byteOffset, data.byteLength));
+      this.device.queue.writeBuffer(this.colorData, 0, padded);
     }
     // The shading bind group names the buffer: made again with the targets.
     this.dropTargets();
     return null;
   }
 
-  /** Writes `data` into the colour data at `offset` (both multiples of 4 bytes but for the end). */
-  writeColorData(offset: number, data: ArrayBufferView): void {
-    const padded = new Uint8Array(Math.ceil(data.byteLength / 4) * 4);
-    padded.set(new Uint8Array(data.buffer, data.byteOffset, data.byteLength));
-    this.device.queue.writeBuffer(this.colorData, offset, padded);
+  /**
+   * Bytes of a page's records buffer for `cells` cells (`RecordLayout` in upload.rs): the corner
+   * records padded to a word, then with an attribute (`codes`) their 16-bit codes, two per word,
+   * from word `codesWord` on (0 without codes: `PageUniforms.codes_word`).
+   */
+  private recordBytes(cells: number, codes: boolean): { bytes: number; codesWord: number } {
+    const recordWords = Math.ceil((cells * this.grid.precisionBits) / 4);
+    return { bytes: 4 * (recordWords + (codes ? Math.ceil(cells / 2) : 0)), codesWord: codes ? recordWords : 0 };
   }
 
   /**
@@ -359,9 +370,10 @@ export class Renderer {
 
   /**
    * Adds the clusters of slots [firstSlot, firstSlot + slots) (whole clusters) with their corner
-   * records (`cells`, starting at record `firstCell`), split into pages within the binding limit.
+   * records (`cells`, starting at record `firstCell`) and, with an attribute, the records' codes
+   * (`codes`, one per record), split into pages within the binding limit.
    */
-  addClusters(firstSlot: number, metacells: Uint8Array, firstCell: number, cells: Uint8Array, cellCounts: number[]): void {
+  addClusters(firstSlot: number, metacells: Uint8Array, firstCell: number, cells: Uint8Array, cellCounts: number[], codes: Uint16Array | null): void {
     // cellCounts[k]: active cells of cluster k of this range.
     const bpc = this.grid.precisionBits;
     let k = 0;
@@ -374,7 +386,7 @@ export class Renderer {
       while (k + n < clusters) {
         const c2 = c + cellCounts[k + n];
         const slots2 = (n + 1) * CLUSTER_SLOTS;
-        if (n > 0 && Math.max(c2 * bpc, slots2 * SLOT_BYTES, c2 * 4) > this.pageBytes) break;
+        if (n > 0 && Math.max(this.recordBytes(c2, codes !== null).bytes, slots2 * SLOT_BYTES, c2 * 4) > this.pageBytes) break;
         c = c2;
         n++;
       }
@@ -384,16 +396,18 @@ export class Renderer {
         metacells.subarray(slot0 * SLOT_BYTES, (slot0 + n * CLUSTER_SLOTS) * SLOT_BYTES),
         firstCell + cellAt,
         cells.subarray(cellAt * bpc, (cellAt + c) * bpc),
+        codes && codes.subarray(cellAt, cellAt + c),
       );
       cellAt += c;
       k += n;
     }
   }
 
-  private addPage(firstSlot: number, metacells: Uint8Array, firstCell: number, cells: Uint8Array): void {
+  private addPage(firstSlot: number, metacells: Uint8Array, firstCell: number, cells: Uint8Array, codes: Uint16Array | null): void {
     const d = this.device;
     const slotCount = metacells.length / SLOT_BYTES;
     const cellCount = cells.length / this.grid.precisionBits;
+    const { bytes: recordBytes, codesWord } = this.recordBytes(cellCount, codes !== null);
     const init = (label: string, data: ArrayBufferView, usage: number, size = data.byteLength) => {
       const b = d.createBuffer({ label, size: Math.max(16, Math.ceil(size / 4) * 4), usage: usage | GPUBufferUsage.COPY_DST });
       if (data.byteLength) {
@@ -406,9 +420,12 @@ export class Renderer {
     const S = GPUBufferUsage.STORAGE;
     const p = this.pages.length;
     const buf = (binding: number, buffer: GPUBuffer): GPUBindGroupEntry => ({ binding, resource: { buffer } });
-    const uniforms = init(`page ${p} uniforms`, new Uint32Array([firstSlot, firstCell, slotCount, 0]), GPUBufferUsage.UNIFORM);
+    const uniforms = init(`page ${p} uniforms`, new Uint32Array([firstSlot, firstCell, slotCount, codesWord]), GPUBufferUsage.UNIFORM);
     const meta = d.createBuffer({ label: `page ${p} metacells`, size: Math.max(16, metacells.byteLength), usage: S | GPUBufferUsage.COPY_DST });
-    const rec = init(`page ${p} corner records`, cells, S);
+    const records = new Uint8Array(recordBytes);
+    records.set(cells);
+    if (codes) records.set(new Uint8Array(codes.buffer, codes.byteOffset, codes.byteLength), 4 * codesWord);
+    const rec = init(`page ${p} corner records and attribute codes`, records, S);
     const list = (label: string, n: number) => d.createBuffer({ label: `page ${p} ${label}`, size: Math.max(16, 4 * n), usage: S });
     const lists = [list('full list', cellCount), list('probe list', slotCount), list('new list', cellCount)];
     const args = init(`page ${p} draw arguments`, EMPTY_ARGS, S | GPUBufferUsage.INDIRECT | GPUBufferUsage.COPY_SRC);

@@ -34,6 +34,10 @@ fn trace_page_first_cell(page_index: u32) -> u32 {
     return page.first_cell;
 }
 
+fn trace_page_codes_word(page_index: u32) -> u32 {
+    return page.codes_word;
+}
+
 // The one page holds every slot.
 fn trace_slot_is_bound(global_slot: u32) -> bool {
     return true;
@@ -56,6 +60,12 @@ fn cell_corners(cell: vec3<u32>, global_record: u32) -> Corners {
         return Corners(vec4<f32>(v[0], v[1], v[2], v[3]), vec4<f32>(v[4], v[5], v[6], v[7]));
     }
     return record_corners_in(0u, global_record - page.first_cell);
+}
+
+// The attribute code of the bound page's record `global_record` (0 without an attribute), which
+// the cell raster writes into the ID target's record channel for the shading pass.
+fn cell_code(global_record: u32) -> u32 {
+    return record_code_in(0u, page.codes_word, global_record - page.first_cell);
 }
 
 // One drawn cell: an instance is `local_slot * 8 + bit`.

@@ -3,7 +3,7 @@
 // records at the grid's precision. Every shader that reads cells decodes them here.
 //
 // The words come from `slot_word(page, i)` and `record_word(page, i)` (word i of a page's metacell
-// slots / corner records), which the prepended storage file defines: cell_data.wgsl for one page
+// slots / corner records, then the records' attribute codes), which the prepended storage file defines: cell_data.wgsl for one page
 // per bind group (the raster passes and the single-page tracer), trace_pages.wgsl for the tracer
 // binding several pages at once. `page` is the page's index among the bound ones.
 //
@@ -56,6 +56,17 @@ fn record_corner_in(page: u32, local_record: u32, c: u32) -> f32 {
 struct Corners {
     lo: vec4<f32>,
     hi: vec4<f32>,
+}
+
+// The 16-bit attribute code of a page's record (`isogrid::CellAttribute::codes16`), where the
+// page's buffer holds codes from word `codes_word` on: after the records, two per word, the first
+// in the low half (`RecordLayout` in src/upload.rs). So a code is paged with its record, by the
+// same record → page rule. 0 where the page holds none (codes_word 0: no attribute uploaded).
+fn record_code_in(page: u32, codes_word: u32, local_record: u32) -> u32 {
+    if codes_word == 0u {
+        return 0u;
+    }
+    return (record_word(page, codes_word + local_record / 2u) >> (16u * (local_record % 2u))) & 0xffffu;
 }
 
 fn record_corners_in(page: u32, local_record: u32) -> Corners {

@@ -12,7 +12,7 @@ struct CellVarying {
     @location(0) @interpolate(flat) corners_lo: vec4<f32>,
     @location(1) @interpolate(flat) corners_hi: vec4<f32>,
     @location(2) @interpolate(flat) cell: vec3<f32>,
-    @location(3) @interpolate(flat) ids: vec2<u32>, // cluster, record
+    @location(3) @interpolate(flat) ids: vec2<u32>, // cluster, attribute code (cell_code)
 }
 
 @vertex
@@ -25,13 +25,13 @@ fn vs_cell(@builtin(vertex_index) vertex: u32, @builtin(instance_index) instance
     out.corners_lo = k.lo;
     out.corners_hi = k.hi;
     out.cell = vec3<f32>(c.cell);
-    out.ids = vec2<u32>(c.cluster, c.record);
+    out.ids = vec2<u32>(c.cluster, cell_code(c.record));
     return out;
 }
 
 struct GBufferOut {
     @location(0) surface: vec4<f32>, // world normal −∇f (unit), eye distance along the ray
-    @location(1) ids: vec2<u32>,     // cluster, record
+    @location(1) ids: vec2<u32>,     // cluster, attribute code
     @builtin(frag_depth) depth: f32,
 }
 

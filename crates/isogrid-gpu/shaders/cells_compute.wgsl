@@ -61,7 +61,7 @@ fn raster_cells(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_work
                 atomicMax(depth, bitcast<u32>(hit.depth));
             } else if bitcast<u32>(hit.depth) == atomicLoad(depth) {
                 textureStore(raster_surface, vec2<i32>(x, y), vec4<f32>(hit.normal, hit.t));
-                textureStore(raster_ids, vec2<i32>(x, y), vec4<u32>(cell.c.cluster, cell.c.record, 0u, 0u));
+                textureStore(raster_ids, vec2<i32>(x, y), vec4<u32>(cell.c.cluster, cell_code(cell.c.record), 0u, 0u));
             }
         }
     }

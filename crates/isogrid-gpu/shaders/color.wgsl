@@ -1,10 +1,11 @@
 // Surface colour (`isogrid::colormap`, `isogrid::attribute`, `isogrid::labels`): the colouring
-// uniforms and the rules that turn a corner record's attribute code into a value and a value into
+// uniforms and the rules that turn a cell's 16-bit attribute code into a value and a value into
 // an albedo, or give a label grid's cluster its label's albedo; shared by the deferred shading
-// pass (shade.wgsl) and the path tracer (pathtrace.wgsl). Each of those declares, at its own group
-// and binding, `coloring: ColorUniforms` and `color_data: array<u32>`: for COLOR_RECORDS one
-// 16-bit attribute code per corner record (global record index, two per word), for COLOR_LABELS
-// the linear albedo of each cluster's label (f32 bits, four words per cluster). Twins:
+// pass (shade.wgsl) and the path tracer (pathtrace.wgsl). The codes live in the pages, after the
+// corner records (`record_code_in`, cell_decode.wgsl): the cell raster writes the hit cell's code
+// into the ID target, the tracer reads it at the hit. Each user declares, at its own group and
+// binding, `coloring: ColorUniforms` and `color_data: array<u32>`, for COLOR_LABELS the linear
+// albedo of each cluster's label (f32 bits, four words per cluster). Twins:
 // `Coloring::index` (the table entry), `AttributeInfo::code_mapping` (the decoding),
 // `Label::albedo` (uploaded as it is).
 
@@ -26,9 +27,8 @@ fn cluster_albedo(cluster: u32) -> vec3<f32> {
     return bitcast<vec3<f32>>(vec3<u32>(color_data[at], color_data[at + 1u], color_data[at + 2u]));
 }
 
-// The attribute value of corner record `record` (global index); NaN for the NaN code.
-fn record_value(record: u32) -> f32 {
-    let code = (color_data[record >> 1u] >> (16u * (record & 1u))) & 0xffffu;
+// The attribute value of a cell's 16-bit attribute code; NaN for the NaN code.
+fn code_value(code: u32) -> f32 {
     if code == coloring.params.y {
         return bitcast<f32>(coloring.params.z);
     }

@@ -31,7 +31,7 @@ struct PageUniforms {
     first_slot: u32,  // global index of the page's first metacell slot
     first_cell: u32,  // global index of the page's first corner record
     slot_count: u32,
-    _pad: u32,
+    codes_word: u32,  // word of the page's first attribute code in its records buffer; 0: none
 }
 
 // The ray through a pixel position (pixels from the top-left corner), exactly `Camera::ray_at`.

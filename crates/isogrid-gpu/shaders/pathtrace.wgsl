@@ -132,10 +132,10 @@ fn bounce_ray(p: vec3<f32>, n: vec3<f32>, rng: ptr<function, u32>) -> BounceRay 
     return BounceRay(p + trace.cell_dims.w * n, cosine_direction(n, u1, u2));
 }
 
-// The diffuse albedo of the surface of corner record `record` in cluster `cluster`.
-fn surface_albedo(record: u32, cluster: u32) -> vec3<f32> {
+// The diffuse albedo of a surface in cluster `cluster` whose cell has attribute code `code`.
+fn surface_albedo(code: u32, cluster: u32) -> vec3<f32> {
     if coloring.params.x == COLOR_RECORDS {
-        return albedo_of(record_value(record));
+        return albedo_of(code_value(code));
     }
     if coloring.params.x == COLOR_LABELS {
         return cluster_albedo(cluster);
@@ -186,7 +186,7 @@ fn follow_path(pixel: vec2<u32>, dir: vec3<f32>, primary: vec4<f32>, albedo: vec
             }
             p = ray.origin + hit.t * ray.direction;
             n = facing(hit.normal, ray.direction);
-            throughput *= surface_albedo(hit.record, hit.cluster);
+            throughput *= surface_albedo(hit.code, hit.cluster);
         }
     }
     add_sample(index, pixel, radiance);
@@ -217,5 +217,5 @@ fn path_trace_traced_primary(@builtin(global_invocation_id) gid: vec3<u32>) {
     let primary = select(vec4<f32>(0.0), vec4<f32>(hit.normal, hit.t), hit.t < NO_HIT);
     textureStore(primary_surface, vec2<i32>(gid.xy), primary);
     textureStore(primary_ids, vec2<i32>(gid.xy), vec4<u32>(hit.cluster, 0u, 0u, 0u));
-    follow_path(gid.xy, dir, primary, surface_albedo(hit.record, hit.cluster));
+    follow_path(gid.xy, dir, primary, surface_albedo(hit.code, hit.cluster));
 }

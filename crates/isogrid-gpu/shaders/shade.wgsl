@@ -12,7 +12,7 @@
 @group(1) @binding(2) var cluster_ids: texture_2d<u32>;
 
 @group(1) @binding(3) var<uniform> coloring: ColorUniforms;
-// The colour data of color.wgsl (attribute codes or label albedos); a dummy when uncoloured.
+// The colour data of color.wgsl (label albedos); a dummy otherwise.
 @group(1) @binding(4) var<storage, read> color_data: array<u32>;
 // The compute pass's outputs (the fragment pass writes the same as render targets).
 @group(2) @binding(0) var shaded_color: texture_storage_2d<rgba8unorm, write>;
@@ -54,13 +54,13 @@ struct ShadeOut {
     @location(2) value: vec4<f32>,  // x: the attribute value the colour shows; NaN on a miss or uncoloured
 }
 
-// The attribute value under a hit pixel with IDs `ids` (cluster, record; the mesh pass writes the
-// value's bits as the record).
+// The attribute value under a hit pixel with IDs `ids` (cluster, then the cell's attribute code
+// from the cell raster or the value's bits from the mesh pass).
 fn surface_value(ids: vec2<u32>) -> f32 {
     if coloring.params.x == COLOR_MESH {
         return bitcast<f32>(ids.y);
     }
-    return record_value(ids.y);
+    return code_value(ids.y);
 }
 
 @vertex

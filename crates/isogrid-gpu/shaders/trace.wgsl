@@ -53,7 +53,8 @@ struct TraceHit {
     t: f32,              // world distance, NO_HIT on a miss
     normal: vec3<f32>,   // unit world −∇f at the hit (out of the solid)
     cluster: u32,        // global cluster index (slot / 16) of the hit cell, NO_CLUSTER on a miss
-    record: u32,         // global corner record index of the hit cell (its attribute's index)
+    record: u32,         // global corner record index of the hit cell
+    code: u32,           // its attribute code (`record_code_in`; 0 without an attribute)
 }
 
 // Entry and exit t of the box [lo, hi] (cell units) for a ray with origin o and 1/direction inv.
@@ -263,7 +264,7 @@ fn trace_ray(origin: vec3<f32>, dir: vec3<f32>, t_min: f32, t_max: f32) -> Trace
 // knows a crossing at t_stop from earlier groups. Cells are still clipped to [t_min, t_max]
 // only, so a crossing found here is computed exactly as a trace of the whole grid computes it.
 fn trace_ray_until(origin: vec3<f32>, dir: vec3<f32>, t_min: f32, t_max: f32, t_stop: f32) -> TraceHit {
-    let miss = TraceHit(NO_HIT, vec3<f32>(0.0), NO_CLUSTER, 0u);
+    let miss = TraceHit(NO_HIT, vec3<f32>(0.0), NO_CLUSTER, 0u, 0u);
     if trace.block_dims.x == 0u {
         return miss;
     }
@@ -362,7 +363,8 @@ fn trace_ray_until(origin: vec3<f32>, dir: vec3<f32>, t_min: f32, t_max: f32, t_
     var n = -trilinear_gradient(k.lo, k.hi, local) / s;
     let len = length(n);
     n = select(-dir, n / len, len > 0.0);
-    return TraceHit(t, n, best.cluster, trace_page_first_cell(best.page) + best.record);
+    let code = record_code_in(best.page, trace_page_codes_word(best.page), best.record);
+    return TraceHit(t, n, best.cluster, trace_page_first_cell(best.page) + best.record, code);
 }
 
 // Test entry point: one thread per ray. Rays: origin (xyz, w = t_min), direction (xyz, unit;

@@ -15,6 +15,7 @@ struct TracePages {
     count: vec4<u32>,                 // x: pages bound (1..=TRACE_PAGES); y: global slot just past the last bound page
     first_slot: array<vec4<u32>, 2>,  // global index of each page's first metacell slot, page p at [p / 4][p % 4]
     first_cell: array<vec4<u32>, 2>,  // global index of each page's first corner record, likewise
+    codes_word: array<vec4<u32>, 2>,  // each page's `PageUniforms.codes_word`, likewise
 }
 
 @group(1) @binding(0) var<uniform> pages: TracePages;
@@ -86,6 +87,10 @@ fn trace_page_first_slot(p: u32) -> u32 {
 
 fn trace_page_first_cell(p: u32) -> u32 {
     return pages.first_cell[p / 4u][p % 4u];
+}
+
+fn trace_page_codes_word(p: u32) -> u32 {
+    return pages.codes_word[p / 4u][p % 4u];
 }
 
 // The page holding a global metacell slot: pages are contiguous, ascending runs of whole

@@ -18,7 +18,7 @@ struct PathState {
     hit: vec4<f32>,        // nearest crossing of the ray over the groups traced so far: normal xyz, t w (NO_HIT)
     throughput: vec3<f32>, // albedo product of the surfaces so far
     cluster: u32,          // cluster of the nearest crossing (NO_CLUSTER)
-    record: u32,           // and its corner record (the index of its attribute)
+    code: u32,             // and its cell's attribute code (read while its page is bound)
 }
 
 const PATH_DONE: u32 = 0xffffffffu;
@@ -84,7 +84,7 @@ fn wave_trace(@builtin(global_invocation_id) gid: vec3<u32>) {
     if hit.t < s.hit.w {
         paths[index].hit = vec4<f32>(hit.normal, hit.t);
         paths[index].cluster = hit.cluster;
-        paths[index].record = hit.record;
+        paths[index].code = hit.code;
     }
 }
 
@@ -99,7 +99,7 @@ fn wave_resolve_primary(@builtin(global_invocation_id) gid: vec3<u32>) {
     let primary = select(vec4<f32>(0.0), s.hit, s.hit.w < NO_HIT);
     textureStore(primary_surface, vec2<i32>(gid.xy), primary);
     textureStore(primary_ids, vec2<i32>(gid.xy), vec4<u32>(s.cluster, 0u, 0u, 0u));
-    wave_begin(gid.xy, s.direction, primary, surface_albedo(s.record, s.cluster));
+    wave_begin(gid.xy, s.direction, primary, surface_albedo(s.code, s.cluster));
 }
 
 // A bounce, after its traces: an escaped path adds the environment, a path out of bounces adds
@@ -127,5 +127,5 @@ fn wave_resolve(@builtin(global_invocation_id) gid: vec3<u32>) {
     let p = s.origin + s.hit.w * s.direction;
     var rng = s.rng;
     let ray = bounce_ray(p, facing(s.hit.xyz, s.direction), &rng);
-    paths[index] = PathState(ray.origin, s.bounce + 1u, ray.direction, rng, vec4<f32>(0.0, 0.0, 0.0, NO_HIT), s.throughput * surface_albedo(s.record, s.cluster), NO_CLUSTER, 0u);
+    paths[index] = PathState(ray.origin, s.bounce + 1u, ray.direction, rng, vec4<f32>(0.0, 0.0, 0.0, NO_HIT), s.throughput * surface_albedo(s.code, s.cluster), NO_CLUSTER, 0u);
 }

@@ -55,7 +55,8 @@ pub(crate) struct ColorUniforms {
 
 /// One fixed albedo (`isogrid::shading::ALBEDO`): no colour map.
 pub(crate) const COLOR_NONE: u32 = 0;
-/// The value of the cell's record, a 16-bit code in the uploaded attribute.
+/// The value of the hit cell's attribute code, which the cell raster writes into the record
+/// channel of the ID target and the tracer reads from the cell's page.
 pub(crate) const COLOR_RECORDS: u32 = 1;
 /// The value the mesh pass wrote, as f32 bits, in the record channel of the ID target.
 pub(crate) const COLOR_MESH: u32 = 2;
@@ -118,7 +119,9 @@ pub(crate) struct PageUniforms {
     pub first_slot: u32,
     pub first_cell: u32,
     pub slot_count: u32,
-    pub _pad: u32,
+    /// Word index, in the page's record buffer, of its first cell attribute code; 0 when the
+    /// grid has no attribute uploaded ([`crate::upload::RecordLayout`]).
+    pub codes_word: u32,
 }
 
 /// Decoding of snorm16 positions (group 1, binding 0 of the mesh pass). Keep in sync with
@@ -208,6 +211,8 @@ pub(crate) struct TracePages {
     pub first_slot: [[u32; 4]; 2],
     /// Global index of page p's first corner record at `[p / 4][p % 4]`.
     pub first_cell: [[u32; 4]; 2],
+    /// Page p's [`PageUniforms::codes_word`] at `[p / 4][p % 4]`.
+    pub codes_word: [[u32; 4]; 2],
 }
 
-const _: () = assert!(TRACE_PAGES <= 8 && std::mem::size_of::<TracePages>() == 80);
+const _: () = assert!(TRACE_PAGES <= 8 && std::mem::size_of::<TracePages>() == 112);

@@ -136,8 +136,8 @@ impl Renderer {
     }
 
     /// Uploads blocks, metacell slots and corner records, split into pages when they exceed one
-    /// storage binding, and the cell attribute when the grid has one (2 bytes per active cell,
-    /// in one binding).
+    /// storage binding, with the cell attribute when the grid has one (2 bytes per active cell,
+    /// after the records of each page, so an attribute is paged like the cells).
     pub fn upload_grid(&self, grid: &CellGrid) -> Result<GpuGrid, GpuError> {
         self.uploader().upload_grid(grid)
     }

@@ -1,8 +1,8 @@
 //! Scene data on the GPU, uploaded once and drawn by any number of views: clustered grid cells
-//! split into pages of whole clusters (paper §3.1, byte for byte `isogrid::layout`), the Marching
-//! Cubes mesh (Table 3 layout) with optional per-vertex values, a grid's cell attribute as 16-bit
-//! codes (2 bytes per active cell), and the original volume as a 3D texture for the CR baseline; with
-//! the bind-group layouts through which passes read them.
+//! split into pages of whole clusters (paper §3.1, byte for byte `isogrid::layout`), with a grid's
+//! cell attribute as 16-bit codes (2 bytes per active cell) in the page of their records, the
+//! Marching Cubes mesh (Table 3 layout) with optional per-vertex values, and the original volume
+//! as a 3D texture for the CR baseline; with the bind-group layouts through which passes read them.
 
 use crate::error::GpuError;
 use crate::gpu_types::{MeshUniforms, PageDispatchArgs, PageDrawArgs, PageUniforms};
@@ -82,7 +82,10 @@ pub(crate) struct Page {
     pub first_slot: u32,
     pub first_cell: u32,
     pub slot_count: u32,
-    /// Page uniforms, metacell slots and corner records, bound again by the ray tracer.
+    /// [`PageUniforms::codes_word`]: where the page's attribute codes start in `cells`.
+    pub codes_word: u32,
+    /// Page uniforms, metacell slots and corner records (then their attribute codes, see
+    /// [`RecordLayout`]), bound again by the ray tracer.
     pub uniforms: wgpu::Buffer,
     pub metacells: wgpu::Buffer,
     pub cells: wgpu::Buffer,
@@ -110,23 +113,14 @@ pub struct GpuGrid {
     /// No sample of the grid's border is inside, so a ray from an eye outside the grid box first
     /// meets the surface from outside and back-face culling is safe.
     pub(crate) border_outside: bool,
-    /// The cell attribute as 16-bit codes, one per corner record (global record order).
-    pub(crate) attribute: Option<GpuAttribute>,
-    /// Why a grid with an attribute has none uploaded (it exceeds one storage binding): what a
-    /// coloured render of it reports.
-    pub(crate) attribute_refused: Option<String>,
+    /// The decoding of the cell attribute's 16-bit codes, which each page holds after its
+    /// corner records ([`RecordLayout`]); `None` without an attribute.
+    pub(crate) attribute: Option<isogrid::CodeMapping>,
     /// A label grid's colours: the linear albedo of each cluster's label (`Label::albedo`), four
     /// f32 per cluster, for `COLOR_LABELS`.
     pub(crate) label_albedo: Option<wgpu::Buffer>,
     active_cells: u64,
     clusters: u64,
-}
-
-/// A grid's cell attribute on the GPU: one 16-bit code per active cell, two per word, decoded by
-/// the shading pass with `mapping` (`isogrid::CellAttribute::codes16`).
-pub(crate) struct GpuAttribute {
-    pub codes: wgpu::Buffer,
-    pub mapping: isogrid::CodeMapping,
 }
 
 impl GpuGrid {
@@ -136,6 +130,10 @@ impl GpuGrid {
     /// Number of pages (storage-binding-sized pieces) the grid was split into.
     pub fn page_count(&self) -> usize {
         self.pages.len()
+    }
+    /// Global index of each page's first corner record (and first attribute code).
+    pub fn page_first_records(&self) -> Vec<u64> {
+        self.pages.iter().map(|p| p.first_cell as u64).collect()
     }
     pub fn active_cells(&self) -> u64 {
         self.active_cells
@@ -201,25 +199,56 @@ fn cluster_cells(metacells: &[Metacell]) -> Vec<u64> {
         .collect()
 }
 
-/// Splits clusters into contiguous ranges whose metacells, corner records and instance lists each
-/// fit in `limit` bytes. Returns (first cluster, cluster count, first record, record count).
+/// What a page's record buffer holds for `cells` cells: their corner records (`bytes_per_cell`
+/// each, `isogrid::layout`), then, where the grid has an attribute, their attribute codes
+/// (`isogrid::CellAttribute::codes16`) from the next word on, two per word, the first in the low
+/// half. A code so lives in the page of its record, at the record's page-local index: paging
+/// the records pages the codes by the same rule (`record_code_in` in cell_decode.wgsl reads
+/// them; web/src/renderer.ts `addPage` lays them out alike).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct RecordLayout {
+    pub bytes_per_cell: u64,
+    pub codes: bool,
+}
+
+impl RecordLayout {
+    /// Word index of the first code ([`PageUniforms::codes_word`]): 0 without codes.
+    pub fn codes_word(&self, cells: u64) -> u64 {
+        if self.codes {
+            (cells * self.bytes_per_cell).div_ceil(4)
+        } else {
+            0
+        }
+    }
+
+    /// Bytes of the buffer (without codes, the records padded to a word).
+    pub fn bytes(&self, cells: u64) -> u64 {
+        let records = (cells * self.bytes_per_cell).div_ceil(4);
+        let codes = if self.codes { cells.div_ceil(2) } else { 0 };
+        4 * (records + codes)
+    }
+}
+
+/// Splits clusters into contiguous ranges whose metacells, record buffers ([`RecordLayout`])
+/// and instance lists (4 bytes per cell) each fit in `limit` bytes. Returns (first cluster,
+/// cluster count, first record, record count).
 pub(crate) fn plan_pages(
     per_cluster: &[u64],
-    bytes_per_cell: u64,
+    records: RecordLayout,
     limit: u64,
 ) -> Result<Vec<(u64, u64, u64, u64)>, GpuError> {
     let slot_bytes = (CLUSTER_SLOTS * std::mem::size_of::<Metacell>()) as u64;
-    let cell_bytes = bytes_per_cell.max(4); // records, or the u32 instance list of the same cells
+    let cell_bytes = |n: u64| records.bytes(n).max(4 * n);
     let mut pages = Vec::new();
     let (mut first, mut count, mut first_cell, mut cells) = (0u64, 0u64, 0u64, 0u64);
     for (i, &n) in per_cluster.iter().enumerate() {
-        if slot_bytes > limit || n * cell_bytes > limit {
+        if slot_bytes > limit || cell_bytes(n) > limit {
             return Err(GpuError::too_large(format!(
                 "one cluster needs {} bytes, more than a storage binding holds ({limit} bytes)",
-                (n * cell_bytes).max(slot_bytes)
+                cell_bytes(n).max(slot_bytes)
             )));
         }
-        if count > 0 && ((count + 1) * slot_bytes > limit || (cells + n) * cell_bytes > limit) {
+        if count > 0 && ((count + 1) * slot_bytes > limit || cell_bytes(cells + n) > limit) {
             pages.push((first, count, first_cell, cells));
             first = i as u64;
             first_cell += cells;
@@ -244,8 +273,8 @@ pub(crate) struct Uploader<'a> {
 }
 
 impl Uploader<'_> {
-    /// Uploads blocks, metacell slots and corner records, split into pages when they exceed one
-    /// storage binding.
+    /// Uploads blocks, metacell slots and corner records with the attribute's codes, split into
+    /// pages when they exceed one storage binding.
     pub fn upload_grid(&self, grid: &CellGrid) -> Result<GpuGrid, GpuError> {
         self.gpu
             .scoped("uploading the grid", || self.upload_grid_unscoped(grid))
@@ -257,18 +286,24 @@ impl Uploader<'_> {
         let cells = grid.cells();
         let bpc = info.precision.bytes_per_cell() as u64;
         let per_cluster = cluster_cells(metacells);
-        let plan = plan_pages(&per_cluster, bpc, self.page_bytes)?;
+        let codes = grid.attribute().map(|a| a.codes16());
+        let layout = RecordLayout {
+            bytes_per_cell: bpc,
+            codes: codes.is_some(),
+        };
+        let plan = plan_pages(&per_cluster, layout, self.page_bytes)?;
         let storage = wgpu::BufferUsages::STORAGE;
         let mut pages = Vec::with_capacity(plan.len());
         for (p, &(first_cluster, clusters, first_cell, cell_count)) in plan.iter().enumerate() {
             let slots = first_cluster as usize * CLUSTER_SLOTS
                 ..(first_cluster + clusters) as usize * CLUSTER_SLOTS;
             let records = (first_cell * bpc) as usize..((first_cell + cell_count) * bpc) as usize;
+            let codes_word = layout.codes_word(cell_count) as u32;
             let uniforms = PageUniforms {
                 first_slot: slots.start as u32,
                 first_cell: first_cell as u32,
                 slot_count: slots.len() as u32,
-                _pad: 0,
+                codes_word,
             };
             let uniforms = self.gpu.buffer_init(
                 &format!("page {p} uniforms"),
@@ -280,11 +315,15 @@ impl Uploader<'_> {
                 bytemuck::cast_slice(&metacells[slots.clone()]),
                 storage,
             )?;
-            let cell_buffer = self.gpu.buffer_init(
-                &format!("page {p} corner records"),
-                &cells[records],
+            let page_codes = codes.as_ref().map_or(&[][..], |(c, _)| {
+                bytemuck::cast_slice(&c[first_cell as usize..(first_cell + cell_count) as usize])
+            });
+            let cell_buffer = self.gpu.buffer_init_parts(
+                &format!("page {p} corner records and attribute codes"),
+                &[&cells[records], page_codes],
                 storage,
             )?;
+            debug_assert_eq!(cell_buffer.size(), layout.bytes(cell_count).max(4));
             let list_bytes = [cell_count, slots.len() as u64, cell_count].map(|n| 4 * n);
             let lists = [
                 self.gpu.buffer(
@@ -358,6 +397,7 @@ impl Uploader<'_> {
                 first_slot: slots.start as u32,
                 first_cell: first_cell as u32,
                 slot_count: slots.len() as u32,
+                codes_word,
                 uniforms,
                 metacells: metacell_buffer,
                 cells: cell_buffer,
@@ -378,16 +418,6 @@ impl Uploader<'_> {
                 storage,
             )?)
         };
-        // An attribute too large for one binding leaves the grid drawable in one colour.
-        let (attribute, attribute_refused) =
-            match grid.attribute().map(|a| self.upload_attribute(a)) {
-                None => (None, None),
-                Some(Ok(a)) => (Some(a), None),
-                Some(Err(e)) if e.kind() == crate::GpuErrorKind::TooLarge => {
-                    (None, Some(e.to_string()))
-                }
-                Some(Err(e)) => return Err(e),
-            };
         let label_albedo = match grid.labels() {
             Some(labels) => {
                 let table: Vec<[f32; 3]> = labels.table().iter().map(|l| l.albedo()).collect();
@@ -411,8 +441,7 @@ impl Uploader<'_> {
         Ok(GpuGrid {
             id: NEXT_GRID_ID.fetch_add(1, Ordering::Relaxed),
             border_outside: border_is_outside(grid),
-            attribute,
-            attribute_refused,
+            attribute: codes.map(|(_, mapping)| mapping),
             label_albedo,
             info,
             pages,
@@ -420,34 +449,6 @@ impl Uploader<'_> {
             active_cells: grid.active_cells() as u64,
             clusters: grid.clusters() as u64,
         })
-    }
-
-    /// A cell attribute as 16-bit codes in one storage binding.
-    fn upload_attribute(
-        &self,
-        attribute: &isogrid::CellAttribute,
-    ) -> Result<GpuAttribute, GpuError> {
-        let (mut codes, mapping) = attribute.codes16();
-        if codes.len() % 2 == 1 {
-            codes.push(0);
-        }
-        let bytes = 2 * codes.len().max(2) as u64;
-        if bytes > self.gpu.binding_limit() {
-            return Err(GpuError::too_large(format!(
-                "the attribute of {} cells takes {bytes} bytes, more than a storage binding holds ({} bytes)",
-                attribute.len(),
-                self.gpu.binding_limit()
-            )));
-        }
-        if codes.is_empty() {
-            codes = vec![0, 0];
-        }
-        let codes = self.gpu.buffer_init(
-            "cell attribute codes",
-            bytemuck::cast_slice(&codes),
-            wgpu::BufferUsages::STORAGE,
-        )?;
-        Ok(GpuAttribute { codes, mapping })
     }
 
     /// Uploads an MC mesh as snorm16 positions scaled by its bounds and u32 indices (paper Table 3),

@@ -63,11 +63,23 @@ impl Gpu {
         contents: &[u8],
         usage: wgpu::BufferUsages,
     ) -> Result<wgpu::Buffer, GpuError> {
-        let size = (contents.len() as u64).div_ceil(4).max(1) * 4;
+        self.buffer_init_parts(label, &[contents], usage)
+    }
+
+    /// Like [`Gpu::buffer_init`], holding `parts` one after another, each from a word boundary
+    /// (the bytes between zero), in one mapping.
+    pub fn buffer_init_parts(
+        &self,
+        label: &str,
+        parts: &[&[u8]],
+        usage: wgpu::BufferUsages,
+    ) -> Result<wgpu::Buffer, GpuError> {
+        let padded = |n: usize| (n as u64).div_ceil(4) * 4;
+        let bytes: u64 = parts.iter().map(|p| padded(p.len())).sum();
+        let size = bytes.max(4);
         if size > self.limits.max_buffer_size {
             return Err(GpuError::too_large(format!(
-                "{label}: {} bytes exceed the device's largest buffer ({} bytes)",
-                contents.len(),
+                "{label}: {bytes} bytes exceed the device's largest buffer ({} bytes)",
                 self.limits.max_buffer_size
             )));
         }
@@ -78,12 +90,15 @@ impl Gpu {
             mapped_at_creation: true,
         });
         // A mapping at creation starts zeroed, so the padding needs no writing.
-        if !contents.is_empty() {
-            buffer
+        if bytes > 0 {
+            let mut mapped = buffer
                 .get_mapped_range_mut(..)
-                .map_err(|e| GpuError::device(format!("{label}: mapping the new buffer: {e}")))?
-                .slice(..contents.len())
-                .copy_from_slice(contents);
+                .map_err(|e| GpuError::device(format!("{label}: mapping the new buffer: {e}")))?;
+            let mut at = 0usize;
+            for part in parts {
+                mapped.slice(at..at + part.len()).copy_from_slice(part);
+                at += padded(part.len()) as usize;
+            }
         }
         buffer.unmap();
         Ok(buffer)

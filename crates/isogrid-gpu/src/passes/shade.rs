@@ -82,13 +82,14 @@ impl Shading {
     }
 
     /// Group 1: the raster G-buffer, the EWA sums and the cluster ids of `targets`, the colouring
-    /// (`ColorUniforms`) and the attribute codes of the grid's records (a dummy when uncoloured).
+    /// (`ColorUniforms`) and the colour data: a label grid's cluster albedos, else a dummy (the
+    /// cell raster writes the hit cell's attribute code into the ID target).
     pub fn bind_inputs(
         &self,
         gpu: &Gpu,
         targets: &Targets,
         coloring: &wgpu::Buffer,
-        attribute_codes: &wgpu::Buffer,
+        color_data: &wgpu::Buffer,
     ) -> wgpu::BindGroup {
         gpu.bind_group(
             "shading inputs",
@@ -98,7 +99,7 @@ impl Shading {
                 texture_entry(1, &targets.ewa_view),
                 texture_entry(2, &targets.ids_view),
                 buffer_entry(3, coloring),
-                buffer_entry(4, attribute_codes),
+                buffer_entry(4, color_data),
             ],
         )
     }

@@ -24,11 +24,12 @@ pub(super) struct TraceBinding {
     pub(super) entry: TraceEntryPoints,
 }
 
-/// Group 0's colouring (pathtrace.wgsl bindings 4–6): the `ColorUniforms`, the grid's attribute
-/// codes and the value target the shading pass wrote for raster primaries.
+/// Group 0's colouring (pathtrace.wgsl bindings 4–6): the `ColorUniforms`, a label grid's
+/// cluster albedos and the value target the shading pass wrote for raster primaries. Attribute
+/// codes are read from the hit cell's page (`RecordLayout`).
 pub(super) struct TraceColoring {
     uniforms: wgpu::Buffer,
-    codes: Option<wgpu::Buffer>,
+    label_albedo: Option<wgpu::Buffer>,
     values: wgpu::TextureView,
 }
 
@@ -42,15 +43,11 @@ impl TraceColoring {
         coloring: Option<&isogrid::colormap::Coloring>,
         values: Option<&wgpu::TextureView>,
     ) -> Result<TraceColoring, GpuError> {
-        let attribute = match (coloring, &grid.attribute) {
+        let attribute = match (coloring, grid.attribute) {
             (None, _) => None,
             (Some(_), Some(a)) => Some(a),
             (Some(_), None) => {
-                return Err(GpuError::invalid(
-                    grid.attribute_refused
-                        .clone()
-                        .unwrap_or_else(|| "the grid has no attribute to colour by".into()),
-                ))
+                return Err(GpuError::invalid("the grid has no attribute to colour by"))
             }
         };
         let source = match (attribute, &grid.label_albedo) {
@@ -58,7 +55,7 @@ impl TraceColoring {
             (None, Some(_)) => COLOR_LABELS,
             (None, None) => COLOR_NONE,
         };
-        let u = ColorUniforms::new(coloring, source, attribute.map(|a| a.mapping));
+        let u = ColorUniforms::new(coloring, source, attribute);
         let values = match values {
             Some(v) => v.clone(),
             None => view(&gpu.texture_2d(
@@ -70,9 +67,9 @@ impl TraceColoring {
         };
         Ok(TraceColoring {
             uniforms: gpu.uniform_buffer("trace colouring", bytemuck::bytes_of(&u)),
-            codes: match source {
+            label_albedo: match source {
                 COLOR_LABELS => grid.label_albedo.clone(),
-                _ => attribute.map(|a| a.codes.clone()),
+                _ => None,
             },
             values,
         })
@@ -124,7 +121,7 @@ pub(super) fn trace_binding(
         })
     };
     let blocks = grid.blocks.clone().unwrap_or_else(dummy);
-    let codes = coloring.codes.clone().unwrap_or_else(dummy);
+    let label_albedo = coloring.label_albedo.clone().unwrap_or_else(dummy);
     let group0 = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
         label: Some("trace grid"),
         layout: &t.grid,
@@ -133,7 +130,7 @@ pub(super) fn trace_binding(
             buffer_entry(1, uniforms),
             buffer_entry(3, &blocks),
             buffer_entry(4, &coloring.uniforms),
-            buffer_entry(5, &codes),
+            buffer_entry(5, &label_albedo),
             texture_entry(6, &coloring.values),
         ],
     });
@@ -157,7 +154,7 @@ pub(super) fn trace_binding(
             entry: t.one_page.clone(),
         });
     }
-    // Pages, then blocks, the attribute codes, the accumulation and the path states.
+    // Pages, then blocks, the label albedos, the accumulation and the path states.
     let needed = 2 * TRACE_PAGES as u32 + 4;
     let allowed = gpu.limits.max_storage_buffers_per_shader_stage;
     if allowed < needed {
@@ -179,10 +176,12 @@ pub(super) fn trace_binding(
                 count: [group.len() as u32, last.first_slot + last.slot_count, 0, 0],
                 first_slot: [[0; 4]; 2],
                 first_cell: [[0; 4]; 2],
+                codes_word: [[0; 4]; 2],
             };
             for (i, page) in group.iter().enumerate() {
                 table.first_slot[i / 4][i % 4] = page.first_slot;
                 table.first_cell[i / 4][i % 4] = page.first_cell;
+                table.codes_word[i / 4][i % 4] = page.codes_word;
             }
             let table = gpu.uniform_buffer("trace page table", bytemuck::bytes_of(&table));
             let page_buffer =

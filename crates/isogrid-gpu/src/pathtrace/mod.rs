@@ -24,7 +24,7 @@
 //! # Grids larger than one storage binding
 //!
 //! Uploads split a grid into pages of whole clusters, each with its own metacell-slot and
-//! corner-record buffers (`upload.rs`), no larger than the device's largest storage binding
+//! corner-record buffers (the records followed by their attribute codes, `upload.rs`), no larger than the device's largest storage binding
 //! (`max_storage_buffer_binding_size`, capped by `max_buffer_size`; the renderer asks for the
 //! adapter's own limits: 128 MiB on lavapipe, 2–4 GiB on discrete GPUs). The raster passes draw
 //! page by page, but a traced ray may need any cluster, so a trace pass binds a group of up to

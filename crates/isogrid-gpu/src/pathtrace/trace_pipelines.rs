@@ -162,8 +162,8 @@ pub(crate) struct TracePipelines {
 impl TracePipelines {
     pub fn new(device: &wgpu::Device) -> Self {
         let c = wgpu::ShaderStages::COMPUTE;
-        // Group 0: frame uniforms, trace uniforms, blocks; the colouring, the attribute codes and
-        // the value of each raster primary (pathtrace.wgsl).
+        // Group 0: frame uniforms, trace uniforms, blocks; the colouring, a label grid's cluster
+        // albedos and the value of each raster primary (pathtrace.wgsl).
         let grid = layout(
             device,
             "trace grid",

@@ -67,10 +67,10 @@ impl FrameBindings {
             view_formats: &[],
         });
         let dummy_volume_view = view(&dummy_volume);
-        let attribute = plan.grid.and_then(|g| g.attribute.as_ref());
+        let attribute = plan.grid.and_then(|g| g.attribute);
         // Its own dummy: a buffer bound read-write (the visibility bits) cannot also be read-only.
-        let no_codes = gpu.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("no attribute codes"),
+        let no_color_data = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("no colour data"),
             size: 16,
             usage: wgpu::BufferUsages::STORAGE,
             mapped_at_creation: false,
@@ -80,7 +80,7 @@ impl FrameBindings {
             bytemuck::bytes_of(&ColorUniforms::new(
                 plan.coloring,
                 plan.color_source,
-                attribute.map(|a| a.mapping),
+                attribute,
             )),
         );
         let (visible_last_frame, visible_new) = match visibility {
@@ -139,9 +139,10 @@ impl FrameBindings {
                 gpu,
                 &targets,
                 &coloring,
+                // Attribute codes come with the cells: the raster writes the hit cell's code.
                 match (plan.color_source, plan.grid) {
-                    (COLOR_LABELS, Some(g)) => g.label_albedo.as_ref().unwrap_or(&no_codes),
-                    _ => attribute.map_or(&no_codes, |a| &a.codes),
+                    (COLOR_LABELS, Some(g)) => g.label_albedo.as_ref().unwrap_or(&no_color_data),
+                    _ => &no_color_data,
                 },
             ),
             targets,

@@ -66,11 +66,9 @@ pub(crate) fn render(
     };
     if options.coloring.is_some() {
         let missing = match (mode, grid, mesh) {
-            (_, Some(g), _) if g.attribute.is_none() => Some(
-                g.attribute_refused
-                    .clone()
-                    .unwrap_or_else(|| "the grid has no attribute to colour by".into()),
-            ),
+            (_, Some(g), _) if g.attribute.is_none() => {
+                Some("the grid has no attribute to colour by".to_string())
+            }
             (_, None, Some(m)) if !m.has_values => {
                 Some("the mesh was uploaded without vertex values to colour by".into())
             }

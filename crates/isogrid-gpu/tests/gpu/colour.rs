@@ -10,18 +10,33 @@ use isogrid::{AttributePrecision, Camera, CellGrid, Volume, VolumeData};
 use isogrid_gpu::{PathTraceOptions, PrimaryRays, Renderer};
 use isogrid_trace::{Environment, RenderOptions, Shading};
 
-/// A 32³ sphere coloured by its x index (a volume on the same grid), and the colouring.
-fn coloured_sphere() -> (CellGrid, Coloring) {
-    let (_, grid) = scene(Field::Sphere, 32, None);
-    let n = 32usize;
-    let x: Vec<f32> = (0..n * n * n).map(|i| (i % n) as f32).collect();
-    let attribute = Volume::new([n; 3], VolumeData::F32(x)).unwrap();
-    let values =
-        sample_attribute_in_memory(&grid, &attribute.view(), "x", AttributePrecision::Code16)
-            .unwrap();
+/// `grid` (of an n³ volume) coloured by `value` of each sample's index (x, y, z), a volume on the
+/// same grid coded at 16 bits, and turbo over the attribute's range.
+pub fn coloured_by(
+    grid: CellGrid,
+    n: usize,
+    value: impl Fn(usize, usize, usize) -> f32,
+) -> (CellGrid, Coloring) {
+    let data: Vec<f32> = (0..n * n * n)
+        .map(|i| value(i % n, i / n % n, i / (n * n)))
+        .collect();
+    let attribute = Volume::new([n; 3], VolumeData::F32(data)).unwrap();
+    let values = sample_attribute_in_memory(
+        &grid,
+        &attribute.view(),
+        "value",
+        AttributePrecision::Code16,
+    )
+    .unwrap();
     let coloring =
         Coloring::new(ColorMap::Turbo, Coloring::default_clim(values.info().range)).unwrap();
     (grid.with_attribute(values).unwrap(), coloring)
+}
+
+/// A 32³ sphere coloured by its x index, and the colouring.
+fn coloured_sphere() -> (CellGrid, Coloring) {
+    let (_, grid) = scene(Field::Sphere, 32, None);
+    coloured_by(grid, 32, |x, _, _| x as f32)
 }
 
 /// Mean linear radiance over `pixels`.

@@ -2,6 +2,7 @@
 //! with a message when, and only when, there is no adapter at all.
 
 mod accuracy;
+mod attribute_pages;
 mod colour;
 mod culling;
 mod edges;
