@@ -25,8 +25,8 @@
 //! Memory: one slab of `16·k + 1 + 2r` planes (k block layers, as [`super::stream::plan`] sizes
 //! it), per-thread scratch for one block's gathered region (`(17 + 2r)³` samples as keys, and the
 //! smoothing passes), one run of blocks' output (cut to the plan's output buffer), 20 B per block,
-//! and, growing with the surface, 40 B per (block, label) pair with cells and 4 B per cluster: the
-//! label index's own order of size. Temporary disk: the output's metacells and corner records.
+//! and, growing with the surface, 12 B per (block, label) pair with cells, 4 B per cluster and the
+//! labels' extents: the label index's own order of size. Temporary disk: the output's metacells and corner records.
 
 use super::file_layout::FileLayout;
 use super::labels::{BlockLabels, LabelOptions, LabelPart, LabelPass, LabelTally, LABEL_ISO};
@@ -61,9 +61,9 @@ pub type NameLabels<'a> = &'a mut dyn FnMut(&mut [Label]);
 /// 50,000 labels in 512³ have 12.6 (413,770 in 32,768 blocks). Past that, each further pair takes
 /// `PART_RECORD_BYTES` beyond the plan.
 const LABEL_PARTS_PER_BLOCK: u64 = 16;
-/// Bytes the run keeps per (block, label) pair with cells: its record in the tally (40 B) and,
-/// while the file is written, its run in the index (12 B, then 8 B).
-const PART_RECORD_BYTES: u64 = 52;
+/// Bytes the run keeps per (block, label) pair with cells: its label and clusters in the tally
+/// (12 B) and, while the file is written, its run in the index (12 B, then 8 B).
+const PART_RECORD_BYTES: u64 = 24;
 
 /// Plans slabs of the label pass of `options` over `source` within `max_memory` bytes: the slab
 /// reads the smoothing halo besides its own planes, and each thread gathers one block's region.

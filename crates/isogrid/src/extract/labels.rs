@@ -35,6 +35,7 @@ use crate::progress::Progress;
 use crate::quantize::Quantizer;
 use crate::volume::{Samples, VolumeView};
 use rayon::prelude::*;
+use std::collections::HashMap;
 use std::ops::Range;
 
 /// The isovalue of an indicator.
@@ -277,15 +278,17 @@ pub(super) struct LabelTally {
     keys: Vec<u64>,
     /// Length of `keys` after its last sort.
     sorted: usize,
-    /// Every part in block order, cut to what the index needs (40 B each).
-    parts: Vec<PartRecord>,
+    /// Each label's cells and cell box so far, by key: what the index needs of its parts beyond
+    /// their order, gathered as they come so a part keeps only its label and clusters.
+    extents: HashMap<u64, LabelExtent>,
+    /// Every part in block order: its label's key and its clusters (12 B each).
+    part_keys: Vec<u64>,
+    part_clusters: Vec<u32>,
 }
 
-/// A part as the label index needs it.
-struct PartRecord {
-    key: u64,
-    clusters: u32,
-    cells: u32,
+/// A label's active cells and their box (`[lo, hi)`, index space) over the parts seen.
+struct LabelExtent {
+    cells: u64,
     lo: [u32; 3],
     hi: [u32; 3],
 }
@@ -298,7 +301,9 @@ impl LabelTally {
             blocks: Vec::with_capacity(block_count),
             keys: Vec::new(),
             sorted: 0,
-            parts: Vec::new(),
+            extents: HashMap::new(),
+            part_keys: Vec::new(),
+            part_clusters: Vec::new(),
         }
     }
 
@@ -332,13 +337,20 @@ impl LabelTally {
             self.keys.dedup();
             self.sorted = self.keys.len();
         }
-        self.parts.extend(b.parts.iter().map(|p| PartRecord {
-            key: p.key,
-            clusters: p.clusters,
-            cells: p.cells,
-            lo: p.lo,
-            hi: p.hi,
-        }));
+        for p in &b.parts {
+            self.part_keys.push(p.key);
+            self.part_clusters.push(p.clusters);
+            let e = self.extents.entry(p.key).or_insert(LabelExtent {
+                cells: 0,
+                lo: [u32::MAX; 3],
+                hi: [0; 3],
+            });
+            e.cells += p.cells as u64;
+            for a in 0..3 {
+                e.lo[a] = e.lo[a].min(p.lo[a]);
+                e.hi[a] = e.hi[a].max(p.hi[a]);
+            }
+        }
         Ok(first_cell)
     }
 
@@ -364,32 +376,32 @@ impl LabelTally {
         let table_index =
             |key: u64| keys.binary_search(&key).expect("a part's label is present") as u32;
         let mut cluster_labels = Vec::with_capacity(self.totals.slots as usize / CLUSTER_SLOTS);
-        let mut runs: Vec<(u32, ClusterRun)> = Vec::with_capacity(self.parts.len());
-        let mut index = vec![
-            LabelEntry {
-                lo: [u32::MAX; 3],
-                ..Default::default()
-            };
-            keys.len()
-        ];
-        for p in &self.parts {
-            let label = table_index(p.key);
+        let mut runs: Vec<(u32, ClusterRun)> = Vec::with_capacity(self.part_keys.len());
+        let mut index: Vec<LabelEntry> = keys
+            .iter()
+            .map(|key| match self.extents.get(key) {
+                Some(e) => LabelEntry {
+                    cell_count: e.cells,
+                    lo: e.lo,
+                    hi: e.hi,
+                    ..Default::default()
+                },
+                None => LabelEntry::default(),
+            })
+            .collect();
+        drop(self.extents);
+        for (&key, &clusters) in self.part_keys.iter().zip(&self.part_clusters) {
+            let label = table_index(key);
             runs.push((
                 label,
                 ClusterRun {
                     first_cluster: cluster_labels.len() as u32,
-                    cluster_count: p.clusters,
+                    cluster_count: clusters,
                 },
             ));
-            cluster_labels.extend(std::iter::repeat_n(label, p.clusters as usize));
-            let e = &mut index[label as usize];
-            e.cell_count += p.cells as u64;
-            for a in 0..3 {
-                e.lo[a] = e.lo[a].min(p.lo[a]);
-                e.hi[a] = e.hi[a].max(p.hi[a]);
-            }
+            cluster_labels.extend(std::iter::repeat_n(label, clusters as usize));
         }
-        drop(self.parts);
+        drop((self.part_keys, self.part_clusters));
         // Each label's runs together, in cluster order (the sort is stable).
         runs.sort_by_key(|&(label, _)| label);
         let mut next = 0u64;
