@@ -2,9 +2,8 @@
 //!
 //! Inputs that can be read by region (Zarr, OME-Zarr, TIFF slice folders, raw, uncompressed NRRD
 //! and NIfTI) are extracted slab by slab within `--max-memory` and written as they go
-//! ([`isogrid::extract::stream`]; with `--labels`, [`isogrid::extract::label_stream`], NRRD
-//! aside, which may be a layered Slicer segmentation); the others are read whole first. Both give
-//! the same bytes.
+//! ([`isogrid::extract::stream`]; with `--labels`, [`isogrid::extract::label_stream`], a layered
+//! Slicer segmentation aside); the others are read whole first. Both give the same bytes.
 
 use crate::args::{parse_precision, parse_size, InputArgs, IsoArgs, LabelArgs, ThreadArgs};
 use crate::color_by::{parse_attribute_precision, AttributeInput, DEFAULT_PRECISION};

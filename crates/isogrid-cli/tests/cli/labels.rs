@@ -463,3 +463,54 @@ fn streamed_labels_match_in_memory_within_the_budget() {
     }
     std::fs::remove_dir_all(dir).unwrap();
 }
+
+/// A one-layer Slicer segmentation in raw encoding reads by region: `--max-memory` binds it (a
+/// budget below the least fails naming it, as for any streamed input), and the file, names and
+/// colours included, is byte for byte the one its gzip twin gives (read whole).
+#[test]
+fn one_layer_segmentations_stream_with_their_names() {
+    use std::io::Read;
+    let dir = temp_dir("labels-seg-stream");
+    let gz = label_fixture("one_layer.seg.nrrd");
+    // The raw twin: the same header with `encoding: raw`, and the samples inflated.
+    let bytes = std::fs::read(&gz).unwrap();
+    let split = bytes.windows(2).position(|w| w == b"\n\n").unwrap() + 2;
+    let header = String::from_utf8(bytes[..split].to_vec()).unwrap();
+    assert!(header.contains("encoding: gzip\n") && header.contains("Segment1_Name:=portal vein"));
+    let mut samples = Vec::new();
+    flate2::read::GzDecoder::new(&bytes[split..])
+        .read_to_end(&mut samples)
+        .unwrap();
+    let raw = dir.join("one_layer_raw.seg.nrrd");
+    let mut twin = header
+        .replace("encoding: gzip\n", "encoding: raw\n")
+        .into_bytes();
+    twin.extend_from_slice(&samples);
+    std::fs::write(&raw, twin).unwrap();
+
+    let whole = dir.join("whole.cgc");
+    let streamed = dir.join("streamed.cgc");
+    let args = |input: &Path, out: &Path, budget: &'static str| {
+        let mut a = vec!["extract".to_string(), s(input).to_string()];
+        a.extend(["--labels", "all", "--max-memory", budget, "-o"].map(String::from));
+        a.push(s(out).to_string());
+        a
+    };
+    let run = |a: Vec<String>| {
+        let a: Vec<&str> = a.iter().map(String::as_str).collect();
+        ok_json(&[&a[..], &["--json"]].concat())
+    };
+    // A kibibyte: below any streamed plan, so only a file read whole gets through.
+    run(args(&gz, &whole, "1K"));
+    let refused: Vec<String> = args(&raw, &streamed, "1K");
+    let refused: Vec<&str> = refused.iter().map(String::as_str).collect();
+    fails(&refused, "the least that works is");
+    assert!(!streamed.exists());
+    run(args(&raw, &streamed, "256M"));
+    assert_eq!(
+        std::fs::read(&streamed).unwrap(),
+        std::fs::read(&whole).unwrap()
+    );
+    let names: Vec<String> = listed(&streamed).into_iter().map(|l| l.1).collect();
+    assert_eq!(names, ["liver", "portal vein", "lesion 3"]);
+}

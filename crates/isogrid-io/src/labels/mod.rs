@@ -72,9 +72,12 @@ pub fn read_label_volume(path: &Path, opts: &ReadOptions) -> Result<(LabelVolume
 pub type LabelRegion = (Box<dyn RegionSource + Send>, Vec<Label>);
 
 /// Opens a label volume for reading by region (see [`crate::open_region`]), with the names and
-/// colours its file gives: `path`, or its OME-Zarr label image `labels_of`. `None` where it must
-/// be read whole with [`read_labels_of`]: a format without region reads, and any NRRD, which may
-/// be a 3D Slicer segmentation (layered, named by its header).
+/// colours its file gives: `path`, or its OME-Zarr label image `labels_of`. A one-layer NRRD (a
+/// 3D Slicer segmentation whose segments do not overlap, or a plain label volume) reads by region
+/// where its encoding allows, named by its header's `SegmentN_` keys. `None` where it must be
+/// read whole with [`read_labels_of`]: a format or encoding without region reads, and a layered
+/// segmentation (its layers are numbered after each other's largest value, which takes every
+/// sample).
 pub fn open_label_region(
     path: &Path,
     labels_of: Option<&str>,
@@ -84,13 +87,17 @@ pub fn open_label_region(
         None => path.to_path_buf(),
         Some(name) => label_image_path(path, name)?,
     };
-    if is_nrrd(&path) && opts.raw.is_none() {
+    let nrrd = is_nrrd(&path) && opts.raw.is_none();
+    if nrrd && crate::nrrd::header_layers_and_keys(&path)?.0 > 1 {
         return Ok(None);
     }
     let Some(source) = crate::open_region(&path, opts)? else {
         return Ok(None);
     };
-    let names = if path.is_dir() {
+    let names = if nrrd {
+        let (_, key_values) = crate::nrrd::header_layers_and_keys(&path)?;
+        segmentation::one_layer_names(&path, &key_values)?
+    } else if path.is_dir() {
         ome_label_names(&path)?
     } else {
         Vec::new()

@@ -19,10 +19,39 @@ struct Segment {
     layer: Option<String>,
 }
 
+/// A segment as placed by the header: its layer, its value in the layer, its name and colour.
+type Placed = (usize, u64, String, Option<[u8; 4]>);
+
 pub(super) fn read(path: &Path) -> Result<LabelVolume> {
     let (volumes, key_values) = crate::nrrd::read_nrrd_layers(path, true)?;
+    let placed = segments(path, &key_values, volumes.len())?;
+    // Offsets: each layer's labels follow the largest value of the previous layer, in its
+    // samples or among its segments (an empty segment keeps its own number).
+    let mut layers = Vec::with_capacity(volumes.len());
+    let mut offset = 0u64;
+    for (l, volume) in volumes.into_iter().enumerate() {
+        let declared = placed.iter().filter(|p| p.0 == l).map(|p| p.1).max();
+        let max = max_key(volume.data().samples()).max(declared.unwrap_or(0));
+        layers.push(LabelLayer { volume, offset });
+        offset = offset.checked_add(max).ok_or_else(|| {
+            Error::unsupported("the layers' label values are too large to number together")
+                .with_path(path)
+        })?;
+    }
+    let offsets: Vec<u64> = layers.iter().map(|l| l.offset).collect();
+    let names = named(path, placed, &offsets)?;
+    Ok(LabelVolume { layers, names })
+}
+
+/// The segments `key_values` (a NRRD header's `key:=value` pairs) describe, in a file of
+/// `layer_count` layers, checked.
+fn segments(
+    path: &Path,
+    key_values: &[(String, String)],
+    layer_count: usize,
+) -> Result<Vec<Placed>> {
     let mut segments: BTreeMap<usize, Segment> = BTreeMap::new();
-    for (key, value) in &key_values {
+    for (key, value) in key_values {
         let Some((n, field)) = key
             .strip_prefix("Segment")
             .and_then(|rest| rest.split_once('_'))
@@ -42,7 +71,7 @@ pub(super) fn read(path: &Path) -> Result<LabelVolume> {
     }
 
     // Each segment's layer and value, as written (defaults as Slicer reads old files).
-    let layered = volumes.len() > 1;
+    let layered = layer_count > 1;
     let mut placed = Vec::with_capacity(segments.len());
     for (n, s) in &segments {
         let bad = |what: String| Error::corrupt(format!("Segment{n}_{what}")).with_path(path);
@@ -57,11 +86,11 @@ pub(super) fn read(path: &Path) -> Result<LabelVolume> {
         // Before layers, segment N was layer N, value 1.
         let layer = number(&s.layer, "Layer", if layered { *n as u64 } else { 0 })?;
         let value = number(&s.label_value, "LabelValue", 1)?;
-        if layer >= volumes.len() as u64 {
+        if layer >= layer_count as u64 {
             return Err(bad(format!(
                 "Layer {layer} is beyond the file's {} layer{}",
-                volumes.len(),
-                if volumes.len() == 1 { "" } else { "s" }
+                layer_count,
+                if layer_count == 1 { "" } else { "s" }
             )));
         }
         if value == 0 {
@@ -91,23 +120,16 @@ pub(super) fn read(path: &Path) -> Result<LabelVolume> {
         placed.push((layer as usize, value, name, rgba));
     }
 
-    // Offsets: each layer's labels follow the largest value of the previous layer, in its
-    // samples or among its segments (an empty segment keeps its own number).
-    let mut layers = Vec::with_capacity(volumes.len());
-    let mut offset = 0u64;
-    for (l, volume) in volumes.into_iter().enumerate() {
-        let declared = placed.iter().filter(|p| p.0 == l).map(|p| p.1).max();
-        let max = max_key(volume.data().samples()).max(declared.unwrap_or(0));
-        layers.push(LabelLayer { volume, offset });
-        offset = offset.checked_add(max).ok_or_else(|| {
-            Error::unsupported("the layers' label values are too large to number together")
-                .with_path(path)
-        })?;
-    }
+    Ok(placed)
+}
+
+/// The file's names and colours by label value: each segment's value in its layer moved by the
+/// layer's offset, sorted; two segments on one value are an error.
+fn named(path: &Path, placed: Vec<Placed>, offsets: &[u64]) -> Result<Vec<Label>> {
     let mut names: Vec<Label> = placed
         .into_iter()
         .map(|(layer, value, name, rgba)| {
-            let value = value + layers[layer].offset;
+            let value = value + offsets[layer];
             Label {
                 value,
                 name,
@@ -123,5 +145,11 @@ pub(super) fn read(path: &Path) -> Result<LabelVolume> {
         ))
         .with_path(path));
     }
-    Ok(LabelVolume { layers, names })
+    Ok(names)
+}
+
+/// The names and colours of a one-layer segmentation (or of any 3-D NRRD: none without
+/// `SegmentN_` keys), from its header's `key_values` alone, for reading its samples by region.
+pub(super) fn one_layer_names(path: &Path, key_values: &[(String, String)]) -> Result<Vec<Label>> {
+    named(path, segments(path, key_values, 1)?, &[0])
 }

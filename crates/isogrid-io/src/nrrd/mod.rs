@@ -8,6 +8,7 @@ mod write;
 
 pub(crate) use header::clip;
 pub(crate) use read::data_files;
+pub(crate) use read::header_layers_and_keys;
 pub use read::read_nrrd;
 pub(crate) use read::read_nrrd_layers;
 pub(crate) use read::region_layout;

@@ -148,6 +148,15 @@ pub(crate) fn data_files(path: &Path) -> Option<Vec<std::path::PathBuf>> {
     })
 }
 
+/// The layer count and `key:=value` pairs of a NRRD's header, without its samples. Errors name
+/// the file.
+pub(crate) fn header_layers_and_keys(path: &Path) -> Result<(usize, KeyValues)> {
+    let mut reader = BufReader::new(isogrid::fs::open_regular(path)?);
+    let (lines, _) = read_header_lines(&mut reader).at_path(path)?;
+    let header = header::parse(&lines).at_path(path)?;
+    Ok((header.layers, header.key_values))
+}
+
 /// Where a raw-encoded NRRD (attached, or detached into one file, without line skips) keeps its
 /// samples, for reading by region; `None` for other encodings and layouts, which are read whole.
 /// Errors name the file at fault.
