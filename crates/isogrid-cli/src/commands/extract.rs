@@ -116,7 +116,11 @@ pub fn run(args: Args) -> Result<()> {
                 },
             )
         }
-        None => in_memory(&args, &read_options, &options, &pool, attribute.as_ref())?,
+        None => {
+            let done = in_memory(&args, &read_options, &options, &pool, attribute.as_ref())?;
+            note_read_whole(&args);
+            done
+        }
     };
     let mut report = GridReport::new(&stats, seconds);
     report.attribute = attribute_report;
@@ -183,7 +187,11 @@ fn run_labels(args: Args) -> Result<()> {
             let labels = (summary.info.scalar_type, summary.table, summary.index);
             (summary.stats, labels, absent, seconds)
         }
-        None => labels_in_memory(&args, &read_options, &options, &pool, table.as_deref())?,
+        None => {
+            let done = labels_in_memory(&args, &read_options, &options, &pool, table.as_deref())?;
+            note_read_whole(&args);
+            done
+        }
     };
     let (scalar_type, table_written, index) = labels;
     let signed = isogrid::labels::signed_labels(scalar_type);
@@ -436,6 +444,19 @@ fn has_no_finite_sample(source: &mut dyn RegionSource) -> isogrid::Result<bool> 
         }
     }
     Ok(true)
+}
+
+/// A `--max-memory` given for an input that was read whole did not bound it: say so (after the
+/// extraction, so that a failure stays one line).
+fn note_read_whole(args: &Args) {
+    if let Some(budget) = args.max_memory {
+        eprintln!(
+            "isogrid: note: {}: read whole (its format or encoding has no reads by region), so \
+             --max-memory {} did not bound it",
+            args.input.display(),
+            stream::format_bytes(budget)
+        );
+    }
 }
 
 /// The memory budget of a streamed extraction: `--max-memory`, by default a quarter of the

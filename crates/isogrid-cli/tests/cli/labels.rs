@@ -500,8 +500,17 @@ fn one_layer_segmentations_stream_with_their_names() {
         let a: Vec<&str> = a.iter().map(String::as_str).collect();
         ok_json(&[&a[..], &["--json"]].concat())
     };
-    // A kibibyte: below any streamed plan, so only a file read whole gets through.
-    run(args(&gz, &whole, "1K"));
+    // A kibibyte: below any streamed plan, so only a file read whole gets through, with a note
+    // that the budget did not bind it.
+    let read_whole: Vec<String> = args(&gz, &whole, "1K");
+    let read_whole: Vec<&str> = read_whole.iter().map(String::as_str).collect();
+    let done = isogrid(&read_whole);
+    let stderr = String::from_utf8_lossy(&done.stderr);
+    assert!(done.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("one_layer.seg.nrrd: read whole") && stderr.contains("--max-memory 1 KiB"),
+        "{stderr}"
+    );
     let refused: Vec<String> = args(&raw, &streamed, "1K");
     let refused: Vec<&str> = refused.iter().map(String::as_str).collect();
     fails(&refused, "the least that works is");
