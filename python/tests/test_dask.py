@@ -626,6 +626,32 @@ def test_label_progress_counts_slabs_and_a_stop_leaves_no_file(tmp_path):
         assert os.listdir(tmp_path) == [], os.listdir(tmp_path)
 
 
+def test_a_label_slab_task_stops_on_its_flag():
+    # A label slab task watches the flag its run gives it (the run's own, or on a cluster the one
+    # its watcher sets): cancelled before it starts it raises at once, and cancelled while it runs
+    # it raises instead of finishing its slab. Left alone it gives the slab's fragment.
+    from isogrid import _isogrid
+
+    cells = np.random.default_rng(5).integers(1, 6000, (24, 24, 24), dtype=np.uint16)
+    a = cells.repeat(8, 0).repeat(8, 1).repeat(8, 2)  # 192³ samples, touching 8³ labels
+    dims, layers = a.shape[::-1], (0, (a.shape[0] - 1 + 15) // 16)
+    start = time.perf_counter()
+    assert len(_isogrid._label_slab(a, dims, layers, "all", 1.0)) > 0
+    whole = time.perf_counter() - start
+    assert whole > 0.2, f"the slab took {whole:.2f} s: too quick to cancel mid-way"
+    flag = _isogrid._TaskCancel()
+    flag.cancel()
+    with pytest.raises(ValueError, match="interrupted"):
+        _isogrid._label_slab(a, dims, layers, "all", 1.0, None, flag)
+    flag = _isogrid._TaskCancel()
+    timer = threading.Timer(0.02, flag.cancel)
+    timer.start()
+    with pytest.raises(ValueError, match="interrupted"):
+        _isogrid._label_slab(a, dims, layers, "all", 1.0, None, flag)
+    timer.join()
+    assert flag.cancelled
+
+
 # A slow tile: uint8 noise, nearly every cell active at 127.5 (uint8 at iso in data units runs in
 # one pass, so the tile's one task scans and writes its output), beside a thin quick one of zeros.
 SLOW_TILE = 416
