@@ -87,15 +87,18 @@ pub fn open_label_region(
         None => path.to_path_buf(),
         Some(name) => label_image_path(path, name)?,
     };
-    let nrrd = is_nrrd(&path) && opts.raw.is_none();
-    if nrrd && crate::nrrd::header_layers_and_keys(&path)?.0 > 1 {
-        return Ok(None);
-    }
+    // A NRRD's header: its layers decide how it is read, its keys name its labels.
+    let nrrd_keys = match is_nrrd(&path) && opts.raw.is_none() {
+        true => match crate::nrrd::header_layers_and_keys(&path)? {
+            (layers, _) if layers > 1 => return Ok(None),
+            (_, key_values) => Some(key_values),
+        },
+        false => None,
+    };
     let Some(source) = crate::open_region(&path, opts)? else {
         return Ok(None);
     };
-    let names = if nrrd {
-        let (_, key_values) = crate::nrrd::header_layers_and_keys(&path)?;
+    let names = if let Some(key_values) = nrrd_keys {
         segmentation::one_layer_names(&path, &key_values)?
     } else if path.is_dir() {
         ome_label_names(&path)?
