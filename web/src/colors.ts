@@ -74,14 +74,21 @@ export function colorUniforms(source: number, coloring?: Coloring, mapping?: Cod
 }
 
 /**
- * Each cluster's label albedo (`Label::albedo`: its sRGB colour decoded), four f32 per cluster and
- * one zero entry after the last, as the native renderer uploads them (upload.rs).
+ * The label colour words `cluster_albedo` (color.wgsl) reads, as the native renderer uploads them
+ * (`label_color_words`, upload.rs): word 0 the first word of the table; from word 1 each cluster's
+ * label index, then one for a miss naming the table's last entry; then the table, each label's
+ * albedo (`Label::albedo`: its sRGB colour decoded, f32 bits, four words), and a zero entry.
  */
-export function clusterAlbedos(labels: GridLabels): Float32Array {
-  const out = new Float32Array(4 * (labels.clusterLabels.length + 1));
-  const albedo = labels.table.map((l) => [0, 1, 2].map((k) => SRGB8_TO_LINEAR[l.rgba[k]]));
-  labels.clusterLabels.forEach((l, c) => out.set(albedo[l], 4 * c));
-  return out;
+export function labelColorWords(labels: GridLabels): Uint32Array {
+  const clusters = labels.clusterLabels.length;
+  const tableWord = 2 + clusters;
+  const words = new Uint32Array(tableWord + 4 * (labels.table.length + 1));
+  words[0] = tableWord;
+  words.set(labels.clusterLabels, 1);
+  words[1 + clusters] = labels.table.length;
+  const table = new Float32Array(words.buffer, 4 * tableWord, 4 * labels.table.length);
+  labels.table.forEach((l, i) => table.set([0, 1, 2].map((k) => SRGB8_TO_LINEAR[l.rgba[k]]), 4 * i));
+  return words;
 }
 
 /** Per cluster, 1 where the cluster's label is hidden (`hidden`: label-table indices), via the index's runs. */

@@ -12,7 +12,7 @@
 
 import { AttributeInfo, CgcError, CgcHeader, CodeMapping, GridLabels, codeMapping, codesOf, labelText, worldBounds } from './cgc.js';
 import {
-  COLOR_LABELS, COLOR_RECORDS, MAP_NAMES, clusterAlbedos, colorUniforms, defaultClim, hiddenClusters, mapTable, parseClim,
+  COLOR_LABELS, COLOR_RECORDS, MAP_NAMES, labelColorWords, colorUniforms, defaultClim, hiddenClusters, mapTable, parseClim,
 } from './colors.js';
 import { Camera, ClipPlane, orbit, pan, presetCamera, zoom } from './camera.js';
 import { blobSource, ByteSource, streamCgc, urlSource, withHeadStarted } from './loader.js';
@@ -386,7 +386,7 @@ async function load(src: ByteSource): Promise<void> {
       labels(l) {
         labels = l;
         stats.labels = l.table.length;
-        const refused = renderer!.setColorData(clusterAlbedos(l), 'label albedo per cluster');
+        const refused = renderer!.setColorData(labelColorWords(l), 'label colours');
         if (refused) showMessage(`${src.name}: ${refused}`, true);
         else renderer!.setColoring(colorUniforms(COLOR_LABELS));
         // ?hide=V,...: label values hidden from the start.

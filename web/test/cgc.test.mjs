@@ -7,7 +7,7 @@ import assert from 'node:assert/strict';
 import { readFileSync } from 'node:fs';
 import { parseCgc, CgcError, HEAD_READ, codes16, labelText } from '../build/node/cgc.js';
 import { streamCgc } from '../build/node/loader.js';
-import { defaultClim, clusterAlbedos, hiddenClusters } from '../build/node/colors.js';
+import { defaultClim, labelColorWords, hiddenClusters } from '../build/node/colors.js';
 import { realFiles, toVersion2, resealHeader, resealSection, isogridBinary, infoJson, labelFile, coloredSphereFile, ballFile } from './fixtures.mjs';
 
 const files = realFiles();
@@ -235,14 +235,18 @@ test('label sections read as isogrid info reports them; hiding goes by the index
     info.map(({ value, name, color, cells, lo, hi }) => ({ value, name, color, cells, lo, hi })),
   );
   assert.deepEqual(info.map((l) => l.value), [1, 2, 3, 9]);
-  // Every cluster's albedo is its label's colour decoded; hiding a label marks exactly its clusters.
-  const albedo = clusterAlbedos(f.labels);
-  assert.equal(albedo.length, 4 * (f.labels.clusterLabels.length + 1));
+  // Every cluster's albedo, read as cluster_albedo (color.wgsl) reads the colour words, is its
+  // label's colour decoded, and a miss's is zero; hiding a label marks exactly its clusters.
+  const words = labelColorWords(f.labels);
+  const asFloat = new Float32Array(words.buffer);
+  const albedoOf = (cluster) => [0, 1, 2].map((k) => asFloat[words[0] + 4 * words[1 + cluster] + k]);
+  assert.equal(words.length, 2 + f.labels.clusterLabels.length + 4 * (f.labels.table.length + 1));
+  assert.deepEqual(albedoOf(f.labels.clusterLabels.length), [0, 0, 0]);
+  const decoded = (c) => (c / 255 <= 0.04045 ? c / 255 / 12.92 : ((c / 255 + 0.055) / 1.055) ** 2.4);
   const hidden = hiddenClusters(f.labels, [1]);
   f.labels.clusterLabels.forEach((l, c) => {
     assert.equal(hidden[c], l === 1 ? 1 : 0);
-    const [r] = f.labels.table[l].rgba;
-    assert.ok(Math.abs(albedo[4 * c] - ((r / 255 + 0.055) / 1.055) ** 2.4) < 1e-3 || r / 255 <= 0.04045);
+    albedoOf(c).forEach((v, k) => assert.ok(Math.abs(v - decoded(f.labels.table[l].rgba[k])) < 1e-3, `cluster ${c}`));
   });
   assert.ok(hidden.some((h) => h) && hidden.some((h) => !h));
 });

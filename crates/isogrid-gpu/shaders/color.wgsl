@@ -4,10 +4,12 @@
 // pass (shade.wgsl) and the path tracer (pathtrace.wgsl). The codes live in the pages, after the
 // corner records (`record_code_in`, cell_decode.wgsl): the cell raster writes the hit cell's code
 // into the ID target, the tracer reads it at the hit. Each user declares, at its own group and
-// binding, `coloring: ColorUniforms` and `color_data: array<u32>`, for COLOR_LABELS the linear
-// albedo of each cluster's label (f32 bits, four words per cluster). Twins:
+// binding, `coloring: ColorUniforms` and `color_data: array<u32>`, for COLOR_LABELS the label
+// colour words: word 0 the first word of the albedo table, then each cluster's label index (and
+// one more, a miss's, naming the table's last entry), then the table, the linear albedo of each
+// label (f32 bits, four words per label) and a zero entry. Twins:
 // `Coloring::index` (the table entry), `AttributeInfo::code_mapping` (the decoding),
-// `Label::albedo` (uploaded as it is).
+// `Label::albedo` (uploaded as it is), `label_color_words` (upload.rs, colors.ts).
 
 // Keep in sync with `ColorUniforms` in src/gpu_types.rs.
 struct ColorUniforms {
@@ -23,7 +25,7 @@ const COLOR_LABELS: u32 = 3u;
 
 // The albedo of cluster `cluster` of a label grid (COLOR_LABELS).
 fn cluster_albedo(cluster: u32) -> vec3<f32> {
-    let at = 4u * cluster;
+    let at = color_data[0] + 4u * color_data[1u + cluster];
     return bitcast<vec3<f32>>(vec3<u32>(color_data[at], color_data[at + 1u], color_data[at + 2u]));
 }
 

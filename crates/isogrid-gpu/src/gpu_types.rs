@@ -60,7 +60,7 @@ pub(crate) const COLOR_NONE: u32 = 0;
 pub(crate) const COLOR_RECORDS: u32 = 1;
 /// The value the mesh pass wrote, as f32 bits, in the record channel of the ID target.
 pub(crate) const COLOR_MESH: u32 = 2;
-/// The albedo of the hit cluster's label (a label grid), four words per cluster.
+/// The albedo of the hit cluster's label (a label grid), through `upload::label_color_words`.
 pub(crate) const COLOR_LABELS: u32 = 3;
 
 const _: () = assert!(std::mem::size_of::<ColorUniforms>() == 48 + 16 * 256);

@@ -419,23 +419,11 @@ impl Uploader<'_> {
             )?)
         };
         let label_albedo = match grid.labels() {
-            Some(labels) => {
-                let table: Vec<[f32; 3]> = labels.table().iter().map(|l| l.albedo()).collect();
-                let words: Vec<[f32; 4]> = labels
-                    .cluster_labels()
-                    .iter()
-                    .map(|&l| {
-                        let [r, g, b] = table[l as usize];
-                        [r, g, b, 0.0]
-                    })
-                    .chain(std::iter::once([0.0; 4]))
-                    .collect();
-                Some(self.gpu.buffer_init(
-                    "label albedo per cluster",
-                    bytemuck::cast_slice(&words),
-                    wgpu::BufferUsages::STORAGE,
-                )?)
-            }
+            Some(labels) => Some(self.gpu.buffer_init(
+                "label colours",
+                bytemuck::cast_slice(&label_color_words(labels)),
+                wgpu::BufferUsages::STORAGE,
+            )?),
             None => None,
         };
         Ok(GpuGrid {
@@ -734,4 +722,25 @@ fn border_is_outside(grid: &CellGrid) -> bool {
         let border = (0..3).any(|a| b[a] == 0 || b[a] + 1 == n[a]);
         border && (blocks[i].max as f64) < info.iso
     })
+}
+
+/// The colour words of a label grid that `cluster_albedo` (color.wgsl) reads, 4 B per cluster and
+/// 16 B per label rather than 16 B per cluster, so that a binding holds four times the clusters:
+/// word 0 the first word of the table; from word 1 each cluster's label index, then one for a miss
+/// naming the table's last entry; then the table, each label's linear albedo (`Label::albedo`,
+/// f32 bits, four words), and a zero entry. Twin: `labelColorWords` in web/src/colors.ts.
+pub(crate) fn label_color_words(labels: &isogrid::labels::GridLabels) -> Vec<u32> {
+    let clusters = labels.cluster_labels();
+    let label_count = labels.table().len() as u32;
+    let table_word = 2 + clusters.len() as u32;
+    let mut words = Vec::with_capacity(table_word as usize + 4 * (labels.table().len() + 1));
+    words.push(table_word);
+    words.extend_from_slice(clusters);
+    words.push(label_count);
+    for label in labels.table() {
+        let [r, g, b] = label.albedo();
+        words.extend([r.to_bits(), g.to_bits(), b.to_bits(), 0]);
+    }
+    words.extend([0; 4]);
+    words
 }
