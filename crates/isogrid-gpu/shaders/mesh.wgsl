@@ -3,21 +3,23 @@
 // 3-component 16-bit vertex format) and no stored normals; the face normal comes from screen-space
 // derivatives of the world position. Writes the same G-buffer as the cell passes; the record
 // channel of the ID target carries the vertex attribute interpolated to the pixel (f32 bits) for
-// the shading pass's `COLOR_MESH`.
+// the shading pass's `COLOR_MESH`. A label mesh (one label per triangle) writes its label's index
+// where the cell passes write the cluster, and its colour words name each label itself
+// (`label_mesh_color_words`, upload.rs), so `COLOR_LABELS` shades it as it shades a label grid.
 
 @group(0) @binding(0) var<uniform> frame: FrameUniforms;
 
 // Keep in sync with `MeshUniforms` in src/gpu_types.rs.
 struct MeshUniforms {
     center: vec4<f32>,      // world, xyz
-    half_extent: vec4<f32>, // world, xyz: position = center + half_extent * q / 32767
+    half_extent: vec4<f32>, // world, xyz: position = center + half_extent * q / 32767; w: 1 for a label mesh
 }
 
 @group(1) @binding(0) var<uniform> mesh: MeshUniforms;
 @group(1) @binding(1) var<storage, read> positions: array<u32>;
-// One attribute value per vertex, or a dummy when the mesh has none (the shading pass then
-// ignores the record channel).
-@group(1) @binding(2) var<storage, read> vertex_values: array<f32>;
+// One word per vertex: an attribute value's f32 bits, a label mesh's label index, or a dummy when
+// the mesh has neither (the shading pass then ignores the record channel).
+@group(1) @binding(2) var<storage, read> vertex_words: array<u32>;
 
 fn snorm16(index: u32) -> f32 {
     let half_word = (positions[index / 2u] >> (16u * (index % 2u))) & 0xffffu;
@@ -29,6 +31,8 @@ struct MeshVarying {
     @builtin(position) position: vec4<f32>,
     @location(0) world: vec3<f32>,
     @location(1) value: f32,
+    @location(2) @interpolate(flat) label: u32,
+    @location(3) @interpolate(flat) labelled: u32, // 1 for a label mesh
 }
 
 @vertex
@@ -38,7 +42,10 @@ fn vs_mesh(@builtin(vertex_index) vertex: u32) -> MeshVarying {
     var out: MeshVarying;
     out.position = clip_from_world(frame, p);
     out.world = p;
-    out.value = vertex_values[min(vertex, arrayLength(&vertex_values) - 1u)];
+    let word = vertex_words[min(vertex, arrayLength(&vertex_words) - 1u)];
+    out.value = bitcast<f32>(word);
+    out.label = word;
+    out.labelled = u32(mesh.half_extent.w > 0.0);
     return out;
 }
 
@@ -60,6 +67,10 @@ fn fs_mesh(in: MeshVarying, @builtin(front_facing) front: bool) -> MeshOut {
     }
     var out: MeshOut;
     out.surface = vec4<f32>(n, length(to_eye));
-    out.ids = vec2<u32>(0u, bitcast<u32>(in.value));
+    if in.labelled != 0u {
+        out.ids = vec2<u32>(in.label, 0u);
+    } else {
+        out.ids = vec2<u32>(0u, bitcast<u32>(in.value));
+    }
     return out;
 }

@@ -129,7 +129,9 @@ pub(crate) struct PageUniforms {
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
 pub(crate) struct MeshUniforms {
+    /// World xyz; w unused.
     pub center: [f32; 4],
+    /// World xyz; w 1 when the vertex words are label indices (a label mesh), else 0.
     pub half_extent: [f32; 4],
 }
 

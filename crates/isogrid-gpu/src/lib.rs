@@ -72,5 +72,5 @@ pub use options::{
 pub use output::{Frame, PassTimings};
 pub use pathtrace::RayHit;
 pub use renderer::Renderer;
-pub use upload::{GpuGrid, GpuMesh, GpuVolume, Scene};
+pub use upload::{GpuGrid, GpuMesh, GpuVolume, MeshColor, Scene};
 pub use view::ViewState;

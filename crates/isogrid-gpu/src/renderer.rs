@@ -11,7 +11,7 @@ use crate::passes::RasterPasses;
 use crate::pathtrace::{trace_ray_batch, RayHit, TracePipelines};
 use crate::render::{render, FrameContext};
 use crate::targets::{EWA_FORMAT, IDS_FORMAT, SURFACE_FORMAT};
-use crate::upload::{GpuGrid, GpuMesh, GpuVolume, GridLayouts, Scene, Uploader};
+use crate::upload::{GpuGrid, GpuMesh, GpuVolume, GridLayouts, MeshColor, Scene, Uploader};
 use crate::view::ViewState;
 use crate::wgpu_util::Gpu;
 use isogrid::EnvMap;
@@ -144,7 +144,7 @@ impl Renderer {
 
     /// Uploads an MC mesh as snorm16 positions scaled by its bounds and u32 indices (paper Table 3).
     pub fn upload_mesh(&self, mesh: &isogrid::mc::McMesh) -> Result<GpuMesh, GpuError> {
-        self.uploader().upload_mesh(mesh, None)
+        self.uploader().upload_mesh(mesh, MeshColor::None)
     }
 
     /// Uploads an MC mesh with one attribute value per vertex (4 bytes each), which renders with
@@ -154,7 +154,25 @@ impl Renderer {
         mesh: &isogrid::mc::McMesh,
         values: &[f32],
     ) -> Result<GpuMesh, GpuError> {
-        self.uploader().upload_mesh(mesh, Some(values))
+        self.uploader().upload_mesh(mesh, MeshColor::Values(values))
+    }
+
+    /// Uploads a label mesh: `vertex_labels` gives each vertex's label as an index in `table`
+    /// (all three of a triangle the same). Renders draw each label in its colour, and their
+    /// cluster AOV gives the label's index under each pixel.
+    pub fn upload_label_mesh(
+        &self,
+        mesh: &isogrid::mc::McMesh,
+        vertex_labels: &[u32],
+        table: &[isogrid::labels::Label],
+    ) -> Result<GpuMesh, GpuError> {
+        self.uploader().upload_mesh(
+            mesh,
+            MeshColor::Labels {
+                vertex_labels,
+                table,
+            },
+        )
     }
 
     /// Uploads the original samples (as f32 data values) for the CR baseline; `grid` must have

@@ -150,12 +150,31 @@ impl GpuGrid {
 static NEXT_GRID_ID: AtomicU64 = AtomicU64::new(1);
 
 /// An MC mesh on the GPU: snorm16 positions (6 bytes per vertex) and u32 indices.
+/// What a mesh's one word per vertex holds.
+#[derive(Clone, Copy)]
+pub enum MeshColor<'a> {
+    /// Nothing: the mesh is drawn in the one fixed albedo.
+    None,
+    /// An attribute value per vertex, interpolated across triangles and drawn through the colour
+    /// map of [`crate::RenderOptions::coloring`].
+    Values(&'a [f32]),
+    /// The index in `table` of each vertex's label (every vertex of a triangle the same), drawn in
+    /// its label's colour.
+    Labels {
+        vertex_labels: &'a [u32],
+        table: &'a [isogrid::labels::Label],
+    },
+}
+
 pub struct GpuMesh {
     pub(crate) positions: wgpu::Buffer,
     pub(crate) indices: wgpu::Buffer,
     pub(crate) index_count: u32,
     /// Whether the mesh carries one attribute value per vertex (renders can colour by them).
     pub(crate) has_values: bool,
+    /// A label mesh's colour words ([`label_mesh_color_words`]); its fragments carry their
+    /// label's index where a grid's carry their cluster.
+    pub(crate) label_albedo: Option<wgpu::Buffer>,
     pub(crate) bind_group: wgpu::BindGroup,
     /// World-space box of the vertices.
     pub(crate) bounds: ([f64; 3], [f64; 3]),
@@ -440,18 +459,31 @@ impl Uploader<'_> {
     }
 
     /// Uploads an MC mesh as snorm16 positions scaled by its bounds and u32 indices (paper Table 3),
-    /// and `values`, one attribute value per vertex, when given.
+    /// with `color`'s words, one per vertex: an attribute value, or the index of its label.
     pub fn upload_mesh(
         &self,
         mesh: &isogrid::mc::McMesh,
-        values: Option<&[f32]>,
+        color: MeshColor<'_>,
     ) -> Result<GpuMesh, GpuError> {
-        if let Some(v) = values.filter(|v| v.len() != mesh.positions.len()) {
+        let count = match color {
+            MeshColor::None => None,
+            MeshColor::Values(v) => Some(v.len()),
+            MeshColor::Labels { vertex_labels, .. } => Some(vertex_labels.len()),
+        };
+        if let Some(n) = count.filter(|&n| n != mesh.positions.len()) {
             return Err(GpuError::invalid(format!(
-                "{} vertex values for a mesh of {} vertices",
-                v.len(),
+                "{n} vertex values for a mesh of {} vertices",
                 mesh.positions.len()
             )));
+        }
+        if let MeshColor::Labels {
+            vertex_labels,
+            table,
+        } = color
+        {
+            if vertex_labels.iter().any(|&l| l as usize >= table.len()) {
+                return Err(GpuError::invalid("a vertex names a label beyond the table"));
+            }
         }
         self.gpu.scoped("uploading the mesh", || {
             let snorm = mesh.to_snorm16();
@@ -473,7 +505,11 @@ impl Uploader<'_> {
                     snorm.half_extent[0],
                     snorm.half_extent[1],
                     snorm.half_extent[2],
-                    0.0,
+                    if matches!(color, MeshColor::Labels { .. }) {
+                        1.0
+                    } else {
+                        0.0
+                    },
                 ],
             };
             let uniforms = self.gpu.buffer_init(
@@ -481,11 +517,26 @@ impl Uploader<'_> {
                 bytemuck::bytes_of(&uniforms),
                 wgpu::BufferUsages::UNIFORM,
             )?;
+            let words: &[u32] = match color {
+                MeshColor::Values(v) if !v.is_empty() => bytemuck::cast_slice(v),
+                MeshColor::Labels { vertex_labels, .. } if !vertex_labels.is_empty() => {
+                    vertex_labels
+                }
+                _ => &[f32::NAN.to_bits()],
+            };
             let vertex_values = self.gpu.buffer_init(
-                "mc vertex values",
-                bytemuck::cast_slice(values.filter(|v| !v.is_empty()).unwrap_or(&[f32::NAN])),
+                "mc vertex words",
+                bytemuck::cast_slice(words),
                 wgpu::BufferUsages::STORAGE,
             )?;
+            let label_albedo = match color {
+                MeshColor::Labels { table, .. } => Some(self.gpu.buffer_init(
+                    "label mesh colours",
+                    bytemuck::cast_slice(&label_mesh_color_words(table)),
+                    wgpu::BufferUsages::STORAGE,
+                )?),
+                _ => None,
+            };
             let bind_group = self
                 .gpu
                 .device
@@ -513,7 +564,8 @@ impl Uploader<'_> {
                 positions,
                 indices,
                 index_count,
-                has_values: values.is_some(),
+                has_values: matches!(color, MeshColor::Values(_)),
+                label_albedo,
                 bind_group,
                 bounds: (lo, hi),
             })
@@ -730,17 +782,29 @@ fn border_is_outside(grid: &CellGrid) -> bool {
 /// naming the table's last entry; then the table, each label's linear albedo (`Label::albedo`,
 /// f32 bits, four words), and a zero entry. Twin: `labelColorWords` in web/src/colors.ts.
 pub(crate) fn label_color_words(labels: &isogrid::labels::GridLabels) -> Vec<u32> {
-    let clusters = labels.cluster_labels();
-    let label_count = labels.table().len() as u32;
-    let table_word = 2 + clusters.len() as u32;
-    let mut words = Vec::with_capacity(table_word as usize + 4 * (labels.table().len() + 1));
+    color_words_of(labels.cluster_labels(), labels.table())
+}
+
+/// [`label_color_words`] for items (clusters, or a label mesh's labels) whose label indices are
+/// `item_labels`, of the labels `table`.
+fn color_words_of(item_labels: &[u32], table: &[isogrid::labels::Label]) -> Vec<u32> {
+    let label_count = table.len() as u32;
+    let table_word = 2 + item_labels.len() as u32;
+    let mut words = Vec::with_capacity(table_word as usize + 4 * (table.len() + 1));
     words.push(table_word);
-    words.extend_from_slice(clusters);
+    words.extend_from_slice(item_labels);
     words.push(label_count);
-    for label in labels.table() {
+    for label in table {
         let [r, g, b] = label.albedo();
         words.extend([r.to_bits(), g.to_bits(), b.to_bits(), 0]);
     }
     words.extend([0; 4]);
     words
+}
+
+/// The colour words of a label mesh, whose fragments carry their label's index where a grid's
+/// carry their cluster: the items are the labels themselves.
+pub(crate) fn label_mesh_color_words(table: &[isogrid::labels::Label]) -> Vec<u32> {
+    let identity: Vec<u32> = (0..table.len() as u32).collect();
+    color_words_of(&identity, table)
 }

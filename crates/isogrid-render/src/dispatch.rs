@@ -31,7 +31,11 @@ pub fn render(
             crate::gpu::render(renderer, request, grid, volume, progress)
         }
     }?;
-    rendered.label = grid.labels().map(|l| label_aov(l, &rendered.cluster));
+    rendered.label = grid.labels().map(|l| match request.mode() {
+        // A label mesh's fragments carry their label's index where cells carry their cluster.
+        crate::mode::Mode::Mc => mesh_label_aov(l, &rendered.cluster),
+        _ => label_aov(l, &rendered.cluster),
+    });
     Ok(rendered)
 }
 
@@ -81,6 +85,16 @@ fn shown_labels(request: &RenderRequest, grid: &CellGrid) -> Result<Option<CellG
     label_choice(request, grid)?
         .map(|shown| grid.showing_labels(&shown))
         .transpose()
+}
+
+/// The label value under each pixel of an MC render of a label grid with `labels`, from its
+/// cluster AOV, which holds the label's index in the table; `u64::MAX` on a miss.
+fn mesh_label_aov(labels: &GridLabels, index: &[u32]) -> Vec<u64> {
+    let table = labels.table();
+    index
+        .iter()
+        .map(|&l| table.get(l as usize).map_or(u64::MAX, |l| l.value))
+        .collect()
 }
 
 /// The label value under each pixel of a render of the label grid with `labels`, from its cluster

@@ -1,6 +1,7 @@
 //! A one-shot request on the GPU renderer (isogrid-gpu): cell rasterisation (paper §3.2–3.4),
 //! the MC and CR baselines of Table 4, or path tracing (§3.6) with one sample per pixel per
-//! frame. Uploads what the mode draws into a fresh [`UploadedScene`] and renders one fresh view
+//! frame; a label grid's MC mode draws the Marching Cubes meshes of its labels' stored cells, each
+//! in its label's colour. Uploads what the mode draws into a fresh [`UploadedScene`] and renders one fresh view
 //! of it, the interactive path with nothing kept.
 
 use crate::mode::Mode;
@@ -8,7 +9,7 @@ use crate::output::Rendered;
 use crate::request::RenderRequest;
 use crate::scene::{SceneView, UploadedScene};
 use isogrid::extract::attribute::values_at_surface_points;
-use isogrid::mc::marching_cubes;
+use isogrid::mc::{labelled_mesh, marching_cubes};
 use isogrid::{CellGrid, Error, Progress, Result, Volume};
 use isogrid_gpu::Renderer;
 
@@ -20,7 +21,9 @@ pub(crate) fn render(
     progress: &Progress,
 ) -> Result<Rendered> {
     let mode = request.mode();
-    let volume = match (mode.needs_volume(), volume) {
+    // A label grid's meshes come from its own cells.
+    let labels = grid.labels().filter(|_| mode == Mode::Mc);
+    let volume = match (mode.needs_volume() && labels.is_none(), volume) {
         (true, None) => {
             return Err(Error::invalid(format!(
                 "mode {mode} needs the original volume, and a .cgc file has none"
@@ -31,6 +34,11 @@ pub(crate) fn render(
     progress.check()?;
     let mut scene = UploadedScene::on(renderer, grid.info());
     match (mode, volume) {
+        (Mode::Mc, _) if labels.is_some() => {
+            let (mesh, vertex_labels) = labelled_mesh(grid)?;
+            let table = labels.map(|l| l.table()).unwrap_or_default();
+            scene.show_label_mesh(&mesh, &vertex_labels, table)?
+        }
         (Mode::Mc, Some(volume)) => {
             let mesh = marching_cubes(&volume.view(), grid.info().iso);
             // Coloured, each vertex takes the attribute of the cells it lies on (the values the

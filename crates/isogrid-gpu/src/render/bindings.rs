@@ -140,8 +140,11 @@ impl FrameBindings {
                 &targets,
                 &coloring,
                 // Attribute codes come with the cells: the raster writes the hit cell's code.
-                match (plan.color_source, plan.grid) {
-                    (COLOR_LABELS, Some(g)) => g.label_albedo.as_ref().unwrap_or(&no_color_data),
+                match (plan.color_source, plan.grid, plan.mesh) {
+                    (COLOR_LABELS, Some(g), _) => g.label_albedo.as_ref().unwrap_or(&no_color_data),
+                    (COLOR_LABELS, None, Some(m)) => {
+                        m.label_albedo.as_ref().unwrap_or(&no_color_data)
+                    }
                     _ => &no_color_data,
                 },
             ),

@@ -74,6 +74,7 @@ impl<'a> FramePlan<'a> {
         }
         let color_source = match (&options.coloring, grid, mesh) {
             (None, Some(g), _) if g.label_albedo.is_some() => COLOR_LABELS,
+            (None, None, Some(m)) if m.label_albedo.is_some() => COLOR_LABELS,
             (None, _, _) => COLOR_NONE,
             (Some(_), Some(_), _) => COLOR_RECORDS,
             (Some(_), None, _) => COLOR_MESH,

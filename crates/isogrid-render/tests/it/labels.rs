@@ -190,6 +190,8 @@ fn label_aov_matches_a_march_of_the_label_volume_and_hiding_changes_what_it_says
                 Some(Primary::Traced),
                 CellRaster::Auto,
             ),
+            // The Marching Cubes meshes of the labels' stored cells, no volume given.
+            ("gpu mc", Mode::Mc, Backend::Gpu, None, CellRaster::Auto),
         ]);
     }
     for (name, mode, backend, primary, raster) in cases {
@@ -357,6 +359,72 @@ fn a_shared_boundary_shows_the_label_beyond_it_without_speckle() {
             "{name} hide {hide:?}: {beyond}"
         );
         assert_eq!(speckle, 0, "{name} hide {hide:?}");
+    }
+}
+
+/// MC mode colours each label as the cell modes do: over each label's interior pixels (by the
+/// label AOVs), the mean colour of the MC render points the same way in RGB as that of the cell
+/// raster (the shading differs: face normals against EWA normals), and the labels' colours differ.
+#[test]
+fn mc_draws_each_label_in_its_colour() {
+    let (_, grid) = ball();
+    let ctx = RenderContext::new();
+    if ctx.adapter().is_none() {
+        eprintln!("skipped: no GPU adapter (install mesa-vulkan-drivers for lavapipe)");
+        return;
+    }
+    let draw = |mode| {
+        let request = request(mode, Backend::Gpu, None, CellRaster::Auto, None);
+        render(
+            &ctx,
+            &request,
+            Placement::Gpu,
+            &grid,
+            None,
+            &Progress::new(),
+        )
+        .unwrap()
+    };
+    let (mc, cells) = (draw(Mode::Mc), draw(Mode::Cgc));
+    let (mc_label, cell_label) = (mc.label.unwrap(), cells.label.unwrap());
+    // Each label's mean colour direction over the pixels inside its region in both renders.
+    let direction = |rgb8: &[u8], label: &[u64], inside: &[bool], l: u64| {
+        let mut sum = [0f64; 3];
+        for i in (0..label.len()).filter(|&i| inside[i] && label[i] == l) {
+            for c in 0..3 {
+                sum[c] += rgb8[3 * i + c] as f64;
+            }
+        }
+        let norm = sum.iter().map(|v| v * v).sum::<f64>().sqrt();
+        sum.map(|v| v / norm)
+    };
+    let (mc_inside, cell_inside) = (interior(&mc_label), interior(&cell_label));
+    let both: Vec<bool> = (0..mc_label.len())
+        .map(|i| mc_inside[i] && cell_inside[i] && mc_label[i] == cell_label[i])
+        .collect();
+    let mut directions = Vec::new();
+    for l in 1..=3u64 {
+        let n = (0..both.len())
+            .filter(|&i| both[i] && mc_label[i] == l)
+            .count();
+        if n < 30 {
+            continue; // out of view, or a sliver
+        }
+        let (a, b) = (
+            direction(&mc.rgb8, &mc_label, &both, l),
+            direction(&cells.rgb8, &cell_label, &both, l),
+        );
+        let cos: f64 = (0..3).map(|c| a[c] * b[c]).sum();
+        eprintln!("label {l}: {n} pixels, mc {a:.3?} cells {b:.3?}, cosine {cos:.4}");
+        assert!(cos > 0.995, "label {l}: mc {a:?} against cells {b:?}");
+        directions.push(a);
+    }
+    assert!(directions.len() >= 2, "{} labels in view", directions.len());
+    for (i, a) in directions.iter().enumerate() {
+        for b in &directions[i + 1..] {
+            let cos: f64 = (0..3).map(|c| a[c] * b[c]).sum();
+            assert!(cos < 0.99, "two labels look alike: {a:?} and {b:?}");
+        }
     }
 }
 

@@ -36,6 +36,33 @@ pub fn label_meshes(grid: &CellGrid) -> Result<Vec<McMesh>> {
         .collect()
 }
 
+/// Every label's mesh of `grid` as one mesh (the labels in table order, each label's vertices
+/// and triangles after the last's), with each vertex's label (its index in the table): what a
+/// renderer draws in the labels' colours. Fails as [`label_meshes`] does, and past 2³²−1
+/// vertices in all.
+pub fn labelled_mesh(grid: &CellGrid) -> Result<(McMesh, Vec<u32>)> {
+    let meshes = label_meshes(grid)?;
+    let vertices: usize = meshes.iter().map(|m| m.positions.len()).sum();
+    if vertices > u32::MAX as usize {
+        return Err(Error::invalid(
+            "the labels' meshes need more than 2^32-1 vertices together",
+        ));
+    }
+    let mut mesh = McMesh {
+        positions: Vec::with_capacity(vertices),
+        triangles: Vec::with_capacity(meshes.iter().map(|m| m.triangles.len()).sum()),
+    };
+    let mut vertex_labels = Vec::with_capacity(vertices);
+    for (label, m) in meshes.into_iter().enumerate() {
+        let first = mesh.positions.len() as u32;
+        mesh.triangles
+            .extend(m.triangles.iter().map(|t| t.map(|v| v + first)));
+        mesh.positions.extend_from_slice(&m.positions);
+        vertex_labels.resize(mesh.positions.len(), label as u32);
+    }
+    Ok((mesh, vertex_labels))
+}
+
 /// The mesh of label `label` (its index in the table) of a label grid.
 pub fn label_mesh(grid: &CellGrid, label: usize) -> Result<McMesh> {
     let labels = grid

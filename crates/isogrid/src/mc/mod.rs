@@ -35,7 +35,7 @@ mod snorm;
 mod table;
 mod write;
 
-pub use cells::{label_mesh, label_meshes};
+pub use cells::{label_mesh, label_meshes, labelled_mesh};
 pub use mesh::{Inside, McMesh, MeshSpace};
 pub use snorm::SnormMesh;
 
