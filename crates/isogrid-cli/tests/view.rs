@@ -254,7 +254,8 @@ fn scripted_window_shows_the_coloured_headless_image() {
 
 /// A label volume opened with `--labels all --hide 4`: the window shows what `isogrid render
 /// --hide 4` draws of the same labels (through the render front door, the GPU path `render` takes
-/// for this request), and not what it draws with every label shown. On 3³ cubes of 11 touching
+/// for this request), and not what it draws with every label shown, in CGC mode and in MC mode
+/// (the labels' meshes, made from their cells without the volume). On 3³ cubes of 11 touching
 /// labels, so hiding label 4 reveals its neighbours' faces.
 #[test]
 fn scripted_window_hides_labels_as_render_hide_does() {
@@ -266,11 +267,33 @@ fn scripted_window_hides_labels_as_render_hide_does() {
     let volume = isogrid::generate::labelled_cubes(24);
     let input = dir.join("cubes.nrrd");
     isogrid_io::write_nrrd(&input, &volume).unwrap();
-    let shot = dir.join("window.png");
+    for mode in [Mode::Cgc, Mode::Mc] {
+        window_hides_labels_as_render_does(&xvfb, &dir, &input, &volume, mode);
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// [`scripted_window_hides_labels_as_render_hide_does`] in `mode`.
+fn window_hides_labels_as_render_does(
+    xvfb: &Path,
+    dir: &Path,
+    input: &Path,
+    volume: &isogrid::Volume,
+    mode: Mode,
+) {
+    let shot = dir.join(format!("window-{}.png", mode.name()));
     let (w, h) = (320u32, 240u32);
     let stdout = scripted_view(
-        &xvfb,
-        &[input.to_str().unwrap(), "--labels", "all", "--hide", "4"],
+        xvfb,
+        &[
+            input.to_str().unwrap(),
+            "--labels",
+            "all",
+            "--hide",
+            "4",
+            "--mode",
+            mode.name(),
+        ],
         [w, h],
         &shot,
     );
@@ -283,6 +306,7 @@ fn scripted_window_hides_labels_as_render_hide_does() {
     let ctx = isogrid_render::RenderContext::new();
     let render = |hide: Option<&str>| {
         let request = isogrid_render::RenderRequest::new(isogrid_render::RequestParts {
+            mode,
             backend: isogrid_render::Backend::Gpu,
             camera: isogrid_render::CameraSpec::View(2),
             size: (w, h),
@@ -322,8 +346,8 @@ fn scripted_window_hides_labels_as_render_hide_does() {
     }
     let total = (w * h) as u64;
     eprintln!(
-        "window = render --hide 4 on {same}/{total} pixels; on {same_where_changed}/{changed} of \
-         those hiding changes"
+        "{mode}: window = render --hide 4 on {same}/{total} pixels; on {same_where_changed}/{changed} \
+         of those hiding changes"
     );
     assert!(
         changed > total / 100,
@@ -332,9 +356,8 @@ fn scripted_window_hides_labels_as_render_hide_does() {
     assert!(same * 100 >= total * 98, "{same} of {total} pixels agree");
     assert!(
         same_where_changed * 100 >= changed * 95,
-        "{same_where_changed} of the {changed} pixels hiding changes agree"
+        "{mode}: {same_where_changed} of the {changed} pixels hiding changes agree"
     );
-    std::fs::remove_dir_all(&dir).unwrap();
 }
 
 /// The rendered image region of screenshot `shot` (located from the viewer's `stdout`) shows what
@@ -466,23 +489,25 @@ fn scripted_window_reports_bad_inputs() {
         "missing.nrrd",
     );
 
-    // A .cgc file holds no volume, so CR cannot be drawn.
+    // A .cgc file holds no volume, so CR cannot be drawn, nor MC of a grid without labels.
     let volume = generate(Field::Sphere, 20, 1);
     let grid = extract(&volume.view(), &ExtractOptions::new(Iso::Normalized(0.5))).unwrap();
     let cgc = dir.join("sphere.cgc");
     isogrid::cgc::write(&cgc, &grid).unwrap();
-    view_fails(
-        &xvfb,
-        &[
-            "view",
-            cgc.to_str().unwrap(),
-            "--mode",
-            "cr",
-            "--frames",
-            "1",
-        ],
-        "needs the original volume",
-    );
+    for mode in ["cr", "mc"] {
+        view_fails(
+            &xvfb,
+            &[
+                "view",
+                cgc.to_str().unwrap(),
+                "--mode",
+                mode,
+                "--frames",
+                "1",
+            ],
+            "needs the original volume",
+        );
+    }
     // --show / --hide name labels of a label grid: a value it lacks, or a grid without labels.
     view_fails(
         &xvfb,

@@ -12,7 +12,7 @@
 use crate::events::{guarded, Event, Failure, Notifier, RenderedFrame};
 use crate::Mode;
 use isogrid::extract::attribute::values_at_surface_points;
-use isogrid::mc::McMesh;
+use isogrid::mc::{labelled_mesh, McMesh};
 use isogrid::{CellGrid, GridStats, Progress, Volume};
 use isogrid_render::{RenderContext, RenderRequest, SceneView, UploadedScene};
 use std::sync::mpsc::{Receiver, Sender};
@@ -122,6 +122,9 @@ struct LabelScene {
     /// The grid of the shown labels when some are hidden (`None`: `full` is uploaded). Its labels
     /// map the frames' cluster AOV to label values.
     drawn: Option<Box<CellGrid>>,
+    /// Whether the scene holds the MC meshes of the drawn labels (made when MC is first drawn,
+    /// and again when the labels shown change).
+    mesh_shown: bool,
 }
 
 impl LabelScene {
@@ -239,6 +242,7 @@ fn apply<'r>(
                         s.labels = Some(LabelScene {
                             full: grid,
                             drawn: None,
+                            mesh_shown: false,
                         });
                     } else {
                         s.colored_grid = grid.attribute().is_some().then_some(grid);
@@ -307,8 +311,39 @@ fn apply<'r>(
             if let Err(e) = s.scene.show_grid(labels.drawn()) {
                 notify.error(Failure::Render, format!("uploading the shown labels: {e}"));
             }
+            if labels.mesh_shown {
+                show_label_mesh(s, generation, notify);
+            }
         }
         RenderMsg::Render { .. } | RenderMsg::Shutdown => {}
+    }
+}
+
+/// Uploads the Marching Cubes meshes of the cells of the labels `s` draws
+/// ([`isogrid::mc::labelled_mesh`]), each drawn in its label's colour, and reports them as the
+/// input's MC mesh.
+fn show_label_mesh(s: &mut Shown<'_>, generation: u64, notify: &Notifier) {
+    let Some(labels) = s.labels.as_mut() else {
+        return;
+    };
+    labels.mesh_shown = true;
+    let start = Instant::now();
+    let grid = labels.drawn();
+    let table = grid.labels().map(|l| l.table()).unwrap_or_default();
+    let shown = labelled_mesh(grid).and_then(|(mesh, vertex_labels)| {
+        s.scene.show_label_mesh(&mesh, &vertex_labels, table)?;
+        Ok(mesh)
+    });
+    match shown {
+        Ok(mesh) => notify.send(Event::MeshShown {
+            generation,
+            iso: grid.info().iso,
+            triangles: mesh.triangle_count() as u64,
+            vertices: mesh.vertex_count() as u64,
+            bytes: mesh.memory_bytes(),
+            seconds: start.elapsed().as_secs_f64(),
+        }),
+        Err(e) => notify.error(Failure::Mesh, format!("the labels' meshes: {e}")),
     }
 }
 
@@ -333,6 +368,11 @@ fn render(
                 return refuse();
             }
         }
+    }
+    // A label grid's MC mode draws its labels' meshes, made from the drawn grid's cells.
+    if request.mode() == Mode::Mc && s.labels.as_ref().is_some_and(|l| !l.mesh_shown) {
+        let generation = s.generation;
+        show_label_mesh(s, generation, notify);
     }
     if !s.scene.can_draw(request.mode()) {
         return refuse();

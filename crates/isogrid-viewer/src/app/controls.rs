@@ -50,7 +50,8 @@ impl App {
         let has_volume = self.source.as_ref().is_none_or(|s| s.has_volume());
         ui.horizontal_wrapped(|ui| {
             for mode in Mode::ALL {
-                let reason = if mode.needs_volume() && !has_volume {
+                let label_mesh = mode == Mode::Mc && self.labels.list.is_some();
+                let reason = if mode.needs_volume() && !has_volume && !label_mesh {
                     Some("needs the original volume; a .cgc file holds only the cells")
                 } else {
                     None

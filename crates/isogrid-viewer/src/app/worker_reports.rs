@@ -29,6 +29,15 @@ impl App {
                 } if generation == self.generation => {
                     self.color.attribute = attribute;
                     self.on_labels(generation, labels);
+                    let has_volume = self.source.as_ref().is_none_or(|s| s.has_volume());
+                    if self.mode == Mode::Mc && !has_volume && self.labels.list.is_none() {
+                        self.fail_or_note(
+                            "mode mc needs the original volume; a .cgc file holds only the \
+                             cells: showing cgc"
+                                .into(),
+                        );
+                        self.mode = Mode::Cgc;
+                    }
                     self.measurements.grid = Some(GridFacts {
                         iso,
                         precision,
@@ -102,7 +111,8 @@ impl App {
             },
             (None, None) => 0.0,
         };
-        if !info.has_volume() && self.mode.needs_volume() {
+        // MC of a label grid needs no volume: decided when its grid (and labels) arrive.
+        if !info.has_volume() && self.mode.needs_volume() && self.mode != Mode::Mc {
             self.fail_or_note(format!(
                 "mode {} needs the original volume; a .cgc file holds only the cells: showing cgc",
                 self.mode
