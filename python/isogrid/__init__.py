@@ -622,8 +622,9 @@ def render(
             ``(eye, target, up, fovy_degrees)`` with points as (x, y, z) world coordinates.
         size: ``(width, height)`` in pixels.
         mode: ``"cgc"`` (cell rasterisation with EWA normals on a GPU; ray traced on the CPU),
-            ``"cgc-noewa"`` (GPU only) or ``"pathtrace"`` (``spp`` samples per pixel under
-            ``env``; the GPU takes one sample per frame).
+            ``"cgc-noewa"`` (GPU only), ``"pathtrace"`` (``spp`` samples per pixel under
+            ``env``; the GPU takes one sample per frame) or, for a label grid, ``"mc"`` (GPU
+            only: the Marching Cubes meshes of its labels' cells, in their colours).
         backend: ``"auto"`` (a hardware GPU adapter when there is one; with only a software one
             such as lavapipe, whichever was measured faster for the mode, see
             ``docs/benchmarks-render-policy.md``; else the CPU), ``"gpu"`` (any adapter, lavapipe
