@@ -1,16 +1,18 @@
-//! Where the grid of a render or benchmark comes from: a `.cgc` file, or a volume extracted at
-//! `--iso`/`--iso-normalized` with an optional `--precision`.
+//! Where the grid of a render, benchmark or served page comes from: a `.cgc` file, a volume
+//! extracted at `--iso`/`--iso-normalized` with an optional `--precision`, or a label volume's
+//! labels (`--labels`, as `extract --labels` extracts them).
 
-use crate::args::{parse_precision, InputArgs};
+use crate::args::{parse_precision, InputArgs, LabelArgs};
 use crate::color_by::{AttributeInput, DEFAULT_PRECISION};
 use crate::{input, progress};
 use anyhow::{bail, Context, Result};
 use isogrid::{extract, CellGrid, ExtractOptions, Iso, Precision, Volume};
 use std::path::{Path, PathBuf};
 
-/// `--iso V | --iso-normalized V`, needed unless the input is a `.cgc` file.
+/// `--iso V | --iso-normalized V`, needed unless the input is a `.cgc` file or `--labels` is
+/// given (which joins this group: one of the three at most).
 #[derive(clap::Args, Debug, Clone)]
-#[group(required = false, multiple = false)]
+#[group(id = "IsoArgs", required = false, multiple = false)]
 pub struct OptionalIso {
     /// Isovalue in data units: a sample is inside when value >= V.
     #[arg(long, value_name = "V", allow_hyphen_values = true)]
@@ -39,6 +41,8 @@ pub struct GridSource {
     /// attribute brings its own.
     #[arg(long, value_name = "ATTR")]
     pub color_by: Option<String>,
+    #[command(flatten)]
+    pub label: LabelArgs,
 }
 
 pub(crate) fn is_cgc(path: &Path) -> bool {
@@ -68,6 +72,9 @@ impl GridSource {
     }
 
     fn load_surface(&self) -> Result<(CellGrid, Option<Volume>)> {
+        if let Some(options) = self.label.options(self.precision) {
+            return Ok((self.load_labels(&options)?, None));
+        }
         if is_cgc(&self.input) {
             if self.iso.iso.is_some() || self.iso.iso_normalized.is_some() {
                 bail!(
@@ -105,5 +112,32 @@ impl GridSource {
         spinner.finish_and_clear();
         crate::report::note_if_empty(&self.input, &grid, Some(&volume));
         Ok((grid, Some(volume)))
+    }
+
+    /// The label grid of `--labels`: the label volume read whole, its labels extracted, named from
+    /// `--label-table` (or the file) as `extract --labels` names them.
+    fn load_labels(&self, options: &isogrid::LabelOptions) -> Result<CellGrid> {
+        if is_cgc(&self.input) {
+            bail!(
+                "--labels reads a label volume; {} is a .cgc file, whose labels (if any) are drawn as they are",
+                self.input.display()
+            );
+        }
+        let table = self.label.table()?;
+        let (source, _) = input::read_label_volume(
+            &self.input,
+            self.label.labels_of.as_deref(),
+            &self.input_args.read_options()?,
+        )?;
+        let spinner = progress::spinner("extracting labels".into());
+        let mut grid = isogrid_io::labels::extract_label_volume(&source, options)
+            .with_context(|| format!("{}: extraction failed", self.input.display()))?;
+        spinner.finish_and_clear();
+        if let Some(table) = &table {
+            let absent = isogrid_io::labels::apply_label_names(&mut grid, table);
+            let signed = isogrid::labels::signed_labels(grid.info().scalar_type);
+            self.label.note_absent(&absent, signed);
+        }
+        Ok(grid)
     }
 }

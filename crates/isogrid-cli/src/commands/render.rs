@@ -449,6 +449,13 @@ pub fn run(args: Args) -> Result<()> {
     // Everything that does not need the data first.
     check_outputs(&args)?;
     request(&args, color_asked(&args))?;
+    if args.source.label.labels.is_some() && args.mode == Mode::Cr {
+        bail!(
+            "{}: mode cr samples the volume's values, and a label volume's values are no surface; \
+             draw its labels with cgc, cgc-noewa, mc or pathtrace",
+            args.source.input.display()
+        );
+    }
     let (min_w, min_h) = isogrid_render::colorbar::MIN_SIZE;
     if args.colorbar && (args.size.0 < min_w || args.size.1 < min_h) {
         bail!(

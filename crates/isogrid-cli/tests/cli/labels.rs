@@ -106,6 +106,79 @@ fn labels_give_the_librarys_file_and_info_lists_them() {
     );
 }
 
+/// `render VOLUME --labels` draws what `render` draws of the `.cgc` that `extract --labels` writes
+/// of the same volume (image and label AOV, byte for byte, on the CPU), smoothing and choice of
+/// labels included; CR of a label volume, and `--labels` of a `.cgc`, fail in one line.
+#[test]
+fn render_of_a_label_volume_draws_its_extracted_labels() {
+    let dir = temp_dir("labels-render");
+    let npy = dir.join("labels.npy");
+    let bytes: Vec<u8> = labels().iter().flat_map(|v| v.to_le_bytes()).collect();
+    write_npy(&npy, "<u2", &bytes);
+    for (selection, smooth) in [("all", "0"), ("2,5-9", "1")] {
+        let cgc = dir.join("labels.cgc");
+        ok_json(&[
+            "extract",
+            s(&npy),
+            "--labels",
+            selection,
+            "--smooth",
+            smooth,
+            "-o",
+            s(&cgc),
+            "--json",
+        ]);
+        let draw = |input: &Path, label_args: &[&str], name: &str| {
+            let (png, aov) = (
+                dir.join(format!("{name}.png")),
+                dir.join(format!("{name}.npy")),
+            );
+            let aov_arg = format!("label={}", s(&aov));
+            let mut args = vec!["render", s(input)];
+            args.extend_from_slice(label_args);
+            args.extend([
+                "--backend",
+                "cpu",
+                "--size",
+                "64x48",
+                "--hide",
+                "5",
+                "-o",
+                s(&png),
+                "--aov",
+                &aov_arg,
+                "--json",
+            ]);
+            ok_json(&args);
+            (std::fs::read(&png).unwrap(), std::fs::read(&aov).unwrap())
+        };
+        let from_file = draw(&cgc, &[], "file");
+        let from_volume = draw(&npy, &["--labels", selection, "--smooth", smooth], "volume");
+        assert!(
+            from_file == from_volume,
+            "{selection} σ={smooth}: the renders differ"
+        );
+    }
+    fails(
+        &[
+            "render",
+            s(&npy),
+            "--labels",
+            "all",
+            "--mode",
+            "cr",
+            "-o",
+            s(&dir.join("cr.png")),
+        ],
+        "labels.npy: mode cr",
+    );
+    fails(
+        &["render", s(&dir.join("labels.cgc")), "--labels", "all"],
+        "is a .cgc file",
+    );
+    assert!(!dir.join("cr.png").exists());
+}
+
 #[test]
 fn bad_label_requests_fail_in_one_line_and_write_nothing() {
     let dir = temp_dir("labels-bad");
