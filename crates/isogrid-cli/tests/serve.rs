@@ -287,7 +287,30 @@ fn extracts_a_volume_input_first() {
     assert_eq!(status, 200);
     // The same extraction as `isogrid extract` of the same volume and isovalue.
     assert_eq!(body, std::fs::read(&cgc).unwrap());
-    drop(server);
+    // Ctrl-C and SIGTERM end the server, and the extracted file goes with it.
+    let mut first = Some(server);
+    for signal in ["-INT", "-TERM"] {
+        let mut server = first
+            .take()
+            .unwrap_or_else(|| serve_args(&[volume.to_str().unwrap(), "--iso-normalized", "0.5"]));
+        let scratch = std::env::temp_dir().join(format!("isogrid-serve-{}", server.child.id()));
+        assert!(
+            scratch.join("sphere.cgc").is_file(),
+            "{}",
+            scratch.display()
+        );
+        let sent = Command::new("kill")
+            .args([signal, &server.child.id().to_string()])
+            .status()
+            .unwrap();
+        assert!(sent.success());
+        server.child.wait().unwrap();
+        assert!(
+            !scratch.exists(),
+            "{signal}: {} is left behind",
+            scratch.display()
+        );
+    }
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

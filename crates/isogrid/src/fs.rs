@@ -38,6 +38,22 @@ pub fn for_each_unfinished_without_waiting(mut f: impl FnMut(&Path)) {
     }
 }
 
+/// Lists `path` among the temporary files of writes in progress.
+fn list_unfinished(path: &Path) {
+    UNFINISHED
+        .lock()
+        .unwrap_or_else(|e| e.into_inner())
+        .push(path.to_path_buf());
+}
+
+/// Takes `path` off the list of [`list_unfinished`].
+fn unlist_unfinished(path: &Path) {
+    let mut unfinished = UNFINISHED.lock().unwrap_or_else(|e| e.into_inner());
+    if let Some(at) = unfinished.iter().position(|p| p == path) {
+        unfinished.swap_remove(at);
+    }
+}
+
 /// Removes a temporary file, or a staged folder with what it holds.
 fn remove_temporary(path: &Path) {
     if std::fs::symlink_metadata(path).is_ok_and(|m| m.is_dir()) {
@@ -153,10 +169,7 @@ impl ScratchFile {
             name.to_string_lossy(),
             std::process::id()
         ));
-        UNFINISHED
-            .lock()
-            .unwrap_or_else(|e| e.into_inner())
-            .push(path.clone());
+        list_unfinished(&path);
         Ok(ScratchFile { path })
     }
     pub fn path(&self) -> &Path {
@@ -167,10 +180,40 @@ impl ScratchFile {
 impl Drop for ScratchFile {
     fn drop(&mut self) {
         let _ = std::fs::remove_file(&self.path);
-        let mut unfinished = UNFINISHED.lock().unwrap_or_else(|e| e.into_inner());
-        if let Some(at) = unfinished.iter().position(|p| *p == self.path) {
-            unfinished.swap_remove(at);
+        unlist_unfinished(&self.path);
+    }
+}
+
+/// A folder a program fills for its own use (`isogrid serve`'s extracted `.cgc`) and removes with
+/// what it holds when done: when the guard is dropped and by [`remove_unfinished`] (Ctrl-C,
+/// SIGTERM), so that no run leaves one behind.
+#[derive(Debug)]
+pub struct ScratchDir {
+    path: PathBuf,
+}
+
+impl ScratchDir {
+    /// Creates the folder `path` (and its parents); one that is already there is refused, as it
+    /// is not this program's to remove.
+    pub fn create(path: &Path) -> Result<Self> {
+        if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
+            std::fs::create_dir_all(parent).map_err(|e| Error::io(e).with_path(parent))?;
         }
+        std::fs::create_dir(path).map_err(|e| Error::io(e).with_path(path))?;
+        list_unfinished(path);
+        Ok(ScratchDir {
+            path: path.to_path_buf(),
+        })
+    }
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+}
+
+impl Drop for ScratchDir {
+    fn drop(&mut self) {
+        remove_temporary(&self.path);
+        unlist_unfinished(&self.path);
     }
 }
 
@@ -199,10 +242,7 @@ impl Staged {
             name.to_string_lossy(),
             std::process::id()
         ));
-        UNFINISHED
-            .lock()
-            .unwrap_or_else(|e| e.into_inner())
-            .push(tmp.clone());
+        list_unfinished(&tmp);
         Ok(Staged {
             tmp,
             path: path.to_path_buf(),
@@ -223,10 +263,7 @@ impl Drop for Staged {
         if !self.renamed {
             remove_temporary(&self.tmp);
         }
-        let mut unfinished = UNFINISHED.lock().unwrap_or_else(|e| e.into_inner());
-        if let Some(at) = unfinished.iter().position(|p| p == &self.tmp) {
-            unfinished.swap_remove(at);
-        }
+        unlist_unfinished(&self.tmp);
     }
 }
 
@@ -275,6 +312,25 @@ fn special_kind(_: &std::fs::Metadata) -> &'static str {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A scratch folder goes with what it holds when dropped; one already there is refused and
+    /// left alone. (That an interrupt removes it is tested through `isogrid serve`, as
+    /// `remove_unfinished` here would also take other tests' files.)
+    #[test]
+    fn scratch_folders_are_removed_when_done_or_interrupted() {
+        let base = std::env::temp_dir().join(format!("isogrid-scratch-{}", std::process::id()));
+        let path = base.join("a");
+        let dir = ScratchDir::create(&path).unwrap();
+        std::fs::write(dir.path().join("f.cgc"), b"x").unwrap();
+        assert!(ScratchDir::create(&path).is_err());
+        assert!(
+            path.join("f.cgc").is_file(),
+            "a refused create removed the folder"
+        );
+        drop(dir);
+        assert!(!path.exists());
+        std::fs::remove_dir_all(&base).unwrap();
+    }
 
     #[test]
     fn failed_write_keeps_the_old_file() {

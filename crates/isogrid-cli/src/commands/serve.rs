@@ -11,6 +11,7 @@ use anyhow::{Context, Result};
 use axum::http::{header, StatusCode};
 use axum::routing::get;
 use axum::Router;
+use isogrid::fs::ScratchDir;
 use std::net::{IpAddr, SocketAddr};
 use std::path::PathBuf;
 use tower_http::compression::CompressionLayer;
@@ -49,34 +50,26 @@ fn url_name(name: &str) -> String {
         .collect()
 }
 
-/// A folder removed when the server stops (the .cgc extracted from a volume input).
-struct TempDir(PathBuf);
-
-impl Drop for TempDir {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
-    }
-}
-
 /// The .cgc to serve: the input itself, or the volume extracted into a temporary folder (named
 /// after the volume, so the page shows that name).
-fn cgc_file(source: &GridSource) -> Result<(PathBuf, Option<TempDir>)> {
+fn cgc_file(source: &GridSource) -> Result<(PathBuf, Option<ScratchDir>)> {
     if is_cgc(&source.input) {
         // Refuse a bad file here, with the reader's one-line message, rather than in the page.
         isogrid::cgc::open(&source.input)?;
         return Ok((source.input.clone(), None));
     }
     let grid = source.load()?;
-    let dir = std::env::temp_dir().join(format!("isogrid-serve-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).with_context(|| format!("{}", dir.display()))?;
-    let temp = TempDir(dir);
+    // Removed when the server ends, Ctrl-C and SIGTERM included.
+    let temp = ScratchDir::create(
+        &std::env::temp_dir().join(format!("isogrid-serve-{}", std::process::id())),
+    )?;
     let stem = source
         .input
         .file_stem()
         .and_then(|s| s.to_str())
         .map(|s| s.trim_end_matches(".nii"))
         .unwrap_or("volume");
-    let path = temp.0.join(format!("{stem}.cgc"));
+    let path = temp.path().join(format!("{stem}.cgc"));
     isogrid::cgc::write(&path, &grid)?;
     Ok((path, Some(temp)))
 }
