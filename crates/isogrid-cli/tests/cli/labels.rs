@@ -179,6 +179,33 @@ fn render_of_a_label_volume_draws_its_extracted_labels() {
     assert!(!dir.join("cr.png").exists());
 }
 
+/// Meshing every label is refused in one line, before it is tried, when the memory it needs is
+/// not there (here under `ISOGRID_MEMORY_LIMIT`), and nothing is written.
+#[test]
+fn label_meshes_beyond_the_memory_limit_are_refused() {
+    let dir = temp_dir("labels-mesh-limit");
+    let npy = dir.join("labels.npy");
+    let bytes: Vec<u8> = labels().iter().flat_map(|v| v.to_le_bytes()).collect();
+    write_npy(&npy, "<u2", &bytes);
+    let glb = dir.join("labels.glb");
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_isogrid"))
+        .args(["mc", s(&npy), "--labels", "all", "-o", s(&glb)])
+        .env("ISOGRID_MEMORY_LIMIT", "64K")
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "{stderr}");
+    assert_eq!(stderr.trim_end().lines().count(), 1, "{stderr}");
+    assert!(
+        stderr.contains("the mesh of every label needs") && stderr.contains("ISOGRID_MEMORY_LIMIT"),
+        "{stderr}"
+    );
+    assert!(!glb.exists());
+    // Without the limit the same command writes it.
+    ok_json(&["mc", s(&npy), "--labels", "all", "-o", s(&glb), "--json"]);
+    assert!(glb.exists());
+}
+
 #[test]
 fn bad_label_requests_fail_in_one_line_and_write_nothing() {
     let dir = temp_dir("labels-bad");
