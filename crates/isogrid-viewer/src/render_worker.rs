@@ -122,8 +122,8 @@ struct LabelScene {
     /// The grid of the shown labels when some are hidden (`None`: `full` is uploaded). Its labels
     /// map the frames' cluster AOV to label values.
     drawn: Option<Box<CellGrid>>,
-    /// Whether the scene holds the MC meshes of the drawn labels (made when MC is first drawn,
-    /// and again when the labels shown change).
+    /// Whether the scene holds the MC meshes of the drawn labels (made when MC is drawn and they
+    /// are not, first or after a change of the labels shown).
     mesh_shown: bool,
 }
 
@@ -311,9 +311,8 @@ fn apply<'r>(
             if let Err(e) = s.scene.show_grid(labels.drawn()) {
                 notify.error(Failure::Render, format!("uploading the shown labels: {e}"));
             }
-            if labels.mesh_shown {
-                show_label_mesh(s, generation, notify);
-            }
+            // Made again from the new grid when MC is next drawn.
+            labels.mesh_shown = false;
         }
         RenderMsg::Render { .. } | RenderMsg::Shutdown => {}
     }
