@@ -300,6 +300,10 @@ impl Uploader<'_> {
     }
 
     fn upload_grid_unscoped(&self, grid: &CellGrid) -> Result<GpuGrid, GpuError> {
+        // Checked before any page goes up.
+        if let Some(labels) = grid.labels() {
+            self.check_label_colors("clusters", grid.clusters(), labels.table().len())?;
+        }
         let info = grid.info().clone();
         let metacells = grid.metacells();
         let cells = grid.cells();
@@ -458,6 +462,22 @@ impl Uploader<'_> {
         })
     }
 
+    /// Refuses label colour words ([`color_words_of`]: 4 B per item, 16 B per label) that one
+    /// storage binding cannot hold, in words that say what to do, before anything is uploaded;
+    /// `items` counts what carries a label (`what`: clusters, or a label mesh's labels).
+    fn check_label_colors(&self, what: &str, items: usize, labels: usize) -> Result<(), GpuError> {
+        let bytes = 4 * (2 + items as u64) + 16 * (labels as u64 + 1);
+        if bytes > self.page_bytes {
+            return Err(GpuError::too_large(format!(
+                "the label colours of {items} {what} and {labels} labels need {bytes} bytes, more \
+                 than one storage binding of this device holds ({} bytes); the CPU tracer draws \
+                 them (--backend cpu)",
+                self.page_bytes
+            )));
+        }
+        Ok(())
+    }
+
     /// Uploads an MC mesh as snorm16 positions scaled by its bounds and u32 indices (paper Table 3),
     /// with `color`'s words, one per vertex: an attribute value, or the index of its label.
     pub fn upload_mesh(
@@ -484,6 +504,7 @@ impl Uploader<'_> {
             if vertex_labels.iter().any(|&l| l as usize >= table.len()) {
                 return Err(GpuError::invalid("a vertex names a label beyond the table"));
             }
+            self.check_label_colors("labels", table.len(), table.len())?;
         }
         self.gpu.scoped("uploading the mesh", || {
             let snorm = mesh.to_snorm16();

@@ -300,6 +300,44 @@ fn label_grids_are_drawn_in_their_label_colours_like_the_cpu() {
     }
 }
 
+/// Label colours one storage binding cannot hold (4 B per cluster and 16 B per label) are refused
+/// before anything is uploaded, in words that name the CPU tracer, for a grid and for a label
+/// mesh; where they fit, the same uploads succeed.
+#[test]
+fn label_colours_past_one_binding_are_refused_in_plain_words() {
+    let Some(mut r) = new_renderer() else { return };
+    let grid = isogrid::extract_labels(
+        &isogrid::generate::labelled_cubes(32).view(),
+        &isogrid::LabelOptions::new(isogrid::LabelSelection::All),
+    )
+    .unwrap();
+    let labels = grid.labels().unwrap().table().len();
+    let needed = 4 * (2 + grid.clusters() as u64) + 16 * (labels as u64 + 1);
+    assert!(needed > 256, "{needed} bytes fit the smallest page");
+    r.set_page_bytes(needed - 1);
+    let e = r
+        .upload_grid(&grid)
+        .err()
+        .expect("colours past the binding");
+    let text = e.to_string();
+    assert!(
+        text.contains("label colours") && text.contains("--backend cpu"),
+        "{text}"
+    );
+    r.set_page_bytes(needed);
+    r.upload_grid(&grid).unwrap();
+    // A label mesh: 4 B per label and 16 B per label.
+    let (mesh, vertex_labels) = isogrid::mc::labelled_mesh(&grid).unwrap();
+    let table = grid.labels().unwrap().table();
+    let table = [table; 12].concat(); // enough labels to pass the smallest page
+    let needed = 4 * (2 + table.len() as u64) + 16 * (table.len() as u64 + 1);
+    r.set_page_bytes(needed - 1);
+    let e = r.upload_label_mesh(&mesh, &vertex_labels, &table).err();
+    assert!(e.is_some_and(|e| e.to_string().contains("label colours")));
+    r.set_page_bytes(needed);
+    r.upload_label_mesh(&mesh, &vertex_labels, &table).unwrap();
+}
+
 /// The GPU tracer's walk tests every label's metacell at a position (a label grid repeats
 /// positions across its labels' runs): its hits are the CPU tracer's, with the same label, on
 /// rays from outside the ball and from inside its labels (which meet the boundaries between
