@@ -26,7 +26,7 @@ pub(crate) fn render(
     let volume = match (mode.needs_volume() && labels.is_none(), volume) {
         (true, None) => {
             return Err(Error::invalid(format!(
-                "mode {mode} needs the original volume, and a .cgc file has none"
+                "mode {mode} needs the original volume, which a grid alone (a .cgc file) lacks; a label grid draws mc from its own cells"
             )))
         }
         (_, v) => v,
