@@ -314,6 +314,31 @@ fn extracts_a_volume_input_first() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+/// A label volume with `--labels all`: the page gets the file `extract --labels all` writes.
+#[test]
+fn serves_a_label_volume_as_extract_labels_writes_it() {
+    let dir = std::env::temp_dir().join(format!("isogrid-serve-labels-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let volume = dir.join("cubes.nrrd");
+    isogrid_io::write_nrrd(&volume, &isogrid::generate::labelled_cubes(12)).unwrap();
+    let cgc = dir.join("cubes.cgc");
+    isogrid(&[
+        "extract",
+        volume.to_str().unwrap(),
+        "--labels",
+        "all",
+        "-o",
+        cgc.to_str().unwrap(),
+    ]);
+    let server = serve_args(&[volume.to_str().unwrap(), "--labels", "all"]);
+    assert!(server.url.ends_with("/?src=/cubes.cgc"), "{}", server.url);
+    let (status, _, body) = get(&server.addr, "/cubes.cgc", "");
+    assert_eq!(status, 200);
+    assert_eq!(body, std::fs::read(&cgc).unwrap());
+    drop(server);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 #[test]
 fn refuses_a_damaged_file_with_one_line() {
     let dir = std::env::temp_dir().join(format!("isogrid-serve-bad-{}", std::process::id()));
