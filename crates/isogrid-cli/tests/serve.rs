@@ -43,6 +43,8 @@ fn sphere(dir: &Path) -> PathBuf {
 
 struct Server {
     child: Child,
+    /// The file served, as the "serving" line names it.
+    file: PathBuf,
     /// Held open so that the server's later output does not meet a closed pipe.
     _stdout: BufReader<std::process::ChildStdout>,
     addr: String,
@@ -80,14 +82,15 @@ fn serve_args(input: &[&str]) -> Server {
         .expect("starts the server");
     // Extraction prints its statistics first; the URL is on the "serving" line.
     let mut stdout = BufReader::new(child.stdout.take().unwrap());
-    let url = loop {
+    let (file, url) = loop {
         let mut line = String::new();
         assert!(
             stdout.read_line(&mut line).unwrap() > 0,
             "the server printed no URL"
         );
         if let Some(url) = line.split_whitespace().find(|w| w.starts_with("http://")) {
-            break url.to_string();
+            let file = line.split_whitespace().nth(1).unwrap();
+            break (PathBuf::from(file), url.to_string());
         }
     };
     let addr = url["http://".len()..]
@@ -97,6 +100,7 @@ fn serve_args(input: &[&str]) -> Server {
         .to_string();
     Server {
         child,
+        file,
         _stdout: stdout,
         addr,
         url,
@@ -293,12 +297,13 @@ fn extracts_a_volume_input_first() {
         let mut server = first
             .take()
             .unwrap_or_else(|| serve_args(&[volume.to_str().unwrap(), "--iso-normalized", "0.5"]));
-        let scratch = std::env::temp_dir().join(format!("isogrid-serve-{}", server.child.id()));
+        let scratch = server.file.parent().unwrap().to_path_buf();
         assert!(
-            scratch.join("sphere.cgc").is_file(),
+            scratch.starts_with(std::env::temp_dir()) && server.file.ends_with("sphere.cgc"),
             "{}",
-            scratch.display()
+            server.file.display()
         );
+        assert!(server.file.is_file(), "{}", server.file.display());
         let sent = Command::new("kill")
             .args([signal, &server.child.id().to_string()])
             .status()

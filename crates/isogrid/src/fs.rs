@@ -193,17 +193,32 @@ pub struct ScratchDir {
 }
 
 impl ScratchDir {
-    /// Creates the folder `path` (and its parents); one that is already there is refused, as it
-    /// is not this program's to remove.
-    pub fn create(path: &Path) -> Result<Self> {
-        if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
-            std::fs::create_dir_all(parent).map_err(|e| Error::io(e).with_path(parent))?;
+    /// Creates a new folder in `parent` (made if missing) named `prefix` and this process's id,
+    /// with a count after it where a folder of that name is there already (left by a process
+    /// that was killed outright, whose id came round again): an existing folder is never taken
+    /// over, as it is not this program's to remove.
+    pub fn create_in(parent: &Path, prefix: &str) -> Result<Self> {
+        std::fs::create_dir_all(parent).map_err(|e| Error::io(e).with_path(parent))?;
+        let pid = std::process::id();
+        for n in 0..1000u32 {
+            let name = match n {
+                0 => format!("{prefix}-{pid}"),
+                n => format!("{prefix}-{pid}-{n}"),
+            };
+            let path = parent.join(name);
+            match std::fs::create_dir(&path) {
+                Ok(()) => {
+                    list_unfinished(&path);
+                    return Ok(ScratchDir { path });
+                }
+                Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => continue,
+                Err(e) => return Err(Error::io(e).with_path(&path)),
+            }
         }
-        std::fs::create_dir(path).map_err(|e| Error::io(e).with_path(path))?;
-        list_unfinished(path);
-        Ok(ScratchDir {
-            path: path.to_path_buf(),
-        })
+        Err(Error::invalid(format!(
+            "a thousand scratch folders named {prefix}-{pid}-N are there already"
+        ))
+        .with_path(parent))
     }
     pub fn path(&self) -> &Path {
         &self.path
@@ -313,22 +328,28 @@ fn special_kind(_: &std::fs::Metadata) -> &'static str {
 mod tests {
     use super::*;
 
-    /// A scratch folder goes with what it holds when dropped; one already there is refused and
-    /// left alone. (That an interrupt removes it is tested through `isogrid serve`, as
-    /// `remove_unfinished` here would also take other tests' files.)
+    /// A scratch folder goes with what it holds when dropped; one already there under its name is
+    /// left alone, and the next name is taken. (That an interrupt removes it is tested through
+    /// `isogrid serve`, as `remove_unfinished` here would also take other tests' files.)
     #[test]
-    fn scratch_folders_are_removed_when_done_or_interrupted() {
+    fn scratch_folders_are_removed_when_done_and_never_taken_over() {
         let base = std::env::temp_dir().join(format!("isogrid-scratch-{}", std::process::id()));
-        let path = base.join("a");
-        let dir = ScratchDir::create(&path).unwrap();
-        std::fs::write(dir.path().join("f.cgc"), b"x").unwrap();
-        assert!(ScratchDir::create(&path).is_err());
-        assert!(
-            path.join("f.cgc").is_file(),
-            "a refused create removed the folder"
+        let stale = base.join(format!("serve-{}", std::process::id()));
+        std::fs::create_dir_all(&stale).unwrap();
+        std::fs::write(stale.join("old.cgc"), b"x").unwrap();
+        let dir = ScratchDir::create_in(&base, "serve").unwrap();
+        assert_eq!(
+            dir.path(),
+            base.join(format!("serve-{}-1", std::process::id()))
         );
+        std::fs::write(dir.path().join("f.cgc"), b"x").unwrap();
+        let path = dir.path().to_path_buf();
         drop(dir);
         assert!(!path.exists());
+        assert!(
+            stale.join("old.cgc").is_file(),
+            "a folder not its own was removed"
+        );
         std::fs::remove_dir_all(&base).unwrap();
     }
 

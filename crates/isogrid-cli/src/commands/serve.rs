@@ -60,9 +60,7 @@ fn cgc_file(source: &GridSource) -> Result<(PathBuf, Option<ScratchDir>)> {
     }
     let grid = source.load()?;
     // Removed when the server ends, Ctrl-C and SIGTERM included.
-    let temp = ScratchDir::create(
-        &std::env::temp_dir().join(format!("isogrid-serve-{}", std::process::id())),
-    )?;
+    let temp = ScratchDir::create_in(&std::env::temp_dir(), "isogrid-serve")?;
     let stem = source
         .input
         .file_stem()
