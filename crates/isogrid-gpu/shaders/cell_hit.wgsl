@@ -92,15 +92,8 @@ fn cell_pixel_hit(lo: vec4<f32>, hi: vec4<f32>, cell: vec3<f32>, pixel: vec2<f32
     hit.depth = clamp(frame.eye.w / (t * cos_view), 0.0, 1.0);
     if (frame.params.z & FLAG_LABELS) != 0u && inside_at_entry {
         // A label grid draws touching labels' coinciding surfaces once each: the one the ray
-        // leaves (its back face) is pushed back by LABEL_BACK_FACE_BIAS, so the one it enters
-        // wins the depth test however rounding orders the two (as the tracers' tie rule).
-        let bits = bitcast<u32>(hit.depth);
-        hit.depth = bitcast<f32>(bits - min(bits, LABEL_BACK_FACE_BIAS));
+        // leaves loses at equal depth.
+        hit.depth = label_back_face_depth(hit.depth);
     }
     return hit;
 }
-
-// Units in the last place of the reversed-Z depth (about 6·10⁻⁵ of the eye distance) by which a
-// label grid's back faces lose to front faces: far more than the two labels' crossings differ by
-// (rounding of complementary indicators), far less than any visible gap.
-const LABEL_BACK_FACE_BIAS: u32 = 1024u;

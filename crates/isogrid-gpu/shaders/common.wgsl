@@ -23,8 +23,22 @@ const SOURCE_VOLUME: u32 = 1u;
 const FLAG_OCCLUSION: u32 = 1u;
 const FLAG_BACKFACE: u32 = 2u;
 const FLAG_EWA: u32 = 4u; // the EWA target holds the normals to shade with
-const FLAG_LABELS: u32 = 8u; // a label grid: at equal depth a front face wins (cell_hit.wgsl)
+const FLAG_LABELS: u32 = 8u; // a label grid: at equal depth a front face wins (label_back_face_depth)
 const NO_CLUSTER: u32 = 0xffffffffu;
+
+// Units in the last place of the reversed-Z depth (about 6·10⁻⁵ of the eye distance) by which a
+// label grid's back faces lose to front faces: far more than the two labels' crossings differ by
+// (rounding of complementary indicators), far less than any visible gap.
+const LABEL_BACK_FACE_BIAS: u32 = 1024u;
+
+// The depth of a label surface that the view ray leaves (a back face), pushed back by
+// LABEL_BACK_FACE_BIAS: touching labels' surfaces coincide, and each is drawn, so the one the ray
+// enters must win the depth test however rounding orders the two (as the tracers' tie rule). The
+// cell passes (cell_hit.wgsl) and the label mesh (mesh.wgsl) both use it.
+fn label_back_face_depth(depth: f32) -> f32 {
+    let bits = bitcast<u32>(depth);
+    return bitcast<f32>(bits - min(bits, LABEL_BACK_FACE_BIAS));
+}
 
 // Keep in sync with `PageUniforms` in src/gpu_types.rs.
 struct PageUniforms {

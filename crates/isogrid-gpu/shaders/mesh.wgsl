@@ -52,6 +52,7 @@ fn vs_mesh(@builtin(vertex_index) vertex: u32) -> MeshVarying {
 struct MeshOut {
     @location(0) surface: vec4<f32>,
     @location(1) ids: vec2<u32>,
+    @builtin(frag_depth) depth: f32,
 }
 
 @fragment
@@ -67,8 +68,19 @@ fn fs_mesh(in: MeshVarying, @builtin(front_facing) front: bool) -> MeshOut {
     }
     var out: MeshOut;
     out.surface = vec4<f32>(n, length(to_eye));
+    out.depth = in.position.z;
     if in.labelled != 0u {
         out.ids = vec2<u32>(in.label, 0u);
+        // Touching labels' meshes share their boundary's vertices but not always its
+        // triangulation (Marching Cubes splits a cell and its complement along different
+        // diagonals), so the two can part by up to half a cell: a back face (the label the ray
+        // leaves) is pushed back by half the smallest spacing along the view, and the face the ray
+        // enters wins, as at coinciding cell surfaces (label_back_face_depth).
+        if !front {
+            let slack = 0.5 * min(frame.cell_to_world.x, min(frame.cell_to_world.y, frame.cell_to_world.z));
+            let distance = frame.eye.w / in.position.z;
+            out.depth = label_back_face_depth(frame.eye.w / (distance + slack));
+        }
     } else {
         out.ids = vec2<u32>(0u, bitcast<u32>(in.value));
     }

@@ -272,7 +272,8 @@ fn two_labels() -> CellGrid {
 /// hidden from its side, the shared boundary shows label 2 (the surface the rays enter: the
 /// tracers' tie rule, the rasters' back-face depth bias) on every backend, without speckle
 /// (pixels whose label differs from all four neighbours); before the rule the compute and
-/// hardware rasters speckled 59 and 90 of these 1728 pixels.
+/// hardware rasters speckled 59 and 90 of these 1728 pixels. MC mode draws the labels' meshes
+/// under the same rule.
 #[test]
 fn a_shared_boundary_shows_the_label_beyond_it_without_speckle() {
     let grid = two_labels();
@@ -301,6 +302,8 @@ fn a_shared_boundary_shows_the_label_beyond_it_without_speckle() {
                 Some(Primary::Traced),
                 CellRaster::Auto,
             ),
+            // The labels' meshes share the boundary's vertices: their back-face depth rule.
+            ("gpu mc", Mode::Mc, Backend::Gpu, None, CellRaster::Auto),
         ]);
     }
     let (w, h) = (48usize, 36usize);
