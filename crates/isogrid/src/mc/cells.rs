@@ -46,8 +46,9 @@ pub fn label_meshes(grid: &CellGrid) -> Result<Vec<McMesh>> {
 }
 
 /// Every label's mesh of `grid` as one mesh (the labels in table order, each label's vertices
-/// and triangles after the last's), with each vertex's label (its index in the table): what a
-/// renderer draws in the labels' colours. Fails as [`label_meshes`] does, and past 2³²−1
+/// and triangles after the last's; positions index × spacing, as [`label_meshes`] gives them),
+/// with each vertex's label (its index in the table): what a renderer draws in the labels'
+/// colours. Fails as [`label_meshes`] does, and past 2³²−1
 /// vertices in all.
 pub fn labelled_mesh(grid: &CellGrid) -> Result<(McMesh, Vec<u32>)> {
     // The labels' meshes and their concatenation are held at once.
