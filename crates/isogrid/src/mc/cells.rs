@@ -25,7 +25,7 @@ use rayon::prelude::*;
 use std::collections::HashMap;
 
 /// Bytes of mesh per active cell, with room to spare: a label's cells give about one vertex
-/// (12 B) and two triangles (24 B) each (36.2 B on 6,250 supervoxels in 128³), and the crossed
+/// (12 B) and two triangles (24 B) each (36.2 B on a 128³ corner of the 256³ supervoxels), and the crossed
 /// edges' map while a label is meshed.
 const MESH_BYTES_PER_CELL: u64 = 48;
 
