@@ -25,8 +25,8 @@ use rayon::prelude::*;
 use std::collections::HashMap;
 
 /// Bytes of mesh per active cell, with room to spare: a label's cells give about one vertex
-/// (12 B) and two triangles (24 B) each (36.2 B on a 128³ corner of the 256³ supervoxels), and the crossed
-/// edges' map while a label is meshed.
+/// (12 B) and two triangles (24 B) each (36.2 B on a 128³ corner of the 256³ supervoxels), and
+/// the crossed edges' map while a label is meshed.
 const MESH_BYTES_PER_CELL: u64 = 48;
 
 /// The mesh of every label of `grid`, in the order of its label table (empty for a label with no
