@@ -41,6 +41,9 @@ pub enum RenderMsg {
     /// the uploaded one; nothing is extracted again. Of several waiting, only the newest is
     /// uploaded.
     ShowLabels { generation: u64, shown: Vec<bool> },
+    /// Make the Marching Cubes meshes of the labels the label grid `generation` draws, if they
+    /// are not made yet, and report them (the memory comparison; MC mode makes them itself).
+    LabelMesh { generation: u64 },
     /// Render `request`; `id` names the frame (or the refusal) in the reply.
     Render { id: u64, request: RenderRequest },
     /// Free the scene and the renderer and end the thread, whoever else still holds a sender.
@@ -314,6 +317,14 @@ fn apply<'r>(
             // Made again from the new grid when MC is next drawn.
             labels.mesh_shown = false;
         }
+        RenderMsg::LabelMesh { generation } => {
+            let Some(s) = shown.as_mut().filter(|s| s.generation == generation) else {
+                return;
+            };
+            if s.labels.as_ref().is_some_and(|l| !l.mesh_shown) {
+                show_label_mesh(s, generation, notify);
+            }
+        }
         RenderMsg::Render { .. } | RenderMsg::Shutdown => {}
     }
 }
@@ -424,6 +435,35 @@ mod tests {
         );
     }
 
+    /// The message that shows `grid` as the first input's (generation 1), without a volume.
+    fn first_grid(grid: CellGrid) -> RenderMsg {
+        RenderMsg::Grid {
+            generation: 1,
+            stats: GridStats::of(&grid),
+            grid: Box::new(grid),
+            volume: None,
+            extract_seconds: 0.0,
+        }
+    }
+
+    /// A render worker whose renderer has started, and its events; `None` (said on stderr)
+    /// without a GPU adapter.
+    fn started_worker() -> Option<(RenderWorker, std::sync::mpsc::Receiver<Event>)> {
+        let (tx, events) = std::sync::mpsc::channel();
+        let worker = RenderWorker::spawn(Notifier::new(tx, egui::Context::default()));
+        match events
+            .recv_timeout(Duration::from_secs(300))
+            .expect("the renderer reports")
+        {
+            Event::RendererReady { .. } => Some((worker, events)),
+            Event::Error { message, .. } => {
+                eprintln!("skipping: no GPU renderer: {message}");
+                None
+            }
+            _ => panic!("the renderer reports first"),
+        }
+    }
+
     /// The frame the worker draws of a label grid with `shown` labels, as the window asks for it
     /// (the grid uploaded once, the label choice uploaded after, one GPU frame of view 2); `None`
     /// without a GPU adapter.
@@ -432,25 +472,10 @@ mod tests {
         shown: Option<Vec<bool>>,
         size: (u32, u32),
     ) -> Option<Rendered> {
-        let (tx, events) = std::sync::mpsc::channel();
-        let worker = RenderWorker::spawn(Notifier::new(tx, egui::Context::default()));
+        let (worker, events) = started_worker()?;
         let wait = Duration::from_secs(300);
-        match events.recv_timeout(wait).expect("the renderer reports") {
-            Event::RendererReady { .. } => {}
-            Event::Error { message, .. } => {
-                eprintln!("skipping: no GPU renderer: {message}");
-                return None;
-            }
-            _ => panic!("the renderer reports first"),
-        }
         let send = |m| worker.sender().send(m).unwrap();
-        send(RenderMsg::Grid {
-            generation: 1,
-            stats: GridStats::of(&grid),
-            grid: Box::new(grid),
-            volume: None,
-            extract_seconds: 0.0,
-        });
+        send(first_grid(grid));
         if let Some(shown) = shown {
             send(RenderMsg::ShowLabels {
                 generation: 1,
@@ -469,6 +494,44 @@ mod tests {
                 _ => {}
             }
         }
+    }
+
+    /// Asked for the labels' meshes (the memory comparison), the worker makes them from the grid
+    /// it draws and reports their size: the triangles `labelled_mesh` makes of the shown labels,
+    /// made again after the shown labels change.
+    #[test]
+    fn label_meshes_are_made_on_request_and_again_for_other_labels() {
+        let volume = isogrid::generate::labelled_cubes(18);
+        let options = isogrid::LabelOptions::new(isogrid::LabelSelection::All);
+        let grid = isogrid::extract_labels(&volume.view(), &options).unwrap();
+        let count = |g: &CellGrid| labelled_mesh(g).unwrap().0.triangle_count() as u64;
+        let all = count(&grid);
+        let mut shown = vec![true; grid.labels().unwrap().table().len()];
+        shown[0] = false;
+        let fewer = count(&grid.showing_labels(&shown).unwrap());
+        assert!(0 < fewer && fewer < all);
+
+        let Some((worker, events)) = started_worker() else {
+            return;
+        };
+        let wait = Duration::from_secs(300);
+        let send = |m| worker.sender().send(m).unwrap();
+        let next_mesh = || loop {
+            match events.recv_timeout(wait).expect("the worker answers") {
+                Event::MeshShown { triangles, .. } => return triangles,
+                Event::Error { message, .. } => panic!("{message}"),
+                _ => {}
+            }
+        };
+        send(first_grid(grid));
+        send(RenderMsg::LabelMesh { generation: 1 });
+        assert_eq!(next_mesh(), all);
+        send(RenderMsg::ShowLabels {
+            generation: 1,
+            shown,
+        });
+        send(RenderMsg::LabelMesh { generation: 1 });
+        assert_eq!(next_mesh(), fewer);
     }
 
     /// A GPU request for view 2 at `size`, hiding `hide`, with the label AOV.

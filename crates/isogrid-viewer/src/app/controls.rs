@@ -72,9 +72,10 @@ impl App {
         if self.mode == Mode::Mc && self.measurements.mesh.is_none() {
             ui.label("Marching Cubes mesh: extracting…");
         }
+        let label_grid = self.labels.list.is_some();
         let compare = ui
             .add_enabled(
-                has_volume,
+                has_volume || label_grid,
                 egui::Checkbox::new(&mut self.compare_mc, "extract MC too (memory comparison)"),
             )
             .on_hover_text("Runs Marching Cubes in the background after each extraction")
@@ -82,6 +83,7 @@ impl App {
         if compare.changed() {
             let mesh = self.wants_mesh();
             self.extractor.update(|w| w.mesh = mesh);
+            self.ask_for_label_meshes();
         }
         self.color_controls(ui);
         self.label_controls(ui);

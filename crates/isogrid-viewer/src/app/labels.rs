@@ -49,6 +49,19 @@ impl App {
             .is_some_and(|l| l.shown_count() < l.len())
         {
             self.send_label_choice(generation);
+        } else {
+            self.ask_for_label_meshes();
+        }
+    }
+
+    /// With the memory comparison on, asks the render worker for the meshes of the labels it
+    /// draws (made once per choice of labels; MC mode makes them itself).
+    pub(super) fn ask_for_label_meshes(&mut self) {
+        if self.compare_mc && self.labels.list.is_some() {
+            let msg = RenderMsg::LabelMesh {
+                generation: self.generation,
+            };
+            let _ = self.render.sender().send(msg);
         }
     }
 
@@ -64,6 +77,7 @@ impl App {
         if self.render.sender().send(msg).is_ok() {
             self.labels.version += 1;
         }
+        self.ask_for_label_meshes();
     }
 
     /// The label list's panel section.
