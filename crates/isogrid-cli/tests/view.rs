@@ -537,6 +537,21 @@ fn scripted_window_reports_bad_inputs() {
         ],
         "no such label",
     );
+    // CR samples the label values themselves, which are no surface.
+    view_fails(
+        &xvfb,
+        &[
+            "view",
+            cubes.to_str().unwrap(),
+            "--labels",
+            "all",
+            "--mode",
+            "cr",
+            "--frames",
+            "1",
+        ],
+        "a label volume's are no surface",
+    );
     // A float volume is no label volume.
     let float = isogrid::Volume::new(
         [8, 8, 8],

@@ -50,11 +50,16 @@ impl App {
         let has_volume = self.source.as_ref().is_none_or(|s| s.has_volume());
         ui.horizontal_wrapped(|ui| {
             for mode in Mode::ALL {
-                let label_mesh = mode == Mode::Mc && self.labels.list.is_some();
-                let reason = if mode.needs_volume() && !has_volume && !label_mesh {
-                    Some("needs the original volume; a .cgc file holds only the cells")
-                } else {
-                    None
+                let label_grid = self.labels.list.is_some();
+                let reason = match mode {
+                    Mode::Cr if label_grid => {
+                        Some("samples the volume's values, and a label volume's are no surface")
+                    }
+                    Mode::Mc if label_grid => None,
+                    _ if mode.needs_volume() && !has_volume => {
+                        Some("needs the original volume; a .cgc file holds only the cells")
+                    }
+                    _ => None,
                 };
                 let button = egui::Button::selectable(self.mode == mode, mode.name());
                 let response = ui.add_enabled(reason.is_none(), button);

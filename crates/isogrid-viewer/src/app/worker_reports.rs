@@ -113,10 +113,13 @@ impl App {
         };
         // MC of a label grid needs no volume: decided when its grid (and labels) arrive.
         if !info.has_volume() && self.mode.needs_volume() && self.mode != Mode::Mc {
-            self.fail_or_note(format!(
-                "mode {} needs the original volume; a .cgc file holds only the cells: showing cgc",
-                self.mode
-            ));
+            // Without a volume the grid came from a .cgc file, or is a label volume's labels.
+            let why = if crate::source::is_cgc(&info.path) {
+                "needs the original volume; a .cgc file holds only the cells"
+            } else {
+                "samples the volume's values, and a label volume's are no surface"
+            };
+            self.fail_or_note(format!("mode {} {why}: showing cgc", self.mode));
             self.mode = Mode::Cgc;
         }
         let colour = match &info.attribute {
