@@ -22,6 +22,12 @@ mod worker_reports;
 
 pub use window::run;
 
+/// Why CR is not offered for a label volume's grid (shown on the mode button, and in the note when
+/// one opens in CR mode).
+const CR_OF_LABELS: &str = "samples the volume's values, and a label volume's are no surface";
+/// Why CR and MC are not offered for a grid without its volume (a `.cgc` file without labels).
+const NEEDS_VOLUME: &str = "needs the original volume; a .cgc file holds only the cells";
+
 use crate::cost::CostModel;
 use crate::events::Notifier;
 use crate::extract_worker::{ExtractWorker, Wanted};

@@ -52,13 +52,9 @@ impl App {
             for mode in Mode::ALL {
                 let label_grid = self.labels.list.is_some();
                 let reason = match mode {
-                    Mode::Cr if label_grid => {
-                        Some("samples the volume's values, and a label volume's are no surface")
-                    }
+                    Mode::Cr if label_grid => Some(super::CR_OF_LABELS),
                     Mode::Mc if label_grid => None,
-                    _ if mode.needs_volume() && !has_volume => {
-                        Some("needs the original volume; a .cgc file holds only the cells")
-                    }
+                    _ if mode.needs_volume() && !has_volume => Some(super::NEEDS_VOLUME),
                     _ => None,
                 };
                 let button = egui::Button::selectable(self.mode == mode, mode.name());

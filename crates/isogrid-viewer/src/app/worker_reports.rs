@@ -31,11 +31,7 @@ impl App {
                     self.on_labels(generation, labels);
                     let has_volume = self.source.as_ref().is_none_or(|s| s.has_volume());
                     if self.mode == Mode::Mc && !has_volume && self.labels.list.is_none() {
-                        self.fail_or_note(
-                            "mode mc needs the original volume; a .cgc file holds only the \
-                             cells: showing cgc"
-                                .into(),
-                        );
+                        self.fail_or_note(format!("mode mc {}: showing cgc", super::NEEDS_VOLUME));
                         self.mode = Mode::Cgc;
                     }
                     self.measurements.grid = Some(GridFacts {
@@ -115,9 +111,9 @@ impl App {
         if !info.has_volume() && self.mode.needs_volume() && self.mode != Mode::Mc {
             // Without a volume the grid came from a .cgc file, or is a label volume's labels.
             let why = if crate::source::is_cgc(&info.path) {
-                "needs the original volume; a .cgc file holds only the cells"
+                super::NEEDS_VOLUME
             } else {
-                "samples the volume's values, and a label volume's are no surface"
+                super::CR_OF_LABELS
             };
             self.fail_or_note(format!("mode {} {why}: showing cgc", self.mode));
             self.mode = Mode::Cgc;
