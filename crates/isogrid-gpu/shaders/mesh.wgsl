@@ -11,8 +11,8 @@
 
 // Keep in sync with `MeshUniforms` in src/gpu_types.rs.
 struct MeshUniforms {
-    center: vec4<f32>,      // world, xyz
-    half_extent: vec4<f32>, // world, xyz: position = center + half_extent * q / 32767; w: 1 for a label mesh
+    center: vec4<f32>,      // world, xyz; w: a label mesh's back-face slack (world units), else 0
+    half_extent: vec4<f32>, // world, xyz: position = center + half_extent * q / 32767
 }
 
 @group(1) @binding(0) var<uniform> mesh: MeshUniforms;
@@ -32,7 +32,7 @@ struct MeshVarying {
     @location(0) world: vec3<f32>,
     @location(1) value: f32,
     @location(2) @interpolate(flat) label: u32,
-    @location(3) @interpolate(flat) labelled: u32, // 1 for a label mesh
+    @location(3) @interpolate(flat) slack: f32, // a label mesh's back-face slack; 0 otherwise
 }
 
 @vertex
@@ -45,7 +45,7 @@ fn vs_mesh(@builtin(vertex_index) vertex: u32) -> MeshVarying {
     let word = vertex_words[min(vertex, arrayLength(&vertex_words) - 1u)];
     out.value = bitcast<f32>(word);
     out.label = word;
-    out.labelled = u32(mesh.half_extent.w > 0.0);
+    out.slack = mesh.center.w;
     return out;
 }
 
@@ -69,17 +69,16 @@ fn fs_mesh(in: MeshVarying, @builtin(front_facing) front: bool) -> MeshOut {
     var out: MeshOut;
     out.surface = vec4<f32>(n, length(to_eye));
     out.depth = in.position.z;
-    if in.labelled != 0u {
+    if in.slack > 0.0 {
         out.ids = vec2<u32>(in.label, 0u);
         // Touching labels' meshes share their boundary's vertices but not always its
         // triangulation (Marching Cubes splits a cell and its complement along different
         // diagonals), so the two can part by up to half a cell: a back face (the label the ray
-        // leaves) is pushed back by half the smallest spacing along the view, and the face the ray
-        // enters wins, as at coinciding cell surfaces (label_back_face_depth).
+        // leaves) is pushed back along the view by the slack, half the grid's smallest spacing,
+        // and the face the ray enters wins, as at coinciding cell surfaces (label_back_face_depth).
         if !front {
-            let slack = 0.5 * min(frame.cell_to_world.x, min(frame.cell_to_world.y, frame.cell_to_world.z));
             let distance = frame.eye.w / in.position.z;
-            out.depth = label_back_face_depth(frame.eye.w / (distance + slack));
+            out.depth = label_back_face_depth(frame.eye.w / (distance + in.slack));
         }
     } else {
         out.ids = vec2<u32>(0u, bitcast<u32>(in.value));

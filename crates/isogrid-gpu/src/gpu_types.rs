@@ -129,9 +129,10 @@ pub(crate) struct PageUniforms {
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
 pub(crate) struct MeshUniforms {
-    /// World xyz; w unused.
+    /// World xyz; w a label mesh's back-face slack in world units (half the smallest spacing),
+    /// else 0.
     pub center: [f32; 4],
-    /// World xyz; w 1 when the vertex words are label indices (a label mesh), else 0.
+    /// World xyz; w unused.
     pub half_extent: [f32; 4],
 }
 

@@ -157,20 +157,23 @@ impl Renderer {
         self.uploader().upload_mesh(mesh, MeshColor::Values(values))
     }
 
-    /// Uploads a label mesh: `vertex_labels` gives each vertex's label as an index in `table`
-    /// (all three of a triangle the same). Renders draw each label in its colour, and their
-    /// cluster AOV gives the label's index under each pixel.
+    /// Uploads a label mesh of a grid of `spacing` (positions index × spacing): `vertex_labels`
+    /// gives each vertex's label as an index in `table` (all three of a triangle the same).
+    /// Renders draw each label in its colour, and their cluster AOV gives the label's index under
+    /// each pixel.
     pub fn upload_label_mesh(
         &self,
         mesh: &isogrid::mc::McMesh,
         vertex_labels: &[u32],
         table: &[isogrid::labels::Label],
+        spacing: [f64; 3],
     ) -> Result<GpuMesh, GpuError> {
         self.uploader().upload_mesh(
             mesh,
             MeshColor::Labels {
                 vertex_labels,
                 table,
+                spacing,
             },
         )
     }

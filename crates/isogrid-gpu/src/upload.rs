@@ -159,10 +159,12 @@ pub enum MeshColor<'a> {
     /// map of [`crate::RenderOptions::coloring`].
     Values(&'a [f32]),
     /// The index in `table` of each vertex's label (every vertex of a triangle the same), drawn in
-    /// its label's colour.
+    /// its label's colour; `spacing`, the grid's (the mesh's positions are index × spacing), sets
+    /// how far a back face loses to the touching label's front face (half the smallest).
     Labels {
         vertex_labels: &'a [u32],
         table: &'a [isogrid::labels::Label],
+        spacing: [f64; 3],
     },
 }
 
@@ -499,6 +501,7 @@ impl Uploader<'_> {
         if let MeshColor::Labels {
             vertex_labels,
             table,
+            ..
         } = color
         {
             if vertex_labels.iter().any(|&l| l as usize >= table.len()) {
@@ -521,16 +524,22 @@ impl Uploader<'_> {
                 wgpu::BufferUsages::INDEX,
             )?;
             let uniforms = MeshUniforms {
-                center: [snorm.center[0], snorm.center[1], snorm.center[2], 0.0],
+                center: [
+                    snorm.center[0],
+                    snorm.center[1],
+                    snorm.center[2],
+                    match color {
+                        MeshColor::Labels { spacing, .. } => {
+                            (0.5 * spacing.iter().copied().fold(f64::INFINITY, f64::min)) as f32
+                        }
+                        _ => 0.0,
+                    },
+                ],
                 half_extent: [
                     snorm.half_extent[0],
                     snorm.half_extent[1],
                     snorm.half_extent[2],
-                    if matches!(color, MeshColor::Labels { .. }) {
-                        1.0
-                    } else {
-                        0.0
-                    },
+                    0.0,
                 ],
             };
             let uniforms = self.gpu.buffer_init(

@@ -37,7 +37,7 @@ pub(crate) fn render(
         (Mode::Mc, _) if labels.is_some() => {
             let (mesh, vertex_labels) = labelled_mesh(grid)?;
             let table = labels.map(|l| l.table()).unwrap_or_default();
-            scene.show_label_mesh(&mesh, &vertex_labels, table)?
+            scene.show_label_mesh(&mesh, &vertex_labels, table, grid.info().spacing)?
         }
         (Mode::Mc, Some(volume)) => {
             let mesh = marching_cubes(&volume.view(), grid.info().iso);

@@ -114,19 +114,20 @@ impl<'r> UploadedScene<'r> {
         Ok(())
     }
 
-    /// Uploads a label mesh for [`Mode::Mc`] ([`isogrid::mc::labelled_mesh`]: each vertex's
-    /// label as an index in `table`), replacing the one shown so far; it is drawn in the labels'
-    /// colours.
+    /// Uploads a label mesh for [`Mode::Mc`] ([`isogrid::mc::labelled_mesh`] of a grid of
+    /// `spacing`: each vertex's label as an index in `table`), replacing the one shown so far; it
+    /// is drawn in the labels' colours.
     pub fn show_label_mesh(
         &mut self,
         mesh: &McMesh,
         vertex_labels: &[u32],
         table: &[isogrid::labels::Label],
+        spacing: [f64; 3],
     ) -> Result<()> {
         self.mesh = None;
         self.mesh = Some(
             self.renderer
-                .upload_label_mesh(mesh, vertex_labels, table)?,
+                .upload_label_mesh(mesh, vertex_labels, table, spacing)?,
         );
         Ok(())
     }

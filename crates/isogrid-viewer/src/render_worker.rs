@@ -341,7 +341,8 @@ fn show_label_mesh(s: &mut Shown<'_>, generation: u64, notify: &Notifier) {
     let grid = labels.drawn();
     let table = grid.labels().map(|l| l.table()).unwrap_or_default();
     let shown = labelled_mesh(grid).and_then(|(mesh, vertex_labels)| {
-        s.scene.show_label_mesh(&mesh, &vertex_labels, table)?;
+        s.scene
+            .show_label_mesh(&mesh, &vertex_labels, table, grid.info().spacing)?;
         Ok(mesh)
     });
     match shown {

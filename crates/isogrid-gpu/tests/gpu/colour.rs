@@ -332,10 +332,14 @@ fn label_colours_past_one_binding_are_refused_in_plain_words() {
     let table = [table; 12].concat(); // enough labels to pass the smallest page
     let needed = 4 * (2 + table.len() as u64) + 16 * (table.len() as u64 + 1);
     r.set_page_bytes(needed - 1);
-    let e = r.upload_label_mesh(&mesh, &vertex_labels, &table).err();
+    let spacing = grid.info().spacing;
+    let e = r
+        .upload_label_mesh(&mesh, &vertex_labels, &table, spacing)
+        .err();
     assert!(e.is_some_and(|e| e.to_string().contains("label colours")));
     r.set_page_bytes(needed);
-    r.upload_label_mesh(&mesh, &vertex_labels, &table).unwrap();
+    r.upload_label_mesh(&mesh, &vertex_labels, &table, spacing)
+        .unwrap();
 }
 
 /// The GPU tracer's walk tests every label's metacell at a position (a label grid repeats
