@@ -56,6 +56,7 @@ from __future__ import annotations
 import contextlib
 import operator
 import os
+import sys
 import warnings
 from typing import Any, Callable, Dict, Iterable, Iterator, Optional, Sequence, Tuple, Union
 
@@ -85,7 +86,7 @@ except ImportError as err:
         "sys.path. Run Python from another folder to use the installed package, or build the "
         "extension in place (maturin develop)."
     ) from err
-from ._isogrid import CellGrid, IsogridError  # noqa: E402
+from ._isogrid import CellGrid, IsogridError, LabelGrid  # noqa: E402
 
 __version__: str = _isogrid.__version__
 
@@ -95,8 +96,10 @@ __all__ = [
     "CellGrid",
     "EmptySurfaceWarning",
     "IsogridError",
+    "LabelGrid",
     "Volume",
     "extract",
+    "extract_labels",
     "load",
     "load_volume",
     "marching_cubes",
@@ -248,77 +251,31 @@ def extract(
         progress: called as ``progress(done, total)`` about ten times a second while the surface
             is extracted (blocks scanned and emitted). If it raises, or on Ctrl-C, extraction
             stops within a block row and the exception is raised.
-        labels: instead of an isovalue, the surface of each label of a label volume
-            (``isogrid extract --labels``): ``"all"`` (every label but 0, the background), a label,
-            a list of labels, or a string such as ``"1,5-9"``. Each label's surface is the
-            isosurface at 1/2 of its indicator; ``grid.labels`` lists them with names, colours and
-            cell counts. Integer arrays hold labels; a float array only if every value is an
-            integer.
-        smooth: with ``labels``, the σ in voxels of a Gaussian that smooths each indicator first
-            (0 or None: none).
-        label_table: with ``labels``, a colour table file that names and colours the labels
-            (``isogrid extract --label-table``): a FreeSurfer LUT, a 3D Slicer ``.ctbl`` or an
-            ITK-SNAP label description, told apart by content. Labels it lists that the grid
-            lacks give a :class:`UserWarning`. When ``array`` is a path, the file's own names and
-            colours come first (a 3D Slicer ``.seg.nrrd``, whose overlapping layers become labels
-            of their own; an OME-Zarr label image), and the table's win over them.
-        labels_of: with ``labels`` and the path of an OME-Zarr image, the name of its label image
-            to extract (``image.zarr/labels/NAME``, ``isogrid extract --labels-of``).
+        labels, smooth, label_table, labels_of: instead of an isovalue, the surfaces of a label
+            volume's labels, as ``isogrid extract --labels`` gives them: the call is then
+            :func:`extract_labels` (see there) with these arguments.
 
     The GIL is released while extracting; do not modify ``array`` from another thread meanwhile.
 
     Returns:
-        The :class:`CellGrid`; where it has no active cell, an :class:`EmptySurfaceWarning` says
-        why (the isovalue outside the samples' range, or a volume one sample thick).
+        The :class:`CellGrid` (a :class:`LabelGrid` with ``labels``); where it has no active cell,
+        an :class:`EmptySurfaceWarning` says why (the isovalue outside the samples' range, or a
+        volume one sample thick).
     """
-    if labels is None:
-        iso, iso_normalized = _iso_pair(iso, iso_normalized)
-        if smooth is not None:
-            raise ValueError("smooth smooths label indicators, and needs labels")
-        if label_table is not None or labels_of is not None:
-            raise ValueError("label_table and labels_of name the labels of labels=, and need it")
-    elif iso is not None or iso_normalized is not None or attribute is not None:
-        raise ValueError("labels takes the place of iso and iso_normalized, and has no attribute")
-    if labels is not None and isinstance(array, (str, os.PathLike)):
-        # The file's own names and colours, and its layers, come with it.
-        grid, notices = _isogrid.extract_labels_file(
-            os.fspath(array),
-            _label_selection(labels),
-            smooth=0.0 if smooth is None else float(smooth),
-            precision=None if precision is None else _int(precision, "precision"),
-            threads=None if threads is None else _int(threads, "threads", 1),
-            labels_of=labels_of,
-            label_table=None if label_table is None else os.fspath(label_table),
-            series=series,
-            spacing=None if spacing is None else _triple(spacing, "spacing"),
-            origin=None if origin is None else _triple(origin, "origin"),
-            direction=None if direction is None else [_triple(row, "direction row") for row in direction],
-        )
-        return _with_notices(grid, notices)
-    if labels_of is not None:
-        raise ValueError("labels_of names a label image of an OME-Zarr image, and needs its path")
-    array = _volume_of(array, series)
-    spacing3 = _spacing_of(array, spacing)
-    placed = array if isinstance(array, Volume) else None
-    if origin is None and placed is not None:
-        origin = placed.origin
-    if direction is None and placed is not None:
-        direction = placed.direction
-    prepared, fortran = _prepare(array)
     if labels is not None:
-        grid, notices = _isogrid.extract_labels(
-            prepared,
-            fortran,
-            spacing3,
-            _label_selection(labels),
-            smooth=0.0 if smooth is None else float(smooth),
-            precision=None if precision is None else _int(precision, "precision"),
-            threads=None if threads is None else _int(threads, "threads", 1),
-            origin=None if origin is None else _triple(origin, "origin"),
-            direction=None if direction is None else [_triple(row, "direction row") for row in direction],
-            label_table=None if label_table is None else os.fspath(label_table),
+        if iso is not None or iso_normalized is not None or attribute is not None:
+            raise ValueError("labels takes the place of iso and iso_normalized, and has no attribute")
+        return extract_labels(
+            array, labels, smooth=smooth, spacing=spacing, precision=precision, threads=threads,
+            series=series, origin=origin, direction=direction, label_table=label_table,
+            labels_of=labels_of,
         )
-        return _with_notices(grid, notices)
+    iso, iso_normalized = _iso_pair(iso, iso_normalized)
+    if smooth is not None:
+        raise ValueError("smooth smooths label indicators, and needs labels")
+    if label_table is not None or labels_of is not None:
+        raise ValueError("label_table and labels_of name the labels of labels=, and need it")
+    prepared, fortran, spacing3, origin, direction = _placed(array, series, spacing, origin, direction)
     attribute_arg = None
     if attribute is not None:
         attribute_arg = _attribute_arg(
@@ -341,11 +298,118 @@ def extract(
     return grid
 
 
-def _with_notices(grid: CellGrid, notices: Sequence[str]) -> CellGrid:
-    """The grid, after each notice of its extraction as a :class:`UserWarning`."""
+def extract_labels(
+    array: Union[np.ndarray, Volume, PathLike, Any],
+    labels: Union[str, int, Iterable[int], None] = None,
+    smooth: Optional[float] = None,
+    spacing: Optional[Sequence[float]] = None,
+    precision: Optional[int] = None,
+    threads: Optional[int] = None,
+    series: Optional[str] = None,
+    origin: Optional[Sequence[float]] = None,
+    direction: Optional[Sequence[Sequence[float]]] = None,
+    label_table: Optional[PathLike] = None,
+    labels_of: Optional[str] = None,
+) -> LabelGrid:
+    """Extracts the surface of every selected label of a label volume in one pass
+    (``isogrid extract --labels``).
+
+    Each label's surface is the isosurface at 1/2 of its indicator (1 inside the label, 0
+    elsewhere); where two labels touch, both surfaces pass through the same points.
+
+    Args:
+        array: 3-D integer labels (uint8 to uint64, int8 to int64; a float array only if every
+            value is an integer), a :class:`Volume`, or the path of a label volume file. Axes and
+            layouts as :func:`extract` reads them.
+        labels: which labels: ``None`` or ``"all"`` (every label but 0, the background), a label,
+            a list of labels, or a string such as ``"1,5-9"``.
+        smooth: the σ in voxels of a Gaussian that smooths each indicator first, so surfaces are
+            not chamfered (0 or None: none).
+        spacing, precision, threads, series, origin, direction: as :func:`extract` takes them;
+            ``precision`` is the bits per stored corner (default 1 without smoothing).
+        label_table: a colour table file that names and colours the labels
+            (``isogrid extract --label-table``): a FreeSurfer LUT, a 3D Slicer ``.ctbl`` or an
+            ITK-SNAP label description, told apart by content. Labels it lists that the grid
+            lacks give a :class:`UserWarning`. When ``array`` is a path, the file's own names and
+            colours come first (a 3D Slicer ``.seg.nrrd``, whose overlapping layers become labels
+            of their own; an OME-Zarr label image), and the table's win over them.
+        labels_of: with the path of an OME-Zarr image, the name of its label image to extract
+            (``image.zarr/labels/NAME``, ``isogrid extract --labels-of``).
+
+    The GIL is released while extracting; do not modify ``array`` from another thread meanwhile.
+
+    Returns:
+        The :class:`LabelGrid`: ``grid.labels`` gives each label's value, name, colour, cell count
+        and cell box, ``grid.meshes()`` each label's ``(vertices, faces)``, and :func:`render`
+        draws it in the labels' colours.
+    """
+    selection = _label_selection("all" if labels is None else labels)
+    common = dict(
+        smooth=0.0 if smooth is None else float(smooth),
+        precision=None if precision is None else _int(precision, "precision"),
+        threads=None if threads is None else _int(threads, "threads", 1),
+        label_table=None if label_table is None else os.fspath(label_table),
+    )
+    if isinstance(array, (str, os.PathLike)):
+        # The file's own names and colours, and its layers, come with it.
+        grid, notices = _isogrid.extract_labels_file(
+            os.fspath(array),
+            selection,
+            labels_of=labels_of,
+            series=series,
+            spacing=None if spacing is None else _triple(spacing, "spacing"),
+            origin=None if origin is None else _triple(origin, "origin"),
+            direction=None if direction is None else [_triple(row, "direction row") for row in direction],
+            **common,
+        )
+        return _with_notices(grid, notices)
+    if labels_of is not None:
+        raise ValueError("labels_of names a label image of an OME-Zarr image, and needs its path")
+    prepared, fortran, spacing3, origin, direction = _placed(array, series, spacing, origin, direction)
+    grid, notices = _isogrid.extract_labels(
+        prepared,
+        fortran,
+        spacing3,
+        selection,
+        origin=None if origin is None else _triple(origin, "origin"),
+        direction=None if direction is None else [_triple(row, "direction row") for row in direction],
+        **common,
+    )
+    return _with_notices(grid, notices)
+
+
+def _placed(
+    array: Any,
+    series: Optional[str],
+    spacing: Optional[Sequence[float]],
+    origin: Optional[Sequence[float]],
+    direction: Optional[Sequence[Sequence[float]]],
+) -> Tuple[np.ndarray, bool, Triple, Any, Any]:
+    """The samples of ``array`` (an array, a Volume or a path) as the extension takes them, with
+    its spacing, origin and direction: the arguments where given, else a Volume's own."""
+    array = _volume_of(array, series)
+    spacing3 = _spacing_of(array, spacing)
+    if isinstance(array, Volume):
+        origin = array.origin if origin is None else origin
+        direction = array.direction if direction is None else direction
+    prepared, fortran = _prepare(array)
+    return prepared, fortran, spacing3, origin, direction
+
+
+def _with_notices(grid: CellGrid, notices: Sequence[str]) -> Any:
+    """The grid, after each notice of its extraction as a :class:`UserWarning`, attributed to the
+    caller's line outside this package."""
     for notice in notices:
-        warnings.warn(notice, UserWarning, stacklevel=3)
+        warnings.warn(notice, UserWarning, stacklevel=_caller_level())
     return grid
+
+
+def _caller_level() -> int:
+    """The ``stacklevel`` of the first frame outside this module, seen from its caller."""
+    frame, level = sys._getframe(1), 1
+    while frame is not None and frame.f_globals.get("__name__") == __name__:
+        frame, level = frame.f_back, level + 1
+    return level
 
 
 def _label_selection(labels: Any) -> str:
@@ -617,7 +681,7 @@ def render(
     top-left and each pixel's ray passes through its centre.
 
     Args:
-        grid: a :class:`CellGrid` (from :func:`extract` or :func:`load`).
+        grid: a :class:`CellGrid` or :class:`LabelGrid` (from :func:`extract`, :func:`extract_labels` or :func:`load`).
         camera: ``1`` (front) or ``2`` (oblique) for the standard views of the grid's box, or
             ``(eye, target, up, fovy_degrees)`` with points as (x, y, z) world coordinates.
         size: ``(width, height)`` in pixels.

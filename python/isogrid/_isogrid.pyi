@@ -61,12 +61,18 @@ class CellGrid:
     def cells(self) -> npt.NDArray[np.uint8]:
         """Read-only, shape (active_cells, bytes_per_cell)."""
     def cell_positions(self) -> npt.NDArray[np.uint32]: ...
-    def label_meshes(
-        self, space: str = "world", threads: Optional[int] = None
-    ) -> Optional[List[Tuple[npt.NDArray[np.float32], npt.NDArray[np.uint32]]]]:
-        """For a label volume's grid: each label's (vertices, faces), in the order of ``labels``."""
     def corners(self) -> npt.NDArray[np.float32]: ...
     def save(self, path: _Path) -> None: ...
+
+class LabelGrid(CellGrid):
+    """The grid of a label volume: each cluster belongs to one label."""
+
+    def __new__(cls, data: bytes) -> "LabelGrid":
+        """A label grid from the bytes of a ``.cgc`` file that holds labels, fully validated."""
+    def meshes(
+        self, space: str = "world", threads: Optional[int] = None
+    ) -> Dict[int, Tuple[npt.NDArray[np.float32], npt.NDArray[np.uint32]]]:
+        """Each label's (vertices, faces), by label value, in the order of ``labels``."""
 
 def extract(
     array: np.ndarray,
@@ -92,7 +98,7 @@ def extract_labels(
     origin: Optional[Sequence[float]] = None,
     direction: Optional[Sequence[Sequence[float]]] = None,
     label_table: Optional[_Path] = None,
-) -> Tuple[CellGrid, List[str]]: ...
+) -> Tuple[LabelGrid, List[str]]: ...
 def extract_labels_file(
     path: _Path,
     labels: str,
@@ -105,8 +111,8 @@ def extract_labels_file(
     spacing: Optional[Sequence[float]] = None,
     origin: Optional[Sequence[float]] = None,
     direction: Optional[Sequence[Sequence[float]]] = None,
-) -> Tuple[CellGrid, List[str]]: ...
-def load(path: _Path) -> CellGrid: ...
+) -> Tuple[LabelGrid, List[str]]: ...
+def load(path: _Path) -> Union[CellGrid, LabelGrid]: ...
 def _attach_attribute(
     path: _Path,
     attribute_path: Optional[_Path] = None,

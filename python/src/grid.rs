@@ -32,12 +32,15 @@ use std::path::PathBuf;
 /// `attribute` (float32 per active cell, or `None`) and `attribute_info` (name, bits, range) give
 /// the per-cell attribute of `extract(..., attribute=...)` or of a `.cgc` file.
 ///
+/// `labels` and `cluster_labels` describe a label volume's grid (`None` for an isosurface),
+/// which `extract_labels` and `load` give as a `LabelGrid`.
+///
 /// Methods: `cell_positions()`, `corners()`, `save(path)`, `to_bytes()`.
 ///
 /// `CellGrid(data)` rebuilds a grid from the bytes of a `.cgc` file (validated as `load` does);
 /// pickling goes through those bytes, so a grid crosses process boundaries (multiprocessing,
 /// Dask) and comes back byte-identical.
-#[pyclass(frozen, weakref, module = "isogrid")]
+#[pyclass(frozen, weakref, subclass, module = "isogrid")]
 pub struct CellGrid {
     inner: isogrid::CellGrid,
 }
@@ -46,7 +49,26 @@ impl CellGrid {
     pub(crate) fn inner(&self) -> &isogrid::CellGrid {
         &self.inner
     }
+
+    /// `inner` as the Python class its content calls for: a `LabelGrid` when it holds a label
+    /// volume's labels, else a `CellGrid`.
+    pub(crate) fn wrap(py: Python<'_>, inner: isogrid::CellGrid) -> PyResult<Bound<'_, PyAny>> {
+        if inner.labels().is_some() {
+            let init = PyClassInitializer::from(CellGrid { inner }).add_subclass(LabelGrid);
+            Ok(Bound::new(py, init)?.into_any())
+        } else {
+            Ok(Bound::new(py, CellGrid { inner })?.into_any())
+        }
+    }
 }
+
+/// The grid of a label volume (`isogrid.extract_labels`, or `isogrid.load` of a file with
+/// labels): a `CellGrid` whose clusters each belong to one label, with `labels` (per-label
+/// statistics: value, name, colour, cell count, cell box) and `meshes()`.
+///
+/// `LabelGrid(data)` rebuilds one from the bytes of a `.cgc` file that holds labels.
+#[pyclass(frozen, extends = CellGrid, module = "isogrid")]
+pub struct LabelGrid;
 
 /// Extracts the active cells of a 3-D array (see `isogrid.extract`, which prepares `array`).
 #[pyfunction]
@@ -102,8 +124,8 @@ pub fn extract(
 #[pyfunction]
 #[pyo3(signature = (array, fortran, spacing, labels, smooth=0.0, precision=None, threads=None, origin=None, direction=None, label_table=None))]
 #[allow(clippy::too_many_arguments)]
-pub fn extract_labels(
-    py: Python<'_>,
+pub fn extract_labels<'py>(
+    py: Python<'py>,
     array: &Bound<'_, PyAny>,
     fortran: bool,
     spacing: Vec<f64>,
@@ -114,7 +136,7 @@ pub fn extract_labels(
     origin: Option<Vec<f64>>,
     direction: Option<Vec<Vec<f64>>>,
     label_table: Option<PathBuf>,
-) -> PyResult<(CellGrid, Vec<String>)> {
+) -> PyResult<(Bound<'py, PyAny>, Vec<String>)> {
     let volume = VolumeArg::new(array, fortran, spacing3(spacing)?)?.place(origin, direction)?;
     let view = volume.view()?;
     let options = label_options(labels, smooth, precision)?;
@@ -122,7 +144,7 @@ pub fn extract_labels(
     let grid = run_detached(py, threads, move || {
         isogrid::extract_labels(&view, &options)
     })?;
-    named(grid.map_err(to_py)?, table)
+    named(py, grid.map_err(to_py)?, table)
 }
 
 /// Extracts the labels of a label volume file as `isogrid extract --labels` does: the names and
@@ -132,8 +154,8 @@ pub fn extract_labels(
 #[pyfunction]
 #[pyo3(signature = (path, labels, smooth=0.0, precision=None, threads=None, labels_of=None, label_table=None, series=None, spacing=None, origin=None, direction=None))]
 #[allow(clippy::too_many_arguments)]
-pub fn extract_labels_file(
-    py: Python<'_>,
+pub fn extract_labels_file<'py>(
+    py: Python<'py>,
     path: PathBuf,
     labels: &str,
     smooth: f64,
@@ -145,7 +167,7 @@ pub fn extract_labels_file(
     spacing: Option<Vec<f64>>,
     origin: Option<Vec<f64>>,
     direction: Option<Vec<Vec<f64>>>,
-) -> PyResult<(CellGrid, Vec<String>)> {
+) -> PyResult<(Bound<'py, PyAny>, Vec<String>)> {
     let options = label_options(labels, smooth, precision)?;
     let table = read_table(py, label_table.as_deref())?;
     let place = crate::array::Placement::new(spacing, origin, direction)?;
@@ -162,7 +184,7 @@ pub fn extract_labels_file(
     let grid = run_detached(py, threads, move || {
         isogrid_io::labels::extract_label_volume(&source, &options)
     })?;
-    let (grid, more) = named(grid.map_err(to_py)?, table)?;
+    let (grid, more) = named(py, grid.map_err(to_py)?, table)?;
     notices.extend(more);
     Ok((grid, notices))
 }
@@ -190,9 +212,10 @@ fn read_table(
 
 /// The grid named by the table, and the notice on the table's labels it lacks.
 fn named(
+    py: Python<'_>,
     mut inner: isogrid::CellGrid,
     table: Option<(PathBuf, Vec<isogrid::Label>)>,
-) -> PyResult<(CellGrid, Vec<String>)> {
+) -> PyResult<(Bound<'_, PyAny>, Vec<String>)> {
     let mut notices = Vec::new();
     if let Some((path, table)) = table {
         let absent = isogrid_io::labels::apply_label_names(&mut inner, &table);
@@ -201,7 +224,7 @@ fn named(
             &path, &absent, signed,
         ));
     }
-    Ok((CellGrid { inner }, notices))
+    Ok((CellGrid::wrap(py, inner)?, notices))
 }
 
 /// Gives the `.cgc` file `path` the attribute of the volume file `attribute_path` (read by region
@@ -271,9 +294,7 @@ pub(crate) type AttributeArg<'a, 'py> = (
     u32,
 );
 
-/// `stats` as a dict with the names of the CLI's `--json` output (without `seconds`), with the
-/// grid's `attribute` (`None` without one) as `isogrid extract --color-by --json` gives it.
-/// Labels as `LabelGrid.labels` lists them (`signed`: values shown with their sign).
+/// Labels as `CellGrid.labels` lists them (`signed`: values shown with their sign).
 pub fn label_dicts<'py>(
     py: Python<'py>,
     table: &[isogrid::Label],
@@ -300,6 +321,8 @@ pub fn label_dicts<'py>(
         .collect()
 }
 
+/// `stats` as a dict with the names of the CLI's `--json` output (without `seconds`), with the
+/// grid's `attribute` (`None` without one) as `isogrid extract --color-by --json` gives it.
 pub fn stats_dict<'py>(
     py: Python<'py>,
     s: &GridStats,
@@ -341,11 +364,11 @@ pub fn stats_dict<'py>(
     Ok(d)
 }
 
-/// Memory-maps and validates a `.cgc` file.
+/// Memory-maps and validates a `.cgc` file: a `LabelGrid` when it holds labels.
 #[pyfunction]
-pub fn load(py: Python<'_>, path: PathBuf) -> PyResult<CellGrid> {
+pub fn load(py: Python<'_>, path: PathBuf) -> PyResult<Bound<'_, PyAny>> {
     let inner = py.detach(|| isogrid::cgc::open(&path)).map_err(to_py)?;
-    Ok(CellGrid { inner })
+    CellGrid::wrap(py, inner)
 }
 
 /// Exactly one of `iso` (data units) and `iso_normalized` (fraction of the value range).
@@ -547,48 +570,6 @@ impl CellGrid {
         )
     }
 
-    /// For a label volume's grid: each label's mesh, Marching Cubes over its stored cells (what
-    /// `isogrid mc --labels` writes), in the order of `labels`, as `(vertices, faces)`: vertices
-    /// float32 (V, 3) as (x, y, z), faces uint32 (F, 3) counter-clockwise seen from outside.
-    /// `space="world"` places sample (i, j, k) in the volume's patient space (origin, spacing,
-    /// directions), `"index"` at (i, j, k). `None` for an isosurface.
-    #[pyo3(signature = (space="world", threads=None))]
-    fn label_meshes<'py>(
-        &self,
-        py: Python<'py>,
-        space: &str,
-        threads: Option<usize>,
-    ) -> PyResult<Option<Vec<MeshArrays<'py>>>> {
-        let space = match space {
-            "world" => isogrid::mc::MeshSpace::World,
-            "index" => isogrid::mc::MeshSpace::Index,
-            other => {
-                return Err(invalid(format!(
-                    "space must be 'world' or 'index', not {other:?}"
-                )))
-            }
-        };
-        if self.inner.labels().is_none() {
-            return Ok(None);
-        }
-        let grid = &self.inner;
-        let meshes = run_detached(py, threads, move || -> isogrid::Result<_> {
-            let geometry = isogrid::extract::attribute::grid_geometry(grid.info());
-            let mut meshes = isogrid::mc::label_meshes(grid)?;
-            for mesh in &mut meshes {
-                mesh.place(&geometry, space)?;
-            }
-            Ok(meshes)
-        })?
-        .map_err(to_py)?;
-        Ok(Some(
-            meshes
-                .into_iter()
-                .map(|m| Ok((to_array2(py, m.positions)?, to_array2(py, m.triangles)?)))
-                .collect::<PyResult<Vec<_>>>()?,
-        ))
-    }
-
     /// Whether the buffers are views of a memory-mapped `.cgc` file.
     #[getter]
     fn is_mapped(&self) -> bool {
@@ -691,6 +672,85 @@ impl CellGrid {
     }
 }
 
+#[pymethods]
+impl LabelGrid {
+    /// A label grid from the bytes of a `.cgc` file, fully validated; refuses a file without
+    /// labels.
+    #[new]
+    fn new(py: Python<'_>, data: &[u8]) -> PyResult<PyClassInitializer<Self>> {
+        let inner = py
+            .detach(|| isogrid::cgc::read_bytes(data))
+            .map_err(to_py)?;
+        if inner.labels().is_none() {
+            return Err(invalid(
+                "the .cgc data holds an isosurface, not a label volume's labels: open it as CellGrid",
+            ));
+        }
+        Ok(PyClassInitializer::from(CellGrid { inner }).add_subclass(LabelGrid))
+    }
+
+    /// Each label's mesh, Marching Cubes over its stored cells (what `isogrid mc --labels`
+    /// writes): a dict from label value to `(vertices, faces)`, in the order of `labels`;
+    /// vertices float32 (V, 3) as (x, y, z), faces uint32 (F, 3) counter-clockwise seen from
+    /// outside. `space="world"` places sample (i, j, k) in the volume's patient space (origin,
+    /// spacing, directions), `"index"` at (i, j, k).
+    #[pyo3(signature = (space="world", threads=None))]
+    fn meshes<'py>(
+        slf: &Bound<'py, Self>,
+        space: &str,
+        threads: Option<usize>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let py = slf.py();
+        let space = match space {
+            "world" => isogrid::mc::MeshSpace::World,
+            "index" => isogrid::mc::MeshSpace::Index,
+            other => {
+                return Err(invalid(format!(
+                    "space must be 'world' or 'index', not {other:?}"
+                )))
+            }
+        };
+        let grid = slf.as_super().get().inner();
+        let labels = grid
+            .labels()
+            .ok_or_else(|| invalid("a LabelGrid holds labels"))?;
+        let signed = isogrid::labels::signed_labels(grid.info().scalar_type);
+        let meshes = run_detached(py, threads, move || -> isogrid::Result<_> {
+            let geometry = isogrid::extract::attribute::grid_geometry(grid.info());
+            let mut meshes = isogrid::mc::label_meshes(grid)?;
+            for mesh in &mut meshes {
+                mesh.place(&geometry, space)?;
+            }
+            Ok(meshes)
+        })?
+        .map_err(to_py)?;
+        let out = PyDict::new(py);
+        for (label, mesh) in labels.table().iter().zip(meshes) {
+            let arrays = (
+                to_array2(py, mesh.positions)?,
+                to_array2(py, mesh.triangles)?,
+            );
+            if signed {
+                out.set_item(label.value as i64, arrays)?;
+            } else {
+                out.set_item(label.value, arrays)?;
+            }
+        }
+        Ok(out)
+    }
+
+    fn __repr__(slf: &Bound<'_, Self>) -> String {
+        let grid = slf.as_super().get().inner();
+        let [x, y, z] = grid.info().dims;
+        let labels = grid.labels().map_or(0, |l| l.table().len());
+        format!(
+            "LabelGrid(dims=({x}, {y}, {z}), labels={labels}, active_cells={}, mapped={})",
+            grid.active_cells(),
+            if grid.is_mapped() { "True" } else { "False" }
+        )
+    }
+}
+
 /// Rows of N values as an (rows, N) array, moving the vector into numpy without a copy.
 pub fn to_array2<T: numpy::Element, const N: usize>(
     py: Python<'_>,
@@ -707,6 +767,3 @@ pub fn tuple3<T>(v: [T; 3]) -> (T, T, T) {
     let [a, b, c] = v;
     (a, b, c)
 }
-
-/// A mesh as NumPy arrays: vertices float32 (V, 3), faces uint32 (F, 3).
-type MeshArrays<'py> = (Bound<'py, PyArray2<f32>>, Bound<'py, PyArray2<u32>>);

@@ -28,6 +28,7 @@ fn _isogrid(m: &Bound<'_, PyModule>) -> PyResult<()> {
     // Cells per block edge: isogrid.dask tiles along blocks, and the rule lives in the library.
     m.add("BLOCK_CELLS", isogrid::layout::BLOCK_CELLS)?;
     m.add_class::<grid::CellGrid>()?;
+    m.add_class::<grid::LabelGrid>()?;
     m.add_function(wrap_pyfunction!(grid::extract, m)?)?;
     m.add_function(wrap_pyfunction!(grid::extract_labels, m)?)?;
     m.add_function(wrap_pyfunction!(grid::_check_precision, m)?)?;

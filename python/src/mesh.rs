@@ -2,8 +2,8 @@
 
 use crate::array::{spacing3, VolumeArg};
 use crate::grid::{iso_arg, to_array2, AttributeArg};
-use isogrid::extract::attribute::sample_points_in_memory;
 use crate::pool::{check_callback, run_watched};
+use isogrid::extract::attribute::sample_points_in_memory;
 use isogrid::mc::{Inside, MeshSpace};
 use numpy::IntoPyArray;
 use pyo3::prelude::*;
@@ -50,13 +50,16 @@ pub fn marching_cubes<'py>(
     let watch = isogrid::Progress::new();
     let (mesh, values) = run_watched(py, threads, &watch, progress.as_ref(), || {
         let iso = iso.resolve(&view)?;
-        let mut mesh =
-            isogrid::mc::try_marching_cubes_with_progress(&view, iso, inside, &watch)?;
+        let mut mesh = isogrid::mc::try_marching_cubes_with_progress(&view, iso, inside, &watch)?;
         // The attribute at each vertex, from its index-space position.
         let values = match &attribute_view {
             Some(attribute) => {
                 let points = mesh.index_positions(view.geometry().spacing);
-                Some(sample_points_in_memory(view.geometry(), &points, attribute)?)
+                Some(sample_points_in_memory(
+                    view.geometry(),
+                    &points,
+                    attribute,
+                )?)
             }
             None => None,
         };

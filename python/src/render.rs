@@ -5,11 +5,11 @@
 use crate::errors::{invalid, to_py};
 use crate::grid::CellGrid;
 use crate::pool::run_watched;
-use isogrid::{LabelSelection, Progress};
 use isogrid::colormap::ColorMap;
+use isogrid::{LabelSelection, Progress};
 use isogrid_render::{
-    Backend, CameraSpec, ColorSpec, EnvSource, Mode, Placement, RenderContext, RenderRequest, RequestParts,
-    Traversal,
+    Backend, CameraSpec, ColorSpec, EnvSource, Mode, Placement, RenderContext, RenderRequest,
+    RequestParts, Traversal,
 };
 use numpy::ndarray::{Array2, Array3};
 use numpy::IntoPyArray;

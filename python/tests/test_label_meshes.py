@@ -1,7 +1,7 @@
 """``isogrid mc --labels``: the glTF binary read back with pygltflib and the neuroglancer
 precomputed folder read as its specification lays it out, against Marching Cubes of each label's
 indicator by scikit-image (the same crossed edges: one vertex at the midpoint of each) and the
-labels' names and colours from ``extract(..., labels=...)``."""
+labels' names and colours from ``extract_labels``."""
 
 import json
 import subprocess
@@ -69,7 +69,7 @@ def test_glb_has_each_labels_marching_cubes_surface_named_and_coloured(cli, tmp_
     np.save(path, a)
     report = json.loads(_mc(cli, path, tmp_path / "labels.glb"))
     meshes = _glb_meshes(tmp_path / "labels.glb")
-    table = {l["value"]: l for l in isogrid.extract(a, labels="all").labels}
+    table = {l["value"]: l for l in isogrid.extract_labels(a, labels="all").labels}
     assert sorted(meshes) == sorted(table) == sorted(set(np.unique(a).tolist()) - {0})
     assert report["labels"] == len(meshes)
     assert report["triangles"] == sum(len(m[3]) for m in meshes.values())
@@ -158,21 +158,21 @@ def test_python_label_meshes_are_the_cli_glb_meshes(cli, tmp_path):
     np.save(path, a)
     _mc(cli, path, tmp_path / "labels.glb")
     glb = _glb_meshes(tmp_path / "labels.glb")
-    grid = isogrid.extract(a, labels="all")
-    meshes = grid.label_meshes(space="index")
-    assert len(meshes) == len(grid.labels)
-    for label, (vertices, faces) in zip(grid.labels, meshes):
+    grid = isogrid.extract_labels(a)
+    meshes = grid.meshes(space="index")
+    assert list(meshes) == [label["value"] for label in grid.labels]
+    for value, (vertices, faces) in meshes.items():
         assert vertices.dtype == np.float32 and vertices.shape[1] == 3
         assert faces.dtype == np.uint32 and faces.shape[1] == 3
-        np.testing.assert_array_equal(vertices, glb[label["value"]][2])
-        np.testing.assert_array_equal(faces, glb[label["value"]][3])
+        np.testing.assert_array_equal(vertices, glb[value][2])
+        np.testing.assert_array_equal(faces, glb[value][3])
     # World space: the array's own frame here is index space scaled by the spacing.
-    spaced = isogrid.extract(a, labels="all", spacing=(0.5, 1.0, 2.0))
-    for (world, _), (index, _) in zip(spaced.label_meshes(), meshes):
-        np.testing.assert_allclose(world, index * np.array([0.5, 1.0, 2.0], np.float32), rtol=1e-6)
-    assert isogrid.extract(a.astype(np.float32), iso=1).label_meshes() is None
+    spaced = isogrid.extract_labels(a, spacing=(0.5, 1.0, 2.0))
+    for value, (world, _) in spaced.meshes().items():
+        np.testing.assert_allclose(world, meshes[value][0] * np.array([0.5, 1.0, 2.0], np.float32), rtol=1e-6)
+    assert not hasattr(isogrid.extract(a.astype(np.float32), iso=1), "meshes")
     with pytest.raises(ValueError, match="space"):
-        grid.label_meshes(space="voxel")
+        grid.meshes(space="voxel")
 
 
 def test_a_slicer_segmentation_meshes_with_its_own_names_and_layers(cli, tmp_path):

@@ -1,8 +1,9 @@
-"""Label volumes: ``extract(volume, labels=..., smooth=...)``, ``grid.labels`` and
+"""Label volumes: ``extract_labels(volume, labels=..., smooth=...)``, ``grid.labels`` and
 ``grid.cluster_labels``, against a brute-force numpy reference: a cell belongs to label L's surface
 when its eight corners are neither all L nor all other labels."""
 
 import json
+import pickle
 import subprocess
 
 import numpy as np
@@ -50,7 +51,7 @@ def _cell_labels(grid):
 
 def test_each_label_has_the_cells_of_the_brute_force_reference():
     a = _labels()
-    grid = isogrid.extract(a, labels="all", threads=2)
+    grid = isogrid.extract_labels(a, labels="all", threads=2)
     values = sorted(set(np.unique(a).tolist()) - {0})
     assert [l["value"] for l in grid.labels] == values
     cell_label = _cell_labels(grid)
@@ -70,7 +71,7 @@ def test_each_label_has_the_cells_of_the_brute_force_reference():
 
 def test_binary_corners_are_the_indicator():
     a = _labels()
-    grid = isogrid.extract(a, labels=[4, 9])
+    grid = isogrid.extract_labels(a, labels=[4, 9])
     assert grid.info["precision"] == 1 and grid.info["iso"] == 0.5
     corners = grid.corners()  # codes: the corners' sides, 0 outside, 1 inside
     cell_label = _cell_labels(grid)
@@ -85,17 +86,17 @@ def test_binary_corners_are_the_indicator():
 
 def test_selections_smoothing_and_refusals():
     a = _labels()
-    assert [l["value"] for l in isogrid.extract(a, labels="9,17-100").labels] == [9, 17]
-    assert [l["value"] for l in isogrid.extract(a, labels=60000).labels] == [60000]
-    smooth = isogrid.extract(a, labels="all", smooth=1.0)
+    assert [l["value"] for l in isogrid.extract_labels(a, labels="9,17-100").labels] == [9, 17]
+    assert [l["value"] for l in isogrid.extract_labels(a, labels=60000).labels] == [60000]
+    smooth = isogrid.extract_labels(a, labels="all", smooth=1.0)
     assert smooth.info["precision"] == 8
     # Smoothing rounds the boxes' edges: fewer, or at least other, cells than the binary surface.
-    binary = isogrid.extract(a, labels="all")
+    binary = isogrid.extract_labels(a, labels="all")
     assert smooth.to_bytes() != binary.to_bytes()
     # The lone voxel's smoothed indicator stays below 1/2: it is listed with no cells.
     assert [l["cells"] for l in smooth.labels if l["value"] == 3] == [0]
     # Integral floats are labels too: the same cells (the header keeps the source type).
-    floats = isogrid.extract(a.astype(np.float32), labels="all")
+    floats = isogrid.extract_labels(a.astype(np.float32), labels="all")
     assert floats.info["scalar_type"] == "float32"
     np.testing.assert_array_equal(floats.metacells, binary.metacells)
     np.testing.assert_array_equal(floats.cells, binary.cells)
@@ -103,25 +104,47 @@ def test_selections_smoothing_and_refusals():
     bad = a.astype(np.float32)
     bad[0, 0, 0] = 0.25
     with pytest.raises(ValueError, match="integer label values"):
-        isogrid.extract(bad, labels="all")
+        isogrid.extract_labels(bad, labels="all")
     with pytest.raises(ValueError):
         isogrid.extract(a, labels="all", iso=1)
     with pytest.raises(ValueError):
         isogrid.extract(a, iso=1, smooth=1.0)
     with pytest.raises(ValueError):
-        isogrid.extract(a, labels="1-x")
+        isogrid.extract_labels(a, labels="1-x")
 
 
 def test_labels_survive_files_and_pickling(tmp_path):
     a = _labels()
-    grid = isogrid.extract(a, labels="all")
+    grid = isogrid.extract_labels(a, labels="all")
     path = tmp_path / "labels.cgc"
     grid.save(path)
     loaded = isogrid.load(path)
+    assert type(loaded) is isogrid.LabelGrid and loaded.is_mapped
     assert loaded.labels == grid.labels
     np.testing.assert_array_equal(loaded.cluster_labels, grid.cluster_labels)
     assert loaded.to_bytes() == grid.to_bytes()
-    assert isogrid.extract(a, iso=1).labels is None
+    copied = pickle.loads(pickle.dumps(loaded))
+    assert type(copied) is isogrid.LabelGrid and copied.to_bytes() == grid.to_bytes()
+    surface = isogrid.extract(a, iso=1)
+    assert type(surface) is isogrid.CellGrid and surface.labels is None
+    surface.save(tmp_path / "surface.cgc")
+    assert type(isogrid.load(tmp_path / "surface.cgc")) is isogrid.CellGrid
+    with pytest.raises(ValueError, match="isosurface, not a label volume"):
+        isogrid.LabelGrid(surface.to_bytes())
+
+
+def test_extract_labels_is_the_api_the_cli_mirrors():
+    """``extract_labels(a)`` takes every label by default, gives a LabelGrid (a CellGrid, so
+    everything that takes a grid takes it), and ``extract(a, labels=...)`` is the same call."""
+    a = _labels()
+    grid = isogrid.extract_labels(a)
+    assert isinstance(grid, isogrid.LabelGrid) and isinstance(grid, isogrid.CellGrid)
+    assert grid.to_bytes() == isogrid.extract_labels(a, labels="all").to_bytes()
+    assert grid.to_bytes() == isogrid.extract(a, labels="all").to_bytes()
+    assert repr(grid).startswith(f"LabelGrid(dims=(33, 29, 26), labels={len(grid.labels)},")
+    assert grid.stats["labels"] == grid.labels
+    with pytest.raises(TypeError):
+        isogrid.extract_labels(a, iso=1)
 
 
 def test_cli_and_python_write_the_same_labelled_file(cli, tmp_path):
@@ -136,7 +159,7 @@ def test_cli_and_python_write_the_same_labelled_file(cli, tmp_path):
             capture_output=True,
             text=True,
         ).stdout
-        grid = isogrid.extract(a, labels="all", **kwargs)
+        grid = isogrid.extract_labels(a, labels="all", **kwargs)
         assert out.read_bytes() == grid.to_bytes()
         report = json.loads(report)
         report.pop("seconds")
@@ -177,14 +200,14 @@ def test_a_layered_slicer_segmentation_keeps_overlapping_segments(tmp_path):
     assert [(s["layer"], s["labelValue"]) for s in seg["segments"]] == [(0, 1), (1, 1), (0, 2)]
     path = tmp_path / "seg.seg.nrrd"
     slicerio.write_segmentation(str(path), seg)
-    grid = isogrid.extract(path, labels="all")
+    grid = isogrid.extract_labels(path, labels="all")
     # Layer 0 holds values up to 2, so layer 1's value 1 is label 3.
     assert _summary(grid) == [
         (1, "liver", "#336699ff", len(_reference_cells(_zyx(a).astype(np.uint8), 1))),
         (2, "vein", "#0099ffff", len(_reference_cells(_zyx(c).astype(np.uint8), 1))),
         (3, "tumour", "#ff0033ff", len(_reference_cells(_zyx(b).astype(np.uint8), 1))),
     ]
-    only = isogrid.extract(path, labels=[3])
+    only = isogrid.extract_labels(path, labels=[3])
     assert [l["name"] for l in only.labels] == ["tumour"]
 
 
@@ -209,7 +232,7 @@ def test_pynrrd_with_slicer_keys_and_a_colour_table(tmp_path):
     nrrd.write(str(path), volume, header)
     zyx = _zyx(volume)
     cells = {v: len(_reference_cells(zyx, v)) for v in (4, 9, 12)}
-    grid = isogrid.extract(path, labels="all")
+    grid = isogrid.extract_labels(path, labels="all")
     assert _summary(grid) == [
         (4, "four", "#0000ffff", cells[4]),
         (9, "nine", "#ffff00ff", cells[9]),
@@ -225,7 +248,7 @@ def test_pynrrd_with_slicer_keys_and_a_colour_table(tmp_path):
         '   30     1    2    3        1  1  1    "Thirty"\n'
     )
     with pytest.warns(UserWarning, match=r"1 label of the table is not among the labels extracted \(30\)"):
-        named = isogrid.extract(path, labels="all", label_table=table)
+        named = isogrid.extract_labels(path, labels="all", label_table=table)
     assert [(l["name"], l["color"]) for l in named.labels] == [
         ("four", "#0000ffff"),
         ("Nine", "#ff0000ff"),
@@ -233,7 +256,7 @@ def test_pynrrd_with_slicer_keys_and_a_colour_table(tmp_path):
     ]
     # The same table on the array: the table's names, the palette's for the rest.
     with pytest.warns(UserWarning):
-        from_array = isogrid.extract(zyx, labels="all", label_table=table)
+        from_array = isogrid.extract_labels(zyx, labels="all", label_table=table)
     assert [l["name"] for l in from_array.labels] == ["label 4", "Nine", "Twelve"]
 
 
@@ -258,10 +281,10 @@ def test_ome_zarr_label_image_from_ome_zarr(tmp_path):
         (1, "label 1", "#ff0000ff", len(_reference_cells(zyx, 1))),
         (5, "cytoplasm", "#0000ff80", len(_reference_cells(zyx, 5))),
     ]
-    assert _summary(isogrid.extract(image, labels="all", labels_of="cells")) == expected
-    assert _summary(isogrid.extract(image / "labels" / "cells", labels="all")) == expected
+    assert _summary(isogrid.extract_labels(image, labels="all", labels_of="cells")) == expected
+    assert _summary(isogrid.extract_labels(image / "labels" / "cells", labels="all")) == expected
     with pytest.raises(ValueError, match=r'no label image "nuclei"; the image has "cells"'):
-        isogrid.extract(image, labels="all", labels_of="nuclei")
+        isogrid.extract_labels(image, labels="all", labels_of="nuclei")
 
 
 def test_bad_tables_and_arguments_are_refused(tmp_path):
@@ -269,20 +292,20 @@ def test_bad_tables_and_arguments_are_refused(tmp_path):
     table = tmp_path / "lut.txt"
     table.write_text("0 Unknown 0 0 0 0\n4 Box 70 130 180\n9 Other 1 2 3 4 5\n")
     with pytest.raises(isogrid.IsogridError, match=r"lut.txt: label table line 3: 7 fields"):
-        isogrid.extract(a, labels="all", label_table=table)
+        isogrid.extract_labels(a, labels="all", label_table=table)
     with pytest.raises(ValueError, match="need it"):
         isogrid.extract(a, iso=1, label_table=table)
     with pytest.raises(ValueError, match="needs its path"):
-        isogrid.extract(a, labels="all", labels_of="cells")
+        isogrid.extract_labels(a, labels="all", labels_of="cells")
     with pytest.raises(ValueError, match="integer label values"):
-        isogrid.extract(a.astype(np.float32) + 0.5, labels="all")
+        isogrid.extract_labels(a.astype(np.float32) + 0.5, labels="all")
 
 def test_render_label_aov_show_and_hide():
     """``render(..., aovs=["label"], show=, hide=)``: the label under each pixel (uint64, all
     ones on a miss); hiding a label removes it and shows the labels beyond it where it stood;
     showing one draws it alone; a label the grid lacks raises ValueError."""
     a = _labels()
-    grid = isogrid.extract(a, labels="all", threads=2)
+    grid = isogrid.extract_labels(a, labels="all", threads=2)
     values = {l["value"] for l in grid.labels}
     miss = np.iinfo(np.uint64).max
     _, aov = isogrid.render(grid, camera=2, size=(64, 48), backend="cpu", aovs=["label"])
@@ -312,7 +335,7 @@ def test_render_mc_draws_the_labels_meshes():
     no volume needed; the label AOV agrees with the cell raster's where both hit, and a hidden
     label is not drawn."""
     a = _labels()
-    grid = isogrid.extract(a, labels="all", threads=2)
+    grid = isogrid.extract_labels(a, labels="all", threads=2)
     kw = dict(camera=2, size=(64, 48), backend="gpu", aovs=["label"])
     try:
         _, cells = isogrid.render(grid, **kw)
