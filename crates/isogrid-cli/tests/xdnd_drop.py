@@ -8,7 +8,7 @@ after the first frame is painted, so the app is ready then), owns XdndSelection,
 XdndEnter and XdndPosition, answers the target's selection request with the files' file://
 URIs, sends XdndDrop and waits for XdndFinished. Exits 0 when the target accepted the drop,
 1 with a one-line reason otherwise, 3 when python-xlib is missing (the caller skips then).
-Used by crates/isogrid-cli/tests/view.rs under Xvfb; xdotool cannot act as an XDND source.
+Used by crates/isogrid-cli/tests/it/view.rs under Xvfb; xdotool cannot act as an XDND source.
 """
 
 import os

@@ -1,28 +1,13 @@
 //! `isogrid render` and `isogrid bench rays` end to end: PNG and AOV files with the right shapes
 //! (headers parsed here), JSON names, and one-line errors.
 
-#[path = "common/npy.rs"]
-mod npy;
-use npy::write_npy;
+use crate::common::{fails, isogrid, s, write_npy};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-fn isogrid(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_isogrid"))
-        .args(args)
-        .output()
-        .expect("runs the binary")
-}
-
 fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("isogrid-render-{}-{name}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
+    crate::common::temp_dir(&format!("render-{name}"))
 }
 
 /// (descr, shape, data offset) of a .npy file, parsed from its header.
@@ -194,23 +179,6 @@ fn render_writes_png_and_aovs_of_the_right_shapes() {
     );
     assert_eq!(std::fs::read(&d).unwrap(), std::fs::read(&d2).unwrap());
     std::fs::remove_dir_all(&dir).unwrap();
-}
-
-fn fails(args: &[&str], mention: &str) {
-    let out = isogrid(args);
-    let stderr = String::from_utf8_lossy(&out.stderr).to_string();
-    assert!(!out.status.success(), "{args:?} should fail");
-    assert!(!stderr.contains("panicked"), "{stderr}");
-    assert_eq!(stderr.trim_end().lines().count(), 1, "{args:?}: {stderr}");
-    assert!(
-        stderr.contains(mention),
-        "{args:?}: {stderr} should mention {mention}"
-    );
-    let parts: Vec<&str> = stderr.trim_end().split(": ").collect();
-    assert!(
-        parts.windows(2).all(|w| w[0] != w[1]),
-        "{args:?}: a cause is printed twice in {stderr}"
-    );
 }
 
 /// Rejected by the argument parser: clap adds its usage hint after the one-line reason.

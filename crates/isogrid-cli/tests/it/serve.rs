@@ -6,17 +6,7 @@ use std::net::TcpStream;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 
-fn isogrid(args: &[&str]) {
-    let out = Command::new(env!("CARGO_BIN_EXE_isogrid"))
-        .args(args)
-        .output()
-        .expect("runs the binary");
-    assert!(
-        out.status.success(),
-        "{args:?}: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-}
+use crate::common::isogrid_ok as isogrid;
 
 /// A small sphere .cgc in a fresh directory.
 fn sphere(dir: &Path) -> PathBuf {

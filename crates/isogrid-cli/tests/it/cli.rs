@@ -1,25 +1,12 @@
 //! The `isogrid` binary end to end: JSON names, files it writes, and how it fails on bad input.
 
-#[path = "common/npy.rs"]
-mod npy;
-use npy::write_npy;
-#[path = "cli/color.rs"]
 mod color;
-#[path = "cli/hostile.rs"]
 mod hostile;
-#[path = "cli/labels.rs"]
 mod labels;
 
+use crate::common::{fails, isogrid, s, temp_dir, write_npy};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-fn isogrid(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_isogrid"))
-        .args(args)
-        .output()
-        .expect("runs the binary")
-}
 
 fn ok_json(args: &[&str]) -> Value {
     let out = isogrid(args);
@@ -34,42 +21,6 @@ fn ok_json(args: &[&str]) -> Value {
             String::from_utf8_lossy(&out.stdout)
         )
     })
-}
-
-/// Runs a command that must fail: non-zero exit, one line on stderr naming `mention`, no panic.
-fn fails(args: &[&str], mention: &str) -> String {
-    let out = isogrid(args);
-    let stderr = String::from_utf8_lossy(&out.stderr).to_string();
-    assert!(!out.status.success(), "{args:?} should fail");
-    assert!(
-        !stderr.contains("panicked") && !stderr.contains("RUST_BACKTRACE"),
-        "{args:?} panicked: {stderr}"
-    );
-    assert_eq!(
-        stderr.trim_end().lines().count(),
-        1,
-        "{args:?}: want one line, got: {stderr}"
-    );
-    assert!(
-        stderr.contains(mention),
-        "{args:?}: {stderr} should mention {mention}"
-    );
-    let parts: Vec<&str> = stderr.trim_end().split(": ").collect();
-    assert!(
-        parts.windows(2).all(|w| w[0] != w[1]),
-        "{args:?}: a cause is printed twice in {stderr}"
-    );
-    stderr
-}
-
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("isogrid-cli-{}-{name}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
 }
 
 /// `isogrid generate FIELD --size SIZE` into `dir`; the volume's path.
