@@ -527,8 +527,18 @@ function showLabels(): void {
   });
   if (more) rows.push(Object.assign(document.createElement('li'), { textContent: `… ${more.toLocaleString()} more: search to narrow the list` }));
   $('label-list').replaceChildren(...rows);
+  $('labels-toggle').textContent = `Labels (${l.table.length.toLocaleString()})`;
   $('labels').hidden = false;
 }
+
+/** Opens or collapses the label panel to its toggle. At phone width it starts collapsed: open, it
+ * would cover most of the picture. */
+function setLabelsOpen(open: boolean): void {
+  $('labels').classList.toggle('collapsed', !open);
+  $('labels-toggle').setAttribute('aria-expanded', String(open));
+}
+setLabelsOpen(!window.matchMedia('(max-width: 600px)').matches);
+$('labels-toggle').onclick = () => setLabelsOpen($('labels').classList.contains('collapsed'));
 $('label-search').oninput = showLabels;
 $('labels-show').onclick = () => {
   hiddenLabels.clear();

@@ -487,6 +487,22 @@ for (const B of BROWSERS) {
           assert.ok(compare(again, px).colour >= 0.999, 'show all does not give the picture back');
           await page.close();
         }
+        {
+          // At phone width the list starts collapsed to its toggle, which opens and closes it.
+          const page = await browser.newPage();
+          page.on('console', (m) => m.type() === 'error' && errors.push(m.text()));
+          await page.setViewport({ width: 390, height: 844 });
+          await page.goto(`${server.url}/index.html?src=/labels.cgc`);
+          await page.evaluate(() => window.isogrid.ready);
+          const listShown = () => page.$eval('#label-list', (el) => getComputedStyle(el).display !== 'none');
+          assert.equal(await listShown(), false, 'the label list covers the picture at phone width');
+          assert.equal(await page.$eval('#labels-toggle', (el) => el.textContent), `Labels (${f.labels.table.length})`);
+          await page.click('#labels-toggle');
+          assert.equal(await listShown(), true, 'the toggle does not open the label list');
+          await page.click('#labels-toggle');
+          assert.equal(await listShown(), false, 'the toggle does not close the label list');
+          await page.close();
+        }
       });
       await t.test('damaged, truncated and version-mismatch files show their message', async () => {
         const expect = {
