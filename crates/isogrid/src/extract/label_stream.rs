@@ -163,9 +163,12 @@ fn stream_typed<T: SlabScalar + LabelSample>(
     }
     let threads = rayon::current_num_threads();
     let output_buffer = run.plan.output_buffer;
-    // Blocks per run: adapted to keep one run's output near the output buffer (the output of a
-    // run does not change the file, only how it is cut).
-    let mut chunk = (threads * 8).max(64);
+    // Blocks per run (the output of a run does not change the file, only how it is cut): one per
+    // thread at first, then sized from the last run's output per block to fill half the output
+    // buffer, leaving the other half for a run denser than the last. A fixed first run of many
+    // blocks went over a small buffer several times before it could shrink.
+    let most_blocks = nbx * nby * run.plan.slab_layers;
+    let mut chunk = threads.min(most_blocks);
     let mut buffer: Vec<T> = Vec::new();
     for (layers, planes) in run.slabs_reaching(writer.pass.halo()) {
         run.read(planes.clone(), &mut buffer, None)?;
@@ -180,16 +183,22 @@ fn stream_typed<T: SlabScalar + LabelSample>(
                 .pass
                 .blocks(&buffer, dims, planes.start, blocks.clone(), run.progress);
             run.progress.check()?;
+            // What the run's output holds, not what it fills: the blocks' buffers grow by
+            // doubling, and the budget pays for their capacity.
             let bytes: u64 = out
                 .iter()
-                .map(|b| (b.metacells.len() * size_of::<Metacell>() + b.cells.len()) as u64)
+                .map(|b| {
+                    (b.metacells.capacity() * size_of::<Metacell>() + b.cells.capacity()) as u64
+                })
                 .sum();
             writer.add_blocks(blocks.start, out)?;
-            if bytes > output_buffer {
-                chunk = (chunk / 2).max(threads);
-            } else if bytes < output_buffer / 4 {
-                chunk = (chunk * 2).min(nbx * nby * run.plan.slab_layers);
+            chunk = match bytes {
+                0 => chunk.saturating_mul(2),
+                _ => (output_buffer as u128 / 2 * blocks.len() as u128 / bytes as u128)
+                    .try_into()
+                    .unwrap_or(usize::MAX),
             }
+            .clamp(threads.min(most_blocks), most_blocks);
             at = blocks.end;
         }
     }
@@ -451,26 +460,33 @@ impl LabelWriter {
         self.add_output(first, blocks, output, slot_total as u64, cell_total as u64)
     }
 
-    /// Adds the blocks from `first_block` on, as the label pass made them.
+    /// Adds the blocks from `first_block` on, as the label pass made them. Their metacells, then
+    /// their corner records, go to the scratch file block by block: gathered into one buffer
+    /// first, the run's output would be held twice.
     fn add_blocks(&mut self, first_block: usize, mut blocks: Vec<BlockLabels>) -> Result<()> {
-        let mut output = Vec::new();
-        let mut slots = 0u64;
-        for b in &blocks {
-            output.extend_from_slice(bytemuck::cast_slice(&b.metacells));
-            slots += b.metacells.len() as u64;
-        }
-        let slot_bytes = output.len();
+        self.check_new_blocks(first_block, blocks.len())?;
+        let slots: usize = blocks.iter().map(|b| b.metacells.len()).sum();
+        let cell_bytes: usize = blocks.iter().map(|b| b.cells.len()).sum();
+        let pieces = blocks
+            .iter()
+            .map(|b| bytemuck::cast_slice::<Metacell, u8>(&b.metacells))
+            .chain(blocks.iter().map(|b| b.cells.as_slice()));
+        let spool_at = self.spool_pieces(pieces)?;
         for b in &mut blocks {
-            output.extend_from_slice(&b.cells);
             b.metacells = Vec::new();
             b.cells = Vec::new();
         }
-        let cell_bytes = (output.len() - slot_bytes) as u64;
-        self.add_output(first_block, blocks, &output, slots, cell_bytes)
+        self.add_spooled(
+            first_block,
+            blocks,
+            spool_at,
+            slots as u64,
+            cell_bytes as u64,
+        )
     }
 
-    /// Spools a run's output, then tallies it (and the runs it unblocks) if the blocks in front
-    /// of it are tallied. `blocks` hold the labels and parts, without output.
+    /// Spools a run's output (`output`, its metacells then its corner records), then tallies it.
+    /// `blocks` hold the labels and parts, without output.
     fn add_output(
         &mut self,
         first_block: usize,
@@ -479,9 +495,15 @@ impl LabelWriter {
         slot_count: u64,
         cell_bytes: u64,
     ) -> Result<()> {
-        let end = first_block + blocks.len();
-        let tallied = self.tally.block_count();
-        let overlaps = first_block < tallied
+        self.check_new_blocks(first_block, blocks.len())?;
+        let spool_at = self.spool_pieces([output])?;
+        self.add_spooled(first_block, blocks, spool_at, slot_count, cell_bytes)
+    }
+
+    /// Refuses blocks `first_block..+count` where some were already given.
+    fn check_new_blocks(&self, first_block: usize, count: usize) -> Result<()> {
+        let end = first_block + count;
+        let overlaps = first_block < self.tally.block_count()
             || self
                 .waiting
                 .range(..end)
@@ -492,10 +514,32 @@ impl LabelWriter {
                 "blocks {first_block}..{end} were already given"
             )));
         }
+        Ok(())
+    }
+
+    /// Appends `pieces` to the scratch file, one after another; where they start.
+    fn spool_pieces<'a>(&mut self, pieces: impl IntoIterator<Item = &'a [u8]>) -> Result<u64> {
         if self.spool.is_none() {
             self.spool = Some(Spool::create(&self.spool_dir)?);
         }
-        let spool_at = self.spool.as_mut().unwrap().append(output)?;
+        let spool = self.spool.as_mut().expect("created above");
+        let mut pieces = pieces.into_iter();
+        let at = spool.append(pieces.next().unwrap_or_default())?;
+        for piece in pieces {
+            spool.append(piece)?;
+        }
+        Ok(at)
+    }
+
+    /// Tallies a spooled run (and the runs it unblocks) if the blocks in front of it are tallied.
+    fn add_spooled(
+        &mut self,
+        first_block: usize,
+        blocks: Vec<BlockLabels>,
+        spool_at: u64,
+        slot_count: u64,
+        cell_bytes: u64,
+    ) -> Result<()> {
         let run = BlockRun {
             first_block,
             block_count: blocks.len(),

@@ -514,7 +514,11 @@ impl<'a> Run<'a> {
         let [nx, ny, _] = self.geometry.dims;
         let plane = nx * ny;
         self.held = None;
-        buffer.resize(plane * z.len(), T::default());
+        // Exactly the slab: a slab longer than the last (the first slab's halo is clipped by the
+        // volume's edge) would otherwise double the buffer's capacity past the plan.
+        let len = plane * z.len();
+        buffer.reserve_exact(len.saturating_sub(buffer.len()));
+        buffer.resize(len, T::default());
         let granularity = self.source.plane_granularity().max(1);
         let piece = (READ_PIECE_BYTES as usize / (plane * size_of::<T>()).max(1))
             .max(1)

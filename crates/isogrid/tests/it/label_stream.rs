@@ -387,3 +387,129 @@ fn a_cancelled_streamed_label_extraction_stops_at_once_and_leaves_no_file() {
     assert_eq!(std::fs::read(&out).unwrap(), b"old");
     assert_eq!(dir.entries(), vec!["out.cgc".to_string()]);
 }
+
+/// Labels of Voronoi cells around one jittered seed per `cell`³ samples (the nearest of the 27
+/// seeds around a sample's own): supervoxels as dense as the issue's (about 14 labels a block
+/// at `cell` 11), made in linear time.
+fn jittered_voronoi(dims: [usize; 3], cell: usize, seed: u64) -> Vec<u32> {
+    let mut rng = Rng::new(seed);
+    let g = dims.map(|d| d.div_ceil(cell) + 2);
+    let seeds: Vec<[f64; 3]> = (0..g[0] * g[1] * g[2])
+        .map(|i| {
+            let at = [i % g[0], i / g[0] % g[1], i / (g[0] * g[1])];
+            [0, 1, 2].map(|a| (at[a] as f64 - 1.0 + rng.unit()) * cell as f64)
+        })
+        .collect();
+    let mut out = Vec::with_capacity(dims.iter().product());
+    for z in 0..dims[2] {
+        for y in 0..dims[1] {
+            for x in 0..dims[0] {
+                let p = [x, y, z];
+                let home = p.map(|c| c / cell + 1);
+                let mut best = (f64::INFINITY, 0);
+                for d in 0..27 {
+                    let q = [
+                        home[0] + d % 3 - 1,
+                        home[1] + d / 3 % 3 - 1,
+                        home[2] + d / 9 - 1,
+                    ];
+                    let i = q[0] + g[0] * (q[1] + g[1] * q[2]);
+                    let s = seeds[i];
+                    let dist = (0..3).map(|a| (s[a] - p[a] as f64).powi(2)).sum::<f64>();
+                    if dist < best.0 {
+                        best = (dist, i);
+                    }
+                }
+                out.push(1 + best.1 as u32);
+            }
+        }
+    }
+    out
+}
+
+/// The label pass within a budget holds no more heap than its plan gives it, the budget less the
+/// process's baseline: slab, halo, runs of output and the labels' records, at budgets from the
+/// least to one near the volume's size, with and without smoothing, on 1 and 3 threads. Measured
+/// by the counting allocator in a process of its own ([`crate::heap::run_alone`]). The runs'
+/// output once went over (gathered into a second buffer, counted by length where the capacity is
+/// held, and a first run of 64 blocks whatever the buffer), and so did a slab after a shorter one
+/// (the buffer's capacity doubled).
+#[test]
+fn streamed_labels_hold_no_more_heap_than_their_plan() {
+    crate::heap::run_alone("label_stream::streamed_labels_heap_within_the_plan", &[]);
+}
+
+#[test]
+#[ignore = "run alone by streamed_labels_hold_no_more_heap_than_their_plan"]
+fn streamed_labels_heap_within_the_plan() {
+    use isogrid::extract::stream::PROCESS_BASELINE;
+    let dims = [256, 224, 176];
+    let volume = Volume::new(dims, VolumeData::U32(jittered_voronoi(dims, 11, 7))).unwrap();
+    let volume_bytes = (dims.iter().product::<usize>() * 4) as u64;
+    let dir = TempDir::new("labels-heap");
+    let out = dir.0.join("out.cgc");
+    for (threads, smooth) in [(1, 0.0), (3, 0.0), (1, 1.0), (3, 1.0)] {
+        // The plan counts each thread's scratch: it is made on the pool that runs the pass.
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| {
+        let o = options(LabelSelection::All, smooth);
+        // The least budget that plans `layers` slab layers: the plan's slab then fills it, with
+        // no rounding to spare.
+        let budget_for = |layers: usize| {
+            let (mut lo, mut hi) = (1u64, 1u64 << 40);
+            while lo < hi {
+                let mid = lo + (hi - lo) / 2;
+                match plan_labels(&volume.view(), &o, mid) {
+                    Ok(p) if p.slab_layers >= layers => hi = mid,
+                    _ => lo = mid + 1,
+                }
+            }
+            lo
+        };
+        for budget in [1, 3, 6].map(budget_for) {
+            let plan = plan_labels(&volume.view(), &o, budget).unwrap();
+            let start = crate::heap::reset_peak();
+            extract_labels_planned(
+                &mut volume.view(),
+                &o,
+                &plan,
+                &out,
+                &Progress::new(),
+                &mut |_| {},
+            )
+            .unwrap();
+            let grown = (crate::heap::peak() - start) as u64;
+            // Beyond the plan, as docs/design/labels.md counts what it cannot know ahead: 24 B
+            // for each (block, label) pair past 16 a block, 4 B per cluster and 36 B per label,
+            // twice over, as the vectors and the map that hold them grow by doubling.
+            let grid = cgc::open(&out).unwrap();
+            let labels = grid.labels().unwrap();
+            let pairs: u64 = labels.index().iter().map(|e| e.run_count).sum();
+            let unplanned = 2
+                * (24 * pairs.saturating_sub(16 * grid.blocks().len() as u64)
+                    + 4 * labels.cluster_labels().len() as u64
+                    + 36 * labels.table().len() as u64);
+            drop(grid);
+            let allowed = budget - PROCESS_BASELINE + unplanned;
+            eprintln!(
+                "{threads} threads, σ {smooth}: budget {:.1} MiB, {} slab layers, output buffer {:.1} MiB: heap grew \
+                 {:.1} MiB of {:.1} MiB allowed ({:.1} MiB beyond the plan)",
+                budget as f64 / 1048576.0,
+                plan.slab_layers,
+                plan.output_buffer as f64 / 1048576.0,
+                grown as f64 / 1048576.0,
+                allowed as f64 / 1048576.0,
+                unplanned as f64 / 1048576.0
+            );
+            assert!(
+                grown <= allowed,
+                "{threads} threads, σ {smooth}, budget {budget}: the heap grew by {grown} B, over \
+                 the {allowed} B the plan allows"
+            );
+        }
+        });
+    }
+}

@@ -6,6 +6,7 @@ mod cgc;
 #[allow(dead_code)]
 mod common;
 mod extract;
+mod heap;
 mod label_stream;
 mod labels;
 mod labels_many;
