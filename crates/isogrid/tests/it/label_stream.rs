@@ -445,7 +445,6 @@ fn streamed_labels_heap_within_the_plan() {
     use isogrid::extract::stream::PROCESS_BASELINE;
     let dims = [256, 224, 176];
     let volume = Volume::new(dims, VolumeData::U32(jittered_voronoi(dims, 11, 7))).unwrap();
-    let volume_bytes = (dims.iter().product::<usize>() * 4) as u64;
     let dir = TempDir::new("labels-heap");
     let out = dir.0.join("out.cgc");
     for (threads, smooth) in [(1, 0.0), (3, 0.0), (1, 1.0), (3, 1.0)] {
