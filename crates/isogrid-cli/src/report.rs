@@ -203,7 +203,13 @@ impl GridReport {
         self
     }
 
-    pub fn print_human(&self) -> Result<(), crate::stdout::StdoutError> {
+    /// The human table; of the labels, the first `label_rows` (all with `None`), then a line
+    /// saying how many more there are and `more`, where to find them.
+    pub fn print_human(
+        &self,
+        label_rows: Option<usize>,
+        more: &str,
+    ) -> Result<(), crate::stdout::StdoutError> {
         let [x, y, z] = self.dims;
         outln!(
             "grid          {x} x {y} x {z} samples, iso {}, {}-bit corners",
@@ -249,18 +255,39 @@ impl GridReport {
                 "labels        {} (value, cells, cell box [lo, hi), colour, name)",
                 group(labels.len() as u64)
             );
-            for l in labels {
-                let value = match l.value {
-                    LabelValue::Signed(v) => v.to_string(),
-                    LabelValue::Unsigned(v) => v.to_string(),
-                };
+            let shown = &labels[..label_rows.unwrap_or(labels.len()).min(labels.len())];
+            let value = |l: &LabelReport| match l.value {
+                LabelValue::Signed(v) => v.to_string(),
+                LabelValue::Unsigned(v) => v.to_string(),
+            };
+            // Columns as wide as their widest entry (a 64-bit connectomics ID has 20 digits).
+            let value_width = shown
+                .iter()
+                .map(|l| value(l).len())
+                .max()
+                .unwrap_or(0)
+                .max(8);
+            let cells_width = shown
+                .iter()
+                .map(|l| group(l.cells).len())
+                .max()
+                .unwrap_or(0)
+                .max(12);
+            for l in shown {
                 outln!(
-                    "  {value:>8} {:>12}  {:?}..{:?}  {}  {}",
+                    "  {:>value_width$} {:>cells_width$}  {:?}..{:?}  {}  {}",
+                    value(l),
                     group(l.cells),
                     l.lo,
                     l.hi,
                     l.color,
                     l.name
+                );
+            }
+            if shown.len() < labels.len() {
+                outln!(
+                    "  ... and {} more{more}",
+                    group((labels.len() - shown.len()) as u64)
                 );
             }
         }

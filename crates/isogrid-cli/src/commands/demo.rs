@@ -163,7 +163,7 @@ pub fn run(args: Args) -> Result<()> {
     );
     outln!("isovalue: normalised 0.5 (= {})\n", grid.info().iso);
     outln!("== clustered grid cells (paper §3.1)");
-    cgc.print_human()?;
+    cgc.print_human(None, "")?;
     outln!("\n== Marching Cubes mesh (indexed, snorm16 positions, u32 indices)");
     mc.print_human()?;
     outln!("\n== comparison (paper Table 3: CGC uses about 37 % of the MC mesh's memory)");

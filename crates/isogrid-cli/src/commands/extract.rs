@@ -127,12 +127,20 @@ pub fn run(args: Args) -> Result<()> {
     print_report(&args, &report)
 }
 
+/// Labels `extract` lists in its table: a segmentation of thousands of labels would otherwise
+/// fill the terminal on every run (`--json` and `isogrid info` list them all).
+const EXTRACT_LABEL_ROWS: usize = 200;
+
 /// The report on stdout: JSON, or a table and where the grid went.
 fn print_report(args: &Args, report: &GridReport) -> Result<()> {
     if args.json {
         print_json(report)
     } else {
-        report.print_human()?;
+        let more = match &args.output {
+            Some(out) => format!(": `isogrid info {}` lists them all", out.display()),
+            None => String::new(),
+        };
+        report.print_human(Some(EXTRACT_LABEL_ROWS), &more)?;
         if let Some(out) = &args.output {
             outln!("wrote         {}", out.display());
         }

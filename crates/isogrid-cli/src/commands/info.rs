@@ -39,7 +39,7 @@ pub fn run(args: Args) -> Result<()> {
     if args.json {
         print_json(&report)
     } else {
-        report.print_human()?;
+        report.print_human(None, "")?;
         let info = grid.info();
         if grid.labels().is_some() {
             outln!(

@@ -623,3 +623,45 @@ fn one_layer_segmentations_stream_with_their_names() {
     let names: Vec<String> = listed(&streamed).into_iter().map(|l| l.1).collect();
     assert_eq!(names, ["liver", "portal vein", "lesion 3"]);
 }
+
+/// `extract` lists at most 200 labels in its table, then how many more there are and where to see
+/// them all; `info` lists every one.
+#[test]
+fn extract_lists_the_first_labels_and_info_all_of_them() {
+    let dir = temp_dir("labels-rows");
+    let dims = [64, 64, 64];
+    let bytes: Vec<u8> = supervoxels(dims)
+        .iter()
+        .flat_map(|v| v.to_le_bytes())
+        .collect();
+    let npy = dir.join("sv.npy");
+    super::write_npy(&npy, "<u4", [64, 64, 64], &bytes);
+    let out = dir.join("sv.cgc");
+    let label_rows = |text: &str| {
+        text.lines()
+            .filter(|l| l.starts_with("  ") && l.contains("  #"))
+            .count()
+    };
+    let extracted = isogrid(&["extract", s(&npy), "--labels", "all", "-o", s(&out)]);
+    assert!(extracted.status.success());
+    let labels = ok_json(&["info", s(&out), "--json"])["labels"]
+        .as_array()
+        .unwrap()
+        .len();
+    assert!(labels > 200, "{labels} labels: too few for the test");
+    let text = String::from_utf8_lossy(&extracted.stdout);
+    assert_eq!(label_rows(&text), 200, "{text}");
+    assert!(
+        text.contains(&format!(
+            "  ... and {} more: `isogrid info {}` lists them all\n",
+            labels - 200,
+            out.display()
+        )),
+        "{text}"
+    );
+    let info = isogrid(&["info", s(&out)]);
+    let text = String::from_utf8_lossy(&info.stdout);
+    assert_eq!(label_rows(&text), labels, "{text}");
+    assert!(!text.contains("more:"), "{text}");
+    std::fs::remove_dir_all(dir).unwrap();
+}
