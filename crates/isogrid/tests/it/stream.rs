@@ -537,3 +537,64 @@ fn a_block_mask_touches_the_samples_its_blocks_read() {
     assert!(!mask.touches(16..20, 33..40));
     assert!(!mask.touches(20..20, 20..30));
 }
+
+/// The scalar stream within a budget holds no more heap than its plan gives it, the budget less
+/// the process's baseline, at the least budgets for 1, 4 and 12 slab layers (the slab leaves
+/// nothing to spare), on 1 and 3 threads: a gyroid, whose surface fills every block. Measured by
+/// the counting allocator in a process of its own ([`crate::heap::run_alone`]).
+#[test]
+fn streamed_extraction_holds_no_more_heap_than_its_plan() {
+    crate::heap::run_alone("stream::streamed_extraction_heap_within_the_plan", &[]);
+}
+
+#[test]
+#[ignore = "run alone by streamed_extraction_holds_no_more_heap_than_its_plan"]
+fn streamed_extraction_heap_within_the_plan() {
+    use isogrid::generate::{generate, Field};
+    let volume = generate(Field::Gyroid, 224, 1);
+    let dir = TempDir::new("heap");
+    let out = dir.0.join("out.cgc");
+    let options = ExtractOptions::new(Iso::Normalized(0.5));
+    for threads in [1, 3] {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| {
+            let budget_for = |layers: usize| {
+                let (mut lo, mut hi) = (1u64, 1u64 << 40);
+                while lo < hi {
+                    let mid = lo + (hi - lo) / 2;
+                    match stream::plan(&volume.view(), mid) {
+                        Ok(p) if p.slab_layers >= layers => hi = mid,
+                        _ => lo = mid + 1,
+                    }
+                }
+                lo
+            };
+            for budget in [1, 4, 12].map(budget_for) {
+                let plan = stream::plan(&volume.view(), budget).unwrap();
+                let start = crate::heap::reset_peak();
+                extract_planned(&mut volume.view(), &options, &plan, &out, &Progress::new())
+                    .unwrap();
+                let grown = (crate::heap::peak() - start) as u64;
+                let allowed = budget - stream::PROCESS_BASELINE;
+                eprintln!(
+                    "{threads} threads: budget {:.1} MiB, {} slab layers, output buffer {:.1} MiB: \
+                     heap grew {:.1} MiB of {:.1} MiB allowed ({} B to spare)",
+                    budget as f64 / 1048576.0,
+                    plan.slab_layers,
+                    plan.output_buffer as f64 / 1048576.0,
+                    grown as f64 / 1048576.0,
+                    allowed as f64 / 1048576.0,
+                    allowed as i64 - grown as i64
+                );
+                assert!(
+                    grown <= allowed,
+                    "{threads} threads, budget {budget}: the heap grew by {grown} B, over the \
+                     {allowed} B the plan allows"
+                );
+            }
+        });
+    }
+}
