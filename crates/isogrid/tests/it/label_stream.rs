@@ -6,7 +6,7 @@
 
 use crate::common::Rng;
 use crate::labels::{label_volume, DIMS};
-use crate::stream::{plan, Cancelling, TempDir};
+use crate::stream::{least_budget_for, plan, Cancelling, TempDir};
 use isogrid::extract::label_stream::{
     extract_labels_planned, extract_labels_to_file, fragment_planes, label_fragment, plan_labels,
     LabelWriter,
@@ -455,19 +455,7 @@ fn streamed_labels_heap_within_the_plan() {
             .unwrap();
         pool.install(|| {
         let o = options(LabelSelection::All, smooth);
-        // The least budget that plans `layers` slab layers: the plan's slab then fills it, with
-        // no rounding to spare.
-        let budget_for = |layers: usize| {
-            let (mut lo, mut hi) = (1u64, 1u64 << 40);
-            while lo < hi {
-                let mid = lo + (hi - lo) / 2;
-                match plan_labels(&volume.view(), &o, mid) {
-                    Ok(p) if p.slab_layers >= layers => hi = mid,
-                    _ => lo = mid + 1,
-                }
-            }
-            lo
-        };
+        let budget_for = |layers| least_budget_for(layers, |b| plan_labels(&volume.view(), &o, b));
         for budget in [1, 3, 6].map(budget_for) {
             let plan = plan_labels(&volume.view(), &o, budget).unwrap();
             let start = crate::heap::reset_peak();

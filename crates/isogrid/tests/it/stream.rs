@@ -561,17 +561,7 @@ fn streamed_extraction_heap_within_the_plan() {
             .build()
             .unwrap();
         pool.install(|| {
-            let budget_for = |layers: usize| {
-                let (mut lo, mut hi) = (1u64, 1u64 << 40);
-                while lo < hi {
-                    let mid = lo + (hi - lo) / 2;
-                    match stream::plan(&volume.view(), mid) {
-                        Ok(p) if p.slab_layers >= layers => hi = mid,
-                        _ => lo = mid + 1,
-                    }
-                }
-                lo
-            };
+            let budget_for = |layers| least_budget_for(layers, |b| stream::plan(&volume.view(), b));
             for budget in [1, 4, 12].map(budget_for) {
                 let plan = stream::plan(&volume.view(), budget).unwrap();
                 let start = crate::heap::reset_peak();
@@ -597,4 +587,21 @@ fn streamed_extraction_heap_within_the_plan() {
             }
         });
     }
+}
+
+/// The least budget whose plan (`plan(budget)`) has at least `layers` slab layers: the slab then
+/// fills the budget, with no rounding to spare.
+pub(crate) fn least_budget_for(
+    layers: usize,
+    plan: impl Fn(u64) -> isogrid::Result<MemoryPlan>,
+) -> u64 {
+    let (mut lo, mut hi) = (1u64, 1u64 << 40);
+    while lo < hi {
+        let mid = lo + (hi - lo) / 2;
+        match plan(mid) {
+            Ok(p) if p.slab_layers >= layers => hi = mid,
+            _ => lo = mid + 1,
+        }
+    }
+    lo
 }
