@@ -165,8 +165,8 @@ fn stream_typed<T: SlabScalar + LabelSample>(
     let output_buffer = run.plan.output_buffer;
     // Blocks per run (the output of a run does not change the file, only how it is cut): one per
     // thread at first, then sized from the last run's output per block to fill half the output
-    // buffer, leaving the other half for a run denser than the last. A fixed first run of many
-    // blocks went over a small buffer several times before it could shrink.
+    // buffer, leaving the other half for a run denser than the last; a small first run keeps a
+    // small buffer from being exceeded before the first measure.
     let most_blocks = nbx * nby * run.plan.slab_layers;
     let mut chunk = threads.min(most_blocks);
     let mut buffer: Vec<T> = Vec::new();

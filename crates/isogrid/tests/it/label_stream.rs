@@ -430,10 +430,9 @@ fn jittered_voronoi(dims: [usize; 3], cell: usize, seed: u64) -> Vec<u32> {
 /// The label pass within a budget holds no more heap than its plan gives it, the budget less the
 /// process's baseline: slab, halo, runs of output and the labels' records, at budgets from the
 /// least to one near the volume's size, with and without smoothing, on 1 and 3 threads. Measured
-/// by the counting allocator in a process of its own ([`crate::heap::run_alone`]). The runs'
-/// output once went over (gathered into a second buffer, counted by length where the capacity is
-/// held, and a first run of 64 blocks whatever the buffer), and so did a slab after a shorter one
-/// (the buffer's capacity doubled).
+/// by the counting allocator in a process of its own ([`crate::heap::run_alone`]). What it holds
+/// the pass to includes the runs' output (one copy, at the capacity its buffers hold) and a slab
+/// longer than the one before it (the first slab's halo is clipped by the volume's edge).
 #[test]
 fn streamed_labels_hold_no_more_heap_than_their_plan() {
     crate::heap::run_alone("label_stream::streamed_labels_heap_within_the_plan", &[]);
