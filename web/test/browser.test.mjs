@@ -9,7 +9,7 @@
 // is missing.
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
-import { existsSync, readFileSync, mkdtempSync } from 'node:fs';
+import { existsSync, readFileSync, mkdtempSync, rmSync } from 'node:fs';
 import { execFileSync, spawn } from 'node:child_process';
 import { createInterface } from 'node:readline';
 import { join, dirname } from 'node:path';
@@ -70,7 +70,9 @@ function nativeRender(file, view, extra = [], aov = null) {
     env: { ...process.env, NODEVICE_SELECT: '1' },
   });
   const png = PNG.sync.read(readFileSync(out)).data;
-  return aov ? { png, aov: readNpy(join(dir, 'aov.npy')) } : png;
+  const result = aov ? { png, aov: readNpy(join(dir, 'aov.npy')) } : png;
+  rmSync(dir, { recursive: true });
+  return result;
 }
 
 /** A little-endian f4 or u4 .npy as a Float32Array or Uint32Array. */

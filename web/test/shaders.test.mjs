@@ -5,7 +5,7 @@
 // reads a .wgsl file by itself.
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
-import { readFileSync, readdirSync, mkdtempSync } from 'node:fs';
+import { readFileSync, readdirSync, mkdtempSync, rmSync } from 'node:fs';
 import { tmpdir } from 'node:os';
 import { join, dirname } from 'node:path';
 import { fileURLToPath } from 'node:url';
@@ -42,6 +42,7 @@ test('the bundle holds exactly the manifest compositions, and no web source read
   }
   // The browser never needs the wgpu-only `@early_depth_test` the native cell raster may add.
   assert.ok(!Object.values(sources).some((s) => s.includes('@early_depth_test')));
+  rmSync(out, { recursive: true });
 });
 
 test('the committed bundle (web/dist, embedded by isogrid serve) is the build of the current sources', async () => {
@@ -53,6 +54,7 @@ test('the committed bundle (web/dist, embedded by isogrid serve) is the build of
       `web/dist/${f} is stale: run npm run build in web/ and commit it`,
     );
   }
+  rmSync(fresh, { recursive: true });
 });
 
 test('the frame uniforms the viewer writes match the WGSL struct and its Rust twin (size, clip plane place)', async () => {

@@ -50,12 +50,37 @@ pub fn fails(args: &[&str], mention: &str) -> String {
     stderr
 }
 
-/// A fresh folder under the system's temporary folder for the test `name` (unique across the
-/// binary's modules), of this process.
-pub fn temp_dir(name: &str) -> PathBuf {
+/// A test's folder under the system's temporary folder, removed when dropped, unless the test is
+/// failing: its files are then left to look at.
+pub struct TempDir(PathBuf);
+
+impl std::ops::Deref for TempDir {
+    type Target = Path;
+    fn deref(&self) -> &Path {
+        &self.0
+    }
+}
+
+impl AsRef<Path> for TempDir {
+    fn as_ref(&self) -> &Path {
+        &self.0
+    }
+}
+
+impl Drop for TempDir {
+    fn drop(&mut self) {
+        if !std::thread::panicking() {
+            let _ = std::fs::remove_dir_all(&self.0);
+        }
+    }
+}
+
+/// A fresh folder for the test `name` (unique across the binary's modules), of this process.
+pub fn temp_dir(name: &str) -> TempDir {
     let dir = std::env::temp_dir().join(format!("isogrid-cli-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
-    dir
+    TempDir(dir)
 }
 
 /// A path as the `&str` the binary's arguments take.

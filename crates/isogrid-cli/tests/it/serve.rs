@@ -6,7 +6,7 @@ use std::net::TcpStream;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 
-use crate::common::isogrid_ok as isogrid;
+use crate::common::{isogrid_ok as isogrid, temp_dir, TempDir};
 
 /// A small sphere .cgc in a fresh directory.
 fn sphere(dir: &Path) -> PathBuf {
@@ -42,16 +42,27 @@ struct Server {
 }
 
 impl Drop for Server {
+    /// Stops the server as a user would, with SIGTERM, so that it removes its scratch folder (the
+    /// `.cgc` of a volume it extracted); SIGKILL only if it has not ended within 10 s.
     fn drop(&mut self) {
+        let _ = Command::new("kill")
+            .args(["-TERM", &self.child.id().to_string()])
+            .status();
+        let deadline = std::time::Instant::now() + std::time::Duration::from_secs(10);
+        while std::time::Instant::now() < deadline {
+            if let Ok(Some(_)) = self.child.try_wait() {
+                return;
+            }
+            std::thread::sleep(std::time::Duration::from_millis(20));
+        }
         let _ = self.child.kill();
         let _ = self.child.wait();
     }
 }
 
 /// A sphere .cgc in a fresh directory named after `test`, its bytes, and a server for it.
-fn sphere_server(test: &str) -> (PathBuf, Vec<u8>, Server) {
-    let dir = std::env::temp_dir().join(format!("isogrid-serve-{test}-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+fn sphere_server(test: &str) -> (TempDir, Vec<u8>, Server) {
+    let dir = temp_dir(&format!("serve-{test}"));
     let file = sphere(&dir);
     let bytes = std::fs::read(&file).unwrap();
     let server = serve(&file);
@@ -271,8 +282,7 @@ fn compresses_whole_responses_and_never_ranges() {
 
 #[test]
 fn extracts_a_volume_input_first() {
-    let dir = std::env::temp_dir().join(format!("isogrid-serve-volume-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = temp_dir("serve-volume");
     let cgc = sphere(&dir);
     let volume = dir.join("sphere.nrrd");
     let server = serve_args(&[volume.to_str().unwrap(), "--iso-normalized", "0.5"]);
@@ -312,8 +322,7 @@ fn extracts_a_volume_input_first() {
 /// A label volume with `--labels all`: the page gets the file `extract --labels all` writes.
 #[test]
 fn serves_a_label_volume_as_extract_labels_writes_it() {
-    let dir = std::env::temp_dir().join(format!("isogrid-serve-labels-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = temp_dir("serve-labels");
     let volume = dir.join("cubes.nrrd");
     isogrid_io::write_nrrd(&volume, &isogrid::generate::labelled_cubes(12)).unwrap();
     let cgc = dir.join("cubes.cgc");
@@ -336,8 +345,7 @@ fn serves_a_label_volume_as_extract_labels_writes_it() {
 
 #[test]
 fn refuses_a_damaged_file_with_one_line() {
-    let dir = std::env::temp_dir().join(format!("isogrid-serve-bad-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = temp_dir("serve-bad");
     let file = dir.join("bad.cgc");
     std::fs::write(&file, b"not a cgc file at all").unwrap();
     let out = Command::new(env!("CARGO_BIN_EXE_isogrid"))

@@ -348,9 +348,8 @@ fn attributes_round_trip_through_files_and_every_damaged_bit_is_rejected() {
         let read = cgc::read_bytes(&bytes).unwrap();
         assert_eq!(read.attribute(), with.attribute());
         assert_eq!(read.attribute().unwrap().info().name, "z-x");
-        let dir = std::env::temp_dir().join(format!("isogrid-attr-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        let path = dir.join(format!("a{}.cgc", precision.bits()));
+        let dir = crate::stream::TempDir::new(&format!("attr-{}", precision.bits()));
+        let path = dir.0.join(format!("a{}.cgc", precision.bits()));
         cgc::write(&path, &with).unwrap();
         assert_eq!(cgc::read(&path).unwrap().attribute(), with.attribute());
         assert_eq!(cgc::open(&path).unwrap().attribute(), with.attribute());
@@ -392,9 +391,8 @@ fn streamed_and_in_memory_grids_get_the_same_attribute_bytes() {
     )
     .unwrap();
     let expected = cgc::to_bytes(&in_memory.with_attribute(values).unwrap());
-    let dir = std::env::temp_dir().join(format!("isogrid-attr-stream-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let path = dir.join("streamed.cgc");
+    let dir = crate::stream::TempDir::new("attr-stream");
+    let path = dir.0.join("streamed.cgc");
     let mut view = volume.view();
     // One block layer per slab and a small output buffer (many groups), then everything at once.
     for (layers, output_buffer) in [(1, 4096u64), (8, 64 << 20)] {

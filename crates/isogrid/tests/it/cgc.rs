@@ -25,10 +25,10 @@ fn same(a: &CellGrid, b: &CellGrid) {
     assert_eq!(a.cells(), b.cells());
 }
 
+/// A path in the system's temporary folder for the file `name` of this process (no folder of
+/// its own, so that nothing is left behind once the tests remove their files).
 fn temp_path(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("isogrid-it-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir.join(name)
+    std::env::temp_dir().join(format!("isogrid-it-{}-{name}", std::process::id()))
 }
 
 #[test]
@@ -146,6 +146,8 @@ fn round_trip_through_files_and_memory_maps() {
             + grid.blocks().len() as u64;
         assert_eq!(progress.counts(), (counted, counted));
         assert_eq!(std::fs::read(&path).unwrap(), cgc::to_bytes(&grid));
+        drop(mapped);
+        std::fs::remove_file(&path).unwrap();
     }
 }
 
@@ -168,6 +170,7 @@ fn every_truncation_is_rejected() {
         );
         assert!(err.to_string().contains("truncated"), "{err}");
     }
+    std::fs::remove_file(&path).unwrap();
 }
 
 #[test]
@@ -471,21 +474,13 @@ fn anonymous_resident_bytes() -> u64 {
 #[cfg(target_os = "linux")]
 #[test]
 fn opening_a_cgc_file_maps_its_payload_instead_of_copying_it() {
-    const CHILD: &str = "ISOGRID_TEST_RSS_CHILD";
-    let name = "cgc::opening_a_cgc_file_maps_its_payload_instead_of_copying_it";
-    if std::env::var_os(CHILD).is_none() {
-        let output = std::process::Command::new(std::env::current_exe().unwrap())
-            .args(["--exact", name, "--test-threads=1", "--nocapture"])
-            .env(CHILD, "1")
-            .output()
-            .unwrap();
-        let text = String::from_utf8_lossy(&output.stdout).to_string()
-            + &String::from_utf8_lossy(&output.stderr);
-        eprintln!("{text}");
-        assert!(output.status.success(), "child failed");
-        assert!(text.contains("1 passed"), "the child ran no test");
-        return;
-    }
+    crate::heap::run_alone("cgc::opening_maps_alone", &[]);
+}
+
+#[cfg(target_os = "linux")]
+#[test]
+#[ignore = "run alone by opening_a_cgc_file_maps_its_payload_instead_of_copying_it"]
+fn opening_maps_alone() {
     let path = temp_path("mapped.cgc");
     let payload = {
         let volume = isogrid::generate::generate(isogrid::generate::Field::Hairball, 256, 1);

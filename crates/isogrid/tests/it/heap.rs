@@ -1,5 +1,6 @@
-//! The test binary's allocator: the system's, counting the bytes live on the heap and their peak,
-//! so that a test run in a process of its own (`run_alone`) can hold a pass to its memory plan.
+//! Memory as tests measure it: the test binary's allocator (the system's, counting the bytes live
+//! on the heap and their peak), and `run_alone`, which runs a test in a process of its own so that
+//! no other test's allocations blur the figures.
 
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::sync::atomic::{AtomicUsize, Ordering};

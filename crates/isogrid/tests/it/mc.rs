@@ -748,10 +748,10 @@ fn view_from_borrowed_samples_matches_owned_volume() {
     assert_watertight(&mesh, &edges);
 }
 
+/// A path in the system's temporary folder for the file `name` of this process (no folder of
+/// its own, so that nothing is left behind once the test removes its files).
 fn temp_path(name: &str) -> std::path::PathBuf {
-    let dir = std::env::temp_dir().join(format!("isogrid-mc-test-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir.join(name)
+    std::env::temp_dir().join(format!("isogrid-mc-test-{}-{name}", std::process::id()))
 }
 
 /// A hand parser for the binary PLY layout we promise.
@@ -853,7 +853,8 @@ fn ply_and_obj_round_trip() {
     let missing = temp_path("no-such-dir").join("x.ply");
     let err = mesh.write_ply(&missing).unwrap_err();
     assert!(err.to_string().contains("x.ply"), "{err}");
-    std::fs::remove_dir_all(ply.parent().unwrap()).unwrap();
+    std::fs::remove_file(&ply).unwrap();
+    std::fs::remove_file(&obj).unwrap();
 }
 
 #[test]
