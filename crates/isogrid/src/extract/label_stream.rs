@@ -244,7 +244,7 @@ pub fn label_fragment(
         check_label_samples(s)?;
         let out = pass.blocks(s, volume_dims, planes.start, blocks.clone(), progress);
         progress.check()?;
-        Ok(encode_fragment(slab.scalar_type(), volume_dims, &pass, blocks.start, &out))
+        Ok(encode_fragment(slab.scalar_type(), volume_dims, &pass, blocks.start, out))
     })
 }
 
@@ -264,14 +264,25 @@ const FRAGMENT_TAG: &[u8; 4] = b"IGLF";
 /// Bytes of one part in a fragment: key, clusters, cells, occupied, lo, hi, range.
 const PART_BYTES: usize = 8 + 4 * 3 + 12 * 2 + 16;
 
+/// The fragment's bytes, sized before they are written; each block's output is freed once it
+/// is copied, so that the task holds its output about once, not three times over (the blocks'
+/// buffers, a growing copy, and the copy it grows out of).
 fn encode_fragment(
     scalar_type: ScalarType,
     dims: [usize; 3],
     pass: &LabelPass,
     first_block: usize,
-    blocks: &[BlockLabels],
+    mut blocks: Vec<BlockLabels>,
 ) -> Vec<u8> {
-    let mut out = Vec::new();
+    let labels_bytes: usize = blocks
+        .iter()
+        .map(|b| 8 + 8 * b.present.len() + PART_BYTES * b.parts.len())
+        .sum();
+    let output_bytes: usize = blocks
+        .iter()
+        .map(|b| b.metacells.len() * size_of::<Metacell>() + b.cells.len())
+        .sum();
+    let mut out = Vec::with_capacity(FRAGMENT_TAG.len() + 4 * 8 + labels_bytes + output_bytes);
     put_tag(&mut out, FRAGMENT_TAG);
     put_u32(&mut out, scalar_code(scalar_type));
     dims.iter().for_each(|&d| put_u32(&mut out, d as u32));
@@ -279,7 +290,7 @@ fn encode_fragment(
     put_u32(&mut out, pass.halo() as u32);
     put_u32(&mut out, first_block as u32);
     put_u32(&mut out, blocks.len() as u32);
-    for b in blocks {
+    for b in &blocks {
         let present: Vec<u64> = b
             .present
             .iter()
@@ -303,11 +314,11 @@ fn encode_fragment(
                 .for_each(|v| out.extend_from_slice(&v.to_le_bytes()));
         }
     }
-    for b in blocks {
-        out.extend_from_slice(bytemuck::cast_slice(&b.metacells));
+    for b in &mut blocks {
+        out.extend_from_slice(bytemuck::cast_slice(&std::mem::take(&mut b.metacells)));
     }
-    for b in blocks {
-        out.extend_from_slice(&b.cells);
+    for b in &mut blocks {
+        out.extend_from_slice(&std::mem::take(&mut b.cells));
     }
     out
 }
