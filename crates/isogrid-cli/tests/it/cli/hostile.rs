@@ -530,11 +530,13 @@ fn extraction_stops_on_ctrl_c(args: &[&str], out: &Path, delays_ms: &[u64]) {
         .any(|m| m.contains("extraction stopped by Ctrl-C, nothing written")));
 }
 
-/// Runs `isogrid args` and sends it SIGINT after each of `delays_ms`, checking that `out` (which
-/// holds "old" before each run) and its folder come out whole: either the command finished (a
-/// complete new `out`, as `complete` says), or it stopped with exit 130 in one line, within 2 s,
-/// with `out` kept and nothing else left, or the signal came before the work (its default
-/// action). Returns the stop messages; fails when no run stopped that way.
+/// Runs `isogrid args` and sends it SIGINT after each of `delays_ms`, and at a fifth, two, three
+/// and four fifths of the time one uninterrupted run takes on the machine as it is now (a
+/// loaded machine stretches the work past fixed delays), checking that `out` (which holds "old"
+/// before each run) and its folder come out whole: either the command finished (a complete new
+/// `out`, as `complete` says), or it stopped with exit 130 in one line, within 2 s, with `out`
+/// kept and nothing else left, or the signal came before the work (its default action). Returns
+/// the stop messages; fails when no run stopped that way.
 #[cfg(unix)]
 fn interrupt_at(
     args: &[&str],
@@ -544,14 +546,26 @@ fn interrupt_at(
 ) -> Vec<String> {
     use std::os::unix::process::ExitStatusExt;
     let dir = out.parent().unwrap();
+    let started = Instant::now();
+    let whole = isogrid(args);
+    let took_ms = started.elapsed().as_millis() as u64;
+    assert!(
+        whole.status.success() && complete(out),
+        "{args:?}: {}",
+        String::from_utf8_lossy(&whole.stderr)
+    );
     let before = {
         std::fs::write(out, b"old").unwrap();
         let mut names = names_in(dir);
         names.sort();
         names
     };
+    let delays = delays_ms
+        .iter()
+        .copied()
+        .chain([1, 2, 3, 4].map(|fifths| took_ms * fifths / 5));
     let mut stopped = Vec::new();
-    for &delay_ms in delays_ms {
+    for delay_ms in delays {
         let child = Command::new(env!("CARGO_BIN_EXE_isogrid"))
             .args(args)
             .stdout(Stdio::null())
