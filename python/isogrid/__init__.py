@@ -268,7 +268,7 @@ def extract(
         return extract_labels(
             array, labels, smooth=smooth, spacing=spacing, precision=precision, threads=threads,
             series=series, origin=origin, direction=direction, label_table=label_table,
-            labels_of=labels_of,
+            labels_of=labels_of, progress=progress,
         )
     iso, iso_normalized = _iso_pair(iso, iso_normalized)
     if smooth is not None:
@@ -310,6 +310,7 @@ def extract_labels(
     direction: Optional[Sequence[Sequence[float]]] = None,
     label_table: Optional[PathLike] = None,
     labels_of: Optional[str] = None,
+    progress: Optional[Callable[[int, int], Any]] = None,
 ) -> LabelGrid:
     """Extracts the surface of every selected label of a label volume in one pass
     (``isogrid extract --labels``).
@@ -335,6 +336,9 @@ def extract_labels(
             of their own; an OME-Zarr label image), and the table's win over them.
         labels_of: with the path of an OME-Zarr image, the name of its label image to extract
             (``image.zarr/labels/NAME``, ``isogrid extract --labels-of``).
+        progress: called as ``progress(done, total)`` about ten times a second while the labels
+            are extracted (blocks made). If it raises, or on Ctrl-C, extraction stops between
+            blocks and the exception is raised.
 
     The GIL is released while extracting; do not modify ``array`` from another thread meanwhile.
 
@@ -349,6 +353,7 @@ def extract_labels(
         precision=None if precision is None else _int(precision, "precision"),
         threads=None if threads is None else _int(threads, "threads", 1),
         label_table=None if label_table is None else os.fspath(label_table),
+        progress=progress,
     )
     if isinstance(array, (str, os.PathLike)):
         # The file's own names and colours, and its layers, come with it.

@@ -98,6 +98,7 @@ def extract_labels(
     origin: Optional[Sequence[float]] = None,
     direction: Optional[Sequence[Sequence[float]]] = None,
     label_table: Optional[_Path] = None,
+    progress: Optional[Callable[[int, int], Any]] = None,
 ) -> Tuple[LabelGrid, List[str]]: ...
 def extract_labels_file(
     path: _Path,
@@ -111,6 +112,7 @@ def extract_labels_file(
     spacing: Optional[Sequence[float]] = None,
     origin: Optional[Sequence[float]] = None,
     direction: Optional[Sequence[Sequence[float]]] = None,
+    progress: Optional[Callable[[int, int], Any]] = None,
 ) -> Tuple[LabelGrid, List[str]]: ...
 def load(path: _Path) -> Union[CellGrid, LabelGrid]: ...
 def _attach_attribute(

@@ -122,7 +122,7 @@ pub fn extract(
 /// the colour table file `label_table` when given. Returns the grid and notices for the user (the
 /// table's labels the grid lacks).
 #[pyfunction]
-#[pyo3(signature = (array, fortran, spacing, labels, smooth=0.0, precision=None, threads=None, origin=None, direction=None, label_table=None))]
+#[pyo3(signature = (array, fortran, spacing, labels, smooth=0.0, precision=None, threads=None, origin=None, direction=None, label_table=None, progress=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn extract_labels<'py>(
     py: Python<'py>,
@@ -136,15 +136,19 @@ pub fn extract_labels<'py>(
     origin: Option<Vec<f64>>,
     direction: Option<Vec<Vec<f64>>>,
     label_table: Option<PathBuf>,
+    progress: Option<Bound<'py, PyAny>>,
 ) -> PyResult<(Bound<'py, PyAny>, Vec<String>)> {
     let volume = VolumeArg::new(array, fortran, spacing3(spacing)?)?.place(origin, direction)?;
     let view = volume.view()?;
     let options = label_options(labels, smooth, precision)?;
+    check_callback(progress.as_ref())?;
     let table = read_table(py, label_table.as_deref())?;
-    let grid = run_detached(py, threads, move || {
-        isogrid::extract_labels(&view, &options)
+    // Ctrl-C and the callback are watched while the labels are extracted; either stops it.
+    let watch = Progress::new();
+    let grid = run_watched(py, threads, &watch, progress.as_ref(), || {
+        isogrid::extract_labels_with_progress(&view, &options, &watch)
     })?;
-    named(py, grid.map_err(to_py)?, table)
+    named(py, grid, table)
 }
 
 /// Extracts the labels of a label volume file as `isogrid extract --labels` does: the names and
@@ -152,7 +156,7 @@ pub fn extract_labels<'py>(
 /// the image at `path` with `labels_of` naming one of its label images), then `label_table`'s.
 /// `spacing`, `origin` and `direction` replace the file's. Returns the grid and notices.
 #[pyfunction]
-#[pyo3(signature = (path, labels, smooth=0.0, precision=None, threads=None, labels_of=None, label_table=None, series=None, spacing=None, origin=None, direction=None))]
+#[pyo3(signature = (path, labels, smooth=0.0, precision=None, threads=None, labels_of=None, label_table=None, series=None, spacing=None, origin=None, direction=None, progress=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn extract_labels_file<'py>(
     py: Python<'py>,
@@ -167,8 +171,10 @@ pub fn extract_labels_file<'py>(
     spacing: Option<Vec<f64>>,
     origin: Option<Vec<f64>>,
     direction: Option<Vec<Vec<f64>>>,
+    progress: Option<Bound<'py, PyAny>>,
 ) -> PyResult<(Bound<'py, PyAny>, Vec<String>)> {
     let options = label_options(labels, smooth, precision)?;
+    check_callback(progress.as_ref())?;
     let table = read_table(py, label_table.as_deref())?;
     let place = crate::array::Placement::new(spacing, origin, direction)?;
     let read_options = isogrid_io::ReadOptions {
@@ -181,10 +187,11 @@ pub fn extract_labels_file<'py>(
     for layer in &mut source.layers {
         place.apply(&mut layer.volume).map_err(to_py)?;
     }
-    let grid = run_detached(py, threads, move || {
-        isogrid_io::labels::extract_label_volume(&source, &options)
+    let watch = Progress::new();
+    let grid = run_watched(py, threads, &watch, progress.as_ref(), || {
+        isogrid_io::labels::extract_label_volume_with_progress(&source, &options, &watch)
     })?;
-    let (grid, more) = named(py, grid.map_err(to_py)?, table)?;
+    let (grid, more) = named(py, grid, table)?;
     notices.extend(more);
     Ok((grid, notices))
 }

@@ -350,3 +350,29 @@ def test_render_mc_draws_the_labels_meshes():
     front = max(set(np.unique(mesh).tolist()) - {miss}, key=lambda v: int((mesh == v).sum()))
     _, hidden = isogrid.render(grid, mode="mc", hide=[front], **kw)
     assert front not in set(np.unique(hidden["label"]).tolist())
+
+
+class _Stop(Exception):
+    pass
+
+
+def test_label_extraction_reports_progress_and_stops_when_it_raises(tmp_path):
+    """``progress=`` hears increasing block counts up to the total, for an array and a path; an
+    exception from it (as Ctrl-C, which the same watcher raises) stops the extraction."""
+    a = _labels((70, 64, 66))
+    path = tmp_path / "labels.npy"
+    np.save(path, a)
+    for source in (a, path):
+        calls = []
+        grid = isogrid.extract_labels(source, threads=1, progress=lambda done, total: calls.append((done, total)))
+        assert grid.labels and calls
+        done = [d for d, _ in calls]
+        assert done == sorted(done) and calls[-1][0] == calls[-1][1] > 0
+
+        def stop(done, total):
+            raise _Stop(f"stopped at {done} of {total}")
+
+        with pytest.raises(_Stop, match="stopped at"):
+            isogrid.extract_labels(source, threads=1, progress=stop)
+    with pytest.raises(ValueError, match="callable"):
+        isogrid.extract_labels(a, progress=3)
