@@ -64,7 +64,7 @@ export async function build(dist = join(here, 'dist')) {
   copyFileSync(join(here, 'src', 'index.html'), join(dist, 'index.html'));
   // The node tests' view of the pure modules (no DOM, no WebGPU).
   await esbuild.build({
-    entryPoints: ['cgc', 'camera', 'loader', 'crc32', 'colors'].map((m) => join(here, 'src', `${m}.ts`)),
+    entryPoints: ['cgc', 'camera', 'loader', 'crc32', 'colors', 'packed'].map((m) => join(here, 'src', `${m}.ts`)),
     bundle: true,
     format: 'esm',
     platform: 'node',

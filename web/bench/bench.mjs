@@ -1,7 +1,9 @@
 // docs/benchmarks-web.md's measurements: for each .cgc given, served by `isogrid serve` on
 // 127.0.0.1, the time to the first frame and to the complete picture in headless Chromium with the
-// download throttled by the DevTools protocol (50 Mbit/s, 1 Gbit/s), the bytes transferred and the
-// bytes before the first frame (and each frame drawn while loading: start, duration, bytes in);
+// download throttled by the DevTools protocol (50 Mbit/s, 1 Gbit/s), read by ranges and, where the
+// file has one, as its packed form (.cgcz, the URL `isogrid serve` prints), the bytes transferred
+// and the bytes before the first frame (and each frame drawn while loading: start, duration, bytes
+// in); FORMS (default 'ranges,packed') picks the forms;
 // then the frame time in Chromium and Firefox at the given size (medians of FRAMES: wall time with
 // the read-back, JS time to encode, GPU timestamps of the frame and of each pass, cells listed),
 // for the view drawn again (visibility buffer converged) and for first frames of a view (every
@@ -83,12 +85,16 @@ const launch = {
 
 // The machine is shared: the load average goes with the figures.
 console.log(JSON.stringify({ loadAverage: loadavg() }));
+const forms = (process.env.FORMS || 'ranges,packed').split(',');
 for (const file of files) {
-  const { child, url } = await serve(file);
+  const { child, url: printed } = await serve(file);
   const total = statSync(file).size;
+  // The printed URL opens the packed form where there is one; ?src=NAME.cgc reads by ranges.
+  const urls = { ranges: printed.replace(/\.cgcz$/, '.cgc'), packed: /\.cgcz$/.test(printed) ? printed : null };
+  const url = urls.ranges;
   try {
     const chromium = process.env.THROTTLED === '0' ? null : await puppeteer.launch({ headless: true, protocolTimeout: 600_000, ...launch.chromium });
-    for (const mbit of chromium ? [50, 1000] : []) {
+    for (const [form, mbit] of chromium ? forms.filter((f) => urls[f]).flatMap((f) => [50, 1000].map((m) => [f, m])) : []) {
       const page = await chromium.newPage();
       let transferred = 0;
       const cdp = await page.createCDPSession();
@@ -96,20 +102,20 @@ for (const file of files) {
       await cdp.send('Network.setCacheDisabled', { cacheDisabled: true });
       // Bytes of the .cgc's responses only (not the page and its bundle), headers included.
       const cgc = new Set();
-      cdp.on('Network.requestWillBeSent', (e) => /\.cgc$/.test(new URL(e.request.url).pathname) && cgc.add(e.requestId));
+      cdp.on('Network.requestWillBeSent', (e) => /\.cgcz?$/.test(new URL(e.request.url).pathname) && cgc.add(e.requestId));
       cdp.on('Network.loadingFinished', (e) => cgc.has(e.requestId) && (transferred += e.encodedDataLength));
       await cdp.send('Network.emulateNetworkConditions', { offline: false, latency: 1, downloadThroughput: (mbit * 1e6) / 8, uploadThroughput: (mbit * 1e6) / 8 });
-      await page.goto(`${url}&view=2&size=${size}`);
+      await page.goto(`${urls[form]}&view=2&size=${size}`);
       // Polled rather than awaited in one call: a frame on a CPU adapter can take minutes.
       const withinMemory = await waitReady(chromium, page, capMs);
       const s = await page.evaluate(() => window.isogrid.stats);
       if (!withinMemory) {
         // The figures so far (first frame, last byte), then no further load in this browser.
-        console.log(JSON.stringify({ file, total, browser: 'chromium', mbit, firstFrameMs: s.firstFrameAt ?? null, lastByteMs: s.completeAt ?? null, firstFrameBytes: s.firstFrameBytes ?? null, transferred, error: `over ${maxRss / 2 ** 30} GiB of memory` }));
+        console.log(JSON.stringify({ file, form, total, browser: 'chromium', mbit, firstFrameMs: s.firstFrameAt ?? null, lastByteMs: s.completeAt ?? null, firstFrameBytes: s.firstFrameBytes ?? null, transferred, error: `over ${maxRss / 2 ** 30} GiB of memory` }));
         break;
       }
       if (s.error) throw new Error(`${file}: ${s.error}`);
-      console.log(JSON.stringify({ file, total, browser: 'chromium', mbit, firstFrameMs: s.firstFrameAt, lastByteMs: s.completeAt, completeMs: s.readyAt ?? null, firstFrameBytes: s.firstFrameBytes, transferred, deviceMs: s.deviceAt, headerMs: s.headerAt, compiledMs: s.compiledAt, pages: s.pages, frames: s.frames, frameLog: s.frameLog }));
+      console.log(JSON.stringify({ file, form, total, browser: 'chromium', mbit, firstFrameMs: s.firstFrameAt, lastByteMs: s.completeAt, completeMs: s.readyAt ?? null, firstFrameBytes: s.firstFrameBytes, transferred, deviceMs: s.deviceAt, headerMs: s.headerAt, compiledMs: s.compiledAt, pages: s.pages, frames: s.frames, frameLog: s.frameLog }));
       await page.close();
     }
     await chromium?.close();

@@ -16,6 +16,7 @@ import {
 } from './colors.js';
 import { Camera, ClipPlane, orbit, pan, presetCamera, zoom } from './camera.js';
 import { blobSource, ByteSource, streamCgc, urlSource, withHeadStarted } from './loader.js';
+import { isPackedName, packedSource } from './packed.js';
 import { CellRaster, COLOR_FORMAT, Renderer } from './renderer.js';
 
 const $ = <T extends HTMLElement>(id: string) => document.getElementById(id) as T;
@@ -275,7 +276,8 @@ function drawFrame(): void {
   stats.raster = renderer.lastRaster;
   stats.frames = ((stats.frames as number) || 0) + 1;
   if (!stats.firstFrameBytes && renderer.pageCount > 0) {
-    stats.firstFrameBytes = bytesIn;
+    // Bytes of the file on the wire: the packed ones for a .cgcz (bytesIn counts those rebuilt).
+    stats.firstFrameBytes = stats.packed ? stats.downloaded : bytesIn;
     firstFrame = { start: t0, bytes: bytesIn };
     firstDrawn.resolve();
   }
@@ -315,7 +317,9 @@ function showFacts(): void {
     ['cells', header.activeCells.toLocaleString()],
     ['clusters', (header.slotCount / 16).toLocaleString()],
     ['memory', `${((header.blocks.length + header.metacells.length + header.cells.length) / 2 ** 20).toFixed(1)} MiB in ${renderer?.pageCount ?? 0} pages`],
-    ['fetched', `${(bytesIn / 2 ** 20).toFixed(2)} of ${(header.fileLength / 2 ** 20).toFixed(2)} MiB`],
+    stats.packed
+      ? ['fetched', `${((stats.downloaded as number) / 2 ** 20).toFixed(2)} MiB packed, rebuilt ${(bytesIn / 2 ** 20).toFixed(2)} of ${(header.fileLength / 2 ** 20).toFixed(2)} MiB`]
+      : ['fetched', `${(bytesIn / 2 ** 20).toFixed(2)} of ${(header.fileLength / 2 ** 20).toFixed(2)} MiB`],
     ...(attribute ? [['colour by', `${attribute.name} (${attribute.range.map((v) => Number(v.toPrecision(5))).join(' to ')})`] as [string, string]] : []),
     ...(labels ? [['labels', `${labels.table.length.toLocaleString()} (${hiddenLabels.size.toLocaleString()} hidden)`] as [string, string]] : []),
     ['frame', renderer?.lastGpuMs != null ? `${renderer.lastGpuMs.toFixed(2)} ms (GPU timestamps)` : `${(stats.frameMs as number)?.toFixed(1)} ms (wall, no timestamp queries)`],
@@ -674,7 +678,13 @@ const openFile = (f: File | undefined) => {
     if (f) location.reload();
     return;
   }
-  load(blobSource(f));
+  if (isPackedName(f.name)) {
+    stats.packed = true;
+    stats.downloaded = 0;
+    load(packedSource(f.name, async () => f.stream(), (n) => ((stats.downloaded as number) += n)));
+  } else {
+    load(blobSource(f));
+  }
 };
 $<HTMLInputElement>('file').onchange = (e) => openFile((e.target as HTMLInputElement).files?.[0]);
 document.addEventListener('dragover', (e) => {
@@ -688,7 +698,23 @@ document.addEventListener('drop', (e) => {
   openFile(e.dataTransfer?.files[0]);
 });
 const srcParam = params.get('src');
-if (srcParam) {
+if (srcParam && isPackedName(srcParam)) {
+  // A packed .cgc (.cgcz): one download, rebuilt into the .cgc as it arrives (packed.ts).
+  const name = decodeURIComponent(new URL(srcParam, location.href).pathname.split('/').pop() || srcParam);
+  stats.packed = true;
+  stats.downloaded = 0;
+  load(
+    packedSource(
+      name,
+      async () => {
+        const res = await fetch(srcParam);
+        if (!res.ok || !res.body) throw new Error(`${name}: HTTP ${res.status} ${res.statusText}`);
+        return res.body;
+      },
+      (n) => ((stats.downloaded as number) += n),
+    ),
+  );
+} else if (srcParam) {
   // Progress of a whole download (a server without Range support) before the header is parsed.
   let whole = 0;
   load(urlSource(srcParam, (n) => {

@@ -19,7 +19,7 @@ import puppeteer from 'puppeteer-core';
 import { PNG } from 'pngjs';
 import { build } from '../build.mjs';
 import { startServer } from './server.mjs';
-import { isogridBinary, sphereFile, resealHeader, resealSection, realFiles, coloredSphereFile, labelFile } from './fixtures.mjs';
+import { isogridBinary, sphereFile, resealHeader, resealSection, realFiles, coloredSphereFile, labelFile, packedFile } from './fixtures.mjs';
 import { basis, presetCamera } from '../build/node/camera.js';
 import { parseCgc, labelText } from '../build/node/cgc.js';
 
@@ -56,6 +56,8 @@ const coloredBytes = colored && new Uint8Array(readFileSync(colored));
 const coloredF32 = bin && coloredSphereFile(48, 32);
 const labelled = bin && labelFile(48);
 const labelBytes = labelled && new Uint8Array(readFileSync(labelled));
+const spherePacked = sphere && new Uint8Array(readFileSync(packedFile(sphere)));
+const coloredPacked = colored && new Uint8Array(readFileSync(packedFile(colored)));
 
 /**
  * The native render of `file` with `view` at SIZE, RGBA8 rows; with `aov` (e.g. 'value' or
@@ -185,6 +187,12 @@ for (const B of BROWSERS) {
       const future = sphereBytes.slice();
       future[8] = 9;
       files['future.cgc'] = resealHeader(future);
+      files['sphere48.cgcz'] = spherePacked;
+      files['colored.cgcz'] = coloredPacked;
+      const damagedPacked = spherePacked.slice();
+      damagedPacked[spherePacked.length >> 1] ^= 0x10;
+      files['damaged.cgcz'] = damagedPacked;
+      files['truncated.cgcz'] = spherePacked.slice(0, spherePacked.length - 1000);
     }
     const server = await startServer({ dist, files });
     const plain = await startServer({ dist, files, ranges: false });
@@ -520,6 +528,25 @@ for (const B of BROWSERS) {
           assert.equal(outcome, `error: ${stats.message}`);
         }
       });
+      await t.test('packed files (.cgcz): the picture of their .cgc from their own bytes; damage named', async () => {
+        for (const [name, file, packed, extra] of [['sphere48', sphere, spherePacked, []], ['colored', colored, coloredPacked, []]]) {
+          const { page, outcome, stats } = await open(server.url, `src=/${name}.cgcz&view=2&size=${SIZE.join('x')}`);
+          assert.equal(outcome, 'ready', stats.message);
+          assert.equal(stats.downloaded, packed.length, 'bytes downloaded');
+          const c = compare(Buffer.from(await page.evaluate(() => window.isogrid.pixels()), 'base64'), nativeRender(file, 2, extra));
+          t.diagnostic(`${B.name} ${name}.cgcz (${packed.length} bytes): mask ${(100 * c.mask).toFixed(2)} %, colour within 8/255 on ${(100 * c.colour).toFixed(2)} % of ${c.hits} hits`);
+          assert.ok(c.hits > 500 && c.mask >= 0.995 && c.colour >= 0.99, JSON.stringify(c));
+          await page.close();
+        }
+        for (const [name, re] of Object.entries({
+          'damaged.cgcz': /^damaged\.cgcz: .*damaged/,
+          'truncated.cgcz': /^truncated\.cgcz: the packed file ends after \d+ of its \d+ bytes \(truncated\?\)$/,
+        })) {
+          const { outcome, stats } = await open(server.url, `src=/${name}`);
+          assert.match(stats.message, re);
+          assert.equal(outcome, `error: ${stats.message}`);
+        }
+      });
       await t.test('range loading: first frame before the last byte, each byte requested once', async () => {
         const { outcome, stats } = await open(slow.url, 'src=/sphere48.cgc&size=64x48');
         assert.equal(outcome, 'ready', stats.message);
@@ -539,7 +566,7 @@ for (const B of BROWSERS) {
         assert.ok(coloured.stats.firstFrameBytes < coloredBytes.length, `first coloured frame after ${coloured.stats.firstFrameBytes} of ${coloredBytes.length} bytes`);
         t.diagnostic(`${B.name}: coloured file, first frame after ${coloured.stats.firstFrameBytes} of ${coloredBytes.length} bytes`);
       });
-      await t.test('through isogrid serve, throttled to 0.125 Mbit/s: first frame before the last byte, ranges cover the file once', async (st) => {
+      await t.test('through isogrid serve, throttled to 0.125 Mbit/s: the packed form; by ranges, first frame before the last byte, ranges cover the file once', async (st) => {
         if (B.name !== 'chromium') {
           st.skip('download throttling needs the DevTools protocol (Chromium)');
           return;
@@ -550,7 +577,17 @@ for (const B of BROWSERS) {
             createInterface({ input: child.stdout }).once('line', resolve);
             child.once('exit', (code) => reject(new Error(`isogrid serve exited with ${code} before printing its URL`)));
           });
+          // The printed URL opens the packed form; ?src=/NAME.cgc reads the file by ranges.
           const url = line.split(/\s+/).find((w) => w.startsWith('http://'));
+          assert.match(url, /\/\?src=\/sphere48\.cgcz$/);
+          const packedPage = await browser.newPage();
+          await packedPage.emulateNetworkConditions({ download: 0.125e6 / 8, upload: 0.125e6 / 8, latency: 20 });
+          await packedPage.goto(`${url}&size=64x48`);
+          assert.equal(await packedPage.evaluate(() => window.isogrid.ready.then(() => 'ready', (e) => e.message)), 'ready');
+          const packedStats = await packedPage.evaluate(() => window.isogrid.stats);
+          assert.equal(packedStats.downloaded, spherePacked.length);
+          st.diagnostic(`isogrid serve at 0.125 Mbit/s, packed: ${spherePacked.length} bytes, first frame shown at ${packedStats.firstFrameAt.toFixed(0)} ms, complete picture at ${packedStats.readyAt.toFixed(0)} ms`);
+          await packedPage.close();
           const page = await browser.newPage();
           const ranges = [];
           page.on('request', (r) => {
@@ -558,7 +595,7 @@ for (const B of BROWSERS) {
             if (m) ranges.push([Number(m[1]), Number(m[2]) + 1]);
           });
           await page.emulateNetworkConditions({ download: 0.125e6 / 8, upload: 0.125e6 / 8, latency: 20 });
-          await page.goto(`${url}&size=64x48`);
+          await page.goto(`${url.replace(/\.cgcz$/, '.cgc')}&size=64x48`);
           const outcome = await page.evaluate(() => window.isogrid.ready.then(() => 'ready', (e) => e.message));
           assert.equal(outcome, 'ready');
           const stats = await page.evaluate(() => window.isogrid.stats);

@@ -115,6 +115,26 @@ export function ballFile(n, cx, r) {
   return { cgc, value };
 }
 
+/** The sphere of `sphereFile()` extracted at `bits` bits per corner (1, 4, 8, 16, 32), or null. */
+export function precisionSphereFile(bits, size = 24) {
+  const bin = isogridBinary();
+  if (!bin) return null;
+  const dir = binaryDir(bin);
+  const cgc = join(dir, `sphere${size}-p${bits}.cgc`);
+  if (!existsSync(cgc)) {
+    execFileSync(bin, ['generate', 'sphere', '--size', String(size), '-o', join(dir, `sphere${size}.nrrd`)], { stdio: 'ignore' });
+    execFileSync(bin, ['extract', join(dir, `sphere${size}.nrrd`), '--iso-normalized', '0.5', '--precision', String(bits), '-o', cgc], { stdio: 'ignore' });
+  }
+  return cgc;
+}
+
+/** The packed form (`isogrid pack`, .cgcz) of the .cgc at `cgc`, beside it. */
+export function packedFile(cgc) {
+  const out = `${cgc}z`;
+  if (!existsSync(out)) execFileSync(isogridBinary(), ['pack', cgc, '-o', out], { stdio: 'ignore' });
+  return out;
+}
+
 /** `isogrid info --json` of `file`. */
 export function infoJson(file) {
   return JSON.parse(execFileSync(isogridBinary(), ['info', file, '--json'], { encoding: 'utf8' }));

@@ -44,6 +44,8 @@ enum Command {
     Bench(commands::bench::Args),
     /// Open the interactive viewer (orbit, isovalue slider, modes, measurements); --frames N renders N frames and exits.
     View(commands::view::Args),
+    /// Write the packed transfer form (.cgcz) of a .cgc file or a volume's surface: each corner sample once, deflated, for the web viewer.
+    Pack(commands::pack::Args),
     /// Serve the web viewer and one .cgc file over HTTP (Range requests), and print the URL to open.
     Serve(commands::serve::Args),
 }
@@ -118,6 +120,7 @@ fn main() -> ExitCode {
         Command::Render(a) => commands::render::run(a),
         Command::Bench(a) => commands::bench::run(a),
         Command::View(a) => commands::view::run(a),
+        Command::Pack(a) => commands::pack::run(a),
         Command::Serve(a) => commands::serve::run(a),
     };
     finish(result)

@@ -6,6 +6,7 @@ pub mod extract;
 pub mod generate;
 pub mod info;
 pub mod mc;
+pub mod pack;
 pub mod render;
 pub mod serve;
 pub mod view;

@@ -1,10 +1,14 @@
 //! `isogrid serve`: an HTTP server for the web viewer (web/, its built bundle embedded in the
-//! binary) and one `.cgc` file (a volume input is extracted into a temporary one first), which the viewer reads with Range requests. It serves exactly
-//! three paths — `/` (the page), `/viewer.js` and `/NAME` (the file, by its own name) — and
-//! answers everything else with 404: no directory listing, nothing outside them. Ranges, 206 and
-//! 416 come from tower-http's `ServeFile`; gzip, brotli or zstd (as the client accepts) from its
-//! `CompressionLayer`, which encodes whole responses only: a 206's Content-Range counts the
-//! file's bytes, so range requests get them as they are (docs/benchmarks-web.md has the ratios).
+//! binary) and one `.cgc` file (a volume input is extracted into a temporary one first). The
+//! viewer reads the `.cgc` with Range requests, or downloads its packed form (`.cgcz`,
+//! `isogrid::cgc::pack`, written into a temporary folder at start), about a sixth of its bytes,
+//! and rebuilds it; the printed URL opens the packed form where the file has one. It serves exactly
+//! `/` (the page), `/viewer.js`, `/NAME` (the file, by its own name) and `/NAMEz` (its packed
+//! form), and answers everything else with 404: no directory listing, nothing outside them.
+//! Ranges, 206 and 416 come from tower-http's `ServeFile`; gzip, brotli or zstd (as the client
+//! accepts) from its `CompressionLayer`, which encodes whole responses only (a 206's
+//! Content-Range counts the file's bytes, so range requests get them as they are) and leaves the
+//! packed form, deflated already, as it is (docs/benchmarks-web.md has the ratios).
 
 use crate::grid_source::{is_cgc, GridSource};
 use anyhow::{Context, Result};
@@ -14,6 +18,7 @@ use axum::Router;
 use isogrid::fs::ScratchDir;
 use std::net::{IpAddr, SocketAddr};
 use std::path::PathBuf;
+use tower_http::compression::predicate::{DefaultPredicate, NotForContentType, Predicate};
 use tower_http::compression::CompressionLayer;
 use tower_http::services::ServeFile;
 
@@ -36,7 +41,14 @@ pub struct Args {
     /// Open the printed URL in the default browser.
     #[arg(long)]
     pub open: bool,
+    /// Serve the .cgc alone, read by ranges, without its packed form (packing takes about 30 ms
+    /// per MB of .cgc at start, and memory for the file and its packed form).
+    #[arg(long)]
+    pub no_pack: bool,
 }
+
+/// The media type of the packed form, which the compression layer leaves alone.
+const PACKED_TYPE: &str = "application/x-isogrid-cgcz";
 
 /// `name` with every byte outside the URL-safe set percent-encoded, for the file's URL path.
 fn url_name(name: &str) -> String {
@@ -72,13 +84,44 @@ fn cgc_file(source: &GridSource) -> Result<(PathBuf, Option<ScratchDir>)> {
     Ok((path, Some(temp)))
 }
 
+/// The packed form of `file` written into `temp` (created when there is none) as `NAMEz`, or
+/// why there is none (a file with labels).
+fn packed_file(
+    file: &std::path::Path,
+    name: &str,
+    temp: &mut Option<ScratchDir>,
+) -> Result<std::result::Result<(PathBuf, usize, u64), String>> {
+    let grid = isogrid::cgc::open(file)?;
+    let packed = match isogrid::cgc::pack(&grid) {
+        Ok(p) => p,
+        Err(e) => return Ok(Err(e.to_string())),
+    };
+    if temp.is_none() {
+        *temp = Some(ScratchDir::create_in(
+            &std::env::temp_dir(),
+            "isogrid-serve",
+        )?);
+    }
+    let path = temp.as_ref().unwrap().path().join(format!("{name}z"));
+    std::fs::write(&path, &packed).with_context(|| format!("{}: cannot write", path.display()))?;
+    // The .cgc's length, from the packed head (bytes 16..24).
+    let cgc_len = u64::from_le_bytes(packed[16..24].try_into().unwrap());
+    Ok(Ok((path, packed.len(), cgc_len)))
+}
+
 pub fn run(args: Args) -> Result<()> {
-    let (file, _temp) = cgc_file(&args.source)?;
+    let (file, mut temp) = cgc_file(&args.source)?;
     let name = file
         .file_name()
         .and_then(|n| n.to_str())
-        .with_context(|| format!("{}: not a file name", file.display()))?;
-    let url_path = format!("/{}", url_name(name));
+        .with_context(|| format!("{}: not a file name", file.display()))?
+        .to_string();
+    let url_path = format!("/{}", url_name(&name));
+    let packed = if args.no_pack {
+        None
+    } else {
+        Some(packed_file(&file, &name, &mut temp)?)
+    };
     let app = Router::new()
         .route(
             "/",
@@ -98,12 +141,22 @@ pub fn run(args: Args) -> Result<()> {
                 )
             }),
         )
-        .route_service(&url_path, ServeFile::new(&file))
-        .fallback(|| async { (StatusCode::NOT_FOUND, "not found\n") })
-        // The bundle shrinks 5× (gzip) to 7× (brotli); a whole-file download of the .cgc about
-        // 1.5–1.7× (docs/benchmarks-web.md). tower-http never encodes a response that carries
-        // Content-Range.
-        .layer(CompressionLayer::new());
+        .route_service(&url_path, ServeFile::new(&file));
+    let app = match &packed {
+        Some(Ok((path, _, _))) => app.route_service(
+            &format!("{url_path}z"),
+            ServeFile::new_with_mime(path, &PACKED_TYPE.parse().unwrap()),
+        ),
+        _ => app,
+    };
+    let app =
+        app.fallback(|| async { (StatusCode::NOT_FOUND, "not found\n") })
+            // The bundle shrinks 5× (gzip) to 7× (brotli); a whole-file download of the .cgc about
+            // 1.5–1.7× (docs/benchmarks-web.md). tower-http never encodes a response that carries
+            // Content-Range.
+            .layer(CompressionLayer::new().compress_when(
+                DefaultPredicate::new().and(NotForContentType::const_new(PACKED_TYPE)),
+            ));
     let runtime = tokio::runtime::Builder::new_multi_thread()
         .worker_threads(2)
         .enable_io()
@@ -121,10 +174,22 @@ pub fn run(args: Args) -> Result<()> {
                 ip => ip.to_string(),
             }
         };
-        let url = format!("http://{host}:{}/?src={url_path}", addr.port());
+        let base = format!("http://{host}:{}/?src=", addr.port());
+        let url = match &packed {
+            Some(Ok(_)) => format!("{base}{url_path}z"),
+            _ => format!("{base}{url_path}"),
+        };
         // Written as every command writes stdout: a closed pipe ends the server quietly, a full
         // disk in one line (crate::stdout).
         outln!("serving     {} at {url}", file.display());
+        match &packed {
+            Some(Ok((_, bytes, cgc_len))) => outln!(
+                "            packed: {bytes} of {cgc_len} bytes ({:.2}×), rebuilt in the page; ?src={url_path} reads the .cgc by ranges",
+                *cgc_len as f64 / *bytes as f64
+            ),
+            Some(Err(why)) => outln!("            not packed: {why}"),
+            None => {}
+        }
         outln!(
             "            add &view=1|2 and &size=WxH for the camera of `isogrid render`, &clip=x|y|z[:F] for a clip plane; Ctrl-C stops"
         );

@@ -3,6 +3,7 @@
 mod color;
 mod hostile;
 mod labels;
+mod pack;
 
 use crate::common::{fails, isogrid, s, temp_dir, write_npy};
 use serde_json::Value;

@@ -1,5 +1,6 @@
 //! `isogrid serve` end to end: the viewer's files, the .cgc with Range requests (206, 416 for
-//! malformed ranges), and 404 for everything else (no listing, no paths outside).
+//! malformed ranges), its packed form (what `isogrid pack` writes, never compressed again), and
+//! 404 for everything else (no listing, no paths outside).
 
 use std::io::{BufRead, BufReader, Read, Write};
 use std::net::TcpStream;
@@ -174,7 +175,8 @@ fn get(addr: &str, path: &str, extra: &str) -> (u16, String, Vec<u8>) {
 #[test]
 fn serves_the_viewer_and_the_file_with_ranges_and_nothing_else() {
     let (dir, bytes, server) = sphere_server("test");
-    assert!(server.url.ends_with("/?src=/sphere.cgc"), "{}", server.url);
+    // The printed URL opens the packed form.
+    assert!(server.url.ends_with("/?src=/sphere.cgcz"), "{}", server.url);
     assert!(
         server.addr.starts_with("127.0.0.1:"),
         "default bind is local: {}",
@@ -200,6 +202,23 @@ fn serves_the_viewer_and_the_file_with_ranges_and_nothing_else() {
     );
     let (_, _, rest) = get(a, "/sphere.cgc", "Range: bytes=320-\r\n");
     assert_eq!([body, rest].concat(), bytes);
+
+    // The packed form: what `isogrid pack` writes.
+    let packed = dir.join("sphere.cgcz");
+    isogrid(&[
+        "pack",
+        dir.join("sphere.cgc").to_str().unwrap(),
+        "-o",
+        packed.to_str().unwrap(),
+    ]);
+    let (status, head, body) = get(a, "/sphere.cgcz", "Accept-Encoding: gzip, br\r\n");
+    assert_eq!(status, 200);
+    assert!(
+        head.contains("content-type: application/x-isogrid-cgcz"),
+        "{head}"
+    );
+    assert!(!head.contains("content-encoding"), "deflated twice: {head}");
+    assert!(body == std::fs::read(&packed).unwrap());
 
     // Malformed and unsatisfiable ranges.
     for range in [
@@ -286,7 +305,7 @@ fn extracts_a_volume_input_first() {
     let cgc = sphere(&dir);
     let volume = dir.join("sphere.nrrd");
     let server = serve_args(&[volume.to_str().unwrap(), "--iso-normalized", "0.5"]);
-    assert!(server.url.ends_with("/?src=/sphere.cgc"), "{}", server.url);
+    assert!(server.url.ends_with("/?src=/sphere.cgcz"), "{}", server.url);
     let (status, _, body) = get(&server.addr, "/sphere.cgc", "");
     assert_eq!(status, 200);
     // The same extraction as `isogrid extract` of the same volume and isovalue.
@@ -335,10 +354,24 @@ fn serves_a_label_volume_as_extract_labels_writes_it() {
         cgc.to_str().unwrap(),
     ]);
     let server = serve_args(&[volume.to_str().unwrap(), "--labels", "all"]);
+    // A file with labels has no packed form: the page reads the .cgc.
     assert!(server.url.ends_with("/?src=/cubes.cgc"), "{}", server.url);
     let (status, _, body) = get(&server.addr, "/cubes.cgc", "");
     assert_eq!(status, 200);
     assert_eq!(body, std::fs::read(&cgc).unwrap());
+    assert_eq!(get(&server.addr, "/cubes.cgcz", "").0, 404);
+    drop(server);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn no_pack_serves_the_file_alone() {
+    let dir = temp_dir("serve-no-pack");
+    let file = sphere(&dir);
+    let server = serve_args(&[file.to_str().unwrap(), "--no-pack"]);
+    assert!(server.url.ends_with("/?src=/sphere.cgc"), "{}", server.url);
+    assert_eq!(get(&server.addr, "/sphere.cgc", "").0, 200);
+    assert_eq!(get(&server.addr, "/sphere.cgcz", "").0, 404);
     drop(server);
     std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -59,11 +59,13 @@
 //! the buffers without bounds surprises. Every file is written by one writer, `CgcWriter`.
 
 mod format;
+mod pack;
 mod read;
 mod write;
 
 pub(crate) use format::scalar_code;
 pub use format::SectionKind;
+pub use pack::{pack, PACKED_HEAD_SIZE, PACKED_MAGIC, PACKED_VERSION};
 pub use read::{open, open_with_progress, read, read_bytes};
 pub use write::{to_bytes, write};
 pub(crate) use write::{CgcWriter, FilePlan, HeaderCounts};

@@ -1,0 +1,359 @@
+//! The packed transfer form of a `.cgc` file (`.cgcz`): what a browser downloads instead of the
+//! file when bytes on the wire matter more than ranges (`docs/design/web.md`). It rebuilds the
+//! `.cgc` byte for byte, so the reader that takes it in validates it as it validates any file.
+//!
+//! The `.cgc` stores a sample once in every active cell that has it as a corner (about four times
+//! over, `docs/benchmarks-web.md`), and everything in its metacells and blocks besides the cells'
+//! positions and masks follows from them. The packed form sends each corner sample once, predicted
+//! from its neighbours, and the positions as Morton steps, then deflates the lot. It holds the
+//! surface and its cell attribute; a file with labels (whose corner records differ per label at
+//! one sample) is refused.
+//!
+//! Layout, all little-endian. A 48-byte head:
+//!
+//! | offset | size | field |
+//! |---|---|---|
+//! | 0 | 8 | magic `\x89CGZ\r\n\x1a\n` |
+//! | 8 | 4 | version, u32 = 1 |
+//! | 12 | 4 | `H`, u32: bytes of the `.cgc`'s header and section table (320 + 32 per section) |
+//! | 16 | 8 | length of the `.cgc`, u64 |
+//! | 24 | 8 | length of the deflate stream, u64 |
+//! | 32 | 8 | length of the body once inflated, u64 |
+//! | 40 | 4 | CRC-32 of bytes 0..40 followed by the `H` bytes below |
+//! | 44 | 4 | reserved, zero |
+//!
+//! then the `.cgc`'s first `H` bytes as they are, then a raw deflate stream (RFC 1951) of the body,
+//! which ends the file. The body, inflated:
+//!
+//! | part | bytes |
+//! |---|---|
+//! | every block's `min`, `max` (f32 each) | 8 per block |
+//! | every block's cluster count | a LEB128 varint per block |
+//! | the cell attribute's head, when the file has one | 96 |
+//! | each block with clusters, in block order | a varint `n`, then `n` bytes of the block's part |
+//!
+//! A block's part: for each cluster its metacell count (u8, 1..=15), and for each metacell the step
+//! from the previous metacell's Morton code in the block (the first steps from −1; varint of the
+//! zigzag of the step) and its cell mask (u8). Then the block's *new samples*: the corner samples
+//! of its active cells (in block-local sample coordinates `0..=16`) that no earlier neighbour
+//! block sent, in z, y, x order, each as its residual against [`predict`], modulo 2^bits, in 1,
+//! 2 or 4 bytes (bits ≤ 8, 16, 32; a 32-bit corner is its float's bit pattern). Then the block's
+//! cells' stored attribute values, as the attribute section holds them.
+//!
+//! The rest of the `.cgc` follows: a block's metacell count and pointer from the cluster counts,
+//! a metacell's position from its block and Morton code, its cell pointer from the masks before
+//! it, a cluster's bound from its metacells, padding slots and the gaps between sections zero,
+//! and each corner record from the samples. The web viewer's `web/src/packed.ts` rebuilds it; its
+//! test checks that it gives back the `.cgc` of every fixture byte for byte.
+
+use super::format::{SectionKind, TableEntry, HEADER_SIZE, TABLE_ENTRY_SIZE};
+use crate::attribute::ATTRIBUTE_HEAD_SIZE;
+use crate::error::{Error, Result};
+use crate::grid::CellGrid;
+use crate::layout::{Precision, BLOCK_CELLS, CLUSTER_METACELLS, CLUSTER_SLOTS};
+use crate::morton;
+use std::collections::{HashMap, VecDeque};
+use std::io::Write;
+
+/// The magic of a `.cgcz` file, PNG-style like the `.cgc`'s.
+pub const PACKED_MAGIC: [u8; 8] = *b"\x89CGZ\r\n\x1a\n";
+/// The version this build writes.
+pub const PACKED_VERSION: u32 = 1;
+/// Bytes of the `.cgcz` head before the `.cgc`'s header.
+pub const PACKED_HEAD_SIZE: usize = 48;
+
+/// Samples along a block's edge, its high face (shared with the next block) included.
+const SIDE: usize = BLOCK_CELLS + 1;
+/// Samples of one block.
+const BOX: usize = SIDE * SIDE * SIDE;
+
+/// The predicted code of the new sample at block-local `(x, y, z)` from the samples of its box
+/// known so far (`-1`: not known). The mean of the planar predictions `a + b − ab` (each clamped
+/// to `0..=max`) of the xy, xz and yz planes whose three samples at −1 are known; else the mean
+/// of the known samples at −1 along x, y, z; else `last`, the block's previous new sample (or
+/// half the range before the first). Means round half up. Integers only: `web/src/packed.ts`
+/// computes the same.
+fn predict(known: &[i64; BOX], [x, y, z]: [usize; 3], max: i64, last: i64) -> i64 {
+    let at = |dx: usize, dy: usize, dz: usize| {
+        if x < dx || y < dy || z < dz {
+            -1
+        } else {
+            known[(z - dz) * SIDE * SIDE + (y - dy) * SIDE + (x - dx)]
+        }
+    };
+    let (a, b, c) = (at(1, 0, 0), at(0, 1, 0), at(0, 0, 1));
+    let (mut sum, mut n) = (0i64, 0i64);
+    for (p, q, pq) in [
+        (a, b, at(1, 1, 0)),
+        (a, c, at(1, 0, 1)),
+        (b, c, at(0, 1, 1)),
+    ] {
+        if p >= 0 && q >= 0 && pq >= 0 {
+            sum += (p + q - pq).clamp(0, max);
+            n += 1;
+        }
+    }
+    if n == 0 {
+        for p in [a, b, c] {
+            if p >= 0 {
+                sum += p;
+                n += 1;
+            }
+        }
+    }
+    if n == 0 {
+        return last;
+    }
+    (2 * sum + n) / (2 * n)
+}
+
+/// Corner `c`'s code in a corner record: an unsigned integer below 2^bits (a float's bit pattern
+/// at 32 bits).
+fn corner_code(record: &[u8], precision: Precision, c: usize) -> i64 {
+    match precision {
+        Precision::Bits1 => (record[0] >> c & 1) as i64,
+        Precision::Bits4 => (record[c / 2] >> (4 * (c % 2)) & 15) as i64,
+        Precision::Bits8 => record[c] as i64,
+        Precision::Bits16 => u16::from_le_bytes([record[2 * c], record[2 * c + 1]]) as i64,
+        Precision::Float32 => {
+            u32::from_le_bytes(record[4 * c..4 * c + 4].try_into().unwrap()) as i64
+        }
+    }
+}
+
+fn varint(out: &mut Vec<u8>, mut v: u64) {
+    while v >= 0x80 {
+        out.push(v as u8 | 0x80);
+        v >>= 7;
+    }
+    out.push(v as u8);
+}
+
+/// Block-local sample boxes of the blocks a later block may share samples with: those at most one
+/// block away, which in x-fastest order all lie within `reach` blocks before it.
+struct KnownSamples {
+    boxes: HashMap<usize, Box<[i64; BOX]>>,
+    order: VecDeque<usize>,
+    block_dims: [usize; 3],
+}
+
+impl KnownSamples {
+    /// The box of block `index` with every sample an earlier neighbour sent; boxes no later block
+    /// can reach are dropped.
+    fn start(&mut self, index: usize) -> Box<[i64; BOX]> {
+        let [nx, ny, _] = self.block_dims;
+        let reach = nx * ny + nx + 1;
+        while self.order.front().is_some_and(|&i| i + reach < index) {
+            self.boxes.remove(&self.order.pop_front().unwrap());
+        }
+        let mut known = Box::new([-1i64; BOX]);
+        let b = [index % nx, index / nx % ny, index / (nx * ny)];
+        for dz in -1i64..=1 {
+            for dy in -1i64..=1 {
+                for dx in -1i64..=1 {
+                    let n = [b[0] as i64 + dx, b[1] as i64 + dy, b[2] as i64 + dz];
+                    if n.iter()
+                        .zip(&self.block_dims)
+                        .any(|(&v, &d)| v < 0 || v >= d as i64)
+                    {
+                        continue;
+                    }
+                    let ni = (n[0] + nx as i64 * (n[1] + ny as i64 * n[2])) as usize;
+                    let Some(other) = (ni < index).then(|| self.boxes.get(&ni)).flatten() else {
+                        continue;
+                    };
+                    // Local sample q of this block is q − 16·d in the neighbour's box.
+                    let span = |d: i64| -> std::ops::Range<usize> {
+                        match d {
+                            -1 => 0..1,
+                            0 => 0..SIDE,
+                            _ => BLOCK_CELLS..SIDE,
+                        }
+                    };
+                    let shift = |q: usize, d: i64| (q as i64 - BLOCK_CELLS as i64 * d) as usize;
+                    for z in span(dz) {
+                        for y in span(dy) {
+                            for x in span(dx) {
+                                let v = other[shift(z, dz) * SIDE * SIDE
+                                    + shift(y, dy) * SIDE
+                                    + shift(x, dx)];
+                                if v >= 0 {
+                                    known[z * SIDE * SIDE + y * SIDE + x] = v;
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        known
+    }
+    fn finish(&mut self, index: usize, known: Box<[i64; BOX]>) {
+        self.boxes.insert(index, known);
+        self.order.push_back(index);
+    }
+}
+
+/// The packed form of `grid`'s `.cgc` file ([`super::write::to_bytes`]). Refuses a grid with labels.
+pub fn pack(grid: &CellGrid) -> Result<Vec<u8>> {
+    if grid.labels().is_some() {
+        return Err(Error::unsupported(
+            "a file with labels has no packed form (its corner records differ per label at one sample)",
+        ));
+    }
+    let file = super::write::to_bytes(grid);
+    let sections = u32::from_le_bytes(file[168..172].try_into().unwrap()) as usize;
+    let head_len = HEADER_SIZE + sections * TABLE_ENTRY_SIZE;
+    let attribute = (0..sections)
+        .map(|i| {
+            let at = HEADER_SIZE + i * TABLE_ENTRY_SIZE;
+            TableEntry::from_bytes(file[at..at + TABLE_ENTRY_SIZE].try_into().unwrap()).0
+        })
+        .find(|e| e.kind == SectionKind::CellAttribute.code())
+        .map(|e| &file[e.offset as usize..(e.offset + e.len) as usize]);
+    let info = grid.info();
+    let precision = info.precision;
+    let record = precision.bytes_per_cell();
+    let bits = precision.bits();
+    let max = if bits == 32 {
+        u32::MAX as i64
+    } else {
+        (1i64 << bits) - 1
+    };
+    let residual_bytes = (bits as usize).div_ceil(8);
+    // Bits per value (head bytes 4..8), one value per cell.
+    let attribute_width = attribute.map_or(0, |a| {
+        u32::from_le_bytes(a[4..8].try_into().unwrap()) as usize / 8
+    });
+    let blocks = grid.blocks();
+    let metacells = grid.metacells();
+    let cells = grid.cells();
+    let block_dims = info.block_dims().map(|d| d as usize);
+
+    let mut body = Vec::with_capacity(file.len() / 4);
+    for b in blocks {
+        body.extend_from_slice(&b.min.to_le_bytes());
+        body.extend_from_slice(&b.max.to_le_bytes());
+    }
+    for b in blocks {
+        varint(&mut body, b.cluster_count() as u64);
+    }
+    if let Some(a) = attribute {
+        body.extend_from_slice(&a[..ATTRIBUTE_HEAD_SIZE]);
+    }
+    let mut known_samples = KnownSamples {
+        boxes: HashMap::new(),
+        order: VecDeque::new(),
+        block_dims,
+    };
+    let mut part = Vec::new();
+    let mut corners = Box::new([-1i64; BOX]);
+    for (index, block) in blocks.iter().enumerate() {
+        if block.cluster_count() == 0 {
+            continue;
+        }
+        part.clear();
+        let origin = [
+            index % block_dims[0],
+            index / block_dims[0] % block_dims[1],
+            index / (block_dims[0] * block_dims[1]),
+        ]
+        .map(|b| (b * BLOCK_CELLS / 2) as u32);
+        let mut known = known_samples.start(index);
+        corners.fill(-1);
+        let mut previous = -1i64;
+        let mut first_cell = None;
+        let mut cell_end = 0;
+        for cluster in block.slots().collect::<Vec<_>>().chunks(CLUSTER_SLOTS) {
+            let used: Vec<_> = cluster[..CLUSTER_METACELLS]
+                .iter()
+                .map(|&s| metacells[s])
+                .take_while(|m| !m.is_empty())
+                .collect();
+            part.push(used.len() as u8);
+            for m in &used {
+                let local = [0, 1, 2].map(|a| m.position[a] as u32 - origin[a]);
+                let code = morton::metacell_code(local[0], local[1], local[2]) as i64;
+                let step = code - previous;
+                previous = code;
+                varint(&mut part, ((step << 1) ^ (step >> 63)) as u64);
+                part.push(m.cell_mask as u8);
+                let mut pointer = m.cell_pointer as usize;
+                first_cell.get_or_insert(pointer);
+                for bit in 0..8u32 {
+                    if m.cell_mask >> bit & 1 == 0 {
+                        continue;
+                    }
+                    let rec = &cells[pointer * record..(pointer + 1) * record];
+                    let cell = [0, 1, 2].map(|a| 2 * local[a] as usize + (bit as usize >> a & 1));
+                    for c in 0..8 {
+                        let at = (cell[2] + (c >> 2 & 1)) * SIDE * SIDE
+                            + (cell[1] + (c >> 1 & 1)) * SIDE
+                            + cell[0]
+                            + (c & 1);
+                        let v = corner_code(rec, precision, c);
+                        let seen = if known[at] >= 0 {
+                            known[at]
+                        } else {
+                            corners[at]
+                        };
+                        if seen >= 0 && seen != v {
+                            return Err(Error::unsupported(format!(
+                                "cells disagree on a corner sample's code in block {index} (a file with labels?): it has no packed form"
+                            )));
+                        }
+                        corners[at] = v;
+                    }
+                    pointer += 1;
+                }
+                cell_end = pointer;
+            }
+        }
+        let mut last = (max + 1) / 2;
+        for z in 0..SIDE {
+            for y in 0..SIDE {
+                for x in 0..SIDE {
+                    let at = z * SIDE * SIDE + y * SIDE + x;
+                    if corners[at] < 0 || known[at] >= 0 {
+                        continue;
+                    }
+                    let v = corners[at];
+                    let residual = (v - predict(&known, [x, y, z], max, last)).rem_euclid(max + 1);
+                    part.extend_from_slice(&(residual as u32).to_le_bytes()[..residual_bytes]);
+                    known[at] = v;
+                    last = v;
+                }
+            }
+        }
+        if let (Some(a), Some(first)) = (attribute, first_cell) {
+            let values = &a[ATTRIBUTE_HEAD_SIZE..];
+            part.extend_from_slice(&values[first * attribute_width..cell_end * attribute_width]);
+        }
+        known_samples.finish(index, known);
+        varint(&mut body, part.len() as u64);
+        body.extend_from_slice(&part);
+    }
+
+    let mut deflate = flate2::write::DeflateEncoder::new(
+        Vec::with_capacity(body.len() / 2),
+        flate2::Compression::best(),
+    );
+    deflate.write_all(&body).map_err(Error::io)?;
+    let stream = deflate.finish().map_err(Error::io)?;
+
+    let mut out = Vec::with_capacity(PACKED_HEAD_SIZE + head_len + stream.len());
+    out.extend_from_slice(&PACKED_MAGIC);
+    out.extend_from_slice(&PACKED_VERSION.to_le_bytes());
+    out.extend_from_slice(&(head_len as u32).to_le_bytes());
+    out.extend_from_slice(&(file.len() as u64).to_le_bytes());
+    out.extend_from_slice(&(stream.len() as u64).to_le_bytes());
+    out.extend_from_slice(&(body.len() as u64).to_le_bytes());
+    let mut crc = crc32fast::Hasher::new();
+    crc.update(&out);
+    crc.update(&file[..head_len]);
+    out.extend_from_slice(&crc.finalize().to_le_bytes());
+    out.extend_from_slice(&[0; 4]);
+    out.extend_from_slice(&file[..head_len]);
+    out.extend_from_slice(&stream);
+    Ok(out)
+}

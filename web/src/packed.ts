@@ -1,0 +1,438 @@
+// Rebuilds a .cgc file from its packed transfer form (.cgcz: each corner sample once, predicted
+// from its neighbours, positions as Morton steps, deflated; the layout is the module doc of
+// crates/isogrid/src/cgc/pack.rs, which writes it) while it downloads, and hands the rebuilt bytes
+// to streamCgc as a ByteSource: a read resolves once every byte it asks for is rebuilt. So the
+// packed file is validated as any .cgc is (header, table, every section's CRC, the structure), and
+// its clusters are drawn as they arrive. The browser's DecompressionStream inflates the stream.
+
+import { Crc32 } from './crc32.js';
+import { ATTRIBUTE_HEAD_SIZE, BLOCK_BYTES, BLOCK_CELLS, BOUND_SLOT, CgcError, CgcHeader, CLUSTER_SLOTS, SLOT_BYTES, Section, blockDims, parseHeader } from './cgc.js';
+import type { ByteSource } from './loader.js';
+
+export const PACKED_MAGIC = [0x89, 0x43, 0x47, 0x5a, 0x0d, 0x0a, 0x1a, 0x0a];
+export const PACKED_HEAD_SIZE = 48;
+const PACKED_VERSION = 1;
+const HEADER_SIZE = 320;
+const TABLE_ENTRY_SIZE = 32;
+/** Samples along a block's edge (its high face included) and in a block. */
+const SIDE = BLOCK_CELLS + 1;
+const BOX = SIDE * SIDE * SIDE;
+const CLUSTER_METACELLS = CLUSTER_SLOTS - 1;
+
+/** Whether a file's name says it is a packed .cgc. */
+export function isPackedName(name: string): boolean {
+  return /\.cgcz$/i.test(name.split(/[?#]/)[0]);
+}
+
+/** Inflated bytes, pulled as the body needs them. */
+class Body {
+  private buf = new Uint8Array(0);
+  private at = 0;
+  private read = 0;
+  constructor(private readonly reader: ReadableStreamDefaultReader<Uint8Array>, private readonly expected: number) {}
+
+  /** Pulls until `n` bytes are buffered; false at the stream's end. */
+  private async fill(n: number): Promise<boolean> {
+    while (this.buf.length - this.at < n) {
+      const { done, value } = await this.reader.read();
+      if (done) return false;
+      this.read += value.length;
+      if (this.read > this.expected) throw new CgcError(`the packed body inflates past the ${this.expected} bytes its head gives (damaged)`);
+      const rest = this.buf.subarray(this.at);
+      const next = new Uint8Array(rest.length + value.length);
+      next.set(rest);
+      next.set(value, rest.length);
+      this.buf = next;
+      this.at = 0;
+    }
+    return true;
+  }
+  async bytes(n: number): Promise<Uint8Array> {
+    if (!(await this.fill(n))) throw new CgcError(`the packed body ends after ${this.read} of the ${this.expected} bytes its head gives (truncated?)`);
+    const out = this.buf.subarray(this.at, this.at + n);
+    this.at += n;
+    return out;
+  }
+  async varint(): Promise<number> {
+    let v = 0;
+    for (let shift = 0; shift < 49; shift += 7) {
+      const b = (await this.bytes(1))[0];
+      v += (b & 0x7f) * 2 ** shift;
+      if (b < 0x80) return v;
+    }
+    throw new CgcError('a varint of the packed body is too long (damaged)');
+  }
+  /** Checks that every inflated byte was used and that there were as many as the head says. */
+  async end(): Promise<void> {
+    if ((await this.fill(1)) || this.read !== this.expected) {
+      throw new CgcError(`the packed body is not the ${this.expected} bytes its head gives (damaged)`);
+    }
+  }
+}
+
+/** A block's payload, parsed where it lies. */
+class Payload {
+  at = 0;
+  constructor(readonly b: Uint8Array) {}
+  u8(): number {
+    if (this.at >= this.b.length) throw new CgcError('a block of the packed body ends early (damaged)');
+    return this.b[this.at++];
+  }
+  varint(): number {
+    let v = 0;
+    for (let shift = 0; shift < 49; shift += 7) {
+      const b = this.u8();
+      v += (b & 0x7f) * 2 ** shift;
+      if (b < 0x80) return v;
+    }
+    throw new CgcError('a varint of the packed body is too long (damaged)');
+  }
+  take(n: number): Uint8Array {
+    if (this.at + n > this.b.length) throw new CgcError('a block of the packed body ends early (damaged)');
+    const out = this.b.subarray(this.at, this.at + n);
+    this.at += n;
+    return out;
+  }
+}
+
+/**
+ * The predicted code of the new sample at block-local (x, y, z) from the samples of its box known
+ * so far (-1: unknown): `predict` of crates/isogrid/src/cgc/pack.rs, which the test of this module
+ * holds to by rebuilding files that it packed.
+ */
+function predict(known: Float64Array, x: number, y: number, z: number, max: number, last: number): number {
+  const at = z * SIDE * SIDE + y * SIDE + x;
+  const a = x > 0 ? known[at - 1] : -1;
+  const b = y > 0 ? known[at - SIDE] : -1;
+  const c = z > 0 ? known[at - SIDE * SIDE] : -1;
+  let sum = 0;
+  let n = 0;
+  const plane = (p: number, q: number, pq: number) => {
+    if (p >= 0 && q >= 0 && pq >= 0) {
+      sum += Math.min(Math.max(p + q - pq, 0), max);
+      n++;
+    }
+  };
+  plane(a, b, x > 0 && y > 0 ? known[at - 1 - SIDE] : -1);
+  plane(a, c, x > 0 && z > 0 ? known[at - 1 - SIDE * SIDE] : -1);
+  plane(b, c, y > 0 && z > 0 ? known[at - SIDE - SIDE * SIDE] : -1);
+  if (n === 0) {
+    if (a >= 0) (sum += a), n++;
+    if (b >= 0) (sum += b), n++;
+    if (c >= 0) (sum += c), n++;
+  }
+  if (n === 0) return last;
+  return Math.floor((2 * sum + n) / (2 * n));
+}
+
+/** Morton code of a metacell inside a block → its coordinates (0..8 each). */
+function mortonDecode(code: number): [number, number, number] {
+  const compact = (v: number) => (v & 1) | ((v >> 2) & 2) | ((v >> 4) & 4);
+  return [compact(code), compact(code >> 1), compact(code >> 2)];
+}
+
+/**
+ * A ByteSource of the .cgc that `stream` (a .cgcz) rebuilds. `onBytes` counts the packed bytes
+ * as they arrive; `total` is the .cgc's length once the head is in.
+ */
+export function packedSource(name: string, open: () => Promise<ReadableStream<Uint8Array>>, onBytes: (n: number) => void): ByteSource {
+  let file: Uint8Array | null = null;
+  let header: CgcHeader | null = null;
+  let failure: unknown = null;
+  /** Bytes rebuilt from each section's start. */
+  const filled = new Map<Section, number>();
+  const waiting: { start: number; end: number; resolve: (b: Uint8Array) => void; reject: (e: unknown) => void }[] = [];
+  const ready = (start: number, end: number): boolean =>
+    header !== null && header.sections.every((s) => end <= s.offset || start >= s.offset + s.length || filled.get(s)! >= Math.min(end, s.offset + s.length) - s.offset);
+  const settle = () => {
+    for (let i = 0; i < waiting.length; ) {
+      const w = waiting[i];
+      if (failure) w.reject(failure);
+      else if (ready(w.start, w.end)) w.resolve(file!.subarray(w.start, Math.min(w.end, file!.length)));
+      else {
+        i++;
+        continue;
+      }
+      waiting.splice(i, 1);
+    }
+  };
+  const src: ByteSource = {
+    name,
+    total: null,
+    notice: null,
+    read(start, end) {
+      return new Promise((resolve, reject) => {
+        waiting.push({ start, end, resolve, reject });
+        settle();
+      });
+    },
+  };
+
+  const run = async () => {
+    const reader = (await open()).getReader();
+    let pending = new Uint8Array(0);
+    /** The first `n` bytes of the packed file, read from its start. */
+    const head = async (n: number): Promise<Uint8Array> => {
+      while (pending.length < n) {
+        const { done, value } = await reader.read();
+        if (done) throw new CgcError(`the packed file ends after ${pending.length} bytes, inside its ${n}-byte head (truncated?)`);
+        onBytes(value.length);
+        const next = new Uint8Array(pending.length + value.length);
+        next.set(pending);
+        next.set(value, pending.length);
+        pending = next;
+      }
+      return pending;
+    };
+    const h0 = await head(PACKED_HEAD_SIZE);
+    if (PACKED_MAGIC.some((b, i) => h0[i] !== b)) throw new CgcError('not a packed .cgc file (bad magic bytes; a .cgc is opened by its own name)');
+    const v = new DataView(h0.buffer, h0.byteOffset, PACKED_HEAD_SIZE);
+    const headLength = v.getUint32(12, true);
+    const cgcLength = Number(v.getBigUint64(16, true));
+    const streamLength = Number(v.getBigUint64(24, true));
+    const bodyLength = Number(v.getBigUint64(32, true));
+    if (headLength < HEADER_SIZE || headLength > HEADER_SIZE + 64 * TABLE_ENTRY_SIZE || (headLength - HEADER_SIZE) % TABLE_ENTRY_SIZE) {
+      throw new CgcError(`packed head gives a ${headLength}-byte .cgc head (damaged)`);
+    }
+    const all = await head(PACKED_HEAD_SIZE + headLength);
+    if (new Crc32().update(all.subarray(0, 40)).update(all.subarray(PACKED_HEAD_SIZE, PACKED_HEAD_SIZE + headLength)).digest() !== v.getUint32(40, true)) {
+      throw new CgcError('packed head checksum mismatch (the head is damaged)');
+    }
+    if (v.getUint32(8, true) !== PACKED_VERSION) {
+      throw new CgcError(`packed format version ${v.getUint32(8, true)}; this viewer reads version ${PACKED_VERSION}`, true);
+    }
+    // Bounds on the lengths, so that a crafted head cannot ask for a giant allocation: deflate
+    // expands at most 1032-fold, and a .cgc is far less than 512 times the body that rebuilds it
+    // (per 8 cells at most 8 records of 32 B and a 12 B slot, for a metacell's 2 B and samples).
+    if (bodyLength > 1032 * streamLength + 64 || cgcLength > 512 * bodyLength + headLength + 4096) {
+      throw new CgcError('packed head gives lengths no packed file can have (damaged)');
+    }
+    if (v.getUint32(44, true) !== 0) throw new CgcError('packed head has reserved bytes set (damaged)');
+    const h = parseHeader(all.subarray(PACKED_HEAD_SIZE, PACKED_HEAD_SIZE + headLength), cgcLength);
+    if (h.labels || h.sections.some((s) => s.kind > 4)) throw new CgcError('a packed file holds no labels (damaged)');
+    if (HEADER_SIZE + h.sections.length * TABLE_ENTRY_SIZE !== headLength) throw new CgcError('packed head and section table disagree (damaged)');
+    header = h;
+    file = new Uint8Array(cgcLength);
+    file.set(all.subarray(PACKED_HEAD_SIZE, PACKED_HEAD_SIZE + headLength));
+    for (const s of h.sections) filled.set(s, 0);
+    src.total = cgcLength;
+    settle();
+
+    // The deflate stream: the bytes after the head, into the browser's inflater.
+    const inflater = new DecompressionStream('deflate-raw');
+    const writer = inflater.writable.getWriter() as WritableStreamDefaultWriter<Uint8Array<ArrayBuffer>>;
+    let fed = 0;
+    let cancelled = false;
+    const feed = async () => {
+      const rest = pending.subarray(PACKED_HEAD_SIZE + headLength);
+      for (let chunk: Uint8Array | undefined = rest; ; ) {
+        if (chunk && chunk.length) {
+          fed += chunk.length;
+          if (fed > streamLength) throw new CgcError(`the packed file runs past the ${PACKED_HEAD_SIZE + headLength + streamLength} bytes its head gives (damaged)`);
+          await writer.write(chunk as Uint8Array<ArrayBuffer>);
+        }
+        const { done, value } = await reader.read();
+        if (done) break;
+        onBytes(value.length);
+        chunk = value;
+      }
+      if (cancelled) return;
+      if (fed !== streamLength) {
+        throw new CgcError(`the packed file ends after ${PACKED_HEAD_SIZE + headLength + fed} of its ${PACKED_HEAD_SIZE + headLength + streamLength} bytes (truncated?)`);
+      }
+      await writer.close();
+    };
+    // Settles to the download's own failure (a truncation, a stream too long), or null.
+    const feeding = feed().then(
+      () => null,
+      async (e) => {
+        await writer.abort(e).catch(() => {});
+        return cancelled ? null : e;
+      },
+    );
+    const inflated = inflater.readable.getReader();
+    const body = new Body(inflated, bodyLength);
+    let failed: unknown = null;
+    try {
+      await rebuild(h, file, body, filled, settle);
+      await body.end();
+    } catch (e) {
+      failed = e;
+      cancelled = true;
+      reader.cancel().catch(() => {});
+      inflated.cancel().catch(() => {});
+    }
+    const fedFailure = await feeding;
+    // What went wrong with the download says more than what the inflater made of it.
+    if (fedFailure instanceof CgcError) throw fedFailure;
+    if (failed instanceof CgcError) throw failed;
+    if (failed || fedFailure) throw new CgcError('the packed stream is damaged (not valid deflate data)');
+  };
+  run().catch((e) => {
+    failure = e instanceof CgcError || e instanceof Error ? e : new CgcError(String(e));
+    settle();
+  });
+  return src;
+}
+
+/** Rebuilds every section of `file` after its head from the inflated `body` (pack.rs). */
+async function rebuild(h: CgcHeader, file: Uint8Array, body: Body, filled: Map<Section, number>, settle: () => void): Promise<void> {
+  const nb = blockDims(h);
+  const blockCount = h.blockCount;
+  if (blockCount !== nb[0] * nb[1] * nb[2]) throw new CgcError('block count does not match the dims (damaged)');
+  const bpc = h.precisionBits; // bytes per corner record
+  const bits = h.precisionBits;
+  const max = 2 ** bits - 1;
+  const residualBytes = Math.ceil(bits / 8);
+
+  // Blocks: their value bounds, then cluster counts.
+  const bounds = await body.bytes(8 * blockCount);
+  const bv = new DataView(file.buffer, file.byteOffset + h.blocks.offset, h.blocks.length);
+  const clusters: number[] = [];
+  let slots = 0;
+  for (let i = 0; i < blockCount; i++) {
+    const n = await body.varint();
+    if (16 * (slots / 16 + n) > h.slotCount) throw new CgcError('the packed blocks hold more clusters than the header counts (damaged)');
+    clusters.push(n);
+    bv.setUint32(BLOCK_BYTES * i, 16 * n, true);
+    bv.setUint32(BLOCK_BYTES * i + 4, slots, true);
+    file.set(bounds.subarray(8 * i, 8 * i + 8), h.blocks.offset + BLOCK_BYTES * i + 8);
+    slots += 16 * n;
+  }
+  if (slots !== h.slotCount) throw new CgcError('the packed blocks hold fewer clusters than the header counts (damaged)');
+  filled.set(h.blocks, h.blocks.length);
+  const attr = h.attribute;
+  let width = 0;
+  if (attr) {
+    const head = await body.bytes(ATTRIBUTE_HEAD_SIZE);
+    width = new DataView(head.buffer, head.byteOffset, ATTRIBUTE_HEAD_SIZE).getUint32(4, true) / 8;
+    if (![1, 2, 4].includes(width) || attr.length !== ATTRIBUTE_HEAD_SIZE + width * h.activeCells) throw new CgcError('the packed attribute head does not match its section (damaged)');
+    file.set(head, attr.offset);
+    filled.set(attr, ATTRIBUTE_HEAD_SIZE);
+  }
+  settle();
+
+  const m = new DataView(file.buffer, file.byteOffset + h.metacells.offset, h.metacells.length);
+  const cells = file.subarray(h.cells.offset, h.cells.offset + h.cells.length);
+  const cv = new DataView(cells.buffer, cells.byteOffset, cells.byteLength);
+  const boxes = new Map<number, Float64Array>();
+  const order: number[] = [];
+  const reach = nb[0] * nb[1] + nb[0] + 1;
+  let slot = 0;
+  let cell = 0;
+  const corners = new Float64Array(BOX);
+  const cellAt: number[] = []; // block-local sample index of each cell's corner 0, in record order
+  for (let index = 0; index < blockCount; index++) {
+    if (clusters[index] === 0) continue;
+    const p = new Payload(await body.bytes(await body.varint()));
+    const b = [index % nb[0], Math.floor(index / nb[0]) % nb[1], Math.floor(index / (nb[0] * nb[1]))];
+    // The box with every sample an earlier neighbour sent.
+    while (order.length && order[0] + reach < index) boxes.delete(order.shift()!);
+    const known = new Float64Array(BOX).fill(-1);
+    for (let dz = -1; dz <= 1; dz++) {
+      for (let dy = -1; dy <= 1; dy++) {
+        for (let dx = -1; dx <= 1; dx++) {
+          const n = [b[0] + dx, b[1] + dy, b[2] + dz];
+          if (n.some((v, a) => v < 0 || v >= nb[a])) continue;
+          const ni = n[0] + nb[0] * (n[1] + nb[1] * n[2]);
+          const other = ni < index ? boxes.get(ni) : undefined;
+          if (!other) continue;
+          const span = (d: number) => (d === -1 ? [0, 1] : d === 0 ? [0, SIDE] : [BLOCK_CELLS, SIDE]);
+          const [z0, z1] = span(dz);
+          const [y0, y1] = span(dy);
+          const [x0, x1] = span(dx);
+          for (let z = z0; z < z1; z++) {
+            for (let y = y0; y < y1; y++) {
+              for (let x = x0; x < x1; x++) {
+                const val = other[(z - BLOCK_CELLS * dz) * SIDE * SIDE + (y - BLOCK_CELLS * dy) * SIDE + (x - BLOCK_CELLS * dx)];
+                if (val >= 0) known[z * SIDE * SIDE + y * SIDE + x] = val;
+              }
+            }
+          }
+        }
+      }
+    }
+    // Metacells and cluster bounds.
+    corners.fill(0);
+    cellAt.length = 0;
+    const firstCell = cell;
+    let previous = -1;
+    const origin = b.map((v) => (v * BLOCK_CELLS) / 2);
+    for (let k = 0; k < clusters[index]; k++) {
+      const count = p.u8();
+      if (count < 1 || count > CLUSTER_METACELLS) throw new CgcError(`a packed cluster of ${count} metacells (damaged)`);
+      const lo = [Infinity, Infinity, Infinity];
+      const hi = [-1, -1, -1];
+      for (let s = 0; s < count; s++) {
+        const step = p.varint();
+        const code = previous + (step % 2 ? -(step + 1) / 2 : step / 2);
+        if (code < 0 || code >= 512) throw new CgcError('a packed metacell lies outside its block (damaged)');
+        previous = code;
+        const mask = p.u8();
+        if (mask === 0) throw new CgcError('a packed metacell has no active cell (damaged)');
+        const local = mortonDecode(code);
+        const at = SLOT_BYTES * (slot + s);
+        for (let a = 0; a < 3; a++) {
+          const pos = origin[a] + local[a];
+          m.setUint16(at + 2 * a, pos, true);
+          lo[a] = Math.min(lo[a], pos);
+          hi[a] = Math.max(hi[a], pos);
+        }
+        m.setUint16(at + 6, mask, true);
+        m.setUint32(at + 8, cell + cellAt.length, true);
+        for (let bit = 0; bit < 8; bit++) {
+          if (!(mask & (1 << bit))) continue;
+          const c = [2 * local[0] + (bit & 1), 2 * local[1] + ((bit >> 1) & 1), 2 * local[2] + ((bit >> 2) & 1)];
+          const at0 = c[2] * SIDE * SIDE + c[1] * SIDE + c[0];
+          cellAt.push(at0);
+          for (let q = 0; q < 8; q++) corners[at0 + (q >> 2) * SIDE * SIDE + ((q >> 1) & 1) * SIDE + (q & 1)] = 1;
+        }
+      }
+      const bound = SLOT_BYTES * (slot + BOUND_SLOT);
+      for (let a = 0; a < 3; a++) {
+        m.setUint16(bound + 2 * a, lo[a], true);
+        m.setUint16(bound + 6 + 2 * a, hi[a], true);
+      }
+      slot += CLUSTER_SLOTS;
+    }
+    if (cell + cellAt.length > h.activeCells) throw new CgcError('the packed cells outnumber the header\'s active cells (damaged)');
+    // New samples.
+    let last = Math.floor((max + 1) / 2);
+    for (let z = 0; z < SIDE; z++) {
+      for (let y = 0; y < SIDE; y++) {
+        for (let x = 0; x < SIDE; x++) {
+          const at = z * SIDE * SIDE + y * SIDE + x;
+          if (!corners[at] || known[at] >= 0) continue;
+          const r = p.take(residualBytes);
+          const residual = residualBytes === 1 ? r[0] : residualBytes === 2 ? r[0] | (r[1] << 8) : (r[0] | (r[1] << 8) | (r[2] << 16)) + r[3] * 2 ** 24;
+          if (residual > max) throw new CgcError('a packed sample is out of range (damaged)');
+          const val = (predict(known, x, y, z, max, last) + residual) % (max + 1);
+          known[at] = val;
+          last = val;
+        }
+      }
+    }
+    // Corner records.
+    for (let i = 0; i < cellAt.length; i++) {
+      const r = (cell + i) * bpc;
+      for (let q = 0; q < 8; q++) {
+        const val = known[cellAt[i] + (q >> 2) * SIDE * SIDE + ((q >> 1) & 1) * SIDE + (q & 1)];
+        if (bits === 1) cells[r] |= val << q;
+        else if (bits === 4) cells[r + (q >> 1)] |= val << (4 * (q & 1));
+        else if (bits === 8) cells[r + q] = val;
+        else if (bits === 16) cv.setUint16(r + 2 * q, val, true);
+        else cv.setUint32(r + 4 * q, val, true);
+      }
+    }
+    cell += cellAt.length;
+    if (attr) file.set(p.take(width * (cell - firstCell)), attr.offset + ATTRIBUTE_HEAD_SIZE + width * firstCell);
+    if (p.at !== p.b.length) throw new CgcError('a block of the packed body has bytes left over (damaged)');
+    boxes.set(index, known);
+    order.push(index);
+    filled.set(h.metacells, SLOT_BYTES * slot);
+    filled.set(h.cells, bpc * cell);
+    if (attr) filled.set(attr, ATTRIBUTE_HEAD_SIZE + width * cell);
+    settle();
+  }
+  if (cell !== h.activeCells) throw new CgcError('the packed cells are fewer than the header\'s active cells (damaged)');
+}

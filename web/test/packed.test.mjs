@@ -1,0 +1,101 @@
+// The packed transfer form (.cgcz, written by `isogrid pack`) rebuilt by web/src/packed.ts: byte for
+// byte the .cgc the binary writes, at every corner precision, with and without a cell attribute,
+// whether the bytes arrive at once or a few at a time; and every truncation and single-byte change
+// of a packed file refused with a CgcError (by the packed head, the inflater, the rebuild or the
+// .cgc's own checks on the rebuilt bytes) or rebuilt into the same file, never a different one.
+import { test } from 'node:test';
+import assert from 'node:assert/strict';
+import { readFileSync } from 'node:fs';
+import { CgcError, parseCgc } from '../build/node/cgc.js';
+import { packedSource } from '../build/node/packed.js';
+import { isogridBinary, sphereFile, coloredSphereFile, precisionSphereFile, packedFile } from './fixtures.mjs';
+
+const bin = isogridBinary();
+
+/** A stream of `bytes` in pieces of `piece` bytes (a slow link), or in one. */
+function streamOf(bytes, piece = bytes.length) {
+  let at = 0;
+  return new ReadableStream({
+    pull(c) {
+      if (at >= bytes.length) return c.close();
+      c.enqueue(bytes.slice(at, at + piece));
+      at += piece;
+    },
+  });
+}
+
+/** The .cgc that `packed` rebuilds, and the packed bytes counted on the way. */
+async function rebuild(packed, piece) {
+  let counted = 0;
+  const src = packedSource('test.cgcz', async () => streamOf(packed, piece), (n) => (counted += n));
+  const head = await src.read(0, 320);
+  const file = await src.read(0, src.total);
+  return { head, file, counted };
+}
+
+/** The outcome of rebuilding damaged bytes: 'refused', 'same' (rebuilt the original) or a failure. */
+async function outcome(packed, original) {
+  let file;
+  try {
+    ({ file } = await rebuild(packed));
+  } catch (e) {
+    if (e instanceof CgcError) return 'refused';
+    return `threw ${e}`;
+  }
+  if (Buffer.compare(Buffer.from(file), Buffer.from(original)) === 0) return 'same';
+  try {
+    parseCgc(file);
+  } catch (e) {
+    if (e instanceof CgcError) return 'refused';
+    return `threw ${e}`;
+  }
+  return 'a different valid file';
+}
+
+const cases = bin
+  ? [
+      ['sphere48.cgc', sphereFile()],
+      ...[1, 4, 8, 16, 32].map((bits) => [`sphere24 at ${bits}-bit corners`, precisionSphereFile(bits)]),
+      ...[8, 16, 32].map((bits) => [`sphere24 with a ${bits}-bit attribute`, coloredSphereFile(24, bits)]),
+    ]
+  : [];
+
+test('a packed file rebuilds its .cgc byte for byte', { skip: !bin && 'no isogrid binary built (cargo build -p isogrid-cli)' }, async (t) => {
+  for (const [name, cgc] of cases) {
+    const original = new Uint8Array(readFileSync(cgc));
+    const packed = new Uint8Array(readFileSync(packedFile(cgc)));
+    for (const piece of [packed.length, 7]) {
+      const { file, counted } = await rebuild(packed, piece);
+      assert.equal(counted, packed.length, name);
+      assert.ok(Buffer.compare(Buffer.from(file), Buffer.from(original)) === 0, `${name}: the rebuilt file differs (pieces of ${piece})`);
+    }
+    t.diagnostic(`${name}: ${original.length} bytes packed into ${packed.length} (${(original.length / packed.length).toFixed(2)}×)`);
+  }
+});
+
+test('every truncation and single-byte change of a packed file is refused', { skip: !bin && 'no isogrid binary built', timeout: 600_000 }, async (t) => {
+  const cgc = precisionSphereFile(8);
+  const original = new Uint8Array(readFileSync(cgc));
+  const packed = new Uint8Array(readFileSync(packedFile(cgc)));
+  for (let n = 0; n < packed.length; n++) {
+    assert.equal(await outcome(packed.subarray(0, n), original), 'refused', `cut to ${n} of ${packed.length} bytes`);
+  }
+  const appended = new Uint8Array(packed.length + 1);
+  appended.set(packed);
+  assert.equal(await outcome(appended, original), 'refused', 'a byte appended');
+  const same = [];
+  for (let i = 0; i < packed.length; i++) {
+    for (const flip of [0x01, 0x80]) {
+      const b = packed.slice();
+      b[i] ^= flip;
+      // A few bits of a deflate stream do not change what it inflates to (its first block's
+      // "final" flag when the lengths end it anyway, padding bits past its end): rebuilding the
+      // same file is no harm, and the file's checksums hold it to be that file.
+      const got = await outcome(b, original);
+      assert.ok(got === 'refused' || got === 'same', `byte ${i} ^ ${flip}: ${got}`);
+      if (got === 'same') same.push(`${i}^${flip}`);
+    }
+  }
+  assert.ok(same.length <= 4, `changes that rebuilt the same file: ${same.join(', ')}`);
+  t.diagnostic(`${packed.length} bytes, ${2 * packed.length} changes: ${same.length} rebuilt the same file (${same.join(', ')}), the rest refused`);
+});
