@@ -11,7 +11,7 @@
 // Usage: node bench/bench.mjs SIZE FILE.cgc...   (e.g. 640x480; the isogrid binary as in the tests)
 //   CAP_S (default 1200): seconds a throttled load may take to its complete picture; past it the
 //   figures so far are printed with completeMs null. FRAMES (default 5): frames timed per browser.
-//   BROWSERS (default 'chromium,firefox'): the browsers of the frame-time part; THROTTLED=0 skips
+//   BROWSERS (default 'chromium,firefox'; empty: none): the browsers of the frame-time part; THROTTLED=0 skips
 //   the throttled loads. MAX_RSS_GB (default 8): a browser whose processes hold more memory is
 //   closed and the figure reported as over the cap (SwiftShader's memory grows with the cells drawn;
 //   this machine is shared). VIEWER_FROM=DIR: the page's bundle (/viewer.js) comes from DIR (e.g.
@@ -29,7 +29,7 @@ import { isogridBinary } from '../test/fixtures.mjs';
 const [size, ...files] = process.argv.slice(2);
 const capMs = 1000 * Number(process.env.CAP_S || 1200);
 const frames = Number(process.env.FRAMES || 5);
-const browsers = (process.env.BROWSERS || 'chromium,firefox').split(',');
+const browsers = (process.env.BROWSERS ?? 'chromium,firefox').split(',').filter(Boolean);
 const maxRss = Number(process.env.MAX_RSS_GB || 8) * 2 ** 30;
 
 /** Resident bytes of `browser`'s processes (the browser and its descendants). */

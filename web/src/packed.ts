@@ -18,6 +18,8 @@ const TABLE_ENTRY_SIZE = 32;
 const SIDE = BLOCK_CELLS + 1;
 const BOX = SIDE * SIDE * SIDE;
 const CLUSTER_METACELLS = CLUSTER_SLOTS - 1;
+/** Box index offset of corner (or cell bit) q: +x, +y, +z in bits 0, 1, 2. */
+const CORNER_OFFSETS = [0, 1, 2, 3, 4, 5, 6, 7].map((q) => (q >> 2) * SIDE * SIDE + ((q >> 1) & 1) * SIDE + (q & 1));
 
 /** Whether a file's name says it is a packed .cgc. */
 export function isPackedName(name: string): boolean {
@@ -107,15 +109,30 @@ function predict(known: Float64Array, x: number, y: number, z: number, max: numb
   const c = z > 0 ? known[at - SIDE * SIDE] : -1;
   let sum = 0;
   let n = 0;
-  const plane = (p: number, q: number, pq: number) => {
-    if (p >= 0 && q >= 0 && pq >= 0) {
-      sum += Math.min(Math.max(p + q - pq, 0), max);
+  if (a >= 0 && b >= 0) {
+    const ab = known[at - 1 - SIDE];
+    if (ab >= 0) {
+      const p = a + b - ab;
+      sum += p < 0 ? 0 : p > max ? max : p;
       n++;
     }
-  };
-  plane(a, b, x > 0 && y > 0 ? known[at - 1 - SIDE] : -1);
-  plane(a, c, x > 0 && z > 0 ? known[at - 1 - SIDE * SIDE] : -1);
-  plane(b, c, y > 0 && z > 0 ? known[at - SIDE - SIDE * SIDE] : -1);
+  }
+  if (a >= 0 && c >= 0) {
+    const ac = known[at - 1 - SIDE * SIDE];
+    if (ac >= 0) {
+      const p = a + c - ac;
+      sum += p < 0 ? 0 : p > max ? max : p;
+      n++;
+    }
+  }
+  if (b >= 0 && c >= 0) {
+    const bc = known[at - SIDE - SIDE * SIDE];
+    if (bc >= 0) {
+      const p = b + c - bc;
+      sum += p < 0 ? 0 : p > max ? max : p;
+      n++;
+    }
+  }
   if (n === 0) {
     if (a >= 0) (sum += a), n++;
     if (b >= 0) (sum += b), n++;
@@ -123,6 +140,21 @@ function predict(known: Float64Array, x: number, y: number, z: number, max: numb
   }
   if (n === 0) return last;
   return Math.floor((2 * sum + n) / (2 * n));
+}
+
+/** Milliseconds of rebuilding between chances for the page to draw. */
+const YIELD_MS = 8;
+
+/** Resolves after the tasks queued so far (frames, input, network) have run. */
+function yieldToPage(): Promise<void> {
+  return new Promise((resolve) => {
+    const channel = new MessageChannel();
+    channel.port1.onmessage = () => {
+      channel.port1.close();
+      resolve();
+    };
+    channel.port2.postMessage(null);
+  });
 }
 
 /** Morton code of a metacell inside a block → its coordinates (0..8 each). */
@@ -317,18 +349,30 @@ async function rebuild(h: CgcHeader, file: Uint8Array, body: Body, filled: Map<S
   const cv = new DataView(cells.buffer, cells.byteOffset, cells.byteLength);
   const boxes = new Map<number, Float64Array>();
   const order: number[] = [];
+  const spare: Float64Array[] = []; // boxes no later block reaches, to be used again
   const reach = nb[0] * nb[1] + nb[0] + 1;
   let slot = 0;
   let cell = 0;
   const corners = new Float64Array(BOX);
   const cellAt: number[] = []; // block-local sample index of each cell's corner 0, in record order
+  let worked = performance.now();
   for (let index = 0; index < blockCount; index++) {
     if (clusters[index] === 0) continue;
+    // The rebuild runs on the page's thread: every few milliseconds it lets the page draw and
+    // take input (awaiting bytes already inflated would never leave the microtask queue).
+    if (performance.now() - worked > YIELD_MS) {
+      await yieldToPage();
+      worked = performance.now();
+    }
     const p = new Payload(await body.bytes(await body.varint()));
     const b = [index % nb[0], Math.floor(index / nb[0]) % nb[1], Math.floor(index / (nb[0] * nb[1]))];
     // The box with every sample an earlier neighbour sent.
-    while (order.length && order[0] + reach < index) boxes.delete(order.shift()!);
-    const known = new Float64Array(BOX).fill(-1);
+    while (order.length && order[0] + reach < index) {
+      const done = order.shift()!;
+      spare.push(boxes.get(done)!);
+      boxes.delete(done);
+    }
+    const known = (spare.pop() ?? new Float64Array(BOX)).fill(-1);
     for (let dz = -1; dz <= 1; dz++) {
       for (let dy = -1; dy <= 1; dy++) {
         for (let dx = -1; dx <= 1; dx++) {
@@ -380,12 +424,12 @@ async function rebuild(h: CgcHeader, file: Uint8Array, body: Body, filled: Map<S
         }
         m.setUint16(at + 6, mask, true);
         m.setUint32(at + 8, cell + cellAt.length, true);
+        const base = 2 * (local[2] * SIDE * SIDE + local[1] * SIDE + local[0]);
         for (let bit = 0; bit < 8; bit++) {
           if (!(mask & (1 << bit))) continue;
-          const c = [2 * local[0] + (bit & 1), 2 * local[1] + ((bit >> 1) & 1), 2 * local[2] + ((bit >> 2) & 1)];
-          const at0 = c[2] * SIDE * SIDE + c[1] * SIDE + c[0];
+          const at0 = base + CORNER_OFFSETS[bit];
           cellAt.push(at0);
-          for (let q = 0; q < 8; q++) corners[at0 + (q >> 2) * SIDE * SIDE + ((q >> 1) & 1) * SIDE + (q & 1)] = 1;
+          for (let q = 0; q < 8; q++) corners[at0 + CORNER_OFFSETS[q]] = 1;
         }
       }
       const bound = SLOT_BYTES * (slot + BOUND_SLOT);
@@ -403,8 +447,11 @@ async function rebuild(h: CgcHeader, file: Uint8Array, body: Body, filled: Map<S
         for (let x = 0; x < SIDE; x++) {
           const at = z * SIDE * SIDE + y * SIDE + x;
           if (!corners[at] || known[at] >= 0) continue;
-          const r = p.take(residualBytes);
-          const residual = residualBytes === 1 ? r[0] : residualBytes === 2 ? r[0] | (r[1] << 8) : (r[0] | (r[1] << 8) | (r[2] << 16)) + r[3] * 2 ** 24;
+          const i = p.at;
+          if (i + residualBytes > p.b.length) throw new CgcError('a block of the packed body ends early (damaged)');
+          const r = p.b;
+          const residual = residualBytes === 1 ? r[i] : residualBytes === 2 ? r[i] | (r[i + 1] << 8) : (r[i] | (r[i + 1] << 8) | (r[i + 2] << 16)) + r[i + 3] * 2 ** 24;
+          p.at = i + residualBytes;
           if (residual > max) throw new CgcError('a packed sample is out of range (damaged)');
           const val = (predict(known, x, y, z, max, last) + residual) % (max + 1);
           known[at] = val;
@@ -416,7 +463,7 @@ async function rebuild(h: CgcHeader, file: Uint8Array, body: Body, filled: Map<S
     for (let i = 0; i < cellAt.length; i++) {
       const r = (cell + i) * bpc;
       for (let q = 0; q < 8; q++) {
-        const val = known[cellAt[i] + (q >> 2) * SIDE * SIDE + ((q >> 1) & 1) * SIDE + (q & 1)];
+        const val = known[cellAt[i] + CORNER_OFFSETS[q]];
         if (bits === 1) cells[r] |= val << q;
         else if (bits === 4) cells[r + (q >> 1)] |= val << (4 * (q & 1));
         else if (bits === 8) cells[r + q] = val;

@@ -45,10 +45,12 @@ pub struct GridSource {
     pub label: LabelArgs,
 }
 
+/// A `.cgc` file, or its packed form (`.cgcz`), which the reader refuses naming what it is rather
+/// than being taken for a volume.
 pub(crate) fn is_cgc(path: &Path) -> bool {
     path.extension()
         .and_then(|e| e.to_str())
-        .is_some_and(|e| e.eq_ignore_ascii_case("cgc"))
+        .is_some_and(|e| e.eq_ignore_ascii_case("cgc") || e.eq_ignore_ascii_case("cgcz"))
 }
 
 impl GridSource {

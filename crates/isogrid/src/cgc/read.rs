@@ -68,6 +68,11 @@ fn parse_header(h: &[u8], file_len: u64) -> Result<Header> {
         )));
     }
     let (h, after) = h.split_at(HEADER_SIZE);
+    if h[..8] == super::pack::PACKED_MAGIC {
+        return Err(Error::unsupported(
+            "a packed .cgcz, the web viewer's transfer form (isogrid pack): open the .cgc it was packed from",
+        ));
+    }
     if h[..8] != MAGIC {
         return Err(Error::corrupt("not a .cgc file (bad magic bytes)"));
     }
