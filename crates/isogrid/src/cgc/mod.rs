@@ -59,7 +59,7 @@
 //! the buffers without bounds surprises. Every file is written by one writer, `CgcWriter`.
 
 mod format;
-mod pack;
+pub mod pack;
 mod read;
 mod write;
 

@@ -36,7 +36,7 @@
 //! from the previous metacell's Morton code in the block (the first steps from −1; varint of the
 //! zigzag of the step) and its cell mask (u8). Then the block's *new samples*: the corner samples
 //! of its active cells (in block-local sample coordinates `0..=16`) that no earlier neighbour
-//! block sent, in z, y, x order, each as its residual against [`predict`], modulo 2^bits, in 1,
+//! block sent, in z, y, x order, each as its residual against `predict` (below), modulo 2^bits, in 1,
 //! 2 or 4 bytes (bits ≤ 8, 16, 32; a 32-bit corner is its float's bit pattern). Then the block's
 //! cells' stored attribute values, as the attribute section holds them.
 //!
