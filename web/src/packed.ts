@@ -241,7 +241,7 @@ export function packedSource(name: string, open: () => Promise<ReadableStream<Ui
     }
     if (v.getUint32(44, true) !== 0) throw new CgcError('packed head has reserved bytes set (damaged)');
     const h = parseHeader(all.subarray(PACKED_HEAD_SIZE, PACKED_HEAD_SIZE + headLength), cgcLength);
-    if (h.labels || h.sections.some((s) => s.kind > 4)) throw new CgcError('a packed file holds no labels (damaged)');
+    if (h.sections.some((s) => s.kind > 7)) throw new CgcError('a packed file holds no section of an unknown kind (damaged)');
     if (HEADER_SIZE + h.sections.length * TABLE_ENTRY_SIZE !== headLength) throw new CgcError('packed head and section table disagree (damaged)');
     header = h;
     file = new Uint8Array(cgcLength);
@@ -342,6 +342,12 @@ async function rebuild(h: CgcHeader, file: Uint8Array, body: Body, filled: Map<S
     file.set(head, attr.offset);
     filled.set(attr, ATTRIBUTE_HEAD_SIZE);
   }
+  // The label sections as they are (streamCgc checks them).
+  for (const s of h.labels ?? []) {
+    file.set(await body.bytes(s.length), s.offset);
+    filled.set(s, s.length);
+  }
+  const clusterLabels = h.labels ? new DataView(file.buffer, file.byteOffset + h.labels[0].offset, h.labels[0].length) : null;
   settle();
 
   const m = new DataView(file.buffer, file.byteOffset + h.metacells.offset, h.metacells.length);
@@ -353,26 +359,21 @@ async function rebuild(h: CgcHeader, file: Uint8Array, body: Body, filled: Map<S
   const reach = nb[0] * nb[1] + nb[0] + 1;
   let slot = 0;
   let cell = 0;
-  const corners = new Float64Array(BOX);
   const cellAt: number[] = []; // block-local sample index of each cell's corner 0, in record order
-  let worked = performance.now();
-  for (let index = 0; index < blockCount; index++) {
-    if (clusters[index] === 0) continue;
-    // The rebuild runs on the page's thread: every few milliseconds it lets the page draw and
-    // take input (awaiting bytes already inflated would never leave the microtask queue).
-    if (performance.now() - worked > YIELD_MS) {
-      await yieldToPage();
-      worked = performance.now();
-    }
-    const p = new Payload(await body.bytes(await body.varint()));
-    const b = [index % nb[0], Math.floor(index / nb[0]) % nb[1], Math.floor(index / (nb[0] * nb[1]))];
-    // The box with every sample an earlier neighbour sent.
+  const cellGroup: number[] = []; // each cell's group
+  /** One label's samples in the block (the whole block's in a file without labels): pack.rs's Group. */
+  type Group = { label: number; known: Float64Array; needed: Uint8Array };
+  const groups: Group[] = [];
+  const spareNeeded: Uint8Array[] = [];
+  /** A box of block `index` with every sample its earlier neighbours sent (files without labels). */
+  const seeded = (index: number): Float64Array => {
     while (order.length && order[0] + reach < index) {
       const done = order.shift()!;
       spare.push(boxes.get(done)!);
       boxes.delete(done);
     }
     const known = (spare.pop() ?? new Float64Array(BOX)).fill(-1);
+    const b = [index % nb[0], Math.floor(index / nb[0]) % nb[1], Math.floor(index / (nb[0] * nb[1]))];
     for (let dz = -1; dz <= 1; dz++) {
       for (let dy = -1; dy <= 1; dy++) {
         for (let dx = -1; dx <= 1; dx++) {
@@ -396,13 +397,40 @@ async function rebuild(h: CgcHeader, file: Uint8Array, body: Body, filled: Map<S
         }
       }
     }
-    // Metacells and cluster bounds.
-    corners.fill(0);
+    return known;
+  };
+  let worked = performance.now();
+  for (let index = 0; index < blockCount; index++) {
+    if (clusters[index] === 0) continue;
+    // The rebuild runs on the page's thread: every few milliseconds it lets the page draw and
+    // take input (awaiting bytes already inflated would never leave the microtask queue).
+    if (performance.now() - worked > YIELD_MS) {
+      await yieldToPage();
+      worked = performance.now();
+    }
+    const p = new Payload(await body.bytes(await body.varint()));
+    const b = [index % nb[0], Math.floor(index / nb[0]) % nb[1], Math.floor(index / (nb[0] * nb[1]))];
+    for (const g of groups.splice(0)) {
+      if (clusterLabels) spare.push(g.known);
+      spareNeeded.push(g.needed);
+    }
+    // Metacells and cluster bounds; which samples each group needs.
     cellAt.length = 0;
+    cellGroup.length = 0;
     const firstCell = cell;
     let previous = -1;
     const origin = b.map((v) => (v * BLOCK_CELLS) / 2);
     for (let k = 0; k < clusters[index]; k++) {
+      const label = clusterLabels ? clusterLabels.getUint32(4 * (slot / CLUSTER_SLOTS), true) : 0;
+      let gi = groups.findIndex((g) => g.label === label);
+      if (gi < 0) {
+        // As in pack.rs: samples are shared across blocks without labels; with labels a block's
+        // groups start from none known.
+        const known = clusterLabels ? (spare.pop() ?? new Float64Array(BOX)).fill(-1) : seeded(index);
+        groups.push({ label, known, needed: (spareNeeded.pop() ?? new Uint8Array(BOX)).fill(0) });
+        gi = groups.length - 1;
+      }
+      const needed = groups[gi].needed;
       const count = p.u8();
       if (count < 1 || count > CLUSTER_METACELLS) throw new CgcError(`a packed cluster of ${count} metacells (damaged)`);
       const lo = [Infinity, Infinity, Infinity];
@@ -429,7 +457,8 @@ async function rebuild(h: CgcHeader, file: Uint8Array, body: Body, filled: Map<S
           if (!(mask & (1 << bit))) continue;
           const at0 = base + CORNER_OFFSETS[bit];
           cellAt.push(at0);
-          for (let q = 0; q < 8; q++) corners[at0 + CORNER_OFFSETS[q]] = 1;
+          cellGroup.push(gi);
+          for (let q = 0; q < 8; q++) needed[at0 + CORNER_OFFSETS[q]] = 1;
         }
       }
       const bound = SLOT_BYTES * (slot + BOUND_SLOT);
@@ -440,28 +469,31 @@ async function rebuild(h: CgcHeader, file: Uint8Array, body: Body, filled: Map<S
       slot += CLUSTER_SLOTS;
     }
     if (cell + cellAt.length > h.activeCells) throw new CgcError('the packed cells outnumber the header\'s active cells (damaged)');
-    // New samples.
-    let last = Math.floor((max + 1) / 2);
-    for (let z = 0; z < SIDE; z++) {
-      for (let y = 0; y < SIDE; y++) {
-        for (let x = 0; x < SIDE; x++) {
-          const at = z * SIDE * SIDE + y * SIDE + x;
-          if (!corners[at] || known[at] >= 0) continue;
-          const i = p.at;
-          if (i + residualBytes > p.b.length) throw new CgcError('a block of the packed body ends early (damaged)');
-          const r = p.b;
-          const residual = residualBytes === 1 ? r[i] : residualBytes === 2 ? r[i] | (r[i + 1] << 8) : (r[i] | (r[i + 1] << 8) | (r[i + 2] << 16)) + r[i + 3] * 2 ** 24;
-          p.at = i + residualBytes;
-          if (residual > max) throw new CgcError('a packed sample is out of range (damaged)');
-          const val = (predict(known, x, y, z, max, last) + residual) % (max + 1);
-          known[at] = val;
-          last = val;
+    // Each group's new samples, in the order of their first cluster.
+    for (const { known, needed } of groups) {
+      let last = Math.floor((max + 1) / 2);
+      for (let z = 0; z < SIDE; z++) {
+        for (let y = 0; y < SIDE; y++) {
+          for (let x = 0; x < SIDE; x++) {
+            const at = z * SIDE * SIDE + y * SIDE + x;
+            if (!needed[at] || known[at] >= 0) continue;
+            const i = p.at;
+            if (i + residualBytes > p.b.length) throw new CgcError('a block of the packed body ends early (damaged)');
+            const r = p.b;
+            const residual = residualBytes === 1 ? r[i] : residualBytes === 2 ? r[i] | (r[i + 1] << 8) : (r[i] | (r[i + 1] << 8) | (r[i + 2] << 16)) + r[i + 3] * 2 ** 24;
+            p.at = i + residualBytes;
+            if (residual > max) throw new CgcError('a packed sample is out of range (damaged)');
+            const val = (predict(known, x, y, z, max, last) + residual) % (max + 1);
+            known[at] = val;
+            last = val;
+          }
         }
       }
     }
     // Corner records.
     for (let i = 0; i < cellAt.length; i++) {
       const r = (cell + i) * bpc;
+      const known = groups[cellGroup[i]].known;
       for (let q = 0; q < 8; q++) {
         const val = known[cellAt[i] + CORNER_OFFSETS[q]];
         if (bits === 1) cells[r] |= val << q;
@@ -474,8 +506,10 @@ async function rebuild(h: CgcHeader, file: Uint8Array, body: Body, filled: Map<S
     cell += cellAt.length;
     if (attr) file.set(p.take(width * (cell - firstCell)), attr.offset + ATTRIBUTE_HEAD_SIZE + width * firstCell);
     if (p.at !== p.b.length) throw new CgcError('a block of the packed body has bytes left over (damaged)');
-    boxes.set(index, known);
-    order.push(index);
+    if (!clusterLabels) {
+      boxes.set(index, groups[0].known);
+      order.push(index);
+    }
     filled.set(h.metacells, SLOT_BYTES * slot);
     filled.set(h.cells, bpc * cell);
     if (attr) filled.set(attr, ATTRIBUTE_HEAD_SIZE + width * cell);

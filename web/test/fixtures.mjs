@@ -85,15 +85,19 @@ function writeNpy(path, n, value) {
   writeFileSync(path, Buffer.concat([head, Buffer.from(header, 'latin1'), Buffer.from(data)]));
 }
 
-/** The label grid of `labelAt` (`extract --labels all`: the three label sections), or null. */
-export function labelFile(n = 32) {
+/**
+ * The label grid of `labelAt` (`extract --labels all`: the three label sections; with `smooth`,
+ * `--smooth SIGMA`), or null.
+ */
+export function labelFile(n = 32, smooth = null) {
   const bin = isogridBinary();
   if (!bin) return null;
   const dir = binaryDir(bin);
-  const cgc = join(dir, `labels${n}.cgc`);
+  const cgc = join(dir, smooth === null ? `labels${n}.cgc` : `labels${n}-smooth${smooth}.cgc`);
   if (!existsSync(cgc)) {
     writeNpy(join(dir, `labels${n}.npy`), n, labelAt);
-    execFileSync(bin, ['extract', join(dir, `labels${n}.npy`), '--labels', 'all', '-o', cgc], { stdio: 'ignore' });
+    const smoothing = smooth === null ? [] : ['--smooth', String(smooth)];
+    execFileSync(bin, ['extract', join(dir, `labels${n}.npy`), '--labels', 'all', ...smoothing, '-o', cgc], { stdio: 'ignore' });
   }
   return cgc;
 }

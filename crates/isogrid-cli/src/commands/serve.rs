@@ -2,7 +2,7 @@
 //! binary) and one `.cgc` file (a volume input is extracted into a temporary one first). The
 //! viewer reads the `.cgc` with Range requests, or downloads its packed form (`.cgcz`,
 //! `isogrid::cgc::pack`, written into a temporary folder at start), about a sixth of its bytes,
-//! and rebuilds it; the printed URL opens the packed form where the file has one. It serves exactly
+//! and rebuilds it; the printed URL opens the packed form. It serves exactly
 //! `/` (the page), `/viewer.js`, `/NAME` (the file, by its own name) and `/NAMEz` (its packed
 //! form), and answers everything else with 404: no directory listing, nothing outside them.
 //! Ranges, 206 and 416 come from tower-http's `ServeFile`; gzip, brotli or zstd (as the client
@@ -85,7 +85,7 @@ fn cgc_file(source: &GridSource) -> Result<(PathBuf, Option<ScratchDir>)> {
 }
 
 /// The packed form of `file` written into `temp` (created when there is none) as `NAMEz`, or
-/// why there is none (a file with labels).
+/// why there is none.
 fn packed_file(
     file: &std::path::Path,
     name: &str,

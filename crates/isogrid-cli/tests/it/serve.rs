@@ -354,12 +354,20 @@ fn serves_a_label_volume_as_extract_labels_writes_it() {
         cgc.to_str().unwrap(),
     ]);
     let server = serve_args(&[volume.to_str().unwrap(), "--labels", "all"]);
-    // A file with labels has no packed form: the page reads the .cgc.
-    assert!(server.url.ends_with("/?src=/cubes.cgc"), "{}", server.url);
+    assert!(server.url.ends_with("/?src=/cubes.cgcz"), "{}", server.url);
     let (status, _, body) = get(&server.addr, "/cubes.cgc", "");
     assert_eq!(status, 200);
     assert_eq!(body, std::fs::read(&cgc).unwrap());
-    assert_eq!(get(&server.addr, "/cubes.cgcz", "").0, 404);
+    // Its packed form is that of the file `extract --labels all` writes.
+    let packed = dir.join("cubes.cgcz");
+    isogrid(&[
+        "pack",
+        cgc.to_str().unwrap(),
+        "-o",
+        packed.to_str().unwrap(),
+    ]);
+    let (status, _, body) = get(&server.addr, "/cubes.cgcz", "");
+    assert!(status == 200 && body == std::fs::read(&packed).unwrap());
     drop(server);
     std::fs::remove_dir_all(&dir).unwrap();
 }

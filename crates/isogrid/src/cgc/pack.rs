@@ -6,8 +6,7 @@
 //! over, `docs/benchmarks-web.md`), and everything in its metacells and blocks besides the cells'
 //! positions and masks follows from them. The packed form sends each corner sample once, predicted
 //! from its neighbours, and the positions as Morton steps, then deflates the lot. It holds the
-//! surface and its cell attribute; a file with labels (whose corner records differ per label at
-//! one sample) is refused.
+//! surface, its cell attribute and its labels.
 //!
 //! Layout, all little-endian. A 48-byte head:
 //!
@@ -30,15 +29,19 @@
 //! | every block's `min`, `max` (f32 each) | 8 per block |
 //! | every block's cluster count | a LEB128 varint per block |
 //! | the cell attribute's head, when the file has one | 96 |
+//! | the cluster labels, label index and label table sections, when the file has labels | their lengths |
 //! | each block with clusters, in block order | a varint `n`, then `n` bytes of the block's part |
 //!
 //! A block's part: for each cluster its metacell count (u8, 1..=15), and for each metacell the step
 //! from the previous metacell's Morton code in the block (the first steps from −1; varint of the
 //! zigzag of the step) and its cell mask (u8). Then the block's *new samples*: the corner samples
 //! of its active cells (in block-local sample coordinates `0..=16`) that no earlier neighbour
-//! block sent, in z, y, x order, each as its residual against `predict` (below), modulo 2^bits, in 1,
-//! 2 or 4 bytes (bits ≤ 8, 16, 32; a 32-bit corner is its float's bit pattern). Then the block's
-//! cells' stored attribute values, as the attribute section holds them.
+//! block sent, in z, y, x order, each as its residual against `predict` (below), modulo 2^bits,
+//! in 1, 2 or 4 bytes (bits ≤ 8, 16, 32; a 32-bit corner is its float's bit pattern). In a file
+//! with labels one sample is a corner of several labels' cells with a different code in each:
+//! there the new samples go per label of the block's clusters (labels in the order of their first
+//! cluster in the block), each label's starting from none known. Then the block's cells' stored
+//! attribute values, as the attribute section holds them.
 //!
 //! The rest of the `.cgc` follows: a block's metacell count and pointer from the cluster counts,
 //! a metacell's position from its block and Morton code, its cell pointer from the masks before
@@ -194,23 +197,35 @@ impl KnownSamples {
     }
 }
 
-/// The packed form of `grid`'s `.cgc` file ([`super::write::to_bytes`]). Refuses a grid with labels.
+/// One label's samples in the block being packed (the whole block's, in a file without labels).
+struct Group {
+    label: u32,
+    /// Samples known before this block's new ones are read (sent by earlier neighbour blocks), then
+    /// as they are read.
+    known: Box<[i64; BOX]>,
+    /// The codes of the group's cells' corners.
+    corners: Box<[i64; BOX]>,
+}
+
+/// The packed form of `grid`'s `.cgc` file ([`super::write::to_bytes`]).
 pub fn pack(grid: &CellGrid) -> Result<Vec<u8>> {
-    if grid.labels().is_some() {
-        return Err(Error::unsupported(
-            "a file with labels has no packed form (its corner records differ per label at one sample)",
-        ));
-    }
     let file = super::write::to_bytes(grid);
     let sections = u32::from_le_bytes(file[168..172].try_into().unwrap()) as usize;
     let head_len = HEADER_SIZE + sections * TABLE_ENTRY_SIZE;
-    let attribute = (0..sections)
+    let entries: Vec<TableEntry> = (0..sections)
         .map(|i| {
             let at = HEADER_SIZE + i * TABLE_ENTRY_SIZE;
             TableEntry::from_bytes(file[at..at + TABLE_ENTRY_SIZE].try_into().unwrap()).0
         })
-        .find(|e| e.kind == SectionKind::CellAttribute.code())
-        .map(|e| &file[e.offset as usize..(e.offset + e.len) as usize]);
+        .collect();
+    let section = |kind: SectionKind| {
+        entries
+            .iter()
+            .find(|e| e.kind == kind.code())
+            .map(|e| &file[e.offset as usize..(e.offset + e.len) as usize])
+    };
+    let attribute = section(SectionKind::CellAttribute);
+    let cluster_labels = grid.labels().map(|l| l.cluster_labels());
     let info = grid.info();
     let precision = info.precision;
     let record = precision.bytes_per_cell();
@@ -241,30 +256,69 @@ pub fn pack(grid: &CellGrid) -> Result<Vec<u8>> {
     if let Some(a) = attribute {
         body.extend_from_slice(&a[..ATTRIBUTE_HEAD_SIZE]);
     }
+    for kind in SectionKind::LABELS {
+        if let Some(bytes) = section(kind) {
+            body.extend_from_slice(bytes);
+        }
+    }
     let mut known_samples = KnownSamples {
         boxes: HashMap::new(),
         order: VecDeque::new(),
         block_dims,
     };
     let mut part = Vec::new();
-    let mut corners = Box::new([-1i64; BOX]);
+    let mut groups: Vec<Group> = Vec::new();
+    let mut spare: Vec<Box<[i64; BOX]>> = Vec::new();
     for (index, block) in blocks.iter().enumerate() {
         if block.cluster_count() == 0 {
             continue;
         }
         part.clear();
+        for g in groups.drain(..) {
+            spare.push(g.known);
+            spare.push(g.corners);
+        }
         let origin = [
             index % block_dims[0],
             index / block_dims[0] % block_dims[1],
             index / (block_dims[0] * block_dims[1]),
         ]
         .map(|b| (b * BLOCK_CELLS / 2) as u32);
-        let mut known = known_samples.start(index);
-        corners.fill(-1);
         let mut previous = -1i64;
         let mut first_cell = None;
         let mut cell_end = 0;
-        for cluster in block.slots().collect::<Vec<_>>().chunks(CLUSTER_SLOTS) {
+        let first_cluster = block.metacell_pointer as usize / CLUSTER_SLOTS;
+        for (k, cluster) in block
+            .slots()
+            .collect::<Vec<_>>()
+            .chunks(CLUSTER_SLOTS)
+            .enumerate()
+        {
+            let label = cluster_labels.map_or(0, |l| l[first_cluster + k]);
+            let g = match groups.iter().position(|g| g.label == label) {
+                Some(g) => g,
+                None => {
+                    // Samples are shared across blocks in a file without labels; in one with labels
+                    // a block's label groups start empty (a box per label per block kept for the
+                    // blocks still to come would be far more memory than the samples it saves).
+                    let known = if cluster_labels.is_none() {
+                        known_samples.start(index)
+                    } else {
+                        let mut b = spare.pop().unwrap_or_else(|| Box::new([-1; BOX]));
+                        b.fill(-1);
+                        b
+                    };
+                    let mut corners = spare.pop().unwrap_or_else(|| Box::new([-1; BOX]));
+                    corners.fill(-1);
+                    groups.push(Group {
+                        label,
+                        known,
+                        corners,
+                    });
+                    groups.len() - 1
+                }
+            };
+            let Group { known, corners, .. } = &mut groups[g];
             let used: Vec<_> = cluster[..CLUSTER_METACELLS]
                 .iter()
                 .map(|&s| metacells[s])
@@ -299,7 +353,7 @@ pub fn pack(grid: &CellGrid) -> Result<Vec<u8>> {
                         };
                         if seen >= 0 && seen != v {
                             return Err(Error::unsupported(format!(
-                                "cells disagree on a corner sample's code in block {index} (a file with labels?): it has no packed form"
+                                "cells of block {index} disagree on a corner sample's code: the file has no packed form"
                             )));
                         }
                         corners[at] = v;
@@ -309,19 +363,23 @@ pub fn pack(grid: &CellGrid) -> Result<Vec<u8>> {
                 cell_end = pointer;
             }
         }
-        let mut last = (max + 1) / 2;
-        for z in 0..SIDE {
-            for y in 0..SIDE {
-                for x in 0..SIDE {
-                    let at = z * SIDE * SIDE + y * SIDE + x;
-                    if corners[at] < 0 || known[at] >= 0 {
-                        continue;
+        // Each group's new samples, groups in the order of their first cluster.
+        for Group { known, corners, .. } in &mut groups {
+            let mut last = (max + 1) / 2;
+            for z in 0..SIDE {
+                for y in 0..SIDE {
+                    for x in 0..SIDE {
+                        let at = z * SIDE * SIDE + y * SIDE + x;
+                        if corners[at] < 0 || known[at] >= 0 {
+                            continue;
+                        }
+                        let v = corners[at];
+                        let residual =
+                            (v - predict(known, [x, y, z], max, last)).rem_euclid(max + 1);
+                        part.extend_from_slice(&(residual as u32).to_le_bytes()[..residual_bytes]);
+                        known[at] = v;
+                        last = v;
                     }
-                    let v = corners[at];
-                    let residual = (v - predict(&known, [x, y, z], max, last)).rem_euclid(max + 1);
-                    part.extend_from_slice(&(residual as u32).to_le_bytes()[..residual_bytes]);
-                    known[at] = v;
-                    last = v;
                 }
             }
         }
@@ -329,7 +387,11 @@ pub fn pack(grid: &CellGrid) -> Result<Vec<u8>> {
             let values = &a[ATTRIBUTE_HEAD_SIZE..];
             part.extend_from_slice(&values[first * attribute_width..cell_end * attribute_width]);
         }
-        known_samples.finish(index, known);
+        if cluster_labels.is_none() {
+            let g = groups.pop().expect("a block with clusters has a group");
+            spare.push(g.corners);
+            known_samples.finish(index, g.known);
+        }
         varint(&mut body, part.len() as u64);
         body.extend_from_slice(&part);
     }

@@ -1,5 +1,5 @@
-//! `isogrid pack`: the packed form of a volume's surface is that of its `.cgc`, much smaller, and
-//! what cannot be packed fails in one line without writing anything. (The web tests rebuild the
+//! `isogrid pack`: the packed form of a volume's surface (or labels) is that of its `.cgc`, much
+//! smaller, and bad requests fail in one line without writing anything. (The web tests rebuild the
 //! `.cgc` from it byte for byte: web/test/packed.test.mjs.)
 
 use super::{fails, s, temp_dir};
@@ -41,31 +41,37 @@ fn a_volume_packs_as_its_extracted_file() {
 }
 
 #[test]
-fn what_cannot_be_packed_fails_in_one_line_and_writes_nothing() {
-    let dir = temp_dir("pack-bad");
+fn a_label_file_packs_as_its_volume_does() {
+    let dir = temp_dir("pack-labels");
     let volume = dir.join("cubes.nrrd");
     isogrid_io::write_nrrd(&volume, &isogrid::generate::labelled_cubes(12)).unwrap();
     let labels = dir.join("cubes.cgc");
     isogrid(&["extract", s(&volume), "--labels", "all", "-o", s(&labels)]);
+    let (a, b) = (dir.join("a.cgcz"), dir.join("b.cgcz"));
+    isogrid(&["pack", s(&labels), "-o", s(&a)]);
+    isogrid(&["pack", s(&volume), "--labels", "all", "-o", s(&b)]);
+    assert!(std::fs::read(&a).unwrap() == std::fs::read(&b).unwrap());
+}
+
+#[test]
+fn bad_requests_fail_in_one_line_and_write_nothing() {
+    let dir = temp_dir("pack-bad");
+    let volume = dir.join("sphere.nrrd");
+    isogrid(&["generate", "sphere", "--size", "16", "-o", s(&volume)]);
+    let cgc = dir.join("sphere.cgc");
+    isogrid(&["extract", s(&volume), "--iso", "100", "-o", s(&cgc)]);
+    let original = std::fs::read(&cgc).unwrap();
     let out = dir.join("out.cgcz");
-    fails(&["pack", s(&labels), "-o", s(&out)], "labels");
-    fails(
-        &["pack", s(&volume), "--labels", "all", "-o", s(&out)],
-        "labels",
-    );
     let damaged = dir.join("damaged.cgc");
-    let original = std::fs::read(&labels).unwrap();
     let mut bytes = original.clone();
     let last = bytes.len() - 1;
     bytes[last] ^= 1;
     std::fs::write(&damaged, &bytes).unwrap();
     fails(&["pack", s(&damaged), "-o", s(&out)], "damaged.cgc");
+    fails(&["pack", s(&volume), "-o", s(&out)], "--iso");
     assert!(!out.exists());
     // The output's name and the input are checked before any work.
-    fails(
-        &["pack", s(&labels), "-o", s(&dir.join("out.cgc"))],
-        ".cgcz",
-    );
-    fails(&["pack", s(&labels), "-o", s(&labels)], "overwrite");
-    assert!(std::fs::read(&labels).unwrap() == original);
+    fails(&["pack", s(&cgc), "-o", s(&dir.join("out.cgc"))], ".cgcz");
+    fails(&["pack", s(&cgc), "-o", s(&cgc)], "overwrite");
+    assert!(std::fs::read(&cgc).unwrap() == original);
 }
