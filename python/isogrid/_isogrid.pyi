@@ -62,7 +62,9 @@ class CellGrid:
         """Read-only, shape (active_cells, bytes_per_cell)."""
     def cell_positions(self) -> npt.NDArray[np.uint32]: ...
     def corners(self) -> npt.NDArray[np.float32]: ...
-    def save(self, path: _Path) -> None: ...
+    def save(self, path: _Path) -> None:
+        """Writes a ``.cgc`` file, or to a name ending in ``.cgcz`` its packed transfer form (what
+        ``isogrid pack`` writes, for the web viewer); atomically."""
 
 class LabelGrid(CellGrid):
     """The grid of a label volume: each cluster belongs to one label."""

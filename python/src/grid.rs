@@ -656,10 +656,23 @@ impl CellGrid {
         to_array2(py, out)
     }
 
-    /// Writes a `.cgc` file (atomically: a temporary file renamed into place).
+    /// Writes a `.cgc` file, or, to a name ending in `.cgcz`, its packed transfer form (what
+    /// `isogrid pack` writes, for the web viewer); atomically: a temporary file renamed into place.
     fn save(&self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
-        py.detach(|| isogrid::cgc::write(&path, &self.inner))
-            .map_err(to_py)
+        let packed = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .is_some_and(|e| e.eq_ignore_ascii_case("cgcz"));
+        py.detach(|| {
+            if !packed {
+                return isogrid::cgc::write(&path, &self.inner);
+            }
+            isogrid::fs::write_atomic_file(&path, |f| {
+                isogrid::cgc::pack_into(&self.inner, f)?;
+                Ok(())
+            })
+        })
+        .map_err(to_py)
     }
 
     fn __repr__(&self) -> String {

@@ -86,3 +86,12 @@ def test_cli_mc_vertices_are_pythons_at_the_volume_origin(cli, tmp_path):
     # The ball's centre, in the same frame: origin + centre (samples) · spacing.
     centre = low + np.array([10.0, 8.5, 6.0]) * np.array(vol.spacing)
     np.testing.assert_allclose(vertices.mean(axis=0), centre, atol=0.05)
+
+
+def test_saved_packed_form_is_what_isogrid_pack_writes(cli, tmp_path):
+    a = (np.clip(sphere(shape_zyx=(30, 40, 50), centre_xyz=(25, 20, 15), radius=12), -1, 1) * 100 + 100).astype(np.uint8)
+    grid = isogrid.extract(a, iso=100)
+    grid.save(tmp_path / "grid.cgc")
+    grid.save(tmp_path / "python.cgcz")
+    run_cli(cli, "pack", tmp_path / "grid.cgc", "-o", tmp_path / "cli.cgcz")
+    assert (tmp_path / "python.cgcz").read_bytes() == (tmp_path / "cli.cgcz").read_bytes()

@@ -4,7 +4,6 @@
 use crate::grid_source::GridSource;
 use crate::outputs::{self, Output};
 use anyhow::{Context, Result};
-use std::io::Write;
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
@@ -26,19 +25,18 @@ pub fn run(args: Args) -> Result<()> {
         }],
     )?;
     let grid = args.source.load()?;
-    let packed = isogrid::cgc::pack(&grid)
-        .with_context(|| format!("{}: cannot pack", args.source.input.display()))?;
+    let mut sizes = None;
     isogrid::fs::write_atomic_file(&args.output, |f| {
-        f.write_all(&packed)?;
+        sizes = Some(isogrid::cgc::pack_into(&grid, f)?);
         Ok(())
-    })?;
-    // The .cgc's length, from the packed head (bytes 16..24).
-    let file = u64::from_le_bytes(packed[16..24].try_into().unwrap());
+    })
+    .with_context(|| format!("{}: cannot pack", args.source.input.display()))?;
+    let sizes = sizes.expect("written");
     outln!(
         "packed      {} bytes of .cgc into {} ({:.2}×)",
-        file,
-        packed.len(),
-        file as f64 / packed.len() as f64
+        sizes.cgc,
+        sizes.packed,
+        sizes.cgc as f64 / sizes.packed as f64
     );
     outln!("wrote       {}", args.output.display());
     Ok(())

@@ -90,12 +90,8 @@ fn packed_file(
     file: &std::path::Path,
     name: &str,
     temp: &mut Option<ScratchDir>,
-) -> Result<std::result::Result<(PathBuf, usize, u64), String>> {
+) -> Result<std::result::Result<(PathBuf, isogrid::cgc::PackedSizes), String>> {
     let grid = isogrid::cgc::open(file)?;
-    let packed = match isogrid::cgc::pack(&grid) {
-        Ok(p) => p,
-        Err(e) => return Ok(Err(e.to_string())),
-    };
     if temp.is_none() {
         *temp = Some(ScratchDir::create_in(
             &std::env::temp_dir(),
@@ -103,10 +99,17 @@ fn packed_file(
         )?);
     }
     let path = temp.as_ref().unwrap().path().join(format!("{name}z"));
-    std::fs::write(&path, &packed).with_context(|| format!("{}: cannot write", path.display()))?;
-    // The .cgc's length, from the packed head (bytes 16..24).
-    let cgc_len = u64::from_le_bytes(packed[16..24].try_into().unwrap());
-    Ok(Ok((path, packed.len(), cgc_len)))
+    let mut out = std::fs::File::create(&path)
+        .with_context(|| format!("{}: cannot write", path.display()))?;
+    match isogrid::cgc::pack_into(&grid, &mut out) {
+        Ok(sizes) => Ok(Ok((path, sizes))),
+        Err(e) if e.kind() == isogrid::ErrorKind::Unsupported => {
+            drop(out);
+            let _ = std::fs::remove_file(&path);
+            Ok(Err(e.to_string()))
+        }
+        Err(e) => Err(e).with_context(|| format!("{}: cannot write", path.display())),
+    }
 }
 
 pub fn run(args: Args) -> Result<()> {
@@ -143,7 +146,7 @@ pub fn run(args: Args) -> Result<()> {
         )
         .route_service(&url_path, ServeFile::new(&file));
     let app = match &packed {
-        Some(Ok((path, _, _))) => app.route_service(
+        Some(Ok((path, _))) => app.route_service(
             &format!("{url_path}z"),
             ServeFile::new_with_mime(path, &PACKED_TYPE.parse().unwrap()),
         ),
@@ -183,9 +186,11 @@ pub fn run(args: Args) -> Result<()> {
         // disk in one line (crate::stdout).
         outln!("serving     {} at {url}", file.display());
         match &packed {
-            Some(Ok((_, bytes, cgc_len))) => outln!(
-                "            packed: {bytes} of {cgc_len} bytes ({:.2}×), rebuilt in the page; ?src={url_path} reads the .cgc by ranges",
-                *cgc_len as f64 / *bytes as f64
+            Some(Ok((_, sizes))) => outln!(
+                "            packed: {} of {} bytes ({:.2}×), rebuilt in the page; ?src={url_path} reads the .cgc by ranges",
+                sizes.packed,
+                sizes.cgc,
+                sizes.cgc as f64 / sizes.packed as f64
             ),
             Some(Err(why)) => outln!("            not packed: {why}"),
             None => {}

@@ -49,14 +49,12 @@
 //! and each corner record from the samples. The web viewer's `web/src/packed.ts` rebuilds it; its
 //! test checks that it gives back the `.cgc` of every fixture byte for byte.
 
-use super::format::{SectionKind, TableEntry, HEADER_SIZE, TABLE_ENTRY_SIZE};
-use crate::attribute::ATTRIBUTE_HEAD_SIZE;
 use crate::error::{Error, Result};
 use crate::grid::CellGrid;
 use crate::layout::{Precision, BLOCK_CELLS, CLUSTER_METACELLS, CLUSTER_SLOTS};
 use crate::morton;
 use std::collections::{HashMap, VecDeque};
-use std::io::Write;
+use std::io::{Seek, SeekFrom, Write};
 
 /// The magic of a `.cgcz` file, PNG-style like the `.cgc`'s.
 pub const PACKED_MAGIC: [u8; 8] = *b"\x89CGZ\r\n\x1a\n";
@@ -207,24 +205,90 @@ struct Group {
     corners: Box<[i64; BOX]>,
 }
 
-/// The packed form of `grid`'s `.cgc` file ([`super::write::to_bytes`]).
+/// Counts the bytes that pass to the writer it wraps.
+struct Counted<W> {
+    inner: W,
+    count: u64,
+}
+
+impl<W: Write> Write for Counted<W> {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        let n = self.inner.write(buf)?;
+        self.count += n as u64;
+        Ok(n)
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.inner.flush()
+    }
+}
+
+/// The sizes of a packed file and of the `.cgc` it rebuilds, in bytes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct PackedSizes {
+    pub packed: u64,
+    pub cgc: u64,
+}
+
+/// The packed form of `grid`'s `.cgc` file ([`super::write::to_bytes`]) as bytes.
 pub fn pack(grid: &CellGrid) -> Result<Vec<u8>> {
-    let file = super::write::to_bytes(grid);
-    let sections = u32::from_le_bytes(file[168..172].try_into().unwrap()) as usize;
-    let head_len = HEADER_SIZE + sections * TABLE_ENTRY_SIZE;
-    let entries: Vec<TableEntry> = (0..sections)
-        .map(|i| {
-            let at = HEADER_SIZE + i * TABLE_ENTRY_SIZE;
-            TableEntry::from_bytes(file[at..at + TABLE_ENTRY_SIZE].try_into().unwrap()).0
-        })
-        .collect();
-    let section = |kind: SectionKind| {
-        entries
-            .iter()
-            .find(|e| e.kind == kind.code())
-            .map(|e| &file[e.offset as usize..(e.offset + e.len) as usize])
+    let mut out = std::io::Cursor::new(Vec::new());
+    pack_into(grid, &mut out)?;
+    Ok(out.into_inner())
+}
+
+/// Writes the packed form of `grid`'s `.cgc` file to `out`, from its current position: the head
+/// last, once the stream's lengths are known. Holds neither the file nor the body: the grid (a
+/// memory-mapped file stays on disk), the samples of the blocks within reach of the next, and the
+/// compressor's window.
+pub fn pack_into<W: Write + Seek>(grid: &CellGrid, out: &mut W) -> Result<PackedSizes> {
+    let (head, file_len) = super::write::head_of(grid);
+    let start = out.stream_position().map_err(Error::io)?;
+    out.write_all(&[0; PACKED_HEAD_SIZE]).map_err(Error::io)?;
+    out.write_all(&head).map_err(Error::io)?;
+    let mut body = flate2::write::DeflateEncoder::new(
+        Counted {
+            inner: &mut *out,
+            count: 0,
+        },
+        flate2::Compression::best(),
+    );
+    let body_len = write_body(grid, &mut body).map_err(|e| match e.downcast::<Error>() {
+        Ok(e) => e,
+        Err(e) => Error::io(e),
+    })?;
+    let stream_len = body.finish().map_err(Error::io)?.count;
+
+    let mut h = Vec::with_capacity(PACKED_HEAD_SIZE);
+    h.extend_from_slice(&PACKED_MAGIC);
+    h.extend_from_slice(&PACKED_VERSION.to_le_bytes());
+    h.extend_from_slice(&(head.len() as u32).to_le_bytes());
+    h.extend_from_slice(&file_len.to_le_bytes());
+    h.extend_from_slice(&stream_len.to_le_bytes());
+    h.extend_from_slice(&body_len.to_le_bytes());
+    let mut crc = crc32fast::Hasher::new();
+    crc.update(&h);
+    crc.update(&head);
+    h.extend_from_slice(&crc.finalize().to_le_bytes());
+    h.extend_from_slice(&[0; 4]);
+    let end = out.stream_position().map_err(Error::io)?;
+    out.seek(SeekFrom::Start(start)).map_err(Error::io)?;
+    out.write_all(&h).map_err(Error::io)?;
+    out.seek(SeekFrom::Start(end)).map_err(Error::io)?;
+    Ok(PackedSizes {
+        packed: end - start,
+        cgc: file_len,
+    })
+}
+
+/// Writes the body (the module doc's table) to `body`; returns its length. An error that is not
+/// the writer's comes back as an [`Error`] inside the `io::Error`.
+fn write_body(grid: &CellGrid, body: &mut impl Write) -> std::io::Result<u64> {
+    let mut body = Counted {
+        inner: body,
+        count: 0,
     };
-    let attribute = section(SectionKind::CellAttribute);
+    let body = &mut body;
+    let attribute = grid.attribute();
     let cluster_labels = grid.labels().map(|l| l.cluster_labels());
     let info = grid.info();
     let precision = info.precision;
@@ -236,29 +300,27 @@ pub fn pack(grid: &CellGrid) -> Result<Vec<u8>> {
         (1i64 << bits) - 1
     };
     let residual_bytes = (bits as usize).div_ceil(8);
-    // Bits per value (head bytes 4..8), one value per cell.
-    let attribute_width = attribute.map_or(0, |a| {
-        u32::from_le_bytes(a[4..8].try_into().unwrap()) as usize / 8
-    });
+    let attribute_width = attribute.map_or(0, |a| a.info().precision.bytes());
     let blocks = grid.blocks();
     let metacells = grid.metacells();
     let cells = grid.cells();
     let block_dims = info.block_dims().map(|d| d as usize);
 
-    let mut body = Vec::with_capacity(file.len() / 4);
+    let mut preamble = Vec::with_capacity(9 * blocks.len());
     for b in blocks {
-        body.extend_from_slice(&b.min.to_le_bytes());
-        body.extend_from_slice(&b.max.to_le_bytes());
+        preamble.extend_from_slice(&b.min.to_le_bytes());
+        preamble.extend_from_slice(&b.max.to_le_bytes());
     }
     for b in blocks {
-        varint(&mut body, b.cluster_count() as u64);
+        varint(&mut preamble, b.cluster_count() as u64);
     }
+    body.write_all(&preamble)?;
     if let Some(a) = attribute {
-        body.extend_from_slice(&a[..ATTRIBUTE_HEAD_SIZE]);
+        body.write_all(a.head_bytes())?;
     }
-    for kind in SectionKind::LABELS {
-        if let Some(bytes) = section(kind) {
-            body.extend_from_slice(bytes);
+    if let Some(labels) = grid.labels() {
+        for bytes in labels.section_bytes() {
+            body.write_all(&bytes)?;
         }
     }
     let mut known_samples = KnownSamples {
@@ -352,9 +414,9 @@ pub fn pack(grid: &CellGrid) -> Result<Vec<u8>> {
                             corners[at]
                         };
                         if seen >= 0 && seen != v {
-                            return Err(Error::unsupported(format!(
+                            return Err(std::io::Error::other(Error::unsupported(format!(
                                 "cells of block {index} disagree on a corner sample's code: the file has no packed form"
-                            )));
+                            ))));
                         }
                         corners[at] = v;
                     }
@@ -384,38 +446,19 @@ pub fn pack(grid: &CellGrid) -> Result<Vec<u8>> {
             }
         }
         if let (Some(a), Some(first)) = (attribute, first_cell) {
-            let values = &a[ATTRIBUTE_HEAD_SIZE..];
-            part.extend_from_slice(&values[first * attribute_width..cell_end * attribute_width]);
+            part.extend_from_slice(
+                &a.value_bytes()[first * attribute_width..cell_end * attribute_width],
+            );
         }
         if cluster_labels.is_none() {
             let g = groups.pop().expect("a block with clusters has a group");
             spare.push(g.corners);
             known_samples.finish(index, g.known);
         }
-        varint(&mut body, part.len() as u64);
-        body.extend_from_slice(&part);
+        let mut length = Vec::with_capacity(10);
+        varint(&mut length, part.len() as u64);
+        body.write_all(&length)?;
+        body.write_all(&part)?;
     }
-
-    let mut deflate = flate2::write::DeflateEncoder::new(
-        Vec::with_capacity(body.len() / 2),
-        flate2::Compression::best(),
-    );
-    deflate.write_all(&body).map_err(Error::io)?;
-    let stream = deflate.finish().map_err(Error::io)?;
-
-    let mut out = Vec::with_capacity(PACKED_HEAD_SIZE + head_len + stream.len());
-    out.extend_from_slice(&PACKED_MAGIC);
-    out.extend_from_slice(&PACKED_VERSION.to_le_bytes());
-    out.extend_from_slice(&(head_len as u32).to_le_bytes());
-    out.extend_from_slice(&(file.len() as u64).to_le_bytes());
-    out.extend_from_slice(&(stream.len() as u64).to_le_bytes());
-    out.extend_from_slice(&(body.len() as u64).to_le_bytes());
-    let mut crc = crc32fast::Hasher::new();
-    crc.update(&out);
-    crc.update(&file[..head_len]);
-    out.extend_from_slice(&crc.finalize().to_le_bytes());
-    out.extend_from_slice(&[0; 4]);
-    out.extend_from_slice(&file[..head_len]);
-    out.extend_from_slice(&stream);
-    Ok(out)
+    Ok(body.count)
 }

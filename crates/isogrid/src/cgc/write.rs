@@ -304,6 +304,41 @@ pub fn write(path: &Path, grid: &CellGrid) -> Result<()> {
     crate::fs::write_atomic_file(path, |file| write_to(grid, file))
 }
 
+/// A target that keeps only the header and section table of what is written to it (the sections
+/// are checksummed as they pass), and the file's length.
+struct HeadOnly {
+    head: Vec<u8>,
+    len: u64,
+}
+
+impl WriteAt for HeadOnly {
+    fn set_len(&mut self, len: u64) -> std::io::Result<()> {
+        self.len = len;
+        Ok(())
+    }
+    fn write_at(&mut self, offset: u64, bytes: &[u8]) -> std::io::Result<()> {
+        let end = (offset as usize + bytes.len()).min(self.head.len());
+        if (offset as usize) < end {
+            self.head[offset as usize..end].copy_from_slice(&bytes[..end - offset as usize]);
+        }
+        Ok(())
+    }
+}
+
+/// The header and section table of `grid`'s file (the first `320 + 32·sections` bytes of
+/// [`to_bytes`]) and the file's length, without holding the file.
+pub(crate) fn head_of(grid: &CellGrid) -> (Vec<u8>, u64) {
+    let sections = 3
+        + grid.attribute().is_some() as usize
+        + grid.labels().map_or(0, |_| SectionKind::LABELS.len());
+    let mut target = HeadOnly {
+        head: vec![0; HEADER_SIZE + TABLE_ENTRY_SIZE * sections],
+        len: 0,
+    };
+    write_to(grid, &mut target).expect("writing to memory cannot fail");
+    (target.head, target.len)
+}
+
 /// The whole file as bytes.
 pub fn to_bytes(grid: &CellGrid) -> Vec<u8> {
     let mut out = Vec::new();
