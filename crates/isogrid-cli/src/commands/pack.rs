@@ -26,11 +26,19 @@ pub fn run(args: Args) -> Result<()> {
     )?;
     let grid = args.source.load()?;
     let mut sizes = None;
-    isogrid::fs::write_atomic_file(&args.output, |f| {
-        sizes = Some(isogrid::cgc::pack_into(&grid, f)?);
-        Ok(())
-    })
-    .with_context(|| format!("{}: cannot pack", args.source.input.display()))?;
+    let progress = std::sync::Arc::new(isogrid::Progress::new());
+    let written = crate::progress::watched("packing", &progress, || {
+        isogrid::fs::write_atomic_file(&args.output, |f| {
+            sizes = Some(isogrid::cgc::pack_into_with_progress(&grid, f, &progress)?);
+            Ok(())
+        })
+    });
+    match written {
+        Err(e) if e.kind() == isogrid::ErrorKind::Cancelled => {
+            return Err(anyhow::Error::from(e).context("packing stopped by Ctrl-C, nothing written"))
+        }
+        r => r.with_context(|| format!("{}: cannot pack", args.source.input.display()))?,
+    }
     let sizes = sizes.expect("written");
     outln!(
         "packed      {} bytes of .cgc into {} ({:.2}×)",

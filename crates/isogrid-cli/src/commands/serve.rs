@@ -101,14 +101,25 @@ fn packed_file(
     let path = temp.as_ref().unwrap().path().join(format!("{name}z"));
     let mut out = std::fs::File::create(&path)
         .with_context(|| format!("{}: cannot write", path.display()))?;
-    match isogrid::cgc::pack_into(&grid, &mut out) {
+    // A bar on a terminal (packing takes about 30 ms per MB), and Ctrl-C stops it.
+    let progress = std::sync::Arc::new(isogrid::Progress::new());
+    let packed = crate::progress::watched(&format!("packing {name}"), &progress, || {
+        isogrid::cgc::pack_into_with_progress(&grid, &mut out, &progress)
+    });
+    match packed {
         Ok(sizes) => Ok(Ok((path, sizes))),
         Err(e) if e.kind() == isogrid::ErrorKind::Unsupported => {
             drop(out);
             let _ = std::fs::remove_file(&path);
             Ok(Err(e.to_string()))
         }
-        Err(e) => Err(e).with_context(|| format!("{}: cannot write", path.display())),
+        Err(e) if e.kind() == isogrid::ErrorKind::Cancelled => {
+            Err(anyhow::Error::from(e).context("packing stopped by Ctrl-C, nothing served"))
+        }
+        Err(e) if e.kind() == isogrid::ErrorKind::Io => {
+            Err(e).with_context(|| format!("{}: cannot write", path.display()))
+        }
+        Err(e) => Err(e).with_context(|| format!("{}: cannot pack", file.display())),
     }
 }
 

@@ -65,7 +65,10 @@ mod write;
 
 pub(crate) use format::scalar_code;
 pub use format::SectionKind;
-pub use pack::{pack, pack_into, PackedSizes, PACKED_HEAD_SIZE, PACKED_MAGIC, PACKED_VERSION};
+pub use pack::{
+    pack, pack_into, pack_into_with_progress, PackedSizes, PACKED_HEAD_SIZE, PACKED_MAGIC,
+    PACKED_VERSION,
+};
 pub use read::{open, open_with_progress, read, read_bytes};
 pub use write::{to_bytes, write};
 pub(crate) use write::{CgcWriter, FilePlan, HeaderCounts};

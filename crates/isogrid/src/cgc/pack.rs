@@ -53,6 +53,7 @@ use crate::error::{Error, Result};
 use crate::grid::CellGrid;
 use crate::layout::{Precision, BLOCK_CELLS, CLUSTER_METACELLS, CLUSTER_SLOTS};
 use crate::morton;
+use crate::progress::Progress;
 use std::collections::{HashMap, VecDeque};
 use std::io::{Seek, SeekFrom, Write};
 
@@ -241,6 +242,18 @@ pub fn pack(grid: &CellGrid) -> Result<Vec<u8>> {
 /// memory-mapped file stays on disk), the samples of the blocks within reach of the next, and the
 /// compressor's window.
 pub fn pack_into<W: Write + Seek>(grid: &CellGrid, out: &mut W) -> Result<PackedSizes> {
+    pack_into_with_progress(grid, out, &Progress::new())
+}
+
+/// [`pack_into`], counting the blocks packed in `progress` and stopping with an error of kind
+/// [`crate::ErrorKind::Cancelled`] once it is cancelled (what was written to `out` is then
+/// incomplete: write into a file that is removed on failure).
+pub fn pack_into_with_progress<W: Write + Seek>(
+    grid: &CellGrid,
+    out: &mut W,
+    progress: &Progress,
+) -> Result<PackedSizes> {
+    progress.start(grid.blocks().len() as u64);
     let (head, file_len) = super::write::head_of(grid);
     let start = out.stream_position().map_err(Error::io)?;
     out.write_all(&[0; PACKED_HEAD_SIZE]).map_err(Error::io)?;
@@ -252,10 +265,11 @@ pub fn pack_into<W: Write + Seek>(grid: &CellGrid, out: &mut W) -> Result<Packed
         },
         flate2::Compression::best(),
     );
-    let body_len = write_body(grid, &mut body).map_err(|e| match e.downcast::<Error>() {
-        Ok(e) => e,
-        Err(e) => Error::io(e),
-    })?;
+    let body_len =
+        write_body(grid, &mut body, progress).map_err(|e| match e.downcast::<Error>() {
+            Ok(e) => e,
+            Err(e) => Error::io(e),
+        })?;
     let stream_len = body.finish().map_err(Error::io)?.count;
 
     let mut h = Vec::with_capacity(PACKED_HEAD_SIZE);
@@ -282,7 +296,7 @@ pub fn pack_into<W: Write + Seek>(grid: &CellGrid, out: &mut W) -> Result<Packed
 
 /// Writes the body (the module doc's table) to `body`; returns its length. An error that is not
 /// the writer's comes back as an [`Error`] inside the `io::Error`.
-fn write_body(grid: &CellGrid, body: &mut impl Write) -> std::io::Result<u64> {
+fn write_body(grid: &CellGrid, body: &mut impl Write, progress: &Progress) -> std::io::Result<u64> {
     let mut body = Counted {
         inner: body,
         count: 0,
@@ -332,9 +346,11 @@ fn write_body(grid: &CellGrid, body: &mut impl Write) -> std::io::Result<u64> {
     let mut groups: Vec<Group> = Vec::new();
     let mut spare: Vec<Box<[i64; BOX]>> = Vec::new();
     for (index, block) in blocks.iter().enumerate() {
+        progress.advance(1);
         if block.cluster_count() == 0 {
             continue;
         }
+        progress.check().map_err(std::io::Error::other)?;
         part.clear();
         for g in groups.drain(..) {
             spare.push(g.known);

@@ -538,7 +538,7 @@ fn extraction_stops_on_ctrl_c(args: &[&str], out: &Path, delays_ms: &[u64]) {
 /// kept and nothing else left, or the signal came before the work (its default action). Returns
 /// the stop messages; fails when no run stopped that way.
 #[cfg(unix)]
-fn interrupt_at(
+pub(super) fn interrupt_at(
     args: &[&str],
     out: &Path,
     delays_ms: &[u64],

@@ -75,3 +75,22 @@ fn bad_requests_fail_in_one_line_and_write_nothing() {
     fails(&["pack", s(&cgc), "-o", s(&cgc)], "overwrite");
     assert!(std::fs::read(&cgc).unwrap() == original);
 }
+
+/// Ctrl-C while packing stops between blocks: exit 130, one line, the old output kept and no
+/// temporary file (or, when the signal comes before the work, the default action).
+#[cfg(unix)]
+#[test]
+fn ctrl_c_stops_packing_and_leaves_no_output() {
+    let dir = temp_dir("interrupt-pack");
+    let volume = super::generated(&dir, "hairball", 256);
+    let cgc = dir.join("hairball.cgc");
+    isogrid(&["extract", s(&volume), "--iso-normalized", "0.5", "-o", s(&cgc)]);
+    let out = dir.join("out.cgcz");
+    let args = ["pack", s(&cgc), "-o", s(&out)];
+    let stopped = super::hostile::interrupt_at(&args, &out, &[30, 80, 150, 300], |new| {
+        std::fs::read(new).unwrap().starts_with(b"\x89CGZ\r\n\x1a\n")
+    });
+    assert!(stopped
+        .iter()
+        .all(|m| m.contains("packing stopped by Ctrl-C, nothing written")));
+}
