@@ -550,6 +550,22 @@ for (const B of BROWSERS) {
           assert.equal(outcome, `error: ${stats.message}`);
         }
       });
+      await t.test('a local file through the file input (as a drop): a .cgc and a packed .cgcz', async () => {
+        for (const file of [sphere, packedFile(sphere)]) {
+          const page = await browser.newPage();
+          page.on('console', (m) => m.type() === 'error' && errors.push(m.text()));
+          await page.goto(`${server.url}/index.html?view=2&size=${SIZE.join('x')}`);
+          await (await page.$('#file')).uploadFile(file);
+          const outcome = await page.evaluate(() => window.isogrid.ready.then(() => 'ready', (e) => `error: ${e.message}`));
+          const stats = await page.evaluate(() => ({ ...window.isogrid.stats, message: document.getElementById('message').textContent }));
+          assert.equal(outcome, 'ready', stats.message);
+          assert.equal(stats.name, file.split('/').pop());
+          const c = compare(Buffer.from(await page.evaluate(() => window.isogrid.pixels()), 'base64'), nativeRender(sphere, 2));
+          t.diagnostic(`${B.name} ${stats.name} opened locally: mask ${(100 * c.mask).toFixed(2)} %, colour within 8/255 on ${(100 * c.colour).toFixed(2)} %`);
+          assert.ok(c.hits > 500 && c.mask >= 0.995 && c.colour >= 0.99, JSON.stringify(c));
+          await page.close();
+        }
+      });
       await t.test('range loading: first frame before the last byte, each byte requested once', async () => {
         const { outcome, stats } = await open(slow.url, 'src=/sphere48.cgc&size=64x48');
         assert.equal(outcome, 'ready', stats.message);
