@@ -98,17 +98,39 @@ class Payload {
 }
 
 /**
- * The predicted code of the new sample at block-local (x, y, z) from the samples of its box known
- * so far (-1: unknown): `predict` of crates/isogrid/src/cgc/pack.rs, which the test of this module
- * holds to by rebuilding files that it packed.
+ * The predicted code of the new sample at block-local (x, y, z) under predictor `mode` from the
+ * samples of its box known so far (-1: unknown): `predict` of crates/isogrid/src/cgc/pack.rs,
+ * which the test of this module holds to by rebuilding files that it packed.
  */
-function predict(known: Float64Array, x: number, y: number, z: number, max: number, last: number): number {
+function predict(known: Float64Array, x: number, y: number, z: number, max: number, last: number, mode: number): number {
   const at = z * SIDE * SIDE + y * SIDE + x;
   const a = x > 0 ? known[at - 1] : -1;
   const b = y > 0 ? known[at - SIDE] : -1;
   const c = z > 0 ? known[at - SIDE * SIDE] : -1;
   let sum = 0;
   let n = 0;
+  if (mode === 1) {
+    // Along each axis, the line through the two samples before this one.
+    const aa = x > 1 ? known[at - 2] : -1;
+    const bb = y > 1 ? known[at - 2 * SIDE] : -1;
+    const cc = z > 1 ? known[at - 2 * SIDE * SIDE] : -1;
+    if (a >= 0 && aa >= 0) {
+      const p = 2 * a - aa;
+      sum += p < 0 ? 0 : p > max ? max : p;
+      n++;
+    }
+    if (b >= 0 && bb >= 0) {
+      const p = 2 * b - bb;
+      sum += p < 0 ? 0 : p > max ? max : p;
+      n++;
+    }
+    if (c >= 0 && cc >= 0) {
+      const p = 2 * c - cc;
+      sum += p < 0 ? 0 : p > max ? max : p;
+      n++;
+    }
+    if (n > 0) return Math.floor((2 * sum + n) / (2 * n));
+  }
   if (a >= 0 && b >= 0) {
     const ab = known[at - 1 - SIDE];
     if (ab >= 0) {
@@ -472,6 +494,9 @@ async function rebuild(h: CgcHeader, file: Uint8Array, body: Body, filled: Map<S
     // Each group's new samples, in the order of their first cluster.
     for (const { known, needed } of groups) {
       let last = Math.floor((max + 1) / 2);
+      // The predictor (pack.rs): a byte, except at 1 bit per corner.
+      const mode = bits > 1 ? p.u8() : 0;
+      if (mode > 1) throw new CgcError(`a packed block names predictor ${mode} (damaged)`);
       for (let z = 0; z < SIDE; z++) {
         for (let y = 0; y < SIDE; y++) {
           for (let x = 0; x < SIDE; x++) {
@@ -483,7 +508,7 @@ async function rebuild(h: CgcHeader, file: Uint8Array, body: Body, filled: Map<S
             const residual = residualBytes === 1 ? r[i] : residualBytes === 2 ? r[i] | (r[i + 1] << 8) : (r[i] | (r[i + 1] << 8) | (r[i + 2] << 16)) + r[i + 3] * 2 ** 24;
             p.at = i + residualBytes;
             if (residual > max) throw new CgcError('a packed sample is out of range (damaged)');
-            const val = (predict(known, x, y, z, max, last) + residual) % (max + 1);
+            const val = (predict(known, x, y, z, max, last, mode) + residual) % (max + 1);
             known[at] = val;
             last = val;
           }

@@ -84,11 +84,20 @@ fn ctrl_c_stops_packing_and_leaves_no_output() {
     let dir = temp_dir("interrupt-pack");
     let volume = super::generated(&dir, "hairball", 256);
     let cgc = dir.join("hairball.cgc");
-    isogrid(&["extract", s(&volume), "--iso-normalized", "0.5", "-o", s(&cgc)]);
+    isogrid(&[
+        "extract",
+        s(&volume),
+        "--iso-normalized",
+        "0.5",
+        "-o",
+        s(&cgc),
+    ]);
     let out = dir.join("out.cgcz");
     let args = ["pack", s(&cgc), "-o", s(&out)];
     let stopped = super::hostile::interrupt_at(&args, &out, &[30, 80, 150, 300], |new| {
-        std::fs::read(new).unwrap().starts_with(b"\x89CGZ\r\n\x1a\n")
+        std::fs::read(new)
+            .unwrap()
+            .starts_with(b"\x89CGZ\r\n\x1a\n")
     });
     assert!(stopped
         .iter()
