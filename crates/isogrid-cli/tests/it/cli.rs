@@ -43,6 +43,23 @@ fn generated(dir: &Path, field: &str, size: u32) -> PathBuf {
     volume
 }
 
+/// `isogrid extract VOLUME --iso-normalized 0.5 -o CGC`, which must succeed.
+fn extracted_at_half(volume: &Path, cgc: &Path) {
+    let out = isogrid(&[
+        "extract",
+        s(volume),
+        "--iso-normalized",
+        "0.5",
+        "-o",
+        s(cgc),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
 /// An isovalue outside the samples gives an empty grid: a success, with one note on stderr that
 /// says why (extract, info and a CPU render of it), and none where the surface is not empty.
 #[test]

@@ -11,14 +11,7 @@ fn a_volume_packs_as_its_extracted_file() {
     let volume = dir.join("sphere.nrrd");
     let cgc = dir.join("sphere.cgc");
     isogrid(&["generate", "sphere", "--size", "40", "-o", s(&volume)]);
-    isogrid(&[
-        "extract",
-        s(&volume),
-        "--iso-normalized",
-        "0.5",
-        "-o",
-        s(&cgc),
-    ]);
+    super::extracted_at_half(&volume, &cgc);
     let (a, b) = (dir.join("a.cgcz"), dir.join("b.cgcz"));
     isogrid(&["pack", s(&cgc), "-o", s(&a)]);
     isogrid(&["pack", s(&volume), "--iso-normalized", "0.5", "-o", s(&b)]);
@@ -84,14 +77,7 @@ fn ctrl_c_stops_packing_and_leaves_no_output() {
     let dir = temp_dir("interrupt-pack");
     let volume = super::generated(&dir, "hairball", 256);
     let cgc = dir.join("hairball.cgc");
-    isogrid(&[
-        "extract",
-        s(&volume),
-        "--iso-normalized",
-        "0.5",
-        "-o",
-        s(&cgc),
-    ]);
+    super::extracted_at_half(&volume, &cgc);
     let out = dir.join("out.cgcz");
     let args = ["pack", s(&cgc), "-o", s(&out)];
     let stopped = super::hostile::interrupt_at(&args, &out, &[30, 80, 150, 300], |new| {
