@@ -110,26 +110,21 @@ function predict(known: Float64Array, x: number, y: number, z: number, max: numb
   let sum = 0;
   let n = 0;
   if (mode === 1) {
-    // Along each axis, the line through the two samples before this one.
+    // Along each axis, the line through the two samples before this one; their median.
     const aa = x > 1 ? known[at - 2] : -1;
     const bb = y > 1 ? known[at - 2 * SIDE] : -1;
     const cc = z > 1 ? known[at - 2 * SIDE * SIDE] : -1;
-    if (a >= 0 && aa >= 0) {
-      const p = 2 * a - aa;
-      sum += p < 0 ? 0 : p > max ? max : p;
-      n++;
+    const clamp = (p: number) => (p < 0 ? 0 : p > max ? max : p);
+    const la = a >= 0 && aa >= 0 ? clamp(2 * a - aa) : -1;
+    const lb = b >= 0 && bb >= 0 ? clamp(2 * b - bb) : -1;
+    const lc = c >= 0 && cc >= 0 ? clamp(2 * c - cc) : -1;
+    const k = (la >= 0 ? 1 : 0) + (lb >= 0 ? 1 : 0) + (lc >= 0 ? 1 : 0);
+    if (k === 3) return Math.max(Math.min(la, lb), Math.min(Math.max(la, lb), lc));
+    if (k === 2) {
+      const [p, q] = la < 0 ? [lb, lc] : lb < 0 ? [la, lc] : [la, lb];
+      return Math.floor((p + q + 1) / 2);
     }
-    if (b >= 0 && bb >= 0) {
-      const p = 2 * b - bb;
-      sum += p < 0 ? 0 : p > max ? max : p;
-      n++;
-    }
-    if (c >= 0 && cc >= 0) {
-      const p = 2 * c - cc;
-      sum += p < 0 ? 0 : p > max ? max : p;
-      n++;
-    }
-    if (n > 0) return Math.floor((2 * sum + n) / (2 * n));
+    if (k === 1) return Math.max(la, lb, lc);
   }
   if (a >= 0 && b >= 0) {
     const ab = known[at - 1 - SIDE];

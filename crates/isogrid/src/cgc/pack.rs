@@ -75,8 +75,8 @@ const BOX: usize = SIDE * SIDE * SIDE;
 /// clamped to `0..=max`) of the xy, xz and yz planes whose three samples at −1 are known; else the
 /// mean of the known samples at −1 along x, y, z; else `last`, the group's previous new sample (or
 /// half the range before the first). Mode 1, for fields that change steadily across the
-/// surface's band: the mean of the linear extrapolations `2a − aa` (clamped) along the axes whose
-/// samples at −1 and −2 are known, else mode 0. The packer takes, per group, the mode whose
+/// surface's band: the median of the linear extrapolations `2a − aa` (clamped) along the axes
+/// whose samples at −1 and −2 are known (of two, their mean), else mode 0. The packer takes, per group, the mode whose
 /// residuals are smaller (the hairball packs 12 % smaller than in mode 0 alone; MNI, noisier,
 /// keeps mode 0 almost everywhere). Means round half up. Integers only: `web/src/packed.ts`
 /// computes the same.
@@ -91,14 +91,21 @@ fn predict(known: &[i64; BOX], [x, y, z]: [usize; 3], max: i64, last: i64, mode:
     let (a, b, c) = (at(1, 0, 0), at(0, 1, 0), at(0, 0, 1));
     let (mut sum, mut n) = (0i64, 0i64);
     if mode == 1 {
+        let mut lines = [0i64; 3];
+        let mut k = 0;
         for (p, pp) in [(a, at(2, 0, 0)), (b, at(0, 2, 0)), (c, at(0, 0, 2))] {
             if p >= 0 && pp >= 0 {
-                sum += (2 * p - pp).clamp(0, max);
-                n += 1;
+                lines[k] = (2 * p - pp).clamp(0, max);
+                k += 1;
             }
         }
-        if n > 0 {
-            return (2 * sum + n) / (2 * n);
+        let lines = &mut lines[..k];
+        lines.sort_unstable();
+        match lines {
+            [one] => return *one,
+            [lo, hi] => return (*lo + *hi + 1) / 2,
+            [_, mid, _] => return *mid,
+            _ => {}
         }
     }
     for (p, q, pq) in [
