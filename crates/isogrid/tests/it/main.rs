@@ -12,6 +12,7 @@ mod labels;
 mod labels_many;
 mod labels_shown;
 mod mc;
+mod pack;
 mod stream;
 mod tiles;
 mod web_tables;
