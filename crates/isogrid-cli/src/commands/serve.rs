@@ -41,8 +41,8 @@ pub struct Args {
     /// Open the printed URL in the default browser.
     #[arg(long)]
     pub open: bool,
-    /// Serve the .cgc alone, read by ranges, without its packed form (packing takes about 30 ms
-    /// per MB of .cgc at start, and memory for the file and its packed form).
+    /// Serve the .cgc alone, read by ranges, without its packed form (packing takes about 50 ms
+    /// per MB of .cgc at start).
     #[arg(long)]
     pub no_pack: bool,
 }
@@ -101,7 +101,7 @@ fn packed_file(
     let path = temp.as_ref().unwrap().path().join(format!("{name}z"));
     let mut out = std::fs::File::create(&path)
         .with_context(|| format!("{}: cannot write", path.display()))?;
-    // A bar on a terminal (packing takes about 30 ms per MB), and Ctrl-C stops it.
+    // A bar on a terminal (packing takes about 50 ms per MB), and Ctrl-C stops it.
     let progress = std::sync::Arc::new(isogrid::Progress::new());
     let packed = crate::progress::watched(&format!("packing {name}"), &progress, || {
         isogrid::cgc::pack_into_with_progress(&grid, &mut out, &progress)

@@ -32,17 +32,18 @@
 //! | the cluster labels, label index and label table sections, when the file has labels | their lengths |
 //! | each block with clusters, in block order | a varint `n`, then `n` bytes of the block's part |
 //!
-//! A block's part: for each cluster its metacell count (u8, 1..=15), and for each metacell the step
-//! from the previous metacell's Morton code in the block (the first steps from −1; varint of the
-//! zigzag of the step) and its cell mask (u8). Then the block's *new samples*: the corner samples
-//! of its active cells (in block-local sample coordinates `0..=16`) that no earlier neighbour
-//! block sent: the predictor mode (u8, 0 or 1; absent at 1 bit per corner, where it is 0), then
-//! in z, y, x order each sample's residual against `predict` (below) in that mode, modulo
-//! 2^bits, in 1, 2 or 4 bytes (bits ≤ 8, 16, 32; a 32-bit corner is its float's bit pattern). In a file
-//! with labels one sample is a corner of several labels' cells with a different code in each:
-//! there the new samples go per label of the block's clusters (labels in the order of their first
-//! cluster in the block), each label's starting from none known. Then the block's cells' stored
-//! attribute values, as the attribute section holds them.
+//! A block's part: for each cluster its metacell count (u8, 1..=15), and for each metacell the
+//! step from the previous metacell's Morton code in the block (the first steps from −1; varint of
+//! the zigzag of the step) and its cell mask (u8). Then the block's *new samples*: the corner
+//! samples of its active cells (in block-local sample coordinates `q` in `0..=16`, index space:
+//! sample `16·b + q` of block `b`) that no earlier neighbour block sent: the predictor mode (u8,
+//! 0 or 1; absent at 1 bit per corner, where it is 0), then in z, y, x order each sample's
+//! residual against `predict` (below) in that mode, modulo 2^bits, in 1, 2 or 4 bytes (bits ≤ 8,
+//! 16, 32; a 32-bit corner is its float's bit pattern). In a file with labels one sample is a
+//! corner of several labels' cells with a different code in each: there the new samples go per
+//! label of the block's clusters (labels in the order of their first cluster in the block), each
+//! label's starting from none known. Then the block's cells' stored attribute values, as the
+//! attribute section holds them.
 //!
 //! The rest of the `.cgc` follows: a block's metacell count and pointer from the cluster counts,
 //! a metacell's position from its block and Morton code, its cell pointer from the masks before
