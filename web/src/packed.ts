@@ -181,8 +181,9 @@ function mortonDecode(code: number): [number, number, number] {
 }
 
 /**
- * A ByteSource of the .cgc that `stream` (a .cgcz) rebuilds. `onBytes` counts the packed bytes
- * as they arrive; `total` is the .cgc's length once the head is in.
+ * A ByteSource of the .cgc that the packed file `open` streams (a .cgcz download or a dropped
+ * file) rebuilds. `onBytes` counts the packed bytes as they arrive; `total` is the .cgc's length
+ * once the head is in.
  */
 export function packedSource(name: string, open: () => Promise<ReadableStream<Uint8Array>>, onBytes: (n: number) => void): ByteSource {
   let file: Uint8Array | null = null;
