@@ -49,19 +49,7 @@ fn within(limit: Duration, args: &[&str]) -> Output {
 fn sphere_grid(dir: &std::path::Path, size: u32) -> (std::path::PathBuf, std::path::PathBuf) {
     let volume = generated(dir, "sphere", size);
     let cgc = dir.join("s.cgc");
-    let out = isogrid(&[
-        "extract",
-        s(&volume),
-        "--iso-normalized",
-        "0.5",
-        "-o",
-        s(&cgc),
-    ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    super::extracted_at_half(&volume, &cgc);
     (volume, cgc)
 }
 
