@@ -16,6 +16,7 @@ use axum::http::{header, StatusCode};
 use axum::routing::get;
 use axum::Router;
 use isogrid::fs::ScratchDir;
+use isogrid::CellGrid;
 use std::net::{IpAddr, SocketAddr};
 use std::path::PathBuf;
 use tower_http::compression::predicate::{DefaultPredicate, NotForContentType, Predicate};
@@ -64,11 +65,11 @@ fn url_name(name: &str) -> String {
 
 /// The .cgc to serve: the input itself, or the volume extracted into a temporary folder (named
 /// after the volume, so the page shows that name).
-fn cgc_file(source: &GridSource) -> Result<(PathBuf, Option<ScratchDir>)> {
+fn cgc_file(source: &GridSource) -> Result<(PathBuf, Option<ScratchDir>, CellGrid)> {
     if is_cgc(&source.input) {
         // Refuse a bad file here, with the reader's one-line message, rather than in the page.
-        isogrid::cgc::open(&source.input)?;
-        return Ok((source.input.clone(), None));
+        let grid = isogrid::cgc::open(&source.input)?;
+        return Ok((source.input.clone(), None, grid));
     }
     let grid = source.load()?;
     // Removed when the server ends, Ctrl-C and SIGTERM included.
@@ -81,17 +82,17 @@ fn cgc_file(source: &GridSource) -> Result<(PathBuf, Option<ScratchDir>)> {
         .unwrap_or("volume");
     let path = temp.path().join(format!("{stem}.cgc"));
     isogrid::cgc::write(&path, &grid)?;
-    Ok((path, Some(temp)))
+    Ok((path, Some(temp), grid))
 }
 
-/// The packed form of `file` written into `temp` (created when there is none) as `NAMEz`, or
-/// why there is none.
+/// The packed form of `grid`, the grid of `file`, written into `temp` (created when there is
+/// none) as `NAMEz`, or why there is none.
 fn packed_file(
+    grid: &CellGrid,
     file: &std::path::Path,
     name: &str,
     temp: &mut Option<ScratchDir>,
 ) -> Result<std::result::Result<(PathBuf, isogrid::cgc::PackedSizes), String>> {
-    let grid = isogrid::cgc::open(file)?;
     if temp.is_none() {
         *temp = Some(ScratchDir::create_in(
             &std::env::temp_dir(),
@@ -104,7 +105,7 @@ fn packed_file(
     // A bar on a terminal (packing takes about 50 ms per MB), and Ctrl-C stops it.
     let progress = std::sync::Arc::new(isogrid::Progress::new());
     let packed = crate::progress::watched(&format!("packing {name}"), &progress, || {
-        isogrid::cgc::pack_into_with_progress(&grid, &mut out, &progress)
+        isogrid::cgc::pack_into_with_progress(grid, &mut out, &progress)
     });
     match packed {
         Ok(sizes) => Ok(Ok((path, sizes))),
@@ -124,7 +125,7 @@ fn packed_file(
 }
 
 pub fn run(args: Args) -> Result<()> {
-    let (file, mut temp) = cgc_file(&args.source)?;
+    let (file, mut temp, grid) = cgc_file(&args.source)?;
     let name = file
         .file_name()
         .and_then(|n| n.to_str())
@@ -134,8 +135,10 @@ pub fn run(args: Args) -> Result<()> {
     let packed = if args.no_pack {
         None
     } else {
-        Some(packed_file(&file, &name, &mut temp)?)
+        Some(packed_file(&grid, &file, &name, &mut temp)?)
     };
+    // The server reads the files; an extracted volume's grid is not held while it serves.
+    drop(grid);
     let app = Router::new()
         .route(
             "/",
