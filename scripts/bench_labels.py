@@ -14,6 +14,8 @@ tables for docs/benchmarks-labels.md.
                                               # $ISOGRID_CLI; numpy, scipy)
     python scripts/bench_labels.py --stream-2048  # the same 50,000 supervoxels at 2048³ as a Zarr
                                               # (zarr-python; 17 GB of samples, compressed), streamed
+    python scripts/bench_labels.py --dask-budgets # isogrid.dask.extract of the 512³ supervoxels
+                                              # from a Zarr copy, at several tile_bytes
 """
 
 import hashlib
@@ -359,7 +361,56 @@ def stream_table():
     print(f"byte-identical: {len(set(outputs)) == 1}")
 
 
+def dask_budget_table():
+    """`isogrid.dask.extract(da.from_zarr(...), labels="all", tile_bytes=T)` of the 512³
+    supervoxels (a Zarr copy of the .npy, chunks of 64 planes), dask's threaded scheduler on 2
+    threads, one fresh process per budget, against the CLI's in-memory file. The source is read
+    chunk by chunk, so the peak is the extraction's and dask's, not a copy of the input."""
+    import zarr
+
+    npy, _, n = supervoxels_512()
+    path = os.path.join(DATA, "bench-labels-supervoxels512.zarr")
+    done = os.path.join(path, ".complete")
+    if not os.path.exists(done):
+        source = np.load(npy, mmap_mode="r")
+        out = zarr.create_array(path, shape=source.shape, chunks=(64, n, n), dtype="uint16", overwrite=True)
+        for z in range(0, n, 64):
+            out[z : z + 64] = source[z : z + 64]
+        open(done, "w").close()
+    reference = os.path.join(DATA, "bench-labels-out.cgc")
+    timed_cli(["extract", npy, "--labels", "all", "-o", reference])
+    expected = sha256_of(reference)
+    os.remove(reference)
+    script = (
+        "import sys, time, dask, dask.array as da, isogrid.dask\n"
+        "dask.config.set(scheduler='threads', num_workers=2)\n"
+        "calls = []\n"
+        "start = time.perf_counter()\n"
+        "isogrid.dask.extract(da.from_zarr(sys.argv[1]), labels='all', output=sys.argv[2],\n"
+        "                     tile_bytes=int(sys.argv[3]), progress=lambda d, t: calls.append(d))\n"
+        "print(time.perf_counter() - start, len(calls))\n"
+    )
+    out = os.path.join(DATA, "bench-labels-dask.cgc")
+    report = os.path.join(DATA, "bench-labels-time.txt")
+    print("| tile_bytes | seconds | tasks | peak resident memory | same file as the CLI |")
+    print("|---|---|---|---|---|")
+    for mib in (16, 64, 256):
+        run = subprocess.run(["/usr/bin/time", "-f", "%e %M", "-o", report, sys.executable, "-c", script,
+                              path, out, str(mib << 20)], check=True, capture_output=True, text=True)
+        with open(report) as f:
+            peak = int(f.read().split()[-1]) * 1024
+        os.remove(report)
+        seconds, tasks = run.stdout.split()[-2:]
+        same = sha256_of(out) == expected
+        os.remove(out)
+        print(f"| {mib} MiB | {float(seconds):.1f} | {tasks} | {peak / 2**20:.0f} MiB | {'yes' if same else 'NO'} |",
+              flush=True)
+
+
 def main():
+    if "--dask-budgets" in sys.argv:
+        dask_budget_table()
+        return
     if "--stream" in sys.argv:
         stream_table()
         return

@@ -244,16 +244,17 @@ class _TileExtraction:
     ) -> List[Tuple[Tuple[Tuple[int, int], Tuple[int, int], Tuple[int, int]], bytes]]: ...
     def write(self, path: _Path, fragments: Iterable[bytes]) -> Dict[str, Any]: ...
 
-# Label extraction by slabs of block layers, driven by `isogrid.dask`.
+# Label extraction by runs of blocks, each task's output capped, driven by `isogrid.dask`.
 def _label_slab(
     slab: npt.NDArray[Any],
     volume_dims: Tuple[int, int, int],
-    layers: Tuple[int, int],
+    blocks: Tuple[int, int],
     labels: str,
     smooth: float,
+    output_cap: int,
     precision: Optional[int] = None,
     cancel: Optional[_TaskCancel] = None,
-) -> bytes: ...
+) -> Tuple[Tuple[int, int], bytes]: ...
 
 class _LabelWriter:
     """Collects label slab fragments in any order and writes the `.cgc` file."""
@@ -272,7 +273,7 @@ class _LabelWriter:
     ) -> "_LabelWriter": ...
     @property
     def halo(self) -> int: ...
-    def planes(self, layers: Tuple[int, int]) -> Tuple[int, int]: ...
+    def planes(self, blocks: Tuple[int, int]) -> Tuple[int, int]: ...
     def add(self, fragment: bytes) -> None: ...
     def write(
         self, path: _Path, label_table: Optional[_Path] = None, names_of: Optional[_Path] = None

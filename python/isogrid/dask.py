@@ -37,9 +37,12 @@ chunk two tiles read (one holding a halo) is computed once per pass.
 layers instead, each a task: a label's block reads its 17 samples per axis plus, with
 ``smooth=σ``, the Gaussian's radius ⌈3σ⌉ more on every side, so a slab of layers ``l0..l1``
 reads the planes ``16·l0 − r .. 16·l1 + r`` (clipped), whole in x and y. Each task runs the label
-pass on its slab and returns its blocks' labels, counts and output; the driver keeps the output
-in a scratch file beside ``output``, adds the counts up in block order as slabs arrive (in any
-order), and writes the file once every slab is in: byte-identical to
+pass on its slab and returns its blocks' labels, counts and output, stopping early once that
+output fills what ``tile_bytes`` leaves beside its planes (a dense surface, such as supervoxels',
+outweighs its samples); the blocks it did not reach, from the middle of a layer on, go to a task
+of a further round. The driver keeps the output in a scratch file beside ``output``, adds the
+counts up in block order as fragments arrive (in any order), and writes the file once every
+block is in: byte-identical to
 ``isogrid.extract(volume, labels=...).save(output)`` and to ``isogrid extract --labels`` streamed
 within ``--max-memory``, for any slab size and worker count.
 
@@ -125,8 +128,11 @@ def extract(
         index: the entry to read of every Zarr axis other than x, y and z that has more than one,
             e.g. ``{"t": 0, "c": 1}``, as ``isogrid extract --index``.
         tile_bytes: the samples plus output one task holds, about: tiles take half of it for
-            their samples, and emit jobs halve a tile whose output would not fit the rest. A task
-            never holds less than one block (17³ samples).
+            their samples, and emit jobs halve a tile whose output would not fit the rest; with
+            ``labels``, slabs take a quarter for their planes (held twice: the source's chunks
+            and the slab made of them), and a slab task whose output fills the rest (at least
+            half) stops there, leaving its other blocks to a further task. A task never holds
+            less than one block (17³ samples; with ``labels``, one block layer's planes).
         tile_shape: the (z, y, x) samples a tile covers, each a multiple of 16 (a tile reads one
             more along each axis, its halo); default: picked from ``tile_bytes`` and the chunks.
         attribute: a second volume to colour the surface by, as :func:`isogrid.extract` takes
@@ -147,7 +153,8 @@ def extract(
             (FreeSurfer LUT, 3D Slicer ``.ctbl`` or ITK-SNAP), over the image's own names.
         progress: called as ``progress(done, total)`` in this process each time a task finishes:
             ``done`` tasks (tiles, then emit jobs) out of the ``total`` planned so far, which
-            grows by the emit jobs once the tiles are counted. If it raises, on Ctrl-C
+            grows by the emit jobs once the tiles are counted; with ``labels``, ``done`` blocks
+            out of the volume's ``total``. If it raises, on Ctrl-C
             (``KeyboardInterrupt``), or when a task fails or its future is cancelled, no further
             result is taken, tasks not yet started are dropped, tasks running stop within a block
             row of their tile, a label slab's between two blocks (on dask's threaded or synchronous scheduler and on a
@@ -279,20 +286,36 @@ def _extract_labels(array: "da.Array", writer: Any, run: "_Runner", counter: "_C
                     dims: Tuple[int, int, int], itemsize: int, selection: str, smooth: float, bits: Optional[int],
                     out: str, label_table: Any, names_of: Optional[str]) -> Dict[str, Any]:
     """`labels=` of :func:`extract`: one task per slab of block layers, whose planes (its own and
-    the smoothing halo) take about half of `budget`, the other half being left for its output."""
+    the smoothing halo) take about a quarter of `budget`, held twice (the source's chunks it
+    reads and the slab assembled from them), its output the rest, or half of `budget` where one
+    layer's planes already take more. A task whose output fills its share stops there, and the
+    blocks it did not reach go to a task of the next round (which reads their planes again): so
+    every task holds about `budget`, however dense the surface. Progress counts blocks."""
     nx, ny, nz = dims
-    layers = -(-(nz - 1) // BLOCK_CELLS) if min(dims) > 1 else 0
+    per_layer = _blocks(nx) * _blocks(ny) if min(dims) > 1 else 0
+    layers = _blocks(nz) if per_layer else 0
     plane = nx * ny * itemsize
     # Planes of a slab of k layers: 16·k + 1, and the halo on both sides.
-    step = max(1, (budget // 2 // plane - 1 - 2 * writer.halo) // BLOCK_CELLS)
-    slabs = []
-    for l0 in range(0, layers, step):
-        l1 = min(l0 + step, layers)
-        z0, z1 = writer.planes((l0, l1))
-        slabs.append((((0, nx), (0, ny), (z0, z1)), (dims, (l0, l1), selection, smooth, bits)))
+    step = max(1, (budget // 4 // plane - 1 - 2 * writer.halo) // BLOCK_CELLS)
+    pending = [(l0 * per_layer, min(l0 + step, layers) * per_layer) for l0 in range(0, layers, step)]
+    planned = layers * per_layer
     chunks = _Chunks(array)
-    for fragment in counter.counted(run.as_completed(chunks.tasks(_label_slab, slabs, run.stop)), len(slabs)):
-        writer.add(fragment)
+    while pending:
+        slabs = []
+        for b0, b1 in pending:
+            z0, z1 = writer.planes((b0, b1))
+            output_cap = max(budget - 2 * plane * (z1 - z0), budget // 2)
+            slabs.append((((0, nx), (0, ny), (z0, z1)), (dims, (b0, b1), selection, smooth, output_cap, bits)))
+        asked = dict(pending)
+        pending = []
+        tasks = chunks.tasks(_label_slab, slabs, run.stop)
+        results = counter.counted(run.as_completed(tasks), planned, lambda r: r[0][1] - r[0][0])
+        planned = 0
+        for (b0, end), fragment in results:
+            writer.add(fragment)
+            del fragment
+            if end < asked[b0]:
+                pending.append((end, asked[b0]))
     stats, notices = writer.write(out, None if label_table is None else os.fspath(label_table), names_of)
     for notice in notices:
         warnings.warn(notice, stacklevel=3)
@@ -300,29 +323,32 @@ def _extract_labels(array: "da.Array", writer: Any, run: "_Runner", counter: "_C
 
 
 def _label_slab(pieces: List[np.ndarray], places: List[Tuple[int, int, int]], shape: Tuple[int, int, int],
-                stop: Any, dims: Tuple[int, int, int], layers: Tuple[int, int], selection: str, smooth: float,
-                bits: Optional[int]) -> bytes:
-    """Task: the label pass over one slab of block layers (GIL released in Rust)."""
+                stop: Any, dims: Tuple[int, int, int], blocks: Tuple[int, int], selection: str, smooth: float,
+                output_cap: int, bits: Optional[int]) -> Tuple[Tuple[int, int], bytes]:
+    """Task: the label pass over one run of blocks, up to its output cap (GIL released in Rust)."""
     with _watching(stop) as cancel:
-        return _isogrid._label_slab(_assemble(pieces, places, shape), dims, layers, selection, smooth, bits,
-                                    cancel)
+        return _isogrid._label_slab(_assemble(pieces, places, shape), dims, blocks, selection, smooth, output_cap,
+                                    bits, cancel)
 
 
 class _Counter:
-    """Tasks finished out of those planned, told to the caller's ``progress(done, total)``."""
+    """Work finished (tasks, or the blocks of a label extraction) out of that planned, told to the
+    caller's ``progress(done, total)``."""
 
     def __init__(self, callback: Optional[Callable[[int, int], Any]]) -> None:
         self.callback = callback
         self.done = 0
         self.total = 0
 
-    def counted(self, results: Iterable[Any], planned: int) -> Iterator[Any]:
-        """`results`, a pass of `planned` tasks, counting each as it is taken. An exception from
-        the callback leaves the pass's iterator, which ends the pass (see `_Runner`)."""
+    def counted(self, results: Iterable[Any], planned: int,
+                weight: Optional[Callable[[Any], int]] = None) -> Iterator[Any]:
+        """`results`, a pass of `planned` units (tasks, or what `weight` counts of each result),
+        counting each as it is taken. An exception from the callback leaves the pass's iterator,
+        which ends the pass (see `_Runner`)."""
         self.total += planned
         try:
             for result in results:
-                self.done += 1
+                self.done += 1 if weight is None else weight(result)
                 if self.callback is not None:
                     self.callback(self.done, self.total)
                 yield result

@@ -274,21 +274,24 @@ fn label_options(labels: &str, smooth: f64, precision: Option<u32>) -> PyResult<
     })
 }
 
-/// One task of a label extraction: the fragment of block layers `layers` (z0, z1) of a volume of
-/// `volume_dims` (x, y, z), from `slab`, the planes `_LabelWriter.planes` names, whole in x and y.
+/// One task of a label extraction: the fragment of the run of blocks `blocks` (b0, b1) of a
+/// volume of `volume_dims` (x, y, z), from `slab`, the planes `_LabelWriter.planes` names for
+/// them, whole in x and y. It stops once its output holds `output_cap` bytes; returns the blocks
+/// it covers (b0, end) and the fragment, encoded straight into the returned `bytes`.
 #[pyfunction]
-#[pyo3(signature = (slab, volume_dims, layers, labels, smooth, precision=None, cancel=None))]
+#[pyo3(signature = (slab, volume_dims, blocks, labels, smooth, output_cap, precision=None, cancel=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn _label_slab<'py>(
     py: Python<'py>,
     slab: &Bound<'py, PyAny>,
     volume_dims: [usize; 3],
-    layers: (usize, usize),
+    blocks: (usize, usize),
     labels: &str,
     smooth: f64,
+    output_cap: u64,
     precision: Option<u32>,
     cancel: Option<&Bound<'py, _TaskCancel>>,
-) -> PyResult<Bound<'py, PyBytes>> {
+) -> PyResult<((usize, usize), Bound<'py, PyBytes>)> {
     let options = label_options(labels, smooth, precision)?;
     let slab = VolumeArg::new(slab, false, [1.0; 3])?;
     let view = slab.view()?;
@@ -298,13 +301,19 @@ pub fn _label_slab<'py>(
             label_stream::label_fragment(
                 &view,
                 volume_dims,
-                layers.0..layers.1,
+                blocks.0..blocks.1,
                 &options,
+                output_cap,
                 &progress,
             )
         })
         .map_err(to_py)?;
-    Ok(PyBytes::new(py, &fragment))
+    let covered = fragment.blocks();
+    let bytes = PyBytes::new_with(py, fragment.encoded_len(), |buf| {
+        fragment.encode_into(buf);
+        Ok(())
+    })?;
+    Ok(((covered.start, covered.end), bytes))
 }
 
 /// The coordinating side of a label extraction on Dask: slab fragments in (any order), the file
@@ -351,10 +360,10 @@ impl _LabelWriter {
         isogrid::extract::labels::label_halo(self.options.smooth)
     }
 
-    /// The sample planes (z0, z1) that the slab of block layers (l0, l1) reads: its own and the
-    /// smoothing halo (`⌈3σ⌉` planes each side), clipped to the volume.
-    fn planes(&self, layers: (usize, usize)) -> PyResult<(usize, usize)> {
-        let z = label_stream::fragment_planes(self.dims, layers.0..layers.1, &self.options)
+    /// The sample planes (z0, z1) that the run of blocks (b0, b1) reads: those of the block
+    /// layers it meets and the smoothing halo (`⌈3σ⌉` planes each side), clipped to the volume.
+    fn planes(&self, blocks: (usize, usize)) -> PyResult<(usize, usize)> {
+        let z = label_stream::fragment_planes(self.dims, blocks.0..blocks.1, &self.options)
             .map_err(to_py)?;
         Ok((z.start, z.end))
     }

@@ -604,24 +604,35 @@ def test_labels_take_a_selection_and_a_colour_table_as_extract_does(tmp_path):
         isogrid.dask.extract(da.from_array(a, chunks=CHUNKS), output=out, iso=3, smooth=1.0)
 
 
-def test_label_progress_counts_slabs_and_a_stop_leaves_no_file(tmp_path):
+def test_label_progress_counts_blocks_and_a_stop_leaves_no_file(tmp_path):
     a = label_volume()
     source = da.from_array(a, chunks=CHUNKS)
     calls = []
     out = tmp_path / "out.cgc"
-    # One block layer a slab: 5 slabs of the 70 planes.
+    # 3 x 3 x 5 blocks; the whole volume in one slab, so one call.
+    isogrid.dask.extract(source, labels="all", output=out, tile_bytes=1 << 30,
+                         progress=lambda done, total: calls.append((done, total)))
+    assert calls == [(45, 45)]
+    os.remove(out)
+    # One block layer a slab and no room for output: each task covers one run (a block per
+    # thread) and leaves the rest of its layer to the next round; every block is counted once.
+    calls.clear()
     isogrid.dask.extract(source, labels="all", output=out, tile_bytes=1,
                          progress=lambda done, total: calls.append((done, total)))
-    assert calls == [(d, 5) for d in range(1, 6)]
+    assert len(calls) > 5 and {t for _, t in calls} == {45}, calls
+    assert [d for d, _ in calls] == sorted(d for d, _ in calls) and calls[-1] == (45, 45), calls
     os.remove(out)
     # Two σ: the runs' tasks have other keys, so that a client from an earlier test does not
     # hand the second run the first one's cancelled futures.
     for error, smooth in ((Stop, 1.0), (KeyboardInterrupt, 0.5)):
-        def stop(done, total, error=error):
-            if done == 2:
+        seen = []
+
+        def stop(done, total, error=error, seen=seen):
+            seen.append(done)
+            if len(seen) == 2:
                 raise error(f"stopped at {done} of {total}")
 
-        with pytest.raises(error, match="stopped at 2 of 5"):
+        with pytest.raises(error, match="stopped at [0-9]+ of 45"):
             isogrid.dask.extract(source, labels="all", smooth=smooth, output=out, tile_bytes=1, progress=stop)
         assert os.listdir(tmp_path) == [], os.listdir(tmp_path)
 
@@ -634,20 +645,22 @@ def test_a_label_slab_task_stops_on_its_flag():
 
     cells = np.random.default_rng(5).integers(1, 6000, (24, 24, 24), dtype=np.uint16)
     a = cells.repeat(8, 0).repeat(8, 1).repeat(8, 2)  # 192³ samples, touching 8³ labels
-    dims, layers = a.shape[::-1], (0, (a.shape[0] - 1 + 15) // 16)
+    dims = a.shape[::-1]
+    blocks = (0, ((a.shape[2] - 1 + 15) // 16) * ((a.shape[1] - 1 + 15) // 16) * ((a.shape[0] - 1 + 15) // 16))
     start = time.perf_counter()
-    assert len(_isogrid._label_slab(a, dims, layers, "all", 1.0)) > 0
+    covered, fragment = _isogrid._label_slab(a, dims, blocks, "all", 1.0, 1 << 40)
+    assert covered == blocks and len(fragment) > 0
     whole = time.perf_counter() - start
     assert whole > 0.2, f"the slab took {whole:.2f} s: too quick to cancel mid-way"
     flag = _isogrid._TaskCancel()
     flag.cancel()
     with pytest.raises(ValueError, match="interrupted"):
-        _isogrid._label_slab(a, dims, layers, "all", 1.0, None, flag)
+        _isogrid._label_slab(a, dims, blocks, "all", 1.0, 1 << 40, None, flag)
     flag = _isogrid._TaskCancel()
     timer = threading.Timer(0.02, flag.cancel)
     timer.start()
     with pytest.raises(ValueError, match="interrupted"):
-        _isogrid._label_slab(a, dims, layers, "all", 1.0, None, flag)
+        _isogrid._label_slab(a, dims, blocks, "all", 1.0, 1 << 40, None, flag)
     timer.join()
     assert flag.cancelled
 

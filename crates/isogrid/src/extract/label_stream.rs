@@ -27,11 +27,12 @@
 //! smoothing passes), one run of blocks' output (cut to the plan's output buffer), 20 B per block,
 //! and, growing with the surface, 12 B per (block, label) pair with cells, 4 B per cluster and the
 //! labels' extents: the label index's own order of size. Temporary disk: the output's metacells and corner records.
+//! A [`label_fragment`] task holds its slab and its output up to the cap it is given.
 
 use super::file_layout::FileLayout;
 use super::labels::{BlockLabels, LabelOptions, LabelPart, LabelPass, LabelTally, LABEL_ISO};
 use super::stream::{plan_slabs, MemoryPlan, RegionSource, Run, SlabCosts, SlabScalar};
-use super::tiles::{put_tag, put_u32, Reader, Spool};
+use super::tiles::{Reader, Spool};
 use crate::cgc::{scalar_code, CgcWriter, SectionKind};
 use crate::error::{Error, Result};
 use crate::grid::GridInfo;
@@ -161,14 +162,8 @@ fn stream_typed<T: SlabScalar + LabelSample>(
     if block_count == 0 {
         return Ok(());
     }
-    let threads = rayon::current_num_threads();
     let output_buffer = run.plan.output_buffer;
-    // Blocks per run (the output of a run does not change the file, only how it is cut): one per
-    // thread at first, then sized from the last run's output per block to fill half the output
-    // buffer, leaving the other half for a run denser than the last; a small first run keeps a
-    // small buffer from being exceeded before the first measure.
-    let most_blocks = nbx * nby * run.plan.slab_layers;
-    let mut chunk = threads.min(most_blocks);
+    let mut runs = RunSizer::new(nbx * nby * run.plan.slab_layers);
     let mut buffer: Vec<T> = Vec::new();
     for (layers, planes) in run.slabs_reaching(writer.pass.halo()) {
         run.read(planes.clone(), &mut buffer, None)?;
@@ -178,83 +173,158 @@ fn stream_typed<T: SlabScalar + LabelSample>(
         let end = layers.end * nbx * nby;
         let mut at = layers.start * nbx * nby;
         while at < end {
-            let blocks = at..(at + chunk).min(end);
+            let blocks = at..(at + runs.blocks()).min(end);
             let out = writer
                 .pass
                 .blocks(&buffer, dims, planes.start, blocks.clone(), run.progress);
             run.progress.check()?;
-            // What the run's output holds, not what it fills: the blocks' buffers grow by
-            // doubling, and the budget pays for their capacity.
-            let bytes: u64 = out
-                .iter()
-                .map(|b| {
-                    (b.metacells.capacity() * size_of::<Metacell>() + b.cells.capacity()) as u64
-                })
-                .sum();
+            let bytes = held_bytes(&out);
             writer.add_blocks(blocks.start, out)?;
-            chunk = match bytes {
-                0 => chunk.saturating_mul(2),
-                _ => (output_buffer as u128 / 2 * blocks.len() as u128 / bytes as u128)
-                    .try_into()
-                    .unwrap_or(usize::MAX),
-            }
-            .clamp(threads.min(most_blocks), most_blocks);
+            // Each run's output leaves for the scratch file before the next: a run may fill the
+            // whole buffer.
+            runs.resize(blocks.len(), bytes, output_buffer);
             at = blocks.end;
         }
     }
     Ok(())
 }
 
-/// One Dask task of a label extraction: the fragment of the block layers `layers` of a volume of
-/// `volume_dims` samples, from `slab`, which holds exactly the planes those layers read
-/// ([`fragment_planes`]), whole in x and y. `progress` gets one step per block (it is not
-/// started: the caller's driver sets the total). Fragments go to [`LabelWriter::add_fragment`].
+/// Blocks per run of the label pass (the cut into runs does not change the file, only how much
+/// output is held at once): one per thread at first, then sized from the last run's output per
+/// block to fill half the room left, keeping the other half for a run denser than the last. The
+/// small first run keeps a small room from being overrun before the first measure.
+struct RunSizer {
+    least: usize,
+    most: usize,
+    blocks: usize,
+}
+
+impl RunSizer {
+    fn new(most: usize) -> RunSizer {
+        let least = rayon::current_num_threads().min(most).max(1);
+        RunSizer {
+            least,
+            most: most.max(least),
+            blocks: least,
+        }
+    }
+
+    fn blocks(&self) -> usize {
+        self.blocks
+    }
+
+    /// The next run's size, after a run of `blocks` blocks whose output held `bytes`, with
+    /// `room` bytes for the next one's.
+    fn resize(&mut self, blocks: usize, bytes: u64, room: u64) {
+        self.blocks = match bytes {
+            0 => self.blocks.saturating_mul(2),
+            _ => (room as u128 / 2 * blocks as u128 / bytes as u128)
+                .try_into()
+                .unwrap_or(usize::MAX),
+        }
+        .clamp(self.least, self.most);
+    }
+}
+
+/// What the blocks' output holds, not what it fills: their buffers grow by doubling, and a
+/// budget pays for their capacity.
+fn held_bytes(blocks: &[BlockLabels]) -> u64 {
+    blocks
+        .iter()
+        .map(|b| (b.metacells.capacity() * size_of::<Metacell>() + b.cells.capacity()) as u64)
+        .sum()
+}
+
+/// One Dask task of a label extraction: the label pass over the run of consecutive blocks
+/// `blocks` (numbered x fastest, then y, then z) of a volume of `volume_dims` samples, from `slab`,
+/// which holds exactly the planes those blocks read ([`fragment_planes`]), whole in x and y.
+///
+/// The task stops early once its output holds `output_cap` bytes: the fragment then covers a
+/// first part of `blocks` (at least one run of one block per thread), and the caller gives the
+/// rest to another task. So a task holds its slab, its output up to about `output_cap`, and one
+/// block's scratch per thread, however dense the surface. `progress` gets one step per block (it
+/// is not started: the caller's driver sets the total). Fragments go to
+/// [`LabelWriter::add_fragment`].
 pub fn label_fragment(
     slab: &VolumeView,
     volume_dims: [usize; 3],
-    layers: Range<usize>,
+    blocks: Range<usize>,
     options: &LabelOptions,
+    output_cap: u64,
     progress: &Progress,
-) -> Result<Vec<u8>> {
+) -> Result<LabelFragment> {
     let pass = LabelPass::new(options)?;
     let [nbx, nby, nbz] = super::tiles::block_dims(volume_dims);
-    if layers.is_empty() || layers.end > nbz {
+    if blocks.is_empty() || blocks.end > nbx * nby * nbz {
         return Err(Error::invalid(format!(
-            "block layers {}..{} are not within the volume's {nbz}",
-            layers.start, layers.end
+            "blocks {}..{} are not within the volume's {}",
+            blocks.start,
+            blocks.end,
+            nbx * nby * nbz
         )));
     }
-    let planes = fragment_planes(volume_dims, layers.clone(), options)?;
+    let planes = fragment_planes(volume_dims, blocks.clone(), options)?;
     let [sx, sy, sz] = slab.dims();
     if [sx, sy] != [volume_dims[0], volume_dims[1]] || sz != planes.len() {
         return Err(Error::invalid(format!(
-            "a slab of {sx}x{sy}x{sz} samples is not the planes {}..{} of block layers {}..{} \
-             of a {}x{}x{} volume",
+            "a slab of {sx}x{sy}x{sz} samples is not the planes {}..{} of blocks {}..{} of a \
+             {}x{}x{} volume",
             planes.start,
             planes.end,
-            layers.start,
-            layers.end,
+            blocks.start,
+            blocks.end,
             volume_dims[0],
             volume_dims[1],
             volume_dims[2]
         )));
     }
-    let blocks = layers.start * nbx * nby..layers.end * nbx * nby;
     crate::volume::with_samples!(slab.samples(), s => {
         check_label_samples(s)?;
-        let out = pass.blocks(s, volume_dims, planes.start, blocks.clone(), progress);
-        progress.check()?;
-        Ok(encode_fragment(slab.scalar_type(), volume_dims, &pass, blocks.start, out))
+        let mut runs = RunSizer::new(blocks.len());
+        let mut out: Vec<BlockLabels> = Vec::new();
+        let mut held = 0u64;
+        let mut at = blocks.start;
+        while at < blocks.end {
+            let run = at..(at + runs.blocks()).min(blocks.end);
+            let mut made = pass.blocks(s, volume_dims, planes.start, run.clone(), progress);
+            progress.check()?;
+            // Held until the fragment is encoded, so kept at their length.
+            for b in &mut made {
+                b.present.retain(|&k| pass.selection().selects(k));
+                b.metacells.shrink_to_fit();
+                b.cells.shrink_to_fit();
+            }
+            let bytes = held_bytes(&made);
+            held += bytes;
+            out.append(&mut made);
+            at = run.end;
+            if held >= output_cap {
+                break;
+            }
+            runs.resize(run.len(), bytes, output_cap - held);
+        }
+        Ok(LabelFragment {
+            scalar_type: slab.scalar_type(),
+            dims: volume_dims,
+            bits: pass.quantizer().precision().bits(),
+            halo: pass.halo(),
+            first_block: blocks.start,
+            blocks: out,
+        })
     })
 }
 
-/// The sample planes (z) the label pass of `options` reads for the block layers `layers` of a
-/// volume of `dims` samples: their own and the smoothing halo, clipped to the volume.
+/// The sample planes (z) the label pass of `options` reads for the run of blocks `blocks` of a
+/// volume of `dims` samples: those of the block layers it meets and the smoothing halo, clipped
+/// to the volume.
 pub fn fragment_planes(
     dims: [usize; 3],
-    layers: Range<usize>,
+    blocks: Range<usize>,
     options: &LabelOptions,
 ) -> Result<Range<usize>> {
+    let [nbx, nby, _] = super::tiles::block_dims(dims);
+    let per_layer = (nbx * nby).max(1);
+    let layers = blocks.start / per_layer..blocks.end.div_ceil(per_layer);
     let halo = LabelPass::new(options)?.halo();
     Ok((BLOCK_CELLS * layers.start).saturating_sub(halo)
         ..(BLOCK_CELLS * layers.end + 1 + halo).min(dims[2]))
@@ -263,64 +333,92 @@ pub fn fragment_planes(
 const FRAGMENT_TAG: &[u8; 4] = b"IGLF";
 /// Bytes of one part in a fragment: key, clusters, cells, occupied, lo, hi, range.
 const PART_BYTES: usize = 8 + 4 * 3 + 12 * 2 + 16;
+/// Bytes of a fragment's head: tag, sample type, dimensions, precision, halo, first block, count.
+const FRAGMENT_HEAD_BYTES: usize = FRAGMENT_TAG.len() + 4 * 8;
 
-/// The fragment's bytes, sized before they are written; each block's output is freed once it
-/// is copied, so that the task holds its output about once, not three times over (the blocks'
-/// buffers, a growing copy, and the copy it grows out of).
-fn encode_fragment(
+/// The output of one [`label_fragment`] task, before it is encoded for the trip to the driver.
+pub struct LabelFragment {
     scalar_type: ScalarType,
     dims: [usize; 3],
-    pass: &LabelPass,
+    bits: u32,
+    halo: usize,
     first_block: usize,
-    mut blocks: Vec<BlockLabels>,
-) -> Vec<u8> {
-    let labels_bytes: usize = blocks
-        .iter()
-        .map(|b| 8 + 8 * b.present.len() + PART_BYTES * b.parts.len())
-        .sum();
-    let output_bytes: usize = blocks
-        .iter()
-        .map(|b| b.metacells.len() * size_of::<Metacell>() + b.cells.len())
-        .sum();
-    let mut out = Vec::with_capacity(FRAGMENT_TAG.len() + 4 * 8 + labels_bytes + output_bytes);
-    put_tag(&mut out, FRAGMENT_TAG);
-    put_u32(&mut out, scalar_code(scalar_type));
-    dims.iter().for_each(|&d| put_u32(&mut out, d as u32));
-    put_u32(&mut out, pass.quantizer().precision().bits());
-    put_u32(&mut out, pass.halo() as u32);
-    put_u32(&mut out, first_block as u32);
-    put_u32(&mut out, blocks.len() as u32);
-    for b in &blocks {
-        let present: Vec<u64> = b
-            .present
-            .iter()
-            .copied()
-            .filter(|&k| pass.selection().selects(k))
-            .collect();
-        put_u32(&mut out, present.len() as u32);
-        present
-            .iter()
-            .for_each(|k| out.extend_from_slice(&k.to_le_bytes()));
-        put_u32(&mut out, b.parts.len() as u32);
-        for p in &b.parts {
-            out.extend_from_slice(&p.key.to_le_bytes());
-            [p.clusters, p.cells, p.occupied]
+    /// The blocks from `first_block` on, their labels already cut to the selection.
+    blocks: Vec<BlockLabels>,
+}
+
+impl LabelFragment {
+    /// The blocks it covers, from the first one asked for.
+    pub fn blocks(&self) -> Range<usize> {
+        self.first_block..self.first_block + self.blocks.len()
+    }
+
+    /// The length of its encoding.
+    pub fn encoded_len(&self) -> usize {
+        FRAGMENT_HEAD_BYTES
+            + self
+                .blocks
                 .iter()
-                .chain(&p.lo)
-                .chain(&p.hi)
-                .for_each(|&v| put_u32(&mut out, v));
-            p.range
-                .iter()
-                .for_each(|v| out.extend_from_slice(&v.to_le_bytes()));
+                .map(|b| {
+                    8 + 8 * b.present.len()
+                        + PART_BYTES * b.parts.len()
+                        + b.metacells.len() * size_of::<Metacell>()
+                        + b.cells.len()
+                })
+                .sum::<usize>()
+    }
+
+    /// Encodes it into `out`, exactly [`Self::encoded_len`] bytes (a buffer the caller owns, such
+    /// as a Python `bytes` being made), freeing each block's output once it is copied: the task
+    /// holds its output about once, not twice.
+    pub fn encode_into(mut self, out: &mut [u8]) {
+        assert_eq!(out.len(), self.encoded_len(), "a label fragment's buffer");
+        let mut w = out;
+        let mut put = |bytes: &[u8]| {
+            let (head, rest) = std::mem::take(&mut w).split_at_mut(bytes.len());
+            head.copy_from_slice(bytes);
+            w = rest;
+        };
+        let head = [
+            scalar_code(self.scalar_type),
+            self.dims[0] as u32,
+            self.dims[1] as u32,
+            self.dims[2] as u32,
+            self.bits,
+            self.halo as u32,
+            self.first_block as u32,
+            self.blocks.len() as u32,
+        ];
+        put(FRAGMENT_TAG);
+        head.iter().for_each(|v| put(&v.to_le_bytes()));
+        for b in &self.blocks {
+            put(&(b.present.len() as u32).to_le_bytes());
+            b.present.iter().for_each(|k| put(&k.to_le_bytes()));
+            put(&(b.parts.len() as u32).to_le_bytes());
+            for p in &b.parts {
+                put(&p.key.to_le_bytes());
+                [p.clusters, p.cells, p.occupied]
+                    .iter()
+                    .chain(&p.lo)
+                    .chain(&p.hi)
+                    .for_each(|v| put(&v.to_le_bytes()));
+                p.range.iter().for_each(|v| put(&v.to_le_bytes()));
+            }
+        }
+        for b in &mut self.blocks {
+            put(bytemuck::cast_slice(&std::mem::take(&mut b.metacells)));
+        }
+        for b in &mut self.blocks {
+            put(&std::mem::take(&mut b.cells));
         }
     }
-    for b in &mut blocks {
-        out.extend_from_slice(bytemuck::cast_slice(&std::mem::take(&mut b.metacells)));
+
+    /// Its encoding in a new buffer.
+    pub fn encode(self) -> Vec<u8> {
+        let mut out = vec![0; self.encoded_len()];
+        self.encode_into(&mut out);
+        out
     }
-    for b in &mut blocks {
-        out.extend_from_slice(&std::mem::take(&mut b.cells));
-    }
-    out
 }
 
 /// A run of consecutive blocks handed to the writer, its output in the scratch file.

@@ -182,10 +182,8 @@ fn fragments_in_any_order_give_the_in_memory_file() {
                 let mut fragments: Vec<Vec<u8>> = (0..layers)
                     .step_by(cut)
                     .map(|l0| {
-                        let l = l0..(l0 + cut).min(layers);
-                        let planes = fragment_planes(dims, l.clone(), &options).unwrap();
-                        let slab = slab_of(&volume, planes);
-                        label_fragment(&slab.view(), dims, l, &options, &Progress::new()).unwrap()
+                        let blocks = layer_blocks(dims, l0..(l0 + cut).min(layers));
+                        fragment(&volume, blocks, &options, u64::MAX).encode()
                     })
                     .collect();
                 fragments.reverse();
@@ -215,10 +213,8 @@ fn fragments_in_any_order_give_the_in_memory_file() {
                 let mut writer =
                     LabelWriter::new(*volume.geometry(), volume.scalar_type(), &options, &dir.0)
                         .unwrap();
-                let planes = fragment_planes(dims, 0..1, &options).unwrap();
-                let slab = slab_of(&volume, planes);
-                let f = label_fragment(&slab.view(), dims, 0..1, &options, &Progress::new());
-                writer.add_fragment(&f.unwrap()).unwrap();
+                let f = fragment(&volume, layer_blocks(dims, 0..1), &options, u64::MAX);
+                writer.add_fragment(&f.encode()).unwrap();
                 let err = writer
                     .write(&out, &Progress::new(), &mut |_| {})
                     .unwrap_err();
@@ -229,18 +225,26 @@ fn fragments_in_any_order_give_the_in_memory_file() {
         // A fragment of other options (another smoothing) is refused.
         let a = options(LabelSelection::All, 0.0);
         let b = options(LabelSelection::All, 1.0);
-        let planes = fragment_planes(dims, 0..1, &b).unwrap();
-        let slab = slab_of(&volume, planes);
-        let f = label_fragment(&slab.view(), dims, 0..1, &b, &Progress::new()).unwrap();
+        let first_layer = layer_blocks(dims, 0..1);
+        let f = fragment(&volume, first_layer.clone(), &b, u64::MAX).encode();
         let mut writer =
             LabelWriter::new(*volume.geometry(), volume.scalar_type(), &a, &dir.0).unwrap();
         assert!(writer.add_fragment(&f).is_err());
         // A slab without its halo is refused.
         let short = slab_of(&volume, 0..17);
-        let err = label_fragment(&short.view(), dims, 0..1, &b, &Progress::new()).unwrap_err();
+        let err = label_fragment(
+            &short.view(),
+            dims,
+            first_layer.clone(),
+            &b,
+            u64::MAX,
+            &Progress::new(),
+        )
+        .err()
+        .unwrap();
         assert!(err.to_string().contains("is not the planes"), "{err}");
         // Truncated fragments are refused, never a panic.
-        let f = label_fragment(&slab.view(), dims, 0..1, &b, &Progress::new()).unwrap();
+        let f = fragment(&volume, first_layer.clone(), &b, u64::MAX).encode();
         for cut in [0, 3, 20, f.len() / 2, f.len() - 1] {
             let mut writer =
                 LabelWriter::new(*volume.geometry(), volume.scalar_type(), &b, &dir.0).unwrap();
@@ -248,6 +252,80 @@ fn fragments_in_any_order_give_the_in_memory_file() {
                 writer.add_fragment(&f[..cut]).is_err(),
                 "{name}: cut at {cut}"
             );
+        }
+    }
+}
+
+/// The blocks of the block layers `layers` of a volume of `dims` samples.
+fn layer_blocks(dims: [usize; 3], layers: Range<usize>) -> Range<usize> {
+    let per_layer = (dims[0] - 1).div_ceil(16) * (dims[1] - 1).div_ceil(16);
+    layers.start * per_layer..layers.end * per_layer
+}
+
+/// The fragment of `blocks` of `volume`, its task given the planes it reads and `cap` bytes of
+/// output.
+fn fragment(
+    volume: &Volume,
+    blocks: Range<usize>,
+    options: &LabelOptions,
+    cap: u64,
+) -> isogrid::extract::label_stream::LabelFragment {
+    let dims = volume.dims();
+    let slab = slab_of(
+        volume,
+        fragment_planes(dims, blocks.clone(), options).unwrap(),
+    );
+    label_fragment(&slab.view(), dims, blocks, options, cap, &Progress::new()).unwrap()
+}
+
+/// A task whose output reaches its cap stops there and covers a first part of its blocks; its
+/// rest, given to further tasks (each starting mid-layer), completes the same file. The output a
+/// task holds stays near its cap, and every task covers at least one block.
+#[test]
+fn capped_fragments_continue_where_they_stop_and_give_the_in_memory_file() {
+    let dir = TempDir::new("labels-capped");
+    let out = dir.0.join("out.cgc");
+    for (name, volume) in volumes() {
+        let dims = volume.dims();
+        let layers = (dims[2] - 1).div_ceil(16);
+        let all = layer_blocks(dims, 0..layers);
+        for options in option_sets() {
+            let expected = in_memory_bytes(&volume, &options);
+            let whole = fragment(&volume, all.clone(), &options, u64::MAX).encoded_len() as u64;
+            for cap in [0, whole / 7, whole / 2] {
+                let mut writer =
+                    LabelWriter::new(*volume.geometry(), volume.scalar_type(), &options, &dir.0)
+                        .unwrap();
+                let (mut pending, mut tasks) = (vec![all.clone()], 0);
+                while let Some(asked) = pending.pop() {
+                    let f = fragment(&volume, asked.clone(), &options, cap);
+                    let got = f.blocks();
+                    assert!(got.start == asked.start && !got.is_empty() && got.end <= asked.end);
+                    let bytes = f.encode();
+                    writer.add_fragment(&bytes).unwrap();
+                    tasks += 1;
+                    if got.end < asked.end {
+                        // Stopped at its cap: its output reached it.
+                        assert!(
+                            bytes.len() as u64 >= cap / 2,
+                            "{name}: {} of {cap}",
+                            bytes.len()
+                        );
+                        pending.push(got.end..asked.end);
+                    }
+                }
+                writer.write(&out, &Progress::new(), &mut rename).unwrap();
+                assert!(
+                    std::fs::read(&out).unwrap() == expected,
+                    "{name}, {options:?}, cap {cap}"
+                );
+                let least = rayon::current_num_threads();
+                if cap == 0 {
+                    assert_eq!(tasks, all.len().div_ceil(least), "{name}: one run a task");
+                } else {
+                    assert!(tasks > 1 && tasks < all.len(), "{name}: {tasks} tasks");
+                }
+            }
         }
     }
 }

@@ -52,4 +52,4 @@ pub use driver::{EmitJob, TileExtraction, TileSummary};
 pub use geometry::{block_dims, tile_samples, tiles, BlockBox};
 pub(in crate::extract) use spool::Spool;
 pub use tasks::{emit_tile, extract_tile, scan_tile};
-pub(in crate::extract) use wire::{put_tag, put_u32, Reader};
+pub(in crate::extract) use wire::Reader;
