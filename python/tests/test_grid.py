@@ -108,7 +108,7 @@ def test_save_and_load_round_trip(grid, tmp_path):
 
 def test_save_packed_form(grid, tmp_path):
     """A name ending in .cgcz gets the packed transfer form: the .cgc's header and section table
-    as they are after a 48-byte head, in far fewer bytes; load names it for what it is."""
+    as they are after a 56-byte head (version 2), in far fewer bytes; load names it for what it is."""
     path = tmp_path / "sphere.cgcz"
     grid.save(path)
     packed = path.read_bytes()
@@ -116,7 +116,8 @@ def test_save_packed_form(grid, tmp_path):
     head = 320 + 32 * int.from_bytes(whole[168:172], "little")
     assert packed[:8] == b"\x89CGZ\r\n\x1a\n"
     assert int.from_bytes(packed[16:24], "little") == len(whole)
-    assert packed[48 : 48 + head] == whole[:head]
+    assert int.from_bytes(packed[8:12], "little") == 2
+    assert packed[56 : 56 + head] == whole[:head]
     assert len(packed) * 3 < len(whole)
     with pytest.raises(isogrid.IsogridError, match="packed .cgcz"):
         isogrid.load(path)

@@ -1,17 +1,19 @@
 // Rebuilds a .cgc file from its packed transfer form (.cgcz: each corner sample once, predicted
-// from its neighbours, positions as Morton steps, deflated; the layout is the module doc of
+// from its neighbours, positions as Morton steps, range-coded; the layout is the module doc of
 // crates/isogrid/src/cgc/pack.rs, which writes it) while it downloads, and hands the rebuilt bytes
 // to streamCgc as a ByteSource: a read resolves once every byte it asks for is rebuilt. So the
 // packed file is validated as any .cgc is (header, table, every section's CRC, the structure), and
-// its clusters are drawn as they arrive. The browser's DecompressionStream inflates the stream.
+// its clusters are drawn as they arrive, chunk by chunk. The browser's DecompressionStream inflates
+// the preamble; rangecoder.ts decodes the blocks.
 
 import { Crc32 } from './crc32.js';
 import { ATTRIBUTE_HEAD_SIZE, BLOCK_BYTES, BLOCK_CELLS, BOUND_SLOT, CgcError, CgcHeader, CLUSTER_SLOTS, SLOT_BYTES, Section, blockDims, parseHeader } from './cgc.js';
 import type { ByteSource } from './loader.js';
+import { BlockModels, RangeDecoder, bitLength, residualContext, unfoldResidual } from './rangecoder.js';
 
 export const PACKED_MAGIC = [0x89, 0x43, 0x47, 0x5a, 0x0d, 0x0a, 0x1a, 0x0a];
-export const PACKED_HEAD_SIZE = 48;
-const PACKED_VERSION = 1;
+export const PACKED_HEAD_SIZE = 56;
+const PACKED_VERSION = 2;
 const HEADER_SIZE = 320;
 const TABLE_ENTRY_SIZE = 32;
 /** Samples along a block's edge (its high face included) and in a block. */
@@ -26,20 +28,53 @@ export function isPackedName(name: string): boolean {
   return /\.cgcz$/i.test(name.split(/[?#]/)[0]);
 }
 
-/** Inflated bytes, pulled as the body needs them. */
-class Body {
+/** The inflated preamble, read in order. */
+class Preamble {
+  private at = 0;
+  constructor(private readonly b: Uint8Array) {}
+  bytes(n: number): Uint8Array {
+    if (this.at + n > this.b.length) throw new CgcError('the packed preamble ends early (damaged)');
+    const out = this.b.subarray(this.at, this.at + n);
+    this.at += n;
+    return out;
+  }
+  varint(): number {
+    let v = 0;
+    for (let shift = 0; shift < 49; shift += 7) {
+      const b = this.bytes(1)[0];
+      v += (b & 0x7f) * 2 ** shift;
+      if (b < 0x80) return v;
+    }
+    throw new CgcError('a varint of the packed file is too long (damaged)');
+  }
+  /** Checks that every inflated byte was used. */
+  end(): void {
+    if (this.at !== this.b.length) throw new CgcError('the packed preamble has bytes left over (damaged)');
+  }
+}
+
+/** The packed file's bytes as they download, taken in order. */
+class Download {
   private buf = new Uint8Array(0);
   private at = 0;
-  private read = 0;
-  constructor(private readonly reader: ReadableStreamDefaultReader<Uint8Array>, private readonly expected: number) {}
+  private received = 0;
+  /** The file's length once its head is in. */
+  private total = Infinity;
+  constructor(private readonly reader: ReadableStreamDefaultReader<Uint8Array>, private readonly onBytes: (n: number) => void) {}
 
-  /** Pulls until `n` bytes are buffered; false at the stream's end. */
+  /** Sets the file's length, which the bytes so far must not pass. */
+  setTotal(total: number): void {
+    this.total = total;
+    if (this.received > total) throw new CgcError(`the packed file runs past the ${total} bytes its head gives (damaged)`);
+  }
+  /** Pulls until `n` unread bytes are buffered; false at the download's end. */
   private async fill(n: number): Promise<boolean> {
     while (this.buf.length - this.at < n) {
       const { done, value } = await this.reader.read();
       if (done) return false;
-      this.read += value.length;
-      if (this.read > this.expected) throw new CgcError(`the packed body inflates past the ${this.expected} bytes its head gives (damaged)`);
+      this.onBytes(value.length);
+      this.received += value.length;
+      if (this.received > this.total) throw new CgcError(`the packed file runs past the ${this.total} bytes its head gives (damaged)`);
       const rest = this.buf.subarray(this.at);
       const next = new Uint8Array(rest.length + value.length);
       next.set(rest);
@@ -49,52 +84,60 @@ class Body {
     }
     return true;
   }
-  async bytes(n: number): Promise<Uint8Array> {
-    if (!(await this.fill(n))) throw new CgcError(`the packed body ends after ${this.read} of the ${this.expected} bytes its head gives (truncated?)`);
+  /** The next `n` bytes; `inside` names the part of the head they are, before the file's length is known. */
+  async take(n: number, inside: string): Promise<Uint8Array> {
+    if (!(await this.fill(n))) {
+      throw new CgcError(
+        this.total === Infinity
+          ? `the packed file ends after ${this.received} bytes, inside its ${inside} (truncated?)`
+          : `the packed file ends after ${this.received} of its ${this.total} bytes (truncated?)`,
+      );
+    }
     const out = this.buf.subarray(this.at, this.at + n);
     this.at += n;
     return out;
   }
-  async varint(): Promise<number> {
+  async varint(inside: string): Promise<number> {
     let v = 0;
     for (let shift = 0; shift < 49; shift += 7) {
-      const b = (await this.bytes(1))[0];
+      const b = (await this.take(1, inside))[0];
       v += (b & 0x7f) * 2 ** shift;
       if (b < 0x80) return v;
     }
-    throw new CgcError('a varint of the packed body is too long (damaged)');
+    throw new CgcError('a varint of the packed file is too long (damaged)');
   }
-  /** Checks that every inflated byte was used and that there were as many as the head says. */
+  /** Checks that the download ends here. */
   async end(): Promise<void> {
-    if ((await this.fill(1)) || this.read !== this.expected) {
-      throw new CgcError(`the packed body is not the ${this.expected} bytes its head gives (damaged)`);
-    }
+    if (await this.fill(1)) throw new CgcError(`the packed file runs past the ${this.total} bytes its head gives (damaged)`);
+  }
+  cancel(): void {
+    this.reader.cancel().catch(() => {});
   }
 }
 
-/** A block's payload, parsed where it lies. */
-class Payload {
-  at = 0;
-  constructor(readonly b: Uint8Array) {}
-  u8(): number {
-    if (this.at >= this.b.length) throw new CgcError('a block of the packed body ends early (damaged)');
-    return this.b[this.at++];
-  }
-  varint(): number {
-    let v = 0;
-    for (let shift = 0; shift < 49; shift += 7) {
-      const b = this.u8();
-      v += (b & 0x7f) * 2 ** shift;
-      if (b < 0x80) return v;
+/** `deflated` inflated by the browser, refused past `expected` bytes or short of them. */
+async function inflate(deflated: Uint8Array, expected: number): Promise<Uint8Array> {
+  const out = new Uint8Array(expected);
+  let filled = 0;
+  try {
+    const stream = new Blob([deflated as Uint8Array<ArrayBuffer>]).stream().pipeThrough(new DecompressionStream('deflate-raw'));
+    const reader = stream.getReader();
+    for (;;) {
+      const { done, value } = await reader.read();
+      if (done) break;
+      if (filled + value.length > expected) {
+        reader.cancel().catch(() => {});
+        throw new CgcError(`the packed preamble inflates past the ${expected} bytes its head gives (damaged)`);
+      }
+      out.set(value, filled);
+      filled += value.length;
     }
-    throw new CgcError('a varint of the packed body is too long (damaged)');
+  } catch (e) {
+    if (e instanceof CgcError) throw e;
+    throw new CgcError('the packed preamble is damaged (not valid deflate data)');
   }
-  take(n: number): Uint8Array {
-    if (this.at + n > this.b.length) throw new CgcError('a block of the packed body ends early (damaged)');
-    const out = this.b.subarray(this.at, this.at + n);
-    this.at += n;
-    return out;
-  }
+  if (filled !== expected) throw new CgcError(`the packed preamble inflates to ${filled} of the ${expected} bytes its head gives (damaged)`);
+  return out;
 }
 
 /**
@@ -192,8 +235,13 @@ export function packedSource(name: string, open: () => Promise<ReadableStream<Ui
   /** Bytes rebuilt from each section's start. */
   const filled = new Map<Section, number>();
   const waiting: { start: number; end: number; resolve: (b: Uint8Array) => void; reject: (e: unknown) => void }[] = [];
+  // The file's last byte waits until the download is known to end where its head says: a
+  // packed file with bytes past its end is refused, not rebuilt.
+  let complete = false;
   const ready = (start: number, end: number): boolean =>
-    header !== null && header.sections.every((s) => end <= s.offset || start >= s.offset + s.length || filled.get(s)! >= Math.min(end, s.offset + s.length) - s.offset);
+    header !== null &&
+    (complete || end < file!.length) &&
+    header.sections.every((s) => end <= s.offset || start >= s.offset + s.length || filled.get(s)! >= Math.min(end, s.offset + s.length) - s.offset);
   const settle = () => {
     for (let i = 0; i < waiting.length; ) {
       const w = waiting[i];
@@ -219,104 +267,55 @@ export function packedSource(name: string, open: () => Promise<ReadableStream<Ui
   };
 
   const run = async () => {
-    const reader = (await open()).getReader();
-    let pending = new Uint8Array(0);
-    /** The first `n` bytes of the packed file, read from its start. */
-    const head = async (n: number): Promise<Uint8Array> => {
-      while (pending.length < n) {
-        const { done, value } = await reader.read();
-        if (done) throw new CgcError(`the packed file ends after ${pending.length} bytes, inside its ${n}-byte head (truncated?)`);
-        onBytes(value.length);
-        const next = new Uint8Array(pending.length + value.length);
-        next.set(pending);
-        next.set(value, pending.length);
-        pending = next;
-      }
-      return pending;
-    };
-    const h0 = await head(PACKED_HEAD_SIZE);
-    if (PACKED_MAGIC.some((b, i) => h0[i] !== b)) throw new CgcError('not a packed .cgc file (bad magic bytes; a .cgc is opened by its own name)');
-    const v = new DataView(h0.buffer, h0.byteOffset, PACKED_HEAD_SIZE);
-    const headLength = v.getUint32(12, true);
-    const cgcLength = Number(v.getBigUint64(16, true));
-    const streamLength = Number(v.getBigUint64(24, true));
-    const bodyLength = Number(v.getBigUint64(32, true));
-    if (headLength < HEADER_SIZE || headLength > HEADER_SIZE + 64 * TABLE_ENTRY_SIZE || (headLength - HEADER_SIZE) % TABLE_ENTRY_SIZE) {
-      throw new CgcError(`packed head gives a ${headLength}-byte .cgc head (damaged)`);
-    }
-    const all = await head(PACKED_HEAD_SIZE + headLength);
-    if (new Crc32().update(all.subarray(0, 40)).update(all.subarray(PACKED_HEAD_SIZE, PACKED_HEAD_SIZE + headLength)).digest() !== v.getUint32(40, true)) {
-      throw new CgcError('packed head checksum mismatch (the head is damaged)');
-    }
-    if (v.getUint32(8, true) !== PACKED_VERSION) {
-      throw new CgcError(`packed format version ${v.getUint32(8, true)}; this viewer reads version ${PACKED_VERSION}`, true);
-    }
-    // Bounds on the lengths, so that a crafted head cannot ask for a giant allocation: deflate
-    // expands at most 1032-fold, and a .cgc is far less than 512 times the body that rebuilds it
-    // (per 8 cells at most 8 records of 32 B and a 12 B slot, for a metacell's 2 B and samples).
-    if (bodyLength > 1032 * streamLength + 64 || cgcLength > 512 * bodyLength + headLength + 4096) {
-      throw new CgcError('packed head gives lengths no packed file can have (damaged)');
-    }
-    if (v.getUint32(44, true) !== 0) throw new CgcError('packed head has reserved bytes set (damaged)');
-    const h = parseHeader(all.subarray(PACKED_HEAD_SIZE, PACKED_HEAD_SIZE + headLength), cgcLength);
-    if (h.sections.some((s) => s.kind > 7)) throw new CgcError('a packed file holds no section of an unknown kind (damaged)');
-    if (HEADER_SIZE + h.sections.length * TABLE_ENTRY_SIZE !== headLength) throw new CgcError('packed head and section table disagree (damaged)');
-    header = h;
-    file = new Uint8Array(cgcLength);
-    file.set(all.subarray(PACKED_HEAD_SIZE, PACKED_HEAD_SIZE + headLength));
-    for (const s of h.sections) filled.set(s, 0);
-    src.total = cgcLength;
-    settle();
-
-    // The deflate stream: the bytes after the head, into the browser's inflater.
-    const inflater = new DecompressionStream('deflate-raw');
-    const writer = inflater.writable.getWriter() as WritableStreamDefaultWriter<Uint8Array<ArrayBuffer>>;
-    let fed = 0;
-    let cancelled = false;
-    const feed = async () => {
-      const rest = pending.subarray(PACKED_HEAD_SIZE + headLength);
-      for (let chunk: Uint8Array | undefined = rest; ; ) {
-        if (chunk && chunk.length) {
-          fed += chunk.length;
-          if (fed > streamLength) throw new CgcError(`the packed file runs past the ${PACKED_HEAD_SIZE + headLength + streamLength} bytes its head gives (damaged)`);
-          await writer.write(chunk as Uint8Array<ArrayBuffer>);
-        }
-        const { done, value } = await reader.read();
-        if (done) break;
-        onBytes(value.length);
-        chunk = value;
-      }
-      if (cancelled) return;
-      if (fed !== streamLength) {
-        throw new CgcError(`the packed file ends after ${PACKED_HEAD_SIZE + headLength + fed} of its ${PACKED_HEAD_SIZE + headLength + streamLength} bytes (truncated?)`);
-      }
-      await writer.close();
-    };
-    // Settles to the download's own failure (a truncation, a stream too long), or null.
-    const feeding = feed().then(
-      () => null,
-      async (e) => {
-        await writer.abort(e).catch(() => {});
-        return cancelled ? null : e;
-      },
-    );
-    const inflated = inflater.readable.getReader();
-    const body = new Body(inflated, bodyLength);
-    let failed: unknown = null;
+    const download = new Download((await open()).getReader(), onBytes);
     try {
-      await rebuild(h, file, body, filled, settle);
-      await body.end();
+      const h0 = await download.take(PACKED_HEAD_SIZE, `${PACKED_HEAD_SIZE}-byte head`);
+      if (PACKED_MAGIC.some((b, i) => h0[i] !== b)) throw new CgcError('not a packed .cgc file (bad magic bytes; a .cgc is opened by its own name)');
+      const v = new DataView(h0.buffer, h0.byteOffset, PACKED_HEAD_SIZE);
+      const headLength = v.getUint32(12, true);
+      const cgcLength = Number(v.getBigUint64(16, true));
+      const streamLength = Number(v.getBigUint64(24, true));
+      const preambleLength = Number(v.getBigUint64(32, true));
+      const codedLength = Number(v.getBigUint64(40, true));
+      if (headLength < HEADER_SIZE || headLength > HEADER_SIZE + 64 * TABLE_ENTRY_SIZE || (headLength - HEADER_SIZE) % TABLE_ENTRY_SIZE) {
+        throw new CgcError(`packed head gives a ${headLength}-byte .cgc head (damaged)`);
+      }
+      const head = await download.take(headLength, `${PACKED_HEAD_SIZE + headLength}-byte head`);
+      if (new Crc32().update(h0.subarray(0, 48)).update(head).digest() !== v.getUint32(48, true)) {
+        throw new CgcError('packed head checksum mismatch (the head is damaged)');
+      }
+      if (v.getUint32(8, true) !== PACKED_VERSION) {
+        throw new CgcError(`packed format version ${v.getUint32(8, true)}; this viewer reads version ${PACKED_VERSION} (pack the .cgc again with this isogrid)`, true);
+      }
+      // Bounds on the lengths, so that a crafted head cannot ask for a giant allocation: deflate
+      // expands at most 1032-fold, and a .cgc is far less than 65536 times the packed bytes that
+      // rebuild it (a coded bit, at best about 1/300 of a bit, stands for at most a cell: 8
+      // records of 32 B and a 12 B slot).
+      if (preambleLength > 1032 * streamLength + 64 || cgcLength > 65536 * (streamLength + codedLength) + headLength + 4096) {
+        throw new CgcError('packed head gives lengths no packed file can have (damaged)');
+      }
+      if (v.getUint32(52, true) !== 0) throw new CgcError('packed head has reserved bytes set (damaged)');
+      const h = parseHeader(head, cgcLength);
+      if (h.sections.some((s) => s.kind > 7)) throw new CgcError('a packed file holds no section of an unknown kind (damaged)');
+      if (HEADER_SIZE + h.sections.length * TABLE_ENTRY_SIZE !== headLength) throw new CgcError('packed head and section table disagree (damaged)');
+      const total = PACKED_HEAD_SIZE + headLength + streamLength + codedLength;
+      download.setTotal(total);
+      header = h;
+      file = new Uint8Array(cgcLength);
+      file.set(head);
+      for (const s of h.sections) filled.set(s, 0);
+      src.total = cgcLength;
+      settle();
+
+      const preamble = new Preamble(await inflate(await download.take(streamLength, 'head'), preambleLength));
+      await rebuild(h, file, preamble, download, codedLength, filled, settle);
+      await download.end();
+      complete = true;
+      settle();
     } catch (e) {
-      failed = e;
-      cancelled = true;
-      reader.cancel().catch(() => {});
-      inflated.cancel().catch(() => {});
+      download.cancel();
+      throw e;
     }
-    const fedFailure = await feeding;
-    // What went wrong with the download says more than what the inflater made of it.
-    if (fedFailure instanceof CgcError) throw fedFailure;
-    if (failed instanceof CgcError) throw failed;
-    if (failed || fedFailure) throw new CgcError('the packed stream is damaged (not valid deflate data)');
   };
   run().catch((e) => {
     failure = e instanceof CgcError || e instanceof Error ? e : new CgcError(String(e));
@@ -325,23 +324,33 @@ export function packedSource(name: string, open: () => Promise<ReadableStream<Ui
   return src;
 }
 
-/** Rebuilds every section of `file` after its head from the inflated `body` (pack.rs). */
-async function rebuild(h: CgcHeader, file: Uint8Array, body: Body, filled: Map<Section, number>, settle: () => void): Promise<void> {
+/**
+ * Rebuilds every section of `file` after its head from the inflated `preamble` and the
+ * `codedLength` bytes of chunks that follow it in `download` (pack.rs).
+ */
+async function rebuild(
+  h: CgcHeader,
+  file: Uint8Array,
+  body: Preamble,
+  download: Download,
+  codedLength: number,
+  filled: Map<Section, number>,
+  settle: () => void,
+): Promise<void> {
   const nb = blockDims(h);
   const blockCount = h.blockCount;
   if (blockCount !== nb[0] * nb[1] * nb[2]) throw new CgcError('block count does not match the dims (damaged)');
   const bpc = h.precisionBits; // bytes per corner record
   const bits = h.precisionBits;
   const max = 2 ** bits - 1;
-  const residualBytes = Math.ceil(bits / 8);
 
   // Blocks: their value bounds, then cluster counts.
-  const bounds = await body.bytes(8 * blockCount);
+  const bounds = body.bytes(8 * blockCount);
   const bv = new DataView(file.buffer, file.byteOffset + h.blocks.offset, h.blocks.length);
   const clusters: number[] = [];
   let slots = 0;
   for (let i = 0; i < blockCount; i++) {
-    const n = await body.varint();
+    const n = body.varint();
     if (16 * (slots / 16 + n) > h.slotCount) throw new CgcError('the packed blocks hold more clusters than the header counts (damaged)');
     clusters.push(n);
     bv.setUint32(BLOCK_BYTES * i, 16 * n, true);
@@ -354,7 +363,7 @@ async function rebuild(h: CgcHeader, file: Uint8Array, body: Body, filled: Map<S
   const attr = h.attribute;
   let width = 0;
   if (attr) {
-    const head = await body.bytes(ATTRIBUTE_HEAD_SIZE);
+    const head = body.bytes(ATTRIBUTE_HEAD_SIZE);
     width = new DataView(head.buffer, head.byteOffset, ATTRIBUTE_HEAD_SIZE).getUint32(4, true) / 8;
     if (![1, 2, 4].includes(width) || attr.length !== ATTRIBUTE_HEAD_SIZE + width * h.activeCells) throw new CgcError('the packed attribute head does not match its section (damaged)');
     file.set(head, attr.offset);
@@ -362,11 +371,19 @@ async function rebuild(h: CgcHeader, file: Uint8Array, body: Body, filled: Map<S
   }
   // The label sections as they are (streamCgc checks them).
   for (const s of h.labels ?? []) {
-    file.set(await body.bytes(s.length), s.offset);
+    file.set(body.bytes(s.length), s.offset);
     filled.set(s, s.length);
   }
+  body.end();
   const clusterLabels = h.labels ? new DataView(file.buffer, file.byteOffset + h.labels[0].offset, h.labels[0].length) : null;
   settle();
+  const models = new BlockModels(bits, width);
+  let chunk: RangeDecoder | null = null;
+  let chunkBlocks = 0;
+  let coded = 0;
+  let blocksLeft = clusters.filter((n) => n > 0).length;
+  let previousMode = 0;
+  const previousValue = [0, 0, 0, 0];
 
   const m = new DataView(file.buffer, file.byteOffset + h.metacells.offset, h.metacells.length);
   const cells = file.subarray(h.cells.offset, h.cells.offset + h.cells.length);
@@ -426,7 +443,19 @@ async function rebuild(h: CgcHeader, file: Uint8Array, body: Body, filled: Map<S
       await yieldToPage();
       worked = performance.now();
     }
-    const p = new Payload(await body.bytes(await body.varint()));
+    if (chunkBlocks === 0) {
+      // The next chunk, whole: its block count and length, then its coded bytes.
+      const where = 'head';
+      const before = coded;
+      chunkBlocks = await download.varint(where);
+      const length = await download.varint(where);
+      if (chunkBlocks < 1 || chunkBlocks > blocksLeft) throw new CgcError(`a packed chunk of ${chunkBlocks} blocks where ${blocksLeft} are left (damaged)`);
+      const record = varintLength(chunkBlocks) + varintLength(length);
+      if (before + record + length > codedLength) throw new CgcError('a packed chunk runs past the block stream its head gives (damaged)');
+      chunk = new RangeDecoder(await download.take(length, where));
+      coded = before + record + length;
+    }
+    const d = chunk!;
     const b = [index % nb[0], Math.floor(index / nb[0]) % nb[1], Math.floor(index / (nb[0] * nb[1]))];
     for (const g of groups.splice(0)) {
       if (clusterLabels) spare.push(g.known);
@@ -437,6 +466,8 @@ async function rebuild(h: CgcHeader, file: Uint8Array, body: Body, filled: Map<S
     cellGroup.length = 0;
     const firstCell = cell;
     let previous = -1;
+    let stepContext = 0;
+    let previousMask = 0;
     const origin = b.map((v) => (v * BLOCK_CELLS) / 2);
     for (let k = 0; k < clusters[index]; k++) {
       const label = clusterLabels ? clusterLabels.getUint32(4 * (slot / CLUSTER_SLOTS), true) : 0;
@@ -449,16 +480,18 @@ async function rebuild(h: CgcHeader, file: Uint8Array, body: Body, filled: Map<S
         gi = groups.length - 1;
       }
       const needed = groups[gi].needed;
-      const count = p.u8();
+      const count = models.counts.decode(d, 0);
       if (count < 1 || count > CLUSTER_METACELLS) throw new CgcError(`a packed cluster of ${count} metacells (damaged)`);
       const lo = [Infinity, Infinity, Infinity];
       const hi = [-1, -1, -1];
       for (let s = 0; s < count; s++) {
-        const step = p.varint();
+        const step = models.steps.decode(d, stepContext);
+        stepContext = 1 + Math.min(bitLength(step), 11);
         const code = previous + (step % 2 ? -(step + 1) / 2 : step / 2);
         if (code < 0 || code >= 512) throw new CgcError('a packed metacell lies outside its block (damaged)');
         previous = code;
-        const mask = p.u8();
+        const mask = models.masks.decode(d, previousMask);
+        previousMask = mask;
         if (mask === 0) throw new CgcError('a packed metacell has no active cell (damaged)');
         const local = mortonDecode(code);
         const at = SLOT_BYTES * (slot + s);
@@ -490,20 +523,19 @@ async function rebuild(h: CgcHeader, file: Uint8Array, body: Body, filled: Map<S
     // Each group's new samples, in the order of their first cluster.
     for (const { known, needed } of groups) {
       let last = Math.floor((max + 1) / 2);
-      // The predictor (pack.rs): a byte, except at 1 bit per corner.
-      const mode = bits > 1 ? p.u8() : 0;
-      if (mode > 1) throw new CgcError(`a packed block names predictor ${mode} (damaged)`);
+      // The predictor (pack.rs), except at 1 bit per corner.
+      const mode = bits > 1 ? models.modes.decode(d, previousMode) : 0;
+      previousMode = mode;
+      let previousLength = 0;
       for (let z = 0; z < SIDE; z++) {
         for (let y = 0; y < SIDE; y++) {
           for (let x = 0; x < SIDE; x++) {
             const at = z * SIDE * SIDE + y * SIDE + x;
             if (!needed[at] || known[at] >= 0) continue;
-            const i = p.at;
-            if (i + residualBytes > p.b.length) throw new CgcError('a block of the packed body ends early (damaged)');
-            const r = p.b;
-            const residual = residualBytes === 1 ? r[i] : residualBytes === 2 ? r[i] | (r[i + 1] << 8) : (r[i] | (r[i + 1] << 8) | (r[i + 2] << 16)) + r[i + 3] * 2 ** 24;
-            p.at = i + residualBytes;
-            if (residual > max) throw new CgcError('a packed sample is out of range (damaged)');
+            const u = models.residuals.decode(d, residualContext(previousLength, neighbourSpread(known, at, x, y, z)));
+            if (u > max) throw new CgcError('a packed sample is out of range (damaged)');
+            previousLength = bitLength(u);
+            const residual = unfoldResidual(u, max);
             const val = (predict(known, x, y, z, max, last, mode) + residual) % (max + 1);
             known[at] = val;
             last = val;
@@ -525,8 +557,18 @@ async function rebuild(h: CgcHeader, file: Uint8Array, body: Body, filled: Map<S
       }
     }
     cell += cellAt.length;
-    if (attr) file.set(p.take(width * (cell - firstCell)), attr.offset + ATTRIBUTE_HEAD_SIZE + width * firstCell);
-    if (p.at !== p.b.length) throw new CgcError('a block of the packed body has bytes left over (damaged)');
+    if (attr) {
+      let at = attr.offset + ATTRIBUTE_HEAD_SIZE + width * firstCell;
+      for (let i = firstCell; i < cell; i++) {
+        for (let lane = 0; lane < width; lane++) {
+          const byte = models.attribute.decode(d, lane * 256 + previousValue[lane]);
+          previousValue[lane] = byte;
+          file[at++] = byte;
+        }
+      }
+    }
+    blocksLeft--;
+    if (--chunkBlocks === 0 && !d.finished) throw new CgcError('a packed chunk has bytes left over (damaged)');
     if (!clusterLabels) {
       boxes.set(index, groups[0].known);
       order.push(index);
@@ -537,4 +579,29 @@ async function rebuild(h: CgcHeader, file: Uint8Array, body: Body, filled: Map<S
     settle();
   }
   if (cell !== h.activeCells) throw new CgcError('the packed cells are fewer than the header\'s active cells (damaged)');
+  if (coded !== codedLength) throw new CgcError(`the packed block stream is ${coded} of the ${codedLength} bytes its head gives (damaged)`);
+}
+
+/** Bytes of `v` as a LEB128 varint. */
+function varintLength(v: number): number {
+  let n = 1;
+  while (v >= 0x80) {
+    v = Math.floor(v / 128);
+    n++;
+  }
+  return n;
+}
+
+/**
+ * The spread (largest minus smallest) of the known samples at -1 along x, y and z of the sample
+ * at box index `at`, (x, y, z): 0 with fewer than two known (pack.rs's neighbour_spread).
+ */
+function neighbourSpread(known: Float64Array, at: number, x: number, y: number, z: number): number {
+  let lo = Infinity;
+  let hi = -Infinity;
+  let n = 0;
+  if (x > 0 && known[at - 1] >= 0) (lo = Math.min(lo, known[at - 1])), (hi = Math.max(hi, known[at - 1])), n++;
+  if (y > 0 && known[at - SIDE] >= 0) (lo = Math.min(lo, known[at - SIDE])), (hi = Math.max(hi, known[at - SIDE])), n++;
+  if (z > 0 && known[at - SIDE * SIDE] >= 0) (lo = Math.min(lo, known[at - SIDE * SIDE])), (hi = Math.max(hi, known[at - SIDE * SIDE])), n++;
+  return n < 2 ? 0 : hi - lo;
 }

@@ -2,7 +2,7 @@
 // byte the .cgc the binary writes, at every corner precision, with and without a cell attribute,
 // label grids binary and smoothed,
 // whether the bytes arrive at once or a few at a time; and every truncation and single-byte change
-// of a packed file refused with a CgcError (by the packed head, the inflater, the rebuild or the
+// of a packed file refused with a CgcError (by the packed head, the inflater, the range decoder, the rebuild or the
 // .cgc's own checks on the rebuilt bytes) or rebuilt into the same file, never a different one.
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
@@ -103,10 +103,11 @@ test('every truncation and single-byte change of a packed file is refused', { sk
       for (const flip of [0x01, 0x80]) {
         const b = packed.slice();
         b[i] ^= flip;
-        // A few bits of a deflate stream do not change what it inflates to (its first block's
-        // "final" flag when the lengths end it anyway, padding past its end, code lengths of
-        // symbols it never uses): rebuilding the same file is no harm, and the file's checksums
-        // hold it to be that file.
+        // A few bits change nothing that is read back: the range coder's flush at the end of the
+        // block stream carries more precision than its last symbols need, and a deflate stream has
+        // bits that do not change what it inflates to (padding, code lengths of symbols it never
+        // uses). Rebuilding the same file is no harm, and the file's checksums hold it to be that
+        // file.
         const got = await outcome(b, original);
         assert.ok(got === 'refused' || got === 'same', `${cgc}: byte ${i} ^ ${flip}: ${got}`);
         if (got === 'same') same.push(`${i}^${flip}`);

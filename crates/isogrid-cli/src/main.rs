@@ -44,7 +44,7 @@ enum Command {
     Bench(commands::bench::Args),
     /// Open the interactive viewer (orbit, isovalue slider, modes, measurements); --frames N renders N frames and exits.
     View(commands::view::Args),
-    /// Write the packed transfer form (.cgcz) of a .cgc file or a volume's surface: each corner sample once, deflated, for the web viewer.
+    /// Write the packed transfer form (.cgcz) of a .cgc file or a volume's surface: each corner sample once, range-coded, for the web viewer.
     Pack(commands::pack::Args),
     /// Serve the web viewer and one .cgc file over HTTP (Range requests), and print the URL to open.
     Serve(commands::serve::Args),

@@ -8,7 +8,7 @@
 //! Ranges, 206 and 416 come from tower-http's `ServeFile`; gzip, brotli or zstd (as the client
 //! accepts) from its `CompressionLayer`, which encodes whole responses only (a 206's
 //! Content-Range counts the file's bytes, so range requests get them as they are) and leaves the
-//! packed form, deflated already, as it is (docs/benchmarks-web.md has the ratios).
+//! packed form, compressed already, as it is (docs/benchmarks-web.md has the ratios).
 
 use crate::grid_source::{is_cgc, GridSource};
 use anyhow::{Context, Result};

@@ -60,6 +60,7 @@
 
 mod format;
 pub mod pack;
+mod range_coder;
 mod read;
 mod write;
 

@@ -5,24 +5,25 @@
 //! The `.cgc` stores a sample once in every active cell that has it as a corner (about four times
 //! over, `docs/benchmarks-web.md`), and everything in its metacells and blocks besides the cells'
 //! positions and masks follows from them. The packed form sends each corner sample once, predicted
-//! from its neighbours, and the positions as Morton steps, then deflates the lot. It holds the
-//! surface, its cell attribute and its labels.
+//! from its neighbours, and the positions as Morton steps, every field range-coded under a model of
+//! its own ([`super::range_coder`]). It holds the surface, its cell attribute and its labels.
 //!
-//! Layout, all little-endian. A 48-byte head:
+//! Layout, all little-endian. A 56-byte head:
 //!
 //! | offset | size | field |
 //! |---|---|---|
 //! | 0 | 8 | magic `\x89CGZ\r\n\x1a\n` |
-//! | 8 | 4 | version, u32 = 1 |
+//! | 8 | 4 | version, u32 = 2 |
 //! | 12 | 4 | `H`, u32: bytes of the `.cgc`'s header and section table (320 + 32 per section) |
 //! | 16 | 8 | length of the `.cgc`, u64 |
-//! | 24 | 8 | length of the deflate stream, u64 |
-//! | 32 | 8 | length of the body once inflated, u64 |
-//! | 40 | 4 | CRC-32 of bytes 0..40 followed by the `H` bytes below |
-//! | 44 | 4 | reserved, zero |
+//! | 24 | 8 | length of the preamble's deflate stream, u64 |
+//! | 32 | 8 | length of the preamble once inflated, u64 |
+//! | 40 | 8 | length of the block stream, u64 |
+//! | 48 | 4 | CRC-32 of bytes 0..48 followed by the `H` bytes below |
+//! | 52 | 4 | reserved, zero |
 //!
-//! then the `.cgc`'s first `H` bytes as they are, then a raw deflate stream (RFC 1951) of the body,
-//! which ends the file. The body, inflated:
+//! then the `.cgc`'s first `H` bytes as they are, then a raw deflate stream (RFC 1951) of the
+//! preamble, then the block stream, which ends the file. The preamble, inflated:
 //!
 //! | part | bytes |
 //! |---|---|
@@ -30,20 +31,28 @@
 //! | every block's cluster count | a LEB128 varint per block |
 //! | the cell attribute's head, when the file has one | 96 |
 //! | the cluster labels, label index and label table sections, when the file has labels | their lengths |
-//! | each block with clusters, in block order | a varint `n`, then `n` bytes of the block's part |
 //!
-//! A block's part: for each cluster its metacell count (u8, 1..=15), and for each metacell the
-//! step from the previous metacell's Morton code in the block (the first steps from −1; varint of
-//! the zigzag of the step) and its cell mask (u8). Then the block's *new samples*: the corner
-//! samples of its active cells (in block-local sample coordinates `q` in `0..=16`, index space:
-//! sample `16·b + q` of block `b`) that no earlier neighbour block sent: the predictor mode (u8,
-//! 0 or 1; absent at 1 bit per corner, where it is 0), then in z, y, x order each sample's
-//! residual against `predict` (below) in that mode, modulo 2^bits, in 1, 2 or 4 bytes (bits ≤ 8,
-//! 16, 32; a 32-bit corner is its float's bit pattern). In a file with labels one sample is a
-//! corner of several labels' cells with a different code in each: there the new samples go per
-//! label of the block's clusters (labels in the order of their first cluster in the block), each
-//! label's starting from none known. Then the block's cells' stored attribute values, as the
-//! attribute section holds them.
+//! The block stream is chunks, each a varint count of blocks, a varint length and that many bytes
+//! of range coder output (its first byte zero), which codes those blocks (the blocks with
+//! clusters, in block order) one after another. The models carry on from chunk to chunk; the coder
+//! starts afresh in each. A block codes, under the models of `range_coder::BlockModels`:
+//!
+//! - for each cluster its metacell count (1..=15), and for each metacell the step from the
+//!   previous metacell's Morton code in the block (the first steps from −1; zigzagged, by length,
+//!   in the context of the previous step's length) and its cell mask (in the context of the
+//!   previous mask);
+//! - then its *new samples*: the corner samples of its active cells (in block-local sample
+//!   coordinates `q` in `0..=16`, index space: sample `16·b + q` of block `b`) that no earlier
+//!   neighbour block sent: the predictor mode (0 or 1, in the context of the previous mode; absent
+//!   at 1 bit per corner, where it is 0), then in z, y, x order each sample's residual against
+//!   `predict` (below) in that mode, modulo 2^bits (a 32-bit corner is its float's bit pattern),
+//!   folded to the nearer of ±, zigzagged and coded by length in the context of the previous
+//!   residual's length and the spread of the sample's known neighbours. In a file with labels one
+//!   sample is a corner of several labels' cells with a different code in each: there the new
+//!   samples go per label of the block's clusters (labels in the order of their first cluster in
+//!   the block), each label's starting from none known;
+//! - then the block's cells' stored attribute values, byte by byte, each in the context of the same
+//!   byte of the value before.
 //!
 //! The rest of the `.cgc` follows: a block's metacell count and pointer from the cluster counts,
 //! a metacell's position from its block and Morton code, its cell pointer from the masks before
@@ -51,6 +60,7 @@
 //! and each corner record from the samples. The web viewer's `web/src/packed.ts` rebuilds it; its
 //! test checks that it gives back the `.cgc` of every fixture byte for byte.
 
+use super::range_coder::{bit_length, fold_residual, residual_context, BlockModels, RangeEncoder};
 use crate::error::{Error, Result};
 use crate::grid::CellGrid;
 use crate::layout::{Precision, BLOCK_CELLS, CLUSTER_METACELLS, CLUSTER_SLOTS};
@@ -62,9 +72,11 @@ use std::io::{Seek, SeekFrom, Write};
 /// The magic of a `.cgcz` file, PNG-style like the `.cgc`'s.
 pub const PACKED_MAGIC: [u8; 8] = *b"\x89CGZ\r\n\x1a\n";
 /// The version this build writes.
-pub const PACKED_VERSION: u32 = 1;
+pub const PACKED_VERSION: u32 = 2;
 /// Bytes of the `.cgcz` head before the `.cgc`'s header.
-pub const PACKED_HEAD_SIZE: usize = 48;
+pub const PACKED_HEAD_SIZE: usize = 56;
+/// Coded bytes after which the block stream ends a chunk (at the end of a block).
+const CHUNK_BYTES: usize = 1 << 16;
 
 /// Samples along a block's edge, its high face (shared with the next block) included.
 const SIDE: usize = BLOCK_CELLS + 1;
@@ -282,19 +294,24 @@ pub fn pack_into_with_progress<W: Write + Seek>(
     let start = out.stream_position().map_err(Error::io)?;
     out.write_all(&[0; PACKED_HEAD_SIZE]).map_err(Error::io)?;
     out.write_all(&head).map_err(Error::io)?;
-    let mut body = flate2::write::DeflateEncoder::new(
+    let mut deflate = flate2::write::DeflateEncoder::new(
         Counted {
             inner: &mut *out,
             count: 0,
         },
         flate2::Compression::best(),
     );
-    let body_len =
-        write_body(grid, &mut body, progress).map_err(|e| match e.downcast::<Error>() {
-            Ok(e) => e,
-            Err(e) => Error::io(e),
-        })?;
-    let stream_len = body.finish().map_err(Error::io)?.count;
+    let inflated_len = write_preamble(grid, &mut deflate).map_err(Error::io)?;
+    let stream_len = deflate.finish().map_err(Error::io)?.count;
+    let mut coded = Counted {
+        inner: &mut *out,
+        count: 0,
+    };
+    write_blocks(grid, &mut coded, progress).map_err(|e| match e.downcast::<Error>() {
+        Ok(e) => e,
+        Err(e) => Error::io(e),
+    })?;
+    let coded_len = coded.count;
 
     let mut h = Vec::with_capacity(PACKED_HEAD_SIZE);
     h.extend_from_slice(&PACKED_MAGIC);
@@ -302,7 +319,8 @@ pub fn pack_into_with_progress<W: Write + Seek>(
     h.extend_from_slice(&(head.len() as u32).to_le_bytes());
     h.extend_from_slice(&file_len.to_le_bytes());
     h.extend_from_slice(&stream_len.to_le_bytes());
-    h.extend_from_slice(&body_len.to_le_bytes());
+    h.extend_from_slice(&inflated_len.to_le_bytes());
+    h.extend_from_slice(&coded_len.to_le_bytes());
     let mut crc = crc32fast::Hasher::new();
     crc.update(&h);
     crc.update(&head);
@@ -318,14 +336,34 @@ pub fn pack_into_with_progress<W: Write + Seek>(
     })
 }
 
-/// Writes the body (the module doc's table) to `body`; returns its length. An error that is not
-/// the writer's comes back as an [`Error`] inside the `io::Error`.
-fn write_body(grid: &CellGrid, body: &mut impl Write, progress: &Progress) -> std::io::Result<u64> {
-    let mut body = Counted {
-        inner: body,
-        count: 0,
-    };
-    let body = &mut body;
+/// Writes the preamble (the module doc's first table) to `body`; returns its length.
+fn write_preamble(grid: &CellGrid, body: &mut impl Write) -> std::io::Result<u64> {
+    let blocks = grid.blocks();
+    let mut preamble = Vec::with_capacity(9 * blocks.len());
+    for b in blocks {
+        preamble.extend_from_slice(&b.min.to_le_bytes());
+        preamble.extend_from_slice(&b.max.to_le_bytes());
+    }
+    for b in blocks {
+        varint(&mut preamble, b.cluster_count() as u64);
+    }
+    if let Some(a) = grid.attribute() {
+        preamble.extend_from_slice(a.head_bytes());
+    }
+    body.write_all(&preamble)?;
+    let mut length = preamble.len() as u64;
+    if let Some(labels) = grid.labels() {
+        for bytes in labels.section_bytes() {
+            body.write_all(&bytes)?;
+            length += bytes.len() as u64;
+        }
+    }
+    Ok(length)
+}
+
+/// Writes the block stream (the module doc's chunks) to `out`. An error that is not the
+/// writer's comes back as an [`Error`] inside the `io::Error`.
+fn write_blocks(grid: &CellGrid, out: &mut impl Write, progress: &Progress) -> std::io::Result<()> {
     let attribute = grid.attribute();
     let cluster_labels = grid.labels().map(|l| l.cluster_labels());
     let info = grid.info();
@@ -337,39 +375,35 @@ fn write_body(grid: &CellGrid, body: &mut impl Write, progress: &Progress) -> st
     } else {
         (1i64 << bits) - 1
     };
-    let residual_bytes = (bits as usize).div_ceil(8);
     let attribute_width = attribute.map_or(0, |a| a.info().precision.bytes());
     let blocks = grid.blocks();
     let metacells = grid.metacells();
     let cells = grid.cells();
     let block_dims = info.block_dims().map(|d| d as usize);
-
-    let mut preamble = Vec::with_capacity(9 * blocks.len());
-    for b in blocks {
-        preamble.extend_from_slice(&b.min.to_le_bytes());
-        preamble.extend_from_slice(&b.max.to_le_bytes());
-    }
-    for b in blocks {
-        varint(&mut preamble, b.cluster_count() as u64);
-    }
-    body.write_all(&preamble)?;
-    if let Some(a) = attribute {
-        body.write_all(a.head_bytes())?;
-    }
-    if let Some(labels) = grid.labels() {
-        for bytes in labels.section_bytes() {
-            body.write_all(&bytes)?;
-        }
-    }
+    let mut coder = RangeEncoder::new();
+    let mut models = BlockModels::new(bits, attribute_width);
+    let mut chunk_blocks = 0u64;
+    let mut previous_mode = 0usize;
+    let mut previous_value = [0u8; 4];
+    let mut end_chunk = |coder: &mut RangeEncoder, blocks: &mut u64| -> std::io::Result<()> {
+        let bytes = coder.finish_chunk();
+        let mut record = Vec::with_capacity(20);
+        varint(&mut record, *blocks);
+        varint(&mut record, bytes.len() as u64);
+        out.write_all(&record)?;
+        out.write_all(&bytes)?;
+        *blocks = 0;
+        Ok(())
+    };
     let mut known_samples = KnownSamples {
         boxes: HashMap::new(),
         order: VecDeque::new(),
         block_dims,
     };
-    let mut part = Vec::new();
     let mut groups: Vec<Group> = Vec::new();
-    // A group's residuals under each predictor mode.
+    // A group's residuals under each predictor mode, and each new sample's neighbour spread.
     let mut residuals: [Vec<i64>; 2] = [Vec::new(), Vec::new()];
+    let mut spreads: Vec<u64> = Vec::new();
     let mut spare: Vec<Box<[i64; BOX]>> = Vec::new();
     for (index, block) in blocks.iter().enumerate() {
         progress.advance(1);
@@ -377,7 +411,6 @@ fn write_body(grid: &CellGrid, body: &mut impl Write, progress: &Progress) -> st
             continue;
         }
         progress.check().map_err(std::io::Error::other)?;
-        part.clear();
         for g in groups.drain(..) {
             spare.push(g.known);
             spare.push(g.corners);
@@ -389,6 +422,7 @@ fn write_body(grid: &CellGrid, body: &mut impl Write, progress: &Progress) -> st
         ]
         .map(|b| (b * BLOCK_CELLS / 2) as u32);
         let mut previous = -1i64;
+        let (mut step_context, mut previous_mask) = (0usize, 0usize);
         let mut first_cell = None;
         let mut cell_end = 0;
         let first_cluster = block.metacell_pointer as usize / CLUSTER_SLOTS;
@@ -428,14 +462,19 @@ fn write_body(grid: &CellGrid, body: &mut impl Write, progress: &Progress) -> st
                 .map(|&s| metacells[s])
                 .take_while(|m| !m.is_empty())
                 .collect();
-            part.push(used.len() as u8);
+            models.counts.encode(&mut coder, 0, used.len() as u32);
             for m in &used {
                 let local = [0, 1, 2].map(|a| m.position[a] as u32 - origin[a]);
                 let code = morton::metacell_code(local[0], local[1], local[2]) as i64;
                 let step = code - previous;
                 previous = code;
-                varint(&mut part, ((step << 1) ^ (step >> 63)) as u64);
-                part.push(m.cell_mask as u8);
+                let folded = ((step << 1) ^ (step >> 63)) as u64;
+                models.steps.encode(&mut coder, step_context, folded);
+                step_context = 1 + bit_length(folded).min(11) as usize;
+                models
+                    .masks
+                    .encode(&mut coder, previous_mask, m.cell_mask as u32);
+                previous_mask = m.cell_mask as usize;
                 let mut pointer = m.cell_pointer as usize;
                 first_cell.get_or_insert(pointer);
                 for bit in 0..8u32 {
@@ -472,6 +511,7 @@ fn write_body(grid: &CellGrid, body: &mut impl Write, progress: &Progress) -> st
         for Group { known, corners, .. } in &mut groups {
             let mut last = (max + 1) / 2;
             residuals.iter_mut().for_each(Vec::clear);
+            spreads.clear();
             for z in 0..SIDE {
                 for y in 0..SIDE {
                     for x in 0..SIDE {
@@ -480,6 +520,7 @@ fn write_body(grid: &CellGrid, body: &mut impl Write, progress: &Progress) -> st
                             continue;
                         }
                         let v = corners[at];
+                        spreads.push(neighbour_spread(known, [x, y, z]));
                         for (mode, r) in residuals.iter_mut().enumerate() {
                             let p = predict(known, [x, y, z], max, last, mode as u8);
                             r.push((v - p).rem_euclid(max + 1));
@@ -493,26 +534,58 @@ fn write_body(grid: &CellGrid, body: &mut impl Write, progress: &Progress) -> st
             let cost = |r: &Vec<i64>| r.iter().map(|&d| d.min(max + 1 - d)).sum::<i64>();
             let mode = (bits > 1 && cost(&residuals[1]) < cost(&residuals[0])) as usize;
             if bits > 1 {
-                part.push(mode as u8);
+                models.modes.encode(&mut coder, previous_mode, mode as u32);
+                previous_mode = mode;
             }
-            for &r in &residuals[mode] {
-                part.extend_from_slice(&(r as u32).to_le_bytes()[..residual_bytes]);
+            let mut previous_length = 0;
+            for (&r, &spread) in residuals[mode].iter().zip(&spreads) {
+                let u = fold_residual(r as u64, max as u64);
+                let context = residual_context(previous_length, spread);
+                models.residuals.encode(&mut coder, context, u);
+                previous_length = bit_length(u);
             }
         }
         if let (Some(a), Some(first)) = (attribute, first_cell) {
-            part.extend_from_slice(
-                &a.value_bytes()[first * attribute_width..cell_end * attribute_width],
-            );
+            let values = &a.value_bytes()[first * attribute_width..cell_end * attribute_width];
+            for value in values.chunks_exact(attribute_width) {
+                for (lane, &byte) in value.iter().enumerate() {
+                    let context = lane * 256 + previous_value[lane] as usize;
+                    models.attribute.encode(&mut coder, context, byte as u32);
+                    previous_value[lane] = byte;
+                }
+            }
         }
         if cluster_labels.is_none() {
             let g = groups.pop().expect("a block with clusters has a group");
             spare.push(g.corners);
             known_samples.finish(index, g.known);
         }
-        let mut length = Vec::with_capacity(10);
-        varint(&mut length, part.len() as u64);
-        body.write_all(&length)?;
-        body.write_all(&part)?;
+        chunk_blocks += 1;
+        if coder.len() >= CHUNK_BYTES {
+            end_chunk(&mut coder, &mut chunk_blocks)?;
+        }
     }
-    Ok(body.count)
+    if chunk_blocks > 0 {
+        end_chunk(&mut coder, &mut chunk_blocks)?;
+    }
+    Ok(())
+}
+
+/// The spread (largest minus smallest) of the known samples at −1 along x, y and z of block-local
+/// `(x, y, z)`: 0 with fewer than two known. The context of its residual (`range_coder`).
+fn neighbour_spread(known: &[i64; BOX], [x, y, z]: [usize; 3]) -> u64 {
+    let at = z * SIDE * SIDE + y * SIDE + x;
+    let (mut lo, mut hi, mut n) = (i64::MAX, i64::MIN, 0);
+    for (inside, offset) in [(x > 0, 1), (y > 0, SIDE), (z > 0, SIDE * SIDE)] {
+        if inside && known[at - offset] >= 0 {
+            lo = lo.min(known[at - offset]);
+            hi = hi.max(known[at - offset]);
+            n += 1;
+        }
+    }
+    if n < 2 {
+        0
+    } else {
+        (hi - lo) as u64
+    }
 }

@@ -1,5 +1,5 @@
-//! The packed transfer form from the writer's side: its head and the body it inflates to hold what
-//! the module doc's byte table says, the same grid packs to the same bytes wherever the output
+//! The packed transfer form from the writer's side: its head, the preamble it inflates to and the
+//! chunks of its block stream hold what the module doc's byte table says, the same grid packs to the same bytes wherever the output
 //! starts, and a cancel stops it. (Rebuilding the `.cgc` from it, byte for byte, is the web
 //! viewer's job, tested there: web/test/packed.test.mjs.)
 
@@ -36,20 +36,52 @@ fn head_and_body_are_as_the_byte_table_says() {
         assert_eq!(u32_at(&packed, 8), cgc::PACKED_VERSION, "{name}");
         assert_eq!(head, 320 + 32 * u32_at(&file, 168) as usize, "{name}");
         assert_eq!(u64_at(&packed, 16), file.len() as u64, "{name}");
-        assert_eq!(&packed[48..48 + head], &file[..head], "{name}");
+        let h = cgc::PACKED_HEAD_SIZE;
+        assert_eq!(h, 56);
+        assert_eq!(&packed[h..h + head], &file[..head], "{name}");
         let mut crc = crc32fast::Hasher::new();
-        crc.update(&packed[..40]);
-        crc.update(&packed[48..48 + head]);
-        assert_eq!(u32_at(&packed, 40), crc.finalize(), "{name}");
-        assert_eq!(u32_at(&packed, 44), 0, "{name}");
-        // The deflate stream ends the file and inflates to the body's length.
-        let stream = &packed[48 + head..];
-        assert_eq!(stream.len() as u64, u64_at(&packed, 24), "{name}");
+        crc.update(&packed[..48]);
+        crc.update(&packed[h..h + head]);
+        assert_eq!(u32_at(&packed, 48), crc.finalize(), "{name}");
+        assert_eq!(u32_at(&packed, 52), 0, "{name}");
+        // The deflate stream of the preamble, then the block stream, which ends the file.
+        let (deflated, coded) = (u64_at(&packed, 24) as usize, u64_at(&packed, 40) as usize);
+        assert_eq!(packed.len(), h + head + deflated + coded, "{name}");
+        let stream = &packed[h + head..h + head + deflated];
         let mut body = Vec::new();
         flate2::read::DeflateDecoder::new(stream)
             .read_to_end(&mut body)
             .unwrap();
         assert_eq!(body.len() as u64, u64_at(&packed, 32), "{name}");
+        // The block stream: chunks of (block count, length, coded bytes) that cover every block
+        // with clusters, each coded chunk starting with the coder's zero byte.
+        let mut chunks = &packed[h + head + deflated..];
+        let mut blocks_coded = 0;
+        let varint = |b: &mut &[u8]| {
+            let mut v = 0u64;
+            for shift in (0..).step_by(7) {
+                let byte = b[0];
+                *b = &b[1..];
+                v |= ((byte & 0x7f) as u64) << shift;
+                if byte < 0x80 {
+                    break;
+                }
+            }
+            v
+        };
+        while !chunks.is_empty() {
+            let n = varint(&mut chunks);
+            let length = varint(&mut chunks) as usize;
+            assert!(n >= 1 && length >= 5 && chunks[0] == 0, "{name}");
+            chunks = &chunks[length..];
+            blocks_coded += n as usize;
+        }
+        let with_clusters = grid
+            .blocks()
+            .iter()
+            .filter(|b| b.cluster_count() > 0)
+            .count();
+        assert_eq!(blocks_coded, with_clusters, "{name}");
         // It opens with every block's bounds and cluster count.
         let blocks = grid.blocks();
         for (i, b) in blocks.iter().enumerate() {

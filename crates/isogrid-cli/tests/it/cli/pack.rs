@@ -24,7 +24,8 @@ fn a_volume_packs_as_its_extracted_file() {
     assert_eq!(&a[..8], b"\x89CGZ\r\n\x1a\n");
     // The .cgc's header and section table travel as they are.
     let head = 320 + 32 * u32::from_le_bytes(file[168..172].try_into().unwrap()) as usize;
-    assert_eq!(&a[48..48 + head], &file[..head]);
+    let at = isogrid::cgc::PACKED_HEAD_SIZE;
+    assert_eq!(&a[at..at + head], &file[..head]);
     assert!(
         a.len() * 4 < file.len(),
         "{} bytes packed into {}",
