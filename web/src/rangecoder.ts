@@ -12,13 +12,15 @@ const TOP = 2 ** 24;
 
 /** Reads bits under adaptive probabilities from one chunk's bytes. */
 export class RangeDecoder {
-  private range = 0xffffffff;
+  // The range and the code are unsigned 32-bit numbers kept in int32 variables (x | 0), which
+  // the engine holds as machine integers; unsigned comparisons flip the sign bit first.
+  private range = -1;
   private code = 0;
-  private at = 0;
+  private at = 1;
   constructor(private readonly b: Uint8Array) {
     if (b.length < 5 || b[0] !== 0) throw new CgcError('a chunk of the packed block stream does not start as one (damaged)');
-    this.at = 1;
-    for (let i = 0; i < 4; i++) this.code = this.code * 256 + this.b[this.at++];
+    this.code = (b[1] << 24) | (b[2] << 16) | (b[3] << 8) | b[4];
+    this.at = 5;
   }
 
   /** Whether every byte of the chunk was used. */
@@ -29,24 +31,24 @@ export class RangeDecoder {
   /** The next bit under `probs[i]`, which it then moves towards that bit. */
   bit(probs: Uint16Array, i: number): number {
     const p = probs[i];
-    const bound = (this.range >>> PROB_BITS) * p;
+    const bound = Math.imul(this.range >>> PROB_BITS, p);
     let bit: number;
-    if (this.code < bound) {
+    if ((this.code ^ 0x80000000) < (bound ^ 0x80000000)) {
       this.range = bound;
       probs[i] = p + ((PROB_ONE - p) >> MOVE_BITS);
       bit = 0;
     } else {
-      this.code -= bound;
-      this.range -= bound;
+      this.code = (this.code - bound) | 0;
+      this.range = (this.range - bound) | 0;
       probs[i] = p - (p >> MOVE_BITS);
       bit = 1;
     }
-    while (this.range < TOP) {
+    if ((this.range ^ 0x80000000) < (TOP ^ 0x80000000)) {
       if (this.at >= this.b.length) throw new CgcError('a chunk of the packed block stream ends early (damaged)');
-      this.range *= 256;
-      this.code = this.code * 256 + this.b[this.at++];
       // A coder's code always lies below its range; past that the bytes are not its output.
-      if (this.code >= this.range) throw new CgcError('the packed block stream is damaged (not the coder\'s output)');
+      if ((this.code ^ 0x80000000) >= (this.range ^ 0x80000000)) throw new CgcError('the packed block stream is damaged (not the coder\'s output)');
+      this.range <<= 8;
+      this.code = (this.code << 8) | this.b[this.at++];
     }
     return bit;
   }
