@@ -40,7 +40,8 @@ reads the planes ``16·l0 − r .. 16·l1 + r`` (clipped), whole in x and y. Eac
 pass on its slab and returns its blocks' labels, counts and output, stopping early once that
 output fills what ``tile_bytes`` leaves beside its planes (a dense surface, such as supervoxels',
 outweighs its samples); the blocks it did not reach, from the middle of a layer on, go to a task
-of a further round. The driver keeps the output in a scratch file beside ``output``, adds the
+of a further round; on dask's threaded scheduler they go in windows of twice its threads, so that a
+free thread does not read the chunks of slabs far ahead. The driver keeps the output in a scratch file beside ``output``, adds the
 counts up in block order as fragments arrive (in any order), and writes the file once every
 block is in: byte-identical to
 ``isogrid.extract(volume, labels=...).save(output)`` and to ``isogrid extract --labels`` streamed
@@ -308,14 +309,20 @@ def _extract_labels(array: "da.Array", writer: Any, run: "_Runner", counter: "_C
             slabs.append((((0, nx), (0, ny), (z0, z1)), (dims, (b0, b1), selection, smooth, output_cap, bits)))
         asked = dict(pending)
         pending = []
-        tasks = chunks.tasks(_label_slab, slabs, run.stop)
-        results = counter.counted(run.as_completed(tasks), planned, lambda r: r[0][1] - r[0][0])
-        planned = 0
-        for (b0, end), fragment in results:
-            writer.add(fragment)
-            del fragment
-            if end < asked[b0]:
-                pending.append((end, asked[b0]))
+        # On dask's threaded scheduler a free thread runs whatever is ready, the source chunks of
+        # slabs far ahead included, while the others run slab tasks: a window of slabs at a time
+        # bounds what it reads ahead (the chunk holding a window's last halo plane is read again
+        # by the next window).
+        window = run.window if run.local else len(slabs)
+        for first in range(0, len(slabs), window):
+            tasks = chunks.tasks(_label_slab, slabs[first : first + window], run.stop)
+            results = counter.counted(run.as_completed(tasks), planned, lambda r: r[0][1] - r[0][0])
+            planned = 0
+            for (b0, end), fragment in results:
+                writer.add(fragment)
+                del fragment
+                if end < asked[b0]:
+                    pending.append((end, asked[b0]))
     stats, notices = writer.write(out, None if label_table is None else os.fspath(label_table), names_of)
     for notice in notices:
         warnings.warn(notice, stacklevel=3)
