@@ -40,10 +40,10 @@ reads the planes ``16·l0 − r .. 16·l1 + r`` (clipped), whole in x and y. Eac
 pass on its slab and returns its blocks' labels, counts and output, stopping early once that
 output fills what ``tile_bytes`` leaves beside its planes (a dense surface, such as supervoxels',
 outweighs its samples); the blocks it did not reach, from the middle of a layer on, go to a task
-of a further round; on dask's threaded scheduler they go in windows of twice its threads, so that a
-free thread does not read the chunks of slabs far ahead. The driver keeps the output in a scratch file beside ``output``, adds the
-counts up in block order as fragments arrive (in any order), and writes the file once every
-block is in: byte-identical to
+of a further round. Slabs go to dask's threaded scheduler in windows of twice its threads, so that
+a free thread does not read the chunks of slabs far ahead. The driver keeps the output in a
+scratch file beside ``output``, adds the counts up in block order as fragments arrive (in any
+order), and writes the file once every block is in: byte-identical to
 ``isogrid.extract(volume, labels=...).save(output)`` and to ``isogrid extract --labels`` streamed
 within ``--max-memory``, for any slab size and worker count.
 
