@@ -597,11 +597,13 @@ function varintLength(v: number): number {
  * at box index `at`, (x, y, z): 0 with fewer than two known (pack.rs's neighbour_spread).
  */
 function neighbourSpread(known: Float64Array, at: number, x: number, y: number, z: number): number {
-  let lo = Infinity;
-  let hi = -Infinity;
-  let n = 0;
-  if (x > 0 && known[at - 1] >= 0) (lo = Math.min(lo, known[at - 1])), (hi = Math.max(hi, known[at - 1])), n++;
-  if (y > 0 && known[at - SIDE] >= 0) (lo = Math.min(lo, known[at - SIDE])), (hi = Math.max(hi, known[at - SIDE])), n++;
-  if (z > 0 && known[at - SIDE * SIDE] >= 0) (lo = Math.min(lo, known[at - SIDE * SIDE])), (hi = Math.max(hi, known[at - SIDE * SIDE])), n++;
-  return n < 2 ? 0 : hi - lo;
+  // Unknown samples are -1 and known ones non-negative: the spread of the known among the three.
+  const a = x > 0 ? known[at - 1] : -1;
+  const b = y > 0 ? known[at - SIDE] : -1;
+  const c = z > 0 ? known[at - SIDE * SIDE] : -1;
+  const hi = Math.max(a, b, c);
+  if (hi < 0) return 0;
+  const lo = Math.min(a < 0 ? hi : a, b < 0 ? hi : b, c < 0 ? hi : c);
+  // With one known sample hi === lo: 0, as with none.
+  return hi - lo;
 }
