@@ -180,8 +180,8 @@ fn stream_typed<T: SlabScalar + LabelSample>(
             run.progress.check()?;
             let bytes = held_bytes(&out);
             writer.add_blocks(blocks.start, out)?;
-            // Each run's output leaves for the scratch file before the next: a run may fill the
-            // whole buffer.
+            // Each run's output leaves for the scratch file before the next, so the next run has
+            // the whole buffer for room.
             runs.resize(blocks.len(), bytes, output_buffer);
             at = blocks.end;
         }
