@@ -272,6 +272,10 @@ export function packedSource(name: string, open: () => Promise<ReadableStream<Ui
       const h0 = await download.take(PACKED_HEAD_SIZE, `${PACKED_HEAD_SIZE}-byte head`);
       if (PACKED_MAGIC.some((b, i) => h0[i] !== b)) throw new CgcError('not a packed .cgc file (bad magic bytes; a .cgc is opened by its own name)');
       const v = new DataView(h0.buffer, h0.byteOffset, PACKED_HEAD_SIZE);
+      // First, since the version sets the layout of the rest (a version 1 head is 48 bytes).
+      if (v.getUint32(8, true) !== PACKED_VERSION) {
+        throw new CgcError(`packed format version ${v.getUint32(8, true)}; this viewer reads version ${PACKED_VERSION} (pack the .cgc again with this isogrid)`, true);
+      }
       const headLength = v.getUint32(12, true);
       const cgcLength = Number(v.getBigUint64(16, true));
       const streamLength = Number(v.getBigUint64(24, true));
@@ -283,9 +287,6 @@ export function packedSource(name: string, open: () => Promise<ReadableStream<Ui
       const head = await download.take(headLength, `${PACKED_HEAD_SIZE + headLength}-byte head`);
       if (new Crc32().update(h0.subarray(0, 48)).update(head).digest() !== v.getUint32(48, true)) {
         throw new CgcError('packed head checksum mismatch (the head is damaged)');
-      }
-      if (v.getUint32(8, true) !== PACKED_VERSION) {
-        throw new CgcError(`packed format version ${v.getUint32(8, true)}; this viewer reads version ${PACKED_VERSION} (pack the .cgc again with this isogrid)`, true);
       }
       // Bounds on the lengths, so that a crafted head cannot ask for a giant allocation: deflate
       // expands at most 1032-fold, and a .cgc is far less than 65536 times the packed bytes that

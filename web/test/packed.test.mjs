@@ -88,6 +88,16 @@ test('a packed file rebuilds its .cgc byte for byte', { skip }, async (t) => {
   }
 });
 
+test('a packed file of another version is refused by its version', { skip }, async () => {
+  const packed = new Uint8Array(readFileSync(packedFile(precisionSphereFile(8))));
+  for (const version of [1, 3]) {
+    const b = packed.slice();
+    new DataView(b.buffer).setUint32(8, version, true);
+    const src = packedSource('old.cgcz', async () => streamOf(b), () => {});
+    await assert.rejects(src.read(0, 320), (e) => e instanceof CgcError && e.unsupported && e.message === `packed format version ${version}; this viewer reads version 2 (pack the .cgc again with this isogrid)`);
+  }
+});
+
 test('every truncation and single-byte change of a packed file is refused', { skip, timeout: 600_000 }, async (t) => {
   for (const cgc of !skip ? [precisionSphereFile(8), labelFile(32)] : []) {
     const original = new Uint8Array(readFileSync(cgc));
