@@ -36,7 +36,9 @@ chunk two tiles read (one holding a halo) is computed once per pass.
 **Label volumes** (``labels=``, as ``isogrid extract --labels``) go by *slabs* of whole block
 layers instead, each a task: a label's block reads its 17 samples per axis plus, with
 ``smooth=σ``, the Gaussian's radius ⌈3σ⌉ more on every side, so a slab of layers ``l0..l1``
-reads the planes ``16·l0 − r .. 16·l1 + r`` (clipped), whole in x and y. Each task runs the label
+reads the planes ``16·l0 − r .. 16·l1 + r`` (clipped), whole in x and y; where one layer's planes
+exceed a task's share, a task is a run of block rows of one layer and reads only their rows
+(``16·k0 − r .. 16·k1 + r``) of the layer's planes. Each task runs the label
 pass on its slab and returns its blocks' labels, counts and output, stopping early once that
 output fills what ``tile_bytes`` leaves beside its planes (a dense surface, such as supervoxels',
 outweighs its samples); the blocks it did not reach, from the middle of a layer on, go to a task
@@ -133,7 +135,8 @@ def extract(
             ``labels``, slabs take a quarter for their planes (held twice: the source's chunks
             and the slab made of them), and a slab task whose output fills the rest (at least
             half) stops there, leaving its other blocks to a further task. A task never holds
-            less than one block (17³ samples; with ``labels``, one block layer's planes).
+            less than one block (17³ samples; with ``labels``, a block row's 17 rows of 17
+            planes, and the smoothing halo).
         tile_shape: the (z, y, x) samples a tile covers, each a multiple of 16 (a tile reads one
             more along each axis, its halo); default: picked from ``tile_bytes`` and the chunks.
         attribute: a second volume to colour the surface by, as :func:`isogrid.extract` takes
@@ -288,25 +291,39 @@ def _extract_labels(array: "da.Array", writer: Any, run: "_Runner", counter: "_C
                     out: str, label_table: Any, names_of: Optional[str]) -> Dict[str, Any]:
     """`labels=` of :func:`extract`: one task per slab of block layers, whose planes (its own and
     the smoothing halo) take about a quarter of `budget`, held twice (the source's chunks it
-    reads and the slab assembled from them), its output the rest, or half of `budget` where one
-    layer's planes already take more. A task whose output fills its share stops there, and the
+    reads and the slab assembled from them), its output the rest, or at least half of `budget`.
+    Where one layer's planes alone take more than the quarter, a task is a run of block rows of
+    one layer instead, reading those rows of the layer's planes. A task whose output fills its share stops there, and the
     blocks it did not reach go to a task of the next round (which reads their planes again): so
     every task holds about `budget`, however dense the surface. Progress counts blocks."""
     nx, ny, nz = dims
-    per_layer = _blocks(nx) * _blocks(ny) if min(dims) > 1 else 0
+    nbx, nby = (_blocks(nx), _blocks(ny)) if min(dims) > 1 else (0, 0)
+    per_layer = nbx * nby
     layers = _blocks(nz) if per_layer else 0
+
+    def span(k: int) -> int:
+        """Samples across k blocks and the halo on both sides: a slab of k block layers reads as
+        many planes, a run of k block rows within a layer as many rows of each of its planes."""
+        return BLOCK_CELLS * k + 1 + 2 * writer.halo
+
     plane = nx * ny * itemsize
-    # Planes of a slab of k layers: 16·k + 1, and the halo on both sides.
-    step = max(1, (budget // 4 // plane - 1 - 2 * writer.halo) // BLOCK_CELLS)
-    pending = [(l0 * per_layer, min(l0 + step, layers) * per_layer) for l0 in range(0, layers, step)]
+    if plane * span(1) <= budget // 4:
+        step = max(1, (budget // 4 // plane - 1 - 2 * writer.halo) // BLOCK_CELLS)
+        pending = [(l0 * per_layer, min(l0 + step, layers) * per_layer) for l0 in range(0, layers, step)]
+    else:
+        # One layer's planes alone exceed the share: runs of block rows, each reading its rows.
+        row = nx * itemsize * span(1)
+        step = max(1, (budget // 4 // row - 1 - 2 * writer.halo) // BLOCK_CELLS)
+        pending = [(l * per_layer + r0 * nbx, l * per_layer + min(r0 + step, nby) * nbx)
+                   for l in range(layers) for r0 in range(0, nby, step)]
     planned = layers * per_layer
     chunks = _Chunks(array)
     while pending:
         slabs = []
         for b0, b1 in pending:
-            z0, z1 = writer.planes((b0, b1))
-            output_cap = max(budget - 2 * plane * (z1 - z0), budget // 2)
-            slabs.append((((0, nx), (0, ny), (z0, z1)), (dims, (b0, b1), selection, smooth, output_cap, bits)))
+            y0, y1, z0, z1 = writer.sample_box((b0, b1))
+            output_cap = max(budget - 2 * nx * itemsize * (y1 - y0) * (z1 - z0), budget // 2)
+            slabs.append((((0, nx), (y0, y1), (z0, z1)), (dims, (b0, b1), selection, smooth, output_cap, bits)))
         asked = dict(pending)
         pending = []
         # On dask's threaded scheduler a free thread runs whatever is ready, the source chunks of

@@ -275,8 +275,8 @@ fn label_options(labels: &str, smooth: f64, precision: Option<u32>) -> PyResult<
 }
 
 /// One task of a label extraction: the fragment of the run of blocks `blocks` (b0, b1) of a
-/// volume of `volume_dims` (x, y, z), from `slab`, the planes `_LabelWriter.planes` names for
-/// them, whole in x and y. It stops once its output holds `output_cap` bytes; returns the blocks
+/// volume of `volume_dims` (x, y, z), from `slab`, the samples `_LabelWriter.sample_box` names
+/// for them, whole in x. It stops once its output holds `output_cap` bytes; returns the blocks
 /// it covers (b0, end) and the fragment, encoded straight into the returned `bytes`.
 #[pyfunction]
 #[pyo3(signature = (slab, volume_dims, blocks, labels, smooth, output_cap, precision=None, cancel=None))]
@@ -360,12 +360,13 @@ impl _LabelWriter {
         isogrid::extract::labels::label_halo(self.options.smooth)
     }
 
-    /// The sample planes (z0, z1) that the run of blocks (b0, b1) reads: those of the block
-    /// layers it meets and the smoothing halo (`⌈3σ⌉` planes each side), clipped to the volume.
-    fn planes(&self, blocks: (usize, usize)) -> PyResult<(usize, usize)> {
-        let z = label_stream::fragment_planes(self.dims, blocks.0..blocks.1, &self.options)
+    /// The samples (y0, y1, z0, z1) that the run of blocks (b0, b1) reads, whole in x: the rows
+    /// and planes of the block rows and layers it meets and the smoothing halo (`⌈3σ⌉` samples
+    /// each side), clipped to the volume; a run within one block layer reads only its block rows.
+    fn sample_box(&self, blocks: (usize, usize)) -> PyResult<(usize, usize, usize, usize)> {
+        let [y, z] = label_stream::fragment_box(self.dims, blocks.0..blocks.1, &self.options)
             .map_err(to_py)?;
-        Ok((z.start, z.end))
+        Ok((y.start, y.end, z.start, z.end))
     }
 
     /// Adds a slab's fragment (slabs in any order, each block exactly once).

@@ -27,7 +27,8 @@
 //! smoothing passes), one run of blocks' output (cut to the plan's output buffer), 20 B per block,
 //! and, growing with the surface, 12 B per (block, label) pair with cells, 4 B per cluster and the
 //! labels' extents: the label index's own order of size. Temporary disk: the output's metacells and corner records.
-//! A [`label_fragment`] task holds its slab and its output up to the cap it is given.
+//! A [`label_fragment`] task holds its samples (whole planes, or for a run of block rows within one
+//! layer only their rows, [`fragment_box`]) and its output up to the cap it is given.
 
 use super::file_layout::FileLayout;
 use super::labels::{BlockLabels, LabelOptions, LabelPart, LabelPass, LabelTally, LABEL_ISO};
@@ -174,9 +175,14 @@ fn stream_typed<T: SlabScalar + LabelSample>(
         let mut at = layers.start * nbx * nby;
         while at < end {
             let blocks = at..(at + runs.blocks()).min(end);
-            let out = writer
-                .pass
-                .blocks(&buffer, dims, planes.start, blocks.clone(), run.progress);
+            let out = writer.pass.blocks(
+                &buffer,
+                dims,
+                0..dims[1],
+                planes.start,
+                blocks.clone(),
+                run.progress,
+            );
             run.progress.check()?;
             let bytes = held_bytes(&out);
             writer.add_blocks(blocks.start, out)?;
@@ -237,7 +243,7 @@ fn held_bytes(blocks: &[BlockLabels]) -> u64 {
 
 /// One Dask task of a label extraction: the label pass over the run of consecutive blocks
 /// `blocks` (numbered x fastest, then y, then z) of a volume of `volume_dims` samples, from `slab`,
-/// which holds exactly the planes those blocks read ([`fragment_planes`]), whole in x and y.
+/// which holds exactly the samples those blocks read ([`fragment_box`]), whole in x.
 ///
 /// The task stops early once its output holds `output_cap` bytes: the fragment then covers a
 /// first part of `blocks` (at least one run of one block per thread), and the caller gives the
@@ -263,12 +269,14 @@ pub fn label_fragment(
             nbx * nby * nbz
         )));
     }
-    let planes = fragment_planes(volume_dims, blocks.clone(), options)?;
+    let [rows, planes] = fragment_box(volume_dims, blocks.clone(), options)?;
     let [sx, sy, sz] = slab.dims();
-    if [sx, sy] != [volume_dims[0], volume_dims[1]] || sz != planes.len() {
+    if [sx, sy, sz] != [volume_dims[0], rows.len(), planes.len()] {
         return Err(Error::invalid(format!(
-            "a slab of {sx}x{sy}x{sz} samples is not the planes {}..{} of blocks {}..{} of a \
-             {}x{}x{} volume",
+            "a slab of {sx}x{sy}x{sz} samples is not the rows {}..{} of the planes {}..{} that \
+             blocks {}..{} of a {}x{}x{} volume read",
+            rows.start,
+            rows.end,
             planes.start,
             planes.end,
             blocks.start,
@@ -286,7 +294,8 @@ pub fn label_fragment(
         let mut at = blocks.start;
         while at < blocks.end {
             let run = at..(at + runs.blocks()).min(blocks.end);
-            let mut made = pass.blocks(s, volume_dims, planes.start, run.clone(), progress);
+            let mut made =
+                pass.blocks(s, volume_dims, rows.clone(), planes.start, run.clone(), progress);
             progress.check()?;
             // Held until the fragment is encoded, so kept at their length.
             for b in &mut made {
@@ -314,20 +323,30 @@ pub fn label_fragment(
     })
 }
 
-/// The sample planes (z) the label pass of `options` reads for the run of blocks `blocks` of a
-/// volume of `dims` samples: those of the block layers it meets and the smoothing halo, clipped
-/// to the volume.
-pub fn fragment_planes(
+/// The samples the label pass of `options` reads for the run of blocks `blocks` of a volume of
+/// `dims` samples, whole in x: `[rows, planes]`, the sample rows (y) and planes (z) of the block
+/// rows and layers it meets, and the smoothing halo, clipped to the volume. A run within one block
+/// layer reads only its block rows' samples; a run across layers reads whole planes.
+pub fn fragment_box(
     dims: [usize; 3],
     blocks: Range<usize>,
     options: &LabelOptions,
-) -> Result<Range<usize>> {
+) -> Result<[Range<usize>; 2]> {
     let [nbx, nby, _] = super::tiles::block_dims(dims);
     let per_layer = (nbx * nby).max(1);
     let layers = blocks.start / per_layer..blocks.end.div_ceil(per_layer);
     let halo = LabelPass::new(options)?.halo();
-    Ok((BLOCK_CELLS * layers.start).saturating_sub(halo)
-        ..(BLOCK_CELLS * layers.end + 1 + halo).min(dims[2]))
+    let reach = |cells: Range<usize>, n: usize| {
+        (BLOCK_CELLS * cells.start).saturating_sub(halo)
+            ..(BLOCK_CELLS * cells.end + 1 + halo).min(n)
+    };
+    let rows = if layers.len() == 1 && !blocks.is_empty() {
+        let row = |b: usize| b % per_layer / nbx.max(1);
+        reach(row(blocks.start)..row(blocks.end - 1) + 1, dims[1])
+    } else {
+        0..dims[1]
+    };
+    Ok([rows, reach(layers, dims[2])])
 }
 
 const FRAGMENT_TAG: &[u8; 4] = b"IGLF";

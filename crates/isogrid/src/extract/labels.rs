@@ -222,14 +222,16 @@ impl LabelPass {
     }
 
     /// The blocks `blocks` (numbers in block order) of a volume of `dims` samples, in parallel on
-    /// the current rayon pool, from `samples`: whole sample planes of the volume from plane
-    /// `first_plane` on, which must hold every plane the blocks read (their own and
-    /// [`Self::halo`] more on each side, clipped to the volume). One step per block in
-    /// `progress`; once it is cancelled the remaining blocks come out empty (the caller checks).
+    /// the current rayon pool, from `samples`: the sample rows `rows` (y, whole in x) of the
+    /// volume's planes from plane `first_plane` on, which must hold every sample the blocks read
+    /// (their own and [`Self::halo`] more on each side, clipped to the volume). One step per
+    /// block in `progress`; once it is cancelled the remaining blocks come out empty (the caller
+    /// checks).
     pub(super) fn blocks<T: LabelSample>(
         &self,
         samples: &[T],
         dims: [usize; 3],
+        rows: Range<usize>,
         first_plane: usize,
         blocks: Range<usize>,
         progress: &Progress,
@@ -237,6 +239,7 @@ impl LabelPass {
         let pass = Pass {
             samples,
             dims,
+            rows,
             first_plane,
             block_dims: dims.map(|d| d.saturating_sub(1).div_ceil(BLOCK_CELLS)),
             shared: self,
@@ -260,6 +263,9 @@ struct Pass<'a, T> {
     samples: &'a [T],
     /// Samples per axis of the whole volume.
     dims: [usize; 3],
+    /// The volume's sample rows (y) that `samples` hold of each plane: all for the whole volume
+    /// and a streamed slab, those of a Dask task's block rows.
+    rows: Range<usize>,
     /// The volume's plane where `samples` begin: 0 for the whole volume, a slab's first plane.
     first_plane: usize,
     block_dims: [usize; 3],
@@ -438,7 +444,7 @@ fn extract_typed<T: LabelSample>(
         .iter()
         .product();
     progress.start(block_count as u64);
-    let blocks = pass.blocks(samples, dims, 0, 0..block_count, progress);
+    let blocks = pass.blocks(samples, dims, 0..dims[1], 0, 0..block_count, progress);
     progress.check()?;
 
     // Each block's place, then the blocks' buffers in block order with their cell pointers moved.
@@ -475,12 +481,15 @@ impl<T: LabelSample> Pass<'_, T> {
         let lo = origin.map(|o| o.saturating_sub(radius));
         let hi = [0, 1, 2].map(|a| (origin[a] + cube[a] - 1 + radius).min(self.dims[a] - 1));
         let region = [0, 1, 2].map(|a| hi[a] - lo[a] + 1);
-        let [nx, ny, _] = self.dims;
+        let nx = self.dims[0];
         scratch.keys.clear();
-        debug_assert!(lo[2] >= self.first_plane);
+        debug_assert!(
+            lo[2] >= self.first_plane && lo[1] >= self.rows.start && hi[1] < self.rows.end
+        );
+        let rows = self.rows.len();
         for z in lo[2]..=hi[2] {
             for y in lo[1]..=hi[1] {
-                let start = lo[0] + nx * (y + ny * (z - self.first_plane));
+                let start = lo[0] + nx * (y - self.rows.start + rows * (z - self.first_plane));
                 scratch.keys.extend(
                     self.samples[start..start + region[0]]
                         .iter()

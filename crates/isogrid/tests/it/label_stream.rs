@@ -8,7 +8,7 @@ use crate::common::Rng;
 use crate::labels::{label_volume, DIMS};
 use crate::stream::{least_budget_for, plan, Cancelling, TempDir};
 use isogrid::extract::label_stream::{
-    extract_labels_planned, extract_labels_to_file, fragment_planes, label_fragment, plan_labels,
+    extract_labels_planned, extract_labels_to_file, fragment_box, label_fragment, plan_labels,
     LabelWriter,
 };
 use isogrid::extract::stream::MemoryPlan;
@@ -178,11 +178,17 @@ fn fragments_in_any_order_give_the_in_memory_file() {
         let layers = (dims[2] - 1).div_ceil(16);
         for options in option_sets() {
             let expected = in_memory_bytes(&volume, &options);
-            for cut in [1, 2, layers] {
-                let mut fragments: Vec<Vec<u8>> = (0..layers)
+            // Runs of one block row (each reading its rows of the planes only), of one block
+            // layer, two, and all.
+            let all = layer_blocks(dims, 0..layers);
+            let per_layer = all.len() / layers;
+            let row = (dims[0] - 1).div_ceil(16);
+            for cut in [row, per_layer, 2 * per_layer, all.len()] {
+                let mut fragments: Vec<Vec<u8>> = all
+                    .clone()
                     .step_by(cut)
-                    .map(|l0| {
-                        let blocks = layer_blocks(dims, l0..(l0 + cut).min(layers));
+                    .map(|b0| {
+                        let blocks = b0..(b0 + cut).min(all.end);
                         fragment(&volume, blocks, &options, u64::MAX).encode()
                     })
                     .collect();
@@ -231,7 +237,7 @@ fn fragments_in_any_order_give_the_in_memory_file() {
             LabelWriter::new(*volume.geometry(), volume.scalar_type(), &a, &dir.0).unwrap();
         assert!(writer.add_fragment(&f).is_err());
         // A slab without its halo is refused.
-        let short = slab_of(&volume, 0..17);
+        let short = slab_of(&volume, 0..dims[1], 0..17);
         let err = label_fragment(
             &short.view(),
             dims,
@@ -242,7 +248,7 @@ fn fragments_in_any_order_give_the_in_memory_file() {
         )
         .err()
         .unwrap();
-        assert!(err.to_string().contains("is not the planes"), "{err}");
+        assert!(err.to_string().contains("is not the rows"), "{err}");
         // Truncated fragments are refused, never a panic.
         let f = fragment(&volume, first_layer.clone(), &b, u64::MAX).encode();
         for cut in [0, 3, 20, f.len() / 2, f.len() - 1] {
@@ -271,10 +277,8 @@ fn fragment(
     cap: u64,
 ) -> isogrid::extract::label_stream::LabelFragment {
     let dims = volume.dims();
-    let slab = slab_of(
-        volume,
-        fragment_planes(dims, blocks.clone(), options).unwrap(),
-    );
+    let [rows, planes] = fragment_box(dims, blocks.clone(), options).unwrap();
+    let slab = slab_of(volume, rows, planes);
     label_fragment(&slab.view(), dims, blocks, options, cap, &Progress::new()).unwrap()
 }
 
@@ -330,15 +334,24 @@ fn capped_fragments_continue_where_they_stop_and_give_the_in_memory_file() {
     }
 }
 
-/// The planes `z` of `volume`, as a volume.
-fn slab_of(volume: &Volume, z: Range<usize>) -> Volume {
+/// The rows `y` of the planes `z` of `volume` (whole in x), as a volume.
+fn slab_of(volume: &Volume, y: Range<usize>, z: Range<usize>) -> Volume {
     let [nx, ny, _] = volume.dims();
+    fn cut<T: Copy>(s: &[T], nx: usize, ny: usize, y: &Range<usize>, z: &Range<usize>) -> Vec<T> {
+        z.clone()
+            .flat_map(|p| {
+                s[nx * (y.start + ny * p)..nx * (y.end + ny * p)]
+                    .iter()
+                    .copied()
+            })
+            .collect()
+    }
     let data = match volume.view().samples() {
-        isogrid::Samples::U16(s) => VolumeData::U16(s[nx * ny * z.start..nx * ny * z.end].to_vec()),
-        isogrid::Samples::U32(s) => VolumeData::U32(s[nx * ny * z.start..nx * ny * z.end].to_vec()),
+        isogrid::Samples::U16(s) => VolumeData::U16(cut(s, nx, ny, &y, &z)),
+        isogrid::Samples::U32(s) => VolumeData::U32(cut(s, nx, ny, &y, &z)),
         _ => unreachable!(),
     };
-    Volume::new([nx, ny, z.len()], data).unwrap()
+    Volume::new([nx, y.len(), z.len()], data).unwrap()
 }
 
 /// The budget decides the slabs: a budget below one slab (with its halo) is refused with the
