@@ -554,7 +554,14 @@ def label_volume():
 
 
 @pytest.mark.parametrize("smooth", [None, 1.0], ids=["binary", "smoothed"])
-@pytest.mark.parametrize("tile_bytes", [1, 41 * 38 * 4 * 40, 1 << 30], ids=["layer-slabs", "two-layer-slabs", "whole"])
+# 1 byte: runs of block rows, each task stopping at its output cap; 40 planes' bytes: runs of one
+# block row (a layer's 17 planes exceed a task's quarter); 140 planes' bytes: slabs of two block
+# layers; 1 GiB: the whole volume in one slab.
+@pytest.mark.parametrize(
+    "tile_bytes",
+    [1, 41 * 38 * 4 * 40, 41 * 38 * 4 * 140, 1 << 30],
+    ids=["capped-row-runs", "row-runs", "two-layer-slabs", "whole"],
+)
 def test_labels_are_byte_identical_to_in_memory(tmp_path, smooth, tile_bytes):
     a = label_volume()
     kwargs = {"labels": "all"} if smooth is None else {"labels": "all", "smooth": smooth}
