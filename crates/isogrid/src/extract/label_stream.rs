@@ -324,9 +324,10 @@ pub fn label_fragment(
 }
 
 /// The samples the label pass of `options` reads for the run of blocks `blocks` of a volume of
-/// `dims` samples, whole in x: `[rows, planes]`, the sample rows (y) and planes (z) of the block
-/// rows and layers it meets, and the smoothing halo, clipped to the volume. A run within one block
-/// layer reads only its block rows' samples; a run across layers reads whole planes.
+/// `dims` samples, whole in x: `[rows, planes]`, the sample indices (index space) of the rows (y)
+/// and planes (z) of the block rows and layers it meets, and the smoothing halo, clipped to the
+/// volume. A run within one block layer reads only its block rows' samples; a run across layers
+/// reads whole planes.
 pub fn fragment_box(
     dims: [usize; 3],
     blocks: Range<usize>,
