@@ -58,6 +58,8 @@ class Download {
   private buf = new Uint8Array(0);
   private at = 0;
   private received = 0;
+  /** Bytes taken so far, from the file's start. */
+  taken = 0;
   /** The file's length once its head is in. */
   private total = Infinity;
   constructor(private readonly reader: ReadableStreamDefaultReader<Uint8Array>, private readonly onBytes: (n: number) => void) {}
@@ -84,8 +86,8 @@ class Download {
     }
     return true;
   }
-  /** The next `n` bytes; `inside` names the part of the head they are, before the file's length is known. */
-  async take(n: number, inside: string): Promise<Uint8Array> {
+  /** The next `n` bytes; `inside` names the part of the head they are in, for a truncation before the file's length is known. */
+  async take(n: number, inside = 'head'): Promise<Uint8Array> {
     if (!(await this.fill(n))) {
       throw new CgcError(
         this.total === Infinity
@@ -95,12 +97,13 @@ class Download {
     }
     const out = this.buf.subarray(this.at, this.at + n);
     this.at += n;
+    this.taken += n;
     return out;
   }
-  async varint(inside: string): Promise<number> {
+  async varint(): Promise<number> {
     let v = 0;
     for (let shift = 0; shift < 49; shift += 7) {
-      const b = (await this.take(1, inside))[0];
+      const b = (await this.take(1))[0];
       v += (b & 0x7f) * 2 ** shift;
       if (b < 0x80) return v;
     }
@@ -308,7 +311,7 @@ export function packedSource(name: string, open: () => Promise<ReadableStream<Ui
       src.total = cgcLength;
       settle();
 
-      const preamble = new Preamble(await inflate(await download.take(streamLength, 'head'), preambleLength));
+      const preamble = new Preamble(await inflate(await download.take(streamLength), preambleLength));
       await rebuild(h, file, preamble, download, codedLength, filled, settle);
       await download.end();
       complete = true;
@@ -381,7 +384,7 @@ async function rebuild(
   const models = new BlockModels(bits, width);
   let chunk: RangeDecoder | null = null;
   let chunkBlocks = 0;
-  let coded = 0;
+  const codedStart = download.taken;
   let blocksLeft = clusters.filter((n) => n > 0).length;
   let previousMode = 0;
   const previousValue = [0, 0, 0, 0];
@@ -446,15 +449,11 @@ async function rebuild(
     }
     if (chunkBlocks === 0) {
       // The next chunk, whole: its block count and length, then its coded bytes.
-      const where = 'head';
-      const before = coded;
-      chunkBlocks = await download.varint(where);
-      const length = await download.varint(where);
+      chunkBlocks = await download.varint();
+      const length = await download.varint();
       if (chunkBlocks < 1 || chunkBlocks > blocksLeft) throw new CgcError(`a packed chunk of ${chunkBlocks} blocks where ${blocksLeft} are left (damaged)`);
-      const record = varintLength(chunkBlocks) + varintLength(length);
-      if (before + record + length > codedLength) throw new CgcError('a packed chunk runs past the block stream its head gives (damaged)');
-      chunk = new RangeDecoder(await download.take(length, where));
-      coded = before + record + length;
+      if (download.taken - codedStart + length > codedLength) throw new CgcError('a packed chunk runs past the block stream its head gives (damaged)');
+      chunk = new RangeDecoder(await download.take(length));
     }
     const d = chunk!;
     const b = [index % nb[0], Math.floor(index / nb[0]) % nb[1], Math.floor(index / (nb[0] * nb[1]))];
@@ -580,17 +579,8 @@ async function rebuild(
     settle();
   }
   if (cell !== h.activeCells) throw new CgcError('the packed cells are fewer than the header\'s active cells (damaged)');
+  const coded = download.taken - codedStart;
   if (coded !== codedLength) throw new CgcError(`the packed block stream is ${coded} of the ${codedLength} bytes its head gives (damaged)`);
-}
-
-/** Bytes of `v` as a LEB128 varint. */
-function varintLength(v: number): number {
-  let n = 1;
-  while (v >= 0x80) {
-    v = Math.floor(v / 128);
-    n++;
-  }
-  return n;
 }
 
 /**

@@ -275,8 +275,8 @@ pub fn pack(grid: &CellGrid) -> Result<Vec<u8>> {
 
 /// Writes the packed form of `grid`'s `.cgc` file to `out`, from its current position: the head
 /// last, once the stream's lengths are known. Holds neither the file nor the body: the grid (a
-/// memory-mapped file stays on disk), the samples of the blocks within reach of the next, and the
-/// compressor's window.
+/// memory-mapped file stays on disk), the samples of the blocks within reach of the next, the
+/// preamble's deflate window and one chunk of coder output.
 pub fn pack_into<W: Write + Seek>(grid: &CellGrid, out: &mut W) -> Result<PackedSizes> {
     pack_into_with_progress(grid, out, &Progress::new())
 }
@@ -507,7 +507,7 @@ fn write_blocks(grid: &CellGrid, out: &mut impl Write, progress: &Progress) -> s
             }
         }
         // Each group's new samples, groups in the order of their first cluster: the predictor
-        // whose residuals are smaller (a byte), then the residuals.
+        // whose residuals are smaller, then the residuals.
         for Group { known, corners, .. } in &mut groups {
             let mut last = (max + 1) / 2;
             residuals.iter_mut().for_each(Vec::clear);
