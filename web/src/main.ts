@@ -358,7 +358,7 @@ async function load(src: ByteSource): Promise<void> {
       header(h) {
         header = h;
         const [lo, hi] = worldBounds(h);
-        renderer = new Renderer(device!, { precisionBits: h.precisionBits, spacing: h.spacing, isoCode: h.isoCode, bounds: [lo, hi], slotCount: h.slotCount, hideable: h.labels !== null }, params.get('ewa') !== '0', true, cellRasterParam, Number(params.get('pagebytes')) || undefined);
+        renderer = new Renderer(device!, { precisionBits: h.precisionBits, spacing: h.spacing, isoCode: h.isoCode, bounds: [lo, hi], slotCount: h.slotCount, activeCells: h.activeCells, hideable: h.labels !== null }, params.get('ewa') !== '0', true, cellRasterParam, Number(params.get('pagebytes')) || undefined);
         stats.headerAt = performance.now();
         renderer.compiled.then(() => {
           rendererReady = true;

@@ -9,8 +9,9 @@
 // (cells_compute.wgsl, ewa_compute.wgsl: one thread per listed cell, atomic depth, integer splat
 // sums) while cells project to at most 32 pixels, else screen rectangles through the graphics
 // pipeline (cells.wgsl, ewa.wgsl). Cell data is paged: each page is a whole number of clusters
-// whose buffers stay within the device's storage binding limit (128 MiB in Firefox), and a page is
-// added as soon as its cells have arrived, so the picture fills in while the file streams. Colour
+// whose buffers stay within the device's storage binding limit (128 MiB in Firefox), cut as the
+// whole file would be cut; clusters join their page as soon as their cells have arrived, so the
+// picture fills in while the file streams. Colour
 // (colors.ts): the shading pass's `ColorUniforms`; an attribute's codes are paged with the cells
 // (after each page's corner records, `recordBytes`, as upload.rs lays them out: the cell raster
 // writes the hit cell's code for the shading pass), and a label grid's cluster albedos are one
@@ -54,20 +55,32 @@ export interface GridDesc {
   isoCode: number;
   bounds: [number[], number[]];
   slotCount: number;
+  /** Corner records (active cells) of the whole grid: pages are sized from what remains. */
+  activeCells: number;
   /** Whether clusters can be hidden (a label grid): pages then keep a copy of their metacells. */
   hideable: boolean;
 }
 
 interface Page {
-  /** The page's metacell slots as the file holds them, kept where clusters can be hidden. */
+  /** The page's metacell slots as the file holds them (to its capacity), kept where clusters can be hidden. */
   metacells: Uint8Array | null;
   meta: GPUBuffer;
   /** Whether the uploaded copy has emptied clusters. */
   masked: boolean;
   firstSlot: number;
+  /** Slots and records in the page so far; it takes clusters up to its capacities. */
   slotCount: number;
   firstCell: number;
   cellCount: number;
+  slotCapacity: number;
+  cellCapacity: number;
+  /** `PageUniforms.codes_word`: where the codes start, after the capacity's records (0 without codes). */
+  codesWord: number;
+  uniforms: GPUBuffer;
+  records: GPUBuffer;
+  /** The bytes past the last whole word of the records and of the codes, written again with the next ones. */
+  recordTail: Uint8Array;
+  codeTail: Uint8Array;
   buffers: GPUBuffer[];
   args: GPUBuffer;
   /** The compute raster's workgroup counts (written by `size_dispatches`) and their bind group. */
@@ -87,6 +100,8 @@ export interface FrameStats {
 
 export class Renderer {
   private pages: Page[] = [];
+  /** Slots handed to the pages so far: a frame after new clusters starts from "all visible". */
+  private slotsIn = 0;
   private frame = 0;
   private uniforms: GPUBuffer;
   private visibleLast: GPUBuffer;
@@ -161,7 +176,8 @@ export class Renderer {
     layout('surface input', [tex(0, F, 'unfilterable-float')]);
     layout('ids input', [tex(0, C, 'uint')]);
     // Group 1 of shade.wgsl (passes/shade.rs): G-buffer, EWA sums, ids, colouring, attribute codes.
-    layout('shading inputs', [tex(0, F, 'unfilterable-float'), tex(1, F, 'unfilterable-float'), tex(2, F, 'uint'), uniform(3, F), storage(4, F, true)]);
+    const FC = F | C;
+    layout('shading inputs', [tex(0, FC, 'unfilterable-float'), tex(1, FC, 'unfilterable-float'), tex(2, FC, 'uint'), uniform(3, FC), storage(4, FC, true)]);
     // Group 2 of `size_dispatches` (upload.rs) and of the compute raster (passes/compute_raster.rs).
     const written = (binding: number, format: GPUTextureFormat): GPUBindGroupLayoutEntry => ({
       binding,
@@ -171,6 +187,8 @@ export class Renderer {
     layout('dispatch args', [storage(0, C, false)]);
     layout('compute raster targets', [storage(0, C, false), written(1, SURFACE_FORMAT), written(2, IDS_FORMAT)]);
     layout('compute ewa targets', [storage(0, C, false), tex(1, C, 'unfilterable-float'), written(2, EWA_FORMAT)]);
+    // Group 2 of the compute entry of shade.wgsl (passes/shade.rs): the shaded targets as storage.
+    layout('compute shading outputs', [written(0, COLOR_FORMAT), written(1, FINAL_FORMAT), written(2, VALUE_FORMAT)]);
 
     const module = (name: keyof typeof SHADERS) => d.createShaderModule({ label: `${name} (shaders/modules.txt)`, code: SHADERS[name] });
     const pl = (...names: string[]) => d.createPipelineLayout({ bindGroupLayouts: names.map((n) => this.layouts[n]) });
@@ -203,7 +221,10 @@ export class Renderer {
         depthStencil: depth ? { format: DEPTH_FORMAT, depthWriteEnabled: true, depthCompare: 'greater' } : undefined,
       });
     computePipeline('visibility', module('visibility'), ['scene compute', 'ids input'], 'update_visibility');
-    set('shade', rect('deferred shading', ['scene render', 'shading inputs'], module('shade'), 'vs_fullscreen', 'fs_shade', [{ format: COLOR_FORMAT }, { format: FINAL_FORMAT }, { format: VALUE_FORMAT }], false));
+    // Deferred shading as render/frame_passes.rs does it: per pixel in a compute pass after the
+    // compute raster, in a full-screen fragment pass after the graphics pipeline raster.
+    const shade = module('shade');
+    computePipeline('shade compute', shade, ['scene compute', 'shading inputs', 'compute shading outputs'], 'shade_pixels');
     const add: GPUBlendComponent = { srcFactor: 'one', dstFactor: 'one', operation: 'add' };
     // The graphics pipeline raster and splats, for cells of more than 32 pixels, compile after the
     // rest (a failure shows as an uncaptured error; frames keep the compute raster), or with it
@@ -213,10 +234,12 @@ export class Renderer {
         rect('cell raster', ['scene render', 'page render'], module('cells'), 'vs_cell', 'fs_cell', [{ format: SURFACE_FORMAT }, { format: IDS_FORMAT }], true),
         rect('ewa normal splats', ['scene render', 'page render', 'surface input'], module('ewa'), 'vs_splat', 'fs_splat', [{ format: EWA_FORMAT, blend: { color: add, alpha: add } }], false),
         rect('visibility probes', ['scene render', 'page render', 'depth input'], module('probe'), 'vs_probe', 'fs_probe', [{ format: IDS_FORMAT, writeMask: 0 }], false),
-      ]).then(([cells, ewa, probe]) => {
+        rect('deferred shading', ['scene render', 'shading inputs'], shade, 'vs_fullscreen', 'fs_shade', [{ format: COLOR_FORMAT }, { format: FINAL_FORMAT }, { format: VALUE_FORMAT }], false),
+      ]).then(([cells, ewa, probe, shadeFragment]) => {
         this.pipelines.cells = cells;
         this.pipelines.ewa = ewa;
         this.pipelines.probe = probe;
+        this.pipelines.shade = shadeFragment;
         this.hardwareCompiled = true;
       });
     if (raster === 'hardware') pending.push(hardware());
@@ -351,99 +374,149 @@ export class Renderer {
     for (const p of this.pages) this.uploadMetacells(p);
   }
 
-  /** Writes page `p`'s metacells (`fresh`: the file's, as the page is added), emptied where their cluster is hidden. */
-  private uploadMetacells(p: Page, fresh: Uint8Array | null = null): void {
+  /** Writes page `p`'s metacells again where hiding changed them (a label grid keeps the file's). */
+  private uploadMetacells(p: Page): void {
     const first = p.firstSlot / CLUSTER_SLOTS;
-    const count = p.slotCount / CLUSTER_SLOTS;
+    const hides = this.hidden !== null && this.hidden.subarray(first, first + p.slotCount / CLUSTER_SLOTS).some((h) => h);
+    if (!hides && !p.masked) return;
+    this.writeMetacells(p, 0, p.metacells!.subarray(0, p.slotCount * SLOT_BYTES));
+  }
+
+  /** Writes `data`, the page's slots from `fromSlot` on, emptied where their cluster is hidden. */
+  private writeMetacells(p: Page, fromSlot: number, data: Uint8Array): void {
+    const first = (p.firstSlot + fromSlot) / CLUSTER_SLOTS;
+    const count = data.length / (CLUSTER_SLOTS * SLOT_BYTES);
     const hides = this.hidden !== null && this.hidden.subarray(first, first + count).some((h) => h);
-    if (!hides && !p.masked && !fresh) return;
-    let data = fresh ?? p.metacells!;
     if (hides) {
       data = data.slice();
       for (let c = 0; c < count; c++) {
         if (this.hidden![first + c]) data.fill(0, c * CLUSTER_SLOTS * SLOT_BYTES, (c * CLUSTER_SLOTS + BOUND_SLOT) * SLOT_BYTES);
       }
     }
-    if (data.byteLength) this.device.queue.writeBuffer(p.meta, 0, data.buffer as ArrayBuffer, data.byteOffset, data.byteLength);
-    p.masked = hides;
+    if (data.byteLength) this.device.queue.writeBuffer(p.meta, fromSlot * SLOT_BYTES, data.buffer as ArrayBuffer, data.byteOffset, data.byteLength);
+    // A whole-page write decides; an appended range can only add emptied clusters.
+    p.masked = fromSlot === 0 ? hides : p.masked || hides;
   }
 
   /**
-   * Adds the clusters of slots [firstSlot, firstSlot + slots) (whole clusters) with their corner
-   * records (`cells`, starting at record `firstCell`) and, with an attribute, the records' codes
-   * (`codes`, one per record), split into pages within the binding limit.
+   * Adds the clusters of slots [firstSlot, firstSlot + slots) (whole clusters, in file order) with
+   * their corner records (`cells`, starting at record `firstCell`) and, with an attribute, the
+   * records' codes (`codes`, one per record). Clusters go into the last page while they fit its
+   * capacity, and a new page is sized for what remains of the grid within the binding limit, so
+   * the pages are those of the whole file however it streams in: every pass dispatches once a
+   * page, and a dispatch costs a fast GPU more than the cells of a small page.
    */
   addClusters(firstSlot: number, metacells: Uint8Array, firstCell: number, cells: Uint8Array, cellCounts: number[], codes: Uint16Array | null): void {
     // cellCounts[k]: active cells of cluster k of this range.
     const bpc = this.grid.precisionBits;
     let k = 0;
-    const clusters = cellCounts.length;
     let cellAt = 0;
-    while (k < clusters) {
+    while (k < cellCounts.length) {
+      const slot0 = k * CLUSTER_SLOTS;
+      let p = this.pages[this.pages.length - 1];
+      const fits = (q: Page, slots: number, c: number) => q.slotCount + slots <= q.slotCapacity && q.cellCount + c <= q.cellCapacity;
+      if (!p || p.firstSlot + p.slotCount !== firstSlot + slot0 || !fits(p, CLUSTER_SLOTS, cellCounts[k])) {
+        p = this.openPage(firstSlot + slot0, firstCell + cellAt, cellCounts[k], codes !== null);
+      }
       let n = 0;
       let c = 0;
-      // Largest run of clusters whose records and lists fit one binding (at least one cluster).
-      while (k + n < clusters) {
-        const c2 = c + cellCounts[k + n];
-        const slots2 = (n + 1) * CLUSTER_SLOTS;
-        if (n > 0 && Math.max(this.recordBytes(c2, codes !== null).bytes, slots2 * SLOT_BYTES, c2 * 4) > this.pageBytes) break;
-        c = c2;
-        n++;
-      }
-      const slot0 = k * CLUSTER_SLOTS;
-      this.addPage(
-        firstSlot + slot0,
+      while (k + n < cellCounts.length && fits(p, (n + 1) * CLUSTER_SLOTS, c + cellCounts[k + n])) c += cellCounts[k + n++];
+      this.appendToPage(
+        p,
         metacells.subarray(slot0 * SLOT_BYTES, (slot0 + n * CLUSTER_SLOTS) * SLOT_BYTES),
-        firstCell + cellAt,
         cells.subarray(cellAt * bpc, (cellAt + c) * bpc),
         codes && codes.subarray(cellAt, cellAt + c),
       );
+      this.slotsIn += n * CLUSTER_SLOTS;
       cellAt += c;
       k += n;
     }
   }
 
-  private addPage(firstSlot: number, metacells: Uint8Array, firstCell: number, cells: Uint8Array, codes: Uint16Array | null): void {
+  /**
+   * A new page from slot `firstSlot` and record `firstCell`, with room for the rest of the grid
+   * as far as its records, metacells and instance lists each fit one binding (and at least for
+   * `minCells` records and one cluster).
+   */
+  private openPage(firstSlot: number, firstCell: number, minCells: number, withCodes: boolean): Page {
     const d = this.device;
-    const slotCount = metacells.length / SLOT_BYTES;
-    const cellCount = cells.length / this.grid.precisionBits;
-    const { bytes: recordBytes, codesWord } = this.recordBytes(cellCount, codes !== null);
-    const init = (label: string, data: ArrayBufferView, usage: number, size = data.byteLength) => {
-      const b = d.createBuffer({ label, size: Math.max(16, Math.ceil(size / 4) * 4), usage: usage | GPUBufferUsage.COPY_DST });
-      if (data.byteLength) {
-        const padded = new Uint8Array(Math.ceil(data.byteLength / 4) * 4);
-        padded.set(new Uint8Array(data.buffer, data.byteOffset, data.byteLength));
-        d.queue.writeBuffer(b, 0, padded);
-      }
-      return b;
-    };
+    const bpc = this.grid.precisionBits;
+    let cellCapacity = Math.min(this.grid.activeCells - firstCell, Math.floor(this.pageBytes / 4), Math.floor(this.pageBytes / (bpc + (withCodes ? 2 : 0))));
+    while (cellCapacity > 0 && this.recordBytes(cellCapacity, withCodes).bytes > this.pageBytes) cellCapacity--;
+    cellCapacity = Math.max(cellCapacity, minCells);
+    const slotCapacity = Math.max(CLUSTER_SLOTS, Math.min(this.grid.slotCount - firstSlot, Math.floor(this.pageBytes / (SLOT_BYTES * CLUSTER_SLOTS)) * CLUSTER_SLOTS));
+    const { bytes: recordBytes, codesWord } = this.recordBytes(cellCapacity, withCodes);
     const S = GPUBufferUsage.STORAGE;
     const p = this.pages.length;
-    const buf = (binding: number, buffer: GPUBuffer): GPUBindGroupEntry => ({ binding, resource: { buffer } });
-    const uniforms = init(`page ${p} uniforms`, new Uint32Array([firstSlot, firstCell, slotCount, codesWord]), GPUBufferUsage.UNIFORM);
-    const meta = d.createBuffer({ label: `page ${p} metacells`, size: Math.max(16, metacells.byteLength), usage: S | GPUBufferUsage.COPY_DST });
-    const records = new Uint8Array(recordBytes);
-    records.set(cells);
-    if (codes) records.set(new Uint8Array(codes.buffer, codes.byteOffset, codes.byteLength), 4 * codesWord);
-    const rec = init(`page ${p} corner records and attribute codes`, records, S);
-    const list = (label: string, n: number) => d.createBuffer({ label: `page ${p} ${label}`, size: Math.max(16, 4 * n), usage: S });
-    const lists = [list('full list', cellCount), list('probe list', slotCount), list('new list', cellCount)];
-    const args = init(`page ${p} draw arguments`, EMPTY_ARGS, S | GPUBufferUsage.INDIRECT | GPUBufferUsage.COPY_SRC);
-    const dispatchArgs = d.createBuffer({ label: `page ${p} dispatch arguments`, size: DISPATCH_ARGS_BYTES, usage: S | GPUBufferUsage.INDIRECT });
+    const buffer = (label: string, bytes: number, usage: number) => d.createBuffer({ label: `page ${p} ${label}`, size: Math.max(16, Math.ceil(bytes / 4) * 4), usage });
+    const buf = (binding: number, b: GPUBuffer): GPUBindGroupEntry => ({ binding, resource: { buffer: b } });
+    const uniforms = buffer('uniforms', 16, GPUBufferUsage.UNIFORM | GPUBufferUsage.COPY_DST);
+    const meta = buffer('metacells', slotCapacity * SLOT_BYTES, S | GPUBufferUsage.COPY_DST);
+    const records = buffer('corner records and attribute codes', recordBytes, S | GPUBufferUsage.COPY_DST);
+    const lists = [buffer('full list', 4 * cellCapacity, S), buffer('probe list', 4 * slotCapacity, S), buffer('new list', 4 * cellCapacity, S)];
+    const args = buffer('draw arguments', EMPTY_ARGS.byteLength, S | GPUBufferUsage.INDIRECT | GPUBufferUsage.COPY_SRC | GPUBufferUsage.COPY_DST);
+    d.queue.writeBuffer(args, 0, EMPTY_ARGS);
+    const dispatchArgs = buffer('dispatch arguments', DISPATCH_ARGS_BYTES, S | GPUBufferUsage.INDIRECT);
     const dispatch = d.createBindGroup({ label: `page ${p} dispatch arguments`, layout: this.layouts['dispatch args'], entries: [buf(0, dispatchArgs)] });
     const compute = d.createBindGroup({
       label: `page ${p} (compute)`,
       layout: this.layouts['page compute'],
-      entries: [buf(0, uniforms), buf(1, meta), buf(2, rec), buf(3, lists[0]), buf(4, lists[1]), buf(5, lists[2]), buf(6, args)],
+      entries: [buf(0, uniforms), buf(1, meta), buf(2, records), buf(3, lists[0]), buf(4, lists[1]), buf(5, lists[2]), buf(6, args)],
     });
     const render = lists.map((l, i) =>
-      d.createBindGroup({ label: `page ${p} list ${i}`, layout: this.layouts['page render'], entries: [buf(0, uniforms), buf(1, meta), buf(2, rec), buf(3, l)] }),
+      d.createBindGroup({ label: `page ${p} list ${i}`, layout: this.layouts['page render'], entries: [buf(0, uniforms), buf(1, meta), buf(2, records), buf(3, l)] }),
     );
-    // A copy, not the view: the view would keep the loader's whole file alive.
-    const kept = this.grid.hideable ? metacells.slice() : null;
-    const page: Page = { metacells: kept, meta, masked: false, firstSlot, slotCount, firstCell, cellCount, buffers: [uniforms, meta, rec, ...lists, dispatchArgs], args, dispatchArgs, dispatch, compute, render };
-    this.uploadMetacells(page, metacells);
+    const page: Page = {
+      metacells: this.grid.hideable ? new Uint8Array(slotCapacity * SLOT_BYTES) : null,
+      meta,
+      masked: false,
+      firstSlot,
+      slotCount: 0,
+      firstCell,
+      cellCount: 0,
+      slotCapacity,
+      cellCapacity,
+      codesWord,
+      uniforms,
+      records,
+      recordTail: new Uint8Array(0),
+      codeTail: new Uint8Array(0),
+      buffers: [uniforms, meta, records, ...lists, dispatchArgs],
+      args,
+      dispatchArgs,
+      dispatch,
+      compute,
+      render,
+    };
     this.pages.push(page);
+    return page;
+  }
+
+  /** Appends clusters' slots, their records and codes to page `p` (within its capacities). */
+  private appendToPage(p: Page, metacells: Uint8Array, cells: Uint8Array, codes: Uint16Array | null): void {
+    const slot = p.slotCount;
+    // A copy, not the view: the view would keep the loader's whole file alive.
+    p.metacells?.set(metacells, slot * SLOT_BYTES);
+    this.writeMetacells(p, slot, metacells);
+    p.recordTail = this.appendWords(p.records, 0, p.cellCount * this.grid.precisionBits, p.recordTail, cells);
+    if (codes) p.codeTail = this.appendWords(p.records, 4 * p.codesWord, 2 * p.cellCount, p.codeTail, new Uint8Array(codes.buffer, codes.byteOffset, codes.byteLength));
+    p.slotCount += metacells.length / SLOT_BYTES;
+    p.cellCount += cells.length / this.grid.precisionBits;
+    this.device.queue.writeBuffer(p.uniforms, 0, new Uint32Array([p.firstSlot, p.firstCell, p.slotCount, p.codesWord]));
+  }
+
+  /**
+   * Writes `data` after the `filled` bytes from `base` in `buffer`, whose last `tail` bytes (those
+   * past the last whole word) go again in front of it, as writes are whole words; returns the new tail.
+   */
+  private appendWords(buffer: GPUBuffer, base: number, filled: number, tail: Uint8Array, data: Uint8Array): Uint8Array {
+    if (!data.length) return tail;
+    const bytes = tail.length + data.length;
+    const words = new Uint8Array(Math.ceil(bytes / 4) * 4);
+    words.set(tail);
+    words.set(data, tail.length);
+    this.device.queue.writeBuffer(buffer, base + filled - tail.length, words);
+    return words.slice(bytes - (bytes % 4), bytes);
   }
 
   /** Frees the size-dependent targets (made again by the next frame). */
@@ -464,9 +537,9 @@ export class Renderer {
       surface: t('raster normal + distance', SURFACE_FORMAT, rt | U.STORAGE_BINDING),
       ids: t('cluster ids', IDS_FORMAT, rt | U.STORAGE_BINDING | U.COPY_SRC),
       ewa: t('ewa normal accumulation', EWA_FORMAT, rt | U.STORAGE_BINDING),
-      color: t('shaded colour', COLOR_FORMAT, U.RENDER_ATTACHMENT | U.COPY_SRC),
-      final: t('final normal + distance', FINAL_FORMAT, U.RENDER_ATTACHMENT),
-      value: t('shaded attribute value', VALUE_FORMAT, U.RENDER_ATTACHMENT | U.COPY_SRC),
+      color: t('shaded colour', COLOR_FORMAT, U.RENDER_ATTACHMENT | U.STORAGE_BINDING | U.COPY_SRC),
+      final: t('final normal + distance', FINAL_FORMAT, U.RENDER_ATTACHMENT | U.STORAGE_BINDING),
+      value: t('shaded attribute value', VALUE_FORMAT, U.RENDER_ATTACHMENT | U.STORAGE_BINDING | U.COPY_SRC),
     };
     // The compute raster's per-pixel depth words and the splats' fixed-point sums (4 words a pixel).
     const depthWords = d.createBuffer({ label: 'compute raster depth words', size: 4 * width * height, usage: GPUBufferUsage.STORAGE });
@@ -484,6 +557,7 @@ export class Renderer {
         raster: g('compute raster targets', [{ buffer: depthWords }, tex.surface.createView(), tex.ids.createView()]),
         splats: g('compute ewa targets', [{ buffer: ewaSum }, tex.surface.createView(), tex.ewa.createView()]),
         shade: g('shading inputs', [tex.surface.createView(), tex.ewa.createView(), tex.ids.createView(), { buffer: this.coloring }, { buffer: this.colorData }]),
+        shaded: g('compute shading outputs', [tex.color.createView(), tex.final.createView(), tex.value.createView()]),
       },
     };
   }
@@ -507,7 +581,7 @@ export class Renderer {
     const [lo, hi] = this.grid.bounds;
     const eyeOutside = camera.eye.some((e, a) => e < lo[a] || e > hi[a]);
     const backface = this.borderOutside && eyeOutside;
-    const key = JSON.stringify([camera, clip, this.pages.length, this.hiddenVersion, backface]);
+    const key = JSON.stringify([camera, clip, this.slotsIn, this.hiddenVersion, backface]);
     // A first frame of a view has every cluster in the full list: no probes, no newly visible.
     const fresh = key !== this.visibilityFor || !this.probesCompiled;
     const probing = this.occlusion && !fresh;
@@ -629,19 +703,30 @@ export class Renderer {
       v.dispatchWorkgroups(Math.ceil(camera.width / 8), Math.ceil(camera.height / 8));
       v.end();
     }
-    const pass = enc.beginRenderPass({
-      colorAttachments: [
-        { view: T.tex.color.createView(), loadOp: 'clear', clearValue: [0, 0, 0, 1], storeOp: 'store' },
-        { view: T.tex.final.createView(), loadOp: 'clear', clearValue: [0, 0, 0, 0], storeOp: 'store' },
-        { view: T.tex.value.createView(), loadOp: 'clear', clearValue: [0, 0, 0, 0], storeOp: 'store' },
-      ],
-      timestampWrites: at('shade'),
-    });
-    pass.setPipeline(this.pipelines.shade as GPURenderPipeline);
-    pass.setBindGroup(0, this.sceneRender);
-    pass.setBindGroup(1, T.groups.shade);
-    pass.draw(3);
-    pass.end();
+    if (compute) {
+      // Every pixel is written, so the targets need no clear.
+      const pass = enc.beginComputePass({ timestampWrites: at('shade') });
+      pass.setPipeline(this.pipelines['shade compute'] as GPUComputePipeline);
+      pass.setBindGroup(0, this.sceneCompute);
+      pass.setBindGroup(1, T.groups.shade);
+      pass.setBindGroup(2, T.groups.shaded);
+      pass.dispatchWorkgroups(...pixels);
+      pass.end();
+    } else {
+      const pass = enc.beginRenderPass({
+        colorAttachments: [
+          { view: T.tex.color.createView(), loadOp: 'clear', clearValue: [0, 0, 0, 1], storeOp: 'store' },
+          { view: T.tex.final.createView(), loadOp: 'clear', clearValue: [0, 0, 0, 0], storeOp: 'store' },
+          { view: T.tex.value.createView(), loadOp: 'clear', clearValue: [0, 0, 0, 0], storeOp: 'store' },
+        ],
+        timestampWrites: at('shade'),
+      });
+      pass.setPipeline(this.pipelines.shade as GPURenderPipeline);
+      pass.setBindGroup(0, this.sceneRender);
+      pass.setBindGroup(1, T.groups.shade);
+      pass.draw(3);
+      pass.end();
+    }
     if (output) enc.copyTextureToTexture({ texture: T.tex.color }, { texture: output }, [camera.width, camera.height]);
     if (timed) {
       enc.resolveQuerySet(timed.set, 0, 2 * PASS_NAMES.length, timed.resolve, 0);
