@@ -14,18 +14,10 @@ or `--data DIR` holding mni152_t1.nii.gz and mni152_gm.nii.gz), and the built-in
     python3 scripts/bench_gpu_color.py [--exe target/release/isogrid] [--frames 10] [--out FILE.md]
 """
 import argparse
-import json
 import os
-import subprocess
 import tempfile
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-
-
-def run(exe, args):
-    env = dict(os.environ, NODEVICE_SELECT="1")
-    out = subprocess.run([exe] + args, check=True, capture_output=True, text=True, env=env)
-    return json.loads(out.stdout) if "--json" in args else None
+from gpu_render_bench import add_options, emit, fmt, render_gpu_ms, run
 
 
 def datasets(exe, data, tmp, hairball):
@@ -38,18 +30,10 @@ def datasets(exe, data, tmp, hairball):
     yield f"Hairball {hairball}³ × sphere field", hb, sphere
 
 
-def fmt(v):
-    return "n/a" if v is None else f"{v:.3f}"
-
-
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--exe", default=os.path.join(ROOT, "target/release/isogrid"))
-    ap.add_argument("--frames", type=int, default=10)
-    ap.add_argument("--size", default="1920x1080")
+    add_options(ap)
     ap.add_argument("--hairball-size", type=int, default=512)
-    ap.add_argument("--data", default=os.path.join(ROOT, "data"))
-    ap.add_argument("--out", default=None, help="also write the table here")
     args = ap.parse_args()
     rows = []
     adapter = None
@@ -70,11 +54,7 @@ def main():
                 for view in ["1", "2"]:
                     times = {}
                     for label, source in [("plain", plain_input), ("colour", colored_input)]:
-                        r = run(args.exe, ["render"] + source + extra + [
-                            "--backend", "gpu", "--view", view, "--size", args.size,
-                            "--frames", str(args.frames), "--json"])
-                        adapter = r.get("adapter", adapter)
-                        times[label] = r["gpu_ms"]
+                        adapter, times[label] = render_gpu_ms(args, source, extra, view)
                     p, c = times["plain"], times["colour"]
                     cost = (c["frame_ms"] / p["frame_ms"] - 1) if p.get("frame_ms") and c.get("frame_ms") else None
                     rows.append((f"{name}, view {view}", mode, cells, p, c, cost))
@@ -91,11 +71,7 @@ def main():
             f"{'n/a' if cost is None else f'{100 * cost:+.1f} %'} | {fmt(p.get('shade_ms'))} | {fmt(c.get('shade_ms'))} | "
             f"{fmt(p.get('raster_ms'))} | {fmt(c.get('raster_ms'))} |"
         )
-    text = "\n".join(lines) + "\n"
-    print(text)
-    if args.out:
-        with open(args.out, "w") as f:
-            f.write(text)
+    emit(lines, args.out)
 
 
 if __name__ == "__main__":
