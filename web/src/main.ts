@@ -273,6 +273,7 @@ function drawFrame(): void {
   renderer.render(cam, context ? context.getCurrentTexture() : null, clipPlane());
   stats.pages = renderer.pageCount;
   stats.pageFirstRecords = renderer.pageFirstRecords;
+  stats.pageBufferBytes = renderer.pageBufferBytes;
   stats.raster = renderer.lastRaster;
   stats.frames = ((stats.frames as number) || 0) + 1;
   if (!stats.firstFrameBytes && renderer.pageCount > 0) {

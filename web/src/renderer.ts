@@ -78,10 +78,11 @@ interface Page {
   codesWord: number;
   uniforms: GPUBuffer;
   records: GPUBuffer;
+  /** Instance lists: full, probe, new. */
+  lists: GPUBuffer[];
   /** The bytes past the last whole word of the records and of the codes, written again with the next ones. */
   recordTail: Uint8Array;
   codeTail: Uint8Array;
-  buffers: GPUBuffer[];
   args: GPUBuffer;
   /** The compute raster's workgroup counts (written by `size_dispatches`) and their bind group. */
   dispatchArgs: GPUBuffer;
@@ -313,6 +314,11 @@ export class Renderer {
     return this.pages.length;
   }
 
+  /** Bytes of the pages' buffers: their metacells, records, codes, lists and arguments. */
+  get pageBufferBytes(): number {
+    return this.pages.reduce((sum, p) => sum + [p.uniforms, p.meta, p.records, ...p.lists, p.args, p.dispatchArgs].reduce((t, b) => t + b.size, 0), 0);
+  }
+
   /** Global index of each page's first corner record (and attribute code). */
   get pageFirstRecords(): number[] {
     return this.pages.map((p) => p.firstCell);
@@ -416,6 +422,7 @@ export class Renderer {
       let p = this.pages[this.pages.length - 1];
       const fits = (q: Page, slots: number, c: number) => q.slotCount + slots <= q.slotCapacity && q.cellCount + c <= q.cellCapacity;
       if (!p || p.firstSlot + p.slotCount !== firstSlot + slot0 || !fits(p, CLUSTER_SLOTS, cellCounts[k])) {
+        this.closeLastPage();
         p = this.openPage(firstSlot + slot0, firstCell + cellAt, cellCounts[k], codes !== null);
       }
       let n = 0;
@@ -441,55 +448,99 @@ export class Renderer {
   private openPage(firstSlot: number, firstCell: number, minCells: number, withCodes: boolean): Page {
     const d = this.device;
     const bpc = this.grid.precisionBits;
-    let cellCapacity = Math.min(this.grid.activeCells - firstCell, Math.floor(this.pageBytes / 4), Math.floor(this.pageBytes / (bpc + (withCodes ? 2 : 0))));
+    const cellsLeft = Math.max(this.grid.activeCells - firstCell, 0);
+    const slotsLeft = Math.max(this.grid.slotCount - firstSlot, CLUSTER_SLOTS);
+    let cellCapacity = Math.min(cellsLeft, Math.floor(this.pageBytes / 4), Math.floor(this.pageBytes / (bpc + (withCodes ? 2 : 0))));
     while (cellCapacity > 0 && this.recordBytes(cellCapacity, withCodes).bytes > this.pageBytes) cellCapacity--;
+    let slotCapacity = Math.min(slotsLeft, Math.floor(this.pageBytes / (SLOT_BYTES * CLUSTER_SLOTS)) * CLUSTER_SLOTS);
+    if ((cellCapacity < cellsLeft || slotCapacity < slotsLeft) && cellsLeft > 0) {
+      // More than this page remains: whichever of records and slots fills a binding first sizes
+      // the page, and the other gets its share at the density of what remains, with a quarter
+      // more for denser parts (a page that fills early is closed), so pages do not each reserve
+      // a binding's worth of both.
+      const cellsPerSlot = cellsLeft / slotsLeft;
+      slotCapacity = Math.min(slotCapacity, Math.ceil((1.25 * cellCapacity) / cellsPerSlot / CLUSTER_SLOTS) * CLUSTER_SLOTS);
+      cellCapacity = Math.min(cellCapacity, Math.ceil(1.25 * slotCapacity * cellsPerSlot));
+    }
     cellCapacity = Math.max(cellCapacity, minCells);
-    const slotCapacity = Math.max(CLUSTER_SLOTS, Math.min(this.grid.slotCount - firstSlot, Math.floor(this.pageBytes / (SLOT_BYTES * CLUSTER_SLOTS)) * CLUSTER_SLOTS));
-    const { bytes: recordBytes, codesWord } = this.recordBytes(cellCapacity, withCodes);
-    const S = GPUBufferUsage.STORAGE;
+    slotCapacity = Math.max(slotCapacity, CLUSTER_SLOTS);
     const p = this.pages.length;
-    const buffer = (label: string, bytes: number, usage: number) => d.createBuffer({ label: `page ${p} ${label}`, size: Math.max(16, Math.ceil(bytes / 4) * 4), usage });
-    const buf = (binding: number, b: GPUBuffer): GPUBindGroupEntry => ({ binding, resource: { buffer: b } });
-    const uniforms = buffer('uniforms', 16, GPUBufferUsage.UNIFORM | GPUBufferUsage.COPY_DST);
-    const meta = buffer('metacells', slotCapacity * SLOT_BYTES, S | GPUBufferUsage.COPY_DST);
-    const records = buffer('corner records and attribute codes', recordBytes, S | GPUBufferUsage.COPY_DST);
-    const lists = [buffer('full list', 4 * cellCapacity, S), buffer('probe list', 4 * slotCapacity, S), buffer('new list', 4 * cellCapacity, S)];
-    const args = buffer('draw arguments', EMPTY_ARGS.byteLength, S | GPUBufferUsage.INDIRECT | GPUBufferUsage.COPY_SRC | GPUBufferUsage.COPY_DST);
+    const fixed = (label: string, bytes: number, usage: number) => d.createBuffer({ label: `page ${p} ${label}`, size: bytes, usage });
+    const uniforms = fixed('uniforms', 16, GPUBufferUsage.UNIFORM | GPUBufferUsage.COPY_DST);
+    const args = fixed('draw arguments', EMPTY_ARGS.byteLength, GPUBufferUsage.STORAGE | GPUBufferUsage.INDIRECT | GPUBufferUsage.COPY_SRC | GPUBufferUsage.COPY_DST);
     d.queue.writeBuffer(args, 0, EMPTY_ARGS);
-    const dispatchArgs = buffer('dispatch arguments', DISPATCH_ARGS_BYTES, S | GPUBufferUsage.INDIRECT);
-    const dispatch = d.createBindGroup({ label: `page ${p} dispatch arguments`, layout: this.layouts['dispatch args'], entries: [buf(0, dispatchArgs)] });
-    const compute = d.createBindGroup({
-      label: `page ${p} (compute)`,
-      layout: this.layouts['page compute'],
-      entries: [buf(0, uniforms), buf(1, meta), buf(2, records), buf(3, lists[0]), buf(4, lists[1]), buf(5, lists[2]), buf(6, args)],
-    });
-    const render = lists.map((l, i) =>
-      d.createBindGroup({ label: `page ${p} list ${i}`, layout: this.layouts['page render'], entries: [buf(0, uniforms), buf(1, meta), buf(2, records), buf(3, l)] }),
-    );
+    const dispatchArgs = fixed('dispatch arguments', DISPATCH_ARGS_BYTES, GPUBufferUsage.STORAGE | GPUBufferUsage.INDIRECT);
+    const dispatch = d.createBindGroup({ label: `page ${p} dispatch arguments`, layout: this.layouts['dispatch args'], entries: [{ binding: 0, resource: { buffer: dispatchArgs } }] });
     const page: Page = {
       metacells: this.grid.hideable ? new Uint8Array(slotCapacity * SLOT_BYTES) : null,
-      meta,
       masked: false,
       firstSlot,
       slotCount: 0,
       firstCell,
       cellCount: 0,
-      slotCapacity,
-      cellCapacity,
-      codesWord,
       uniforms,
-      records,
       recordTail: new Uint8Array(0),
       codeTail: new Uint8Array(0),
-      buffers: [uniforms, meta, records, ...lists, dispatchArgs],
       args,
       dispatchArgs,
       dispatch,
-      compute,
-      render,
+      compute: null!,
+      render: [],
+      ...this.pageStorage(p, slotCapacity, cellCapacity, withCodes),
     };
+    this.bindPage(page, p);
     this.pages.push(page);
     return page;
+  }
+
+  /** Page `p`'s storage for `slots` slots and `cells` records: metacells, records with their codes (`recordBytes`), instance lists. */
+  private pageStorage(p: number, slots: number, cells: number, withCodes: boolean): Pick<Page, 'meta' | 'records' | 'lists' | 'slotCapacity' | 'cellCapacity' | 'codesWord'> {
+    const S = GPUBufferUsage.STORAGE;
+    const buffer = (label: string, bytes: number, usage: number) => this.device.createBuffer({ label: `page ${p} ${label}`, size: Math.max(16, Math.ceil(bytes / 4) * 4), usage });
+    const { bytes: recordBytes, codesWord } = this.recordBytes(cells, withCodes);
+    const meta = buffer('metacells', slots * SLOT_BYTES, S | GPUBufferUsage.COPY_DST | GPUBufferUsage.COPY_SRC);
+    const records = buffer('corner records and attribute codes', recordBytes, S | GPUBufferUsage.COPY_DST | GPUBufferUsage.COPY_SRC);
+    const lists = [buffer('full list', 4 * cells, S), buffer('probe list', 4 * slots, S), buffer('new list', 4 * cells, S)];
+    return { meta, records, lists, slotCapacity: slots, cellCapacity: cells, codesWord };
+  }
+
+  /** The bind groups of page `page` (index `p`) over its current buffers. */
+  private bindPage(page: Page, p: number): void {
+    const d = this.device;
+    const buf = (binding: number, b: GPUBuffer): GPUBindGroupEntry => ({ binding, resource: { buffer: b } });
+    const { uniforms, meta, records, lists, args } = page;
+    page.compute = d.createBindGroup({
+      label: `page ${p} (compute)`,
+      layout: this.layouts['page compute'],
+      entries: [buf(0, uniforms), buf(1, meta), buf(2, records), buf(3, lists[0]), buf(4, lists[1]), buf(5, lists[2]), buf(6, args)],
+    });
+    page.render = lists.map((l, i) => d.createBindGroup({ label: `page ${p} list ${i}`, layout: this.layouts['page render'], entries: [buf(0, uniforms), buf(1, meta), buf(2, records), buf(3, l)] }));
+  }
+
+  /**
+   * Shrinks the last page to what it holds once a cluster fits it no more: its capacities were a
+   * guess at the density of what remained. The held slots, records and codes are copied on the
+   * GPU into buffers of their size (the codes move to their new `codesWord`), so the grid ends
+   * up in the buffers one page of each run would have needed.
+   */
+  private closeLastPage(): void {
+    const p = this.pages.length - 1;
+    const page = this.pages[p];
+    if (!page || (page.slotCount === page.slotCapacity && page.cellCount === page.cellCapacity)) return;
+    const withCodes = page.codesWord > 0;
+    const old = { meta: page.meta, records: page.records, lists: page.lists, codesWord: page.codesWord };
+    Object.assign(page, this.pageStorage(p, page.slotCount, page.cellCount, withCodes));
+    const enc = this.device.createCommandEncoder({ label: `page ${p} shrunk to its clusters` });
+    const words = (bytes: number) => Math.ceil(bytes / 4) * 4;
+    if (page.slotCount) enc.copyBufferToBuffer(old.meta, 0, page.meta, 0, page.slotCount * SLOT_BYTES);
+    const recordBytes = words(page.cellCount * this.grid.precisionBits);
+    if (recordBytes) enc.copyBufferToBuffer(old.records, 0, page.records, 0, recordBytes);
+    if (withCodes && page.cellCount) enc.copyBufferToBuffer(old.records, 4 * old.codesWord, page.records, 4 * page.codesWord, words(2 * page.cellCount));
+    this.device.queue.submit([enc.finish()]);
+    for (const b of [old.meta, old.records, ...old.lists]) b.destroy();
+    if (page.metacells) page.metacells = page.metacells.slice(0, page.slotCount * SLOT_BYTES);
+    this.device.queue.writeBuffer(page.uniforms, 0, new Uint32Array([page.firstSlot, page.firstCell, page.slotCount, page.codesWord]));
+    this.bindPage(page, p);
   }
 
   /** Appends clusters' slots, their records and codes to page `p` (within its capacities). */

@@ -379,6 +379,10 @@ for (const B of BROWSERS) {
           const firsts = paged.stats.pageFirstRecords;
           assert.ok(firsts.length >= 3 && firsts.length > one.stats.pages, `${firsts.length} pages (${one.stats.pages} unpaged)`);
           assert.ok(firsts.some((f) => f % 2 === 1), `a page starts at an odd record (mid-word): ${firsts}`);
+          // Pages are sized by a guess at what remains and shrunk to their clusters when full: the
+          // pages hold what one page holds, plus each page's uniforms and arguments (100 bytes)
+          // and the rounding of its buffers to words.
+          assert.ok(paged.stats.pageBufferBytes <= one.stats.pageBufferBytes + 128 * firsts.length, `page buffers of ${paged.stats.pageBufferBytes} bytes in ${firsts.length} pages, ${one.stats.pageBufferBytes} in one`);
           let hits = 0;
           let valueDiffs = 0;
           let both = 0;
