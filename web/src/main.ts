@@ -317,7 +317,7 @@ function showFacts(): void {
     ['grid', `${header.dims.join('×')} samples, ${header.precisionBits}-bit corners`],
     ['cells', header.activeCells.toLocaleString()],
     ['clusters', (header.slotCount / 16).toLocaleString()],
-    ['memory', `${((header.blocks.length + header.metacells.length + header.cells.length) / 2 ** 20).toFixed(1)} MiB in ${renderer?.pageCount ?? 0} pages`],
+    ['memory', `${((header.blocks.length + header.metacells.length + header.cells.length) / 2 ** 20).toFixed(1)} MiB of grid; GPU buffers ${((renderer?.pageBufferBytes ?? 0) / 2 ** 20).toFixed(1)} MiB in ${renderer?.pageCount ?? 0} pages`],
     stats.packed
       ? ['fetched', `${((stats.downloaded as number) / 2 ** 20).toFixed(2)} MiB packed, rebuilt ${(bytesIn / 2 ** 20).toFixed(2)} of ${(header.fileLength / 2 ** 20).toFixed(2)} MiB`]
       : ['fetched', `${(bytesIn / 2 ** 20).toFixed(2)} of ${(header.fileLength / 2 ** 20).toFixed(2)} MiB`],
