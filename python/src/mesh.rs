@@ -69,7 +69,7 @@ pub fn marching_cubes<'py>(
         } else {
             MeshSpace::World
         };
-        mesh.place(&view.geometry(), space)?;
+        mesh.place(view.geometry(), space)?;
         Ok::<_, isogrid::Error>((mesh, values))
     })?;
     let vertices = to_array2(py, mesh.positions)?.into_any();

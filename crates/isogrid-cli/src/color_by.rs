@@ -113,7 +113,7 @@ impl AttributeInput {
         };
         let geometry = match (&region, &volume) {
             (Some(region), _) => region.geometry(),
-            (None, Some(volume)) => volume.geometry().clone(),
+            (None, Some(volume)) => *volume.geometry(),
             (None, None) => unreachable!("one of the two is read"),
         };
         let name_both = |e: isogrid::Error| {

@@ -25,6 +25,8 @@ struct Cli {
 }
 
 #[derive(Subcommand)]
+// One value, parsed once per run: boxing the larger arguments would buy nothing.
+#[allow(clippy::large_enum_variant)]
 enum Command {
     /// Extract the active cells of a volume into a .cgc file and print their statistics.
     Extract(commands::extract::Args),

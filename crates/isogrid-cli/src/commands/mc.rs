@@ -141,7 +141,7 @@ pub fn run(args: Args) -> Result<()> {
     };
     // The library's positions are in the renderer's frame (origin and directions left out).
     let space = args.space.mesh_space();
-    mesh.place(&volume.geometry(), space)
+    mesh.place(volume.geometry(), space)
         .with_context(|| args.input.display().to_string())?;
     let mut write = 0.0;
     if let Some(out) = &args.output {

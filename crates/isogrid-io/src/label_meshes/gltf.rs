@@ -56,7 +56,7 @@ pub(crate) fn glb_bytes(meshes: &[LabelMesh]) -> Result<Vec<u8>> {
      -> json::Index<json::buffer::View> {
         let offset = bin.len();
         bin.extend_from_slice(bytes);
-        while bin.len() % 4 != 0 {
+        while !bin.len().is_multiple_of(4) {
             bin.push(0);
         }
         root.push(json::buffer::View {

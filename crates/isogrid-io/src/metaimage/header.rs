@@ -91,13 +91,11 @@ pub(crate) fn parse(lines: &[String]) -> Result<Header> {
         let (key, value) = (key.trim(), value.trim());
         let field = |what: &str| format!("{key} value '{}' {what}", clip(value));
         match key.to_ascii_lowercase().as_str() {
-            "objecttype" => {
-                if !value.eq_ignore_ascii_case("image") {
-                    return Err(Error::unsupported(format!(
-                        "MetaImage ObjectType '{}' is not an image",
-                        clip(value)
-                    )));
-                }
+            "objecttype" if !value.eq_ignore_ascii_case("image") => {
+                return Err(Error::unsupported(format!(
+                    "MetaImage ObjectType '{}' is not an image",
+                    clip(value)
+                )));
             }
             "ndims" => {
                 ndims = Some(integer(value).ok_or_else(|| Error::corrupt(field("is not a count")))?)
@@ -305,9 +303,8 @@ fn per_axis(values: Option<Vec<f64>>, ndims: usize, name: &str, fill: f64) -> Re
                 v.len()
             )));
         }
-        for axis in 0..ndims.min(3) {
-            out[axis] = v[axis];
-        }
+        let n = ndims.min(3);
+        out[..n].copy_from_slice(&v[..n]);
     }
     Ok(out)
 }

@@ -444,7 +444,7 @@ fn dicom_intercept_2e9_is_classified_exactly() {
     // Stored 0 or 1 plus an intercept of 2e9: one f32, two values. At 2e9 + 0.5 the cells whose
     // corners hold both straddle it.
     let dir = TempDir::new("dicom-2e9");
-    let bit = |i: usize, j: usize, k: usize| ((i * 7 + j * 3 + k * 5) % 4 == 0) as u16;
+    let bit = |i: usize, j: usize, k: usize| (i * 7 + j * 3 + k * 5).is_multiple_of(4) as u16;
     let series = dir.path("series");
     std::fs::create_dir_all(&series).unwrap();
     for k in 0..3 {

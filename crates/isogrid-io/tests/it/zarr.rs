@@ -222,15 +222,12 @@ fn store(dir: &TempDir, docs: &[(&str, &str)]) -> std::path::PathBuf {
 /// and the streaming extraction's memory plan); both must be `kind` and one line, and the first
 /// names the store (the plan, in `isogrid`, knows no path).
 fn errors_whole_and_streamed(root: &Path, kind: ErrorKind) -> String {
-    let whole = read_volume(root, &ReadOptions::default())
-        .err()
-        .expect("read");
+    let whole = read_volume(root, &ReadOptions::default()).expect_err("read");
     let streamed = open_region(root, &ReadOptions::default())
         .and_then(|source| {
             isogrid::extract::stream::plan(&*source.expect("a region source"), 1 << 30)
         })
-        .err()
-        .expect("opened and planned");
+        .expect_err("opened and planned");
     for err in [&whole, &streamed] {
         let text = err.to_string();
         assert_eq!(err.kind(), kind, "{text}");
@@ -276,9 +273,7 @@ fn zarr_declared_sizes_are_refused_before_allocating() {
             &v3_array_json("[100000, 100000, 100000]", "[64, 64, 64]"),
         )],
     );
-    let err = read_volume(&root, &ReadOptions::default())
-        .err()
-        .expect("read");
+    let err = read_volume(&root, &ReadOptions::default()).expect_err("read");
     assert_eq!(err.kind(), ErrorKind::TooLarge, "{err}");
     // A 20x13x35 array whose one chunk declares 2^120 elements.
     let huge = "[1099511627776, 1099511627776, 1099511627776]";

@@ -164,7 +164,9 @@ fn parse_header(h: &[u8], file_len: u64) -> Result<Header> {
         Ok(())
     };
     let fits = |name: &str, offset: u64, len: u64, end: u64| -> Result<Range<usize>> {
-        if offset % 16 != 0 || offset < end || offset.checked_add(len).is_none_or(|e| e > file_len)
+        if !offset.is_multiple_of(16)
+            || offset < end
+            || offset.checked_add(len).is_none_or(|e| e > file_len)
         {
             return Err(Error::corrupt(format!(
                 "{name} section at {offset}+{len} does not fit the {file_len}-byte file (truncated?)"

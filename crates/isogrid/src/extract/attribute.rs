@@ -69,7 +69,7 @@ fn invert_affine(m: &[[f64; 4]; 3]) -> Option<[[f64; 4]; 3]> {
         let (r0, r1) = ([1, 0, 0][r], [2, 2, 1][r]);
         let (c0, c1) = ([1, 0, 0][c], [2, 2, 1][c]);
         let minor = a(r0, c0) * a(r1, c1) - a(r0, c1) * a(r1, c0);
-        if (r + c) % 2 == 0 {
+        if (r + c).is_multiple_of(2) {
             minor
         } else {
             -minor

@@ -474,8 +474,8 @@ mod tests {
     fn boxes_hold_exactly_each_labels_samples() {
         let region = [5, 4, 3];
         let mut keys = vec![7u64; 60];
-        keys[1 + 5 * (2 + 4 * 1)] = 3; // (1, 2, 1)
-        keys[4 + 5 * (0 + 4 * 2)] = 3; // (4, 0, 2)
+        keys[1 + 5 * (2 + 4)] = 3; // (1, 2, 1)
+        keys[4 + 5 * (4 * 2)] = 3; // (4, 0, 2)
         keys[0] = 9;
         let mut boxes = Vec::new();
         label_boxes(&keys, region, &[3, 7, 9], &mut boxes);

@@ -137,6 +137,39 @@ fn unit_to_u8(x: f64) -> u8 {
     (x * 255.0).round().clamp(0.0, 255.0) as u8
 }
 
+/// A `size`³ u16 label volume of 3³ cubes in 11 labels (cube `c` has label
+/// `(cx + 7·cy + 13·cz) mod 11 + 1`): every cube touches others on every side and a 16³ block
+/// holds all 11 labels, so a label grid of it holds more clusters per block than an isosurface
+/// can (tests of the tracers' label handling).
+pub fn labelled_cubes(size: usize) -> Volume {
+    let labels: Vec<u16> = (0..size * size * size)
+        .map(|i| {
+            let c = [i % size, i / size % size, i / (size * size)].map(|v| v / 3);
+            ((c[0] + 7 * c[1] + 13 * c[2]) % 11 + 1) as u16
+        })
+        .collect();
+    Volume::new([size; 3], crate::VolumeData::U16(labels)).expect("a cube of u16 labels")
+}
+
+/// A label volume (u8) of `size`³ samples: a ball of radius `0.375·size` in the middle cut into
+/// three labels 1, 2, 3 side by side along x (thirds of its diameter), background 0; every label
+/// touches the next. For tests and demos of label grids.
+pub fn labelled_ball(size: usize) -> Volume {
+    let centre = (size as f64 - 1.0) / 2.0;
+    let radius = 0.375 * size as f64;
+    let labels: Vec<u8> = (0..size * size * size)
+        .map(|i| {
+            let p = [i % size, i / size % size, i / (size * size)].map(|c| c as f64 - centre);
+            if p.iter().map(|c| c * c).sum::<f64>() < radius * radius {
+                1 + ((p[0] + radius) / (2.0 * radius / 3.0)).clamp(0.0, 2.0) as u8
+            } else {
+                0
+            }
+        })
+        .collect();
+    Volume::new([size; 3], crate::VolumeData::U8(labels)).expect("a cube of u8 labels")
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -297,37 +330,4 @@ mod tests {
         }
         assert_ne!(v, generate(Field::Hairball, size, 43), "seed changes it");
     }
-}
-
-/// A `size`³ u16 label volume of 3³ cubes in 11 labels (cube `c` has label
-/// `(cx + 7·cy + 13·cz) mod 11 + 1`): every cube touches others on every side and a 16³ block
-/// holds all 11 labels, so a label grid of it holds more clusters per block than an isosurface
-/// can (tests of the tracers' label handling).
-pub fn labelled_cubes(size: usize) -> Volume {
-    let labels: Vec<u16> = (0..size * size * size)
-        .map(|i| {
-            let c = [i % size, i / size % size, i / (size * size)].map(|v| v / 3);
-            ((c[0] + 7 * c[1] + 13 * c[2]) % 11 + 1) as u16
-        })
-        .collect();
-    Volume::new([size; 3], crate::VolumeData::U16(labels)).expect("a cube of u16 labels")
-}
-
-/// A label volume (u8) of `size`³ samples: a ball of radius `0.375·size` in the middle cut into
-/// three labels 1, 2, 3 side by side along x (thirds of its diameter), background 0; every label
-/// touches the next. For tests and demos of label grids.
-pub fn labelled_ball(size: usize) -> Volume {
-    let centre = (size as f64 - 1.0) / 2.0;
-    let radius = 0.375 * size as f64;
-    let labels: Vec<u8> = (0..size * size * size)
-        .map(|i| {
-            let p = [i % size, i / size % size, i / (size * size)].map(|c| c as f64 - centre);
-            if p.iter().map(|c| c * c).sum::<f64>() < radius * radius {
-                1 + ((p[0] + radius) / (2.0 * radius / 3.0)).clamp(0.0, 2.0) as u8
-            } else {
-                0
-            }
-        })
-        .collect();
-    Volume::new([size; 3], crate::VolumeData::U8(labels)).expect("a cube of u8 labels")
 }

@@ -147,9 +147,7 @@ fn same_grid_values_are_the_attribute_at_each_cells_surface_point() {
     let volume = u8_sphere(40).with_spacing([0.5, 0.75, 1.25]).unwrap();
     let iso = 127.5;
     let grid = extract(&volume.view(), &ExtractOptions::new(Iso::Value(iso))).unwrap();
-    let attribute = linear_attribute(volume.geometry().clone(), |w| {
-        w[0] + 2.0 * w[1] - 0.5 * w[2]
-    });
+    let attribute = linear_attribute(*volume.geometry(), |w| w[0] + 2.0 * w[1] - 0.5 * w[2]);
     assert_eq!(
         alignment(volume.geometry(), attribute.geometry()).unwrap(),
         Alignment::SameGrid
@@ -169,7 +167,7 @@ fn same_grid_values_are_the_attribute_at_each_cells_surface_point() {
             .unwrap()
             .with_attribute(values)
             .unwrap();
-        let g = volume.geometry().clone();
+        let g = *volume.geometry();
         check_against_reference(
             &grid,
             &volume,
@@ -209,7 +207,7 @@ fn resampled_values_follow_world_space_through_origin_spacing_and_direction() {
         let centre = world(volume.geometry(), [17.5, 17.5, 17.5]);
         let half = world(&geometry, [14.5, 16.5, 6.5]);
         geometry.origin = [0, 1, 2].map(|a| centre[a] - half[a] + [0.0, 0.0, 8.0][a]);
-        let attribute = linear_attribute(geometry.clone(), f);
+        let attribute = linear_attribute(geometry, f);
         assert!(matches!(
             alignment(volume.geometry(), attribute.geometry()).unwrap(),
             Alignment::Resampled { .. }
@@ -230,7 +228,7 @@ fn resampled_values_follow_world_space_through_origin_spacing_and_direction() {
             .unwrap();
         // Inside the attribute's box (index space of the attribute, by inverting its geometry
         // numerically here: solve the 3×3 system), the linear function; outside, NaN.
-        let g = volume.geometry().clone();
+        let g = *volume.geometry();
         let inverse = |w: [f64; 3]| -> [f64; 3] {
             let m: [[f64; 3]; 3] = std::array::from_fn(|r| {
                 std::array::from_fn(|a| geometry.spacing[a] * geometry.direction[a][r])
@@ -290,7 +288,7 @@ fn nan_samples_give_nan_values_and_disjoint_volumes_are_refused() {
     let iso = 127.5;
     let grid = extract(&volume.view(), &ExtractOptions::new(Iso::Value(iso))).unwrap();
     // NaN in the half x < 11.5.
-    let mut attribute = linear_attribute(volume.geometry().clone(), |w| {
+    let mut attribute = linear_attribute(*volume.geometry(), |w| {
         if w[0] < 11.5 {
             f64::NAN
         } else {
@@ -319,7 +317,7 @@ fn nan_samples_give_nan_values_and_disjoint_volumes_are_refused() {
     let read = cgc::read_bytes(&cgc::to_bytes(&grid)).unwrap();
     assert_eq!(read.attribute(), grid.attribute());
     // An attribute volume beside the surface's, not over it.
-    let mut geometry = volume.geometry().clone();
+    let mut geometry = *volume.geometry();
     geometry.origin = [100.0, 0.0, 0.0];
     attribute = linear_attribute(geometry, |w| w[0]);
     let err = sample_attribute(
@@ -337,7 +335,7 @@ fn nan_samples_give_nan_values_and_disjoint_volumes_are_refused() {
 fn attributes_round_trip_through_files_and_every_damaged_bit_is_rejected() {
     let volume = blobs_u8([20, 18, 17]);
     let grid = extract(&volume.view(), &ExtractOptions::new(Iso::Value(127.5))).unwrap();
-    let attribute = linear_attribute(volume.geometry().clone(), |w| w[2] - w[0]);
+    let attribute = linear_attribute(*volume.geometry(), |w| w[2] - w[0]);
     for precision in AttributePrecision::ALL {
         let values = sample_attribute(&grid, &mut attribute.view(), "z-x", precision).unwrap();
         let with = extract(&volume.view(), &ExtractOptions::new(Iso::Value(127.5)))
@@ -381,7 +379,7 @@ fn attributes_round_trip_through_files_and_every_damaged_bit_is_rejected() {
 fn streamed_and_in_memory_grids_get_the_same_attribute_bytes() {
     let volume = blobs_u8([45, 40, 70]);
     let options = ExtractOptions::new(Iso::Value(127.5));
-    let attribute = linear_attribute(volume.geometry().clone(), |w| (w[0] * 0.3).sin() + w[2]);
+    let attribute = linear_attribute(*volume.geometry(), |w| (w[0] * 0.3).sin() + w[2]);
     let in_memory = extract(&volume.view(), &options).unwrap();
     let values = sample_attribute(
         &in_memory,
