@@ -7,6 +7,9 @@ import assert from 'node:assert/strict';
 import { readFileSync } from 'node:fs';
 import { parseCgc, CgcError, HEAD_READ, codes16, labelText } from '../build/node/cgc.js';
 import { streamCgc } from '../build/node/loader.js';
+import { Crc32, crc32 } from '../build/node/crc32.js';
+import zlib from 'node:zlib';
+import { randomBytes } from 'node:crypto';
 import { defaultClim, labelColorWords, hiddenClusters } from '../build/node/colors.js';
 import { realFiles, toVersion2, resealHeader, resealSection, isogridBinary, infoJson, labelFile, coloredSphereFile, ballFile } from './fixtures.mjs';
 
@@ -380,5 +383,21 @@ test('back-face culling is allowed exactly when no border sample is inside (Bord
     assert.equal(told.at(-1), !inside, `ball at x = ${cx}, radius ${r}: ${told}`);
     // It only ever turns false as clusters arrive.
     assert.ok(told.every((o, i) => i === 0 || (told[i - 1] && !o)), `${told}`);
+  }
+});
+
+test('CRC-32 of every length and any split into updates is zlib\'s', () => {
+  const bytes = new Uint8Array(randomBytes(4099));
+  for (let n = 0; n <= 64; n++) assert.equal(crc32(bytes.subarray(0, n)), zlib.crc32(bytes.subarray(0, n)), `length ${n}`);
+  assert.equal(crc32(bytes), zlib.crc32(bytes));
+  for (let trial = 0; trial < 50; trial++) {
+    // Updates of random lengths, so that the eight-byte steps start at any offset.
+    const c = new Crc32();
+    for (let at = 0; at < bytes.length; ) {
+      const end = Math.min(bytes.length, at + Math.floor(Math.random() * 37));
+      c.update(bytes.subarray(at, end));
+      at = end;
+    }
+    assert.equal(c.digest(), zlib.crc32(bytes), `trial ${trial}`);
   }
 });
