@@ -74,7 +74,8 @@ interface Page {
   cellCount: number;
   slotCapacity: number;
   cellCapacity: number;
-  /** `PageUniforms.codes_word`: where the codes start, after the capacity's records (0 without codes). */
+  /** Whether the records carry an attribute's codes, and `PageUniforms.codes_word`: where they start, after the capacity's records (0 without codes). */
+  withCodes: boolean;
   codesWord: number;
   uniforms: GPUBuffer;
   records: GPUBuffer;
@@ -417,10 +418,10 @@ export class Renderer {
     const bpc = this.grid.precisionBits;
     let k = 0;
     let cellAt = 0;
+    const fits = (q: Page, slots: number, c: number) => q.slotCount + slots <= q.slotCapacity && q.cellCount + c <= q.cellCapacity;
     while (k < cellCounts.length) {
       const slot0 = k * CLUSTER_SLOTS;
       let p = this.pages[this.pages.length - 1];
-      const fits = (q: Page, slots: number, c: number) => q.slotCount + slots <= q.slotCapacity && q.cellCount + c <= q.cellCapacity;
       if (!p || p.firstSlot + p.slotCount !== firstSlot + slot0 || !fits(p, CLUSTER_SLOTS, cellCounts[k])) {
         this.closeLastPage();
         p = this.openPage(firstSlot + slot0, firstCell + cellAt, cellCounts[k], codes !== null);
@@ -478,6 +479,7 @@ export class Renderer {
       slotCount: 0,
       firstCell,
       cellCount: 0,
+      withCodes,
       uniforms,
       recordTail: new Uint8Array(0),
       codeTail: new Uint8Array(0),
@@ -527,7 +529,7 @@ export class Renderer {
     const p = this.pages.length - 1;
     const page = this.pages[p];
     if (!page || (page.slotCount === page.slotCapacity && page.cellCount === page.cellCapacity)) return;
-    const withCodes = page.codesWord > 0;
+    const withCodes = page.withCodes;
     const old = { meta: page.meta, records: page.records, lists: page.lists, codesWord: page.codesWord };
     Object.assign(page, this.pageStorage(p, page.slotCount, page.cellCount, withCodes));
     const enc = this.device.createCommandEncoder({ label: `page ${p} shrunk to its clusters` });
