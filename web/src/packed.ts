@@ -160,16 +160,13 @@ function predict(known: Float64Array, x: number, y: number, z: number, max: numb
     const aa = x > 1 ? known[at - 2] : -1;
     const bb = y > 1 ? known[at - 2 * SIDE] : -1;
     const cc = z > 1 ? known[at - 2 * SIDE * SIDE] : -1;
-    const clamp = (p: number) => (p < 0 ? 0 : p > max ? max : p);
-    const la = a >= 0 && aa >= 0 ? clamp(2 * a - aa) : -1;
-    const lb = b >= 0 && bb >= 0 ? clamp(2 * b - bb) : -1;
-    const lc = c >= 0 && cc >= 0 ? clamp(2 * c - cc) : -1;
+    const la = a >= 0 && aa >= 0 ? Math.min(Math.max(2 * a - aa, 0), max) : -1;
+    const lb = b >= 0 && bb >= 0 ? Math.min(Math.max(2 * b - bb, 0), max) : -1;
+    const lc = c >= 0 && cc >= 0 ? Math.min(Math.max(2 * c - cc, 0), max) : -1;
     const k = (la >= 0 ? 1 : 0) + (lb >= 0 ? 1 : 0) + (lc >= 0 ? 1 : 0);
     if (k === 3) return Math.max(Math.min(la, lb), Math.min(Math.max(la, lb), lc));
-    if (k === 2) {
-      const [p, q] = la < 0 ? [lb, lc] : lb < 0 ? [la, lc] : [la, lb];
-      return Math.floor((p + q + 1) / 2);
-    }
+    // Of two, their mean rounded up: the third is -1, so the two sum to la + lb + lc + 1.
+    if (k === 2) return Math.floor((la + lb + lc + 2) / 2);
     if (k === 1) return Math.max(la, lb, lc);
   }
   if (a >= 0 && b >= 0) {
@@ -401,9 +398,13 @@ async function rebuild(
   const cellAt: number[] = []; // block-local sample index of each cell's corner 0, in record order
   const cellGroup: number[] = []; // each cell's group
   /** One label's samples in the block (the whole block's in a file without labels): pack.rs's Group. */
-  type Group = { label: number; known: Float64Array; needed: Uint8Array };
+  /**
+   * `needed` marks the samples its cells have as corners, one 17-bit mask of x per sample row
+   * (index z·17 + y): the new samples are then found by visiting the marked ones, not the box.
+   */
+  type Group = { label: number; known: Float64Array; needed: Uint32Array };
   const groups: Group[] = [];
-  const spareNeeded: Uint8Array[] = [];
+  const spareNeeded: Uint32Array[] = [];
   /** A box of block `index` with every sample its earlier neighbours sent (files without labels). */
   const seeded = (index: number): Float64Array => {
     while (order.length && order[0] + reach < index) {
@@ -476,7 +477,7 @@ async function rebuild(
         // As in pack.rs: samples are shared across blocks without labels; with labels a block's
         // groups start from none known.
         const known = clusterLabels ? (spare.pop() ?? new Float64Array(BOX)).fill(-1) : seeded(index);
-        groups.push({ label, known, needed: (spareNeeded.pop() ?? new Uint8Array(BOX)).fill(0) });
+        groups.push({ label, known, needed: (spareNeeded.pop() ?? new Uint32Array(SIDE * SIDE)).fill(0) });
         gi = groups.length - 1;
       }
       const needed = groups[gi].needed;
@@ -503,13 +504,18 @@ async function rebuild(
         }
         m.setUint16(at + 6, mask, true);
         m.setUint32(at + 8, cell + cellAt.length, true);
-        const base = 2 * (local[2] * SIDE * SIDE + local[1] * SIDE + local[0]);
         for (let bit = 0; bit < 8; bit++) {
           if (!(mask & (1 << bit))) continue;
-          const at0 = base + CORNER_OFFSETS[bit];
-          cellAt.push(at0);
+          // The cell's low corner, in block-local samples; its corners span two x in four rows.
+          const x = 2 * local[0] + (bit & 1);
+          const row = (2 * local[2] + (bit >> 2)) * SIDE + 2 * local[1] + ((bit >> 1) & 1);
+          cellAt.push(row * SIDE + x);
           cellGroup.push(gi);
-          for (let q = 0; q < 8; q++) needed[at0 + CORNER_OFFSETS[q]] = 1;
+          const xs = 3 << x;
+          needed[row] |= xs;
+          needed[row + 1] |= xs;
+          needed[row + SIDE] |= xs;
+          needed[row + SIDE + 1] |= xs;
         }
       }
       const bound = SLOT_BYTES * (slot + BOUND_SLOT);
@@ -527,19 +533,23 @@ async function rebuild(
       const mode = bits > 1 ? models.modes.decode(d, previousMode) : 0;
       previousMode = mode;
       let previousLength = 0;
-      for (let z = 0; z < SIDE; z++) {
-        for (let y = 0; y < SIDE; y++) {
-          for (let x = 0; x < SIDE; x++) {
-            const at = z * SIDE * SIDE + y * SIDE + x;
-            if (!needed[at] || known[at] >= 0) continue;
-            const u = models.residuals.decode(d, residualContext(previousLength, neighbourSpread(known, at, x, y, z)));
-            if (u > max) throw new CgcError('a packed sample is out of range (damaged)');
-            previousLength = bitLength(u);
-            const residual = unfoldResidual(u, max);
-            const val = (predict(known, x, y, z, max, last, mode) + residual) % (max + 1);
-            known[at] = val;
-            last = val;
-          }
+      // The marked samples in z, y, x order: rows in order, each row's x from its lowest bit.
+      for (let row = 0; row < SIDE * SIDE; row++) {
+        const z = Math.floor(row / SIDE);
+        const y = row - z * SIDE;
+        for (let xs = needed[row]; xs !== 0; xs &= xs - 1) {
+          const x = 31 - Math.clz32(xs & -xs);
+          const at = row * SIDE + x;
+          if (known[at] >= 0) continue;
+          const u = models.residuals.decode(d, residualContext(previousLength, neighbourSpread(known, at, x, y, z)));
+          if (u > max) throw new CgcError('a packed sample is out of range (damaged)');
+          previousLength = bitLength(u);
+          const residual = unfoldResidual(u, max);
+          // Modulo max + 1 of a sum of two codes, as one subtraction (`%` of doubles is slow).
+          let val = predict(known, x, y, z, max, last, mode) + residual;
+          if (val > max) val -= max + 1;
+          known[at] = val;
+          last = val;
         }
       }
     }
