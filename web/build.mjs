@@ -43,6 +43,35 @@ const shaderPlugin = {
   },
 };
 
+/**
+ * The virtual module `isogrid:packed-worker`: the packed rebuild's worker (src/packed-worker.ts)
+ * bundled on its own as a classic script, as a string the viewer starts from a Blob URL.
+ */
+const packedWorkerPlugin = {
+  name: 'isogrid-packed-worker',
+  setup(build) {
+    build.onResolve({ filter: /^isogrid:packed-worker$/ }, () => ({ path: 'packed-worker', namespace: 'isogrid-worker' }));
+    build.onLoad({ filter: /.*/, namespace: 'isogrid-worker' }, async () => {
+      const out = await esbuild.build({
+        entryPoints: [join(here, 'src', 'packed-worker.ts')],
+        bundle: true,
+        format: 'iife',
+        target: 'es2022',
+        write: false,
+        minifyWhitespace: true,
+        minifyIdentifiers: true,
+        charset: 'utf8',
+        logLevel: 'warning',
+      });
+      return {
+        contents: `export const PACKED_WORKER = ${JSON.stringify(out.outputFiles[0].text)};`,
+        loader: 'js',
+        watchFiles: out.outputFiles.length ? [join(here, 'src', 'packed-worker.ts')] : [],
+      };
+    });
+  },
+};
+
 /** Builds the viewer into `dist` (web/dist, which is committed: `isogrid serve` embeds it). */
 export async function build(dist = join(here, 'dist')) {
   mkdirSync(dist, { recursive: true });
@@ -52,7 +81,7 @@ export async function build(dist = join(here, 'dist')) {
     format: 'esm',
     target: 'es2022',
     outfile: join(dist, 'viewer.js'),
-    plugins: [shaderPlugin],
+    plugins: [shaderPlugin, packedWorkerPlugin],
     // Not minifySyntax: it would turn the shader strings into template literals; the shader test
     // finds each module's source in the bundle as the manifest composes it.
     minifyWhitespace: true,

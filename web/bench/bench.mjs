@@ -104,6 +104,19 @@ for (const file of files) {
       const cgc = new Set();
       cdp.on('Network.requestWillBeSent', (e) => /\.cgcz?$/.test(new URL(e.request.url).pathname) && cgc.add(e.requestId));
       cdp.on('Network.loadingFinished', (e) => cgc.has(e.requestId) && (transferred += e.encodedDataLength));
+      // The packed form downloads in the rebuild's worker (packed-worker.ts): its requests are the
+      // worker's, seen through a session of its own, attached before it runs.
+      cdp.on('Target.attachedToTarget', async ({ sessionId, targetInfo, waitingForDebugger }) => {
+        const session = cdp.connection().session(sessionId);
+        if (targetInfo.type === 'worker' && session) {
+          session.on('Network.requestWillBeSent', (e) => /\.cgcz?$/.test(new URL(e.request.url).pathname) && cgc.add(e.requestId));
+          session.on('Network.loadingFinished', (e) => cgc.has(e.requestId) && (transferred += e.encodedDataLength));
+          await session.send('Network.enable').catch(() => {});
+          await session.send('Network.setCacheDisabled', { cacheDisabled: true }).catch(() => {});
+        }
+        if (waitingForDebugger && session) await session.send('Runtime.runIfWaitingForDebugger').catch(() => {});
+      });
+      await cdp.send('Target.setAutoAttach', { autoAttach: true, waitForDebuggerOnStart: true, flatten: true });
       await cdp.send('Network.emulateNetworkConditions', { offline: false, latency: 1, downloadThroughput: (mbit * 1e6) / 8, uploadThroughput: (mbit * 1e6) / 8 });
       await page.goto(`${urls[form]}&view=2&size=${size}`);
       // Polled rather than awaited in one call: a frame on a CPU adapter can take minutes.

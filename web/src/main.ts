@@ -16,7 +16,8 @@ import {
 } from './colors.js';
 import { Camera, ClipPlane, orbit, pan, presetCamera, zoom } from './camera.js';
 import { blobSource, ByteSource, streamCgc, urlSource, withHeadStarted } from './loader.js';
-import { isPackedName, packedSource } from './packed.js';
+import { isPackedName } from './packed.js';
+import { PackedSource, packedSourceOffThread } from './packed-client.js';
 import { CellRaster, COLOR_FORMAT, Renderer } from './renderer.js';
 
 const $ = <T extends HTMLElement>(id: string) => document.getElementById(id) as T;
@@ -343,6 +344,7 @@ async function load(src: ByteSource): Promise<void> {
   const bar = $('progress').firstElementChild as HTMLElement;
   try {
     // The header's request goes out while the device opens.
+    const given = src;
     src = withHeadStarted(src);
     device ??= await initGpu();
     stats.deviceAt = performance.now();
@@ -414,6 +416,8 @@ async function load(src: ByteSource): Promise<void> {
       },
     });
     stats.completeAt = performance.now();
+    // Where a packed file was rebuilt ('worker' or 'page'; packed-client.ts).
+    if ('thread' in given) stats.rebuildThread = (given as PackedSource).thread;
     // After the clusters queued behind the compilation (promise callbacks run in order).
     await renderer!.compiled;
     complete = true;
@@ -682,7 +686,7 @@ const openFile = (f: File | undefined) => {
   if (isPackedName(f.name)) {
     stats.packed = true;
     stats.downloaded = 0;
-    load(packedSource(f.name, async () => f.stream(), (n) => ((stats.downloaded as number) += n)));
+    load(packedSourceOffThread(f.name, { file: f }, (n) => ((stats.downloaded as number) += n)));
   } else {
     load(blobSource(f));
   }
@@ -704,17 +708,9 @@ if (srcParam && isPackedName(srcParam)) {
   const name = decodeURIComponent(new URL(srcParam, location.href).pathname.split('/').pop() || srcParam);
   stats.packed = true;
   stats.downloaded = 0;
-  load(
-    packedSource(
-      name,
-      async () => {
-        const res = await fetch(srcParam);
-        if (!res.ok || !res.body) throw new Error(`${name}: HTTP ${res.status} ${res.statusText}`);
-        return res.body;
-      },
-      (n) => ((stats.downloaded as number) += n),
-    ),
-  );
+  // Absolute: the rebuild's worker resolves nothing against the page.
+  const url = new URL(srcParam, location.href).href;
+  load(packedSourceOffThread(name, { url }, (n) => ((stats.downloaded as number) += n)));
 } else if (srcParam) {
   // Progress of a whole download (a server without Range support) before the header is parsed.
   let whole = 0;

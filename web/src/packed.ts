@@ -223,6 +223,19 @@ function mortonDecode(code: number): [number, number, number] {
   return [compact(code), compact(code >> 1), compact(code >> 2)];
 }
 
+/** Where a packed file comes from: an absolute URL to fetch, or a local file (a drop, the file input). */
+export type PackedOrigin = { url: string } | { file: File };
+
+/** The `open` of [packedSource] for `origin`; an HTTP failure names the file. */
+export function openPacked(origin: PackedOrigin, name: string): () => Promise<ReadableStream<Uint8Array>> {
+  if ('file' in origin) return async () => origin.file.stream();
+  return async () => {
+    const res = await fetch(origin.url);
+    if (!res.ok || !res.body) throw new Error(`${name}: HTTP ${res.status} ${res.statusText}`);
+    return res.body;
+  };
+}
+
 /**
  * A ByteSource of the .cgc that the packed file `open` streams (a .cgcz download or a dropped
  * file) rebuilds. `onBytes` counts the packed bytes as they arrive; `total` is the .cgc's length

@@ -199,6 +199,8 @@ for (const B of BROWSERS) {
     const server = await startServer({ dist, files });
     const plain = await startServer({ dist, files, ranges: false });
     const slow = await startServer({ dist, files, delayMs: 300 });
+    // A page that may start no worker: the packed rebuild falls back to the page's thread.
+    const noWorkers = await startServer({ dist, files, pageHeaders: { 'Content-Security-Policy': "worker-src 'none'" } });
     const browser = await puppeteer.launch({ executablePath: B.path, headless: true, ...B.launch });
     const errors = [];
     const open = async (base, query) => {
@@ -539,9 +541,20 @@ for (const B of BROWSERS) {
           const { page, outcome, stats } = await open(server.url, `src=/${name}.cgcz&view=2&size=${SIZE.join('x')}`);
           assert.equal(outcome, 'ready', stats.message);
           assert.equal(stats.downloaded, packed.length, 'bytes downloaded');
+          assert.equal(stats.rebuildThread, 'worker', 'where the packed file was rebuilt');
           const c = compare(Buffer.from(await page.evaluate(() => window.isogrid.pixels()), 'base64'), nativeRender(file, 2));
           t.diagnostic(`${B.name} ${name}.cgcz (${packed.length} bytes): mask ${(100 * c.mask).toFixed(2)} %, colour within 8/255 on ${(100 * c.colour).toFixed(2)} % of ${c.hits} hits`);
           assert.ok(c.hits > 500 && c.mask >= 0.995 && c.colour >= colour, JSON.stringify(c));
+          await page.close();
+        }
+        // Where the page forbids workers, rebuilt on the page's thread: the same picture.
+        {
+          const { page, outcome, stats } = await open(noWorkers.url, `src=/sphere48.cgcz&view=2&size=${SIZE.join('x')}`);
+          assert.equal(outcome, 'ready', stats.message);
+          assert.equal(stats.rebuildThread, 'page', 'where the packed file was rebuilt without workers');
+          assert.equal(stats.downloaded, spherePacked.length, 'bytes downloaded');
+          const c = compare(Buffer.from(await page.evaluate(() => window.isogrid.pixels()), 'base64'), nativeRender(sphere, 2));
+          assert.ok(c.hits > 500 && c.mask >= 0.995 && c.colour >= 0.99, JSON.stringify(c));
           await page.close();
         }
         for (const [name, re] of Object.entries({
@@ -563,6 +576,7 @@ for (const B of BROWSERS) {
           const stats = await page.evaluate(() => ({ ...window.isogrid.stats, message: document.getElementById('message').textContent }));
           assert.equal(outcome, 'ready', stats.message);
           assert.equal(stats.name, file.split('/').pop());
+          if (file.endsWith('.cgcz')) assert.equal(stats.rebuildThread, 'worker', 'where the dropped packed file was rebuilt');
           const c = compare(Buffer.from(await page.evaluate(() => window.isogrid.pixels()), 'base64'), nativeRender(sphere, 2));
           t.diagnostic(`${B.name} ${stats.name} opened locally: mask ${(100 * c.mask).toFixed(2)} %, colour within 8/255 on ${(100 * c.colour).toFixed(2)} %`);
           assert.ok(c.hits > 500 && c.mask >= 0.995 && c.colour >= 0.99, JSON.stringify(c));
@@ -663,12 +677,13 @@ for (const B of BROWSERS) {
           await plainChromium.close();
         }
       });
-      assert.deepEqual(errors.filter((e) => !/checksum|truncated|version|Failed to load resource/.test(e)), [], 'console errors');
+      assert.deepEqual(errors.filter((e) => !/checksum|truncated|version|Failed to load resource|Content Security Policy/.test(e)), [], 'console errors');
     } finally {
       await browser.close();
       await server.close();
       await plain.close();
       await slow.close();
+      await noWorkers.close();
     }
   });
 }

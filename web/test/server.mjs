@@ -1,12 +1,13 @@
 // A static server for the browser tests until they run against `isogrid serve`: web/dist at /, and
 // named files (name → bytes) beside it, with Range support through the `send` package or, with
 // `ranges: false`, a server that ignores Range (always 200, whole file). It logs each request's
-// byte range per path; `delayMs` holds each range response back, like a slow network.
+// byte range per path; `delayMs` holds each range response back, like a slow network;
+// `pageHeaders` go with the page and its bundle (a Content-Security-Policy, say).
 import http from 'node:http';
 import send from 'send';
 import { join } from 'node:path';
 
-export async function startServer({ dist, files, ranges = true, delayMs = 0 }) {
+export async function startServer({ dist, files, ranges = true, delayMs = 0, pageHeaders = {} }) {
   const log = [];
   const server = http.createServer(async (req, res) => {
     const path = decodeURIComponent(new URL(req.url, 'http://x').pathname);
@@ -37,6 +38,7 @@ export async function startServer({ dist, files, ranges = true, delayMs = 0 }) {
       }
       return;
     }
+    for (const [k, v] of Object.entries(pageHeaders)) res.setHeader(k, v);
     send(req, path === '/' ? '/index.html' : path, { root: dist }).pipe(res);
   });
   await new Promise((r) => server.listen(0, '127.0.0.1', r));
