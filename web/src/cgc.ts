@@ -163,8 +163,12 @@ export class BorderCheck {
       let record = m.getUint32(SLOT_BYTES * slot + 8, true);
       for (let bit = 0; bit < 8; bit++) {
         if (!(mask & (1 << bit))) continue;
-        const cell = [origin[0] + (bit & 1), origin[1] + ((bit >> 1) & 1), origin[2] + ((bit >> 2) & 1)];
-        if (cell.some((v, a) => v === 0 || v + 1 >= last[a])) {
+        // Scalars, not an array per cell: this runs for every cell of the file.
+        const x = origin[0] + (bit & 1);
+        const y = origin[1] + ((bit >> 1) & 1);
+        const z = origin[2] + ((bit >> 2) & 1);
+        if (x === 0 || y === 0 || z === 0 || x + 1 >= last[0] || y + 1 >= last[1] || z + 1 >= last[2]) {
+          const cell = [x, y, z];
           const at = (record - firstCell) * bits;
           for (let c = 0; c < 8; c++) {
             const p = [cell[0] + (c & 1), cell[1] + ((c >> 1) & 1), cell[2] + ((c >> 2) & 1)];
@@ -391,6 +395,9 @@ const popcount8 = (m: number) => {
  * `metacells` (the whole section's buffer, filled that far), so a streamed file is checked block
  * by block as its metacells arrive; `finish()` checks the totals.
  */
+/** For each axis, the cell bits of a metacell (bit 0 +x, bit 1 +y, bit 2 +z) on its high side. */
+const AXIS_HIGH_BITS = [0, 1, 2].map((a) => [0, 1, 2, 3, 4, 5, 6, 7].filter((b) => (b >> a) & 1).reduce((m, b) => m | (1 << b), 0));
+
 export class StructureCheck {
   private blk = 0;
   /** Slots of the blocks checked so far. */
@@ -449,12 +456,14 @@ export class StructureCheck {
           const code = metacellCode(p[0] % BLOCK_METACELLS, p[1] % BLOCK_METACELLS, p[2] % BLOCK_METACELLS);
           if (lastCode >= code) throw fail('metacells out of Morton order');
           lastCode = code;
-          for (let bit = 0; bit < 8; bit++) {
-            if ((mask >> bit) & 1) {
-              const c = [2 * p[0] + (bit & 1), 2 * p[1] + ((bit >> 1) & 1), 2 * p[2] + ((bit >> 2) & 1)];
-              if (c.some((x, a) => x >= cd[a])) throw fail('active cell outside the grid');
-            }
+          // The cells of the mask past the grid's last cell on some axis: all of them where the
+          // metacell's low cell is past it, those with the axis's bit set where its high one is.
+          let outside = 0;
+          for (let a = 0; a < 3; a++) {
+            if (2 * p[a] >= cd[a]) outside = 0xff;
+            else if (2 * p[a] + 1 >= cd[a]) outside |= AXIS_HIGH_BITS[a];
           }
+          if (mask & outside) throw fail('active cell outside the grid');
           if (cellPointer !== this.nextCell) throw fail(`cell pointer ${cellPointer} out of sequence (expected ${this.nextCell})`);
           this.nextCell += popcount8(mask);
           if (this.nextCell > totalCells) throw fail('cells run past the cell section');

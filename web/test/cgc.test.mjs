@@ -386,6 +386,33 @@ test('back-face culling is allowed exactly when no border sample is inside (Bord
   }
 });
 
+test('a metacell whose mask reaches past the grid\'s last cell is refused with the Rust message', (t) => {
+  if (!isogridBinary()) {
+    t.skip('no isogrid binary built: no volume to extract');
+    return;
+  }
+  // 34 samples, 33 cells a side: the last block's metacell 16 holds cell 32 on its low side and
+  // the non-cell 33 on its high side. A ball through the x = 33 face gives cells at x = 32.
+  const { cgc } = ballFile(34, 33, 8);
+  const bytes = new Uint8Array(readFileSync(cgc));
+  const h = parseCgc(bytes).header;
+  const entry = h.sections.indexOf(h.metacells);
+  const m = new DataView(bytes.buffer, bytes.byteOffset + h.metacells.offset, h.metacells.length);
+  let tried = 0;
+  for (let slot = 0; slot < h.metacells.length / 12; slot++) {
+    const mask = m.getUint16(12 * slot + 6, true);
+    if (slot % 16 === 15 || mask === 0 || m.getUint16(12 * slot, true) !== 16) continue;
+    // Each x-low cell of the mask given its x-high neighbour, cell 33: past the grid.
+    const withHigh = mask | ((mask & 0x55) << 1);
+    if (withHigh === mask) continue;
+    const b = bytes.slice();
+    new DataView(b.buffer, b.byteOffset + h.metacells.offset).setUint16(12 * slot + 6, withHigh, true);
+    assert.equal(refused(resealSection(b, entry)), `metacell slot ${slot}: active cell outside the grid`);
+    tried++;
+  }
+  assert.ok(tried >= 3, `${tried} metacells at x = 32 changed`);
+});
+
 test('CRC-32 of every length and any split into updates is zlib\'s', () => {
   const bytes = new Uint8Array(randomBytes(4099));
   for (let n = 0; n <= 64; n++) assert.equal(crc32(bytes.subarray(0, n)), zlib.crc32(bytes.subarray(0, n)), `length ${n}`);
