@@ -5,20 +5,10 @@
 // Usage: node bench/rebuild.mjs FILE.cgcz...
 import { readFileSync } from 'node:fs';
 import { packedSource } from '../build/node/packed.js';
+import { streamOf } from '../test/fixtures.mjs';
 
 const runs = Number(process.env.RUNS || 3);
 const PIECE = 1 << 16;
-
-function streamOf(bytes) {
-  let at = 0;
-  return new ReadableStream({
-    pull(c) {
-      if (at >= bytes.length) return c.close();
-      c.enqueue(bytes.subarray(at, at + PIECE));
-      at += PIECE;
-    },
-  });
-}
 
 for (const path of process.argv.slice(2)) {
   const packed = readFileSync(path);
@@ -26,7 +16,7 @@ for (const path of process.argv.slice(2)) {
   const ms = [];
   for (let r = 0; r < runs; r++) {
     const t0 = performance.now();
-    const src = packedSource(path, async () => streamOf(packed), () => {});
+    const src = packedSource(path, async () => streamOf(packed, PIECE), () => {});
     await src.read(0, 320);
     const file = await src.read(0, src.total);
     ms.push(performance.now() - t0);

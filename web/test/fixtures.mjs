@@ -223,3 +223,15 @@ export function resealSection(b, entry) {
   v.setUint32(172, crc32(b.subarray(320, 320 + 32 * v.getUint32(168, true))), true);
   return resealHeader(b);
 }
+
+/** A stream of `bytes` in pieces of `piece` bytes (a slow link), or in one. */
+export function streamOf(bytes, piece = bytes.length) {
+  let at = 0;
+  return new ReadableStream({
+    pull(c) {
+      if (at >= bytes.length) return c.close();
+      c.enqueue(bytes.slice(at, at + piece));
+      at += piece;
+    },
+  });
+}

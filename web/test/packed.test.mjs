@@ -9,7 +9,7 @@ import assert from 'node:assert/strict';
 import { readFileSync } from 'node:fs';
 import { CgcError, parseCgc } from '../build/node/cgc.js';
 import { packedSource } from '../build/node/packed.js';
-import { isogridBinary, sphereFile, coloredSphereFile, precisionSphereFile, packedFile, labelFile } from './fixtures.mjs';
+import { isogridBinary, sphereFile, coloredSphereFile, precisionSphereFile, packedFile, labelFile, streamOf } from './fixtures.mjs';
 
 const bin = isogridBinary();
 // Browsers have it; node has it since 20.14 and 21.2 (Debian bookworm's node 18 does not).
@@ -24,18 +24,6 @@ const inflates = (() => {
 const skip = !bin
   ? 'no isogrid binary built (cargo build -p isogrid-cli)'
   : !inflates && `node ${process.version} has no DecompressionStream('deflate-raw') (node >= 20.14)`;
-
-/** A stream of `bytes` in pieces of `piece` bytes (a slow link), or in one. */
-function streamOf(bytes, piece = bytes.length) {
-  let at = 0;
-  return new ReadableStream({
-    pull(c) {
-      if (at >= bytes.length) return c.close();
-      c.enqueue(bytes.slice(at, at + piece));
-      at += piece;
-    },
-  });
-}
 
 /** The .cgc that `packed` rebuilds, and the packed bytes counted on the way. */
 async function rebuild(packed, piece) {
