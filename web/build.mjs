@@ -43,6 +43,17 @@ const shaderPlugin = {
   },
 };
 
+/** How the browser's scripts are written: the viewer's bundle and the worker inside it. */
+const BROWSER_OUTPUT = {
+  target: 'es2022',
+  // Not minifySyntax: it would turn the shader strings into template literals; the shader test
+  // finds each module's source in the bundle as the manifest composes it.
+  minifyWhitespace: true,
+  minifyIdentifiers: true,
+  charset: 'utf8',
+  logLevel: 'warning',
+};
+
 /**
  * The virtual module `isogrid:packed-worker`: the packed rebuild's worker (src/packed-worker.ts)
  * bundled on its own as a classic script, as a string the viewer starts from a Blob URL.
@@ -53,20 +64,19 @@ const packedWorkerPlugin = {
     build.onResolve({ filter: /^isogrid:packed-worker$/ }, () => ({ path: 'packed-worker', namespace: 'isogrid-worker' }));
     build.onLoad({ filter: /.*/, namespace: 'isogrid-worker' }, async () => {
       const out = await esbuild.build({
+        ...BROWSER_OUTPUT,
         entryPoints: [join(here, 'src', 'packed-worker.ts')],
         bundle: true,
         format: 'iife',
-        target: 'es2022',
         write: false,
-        minifyWhitespace: true,
-        minifyIdentifiers: true,
-        charset: 'utf8',
-        logLevel: 'warning',
+        metafile: true,
+        // The metafile's input paths are relative to it.
+        absWorkingDir: here,
       });
       return {
         contents: `export const PACKED_WORKER = ${JSON.stringify(out.outputFiles[0].text)};`,
         loader: 'js',
-        watchFiles: out.outputFiles.length ? [join(here, 'src', 'packed-worker.ts')] : [],
+        watchFiles: Object.keys(out.metafile.inputs).map((f) => join(here, f)),
       };
     });
   },
@@ -76,19 +86,13 @@ const packedWorkerPlugin = {
 export async function build(dist = join(here, 'dist')) {
   mkdirSync(dist, { recursive: true });
   await esbuild.build({
+    ...BROWSER_OUTPUT,
     entryPoints: [join(here, 'src', 'main.ts')],
     bundle: true,
     format: 'esm',
-    target: 'es2022',
     outfile: join(dist, 'viewer.js'),
     plugins: [shaderPlugin, packedWorkerPlugin],
-    // Not minifySyntax: it would turn the shader strings into template literals; the shader test
-    // finds each module's source in the bundle as the manifest composes it.
-    minifyWhitespace: true,
-    minifyIdentifiers: true,
-    charset: 'utf8',
     sourcemap: false,
-    logLevel: 'warning',
   });
   copyFileSync(join(here, 'src', 'index.html'), join(dist, 'index.html'));
   // The node tests' view of the pure modules (no DOM, no WebGPU).

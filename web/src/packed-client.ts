@@ -16,10 +16,12 @@ export type PackedSource = ByteSource & { thread: 'worker' | 'page' };
  */
 export function packedSourceOffThread(name: string, origin: PackedOrigin, onBytes: (n: number) => void): PackedSource {
   const onThread = () => packedSource(name, openPacked(origin, name), onBytes);
+  const script = URL.createObjectURL(new Blob([PACKED_WORKER], { type: 'text/javascript' }));
   let worker: Worker;
   try {
-    worker = new Worker(URL.createObjectURL(new Blob([PACKED_WORKER], { type: 'text/javascript' })));
+    worker = new Worker(script);
   } catch {
+    URL.revokeObjectURL(script);
     return Object.assign(onThread(), { thread: 'page' as const });
   }
   type Read = { start: number; end: number; resolve: (b: Uint8Array) => void; reject: (e: unknown) => void };
@@ -43,6 +45,8 @@ export function packedSourceOffThread(name: string, origin: PackedOrigin, onByte
     },
   };
   worker.onmessage = (e: MessageEvent<FromWorker>) => {
+    // Its script has loaded once it speaks.
+    if (!heard) URL.revokeObjectURL(script);
     heard = true;
     const m = e.data;
     if ('downloaded' in m) {
@@ -60,6 +64,7 @@ export function packedSourceOffThread(name: string, origin: PackedOrigin, onByte
   };
   worker.onerror = (e) => {
     worker.terminate();
+    URL.revokeObjectURL(script);
     const waiting = [...pending.values()];
     pending.clear();
     if (!heard) {
