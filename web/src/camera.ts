@@ -20,6 +20,8 @@ export const EWA_SIGMA_CELLS = 0.7;
 export const FLAG_OCCLUSION = 1;
 export const FLAG_BACKFACE = 2;
 export const FLAG_EWA = 4;
+/** A label grid: where two labels' surfaces coincide the front face wins (`label_back_face_depth`). */
+export const FLAG_LABELS = 8;
 
 const sub = (a: Vec3, b: Vec3): Vec3 => [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
 const dot = (a: Vec3, b: Vec3) => a[0] * b[0] + a[1] * b[1] + a[2] * b[2];

@@ -36,6 +36,8 @@ interface IsogridApi {
   frames(n: number, fresh?: boolean): Promise<{ wallMs: number; encodeMs: number; gpuMs: number | null; passMs: Record<string, number> | null; cells: { full: number; probe: number; new: number } }>;
   /** The value target of the last frame: f32 rows top to bottom, base64 (NaN: miss or no value). */
   values(): Promise<string>;
+  /** The hit cluster under each pixel, u32 (0xffffffff on a miss), base64. */
+  clusters(): Promise<string>;
   /** What pixel (x, y) of the last frame shows: cluster, record, value, and the label's name. */
   pick(x: number, y: number): Promise<{ cluster: number; record: number; value: number; label: string | null } | null>;
   stats: Record<string, unknown>;
@@ -56,21 +58,24 @@ const firstDrawn = (() => {
 const ready = new Promise<void>((resolve, reject) => (settle = { resolve, reject }));
 ready.catch(() => {}); // reported in the page; a test reads the rejection itself
 const stats: Record<string, unknown> = { frameLog: [] };
+/** A target's bytes as base64, for `window.isogrid`'s readers (puppeteer passes strings). */
+function base64(bytes: Uint8Array): string {
+  let s = '';
+  for (let i = 0; i < bytes.length; i += 0x8000) s += String.fromCharCode(...bytes.subarray(i, i + 0x8000));
+  return btoa(s);
+}
 window.isogrid = {
   ready,
   stats,
   async pixels() {
     if (!renderer) throw new Error('nothing rendered');
-    const px = await renderer.readPixels();
-    let s = '';
-    for (let i = 0; i < px.length; i += 0x8000) s += String.fromCharCode(...px.subarray(i, i + 0x8000));
-    return btoa(s);
+    return base64(await renderer.readPixels());
   },
   async values() {
-    const v = new Uint8Array((await renderer!.readValues()).buffer);
-    let s = '';
-    for (let i = 0; i < v.length; i += 0x8000) s += String.fromCharCode(...v.subarray(i, i + 0x8000));
-    return btoa(s);
+    return base64(new Uint8Array((await renderer!.readValues()).buffer));
+  },
+  async clusters() {
+    return base64(new Uint8Array((await renderer!.readClusters()).buffer));
   },
   async pick(x, y) {
     const hit = await renderer!.readPixel(x, y);
@@ -361,7 +366,7 @@ async function load(src: ByteSource): Promise<void> {
       header(h) {
         header = h;
         const [lo, hi] = worldBounds(h);
-        renderer = new Renderer(device!, { precisionBits: h.precisionBits, spacing: h.spacing, isoCode: h.isoCode, bounds: [lo, hi], slotCount: h.slotCount, activeCells: h.activeCells, hideable: h.labels !== null }, params.get('ewa') !== '0', true, cellRasterParam, Number(params.get('pagebytes')) || undefined);
+        renderer = new Renderer(device!, { precisionBits: h.precisionBits, spacing: h.spacing, isoCode: h.isoCode, bounds: [lo, hi], slotCount: h.slotCount, activeCells: h.activeCells, labelGrid: h.labels !== null }, params.get('ewa') !== '0', true, cellRasterParam, Number(params.get('pagebytes')) || undefined);
         stats.headerAt = performance.now();
         renderer.compiled.then(() => {
           rendererReady = true;

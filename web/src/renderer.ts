@@ -21,7 +21,7 @@
 // outside the grid box, as natively.
 
 import { SHADERS } from 'isogrid:shaders';
-import { Camera, ClipPlane, frameUniforms, FLAG_BACKFACE, FLAG_EWA, FLAG_OCCLUSION, FRAME_UNIFORM_BYTES, MAX_COMPUTE_CELL_PIXELS, widestCellPixels } from './camera.js';
+import { Camera, ClipPlane, frameUniforms, FLAG_BACKFACE, FLAG_EWA, FLAG_LABELS, FLAG_OCCLUSION, FRAME_UNIFORM_BYTES, MAX_COMPUTE_CELL_PIXELS, widestCellPixels } from './camera.js';
 import { BOUND_SLOT, CLUSTER_SLOTS, SLOT_BYTES } from './cgc.js';
 import { COLOR_NONE, COLOR_UNIFORMS_BYTES, colorUniforms } from './colors.js';
 
@@ -57,8 +57,11 @@ export interface GridDesc {
   slotCount: number;
   /** Corner records (active cells) of the whole grid: pages are sized from what remains. */
   activeCells: number;
-  /** Whether clusters can be hidden (a label grid): pages then keep a copy of their metacells. */
-  hideable: boolean;
+  /**
+   * A label grid: clusters can be hidden (pages then keep a copy of their metacells), and where
+   * two labels' surfaces coincide the face a ray enters wins (FLAG_LABELS).
+   */
+  labelGrid: boolean;
 }
 
 interface Page {
@@ -473,7 +476,7 @@ export class Renderer {
     const dispatchArgs = fixed('dispatch arguments', DISPATCH_ARGS_BYTES, GPUBufferUsage.STORAGE | GPUBufferUsage.INDIRECT);
     const dispatch = d.createBindGroup({ label: `page ${p} dispatch arguments`, layout: this.layouts['dispatch args'], entries: [{ binding: 0, resource: { buffer: dispatchArgs } }] });
     const page: Page = {
-      metacells: this.grid.hideable ? new Uint8Array(slotCapacity * SLOT_BYTES) : null,
+      metacells: this.grid.labelGrid ? new Uint8Array(slotCapacity * SLOT_BYTES) : null,
       masked: false,
       firstSlot,
       slotCount: 0,
@@ -647,6 +650,10 @@ export class Renderer {
     if (this.occlusion) flags |= FLAG_OCCLUSION;
     if (backface) flags |= FLAG_BACKFACE;
     if (this.ewa) flags |= FLAG_EWA;
+    // Touching labels' surfaces coincide: the face a ray enters must win the depth test over the
+    // one it leaves, as natively (uniforms.rs), or an eye inside the grid or a clip plane through
+    // it sees their boundary speckle.
+    if (this.grid.labelGrid) flags |= FLAG_LABELS;
     d.queue.writeBuffer(this.uniforms, 0, frameUniforms(camera, this.grid, flags, this.frame++, clip));
     const enc = d.createCommandEncoder({ label: 'frame' });
     const timed = this.query && !this.query.busy ? this.query : null;
@@ -900,19 +907,25 @@ export class Renderer {
     return this.readTarget('color');
   }
 
-  /** The bytes of a 4-byte-per-pixel target, rows top to bottom. */
-  private async readTarget(which: 'color' | 'value'): Promise<Uint8Array> {
+  /** The hit cluster under each pixel (0xffffffff on a miss), rows top to bottom, for tests. */
+  async readClusters(): Promise<Uint32Array> {
+    const ids = new Uint32Array((await this.readTarget('ids', 8)).buffer);
+    return ids.filter((_, i) => i % 2 === 0);
+  }
+
+  /** The bytes of a target of `bytes` per pixel, rows top to bottom. */
+  private async readTarget(which: 'color' | 'value' | 'ids', bytes = 4): Promise<Uint8Array> {
     const T = this.targets!;
     const [w, h] = T.size;
-    const row = Math.ceil((w * 4) / 256) * 256;
+    const row = Math.ceil((w * bytes) / 256) * 256;
     const buf = this.device.createBuffer({ size: row * h, usage: GPUBufferUsage.COPY_DST | GPUBufferUsage.MAP_READ });
     const enc = this.device.createCommandEncoder();
     enc.copyTextureToBuffer({ texture: T.tex[which] }, { buffer: buf, bytesPerRow: row }, [w, h]);
     this.device.queue.submit([enc.finish()]);
     await buf.mapAsync(GPUMapMode.READ);
     const src = new Uint8Array(buf.getMappedRange());
-    const out = new Uint8Array(w * h * 4);
-    for (let y = 0; y < h; y++) out.set(src.subarray(y * row, y * row + w * 4), y * w * 4);
+    const out = new Uint8Array(w * h * bytes);
+    for (let y = 0; y < h; y++) out.set(src.subarray(y * row, y * row + w * bytes), y * w * bytes);
     buf.unmap();
     buf.destroy();
     return out;

@@ -2,7 +2,8 @@
 // picture against the native renderer's (`isogrid render --backend gpu`, lavapipe) for the same
 // file, camera and size, plain, coloured by an attribute (colours and the value under each pixel)
 // and a label grid in its labels' colours, with labels hidden (only their pixels change, against
-// the native cluster AOV) and picked by a click; the messages of damaged, truncated and
+// the native cluster AOV), picked by a click, and cut open by clip planes (the label under each
+// pixel against a march of the label volume); the messages of damaged, truncated and
 // version-mismatch files; loading
 // with Range requests (first frame before the last byte, each byte requested once) and from a
 // server without Range support. Skips, saying why, where a browser, WebGPU or the isogrid binary
@@ -19,7 +20,7 @@ import puppeteer from 'puppeteer-core';
 import { PNG } from 'pngjs';
 import { build } from '../build.mjs';
 import { startServer } from './server.mjs';
-import { isogridBinary, sphereFile, resealHeader, resealSection, realFiles, coloredSphereFile, labelFile, packedFile } from './fixtures.mjs';
+import { isogridBinary, sphereFile, resealHeader, resealSection, realFiles, coloredSphereFile, labelFile, labelAt, packedFile } from './fixtures.mjs';
 import { basis, presetCamera } from '../build/node/camera.js';
 import { parseCgc, labelText } from '../build/node/cgc.js';
 
@@ -112,6 +113,64 @@ function compare(a, b) {
 }
 
 /**
+ * The camera of `isogrid render --view N` over the grid box [0, hi]³ at SIZE and the unit
+ * direction of each pixel's centre ray, rows top to bottom, as the renderers cast them.
+ */
+function pixelRays(view, hi) {
+  const [w, h] = SIZE;
+  const cam = presetCamera(view, [0, 0, 0], [hi, hi, hi], w, h);
+  const [right, up, forward] = basis(cam);
+  const tan = Math.tan((cam.fovyDegrees * Math.PI) / 360);
+  const dirs = [];
+  for (let y = 0; y < h; y++) {
+    for (let x = 0; x < w; x++) {
+      const sx = (2 * (x + 0.5) / w - 1) * tan * (w / h);
+      const sy = (1 - 2 * (y + 0.5) / h) * tan;
+      const d = [0, 1, 2].map((a) => forward[a] + sx * right[a] + sy * up[a]);
+      const m = Math.hypot(...d);
+      dirs.push(d.map((v) => v / m));
+    }
+  }
+  return { eye: cam.eye, dirs };
+}
+
+/**
+ * The label each pixel of SIZE under `view` shows of `labelFile(n)` cut by a clip plane (axis
+ * `axis` at `at`, cutting away the larger coordinates, or the smaller with `flip`), by marching
+ * the label volume itself in steps of 1/20 voxel, each point taking its nearest sample's label
+ * (binary surfaces cross every edge at its midpoint): from the first kept point inside the grid,
+ * the label the ray enters at its first change of label, or the label it leaves where it enters
+ * the background; -1 where it meets no label.
+ */
+function clippedLabels(n, view, axis, at, flip) {
+  const { eye, dirs } = pixelRays(view, n - 1);
+  const kept = (p) => (flip ? p[axis] >= at : p[axis] <= at);
+  const inside = (p) => p.every((v) => v >= 0 && v <= n - 1);
+  return dirs.map((d) => {
+    let from = null;
+    let shown = -1;
+    for (let t = 0; t < 8 * n; t += 0.05) {
+      const p = eye.map((v, a) => v + t * d[a]);
+      if (!kept(p) || !inside(p)) {
+        if (from !== null) break;
+        continue;
+      }
+      const l = labelAt(...p.map(Math.round), n);
+      if (from === null) {
+        from = l;
+        if (l !== 0) shown = l; // a label cut open shows itself only where nothing is entered
+        continue;
+      }
+      if (l !== from) {
+        shown = l !== 0 ? l : from;
+        break;
+      }
+    }
+    return shown;
+  });
+}
+
+/**
  * The clipped sphere of `sphereFile()` (`generate sphere --size 48`: centre 23.5, radius 0.4·47,
  * index = world units) by ray casting the exact sphere, independently of the shaders: per pixel
  * of SIZE under `view`, 'near' where the first crossing is kept by the plane (axis `axis`, at
@@ -120,41 +179,31 @@ function compare(a, b) {
  * where the sampled surface may fall either way.
  */
 function clippedSphere(view, axis, at, flip, margin = 0.75) {
-  const [w, h] = SIZE;
-  const cam = presetCamera(view, [0, 0, 0], [47, 47, 47], w, h);
-  const [right, up, forward] = basis(cam);
-  const tan = Math.tan((cam.fovyDegrees * Math.PI) / 360);
+  const { eye, dirs } = pixelRays(view, 47);
   const centre = 23.5;
   const radius = 0.4 * 47;
   const kept = (p) => (flip ? p[axis] >= at : p[axis] <= at);
   const out = [];
-  for (let y = 0; y < h; y++) {
-    for (let x = 0; x < w; x++) {
-      const sx = (2 * (x + 0.5) / w - 1) * tan * (w / h);
-      const sy = (1 - 2 * (y + 0.5) / h) * tan;
-      let d = [0, 1, 2].map((a) => forward[a] + sx * right[a] + sy * up[a]);
-      const n = Math.hypot(...d);
-      d = d.map((v) => v / n);
-      const o = cam.eye.map((v) => v - centre);
-      const b = o[0] * d[0] + o[1] * d[1] + o[2] * d[2];
-      const disc = b * b - (o[0] ** 2 + o[1] ** 2 + o[2] ** 2 - radius * radius);
-      // The ray's distance from the centre against the radius: near the silhouette either way.
-      if (Math.abs(Math.sqrt(Math.max(0, o[0] ** 2 + o[1] ** 2 + o[2] ** 2 - b * b)) - radius) < margin) {
-        out.push('edge');
-        continue;
-      }
-      if (disc <= 0) {
-        out.push('miss');
-        continue;
-      }
-      const ts = [-b - Math.sqrt(disc), -b + Math.sqrt(disc)];
-      const pts = ts.map((t) => cam.eye.map((v, a) => v + t * d[a]));
-      if (pts.some((p) => Math.abs(p[axis] - at) < margin)) {
-        out.push('edge');
-        continue;
-      }
-      out.push(kept(pts[0]) ? 'near' : kept(pts[1]) ? 'far' : 'miss');
+  for (const d of dirs) {
+    const o = eye.map((v) => v - centre);
+    const b = o[0] * d[0] + o[1] * d[1] + o[2] * d[2];
+    const disc = b * b - (o[0] ** 2 + o[1] ** 2 + o[2] ** 2 - radius * radius);
+    // The ray's distance from the centre against the radius: near the silhouette either way.
+    if (Math.abs(Math.sqrt(Math.max(0, o[0] ** 2 + o[1] ** 2 + o[2] ** 2 - b * b)) - radius) < margin) {
+      out.push('edge');
+      continue;
     }
+    if (disc <= 0) {
+      out.push('miss');
+      continue;
+    }
+    const ts = [-b - Math.sqrt(disc), -b + Math.sqrt(disc)];
+    const pts = ts.map((t) => eye.map((v, a) => v + t * d[a]));
+    if (pts.some((p) => Math.abs(p[axis] - at) < margin)) {
+      out.push('edge');
+      continue;
+    }
+    out.push(kept(pts[0]) ? 'near' : kept(pts[1]) ? 'far' : 'miss');
   }
   return out;
 }
@@ -407,6 +456,35 @@ for (const B of BROWSERS) {
           assert.ok(asNative >= 0.99 * both && both > 500, `values as natively on ${asNative} of ${both}`);
           assert.equal(valueDiffs, 0, 'values differ');
           assert.ok(worst <= tolerance, `colours differ by ${worst}`);
+        }
+      });
+      await t.test('label grid cut open by a clip plane: where labels touch, the label the ray enters', async () => {
+        // Inside a cut-open label its surface and its neighbour's coincide on their boundary; the
+        // face the ray enters wins (FLAG_LABELS), as in every native renderer. The label under each
+        // pixel (its cluster's) against a march of the label volume, away from label edges.
+        const f = parseCgc(labelBytes);
+        for (const [view, clip, axis, fraction, flip] of [[2, 'z:0.5', 2, 0.5, false], [2, 'y:0.5', 1, 0.5, false], [1, 'z:0.45', 2, 0.45, false]]) {
+          const { page, outcome, stats } = await open(server.url, `src=/labels.cgc&view=${view}&size=${SIZE.join('x')}&clip=${clip}`);
+          assert.equal(outcome, 'ready', stats.message);
+          const ids = new Uint32Array(Buffer.from(await page.evaluate(() => window.isogrid.clusters()), 'base64').buffer.slice(0));
+          await page.close();
+          const shown = [...ids].map((k) => (k === 0xffffffff ? -1 : Number(f.labels.table[f.labels.clusterLabels[k]].value)));
+          const ref = clippedLabels(48, view, axis, 47 * fraction, flip);
+          const [w, h] = SIZE;
+          let inner = 0;
+          let agree = 0;
+          const seen = new Set();
+          for (let i = 0; i < w * h; i++) {
+            const [x, y] = [i % w, Math.floor(i / w)];
+            if (ref[i] < 0 || x < 1 || y < 1 || x >= w - 1 || y >= h - 1) continue;
+            if ([i - 1, i + 1, i - w, i + w].some((j) => ref[j] !== ref[i])) continue;
+            inner++;
+            seen.add(ref[i]);
+            if (shown[i] === ref[i]) agree++;
+          }
+          t.diagnostic(`${B.name} labels view ${view} clip ${clip}: ${agree} of ${inner} pixels inside labels ${[...seen].join(', ')} show the marched label`);
+          assert.ok(inner > 700 && seen.size >= 2, `${inner} pixels, labels ${[...seen]}`);
+          assert.ok(agree >= 0.995 * inner, `${agree} of ${inner}`);
         }
       });
       await t.test('label grid: label colours as isogrid render; hiding a label changes its pixels only; a click names the label', async () => {

@@ -57,6 +57,19 @@ test('the committed bundle (web/dist, embedded by isogrid serve) is the build of
   rmSync(fresh, { recursive: true });
 });
 
+test('the frame flags the viewer sets are those of common.wgsl and their Rust twins', async () => {
+  const camera = await import('../build/node/camera.js');
+  const wgsl = readFileSync(join(SHADER_DIR, 'common.wgsl'), 'utf8');
+  const rust = readFileSync(join(SHADER_DIR, '..', 'src', 'gpu_types.rs'), 'utf8');
+  const names = [...wgsl.matchAll(/^const (FLAG_\w+): u32/gm)].map((m) => m[1]);
+  assert.deepEqual(names, ['FLAG_OCCLUSION', 'FLAG_BACKFACE', 'FLAG_EWA', 'FLAG_LABELS']);
+  for (const name of names) {
+    const w = Number(new RegExp(`const ${name}: u32 = (\\d+)u;`).exec(wgsl)[1]);
+    const r = Number(new RegExp(`const ${name}: u32 = (\\d+);`).exec(rust)[1]);
+    assert.deepEqual([camera[name], camera[name]], [w, r], name);
+  }
+});
+
 test('the frame uniforms the viewer writes match the WGSL struct and its Rust twin (size, clip plane place)', async () => {
   const { frameUniforms, presetCamera, FRAME_UNIFORM_BYTES } = await import('../build/node/camera.js');
   const wgsl = readFileSync(join(SHADER_DIR, 'common.wgsl'), 'utf8');

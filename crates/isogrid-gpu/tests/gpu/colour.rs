@@ -202,8 +202,7 @@ fn label_means(
 }
 
 /// A label grid is drawn in its labels' colours on the GPU as on the CPU: the raster (Phong) gives
-/// each label's pixels the CPU's hue. The GPU tracer refuses label grids (its block walk assumes
-/// one metacell per position).
+/// each label's pixels the CPU's hue.
 #[test]
 fn label_grids_are_drawn_in_their_label_colours_like_the_cpu() {
     let Some(r) = renderer() else { return };
