@@ -1,12 +1,15 @@
 #!/usr/bin/env python3
-"""Label surfaces: isogrid's `extract(..., labels="all")` against VTK's vtkSurfaceNets3D, on the
-Desikan-Killiany atlas (data/atlas-desikankilliany.nii.gz, scripts/fetch_data.sh atlas) and the
-frog tissues (data/frogtissue.mhd), at one thread. Each run is a fresh process that loads the
-labels from a .npy copy first, so its peak-memory growth is the extraction's. Prints markdown
-tables for docs/benchmarks-labels.md.
+"""Label surfaces: isogrid's `extract(..., labels="all")` against vtkSurfaceNets3D (with and
+without its smoothing), vtkDiscreteFlyingEdges3D, zmesh and scikit-image one label at a time, at
+1 and 2 threads, on the Desikan-Killiany atlas (data/atlas-desikankilliany.nii.gz,
+scripts/fetch_data.sh atlas), PyVista's bundled frog tissues (frog_tissues.vti) and 256³ Voronoi
+supervoxels made here. Each run is a fresh process that loads the labels from a .npy copy first,
+so its peak-memory growth is the extraction's. Prints markdown tables for
+docs/benchmarks-labels.md.
 
-    python scripts/bench_labels.py            # needs isogrid (python/), vtk, nibabel, SimpleITK,
-                                              # scipy in the running Python
+    python scripts/bench_labels.py            # needs isogrid (python/), vtk, pyvista, zmesh,
+                                              # scikit-image, nibabel, scipy in the running Python;
+                                              # --volumes=atlas,frog for some of them
     python scripts/bench_labels.py --smooth   # also the --smooth table (scipy)
     python scripts/bench_labels.py --stream   # only the streamed table: `isogrid extract --labels`
                                               # of 512³ supervoxels in memory and within
@@ -31,7 +34,8 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 DATA = os.path.join(ROOT, "data")
 VOLUMES = {
     "atlas": "atlas-desikankilliany.nii.gz",
-    "frog": "frogtissue.mhd",
+    # PyVista's bundled examples/frog_tissues.vti (pyvista, a test dependency), read with VTK.
+    "frog": "pyvista:frog_tissues.vti",
     # Generated here: 256³ supervoxels, the Voronoi cells of 6,250 random seeds (the density of
     # 50,000 labels in 512³), as u16.
     "supervoxels": None,
@@ -56,6 +60,21 @@ def npy_of(name):
                 labels[start : start + (1 << 22)] = tree.query(grid[start : start + (1 << 22)], workers=2)[1] + 1
             np.save(path, labels.reshape(n, n, n))
         return path, (1.0, 1.0, 1.0), "uint16", (n, n, n)
+    if VOLUMES[name].startswith("pyvista:"):
+        import pyvista
+        import vtk
+        from vtk.util import numpy_support
+
+        reader = vtk.vtkXMLImageDataReader()
+        reader.SetFileName(os.path.join(os.path.dirname(pyvista.examples.__file__), VOLUMES[name][8:]))
+        reader.Update()
+        image = reader.GetOutput()
+        nx, ny, nz = image.GetDimensions()
+        a = numpy_support.vtk_to_numpy(image.GetPointData().GetScalars()).reshape(nz, ny, nx)
+        spacing = tuple(float(s) for s in image.GetSpacing())
+        if not os.path.exists(path):
+            np.save(path, a)
+        return path, spacing, str(a.dtype), a.shape
     src = os.path.join(DATA, VOLUMES[name])
     if src.endswith(".nii.gz"):
         import nibabel
@@ -88,90 +107,221 @@ def peak_rss_bytes():
     return int(line.split()[1]) * 1024
 
 
-def run_isogrid(path, spacing, smooth):
+def best_of(make, run):
+    """Best seconds of `run(make())` over REPEATS runs, fewer once 30 s have gone (one label at a
+    time on 6,250 supervoxels takes minutes); `make` builds the inputs outside the timing. Returns
+    the seconds and the last output, which stays alive for the peak."""
+    times = []
+    out = None
+    while len(times) < REPEATS and sum(times) < 30:
+        out = None  # one output alive at a time
+        args = make()
+        start = time.perf_counter()
+        out = run(args)
+        times.append(time.perf_counter() - start)
+    return min(times), out
+
+
+def run_isogrid(path, spacing, smooth, threads):
     import isogrid
 
     a = np.load(path)
     before = rss_bytes()
-    times = []
-    grid = None
-    for _ in range(REPEATS):
-        grid = None  # one grid alive at a time, as VTK keeps one output
-        start = time.perf_counter()
-        grid = isogrid.extract(a, labels="all", smooth=smooth, spacing=spacing, threads=1)
-        times.append(time.perf_counter() - start)
+    seconds, grid = best_of(
+        lambda: None,
+        lambda _: isogrid.extract(a, labels="all", smooth=smooth, spacing=spacing, threads=threads),
+    )
     peak = peak_rss_bytes()
-    data = grid.to_bytes()
     labels = grid.labels
     return {
-        "seconds": min(times),
+        "seconds": seconds,
         "peak_growth": peak - before,
-        "bytes": len(data),
+        "bytes": len(grid.to_bytes()),
         "cells": grid.active_cells,
         "labels": len(labels),
         "empty_labels": sum(1 for l in labels if l["cells"] == 0),
     }
 
 
-def run_vtk(path, spacing, smooth):
+def updated(algorithm):
+    algorithm.Update()
+    return algorithm
+
+
+def vtk_image(path, spacing, threads):
+    """The labels as vtkImageData sharing the array's memory, and VTK's SMP backend set for
+    `threads`: Sequential for one, the wheel's STDThread pool of `threads` otherwise."""
     import vtk
     from vtk.util import numpy_support
 
-    vtk.vtkSMPTools.SetBackend("Sequential")
+    if threads == 1:
+        vtk.vtkSMPTools.SetBackend("Sequential")
+    else:
+        vtk.vtkSMPTools.SetBackend("STDThread")
+        vtk.vtkSMPTools.Initialize(threads)
     a = np.load(path)
     image = vtk.vtkImageData()
     image.SetDimensions(a.shape[2], a.shape[1], a.shape[0])
     image.SetSpacing(*spacing)
-    scalars = numpy_support.numpy_to_vtk(a.ravel(order="C"), deep=False)
-    image.GetPointData().SetScalars(scalars)
+    image.GetPointData().SetScalars(numpy_support.numpy_to_vtk(a.ravel(order="C"), deep=False))
+    values = np.unique(a)
+    return a, image, values[values != 0]
+
+
+def run_vtk_mesher(path, spacing, threads, make, compact):
+    """Times `make(image, values)`'s VTK filter over the labels; its mesh's points and cells,
+    VTK's own count of its memory and `compact(points, cells)`."""
+    _, image, values = vtk_image(path, spacing, threads)
     before = rss_bytes()
-    times = []
-    for _ in range(REPEATS):
+    seconds, algorithm = best_of(lambda: make(image, values), updated)
+    peak = peak_rss_bytes()
+    mesh = algorithm.GetOutput()
+    points = mesh.GetNumberOfPoints()
+    cells = mesh.GetNumberOfCells()
+    return {
+        "seconds": seconds,
+        "peak_growth": peak - before,
+        "points": points,
+        "faces": cells,
+        "held_bytes": mesh.GetActualMemorySize() * 1024,  # GetActualMemorySize is in KiB
+        "compact_bytes": compact(points, cells),
+    }
+
+
+def run_vtk(path, spacing, smooth, threads):
+    """vtkSurfaceNets3D, every non-zero label set, quads out (each with its two boundary labels).
+    Compact: the paper's Table 3 count of MC meshes, 6 B per vertex (snorm16) and 4 B per index,
+    plus the two labels of each quad at 2 B each."""
+    import vtk
+
+    def make(image, values):
         nets = vtk.vtkSurfaceNets3D()
         nets.SetInputData(image)
         nets.SetBackgroundLabel(0)
         nets.SetOutputMeshTypeToQuads()
-        if smooth:
-            nets.SmoothingOn()
-        else:
-            nets.SmoothingOff()
-        values = np.unique(a)
-        values = values[values != 0]
+        nets.SetSmoothing(bool(smooth))
         nets.SetNumberOfLabels(len(values))
         for i, v in enumerate(values):
             nets.SetLabel(i, float(v))
-        start = time.perf_counter()
-        nets.Update()
-        times.append(time.perf_counter() - start)
+        return nets
+
+    return run_vtk_mesher(path, spacing, threads, make, lambda points, quads: points * 6 + quads * (16 + 4))
+
+
+def run_dfe(path, spacing, smooth, threads):
+    """vtkDiscreteFlyingEdges3D, one contour value per non-zero label: triangles, each point's
+    label as its scalar. Compact: 6 B per vertex and 12 B per triangle (Table 3), plus each point's
+    label at 2 B."""
+    import vtk
+
+    def make(image, values):
+        dfe = vtk.vtkDiscreteFlyingEdges3D()
+        dfe.SetInputData(image)
+        dfe.SetNumberOfContours(len(values))
+        for i, v in enumerate(values):
+            dfe.SetValue(i, float(v))
+        return dfe
+
+    return run_vtk_mesher(path, spacing, threads, make, lambda points, triangles: points * 8 + triangles * 12)
+
+
+def run_zmesh(path, spacing, smooth, threads):
+    """zmesh's multi-label marching cubes (one thread: zmesh has no parallel mode), then every
+    label's mesh taken out with `get`, as a user reads them; no normals, no simplification."""
+    import zmesh
+
+    a = np.load(path)
+    before = rss_bytes()
+    xyz = np.asfortranarray(a.transpose(2, 1, 0))  # zmesh takes (x, y, z) arrays
+
+    def run(_):
+        mesher = zmesh.Mesher(spacing)
+        mesher.mesh(xyz)
+        meshes = [mesher.get(label, normals=False) for label in mesher.ids()]
+        mesher.clear()
+        return meshes
+
+    seconds, meshes = best_of(lambda: None, run)
     peak = peak_rss_bytes()
-    mesh = nets.GetOutput()
-    points = mesh.GetNumberOfPoints()
-    quads = mesh.GetNumberOfCells()
+    points = sum(len(m.vertices) for m in meshes)
+    triangles = sum(len(m.faces) for m in meshes)
     return {
-        "seconds": min(times),
+        "seconds": seconds,
         "peak_growth": peak - before,
         "points": points,
-        "quads": quads,
-        # VTK's own count of the mesh in memory (points, quads, boundary labels), in KiB.
-        "vtk_bytes": mesh.GetActualMemorySize() * 1024,
-        # The mesh as compact as the paper's Table 3 counts MC meshes: 6 B per vertex (snorm16),
-        # 4 B per index, plus the two labels of each quad at 2 B each.
-        "compact_bytes": points * 6 + quads * (16 + 4),
+        "faces": triangles,
+        "held_bytes": sum(m.vertices.nbytes + m.faces.nbytes for m in meshes),
+        "compact_bytes": points * 6 + triangles * 12,
     }
 
 
-def child(tool, path, spacing, smooth):
-    fn = {"isogrid": run_isogrid, "vtk": run_vtk}[tool]
-    print(json.dumps(fn(path, tuple(spacing), smooth)))
+def run_skimage(path, spacing, smooth, threads):
+    """scikit-image's marching_cubes one label at a time, each on its box (scipy's find_objects)
+    grown by one sample, shifted back into place; labels spread over `threads` Python threads."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from scipy import ndimage
+    from skimage.measure import marching_cubes
+
+    a = np.load(path)
+    before = rss_bytes()
+    zyx_spacing = tuple(spacing[::-1])
+
+    def one(item):
+        index, box = item
+        lo = [max(b.start - 1, 0) for b in box]
+        hi = [min(b.stop + 1, n) for b, n in zip(box, a.shape)]
+        verts, faces, _, _ = marching_cubes(
+            a[lo[0] : hi[0], lo[1] : hi[1], lo[2] : hi[2]] == index + 1, 0.5, spacing=zyx_spacing
+        )
+        verts += np.array(lo, np.float32) * zyx_spacing
+        return verts, faces
+
+    def run(_):
+        boxes = [(i, b) for i, b in enumerate(ndimage.find_objects(a)) if b is not None]
+        with ThreadPoolExecutor(threads) as pool:
+            return list(pool.map(one, boxes))
+
+    seconds, meshes = best_of(lambda: None, run)
+    peak = peak_rss_bytes()
+    points = sum(len(v) for v, _ in meshes)
+    triangles = sum(len(f) for _, f in meshes)
+    return {
+        "seconds": seconds,
+        "peak_growth": peak - before,
+        "points": points,
+        "faces": triangles,
+        "held_bytes": sum(v.nbytes + f.nbytes for v, f in meshes),
+        "compact_bytes": points * 6 + triangles * 12,
+    }
 
 
-def measure(tool, path, spacing, smooth):
+# (row, tool, smoothing, thread counts), isogrid first in each group: the peers' rows compare the
+# .cgc of the same smoothing with their mesh.
+PEERS = [
+    ("isogrid, σ = 0", "isogrid", 0.0, (1, 2)),
+    ("vtkSurfaceNets3D", "vtk", False, (1, 2)),
+    ("vtkDiscreteFlyingEdges3D", "dfe", False, (1, 2)),
+    ("zmesh", "zmesh", False, (1,)),
+    ("scikit-image, one label at a time", "skimage", False, (1, 2)),
+    ("isogrid, σ = 1", "isogrid", 1.0, (1, 2)),
+    ("vtkSurfaceNets3D, smoothing", "vtk", True, (1, 2)),
+]
+
+TOOLS = {"isogrid": run_isogrid, "vtk": run_vtk, "dfe": run_dfe, "zmesh": run_zmesh, "skimage": run_skimage}
+
+
+def child(tool, path, spacing, smooth, threads):
+    print(json.dumps(TOOLS[tool](path, tuple(spacing), smooth, threads)))
+
+
+def measure(tool, path, spacing, smooth, threads=1):
     out = subprocess.run(
-        [sys.executable, __file__, "child", tool, path, json.dumps(spacing), json.dumps(smooth)],
+        [sys.executable, __file__, "child", tool, path, json.dumps(spacing), json.dumps(smooth), str(threads)],
         check=True,
         capture_output=True,
         text=True,
-        env={**os.environ, "OMP_NUM_THREADS": "1", "RAYON_NUM_THREADS": "1"},
+        env={**os.environ, "OMP_NUM_THREADS": str(threads), "RAYON_NUM_THREADS": str(threads)},
     )
     return json.loads(out.stdout.strip().splitlines()[-1])
 
@@ -418,29 +568,33 @@ def main():
         stream_2048_table()
         return
     smooth_table = "--smooth" in sys.argv
-    print("| volume | dims (x×y×z) | type | labels | tool | seconds | peak memory growth | active cells / vertices, quads | output bytes |")
-    print("|---|---|---|---|---|---|---|---|---|")
-    for name in VOLUMES:
+    only = [a.split("=", 1)[1] for a in sys.argv if a.startswith("--volumes=")]
+    names = only[0].split(",") if only else list(VOLUMES)
+    for name in names:
         path, spacing, dtype, shape = npy_of(name)
         dims = "×".join(str(d) for d in shape[::-1])
-        for smooth in (0.0, 1.0):
-            g = measure("isogrid", path, list(spacing), smooth)
-            v = measure("vtk", path, list(spacing), bool(smooth))
-            tag = " (smoothed)" if smooth else ""
-            print(
-                f"| {name} | {dims} | {dtype} | {g['labels']} | isogrid{tag} σ={smooth:g} | {g['seconds']:.3f} | "
-                f"{mb(g['peak_growth'])} | {g['cells']:,} cells | {mb(g['bytes'])} (.cgc) |"
-            )
-            print(
-                f"| {name} | {dims} | {dtype} | {g['labels']} | vtkSurfaceNets3D{tag} | {v['seconds']:.3f} | "
-                f"{mb(v['peak_growth'])} | {v['points']:,} / {v['quads']:,} | {mb(v['vtk_bytes'])} in VTK, "
-                f"{mb(v['compact_bytes'])} compact |"
-            )
-            print(
-                f"| | | | | ratio | {g['seconds'] / v['seconds']:.2f} | | | {g['bytes'] / v['vtk_bytes']:.2f} of VTK's, "
-                f"{g['bytes'] / v['compact_bytes']:.2f} of compact |",
-                flush=True,
-            )
+        print(f"\n### {name}: {dims} {dtype}\n")
+        print("| tool | 1 thread | 2 threads | peak memory growth, 1 / 2 threads | output | in memory | compact | .cgc / in memory | .cgc / compact |")
+        print("|---|---|---|---|---|---|---|---|---|")
+        cgc = {}
+        nets = {}
+        for label, tool, smooth, thread_counts in PEERS:
+            runs = [measure(tool, path, list(spacing), smooth, t) for t in thread_counts]
+            one = runs[0]
+            two = f"{runs[1]['seconds']:.3f} s" if len(runs) > 1 else "(one thread)"
+            peaks = " / ".join(mb(r["peak_growth"]) for r in runs)
+            if tool == "isogrid":
+                cgc[smooth] = one["bytes"]
+                print(f"| {label} | {one['seconds']:.3f} s | {two} | {peaks} | {one['cells']:,} cells, "
+                      f"{one['labels']} labels | {mb(one['bytes'])} (.cgc) | | | |", flush=True)
+                continue
+            key = bool(smooth)
+            if tool == "vtk":
+                nets[key] = one["seconds"]
+            kind = "quads" if tool == "vtk" else "triangles"
+            print(f"| {label} | {one['seconds']:.3f} s | {two} | {peaks} | {one['points']:,} vertices, "
+                  f"{one['faces']:,} {kind} | {mb(one['held_bytes'])} | {mb(one['compact_bytes'])} | "
+                  f"{cgc[key] / one['held_bytes']:.2f} | {cgc[key] / one['compact_bytes']:.2f} |", flush=True)
     if smooth_table:
         print()
         print("| volume | σ | seconds | active cells | .cgc bytes | labels without cells | voxels changing label |")
@@ -460,6 +614,6 @@ def main():
 
 if __name__ == "__main__":
     if len(sys.argv) > 1 and sys.argv[1] == "child":
-        child(sys.argv[2], sys.argv[3], json.loads(sys.argv[4]), json.loads(sys.argv[5]))
+        child(sys.argv[2], sys.argv[3], json.loads(sys.argv[4]), json.loads(sys.argv[5]), int(sys.argv[6]))
     else:
         main()
