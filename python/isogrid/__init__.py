@@ -487,7 +487,7 @@ def load_volume(
     """Reads a volume file: NIfTI-1 (``.nii``, ``.nii.gz``), NRRD (``.nrrd``, ``.nhdr``), NumPy
     ``.npy``, TIFF stacks or a folder of TIFF slices, a DICOM series (a folder), MetaImage
     (``.mha``, ``.mhd`` + data file; raw or zlib), MRC/CCP4 maps (``.mrc``, ``.map``, ``.ccp4``,
-    ``.mrcs``), Zarr v2/v3 and OME-Zarr 0.4/0.5 (a folder, or an ``http://`` URL), or headerless
+    ``.mrcs``), VTK XML image data (``.vti``), Zarr v2/v3 and OME-Zarr 0.4/0.5 (a folder, or an ``http://`` URL), or headerless
     raw samples. Other names are recognised by their content.
 
     Samples keep the file's storage order (no reorientation or resampling) and come back as a

@@ -66,3 +66,24 @@ def cli():
         "isogrid CLI not built: run `cargo build --release -p isogrid-cli` in the repository "
         "(or set ISOGRID_CLI=/path/to/isogrid)"
     )
+
+
+def vtk_reads_vti(path):
+    """VTK's `vtkXMLImageDataReader`'s view of a `.vti` (the reference the `.vti` reader is
+    checked against): (z, y, x) point scalars, spacing, the world position of the extent's first
+    sample, and the axes' world directions as rows."""
+    vtk = pytest.importorskip("vtk")
+    from vtk.util import numpy_support
+
+    reader = vtk.vtkXMLImageDataReader()
+    reader.SetFileName(str(path))
+    reader.Update()
+    image = reader.GetOutput()
+    nx, ny, nz = image.GetDimensions()
+    values = numpy_support.vtk_to_numpy(image.GetPointData().GetScalars()).reshape(nz, ny, nx)
+    e = image.GetExtent()
+    first = [0.0, 0.0, 0.0]
+    image.TransformIndexToPhysicalPoint(e[0], e[2], e[4], first)
+    d = image.GetDirectionMatrix()
+    rows = np.array([[d.GetElement(r, a) for r in range(3)] for a in range(3)])
+    return np.ascontiguousarray(values), tuple(image.GetSpacing()), first, rows

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import isogrid
-from conftest import REPO
+from conftest import REPO, vtk_reads_vti
 
 
 def _labels(shape=(26, 29, 33)):
@@ -102,17 +102,8 @@ def _frog_tissues():
     """PyVista's bundled examples/frog_tissues.vti (500×470×136 u8, spacing 1, 1, 1.5, 25
     tissues), read with VTK's own reader, as (z, y, x) and its spacing (x, y, z)."""
     pyvista = pytest.importorskip("pyvista")
-    import vtk
-    from vtk.util import numpy_support
-
-    path = Path(pyvista.examples.__file__).parent / "frog_tissues.vti"
-    reader = vtk.vtkXMLImageDataReader()
-    reader.SetFileName(str(path))
-    reader.Update()
-    image = reader.GetOutput()
-    nx, ny, nz = image.GetDimensions()
-    a = numpy_support.vtk_to_numpy(image.GetPointData().GetScalars()).reshape(nz, ny, nx)
-    return np.ascontiguousarray(a), tuple(image.GetSpacing())
+    values, spacing, _, _ = vtk_reads_vti(Path(pyvista.examples.__file__).parent / "frog_tissues.vti")
+    return values, spacing
 
 
 def test_the_fetched_frog_is_what_vtk_reads():

@@ -1,5 +1,5 @@
 //! Volume file formats for isogrid: NIfTI-1, NRRD, NumPy `.npy`, raw, DICOM series, TIFF
-//! stacks, MetaImage and MRC/CCP4 maps, read into an [`isogrid::Volume`], and NRRD written back;
+//! stacks, MetaImage, MRC/CCP4 maps and VTK XML image data (`.vti`), read into an [`isogrid::Volume`], and NRRD written back;
 //! label volumes with the names and colours their files give, and colour tables ([`labels`]); triangle meshes ([`mesh`]) and
 //! their solid voxelisation into coverage volumes ([`voxelize`], paper §4).
 //!
@@ -26,6 +26,7 @@ pub mod raw;
 pub mod region;
 pub mod tiff;
 pub mod voxelize;
+pub mod vti;
 
 mod data_file;
 mod files_read;
@@ -48,3 +49,4 @@ pub use read_options::ssl_cert_file_from_env;
 pub use read_options::ReadOptions;
 pub use region::{open_region, ZarrOptions};
 pub use tiff::read_tiff;
+pub use vti::read_vti;

@@ -10,7 +10,7 @@ use std::path::Path;
 /// Reads a volume, detecting the format from the path: a Zarr store or OME-Zarr image (see
 /// [`crate::region`]); a folder of 2-D TIFF slices; another directory or a `.dcm` file (or one
 /// with the `DICM` marker) = DICOM (see [`crate::dicom`]); `.nii`/`.nii.gz`; `.nrrd`/`.nhdr`;
-/// `.npy`; `.tif`/`.tiff`; `.mha`/`.mhd`; `.mrc`/`.map`/`.ccp4`/`.mrcs`; any file when `opts.raw` is set
+/// `.npy`; `.tif`/`.tiff`; `.mha`/`.mhd`; `.mrc`/`.map`/`.ccp4`/`.mrcs`; `.vti`; any file when `opts.raw` is set
 /// (`.raw`/`.bin` without it are an error asking for the spec). Other names are sniffed by
 /// their magic bytes. Errors name `path`. Notices are dropped; see [`read_volume_noted`].
 pub fn read_volume(path: &Path, opts: &ReadOptions) -> Result<Volume> {
@@ -101,6 +101,9 @@ fn read_single(path: &Path, opts: &ReadOptions) -> Result<Volume> {
     }
     if ends(".mrc") || ends(".map") || ends(".ccp4") || ends(".mrcs") {
         return crate::read_mrc(path);
+    }
+    if ends(".vti") {
+        return crate::read_vti(path);
     }
     if ends(".raw") || ends(".bin") {
         return Err(

@@ -1,6 +1,6 @@
 //! Integration tests of isogrid-io, one binary: readers against files written by other tools
 //! (nibabel, pynrrd, numpy, pydicom, tifffile, SimpleITK, mrcfile; see
-//! scripts/make_io_fixtures.py), DICOM series written with dicom-object, bad input, and the NRRD
+//! scripts/make_io_fixtures.py; VTK for `.vti`), DICOM series written with dicom-object, bad input, and the NRRD
 //! writer.
 
 mod bad_input;
@@ -12,6 +12,7 @@ mod metaimage;
 mod mrc;
 mod readers;
 mod region;
+mod vti;
 mod write_nrrd;
 #[cfg(feature = "zarr")]
 mod zarr;
