@@ -10,7 +10,7 @@ isovalue 0.5 (the boundary of the labelled region against the background). Print
 table of the timestamp-query medians (frame, raster, shade; ms).
 
 Volumes (`scripts/fetch_data.sh atlas frog`, and `scripts/bench_labels.py`'s 512³ supervoxels as a
-Zarr store), from --data DIR: atlas-desikankilliany.nii.gz (83 labels), frog_tissues.nrrd (25
+Zarr store), from --data DIR: atlas-desikankilliany.nii.gz (83 labels), frog_tissues.vti (25
 labels), bench-labels-supervoxels512.zarr (about 50,000 labels); missing ones are skipped.
 
     python3 scripts/bench_gpu_labels.py [--exe target/release/isogrid] [--frames 10] [--out FILE.md]
@@ -23,7 +23,7 @@ from gpu_render_bench import add_options, emit, fmt, render_gpu_ms, run
 
 VOLUMES = [
     ("Desikan-Killiany atlas", "atlas-desikankilliany.nii.gz"),
-    ("frog tissues", "frog_tissues.nrrd"),
+    ("frog tissues", "frog_tissues.vti"),
     ("supervoxels 512³", "bench-labels-supervoxels512.zarr"),
 ]
 

