@@ -100,9 +100,13 @@ fn parse(bytes: &[u8]) -> Result<Volume> {
             layout.pieces
         )));
     }
+    // A span beyond usize (or i64) is too large: as usize::MAX, sample_count refuses it.
     let dims: [usize; 3] = std::array::from_fn(|a| {
-        let n = extent[2 * a + 1] - extent[2 * a] + 1;
-        usize::try_from(n).unwrap_or(0)
+        extent[2 * a + 1]
+            .checked_sub(extent[2 * a])
+            .and_then(|n| n.checked_add(1))
+            .and_then(|n| usize::try_from(n).ok())
+            .unwrap_or(usize::MAX)
     });
     let count = sample_count(dims)?;
     let array = match layout.array.take() {

@@ -87,3 +87,25 @@ fn every_truncation_is_refused_or_reads_the_whole_volume() {
         );
     }
 }
+
+#[test]
+fn extents_beyond_any_volume_are_refused_before_anything_is_read() {
+    let dir = TempDir::new("vti-extent");
+    for extent in [
+        "-9223372036854775808 9223372036854775807 0 0 0 0",
+        "0 4000000 0 4000000 0 4000000",
+    ] {
+        let path = dir.file(
+            "huge.vti",
+            format!(
+                "<VTKFile type=\"ImageData\" version=\"1.0\"><ImageData WholeExtent=\"{extent}\">\
+                 <Piece Extent=\"{extent}\"><PointData><DataArray type=\"UInt8\" Name=\"v\" \
+                 format=\"ascii\">1 2 3</DataArray></PointData></Piece></ImageData></VTKFile>"
+            )
+            .as_bytes(),
+        );
+        let e = read_volume(&path, &ReadOptions::default()).unwrap_err();
+        assert_eq!(e.kind(), isogrid::ErrorKind::TooLarge, "{e}");
+        assert!(e.to_string().contains("huge.vti"), "{e}");
+    }
+}
