@@ -51,6 +51,33 @@ def test_load_volume_matches_zarr_python(tmp_path, name):
     assert same_grid(isogrid.extract(path, iso_normalized=0.4), isogrid.extract(reference, iso_normalized=0.4))
 
 
+# The narrow types and the one they are kept as: bool as 0 and 1 in uint8, int8 widened to int16.
+NARROW = [(np.bool_, np.uint8), (np.int8, np.int16), (np.uint8, np.uint8), (np.int16, np.int16), (np.float32, np.float32)]
+
+
+@pytest.mark.parametrize("zarr_format", [2, 3])
+@pytest.mark.parametrize("dtype, kept", NARROW, ids=[np.dtype(d).name for d, _ in NARROW])
+def test_narrow_types_read_as_zarr_python_wrote_them(tmp_path, zarr_format, dtype, kept):
+    v = volume().astype(np.int64)
+    data = {
+        np.bool_: v < 150,
+        np.int8: np.clip(v - 300, -128, 127),
+        np.uint8: np.clip(v, 0, 255),
+        np.int16: v - 1000,
+        np.float32: v * 0.5 - 7.0,
+    }[dtype].astype(dtype)
+    path = tmp_path / "a.zarr"
+    a = zarr.create_array(store=str(path), shape=data.shape, dtype=data.dtype, chunks=(9, 10, 11), zarr_format=zarr_format)
+    a[...] = data
+    reference = zarr.open_array(str(path), mode="r")[...]
+    assert reference.dtype == np.dtype(dtype)
+    got = isogrid.load_volume(path)
+    assert got.array.dtype == np.dtype(kept)
+    np.testing.assert_array_equal(got.array, reference.astype(kept))
+    iso = 0.5 if dtype is np.bool_ else float(np.median(reference)) + 0.25
+    assert same_grid(isogrid.extract(path, iso=iso), isogrid.extract(reference.astype(kept), iso=iso))
+
+
 def test_ome_zarr_levels_and_indices_match_zarr_python():
     path = FIXTURES / "ome_v04.zarr"
     group = zarr.open_group(str(path), mode="r")

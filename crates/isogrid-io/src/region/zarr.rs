@@ -19,6 +19,7 @@ mod file_store;
 mod rows;
 
 use super::ZarrOptions;
+use crate::samples::ElemType;
 use isogrid::extract::stream::{BlockMask, RegionSource, SlabMut};
 use isogrid::{Error, Geometry, Result, ScalarType};
 use serde_json::Value;
@@ -27,58 +28,41 @@ use std::sync::Arc;
 use zarrs::array::{Array, ArraySubset};
 use zarrs::storage::{ReadableStorage, ReadableStorageTraits, StoreKey};
 
-/// The stored element types this reader accepts.
+/// The stored element types this reader accepts: the element types of the other readers, and
+/// bool, kept as u8 (0 or 1).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Stored {
     Bool,
-    U8,
-    I8,
-    U16,
-    I16,
-    U32,
-    I32,
-    U64,
-    I64,
-    F32,
-    F64,
+    Elem(ElemType),
 }
 
 impl Stored {
     fn parse(name: &str) -> Option<Self> {
-        Some(match name {
-            "bool" => Stored::Bool,
-            "uint8" => Stored::U8,
-            "int8" => Stored::I8,
-            "uint16" => Stored::U16,
-            "int16" => Stored::I16,
-            "uint32" => Stored::U32,
-            "int32" => Stored::I32,
-            "uint64" => Stored::U64,
-            "int64" => Stored::I64,
-            "float32" => Stored::F32,
-            "float64" => Stored::F64,
+        Some(Stored::Elem(match name {
+            "bool" => return Some(Stored::Bool),
+            "uint8" => ElemType::U8,
+            "int8" => ElemType::I8,
+            "uint16" => ElemType::U16,
+            "int16" => ElemType::I16,
+            "uint32" => ElemType::U32,
+            "int32" => ElemType::I32,
+            "uint64" => ElemType::U64,
+            "int64" => ElemType::I64,
+            "float32" => ElemType::F32,
+            "float64" => ElemType::F64,
             _ => return None,
-        })
+        }))
     }
     fn size(self) -> usize {
         match self {
-            Stored::Bool | Stored::U8 | Stored::I8 => 1,
-            Stored::U16 | Stored::I16 => 2,
-            Stored::U32 | Stored::I32 | Stored::F32 => 4,
-            Stored::U64 | Stored::I64 | Stored::F64 => 8,
+            Stored::Bool => 1,
+            Stored::Elem(e) => e.size(),
         }
     }
     fn kept(self) -> ScalarType {
         match self {
-            Stored::Bool | Stored::U8 => ScalarType::U8,
-            Stored::U16 => ScalarType::U16,
-            Stored::I8 | Stored::I16 => ScalarType::I16,
-            Stored::U32 => ScalarType::U32,
-            Stored::I32 => ScalarType::I32,
-            Stored::U64 => ScalarType::U64,
-            Stored::I64 => ScalarType::I64,
-            Stored::F32 => ScalarType::F32,
-            Stored::F64 => ScalarType::F64,
+            Stored::Bool => ScalarType::U8,
+            Stored::Elem(e) => e.kept(),
         }
     }
 }
@@ -629,19 +613,39 @@ impl ZarrSource {
         wanted: Option<&BlockMask>,
     ) -> Result<()> {
         match (self.stored, out) {
-            (Stored::U8, SlabMut::U8(o)) => self.read_into::<u8, u8>(&z, o, wanted, |v| v),
+            (Stored::Elem(ElemType::U8), SlabMut::U8(o)) => {
+                self.read_into::<u8, u8>(&z, o, wanted, |v| v)
+            }
             (Stored::Bool, SlabMut::U8(o)) => {
                 self.read_into::<bool, u8>(&z, o, wanted, |v| v as u8)
             }
-            (Stored::U16, SlabMut::U16(o)) => self.read_into::<u16, u16>(&z, o, wanted, |v| v),
-            (Stored::I16, SlabMut::I16(o)) => self.read_into::<i16, i16>(&z, o, wanted, |v| v),
-            (Stored::I8, SlabMut::I16(o)) => self.read_into::<i8, i16>(&z, o, wanted, |v| v as i16),
-            (Stored::F32, SlabMut::F32(o)) => self.read_into::<f32, f32>(&z, o, wanted, |v| v),
-            (Stored::U32, SlabMut::U32(o)) => self.read_into::<u32, u32>(&z, o, wanted, |v| v),
-            (Stored::I32, SlabMut::I32(o)) => self.read_into::<i32, i32>(&z, o, wanted, |v| v),
-            (Stored::U64, SlabMut::U64(o)) => self.read_into::<u64, u64>(&z, o, wanted, |v| v),
-            (Stored::I64, SlabMut::I64(o)) => self.read_into::<i64, i64>(&z, o, wanted, |v| v),
-            (Stored::F64, SlabMut::F64(o)) => self.read_into::<f64, f64>(&z, o, wanted, |v| v),
+            (Stored::Elem(ElemType::U16), SlabMut::U16(o)) => {
+                self.read_into::<u16, u16>(&z, o, wanted, |v| v)
+            }
+            (Stored::Elem(ElemType::I16), SlabMut::I16(o)) => {
+                self.read_into::<i16, i16>(&z, o, wanted, |v| v)
+            }
+            (Stored::Elem(ElemType::I8), SlabMut::I16(o)) => {
+                self.read_into::<i8, i16>(&z, o, wanted, |v| v as i16)
+            }
+            (Stored::Elem(ElemType::F32), SlabMut::F32(o)) => {
+                self.read_into::<f32, f32>(&z, o, wanted, |v| v)
+            }
+            (Stored::Elem(ElemType::U32), SlabMut::U32(o)) => {
+                self.read_into::<u32, u32>(&z, o, wanted, |v| v)
+            }
+            (Stored::Elem(ElemType::I32), SlabMut::I32(o)) => {
+                self.read_into::<i32, i32>(&z, o, wanted, |v| v)
+            }
+            (Stored::Elem(ElemType::U64), SlabMut::U64(o)) => {
+                self.read_into::<u64, u64>(&z, o, wanted, |v| v)
+            }
+            (Stored::Elem(ElemType::I64), SlabMut::I64(o)) => {
+                self.read_into::<i64, i64>(&z, o, wanted, |v| v)
+            }
+            (Stored::Elem(ElemType::F64), SlabMut::F64(o)) => {
+                self.read_into::<f64, f64>(&z, o, wanted, |v| v)
+            }
             _ => Err(Error::invalid("slab buffer type differs from the array's")),
         }
     }
