@@ -146,6 +146,26 @@ where
     Ok(staged)
 }
 
+/// `.NAME.ROLEPID` in the folder of `target` (NAME its file name, PID this process's), listed
+/// among the unfinished writes that an interrupt removes; nothing is created. Beside the target,
+/// so a later rename or copy stays on one disk.
+fn unfinished_path_beside(target: &Path, role: &str) -> Result<PathBuf> {
+    let dir = match target.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    let name = target
+        .file_name()
+        .ok_or_else(|| Error::invalid("output path has no file name").with_path(target))?;
+    let path = dir.join(format!(
+        ".{}.{role}{}",
+        name.to_string_lossy(),
+        std::process::id()
+    ));
+    list_unfinished(&path);
+    Ok(path)
+}
+
 /// A file a program writes for its own use and removes when done: removed when the guard is
 /// dropped (an error, a panic) and by [`remove_unfinished`] (an interrupt).
 #[derive(Debug)]
@@ -157,20 +177,9 @@ impl ScratchFile {
     /// A scratch path beside `target` (same folder, so a later rename or copy stays on one disk),
     /// named after it and this process; nothing is created yet.
     pub fn beside(target: &Path, role: &str) -> Result<Self> {
-        let dir = match target.parent() {
-            Some(d) if !d.as_os_str().is_empty() => d,
-            _ => Path::new("."),
-        };
-        let name = target
-            .file_name()
-            .ok_or_else(|| Error::invalid("output path has no file name").with_path(target))?;
-        let path = dir.join(format!(
-            ".{}.{role}{}",
-            name.to_string_lossy(),
-            std::process::id()
-        ));
-        list_unfinished(&path);
-        Ok(ScratchFile { path })
+        Ok(ScratchFile {
+            path: unfinished_path_beside(target, role)?,
+        })
     }
     pub fn path(&self) -> &Path {
         &self.path
@@ -245,19 +254,7 @@ impl Staged {
     /// A temporary path beside `path` (same folder, so the rename stays on one disk), named after
     /// it and this process, listed among the unfinished writes; nothing is created yet.
     fn beside(path: &Path) -> Result<Staged> {
-        let dir = match path.parent() {
-            Some(d) if !d.as_os_str().is_empty() => d,
-            _ => Path::new("."),
-        };
-        let name = path
-            .file_name()
-            .ok_or_else(|| Error::invalid("output path has no file name").with_path(path))?;
-        let tmp = dir.join(format!(
-            ".{}.tmp{}",
-            name.to_string_lossy(),
-            std::process::id()
-        ));
-        list_unfinished(&tmp);
+        let tmp = unfinished_path_beside(path, "tmp")?;
         Ok(Staged {
             tmp,
             path: path.to_path_buf(),
