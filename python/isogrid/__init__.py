@@ -47,8 +47,9 @@ uint32 16777217 is above 16777216.5, though no float32 tells the two apart).
 
 Errors: bad arguments raise ``ValueError``; files that cannot be opened raise ``OSError`` (e.g.
 ``FileNotFoundError``); malformed or unsupported files raise :class:`IsogridError`, a ``ValueError``.
-An isovalue that no cell crosses gives an empty grid and an :class:`EmptySurfaceWarning` that says
-why (as the command line's one-line note does).
+An isovalue that no cell crosses, or label volume none of whose selected labels has a boundary,
+gives an empty grid and an :class:`EmptySurfaceWarning` that says why (as the command line's
+one-line note does).
 """
 
 from __future__ import annotations
@@ -133,28 +134,18 @@ def _vulkan_device_select_quieted() -> Iterator[None]:
 
 
 class EmptySurfaceWarning(RuntimeWarning):
-    """:func:`extract` found no cell that crosses the isovalue: the grid, and its surface, are empty."""
+    """:func:`extract` found no cell that crosses the isovalue, or :func:`extract_labels` no selected
+    label with a boundary: the grid, and its surface, are empty."""
 
 
-def _warn_if_empty(grid: CellGrid) -> None:
+def _warn_if_empty(grid: CellGrid, samples: Optional[np.ndarray] = None) -> None:
+    """An :class:`EmptySurfaceWarning` saying why, when ``grid`` has no active cell: the reason
+    the CLI's note gives. ``samples``: the volume it was extracted from, where at hand, so that a
+    volume without a finite sample is named as such."""
     if grid.active_cells != 0:
         return
-    info = grid.info
-    lo, hi = info["value_range"]
-    iso = info["iso"]
-    if min(info["dims"]) < 2:
-        why = "the volume is one sample thick, so it has no cells"
-    elif iso > hi:
-        why = f"every sample is below it: they lie in [{lo:g}, {hi:g}]"
-    elif iso <= lo:
-        why = f"every sample is at or above it: they lie in [{lo:g}, {hi:g}]"
-    else:
-        why = f"the samples lie in [{lo:g}, {hi:g}]"
-    warnings.warn(
-        f"no cell crosses the isovalue {iso:g} ({why}); the surface is empty",
-        EmptySurfaceWarning,
-        stacklevel=3,
-    )
+    all_nan = samples is not None and samples.dtype.kind == "f" and not np.isfinite(samples).any()
+    warnings.warn(_isogrid._empty_surface_note(grid, all_nan), EmptySurfaceWarning, stacklevel=_caller_level())
 
 
 class Volume:
@@ -294,7 +285,7 @@ def extract(
         attribute=attribute_arg,
         progress=progress,
     )
-    _warn_if_empty(grid)
+    _warn_if_empty(grid, prepared)
     return grid
 
 
@@ -345,7 +336,9 @@ def extract_labels(
     Returns:
         The :class:`LabelGrid`: ``grid.labels`` gives each label's value, name, colour, cell count
         and cell box, ``grid.meshes()`` each label's ``(vertices, faces)``, and :func:`render`
-        draws it in the labels' colours.
+        draws it in the labels' colours. Where it has no active cell, an
+        :class:`EmptySurfaceWarning` says why (no selected label in the volume, one label filling
+        it, or a volume one sample thick).
     """
     selection = _label_selection("all" if labels is None else labels)
     common = dict(
@@ -367,6 +360,7 @@ def extract_labels(
             direction=None if direction is None else [_triple(row, "direction row") for row in direction],
             **common,
         )
+        _warn_if_empty(grid)
         return _with_notices(grid, notices)
     if labels_of is not None:
         raise ValueError("labels_of names a label image of an OME-Zarr image, and needs its path")
@@ -380,6 +374,7 @@ def extract_labels(
         direction=None if direction is None else [_triple(row, "direction row") for row in direction],
         **common,
     )
+    _warn_if_empty(grid)
     return _with_notices(grid, notices)
 
 
@@ -412,7 +407,7 @@ def _with_notices(grid: CellGrid, notices: Sequence[str]) -> Any:
 def _caller_level() -> int:
     """The ``stacklevel`` of the first frame outside this module, seen from its caller."""
     frame, level = sys._getframe(1), 1
-    while frame is not None and frame.f_globals.get("__name__") == __name__:
+    while frame is not None and frame.f_globals.get("__name__", "").split(".")[0] == __name__:
         frame, level = frame.f_back, level + 1
     return level
 

@@ -124,6 +124,7 @@ def _attach_attribute(
     bits: int = 16,
     threads: Optional[int] = None,
 ) -> None: ...
+def _empty_surface_note(grid: CellGrid, all_nan: bool = False) -> str: ...
 def marching_cubes(
     array: np.ndarray,
     fortran: bool,

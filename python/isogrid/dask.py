@@ -343,6 +343,9 @@ def _extract_labels(array: "da.Array", writer: Any, run: "_Runner", counter: "_C
     stats, notices = writer.write(out, None if label_table is None else os.fspath(label_table), names_of)
     for notice in notices:
         warnings.warn(notice, stacklevel=3)
+    if stats["active_cells"] == 0:
+        # As isogrid.extract_labels warns, from the file's header and label table.
+        _warn_if_empty(_isogrid.load(out))
     return stats
 
 

@@ -234,6 +234,17 @@ fn named(
     Ok((CellGrid::wrap(py, inner)?, notices))
 }
 
+/// Why `grid` has no active cell ([`isogrid::GridInfo::empty_surface_note`]), the text of
+/// `EmptySurfaceWarning`; `all_nan` says whether its volume had no finite sample.
+#[pyfunction]
+#[pyo3(signature = (grid, all_nan=false))]
+pub fn _empty_surface_note(grid: &Bound<'_, CellGrid>, all_nan: bool) -> String {
+    let inner = grid.get().inner();
+    inner
+        .info()
+        .empty_surface_note(inner.labels().map(|l| l.table()), || all_nan)
+}
+
 /// Gives the `.cgc` file `path` the attribute of the volume file `attribute_path` (read by region
 /// where its format allows, as `isogrid extract --color-by`), or of `array` (an `AttributeArg`),
 /// sampled at each active cell's surface point; the file is rewritten atomically. For

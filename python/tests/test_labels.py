@@ -5,6 +5,7 @@ when its eight corners are neither all L nor all other labels."""
 import json
 import pickle
 import subprocess
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -202,6 +203,35 @@ def test_selections_smoothing_and_refusals():
         isogrid.extract(a, iso=1, smooth=1.0)
     with pytest.raises(ValueError):
         isogrid.extract_labels(a, labels="1-x")
+
+
+def test_an_empty_label_surface_warns_with_its_reason(tmp_path):
+    plane = np.zeros((1, 6, 7), np.uint8)
+    plane[0, 2, 3] = 3
+    for a, why in [
+        (np.full((5, 6, 7), 7, np.uint8), "label 7 fills the whole volume"),
+        (np.zeros((5, 6, 7), np.int32), "the volume holds no selected label"),
+        (plane, "the volume is one sample thick"),
+    ]:
+        with pytest.warns(isogrid.EmptySurfaceWarning, match=f"no selected label has a surface \\({why}") as caught:
+            grid = isogrid.extract_labels(a)
+        assert grid.active_cells == 0
+        # Reported at the caller's line, as extract's warning is.
+        assert caught[0].filename == __file__
+        # The same from a path, and through extract(labels=...).
+        np.save(tmp_path / "a.npy", a)
+        with pytest.warns(isogrid.EmptySurfaceWarning, match=why):
+            isogrid.extract(tmp_path / "a.npy", labels="all")
+    # Dask's tiles say it the same way.
+    da = pytest.importorskip("dask.array")
+    with pytest.warns(isogrid.EmptySurfaceWarning) as by_dask:
+        pytest.importorskip("isogrid.dask").extract(da.from_array(np.full((5, 6, 7), 7, np.uint8)), labels="all", output=tmp_path / "d.cgc")
+    assert "label 7 fills the whole volume" in str(by_dask[0].message)
+    with pytest.warns(isogrid.EmptySurfaceWarning, match="after smoothing"):
+        isogrid.extract_labels(np.pad(np.ones((1, 1, 1), np.uint8), 4), smooth=1.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert isogrid.extract_labels(_labels()).active_cells > 0
 
 
 def test_labels_survive_files_and_pickling(tmp_path):

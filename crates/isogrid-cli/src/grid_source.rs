@@ -140,6 +140,7 @@ impl GridSource {
             let signed = isogrid::labels::signed_labels(grid.info().scalar_type);
             self.label.note_absent(&absent, signed);
         }
+        crate::report::note_if_empty(&self.input, &grid, None);
         Ok(grid)
     }
 }

@@ -9,44 +9,37 @@ use isogrid::{CellGrid, GridStats, Volume};
 use serde::Serialize;
 use std::path::Path;
 
-/// One line on stderr when `grid` (from `source`) has no active cell, saying why: an empty
-/// surface is a valid result, but a blank image or zero hits alone look like a failure elsewhere.
-/// `volume`: the samples it was extracted from, when at hand (not for a .cgc file).
+/// One line on stderr when `grid` (from `source`) has no active cell, saying why
+/// ([`isogrid::GridInfo::empty_surface_note`]). `volume`: the samples it was extracted from, when
+/// at hand (not for a .cgc file).
 pub fn note_if_empty(source: &Path, grid: &CellGrid, volume: Option<&Volume>) {
-    note_if_no_cells(source, grid.info(), grid.active_cells() as u64, || {
-        volume.is_some_and(|v| v.view().value_range().is_none())
-    });
+    let labels = grid.labels().map(|l| l.table());
+    note_if_no_cells(
+        source,
+        grid.info(),
+        grid.active_cells() as u64,
+        labels,
+        || volume.is_some_and(|v| v.view().value_range().is_none()),
+    );
 }
 
-/// [`note_if_empty`] from a grid's header and cell count (a streamed grid is never in memory).
-/// `all_nan` says whether the volume has no finite sample; asked only for an empty surface.
+/// [`note_if_empty`] from a grid's header, cell count and label table (a streamed grid is never
+/// in memory). `all_nan` says whether the volume has no finite sample; asked only for an empty
+/// isosurface.
 pub fn note_if_no_cells(
     source: &Path,
     info: &isogrid::GridInfo,
     active_cells: u64,
+    labels: Option<&[isogrid::Label]>,
     all_nan: impl FnOnce() -> bool,
 ) {
-    if active_cells != 0 {
-        return;
+    if active_cells == 0 {
+        eprintln!(
+            "isogrid: note: {}: {}",
+            source.display(),
+            info.empty_surface_note(labels, all_nan)
+        );
     }
-    let [lo, hi] = info.value_range;
-    let why = if info.cell_dims().contains(&0) {
-        "the volume is one sample thick, so it has no cells".to_string()
-    } else if all_nan() {
-        // The grid records [0, 0] as the range of a volume without finite samples.
-        "every sample is NaN".to_string()
-    } else if info.iso > hi {
-        format!("every sample is below it: they lie in [{lo}, {hi}]")
-    } else if info.iso <= lo {
-        format!("every sample is at or above it: they lie in [{lo}, {hi}]")
-    } else {
-        format!("the samples lie in [{lo}, {hi}]")
-    };
-    eprintln!(
-        "isogrid: note: {}: no cell crosses the isovalue {} ({why}); the surface is empty",
-        source.display(),
-        info.iso
-    );
 }
 
 #[derive(Serialize, Default, Clone, Copy)]

@@ -67,7 +67,62 @@ impl GridInfo {
     pub fn block_count(&self) -> usize {
         self.block_dims().iter().map(|&n| n as usize).product()
     }
+
+    /// Why a surface of this header has no active cell, as the one line the front doors show for
+    /// it (the CLI's note, Python's `EmptySurfaceWarning`): an empty surface is a valid result,
+    /// but a blank image or zero hits alone look like a failure elsewhere. `labels`: the label
+    /// table of a label grid, `None` for an isosurface. `all_nan` says whether the volume had no
+    /// finite sample; asked only for an isosurface whose cells do not already say why.
+    pub fn empty_surface_note(
+        &self,
+        labels: Option<&[crate::labels::Label]>,
+        all_nan: impl FnOnce() -> bool,
+    ) -> String {
+        let thin = self.cell_dims().contains(&0);
+        let Some(labels) = labels else {
+            // f32 samples in their own precision, not as the f64 that holds them.
+            let [lo, hi] = self.value_range.map(|v| match self.scalar_type {
+                ScalarType::F32 => (v as f32).to_string(),
+                _ => v.to_string(),
+            });
+            let why = if thin {
+                THIN.to_string()
+            } else if all_nan() {
+                // The grid records [0, 0] as the range of a volume without finite samples.
+                "every sample is NaN".to_string()
+            } else if self.iso > self.value_range[1] {
+                format!("every sample is below it: they lie in [{lo}, {hi}]")
+            } else if self.iso <= self.value_range[0] {
+                format!("every sample is at or above it: they lie in [{lo}, {hi}]")
+            } else {
+                format!("the samples lie in [{lo}, {hi}]")
+            };
+            return format!(
+                "no cell crosses the isovalue {} ({why}); the surface is empty",
+                self.iso
+            );
+        };
+        let signed = crate::labels::signed_labels(self.scalar_type);
+        let why = match labels {
+            _ if thin => THIN.to_string(),
+            [] => "the volume holds no selected label".to_string(),
+            // Unsmoothed corners are the indicator itself: a label present with no cell has no
+            // sample outside it, in a volume whose samples all belong to cells.
+            [one] if self.precision == crate::layout::Precision::Bits1 => format!(
+                "label {} fills the whole volume",
+                crate::labels::display_value(one.value, signed)
+            ),
+            _ if self.precision == crate::layout::Precision::Bits1 => {
+                "each selected label in it fills the whole volume".to_string()
+            }
+            _ => "after smoothing, no selected label's indicator crosses ½ in any cell".to_string(),
+        };
+        format!("no selected label has a surface ({why}); the surface is empty")
+    }
 }
+
+/// Why a volume one sample thick along an axis has no surface.
+const THIN: &str = "the volume is one sample thick, so it has no cells";
 
 /// Buffers of a grid: owned vectors or slices of a mapped file.
 pub(crate) enum Storage {

@@ -192,7 +192,7 @@ fn run_labels(args: Args) -> Result<()> {
                 extract: start.elapsed().as_secs_f64() - read,
                 write: 0.0,
             };
-            let labels = (summary.info.scalar_type, summary.table, summary.index);
+            let labels = (summary.info, summary.table, summary.index);
             (summary.stats, labels, absent, seconds)
         }
         None => {
@@ -201,8 +201,8 @@ fn run_labels(args: Args) -> Result<()> {
             done
         }
     };
-    let (scalar_type, table_written, index) = labels;
-    let signed = isogrid::labels::signed_labels(scalar_type);
+    let (info, table_written, index) = labels;
+    let signed = isogrid::labels::signed_labels(info.scalar_type);
     args.label.note_absent(&absent, signed);
     if let LabelSelection::Values(ranges) = &options.selection {
         // A single value asked for and absent is worth a line; ranges may have gaps.
@@ -224,12 +224,13 @@ fn run_labels(args: Args) -> Result<()> {
             );
         }
     }
-    if table_written.is_empty() {
-        eprintln!(
-            "isogrid: note: {}: the volume holds no selected label; the surface is empty",
-            args.input.display()
-        );
-    }
+    crate::report::note_if_no_cells(
+        &args.input,
+        &info,
+        stats.active_cells,
+        Some(&table_written),
+        || false,
+    );
     let report = GridReport::new(&stats, seconds).with_label_table(&table_written, &index, signed);
     print_report(&args, &report)
 }
@@ -238,7 +239,7 @@ fn run_labels(args: Args) -> Result<()> {
 /// labels it lacks; and its times.
 type LabelsDone = (
     GridStats,
-    (isogrid::ScalarType, Vec<Label>, Vec<LabelEntry>),
+    (isogrid::GridInfo, Vec<Label>, Vec<LabelEntry>),
     Vec<u64>,
     Seconds,
 );
@@ -276,7 +277,7 @@ fn labels_in_memory(
     Ok((
         GridStats::of(&grid),
         (
-            grid.info().scalar_type,
+            grid.info().clone(),
             labels.table().to_vec(),
             labels.index().to_vec(),
         ),
@@ -399,6 +400,7 @@ fn stream_to_file(
         &args.input,
         &summary.info,
         summary.stats.active_cells,
+        None,
         || {
             // Only a range of [0, 0] can hide a volume without finite samples.
             summary.info.value_range == [0.0, 0.0] && has_no_finite_sample(source).unwrap_or(false)

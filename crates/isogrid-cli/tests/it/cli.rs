@@ -9,6 +9,16 @@ use crate::common::{fails, isogrid, s, temp_dir, write_npy};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 
+/// Runs `args`, which must succeed, and returns the one note (`isogrid: note: ...`) it prints.
+fn the_note(args: &[&str]) -> String {
+    let out = isogrid(args);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{args:?}: {stderr}");
+    let notes: Vec<&str> = stderr.lines().filter(|l| l.contains("note:")).collect();
+    assert_eq!(notes.len(), 1, "{args:?}: {stderr}");
+    notes[0].to_string()
+}
+
 fn ok_json(args: &[&str]) -> Value {
     let out = isogrid(args);
     assert!(
@@ -93,17 +103,13 @@ fn an_empty_surface_is_noted_once_with_the_sample_range() {
         ),
     ];
     for (args, why) in runs {
-        let out = isogrid(args);
-        let stderr = String::from_utf8_lossy(&out.stderr);
-        assert!(out.status.success(), "{args:?}: {stderr}");
-        let notes: Vec<&str> = stderr.lines().filter(|l| l.contains("note:")).collect();
-        assert_eq!(notes.len(), 1, "{args:?}: {stderr}");
+        let note = the_note(args);
         assert!(
-            notes[0].contains("no cell crosses the isovalue") && notes[0].contains(why),
+            note.contains("no cell crosses the isovalue") && note.contains(why),
             "{args:?}: {}",
-            notes[0]
+            note
         );
-        assert!(notes[0].contains("[0, 255]"), "{args:?}: {}", notes[0]);
+        assert!(note.contains("[0, 255]"), "{args:?}: {}", note);
     }
     let out = isogrid(&["extract", s(&volume), "--iso-normalized", "0.5"]);
     assert!(out.status.success());
@@ -799,16 +805,8 @@ fn an_all_nan_volume_is_noted_as_such() {
         ],
     ];
     for args in runs {
-        let out = isogrid(args);
-        let stderr = String::from_utf8_lossy(&out.stderr);
-        assert!(out.status.success(), "{args:?}: {stderr}");
-        let notes: Vec<&str> = stderr.lines().filter(|l| l.contains("note:")).collect();
-        assert_eq!(notes.len(), 1, "{args:?}: {stderr}");
-        assert!(
-            notes[0].contains("every sample is NaN"),
-            "{args:?}: {}",
-            notes[0]
-        );
+        let note = the_note(args);
+        assert!(note.contains("every sample is NaN"), "{args:?}: {}", note);
     }
     std::fs::remove_dir_all(&dir).unwrap();
 }

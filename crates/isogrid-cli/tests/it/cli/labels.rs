@@ -665,3 +665,59 @@ fn extract_lists_the_first_labels_and_info_all_of_them() {
     assert!(!text.contains("more:"), "{text}");
     std::fs::remove_dir_all(dir).unwrap();
 }
+
+/// A label volume without a surface gives an empty grid and one note that says why, from every
+/// command that extracts or opens it: the label grid's reason (no label, one label filling the
+/// volume, one sample thick), not an isovalue's. Before, `extract` said nothing when one label
+/// filled the volume, called a one-plane volume one without labels, and `info` and `render` of
+/// the file spoke of the isovalue 0.5.
+#[test]
+fn an_empty_label_surface_is_noted_with_its_reason() {
+    let dir = temp_dir("labels-empty");
+    let mut speck = vec![0u8; 42];
+    speck[10] = 3;
+    let cases = [
+        (
+            "filled",
+            [5, 6, 7],
+            vec![7u8; 210],
+            "label 7 fills the whole volume",
+        ),
+        (
+            "background",
+            [5, 6, 7],
+            vec![0u8; 210],
+            "the volume holds no selected label",
+        ),
+        ("plane", [1, 6, 7], speck, "the volume is one sample thick"),
+    ];
+    for (name, shape, data, why) in cases {
+        let npy = dir.join(format!("{name}.npy"));
+        super::write_npy(&npy, "|u1", shape, &data);
+        let cgc = dir.join(format!("{name}.cgc"));
+        let png = dir.join(format!("{name}.png"));
+        let runs: [&[&str]; 3] = [
+            &["extract", s(&npy), "--labels", "all", "-o", s(&cgc)],
+            &["info", s(&cgc)],
+            &[
+                "render",
+                s(&npy),
+                "--labels",
+                "all",
+                "--backend",
+                "cpu",
+                "--size",
+                "32x24",
+                "-o",
+                s(&png),
+            ],
+        ];
+        for args in runs {
+            let note = super::the_note(args);
+            assert!(
+                note.contains("no selected label has a surface") && note.contains(why),
+                "{args:?}: {note}"
+            );
+        }
+    }
+}
