@@ -78,30 +78,16 @@ impl GridInfo {
         labels: Option<&[crate::labels::Label]>,
         all_nan: impl FnOnce() -> bool,
     ) -> String {
-        let thin = self.cell_dims().contains(&0);
         let Some(labels) = labels else {
-            // f32 samples in their own precision, not as the f64 that holds them.
-            let [lo, hi] = self.value_range.map(|v| match self.scalar_type {
-                ScalarType::F32 => (v as f32).to_string(),
-                _ => v.to_string(),
-            });
-            let why = if thin {
-                THIN.to_string()
-            } else if all_nan() {
-                // The grid records [0, 0] as the range of a volume without finite samples.
-                "every sample is NaN".to_string()
-            } else if self.iso > self.value_range[1] {
-                format!("every sample is below it: they lie in [{lo}, {hi}]")
-            } else if self.iso <= self.value_range[0] {
-                format!("every sample is at or above it: they lie in [{lo}, {hi}]")
-            } else {
-                format!("the samples lie in [{lo}, {hi}]")
-            };
-            return format!(
-                "no cell crosses the isovalue {} ({why}); the surface is empty",
-                self.iso
+            return isosurface_empty_note(
+                self.dims,
+                self.scalar_type,
+                self.value_range,
+                self.iso,
+                all_nan,
             );
         };
+        let thin = self.cell_dims().contains(&0);
         let signed = crate::labels::signed_labels(self.scalar_type);
         let why = match labels {
             _ if thin => THIN.to_string(),
@@ -119,6 +105,36 @@ impl GridInfo {
         };
         format!("no selected label has a surface ({why}); the surface is empty")
     }
+}
+
+/// [`GridInfo::empty_surface_note`] of an isosurface at `iso` of a volume of `dims` samples of
+/// `scalar_type` whose finite samples lie in `value_range` (`[0, 0]` when it has none), for a
+/// front door that has the volume but no grid (a Marching Cubes mesh: it has triangles where a
+/// grid has cells).
+pub fn isosurface_empty_note(
+    dims: [u32; 3],
+    scalar_type: ScalarType,
+    value_range: [f64; 2],
+    iso: f64,
+    all_nan: impl FnOnce() -> bool,
+) -> String {
+    // f32 samples in their own precision, not as the f64 that holds them.
+    let [lo, hi] = value_range.map(|v| match scalar_type {
+        ScalarType::F32 => (v as f32).to_string(),
+        _ => v.to_string(),
+    });
+    let why = if dims.iter().any(|&d| d < 2) {
+        THIN.to_string()
+    } else if all_nan() {
+        "every sample is NaN".to_string()
+    } else if iso > value_range[1] {
+        format!("every sample is below it: they lie in [{lo}, {hi}]")
+    } else if iso <= value_range[0] {
+        format!("every sample is at or above it: they lie in [{lo}, {hi}]")
+    } else {
+        format!("the samples lie in [{lo}, {hi}]")
+    };
+    format!("no cell crosses the isovalue {iso} ({why}); the surface is empty")
 }
 
 /// Why a volume one sample thick along an axis has no surface.

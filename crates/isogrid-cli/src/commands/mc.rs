@@ -132,6 +132,20 @@ pub fn run(args: Args) -> Result<()> {
         r => r.with_context(|| format!("{}: Marching Cubes failed", args.input.display()))?,
     };
     let extract = start.elapsed().as_secs_f64();
+    if mesh.triangle_count() == 0 {
+        let range = volume.view().value_range();
+        eprintln!(
+            "isogrid: note: {}: {}",
+            args.input.display(),
+            isogrid::grid::isosurface_empty_note(
+                volume.dims().map(|d| d as u32),
+                volume.scalar_type(),
+                range.map_or([0.0; 2], |(lo, hi)| [lo, hi]),
+                iso,
+                || range.is_none(),
+            )
+        );
+    }
     let values = match &attribute {
         Some(attribute) => {
             let points = mesh.index_positions(volume.geometry().spacing);

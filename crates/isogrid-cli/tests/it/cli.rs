@@ -71,16 +71,20 @@ fn extracted_at_half(volume: &Path, cgc: &Path) {
 }
 
 /// An isovalue outside the samples gives an empty grid: a success, with one note on stderr that
-/// says why (extract, info and a CPU render of it), and none where the surface is not empty.
+/// says why (extract, mc, info and a CPU render of it), and none where the surface is not empty.
 #[test]
 fn an_empty_surface_is_noted_once_with_the_sample_range() {
     let dir = temp_dir("empty");
     let volume = generated(&dir, "sphere", 24);
     let cgc = dir.join("empty.cgc");
     let png = dir.join("empty.png");
-    let runs: [(&[&str], &str); 4] = [
+    let runs: [(&[&str], &str); 5] = [
         (
             &["extract", s(&volume), "--iso", "300", "-o", s(&cgc)],
+            "every sample is below it",
+        ),
+        (
+            &["mc", s(&volume), "--iso", "300"],
             "every sample is below it",
         ),
         (&["info", s(&cgc)], "every sample is below it"),
