@@ -98,6 +98,72 @@ export interface CgcHeader {
   gaps: [number, number][];
 }
 
+/** Why a volume one sample thick along an axis has no surface. */
+const THIN = 'the volume is one sample thick, so it has no cells';
+
+/**
+ * Why a grid with no active cell is empty, the text of the command line's note:
+ * `GridInfo::empty_surface_note` of crates/isogrid for a file, whose volume is not at hand (so
+ * never "every sample is NaN"), checked against vectors the Rust rule writes
+ * (test/rules.generated.json). `labels`: a label grid's label values, null for an isosurface.
+ */
+export function emptySurfaceNote(
+  h: Pick<CgcHeader, 'dims' | 'scalarType' | 'valueRange' | 'iso' | 'precisionBits'>,
+  labels: bigint[] | null,
+): string {
+  const thin = h.dims.some((n) => n < 2);
+  if (labels === null) {
+    const f32 = SCALAR_TYPES[h.scalarType] === 'f32';
+    const [lo, hi] = h.valueRange.map((v) => rustNumber(v, f32));
+    const range = `they lie in [${lo}, ${hi}]`;
+    const why = thin
+      ? THIN
+      : h.iso > h.valueRange[1]
+        ? `every sample is below it: ${range}`
+        : h.iso <= h.valueRange[0]
+          ? `every sample is at or above it: ${range}`
+          : `the samples lie in [${lo}, ${hi}]`;
+    return `no cell crosses the isovalue ${rustNumber(h.iso, false)} (${why}); the surface is empty`;
+  }
+  const binary = h.precisionBits === 1;
+  const why = thin
+    ? THIN
+    : labels.length === 0
+      ? 'the volume holds no selected label'
+      : binary && labels.length === 1
+        ? `label ${labelText(labels[0], h.scalarType)} fills the whole volume`
+        : binary
+          ? 'each selected label in it fills the whole volume'
+          : "after smoothing, no selected label's indicator crosses ½ in any cell";
+  return `no selected label has a surface (${why}); the surface is empty`;
+}
+
+/**
+ * `v` as Rust's `Display` writes an f64, or an f32 when `f32`: the shortest digits that read back
+ * as the same value, never in exponent form.
+ */
+function rustNumber(v: number, f32: boolean): string {
+  if (Object.is(v, -0)) return '-0';
+  let text = v.toString();
+  if (f32) {
+    for (let p = 1; p <= 9; p++) {
+      const t = Number(v.toPrecision(p));
+      if (Math.fround(t) === v) {
+        text = t.toString();
+        break;
+      }
+    }
+  }
+  const m = /^(-?)(\d)(?:\.(\d+))?e([+-]\d+)$/.exec(text);
+  if (!m) return text;
+  const [, sign, first, rest = '', exp] = m;
+  const digits = first + rest;
+  const point = 1 + Number(exp);
+  if (point <= 0) return `${sign}0.${'0'.repeat(-point)}${digits}`;
+  if (point >= digits.length) return sign + digits + '0'.repeat(point - digits.length);
+  return `${sign}${digits.slice(0, point)}.${digits.slice(point)}`;
+}
+
 export function cellDims(h: { dims: number[] }): [number, number, number] {
   return h.dims.map((n) => Math.max(n - 1, 0)) as [number, number, number];
 }

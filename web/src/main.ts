@@ -10,7 +10,9 @@
 // (the cell raster, `isogrid render --cell-raster`; by default chosen per frame as natively),
 // `pagebytes=N` (pages of at most N bytes instead of the storage binding limit: tests paging).
 
-import { AttributeInfo, CgcError, CgcHeader, CodeMapping, GridLabels, codeMapping, codesOf, labelText, worldBounds } from './cgc.js';
+import {
+  AttributeInfo, CgcError, CgcHeader, CodeMapping, GridLabels, codeMapping, codesOf, emptySurfaceNote, labelText, worldBounds,
+} from './cgc.js';
 import {
   COLOR_LABELS, COLOR_RECORDS, MAP_NAMES, labelColorWords, colorUniforms, defaultClim, hiddenClusters, mapTable, parseClim,
 } from './colors.js';
@@ -421,6 +423,11 @@ async function load(src: ByteSource): Promise<void> {
       },
     });
     stats.completeAt = performance.now();
+    // An empty surface draws nothing: say why, as the command line's note does.
+    if (header && header.activeCells === 0) {
+      const values = header.labels ? (labels?.table ?? []).map((l) => l.value) : null;
+      showMessage(`${src.name}: ${emptySurfaceNote(header, values)}`, true);
+    }
     // Where a packed file was rebuilt ('worker' or 'page'; packed-client.ts).
     if ('thread' in given) stats.rebuildThread = (given as PackedSource).thread;
     // After the clusters queued behind the compilation (promise callbacks run in order).

@@ -20,7 +20,7 @@ import puppeteer from 'puppeteer-core';
 import { PNG } from 'pngjs';
 import { build } from '../build.mjs';
 import { startServer } from './server.mjs';
-import { isogridBinary, sphereFile, resealHeader, resealSection, realFiles, coloredSphereFile, labelFile, labelAt, packedFile } from './fixtures.mjs';
+import { isogridBinary, sphereFile, resealHeader, resealSection, realFiles, coloredSphereFile, labelFile, labelAt, packedFile, emptyFiles } from './fixtures.mjs';
 import { basis, presetCamera } from '../build/node/camera.js';
 import { parseCgc, labelText } from '../build/node/cgc.js';
 
@@ -244,6 +244,7 @@ for (const B of BROWSERS) {
       damagedPacked[spherePacked.length >> 1] ^= 0x10;
       files['damaged.cgcz'] = damagedPacked;
       files['truncated.cgcz'] = spherePacked.slice(0, spherePacked.length - 1000);
+      for (const [name, path] of emptyFiles()) files[name] = new Uint8Array(readFileSync(path));
     }
     const server = await startServer({ dist, files });
     const plain = await startServer({ dist, files, ranges: false });
@@ -611,6 +612,17 @@ for (const B of BROWSERS) {
           const { outcome, stats } = await open(server.url, `src=/${name}`);
           assert.match(stats.message, re);
           assert.equal(outcome, `error: ${stats.message}`);
+        }
+      });
+      await t.test('an empty surface loads and says why, in the words of isogrid info', async () => {
+        const empty = emptyFiles();
+        assert.equal(empty.length, 2);
+        for (const [name, , note] of empty) {
+          const { page, outcome, stats } = await open(server.url, `src=/${name}`);
+          assert.equal(outcome, 'ready', stats.message);
+          assert.equal(stats.message, `${name}: ${note}`);
+          assert.equal(await page.$eval('#message', (m) => m.className), 'notice');
+          await page.close();
         }
       });
       await t.test('packed files (.cgcz): the picture of their .cgc from their own bytes; damage named', async () => {

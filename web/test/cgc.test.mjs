@@ -5,7 +5,7 @@
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
 import { readFileSync } from 'node:fs';
-import { parseCgc, CgcError, HEAD_READ, codes16, labelText } from '../build/node/cgc.js';
+import { parseCgc, CgcError, HEAD_READ, SCALAR_TYPES, codes16, emptySurfaceNote, labelText } from '../build/node/cgc.js';
 import { streamCgc } from '../build/node/loader.js';
 import { Crc32, crc32 } from '../build/node/crc32.js';
 import zlib from 'node:zlib';
@@ -205,6 +205,20 @@ test('attribute codes and the default colour range follow the Rust rules (vector
     if (c.bits !== 32) assert.deepEqual(decoded, c.values.map((x) => (x === null ? null : Math.fround(x))), what);
   }
   for (const { range, clim } of rules.default_clim) assert.deepEqual(defaultClim(range), clim, JSON.stringify(range));
+});
+
+test('an empty surface is explained as the command line explains it (vectors generated from GridInfo::empty_surface_note)', () => {
+  assert.ok(rules.empty_notes.length >= 10);
+  for (const c of rules.empty_notes) {
+    const header = {
+      dims: c.dims,
+      scalarType: SCALAR_TYPES.indexOf(c.scalar_type),
+      valueRange: c.value_range,
+      iso: c.iso,
+      precisionBits: c.precision_bits,
+    };
+    assert.equal(emptySurfaceNote(header, c.labels && c.labels.map(BigInt)), c.note, JSON.stringify(c));
+  }
 });
 
 test('attribute sections of 8, 16 and 32 bits read as isogrid info reports them, and decode within half a code', { skip: !isogridBinary() && 'no isogrid binary' }, () => {

@@ -4,8 +4,8 @@
 // that both versions are covered whichever the binary writes.
 import { existsSync, mkdirSync, readFileSync, readdirSync, statSync, writeFileSync } from 'node:fs';
 import { createHash } from 'node:crypto';
-import { execFileSync } from 'node:child_process';
-import { join, dirname } from 'node:path';
+import { execFileSync, spawnSync } from 'node:child_process';
+import { basename, join, dirname } from 'node:path';
 import { fileURLToPath } from 'node:url';
 import { tmpdir } from 'node:os';
 import { crc32 } from '../build/node/crc32.js';
@@ -100,6 +100,32 @@ export function labelFile(n = 32, smooth = null) {
     execFileSync(bin, ['extract', join(dir, `labels${n}.npy`), '--labels', 'all', ...smoothing, '-o', cgc], { stdio: 'ignore' });
   }
   return cgc;
+}
+
+/**
+ * Grids without a surface, written by the binary (the sphere extracted above every sample, an 8³
+ * volume that label 7 fills), each with the note `isogrid info` prints for it, past its
+ * `isogrid: note: PATH: `: [name, path, note]; none without the binary.
+ */
+export function emptyFiles() {
+  const bin = isogridBinary();
+  if (!bin) return [];
+  const dir = binaryDir(bin);
+  sphereFile(48);
+  const iso = join(dir, 'empty-iso.cgc');
+  const labels = join(dir, 'empty-labels.cgc');
+  if (!existsSync(iso)) execFileSync(bin, ['extract', join(dir, 'sphere48.nrrd'), '--iso', '1000', '-o', iso], { stdio: 'ignore' });
+  if (!existsSync(labels)) {
+    writeNpy(join(dir, 'filled8.npy'), 8, () => 7);
+    execFileSync(bin, ['extract', join(dir, 'filled8.npy'), '--labels', 'all', '-o', labels], { stdio: 'ignore' });
+  }
+  return [iso, labels].map((path) => {
+    const { stderr } = spawnSync(bin, ['info', path], { encoding: 'utf8' });
+    const prefix = `isogrid: note: ${path}: `;
+    const note = stderr.split('\n').find((line) => line.startsWith(prefix));
+    if (!note) throw new Error(`isogrid info ${path} printed no note: ${stderr}`);
+    return [basename(path), path, note.slice(prefix.length)];
+  });
 }
 
 /**

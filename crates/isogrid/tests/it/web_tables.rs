@@ -1,9 +1,9 @@
 //! The browser viewer's colour data and rules come from this crate, not from copies typed into
 //! TypeScript: this test writes `web/src/colormaps.generated.ts` (the colour maps' tables, the NaN
 //! colour and the sRGB → linear decoding, which the viewer uploads as `ColorUniforms` and label
-//! albedos, and the corner precisions its `.cgc` reader accepts) and `web/test/rules.generated.json` (input/output vectors of the attribute code rule
-//! and the default colour range, which the viewer's own `codes16` and `defaultClim` must
-//! reproduce: `web/test/cgc.test.mjs`). It fails while a committed file differs from what
+//! albedos, and the corner precisions its `.cgc` reader accepts) and `web/test/rules.generated.json` (input/output vectors of the attribute code rule,
+//! the default colour range and the empty-surface note, which the viewer's own `codes16`,
+//! `defaultClim` and `emptySurfaceNote` must reproduce: `web/test/cgc.test.mjs`). It fails while a committed file differs from what
 //! `isogrid::colormap` and `isogrid::attribute` give; `ISOGRID_BLESS=1 cargo test -p isogrid --test
 //! it web_tables` rewrites them.
 
@@ -126,10 +126,97 @@ fn rules_json() -> String {
     })
     .collect();
     format!(
-        "{{\n  \"generated_by\": \"crates/isogrid/tests/it/web_tables.rs (ISOGRID_BLESS=1 to rewrite)\",\n  \"codes16\": [\n{}\n  ],\n  \"default_clim\": [\n{}\n  ]\n}}\n",
+        "{{\n  \"generated_by\": \"crates/isogrid/tests/it/web_tables.rs (ISOGRID_BLESS=1 to rewrite)\",\n  \"codes16\": [\n{}\n  ],\n  \"default_clim\": [\n{}\n  ],\n  \"empty_notes\": [\n{}\n  ]\n}}\n",
         cases.join(",\n"),
-        clims.join(",\n")
+        clims.join(",\n"),
+        empty_notes().join(",\n")
     )
+}
+
+/// Grids without a surface, extracted from small volumes, and the note `GridInfo::empty_surface_note`
+/// gives each (for a file: the volume not at hand), which the viewer's `emptySurfaceNote` must
+/// reproduce from the header and label values: isovalues above and below the samples, f32 and
+/// f64 ranges whose shortest text is long or would take an exponent, a volume one sample thick,
+/// and label volumes filled by one label (unsigned and signed), holding none, one plane thick, and
+/// a label that smoothing erases.
+fn empty_notes() -> Vec<String> {
+    use isogrid::{extract, extract_labels, ExtractOptions, Iso, LabelOptions, LabelSelection};
+    use isogrid::{Volume, VolumeData};
+    let n = 4 * 4 * 4;
+    let ramp = |lo: f64, hi: f64| (0..n).map(move |i| lo + (hi - lo) * i as f64 / (n - 1) as f64);
+    let volume = |dims: [usize; 3], data: VolumeData| Volume::new(dims, data).unwrap();
+    let isosurfaces = [
+        (
+            volume(
+                [4; 3],
+                VolumeData::U8(ramp(3.0, 250.0).map(|v| v as u8).collect()),
+            ),
+            300.0,
+        ),
+        (
+            volume(
+                [4; 3],
+                VolumeData::U8(ramp(3.0, 250.0).map(|v| v as u8).collect()),
+            ),
+            2.5,
+        ),
+        (
+            volume(
+                [4; 3],
+                VolumeData::F32(ramp(-12.976177, 8.0).map(|v| v as f32).collect()),
+            ),
+            9.0,
+        ),
+        (
+            volume([4; 3], VolumeData::F64(ramp(1.5e-7, 2.5e21).collect())),
+            3e21,
+        ),
+        (
+            volume([4; 3], VolumeData::F64(ramp(-0.1, 0.2).collect())),
+            -0.25,
+        ),
+        (volume([1, 4, 4], VolumeData::U8(vec![9; 16])), 5.0),
+    ];
+    let mut speck = vec![0u8; n];
+    speck[21] = 4;
+    let label_volumes = [
+        (volume([4; 3], VolumeData::U8(vec![7; n])), 0.0),
+        (volume([4; 3], VolumeData::I16(vec![-5; n])), 0.0),
+        (volume([4; 3], VolumeData::U16(vec![0; n])), 0.0),
+        (volume([4, 4, 1], VolumeData::U8(vec![3; 16])), 0.0),
+        (volume([4; 3], VolumeData::U8(speck)), 1.5),
+    ];
+    let mut grids = Vec::new();
+    for (v, iso) in &isosurfaces {
+        grids.push(extract(&v.view(), &ExtractOptions::new(Iso::Value(*iso))).unwrap());
+    }
+    for (v, smooth) in &label_volumes {
+        let mut options = LabelOptions::new(LabelSelection::All);
+        options.smooth = *smooth;
+        grids.push(extract_labels(&v.view(), &options).unwrap());
+    }
+    grids
+        .iter()
+        .map(|grid| {
+            assert_eq!(grid.active_cells(), 0);
+            let info = grid.info();
+            let labels = grid.labels().map(|l| l.table());
+            let values = labels.map_or("null".to_string(), |t| {
+                let v: Vec<String> = t.iter().map(|l| format!("\"{}\"", l.value)).collect();
+                format!("[{}]", v.join(", "))
+            });
+            format!(
+                "    {{\"dims\": {:?}, \"scalar_type\": \"{}\", \"value_range\": [{}, {}], \"iso\": {}, \"precision_bits\": {}, \"labels\": {values}, \"note\": {:?}}}",
+                info.dims,
+                info.scalar_type.name(),
+                num(info.value_range[0]),
+                num(info.value_range[1]),
+                num(info.iso),
+                info.precision.bits(),
+                info.empty_surface_note(labels, || false)
+            )
+        })
+        .collect()
 }
 
 #[test]
