@@ -96,6 +96,8 @@ pub enum Event {
         attribute: Option<isogrid::AttributeInfo>,
         /// The labels of a label grid: their table, cell counts and index.
         labels: Option<isogrid::GridLabels>,
+        /// Why the grid has no active cell (`GridInfo::empty_surface_note`), when it has none.
+        empty_note: Option<String>,
     },
     /// A Marching Cubes mesh is uploaded and drawn in MC mode from now on.
     MeshShown {

@@ -231,6 +231,14 @@ fn apply<'r>(
             match s.scene.show_grid(&grid) {
                 Ok(()) => {
                     let info = grid.info();
+                    let empty_note = (grid.active_cells() == 0).then(|| {
+                        let labels = grid.labels().map(|l| l.table());
+                        info.empty_surface_note(labels, || {
+                            s.volume
+                                .as_ref()
+                                .is_some_and(|v| v.view().value_range().is_none())
+                        })
+                    });
                     notify.send(Event::GridShown {
                         generation,
                         iso: info.iso,
@@ -239,6 +247,7 @@ fn apply<'r>(
                         extract_seconds,
                         attribute: grid.attribute().map(|a| a.info().clone()),
                         labels: grid.labels().cloned(),
+                        empty_note,
                     });
                     s.labels = None;
                     if grid.labels().is_some() {

@@ -191,6 +191,38 @@ fn scripted_window_shows_the_headless_image() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+/// A surface without an active cell draws nothing; the window says why in the words of the
+/// command line's note (and a scripted run prints it), at an isovalue above every sample.
+#[test]
+fn scripted_window_says_why_a_surface_is_empty() {
+    let Some(xvfb) = xvfb_run() else { return };
+    if renderer().is_none() {
+        return;
+    }
+    let dir = temp_dir("empty");
+    let input = dir.join("torus.nrrd");
+    isogrid_io::write_nrrd(&input, &generate(Field::Torus, 24, 1)).unwrap();
+    let note = crate::common::isogrid(&["extract", input.to_str().unwrap(), "--iso", "1000"]);
+    let note = String::from_utf8_lossy(&note.stderr);
+    let note = note
+        .lines()
+        .find_map(|l| l.strip_prefix(&format!("isogrid: note: {}: ", input.display())))
+        .expect("extract notes the empty surface")
+        .to_string();
+    let shot = dir.join("window.png");
+    let stdout = scripted_view(
+        &xvfb,
+        &[input.to_str().unwrap(), "--iso", "1000"],
+        [160, 120],
+        &shot,
+    );
+    assert!(
+        stdout.contains(&format!("isogrid view: note: {note}")),
+        "{stdout}"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 /// A volume coloured by a second one (`--color-by`, `--cmap`) shows, in the window, what the
 /// headless renderer draws with the same colour map over the attribute's range; and the picture is
 /// in colour, not grey.

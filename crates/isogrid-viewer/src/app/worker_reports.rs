@@ -26,7 +26,15 @@ impl App {
                     extract_seconds,
                     attribute,
                     labels,
+                    empty_note,
                 } if generation == self.generation => {
+                    if let Some(note) = empty_note {
+                        // On stdout too in scripted runs, where tests read it, as the CLI's note.
+                        if self.script.is_some() {
+                            println!("isogrid view: note: {note}");
+                        }
+                        self.note(note, false);
+                    }
                     self.color.attribute = attribute;
                     self.on_labels(generation, labels);
                     let has_volume = self.source.as_ref().is_none_or(|s| s.has_volume());
