@@ -561,6 +561,8 @@ def marching_cubes(
         (where value < iso). One vertex per crossed edge, no duplicates: where crossings fall
         exactly on a sample (integer data at an integer iso), the edges meeting there share one
         vertex and the triangles that collapse are dropped, so no triangle has zero area.
+        Where there is no triangle, an :class:`EmptySurfaceWarning` says why, as for
+        :func:`extract`.
     """
     iso, iso_normalized = _iso_pair(iso, iso_normalized)
     array = _volume_of(array, series)
@@ -573,7 +575,7 @@ def marching_cubes(
     attribute_arg = None
     if attribute is not None:
         attribute_arg = _attribute_arg(attribute, prepared, fortran, spacing3, origin, direction, 32)
-    return _isogrid.marching_cubes(  # type: ignore[no-any-return]
+    mesh = _isogrid.marching_cubes(
         prepared,
         fortran,
         spacing3,
@@ -586,6 +588,11 @@ def marching_cubes(
         attribute=attribute_arg,
         progress=progress,
     )
+    if len(mesh[1]) == 0:
+        # As extract warns, and `isogrid mc` notes.
+        note = _isogrid._isosurface_empty_note(prepared, fortran, iso=iso, iso_normalized=iso_normalized)
+        warnings.warn(note, EmptySurfaceWarning, stacklevel=_caller_level())
+    return mesh  # type: ignore[no-any-return]
 
 
 def voxelize(

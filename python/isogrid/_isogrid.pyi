@@ -125,6 +125,12 @@ def _attach_attribute(
     threads: Optional[int] = None,
 ) -> None: ...
 def _empty_surface_note(grid: CellGrid, all_nan: bool = False) -> str: ...
+def _isosurface_empty_note(
+    array: np.ndarray,
+    fortran: bool,
+    iso: Optional[float] = None,
+    iso_normalized: Optional[float] = None,
+) -> str: ...
 def marching_cubes(
     array: np.ndarray,
     fortran: bool,

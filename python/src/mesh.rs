@@ -79,3 +79,30 @@ pub fn marching_cubes<'py>(
         None => PyTuple::new(py, [vertices, faces]),
     }
 }
+
+/// Why Marching Cubes of `array` at the isovalue gives no triangle
+/// (`isogrid::grid::isosurface_empty_note`, the note of `isogrid mc`): the text of
+/// `EmptySurfaceWarning`. Asked only for an empty mesh; a normalised isovalue is resolved as
+/// `marching_cubes` resolves it.
+#[pyfunction]
+#[pyo3(signature = (array, fortran, iso=None, iso_normalized=None))]
+pub fn _isosurface_empty_note(
+    array: &Bound<'_, PyAny>,
+    fortran: bool,
+    iso: Option<f64>,
+    iso_normalized: Option<f64>,
+) -> PyResult<String> {
+    let volume = VolumeArg::new(array, fortran, [1.0; 3])?;
+    let view = volume.view()?;
+    let iso = iso_arg(iso, iso_normalized)?
+        .resolve(&view)
+        .map_err(crate::errors::to_py)?;
+    let range = view.value_range();
+    Ok(isogrid::grid::isosurface_empty_note(
+        view.dims().map(|d| d as u32),
+        view.scalar_type(),
+        range.map_or([0.0; 2], |(lo, hi)| [lo, hi]),
+        iso,
+        || range.is_none(),
+    ))
+}

@@ -1,5 +1,7 @@
 """marching_cubes and voxelize: the (x, y, z) convention, spacing, and argument checks."""
 
+import warnings
+
 import numpy as np
 import pytest
 
@@ -173,3 +175,22 @@ def test_marching_cubes_merges_crossings_on_samples():
     assert len(v) == len(sk_v)
     np.testing.assert_allclose(order(v), order(sk_xyz), atol=1e-5)
     assert abs(len(f) - len(sk_f)) <= 0.01 * len(f)
+
+
+def test_an_empty_mesh_warns_with_the_reason_extract_gives():
+    a = sphere()
+    lo, hi = float(a.min()), float(a.max())
+    for kwargs, why in [(dict(iso=hi + 1), "every sample is below it"), (dict(iso=lo), "at or above it")]:
+        with pytest.warns(isogrid.EmptySurfaceWarning, match=why) as by_mesh:
+            vertices, faces = isogrid.marching_cubes(a, **kwargs)
+        assert len(vertices) == len(faces) == 0
+        # Reported at the caller's line, in the words of extract's warning.
+        assert by_mesh[0].filename == __file__
+        with pytest.warns(isogrid.EmptySurfaceWarning) as by_extract:
+            isogrid.extract(a, **kwargs)
+        assert str(by_mesh[0].message) == str(by_extract[0].message)
+    with pytest.warns(isogrid.EmptySurfaceWarning, match="one sample thick"):
+        isogrid.marching_cubes(np.full((1, 5, 6), 9, np.uint8), iso=5)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert len(isogrid.marching_cubes(a, iso_normalized=0.5)[1]) > 0
