@@ -131,7 +131,10 @@ pub fn display_value(key: u64, signed: bool) -> String {
 pub enum LabelSelection {
     /// Every label in the volume except 0, the background.
     All,
-    /// The values in these inclusive ranges (keys, see [`LabelSample::key`]) that the volume holds.
+    /// The values in these inclusive ranges of keys (see [`LabelSample::key`]) that the volume
+    /// holds. A range whose start is above its end wraps past `u64::MAX` to 0: a signed range
+    /// across zero (`-5-5`), whose negative end's key is its two's complement
+    /// ([`LabelSelection::key_ranges`] gives it as two ordinary ranges).
     Values(Vec<std::ops::RangeInclusive<u64>>),
 }
 
@@ -139,54 +142,71 @@ impl LabelSelection {
     pub fn selects(&self, key: u64) -> bool {
         match self {
             LabelSelection::All => key != 0,
-            LabelSelection::Values(ranges) => ranges.iter().any(|r| r.contains(&key)),
+            LabelSelection::Values(ranges) => ranges
+                .iter()
+                .any(|r| Self::key_ranges(r).any(|r| r.contains(&key))),
         }
     }
 
+    /// `range` as ordinary ranges of keys: itself, or the two halves of a range that wraps.
+    pub fn key_ranges(
+        range: &std::ops::RangeInclusive<u64>,
+    ) -> impl Iterator<Item = std::ops::RangeInclusive<u64>> {
+        let (start, end) = (*range.start(), *range.end());
+        let halves = if start <= end {
+            [Some(start..=end), None]
+        } else {
+            [Some(start..=u64::MAX), Some(0..=end)]
+        };
+        halves.into_iter().flatten()
+    }
+
     /// Parses `all` or a comma-separated list of values and ranges (`1,5-9`); negative values
-    /// (for signed volumes) are written with a leading minus (`-3--1` is -3 to -1).
+    /// (for signed volumes) are written with a leading minus (`-3--1` is -3 to -1, `-5-5` is -5
+    /// to 5). Each value is a key ([`LabelSample::key`]): a negative one is its two's complement,
+    /// so a range across zero wraps (see [`LabelSelection::Values`]).
     pub fn parse(text: &str) -> Result<LabelSelection> {
         let text = text.trim();
         if text.eq_ignore_ascii_case("all") {
             return Ok(LabelSelection::All);
         }
-        let bad = |part: &str| {
+        let bad = |part: &str, why: &str| {
             Error::invalid(format!(
-                "label selection {part:?} is not `all` or a list such as 1,5-9"
+                "label selection {text:?}: {part:?} {why} (give `all` or a list such as 1,5-9 or -3--1)"
             ))
         };
-        let value = |s: &str| -> Option<i128> { s.trim().parse::<i128>().ok() };
-        let key = |v: i128| -> Option<u64> {
-            if v < 0 {
-                i64::try_from(v).ok().map(|v| v as u64)
+        let value = |part: &str, s: &str| -> Result<i128> {
+            let v = s
+                .trim()
+                .parse::<i128>()
+                .map_err(|_| bad(part, "is not a whole number or a range of them"))?;
+            if (i64::MIN as i128..=u64::MAX as i128).contains(&v) {
+                Ok(v)
             } else {
-                u64::try_from(v).ok()
+                Err(bad(part, "is beyond the 64-bit label values"))
             }
         };
+        let key = |v: i128| v as i64 as u64;
         let mut ranges = Vec::new();
         for part in text.split(',') {
+            let part = part.trim();
             // A '-' that is not the first character (nor right after another '-') splits a range.
             let split = part
-                .trim()
                 .char_indices()
                 .skip(1)
-                .find(|&(i, c)| c == '-' && !part.trim()[..i].ends_with('-'))
+                .find(|&(i, c)| c == '-' && !part[..i].ends_with('-'))
                 .map(|(i, _)| i);
-            let trimmed = part.trim();
             let (lo, hi) = match split {
-                Some(i) => (value(&trimmed[..i]), value(&trimmed[i + 1..])),
-                None => (value(trimmed), value(trimmed)),
+                Some(i) => (value(part, &part[..i])?, value(part, &part[i + 1..])?),
+                None => {
+                    let v = value(part, part)?;
+                    (v, v)
+                }
             };
-            let (Some(lo), Some(hi)) = (lo, hi) else {
-                return Err(bad(part));
-            };
-            if lo > hi || (lo < 0) != (hi < 0) {
-                return Err(bad(part));
+            if lo > hi {
+                return Err(bad(part, "runs backwards"));
             }
-            let (Some(lo), Some(hi)) = (key(lo), key(hi)) else {
-                return Err(bad(part));
-            };
-            ranges.push(lo..=hi);
+            ranges.push(key(lo)..=key(hi));
         }
         Ok(LabelSelection::Values(ranges))
     }
@@ -334,8 +354,11 @@ impl GridLabels {
                 continue;
             };
             for r in ranges {
-                let first = self.table.partition_point(|l| l.value < *r.start());
-                if self.table.get(first).is_none_or(|l| l.value > *r.end()) {
+                let holds = |r: std::ops::RangeInclusive<u64>| {
+                    let first = self.table.partition_point(|l| l.value < *r.start());
+                    self.table.get(first).is_some_and(|l| l.value <= *r.end())
+                };
+                if !LabelSelection::key_ranges(r).any(holds) {
                     let (lo, hi) = (
                         display_value(*r.start(), signed),
                         display_value(*r.end(), signed),

@@ -462,9 +462,31 @@ fn selections_parse_and_bad_ones_are_refused() {
         LabelSelection::parse("-3--1").unwrap(),
         LabelSelection::Values(vec![(-3i64 as u64)..=(-1i64 as u64)])
     );
-    for bad in ["", "x", "9-5", "1,,2", "-1-3", "1-"] {
-        assert!(LabelSelection::parse(bad).is_err(), "{bad}");
+    // Across zero: a range of keys that wraps, from the negative end's two's complement to 5.
+    assert_eq!(
+        LabelSelection::parse("-5-5").unwrap(),
+        LabelSelection::Values(vec![(-5i64 as u64)..=5])
+    );
+    let across = LabelSelection::parse("-3-2").unwrap();
+    let selected: Vec<i64> = (-6i64..=6).filter(|&v| across.selects(v as u64)).collect();
+    assert_eq!(selected, [-3, -2, -1, 0, 1, 2]);
+    for (bad, why) in [
+        ("", "is not a whole number"),
+        ("x", "is not a whole number"),
+        ("1,,2", "is not a whole number"),
+        ("1-", "is not a whole number"),
+        ("9-5", "runs backwards"),
+        ("1--3", "runs backwards"),
+        ("99999999999999999999", "beyond the 64-bit"),
+        ("-9223372036854775809", "beyond the 64-bit"),
+    ] {
+        let err = LabelSelection::parse(bad).unwrap_err().to_string();
+        assert!(err.contains(why), "{bad}: {err}");
     }
+    assert_eq!(
+        LabelSelection::parse("18446744073709551615").unwrap(),
+        LabelSelection::Values(vec![u64::MAX..=u64::MAX])
+    );
 }
 
 #[test]

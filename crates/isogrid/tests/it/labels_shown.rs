@@ -88,3 +88,43 @@ fn show_and_hide_name_labels_that_exist() {
         assert!(labels.shown(Some(&sel(bad)), None, false).is_err());
     }
 }
+
+/// Signed labels: a range across zero (`-5-5`) selects the negative and the positive labels in
+/// it, when extracting, showing and hiding, and names no label when it holds none.
+#[test]
+fn a_signed_range_across_zero_selects_both_sides() {
+    let ball = labelled_ball(24);
+    let isogrid::VolumeData::U8(samples) = ball.data() else {
+        panic!("labelled_ball is u8")
+    };
+    let signed: Vec<i16> = samples.iter().map(|&v| [0, -4, 3, 9][v as usize]).collect();
+    let volume =
+        isogrid::Volume::with_geometry(ball.geometry().clone(), isogrid::VolumeData::I16(signed))
+            .unwrap();
+    let sel = |s: &str| LabelSelection::parse(s).unwrap();
+    let extract = |s: &str| extract_labels(&volume.view(), &LabelOptions::new(sel(s))).unwrap();
+    let values = |g: &isogrid::CellGrid| -> Vec<i64> {
+        let table = g.labels().unwrap().table();
+        table.iter().map(|l| l.value as i64).collect()
+    };
+    // The table is in key order: positives, then negatives; a range holding 0 selects the
+    // background too, as `0` does.
+    assert_eq!(values(&extract("all")), [3, 9, -4]);
+    assert_eq!(values(&extract("-5-5")), [0, 3, -4]);
+    assert_eq!(values(&extract("-4--1,1-3")), [3, -4]);
+    let all = extract("all");
+    let labels = all.labels().unwrap();
+    assert_eq!(
+        labels.shown(Some(&sel("-5-5")), None, true).unwrap(),
+        [true, false, true]
+    );
+    assert_eq!(
+        labels.shown(None, Some(&sel("-10-100")), true).unwrap(),
+        [false; 3]
+    );
+    let err = labels
+        .shown(Some(&sel("-2-2")), None, true)
+        .unwrap_err()
+        .to_string();
+    assert!(err.starts_with("labels -2-2: no such label"), "{err}");
+}
