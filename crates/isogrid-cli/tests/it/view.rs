@@ -627,7 +627,7 @@ fn arguments_are_checked_before_any_window_opens() {
         (&["view", "x.cgc", "--labels", "all"], "is a .cgc file"),
         (
             &["view", "x.nrrd", "--labels", "1-x"],
-            "not `all` or a list",
+            "is not a whole number or a range",
         ),
     ] {
         let out = run(args);
