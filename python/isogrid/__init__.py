@@ -47,7 +47,7 @@ uint32 16777217 is above 16777216.5, though no float32 tells the two apart).
 
 Errors: bad arguments raise ``ValueError``; files that cannot be opened raise ``OSError`` (e.g.
 ``FileNotFoundError``); malformed or unsupported files raise :class:`IsogridError`, a ``ValueError``.
-An isovalue that no cell crosses, or label volume none of whose selected labels has a boundary,
+An isovalue that no cell crosses, or a label volume none of whose selected labels has a boundary,
 gives an empty grid and an :class:`EmptySurfaceWarning` that says why (as the command line's
 one-line note does).
 """
