@@ -65,18 +65,6 @@ impl DrawTarget for Canvas<'_> {
     }
 }
 
-/// `v` in at most 10 characters: 4 significant digits, in scientific notation when that is
-/// shorter.
-fn label(v: f64) -> String {
-    let plain = format!("{}", (v * 1e4).round() / 1e4);
-    let sci = format!("{v:.3e}");
-    if plain.len() <= 10 && (v == 0.0 || v.abs() >= 1e-3) {
-        plain
-    } else {
-        sci
-    }
-}
-
 /// Draws the bar of `coloring` and its labels into the `width × height` sRGB image `rgb8`. Fails
 /// when the image is smaller than [`MIN_SIZE`].
 pub fn draw(rgb8: &mut [u8], width: u32, height: u32, coloring: &Coloring) -> Result<()> {
@@ -114,14 +102,10 @@ pub fn draw(rgb8: &mut [u8], width: u32, height: u32, coloring: &Coloring) -> Re
         .alignment(Alignment::Right)
         .baseline(Baseline::Middle)
         .build();
-    let [lo, hi] = coloring.clim;
-    for (value, y) in [
-        (hi, top),
-        ((lo + hi) / 2.0, (top + bottom) / 2),
-        (lo, bottom),
-    ] {
+    let [lo, mid, hi] = coloring.bar_labels();
+    for (text, y) in [(hi, top), (mid, (top + bottom) / 2), (lo, bottom)] {
         let at = Point::new(left as i32 - 4, y as i32);
-        let _ = Text::with_text_style(&label(value), at, font, right).draw(&mut canvas);
+        let _ = Text::with_text_style(&text, at, font, right).draw(&mut canvas);
     }
     Ok(())
 }

@@ -143,6 +143,29 @@ impl Coloring {
     pub fn table(&self) -> &[[u8; 3]; TABLE_SIZE] {
         &self.table
     }
+
+    /// The colour bar's labels of `clim`'s low end, middle and high end, all with the same
+    /// decimals: enough to give the span three significant digits (`27`, `120`, `212` for 27.28
+    /// to 212.48; `0.00`, `0.50`, `1.00` for 0 to 1), in scientific notation (three significant
+    /// digits) where an end is 10⁶ or more, or under 10⁻³ but not 0, in magnitude.
+    pub fn bar_labels(&self) -> [String; 3] {
+        let [lo, hi] = self.clim;
+        let values = [lo, lo + (hi - lo) / 2.0, hi];
+        let magnitude = lo.abs().max(hi.abs());
+        let tiny = |v: f64| v != 0.0 && v.abs() < 1e-3;
+        if magnitude >= 1e6 || tiny(lo) || tiny(hi) {
+            return values.map(|v| format!("{v:.2e}"));
+        }
+        let decimals = (2 - (hi - lo).log10().floor() as i32).clamp(0, 6) as usize;
+        values.map(|v| {
+            let text = format!("{v:.decimals$}");
+            // A value that rounds to zero from below: `-0.00` reads as a different value.
+            match text.strip_prefix('-') {
+                Some(rest) if rest.bytes().all(|b| b == b'0' || b == b'.') => rest.to_string(),
+                _ => text,
+            }
+        })
+    }
 }
 
 /// Fails unless `clim` is finite with `lo < hi`.
@@ -195,5 +218,24 @@ mod tests {
         let err = ColorMap::from_name("jet").unwrap_err().to_string();
         assert!(err.contains("viridis") && err.contains("rdbu"), "{err}");
         assert_eq!(ColorMap::from_name("Magma").unwrap(), ColorMap::Magma);
+    }
+
+    #[test]
+    fn bar_labels_share_the_decimals_that_resolve_the_span() {
+        let labels = |lo, hi| {
+            Coloring::new(ColorMap::Viridis, [lo, hi])
+                .unwrap()
+                .bar_labels()
+        };
+        assert_eq!(labels(27.278301, 212.48097), ["27", "120", "212"]);
+        assert_eq!(labels(0.0, 1.0), ["0.00", "0.50", "1.00"]);
+        assert_eq!(labels(-1.0, 1.0), ["-1.00", "0.00", "1.00"]);
+        assert_eq!(labels(0.01, 0.06), ["0.0100", "0.0350", "0.0600"]);
+        assert_eq!(labels(1000.0, 1000.5), ["1000.000", "1000.250", "1000.500"]);
+        assert_eq!(labels(0.0, 2e6), ["0.00e0", "1.00e6", "2.00e6"]);
+        assert_eq!(labels(1e-5, 3e-5), ["1.00e-5", "2.00e-5", "3.00e-5"]);
+        // A value that rounds to zero from below reads as 0, not -0.
+        assert_eq!(labels(-0.001, 1.0), ["0.00", "0.50", "1.00"]);
+        assert_eq!(labels(-0.4, 0.2), ["-0.400", "-0.100", "0.200"]);
     }
 }

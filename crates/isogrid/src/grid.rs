@@ -118,11 +118,7 @@ pub fn isosurface_empty_note(
     iso: f64,
     all_nan: impl FnOnce() -> bool,
 ) -> String {
-    // f32 samples in their own precision, not as the f64 that holds them.
-    let [lo, hi] = value_range.map(|v| match scalar_type {
-        ScalarType::F32 => (v as f32).to_string(),
-        _ => v.to_string(),
-    });
+    let [lo, hi] = value_range.map(|v| scalar_type.display_value(v));
     let why = if dims.iter().any(|&d| d < 2) {
         THIN.to_string()
     } else if all_nan() {

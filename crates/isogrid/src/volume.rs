@@ -71,6 +71,14 @@ impl ScalarType {
     pub fn fits_f64(self) -> bool {
         !matches!(self, ScalarType::U64 | ScalarType::I64)
     }
+    /// `v`, a value of this type held in an f64, as the shortest text that reads back to it in
+    /// the type's own precision: an f32 as `-12.976177`, not the f64 `-12.976177215576172`.
+    pub fn display_value(self, v: f64) -> String {
+        match self {
+            ScalarType::F32 => (v as f32).to_string(),
+            _ => v.to_string(),
+        }
+    }
 }
 
 /// A sample type the extraction is generic over.

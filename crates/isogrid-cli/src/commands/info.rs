@@ -27,13 +27,16 @@ pub fn run(args: Args) -> Result<()> {
     let grid = isogrid::cgc::open(&args.file)?;
     let read = start.elapsed().as_secs_f64();
     crate::report::note_if_empty(&args.file, &grid, None);
-    let report = GridReport::new(
-        &GridStats::of(&grid),
-        Seconds {
-            read,
-            ..Default::default()
-        },
-    )
+    let report = GridReport {
+        opened_file: true,
+        ..GridReport::new(
+            &GridStats::of(&grid),
+            Seconds {
+                read,
+                ..Default::default()
+            },
+        )
+    }
     .with_attribute(grid.attribute())
     .with_labels(&grid);
     if args.json {
@@ -52,8 +55,8 @@ pub fn run(args: Args) -> Result<()> {
         outln!(
             "source        {} samples in [{}, {}], spacing {:?}",
             info.scalar_type.name(),
-            info.value_range[0],
-            info.value_range[1],
+            info.scalar_type.display_value(info.value_range[0]),
+            info.scalar_type.display_value(info.value_range[1]),
             info.spacing
         );
         Ok(())

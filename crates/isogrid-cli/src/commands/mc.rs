@@ -2,12 +2,13 @@
 
 use crate::args::{InputArgs, IsoArgs, LabelArgs, ThreadArgs};
 use crate::color_by::AttributeInput;
+use crate::grid_source::is_cgc;
 use crate::outputs::{self, Output};
 use crate::report::{MeshReport, Seconds};
 use crate::{input, progress};
 use anyhow::{bail, Context, Result};
 use isogrid::mc::{label_meshes, try_marching_cubes_with_progress, Inside, McMesh, MeshSpace};
-use isogrid::Progress;
+use isogrid::{CellGrid, Progress};
 use isogrid_io::label_meshes::{write_glb, write_precomputed, LabelMesh};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -16,7 +17,8 @@ use std::time::Instant;
 #[derive(clap::Args)]
 pub struct Args {
     /// Volume: .nii/.nii.gz, .nrrd/.nhdr, .npy, .tif/.tiff, .mha/.mhd, .mrc/.map, .vti, a DICOM
-    /// folder, or raw with --raw-shape.
+    /// folder, or raw with --raw-shape; with --labels also a .cgc file of labels (`extract
+    /// --labels`), whose selected labels are meshed from their cells without the volume.
     pub input: PathBuf,
     #[command(flatten)]
     pub iso: IsoArgs,
@@ -88,6 +90,13 @@ pub fn run(args: Args) -> Result<()> {
     }
     if args.label.smooth.is_some() {
         bail!("--smooth smooths label indicators, and needs --labels");
+    }
+    if is_cgc(&args.input) {
+        bail!(
+            "{}: a .cgc file holds a grid, not a volume: mc meshes a label grid's labels \
+             (--labels) and an isosurface from its volume",
+            args.input.display()
+        );
     }
     // Fail before the work, not after it.
     let output = args.output.as_deref().map(|path| Output {
@@ -204,8 +213,43 @@ impl<'a> LabelOutput<'a> {
     }
 }
 
-/// `--labels`: the label grid of the volume (`isogrid extract --labels`), one Marching Cubes mesh
-/// per label from its cells, placed in `--space`, written as .glb or precomputed meshes.
+/// The labels `--labels` selects of the label grid in the `.cgc` file `args.input` (memory-mapped;
+/// only the selected labels' clusters are read), and the seconds it took. The grid's labels,
+/// smoothing and precision were fixed when it was extracted.
+fn open_label_grid(args: &Args) -> Result<(CellGrid, f64)> {
+    let path = args.input.display();
+    if args.label.smooth.is_some() {
+        bail!("{path}: a .cgc file's labels were smoothed (or not) when it was extracted; drop --smooth");
+    }
+    if args.label.labels_of.is_some() {
+        bail!("{path}: --labels-of picks a label image of an OME-Zarr image; a .cgc file holds one grid");
+    }
+    let start = Instant::now();
+    let grid = isogrid::cgc::open(&args.input)?;
+    let Some(labels) = grid.labels() else {
+        bail!(
+            "{path}: this .cgc file holds an isosurface, not labels; mc takes an isosurface from \
+             its volume (`isogrid mc VOLUME --iso V`)"
+        );
+    };
+    let selection = args.label.labels.as_ref().expect("called with --labels");
+    let signed = isogrid::labels::signed_labels(grid.info().scalar_type);
+    let shown = labels
+        .shown(Some(selection), None, signed)
+        .with_context(|| path.to_string())?;
+    // Every label: the grid as it is, not a copy of it.
+    let grid = match shown.iter().all(|&s| s) {
+        true => grid,
+        false => grid
+            .showing_labels(&shown)
+            .with_context(|| path.to_string())?,
+    };
+    Ok((grid, start.elapsed().as_secs_f64()))
+}
+
+/// `--labels`: the label grid of the volume (`isogrid extract --labels`) or of a `.cgc` file, one
+/// Marching Cubes mesh per label from its cells, placed in `--space`, written as .glb or
+/// precomputed meshes.
 fn run_labels(args: Args) -> Result<()> {
     let options = args.label.options(None).expect("called with --labels");
     let output = args.output.as_deref().map(LabelOutput::of).transpose()?;
@@ -227,26 +271,35 @@ fn run_labels(args: Args) -> Result<()> {
             );
         }
     }
-    let read_options = args.input_args.read_options()?;
     let pool = args.threads.pool()?;
     let table = args.label.table()?;
-    // Read as `extract --labels` reads it: a .seg.nrrd's segments, layers, names and colours.
-    let (source, read) =
-        input::read_label_volume(&args.input, args.label.labels_of.as_deref(), &read_options)?;
+    let (grid, read, mut extract) = if is_cgc(&args.input) {
+        let (grid, read) = open_label_grid(&args)?;
+        (grid, read, 0.0)
+    } else {
+        let read_options = args.input_args.read_options()?;
+        // Read as `extract --labels` reads it: a .seg.nrrd's segments, layers, names and colours.
+        let (source, read) =
+            input::read_label_volume(&args.input, args.label.labels_of.as_deref(), &read_options)?;
+        let spinner = progress::spinner("extracting labels".into());
+        let start = Instant::now();
+        let grid = pool
+            .install(|| isogrid_io::labels::extract_label_volume(&source, &options))
+            .with_context(|| format!("{}: extraction failed", args.input.display()))?;
+        spinner.finish_and_clear();
+        (grid, read, start.elapsed().as_secs_f64())
+    };
+    let mut grid = grid;
+    let mut absent = Vec::new();
+    if let Some(table) = &table {
+        absent = isogrid_io::labels::apply_label_names(&mut grid, table);
+    }
     let spinner = progress::spinner("meshing labels".into());
     let start = Instant::now();
-    let mut absent = Vec::new();
-    let (grid, mut meshes) = pool
-        .install(|| -> isogrid::Result<_> {
-            let mut grid = isogrid_io::labels::extract_label_volume(&source, &options)?;
-            if let Some(table) = &table {
-                absent = isogrid_io::labels::apply_label_names(&mut grid, table);
-            }
-            let meshes = label_meshes(&grid)?;
-            Ok((grid, meshes))
-        })
+    let mut meshes = pool
+        .install(|| label_meshes(&grid))
         .with_context(|| format!("{}: label meshing failed", args.input.display()))?;
-    let extract = start.elapsed().as_secs_f64();
+    extract += start.elapsed().as_secs_f64();
     let space = args.space.mesh_space();
     let geometry = isogrid::extract::attribute::grid_geometry(grid.info());
     for mesh in &mut meshes {

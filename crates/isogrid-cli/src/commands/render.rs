@@ -585,5 +585,8 @@ pub fn run(args: Args) -> Result<()> {
     if let Some(out) = &args.output {
         outln!("wrote         {}", out.display());
     }
+    for (aov, path) in args.aov.as_ref().map(Aovs::files).unwrap_or_default() {
+        outln!("wrote         {} ({} AOV)", path.display(), aov.name());
+    }
     Ok(())
 }

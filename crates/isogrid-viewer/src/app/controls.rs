@@ -295,10 +295,10 @@ fn color_bar(ui: &mut egui::Ui, coloring: &Coloring) {
         painter.rect_filled(cell, 0.0, egui::Color32::from_rgb(*r, *g, *b));
     }
     ui.horizontal(|ui| {
-        let [lo, hi] = coloring.clim;
-        ui.label(egui::RichText::new(panel::fmt_value(lo)).small());
+        let [lo, _, hi] = coloring.bar_labels();
+        ui.label(egui::RichText::new(lo).small());
         ui.with_layout(egui::Layout::right_to_left(egui::Align::Center), |ui| {
-            ui.label(egui::RichText::new(panel::fmt_value(hi)).small());
+            ui.label(egui::RichText::new(hi).small());
         });
     });
 }

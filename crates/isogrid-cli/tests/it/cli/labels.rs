@@ -40,6 +40,14 @@ fn write_npy(path: &Path, descr: &str, data: &[u8]) {
     super::write_npy(path, descr, [nz, ny, nx], data);
 }
 
+/// [`labels`] as `dir/labels.npy`, u16.
+fn labels_npy(dir: &Path) -> std::path::PathBuf {
+    let npy = dir.join("labels.npy");
+    let bytes: Vec<u8> = labels().iter().flat_map(|v| v.to_le_bytes()).collect();
+    write_npy(&npy, "<u2", &bytes);
+    npy
+}
+
 #[test]
 fn labels_give_the_librarys_file_and_info_lists_them() {
     let dir = temp_dir("labels");
@@ -112,9 +120,7 @@ fn labels_give_the_librarys_file_and_info_lists_them() {
 #[test]
 fn render_of_a_label_volume_draws_its_extracted_labels() {
     let dir = temp_dir("labels-render");
-    let npy = dir.join("labels.npy");
-    let bytes: Vec<u8> = labels().iter().flat_map(|v| v.to_le_bytes()).collect();
-    write_npy(&npy, "<u2", &bytes);
+    let npy = labels_npy(&dir);
     for (selection, smooth) in [("all", "0"), ("2,5-9", "1")] {
         let cgc = dir.join("labels.cgc");
         ok_json(&[
@@ -184,9 +190,7 @@ fn render_of_a_label_volume_draws_its_extracted_labels() {
 #[test]
 fn label_meshes_beyond_the_memory_limit_are_refused() {
     let dir = temp_dir("labels-mesh-limit");
-    let npy = dir.join("labels.npy");
-    let bytes: Vec<u8> = labels().iter().flat_map(|v| v.to_le_bytes()).collect();
-    write_npy(&npy, "<u2", &bytes);
+    let npy = labels_npy(&dir);
     let glb = dir.join("labels.glb");
     let out = std::process::Command::new(env!("CARGO_BIN_EXE_isogrid"))
         .args(["mc", s(&npy), "--labels", "all", "-o", s(&glb)])
@@ -206,6 +210,143 @@ fn label_meshes_beyond_the_memory_limit_are_refused() {
     assert!(glb.exists());
 }
 
+/// The files under the folder `dir` (a precomputed mesh folder), by path within it.
+fn folder_files(dir: &Path) -> Vec<(String, Vec<u8>)> {
+    let mut files = Vec::new();
+    for e in std::fs::read_dir(dir).unwrap() {
+        let (path, name) = {
+            let e = e.unwrap();
+            (e.path(), e.file_name().to_string_lossy().to_string())
+        };
+        if path.is_dir() {
+            let inner = folder_files(&path);
+            files.extend(inner.into_iter().map(|(n, b)| (format!("{name}/{n}"), b)));
+        } else {
+            files.push((name, std::fs::read(path).unwrap()));
+        }
+    }
+    files.sort();
+    files
+}
+
+/// `mc FILE.cgc --labels SEL` meshes the selected labels of a grid extracted before, without its
+/// volume: the same .glb and precomputed files, byte for byte, as `mc` of the volume with the
+/// same selection and smoothing. What the grid fixed at extraction cannot be asked again, and an
+/// isosurface grid has no labels to mesh.
+#[test]
+fn label_meshes_of_a_cgc_file_are_those_of_its_volume() {
+    let dir = temp_dir("labels-mesh-cgc");
+    let npy = labels_npy(&dir);
+    for smooth in ["0", "1.25"] {
+        let cgc = dir.join(format!("labels-{smooth}.cgc"));
+        ok_json(&[
+            "extract",
+            s(&npy),
+            "--labels",
+            "all",
+            "--smooth",
+            smooth,
+            "-o",
+            s(&cgc),
+            "--json",
+        ]);
+        for selection in ["all", "5-9"] {
+            // `mc` of the grid and of the volume into OUT beside each other: their reports.
+            let mesh_both = |out: &str| {
+                let (from_cgc, from_volume) = (dir.join(format!("cgc-{out}")), dir.join(out));
+                let of_cgc = ok_json(&[
+                    "mc",
+                    s(&cgc),
+                    "--labels",
+                    selection,
+                    "-o",
+                    s(&from_cgc),
+                    "--json",
+                ]);
+                let of_volume = ok_json(&[
+                    "mc",
+                    s(&npy),
+                    "--labels",
+                    selection,
+                    "--smooth",
+                    smooth,
+                    "-o",
+                    s(&from_volume),
+                    "--json",
+                ]);
+                assert_eq!(
+                    of_cgc["labels"], of_volume["labels"],
+                    "smooth {smooth}, {selection}"
+                );
+                assert_eq!(
+                    of_cgc["triangles"], of_volume["triangles"],
+                    "smooth {smooth}, {selection}"
+                );
+                (from_cgc, from_volume)
+            };
+            let (from_cgc, from_volume) = mesh_both("meshes.glb");
+            let glb = std::fs::read(&from_cgc).unwrap();
+            assert!(
+                glb == std::fs::read(&from_volume).unwrap(),
+                "smooth {smooth}, {selection}"
+            );
+            std::fs::remove_file(&from_cgc).unwrap();
+            std::fs::remove_file(&from_volume).unwrap();
+            let (from_cgc, from_volume) = mesh_both("meshes");
+            let files = folder_files(&from_cgc);
+            // 5 and 9 only, each a manifest and a fragment, beside `info` and its properties.
+            let names: Vec<&str> = files.iter().map(|(n, _)| n.as_str()).collect();
+            if selection == "5-9" {
+                let expected = [
+                    "5:0",
+                    "5:0:1",
+                    "9:0",
+                    "9:0:1",
+                    "info",
+                    "segment_properties/info",
+                ];
+                assert_eq!(names, expected);
+            }
+            assert!(
+                files == folder_files(&from_volume),
+                "smooth {smooth}, {selection}"
+            );
+            std::fs::remove_dir_all(&from_cgc).unwrap();
+            std::fs::remove_dir_all(&from_volume).unwrap();
+        }
+    }
+    let cgc = dir.join("labels-0.cgc");
+    let out = dir.join("out.glb");
+    fails(
+        &["mc", s(&cgc), "--labels", "6", "-o", s(&out)],
+        "label 6: no such label in the grid",
+    );
+    fails(
+        &[
+            "mc",
+            s(&cgc),
+            "--labels",
+            "all",
+            "--smooth",
+            "1",
+            "-o",
+            s(&out),
+        ],
+        "drop --smooth",
+    );
+    fails(
+        &["mc", s(&cgc), "--iso", "3", "-o", s(&dir.join("out.ply"))],
+        "a .cgc file holds a grid, not a volume",
+    );
+    let iso = dir.join("iso.cgc");
+    ok_json(&["extract", s(&npy), "--iso", "3", "-o", s(&iso), "--json"]);
+    fails(
+        &["mc", s(&iso), "--labels", "all", "-o", s(&out)],
+        "holds an isosurface, not labels",
+    );
+    assert!(!out.exists() && !dir.join("out.ply").exists());
+}
+
 #[test]
 fn bad_label_requests_fail_in_one_line_and_write_nothing() {
     let dir = temp_dir("labels-bad");
@@ -222,9 +363,7 @@ fn bad_label_requests_fail_in_one_line_and_write_nothing() {
         &["extract", s(&npy), "--labels", "all", "-o", s(&out)],
         "integer label values",
     );
-    let good = dir.join("labels.npy");
-    let bytes: Vec<u8> = labels().iter().flat_map(|v| v.to_le_bytes()).collect();
-    write_npy(&good, "<u2", &bytes);
+    let good = labels_npy(&dir);
     fails(
         &[
             "extract",
