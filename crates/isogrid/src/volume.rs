@@ -117,7 +117,9 @@ pub enum VolumeData {
 
 /// Evaluates `$body` with `$s` bound to the typed slice that `$samples` (a [`Samples`]) holds,
 /// whichever sample type it is: the one place that lists every type for code generic over
-/// [`Scalar`].
+/// [`Scalar`], in this crate and the others (`isogrid::volume::with_samples!`).
+#[doc(hidden)]
+#[macro_export]
 macro_rules! with_samples {
     ($samples:expr, $s:ident => $body:expr) => {
         match $samples {
@@ -133,7 +135,7 @@ macro_rules! with_samples {
         }
     };
 }
-pub(crate) use with_samples;
+pub use crate::with_samples;
 
 /// Borrowed samples of one of the supported types (e.g. a numpy array's buffer).
 #[derive(Debug, Clone, Copy)]

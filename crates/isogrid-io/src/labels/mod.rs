@@ -1,7 +1,7 @@
 //! Label volumes as files hold them, with the names and colours the files give: 3D Slicer
-//! segmentations (`.seg.nrrd`, layered or not), OME-Zarr label images (`image.zarr/labels/NAME`)
-//! and colour tables given beside the volume ([`read_label_table`]). Any other volume file is a
-//! label volume without names.
+//! segmentations (`.seg.nrrd`, layered or not), OME-Zarr label images (`image.zarr/labels/NAME`),
+//! folders of NIfTI masks (TotalSegmentator's, `masks`) and colour tables given beside
+//! the volume ([`read_label_table`]). Any other volume file is a label volume without names.
 //!
 //! A file's labels are numbered by their values in the volume, with one exception: a layered
 //! `.seg.nrrd` (segments that overlap are kept in separate layers, a 4-D file whose first axis is
@@ -12,6 +12,7 @@
 //! background. Each layer is extracted on its own (so overlapping segments each keep their whole
 //! surface) and the grids are joined into one ([`isogrid::merge_label_grids`]).
 
+mod masks;
 mod ome;
 mod segmentation;
 mod table;
@@ -54,9 +55,13 @@ impl LabelVolume {
 }
 
 /// Reads a label volume and the names and colours its file gives: a `.seg.nrrd` (any NRRD with
-/// `SegmentN_` keys), an OME-Zarr label image (`image.zarr/labels/NAME`), or any volume file
+/// `SegmentN_` keys), an OME-Zarr label image (`image.zarr/labels/NAME`), a folder of NIfTI
+/// masks (one label per file, named after it), or any volume file
 /// [`crate::read_volume`] reads. Returns notices for the user, as [`crate::read_volume_noted`].
 pub fn read_label_volume(path: &Path, opts: &ReadOptions) -> Result<(LabelVolume, Vec<String>)> {
+    if opts.raw.is_none() && masks::is_mask_folder(path) {
+        return masks::read(path, opts);
+    }
     if is_nrrd(path) && opts.raw.is_none() {
         return segmentation::read(path).map(|v| (v, Vec::new()));
     }
@@ -87,6 +92,10 @@ pub fn open_label_region(
         None => path.to_path_buf(),
         Some(name) => label_image_path(path, name)?,
     };
+    // Its masks are read whole, one after another, into layers.
+    if masks::is_mask_folder(&path) {
+        return Ok(None);
+    }
     // A NRRD's header: its layers decide how it is read, its keys name its labels.
     let nrrd_keys = match is_nrrd(&path) && opts.raw.is_none() {
         true => match crate::nrrd::header_layers_and_keys(&path)? {
@@ -211,17 +220,7 @@ pub(crate) fn max_key(samples: Samples<'_>) -> u64 {
             .max()
             .unwrap_or(0)
     }
-    match samples {
-        Samples::U8(s) => max(s),
-        Samples::U16(s) => max(s),
-        Samples::I16(s) => max(s),
-        Samples::F32(s) => max(s),
-        Samples::U32(s) => max(s),
-        Samples::I32(s) => max(s),
-        Samples::U64(s) => max(s),
-        Samples::I64(s) => max(s),
-        Samples::F64(s) => max(s),
-    }
+    isogrid::volume::with_samples!(samples, s => max(s))
 }
 
 /// Gives the grid's labels the names and colours `names` has for their values; returns the

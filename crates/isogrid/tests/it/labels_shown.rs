@@ -99,8 +99,7 @@ fn a_signed_range_across_zero_selects_both_sides() {
     };
     let signed: Vec<i16> = samples.iter().map(|&v| [0, -4, 3, 9][v as usize]).collect();
     let volume =
-        isogrid::Volume::with_geometry(*ball.geometry(), isogrid::VolumeData::I16(signed))
-            .unwrap();
+        isogrid::Volume::with_geometry(*ball.geometry(), isogrid::VolumeData::I16(signed)).unwrap();
     let sel = |s: &str| LabelSelection::parse(s).unwrap();
     let extract = |s: &str| extract_labels(&volume.view(), &LabelOptions::new(sel(s))).unwrap();
     let values = |g: &isogrid::CellGrid| -> Vec<i64> {
