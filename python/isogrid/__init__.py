@@ -244,7 +244,7 @@ def extract(
             stops within a block row and the exception is raised.
         labels, smooth, label_table, labels_of: instead of an isovalue, the surfaces of a label
             volume's labels, as ``isogrid extract --labels`` gives them: the call is then
-            :func:`extract_labels` (see there) with these arguments.
+            :func:`extract_labels` (see there) with these arguments and the attribute.
 
     The GIL is released while extracting; do not modify ``array`` from another thread meanwhile.
 
@@ -254,12 +254,13 @@ def extract(
         volume one sample thick).
     """
     if labels is not None:
-        if iso is not None or iso_normalized is not None or attribute is not None:
-            raise ValueError("labels takes the place of iso and iso_normalized, and has no attribute")
+        if iso is not None or iso_normalized is not None:
+            raise ValueError("labels takes the place of iso and iso_normalized")
         return extract_labels(
             array, labels, smooth=smooth, spacing=spacing, precision=precision, threads=threads,
             series=series, origin=origin, direction=direction, label_table=label_table,
-            labels_of=labels_of, progress=progress,
+            labels_of=labels_of, progress=progress, attribute=attribute,
+            attribute_precision=attribute_precision,
         )
     iso, iso_normalized = _iso_pair(iso, iso_normalized)
     if smooth is not None:
@@ -302,6 +303,8 @@ def extract_labels(
     label_table: Optional[PathLike] = None,
     labels_of: Optional[str] = None,
     progress: Optional[Callable[[int, int], Any]] = None,
+    attribute: Union[np.ndarray, Volume, PathLike, None] = None,
+    attribute_precision: int = 16,
 ) -> LabelGrid:
     """Extracts the surface of every selected label of a label volume in one pass
     (``isogrid extract --labels``).
@@ -330,13 +333,17 @@ def extract_labels(
         progress: called as ``progress(done, total)`` about ten times a second while the labels
             are extracted (blocks made). If it raises, or on Ctrl-C, extraction stops between
             blocks and the exception is raised.
+        attribute, attribute_precision: a second volume to colour the labels' surfaces by
+            (``isogrid extract --labels ... --color-by``), sampled at each active cell's surface
+            point as :func:`extract` samples it: an array on the label volume's samples, or a
+            :class:`Volume` or path resampled in world space.
 
     The GIL is released while extracting; do not modify ``array`` from another thread meanwhile.
 
     Returns:
         The :class:`LabelGrid`: ``grid.labels`` gives each label's value, name, colour, cell count
         and cell box, ``grid.meshes()`` each label's ``(vertices, faces)``, and :func:`render`
-        draws it in the labels' colours. Where it has no active cell, an
+        draws it in the labels' colours (by the attribute's colour map when it has one). Where it has no active cell, an
         :class:`EmptySurfaceWarning` says why (no selected label in the volume, one label filling
         it, or a volume one sample thick).
     """
@@ -360,6 +367,7 @@ def extract_labels(
             direction=None if direction is None else [_triple(row, "direction row") for row in direction],
             **common,
         )
+        grid = _with_attribute_of(grid, attribute, attribute_precision, threads)
         _warn_if_empty(grid)
         return _with_notices(grid, notices)
     if labels_of is not None:
@@ -374,8 +382,39 @@ def extract_labels(
         direction=None if direction is None else [_triple(row, "direction row") for row in direction],
         **common,
     )
+    grid = _with_attribute_of(grid, attribute, attribute_precision, threads)
     _warn_if_empty(grid)
     return _with_notices(grid, notices)
+
+
+def _with_attribute_of(grid: CellGrid, attribute: Any, precision: int, threads: Optional[int]) -> Any:
+    """``grid`` with ``attribute`` (a path, a :class:`Volume`, or an array on the grid's samples
+    and geometry) sampled at its cells; ``grid`` itself without one."""
+    if attribute is None:
+        return grid
+    bits = _int(precision, "attribute_precision")
+    threads = None if threads is None else _int(threads, "threads", 1)
+    if isinstance(attribute, (str, os.PathLike)):
+        return _isogrid._with_attribute(grid, attribute_path=os.fspath(attribute), bits=bits, threads=threads)
+    info = grid.info
+    attribute = _volume_of(attribute)
+    prepared, fortran = _prepare(attribute)
+    if isinstance(attribute, Volume):
+        place = (attribute.spacing, attribute.origin, attribute.direction)
+    else:
+        dims = prepared.shape if fortran else prepared.shape[::-1]
+        if tuple(dims) != tuple(info["dims"]):
+            raise ValueError(
+                f"an attribute array of {tuple(dims)} samples (x, y, z) lies on the labels' grid of "
+                f"{tuple(info['dims'])}; pass a Volume with its own geometry to resample it"
+            )
+        place = (info["spacing"], info["origin"], info["direction"])
+    spacing, origin, direction = place
+    arg = (
+        prepared, fortran, _triple(spacing, "spacing"), _triple(origin, "origin"),
+        [_triple(row, "direction row") for row in direction], "attribute", bits,
+    )
+    return _isogrid._with_attribute(grid, array=arg, bits=bits, threads=threads)
 
 
 def _placed(

@@ -124,6 +124,13 @@ def _attach_attribute(
     bits: int = 16,
     threads: Optional[int] = None,
 ) -> None: ...
+def _with_attribute(
+    grid: CellGrid,
+    attribute_path: Optional[_Path] = None,
+    array: Optional[Tuple[Any, ...]] = None,
+    bits: int = 16,
+    threads: Optional[int] = None,
+) -> Union[CellGrid, LabelGrid]: ...
 def _empty_surface_note(grid: CellGrid, all_nan: bool = False) -> str: ...
 def _isosurface_empty_note(
     array: np.ndarray,

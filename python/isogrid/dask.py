@@ -143,8 +143,8 @@ def extract(
             it: the path of a volume file or Zarr store (read by region where its format allows,
             resampled in world space when its grid differs), or an array indexed ``[z, y, x]`` on
             the surface's samples (a dask array is computed into memory). Sampled by the driver
-            once the surface is extracted; the file is the one ``isogrid.extract(...,
-            attribute=...)`` writes.
+            once the surface is extracted (the labels' surfaces too); the file is the one
+            ``isogrid.extract(..., attribute=...)`` writes.
         attribute_precision: bits per stored attribute value, 8, 16 or 32.
         labels: instead of an isovalue, the surface of each label of a label volume, as
             :func:`isogrid.extract` takes it (``"all"``, a label, a list, or ``"1,5-9"``); the
@@ -178,8 +178,8 @@ def extract(
         if smooth is not None or label_table is not None:
             raise ValueError("smooth and label_table apply to labels=, and need it")
         iso, iso_normalized = _iso_pair(iso, iso_normalized)
-    elif iso is not None or iso_normalized is not None or attribute is not None:
-        raise ValueError("labels takes the place of iso and iso_normalized, and has no attribute")
+    elif iso is not None or iso_normalized is not None:
+        raise ValueError("labels takes the place of iso and iso_normalized")
     bits = None if precision is None else _int(precision, "precision")
     # Checked here, by the Rust rule, so that a typo fails before the value-range pass.
     if bits is not None:
@@ -213,9 +213,13 @@ def extract(
             0.0 if smooth is None else float(smooth), parent, bits, geometry["direction"]
         )
         names_of = os.fspath(source) if isinstance(source, (str, os.PathLike)) else None
-        stats = _extract_labels(array, writer, run, counter, budget, (nx, ny, nz), dtype.itemsize,
-                                _label_selection(labels), 0.0 if smooth is None else float(smooth), bits,
-                                out, label_table, names_of)
+        stats = _written_with_attribute(
+            out,
+            lambda path: _extract_labels(array, writer, run, counter, budget, (nx, ny, nz), dtype.itemsize,
+                                         _label_selection(labels), 0.0 if smooth is None else float(smooth),
+                                         bits, path, label_table, names_of),
+            attribute, ((nx, ny, nz), spacing3, origin3, geometry["direction"]), attribute_precision,
+        )
         stats["seconds"] = {"read": read, "extract": time.perf_counter() - start - read, "write": 0.0}
         return stats
     stop = run.stop
@@ -264,21 +268,10 @@ def extract(
         ),
         len(jobs),
     )
-    if attribute is None:
-        stats = extraction.write(out, emits)
-    else:
-        # The surface goes to a file beside the output, gets its attribute, then takes the
-        # output's name: on any error nothing is left under it.
-        surface = os.path.join(parent, f".{os.path.basename(out)}.surface{os.getpid()}")
-        try:
-            stats = extraction.write(surface, emits)
-            _attach_attribute(surface, attribute, (nx, ny, nz), spacing3, origin3, geometry["direction"],
-                              _int(attribute_precision, "attribute_precision"))
-            os.replace(surface, out)
-        finally:
-            if os.path.exists(surface):
-                os.remove(surface)
-        stats["attribute"] = _isogrid.load(out).stats["attribute"]
+    stats = _written_with_attribute(
+        out, lambda path: extraction.write(path, emits), attribute,
+        ((nx, ny, nz), spacing3, origin3, geometry["direction"]), attribute_precision,
+    )
     stats["seconds"] = {"read": read, "extract": time.perf_counter() - start - read, "write": 0.0}
     if stats["active_cells"] == 0:
         # As isogrid.extract warns; the empty grid's file is small, its header says why.
@@ -383,6 +376,27 @@ class _Counter:
             close = getattr(results, "close", None)
             if close is not None:
                 close()
+
+
+def _written_with_attribute(out: str, write: Callable[[str], Dict[str, Any]], attribute: Any,
+                            grid: Tuple[Any, ...], precision: int) -> Dict[str, Any]:
+    """Writes the grid with `write(path)` (which gives its statistics) to `out`. With an
+    attribute, the grid goes to a file beside the output, gets its attribute (`grid`: the
+    surface's dims, spacing, origin and direction), then takes the output's name: on any error
+    nothing is left under it."""
+    if attribute is None:
+        return write(out)
+    bits = _int(precision, "attribute_precision")
+    surface = os.path.join(os.path.dirname(os.path.abspath(out)), f".{os.path.basename(out)}.surface{os.getpid()}")
+    try:
+        stats = write(surface)
+        _attach_attribute(surface, attribute, *grid, bits)
+        os.replace(surface, out)
+    finally:
+        if os.path.exists(surface):
+            os.remove(surface)
+    stats["attribute"] = _isogrid.load(out).stats["attribute"]
+    return stats
 
 
 def _attach_attribute(path: str, attribute: Any, dims: Tuple[int, int, int], spacing: Tuple[float, ...],

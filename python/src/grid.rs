@@ -259,19 +259,56 @@ pub fn _attach_attribute(
     bits: u32,
     threads: Option<usize>,
 ) -> PyResult<()> {
+    let grid = py.detach(|| isogrid::cgc::open(&path)).map_err(to_py)?;
+    let sampled = sampled_attribute(py, &grid, attribute_path, array, bits, threads)?;
+    let grid = grid.with_attribute(sampled).map_err(to_py)?;
+    py.detach(|| isogrid::cgc::write(&path, &grid))
+        .map_err(to_py)
+}
+
+/// A new grid: `grid` (a copy) with the attribute of the volume file `attribute_path` or of
+/// `array`, sampled as [`_attach_attribute`] samples it. For `extract_labels(..., attribute=)`,
+/// whose label extraction comes first.
+#[pyfunction]
+#[pyo3(signature = (grid, attribute_path=None, array=None, bits=16, threads=None))]
+pub fn _with_attribute<'py>(
+    py: Python<'py>,
+    grid: &Bound<'py, CellGrid>,
+    attribute_path: Option<PathBuf>,
+    array: Option<AttributeArg<'_, 'py>>,
+    bits: u32,
+    threads: Option<usize>,
+) -> PyResult<Bound<'py, PyAny>> {
+    let inner = grid.get().inner();
+    let sampled = sampled_attribute(py, inner, attribute_path, array, bits, threads)?;
+    // The grid is frozen: the copy goes through its bytes, checked again as any file's are.
+    let copy = py
+        .detach(|| isogrid::cgc::read_bytes(&isogrid::cgc::to_bytes(inner)))
+        .map_err(to_py)?;
+    CellGrid::wrap(py, copy.with_attribute(sampled).map_err(to_py)?)
+}
+
+/// The attribute of the volume file `attribute_path` (read by region where its format allows) or
+/// of `array`, sampled at each active cell's surface point of `grid`, at `bits`.
+fn sampled_attribute(
+    py: Python<'_>,
+    grid: &isogrid::CellGrid,
+    attribute_path: Option<PathBuf>,
+    array: Option<AttributeArg<'_, '_>>,
+    bits: u32,
+    threads: Option<usize>,
+) -> PyResult<isogrid::CellAttribute> {
     let precision = AttributePrecision::from_bits(bits).ok_or_else(|| {
         invalid(format!(
             "attribute precision must be 8, 16 or 32, not {bits}"
         ))
     })?;
-    let grid = py.detach(|| isogrid::cgc::open(&path)).map_err(to_py)?;
-    let sampled = match (attribute_path, array) {
+    match (attribute_path, array) {
         (Some(attribute_path), None) => {
             let name = attribute_path
                 .file_name()
                 .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
             let options = isogrid_io::ReadOptions::default();
-            let grid = &grid;
             run_detached(py, threads, move || -> isogrid::Result<_> {
                 match isogrid_io::open_region(&attribute_path, &options)? {
                     Some(mut region) => sample_attribute(grid, region.as_mut(), &name, precision),
@@ -287,17 +324,13 @@ pub fn _attach_attribute(
             let volume =
                 VolumeArg::new(&array, fortran, spacing3(spacing)?)?.place(origin, direction)?;
             let view = volume.view()?;
-            let grid = &grid;
             run_detached(py, threads, move || {
                 sample_attribute_in_memory(grid, &view, &name, precision)
             })?
         }
         _ => return Err(invalid("give the attribute as a path or as an array, once")),
     }
-    .map_err(to_py)?;
-    let grid = grid.with_attribute(sampled).map_err(to_py)?;
-    py.detach(|| isogrid::cgc::write(&path, &grid))
-        .map_err(to_py)
+    .map_err(to_py)
 }
 
 /// The attribute volume of `extract` and `marching_cubes`: (array, fortran, spacing, origin,

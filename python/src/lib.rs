@@ -35,6 +35,7 @@ fn _isogrid(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(grid::extract_labels_file, m)?)?;
     m.add_function(wrap_pyfunction!(grid::load, m)?)?;
     m.add_function(wrap_pyfunction!(grid::_attach_attribute, m)?)?;
+    m.add_function(wrap_pyfunction!(grid::_with_attribute, m)?)?;
     m.add_function(wrap_pyfunction!(grid::_empty_surface_note, m)?)?;
     m.add_function(wrap_pyfunction!(mesh::marching_cubes, m)?)?;
     m.add_function(wrap_pyfunction!(mesh::_isosurface_empty_note, m)?)?;

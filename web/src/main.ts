@@ -402,7 +402,8 @@ async function load(src: ByteSource): Promise<void> {
         stats.labels = l.table.length;
         const refused = renderer!.setColorData(labelColorWords(l), 'label colours');
         if (refused) showMessage(`${src.name}: ${refused}`, true);
-        else renderer!.setColoring(colorUniforms(COLOR_LABELS));
+        // An attribute's colours win over the labels', as in every native renderer.
+        else if (!attribute) renderer!.setColoring(colorUniforms(COLOR_LABELS));
         // ?hide=V,...: label values hidden from the start.
         const hide = new Set((params.get('hide') ?? '').split(',').map((v) => v.trim()).filter(Boolean));
         l.table.forEach((label, i) => hide.has(labelText(label.value, header!.scalarType)) && hiddenLabels.add(i));

@@ -20,7 +20,7 @@ import puppeteer from 'puppeteer-core';
 import { PNG } from 'pngjs';
 import { build } from '../build.mjs';
 import { startServer } from './server.mjs';
-import { isogridBinary, sphereFile, resealHeader, resealSection, realFiles, coloredSphereFile, labelFile, labelAt, packedFile, emptyFiles } from './fixtures.mjs';
+import { isogridBinary, sphereFile, resealHeader, resealSection, realFiles, coloredSphereFile, colouredLabelFile, labelFile, labelAt, packedFile, emptyFiles } from './fixtures.mjs';
 import { basis, presetCamera } from '../build/node/camera.js';
 import { parseCgc, labelText } from '../build/node/cgc.js';
 
@@ -55,6 +55,7 @@ const tiny = realFiles()[0][1];
 const colored = bin && coloredSphereFile(48);
 const coloredBytes = colored && new Uint8Array(readFileSync(colored));
 const coloredF32 = bin && coloredSphereFile(48, 32);
+const colouredLabels = bin && colouredLabelFile(48);
 const labelled = bin && labelFile(48);
 const labelBytes = labelled && new Uint8Array(readFileSync(labelled));
 const spherePacked = sphere && new Uint8Array(readFileSync(packedFile(sphere)));
@@ -218,6 +219,8 @@ for (const B of BROWSERS) {
     if (sphereBytes) {
       files['colored.cgc'] = coloredBytes;
       files['colored-f32.cgc'] = new Uint8Array(readFileSync(coloredF32));
+      files['colored-labels.cgc'] = new Uint8Array(readFileSync(colouredLabels));
+      files['colored-labels.cgcz'] = new Uint8Array(readFileSync(packedFile(colouredLabels)));
       files['labels.cgc'] = labelBytes;
       // Optional sections damaged past their checksums: the page names the structural problem.
       const edited = (bytes, kind, at, value) => {
@@ -347,6 +350,10 @@ for (const B of BROWSERS) {
           ['colored.cgc', colored, 1, '', []],
           ['colored.cgc', colored, 2, `&cmap=turbo&clim=${clim.join(',')}`, ['--cmap', 'turbo', '--clim', clim.join(',')]],
           ['colored-f32.cgc', coloredF32, 2, '&cmap=rdbu', ['--cmap', 'rdbu']],
+          // A label grid with an attribute is drawn by the attribute, as natively, labels hidden too.
+          ['colored-labels.cgc', colouredLabels, 2, '&hide=2', ['--hide', '2']],
+          // Packed, the label sections arrive after the attribute's head.
+          ['colored-labels.cgcz', colouredLabels, 2, '&hide=2', ['--hide', '2']],
         ];
         for (const [file, path, view, query, flags] of cases) {
           const { page, outcome, stats } = await open(server.url, `src=/${file}&view=${view}&size=${SIZE.join('x')}${query}`);

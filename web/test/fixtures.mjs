@@ -103,6 +103,24 @@ export function labelFile(n = 32, smooth = null) {
 }
 
 /**
+ * The label grid of `labelAt` coloured by a gyroid of the same grid (`extract --labels all
+ * --color-by`: the attribute section beside the three label sections), or null.
+ */
+export function colouredLabelFile(n = 48) {
+  const bin = isogridBinary();
+  if (!bin) return null;
+  const dir = binaryDir(bin);
+  const cgc = join(dir, `colored-labels${n}.cgc`);
+  if (!existsSync(cgc)) {
+    writeNpy(join(dir, `labels${n}.npy`), n, labelAt);
+    execFileSync(bin, ['generate', 'gyroid', '--size', String(n), '-o', join(dir, `gyroid${n}.nrrd`)], { stdio: 'ignore' });
+    execFileSync(bin, ['extract', join(dir, `labels${n}.npy`), '--labels', 'all',
+      '--color-by', join(dir, `gyroid${n}.nrrd`), '-o', cgc], { stdio: 'ignore' });
+  }
+  return cgc;
+}
+
+/**
  * Grids without a surface, written by the binary (the sphere extracted above every sample, an 8³
  * volume that label 7 fills), each with the note `isogrid info` prints for it, past its
  * `isogrid: note: PATH: `: [name, path, note]; none without the binary.

@@ -17,7 +17,7 @@ pub struct LabelArgs {
     /// folder. A folder of NIfTI masks (TotalSegmentator's `segmentations/`) is one label volume:
     /// mask i in name order is label i+1, named after its file.
     // In the isovalue's group: one of --iso, --iso-normalized and --labels is required.
-    #[arg(long, value_name = "all|1,5-9", value_parser = parse_labels, group = "IsoArgs", conflicts_with = "color_by")]
+    #[arg(long, value_name = "all|1,5-9", value_parser = parse_labels, group = "IsoArgs")]
     pub labels: Option<LabelSelection>,
     /// With --labels: smooth each label's indicator by a Gaussian of SIGMA voxels before its
     /// surface is taken, so surfaces are not chamfered; 0 for none [default: 0].

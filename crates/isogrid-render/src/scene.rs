@@ -33,6 +33,8 @@ pub struct UploadedScene<'r> {
     attribute: Option<isogrid::AttributeInfo>,
     volume: Option<GpuVolume>,
     mesh: Option<GpuMesh>,
+    /// Whether `mesh` is a label grid's meshes, drawn in the labels' colours.
+    label_mesh: bool,
     /// The environment map of the last path-traced request, kept while requests name the same
     /// one (its upload identifies it in the accumulation key, so a new upload would restart it).
     environment: Option<(EnvSource, Option<GpuEnvMap>)>,
@@ -67,6 +69,7 @@ impl<'r> UploadedScene<'r> {
             attribute: None,
             volume: None,
             mesh: None,
+            label_mesh: false,
             environment: None,
         }
     }
@@ -104,6 +107,7 @@ impl<'r> UploadedScene<'r> {
         values: Option<(&[f32], &isogrid::AttributeInfo)>,
     ) -> Result<()> {
         self.mesh = None;
+        self.label_mesh = false;
         self.mesh = Some(match values {
             Some((v, info)) => {
                 self.attribute = Some(info.clone());
@@ -129,6 +133,7 @@ impl<'r> UploadedScene<'r> {
             self.renderer
                 .upload_label_mesh(mesh, vertex_labels, table, spacing)?,
         );
+        self.label_mesh = true;
         Ok(())
     }
 
@@ -186,6 +191,12 @@ impl<'r> UploadedScene<'r> {
             )));
         }
         progress.check()?;
+        if mode == Mode::Mc && self.label_mesh && parts.color.is_some() {
+            return Err(Error::invalid(
+                "mode mc draws a label grid's meshes in the labels' colours, not by its \
+                 attribute; colour the labels by the attribute in mode cgc, cgc-noewa or pathtrace",
+            ));
+        }
         let coloring = match (&parts.color, &self.attribute) {
             (None, _) => None,
             (Some(spec), Some(info)) => Some(spec.coloring(info)?),

@@ -246,10 +246,11 @@ impl CellGrid {
     }
     /// The grid of the labels `shown` alone (one flag per label-table entry), to draw a label
     /// grid with some labels hidden: the clusters of the shown labels' runs, found through the
-    /// label index (no scan of the others), with their metacell slots and corner records; the
-    /// hidden labels stay in the table with no cells. Every renderer draws it as any label grid,
-    /// so a hidden label's neighbours show their own surfaces where they touched it. Fails on a
-    /// grid without labels, a flag count other than the table's, or a grid with an attribute.
+    /// label index (no scan of the others), with their metacell slots, corner records and
+    /// attribute values (the attribute keeps the whole grid's range); the hidden labels stay in
+    /// the table with no cells. Every renderer draws it as any label grid, so a hidden label's
+    /// neighbours show their own surfaces where they touched it. Fails on a grid without labels
+    /// or a flag count other than the table's.
     pub fn showing_labels(&self, shown: &[bool]) -> crate::Result<CellGrid> {
         use crate::labels::{ClusterRun, LabelEntry};
         let labels = self
@@ -262,11 +263,6 @@ impl CellGrid {
                 labels.table().len()
             )));
         }
-        if self.attribute.is_some() {
-            return Err(crate::Error::invalid(
-                "labels of a grid with an attribute cannot be hidden yet",
-            ));
-        }
         // Old cluster → new cluster, for the kept ones.
         let mut new_cluster = vec![u32::MAX; self.clusters()];
         for (l, _) in shown.iter().enumerate().filter(|(_, &s)| s) {
@@ -278,6 +274,13 @@ impl CellGrid {
         let (old_metacells, old_cells) = (self.metacells(), self.cells());
         let mut blocks = Vec::with_capacity(self.blocks().len());
         let (mut metacells, mut cells) = (Vec::new(), Vec::new());
+        // The attribute's values of the kept cells, in their new order.
+        let old_values = self.attribute.as_ref().map(|a| a.value_bytes());
+        let value_bytes = self
+            .attribute
+            .as_ref()
+            .map_or(0, |a| a.info().precision.bytes());
+        let mut values = Vec::new();
         let mut cluster_labels = Vec::new();
         for block in self.blocks() {
             let pointer = metacells.len() as u32;
@@ -295,6 +298,11 @@ impl CellGrid {
                     if k != BOUND_SLOT && !m.is_empty() {
                         let start = m.cell_pointer as usize * n;
                         let end = start + m.active_cells() as usize * n;
+                        if let Some(old) = old_values {
+                            let first = m.cell_pointer as usize * value_bytes;
+                            let count = m.active_cells() as usize * value_bytes;
+                            values.extend_from_slice(&old[first..first + count]);
+                        }
                         m.cell_pointer = (cells.len() / n) as u32;
                         cells.extend_from_slice(&old_cells[start..end]);
                     }
@@ -325,10 +333,16 @@ impl CellGrid {
             });
         }
         let labels = GridLabels::from_parts(labels.table().to_vec(), cluster_labels, index, runs);
-        Ok(
-            CellGrid::from_parts(self.info.clone(), blocks, metacells, cells)
-                .with_built_labels(labels),
-        )
+        let mut grid = CellGrid::from_parts(self.info.clone(), blocks, metacells, cells)
+            .with_built_labels(labels);
+        // Its range stays the whole grid's, so that the colours do not change as labels hide.
+        if let Some(attribute) = &self.attribute {
+            grid.set_attribute(CellAttribute::from_encoded(
+                attribute.info().clone(),
+                values,
+            ))?;
+        }
+        Ok(grid)
     }
 
     /// The labels of a grid extracted from a label volume.

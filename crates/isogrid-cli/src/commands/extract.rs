@@ -161,10 +161,12 @@ fn run_labels(args: Args) -> Result<()> {
         path,
         extensions: &[".cgc"],
     });
-    let mut inputs = vec![args.input.as_path()];
+    let read_options = args.input_args.read_options()?;
+    let attribute =
+        AttributeInput::from_flag(args.color_by.as_deref(), &args.input, &read_options)?;
+    let mut inputs = AttributeInput::inputs(&args.input, attribute.as_ref());
     inputs.extend(args.label.label_table.as_deref());
     outputs::check(&inputs, output.as_slice())?;
-    let read_options = args.input_args.read_options()?;
     let pool = args.threads.pool()?;
     let table = args.label.table()?;
     let start = Instant::now();
@@ -173,18 +175,18 @@ fn run_labels(args: Args) -> Result<()> {
         args.label.labels_of.as_deref(),
         &read_options,
     )?;
-    let (stats, labels, absent, seconds) = match region {
+    let (stats, labels, absent, attribute_report, seconds) = match region {
         Some((mut source, names)) => {
             let read = start.elapsed().as_secs_f64();
             let max_memory = budget(args.max_memory);
-            let (summary, absent) = pool.install(|| {
+            let (summary, absent, attribute_report) = pool.install(|| {
                 stream_labels(
                     &args,
                     source.as_mut(),
                     &options,
                     max_memory,
-                    &names,
-                    table.as_deref(),
+                    (&names, table.as_deref()),
+                    attribute.as_ref(),
                 )
             })?;
             let seconds = Seconds {
@@ -193,10 +195,17 @@ fn run_labels(args: Args) -> Result<()> {
                 write: 0.0,
             };
             let labels = (summary.info, summary.table, summary.index);
-            (summary.stats, labels, absent, seconds)
+            (summary.stats, labels, absent, attribute_report, seconds)
         }
         None => {
-            let done = labels_in_memory(&args, &read_options, &options, &pool, table.as_deref())?;
+            let done = labels_in_memory(
+                &args,
+                &read_options,
+                &options,
+                &pool,
+                table.as_deref(),
+                attribute.as_ref(),
+            )?;
             note_read_whole(&args);
             done
         }
@@ -231,16 +240,19 @@ fn run_labels(args: Args) -> Result<()> {
         Some(&table_written),
         || false,
     );
-    let report = GridReport::new(&stats, seconds).with_label_table(&table_written, &index, signed);
+    let mut report =
+        GridReport::new(&stats, seconds).with_label_table(&table_written, &index, signed);
+    report.attribute = attribute_report;
     print_report(&args, &report)
 }
 
 /// A label extraction's statistics; its sample type, label table and index; the colour table's
-/// labels it lacks; and its times.
+/// labels it lacks; its attribute; and its times.
 type LabelsDone = (
     GridStats,
     (isogrid::GridInfo, Vec<Label>, Vec<LabelEntry>),
     Vec<u64>,
+    Option<AttributeReport>,
     Seconds,
 );
 
@@ -252,6 +264,7 @@ fn labels_in_memory(
     options: &LabelOptions,
     pool: &rayon::ThreadPool,
     table: Option<&[Label]>,
+    attribute: Option<&AttributeInput>,
 ) -> Result<LabelsDone> {
     let (source, read) =
         input::read_label_volume(&args.input, args.label.labels_of.as_deref(), read_options)?;
@@ -267,6 +280,9 @@ fn labels_in_memory(
     let absent = table.map_or(Vec::new(), |t| {
         isogrid_io::labels::apply_label_names(&mut grid, t)
     });
+    if let Some(attribute) = attribute {
+        grid = pool.install(|| with_attribute(args, grid, attribute))?;
+    }
     let mut write = 0.0;
     if let Some(out) = &args.output {
         let start = Instant::now();
@@ -282,6 +298,7 @@ fn labels_in_memory(
             labels.index().to_vec(),
         ),
         absent,
+        grid.attribute().map(AttributeReport::new),
         Seconds {
             read,
             extract,
@@ -292,15 +309,21 @@ fn labels_in_memory(
 
 /// Slab by slab into `--output` (or a scratch file that is removed, for the statistics alone),
 /// under a progress bar that Ctrl-C stops, with nothing written. The labels get the file's names
-/// (`names`), then the colour table's; returns the table's labels the grid lacks.
+/// (`names.0`), then the colour table's (`names.1`); returns the table's labels the grid lacks.
+/// With an attribute, the grid goes to a scratch file first, which the attribute pass reads back
+/// (memory-mapped), as for an isosurface; the output is then written whole, or not at all.
 fn stream_labels(
     args: &Args,
     source: &mut dyn RegionSource,
     options: &LabelOptions,
     max_memory: u64,
-    names: &[Label],
-    table: Option<&[Label]>,
-) -> Result<(isogrid::extract::label_stream::LabelSummary, Vec<u64>)> {
+    (names, table): (&[Label], Option<&[Label]>),
+    attribute: Option<&AttributeInput>,
+) -> Result<(
+    isogrid::extract::label_stream::LabelSummary,
+    Vec<u64>,
+    Option<AttributeReport>,
+)> {
     use isogrid::extract::label_stream;
     // Checked before the pass, so a budget too small fails at once.
     label_stream::plan_labels(source, options, max_memory)
@@ -309,9 +332,7 @@ fn stream_labels(
         .output
         .clone()
         .unwrap_or_else(|| std::env::temp_dir().join("isogrid-extract.cgc"));
-    let scratch = args
-        .output
-        .is_none()
+    let scratch = (attribute.is_some() || args.output.is_none())
         .then(|| isogrid::fs::ScratchFile::beside(&target, "labels.tmp"))
         .transpose()?;
     let out: &Path = scratch.as_ref().map_or(target.as_path(), |s| s.path());
@@ -327,7 +348,15 @@ fn stream_labels(
         label_stream::extract_labels_to_file(source, options, max_memory, out, &progress, &mut name)
     });
     let summary = stopped_or(result, args)?;
-    Ok((summary, absent))
+    let mut attribute_report = None;
+    if let Some(attribute) = attribute {
+        let grid = with_attribute(args, isogrid::cgc::open(out)?, attribute)?;
+        attribute_report = grid.attribute().map(AttributeReport::new);
+        if let Some(output) = &args.output {
+            isogrid::cgc::write(output, &grid)?;
+        }
+    }
+    Ok((summary, absent, attribute_report))
 }
 
 /// The whole volume in memory, then the grid, then the file.

@@ -251,6 +251,12 @@ fn open_label_grid(args: &Args) -> Result<(CellGrid, f64)> {
 /// Marching Cubes mesh per label from its cells, placed in `--space`, written as .glb or
 /// precomputed meshes.
 fn run_labels(args: Args) -> Result<()> {
+    if args.color_by.is_some() {
+        bail!(
+            "--color-by: the label meshes (.glb, precomputed) carry no per-vertex values; colour \
+             a label grid by an attribute with `extract --labels ... --color-by` and `render`"
+        );
+    }
     let options = args.label.options(None).expect("called with --labels");
     let output = args.output.as_deref().map(LabelOutput::of).transpose()?;
     if let Some(LabelOutput::Glb(path)) = output {

@@ -999,7 +999,11 @@ fn the_colour_bar_shows_the_table_and_leaves_the_picture_alone() {
 
 /// A 24³ u8 label volume as .npy: three labels side by side along x in a ball, 0 around.
 fn label_volume(dir: &Path) -> PathBuf {
-    let n = 24usize;
+    label_volume_of(dir, 24)
+}
+
+/// [`label_volume`] of `n`³ samples.
+fn label_volume_of(dir: &Path, n: usize) -> PathBuf {
     let c = (n as f64 - 1.0) / 2.0;
     let r = 0.375 * n as f64;
     let mut data = Vec::with_capacity(n * n * n);
@@ -1142,4 +1146,109 @@ fn label_aov_refuses_a_shown_label_that_reads_as_a_miss() {
     assert!(count(2) > 0 && count(3) > 0 && count(u64::MAX) > 0);
     assert_eq!(count(2) + count(3) + count(u64::MAX), labels.len());
     std::fs::remove_dir_all(&dir).ok();
+}
+
+/// A label grid coloured by an attribute (`extract --labels all --color-by`): the same file from
+/// the label volume read whole and streamed; with a label hidden, every mode that colours shows
+/// the attribute at the hit point (as [`assert_values_follow_the_hits`] checks for an isosurface)
+/// and the label AOV never the hidden label, on the CPU and each GPU mode; MC, which draws the
+/// labels' meshes in their colours, refuses the attribute in one line.
+#[test]
+fn labels_coloured_by_an_attribute_show_its_value_on_every_shown_label() {
+    let dir = temp_dir("labels-attribute");
+    // 80³, as the isosurface's test: a cell holds one value, which varies across it by up to
+    // 3 units of x + 2y, so the picture's range must be wide enough for 1 % of it.
+    let labels = label_volume_of(&dir, 80);
+    let field = dir.join("field.nrrd");
+    let f = |p: [f64; 3]| p[0] + 2.0 * p[1];
+    float_field(&field, 80, f);
+    let raw = dir.join("labels.raw");
+    std::fs::write(
+        &raw,
+        &std::fs::read(&labels).unwrap()[npy_header(&labels).2..],
+    )
+    .unwrap();
+    let (cgc, streamed) = (dir.join("labels.cgc"), dir.join("streamed.cgc"));
+    for (input, out, extra) in [
+        (&labels, &cgc, &[][..]),
+        (
+            &raw,
+            &streamed,
+            &[
+                "--raw-shape",
+                "80,80,80",
+                "--raw-type",
+                "u8",
+                "--max-memory",
+                "64M",
+            ][..],
+        ),
+    ] {
+        let mut args = vec!["extract", s(input), "--labels", "all", "--color-by"];
+        args.extend([s(&field), "-o", s(out), "--json"]);
+        args.extend(extra);
+        let report = json_of(&isogrid(&args));
+        assert_eq!(report["attribute"]["name"], "field.nrrd", "{report}");
+        assert_eq!(report["labels"].as_array().unwrap().len(), 3, "{report}");
+    }
+    assert!(std::fs::read(&cgc).unwrap() == std::fs::read(&streamed).unwrap());
+    let (w, h) = (200u32, 150u32);
+    let camera = isogrid::Camera::preset(2, [0.0; 3], [79.0; 3], w, h).unwrap();
+    let (png, value, depth, label) = (
+        dir.join("v.png"),
+        dir.join("v.npy"),
+        dir.join("d.npy"),
+        dir.join("l.npy"),
+    );
+    let aovs = format!(
+        "value={},depth={},label={}",
+        s(&value),
+        s(&depth),
+        s(&label)
+    );
+    let modes: [(&str, &[&str]); 4] = [
+        ("cpu", &["--backend", "cpu"]),
+        ("gpu cgc", &["--backend", "gpu"]),
+        (
+            "gpu cgc-noewa",
+            &["--backend", "gpu", "--mode", "cgc-noewa"],
+        ),
+        (
+            "gpu pathtrace",
+            &["--backend", "gpu", "--mode", "pathtrace", "--spp", "2"],
+        ),
+    ];
+    for (name, extra) in modes {
+        let mut args = vec!["render", s(&cgc), "--hide", "2", "--view", "2", "--size"];
+        args.extend(["200x150", "--aov", &aovs, "-o", s(&png), "--json"]);
+        args.extend(extra);
+        let out = isogrid(&args);
+        if failed_for_want_of_a_gpu(&out, name) {
+            eprintln!("{name}: skipped, no GPU adapter");
+            continue;
+        }
+        let report = json_of(&out);
+        let clim = report["color"]["clim"].as_array().unwrap();
+        let clim = [clim[0].as_f64().unwrap(), clim[1].as_f64().unwrap()];
+        let (values, depths) = (npy_f32(&value), npy_f32(&depth));
+        assert_values_follow_the_hits(name, &values, &depths, &camera, f, clim);
+        let labels = read_label_aov(&label);
+        assert!(!labels.contains(&2), "{name}: the hidden label shows");
+        assert!(labels.contains(&1) && labels.contains(&3), "{name}");
+        for (l, v) in labels.iter().zip(&values) {
+            assert_eq!(*l == u64::MAX, v.is_nan(), "{name}: label {l}, value {v}");
+        }
+    }
+    let mut args = vec!["render", s(&cgc), "--backend", "gpu", "--mode", "mc"];
+    args.extend(["-o", s(&png)]);
+    let out = isogrid(&args);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+    // Refused, or failed for want of a GPU adapter.
+    assert!(
+        err.contains("mode mc draws a label grid's meshes in the labels' colours")
+            || err.contains("no GPU adapter"),
+        "{err}"
+    );
 }

@@ -58,6 +58,44 @@ fn hiding_labels_gives_the_grid_of_the_others_extracted_alone() {
     }
 }
 
+/// With an attribute, each shown cell keeps its value: the view's values are those of the grid
+/// of the shown labels alone, sampled the same way, and the range stays the whole grid's.
+#[test]
+fn hiding_labels_keeps_each_shown_cells_attribute_value() {
+    // A value per cell that names it: its position and the label of its cluster.
+    let with_values = |grid: isogrid::CellGrid| {
+        let labels = grid.labels().unwrap().clone();
+        let mut values = Vec::new();
+        for (c, cluster) in grid.metacells().chunks(16).enumerate() {
+            let label = labels.table()[labels.cluster_labels()[c] as usize].value as f32;
+            for m in &cluster[..15] {
+                for b in 0..m.active_cells() {
+                    values.push(
+                        1000.0 * label
+                            + (m.position[0] * 7 + m.position[1] * 3 + m.position[2]) as f32
+                            + b as f32 / 8.0,
+                    );
+                }
+            }
+        }
+        let attribute =
+            isogrid::CellAttribute::from_values("id", isogrid::AttributePrecision::F32, &values);
+        grid.with_attribute(attribute).unwrap()
+    };
+    let all = with_values(extracted("1-3"));
+    let labels = all.labels().unwrap();
+    let shown = labels
+        .shown(None, Some(&LabelSelection::parse("2").unwrap()), false)
+        .unwrap();
+    let view = all.showing_labels(&shown).unwrap();
+    let alone = with_values(extracted("1,3"));
+    let (got, want) = (view.attribute().unwrap(), alone.attribute().unwrap());
+    assert_eq!(got.value_bytes(), want.value_bytes());
+    assert_eq!(got.info().range, all.attribute().unwrap().info().range);
+    let again = isogrid::cgc::read_bytes(&isogrid::cgc::to_bytes(&view)).unwrap();
+    assert_eq!(again.attribute().unwrap().value_bytes(), want.value_bytes());
+}
+
 #[test]
 fn show_and_hide_name_labels_that_exist() {
     let all = extracted("1-3");

@@ -338,6 +338,19 @@ fn label_meshes_of_a_cgc_file_are_those_of_its_volume() {
         &["mc", s(&cgc), "--iso", "3", "-o", s(&dir.join("out.ply"))],
         "a .cgc file holds a grid, not a volume",
     );
+    fails(
+        &[
+            "mc",
+            s(&npy),
+            "--labels",
+            "all",
+            "--color-by",
+            s(&npy),
+            "-o",
+            s(&out),
+        ],
+        "carry no per-vertex values",
+    );
     let iso = dir.join("iso.cgc");
     ok_json(&["extract", s(&npy), "--iso", "3", "-o", s(&iso), "--json"]);
     fails(
