@@ -16,7 +16,9 @@ use crate::render_worker::RenderMsg;
 use crate::source::{self, Source};
 use isogrid::extract::attribute::sample_attribute_in_memory;
 use isogrid::mc::{try_marching_cubes_with_progress, Inside};
-use isogrid::{extract_with_progress, ExtractOptions, GridStats, Iso, Precision, Progress, Volume};
+use isogrid::{
+    extract_with_progress, CellGrid, ExtractOptions, GridStats, Iso, Precision, Progress, Volume,
+};
 use isogrid::{AttributePrecision, ResultExt};
 use std::path::PathBuf;
 use std::sync::mpsc::Sender;
@@ -246,19 +248,7 @@ impl Worker {
                         "the volume has no finite sample: nothing to show",
                     );
                 }
-                if let Some(a) = &request.attribute {
-                    match source::open(&a.path, &a.read_options, &progress) {
-                        Ok(Source::Volume(v)) => self.attribute = Some((v, a.name.clone())),
-                        Ok(Source::Grid(_)) => self.notify.error(
-                            Failure::Open,
-                            format!(
-                                "{}: a .cgc file holds no samples to colour by",
-                                a.path.display()
-                            ),
-                        ),
-                        Err(e) => self.notify.error(Failure::Open, e.to_string()),
-                    }
-                }
+                self.open_attribute(&request, &progress);
                 self.volume = Some((volume, range));
             }
             Ok(Source::Grid(grid)) => {
@@ -288,20 +278,57 @@ impl Worker {
         self.end_task();
     }
 
-    /// A label volume: its labels' surfaces, extracted once (no isovalue applies), shown as a
-    /// `.cgc` label grid is.
+    /// Reads the volume of `--color-by` into `self.attribute`, or says why it cannot.
+    fn open_attribute(&mut self, request: &OpenRequest, progress: &Arc<Progress>) {
+        let Some(a) = &request.attribute else {
+            return;
+        };
+        match source::open(&a.path, &a.read_options, progress) {
+            Ok(Source::Volume(v)) => self.attribute = Some((v, a.name.clone())),
+            Ok(Source::Grid(_)) => self.notify.error(
+                Failure::Open,
+                format!(
+                    "{}: a .cgc file holds no samples to colour by",
+                    a.path.display()
+                ),
+            ),
+            Err(e) => self.notify.error(Failure::Open, e.to_string()),
+        }
+    }
+
+    /// `grid` with the attribute of `--color-by`, sampled at its cells, if there is one.
+    fn with_attribute(&self, grid: CellGrid) -> isogrid::Result<CellGrid> {
+        match &self.attribute {
+            Some((attribute, name)) => {
+                let values = sample_attribute_in_memory(
+                    &grid,
+                    &attribute.view(),
+                    name,
+                    AttributePrecision::Code16,
+                )?;
+                grid.with_attribute(values)
+            }
+            None => Ok(grid),
+        }
+    }
+
+    /// A label volume: its labels' surfaces, extracted once (no isovalue applies), coloured by
+    /// `--color-by` when given, shown as a `.cgc` label grid is.
     fn open_labels(&mut self, request: &OpenRequest, options: &isogrid::LabelOptions) {
         let path = &request.path;
         let start = Instant::now();
+        let progress = Arc::new(Progress::new());
+        self.open_attribute(request, &progress);
         let extracted = isogrid_io::labels::read_label_volume(path, &request.read_options)
             .and_then(|(source, _notices)| {
                 self.notify.send(Event::Busy(Some(Task {
                     what: format!("extracting the labels of {}", path.display()),
-                    progress: Arc::new(Progress::new()),
+                    progress,
                 })));
                 isogrid_io::labels::extract_label_volume(&source, options)
             })
-            .at_path(path);
+            .at_path(path)
+            .and_then(|grid| self.with_attribute(grid));
         let grid = match extracted {
             Ok(grid) => grid,
             Err(e) => return self.notify.error(Failure::Open, e.to_string()),
@@ -316,7 +343,7 @@ impl Worker {
                 scalar_type: info.scalar_type,
                 value_range: Some((info.value_range[0], info.value_range[1])),
                 grid_info: Some(info),
-                attribute: None,
+                attribute: grid.attribute().map(|a| a.info().name.clone()),
             },
         });
         let stats = GridStats::of(&grid);
@@ -343,22 +370,9 @@ impl Worker {
             iso: Iso::Value(iso),
             precision,
         };
-        let extracted =
-            extract_with_progress(&volume.view(), &options, &progress).and_then(|grid| {
-                // Sampled again at every isovalue: the slider keeps the colouring.
-                match &self.attribute {
-                    Some((attribute, name)) => {
-                        let values = sample_attribute_in_memory(
-                            &grid,
-                            &attribute.view(),
-                            name,
-                            AttributePrecision::Code16,
-                        )?;
-                        grid.with_attribute(values)
-                    }
-                    None => Ok(grid),
-                }
-            });
+        // Sampled again at every isovalue: the slider keeps the colouring.
+        let extracted = extract_with_progress(&volume.view(), &options, &progress)
+            .and_then(|grid| self.with_attribute(grid));
         match extracted {
             Ok(grid) => {
                 let stats = GridStats::of(&grid);

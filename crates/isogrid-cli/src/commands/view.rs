@@ -60,7 +60,7 @@ pub struct Args {
     pub clim: Option<[f64; 2]>,
     /// Show the surfaces of a label volume's labels (all but 0, or a list such as 1,5-9), as
     /// `extract --labels` extracts them, with the label list; the isovalue does not apply.
-    #[arg(long, value_name = "all|1,5-9", value_parser = crate::args::parse_labels, conflicts_with_all = ["color_by", "iso", "iso_normalized"])]
+    #[arg(long, value_name = "all|1,5-9", value_parser = crate::args::parse_labels, conflicts_with_all = ["iso", "iso_normalized"])]
     pub labels: Option<isogrid::LabelSelection>,
     /// With --labels: smooth each label's indicator by a Gaussian of SIGMA voxels (as `extract
     /// --smooth`).

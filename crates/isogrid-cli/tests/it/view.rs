@@ -285,8 +285,9 @@ fn scripted_window_shows_the_coloured_headless_image() {
 /// A label volume opened with `--labels all --hide 4`: the window shows what `isogrid render
 /// --hide 4` draws of the same labels (through the render front door, the GPU path `render` takes
 /// for this request), and not what it draws with every label shown, in CGC mode and in MC mode
-/// (the labels' meshes, made from their cells without the volume). On 3³ cubes of 11 touching
-/// labels, so hiding label 4 reveals its neighbours' faces.
+/// (the labels' meshes, made from their cells without the volume), and coloured by a second
+/// volume (`--color-by`) in CGC mode. On 3³ cubes of 11 touching labels, so hiding label 4
+/// reveals its neighbours' faces.
 #[test]
 fn scripted_window_hides_labels_as_render_hide_does() {
     let Some(xvfb) = xvfb_run() else { return };
@@ -297,42 +298,56 @@ fn scripted_window_hides_labels_as_render_hide_does() {
     let volume = isogrid::generate::labelled_cubes(24);
     let input = dir.join("cubes.nrrd");
     isogrid_io::write_nrrd(&input, &volume).unwrap();
-    for mode in [Mode::Cgc, Mode::Mc] {
-        window_hides_labels_as_render_does(&xvfb, &dir, &input, &volume, mode);
+    let gyroid = generate(Field::Gyroid, 24, 1);
+    let colour_by = dir.join("gyroid.nrrd");
+    isogrid_io::write_nrrd(&colour_by, &gyroid).unwrap();
+    for (mode, attribute) in [
+        (Mode::Cgc, None),
+        (Mode::Mc, None),
+        (Mode::Cgc, Some((colour_by.as_path(), &gyroid))),
+    ] {
+        window_hides_labels_as_render_does(&xvfb, &dir, &input, &volume, mode, attribute);
     }
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
-/// [`scripted_window_hides_labels_as_render_hide_does`] in `mode`.
+/// [`scripted_window_hides_labels_as_render_hide_does`] in `mode`, coloured by `attribute` (its
+/// file and samples) when given.
 fn window_hides_labels_as_render_does(
     xvfb: &Path,
     dir: &Path,
     input: &Path,
     volume: &isogrid::Volume,
     mode: Mode,
+    attribute: Option<(&Path, &isogrid::Volume)>,
 ) {
     let shot = dir.join(format!("window-{}.png", mode.name()));
     let (w, h) = (320u32, 240u32);
-    let stdout = scripted_view(
-        xvfb,
-        &[
-            input.to_str().unwrap(),
-            "--labels",
-            "all",
-            "--hide",
-            "4",
-            "--mode",
-            mode.name(),
-        ],
-        [w, h],
-        &shot,
-    );
+    let mut args = vec![
+        input.to_str().unwrap(),
+        "--labels",
+        "all",
+        "--hide",
+        "4",
+        "--mode",
+        mode.name(),
+    ];
+    if let Some((path, _)) = attribute {
+        args.extend(["--color-by", path.to_str().unwrap()]);
+    }
+    let stdout = scripted_view(xvfb, &args, [w, h], &shot);
 
-    let grid = isogrid::extract_labels(
+    let mut grid = isogrid::extract_labels(
         &volume.view(),
         &isogrid::LabelOptions::new(isogrid::LabelSelection::All),
     )
     .unwrap();
+    if let Some((_, samples)) = attribute {
+        let values =
+            sample_attribute_in_memory(&grid, &samples.view(), "a", AttributePrecision::Code16)
+                .unwrap();
+        grid = grid.with_attribute(values).unwrap();
+    }
     let ctx = isogrid_render::RenderContext::new();
     let render = |hide: Option<&str>| {
         let request = isogrid_render::RenderRequest::new(isogrid_render::RequestParts {
@@ -342,6 +357,10 @@ fn window_hides_labels_as_render_does(
             size: (w, h),
             frames: 3,
             hide: hide.map(|v| isogrid::LabelSelection::parse(v).unwrap()),
+            color: attribute.map(|_| isogrid_render::ColorSpec {
+                map: ColorMap::Viridis,
+                clim: None,
+            }),
             ..Default::default()
         })
         .unwrap();
@@ -375,9 +394,14 @@ fn window_hides_labels_as_render_does(
         }
     }
     let total = (w * h) as u64;
+    let coloured = if attribute.is_some() {
+        ", coloured"
+    } else {
+        ""
+    };
     eprintln!(
-        "{mode}: window = render --hide 4 on {same}/{total} pixels; on {same_where_changed}/{changed} \
-         of those hiding changes"
+        "{mode}{coloured}: window = render --hide 4 on {same}/{total} pixels; on \
+         {same_where_changed}/{changed} of those hiding changes"
     );
     assert!(
         changed > total / 100,
