@@ -64,22 +64,30 @@ fn mask_name(file: &Path) -> String {
     name[..stem].to_string()
 }
 
-/// The samples of `volume` that lie in its mask (see the module documentation).
-fn inside(volume: &Volume) -> Vec<bool> {
-    fn rule<T: Scalar>(s: &[T], float: bool) -> Vec<bool> {
-        s.iter()
-            .map(|v| {
-                let v = v.to_f64();
-                if float {
-                    v >= 0.5
-                } else {
-                    v != 0.0
-                }
+/// The samples of `volume` that lie in its mask (see the module documentation), one bit each
+/// (sample `s` is bit `s % 64` of word `s / 64`).
+fn inside(volume: &Volume) -> Vec<u64> {
+    fn rule<T: Scalar>(s: &[T], float: bool) -> Vec<u64> {
+        s.chunks(64)
+            .map(|chunk| {
+                chunk.iter().enumerate().fold(0u64, |word, (b, v)| {
+                    let v = v.to_f64();
+                    let set = if float { v >= 0.5 } else { v != 0.0 };
+                    word | (set as u64) << b
+                })
             })
             .collect()
     }
     let float = !volume.scalar_type().is_integer();
     isogrid::volume::with_samples!(volume.data().samples(), s => rule(s, float))
+}
+
+/// One mask file read: its grid, the bits of its samples inside it, and its reader's notices.
+type ReadMask = (isogrid::Geometry, Vec<u64>, Vec<String>);
+
+fn read_mask(file: &Path, opts: &ReadOptions) -> Result<ReadMask> {
+    let (volume, notices) = crate::read_volume_noted(file, opts).at_path(file)?;
+    Ok((*volume.geometry(), inside(&volume), notices))
 }
 
 /// The first field in which grid `a` differs from grid `b`, with both values, for an error.
@@ -109,49 +117,75 @@ fn differing_field(a: &isogrid::Geometry, b: &isogrid::Geometry) -> Option<Strin
     .map(|(name, x, y)| format!("{name} {} (against {})", show(&x), show(&y)))
 }
 
-/// A layer being filled: one value per sample, the masks in it numbered from 1.
+/// A layer being filled: one value per sample, the masks in it numbered from 1, and which samples
+/// a mask of it holds (as [`inside`]'s bits).
+struct Layer {
+    samples: LayerSamples,
+    occupied: Vec<u64>,
+    /// The index of its first mask: its offset.
+    first: usize,
+}
+
 enum LayerSamples {
     U8(Vec<u8>),
     U16(Vec<u16>),
 }
 
-impl LayerSamples {
-    fn new(len: usize, masks: usize) -> Self {
-        match masks <= u8::MAX as usize {
+impl Layer {
+    fn new(len: usize, masks: usize, first: usize) -> Self {
+        let samples = match masks <= u8::MAX as usize {
             true => LayerSamples::U8(vec![0; len]),
             false => LayerSamples::U16(vec![0; len]),
+        };
+        Layer {
+            samples,
+            occupied: vec![0; len.div_ceil(64)],
+            first,
         }
     }
-    fn is_set(&self, i: usize) -> bool {
-        match self {
-            LayerSamples::U8(v) => v[i] != 0,
-            LayerSamples::U16(v) => v[i] != 0,
-        }
+    fn overlaps(&self, inside: &[u64]) -> bool {
+        self.occupied.iter().zip(inside).any(|(a, b)| a & b != 0)
     }
-    /// Sets the samples `inside` to `value` (at most the mask count it was made for).
-    fn set(&mut self, inside: &[bool], value: usize) {
-        match self {
+    /// Gives the samples `inside` the value `value` (at most the mask count it was made for).
+    fn set(&mut self, inside: &[u64], value: usize) {
+        fn fill<T: Copy>(samples: &mut [T], inside: &[u64], value: T) {
+            for (w, &word) in inside.iter().enumerate() {
+                let mut bits = word;
+                while bits != 0 {
+                    samples[64 * w + bits.trailing_zeros() as usize] = value;
+                    bits &= bits - 1;
+                }
+            }
+        }
+        match &mut self.samples {
             LayerSamples::U8(v) => fill(v, inside, value as u8),
             LayerSamples::U16(v) => fill(v, inside, value as u16),
         }
-    }
-    fn into_data(self) -> VolumeData {
-        match self {
-            LayerSamples::U8(v) => VolumeData::U8(v),
-            LayerSamples::U16(v) => VolumeData::U16(v),
+        for (a, b) in self.occupied.iter_mut().zip(inside) {
+            *a |= b;
         }
     }
-}
-
-fn fill<T: Copy>(samples: &mut [T], inside: &[bool], value: T) {
-    for (s, _) in samples.iter_mut().zip(inside).filter(|(_, &i)| i) {
-        *s = value;
+    fn into_layer(self, geometry: isogrid::Geometry) -> Result<LabelLayer> {
+        let data = match self.samples {
+            LayerSamples::U8(v) => VolumeData::U8(v),
+            LayerSamples::U16(v) => VolumeData::U16(v),
+        };
+        Ok(LabelLayer {
+            volume: Volume::with_geometry(geometry, data)?,
+            offset: self.first as u64,
+        })
     }
 }
 
+/// Bytes of mask samples read at once: masks are read in parallel, as many at a time as there
+/// are threads and as fit in this.
+const READ_AHEAD_BYTES: u64 = 1 << 30;
+
 /// Reads the folder of masks `path` (see the module documentation), with a notice naming the
-/// masks that are empty (TotalSegmentator writes one for every structure it did not find).
+/// masks that are empty (TotalSegmentator writes one for every structure it did not find). The
+/// masks are read and turned into bits in parallel, a batch at a time, and placed in name order.
 pub fn read(path: &Path, opts: &ReadOptions) -> Result<(LabelVolume, Vec<String>)> {
+    use rayon::prelude::*;
     let files = mask_files(path)?;
     if files.len() > u16::MAX as usize {
         return Err(Error::unsupported(format!(
@@ -161,61 +195,62 @@ pub fn read(path: &Path, opts: &ReadOptions) -> Result<(LabelVolume, Vec<String>
         ))
         .with_path(path));
     }
+    let Some(first_file) = files.first() else {
+        return Err(Error::unsupported("the folder holds no NIfTI mask").with_path(path));
+    };
+    let (volume, mut notices) = crate::read_volume_noted(first_file, opts).at_path(first_file)?;
+    let (geometry, first_inside) = (*volume.geometry(), inside(&volume));
+    let samples = geometry.dims.iter().product::<usize>();
+    // A mask's samples are in memory while its bits are made (masks are written alike: the
+    // first one's type stands for the others).
+    let mask_bytes = (samples * volume.scalar_type().size()) as u64;
+    drop(volume);
+    let batch = (READ_AHEAD_BYTES / mask_bytes.max(1)).max(1) as usize;
+    let batch = batch.min(rayon::current_num_threads()).max(1);
     let mut layers = Vec::new();
     let mut names = Vec::with_capacity(files.len());
     let mut empty = Vec::new();
-    let mut notices = Vec::new();
-    // The first mask's grid, the layer being filled and the index of its first mask.
-    let mut current: Option<(PathBuf, isogrid::Geometry, LayerSamples, usize)> = None;
-    for (i, file) in files.iter().enumerate() {
-        let (volume, noted) = crate::read_volume_noted(file, opts).at_path(file)?;
-        notices.extend(noted);
-        let inside = inside(&volume);
-        let name = mask_name(file);
-        if !inside.contains(&true) {
+    let mut layer = Layer::new(samples, files.len(), 0);
+    let mut place = |i: usize, inside: Vec<u64>, layer: &mut Layer| -> Result<()> {
+        let name = mask_name(&files[i]);
+        if inside.iter().all(|&w| w == 0) {
             empty.push(name.clone());
         }
         names.push(Label {
             name,
             ..Label::default_for(i as u64 + 1, false)
         });
-        let (first, geometry, layer, offset) = current.get_or_insert_with(|| {
-            let samples = LayerSamples::new(inside.len(), files.len());
-            (file.clone(), *volume.geometry(), samples, 0)
-        });
-        if let Some(field) = differing_field(volume.geometry(), geometry) {
-            return Err(Error::invalid(format!(
-                "its {field} is not that of {}; the masks of a folder share one grid",
-                first.display()
-            ))
-            .with_path(file));
-        }
-        let overlaps = inside
-            .iter()
-            .enumerate()
-            .any(|(s, &m)| m && layer.is_set(s));
-        if overlaps {
+        if layer.overlaps(&inside) {
             isogrid::memory::ensure_fits(
                 "the layers of overlapping masks",
-                (layers.len() as u64 + 2) * inside.len() as u64 * 2,
+                (layers.len() as u64 + 2) * samples as u64 * 2,
             )
             .at_path(path)?;
-            let full = std::mem::replace(layer, LayerSamples::new(inside.len(), files.len()));
-            let volume = Volume::with_geometry(*geometry, full.into_data())?;
-            layers.push(LabelLayer {
-                volume,
-                offset: *offset as u64,
-            });
-            *offset = i;
+            let full = std::mem::replace(layer, Layer::new(samples, files.len(), i));
+            layers.push(full.into_layer(geometry)?);
         }
-        layer.set(&inside, i + 1 - *offset);
+        layer.set(&inside, i + 1 - layer.first);
+        Ok(())
+    };
+    place(0, first_inside, &mut layer)?;
+    for (b, chunk) in files[1..].chunks(batch).enumerate() {
+        let read: Vec<Result<ReadMask>> = chunk.par_iter().map(|f| read_mask(f, opts)).collect();
+        for (k, mask) in read.into_iter().enumerate() {
+            let i = 1 + b * batch + k;
+            let (g, inside, noted) = mask?;
+            notices.extend(noted);
+            if let Some(field) = differing_field(&g, &geometry) {
+                return Err(Error::invalid(format!(
+                    "its {field} is not that of {}; the masks of a folder share one grid",
+                    first_file.display()
+                ))
+                .with_path(&files[i]));
+            }
+            place(i, inside, &mut layer)?;
+        }
     }
-    let (_, geometry, layer, offset) = current
-        .ok_or_else(|| Error::unsupported("the folder holds no NIfTI mask").with_path(path))?;
-    layers.push(LabelLayer {
-        volume: Volume::with_geometry(geometry, layer.into_data())?,
-        offset: offset as u64,
-    });
+    drop(place);
+    layers.push(layer.into_layer(geometry)?);
     if !empty.is_empty() {
         notices.push(format!(
             "{}: {} of {} masks are empty and have no surface: {}",
