@@ -249,7 +249,6 @@ pub fn read(path: &Path, opts: &ReadOptions) -> Result<(LabelVolume, Vec<String>
             place(i, inside, &mut layer)?;
         }
     }
-    drop(place);
     layers.push(layer.into_layer(geometry)?);
     if !empty.is_empty() {
         notices.push(format!(
