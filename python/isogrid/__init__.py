@@ -545,7 +545,7 @@ def load_volume(
         index: Zarr axes other than x, y, z and the entry to read of each, e.g.
             ``{"t": 0, "c": 1}``; 4-D and 5-D arrays need it (the error names the axes). It also
             picks the channel and time point of an ImageJ hyperstack or OME-TIFF with several
-            (``{"c": 1}``).
+            (``{"c": 1}``), and the volume of a 4-D NIfTI file (``{"t": 3}``).
     """
     dtype_name = None
     if raw_dtype is not None:

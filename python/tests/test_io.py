@@ -1,6 +1,7 @@
 """load_volume: formats, the axis convention shared with extract, raw specs and errors."""
 
 import gzip
+import subprocess
 
 import numpy as np
 import pytest
@@ -113,6 +114,43 @@ def test_nifti_of_shape_x_y_z_1_as_nibabel_returns_it(tmp_path):
     assert same_grid(isogrid.extract(np.ascontiguousarray(data.transpose()), iso=0.5, spacing=zooms), by_reader)
     with pytest.raises(ValueError, match="expected a 3-D array"):
         isogrid.extract(np.zeros((4, 5, 6, 2), order="F"), iso=0.5)
+
+
+def test_a_4d_nifti_gives_the_volume_index_t_picks(cli, tmp_path):
+    """A 4-D NIfTI written by nibabel (an fMRI-like time series; .nii.gz and .nii): ``index={"t": k}``
+    (``--index t=k``) reads nibabel's ``data[..., k]``; without an index, with another axis or out of
+    range it fails naming the volumes. The CLI reads the uncompressed file's volume by region within
+    ``--max-memory`` into the same grid as the compressed file read whole."""
+    nib = pytest.importorskip("nibabel")
+    rng = np.random.default_rng(4)
+    data = np.asfortranarray(rng.random((14, 15, 16, 5)).astype(np.float32))  # (x, y, z, t)
+    affine = np.diag([2.0, 2.0, 2.5, 1.0])
+    affine[:3, 3] = [-10.0, 4.0, 7.5]
+    for name in ("bold.nii.gz", "bold.nii"):
+        nib.save(nib.Nifti1Image(data, affine), tmp_path / name)
+        for t in range(5):
+            vol = isogrid.load_volume(tmp_path / name, index={"t": t})
+            np.testing.assert_array_equal(vol.array, data[..., t].transpose())
+            assert vol.spacing == (2.0, 2.0, 2.5) and vol.origin == (-10.0, 4.0, 7.5)
+        for index, message in [
+            (None, r"4-D NIfTI file of 5 volumes \(t=0\.\.4\): pass --index t=N"),
+            ({"t": 5}, "t=5 is out of range"),
+            ({"c": 0}, "names c, which is not an axis of this NIfTI file of 5 volumes"),
+        ]:
+            with pytest.raises(ValueError, match=message):
+                isogrid.load_volume(tmp_path / name, index=index)
+    grids = []
+    for name, extra in (("bold.nii.gz", []), ("bold.nii", ["--max-memory", "64M"])):
+        out = tmp_path / f"{name}.cgc"
+        run = subprocess.run(
+            [cli, "extract", tmp_path / name, "--iso", "0.5", "--index", "t=3", "-o", out, *extra],
+            capture_output=True, text=True,
+        )
+        assert run.returncode == 0, run.stderr
+        grids.append(out.read_bytes())
+    assert grids[0] == grids[1]
+    expected = isogrid.extract(isogrid.load_volume(tmp_path / "bold.nii", index={"t": 3}), iso=0.5)
+    assert expected.to_bytes() == grids[0]
 
 
 def test_mni_template_if_fetched():

@@ -40,7 +40,7 @@ pub use dicom::{read_dicom, read_dicom_series};
 pub use files_read::files_read;
 pub use metaimage::read_metaimage;
 pub use mrc::read_mrc;
-pub use nifti::read_nifti;
+pub use nifti::{read_nifti, read_nifti_indexed};
 pub use npy::read_npy;
 pub use nrrd::{read_nrrd, write_nrrd};
 pub use raw::{read_raw, RawSpec};

@@ -13,8 +13,10 @@
 //!   `qform_code > 0`, else origin 0 and identity directions (NIfTI "method 1").
 //! - Intensity scaling: when `scl_slope` is non-zero and not exactly (1, 0), values become
 //!   `slope·v + inter` stored as f32.
-//! - 4-D files: `t = 1` is read as 3-D; `t > 1` (and any extra dimension > 1) is an `Unsupported`
-//!   error rather than a silent pick of the first volume: extract one first (e.g. `fslroi`).
+//! - 4-D files (fMRI, diffusion, multi-echo: dimension 4 is time, `t`): `--index t=N` reads volume
+//!   `N` (from 0); without it a file of several volumes is an error naming them rather than a
+//!   silent pick of the first. Only volume `N` is read: an uncompressed file by region, a gzip
+//!   file decompressed up to its end. Dimensions 5 to 7 above 1 (vector data) are `Unsupported`.
 //! - Types: u8, i8, u16, i16, u32, i32, u64, i64, f32, f64 (converted as in the crate docs);
 //!   complex, RGB and binary are `Unsupported`. NIfTI-2 and the `.hdr/.img` pair are `Unsupported`.
 
@@ -31,12 +33,19 @@ const HEADER_SIZE: usize = 348;
 
 /// Reads a `.nii` or `.nii.gz` file (gzip is detected from the content). Errors name `path`.
 pub fn read_nifti(path: &Path) -> Result<Volume> {
-    read(path).at_path(path)
+    read_nifti_indexed(path, &[])
+}
+
+/// [`read_nifti`] of the volume `indices` (`--index t=N`) pick of a 4-D file.
+pub fn read_nifti_indexed(path: &Path, indices: &[(String, u64)]) -> Result<Volume> {
+    read(path, indices).at_path(path)
 }
 
 /// The header fields a volume needs.
 struct Header {
     dims: [usize; 3],
+    /// Volumes along dimension 4 (time): 1 for a 3-D file.
+    times: usize,
     elem: ElemType,
     big_endian: bool,
     vox_offset: u64,
@@ -46,7 +55,41 @@ struct Header {
     scale: Option<(f32, f32)>,
 }
 
-fn read(path: &Path) -> Result<Volume> {
+impl Header {
+    /// The volume `indices` pick: `t=N` of a file of several, else the only one. An index of
+    /// another axis, out of range or given twice, or a missing one, is an error.
+    fn pick(&self, indices: &[(String, u64)]) -> Result<usize> {
+        crate::read_options::refuse_repeated_axes(indices)?;
+        let t = self.times;
+        if t == 1 && !indices.is_empty() {
+            return Err(Error::invalid(
+                "--index picks a volume of a 4-D file, and this NIfTI file holds one 3-D volume",
+            ));
+        }
+        let described = format!("NIfTI file of {t} volumes (t=0..{})", t.saturating_sub(1));
+        for (name, index) in indices {
+            if !name.eq_ignore_ascii_case("t") {
+                return Err(Error::invalid(format!(
+                    "--index names {name}, which is not an axis of this {described}: use t"
+                )));
+            }
+            if *index >= t as u64 {
+                return Err(Error::invalid(format!(
+                    "--index t={index} is out of range: this is a {described}"
+                )));
+            }
+        }
+        match indices.first() {
+            Some(&(_, index)) => Ok(index as usize),
+            None if t == 1 => Ok(0),
+            None => Err(Error::invalid(format!(
+                "this is a 4-D {described}: pass --index t=N to read one"
+            ))),
+        }
+    }
+}
+
+fn read(path: &Path, indices: &[(String, u64)]) -> Result<Volume> {
     let mut file = isogrid::fs::open_regular(path)?;
     let file_len = file.metadata()?.len();
     let mut magic = [0u8; 2];
@@ -65,18 +108,24 @@ fn read(path: &Path) -> Result<Volume> {
         _ => Error::corrupt(format!("cannot read the NIfTI header: {e}")),
     })?;
     let header = parse_header(&raw)?;
+    let t = header.pick(indices)?;
     let count = sample_count(header.dims)?;
-    let needed = byte_count(count, header.elem)?;
+    let volume_bytes = byte_count(count, header.elem)?;
+    let all = volume_bytes
+        .checked_mul(header.times as u64)
+        .ok_or_else(|| Error::too_large("the volumes' size overflows 64 bits"))?;
+    let before = volume_bytes * t as u64;
     if gzipped {
-        check_deflate_budget(header.vox_offset + needed, file_len)?;
+        // Decompressed up to the end of volume t, and on to the end when it is the last.
+        check_deflate_budget(header.vox_offset + before + volume_bytes, file_len)?;
     } else {
-        check_available(needed, file_len.saturating_sub(header.vox_offset))?;
+        check_available(all, file_len.saturating_sub(header.vox_offset))?;
     }
     let data = (|| {
-        skip_bytes(&mut reader, header.vox_offset - HEADER_SIZE as u64)?;
+        skip_bytes(&mut reader, header.vox_offset - HEADER_SIZE as u64 + before)?;
         let data = read_samples(&mut reader, header.elem, header.big_endian, count)?;
-        if gzipped {
-            // A 3-D file has nothing after its volume; more data means the header is wrong.
+        if gzipped && t + 1 == header.times {
+            // Nothing follows the last volume; more data means the header is wrong.
             expect_end(&mut reader)?;
         }
         Ok(data)
@@ -90,9 +139,13 @@ fn read(path: &Path) -> Result<Volume> {
     Volume::with_geometry(g, data)
 }
 
-/// Where an uncompressed `.nii` keeps its samples, for reading by region; `None` for a gzip file
-/// (which has to be decompressed from its start). Errors name `path`.
-pub(crate) fn region_layout(path: &Path) -> Result<Option<crate::mapped_layout::MappedLayout>> {
+/// Where an uncompressed `.nii` keeps the samples of the volume `indices` pick, for reading by
+/// region; `None` for a gzip file (which has to be decompressed from its start). Errors name
+/// `path`.
+pub(crate) fn region_layout(
+    path: &Path,
+    indices: &[(String, u64)],
+) -> Result<Option<crate::mapped_layout::MappedLayout>> {
     (|| {
         let mut file = isogrid::fs::open_regular(path)?;
         let file_len = file.metadata()?.len();
@@ -111,14 +164,16 @@ pub(crate) fn region_layout(path: &Path) -> Result<Option<crate::mapped_layout::
             return Err(Error::corrupt("file is shorter than a NIfTI-1 header"));
         }
         let header = parse_header(&raw)?;
+        let t = header.pick(indices)?;
         let count = sample_count(header.dims)?;
-        check_available(
-            byte_count(count, header.elem)?,
-            file_len.saturating_sub(header.vox_offset),
-        )?;
+        let volume_bytes = byte_count(count, header.elem)?;
+        let all = volume_bytes
+            .checked_mul(header.times as u64)
+            .ok_or_else(|| Error::too_large("the volumes' size overflows 64 bits"))?;
+        check_available(all, file_len.saturating_sub(header.vox_offset))?;
         Ok(Some(crate::mapped_layout::MappedLayout {
             data_path: path.to_path_buf(),
-            data_offset: header.vox_offset,
+            data_offset: header.vox_offset + volume_bytes * t as u64,
             elem: header.elem,
             big_endian: header.big_endian,
             geometry: geometry(header.dims, header.spacing, header.origin, header.direction)?,
@@ -153,6 +208,7 @@ fn parse_header(raw: &[u8; HEADER_SIZE]) -> Result<Header> {
         return Err(Error::corrupt(format!("dim[0] = {ndim} is outside 1..=7")));
     }
     let mut dims = [1usize; 3];
+    let mut times = 1;
     for d in 1..=7usize {
         let n = if d <= ndim as usize {
             h.i16(40 + 2 * d)
@@ -164,10 +220,12 @@ fn parse_header(raw: &[u8; HEADER_SIZE]) -> Result<Header> {
         }
         match d {
             1..=3 => dims[d - 1] = n as usize,
+            4 => times = n as usize,
             _ if n > 1 => {
                 return Err(Error::unsupported(format!(
-                "dimension {d} has {n} entries (4-D or vector data); only one 3-D volume is read"
-            )))
+                    "dimension {d} has {n} entries (vector data); a 3-D volume, or one volume of \
+                     a 4-D file (--index t=N), is read"
+                )))
             }
             _ => {}
         }
@@ -217,6 +275,7 @@ fn parse_header(raw: &[u8; HEADER_SIZE]) -> Result<Header> {
     };
     Ok(Header {
         dims,
+        times,
         elem,
         big_endian,
         vox_offset: vox_offset as u64,

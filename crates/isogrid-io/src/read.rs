@@ -85,7 +85,7 @@ fn read_single(path: &Path, opts: &ReadOptions) -> Result<Volume> {
         .unwrap_or_default();
     let ends = |ext: &str| name.ends_with(ext);
     if ends(".nii") || ends(".nii.gz") {
-        return crate::read_nifti(path);
+        return crate::nifti::read_nifti_indexed(path, &opts.zarr.indices);
     }
     if ends(".nrrd") || ends(".nhdr") {
         return crate::read_nrrd(path);
@@ -136,7 +136,7 @@ fn sniff(path: &Path, opts: &ReadOptions) -> Result<Volume> {
     {
         crate::tiff::read_tiff_indexed(path, &opts.zarr.indices)
     } else if head.len() == 348 && &head[344..347] == b"n+1" {
-        crate::read_nifti(path)
+        crate::nifti::read_nifti_indexed(path, &opts.zarr.indices)
     } else if head.len() >= 212 && &head[208..211] == b"MAP" {
         crate::read_mrc(path)
     } else if head.starts_with(b"ObjectType") || head.starts_with(b"NDims") {

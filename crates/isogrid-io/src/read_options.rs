@@ -54,21 +54,30 @@ pub(crate) fn refuse_repeated_axes(indices: &[(String, u64)]) -> isogrid::Result
 }
 
 /// Refuses an `--index` for an input it cannot apply to: only Zarr arrays (read before this is
-/// asked) and TIFF files (ImageJ and OME hyperstacks) have axes beyond x, y and z to pick from,
-/// and any other reader would ignore the index without a word.
+/// asked), TIFF files (ImageJ and OME hyperstacks) and NIfTI files (4-D) have axes beyond x, y
+/// and z to pick from, and any other reader would ignore the index without a word.
 pub(crate) fn refuse_unused_index(
     path: &std::path::Path,
     options: &ReadOptions,
 ) -> isogrid::Result<()> {
-    if options.zarr.indices.is_empty() || is_tiff_file(path) {
+    if options.zarr.indices.is_empty() || is_tiff_file(path) || is_nifti_name(path) {
         return Ok(());
     }
     refuse_repeated_axes(&options.zarr.indices).map_err(|e| e.with_path(path))?;
     Err(isogrid::Error::invalid(
-        "--index picks a channel or time point of a Zarr or TIFF image; this input has no axes \
-         beyond x, y and z",
+        "--index picks a channel or time point of a Zarr, TIFF or 4-D NIfTI image; this input \
+         has no axes beyond x, y and z",
     )
     .with_path(path))
+}
+
+/// A file named `.nii` or `.nii.gz` (whose reader takes `--index t=N` of a 4-D file).
+fn is_nifti_name(path: &std::path::Path) -> bool {
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().to_ascii_lowercase())
+        .unwrap_or_default();
+    name.ends_with(".nii") || name.ends_with(".nii.gz")
 }
 
 /// A file named `.tif`/`.tiff`, or starting with a TIFF or BigTIFF byte-order mark.

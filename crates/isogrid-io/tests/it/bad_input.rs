@@ -352,12 +352,21 @@ fn unsupported_content_is_named() {
     let mut nii = fixture_bytes("u8.nii");
     nii[40..42].copy_from_slice(&4i16.to_le_bytes()); // dim[0] = 4
     nii[48..50].copy_from_slice(&2i16.to_le_bytes()); // dim[4] = 2 volumes
+                                                      // Which volume is asked; the file holds one of the two it declares.
+    let t2 = dir.file("t2.nii", &nii);
+    expect_err(&t2, &none, ErrorKind::InvalidInput, "4-D");
+    let mut second = ReadOptions::default();
+    second.zarr.indices = vec![("t".into(), 1)];
+    expect_err(&t2, &second, ErrorKind::Corrupt, "truncated");
+    nii[40..42].copy_from_slice(&5i16.to_le_bytes()); // dim[0] = 5
+    nii[50..52].copy_from_slice(&3i16.to_le_bytes()); // dim[5] = 3 components
     expect_err(
-        &dir.file("t2.nii", &nii),
+        &dir.file("v3.nii", &nii),
         &none,
         ErrorKind::Unsupported,
-        "4-D",
+        "vector data",
     );
+    nii[50..52].copy_from_slice(&1i16.to_le_bytes());
     nii[48..50].copy_from_slice(&1i16.to_le_bytes()); // t = 1 is fine
     assert_eq!(
         read_volume(&dir.file("t1.nii", &nii), &none)
