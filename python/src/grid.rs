@@ -723,10 +723,11 @@ impl CellGrid {
         let i = self.inner.info();
         let [x, y, z] = i.dims;
         format!(
-            "CellGrid(dims=({x}, {y}, {z}), iso={}, precision={}, active_cells={}, mapped={})",
+            "CellGrid(dims=({x}, {y}, {z}), iso={}, precision={}, active_cells={}{}, mapped={})",
             i.iso,
             i.precision.bits(),
             self.inner.active_cells(),
+            attribute_repr(&self.inner),
             if self.inner.is_mapped() {
                 "True"
             } else {
@@ -808,11 +809,21 @@ impl LabelGrid {
         let [x, y, z] = grid.info().dims;
         let labels = grid.labels().map_or(0, |l| l.table().len());
         format!(
-            "LabelGrid(dims=({x}, {y}, {z}), labels={labels}, active_cells={}, mapped={})",
+            "LabelGrid(dims=({x}, {y}, {z}), labels={labels}, active_cells={}{}, mapped={})",
             grid.active_cells(),
+            attribute_repr(grid),
             if grid.is_mapped() { "True" } else { "False" }
         )
     }
+}
+
+/// `, attribute='NAME'` in a grid's repr when it has an attribute (quoted as Python quotes a
+/// string).
+fn attribute_repr(grid: &isogrid::CellGrid) -> String {
+    grid.attribute().map_or_else(String::new, |a| {
+        let name = a.info().name.replace('\\', "\\\\").replace('\'', "\\'");
+        format!(", attribute='{name}'")
+    })
 }
 
 /// Rows of N values as an (rows, N) array, moving the vector into numpy without a copy.

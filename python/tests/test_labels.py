@@ -123,6 +123,8 @@ def test_labels_coloured_by_an_attribute_take_it_at_each_cells_surface_point(cli
     from_path = isogrid.extract(labels_path, labels="all", attribute=field_path, attribute_precision=32)
     np.testing.assert_array_equal(from_path.attribute, grid.attribute)
     assert from_path.attribute_info["name"] == "field.npy"
+    assert repr(from_path).startswith("LabelGrid(dims=(33, 29, 26), labels=5, active_cells=")
+    assert ", attribute='field.npy', mapped=False)" in repr(from_path)
     out = tmp_path / "cli.cgc"
     subprocess.run(
         [cli, "extract", labels_path, "--labels", "all", "--color-by", field_path, "--attribute-precision", "32", "-o", out],
