@@ -537,7 +537,7 @@ function showLabels(): void {
     swatch.className = 'swatch';
     swatch.style.background = `rgb(${label.rgba.slice(0, 3).join(',')})`;
     // The name frames the label: its cell box from the index (cells [lo, hi), index space) in world
-    // space (index × spacing), as Fit frames the grid.
+    // space (index × spacing), as Fit frames the grid (`LabelEntry::world_box`, as `isogrid view` does).
     const text = Object.assign(document.createElement('span'), { textContent: name, title: 'frame this label', className: 'name' });
     text.onclick = () => {
       const e = l.index[i];

@@ -285,6 +285,17 @@ pub struct LabelEntry {
     pub hi: [u32; 3],
 }
 
+impl LabelEntry {
+    /// The box of its active cells in the renderers' frame (index × `spacing`): cells `[lo, hi)`
+    /// span samples `lo` to `hi`. A label without cells has an empty box at 0.
+    pub fn world_box(&self, spacing: [f64; 3]) -> ([f64; 3], [f64; 3]) {
+        (
+            [0, 1, 2].map(|a| self.lo[a] as f64 * spacing[a]),
+            [0, 1, 2].map(|a| self.hi[a] as f64 * spacing[a]),
+        )
+    }
+}
+
 /// Consecutive clusters of one label (inside one block).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct ClusterRun {

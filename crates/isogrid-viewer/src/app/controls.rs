@@ -88,6 +88,7 @@ impl App {
         }
         self.color_controls(ui);
         self.label_controls(ui);
+        self.frame_clicked_label(full_size);
         ui.separator();
 
         ui.label("View (drag: orbit, right/middle drag: pan, wheel: zoom)");

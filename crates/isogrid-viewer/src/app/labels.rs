@@ -6,6 +6,7 @@
 
 use super::state::{App, PANEL_WIDTH};
 use crate::label_list::{LabelList, MAX_ROWS};
+use crate::orbit::Orbit;
 use crate::render_worker::RenderMsg;
 use eframe::egui;
 use isogrid::labels::signed_labels;
@@ -80,6 +81,20 @@ impl App {
         self.ask_for_label_meshes();
     }
 
+    /// Frames the label whose name was clicked, at the current preset view, in a `size` frame.
+    pub(super) fn frame_clicked_label(&mut self, size: [u32; 2]) {
+        let (Some(i), Some(list), Some(source)) =
+            (self.labels.frame.take(), &self.labels.list, &self.source)
+        else {
+            return;
+        };
+        let (lo, hi) = list.labels().index()[i].world_box(source.spacing);
+        if let Some(orbit) = Orbit::preset(self.options.view, lo, hi, size[0], size[1]) {
+            self.orbit = orbit;
+            self.has_view = true;
+        }
+    }
+
     /// The label list's panel section.
     pub(super) fn label_controls(&mut self, ui: &mut egui::Ui) {
         let generation = self.generation;
@@ -136,7 +151,7 @@ impl App {
             ui.horizontal(|ui| {
                 ui.label(format!("{what}:"));
                 match value.map(|v| (v, list.find(v))) {
-                    Some((_, Some(i))) => changed |= label_row(ui, list, i),
+                    Some((_, Some(i))) => changed |= label_row(ui, list, i, &mut state.frame),
                     Some((v, None)) => {
                         ui.label(format!("label {v} (not in the list)"));
                     }
@@ -154,7 +169,7 @@ impl App {
             .show_rows(ui, row_height, listed, |ui, rows| {
                 for r in rows {
                     let i = list.matches()[r];
-                    ui.horizontal(|ui| changed |= label_row(ui, list, i));
+                    ui.horizontal(|ui| changed |= label_row(ui, list, i, &mut state.frame));
                 }
             });
         if changed {
@@ -163,9 +178,9 @@ impl App {
     }
 }
 
-/// One label: visibility checkbox, colour swatch, value, name and cell count; whether the
-/// checkbox changed.
-fn label_row(ui: &mut egui::Ui, list: &mut LabelList, i: usize) -> bool {
+/// One label: visibility checkbox, colour swatch, value, name (a click on it sets `frame` to the
+/// label, as in the web viewer) and cell count; whether the checkbox changed.
+fn label_row(ui: &mut egui::Ui, list: &mut LabelList, i: usize, frame: &mut Option<usize>) -> bool {
     let label = &list.labels().table()[i];
     let [r, g, b, _] = label.rgba;
     let (name, cells) = (label.name.clone(), list.labels().index()[i].cell_count);
@@ -178,8 +193,13 @@ fn label_row(ui: &mut egui::Ui, list: &mut LabelList, i: usize) -> bool {
     ui.painter()
         .rect_filled(swatch, 2.0, egui::Color32::from_rgb(r, g, b));
     ui.label(egui::RichText::new(list.value_text(i)).monospace());
-    ui.label(name)
-        .on_hover_text(format!("{cells} active cells"));
+    let clicked = ui
+        .add(egui::Label::new(name).sense(egui::Sense::click()))
+        .on_hover_text(format!("{cells} active cells; click to frame it"))
+        .clicked();
+    if clicked && cells > 0 {
+        *frame = Some(i);
+    }
     ui.label(egui::RichText::new(format!("{cells}")).small().weak());
     changed
 }

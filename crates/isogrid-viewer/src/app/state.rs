@@ -124,6 +124,8 @@ pub(super) struct LabelState {
     /// The label value under the mouse pointer, and the one last clicked on.
     pub(super) under_cursor: Option<u64>,
     pub(super) picked: Option<u64>,
+    /// The label (table index) whose name was clicked: the camera is to frame it.
+    pub(super) frame: Option<usize>,
 }
 
 impl LabelState {

@@ -165,3 +165,36 @@ fn a_signed_range_across_zero_selects_both_sides() {
         .to_string();
     assert!(err.starts_with("labels -2-2: no such label"), "{err}");
 }
+
+/// A label's box for a camera (`LabelEntry::world_box`, which the viewers frame a label by): the
+/// smallest box, in index × spacing, holding every cell of the label, each cell spanning its
+/// samples `p` to `p + 1`.
+#[test]
+fn a_labels_world_box_holds_exactly_its_cells() {
+    let spacing = [0.5, 1.0, 2.5];
+    let ball = labelled_ball(24);
+    let geometry = isogrid::Geometry {
+        spacing,
+        ..*ball.geometry()
+    };
+    let volume = isogrid::Volume::with_geometry(geometry, ball.into_data()).unwrap();
+    let grid = extract_labels(&volume.view(), &LabelOptions::new(LabelSelection::All)).unwrap();
+    let labels = grid.labels().unwrap();
+    let mut boxes = vec![([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]); labels.table().len()];
+    for (c, cluster) in grid.metacells().chunks(16).enumerate() {
+        let (lo, hi) = &mut boxes[labels.cluster_labels()[c] as usize];
+        for m in cluster[..15].iter().filter(|m| !m.is_empty()) {
+            for bit in (0..8).filter(|b| m.cell_mask >> b & 1 != 0) {
+                let p = m.cell_position(bit);
+                for a in 0..3 {
+                    lo[a] = lo[a].min(p[a] as f64 * spacing[a]);
+                    hi[a] = hi[a].max((p[a] + 1) as f64 * spacing[a]);
+                }
+            }
+        }
+    }
+    assert!(labels.table().len() >= 3);
+    for (entry, expected) in labels.index().iter().zip(&boxes) {
+        assert_eq!(entry.world_box(spacing), *expected);
+    }
+}
