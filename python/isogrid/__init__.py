@@ -757,7 +757,8 @@ def render(
         cmap: colour map of a grid with an attribute: ``"viridis"`` (default), ``"magma"``,
             ``"inferno"``, ``"plasma"``, ``"cividis"``, ``"turbo"``, ``"gray"`` or ``"rdbu"``. A grid
             with an attribute is always drawn in colour, by either backend in every mode (path
-            tracing takes the colour as albedo).
+            tracing takes the colour as albedo), a label grid with one too (its labels' colours
+            otherwise; MC, which draws the labels' meshes in those, refuses the attribute).
         clim: ``(lo, hi)``, the values the map spans (default the attribute's range on the surface).
         show: a label grid: draw only these labels, as ``"1,5-9"`` or a list of values (default
             all).
