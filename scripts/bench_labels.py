@@ -19,6 +19,10 @@ docs/benchmarks-labels.md.
                                               # (zarr-python; 17 GB of samples, compressed), streamed
     python scripts/bench_labels.py --dask-budgets # isogrid.dask.extract of the 512³ supervoxels
                                               # from a Zarr copy, at several tile_bytes
+    python scripts/bench_labels.py --masks    # a TotalSegmentator-like folder of 117 NIfTI masks
+                                              # (the frog's 25 tissues and 92 empty ones, written
+                                              # by nibabel): `isogrid extract FOLDER --labels all`
+                                              # against nibabel + numpy + vtkSurfaceNets3D
 """
 
 import hashlib
@@ -557,7 +561,93 @@ def dask_budget_table():
               flush=True)
 
 
+MASK_FILES = 117  # TotalSegmentator's structures
+
+
+def masks_folder():
+    """data/bench-masks/: the frog tissues as one NIfTI mask each (`tissue_NN.nii.gz`), and empty
+    masks (`absent_NNN.nii.gz`) up to MASK_FILES files, as TotalSegmentator writes a mask for
+    every structure it looks for; with the frog's spacing. Returns the folder."""
+    import nibabel
+
+    folder = os.path.join(DATA, "bench-masks")
+    if os.path.isdir(folder) and len(os.listdir(folder)) == MASK_FILES:
+        return folder
+    os.makedirs(folder, exist_ok=True)
+    path, spacing, _, _ = npy_of("frog")
+    a = np.load(path).transpose(2, 1, 0)  # (x, y, z), as nibabel writes it
+    affine = np.diag(list(spacing) + [1.0])
+    values = [int(v) for v in np.unique(a) if v != 0]
+    for v in values:
+        nibabel.save(nibabel.Nifti1Image((a == v).astype(np.uint8), affine), os.path.join(folder, f"tissue_{v:02d}.nii.gz"))
+    for k in range(MASK_FILES - len(values)):
+        nibabel.save(nibabel.Nifti1Image(np.zeros(a.shape, np.uint8), affine), os.path.join(folder, f"absent_{k:03d}.nii.gz"))
+    return folder
+
+
+def masks_peer(folder):
+    """Child: what a Python user does with such a folder before a surface tool: nibabel loads
+    each mask, numpy numbers it into one label volume (mask i in name order is label i + 1, as
+    isogrid numbers them), and vtkSurfaceNets3D takes every label's surface. Prints JSON."""
+    import glob
+
+    import nibabel
+    import vtk
+    from vtk.util import numpy_support
+
+    start = time.perf_counter()
+    files = sorted(glob.glob(os.path.join(folder, "*.nii.gz")))
+    first = nibabel.load(files[0])
+    labels = np.zeros(first.shape, np.uint8)
+    for i, f in enumerate(files):
+        labels[np.asarray(nibabel.load(f).dataobj) != 0] = i + 1
+    combined = time.perf_counter() - start
+    vtk.vtkSMPTools.SetBackend("Sequential")
+    z = np.ascontiguousarray(labels.transpose(2, 1, 0))
+    image = vtk.vtkImageData()
+    image.SetDimensions(z.shape[2], z.shape[1], z.shape[0])
+    image.SetSpacing(*(float(s) for s in first.header.get_zooms()[:3]))
+    image.GetPointData().SetScalars(numpy_support.numpy_to_vtk(z.ravel(), deep=False))
+    values = [v for v in np.unique(z) if v != 0]
+    nets = vtk.vtkSurfaceNets3D()
+    nets.SetInputData(image)
+    nets.SetBackgroundLabel(0)
+    nets.SetOutputMeshTypeToQuads()
+    nets.SetSmoothing(False)
+    nets.SetNumberOfLabels(len(values))
+    for i, v in enumerate(values):
+        nets.SetLabel(i, float(v))
+    nets.Update()
+    total = time.perf_counter() - start
+    print(json.dumps({"combine": combined, "total": total, "labels": len(values), "peak": peak_rss_bytes(),
+                      "quads": nets.GetOutput().GetNumberOfCells()}))
+
+
+def masks_table():
+    """One run each: `isogrid extract FOLDER --labels all` at 1 and 2 threads (GNU time: wall
+    seconds and peak resident memory) and the Python pipeline of `masks_peer` (1 thread)."""
+    folder = masks_folder()
+    out = os.path.join(DATA, "bench-masks-out.cgc")
+    print(f"| {MASK_FILES} NIfTI masks of the frog's 500×470×136 grid (25 tissues, 92 empty) | seconds | peak resident memory | output |")
+    print("|---|---|---|---|")
+    for threads in (1, 2):
+        seconds, peak = timed_cli(["extract", folder, "--labels", "all", "--threads", str(threads), "-o", out])
+        report = json.loads(subprocess.run(
+            [os.environ.get("ISOGRID_CLI") or os.path.join(ROOT, "target", "release", "isogrid"), "info", out, "--json"],
+            check=True, capture_output=True, text=True).stdout)
+        cells, labels = report["active_cells"], len(report["labels"])
+        print(f"| isogrid extract, {threads} thread{'s' * (threads > 1)} | {seconds:.1f} | {mb(peak)} | {cells:,} cells, {labels} labels, {mb(os.path.getsize(out))} |", flush=True)
+    os.remove(out)
+    run = subprocess.run([sys.executable, __file__, "child-masks", folder], check=True, capture_output=True, text=True)
+    r = json.loads(run.stdout.strip().splitlines()[-1])
+    print(f"| nibabel + numpy (numbering the masks: {r['combine']:.1f} s) + vtkSurfaceNets3D, 1 thread | "
+          f"{r['total']:.1f} | {mb(r['peak'])} | {r['quads']:,} quads, {r['labels']} labels |")
+
+
 def main():
+    if "--masks" in sys.argv:
+        masks_table()
+        return
     if "--dask-budgets" in sys.argv:
         dask_budget_table()
         return
@@ -613,7 +703,9 @@ def main():
 
 
 if __name__ == "__main__":
-    if len(sys.argv) > 1 and sys.argv[1] == "child":
+    if len(sys.argv) > 1 and sys.argv[1] == "child-masks":
+        masks_peer(sys.argv[2])
+    elif len(sys.argv) > 1 and sys.argv[1] == "child":
         child(sys.argv[2], sys.argv[3], json.loads(sys.argv[4]), json.loads(sys.argv[5]), int(sys.argv[6]))
     else:
         main()

@@ -266,8 +266,10 @@ fn labels_in_memory(
     table: Option<&[Label]>,
     attribute: Option<&AttributeInput>,
 ) -> Result<LabelsDone> {
-    let (source, read) =
-        input::read_label_volume(&args.input, args.label.labels_of.as_deref(), read_options)?;
+    // In the pool: a folder of masks is read in parallel, on --threads threads.
+    let (source, read) = pool.install(|| {
+        input::read_label_volume(&args.input, args.label.labels_of.as_deref(), read_options)
+    })?;
     let start = Instant::now();
     let progress = Arc::new(Progress::new());
     let grid = progress::watched("extracting labels", &progress, || {

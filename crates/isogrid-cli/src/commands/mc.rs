@@ -285,8 +285,10 @@ fn run_labels(args: Args) -> Result<()> {
     } else {
         let read_options = args.input_args.read_options()?;
         // Read as `extract --labels` reads it: a .seg.nrrd's segments, layers, names and colours.
-        let (source, read) =
-            input::read_label_volume(&args.input, args.label.labels_of.as_deref(), &read_options)?;
+        // In the pool: a folder of masks is read in parallel, on --threads threads.
+        let (source, read) = pool.install(|| {
+            input::read_label_volume(&args.input, args.label.labels_of.as_deref(), &read_options)
+        })?;
         let spinner = progress::spinner("extracting labels".into());
         let start = Instant::now();
         let grid = pool

@@ -251,12 +251,18 @@ pub fn read(path: &Path, opts: &ReadOptions) -> Result<(LabelVolume, Vec<String>
     }
     layers.push(layer.into_layer(geometry)?);
     if !empty.is_empty() {
+        // A line, not a screenful: TotalSegmentator leaves most of its 117 masks empty.
+        const NAMED: usize = 8;
+        let more = match empty.len().saturating_sub(NAMED) {
+            0 => String::new(),
+            n => format!(" and {n} more"),
+        };
         notices.push(format!(
-            "{}: {} of {} masks are empty and have no surface: {}",
+            "{}: {} of {} masks are empty and have no surface: {}{more}",
             path.display(),
             empty.len(),
             files.len(),
-            empty.join(", ")
+            empty[..empty.len().min(NAMED)].join(", ")
         ));
     }
     Ok((LabelVolume { layers, names }, notices))
