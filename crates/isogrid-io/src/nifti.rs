@@ -31,6 +31,12 @@ use std::path::Path;
 
 const HEADER_SIZE: usize = 348;
 
+/// Whether a file name is a NIfTI file's (`.nii` or `.nii.gz`, any case).
+pub(crate) fn is_nifti_name(name: &str) -> bool {
+    let lower = name.to_ascii_lowercase();
+    lower.ends_with(".nii") || lower.ends_with(".nii.gz")
+}
+
 /// Reads a `.nii` or `.nii.gz` file (gzip is detected from the content). Errors name `path`.
 pub fn read_nifti(path: &Path) -> Result<Volume> {
     read_nifti_indexed(path, &[])

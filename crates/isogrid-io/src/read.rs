@@ -84,7 +84,7 @@ fn read_single(path: &Path, opts: &ReadOptions) -> Result<Volume> {
         .map(|n| n.to_string_lossy().to_ascii_lowercase())
         .unwrap_or_default();
     let ends = |ext: &str| name.ends_with(ext);
-    if ends(".nii") || ends(".nii.gz") {
+    if crate::nifti::is_nifti_name(&name) {
         return crate::nifti::read_nifti_indexed(path, &opts.zarr.indices);
     }
     if ends(".nrrd") || ends(".nhdr") {

@@ -60,7 +60,10 @@ pub(crate) fn refuse_unused_index(
     path: &std::path::Path,
     options: &ReadOptions,
 ) -> isogrid::Result<()> {
-    if options.zarr.indices.is_empty() || is_tiff_file(path) || is_nifti_name(path) {
+    let nifti = path
+        .file_name()
+        .is_some_and(|n| crate::nifti::is_nifti_name(&n.to_string_lossy()));
+    if options.zarr.indices.is_empty() || is_tiff_file(path) || nifti {
         return Ok(());
     }
     refuse_repeated_axes(&options.zarr.indices).map_err(|e| e.with_path(path))?;
@@ -69,15 +72,6 @@ pub(crate) fn refuse_unused_index(
          has no axes beyond x, y and z",
     )
     .with_path(path))
-}
-
-/// A file named `.nii` or `.nii.gz` (whose reader takes `--index t=N` of a 4-D file).
-fn is_nifti_name(path: &std::path::Path) -> bool {
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().to_ascii_lowercase())
-        .unwrap_or_default();
-    name.ends_with(".nii") || name.ends_with(".nii.gz")
 }
 
 /// A file named `.tif`/`.tiff`, or starting with a TIFF or BigTIFF byte-order mark.

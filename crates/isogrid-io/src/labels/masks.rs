@@ -10,6 +10,7 @@
 //! masks' own, which must be the same in every file.
 
 use super::{LabelLayer, LabelVolume};
+use crate::nifti::is_nifti_name;
 use crate::read_options::ReadOptions;
 use isogrid::{Error, Label, Result, ResultExt, Scalar, Volume, VolumeData};
 use std::path::{Path, PathBuf};
@@ -24,11 +25,6 @@ pub fn is_mask_folder(path: &Path) -> bool {
         let name = e.file_name().to_string_lossy().to_string();
         !name.starts_with('.') && is_nifti_name(&name)
     })
-}
-
-fn is_nifti_name(name: &str) -> bool {
-    let lower = name.to_ascii_lowercase();
-    lower.ends_with(".nii") || lower.ends_with(".nii.gz")
 }
 
 /// The mask files of the folder `path`, sorted by name; an error when it holds anything else
