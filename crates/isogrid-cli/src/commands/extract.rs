@@ -350,14 +350,7 @@ fn stream_labels(
         label_stream::extract_labels_to_file(source, options, max_memory, out, &progress, &mut name)
     });
     let summary = stopped_or(result, args)?;
-    let mut attribute_report = None;
-    if let Some(attribute) = attribute {
-        let grid = with_attribute(args, isogrid::cgc::open(out)?, attribute)?;
-        attribute_report = grid.attribute().map(AttributeReport::new);
-        if let Some(output) = &args.output {
-            isogrid::cgc::write(output, &grid)?;
-        }
-    }
+    let attribute_report = attach_streamed(args, out, attribute)?;
     Ok((summary, absent, attribute_report))
 }
 
@@ -437,16 +430,25 @@ fn stream_to_file(
             summary.info.value_range == [0.0, 0.0] && has_no_finite_sample(source).unwrap_or(false)
         },
     );
-    let mut attribute_report = None;
-    if let Some(attribute) = attribute {
-        let grid = isogrid::cgc::open(out)?;
-        let grid = with_attribute(args, grid, attribute)?;
-        attribute_report = grid.attribute().map(AttributeReport::new);
-        if let Some(output) = &args.output {
-            isogrid::cgc::write(output, &grid)?;
-        }
-    }
+    let attribute_report = attach_streamed(args, out, attribute)?;
     Ok((summary.stats, attribute_report))
+}
+
+/// With an attribute, the streamed grid in the scratch file `scratch` read back (memory-mapped),
+/// given the attribute and written whole to `--output`, if any; its report.
+fn attach_streamed(
+    args: &Args,
+    scratch: &Path,
+    attribute: Option<&AttributeInput>,
+) -> Result<Option<AttributeReport>> {
+    let Some(attribute) = attribute else {
+        return Ok(None);
+    };
+    let grid = with_attribute(args, isogrid::cgc::open(scratch)?, attribute)?;
+    if let Some(output) = &args.output {
+        isogrid::cgc::write(output, &grid)?;
+    }
+    Ok(grid.attribute().map(AttributeReport::new))
 }
 
 /// An extraction's result, with the error a Ctrl-C (a cancel) or a failure makes.

@@ -279,7 +279,7 @@ fn run_labels(args: Args) -> Result<()> {
     }
     let pool = args.threads.pool()?;
     let table = args.label.table()?;
-    let (grid, read, mut extract) = if is_cgc(&args.input) {
+    let (mut grid, read, mut extract) = if is_cgc(&args.input) {
         let (grid, read) = open_label_grid(&args)?;
         (grid, read, 0.0)
     } else {
@@ -297,7 +297,6 @@ fn run_labels(args: Args) -> Result<()> {
         spinner.finish_and_clear();
         (grid, read, start.elapsed().as_secs_f64())
     };
-    let mut grid = grid;
     let mut absent = Vec::new();
     if let Some(table) = &table {
         absent = isogrid_io::labels::apply_label_names(&mut grid, table);
