@@ -8,6 +8,10 @@ libfuzzer_sys::fuzz_target!(|data: &[u8]| {
     let axis = ["c", "t", "z"][(pick % 3) as usize];
     let index = vec![(axis.to_string(), u64::from(pick / 3 % 4))];
     isogrid_fuzz::fuzz_volume("in.tif", data, |path| {
-        isogrid_io::tiff::read_tiff_indexed(path, &index)
+        let pick = isogrid_io::AxisPick {
+            indices: &index,
+            flag: "--index",
+        };
+        isogrid_io::tiff::read_tiff_indexed(path, pick)
     });
 });

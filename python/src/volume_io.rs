@@ -51,6 +51,7 @@ pub fn load_volume(
             level,
             indices: index.unwrap_or_default(),
             trusted_certificates: isogrid_io::ssl_cert_file_from_env(),
+            ..ZarrOptions::default()
         },
     };
     let (volume, notices) = py

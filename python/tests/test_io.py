@@ -152,6 +152,40 @@ def test_a_4d_nifti_gives_the_volume_index_t_picks(cli, tmp_path):
     expected = isogrid.extract(isogrid.load_volume(tmp_path / "bold.nii", index={"t": 3}), iso=0.5)
     assert expected.to_bytes() == grids[0]
 
+    # Volume 3's surface coloured by volume 4: --color-index picks the --color-by file's volume
+    # (here the other copy), as index= picks it for Python.
+    def colored(*extra):
+        out = tmp_path / "colored.cgc"
+        out.unlink(missing_ok=True)
+        run = subprocess.run(
+            [cli, "extract", tmp_path / "bold.nii", "--iso", "0.5", "--index", "t=3",
+             "--color-by", tmp_path / "bold.nii.gz", *extra, "-o", out],
+            capture_output=True, text=True,
+        )
+        return run, out
+
+    run, out = colored("--color-index", "t=4")
+    assert run.returncode == 0, run.stderr
+    grid = isogrid.load(out)
+    assert grid.attribute_info["name"] == "bold.nii.gz t=4"
+    reference = isogrid.extract(
+        isogrid.load_volume(tmp_path / "bold.nii", index={"t": 3}), iso=0.5,
+        attribute=isogrid.load_volume(tmp_path / "bold.nii.gz", index={"t": 4}),
+    )
+    np.testing.assert_array_equal(grid.attribute, reference.attribute)
+    other_volume = isogrid.extract(
+        isogrid.load_volume(tmp_path / "bold.nii", index={"t": 3}), iso=0.5,
+        attribute=isogrid.load_volume(tmp_path / "bold.nii.gz", index={"t": 2}),
+    )
+    assert not np.array_equal(grid.attribute, other_volume.attribute)
+    for extra, message in [
+        ((), "bold.nii.gz: this is a 4-D NIfTI file of 5 volumes (t=0..4): pass --color-index t=N"),
+        (("--color-index", "t=5"), "bold.nii.gz: --color-index t=5 is out of range"),
+        (("--color-index", "c=0"), "bold.nii.gz: --color-index names c, which is not an axis"),
+    ]:
+        run, out = colored(*extra)
+        assert run.returncode == 1 and message in run.stderr and not out.exists(), run.stderr
+
 
 def test_mni_template_if_fetched():
     path = REPO / "data" / "mni152_t1.nii.gz"

@@ -138,10 +138,11 @@ impl InputArgs {
         options.zarr = isogrid_io::ZarrOptions {
             level: self.level,
             indices: match &self.index {
-                Some(text) => parse_indices(text).map_err(anyhow::Error::msg)?,
+                Some(text) => parse_indices(text, "--index").map_err(anyhow::Error::msg)?,
                 None => Vec::new(),
             },
             trusted_certificates: isogrid_io::ssl_cert_file_from_env(),
+            ..isogrid_io::ZarrOptions::default()
         };
         Ok(options)
     }
@@ -186,19 +187,19 @@ pub fn parse_precision(s: &str) -> Result<Precision, String> {
     Precision::parse_bits(s)
 }
 
-/// "t=0,c=1" → [("t", 0), ("c", 1)].
-pub(crate) fn parse_indices(s: &str) -> Result<Vec<(String, u64)>, String> {
+/// "t=0,c=1" → [("t", 0), ("c", 1)]; errors name `flag`, which gave `s`.
+pub(crate) fn parse_indices(s: &str, flag: &str) -> Result<Vec<(String, u64)>, String> {
     s.split(',')
         .map(|part| {
             let (axis, index) = part.split_once('=').ok_or_else(|| {
-                format!("--index takes AXIS=I pairs such as t=0,c=1, not {part:?}")
+                format!("{flag} takes AXIS=I pairs such as t=0,c=1, not {part:?}")
             })?;
             let index = index
                 .trim()
                 .parse::<u64>()
-                .map_err(|_| format!("--index {part:?}: the index must be a whole number"))?;
+                .map_err(|_| format!("{flag} {part:?}: the index must be a whole number"))?;
             match axis.trim() {
-                "" => Err(format!("--index {part:?}: the axis name is missing")),
+                "" => Err(format!("{flag} {part:?}: the axis name is missing")),
                 axis => Ok((axis.to_string(), index)),
             }
         })

@@ -2,12 +2,13 @@
 //! cell's surface point ([`isogrid::extract::attribute`]).
 //!
 //! `ATTR` is any volume isogrid reads (read by region where the format allows, so a streamed
-//! extraction keeps its memory bound), or `AXIS=I,...` for another entry of the input's own extra
-//! axes — another channel of the same OME-Zarr image (`--index c=0 --color-by c=1`). An attribute
-//! on another grid is resampled in world (patient) space, with a one-line notice.
+//! extraction keeps its memory bound), whose own extra axes `--color-index` picks from, or
+//! `AXIS=I,...` for another entry of the input's own extra axes — another channel of the same
+//! OME-Zarr image (`--index c=0 --color-by c=1`). An attribute on another grid is resampled in
+//! world (patient) space, with a one-line notice.
 
 use crate::args::parse_indices;
-use anyhow::{anyhow, Result};
+use anyhow::{anyhow, bail, Result};
 use isogrid::extract::attribute::{
     alignment, grid_geometry, sample_attribute, sample_attribute_in_memory,
     sample_points_in_memory, Alignment,
@@ -27,6 +28,38 @@ pub fn parse_attribute_precision(s: &str) -> Result<AttributePrecision, String> 
 /// Stored attribute precision when none is asked for: 16-bit codes, within 0.001 % of the range.
 pub const DEFAULT_PRECISION: AttributePrecision = AttributePrecision::Code16;
 
+/// `--color-by ATTR [--color-index AXIS=I,...]`, the flags of every command that colours a surface.
+#[derive(clap::Args, Debug, Clone, Default)]
+pub struct ColorByArgs {
+    /// Colour the surface by another volume: a file or folder isogrid reads (resampled in world
+    /// space when its grid differs), or AXIS=I,... for another entry of INPUT's extra axes, e.g.
+    /// `--index c=0 --color-by c=1` for a second channel. It is sampled at each active cell's
+    /// surface point (`mc`: at every vertex, written as the PLY vertex property `quality`); a .cgc
+    /// file brings its own attribute.
+    #[arg(long, value_name = "ATTR")]
+    pub color_by: Option<String>,
+    /// Entry of each extra axis of the --color-by file, as --index picks INPUT's: the volume t of
+    /// a 4-D NIfTI file, a channel or time point of a Zarr image or TIFF hyperstack, e.g.
+    /// `--color-by pet.nii.gz --color-index t=3`.
+    #[arg(long, value_name = "AXIS=I,...", requires = "color_by")]
+    pub color_index: Option<String>,
+}
+
+impl ColorByArgs {
+    /// The attribute these flags ask for (`None` without `--color-by`) for a surface of `input`
+    /// read with `input_options`.
+    pub fn attribute(
+        &self,
+        input: &Path,
+        input_options: &ReadOptions,
+    ) -> Result<Option<AttributeInput>> {
+        let Some(text) = self.color_by.as_deref() else {
+            return Ok(None);
+        };
+        AttributeInput::new(text, self.color_index.as_deref(), input, input_options).map(Some)
+    }
+}
+
 /// Where an attribute's samples come from.
 #[derive(Debug, Clone)]
 pub struct AttributeInput {
@@ -37,16 +70,6 @@ pub struct AttributeInput {
 }
 
 impl AttributeInput {
-    /// The attribute of a `--color-by` flag (`None` without one) for a surface of `input`.
-    pub fn from_flag(
-        flag: Option<&str>,
-        input: &Path,
-        input_options: &ReadOptions,
-    ) -> Result<Option<Self>> {
-        flag.map(|text| Self::new(text, input, input_options))
-            .transpose()
-    }
-
     /// The files a command reads: `input`, and the attribute's file (which no output may be).
     pub fn inputs<'a>(input: &'a Path, attribute: Option<&'a AttributeInput>) -> Vec<&'a Path> {
         let mut inputs = vec![input];
@@ -54,14 +77,26 @@ impl AttributeInput {
         inputs
     }
 
-    /// `--color-by TEXT` for a surface of `input` read with `input_options`.
-    pub fn new(text: &str, input: &Path, input_options: &ReadOptions) -> Result<Self> {
+    /// `--color-by TEXT [--color-index INDEX]` for a surface of `input` read with
+    /// `input_options`.
+    fn new(
+        text: &str,
+        index: Option<&str>,
+        input: &Path,
+        input_options: &ReadOptions,
+    ) -> Result<Self> {
         let as_path = PathBuf::from(text);
         if !as_path.exists() && text.contains('=') {
-            let indices = parse_indices(text)
-                .map_err(|e| anyhow!("--color-by {text}: {e}").context("--color-by"))?;
+            if index.is_some() {
+                bail!(
+                    "--color-by {text} picks another entry of INPUT's own axes; --color-index picks \
+                     from a --color-by file, and is not needed"
+                );
+            }
+            let indices = parse_indices(text, "--color-by").map_err(anyhow::Error::msg)?;
             let mut options = input_options.clone();
             options.zarr.indices = indices;
+            options.zarr.index_flag = "--color-by";
             return Ok(AttributeInput {
                 path: input.to_path_buf(),
                 options,
@@ -70,9 +105,15 @@ impl AttributeInput {
         }
         let mut options = ReadOptions::default();
         options.zarr.trusted_certificates = input_options.zarr.trusted_certificates.clone();
-        let name = as_path
+        options.zarr.index_flag = "--color-index";
+        let mut name = as_path
             .file_name()
             .map_or_else(|| text.to_string(), |n| n.to_string_lossy().into_owned());
+        if let Some(index) = index {
+            options.zarr.indices =
+                parse_indices(index, "--color-index").map_err(anyhow::Error::msg)?;
+            name = format!("{name} {index}");
+        }
         Ok(AttributeInput {
             path: as_path,
             options,

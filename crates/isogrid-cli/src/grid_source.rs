@@ -3,7 +3,7 @@
 //! labels (`--labels`, as `extract --labels` extracts them).
 
 use crate::args::{parse_precision, InputArgs, LabelArgs};
-use crate::color_by::{AttributeInput, DEFAULT_PRECISION};
+use crate::color_by::{ColorByArgs, DEFAULT_PRECISION};
 use crate::{input, progress};
 use anyhow::{bail, Context, Result};
 use isogrid::{extract, CellGrid, ExtractOptions, Iso, Precision, Volume};
@@ -35,12 +35,8 @@ pub struct GridSource {
     pub precision: Option<Precision>,
     #[command(flatten)]
     pub input_args: InputArgs,
-    /// Colour the surface by another volume, sampled at each active cell's surface point (as
-    /// `extract --color-by`: a volume isogrid reads, resampled in world space when its grid
-    /// differs, or AXIS=I,... for another entry of INPUT's extra axes). A .cgc file with an
-    /// attribute brings its own.
-    #[arg(long, value_name = "ATTR")]
-    pub color_by: Option<String>,
+    #[command(flatten)]
+    pub color: ColorByArgs,
     #[command(flatten)]
     pub label: LabelArgs,
 }
@@ -63,10 +59,12 @@ impl GridSource {
     /// attribute of `--color-by` sampled onto the grid.
     pub fn load_with_volume(&self) -> Result<(CellGrid, Option<Volume>)> {
         let (grid, volume) = self.load_surface()?;
-        let Some(text) = &self.color_by else {
+        let Some(attribute) = self
+            .color
+            .attribute(&self.input, &self.input_args.read_options()?)?
+        else {
             return Ok((grid, volume));
         };
-        let attribute = AttributeInput::new(text, &self.input, &self.input_args.read_options()?)?;
         let spinner = progress::spinner(format!("sampling {}", attribute.path.display()));
         let values = attribute.sample(&grid, &self.input, DEFAULT_PRECISION);
         spinner.finish_and_clear();

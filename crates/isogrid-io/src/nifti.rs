@@ -21,6 +21,7 @@
 //!   complex, RGB and binary are `Unsupported`. NIfTI-2 and the `.hdr/.img` pair are `Unsupported`.
 
 use crate::geometry::{cross, geometry, normalized, Vec3};
+use crate::read_options::AxisPick;
 use crate::samples::{
     byte_count, check_available, check_deflate_budget, expect_end, gzip_error, read_samples,
     rescaled, sample_count, skip_bytes, ElemType,
@@ -39,12 +40,12 @@ pub(crate) fn is_nifti_name(name: &str) -> bool {
 
 /// Reads a `.nii` or `.nii.gz` file (gzip is detected from the content). Errors name `path`.
 pub fn read_nifti(path: &Path) -> Result<Volume> {
-    read_nifti_indexed(path, &[])
+    read_nifti_indexed(path, AxisPick::NONE)
 }
 
-/// [`read_nifti`] of the volume `indices` (`--index t=N`) pick of a 4-D file.
-pub fn read_nifti_indexed(path: &Path, indices: &[(String, u64)]) -> Result<Volume> {
-    read(path, indices).at_path(path)
+/// [`read_nifti`] of the volume `pick` (`--index t=N`) chooses of a 4-D file.
+pub fn read_nifti_indexed(path: &Path, pick: AxisPick) -> Result<Volume> {
+    read(path, pick).at_path(path)
 }
 
 /// The header fields a volume needs.
@@ -62,40 +63,41 @@ struct Header {
 }
 
 impl Header {
-    /// The volume `indices` pick: `t=N` of a file of several, else the only one. An index of
+    /// The volume `pick` chooses: `t=N` of a file of several, else the only one. An index of
     /// another axis, out of range or given twice, or a missing one, is an error.
-    fn pick(&self, indices: &[(String, u64)]) -> Result<usize> {
-        crate::read_options::refuse_repeated_axes(indices)?;
+    fn pick(&self, pick: AxisPick) -> Result<usize> {
+        crate::read_options::refuse_repeated_axes(pick)?;
+        let flag = pick.flag;
         let t = self.times;
-        if t == 1 && !indices.is_empty() {
-            return Err(Error::invalid(
-                "--index picks a volume of a 4-D file, and this NIfTI file holds one 3-D volume",
-            ));
+        if t == 1 && !pick.indices.is_empty() {
+            return Err(Error::invalid(format!(
+                "{flag} picks a volume of a 4-D file, and this NIfTI file holds one 3-D volume"
+            )));
         }
         let described = format!("NIfTI file of {t} volumes (t=0..{})", t.saturating_sub(1));
-        for (name, index) in indices {
+        for (name, index) in pick.indices {
             if !name.eq_ignore_ascii_case("t") {
                 return Err(Error::invalid(format!(
-                    "--index names {name}, which is not an axis of this {described}: use t"
+                    "{flag} names {name}, which is not an axis of this {described}: use t"
                 )));
             }
             if *index >= t as u64 {
                 return Err(Error::invalid(format!(
-                    "--index t={index} is out of range: this is a {described}"
+                    "{flag} t={index} is out of range: this is a {described}"
                 )));
             }
         }
-        match indices.first() {
+        match pick.indices.first() {
             Some(&(_, index)) => Ok(index as usize),
             None if t == 1 => Ok(0),
             None => Err(Error::invalid(format!(
-                "this is a 4-D {described}: pass --index t=N to read one"
+                "this is a 4-D {described}: pass {flag} t=N to read one"
             ))),
         }
     }
 }
 
-fn read(path: &Path, indices: &[(String, u64)]) -> Result<Volume> {
+fn read(path: &Path, pick: AxisPick) -> Result<Volume> {
     let mut file = isogrid::fs::open_regular(path)?;
     let file_len = file.metadata()?.len();
     let mut magic = [0u8; 2];
@@ -114,7 +116,7 @@ fn read(path: &Path, indices: &[(String, u64)]) -> Result<Volume> {
         _ => Error::corrupt(format!("cannot read the NIfTI header: {e}")),
     })?;
     let header = parse_header(&raw)?;
-    let t = header.pick(indices)?;
+    let t = header.pick(pick)?;
     let count = sample_count(header.dims)?;
     let volume_bytes = byte_count(count, header.elem)?;
     let all = volume_bytes
@@ -145,12 +147,12 @@ fn read(path: &Path, indices: &[(String, u64)]) -> Result<Volume> {
     Volume::with_geometry(g, data)
 }
 
-/// Where an uncompressed `.nii` keeps the samples of the volume `indices` pick, for reading by
+/// Where an uncompressed `.nii` keeps the samples of the volume `pick` chooses, for reading by
 /// region; `None` for a gzip file (which has to be decompressed from its start). Errors name
 /// `path`.
 pub(crate) fn region_layout(
     path: &Path,
-    indices: &[(String, u64)],
+    pick: AxisPick,
 ) -> Result<Option<crate::mapped_layout::MappedLayout>> {
     (|| {
         let mut file = isogrid::fs::open_regular(path)?;
@@ -170,7 +172,7 @@ pub(crate) fn region_layout(
             return Err(Error::corrupt("file is shorter than a NIfTI-1 header"));
         }
         let header = parse_header(&raw)?;
-        let t = header.pick(indices)?;
+        let t = header.pick(pick)?;
         let count = sample_count(header.dims)?;
         let volume_bytes = byte_count(count, header.elem)?;
         let all = volume_bytes

@@ -85,7 +85,7 @@ fn read_single(path: &Path, opts: &ReadOptions) -> Result<Volume> {
         .unwrap_or_default();
     let ends = |ext: &str| name.ends_with(ext);
     if crate::nifti::is_nifti_name(&name) {
-        return crate::nifti::read_nifti_indexed(path, &opts.zarr.indices);
+        return crate::nifti::read_nifti_indexed(path, opts.zarr.pick());
     }
     if ends(".nrrd") || ends(".nhdr") {
         return crate::read_nrrd(path);
@@ -94,7 +94,7 @@ fn read_single(path: &Path, opts: &ReadOptions) -> Result<Volume> {
         return crate::read_npy(path);
     }
     if ends(".tif") || ends(".tiff") {
-        return crate::tiff::read_tiff_indexed(path, &opts.zarr.indices);
+        return crate::tiff::read_tiff_indexed(path, opts.zarr.pick());
     }
     if ends(".mha") || ends(".mhd") {
         return crate::read_metaimage(path);
@@ -134,9 +134,9 @@ fn sniff(path: &Path, opts: &ReadOptions) -> Result<Volume> {
         || head.starts_with(b"II+\0")
         || head.starts_with(b"MM\0+")
     {
-        crate::tiff::read_tiff_indexed(path, &opts.zarr.indices)
+        crate::tiff::read_tiff_indexed(path, opts.zarr.pick())
     } else if head.len() == 348 && &head[344..347] == b"n+1" {
-        crate::nifti::read_nifti_indexed(path, &opts.zarr.indices)
+        crate::nifti::read_nifti_indexed(path, opts.zarr.pick())
     } else if head.len() >= 212 && &head[208..211] == b"MAP" {
         crate::read_mrc(path)
     } else if head.starts_with(b"ObjectType") || head.starts_with(b"NDims") {

@@ -16,7 +16,7 @@ pub struct ReadOptions {
 }
 
 /// Which level and which entries of extra axes to read from a Zarr array or OME-Zarr image.
-#[derive(Debug, Clone, Default, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq, Eq)]
 pub struct ZarrOptions {
     /// OME-Zarr multiscale level; 0 is full resolution.
     pub level: usize,
@@ -26,6 +26,46 @@ pub struct ZarrOptions {
     /// Mozilla's (a site's own certificate authority); front ends take it from
     /// [`ssl_cert_file_from_env`].
     pub trusted_certificates: Option<std::path::PathBuf>,
+    /// The flag that gave `indices`, which errors about them name (`--index`; `--color-index`
+    /// for the file a surface is coloured by).
+    pub index_flag: &'static str,
+}
+
+impl Default for ZarrOptions {
+    fn default() -> Self {
+        ZarrOptions {
+            level: 0,
+            indices: Vec::new(),
+            trusted_certificates: None,
+            index_flag: "--index",
+        }
+    }
+}
+
+impl ZarrOptions {
+    /// The entries of extra axes these options pick.
+    pub fn pick(&self) -> AxisPick<'_> {
+        AxisPick {
+            indices: &self.indices,
+            flag: self.index_flag,
+        }
+    }
+}
+
+/// The entries of axes beyond x, y and z that a caller picks (by axis name: `t`, `c`, …), and the
+/// flag that picked them, which errors name.
+#[derive(Debug, Clone, Copy)]
+pub struct AxisPick<'a> {
+    pub indices: &'a [(String, u64)],
+    pub flag: &'a str,
+}
+
+impl AxisPick<'static> {
+    /// No entry picked: a file with axes beyond x, y and z of more than one entry is refused.
+    pub const NONE: AxisPick<'static> = AxisPick {
+        indices: &[],
+        flag: "--index",
+    };
 }
 
 /// The PEM file named by the `SSL_CERT_FILE` environment variable (the one OpenSSL, curl and
@@ -36,17 +76,18 @@ pub fn ssl_cert_file_from_env() -> Option<std::path::PathBuf> {
         .map(std::path::PathBuf::from)
 }
 
-/// Refuses an `--index` that names an axis twice (`t=0,t=1` would otherwise read t=0 and ignore
+/// Refuses an index that names an axis twice (`t=0,t=1` would otherwise read t=0 and ignore
 /// the second value without a word).
-pub(crate) fn refuse_repeated_axes(indices: &[(String, u64)]) -> isogrid::Result<()> {
-    for (n, (name, index)) in indices.iter().enumerate() {
-        if let Some((earlier, other)) = indices[..n]
+pub(crate) fn refuse_repeated_axes(pick: AxisPick) -> isogrid::Result<()> {
+    for (n, (name, index)) in pick.indices.iter().enumerate() {
+        if let Some((earlier, other)) = pick.indices[..n]
             .iter()
             .find(|(earlier, _)| earlier.eq_ignore_ascii_case(name))
         {
             return Err(isogrid::Error::invalid(format!(
-                "--index gives axis {name} twice ({earlier}={other} and {name}={index}); give each \
-                 axis once"
+                "{} gives axis {name} twice ({earlier}={other} and {name}={index}); give each \
+                 axis once",
+                pick.flag
             )));
         }
     }
@@ -66,11 +107,12 @@ pub(crate) fn refuse_unused_index(
     if options.zarr.indices.is_empty() || is_tiff_file(path) || nifti {
         return Ok(());
     }
-    refuse_repeated_axes(&options.zarr.indices).map_err(|e| e.with_path(path))?;
-    Err(isogrid::Error::invalid(
-        "--index picks a channel or time point of a Zarr, TIFF or 4-D NIfTI image; this input \
+    refuse_repeated_axes(options.zarr.pick()).map_err(|e| e.with_path(path))?;
+    Err(isogrid::Error::invalid(format!(
+        "{} picks a channel or time point of a Zarr, TIFF or 4-D NIfTI image; this input \
          has no axes beyond x, y and z",
-    )
+        options.zarr.index_flag
+    ))
     .with_path(path))
 }
 

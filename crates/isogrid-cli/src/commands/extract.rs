@@ -6,7 +6,7 @@
 //! Slicer segmentation aside); the others are read whole first. Both give the same bytes.
 
 use crate::args::{parse_precision, parse_size, InputArgs, IsoArgs, LabelArgs, ThreadArgs};
-use crate::color_by::{parse_attribute_precision, AttributeInput, DEFAULT_PRECISION};
+use crate::color_by::{parse_attribute_precision, AttributeInput, ColorByArgs, DEFAULT_PRECISION};
 use crate::outputs::{self, Output};
 use crate::report::{print_json, AttributeReport, GridReport, Seconds};
 use crate::{input, progress};
@@ -38,12 +38,8 @@ pub struct Args {
     /// Peak memory for inputs read by region, e.g. 512M or 4G (default: a quarter of RAM).
     #[arg(long, value_name = "SIZE", value_parser = parse_size)]
     pub max_memory: Option<u64>,
-    /// Colour the surface by another volume: a file or folder isogrid reads (resampled in world
-    /// space when its grid differs), or AXIS=I,... for another entry of INPUT's extra axes, e.g.
-    /// `--index c=0 --color-by c=1` for a second channel. Each active cell stores the attribute
-    /// at its surface point.
-    #[arg(long, value_name = "ATTR")]
-    pub color_by: Option<String>,
+    #[command(flatten)]
+    pub color: ColorByArgs,
     /// Bits per stored attribute value: 8 or 16 (codes over the attribute's range on the
     /// surface) or 32 (f32) [default: 16].
     #[arg(long, value_name = "BITS", value_parser = parse_attribute_precision, requires = "color_by")]
@@ -74,8 +70,7 @@ pub fn run(args: Args) -> Result<()> {
         extensions: &[".cgc"],
     });
     let read_options = args.input_args.read_options()?;
-    let attribute =
-        AttributeInput::from_flag(args.color_by.as_deref(), &args.input, &read_options)?;
+    let attribute = args.color.attribute(&args.input, &read_options)?;
     outputs::check(
         &AttributeInput::inputs(&args.input, attribute.as_ref()),
         output.as_slice(),
@@ -162,8 +157,7 @@ fn run_labels(args: Args) -> Result<()> {
         extensions: &[".cgc"],
     });
     let read_options = args.input_args.read_options()?;
-    let attribute =
-        AttributeInput::from_flag(args.color_by.as_deref(), &args.input, &read_options)?;
+    let attribute = args.color.attribute(&args.input, &read_options)?;
     let mut inputs = AttributeInput::inputs(&args.input, attribute.as_ref());
     inputs.extend(args.label.label_table.as_deref());
     outputs::check(&inputs, output.as_slice())?;

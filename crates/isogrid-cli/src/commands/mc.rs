@@ -1,7 +1,7 @@
 //! `isogrid mc`: the Marching Cubes mesh the paper compares with (Table 3).
 
 use crate::args::{InputArgs, IsoArgs, LabelArgs, ThreadArgs};
-use crate::color_by::AttributeInput;
+use crate::color_by::{AttributeInput, ColorByArgs};
 use crate::grid_source::is_cgc;
 use crate::outputs::{self, Output};
 use crate::report::{MeshReport, Seconds};
@@ -39,11 +39,8 @@ pub struct Args {
     /// where 3D Slicer, ITK-SNAP and nibabel's affine place the image) or `index` (sample indices).
     #[arg(long, value_enum, default_value_t = Space::World)]
     pub space: Space,
-    /// Sample another volume at every vertex (trilinear; resampled in world space when its grid
-    /// differs, NaN outside it) and write it as the PLY vertex property `quality` (MeshLab's
-    /// vertex scalar).
-    #[arg(long, value_name = "ATTR")]
-    pub color_by: Option<String>,
+    #[command(flatten)]
+    pub color: ColorByArgs,
 }
 
 /// `--space`.
@@ -105,8 +102,7 @@ pub fn run(args: Args) -> Result<()> {
         extensions: &[".ply", ".obj"],
     });
     let read_options = args.input_args.read_options()?;
-    let attribute =
-        AttributeInput::from_flag(args.color_by.as_deref(), &args.input, &read_options)?;
+    let attribute = args.color.attribute(&args.input, &read_options)?;
     outputs::check(
         &AttributeInput::inputs(&args.input, attribute.as_ref()),
         output.as_slice(),
@@ -251,7 +247,7 @@ fn open_label_grid(args: &Args) -> Result<(CellGrid, f64)> {
 /// Marching Cubes mesh per label from its cells, placed in `--space`, written as .glb or
 /// precomputed meshes.
 fn run_labels(args: Args) -> Result<()> {
-    if args.color_by.is_some() {
+    if args.color.color_by.is_some() {
         bail!(
             "--color-by: the label meshes (.glb, precomputed) carry no per-vertex values; colour \
              a label grid by an attribute with `extract --labels ... --color-by` and `render`"

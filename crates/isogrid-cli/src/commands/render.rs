@@ -372,7 +372,7 @@ fn check_outputs(args: &Args) -> Result<()> {
     let env = EnvSource::parse(&args.env);
     let mut inputs = vec![args.source.input.as_path()];
     inputs.extend(env.path());
-    let color_by = args.source.color_by.as_deref().map(Path::new);
+    let color_by = args.source.color.color_by.as_deref().map(Path::new);
     inputs.extend(color_by.filter(|p| p.exists()));
     outputs::check(&inputs, &outs)
 }
@@ -382,7 +382,7 @@ fn color_asked(args: &Args) -> bool {
     args.cmap.is_some()
         || args.clim.is_some()
         || args.colorbar
-        || args.source.color_by.is_some()
+        || args.source.color.color_by.is_some()
         || args.aov.as_ref().is_some_and(|a| a.value.is_some())
 }
 

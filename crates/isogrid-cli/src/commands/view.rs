@@ -2,7 +2,7 @@
 //! that renders a few frames in a real window, saves a screenshot and exits.
 
 use crate::args::{parse_precision, InputArgs};
-use crate::color_by::AttributeInput;
+use crate::color_by::ColorByArgs;
 use anyhow::{bail, Result};
 use isogrid::colormap::ColorMap;
 use isogrid::{Iso, Precision};
@@ -47,11 +47,8 @@ pub struct Args {
     /// renders it, or captures the window showing why it cannot be opened (exit status 0).
     #[arg(long, hide = true, requires = "frames")]
     pub wait_for_drop: bool,
-    /// Colour the surface by another volume, sampled again at every isovalue (as `extract
-    /// --color-by`: a volume isogrid reads, or AXIS=I,... for another entry of INPUT's extra
-    /// axes). A .cgc file with an attribute brings its own.
-    #[arg(long, value_name = "ATTR", requires = "input")]
-    pub color_by: Option<String>,
+    #[command(flatten)]
+    pub color: ColorByArgs,
     /// Initial colour map: viridis (default), magma, inferno, plasma, cividis, turbo, gray or rdbu.
     #[arg(long, value_name = "NAME", value_parser = super::render::parse_cmap)]
     pub cmap: Option<ColorMap>,
@@ -108,19 +105,22 @@ pub fn run(args: Args) -> Result<()> {
             );
         }
     }
-    let attribute = match (&args.input, args.color_by.as_deref()) {
-        (Some(input), Some(text)) => {
-            if crate::grid_source::is_cgc(input) {
-                bail!("--color-by colours a volume's surfaces; {} is a .cgc file, which brings its own attribute", input.display());
-            }
-            let a = AttributeInput::new(text, input, &read_options)?;
-            Some(AttributeSource {
+    let attribute = match &args.input {
+        Some(input) if args.color.color_by.is_some() && crate::grid_source::is_cgc(input) => {
+            bail!("--color-by colours a volume's surfaces; {} is a .cgc file, which brings its own attribute", input.display());
+        }
+        Some(input) => args
+            .color
+            .attribute(input, &read_options)?
+            .map(|a| AttributeSource {
                 path: a.path,
                 read_options: a.options,
                 name: a.name,
-            })
+            }),
+        None if args.color.color_by.is_some() => {
+            bail!("--color-by colours the surfaces of INPUT; name a volume to colour")
         }
-        _ => None,
+        None => None,
     };
     isogrid_viewer::run(ViewerOptions {
         input: args.input,

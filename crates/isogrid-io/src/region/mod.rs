@@ -66,7 +66,7 @@ pub fn open_region(
         .map(|n| n.to_string_lossy().to_ascii_lowercase())
         .unwrap_or_default();
     let layout = if name.ends_with(".nii") {
-        crate::nifti::region_layout(path, &options.zarr.indices)?
+        crate::nifti::region_layout(path, options.zarr.pick())?
     } else if name.ends_with(".nrrd") || name.ends_with(".nhdr") {
         crate::nrrd::region_layout(path)?
     } else {

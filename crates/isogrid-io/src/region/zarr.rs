@@ -384,12 +384,12 @@ fn select_axes(
             .with_path(location))
         }
     };
-    crate::read_options::refuse_repeated_axes(&options.indices)
-        .map_err(|e| e.with_path(location))?;
+    crate::read_options::refuse_repeated_axes(options.pick()).map_err(|e| e.with_path(location))?;
     for (name, _) in &options.indices {
         if find(name).is_none() || spatial.contains(&find(name).unwrap()) {
             return Err(Error::invalid(format!(
-                "--index names {name}, which is not a non-spatial axis of [{}]",
+                "{} names {name}, which is not a non-spatial axis of [{}]",
+                options.index_flag,
                 axes.join(", ")
             ))
             .with_path(location));
@@ -410,8 +410,8 @@ fn select_axes(
             Some(i) if i < shape[axis] => fixed.push((axis, i)),
             Some(i) => {
                 return Err(Error::invalid(format!(
-                    "--index {name}={i} is out of range: axis {name} has {} entries",
-                    shape[axis]
+                    "{} {name}={i} is out of range: axis {name} has {} entries",
+                    options.index_flag, shape[axis]
                 ))
                 .with_path(location))
             }
@@ -420,8 +420,9 @@ fn select_axes(
         }
     }
     if !unindexed.is_empty() {
+        let flag = options.index_flag;
         return Err(Error::invalid(format!(
-            "{}-D data with axes [{}]: pick one entry of {} with --index, e.g. --index {}",
+            "{}-D data with axes [{}]: pick one entry of {} with {flag}, e.g. {flag} {}",
             shape.len(),
             axes.join(", "),
             unindexed.join(" and "),

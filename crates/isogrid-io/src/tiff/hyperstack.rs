@@ -8,6 +8,7 @@
 //! one channel and one time point is a plain stack. The entries are picked with the same
 //! `--index c=N,t=N` as a Zarr array's extra axes.
 
+use crate::read_options::AxisPick;
 use isogrid::{Error, Result};
 
 /// The page layout of a hyperstack.
@@ -85,10 +86,11 @@ impl Hyperstack {
         page
     }
 
-    /// The (c, t) that `indices` (`--index`) pick; an axis with one entry needs none. An index
+    /// The (c, t) that `pick` (`--index`) chooses; an axis with one entry needs none. An index
     /// of another axis, out of range, or given twice, or a missing one, is an error.
-    pub fn pick(&self, indices: &[(String, u64)]) -> Result<(usize, usize)> {
-        crate::read_options::refuse_repeated_axes(indices)?;
+    pub fn pick(&self, pick: AxisPick) -> Result<(usize, usize)> {
+        crate::read_options::refuse_repeated_axes(pick)?;
+        let (indices, flag) = (pick.indices, pick.flag);
         let [c, z, t] = self.sizes;
         let mut parts = Vec::new();
         if c > 1 {
@@ -105,13 +107,13 @@ impl Hyperstack {
                 "t" => 2,
                 _ => {
                     return Err(Error::invalid(format!(
-                        "--index names {name}, which is not an axis of this {described}: use c or t"
+                        "{flag} names {name}, which is not an axis of this {described}: use c or t"
                     )))
                 }
             };
             if *index >= self.sizes[axis] as u64 {
                 return Err(Error::invalid(format!(
-                    "--index {name}={index} is out of range: this is an {described}"
+                    "{flag} {name}={index} is out of range: this is an {described}"
                 )));
             }
         }
@@ -131,7 +133,7 @@ impl Hyperstack {
                     .map(|&(axis, _)| format!("{}=N", NAMES[axis]))
                     .collect();
                 Err(Error::invalid(format!(
-                    "this is an {described}: pass --index {}",
+                    "this is an {described}: pass {flag} {}",
                     missing.join(",")
                 )))
             }
@@ -165,12 +167,18 @@ mod tests {
         let h = Hyperstack::parse(ome).unwrap();
         assert_eq!((h.sizes, h.order), ([2, 12, 1], [1, 0, 2]));
         assert_eq!(h.page([1, 3, 0]), 15);
-        let err = h.pick(&[]).unwrap_err();
+        fn pick(indices: &[(String, u64)]) -> AxisPick<'_> {
+            AxisPick {
+                indices,
+                flag: "--index",
+            }
+        }
+        let err = h.pick(AxisPick::NONE).unwrap_err();
         assert!(err.message().contains("2 channels (c=0..1)"), "{err}");
         assert!(err.message().ends_with("pass --index c=N"), "{err}");
-        assert_eq!(h.pick(&[("c".into(), 1)]).unwrap(), (1, 0));
-        assert!(h.pick(&[("c".into(), 2)]).is_err());
-        assert!(h.pick(&[("z".into(), 0)]).is_err());
-        assert!(h.pick(&[("c".into(), 0), ("C".into(), 1)]).is_err());
+        assert_eq!(h.pick(pick(&[("c".into(), 1)])).unwrap(), (1, 0));
+        assert!(h.pick(pick(&[("c".into(), 2)])).is_err());
+        assert!(h.pick(pick(&[("z".into(), 0)])).is_err());
+        assert!(h.pick(pick(&[("c".into(), 0), ("C".into(), 1)])).is_err());
     }
 }

@@ -10,6 +10,7 @@
 
 mod hyperstack;
 
+use crate::read_options::AxisPick;
 use hyperstack::Hyperstack;
 use isogrid::{Error, Result, ResultExt, Volume, VolumeData, MAX_DIM};
 use std::fs::File;
@@ -24,16 +25,16 @@ const MAX_EXPANSION: u64 = 4096;
 
 /// Reads every page of a grayscale TIFF as one volume. Errors name `path`.
 pub fn read_tiff(path: &Path) -> Result<Volume> {
-    read_tiff_indexed(path, &[])
+    read_tiff_indexed(path, AxisPick::NONE)
 }
 
 /// Reads the z slices of a grayscale TIFF: every page of a plain stack, or of a hyperstack the
-/// pages of the channel and time point `indices` pick (`--index c=N,t=N`). Errors name `path`.
-pub fn read_tiff_indexed(path: &Path, indices: &[(String, u64)]) -> Result<Volume> {
-    read(path, indices).at_path(path)
+/// pages of the channel and time point `pick` chooses (`--index c=N,t=N`). Errors name `path`.
+pub fn read_tiff_indexed(path: &Path, pick: AxisPick) -> Result<Volume> {
+    read(path, pick).at_path(path)
 }
 
-fn read(path: &Path, indices: &[(String, u64)]) -> Result<Volume> {
+fn read(path: &Path, pick: AxisPick) -> Result<Volume> {
     let file = isogrid::fs::open_regular(path)?;
     let file_len = file.metadata()?.len();
     let mut decoder = Decoder::new(BufReader::new(file)).map_err(tiff_error)?;
@@ -44,14 +45,15 @@ fn read(path: &Path, indices: &[(String, u64)]) -> Result<Volume> {
     // The pages to read, in z order: all of a plain stack, one channel and time of a hyperstack.
     let wanted: Option<Vec<usize>> = match &stack {
         Some(h) => {
-            let (c, t) = h.pick(indices)?;
+            let (c, t) = h.pick(pick)?;
             Some((0..h.sizes[1]).map(|z| h.page([c, z, t])).collect())
         }
-        None if !indices.is_empty() => {
-            return Err(Error::invalid(
-                "--index picks a channel or time point, but this TIFF is a plain stack (its \
-                 ImageJ or OME metadata declares neither)",
-            ))
+        None if !pick.indices.is_empty() => {
+            return Err(Error::invalid(format!(
+                "{} picks a channel or time point, but this TIFF is a plain stack (its ImageJ or \
+                 OME metadata declares neither)",
+                pick.flag
+            )))
         }
         None => None,
     };
