@@ -26,7 +26,7 @@ use crate::samples::{
     byte_count, check_available, check_deflate_budget, expect_end, gzip_error, read_samples,
     rescaled, sample_count, skip_bytes, ElemType,
 };
-use isogrid::{Error, Result, ResultExt, Volume};
+use isogrid::{Error, Result, ResultExt, Volume, VolumeData};
 use std::io::{BufReader, Read, Seek, SeekFrom};
 use std::path::Path;
 
@@ -97,54 +97,114 @@ impl Header {
     }
 }
 
-fn read(path: &Path, pick: AxisPick) -> Result<Volume> {
-    let mut file = isogrid::fs::open_regular(path)?;
-    let file_len = file.metadata()?.len();
-    let mut magic = [0u8; 2];
-    let gzipped = file.read(&mut magic)? == 2 && magic == [0x1f, 0x8b];
-    file.seek(SeekFrom::Start(0))?;
-    let mut reader: Box<dyn Read> = if gzipped {
-        Box::new(flate2::read::MultiGzDecoder::new(BufReader::new(file)))
-    } else {
-        Box::new(BufReader::new(file))
-    };
-    let mut raw = [0u8; HEADER_SIZE];
-    reader.read_exact(&mut raw).map_err(|e| match e.kind() {
-        std::io::ErrorKind::UnexpectedEof => {
-            Error::corrupt("file is shorter than a NIfTI-1 header")
+/// A NIfTI file open at the first sample of the volume its pick chose.
+struct Opened {
+    reader: Box<dyn Read>,
+    header: Header,
+    gzipped: bool,
+    /// The volume read (0 for a 3-D file) and its sample count.
+    t: usize,
+    count: usize,
+}
+
+impl Opened {
+    fn open(path: &Path, pick: AxisPick) -> Result<Opened> {
+        let mut file = isogrid::fs::open_regular(path)?;
+        let file_len = file.metadata()?.len();
+        let mut magic = [0u8; 2];
+        let gzipped = file.read(&mut magic)? == 2 && magic == [0x1f, 0x8b];
+        file.seek(SeekFrom::Start(0))?;
+        let mut reader: Box<dyn Read> = if gzipped {
+            Box::new(flate2::read::MultiGzDecoder::new(BufReader::new(file)))
+        } else {
+            Box::new(BufReader::new(file))
+        };
+        let mut raw = [0u8; HEADER_SIZE];
+        reader.read_exact(&mut raw).map_err(|e| match e.kind() {
+            std::io::ErrorKind::UnexpectedEof => {
+                Error::corrupt("file is shorter than a NIfTI-1 header")
+            }
+            _ => Error::corrupt(format!("cannot read the NIfTI header: {e}")),
+        })?;
+        let header = parse_header(&raw)?;
+        let t = header.pick(pick)?;
+        let count = sample_count(header.dims)?;
+        let volume_bytes = byte_count(count, header.elem)?;
+        let all = volume_bytes
+            .checked_mul(header.times as u64)
+            .ok_or_else(|| Error::too_large("the volumes' size overflows 64 bits"))?;
+        let before = volume_bytes * t as u64;
+        if gzipped {
+            // Decompressed up to the end of volume t, and on to the end when it is the last.
+            check_deflate_budget(header.vox_offset + before + volume_bytes, file_len)?;
+        } else {
+            check_available(all, file_len.saturating_sub(header.vox_offset))?;
         }
-        _ => Error::corrupt(format!("cannot read the NIfTI header: {e}")),
-    })?;
-    let header = parse_header(&raw)?;
-    let t = header.pick(pick)?;
-    let count = sample_count(header.dims)?;
-    let volume_bytes = byte_count(count, header.elem)?;
-    let all = volume_bytes
-        .checked_mul(header.times as u64)
-        .ok_or_else(|| Error::too_large("the volumes' size overflows 64 bits"))?;
-    let before = volume_bytes * t as u64;
-    if gzipped {
-        // Decompressed up to the end of volume t, and on to the end when it is the last.
-        check_deflate_budget(header.vox_offset + before + volume_bytes, file_len)?;
-    } else {
-        check_available(all, file_len.saturating_sub(header.vox_offset))?;
+        let mut opened = Opened {
+            reader,
+            header,
+            gzipped,
+            t,
+            count,
+        };
+        let skip = opened.header.vox_offset - HEADER_SIZE as u64 + before;
+        opened.gzip_errors(|reader| skip_bytes(reader, skip))?;
+        Ok(opened)
     }
-    let data = (|| {
-        skip_bytes(&mut reader, header.vox_offset - HEADER_SIZE as u64 + before)?;
-        let data = read_samples(&mut reader, header.elem, header.big_endian, count)?;
-        if gzipped && t + 1 == header.times {
-            // Nothing follows the last volume; more data means the header is wrong.
-            expect_end(&mut reader)?;
+
+    /// The next `count` samples, rescaled where the header says.
+    fn samples(&mut self, count: usize) -> Result<VolumeData> {
+        let (elem, big_endian) = (self.header.elem, self.header.big_endian);
+        let data = self.gzip_errors(|reader| read_samples(reader, elem, big_endian, count))?;
+        Ok(match self.header.scale {
+            Some((slope, inter)) => rescaled(&data, elem, slope as f64, inter as f64),
+            None => data,
+        })
+    }
+
+    /// After the volume's last sample: nothing may follow the file's last volume, as more data
+    /// means the header is wrong (checked where the stream ends, in a gzip file).
+    fn finish(mut self) -> Result<isogrid::Geometry> {
+        if self.gzipped && self.t + 1 == self.header.times {
+            self.gzip_errors(|reader| expect_end(reader))?;
         }
-        Ok(data)
+        let h = &self.header;
+        geometry(h.dims, h.spacing, h.origin, h.direction)
+    }
+
+    /// `read` on the stream, its errors described as a gzip stream's where the file is one.
+    fn gzip_errors<T>(&mut self, read: impl FnOnce(&mut dyn Read) -> Result<T>) -> Result<T> {
+        let gzipped = self.gzipped;
+        read(self.reader.as_mut()).map_err(|e| if gzipped { gzip_error(e) } else { e })
+    }
+}
+
+fn read(path: &Path, pick: AxisPick) -> Result<Volume> {
+    let mut opened = Opened::open(path, pick)?;
+    let data = opened.samples(opened.count)?;
+    Volume::with_geometry(opened.finish()?, data)
+}
+
+/// The volume `pick` chooses of a NIfTI file, handed to `each` in order, `chunk` samples at a
+/// time (the last chunk may be shorter), so that a caller reducing the samples (a mask to its
+/// bits) never holds the volume. Returns the volume's grid. Errors name `path`.
+pub(crate) fn read_nifti_in_chunks(
+    path: &Path,
+    pick: AxisPick,
+    chunk: usize,
+    mut each: impl FnMut(&VolumeData) -> Result<()>,
+) -> Result<isogrid::Geometry> {
+    (|| {
+        let mut opened = Opened::open(path, pick)?;
+        let mut left = opened.count;
+        while left > 0 {
+            let n = left.min(chunk.max(1));
+            each(&opened.samples(n)?)?;
+            left -= n;
+        }
+        opened.finish()
     })()
-    .map_err(|e| if gzipped { gzip_error(e) } else { e })?;
-    let data = match header.scale {
-        Some((slope, inter)) => rescaled(&data, header.elem, slope as f64, inter as f64),
-        None => data,
-    };
-    let g = geometry(header.dims, header.spacing, header.origin, header.direction)?;
-    Volume::with_geometry(g, data)
+    .at_path(path)
 }
 
 /// Where an uncompressed `.nii` keeps the samples of the volume `pick` chooses, for reading by

@@ -60,30 +60,56 @@ fn mask_name(file: &Path) -> String {
     name[..stem].to_string()
 }
 
-/// The samples of `volume` that lie in its mask (see the module documentation), one bit each
-/// (sample `s` is bit `s % 64` of word `s / 64`).
-fn inside(volume: &Volume) -> Vec<u64> {
-    fn rule<T: Scalar>(s: &[T], float: bool) -> Vec<u64> {
-        s.chunks(64)
-            .map(|chunk| {
-                chunk.iter().enumerate().fold(0u64, |word, (b, v)| {
-                    let v = v.to_f64();
-                    let set = if float { v >= 0.5 } else { v != 0.0 };
-                    word | (set as u64) << b
-                })
+/// Samples of a mask turned into bits at a time: a multiple of 64, so that each chunk fills
+/// whole words, and small enough that a mask is never held whole.
+const CHUNK_SAMPLES: usize = 1 << 20;
+
+/// Appends the bits of `samples` that lie in the mask (see the module documentation), one bit
+/// each (sample `s` of the mask is bit `s % 64` of word `s / 64`), to `bits`, which holds the
+/// bits of the samples before them (a whole number of words).
+fn append_inside(samples: &VolumeData, bits: &mut Vec<u64>) {
+    fn word<T: Scalar>(chunk: &[T], inside: impl Fn(T) -> bool) -> u64 {
+        let mut flags = [0u8; 64];
+        for (flag, &v) in flags.iter_mut().zip(chunk) {
+            *flag = inside(v) as u8;
+        }
+        // Eight 0/1 bytes at a time into eight bits: the multiplier moves byte k's bit to bit
+        // 56 + k, and no two of its partial products meet, so nothing carries.
+        flags
+            .chunks_exact(8)
+            .enumerate()
+            .fold(0u64, |word, (i, bytes)| {
+                let eight = u64::from_le_bytes(bytes.try_into().expect("8 bytes"));
+                word | (eight.wrapping_mul(0x0102_0408_1020_4080) >> 56) << (8 * i)
             })
-            .collect()
     }
-    let float = !volume.scalar_type().is_integer();
-    isogrid::volume::with_samples!(volume.data().samples(), s => rule(s, float))
+    fn rule<T: Scalar>(s: &[T], inside: impl Fn(T) -> bool + Copy, bits: &mut Vec<u64>) {
+        bits.extend(s.chunks(64).map(|chunk| word(chunk, inside)));
+    }
+    fn non_zero<T: Scalar>(v: T) -> bool {
+        v != <T as bytemuck::Zeroable>::zeroed()
+    }
+    fn at_least_half<T: Scalar>(v: T) -> bool {
+        v.to_f64() >= 0.5
+    }
+    match samples.scalar_type().is_integer() {
+        true => isogrid::volume::with_samples!(samples.samples(), s => rule(s, non_zero, bits)),
+        false => {
+            isogrid::volume::with_samples!(samples.samples(), s => rule(s, at_least_half, bits))
+        }
+    }
 }
 
-/// One mask file read: its grid, the bits of its samples inside it, and its reader's notices.
-type ReadMask = (isogrid::Geometry, Vec<u64>, Vec<String>);
-
-fn read_mask(file: &Path, opts: &ReadOptions) -> Result<ReadMask> {
-    let (volume, notices) = crate::read_volume_noted(file, opts).at_path(file)?;
-    Ok((*volume.geometry(), inside(&volume), notices))
+/// One mask file read: its grid and the bits of its samples inside it, the file streamed a chunk
+/// at a time.
+fn read_mask(file: &Path, opts: &ReadOptions) -> Result<(isogrid::Geometry, Vec<u64>)> {
+    let mut bits = Vec::new();
+    let geometry =
+        crate::nifti::read_nifti_in_chunks(file, opts.zarr.pick(), CHUNK_SAMPLES, |samples| {
+            append_inside(samples, &mut bits);
+            Ok(())
+        })?;
+    Ok((geometry, bits))
 }
 
 /// The first field in which grid `a` differs from grid `b`, with both values, for an error.
@@ -173,10 +199,6 @@ impl Layer {
     }
 }
 
-/// Bytes of mask samples read at once: masks are read in parallel, as many at a time as there
-/// are threads and as fit in this.
-const READ_AHEAD_BYTES: u64 = 1 << 30;
-
 /// Reads the folder of masks `path` (see the module documentation), with a notice naming the
 /// masks that are empty (TotalSegmentator writes one for every structure it did not find). The
 /// masks are read and turned into bits in parallel, a batch at a time, and placed in name order.
@@ -194,15 +216,11 @@ pub fn read(path: &Path, opts: &ReadOptions) -> Result<(LabelVolume, Vec<String>
     let Some(first_file) = files.first() else {
         return Err(Error::unsupported("the folder holds no NIfTI mask").with_path(path));
     };
-    let (volume, mut notices) = crate::read_volume_noted(first_file, opts).at_path(first_file)?;
-    let (geometry, first_inside) = (*volume.geometry(), inside(&volume));
+    let (geometry, first_inside) = read_mask(first_file, opts)?;
+    let mut notices = Vec::new();
     let samples = geometry.dims.iter().product::<usize>();
-    // A mask's samples are in memory while its bits are made (masks are written alike: the
-    // first one's type stands for the others).
-    let mask_bytes = (samples * volume.scalar_type().size()) as u64;
-    drop(volume);
-    let batch = (READ_AHEAD_BYTES / mask_bytes.max(1)).max(1) as usize;
-    let batch = batch.min(rayon::current_num_threads()).max(1);
+    // One mask per thread at a time, each held as its bits and a chunk of samples.
+    let batch = rayon::current_num_threads().max(1);
     let mut layers = Vec::new();
     let mut names = Vec::with_capacity(files.len());
     let mut empty = Vec::new();
@@ -230,11 +248,10 @@ pub fn read(path: &Path, opts: &ReadOptions) -> Result<(LabelVolume, Vec<String>
     };
     place(0, first_inside, &mut layer)?;
     for (b, chunk) in files[1..].chunks(batch).enumerate() {
-        let read: Vec<Result<ReadMask>> = chunk.par_iter().map(|f| read_mask(f, opts)).collect();
+        let read: Vec<Result<_>> = chunk.par_iter().map(|f| read_mask(f, opts)).collect();
         for (k, mask) in read.into_iter().enumerate() {
             let i = 1 + b * batch + k;
-            let (g, inside, noted) = mask?;
-            notices.extend(noted);
+            let (g, inside) = mask?;
             if let Some(field) = differing_field(&g, &geometry) {
                 return Err(Error::invalid(format!(
                     "its {field} is not that of {}; the masks of a folder share one grid",
@@ -291,5 +308,47 @@ mod tests {
             differing_field(&c, &a).unwrap(),
             "size [4, 5, 7] samples (against [4, 5, 6])"
         );
+    }
+
+    #[test]
+    fn mask_bits_are_each_samples_test_in_chunks_of_whole_words() {
+        // Sample s is in the mask when non-zero (integers) or at least ½ (floats), bit s % 64 of
+        // word s / 64; chunks of whole words then a short last one give the bits of the whole.
+        let len: usize = 64 * 3 + 37;
+        let ints: Vec<u16> = (0..len).map(|s| ((s * 7919) % 5) as u16 * 300).collect();
+        let floats: Vec<f32> = (0..len).map(|s| ((s * 31) % 11) as f32 / 10.0).collect();
+        let cases = [
+            (
+                VolumeData::U16(ints.clone()),
+                ints.iter().map(|&v| v != 0).collect::<Vec<_>>(),
+            ),
+            (
+                VolumeData::F32(floats.clone()),
+                floats.iter().map(|&v| v >= 0.5).collect(),
+            ),
+        ];
+        for (samples, inside) in cases {
+            let mut expected = vec![0u64; len.div_ceil(64)];
+            for (s, _) in inside.iter().enumerate().filter(|(_, &i)| i) {
+                expected[s / 64] |= 1 << (s % 64);
+            }
+            let mut bits = Vec::new();
+            let split = 128;
+            let (head, tail) = match &samples {
+                VolumeData::U16(v) => (
+                    VolumeData::U16(v[..split].to_vec()),
+                    VolumeData::U16(v[split..].to_vec()),
+                ),
+                VolumeData::F32(v) => (
+                    VolumeData::F32(v[..split].to_vec()),
+                    VolumeData::F32(v[split..].to_vec()),
+                ),
+                _ => unreachable!(),
+            };
+            append_inside(&head, &mut bits);
+            append_inside(&tail, &mut bits);
+            assert_eq!(bits, expected);
+            assert!(expected.iter().any(|&w| w != 0) && expected.iter().any(|&w| w != u64::MAX));
+        }
     }
 }
