@@ -97,6 +97,33 @@ impl Header {
     }
 }
 
+/// The volume a pick chooses of a file, and its size.
+struct Picked {
+    t: usize,
+    count: usize,
+    volume_bytes: u64,
+    /// The bytes of all the file's volumes.
+    all_bytes: u64,
+}
+
+impl Header {
+    /// The volume `pick` chooses ([`Header::pick`]), with its sample count and bytes.
+    fn picked(&self, pick: AxisPick) -> Result<Picked> {
+        let t = self.pick(pick)?;
+        let count = sample_count(self.dims)?;
+        let volume_bytes = byte_count(count, self.elem)?;
+        let all_bytes = volume_bytes
+            .checked_mul(self.times as u64)
+            .ok_or_else(|| Error::too_large("the volumes' size overflows 64 bits"))?;
+        Ok(Picked {
+            t,
+            count,
+            volume_bytes,
+            all_bytes,
+        })
+    }
+}
+
 /// A NIfTI file open at the first sample of the volume its pick chose.
 struct Opened {
     reader: Box<dyn Read>,
@@ -127,18 +154,18 @@ impl Opened {
             _ => Error::corrupt(format!("cannot read the NIfTI header: {e}")),
         })?;
         let header = parse_header(&raw)?;
-        let t = header.pick(pick)?;
-        let count = sample_count(header.dims)?;
-        let volume_bytes = byte_count(count, header.elem)?;
-        let all = volume_bytes
-            .checked_mul(header.times as u64)
-            .ok_or_else(|| Error::too_large("the volumes' size overflows 64 bits"))?;
+        let Picked {
+            t,
+            count,
+            volume_bytes,
+            all_bytes,
+        } = header.picked(pick)?;
         let before = volume_bytes * t as u64;
         if gzipped {
             // Decompressed up to the end of volume t, and on to the end when it is the last.
             check_deflate_budget(header.vox_offset + before + volume_bytes, file_len)?;
         } else {
-            check_available(all, file_len.saturating_sub(header.vox_offset))?;
+            check_available(all_bytes, file_len.saturating_sub(header.vox_offset))?;
         }
         let mut opened = Opened {
             reader,
@@ -232,13 +259,13 @@ pub(crate) fn region_layout(
             return Err(Error::corrupt("file is shorter than a NIfTI-1 header"));
         }
         let header = parse_header(&raw)?;
-        let t = header.pick(pick)?;
-        let count = sample_count(header.dims)?;
-        let volume_bytes = byte_count(count, header.elem)?;
-        let all = volume_bytes
-            .checked_mul(header.times as u64)
-            .ok_or_else(|| Error::too_large("the volumes' size overflows 64 bits"))?;
-        check_available(all, file_len.saturating_sub(header.vox_offset))?;
+        let Picked {
+            t,
+            volume_bytes,
+            all_bytes,
+            ..
+        } = header.picked(pick)?;
+        check_available(all_bytes, file_len.saturating_sub(header.vox_offset))?;
         Ok(Some(crate::mapped_layout::MappedLayout {
             data_path: path.to_path_buf(),
             data_offset: header.vox_offset + volume_bytes * t as u64,
