@@ -720,6 +720,7 @@ def render(
     clim: Optional[Tuple[float, float]] = None,
     show: Optional[Union[str, Sequence[int]]] = None,
     hide: Optional[Union[str, Sequence[int]]] = None,
+    frame: str = "grid",
 ) -> Any:
     """An image of the isosurface, as ``isogrid render`` draws it.
 
@@ -728,8 +729,9 @@ def render(
 
     Args:
         grid: a :class:`CellGrid` or :class:`LabelGrid` (from :func:`extract`, :func:`extract_labels` or :func:`load`).
-        camera: ``1`` (front) or ``2`` (oblique) for the standard views of the grid's box, or
-            ``(eye, target, up, fovy_degrees)`` with points as (x, y, z) world coordinates.
+        camera: ``1`` (front) or ``2`` (oblique) for the standard views of the box ``frame``
+            names, or ``(eye, target, up, fovy_degrees)`` with points as (x, y, z) world
+            coordinates.
         size: ``(width, height)`` in pixels.
         mode: ``"cgc"`` (cell rasterisation with EWA normals on a GPU; ray traced on the CPU),
             ``"cgc-noewa"`` (GPU only), ``"pathtrace"`` (``spp`` samples per pixel under
@@ -765,6 +767,9 @@ def render(
         hide: a label grid: do not draw these labels (``"0,3"`` or a list); their neighbours
             show their own surfaces where they touched them. A value naming no label of the grid
             raises ValueError.
+        frame: what the standard views frame: ``"grid"`` (the grid's box) or ``"surface"`` (the
+            box of the active cells; with ``show``/``hide``, of the shown labels'), as ``isogrid
+            render --frame``.
         progress: called as ``progress(done, total)`` about ten times a second while the render
             runs, with ``done`` increasing (image rows of each pass on the CPU, frames on the GPU)
             and once at the end. If it raises, the render stops within a tile or a frame and the
@@ -814,6 +819,7 @@ def render(
             clim=None if clim is None else (float(clim[0]), float(clim[1])),
             show=selection(show, "show"),
             hide=selection(hide, "hide"),
+            frame=str(frame),
         )
     if not names:
         return out["image"]

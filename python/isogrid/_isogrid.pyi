@@ -195,6 +195,7 @@ def render(
     clim: Optional[Tuple[float, float]] = None,
     show: Optional[str] = None,
     hide: Optional[str] = None,
+    frame: str = "grid",
 ) -> Dict[str, Any]: ...
 
 # Tiled extraction, driven by `isogrid.dask`.

@@ -22,10 +22,23 @@ use std::sync::LazyLock;
 /// and pipelines are the slow part) opened once, on the first render placed on the GPU.
 static CONTEXT: LazyLock<RenderContext> = LazyLock::new(RenderContext::new);
 
-/// `1`, `2` or `(eye, target, up, fovy_degrees)`.
-fn camera_spec(camera: &Bound<'_, PyAny>) -> PyResult<CameraSpec> {
+/// `1`, `2` or `(eye, target, up, fovy_degrees)`; a standard view frames the box `frame` names
+/// (`"grid"` or `"surface"`).
+fn camera_spec(camera: &Bound<'_, PyAny>, frame: &str) -> PyResult<CameraSpec> {
     if let Ok(view) = camera.extract::<u8>() {
-        return Ok(CameraSpec::View(view));
+        return match frame {
+            "grid" => Ok(CameraSpec::View(view)),
+            "surface" => Ok(CameraSpec::SurfaceView(view)),
+            _ => Err(invalid(format!(
+                "frame must be 'grid' or 'surface', not {frame:?}"
+            ))),
+        };
+    }
+    if frame != "grid" {
+        return Err(invalid(
+            "frame chooses what the standard views 1 and 2 frame; an (eye, target, up, \
+             fovy_degrees) camera is placed as given",
+        ));
     }
     let (eye, target, up, fovy_degrees): ([f64; 3], [f64; 3], [f64; 3], f64) = camera
         .extract()
@@ -40,7 +53,7 @@ fn camera_spec(camera: &Bound<'_, PyAny>) -> PyResult<CameraSpec> {
 
 /// Renders `grid`; see `isogrid.render` for the arguments.
 #[pyfunction]
-#[pyo3(signature = (grid, camera, width, height, mode, backend, frames=1, spp=16, bounces=3, threads=None, traversal="blocks", env=None, progress=None, cmap=None, clim=None, show=None, hide=None))]
+#[pyo3(signature = (grid, camera, width, height, mode, backend, frames=1, spp=16, bounces=3, threads=None, traversal="blocks", env=None, progress=None, cmap=None, clim=None, show=None, hide=None, frame="grid"))]
 #[allow(clippy::too_many_arguments)]
 pub fn render<'py>(
     py: Python<'py>,
@@ -61,6 +74,7 @@ pub fn render<'py>(
     clim: Option<(f64, f64)>,
     show: Option<&str>,
     hide: Option<&str>,
+    frame: &str,
 ) -> PyResult<Bound<'py, PyDict>> {
     let grid = grid.inner();
     // A grid with an attribute is drawn in colour; a colour map or range needs one.
@@ -91,7 +105,7 @@ pub fn render<'py>(
     let request = RenderRequest::new(RequestParts {
         mode,
         backend,
-        camera: camera_spec(&camera)?,
+        camera: camera_spec(&camera, frame)?,
         size: (width, height),
         environment: env.map_or(EnvSource::Sky, EnvSource::Map),
         samples: spp,

@@ -570,6 +570,20 @@ def test_render_label_aov_show_and_hide():
         grid, camera=2, size=(64, 48), backend="cpu", aovs=["label"], show=str(front)
     )
     assert set(np.unique(alone["label"]).tolist()) <= {front, miss}
+    # frame="surface": the standard view frames the shown label's box, so it covers more pixels.
+    smallest = min(values, key=lambda v: int((a == v).sum()))
+    hits = {}
+    for frame in ("grid", "surface"):
+        _, framed = isogrid.render(
+            grid, camera=2, size=(64, 48), backend="cpu", aovs=["label"], show=[smallest], frame=frame
+        )
+        assert set(np.unique(framed["label"]).tolist()) == {smallest, miss}
+        hits[frame] = int((framed["label"] == smallest).sum())
+    assert hits["surface"] > 2 * hits["grid"], hits
+    with pytest.raises(ValueError, match="frame must be 'grid' or 'surface'"):
+        isogrid.render(grid, camera=2, size=(16, 16), backend="cpu", frame="label")
+    with pytest.raises(ValueError, match="placed as given"):
+        isogrid.render(grid, camera=((0, 0, 9), (0, 0, 0), (0, 1, 0), 30), size=(16, 16), frame="surface")
     with pytest.raises(ValueError, match="no such label"):
         isogrid.render(grid, camera=2, size=(16, 16), backend="cpu", hide="123456")
 

@@ -20,10 +20,9 @@ pub fn render(
     progress: &Progress,
 ) -> Result<Rendered> {
     // Checked before anything is uploaded or traced.
-    let (lo, hi) = grid.info().world_bounds();
-    let camera = request.camera(lo, hi)?;
     let shown = shown_labels(request, grid)?;
     let grid = shown.as_ref().unwrap_or(grid);
+    let camera = request.camera(grid.info().world_bounds(), grid.surface_bounds())?;
     let mut rendered = match placement {
         Placement::Cpu => crate::cpu::render(request, grid, &camera, progress),
         Placement::Gpu => {

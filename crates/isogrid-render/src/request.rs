@@ -26,6 +26,10 @@ const BYTES_PER_PIXEL: u64 = 128;
 pub enum CameraSpec {
     /// A standard view of the grid's box ([`Camera::preset`]): 1 (front) or 2 (oblique).
     View(u8),
+    /// The same standard view of the surface's box ([`isogrid::CellGrid::surface_bounds`]: the active
+    /// cells', the shown labels' where labels are hidden), so that a small structure fills the
+    /// image; the grid's box when the surface is empty.
+    SurfaceView(u8),
     /// Eye, target and up as world points, and the vertical field of view in degrees.
     LookAt {
         eye: [f64; 3],
@@ -144,15 +148,15 @@ impl RenderRequest {
             w as u64 * h as u64 * BYTES_PER_PIXEL,
         )?;
         match &parts.camera {
-            CameraSpec::View(v) if !(1..=2).contains(v) => {
+            CameraSpec::View(v) | CameraSpec::SurfaceView(v) if !(1..=2).contains(v) => {
                 return Err(Error::invalid(format!(
                     "view {v} does not exist: the standard views are 1 (front) and 2 (oblique)"
                 )))
             }
-            CameraSpec::View(_) => {}
+            CameraSpec::View(_) | CameraSpec::SurfaceView(_) => {}
             // A look-at camera does not depend on the grid: check it now.
             CameraSpec::LookAt { .. } => {
-                parts.camera.resolve([0.0; 3], [1.0; 3], w, h)?;
+                parts.camera.resolve(([0.0; 3], [1.0; 3]), None, w, h)?;
             }
         }
         let path_trace = parts.mode == Mode::PathTrace;
@@ -234,18 +238,34 @@ impl RenderRequest {
         self.parts.size.1
     }
 
-    /// The camera for a grid whose world box is `lo`..`hi` (standard views frame the box).
-    pub fn camera(&self, lo: [f64; 3], hi: [f64; 3]) -> Result<Camera> {
+    /// The camera for a grid whose box is `grid_box` and whose surface's is `surface_box` (in
+    /// the renderers' frame, index × spacing; `None` for an empty surface): standard views frame
+    /// one of the two.
+    pub fn camera(&self, grid_box: Box3, surface_box: Option<Box3>) -> Result<Camera> {
         let (w, h) = self.parts.size;
-        self.parts.camera.resolve(lo, hi, w, h)
+        self.parts.camera.resolve(grid_box, surface_box, w, h)
     }
 }
 
+/// A box `(lo, hi)` in the renderers' frame (index × spacing).
+pub type Box3 = ([f64; 3], [f64; 3]);
+
 impl CameraSpec {
-    /// The camera of a `width × height` image of the world box `lo`..`hi`, checked.
-    pub fn resolve(&self, lo: [f64; 3], hi: [f64; 3], width: u32, height: u32) -> Result<Camera> {
+    /// The camera of a `width × height` image of a grid of box `grid_box` and surface box
+    /// `surface_box` ([`RenderRequest::camera`]), checked.
+    pub fn resolve(
+        &self,
+        grid_box: Box3,
+        surface_box: Option<Box3>,
+        width: u32,
+        height: u32,
+    ) -> Result<Camera> {
         match *self {
-            CameraSpec::View(v) => Camera::preset(v, lo, hi, width, height),
+            CameraSpec::View(v) => Camera::preset(v, grid_box.0, grid_box.1, width, height),
+            CameraSpec::SurfaceView(v) => {
+                let (lo, hi) = surface_box.unwrap_or(grid_box);
+                Camera::preset(v, lo, hi, width, height)
+            }
             CameraSpec::LookAt {
                 eye,
                 target,

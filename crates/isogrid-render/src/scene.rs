@@ -28,6 +28,8 @@ pub struct UploadedScene<'r> {
     renderer: &'r Renderer,
     /// The input's world box: standard views ([`crate::CameraSpec::View`]) frame it.
     world_bounds: ([f64; 3], [f64; 3]),
+    /// The shown grid's surface box ([`CellGrid::surface_bounds`]): surface views frame it.
+    surface_bounds: Option<([f64; 3], [f64; 3])>,
     grid: Option<GpuGrid>,
     /// The attribute of the shown grid or mesh (its range is the default colour range).
     attribute: Option<isogrid::AttributeInfo>,
@@ -65,6 +67,7 @@ impl<'r> UploadedScene<'r> {
         UploadedScene {
             renderer,
             world_bounds: info.world_bounds(),
+            surface_bounds: None,
             grid: None,
             attribute: None,
             volume: None,
@@ -83,6 +86,7 @@ impl<'r> UploadedScene<'r> {
         }
         self.grid = None;
         self.grid = Some(self.renderer.upload_grid(grid)?);
+        self.surface_bounds = grid.surface_bounds();
         self.attribute = grid.attribute().map(|a| a.info().clone());
         Ok(())
     }
@@ -178,8 +182,7 @@ impl<'r> UploadedScene<'r> {
     ) -> Result<Rendered> {
         let parts = request.parts();
         let mode = parts.mode;
-        let (lo, hi) = self.world_bounds;
-        let camera = request.camera(lo, hi)?;
+        let camera = request.camera(self.world_bounds, self.surface_bounds)?;
         if !self.can_draw(mode) {
             return Err(Error::invalid(format!(
                 "mode {mode} has nothing uploaded to draw{}",

@@ -396,6 +396,28 @@ impl CellGrid {
     pub fn clusters(&self) -> usize {
         self.metacells().len() / CLUSTER_SLOTS
     }
+    /// The box of the surface in the renderers' frame (index × spacing, as
+    /// [`GridInfo::world_bounds`]): the union of the clusters' bounds (metacells, two cells a
+    /// side), within the grid; `None` without active cells. A grid showing some labels
+    /// ([`CellGrid::showing_labels`]) holds only theirs, so this is the shown labels' box.
+    pub fn surface_bounds(&self) -> Option<([f64; 3], [f64; 3])> {
+        let cells = self.info.cell_dims();
+        let (lo, hi) = self
+            .metacells()
+            .chunks_exact(CLUSTER_SLOTS)
+            .map(|c| c[BOUND_SLOT].as_bound().cell_box())
+            .reduce(|(lo, hi), (l, h)| {
+                (
+                    [0, 1, 2].map(|a| lo[a].min(l[a])),
+                    [0, 1, 2].map(|a| hi[a].max(h[a])),
+                )
+            })?;
+        let spacing = self.info.spacing;
+        Some((
+            [0, 1, 2].map(|a| lo[a].min(cells[a]) as f64 * spacing[a]),
+            [0, 1, 2].map(|a| hi[a].min(cells[a]) as f64 * spacing[a]),
+        ))
+    }
     /// Metacells with at least one active cell (bound and padding slots excluded).
     pub fn occupied_metacells(&self) -> usize {
         self.metacells()

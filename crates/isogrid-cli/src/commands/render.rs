@@ -79,6 +79,11 @@ pub struct Args {
     #[arg(long, value_name = "1|2", default_value_t = 1, conflicts_with = "camera",
           value_parser = clap::value_parser!(u8).range(1..=2))]
     pub view: u8,
+    /// What the standard view frames: `grid` (the grid's box) or `surface` (the box of the
+    /// active cells; with --show/--hide, of the shown labels'), so that a small structure fills
+    /// the image.
+    #[arg(long, value_enum, default_value_t = Frame::Grid, conflicts_with = "camera")]
+    pub frame: Frame,
     /// Camera as EYE:TARGET:UP:FOVY in world units (points x,y,z; FOVY in degrees).
     #[arg(long, value_name = "EYE:TARGET:UP:FOVY", allow_hyphen_values = true)]
     pub camera: Option<String>,
@@ -400,7 +405,10 @@ fn request(args: &Args, colored: bool) -> Result<RenderRequest> {
                 fovy_degrees: c.fovy_degrees,
             }
         }
-        None => CameraSpec::View(args.view),
+        None => match args.frame {
+            Frame::Grid => CameraSpec::View(args.view),
+            Frame::Surface => CameraSpec::SurfaceView(args.view),
+        },
     };
     // Path tracing takes one sample per GPU frame, so --frames has long meant its samples.
     let samples = match (args.spp, args.frames) {
@@ -443,6 +451,13 @@ fn request(args: &Args, colored: bool) -> Result<RenderRequest> {
         hide: args.hide.clone(),
     };
     Ok(RenderRequest::new(parts)?)
+}
+
+/// `--frame`: the box a standard view frames.
+#[derive(clap::ValueEnum, Clone, Copy, Debug)]
+pub enum Frame {
+    Grid,
+    Surface,
 }
 
 pub fn run(args: Args) -> Result<()> {

@@ -49,8 +49,31 @@ fn consistent_parts_make_a_request() {
         ..RequestParts::default()
     })
     .unwrap();
-    let c = r.camera([0.0; 3], [1.0; 3]).unwrap();
+    let c = r.camera(([0.0; 3], [1.0; 3]), None).unwrap();
     assert_eq!((c.width, c.height, c.eye), (20, 10, [0.0, 0.0, 10.0]));
+    // A standard view frames the grid's box, a surface view the surface's (the grid's when the
+    // surface is empty), whichever box is the larger.
+    let (grid_box, surface_box) = (([0.0; 3], [40.0; 3]), ([5.0, 6.0, 7.0], [9.0, 8.0, 20.0]));
+    let preset =
+        |(lo, hi): ([f64; 3], [f64; 3])| isogrid::Camera::preset(2, lo, hi, 20, 10).unwrap();
+    for (camera, surface, framed) in [
+        (CameraSpec::View(2), Some(surface_box), grid_box),
+        (CameraSpec::SurfaceView(2), Some(surface_box), surface_box),
+        (CameraSpec::SurfaceView(2), None, grid_box),
+    ] {
+        let r = RenderRequest::new(RequestParts {
+            camera: camera.clone(),
+            size: (20, 10),
+            ..RequestParts::default()
+        })
+        .unwrap();
+        assert_eq!(
+            r.camera(grid_box, surface).unwrap(),
+            preset(framed),
+            "{camera:?}"
+        );
+    }
+    assert_ne!(preset(grid_box), preset(surface_box));
 }
 
 #[test]
@@ -83,6 +106,14 @@ fn inconsistent_parts_are_refused_before_anything_runs() {
         },
         invalid,
         "view 3",
+    );
+    refused(
+        RequestParts {
+            camera: CameraSpec::SurfaceView(0),
+            ..base.clone()
+        },
+        invalid,
+        "view 0",
     );
     refused(
         RequestParts {

@@ -138,7 +138,7 @@ mod tests {
         assert_eq!(request.mode(), Mode::PathTrace);
         assert_eq!((request.width(), request.height()), (320, 240));
         assert_eq!(request.parts().samples, 1);
-        let camera = request.camera([-5.0; 3], [99.0; 3]).unwrap();
+        let camera = request.camera(([-5.0; 3], [99.0; 3]), None).unwrap();
         assert_eq!(camera, key.camera);
     }
 }

@@ -550,3 +550,56 @@ fn u64_isovalues_at_the_top_of_the_type_are_exact() {
     assert_eq!(run(&volume, 2f64.powi(63), None).active_cells(), expected.0);
     assert!(expected.0 > 0);
 }
+
+/// `CellGrid::surface_bounds` (what surface views frame) holds every active cell, found by
+/// brute force from the samples, and reaches past them by at most one cell a side (clusters
+/// bound whole metacells, two cells a side); an empty surface has none.
+#[test]
+fn the_surface_box_holds_every_active_cell_within_a_cell() {
+    let spacing = [0.5, 1.0, 2.5];
+    let blobs = blobs_u8([37, 30, 26]);
+    let geometry = isogrid::Geometry {
+        spacing,
+        ..*blobs.geometry()
+    };
+    let volume = Volume::with_geometry(geometry, blobs.into_data()).unwrap();
+    for iso in [60.0, 200.0] {
+        let grid = run(&volume, iso, None);
+        let d = volume.dims();
+        let (mut lo, mut hi) = ([usize::MAX; 3], [0usize; 3]);
+        for z in 0..d[2] - 1 {
+            for y in 0..d[1] - 1 {
+                for x in 0..d[0] - 1 {
+                    let inside = (0..8)
+                        .filter(|c| {
+                            volume.get(x + (c & 1), y + (c >> 1 & 1), z + (c >> 2 & 1)) >= iso
+                        })
+                        .count();
+                    if inside % 8 != 0 {
+                        for (a, p) in [x, y, z].into_iter().enumerate() {
+                            lo[a] = lo[a].min(p);
+                            hi[a] = hi[a].max(p + 1);
+                        }
+                    }
+                }
+            }
+        }
+        assert!(
+            grid.active_cells() > 0 && hi[0] - lo[0] < d[0] - 1,
+            "a box inside the grid"
+        );
+        let (blo, bhi) = grid.surface_bounds().unwrap();
+        for a in 0..3 {
+            let (cells_lo, cells_hi) = (blo[a] / spacing[a], bhi[a] / spacing[a]);
+            assert!(
+                cells_lo <= lo[a] as f64 && cells_lo >= lo[a] as f64 - 1.0,
+                "axis {a}"
+            );
+            assert!(
+                cells_hi >= hi[a] as f64 && cells_hi <= hi[a] as f64 + 1.0,
+                "axis {a}"
+            );
+        }
+    }
+    assert_eq!(run(&volume, 300.0, None).surface_bounds(), None);
+}

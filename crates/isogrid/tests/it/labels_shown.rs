@@ -198,3 +198,39 @@ fn a_labels_world_box_holds_exactly_its_cells() {
         assert_eq!(entry.world_box(spacing), *expected);
     }
 }
+
+/// With labels hidden, the surface box (what surface views frame) is the shown labels': it holds
+/// each shown label's box (`LabelEntry::world_box`, checked against its cells above) and reaches
+/// past their union by at most one cell a side.
+#[test]
+fn the_surface_box_of_shown_labels_holds_theirs_alone() {
+    let grid = extracted("1-3");
+    let labels = grid.labels().unwrap();
+    let n = labels.table().len();
+    let mut boxes = Vec::new();
+    for shown_label in 0..n {
+        let shown: Vec<bool> = (0..n).map(|l| l == shown_label).collect();
+        let entry = &labels.index()[shown_label];
+        let (lo, hi) = entry.world_box([1.0; 3]);
+        let (blo, bhi) = grid
+            .showing_labels(&shown)
+            .unwrap()
+            .surface_bounds()
+            .unwrap();
+        boxes.push((blo, bhi));
+        for a in 0..3 {
+            assert!(
+                blo[a] <= lo[a] && blo[a] >= lo[a] - 1.0,
+                "label {shown_label} axis {a}"
+            );
+            assert!(
+                bhi[a] >= hi[a] && bhi[a] <= hi[a] + 1.0,
+                "label {shown_label} axis {a}"
+            );
+        }
+    }
+    boxes.dedup();
+    assert!(boxes.len() > 1, "the labels' boxes differ: {boxes:?}");
+    let none = grid.showing_labels(&vec![false; n]).unwrap();
+    assert_eq!(none.surface_bounds(), None);
+}
