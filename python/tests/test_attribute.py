@@ -171,6 +171,49 @@ def test_mc_color_by_writes_a_vertex_scalar_that_meshlab_reads(cli, tmp_path):
     assert len(p) > 300
 
 
+def test_mc_color_by_writes_a_vtp_point_array_that_vtk_reads(cli, tmp_path):
+    """``isogrid mc -o mesh.vtp``: VTK's XML PolyData reader (ParaView's, through PyVista) reads
+    the same vertices and triangles as the PLY, and with ``--color-by`` the attribute as the
+    active point scalars under the attribute's name (XML-escaped in the file), NaN outside it."""
+    import subprocess
+
+    pv = pytest.importorskip("pyvista")
+    import pymeshlab
+
+    z, y, x = np.mgrid[:28, :28, :28]
+    np.save(tmp_path / "s.npy", _sphere(28))
+    field = (x + 2.0 * y - z).astype(np.float32)
+    field[:, :, :14] = np.nan  # no value on the low-x half
+    name = 'f&<"q">.npy'
+    np.save(tmp_path / name, field)
+    meshes = {}
+    for out, extra in (("m.ply", []), ("m.vtp", []), ("plain.vtp", None)):
+        color = [] if extra is None else ["--color-by", tmp_path / name]
+        subprocess.run(
+            [cli, "mc", tmp_path / "s.npy", "--iso", "127.5", *color, "-o", tmp_path / out],
+            check=True,
+            capture_output=True,
+        )
+    ms = pymeshlab.MeshSet()
+    ms.load_new_mesh(str(tmp_path / "m.ply"))
+    ply = ms.current_mesh()
+    for out in ("m.vtp", "plain.vtp"):
+        vtp = pv.read(tmp_path / out)
+        np.testing.assert_array_equal(vtp.points, ply.vertex_matrix().astype(np.float32))
+        np.testing.assert_array_equal(vtp.faces.reshape(-1, 4)[:, 1:], ply.face_matrix())
+        meshes[out] = vtp
+    assert meshes["plain.vtp"].point_data.keys() == []
+    vtp = meshes["m.vtp"]
+    assert vtp.active_scalars_name == name
+    values = vtp[name]
+    np.testing.assert_array_equal(values, ply.vertex_scalar_array().astype(np.float32))
+    p = vtp.points
+    outside = p[:, 0] < 13
+    inside = p[:, 0] > 14
+    assert np.isnan(values[outside]).all() and outside.sum() > 50
+    np.testing.assert_allclose(values[inside], (p[:, 0] + 2 * p[:, 1] - p[:, 2])[inside], atol=1e-3)
+
+
 def test_stats_carry_the_attribute_as_the_cli_json_does(cli, tmp_path):
     import json
     import subprocess

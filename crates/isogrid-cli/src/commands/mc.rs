@@ -26,9 +26,10 @@ pub struct Args {
     pub threads: ThreadArgs,
     #[command(flatten)]
     pub input_args: InputArgs,
-    /// Write the mesh: .ply (binary) or .obj; with --labels, .glb (glTF 2.0) or a new folder of
-    /// neuroglancer precomputed meshes (any name without an extension).
-    #[arg(short, long, value_name = "MESH.ply|.obj|.glb|FOLDER")]
+    /// Write the mesh: .ply (binary), .obj or .vtp (VTK XML PolyData, for ParaView); with
+    /// --labels, .glb (glTF 2.0) or a new folder of neuroglancer precomputed meshes (any name
+    /// without an extension).
+    #[arg(short, long, value_name = "MESH.ply|.obj|.vtp|.glb|FOLDER")]
     pub output: Option<PathBuf>,
     #[command(flatten)]
     pub label: LabelArgs,
@@ -59,24 +60,54 @@ impl Space {
     }
 }
 
-fn obj_has_no_values(path: &Path) -> anyhow::Error {
-    anyhow::anyhow!(
-        "{}: OBJ has no per-vertex values; write the mesh as .ply with --color-by",
-        path.display()
-    )
+/// The mesh file formats `mc` writes, by extension.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum MeshFormat {
+    Ply,
+    Obj,
+    Vtp,
 }
 
-pub fn write_mesh(mesh: &McMesh, path: &Path, values: Option<&[f32]>) -> Result<()> {
-    match path
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(str::to_ascii_lowercase)
-        .as_deref()
-    {
-        Some("ply") => mesh.write_ply_with_values(path, values)?,
-        Some("obj") if values.is_some() => return Err(obj_has_no_values(path)),
-        Some("obj") => mesh.write_obj(path)?,
-        _ => bail!("{}: mesh output must end in .ply or .obj", path.display()),
+impl MeshFormat {
+    fn of(path: &Path) -> Result<MeshFormat> {
+        match path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase)
+            .as_deref()
+        {
+            Some("ply") => Ok(MeshFormat::Ply),
+            Some("obj") => Ok(MeshFormat::Obj),
+            Some("vtp") => Ok(MeshFormat::Vtp),
+            _ => bail!(
+                "{}: mesh output must end in .ply, .obj or .vtp",
+                path.display()
+            ),
+        }
+    }
+
+    /// Refuses per-vertex values where the format has no place for them.
+    fn check_values(self, path: &Path, values: bool) -> Result<()> {
+        if values && self == MeshFormat::Obj {
+            bail!(
+                "{}: OBJ has no per-vertex values; write the mesh as .ply (MeshLab's vertex \
+                 quality) or .vtp (a ParaView point array) with --color-by",
+                path.display()
+            );
+        }
+        Ok(())
+    }
+}
+
+/// Writes `mesh` to `path` in the format its extension names, with `values` (the attribute's
+/// name and one value per vertex) where the format holds them.
+fn write_mesh(mesh: &McMesh, path: &Path, values: Option<(&str, &[f32])>) -> Result<()> {
+    let format = MeshFormat::of(path)?;
+    format.check_values(path, values.is_some())?;
+    match format {
+        MeshFormat::Ply => mesh.write_ply_with_values(path, values.map(|(_, v)| v))?,
+        MeshFormat::Obj => mesh.write_obj(path)?,
+        MeshFormat::Vtp => mesh.write_vtp(path, values)?,
     }
     Ok(())
 }
@@ -99,7 +130,7 @@ pub fn run(args: Args) -> Result<()> {
     let output = args.output.as_deref().map(|path| Output {
         role: "the mesh",
         path,
-        extensions: &[".ply", ".obj"],
+        extensions: &[".ply", ".obj", ".vtp"],
     });
     let read_options = args.input_args.read_options()?;
     let attribute = args.color.attribute(&args.input, &read_options)?;
@@ -108,10 +139,8 @@ pub fn run(args: Args) -> Result<()> {
         output.as_slice(),
     )?;
     // Refused before the work, as write_mesh would refuse it after.
-    if let (Some(_), Some(out)) = (&attribute, &args.output) {
-        if !out.to_string_lossy().to_ascii_lowercase().ends_with(".ply") {
-            return Err(obj_has_no_values(out));
-        }
+    if let Some(out) = &args.output {
+        MeshFormat::of(out)?.check_values(out, attribute.is_some())?;
     }
     let (volume, read) = input::read_volume(&args.input, &read_options)?;
     let iso = args
@@ -165,7 +194,8 @@ pub fn run(args: Args) -> Result<()> {
     let mut write = 0.0;
     if let Some(out) = &args.output {
         let start = Instant::now();
-        write_mesh(&mesh, out, values.as_deref())?;
+        let named = attribute.as_ref().zip(values.as_deref());
+        write_mesh(&mesh, out, named.map(|(a, v)| (a.name.as_str(), v)))?;
         write = start.elapsed().as_secs_f64();
     }
     let dims = volume.dims().map(|d| d as u32);
