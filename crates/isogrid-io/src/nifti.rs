@@ -132,6 +132,8 @@ struct Opened {
     /// The volume read (0 for a 3-D file) and its sample count.
     t: usize,
     count: usize,
+    /// Its grid, from the header (checked before any sample is read).
+    geometry: isogrid::Geometry,
 }
 
 impl Opened {
@@ -167,12 +169,14 @@ impl Opened {
         } else {
             check_available(all_bytes, file_len.saturating_sub(header.vox_offset))?;
         }
+        let geometry = geometry(header.dims, header.spacing, header.origin, header.direction)?;
         let mut opened = Opened {
             reader,
             header,
             gzipped,
             t,
             count,
+            geometry,
         };
         let skip = opened.header.vox_offset - HEADER_SIZE as u64 + before;
         opened.gzip_errors(|reader| skip_bytes(reader, skip))?;
@@ -195,8 +199,7 @@ impl Opened {
         if self.gzipped && self.t + 1 == self.header.times {
             self.gzip_errors(|reader| expect_end(reader))?;
         }
-        let h = &self.header;
-        geometry(h.dims, h.spacing, h.origin, h.direction)
+        Ok(self.geometry)
     }
 
     /// `read` on the stream, its errors described as a gzip stream's where the file is one.
