@@ -70,6 +70,47 @@ pub fn fuzz_volume(
     }
 }
 
+/// Reads `bytes` as the NIfTI file `name` (`in.nii` or `in.nii.gz`) both whole and as the one
+/// mask of a folder of masks, which streams it a chunk at a time into bits: the two succeed
+/// together, and the mask's label is exactly where the whole volume's samples are inside (non-zero
+/// integers, floats of at least ½).
+pub fn fuzz_nifti_as_mask(name: &str, bytes: &[u8]) {
+    init();
+    let folder = scratch().join("masks");
+    std::fs::create_dir_all(&folder).expect("scratch folder");
+    let path = folder.join(name);
+    std::fs::write(&path, bytes).expect("scratch file");
+    let whole = isogrid_io::read_nifti(&path);
+    let options = isogrid_io::ReadOptions::default();
+    let masks = isogrid_io::labels::read_labels_of(&folder, None, &options);
+    std::fs::remove_file(&path).expect("scratch file");
+    let (whole, (masks, _)) = match (whole, masks) {
+        (Ok(whole), Ok(masks)) => (whole, masks),
+        (Err(_), Err(_)) => return,
+        (whole, masks) => panic!(
+            "whole: {:?}, as a mask: {:?}",
+            whole.map(|_| ()),
+            masks.map(|_| ())
+        ),
+    };
+    check_volume(&whole);
+    let [layer] = &masks.layers[..] else {
+        panic!("{} layers from one mask", masks.layers.len())
+    };
+    assert_eq!(layer.volume.dims(), whole.dims());
+    let float = !whole.scalar_type().is_integer();
+    let samples = whole.data().samples();
+    for i in 0..samples.len() {
+        let v = samples.get_f64(i);
+        let inside = if float { v >= 0.5 } else { v != 0.0 };
+        assert_eq!(
+            layer.volume.data().samples().get_f64(i) == 1.0,
+            inside,
+            "sample {i}"
+        );
+    }
+}
+
 /// Parses `bytes` as a mesh of `format` and checks the mesh when it succeeds; input starting with
 /// the gzip magic goes through `read_mesh` as the file `gz_name` instead, to reach the bounded
 /// inflation.
