@@ -762,11 +762,12 @@ def render(
             tracing takes the colour as albedo), a label grid with one too (its labels' colours
             otherwise; MC, which draws the labels' meshes in those, refuses the attribute).
         clim: ``(lo, hi)``, the values the map spans (default the attribute's range on the surface).
-        show: a label grid: draw only these labels, as ``"1,5-9"`` or a list of values (default
+        show: a label grid: draw only these labels, as ``"1,5-9,liver"`` or a list of values and
+            names (``[1, "liver"]``; a name picks the labels that have it, in any case; default
             all).
         hide: a label grid: do not draw these labels (``"0,3"`` or a list); their neighbours
-            show their own surfaces where they touched them. A value naming no label of the grid
-            raises ValueError.
+            show their own surfaces where they touched them. A value or name naming no label of
+            the grid raises ValueError.
         frame: what the standard views frame: ``"grid"`` (the grid's box) or ``"surface"`` (the
             box of the active cells; with ``show``/``hide``, of the shown labels'), as ``isogrid
             render --frame``.
@@ -796,9 +797,11 @@ def render(
         if labels is None or isinstance(labels, str):
             return labels
         try:
-            return ",".join(str(operator.index(v)) for v in labels)
+            return ",".join(v if isinstance(v, str) else str(operator.index(v)) for v in labels)
         except TypeError:
-            raise ValueError(f"{name} must be a string such as '1,5-9' or a list of label values")
+            raise ValueError(
+                f"{name} must be a string such as '1,5-9,liver' or a list of label values and names"
+            )
 
     with _vulkan_device_select_quieted():
         out = _isogrid.render(

@@ -113,8 +113,14 @@ pub fn render<'py>(
         bounces,
         traversal,
         color,
-        show: show.map(LabelSelection::parse).transpose().map_err(to_py)?,
-        hide: hide.map(LabelSelection::parse).transpose().map_err(to_py)?,
+        show: show
+            .map(LabelSelection::parse_with_names)
+            .transpose()
+            .map_err(to_py)?,
+        hide: hide
+            .map(LabelSelection::parse_with_names)
+            .transpose()
+            .map_err(to_py)?,
         ..RequestParts::default()
     })
     .map_err(to_py)?;

@@ -580,6 +580,19 @@ def test_render_label_aov_show_and_hide():
         assert set(np.unique(framed["label"]).tolist()) == {smallest, miss}
         hits[frame] = int((framed["label"] == smallest).sum())
     assert hits["surface"] > 2 * hits["grid"], hits
+    # By name (the table's default names here, "label N"), alone or with values, as by value.
+    by_name = {l["value"]: l["name"] for l in grid.labels}
+    _, named = isogrid.render(
+        grid, camera=2, size=(64, 48), backend="cpu", aovs=["label"], hide=[by_name[front].upper()]
+    )
+    np.testing.assert_array_equal(named["label"], hidden)
+    other = next(v for v in sorted(values) if v != front)
+    _, mixed = isogrid.render(
+        grid, camera=2, size=(64, 48), backend="cpu", aovs=["label"], show=[front, by_name[other]]
+    )
+    assert set(np.unique(mixed["label"]).tolist()) == {front, other, miss}
+    with pytest.raises(ValueError, match="no label of the grid has this name"):
+        isogrid.render(grid, camera=2, size=(16, 16), backend="cpu", show="spleen")
     with pytest.raises(ValueError, match="frame must be 'grid' or 'surface'"):
         isogrid.render(grid, camera=2, size=(16, 16), backend="cpu", frame="label")
     with pytest.raises(ValueError, match="placed as given"):

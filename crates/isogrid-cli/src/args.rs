@@ -66,9 +66,15 @@ impl LabelArgs {
 /// `--smooth` when not given (docs/benchmarks-labels.md says why).
 pub const DEFAULT_SMOOTH: f64 = 0.0;
 
-/// A `--labels`, `--show` or `--hide` value: `all`, or values and ranges such as `1,5-9`.
+/// A `--labels` value: `all`, or values and ranges such as `1,5-9`.
 pub fn parse_labels(text: &str) -> Result<LabelSelection, String> {
     LabelSelection::parse(text).map_err(|e| e.message().to_string())
+}
+
+/// A `--show` or `--hide` value: `all`, or values, ranges and labels' names such as
+/// `1,5-9,liver` (names are looked up in the grid's table when it is drawn).
+pub fn parse_shown_labels(text: &str) -> Result<LabelSelection, String> {
+    LabelSelection::parse_with_names(text).map_err(|e| e.message().to_string())
 }
 
 /// `--iso V | --iso-normalized V`, exactly one.

@@ -126,7 +126,7 @@ pub fn display_value(key: u64, signed: bool) -> String {
     }
 }
 
-/// Which labels to extract.
+/// Which labels to extract, or to show or hide.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub enum LabelSelection {
     /// Every label in the volume except 0, the background.
@@ -136,16 +136,33 @@ pub enum LabelSelection {
     /// across zero (`-5-5`), whose negative end's key is its two's complement
     /// ([`LabelSelection::key_ranges`] gives it as two ordinary ranges).
     Values(Vec<std::ops::RangeInclusive<u64>>),
+    /// Values and names (`1,5-9,liver`), as labels are shown and hidden
+    /// ([`LabelSelection::parse_with_names`]): a name picks the labels of a grid's table that
+    /// have it (in any case), which [`GridLabels::shown`] resolves. Extraction selects by value
+    /// and is never given names ([`LabelSelection::parse`] refuses them).
+    Named {
+        ranges: Vec<std::ops::RangeInclusive<u64>>,
+        names: Vec<String>,
+    },
 }
 
 impl LabelSelection {
+    /// Whether the label of `key` is selected by value (names need a table: see
+    /// [`LabelSelection::picks`]).
     pub fn selects(&self, key: u64) -> bool {
         match self {
             LabelSelection::All => key != 0,
-            LabelSelection::Values(ranges) => ranges
+            LabelSelection::Values(ranges) | LabelSelection::Named { ranges, .. } => ranges
                 .iter()
                 .any(|r| Self::key_ranges(r).any(|r| r.contains(&key))),
         }
+    }
+
+    /// Whether `label` of a table is selected, by value or by name.
+    pub fn picks(&self, label: &Label) -> bool {
+        self.selects(label.value)
+            || matches!(self, LabelSelection::Named { names, .. }
+                if names.iter().any(|n| n.eq_ignore_ascii_case(&label.name)))
     }
 
     /// `range` as ordinary ranges of keys: itself, or the two halves of a range that wraps.
@@ -166,13 +183,25 @@ impl LabelSelection {
     /// to 5). Each value is a key ([`LabelSample::key`]): a negative one is its two's complement,
     /// so a range across zero wraps (see [`LabelSelection::Values`]).
     pub fn parse(text: &str) -> Result<LabelSelection> {
+        Self::parse_parts(text, false)
+    }
+
+    /// [`LabelSelection::parse`], where a part that is neither a value nor a range is a label's
+    /// name (`1,5-9,liver,Left-Hippocampus`): labels to show or hide, in a grid whose table names
+    /// them. A name holds no comma and is matched whole, in any case.
+    pub fn parse_with_names(text: &str) -> Result<LabelSelection> {
+        Self::parse_parts(text, true)
+    }
+
+    fn parse_parts(text: &str, names_allowed: bool) -> Result<LabelSelection> {
         let text = text.trim();
         if text.eq_ignore_ascii_case("all") {
             return Ok(LabelSelection::All);
         }
         let bad = |part: &str, why: &str| {
             Error::invalid(format!(
-                "label selection {text:?}: {part:?} {why} (give `all` or a list such as 1,5-9 or -3--1)"
+                "label selection {text:?}: {part:?} {why} (give `all` or a list such as 1,5-9 or -3--1{})",
+                if names_allowed { ", or labels' names" } else { "" }
             ))
         };
         let value = |part: &str, s: &str| -> Result<i128> {
@@ -188,6 +217,7 @@ impl LabelSelection {
         };
         let key = |v: i128| v as i64 as u64;
         let mut ranges = Vec::new();
+        let mut names = Vec::new();
         for part in text.split(',') {
             let part = part.trim();
             // A '-' that is not the first character (nor right after another '-') splits a range.
@@ -196,19 +226,30 @@ impl LabelSelection {
                 .skip(1)
                 .find(|&(i, c)| c == '-' && !part[..i].ends_with('-'))
                 .map(|(i, _)| i);
-            let (lo, hi) = match split {
-                Some(i) => (value(part, &part[..i])?, value(part, &part[i + 1..])?),
-                None => {
-                    let v = value(part, part)?;
-                    (v, v)
+            let bounds = match split {
+                Some(i) => {
+                    value(part, &part[..i]).and_then(|lo| Ok((lo, value(part, &part[i + 1..])?)))
                 }
+                None => value(part, part).map(|v| (v, v)),
+            };
+            let (lo, hi) = match bounds {
+                Ok(bounds) => bounds,
+                // Not a number: a name, where names are taken (not a number beyond 64 bits).
+                Err(_) if names_allowed && !part.is_empty() && part.parse::<i128>().is_err() => {
+                    names.push(part.to_string());
+                    continue;
+                }
+                Err(e) => return Err(e),
             };
             if lo > hi {
                 return Err(bad(part, "runs backwards"));
             }
             ranges.push(key(lo)..=key(hi));
         }
-        Ok(LabelSelection::Values(ranges))
+        Ok(match names.is_empty() {
+            true => LabelSelection::Values(ranges),
+            false => LabelSelection::Named { ranges, names },
+        })
     }
 }
 
@@ -361,9 +402,19 @@ impl GridLabels {
         signed: bool,
     ) -> Result<Vec<bool>> {
         for selection in [show, hide].into_iter().flatten() {
-            let LabelSelection::Values(ranges) = selection else {
-                continue;
+            let (ranges, names) = match selection {
+                LabelSelection::All => continue,
+                LabelSelection::Values(ranges) => (ranges, &[][..]),
+                LabelSelection::Named { ranges, names } => (ranges, &names[..]),
             };
+            for name in names {
+                if !self.table.iter().any(|l| l.name.eq_ignore_ascii_case(name)) {
+                    return Err(Error::invalid(format!(
+                        "{name:?}: no label of the grid has this name ({})",
+                        self.names_for_an_error()
+                    )));
+                }
+            }
             for r in ranges {
                 let holds = |r: std::ops::RangeInclusive<u64>| {
                     let first = self.table.partition_point(|l| l.value < *r.start());
@@ -395,10 +446,24 @@ impl GridLabels {
         Ok(self
             .table
             .iter()
-            .map(|l| {
-                show.is_none_or(|s| s.selects(l.value)) && !hide.is_some_and(|h| h.selects(l.value))
-            })
+            .map(|l| show.is_none_or(|s| s.picks(l)) && !hide.is_some_and(|h| h.picks(l)))
             .collect())
+    }
+
+    /// Some of the table's names, for an error about a name it lacks: the first eight, and how
+    /// many more there are.
+    fn names_for_an_error(&self) -> String {
+        const NAMED: usize = 8;
+        let named: Vec<&str> = self
+            .table
+            .iter()
+            .take(NAMED)
+            .map(|l| l.name.as_str())
+            .collect();
+        match self.table.len().saturating_sub(NAMED) {
+            0 => format!("its labels are {}", named.join(", ")),
+            more => format!("its labels are {} and {more} more", named.join(", ")),
+        }
     }
 
     /// The table index of the label with value `value`.

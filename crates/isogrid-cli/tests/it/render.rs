@@ -1069,7 +1069,8 @@ fn read_label_aov(path: &Path) -> Vec<u64> {
 fn render_shows_and_hides_labels_and_writes_the_label_aov() {
     let (dir, cgc, aov, png) = labels_to_render("labels");
     let label_arg = format!("label={}", s(&aov));
-    for hide in [None, Some("2")] {
+    // Label 2 by value, and by its name (the table's default, in another case).
+    for hide in [None, Some("2"), Some("LABEL 2")] {
         let mut args = label_render(&cgc, &label_arg, &png);
         args.push("--json");
         if let Some(h) = hide {
@@ -1094,6 +1095,8 @@ fn render_shows_and_hides_labels_and_writes_the_label_aov() {
         let args = ["render", s(&cgc), flag, "1,7", "-o", s(&png)];
         fails(&args, "label 7: no such label");
         assert_eq!(isogrid(&args).status.code(), Some(1));
+        let args = ["render", s(&cgc), flag, "1,liver", "-o", s(&png)];
+        fails(&args, "\"liver\": no label of the grid has this name");
     }
     let sphere = volume(&dir);
     fails(

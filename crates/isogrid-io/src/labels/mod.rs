@@ -198,15 +198,17 @@ fn layer_selection(selection: &LabelSelection, layer: &LabelLayer, first: bool) 
     }
     match selection {
         LabelSelection::All => ranges.push(1..=u64::MAX),
-        LabelSelection::Values(wanted) => ranges.extend(
-            wanted
-                .iter()
-                .flat_map(LabelSelection::key_ranges)
-                .filter_map(|r| {
-                    let from = (*r.start()).max(layer.offset.saturating_add(1));
-                    (from <= *r.end()).then(|| from - layer.offset..=*r.end() - layer.offset)
-                }),
-        ),
+        // Extraction selects by value: names are shown and hidden, never extracted.
+        LabelSelection::Values(wanted) | LabelSelection::Named { ranges: wanted, .. } => ranges
+            .extend(
+                wanted
+                    .iter()
+                    .flat_map(LabelSelection::key_ranges)
+                    .filter_map(|r| {
+                        let from = (*r.start()).max(layer.offset.saturating_add(1));
+                        (from <= *r.end()).then(|| from - layer.offset..=*r.end() - layer.offset)
+                    }),
+            ),
     }
     LabelSelection::Values(ranges)
 }

@@ -127,6 +127,60 @@ fn show_and_hide_name_labels_that_exist() {
     }
 }
 
+/// Labels are shown and hidden by name too (`--show liver,5-9`): a name picks every label of the
+/// table that has it, in any case, as its value would; a name no label has is refused naming
+/// some that exist; names are refused where labels are extracted (by value).
+#[test]
+fn show_and_hide_take_labels_names() {
+    let all = extracted("1-3");
+    let mut labels = all.labels().unwrap().clone();
+    let names = ["Left-Hippocampus", "liver", "Liver"];
+    let table = labels
+        .table()
+        .iter()
+        .zip(names)
+        .map(|(l, name)| isogrid::Label {
+            name: name.to_string(),
+            ..l.clone()
+        })
+        .collect();
+    labels.set_table(table).unwrap();
+    let named = |s: &str| LabelSelection::parse_with_names(s).unwrap();
+    let shown = |show: &str, hide: Option<&str>| {
+        let hide = hide.map(named);
+        labels.shown(Some(&named(show)), hide.as_ref(), false)
+    };
+    assert_eq!(
+        shown("left-hippocampus", None).unwrap(),
+        [true, false, false]
+    );
+    assert_eq!(shown("LIVER", None).unwrap(), [false, true, true]);
+    assert_eq!(shown("1, liver", Some("3")).unwrap(), [true, true, false]);
+    assert_eq!(shown("all", Some("liver")).unwrap(), [true, false, false]);
+    assert_eq!(
+        shown("1-3", Some("Left-Hippocampus,2")).unwrap(),
+        [false, false, true]
+    );
+    // By name as by value.
+    assert_eq!(
+        shown("Left-Hippocampus", None).unwrap(),
+        shown("1", None).unwrap()
+    );
+    let err = shown("livr", None).unwrap_err().to_string();
+    assert!(
+        err.contains("\"livr\": no label of the grid has this name")
+            && err.contains("Left-Hippocampus, liver, Liver")
+            && !err.contains('\n'),
+        "{err}"
+    );
+    assert!(shown("1", Some("spleen")).is_err());
+    assert!(matches!(named("1,5-9"), LabelSelection::Values(_)));
+    let err = LabelSelection::parse("liver").unwrap_err().to_string();
+    assert!(err.contains("is not a whole number"), "{err}");
+    assert!(LabelSelection::parse_with_names("1,,2").is_err());
+    assert!(LabelSelection::parse_with_names("9-5").is_err());
+}
+
 /// Signed labels: a range across zero (`-5-5`) selects the negative and the positive labels in
 /// it, when extracting, showing and hiding, and names no label when it holds none.
 #[test]
