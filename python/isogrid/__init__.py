@@ -317,7 +317,9 @@ def extract_labels(
             value is an integer), a :class:`Volume`, or the path of a label volume file. Axes and
             layouts as :func:`extract` reads them.
         labels: which labels: ``None`` or ``"all"`` (every label but 0, the background), a label,
-            a list of labels, or a string such as ``"1,5-9"``.
+            a list of labels, or a string such as ``"1,5-9"``; also by name (``"liver,spleen"``,
+            in any case), the names the file gives (a folder of masks, a ``.seg.nrrd``, an
+            OME-Zarr label image) or ``label_table``'s, which win.
         smooth: the σ in voxels of a Gaussian that smooths each indicator first, so surfaces are
             not chamfered (0 or None: none).
         spacing, precision, threads, series, origin, direction: as :func:`extract` takes them;
@@ -451,19 +453,23 @@ def _caller_level() -> int:
     return level
 
 
-def _label_selection(labels: Any) -> str:
-    """`labels` of :func:`extract` as the selection text the extension parses (``all``, ``1,5-9``)."""
+def _label_selection(labels: Any, name: str = "labels") -> str:
+    """`labels` of :func:`extract` (or ``show``/``hide`` of :func:`render`, ``name``) as the
+    selection text the extension parses (``all``, ``1,5-9,liver``): a string, a label, or a list
+    of labels and names."""
     if isinstance(labels, str):
         return labels
     if isinstance(labels, (int, np.integer)) and not isinstance(labels, bool):
         return str(int(labels))
     try:
-        values = [_int(v, "a label", minimum=-(2**63)) for v in labels]
+        values = [v if isinstance(v, str) else str(_int(v, "a label", minimum=-(2**63))) for v in labels]
     except TypeError:
-        raise ValueError(f"labels must be 'all', a label or a list of labels, not {labels!r}") from None
+        raise ValueError(
+            f"{name} must be 'all', a label or a list of labels and names, not {labels!r}"
+        ) from None
     if not values:
-        raise ValueError("labels is an empty list")
-    return ",".join(str(v) for v in values)
+        raise ValueError(f"{name} is an empty list")
+    return ",".join(values)
 
 
 def _attribute_arg(
@@ -793,16 +799,6 @@ def render(
     if "label" in names and grid.labels is None:
         raise ValueError("the label AOV needs a label grid (extract with labels=...)")
 
-    def selection(labels: Any, name: str) -> Optional[str]:
-        if labels is None or isinstance(labels, str):
-            return labels
-        try:
-            return ",".join(v if isinstance(v, str) else str(operator.index(v)) for v in labels)
-        except TypeError:
-            raise ValueError(
-                f"{name} must be a string such as '1,5-9,liver' or a list of label values and names"
-            )
-
     with _vulkan_device_select_quieted():
         out = _isogrid.render(
             grid,
@@ -820,8 +816,8 @@ def render(
             progress=progress,
             cmap=None if cmap is None else str(cmap),
             clim=None if clim is None else (float(clim[0]), float(clim[1])),
-            show=selection(show, "show"),
-            hide=selection(hide, "hide"),
+            show=None if show is None else _label_selection(show, "show"),
+            hide=None if hide is None else _label_selection(hide, "hide"),
             frame=str(frame),
         )
     if not names:

@@ -143,6 +143,7 @@ pub fn extract_labels<'py>(
     let options = label_options(labels, smooth, precision)?;
     check_callback(progress.as_ref())?;
     let table = read_table(py, label_table.as_deref())?;
+    let options = resolve_names(options, &[], table.as_ref(), None)?;
     // Ctrl-C and the callback are watched while the labels are extracted; either stops it.
     let watch = Progress::new();
     let grid = run_watched(py, threads, &watch, progress.as_ref(), || {
@@ -187,6 +188,7 @@ pub fn extract_labels_file<'py>(
     for layer in &mut source.layers {
         place.apply(&mut layer.volume).map_err(to_py)?;
     }
+    let options = resolve_names(options, &source.names, table.as_ref(), Some(&path))?;
     let watch = Progress::new();
     let grid = run_watched(py, threads, &watch, progress.as_ref(), || {
         isogrid_io::labels::extract_label_volume_with_progress(&source, &options, &watch)
@@ -196,11 +198,37 @@ pub fn extract_labels_file<'py>(
     Ok((grid, notices))
 }
 
-fn label_options(labels: &str, smooth: f64, precision: Option<u32>) -> PyResult<LabelOptions> {
+/// The label options of an extraction: the selection text (`all`, `1,5-9`; names where a file
+/// gives them, resolved by the caller), σ and corner bits.
+pub(crate) fn label_options(
+    labels: &str,
+    smooth: f64,
+    precision: Option<u32>,
+) -> PyResult<LabelOptions> {
     Ok(LabelOptions {
-        selection: LabelSelection::parse(labels).map_err(to_py)?,
+        selection: LabelSelection::parse_with_names(labels).map_err(to_py)?,
         smooth,
         precision: precision.map(precision_arg).transpose()?,
+    })
+}
+
+/// `options` with the names its selection gives resolved to values: against the names the label
+/// file gives (`file_names`) and the colour table's (`table`, which win); errors name `path`.
+pub(crate) fn resolve_names(
+    options: LabelOptions,
+    file_names: &[isogrid::Label],
+    table: Option<&(PathBuf, Vec<isogrid::Label>)>,
+    path: Option<&std::path::Path>,
+) -> PyResult<LabelOptions> {
+    let table = table.map(|(_, t)| t.as_slice());
+    let selection = isogrid_io::labels::resolve_label_names(&options.selection, file_names, table)
+        .map_err(|e| match path {
+            Some(p) => to_py(e.with_path(p)),
+            None => to_py(e),
+        })?;
+    Ok(LabelOptions {
+        selection,
+        ..options
     })
 }
 

@@ -11,11 +11,11 @@
 
 use crate::array::{spacing3, triple, VolumeArg};
 use crate::errors::{invalid, to_py};
-use crate::grid::{iso_arg, label_dicts, precision_arg, stats_dict};
+use crate::grid::{iso_arg, label_dicts, label_options, precision_arg, resolve_names, stats_dict};
 use crate::volume_io::scalar_type_named;
 use isogrid::extract::label_stream;
 use isogrid::extract::tiles::{self, EmitJob};
-use isogrid::{ExtractOptions, Geometry, LabelOptions, LabelSelection};
+use isogrid::{ExtractOptions, Geometry, LabelOptions};
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict};
 use std::path::PathBuf;
@@ -264,16 +264,6 @@ impl _TileExtraction {
     }
 }
 
-/// The label options of a Dask label extraction: the selection text (`all`, `1,5-9`), σ and
-/// corner bits.
-fn label_options(labels: &str, smooth: f64, precision: Option<u32>) -> PyResult<LabelOptions> {
-    Ok(LabelOptions {
-        selection: LabelSelection::parse(labels).map_err(to_py)?,
-        smooth,
-        precision: precision.map(precision_arg).transpose()?,
-    })
-}
-
 /// One task of a label extraction: the fragment of the run of blocks `blocks` (b0, b1) of a
 /// volume of `volume_dims` (x, y, z), from `slab`, the samples `_LabelWriter.sample_box` names
 /// for them, whole in x. It stops once its output holds `output_cap` bytes; returns the blocks
@@ -292,7 +282,8 @@ pub fn _label_slab<'py>(
     precision: Option<u32>,
     cancel: Option<&Bound<'py, _TaskCancel>>,
 ) -> PyResult<((usize, usize), Bound<'py, PyBytes>)> {
-    let options = label_options(labels, smooth, precision)?;
+    // Dask's tasks see samples alone: labels are chosen by value.
+    let options = resolve_names(label_options(labels, smooth, precision)?, &[], None, None)?;
     let slab = VolumeArg::new(slab, false, [1.0; 3])?;
     let view = slab.view()?;
     let progress = task_progress(cancel);
@@ -344,7 +335,7 @@ impl _LabelWriter {
     ) -> PyResult<Self> {
         let scalar_type = scalar_type_named(dtype, "dtype")?;
         let geometry = driver_geometry(dims, spacing, origin, direction)?;
-        let options = label_options(labels, smooth, precision)?;
+        let options = resolve_names(label_options(labels, smooth, precision)?, &[], None, None)?;
         let inner = label_stream::LabelWriter::new(geometry, scalar_type, &options, &spool_dir)
             .map_err(to_py)?;
         Ok(_LabelWriter {

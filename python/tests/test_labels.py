@@ -431,7 +431,7 @@ def test_a_folder_of_nifti_masks_is_a_label_volume(tmp_path):
     np.testing.assert_allclose(grid.info["origin"], image.affine[:3, 3])
 
 
-def test_overlapping_masks_each_keep_their_surface_and_bad_folders_are_refused(tmp_path):
+def test_overlapping_masks_each_keep_their_surface_and_bad_folders_are_refused(cli, tmp_path):
     """Masks that overlap (a ball inside a box, as a tumour in an organ) each keep their whole
     surface, the cells of the mask alone; masks of different grids, and a folder holding another
     file, are refused naming the file."""
@@ -446,6 +446,15 @@ def test_overlapping_masks_each_keep_their_surface_and_bad_folders_are_refused(t
     for label, mask in zip(grid.labels, (a, b, c)):
         assert label["cells"] == len(_reference_cells(_zyx(mask).astype(np.uint8), 1)), label["name"]
     assert grid.info["spacing"] == pytest.approx([0.8, 0.8, 2.0])
+    # Masks are chosen by their files' names, in any case, here and on the command line.
+    by_value = isogrid.extract_labels(folder, labels=[1, 3]).to_bytes()
+    assert isogrid.extract_labels(folder, labels="C_VESSEL,a_organ").to_bytes() == by_value
+    assert isogrid.extract_labels(folder, labels=["c_vessel", 1]).to_bytes() == by_value
+    out = tmp_path / "by-name.cgc"
+    subprocess.run([cli, "extract", folder, "--labels", "c_vessel,1", "-o", out], check=True, capture_output=True)
+    assert out.read_bytes() == by_value
+    with pytest.raises(ValueError, match=r'"vessel": no label has this name \(the labels are a_organ, b_tumour, c_vessel\)'):
+        isogrid.extract_labels(folder, labels="vessel")
     nibabel.save(nibabel.Nifti1Image(a.astype(np.uint8), np.diag([0.8, 0.8, 2.5, 1.0])), folder / "d_other.nii.gz")
     with pytest.raises(ValueError, match=r"d_other\.nii\.gz: its spacing \[0\.8, 0\.8, 2\.5\] \(against \[0\.8, 0\.8, 2\]\) is not that of .*a_organ\.nii;"):
         isogrid.extract_labels(folder)
@@ -502,6 +511,21 @@ def test_pynrrd_with_slicer_keys_and_a_colour_table(tmp_path):
     with pytest.warns(UserWarning):
         from_array = isogrid.extract_labels(zyx, labels="all", label_table=table)
     assert [l["name"] for l in from_array.labels] == ["label 4", "Nine", "Twelve"]
+    # Labels are chosen by the names the file gives, and the table's, which win (9 is "Nine"
+    # now, not "nine"); on an array, by the table's alone.
+    def extracted(source, labels, **kw):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", UserWarning)
+            return isogrid.extract_labels(source, labels=labels, **kw).to_bytes()
+
+    assert extracted(path, "FOUR,12") == extracted(path, [4, 12])
+    assert extracted(path, "four,nine") == extracted(path, [4, 9])
+    assert extracted(path, "twelve,four", label_table=table) == extracted(path, [4, 12], label_table=table)
+    assert extracted(zyx, "Nine", label_table=table) == extracted(zyx, [9], label_table=table)
+    with pytest.raises(ValueError, match=r'seg\.seg\.nrrd: "eight": no label has this name \(the labels are four, Nine, Twelve, Thirty\)'):
+        extracted(path, "eight", label_table=table)
+    with pytest.raises(ValueError, match=r'"four": no label has this name \(no label has a name here: select them by value\)'):
+        extracted(zyx, "four")
 
 
 def test_ome_zarr_label_image_from_ome_zarr(tmp_path):
@@ -591,7 +615,7 @@ def test_render_label_aov_show_and_hide():
         grid, camera=2, size=(64, 48), backend="cpu", aovs=["label"], show=[front, by_name[other]]
     )
     assert set(np.unique(mixed["label"]).tolist()) == {front, other, miss}
-    with pytest.raises(ValueError, match="no label of the grid has this name"):
+    with pytest.raises(ValueError, match="no label has this name"):
         isogrid.render(grid, camera=2, size=(16, 16), backend="cpu", show="spleen")
     with pytest.raises(ValueError, match="frame must be 'grid' or 'surface'"):
         isogrid.render(grid, camera=2, size=(16, 16), backend="cpu", frame="label")

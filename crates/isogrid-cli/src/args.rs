@@ -1,23 +1,24 @@
 //! Argument groups shared by several subcommands.
 
-use anyhow::{bail, Result};
+use anyhow::{bail, Context, Result};
 use clap::Args;
 use isogrid::{Iso, LabelSelection, Precision, ScalarType};
 use isogrid_io::{RawSpec, ReadOptions};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// `--labels` and how its labels are smoothed and named: the surface of each label of a label
 /// volume, which `extract` stores and `mc` meshes.
 #[derive(Args, Debug, Clone)]
 pub struct LabelArgs {
     /// The surface of each label of a label volume instead of an isosurface: `all` (every label
-    /// but 0, the background) or values and ranges such as `1,5-9`. Each label's surface is the
+    /// but 0, the background) or values, ranges and names such as `1,5-9,liver` (names those the
+    /// file or --label-table gives, in any case). Each label's surface is the
     /// isosurface at 1/2 of its indicator; `extract` lists the labels in the file with names and
     /// colours, `mc` names and colours them in a .glb and makes each a segment of a precomputed
     /// folder. A folder of NIfTI masks (TotalSegmentator's `segmentations/`) is one label volume:
     /// mask i in name order is label i+1, named after its file.
     // In the isovalue's group: one of --iso, --iso-normalized and --labels is required.
-    #[arg(long, value_name = "all|1,5-9", value_parser = parse_labels, group = "IsoArgs")]
+    #[arg(long, value_name = "all|1,5-9", value_parser = parse_labels_or_names, group = "IsoArgs")]
     pub labels: Option<LabelSelection>,
     /// With --labels: smooth each label's indicator by a Gaussian of SIGMA voxels before its
     /// surface is taken, so surfaces are not chamfered; 0 for none [default: 0].
@@ -44,6 +45,24 @@ impl LabelArgs {
         })
     }
 
+    /// `options` with the names of `--labels` (`liver,spleen`) resolved against those the label
+    /// file of `input` gives (`file_names`) and the colour table's (`table`), which win.
+    pub fn resolve_names(
+        &self,
+        options: &isogrid::LabelOptions,
+        input: &Path,
+        file_names: &[isogrid::Label],
+        table: Option<&[isogrid::Label]>,
+    ) -> Result<isogrid::LabelOptions> {
+        let selection =
+            isogrid_io::labels::resolve_label_names(&options.selection, file_names, table)
+                .with_context(|| input.display().to_string())?;
+        Ok(isogrid::LabelOptions {
+            selection,
+            ..options.clone()
+        })
+    }
+
     /// The `--label-table` file's labels, read before the volume so that a malformed table fails
     /// first.
     pub fn table(&self) -> Result<Option<Vec<isogrid::Label>>> {
@@ -66,14 +85,14 @@ impl LabelArgs {
 /// `--smooth` when not given (docs/benchmarks-labels.md says why).
 pub const DEFAULT_SMOOTH: f64 = 0.0;
 
-/// A `--labels` value: `all`, or values and ranges such as `1,5-9`.
+/// A `view --labels` value: `all`, or values and ranges such as `1,5-9`.
 pub fn parse_labels(text: &str) -> Result<LabelSelection, String> {
     LabelSelection::parse(text).map_err(|e| e.message().to_string())
 }
 
-/// A `--show` or `--hide` value: `all`, or values, ranges and labels' names such as
-/// `1,5-9,liver` (names are looked up in the grid's table when it is drawn).
-pub fn parse_shown_labels(text: &str) -> Result<LabelSelection, String> {
+/// A `--labels`, `--show` or `--hide` value: `all`, or values, ranges and labels' names such as
+/// `1,5-9,liver` (names are looked up in the names the file gives, or the grid's table).
+pub fn parse_labels_or_names(text: &str) -> Result<LabelSelection, String> {
     LabelSelection::parse_with_names(text).map_err(|e| e.message().to_string())
 }
 

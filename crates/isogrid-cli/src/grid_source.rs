@@ -129,8 +129,11 @@ impl GridSource {
             self.label.labels_of.as_deref(),
             &self.input_args.read_options()?,
         )?;
+        let options =
+            self.label
+                .resolve_names(options, &self.input, &source.names, table.as_deref())?;
         let spinner = progress::spinner("extracting labels".into());
-        let mut grid = isogrid_io::labels::extract_label_volume(&source, options)
+        let mut grid = isogrid_io::labels::extract_label_volume(&source, &options)
             .with_context(|| format!("{}: extraction failed", self.input.display()))?;
         spinner.finish_and_clear();
         if let Some(table) = &table {

@@ -136,10 +136,9 @@ pub enum LabelSelection {
     /// across zero (`-5-5`), whose negative end's key is its two's complement
     /// ([`LabelSelection::key_ranges`] gives it as two ordinary ranges).
     Values(Vec<std::ops::RangeInclusive<u64>>),
-    /// Values and names (`1,5-9,liver`), as labels are shown and hidden
-    /// ([`LabelSelection::parse_with_names`]): a name picks the labels of a grid's table that
-    /// have it (in any case), which [`GridLabels::shown`] resolves. Extraction selects by value
-    /// and is never given names ([`LabelSelection::parse`] refuses them).
+    /// Values and names (`1,5-9,liver`, [`LabelSelection::parse_with_names`]): a name picks the
+    /// labels of a table that have it, in any case ([`LabelSelection::resolved`]). Extraction
+    /// selects by value: front doors resolve names against the names a file gives first.
     Named {
         ranges: Vec<std::ops::RangeInclusive<u64>>,
         names: Vec<String>,
@@ -147,8 +146,8 @@ pub enum LabelSelection {
 }
 
 impl LabelSelection {
-    /// Whether the label of `key` is selected by value (names need a table: see
-    /// [`LabelSelection::picks`]).
+    /// Whether the label of `key` is selected by value (names are resolved to values first:
+    /// [`LabelSelection::resolved`]).
     pub fn selects(&self, key: u64) -> bool {
         match self {
             LabelSelection::All => key != 0,
@@ -158,11 +157,31 @@ impl LabelSelection {
         }
     }
 
-    /// Whether `label` of a table is selected, by value or by name.
-    pub fn picks(&self, label: &Label) -> bool {
-        self.selects(label.value)
-            || matches!(self, LabelSelection::Named { names, .. }
-                if names.iter().any(|n| n.eq_ignore_ascii_case(&label.name)))
+    /// The selection with its names replaced by the values of the labels of `table` that have
+    /// them (matched whole, in any case): the one rule by which names select labels, for a
+    /// grid's table ([`GridLabels::shown`]) and for the names a file gives before extraction. A
+    /// name no label of `table` has is an error naming some that exist.
+    pub fn resolved(&self, table: &[Label]) -> Result<LabelSelection> {
+        let LabelSelection::Named { ranges, names } = self else {
+            return Ok(self.clone());
+        };
+        let mut ranges = ranges.clone();
+        for name in names {
+            let before = ranges.len();
+            ranges.extend(
+                table
+                    .iter()
+                    .filter(|l| l.name.eq_ignore_ascii_case(name))
+                    .map(|l| l.value..=l.value),
+            );
+            if ranges.len() == before {
+                return Err(Error::invalid(format!(
+                    "{name:?}: no label has this name ({})",
+                    names_for_an_error(table)
+                )));
+            }
+        }
+        Ok(LabelSelection::Values(ranges))
     }
 
     /// `range` as ordinary ranges of keys: itself, or the two halves of a range that wraps.
@@ -187,8 +206,8 @@ impl LabelSelection {
     }
 
     /// [`LabelSelection::parse`], where a part that is neither a value nor a range is a label's
-    /// name (`1,5-9,liver,Left-Hippocampus`): labels to show or hide, in a grid whose table names
-    /// them. A name holds no comma and is matched whole, in any case.
+    /// name (`1,5-9,liver,Left-Hippocampus`), for labels whose table names them. A name holds no
+    /// comma and is matched whole, in any case.
     pub fn parse_with_names(text: &str) -> Result<LabelSelection> {
         Self::parse_parts(text, true)
     }
@@ -250,6 +269,18 @@ impl LabelSelection {
             true => LabelSelection::Values(ranges),
             false => LabelSelection::Named { ranges, names },
         })
+    }
+}
+
+/// Some names of `table`, for an error about a name it lacks: the first eight, and how many more
+/// there are.
+fn names_for_an_error(table: &[Label]) -> String {
+    const NAMED: usize = 8;
+    let named: Vec<&str> = table.iter().take(NAMED).map(|l| l.name.as_str()).collect();
+    match table.len().saturating_sub(NAMED) {
+        0 if named.is_empty() => "no label has a name here: select them by value".to_string(),
+        0 => format!("the labels are {}", named.join(", ")),
+        more => format!("the labels are {} and {more} more", named.join(", ")),
     }
 }
 
@@ -401,20 +432,12 @@ impl GridLabels {
         hide: Option<&LabelSelection>,
         signed: bool,
     ) -> Result<Vec<bool>> {
-        for selection in [show, hide].into_iter().flatten() {
-            let (ranges, names) = match selection {
-                LabelSelection::All => continue,
-                LabelSelection::Values(ranges) => (ranges, &[][..]),
-                LabelSelection::Named { ranges, names } => (ranges, &names[..]),
+        let show = show.map(|s| s.resolved(&self.table)).transpose()?;
+        let hide = hide.map(|h| h.resolved(&self.table)).transpose()?;
+        for selection in [&show, &hide].into_iter().flatten() {
+            let LabelSelection::Values(ranges) = selection else {
+                continue;
             };
-            for name in names {
-                if !self.table.iter().any(|l| l.name.eq_ignore_ascii_case(name)) {
-                    return Err(Error::invalid(format!(
-                        "{name:?}: no label of the grid has this name ({})",
-                        self.names_for_an_error()
-                    )));
-                }
-            }
             for r in ranges {
                 let holds = |r: std::ops::RangeInclusive<u64>| {
                     let first = self.table.partition_point(|l| l.value < *r.start());
@@ -446,24 +469,11 @@ impl GridLabels {
         Ok(self
             .table
             .iter()
-            .map(|l| show.is_none_or(|s| s.picks(l)) && !hide.is_some_and(|h| h.picks(l)))
+            .map(|l| {
+                show.as_ref().is_none_or(|s| s.selects(l.value))
+                    && !hide.as_ref().is_some_and(|h| h.selects(l.value))
+            })
             .collect())
-    }
-
-    /// Some of the table's names, for an error about a name it lacks: the first eight, and how
-    /// many more there are.
-    fn names_for_an_error(&self) -> String {
-        const NAMED: usize = 8;
-        let named: Vec<&str> = self
-            .table
-            .iter()
-            .take(NAMED)
-            .map(|l| l.name.as_str())
-            .collect();
-        match self.table.len().saturating_sub(NAMED) {
-            0 => format!("its labels are {}", named.join(", ")),
-            more => format!("its labels are {} and {more} more", named.join(", ")),
-        }
     }
 
     /// The table index of the label with value `value`.

@@ -171,6 +171,9 @@ fn run_labels(args: Args) -> Result<()> {
     )?;
     let (stats, labels, absent, attribute_report, seconds) = match region {
         Some((mut source, names)) => {
+            let options =
+                args.label
+                    .resolve_names(&options, &args.input, &names, table.as_deref())?;
             let read = start.elapsed().as_secs_f64();
             let max_memory = budget(args.max_memory);
             let (summary, absent, attribute_report) = pool.install(|| {
@@ -264,6 +267,9 @@ fn labels_in_memory(
     let (source, read) = pool.install(|| {
         input::read_label_volume(&args.input, args.label.labels_of.as_deref(), read_options)
     })?;
+    let options = &args
+        .label
+        .resolve_names(options, &args.input, &source.names, table)?;
     let start = Instant::now();
     let progress = Arc::new(Progress::new());
     let grid = progress::watched("extracting labels", &progress, || {

@@ -315,6 +315,9 @@ fn run_labels(args: Args) -> Result<()> {
         let (source, read) = pool.install(|| {
             input::read_label_volume(&args.input, args.label.labels_of.as_deref(), &read_options)
         })?;
+        let options =
+            args.label
+                .resolve_names(&options, &args.input, &source.names, table.as_deref())?;
         let spinner = progress::spinner("extracting labels".into());
         let start = Instant::now();
         let grid = pool

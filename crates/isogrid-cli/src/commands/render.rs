@@ -2,7 +2,7 @@
 //! [`isogrid_render::RenderRequest`]; the front door's policy places it on the GPU renderer or the
 //! CPU tracer and runs it with a progress bar, and Ctrl-C stops it cleanly with nothing written.
 
-use crate::args::{parse_shown_labels, ThreadArgs, TraversalArg};
+use crate::args::{parse_labels_or_names, ThreadArgs, TraversalArg};
 use crate::grid_source::GridSource;
 use crate::outputs::{self, Output};
 use crate::progress;
@@ -134,11 +134,11 @@ pub struct Args {
     pub colorbar: bool,
     /// A label grid: draw only these labels, by value or name, e.g. 1,5-9 or liver,spleen (all
     /// by default).
-    #[arg(long, value_name = "LABELS", value_parser = parse_shown_labels, allow_hyphen_values = true)]
+    #[arg(long, value_name = "LABELS", value_parser = parse_labels_or_names, allow_hyphen_values = true)]
     pub show: Option<isogrid::LabelSelection>,
     /// A label grid: do not draw these labels (values or names), e.g. 0,3; their neighbours show
     /// their own surfaces where they touched them.
-    #[arg(long, value_name = "LABELS", value_parser = parse_shown_labels, allow_hyphen_values = true)]
+    #[arg(long, value_name = "LABELS", value_parser = parse_labels_or_names, allow_hyphen_values = true)]
     pub hide: Option<isogrid::LabelSelection>,
     /// Print one JSON object.
     #[arg(long)]

@@ -65,10 +65,10 @@ pub struct Args {
     pub smooth: Option<f64>,
     /// A label grid: draw only these labels at first, by value or name, e.g. 1,5-9 or liver (as
     /// `render --show`); the label list in the window changes them.
-    #[arg(long, value_name = "LABELS", value_parser = crate::args::parse_shown_labels, allow_hyphen_values = true)]
+    #[arg(long, value_name = "LABELS", value_parser = crate::args::parse_labels_or_names, allow_hyphen_values = true)]
     pub show: Option<isogrid::LabelSelection>,
     /// A label grid: hide these labels at first, e.g. 0,3 (as `render --hide`).
-    #[arg(long, value_name = "LABELS", value_parser = crate::args::parse_shown_labels, allow_hyphen_values = true)]
+    #[arg(long, value_name = "LABELS", value_parser = crate::args::parse_labels_or_names, allow_hyphen_values = true)]
     pub hide: Option<isogrid::LabelSelection>,
     #[command(flatten)]
     pub input_args: InputArgs,

@@ -1096,7 +1096,7 @@ fn render_shows_and_hides_labels_and_writes_the_label_aov() {
         fails(&args, "label 7: no such label");
         assert_eq!(isogrid(&args).status.code(), Some(1));
         let args = ["render", s(&cgc), flag, "1,liver", "-o", s(&png)];
-        fails(&args, "\"liver\": no label of the grid has this name");
+        fails(&args, "\"liver\": no label has this name");
     }
     let sphere = volume(&dir);
     fails(

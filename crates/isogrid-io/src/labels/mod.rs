@@ -198,7 +198,7 @@ fn layer_selection(selection: &LabelSelection, layer: &LabelLayer, first: bool) 
     }
     match selection {
         LabelSelection::All => ranges.push(1..=u64::MAX),
-        // Extraction selects by value: names are shown and hidden, never extracted.
+        // Front doors resolve names to values before extraction (`resolve_label_names`).
         LabelSelection::Values(wanted) | LabelSelection::Named { ranges: wanted, .. } => ranges
             .extend(
                 wanted
@@ -223,6 +223,25 @@ pub(crate) fn max_key(samples: Samples<'_>) -> u64 {
             .unwrap_or(0)
     }
     isogrid::volume::with_samples!(samples, s => max(s))
+}
+
+/// `selection` with its names (`--labels liver,spleen`) resolved to values before extraction:
+/// against the names the label file gives (`file_names`: a folder of masks, a `.seg.nrrd`, an
+/// OME-Zarr label image), with those of a colour table (`table`) winning where both name a value,
+/// as they do in the grid made ([`apply_label_names`]).
+pub fn resolve_label_names(
+    selection: &LabelSelection,
+    file_names: &[Label],
+    table: Option<&[Label]>,
+) -> Result<LabelSelection> {
+    if !matches!(selection, LabelSelection::Named { .. }) {
+        return Ok(selection.clone());
+    }
+    let mut named = std::collections::BTreeMap::new();
+    for label in file_names.iter().chain(table.unwrap_or_default()) {
+        named.insert(label.value, label.clone());
+    }
+    selection.resolved(&named.into_values().collect::<Vec<_>>())
 }
 
 /// Gives the grid's labels the names and colours `names` has for their values; returns the

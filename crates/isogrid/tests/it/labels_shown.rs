@@ -168,8 +168,8 @@ fn show_and_hide_take_labels_names() {
     );
     let err = shown("livr", None).unwrap_err().to_string();
     assert!(
-        err.contains("\"livr\": no label of the grid has this name")
-            && err.contains("Left-Hippocampus, liver, Liver")
+        err.contains("\"livr\": no label has this name")
+            && err.contains("the labels are Left-Hippocampus, liver, Liver")
             && !err.contains('\n'),
         "{err}"
     );
