@@ -85,11 +85,6 @@ impl LabelArgs {
 /// `--smooth` when not given (docs/benchmarks-labels.md says why).
 pub const DEFAULT_SMOOTH: f64 = 0.0;
 
-/// A `view --labels` value: `all`, or values and ranges such as `1,5-9`.
-pub fn parse_labels(text: &str) -> Result<LabelSelection, String> {
-    LabelSelection::parse(text).map_err(|e| e.message().to_string())
-}
-
 /// A `--labels`, `--show` or `--hide` value: `all`, or values, ranges and labels' names such as
 /// `1,5-9,liver` (names are looked up in the names the file gives, or the grid's table).
 pub fn parse_labels_or_names(text: &str) -> Result<LabelSelection, String> {

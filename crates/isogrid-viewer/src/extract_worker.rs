@@ -325,7 +325,17 @@ impl Worker {
                     what: format!("extracting the labels of {}", path.display()),
                     progress,
                 })));
-                isogrid_io::labels::extract_label_volume(&source, options)
+                // Names (`--labels liver`) are the file's, as `extract --labels` takes them.
+                let selection = isogrid_io::labels::resolve_label_names(
+                    &options.selection,
+                    &source.names,
+                    None,
+                )?;
+                let options = isogrid::LabelOptions {
+                    selection,
+                    ..options.clone()
+                };
+                isogrid_io::labels::extract_label_volume(&source, &options)
             })
             .at_path(path)
             .and_then(|grid| self.with_attribute(grid));

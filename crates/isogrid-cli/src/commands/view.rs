@@ -55,9 +55,9 @@ pub struct Args {
     /// Initial values the colour map spans, LO,HI (default: the attribute's range on the surface).
     #[arg(long, value_name = "LO,HI", value_parser = super::render::parse_clim, allow_hyphen_values = true)]
     pub clim: Option<[f64; 2]>,
-    /// Show the surfaces of a label volume's labels (all but 0, or a list such as 1,5-9), as
+    /// Show the surfaces of a label volume's labels (all but 0, or a list such as 1,5-9,liver), as
     /// `extract --labels` extracts them, with the label list; the isovalue does not apply.
-    #[arg(long, value_name = "all|1,5-9", value_parser = crate::args::parse_labels, conflicts_with_all = ["iso", "iso_normalized"])]
+    #[arg(long, value_name = "all|1,5-9", value_parser = crate::args::parse_labels_or_names, conflicts_with_all = ["iso", "iso_normalized"])]
     pub labels: Option<isogrid::LabelSelection>,
     /// With --labels: smooth each label's indicator by a Gaussian of SIGMA voxels (as `extract
     /// --smooth`).
