@@ -72,9 +72,10 @@ class LabelGrid(CellGrid):
     def __new__(cls, data: bytes) -> "LabelGrid":
         """A label grid from the bytes of a ``.cgc`` file that holds labels, fully validated."""
     def meshes(
-        self, space: str = "world", threads: Optional[int] = None
-    ) -> Dict[int, Tuple[npt.NDArray[np.float32], npt.NDArray[np.uint32]]]:
-        """Each label's (vertices, faces), by label value, in the order of ``labels``."""
+        self, space: str = "world", threads: Optional[int] = None, *, values: bool = False
+    ) -> Dict[int, Tuple[npt.NDArray[Any], ...]]:
+        """Each label's (vertices float32, faces uint32), by label value, in the order of
+        ``labels``; with ``values=True`` also the grid's attribute at the vertices (float32)."""
 
 def extract(
     array: np.ndarray,

@@ -786,12 +786,15 @@ impl LabelGrid {
     /// writes): a dict from label value to `(vertices, faces)`, in the order of `labels`;
     /// vertices float32 (V, 3) as (x, y, z), faces uint32 (F, 3) counter-clockwise seen from
     /// outside. `space="world"` places sample (i, j, k) in the volume's patient space (origin,
-    /// spacing, directions), `"index"` at (i, j, k).
-    #[pyo3(signature = (space="world", threads=None))]
+    /// spacing, directions), `"index"` at (i, j, k). `values=True` adds each vertex's value of
+    /// the grid's attribute, float32 (V,): the mean of the values its label's cells around the
+    /// vertex hold (NaN where they are all NaN), as `mc --labels` writes from a `.cgc`.
+    #[pyo3(signature = (space="world", threads=None, *, values=false))]
     fn meshes<'py>(
         slf: &Bound<'py, Self>,
         space: &str,
         threads: Option<usize>,
+        values: bool,
     ) -> PyResult<Bound<'py, PyDict>> {
         let py = slf.py();
         let space = match space {
@@ -807,22 +810,38 @@ impl LabelGrid {
         let labels = grid
             .labels()
             .ok_or_else(|| invalid("a LabelGrid holds labels"))?;
+        if values && grid.attribute().is_none() {
+            return Err(invalid(
+                "values=True takes the grid's attribute, and this grid has none (extract it with \
+                 attribute=)",
+            ));
+        }
         let signed = isogrid::labels::signed_labels(grid.info().scalar_type);
         let meshes = run_detached(py, threads, move || -> isogrid::Result<_> {
             let geometry = isogrid::extract::attribute::grid_geometry(grid.info());
-            let mut meshes = isogrid::mc::label_meshes(grid)?;
-            for mesh in &mut meshes {
+            let mut meshes: Vec<(isogrid::mc::McMesh, Option<Vec<f32>>)> = match values {
+                true => isogrid::mc::label_meshes_with_values(grid)?,
+                false => isogrid::mc::label_meshes(grid)?
+                    .into_iter()
+                    .map(|m| (m, None))
+                    .collect(),
+            };
+            for (mesh, _) in &mut meshes {
                 mesh.place(&geometry, space)?;
             }
             Ok(meshes)
         })?
         .map_err(to_py)?;
         let out = PyDict::new(py);
-        for (label, mesh) in labels.table().iter().zip(meshes) {
-            let arrays = (
-                to_array2(py, mesh.positions)?,
-                to_array2(py, mesh.triangles)?,
-            );
+        for (label, (mesh, mesh_values)) in labels.table().iter().zip(meshes) {
+            let vertices = to_array2(py, mesh.positions)?;
+            let faces = to_array2(py, mesh.triangles)?;
+            let arrays = match mesh_values {
+                Some(v) => {
+                    (vertices, faces, PyArray1::from_vec(py, v).into_any()).into_pyobject(py)?
+                }
+                None => (vertices, faces).into_pyobject(py)?,
+            };
             if signed {
                 out.set_item(label.value as i64, arrays)?;
             } else {

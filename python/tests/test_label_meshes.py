@@ -1,7 +1,9 @@
-"""``isogrid mc --labels``: the glTF binary read back with pygltflib and the neuroglancer
-precomputed folder read as its specification lays it out, against Marching Cubes of each label's
-indicator by scikit-image (the same crossed edges: one vertex at the midpoint of each) and the
-labels' names and colours from ``extract_labels``."""
+"""``isogrid mc --labels``: the glTF binary read back with pygltflib, the VTK XML PolyData with
+VTK's reader (through PyVista) and the neuroglancer precomputed folder read as its specification
+lays it out, against Marching Cubes of each label's indicator by scikit-image (the same crossed
+edges: one vertex at the midpoint of each) and the labels' names and colours from
+``extract_labels``; per-vertex values against the attribute at the vertices and against the
+grid's cells."""
 
 import json
 import subprocess
@@ -11,7 +13,7 @@ import numpy as np
 import pytest
 
 import isogrid
-from test_labels import _labels
+from test_labels import _cell_labels, _labels
 
 pygltflib = pytest.importorskip("pygltflib")
 measure = pytest.importorskip("skimage.measure")
@@ -22,6 +24,21 @@ def _accessor(gltf, blob, index, dtype, width):
     view = gltf.bufferViews[acc.bufferView]
     start = (view.byteOffset or 0) + (acc.byteOffset or 0)
     return np.frombuffer(blob, dtype, count=acc.count * width, offset=start).reshape(-1, width)
+
+
+def _glb_values(path):
+    """{label value: its meshes' ``_VALUE`` vertex attribute} of a .glb, with the accessors' names."""
+    gltf = pygltflib.GLTF2().load(str(path))
+    blob = gltf.binary_blob()
+    values, names = {}, set()
+    for node_index in gltf.scenes[gltf.scene].nodes:
+        node = gltf.nodes[node_index]
+        index = gltf.meshes[node.mesh].primitives[0].attributes._VALUE
+        accessor = gltf.accessors[index]
+        assert (accessor.componentType, accessor.type) == (pygltflib.FLOAT, pygltflib.SCALAR)
+        names.add(accessor.name)
+        values[int(node.extras["label"])] = _accessor(gltf, blob, index, "<f4", 1)[:, 0]
+    return values, names
 
 
 def _glb_meshes(path):
@@ -134,6 +151,118 @@ def test_precomputed_folder_follows_neuroglancers_legacy_mesh_layout(cli, tmp_pa
     assert "already exists" in failed.stderr and failed.stderr.count("\n") == 1
 
 
+def _vtp_meshes(path):
+    """{label value: (name, sRGB colour, positions, triangles, point arrays)} of a label .vtp, as
+    VTK's reader gives it, split by the triangles' ``label`` cell array."""
+    pv = pytest.importorskip("pyvista")
+    vtp = pv.read(path)
+    labels = vtp.cell_data["label"]
+    colours = vtp.cell_data["label_color"]
+    assert colours.dtype == np.uint8 and colours.shape == (vtp.n_cells, 3)
+    triangles = vtp.faces.reshape(-1, 4)
+    assert (triangles[:, 0] == 3).all()
+    triangles = triangles[:, 1:]
+    names = dict(zip(vtp.field_data["label_values"].tolist(), vtp.field_data["label_names"].tolist()))
+    meshes = {}
+    for value in np.unique(labels).tolist():
+        mine = labels == value
+        assert len(set(map(tuple, colours[mine].tolist()))) == 1
+        used = np.unique(triangles[mine])
+        # Each label's vertices are its own, one run of the points.
+        assert (used == np.arange(used[0], used[-1] + 1)).all()
+        arrays = {k: vtp.point_data[k][used] for k in vtp.point_data.keys()}
+        meshes[value] = (names[value], colours[mine][0], vtp.points[used], triangles[mine] - used[0], arrays)
+    assert sorted(meshes) == sorted(names)
+    return meshes, vtp
+
+
+def test_vtp_holds_the_glb_meshes_with_each_triangles_label_name_and_colour(cli, tmp_path):
+    a = _labels()
+    path = tmp_path / "labels.npy"
+    np.save(path, a)
+    _mc(cli, path, tmp_path / "labels.glb")
+    report = json.loads(_mc(cli, path, tmp_path / "labels.vtp"))
+    glb = _glb_meshes(tmp_path / "labels.glb")
+    vtp, whole = _vtp_meshes(tmp_path / "labels.vtp")
+    assert report["triangles"] == whole.n_cells and report["vertices"] == whole.n_points
+    assert whole.cell_data["label"].dtype == np.int64 and 60000 in vtp
+    assert whole.point_data.keys() == []
+    table = {l["value"]: l for l in isogrid.extract_labels(a, labels="all").labels}
+    assert sorted(vtp) == sorted(glb)
+    for value, (name, colour, positions, triangles, _) in vtp.items():
+        assert name == table[value]["name"] == glb[value][0]
+        assert colour.tolist() == [int(table[value]["color"][i : i + 2], 16) for i in (1, 3, 5)]
+        np.testing.assert_array_equal(positions, glb[value][2])
+        np.testing.assert_array_equal(triangles, glb[value][3])
+
+
+def test_label_meshes_carry_the_color_by_values_at_their_vertices(cli, tmp_path):
+    """``mc --labels --color-by``: a field linear in position, which trilinear sampling gives
+    exactly, at every vertex of every label, in the .glb's ``_VALUE`` and the .vtp's point array
+    alike; from a .cgc with its own attribute, each vertex takes the mean of the values of its
+    label's cells around the vertex's edge, found here from the grid's cells."""
+    a = _labels()
+    path, field_path = tmp_path / "labels.npy", tmp_path / "field.npy"
+    np.save(path, a)
+    z, y, x = np.mgrid[: a.shape[0], : a.shape[1], : a.shape[2]].astype(np.float32)
+    np.save(field_path, x + 2 * y + 3 * z)
+    _mc(cli, path, tmp_path / "labels.glb", "--color-by", field_path)
+    _mc(cli, path, tmp_path / "labels.vtp", "--color-by", field_path)
+    glb = _glb_meshes(tmp_path / "labels.glb")
+    values, names = _glb_values(tmp_path / "labels.glb")
+    assert names == {"field.npy"}
+    vtp, whole = _vtp_meshes(tmp_path / "labels.vtp")
+    assert whole.active_scalars_name == "field.npy"
+    assert sorted(values) == sorted(vtp) == sorted(glb)
+    for value, (_, _, positions, _, arrays) in vtp.items():
+        p = positions.astype(np.float64)
+        np.testing.assert_allclose(arrays["field.npy"], p[:, 0] + 2 * p[:, 1] + 3 * p[:, 2], atol=1e-4)
+        np.testing.assert_array_equal(values[value], arrays["field.npy"])
+
+    # A .cgc with its attribute, stored as f32.
+    cgc = tmp_path / "labels.cgc"
+    subprocess.run(
+        [cli, "extract", path, "--labels", "all", "--color-by", field_path, "--attribute-precision", "32", "-o", cgc],
+        check=True,
+        capture_output=True,
+    )
+    _mc(cli, cgc, tmp_path / "cells.vtp")
+    cells, _ = _vtp_meshes(tmp_path / "cells.vtp")
+    grid = isogrid.load(cgc)
+    nx, ny, _ = grid.info["dims"]
+    label_of = np.array([l["value"] for l in grid.labels])[_cell_labels(grid)]
+    cell = grid.cell_positions().astype(np.int64)
+    held = {(int(v), int(k)): float(f) for v, k, f in zip(label_of, cell[:, 0] + nx * (cell[:, 1] + ny * cell[:, 2]), grid.attribute)}
+    for value, (_, _, positions, _, arrays) in cells.items():
+        expected = []
+        for p in positions.astype(np.float64):
+            # Binary labels: each vertex is the midpoint of an edge along the axis where p is half-way.
+            axis = int(np.argmax(np.abs(p - np.round(p))))
+            low = np.floor(p).astype(np.int64)
+            around = []
+            for du in (0, -1):
+                for dv in (0, -1):
+                    c = low.copy()
+                    others = [k for k in range(3) if k != axis]
+                    c[others[0]] += du
+                    c[others[1]] += dv
+                    key = (value, int(c[0] + nx * (c[1] + ny * c[2])))
+                    if key in held and (c >= 0).all():
+                        around.append(held[key])
+            assert around, (value, p)
+            expected.append(np.mean(around))
+        np.testing.assert_allclose(arrays["field.npy"], expected, rtol=0, atol=1e-4)
+        # The cells' values lie within a cell of the vertex: x + 2y + 3z moves by at most 6 there.
+        q = positions.astype(np.float64)
+        assert np.abs(arrays["field.npy"] - (q[:, 0] + 2 * q[:, 1] + 3 * q[:, 2])).max() <= 6
+    # Python's meshes give the same vertices and values.
+    for value, (vertices, _, values) in grid.meshes(space="index", values=True).items():
+        np.testing.assert_array_equal(vertices, cells[value][2])
+        np.testing.assert_array_equal(values, cells[value][4]["field.npy"])
+    with pytest.raises(ValueError, match="has none"):
+        isogrid.extract_labels(a).meshes(values=True)
+
+
 def test_refusals_are_one_line_and_write_nothing(cli, tmp_path):
     a = _labels()
     path = tmp_path / "labels.npy"
@@ -142,7 +271,7 @@ def test_refusals_are_one_line_and_write_nothing(cli, tmp_path):
         (["--labels", "5", "-o", tmp_path / "none.glb"], "no selected label with a surface"),
         (["--labels", "all", "-o", tmp_path / "labels.ply"], "written as .glb"),
         (["--iso", "1", "--smooth", "1", "-o", tmp_path / "x.ply"], "needs --labels"),
-        (["--labels", "all", "--color-by", path, "-o", tmp_path / "y.glb"], "carry no per-vertex values"),
+        (["--labels", "all", "--color-by", path, "-o", tmp_path / "folder"], "carry no per-vertex values"),
     ]
     for args, message in cases:
         failed = subprocess.run([cli, "mc", path, *args], capture_output=True, text=True)

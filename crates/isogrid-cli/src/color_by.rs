@@ -34,8 +34,8 @@ pub struct ColorByArgs {
     /// Colour the surface by another volume: a file or folder isogrid reads (resampled in world
     /// space when its grid differs), or AXIS=I,... for another entry of INPUT's extra axes, e.g.
     /// `--index c=0 --color-by c=1` for a second channel. It is sampled at each active cell's
-    /// surface point (`mc`: at every vertex, the PLY property `quality` or a .vtp point array);
-    /// a .cgc file brings its own attribute.
+    /// surface point (`mc`: at every vertex: the PLY property `quality`, a .vtp point array or a
+    /// .glb vertex attribute `_VALUE`); a .cgc file brings its own attribute.
     #[arg(long, value_name = "ATTR")]
     pub color_by: Option<String>,
     /// Entry of each extra axis of the --color-by file, as --index picks INPUT's: the volume t of

@@ -7,9 +7,12 @@ use crate::outputs::{self, Output};
 use crate::report::{MeshReport, Seconds};
 use crate::{input, progress};
 use anyhow::{bail, Context, Result};
-use isogrid::mc::{label_meshes, try_marching_cubes_with_progress, Inside, McMesh, MeshSpace};
+use isogrid::mc::{
+    label_meshes, label_meshes_with_values, try_marching_cubes_with_progress, Inside, McMesh,
+    MeshSpace,
+};
 use isogrid::{CellGrid, Progress};
-use isogrid_io::label_meshes::{write_glb, write_precomputed, LabelMesh};
+use isogrid_io::label_meshes::{write_glb, write_precomputed, write_vtp, LabelMesh};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
@@ -27,8 +30,9 @@ pub struct Args {
     #[command(flatten)]
     pub input_args: InputArgs,
     /// Write the mesh: .ply (binary), .obj or .vtp (VTK XML PolyData, for ParaView); with
-    /// --labels, .glb (glTF 2.0) or a new folder of neuroglancer precomputed meshes (any name
-    /// without an extension).
+    /// --labels, .glb (glTF 2.0: a named, coloured mesh per label), .vtp (one mesh, each
+    /// triangle's label and colour as cell arrays) or a new folder of neuroglancer precomputed
+    /// meshes (any name without an extension).
     #[arg(short, long, value_name = "MESH.ply|.obj|.vtp|.glb|FOLDER")]
     pub output: Option<PathBuf>,
     #[command(flatten)]
@@ -215,9 +219,11 @@ pub fn run(args: Args) -> Result<()> {
     report.print(args.json)
 }
 
-/// Where `mc --labels` writes: a glTF binary or a neuroglancer precomputed folder.
+/// Where `mc --labels` writes: a glTF binary, VTK XML PolyData or a neuroglancer precomputed
+/// folder.
 enum LabelOutput<'a> {
     Glb(&'a Path),
+    Vtp(&'a Path),
     Precomputed(&'a Path),
 }
 
@@ -227,12 +233,14 @@ impl<'a> LabelOutput<'a> {
             .extension()
             .and_then(|e| e.to_str())
             .map(str::to_ascii_lowercase)
+            .as_deref()
         {
-            Some(e) if e == "glb" => Ok(LabelOutput::Glb(path)),
+            Some("glb") => Ok(LabelOutput::Glb(path)),
+            Some("vtp") => Ok(LabelOutput::Vtp(path)),
             None => Ok(LabelOutput::Precomputed(path)),
             Some(_) => bail!(
-                "{}: label meshes are written as .glb (glTF 2.0) or as a folder of neuroglancer \
-                 precomputed meshes (a name without an extension)",
+                "{}: label meshes are written as .glb (glTF 2.0), .vtp (VTK XML PolyData) or as a \
+                 folder of neuroglancer precomputed meshes (a name without an extension)",
                 path.display()
             ),
         }
@@ -274,26 +282,29 @@ fn open_label_grid(args: &Args) -> Result<(CellGrid, f64)> {
 }
 
 /// `--labels`: the label grid of the volume (`isogrid extract --labels`) or of a `.cgc` file, one
-/// Marching Cubes mesh per label from its cells, placed in `--space`, written as .glb or
-/// precomputed meshes.
+/// Marching Cubes mesh per label from its cells, placed in `--space`, written as .glb, .vtp or
+/// precomputed meshes; with the values of `--color-by`'s volume at its vertices, or of the grid's
+/// own attribute.
 fn run_labels(args: Args) -> Result<()> {
-    if args.color.color_by.is_some() {
-        bail!(
-            "--color-by: the label meshes (.glb, precomputed) carry no per-vertex values; colour \
-             a label grid by an attribute with `extract --labels ... --color-by` and `render`"
-        );
-    }
     let options = args.label.options(None).expect("called with --labels");
     let output = args.output.as_deref().map(LabelOutput::of).transpose()?;
-    if let Some(LabelOutput::Glb(path)) = output {
-        let glb = Output {
+    let read_options = args.input_args.read_options()?;
+    let attribute = args.color.attribute(&args.input, &read_options)?;
+    if attribute.is_some() && matches!(output, Some(LabelOutput::Precomputed(_))) {
+        bail!(
+            "--color-by: neuroglancer's precomputed meshes carry no per-vertex values; write the \
+             label meshes as .glb (the vertex attribute _VALUE) or .vtp (a ParaView point array)"
+        );
+    }
+    let mut inputs = AttributeInput::inputs(&args.input, attribute.as_ref());
+    inputs.extend(args.label.label_table.as_deref());
+    if let Some(LabelOutput::Glb(path) | LabelOutput::Vtp(path)) = output {
+        let file = Output {
             role: "the meshes",
             path,
-            extensions: &[".glb"],
+            extensions: &[".glb", ".vtp"],
         };
-        let mut inputs = vec![args.input.as_path()];
-        inputs.extend(args.label.label_table.as_deref());
-        outputs::check(&inputs, &[glb])?;
+        outputs::check(&inputs, &[file])?;
     }
     if let Some(LabelOutput::Precomputed(path)) = output {
         if path.symlink_metadata().is_ok() {
@@ -309,7 +320,6 @@ fn run_labels(args: Args) -> Result<()> {
         let (grid, read) = open_label_grid(&args)?;
         (grid, read, 0.0)
     } else {
-        let read_options = args.input_args.read_options()?;
         // Read as `extract --labels` reads it: a .seg.nrrd's segments, layers, names and colours.
         // In the pool: a folder of masks is read in parallel, on --threads threads.
         let (source, read) = pool.install(|| {
@@ -332,21 +342,52 @@ fn run_labels(args: Args) -> Result<()> {
     }
     let spinner = progress::spinner("meshing labels".into());
     let start = Instant::now();
-    let mut meshes = pool
-        .install(|| label_meshes(&grid))
-        .with_context(|| format!("{}: label meshing failed", args.input.display()))?;
+    // Per-vertex values: --color-by's volume sampled at the vertices, else the grid's own
+    // attribute (a .cgc file's) as its cells hold it.
+    let own_attribute = grid.attribute().filter(|_| attribute.is_none());
+    let geometry = isogrid::extract::attribute::grid_geometry(grid.info());
+    let (mut meshes, mut values): (Vec<McMesh>, Vec<Option<Vec<f32>>>) = match own_attribute {
+        Some(_) => pool.install(|| label_meshes_with_values(&grid)),
+        None => pool
+            .install(|| label_meshes(&grid))
+            .map(|meshes| meshes.into_iter().map(|m| (m, None)).collect()),
+    }
+    .with_context(|| format!("{}: label meshing failed", args.input.display()))?
+    .into_iter()
+    .unzip();
+    let mut attribute_name = own_attribute.map(|a| a.info().name.clone());
+    if let Some(attribute) = &attribute {
+        let points: Vec<[f64; 3]> = meshes
+            .iter()
+            .flat_map(|m| m.index_positions(geometry.spacing))
+            .collect();
+        let mut sampled = pool
+            .install(|| attribute.sample_points(&geometry, &points, &args.input))?
+            .into_iter();
+        values = meshes
+            .iter()
+            .map(|m| Some(sampled.by_ref().take(m.positions.len()).collect()))
+            .collect();
+        attribute_name = Some(attribute.name.clone());
+    }
     extract += start.elapsed().as_secs_f64();
     let space = args.space.mesh_space();
-    let geometry = isogrid::extract::attribute::grid_geometry(grid.info());
     for mesh in &mut meshes {
         mesh.place(&geometry, space)
             .with_context(|| args.input.display().to_string())?;
     }
     spinner.finish_and_clear();
+    if let (Some(name), Some(LabelOutput::Precomputed(_))) = (&attribute_name, &output) {
+        eprintln!(
+            "isogrid: note: {}: neuroglancer's precomputed meshes carry no per-vertex values, so \
+             the attribute {name:?} is left out (.glb and .vtp keep it)",
+            args.input.display()
+        );
+    }
     let labels = grid.labels().expect("a label grid has labels");
     let signed = isogrid::labels::signed_labels(grid.info().scalar_type);
     args.label.note_absent(&absent, signed);
-    let values: Vec<String> = labels
+    let label_values: Vec<String> = labels
         .table()
         .iter()
         .map(|l| isogrid::labels::display_value(l.value, signed))
@@ -354,10 +395,15 @@ fn run_labels(args: Args) -> Result<()> {
     let label_meshes: Vec<LabelMesh> = labels
         .table()
         .iter()
-        .zip(&values)
-        .zip(&meshes)
-        .filter(|(_, mesh)| mesh.triangle_count() > 0)
-        .map(|((label, value), mesh)| LabelMesh { label, value, mesh })
+        .zip(&label_values)
+        .zip(meshes.iter().zip(&values))
+        .filter(|(_, (mesh, _))| mesh.triangle_count() > 0)
+        .map(|((label, value), (mesh, values))| LabelMesh {
+            label,
+            value,
+            mesh,
+            values: values.as_deref(),
+        })
         .collect();
     if label_meshes.is_empty() {
         let message = format!(
@@ -373,7 +419,8 @@ fn run_labels(args: Args) -> Result<()> {
     if let Some(output) = &output {
         let start = Instant::now();
         match output {
-            LabelOutput::Glb(path) => write_glb(path, &label_meshes)?,
+            LabelOutput::Glb(path) => write_glb(path, &label_meshes, attribute_name.as_deref())?,
+            LabelOutput::Vtp(path) => write_vtp(path, &label_meshes, attribute_name.as_deref())?,
             LabelOutput::Precomputed(path) => write_precomputed(path, &label_meshes)?,
         }
         write = start.elapsed().as_secs_f64();

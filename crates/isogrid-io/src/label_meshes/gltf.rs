@@ -1,7 +1,10 @@
 //! glTF 2.0 binary (`.glb`) of per-label meshes, through the `gltf` crate's JSON model and GLB
 //! container: one node and mesh per label, named after it, its colour as the material's base
 //! colour (linear, as glTF wants it), its value in the node's `extras` as `{"label": "VALUE"}`.
-//! Indexed triangles, u32 indices, f32 positions with their bounds and unit vertex normals.
+//! Indexed triangles, u32 indices, f32 positions with their bounds and unit vertex normals, and
+//! with an attribute its values as the application-specific vertex attribute `_VALUE` (f32, NaN
+//! where there is none; the accessor is named after the attribute), which three.js loads as
+//! `_value` and glTF viewers that know no such attribute ignore.
 
 use super::label_mesh::{vertex_normals, LabelMesh};
 use gltf::binary::{Glb, Header};
@@ -13,10 +16,10 @@ use std::borrow::Cow;
 use std::collections::BTreeMap;
 use std::path::Path;
 
-/// Writes `meshes` (labels without triangles are left out) as a `.glb` at `path`, atomically.
-/// Errors name `path`.
-pub fn write_glb(path: &Path, meshes: &[LabelMesh]) -> Result<()> {
-    let bytes = glb_bytes(meshes).map_err(|e| e.with_path(path))?;
+/// Writes `meshes` (labels without triangles are left out) as a `.glb` at `path`, atomically,
+/// with `attribute`'s name over the meshes' values where they carry them. Errors name `path`.
+pub fn write_glb(path: &Path, meshes: &[LabelMesh], attribute: Option<&str>) -> Result<()> {
+    let bytes = glb_bytes(meshes, attribute).map_err(|e| e.with_path(path))?;
     isogrid::fs::write_atomic(path, |out| Ok(out.write_all(&bytes)?))
 }
 
@@ -44,7 +47,7 @@ fn accessor(
 }
 
 /// The `.glb` file's bytes.
-pub(crate) fn glb_bytes(meshes: &[LabelMesh]) -> Result<Vec<u8>> {
+pub(crate) fn glb_bytes(meshes: &[LabelMesh], attribute: Option<&str>) -> Result<Vec<u8>> {
     let mut root = json::Root::default();
     let mut bin: Vec<u8> = Vec::new();
     let buffer = json::Index::new(0);
@@ -127,6 +130,22 @@ pub(crate) fn glb_bytes(meshes: &[LabelMesh]) -> Result<Vec<u8>> {
             Type::Scalar,
             None,
         ));
+        let values = match (attribute, m.values) {
+            (Some(name), Some(values)) => {
+                assert_eq!(values.len(), positions.len(), "one value per vertex");
+                let v = view(
+                    &mut root,
+                    &mut bin,
+                    bytemuck::cast_slice(values),
+                    Target::ArrayBuffer,
+                );
+                let mut values =
+                    accessor(v, positions.len(), ComponentType::F32, Type::Scalar, None);
+                values.name = Some(name.to_string());
+                Some(root.push(values))
+            }
+            _ => None,
+        };
         let [r, g, b] = m.label.albedo();
         let alpha = m.label.rgba[3] as f32 / 255.0;
         let material = root.push(json::Material {
@@ -147,10 +166,14 @@ pub(crate) fn glb_bytes(meshes: &[LabelMesh]) -> Result<Vec<u8>> {
             ..Default::default()
         });
         let primitive = json::mesh::Primitive {
-            attributes: BTreeMap::from([
-                (Valid(json::mesh::Semantic::Positions), position),
-                (Valid(json::mesh::Semantic::Normals), normal),
-            ]),
+            attributes: BTreeMap::from_iter(
+                [
+                    (Valid(json::mesh::Semantic::Positions), position),
+                    (Valid(json::mesh::Semantic::Normals), normal),
+                ]
+                .into_iter()
+                .chain(values.map(|v| (Valid(json::mesh::Semantic::Extras("VALUE".into())), v))),
+            ),
             extensions: Default::default(),
             extras: Default::default(),
             indices: Some(indices),

@@ -3,7 +3,7 @@
 use isogrid::mc::McMesh;
 use isogrid::Label;
 
-/// One label's mesh and its table entry (value, name, colour).
+/// One label's mesh, its table entry (value, name, colour) and its values of an attribute.
 #[derive(Debug, Clone, Copy)]
 pub struct LabelMesh<'a> {
     pub label: &'a Label,
@@ -11,6 +11,8 @@ pub struct LabelMesh<'a> {
     /// sign).
     pub value: &'a str,
     pub mesh: &'a McMesh,
+    /// One value per vertex of `mesh` (NaN where there is none), or none.
+    pub values: Option<&'a [f32]>,
 }
 
 /// Area-weighted vertex normals of `mesh`, unit length ((0, 0, 1) where the triangles around a

@@ -80,6 +80,35 @@ pub fn labelled_mesh(grid: &CellGrid) -> Result<(McMesh, Vec<u32>)> {
 
 /// The mesh of label `label` (its index in the table) of a label grid.
 pub fn label_mesh(grid: &CellGrid, label: usize) -> Result<McMesh> {
+    mesh_of_label(grid, label, false).map(|(mesh, _)| mesh)
+}
+
+/// Every label's mesh, as [`label_meshes`] gives them, each with one value per vertex from the
+/// grid's cell attribute (`None` for a grid without one): the mean of the finite values that this
+/// label's cells crossing the vertex's edge hold (the values the cell renderers show on either
+/// side of the vertex), NaN where all are NaN.
+pub fn label_meshes_with_values(grid: &CellGrid) -> Result<Vec<(McMesh, Option<Vec<f32>>)>> {
+    let labels = grid
+        .labels()
+        .ok_or_else(|| Error::invalid("the grid has no labels to mesh one by one"))?;
+    // The meshes, and each vertex's sum and count while they are built.
+    crate::memory::ensure_fits(
+        "the mesh of every label",
+        grid.active_cells() as u64 * (MESH_BYTES_PER_CELL + 16),
+    )?;
+    (0..labels.table().len())
+        .into_par_iter()
+        .map(|label| mesh_of_label(grid, label, grid.attribute().is_some()))
+        .collect()
+}
+
+/// The mesh of label `label`, and its per-vertex values when `values` is set (see
+/// [`label_meshes_with_values`]).
+fn mesh_of_label(
+    grid: &CellGrid,
+    label: usize,
+    values: bool,
+) -> Result<(McMesh, Option<Vec<f32>>)> {
     let labels = grid
         .labels()
         .ok_or_else(|| Error::invalid("the grid has no labels to mesh one by one"))?;
@@ -89,6 +118,9 @@ pub fn label_mesh(grid: &CellGrid, label: usize) -> Result<McMesh> {
     let spacing = info.spacing;
     let record_bytes = precision.bytes_per_cell();
     let mut mesh = McMesh::default();
+    let attribute = grid.attribute().filter(|_| values);
+    // Per vertex: the sum of the finite values of the cells crossing its edge, and their count.
+    let mut sums: Vec<(f64, u32)> = Vec::new();
     // Crossed edge (lower sample's index × 3 + axis) → its vertex.
     let mut vertex_of: HashMap<u64, u32> = HashMap::new();
     for run in labels.runs_of(label) {
@@ -104,6 +136,7 @@ pub fn label_mesh(grid: &CellGrid, label: usize) -> Result<McMesh> {
                     let bit = mask.trailing_zeros();
                     mask &= mask - 1;
                     let cell = &grid.cells()[record * record_bytes..(record + 1) * record_bytes];
+                    let value = attribute.map(|a| a.value(record));
                     record += 1;
                     let corners = read_corners(cell, precision);
                     let pattern =
@@ -134,6 +167,14 @@ pub fn label_mesh(grid: &CellGrid, label: usize) -> Result<McMesh> {
                                 let p = at[k] as f64 + if k == axis { t } else { 0.0 };
                                 (p * spacing[k]) as f32
                             }));
+                            if attribute.is_some() {
+                                sums.push((0.0, 0));
+                            }
+                        }
+                        if let Some(v) = value.filter(|v| v.is_finite()) {
+                            let sum = &mut sums[vertex[e as usize] as usize];
+                            sum.0 += v as f64;
+                            sum.1 += 1;
                         }
                     }
                     for triangle in &case.triangles[..case.triangle_count as usize] {
@@ -143,5 +184,16 @@ pub fn label_mesh(grid: &CellGrid, label: usize) -> Result<McMesh> {
             }
         }
     }
-    Ok(mesh)
+    let values = attribute.map(|_| {
+        sums.iter()
+            .map(|&(sum, n)| {
+                if n > 0 {
+                    (sum / n as f64) as f32
+                } else {
+                    f32::NAN
+                }
+            })
+            .collect()
+    });
+    Ok((mesh, values))
 }

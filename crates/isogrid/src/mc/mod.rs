@@ -33,9 +33,10 @@ mod extract;
 mod mesh;
 mod snorm;
 mod table;
+pub mod vtp;
 mod write;
 
-pub use cells::{label_mesh, label_meshes, labelled_mesh};
+pub use cells::{label_mesh, label_meshes, label_meshes_with_values, labelled_mesh};
 pub use mesh::{Inside, McMesh, MeshSpace};
 pub use snorm::SnormMesh;
 

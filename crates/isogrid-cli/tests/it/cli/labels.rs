@@ -292,6 +292,15 @@ fn label_meshes_of_a_cgc_file_are_those_of_its_volume() {
             );
             std::fs::remove_file(&from_cgc).unwrap();
             std::fs::remove_file(&from_volume).unwrap();
+            let (from_cgc, from_volume) = mesh_both("meshes.vtp");
+            let vtp = std::fs::read(&from_cgc).unwrap();
+            assert!(vtp.starts_with(b"<?xml"));
+            assert!(
+                vtp == std::fs::read(&from_volume).unwrap(),
+                "smooth {smooth}, {selection}"
+            );
+            std::fs::remove_file(&from_cgc).unwrap();
+            std::fs::remove_file(&from_volume).unwrap();
             let (from_cgc, from_volume) = mesh_both("meshes");
             let files = folder_files(&from_cgc);
             // 5 and 9 only, each a manifest and a fragment, beside `info` and its properties.
@@ -347,10 +356,11 @@ fn label_meshes_of_a_cgc_file_are_those_of_its_volume() {
             "--color-by",
             s(&npy),
             "-o",
-            s(&out),
+            s(&dir.join("folder")),
         ],
         "carry no per-vertex values",
     );
+    assert!(!dir.join("folder").exists());
     let iso = dir.join("iso.cgc");
     ok_json(&["extract", s(&npy), "--iso", "3", "-o", s(&iso), "--json"]);
     fails(
