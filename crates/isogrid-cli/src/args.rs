@@ -14,8 +14,8 @@ pub struct LabelArgs {
     /// but 0, the background) or values, ranges and names such as `1,5-9,liver` (names those the
     /// file or --label-table gives, in any case). Each label's surface is the
     /// isosurface at 1/2 of its indicator; `extract` lists the labels in the file with names and
-    /// colours, `mc` names and colours them in a .glb and makes each a segment of a precomputed
-    /// folder. A folder of NIfTI masks (TotalSegmentator's `segmentations/`) is one label volume:
+    /// colours, `mc` names and colours them in a .glb or .vtp and makes each a segment of a
+    /// precomputed folder. A folder of NIfTI masks (TotalSegmentator's `segmentations/`) is one label volume:
     /// mask i in name order is label i+1, named after its file.
     // In the isovalue's group: one of --iso, --iso-normalized and --labels is required.
     #[arg(long, value_name = "all|1,5-9", value_parser = parse_labels_or_names, group = "IsoArgs")]

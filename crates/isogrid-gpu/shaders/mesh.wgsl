@@ -5,20 +5,23 @@
 // channel of the ID target carries the vertex attribute interpolated to the pixel (f32 bits) for
 // the shading pass's `COLOR_MESH`. A label mesh (one label per triangle) writes its label's index
 // where the cell passes write the cluster, and its colour words name each label itself
-// (`label_mesh_color_words`, upload.rs), so `COLOR_LABELS` shades it as it shades a label grid.
+// (`label_mesh_color_words`, upload.rs), so `COLOR_LABELS` shades it as it shades a label grid; a
+// label mesh with values also writes the interpolated value, which `COLOR_MESH` shades.
 
 @group(0) @binding(0) var<uniform> frame: FrameUniforms;
 
 // Keep in sync with `MeshUniforms` in src/gpu_types.rs.
 struct MeshUniforms {
     center: vec4<f32>,      // world, xyz; w: a label mesh's back-face slack (world units), else 0
-    half_extent: vec4<f32>, // world, xyz: position = center + half_extent * q / 32767
+    half_extent: vec4<f32>, // world, xyz: position = center + half_extent * q / 32767; w: 1 for
+                            // two words per vertex (label mesh with values), else 0
 }
 
 @group(1) @binding(0) var<uniform> mesh: MeshUniforms;
 @group(1) @binding(1) var<storage, read> positions: array<u32>;
 // One word per vertex: an attribute value's f32 bits, a label mesh's label index, or a dummy when
-// the mesh has neither (the shading pass then ignores the record channel).
+// the mesh has neither (the shading pass then ignores the record channel); two for a label mesh
+// with values: the label index, then the value's bits.
 @group(1) @binding(2) var<storage, read> vertex_words: array<u32>;
 
 fn snorm16(index: u32) -> f32 {
@@ -33,6 +36,7 @@ struct MeshVarying {
     @location(1) value: f32,
     @location(2) @interpolate(flat) label: u32,
     @location(3) @interpolate(flat) slack: f32, // a label mesh's back-face slack; 0 otherwise
+    @location(4) @interpolate(flat) valued: u32, // 1 for a label mesh with values
 }
 
 @vertex
@@ -42,9 +46,12 @@ fn vs_mesh(@builtin(vertex_index) vertex: u32) -> MeshVarying {
     var out: MeshVarying;
     out.position = clip_from_world(frame, p);
     out.world = p;
-    let word = vertex_words[min(vertex, arrayLength(&vertex_words) - 1u)];
-    out.value = bitcast<f32>(word);
+    let last = arrayLength(&vertex_words) - 1u;
+    out.valued = select(0u, 1u, mesh.half_extent.w > 0.0);
+    let first = select(vertex, 2u * vertex, out.valued == 1u);
+    let word = vertex_words[min(first, last)];
     out.label = word;
+    out.value = bitcast<f32>(vertex_words[min(first + out.valued, last)]);
     out.slack = mesh.center.w;
     return out;
 }
@@ -70,7 +77,7 @@ fn fs_mesh(in: MeshVarying, @builtin(front_facing) front: bool) -> MeshOut {
     out.surface = vec4<f32>(n, length(to_eye));
     out.depth = in.position.z;
     if in.slack > 0.0 {
-        out.ids = vec2<u32>(in.label, 0u);
+        out.ids = vec2<u32>(in.label, select(0u, bitcast<u32>(in.value), in.valued == 1u));
         // Touching labels' meshes share their boundary's vertices but not always its
         // triangulation (Marching Cubes splits a cell and its complement along different
         // diagonals), so the two can part by up to half a cell: a back face (the label the ray

@@ -132,7 +132,8 @@ pub(crate) struct MeshUniforms {
     /// World xyz; w a label mesh's back-face slack in world units (half the smallest spacing),
     /// else 0.
     pub center: [f32; 4],
-    /// World xyz; w unused.
+    /// World xyz; w 1 for a label mesh with values (two words per vertex: the label, then the
+    /// value's bits), else 0.
     pub half_extent: [f32; 4],
 }
 

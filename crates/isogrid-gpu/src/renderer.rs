@@ -158,15 +158,17 @@ impl Renderer {
     }
 
     /// Uploads a label mesh of a grid of `spacing` (positions index × spacing): `vertex_labels`
-    /// gives each vertex's label as an index in `table` (all three of a triangle the same).
-    /// Renders draw each label in its colour, and their cluster AOV gives the label's index under
-    /// each pixel.
+    /// gives each vertex's label as an index in `table` (all three of a triangle the same), and
+    /// `values`, where given, an attribute value per vertex (4 more bytes each). Renders draw
+    /// each label in its colour, or with [`crate::RenderOptions::coloring`] its values through
+    /// the colour map, and their cluster AOV gives the label's index under each pixel.
     pub fn upload_label_mesh(
         &self,
         mesh: &isogrid::mc::McMesh,
         vertex_labels: &[u32],
         table: &[isogrid::labels::Label],
         spacing: [f64; 3],
+        values: Option<&[f32]>,
     ) -> Result<GpuMesh, GpuError> {
         self.uploader().upload_mesh(
             mesh,
@@ -174,6 +176,7 @@ impl Renderer {
                 vertex_labels,
                 table,
                 spacing,
+                values,
             },
         )
     }

@@ -159,12 +159,15 @@ pub enum MeshColor<'a> {
     /// map of [`crate::RenderOptions::coloring`].
     Values(&'a [f32]),
     /// The index in `table` of each vertex's label (every vertex of a triangle the same), drawn in
-    /// its label's colour; `spacing`, the grid's (the mesh's positions are index × spacing), sets
-    /// how far a back face loses to the touching label's front face (half the smallest).
+    /// its label's colour, or with `values` (one attribute value per vertex) through the colour
+    /// map as [`MeshColor::Values`] are; `spacing`, the grid's (the mesh's positions are index ×
+    /// spacing), sets how far a back face loses to the touching label's front face (half the
+    /// smallest).
     Labels {
         vertex_labels: &'a [u32],
         table: &'a [isogrid::labels::Label],
         spacing: [f64; 3],
+        values: Option<&'a [f32]>,
     },
 }
 
@@ -492,7 +495,15 @@ impl Uploader<'_> {
             MeshColor::Values(v) => Some(v.len()),
             MeshColor::Labels { vertex_labels, .. } => Some(vertex_labels.len()),
         };
-        if let Some(n) = count.filter(|&n| n != mesh.positions.len()) {
+        let label_values = match color {
+            MeshColor::Labels { values, .. } => values,
+            _ => None,
+        };
+        let wrong_count = count.filter(|&n| n != mesh.positions.len());
+        if let Some(n) = wrong_count.or(label_values
+            .map(<[f32]>::len)
+            .filter(|&n| n != mesh.positions.len()))
+        {
             return Err(GpuError::invalid(format!(
                 "{n} vertex values for a mesh of {} vertices",
                 mesh.positions.len()
@@ -539,7 +550,7 @@ impl Uploader<'_> {
                     snorm.half_extent[0],
                     snorm.half_extent[1],
                     snorm.half_extent[2],
-                    0.0,
+                    if label_values.is_some() { 1.0 } else { 0.0 },
                 ],
             };
             let uniforms = self.gpu.buffer_init(
@@ -547,8 +558,22 @@ impl Uploader<'_> {
                 bytemuck::bytes_of(&uniforms),
                 wgpu::BufferUsages::UNIFORM,
             )?;
+            // A label mesh with values: each vertex's label, then its value's bits.
+            let pairs: Vec<u32>;
             let words: &[u32] = match color {
                 MeshColor::Values(v) if !v.is_empty() => bytemuck::cast_slice(v),
+                MeshColor::Labels {
+                    vertex_labels,
+                    values: Some(values),
+                    ..
+                } if !vertex_labels.is_empty() => {
+                    pairs = vertex_labels
+                        .iter()
+                        .zip(values)
+                        .flat_map(|(&l, v)| [l, v.to_bits()])
+                        .collect();
+                    &pairs
+                }
                 MeshColor::Labels { vertex_labels, .. } if !vertex_labels.is_empty() => {
                     vertex_labels
                 }
@@ -594,7 +619,7 @@ impl Uploader<'_> {
                 positions,
                 indices,
                 index_count,
-                has_values: matches!(color, MeshColor::Values(_)),
+                has_values: matches!(color, MeshColor::Values(_)) || label_values.is_some(),
                 label_albedo,
                 bind_group,
                 bounds: (lo, hi),

@@ -30,11 +30,9 @@ pub fn render(
             crate::gpu::render(renderer, request, grid, volume, progress)
         }
     }?;
-    rendered.label = grid.labels().map(|l| match request.mode() {
-        // A label mesh's fragments carry their label's index where cells carry their cluster.
-        crate::mode::Mode::Mc => mesh_label_aov(l, &rendered.cluster),
-        _ => label_aov(l, &rendered.cluster),
-    });
+    rendered.label = grid
+        .labels()
+        .map(|l| label_aov(l, request.mode(), &rendered.cluster));
     Ok(rendered)
 }
 
@@ -86,26 +84,22 @@ fn shown_labels(request: &RenderRequest, grid: &CellGrid) -> Result<Option<CellG
         .transpose()
 }
 
-/// The label value under each pixel of an MC render of a label grid with `labels`, from its
-/// cluster AOV, which holds the label's index in the table; `u64::MAX` on a miss.
-fn mesh_label_aov(labels: &GridLabels, index: &[u32]) -> Vec<u64> {
-    let table = labels.table();
-    index
-        .iter()
-        .map(|&l| table.get(l as usize).map_or(u64::MAX, |l| l.value))
-        .collect()
-}
-
-/// The label value under each pixel of a render of the label grid with `labels`, from its cluster
-/// AOV (`cluster`, the drawn grid's cluster indices); `u64::MAX` on a miss. The viewer reads the
-/// label under its pointer with it from the grid it uploaded.
-pub fn label_aov(labels: &GridLabels, cluster: &[u32]) -> Vec<u64> {
+/// The label value under each pixel of a render in `mode` of the label grid with `labels`, from its
+/// cluster AOV (`cluster`: the drawn grid's cluster indices, or in [`crate::mode::Mode::Mc`] the
+/// label indices a label mesh's fragments carry in their place); `u64::MAX` on a miss. The viewer
+/// reads the label under its pointer with it from the grid it uploaded.
+pub fn label_aov(labels: &GridLabels, mode: crate::mode::Mode, cluster: &[u32]) -> Vec<u64> {
     let (table, of_cluster) = (labels.table(), labels.cluster_labels());
+    let label_of = |c: u32| match mode {
+        crate::mode::Mode::Mc => Some(c),
+        _ => of_cluster.get(c as usize).copied(),
+    };
     cluster
         .iter()
-        .map(|&c| match of_cluster.get(c as usize) {
-            Some(&l) => table[l as usize].value,
-            None => u64::MAX,
+        .map(|&c| {
+            label_of(c)
+                .and_then(|l| table.get(l as usize))
+                .map_or(u64::MAX, |l| l.value)
         })
         .collect()
 }

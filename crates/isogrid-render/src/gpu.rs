@@ -9,7 +9,7 @@ use crate::output::Rendered;
 use crate::request::RenderRequest;
 use crate::scene::{SceneView, UploadedScene};
 use isogrid::extract::attribute::values_at_surface_points;
-use isogrid::mc::{labelled_mesh, marching_cubes};
+use isogrid::mc::{labelled_mesh, labelled_mesh_with_values, marching_cubes};
 use isogrid::{CellGrid, Error, Progress, Result, Volume};
 use isogrid_gpu::Renderer;
 
@@ -35,9 +35,21 @@ pub(crate) fn render(
     let mut scene = UploadedScene::on(renderer, grid.info());
     match (mode, volume) {
         (Mode::Mc, _) if labels.is_some() => {
-            let (mesh, vertex_labels) = labelled_mesh(grid)?;
             let table = labels.map(|l| l.table()).unwrap_or_default();
-            scene.show_label_mesh(&mesh, &vertex_labels, table, grid.info().spacing)?
+            let spacing = grid.info().spacing;
+            // Coloured, each vertex takes the attribute of its label's cells around it (the
+            // values the cell modes show there).
+            match (request.parts().color.as_ref(), grid.attribute()) {
+                (Some(_), Some(attribute)) => {
+                    let (mesh, vertex_labels, values) = labelled_mesh_with_values(grid)?;
+                    let values = Some((&values[..], attribute.info()));
+                    scene.show_label_mesh(&mesh, &vertex_labels, table, spacing, values)?
+                }
+                _ => {
+                    let (mesh, vertex_labels) = labelled_mesh(grid)?;
+                    scene.show_label_mesh(&mesh, &vertex_labels, table, spacing, None)?
+                }
+            }
         }
         (Mode::Mc, Some(volume)) => {
             let mesh = marching_cubes(&volume.view(), grid.info().iso);

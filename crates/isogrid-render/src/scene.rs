@@ -124,19 +124,27 @@ impl<'r> UploadedScene<'r> {
 
     /// Uploads a label mesh for [`Mode::Mc`] ([`isogrid::mc::labelled_mesh`] of a grid of
     /// `spacing`: each vertex's label as an index in `table`), replacing the one shown so far; it
-    /// is drawn in the labels' colours.
+    /// is drawn in the labels' colours, or with `values` (one per vertex, of the attribute `info`
+    /// describes: [`isogrid::mc::labelled_mesh_with_values`]) coloured requests colour it.
     pub fn show_label_mesh(
         &mut self,
         mesh: &McMesh,
         vertex_labels: &[u32],
         table: &[isogrid::labels::Label],
         spacing: [f64; 3],
+        values: Option<(&[f32], &isogrid::AttributeInfo)>,
     ) -> Result<()> {
         self.mesh = None;
-        self.mesh = Some(
-            self.renderer
-                .upload_label_mesh(mesh, vertex_labels, table, spacing)?,
-        );
+        self.mesh = Some(self.renderer.upload_label_mesh(
+            mesh,
+            vertex_labels,
+            table,
+            spacing,
+            values.map(|(v, _)| v),
+        )?);
+        if let Some((_, info)) = values {
+            self.attribute = Some(info.clone());
+        }
         self.label_mesh = true;
         Ok(())
     }
@@ -194,10 +202,12 @@ impl<'r> UploadedScene<'r> {
             )));
         }
         progress.check()?;
-        if mode == Mode::Mc && self.label_mesh && parts.color.is_some() {
+        let uncoloured_labels =
+            self.label_mesh && !self.mesh.as_ref().is_some_and(|m| m.has_values());
+        if mode == Mode::Mc && uncoloured_labels && parts.color.is_some() {
             return Err(Error::invalid(
-                "mode mc draws a label grid's meshes in the labels' colours, not by its \
-                 attribute; colour the labels by the attribute in mode cgc, cgc-noewa or pathtrace",
+                "mode mc draws these labels' meshes in the labels' colours: they were uploaded \
+                 without the attribute's values",
             ));
         }
         let coloring = match (&parts.color, &self.attribute) {

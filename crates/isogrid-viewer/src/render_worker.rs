@@ -12,7 +12,7 @@
 use crate::events::{guarded, Event, Failure, Notifier, RenderedFrame};
 use crate::Mode;
 use isogrid::extract::attribute::values_at_surface_points;
-use isogrid::mc::{labelled_mesh, McMesh};
+use isogrid::mc::{labelled_mesh, labelled_mesh_with_values, McMesh};
 use isogrid::{CellGrid, GridStats, Progress, Volume};
 use isogrid_render::{RenderContext, RenderRequest, SceneView, UploadedScene};
 use std::sync::mpsc::{Receiver, Sender};
@@ -339,8 +339,8 @@ fn apply<'r>(
 }
 
 /// Uploads the Marching Cubes meshes of the cells of the labels `s` draws
-/// ([`isogrid::mc::labelled_mesh`]), each drawn in its label's colour, and reports them as the
-/// input's MC mesh.
+/// ([`isogrid::mc::labelled_mesh`]), each drawn in its label's colour (or, for a grid with an
+/// attribute, with its values), and reports them as the input's MC mesh.
 fn show_label_mesh(s: &mut Shown<'_>, generation: u64, notify: &Notifier) {
     let Some(labels) = s.labels.as_mut() else {
         return;
@@ -349,11 +349,24 @@ fn show_label_mesh(s: &mut Shown<'_>, generation: u64, notify: &Notifier) {
     let start = Instant::now();
     let grid = labels.drawn();
     let table = grid.labels().map(|l| l.table()).unwrap_or_default();
-    let shown = labelled_mesh(grid).and_then(|(mesh, vertex_labels)| {
-        s.scene
-            .show_label_mesh(&mesh, &vertex_labels, table, grid.info().spacing)?;
-        Ok(mesh)
-    });
+    let spacing = grid.info().spacing;
+    // Coloured like the cells when the grid has an attribute: each vertex takes the values of its
+    // label's cells around it.
+    let shown = match grid.attribute() {
+        Some(attribute) => {
+            labelled_mesh_with_values(grid).and_then(|(mesh, vertex_labels, values)| {
+                let values = Some((&values[..], attribute.info()));
+                s.scene
+                    .show_label_mesh(&mesh, &vertex_labels, table, spacing, values)?;
+                Ok(mesh)
+            })
+        }
+        None => labelled_mesh(grid).and_then(|(mesh, vertex_labels)| {
+            s.scene
+                .show_label_mesh(&mesh, &vertex_labels, table, spacing, None)?;
+            Ok(mesh)
+        }),
+    };
     match shown {
         Ok(mesh) => notify.send(Event::MeshShown {
             generation,
@@ -402,7 +415,8 @@ fn render(
         Ok(mut image) => {
             // The label under each pixel, through the labels of the grid uploaded.
             if let Some(labels) = s.labels.as_ref().and_then(|l| l.drawn().labels()) {
-                image.label = Some(isogrid_render::label_aov(labels, &image.cluster));
+                let mode = request.mode();
+                image.label = Some(isogrid_render::label_aov(labels, mode, &image.cluster));
             }
             notify.send(Event::Frame(Box::new(RenderedFrame {
                 request: id,
@@ -542,6 +556,99 @@ mod tests {
         });
         send(RenderMsg::LabelMesh { generation: 1 });
         assert_eq!(next_mesh(), fewer);
+    }
+
+    /// A label grid with an attribute in MC mode: the worker uploads its labels' meshes with their
+    /// values, and draws what `isogrid render --mode mc` draws of the same grid, coloured (not in
+    /// the labels' colours), naming the same labels.
+    #[test]
+    fn a_coloured_label_grid_draws_its_meshes_by_the_attribute_in_mc_mode() {
+        let volume = isogrid::generate::labelled_cubes(18);
+        let options = isogrid::LabelOptions::new(isogrid::LabelSelection::All);
+        let n = 18usize;
+        let field: Vec<f32> = (0..n * n * n).map(|i| (i % n) as f32).collect();
+        let field = isogrid::Volume::new([n; 3], isogrid::VolumeData::F32(field)).unwrap();
+        let extract = || {
+            let grid = isogrid::extract_labels(&volume.view(), &options).unwrap();
+            let attribute = isogrid::extract::attribute::sample_attribute_in_memory(
+                &grid,
+                &field.view(),
+                "x",
+                isogrid::AttributePrecision::Code16,
+            )
+            .unwrap();
+            grid.with_attribute(attribute).unwrap()
+        };
+        let size = (160u32, 120u32);
+        let mc = |color: bool| {
+            isogrid_render::RenderRequest::new(isogrid_render::RequestParts {
+                mode: Mode::Mc,
+                backend: isogrid_render::Backend::Gpu,
+                camera: isogrid_render::CameraSpec::View(2),
+                size,
+                color: color.then(isogrid_render::ColorSpec::default),
+                aovs: vec![isogrid_render::Aov::Label],
+                ..Default::default()
+            })
+            .unwrap()
+        };
+        let Some((worker, events)) = started_worker() else {
+            return;
+        };
+        let wait = Duration::from_secs(300);
+        let send = |m| worker.sender().send(m).unwrap();
+        send(first_grid(extract()));
+        send(RenderMsg::LabelMesh { generation: 1 });
+        send(RenderMsg::Render {
+            id: 9,
+            request: mc(true),
+        });
+        let viewer = loop {
+            match events.recv_timeout(wait).expect("the worker answers") {
+                Event::Frame(f) if f.request == 9 => break f.image,
+                Event::NotRendered { .. } => panic!("the worker did not render"),
+                Event::Error { message, .. } => panic!("{message}"),
+                _ => {}
+            }
+        };
+        let ctx = RenderContext::new();
+        let grid = extract();
+        let render = |request| {
+            isogrid_render::render(
+                &ctx,
+                &request,
+                isogrid_render::Placement::Gpu,
+                &grid,
+                None,
+                &Progress::new(),
+            )
+            .unwrap()
+        };
+        let (coloured, by_label) = (render(mc(true)), render(mc(false)));
+        let pixels = (size.0 * size.1) as usize;
+        let same = |a: &Rendered, b: &Rendered| {
+            (0..pixels)
+                .filter(|&i| a.rgb8[3 * i..3 * i + 3] == b.rgb8[3 * i..3 * i + 3])
+                .count()
+        };
+        let (like_render, like_labels) = (same(&viewer, &coloured), same(&viewer, &by_label));
+        eprintln!("viewer = render --mode mc on {like_render}/{pixels} pixels, = the label colours on {like_labels}");
+        assert!(like_render as f64 >= 0.999 * pixels as f64);
+        let hits = coloured.label.as_ref().unwrap();
+        let hit = hits.iter().filter(|&&l| l != u64::MAX).count();
+        assert!(hit > pixels / 10, "{hit} of {pixels} pixels hit");
+        assert!(
+            like_labels < pixels - hit / 2,
+            "the viewer drew the labels' colours"
+        );
+        let same_labels = |other: &Rendered| {
+            let other = other.label.as_ref().expect("a label AOV");
+            (0..pixels).filter(|&i| other[i] == hits[i]).count()
+        };
+        let (viewer_labels, uncoloured_labels) = (same_labels(&viewer), same_labels(&by_label));
+        eprintln!("labels as render's on {viewer_labels} (viewer), {uncoloured_labels} (uncoloured render)");
+        assert!(viewer_labels as f64 >= 0.999 * pixels as f64);
+        assert_eq!(uncoloured_labels, pixels);
     }
 
     /// A GPU request for view 2 at `size`, hiding `hide`, with the label AOV.

@@ -333,11 +333,11 @@ fn label_colours_past_one_binding_are_refused_in_plain_words() {
     r.set_page_bytes(needed - 1);
     let spacing = grid.info().spacing;
     let e = r
-        .upload_label_mesh(&mesh, &vertex_labels, &table, spacing)
+        .upload_label_mesh(&mesh, &vertex_labels, &table, spacing, None)
         .err();
     assert!(e.is_some_and(|e| e.to_string().contains("label colours")));
     r.set_page_bytes(needed);
-    r.upload_label_mesh(&mesh, &vertex_labels, &table, spacing)
+    r.upload_label_mesh(&mesh, &vertex_labels, &table, spacing, None)
         .unwrap();
 }
 

@@ -56,8 +56,34 @@ pub fn labelled_mesh(grid: &CellGrid) -> Result<(McMesh, Vec<u32>)> {
         "the mesh of every label",
         grid.active_cells() as u64 * 2 * MESH_BYTES_PER_CELL,
     )?;
-    let meshes = label_meshes(grid)?;
-    let vertices: usize = meshes.iter().map(|m| m.positions.len()).sum();
+    let meshes = label_meshes(grid)?.into_iter().map(|m| (m, None));
+    concatenated(meshes).map(|(mesh, labels, _)| (mesh, labels))
+}
+
+/// [`labelled_mesh`] with each vertex's value of the grid's attribute, as
+/// [`label_meshes_with_values`] gives them: what a renderer draws coloured by the attribute.
+/// Fails as [`labelled_mesh`] does, and for a grid without an attribute.
+pub fn labelled_mesh_with_values(grid: &CellGrid) -> Result<(McMesh, Vec<u32>, Vec<f32>)> {
+    if grid.attribute().is_none() {
+        return Err(Error::invalid(
+            "the grid has no attribute to take values from",
+        ));
+    }
+    crate::memory::ensure_fits(
+        "the mesh of every label",
+        grid.active_cells() as u64 * 2 * (MESH_BYTES_PER_CELL + 16),
+    )?;
+    let (mesh, labels, values) = concatenated(label_meshes_with_values(grid)?)?;
+    Ok((mesh, labels, values.unwrap_or_default()))
+}
+
+/// The meshes (and their values, where every one has them) one after another, with each
+/// vertex's mesh index.
+fn concatenated(
+    meshes: impl IntoIterator<Item = (McMesh, Option<Vec<f32>>)>,
+) -> Result<(McMesh, Vec<u32>, Option<Vec<f32>>)> {
+    let meshes: Vec<_> = meshes.into_iter().collect();
+    let vertices: usize = meshes.iter().map(|(m, _)| m.positions.len()).sum();
     if vertices > u32::MAX as usize {
         return Err(Error::invalid(
             "the labels' meshes need more than 2^32-1 vertices together",
@@ -65,17 +91,24 @@ pub fn labelled_mesh(grid: &CellGrid) -> Result<(McMesh, Vec<u32>)> {
     }
     let mut mesh = McMesh {
         positions: Vec::with_capacity(vertices),
-        triangles: Vec::with_capacity(meshes.iter().map(|m| m.triangles.len()).sum()),
+        triangles: Vec::with_capacity(meshes.iter().map(|(m, _)| m.triangles.len()).sum()),
     };
     let mut vertex_labels = Vec::with_capacity(vertices);
-    for (label, m) in meshes.into_iter().enumerate() {
+    let mut values = meshes
+        .iter()
+        .all(|(_, v)| v.is_some())
+        .then(|| Vec::with_capacity(vertices));
+    for (label, (m, v)) in meshes.into_iter().enumerate() {
         let first = mesh.positions.len() as u32;
         mesh.triangles
             .extend(m.triangles.iter().map(|t| t.map(|v| v + first)));
         mesh.positions.extend_from_slice(&m.positions);
         vertex_labels.resize(mesh.positions.len(), label as u32);
+        if let (Some(values), Some(v)) = (values.as_mut(), v) {
+            values.extend(v);
+        }
     }
-    Ok((mesh, vertex_labels))
+    Ok((mesh, vertex_labels, values))
 }
 
 /// The mesh of label `label` (its index in the table) of a label grid.

@@ -36,7 +36,9 @@ mod table;
 pub mod vtp;
 mod write;
 
-pub use cells::{label_mesh, label_meshes, label_meshes_with_values, labelled_mesh};
+pub use cells::{
+    label_mesh, label_meshes, label_meshes_with_values, labelled_mesh, labelled_mesh_with_values,
+};
 pub use mesh::{Inside, McMesh, MeshSpace};
 pub use snorm::SnormMesh;
 
