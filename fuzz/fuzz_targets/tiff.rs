@@ -10,7 +10,7 @@ libfuzzer_sys::fuzz_target!(|data: &[u8]| {
     isogrid_fuzz::fuzz_volume("in.tif", data, |path| {
         let pick = isogrid_io::AxisPick {
             indices: &index,
-            flag: "--index",
+            flag: isogrid_io::IndexFlag::Cli("--index"),
         };
         isogrid_io::tiff::read_tiff_indexed(path, pick)
     });

@@ -59,7 +59,7 @@ import operator
 import os
 import sys
 import warnings
-from typing import Any, Callable, Dict, Iterable, Iterator, Optional, Sequence, Tuple, Union
+from typing import Any, Callable, Dict, Iterable, Iterator, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
@@ -209,6 +209,8 @@ def extract(
     smooth: Optional[float] = None,
     label_table: Optional[PathLike] = None,
     labels_of: Optional[str] = None,
+    index: Optional[Dict[str, int]] = None,
+    attribute_index: Optional[Dict[str, int]] = None,
 ) -> CellGrid:
     """Extracts the active cells of a 3-D volume into clustered grid cells.
 
@@ -245,6 +247,11 @@ def extract(
         labels, smooth, label_table, labels_of: instead of an isovalue, the surfaces of a label
             volume's labels, as ``isogrid extract --labels`` gives them: the call is then
             :func:`extract_labels` (see there) with these arguments and the attribute.
+        index: when ``array`` is a path, the entry to read of each axis beyond x, y and z, as
+            :func:`load_volume` takes it (``{"t": 3}`` of a 4-D NIfTI file, ``{"c": 1}`` of a
+            Zarr image or TIFF hyperstack; ``isogrid extract --index``).
+        attribute_index: the same for an ``attribute`` given as a path (``--color-index``); the
+            attribute is then named after both, e.g. ``"pet.nii.gz t=3"``.
 
     The GIL is released while extracting; do not modify ``array`` from another thread meanwhile.
 
@@ -260,18 +267,20 @@ def extract(
             array, labels, smooth=smooth, spacing=spacing, precision=precision, threads=threads,
             series=series, origin=origin, direction=direction, label_table=label_table,
             labels_of=labels_of, progress=progress, attribute=attribute,
-            attribute_precision=attribute_precision,
+            attribute_precision=attribute_precision, index=index, attribute_index=attribute_index,
         )
     iso, iso_normalized = _iso_pair(iso, iso_normalized)
     if smooth is not None:
         raise ValueError("smooth smooths label indicators, and needs labels")
     if label_table is not None or labels_of is not None:
         raise ValueError("label_table and labels_of name the labels of labels=, and need it")
-    prepared, fortran, spacing3, origin, direction = _placed(array, series, spacing, origin, direction)
+    _attribute_index_needs_attribute(attribute, attribute_index)
+    prepared, fortran, spacing3, origin, direction = _placed(array, series, spacing, origin, direction, index)
     attribute_arg = None
     if attribute is not None:
         attribute_arg = _attribute_arg(
-            attribute, prepared, fortran, spacing3, origin, direction, _int(attribute_precision, "attribute_precision")
+            attribute, prepared, fortran, spacing3, origin, direction,
+            _int(attribute_precision, "attribute_precision"), attribute_index,
         )
     grid = _isogrid.extract(
         prepared,
@@ -305,6 +314,8 @@ def extract_labels(
     progress: Optional[Callable[[int, int], Any]] = None,
     attribute: Union[np.ndarray, Volume, PathLike, None] = None,
     attribute_precision: int = 16,
+    index: Optional[Dict[str, int]] = None,
+    attribute_index: Optional[Dict[str, int]] = None,
 ) -> LabelGrid:
     """Extracts the surface of every selected label of a label volume in one pass
     (``isogrid extract --labels``).
@@ -339,6 +350,8 @@ def extract_labels(
             (``isogrid extract --labels ... --color-by``), sampled at each active cell's surface
             point as :func:`extract` samples it: an array on the label volume's samples, or a
             :class:`Volume` or path resampled in world space.
+        index, attribute_index: the entries of axes beyond x, y and z to read of ``array`` and
+            ``attribute`` when they are paths, as :func:`extract` takes them.
 
     The GIL is released while extracting; do not modify ``array`` from another thread meanwhile.
 
@@ -367,14 +380,15 @@ def extract_labels(
             spacing=None if spacing is None else _triple(spacing, "spacing"),
             origin=None if origin is None else _triple(origin, "origin"),
             direction=None if direction is None else [_triple(row, "direction row") for row in direction],
+            index=_indices(index, "index"),
             **common,
         )
-        grid = _with_attribute_of(grid, attribute, attribute_precision, threads)
+        grid = _with_attribute_of(grid, attribute, attribute_precision, threads, attribute_index)
         _warn_if_empty(grid)
         return _with_notices(grid, notices)
     if labels_of is not None:
         raise ValueError("labels_of names a label image of an OME-Zarr image, and needs its path")
-    prepared, fortran, spacing3, origin, direction = _placed(array, series, spacing, origin, direction)
+    prepared, fortran, spacing3, origin, direction = _placed(array, series, spacing, origin, direction, index)
     grid, notices = _isogrid.extract_labels(
         prepared,
         fortran,
@@ -384,22 +398,29 @@ def extract_labels(
         direction=None if direction is None else [_triple(row, "direction row") for row in direction],
         **common,
     )
-    grid = _with_attribute_of(grid, attribute, attribute_precision, threads)
+    grid = _with_attribute_of(grid, attribute, attribute_precision, threads, attribute_index)
     _warn_if_empty(grid)
     return _with_notices(grid, notices)
 
 
-def _with_attribute_of(grid: CellGrid, attribute: Any, precision: int, threads: Optional[int]) -> Any:
-    """``grid`` with ``attribute`` (a path, a :class:`Volume`, or an array on the grid's samples
-    and geometry) sampled at its cells; ``grid`` itself without one."""
+def _with_attribute_of(
+    grid: CellGrid, attribute: Any, precision: int, threads: Optional[int], index: Optional[Dict[str, int]] = None
+) -> Any:
+    """``grid`` with ``attribute`` (a path, whose extra axes ``index`` picks from, a
+    :class:`Volume`, or an array on the grid's samples and geometry) sampled at its cells;
+    ``grid`` itself without one."""
+    _attribute_index_needs_attribute(attribute, index)
     if attribute is None:
         return grid
     bits = _int(precision, "attribute_precision")
     threads = None if threads is None else _int(threads, "threads", 1)
     if isinstance(attribute, (str, os.PathLike)):
-        return _isogrid._with_attribute(grid, attribute_path=os.fspath(attribute), bits=bits, threads=threads)
+        return _isogrid._with_attribute(
+            grid, attribute_path=os.fspath(attribute), bits=bits, threads=threads,
+            attribute_index=_indices(index, "attribute_index"),
+        )
     info = grid.info
-    attribute = _volume_of(attribute)
+    attribute = _volume_of(attribute, index=index, keyword="attribute_index")
     prepared, fortran = _prepare(attribute)
     if isinstance(attribute, Volume):
         place = (attribute.spacing, attribute.origin, attribute.direction)
@@ -425,10 +446,12 @@ def _placed(
     spacing: Optional[Sequence[float]],
     origin: Optional[Sequence[float]],
     direction: Optional[Sequence[Sequence[float]]],
+    index: Optional[Dict[str, int]] = None,
 ) -> Tuple[np.ndarray, bool, Triple, Any, Any]:
-    """The samples of ``array`` (an array, a Volume or a path) as the extension takes them, with
-    its spacing, origin and direction: the arguments where given, else a Volume's own."""
-    array = _volume_of(array, series)
+    """The samples of ``array`` (an array, a Volume or a path, whose extra axes ``index`` picks
+    from) as the extension takes them, with its spacing, origin and direction: the arguments
+    where given, else a Volume's own."""
+    array = _volume_of(array, series, index)
     spacing3 = _spacing_of(array, spacing)
     if isinstance(array, Volume):
         origin = array.origin if origin is None else origin
@@ -480,11 +503,17 @@ def _attribute_arg(
     origin: Optional[Sequence[float]],
     direction: Optional[Sequence[Sequence[float]]],
     bits: int,
+    index: Optional[Dict[str, int]] = None,
 ) -> Tuple[Any, ...]:
     """The attribute of :func:`extract` as the extension takes it: (array, fortran, spacing,
-    origin, direction, name, bits)."""
-    name = os.path.basename(os.fspath(attribute)) if isinstance(attribute, (str, os.PathLike)) else "attribute"
-    attribute = _volume_of(attribute)
+    origin, direction, name, bits); a path's extra axes picked by ``index`` (``attribute_index``)
+    and named with it, as the CLI names ``--color-by FILE --color-index t=3``."""
+    name = "attribute"
+    if isinstance(attribute, (str, os.PathLike)):
+        name = os.path.basename(os.fspath(attribute))
+        if index:
+            name += " " + ",".join(f"{a}={i}" for a, i in (_indices(index, "attribute_index") or []))
+    attribute = _volume_of(attribute, index=index, keyword="attribute_index")
     prepared, attribute_fortran = _prepare(attribute)
     if isinstance(attribute, Volume):
         return (prepared, attribute_fortran, attribute.spacing, attribute.origin, attribute.direction, name, bits)
@@ -565,13 +594,33 @@ def load_volume(
             raise ValueError(f"raw_shape must be three positive integers (nx, ny, nz), not {tuple(raw_shape)}")
     if series is not None and not isinstance(series, str):
         raise TypeError(f"series must be a SeriesInstanceUID string, not {type(series).__name__}")
-    indices = None if index is None else [(str(a), _int(i, "index", 0)) for a, i in dict(index).items()]
+    return _load(path, shape, dtype_name, bool(big_endian), series, _int(level, "level", 0), index, "index")
+
+
+def _load(path: PathLike, shape: Optional[Sequence[int]], dtype_name: Optional[str], big_endian: bool,
+          series: Optional[str], level: int, index: Optional[Dict[str, int]], keyword: str) -> Volume:
+    """:func:`load_volume` with its arguments checked; errors about ``index`` name ``keyword``
+    (``index`` or ``attribute_index``), the argument that gave it."""
     d = _isogrid.load_volume(
-        os.fspath(path), shape, dtype_name, bool(big_endian), series, _int(level, "level", 0), indices
+        os.fspath(path), shape, dtype_name, big_endian, series, level, _indices(index, keyword), keyword
     )
     for notice in d["notices"]:
-        warnings.warn(f"{os.fspath(path)}: {notice}", UserWarning, stacklevel=2)
+        warnings.warn(f"{os.fspath(path)}: {notice}", UserWarning, stacklevel=_caller_level())
     return Volume(d["array"], d["spacing"], d["origin"], d["direction"])
+
+
+def _attribute_index_needs_attribute(attribute: Any, attribute_index: Optional[Dict[str, int]]) -> None:
+    if attribute is None and attribute_index is not None:
+        raise ValueError("attribute_index picks from the axes of an attribute path, and needs attribute")
+
+
+def _indices(index: Optional[Dict[str, int]], name: str) -> Optional[List[Tuple[str, int]]]:
+    """``index`` (``{"t": 3}``) as the extension takes it: (axis, entry) pairs."""
+    if index is None:
+        return None
+    if not isinstance(index, dict):
+        raise TypeError(f"{name} must be a dict of axis name to entry, e.g. {{'t': 0}}, not {type(index).__name__}")
+    return [(str(a), _int(i, name, 0)) for a, i in index.items()]
 
 
 def marching_cubes(
@@ -584,6 +633,8 @@ def marching_cubes(
     space: str = "world",
     attribute: Union[np.ndarray, Volume, PathLike, None] = None,
     progress: Optional[Callable[[int, int], Any]] = None,
+    index: Optional[Dict[str, int]] = None,
+    attribute_index: Optional[Dict[str, int]] = None,
 ) -> Tuple[np.ndarray, ...]:
     """Marching Cubes isosurface of a 3-D volume: the indexed mesh baseline of the paper.
 
@@ -593,7 +644,9 @@ def marching_cubes(
     :class:`Volume` or path resampled in world space): its trilinear value at every vertex comes
     back as a third array, float32 of shape (V,), NaN outside it. ``progress`` is called as
     ``progress(done, total)`` (sample planes) while it runs; if it raises, or on Ctrl-C, the work
-    stops within a slab and the exception is raised.
+    stops within a slab and the exception is raised. ``index`` and ``attribute_index`` pick the
+    entries of extra axes of ``array`` and ``attribute`` when they are paths, as for
+    :func:`extract`.
 
     Returns:
         ``(vertices, faces)``: vertices float32 of shape (V, 3) as **(x, y, z)**. In ``"world"``
@@ -610,16 +663,17 @@ def marching_cubes(
         :func:`extract`.
     """
     iso, iso_normalized = _iso_pair(iso, iso_normalized)
-    array = _volume_of(array, series)
+    array = _volume_of(array, series, index)
     spacing3 = _spacing_of(array, spacing)
     if space not in ("world", "index"):
         raise ValueError(f"space must be 'world' or 'index', not {space!r}")
     origin = array.origin if isinstance(array, Volume) else None
     direction = array.direction if isinstance(array, Volume) else None
     prepared, fortran = _prepare(array)
+    _attribute_index_needs_attribute(attribute, attribute_index)
     attribute_arg = None
     if attribute is not None:
-        attribute_arg = _attribute_arg(attribute, prepared, fortran, spacing3, origin, direction, 32)
+        attribute_arg = _attribute_arg(attribute, prepared, fortran, spacing3, origin, direction, 32, attribute_index)
     mesh = _isogrid.marching_cubes(
         prepared,
         fortran,
@@ -870,13 +924,22 @@ def _prepare(array: Any) -> Tuple[np.ndarray, bool]:
     return np.require(a, dtype=_sample_dtype(a.dtype), requirements=[order, "A"]), fortran
 
 
-def _volume_of(array: Any, series: Optional[str] = None) -> Any:
-    """A path is read with :func:`load_volume` (picking DICOM ``series``); arrays and Volumes
-    pass through."""
+def _volume_of(
+    array: Any, series: Optional[str] = None, index: Optional[Dict[str, int]] = None, keyword: str = "index"
+) -> Any:
+    """A path is read with :func:`load_volume` (picking DICOM ``series`` and the entries
+    ``index``, given as the argument ``keyword``); arrays and Volumes pass through."""
     if isinstance(array, (str, os.PathLike)):
-        return load_volume(array, series=series)
+        if series is not None and not isinstance(series, str):
+            raise TypeError(f"series must be a SeriesInstanceUID string, not {type(series).__name__}")
+        return _load(array, None, None, False, series, 0, index, keyword)
     if series is not None:
         raise ValueError("series picks a DICOM series when reading a path; this input is not a path")
+    if index is not None:
+        raise ValueError(
+            f"{keyword} picks entries of a path's axes beyond x, y and z; this input is an array or "
+            "Volume already (slice it, or give load_volume's index= when loading it)"
+        )
     return array
 
 

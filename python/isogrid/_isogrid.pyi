@@ -116,6 +116,7 @@ def extract_labels_file(
     origin: Optional[Sequence[float]] = None,
     direction: Optional[Sequence[Sequence[float]]] = None,
     progress: Optional[Callable[[int, int], Any]] = None,
+    index: Optional[Sequence[Tuple[str, int]]] = None,
 ) -> Tuple[LabelGrid, List[str]]: ...
 def load(path: _Path) -> Union[CellGrid, LabelGrid]: ...
 def _attach_attribute(
@@ -124,6 +125,7 @@ def _attach_attribute(
     array: Optional[Tuple[Any, ...]] = None,
     bits: int = 16,
     threads: Optional[int] = None,
+    attribute_index: Optional[Sequence[Tuple[str, int]]] = None,
 ) -> None: ...
 def _with_attribute(
     grid: CellGrid,
@@ -131,6 +133,7 @@ def _with_attribute(
     array: Optional[Tuple[Any, ...]] = None,
     bits: int = 16,
     threads: Optional[int] = None,
+    attribute_index: Optional[Sequence[Tuple[str, int]]] = None,
 ) -> Union[CellGrid, LabelGrid]: ...
 def _empty_surface_note(grid: CellGrid, all_nan: bool = False) -> str: ...
 def _isosurface_empty_note(
@@ -168,6 +171,7 @@ def load_volume(
     series: Optional[str] = None,
     level: int = 0,
     index: Optional[Sequence[Tuple[str, int]]] = None,
+    index_keyword: str = "index",
 ) -> Dict[str, Any]: ...
 def voxelize(
     vertices: npt.NDArray[np.float32],

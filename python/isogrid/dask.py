@@ -76,7 +76,19 @@ try:
 except ImportError as err:  # pragma: no cover - depends on the environment
     raise ImportError("isogrid.dask needs dask: pip install 'isogrid[dask]'") from err
 
-from . import _isogrid, _int, _iso_pair, _label_selection, _prepare, _sample_dtype, _triple, _warn_if_empty
+from . import (
+    _attribute_index_needs_attribute,
+    _indices,
+    _isogrid,
+    _int,
+    _iso_pair,
+    _label_selection,
+    _prepare,
+    _sample_dtype,
+    _triple,
+    _volume_of,
+    _warn_if_empty,
+)
 
 __all__ = ["extract"]
 
@@ -106,6 +118,7 @@ def extract(
     labels: Any = None,
     smooth: Optional[float] = None,
     label_table: "Optional[str | os.PathLike[str]]" = None,
+    attribute_index: Optional[Dict[str, int]] = None,
 ) -> Dict[str, Any]:
     """Extracts the active cells of a 3-D volume on Dask and writes them to the ``.cgc`` ``output``.
 
@@ -146,6 +159,8 @@ def extract(
             once the surface is extracted (the labels' surfaces too); the file is the one
             ``isogrid.extract(..., attribute=...)`` writes.
         attribute_precision: bits per stored attribute value, 8, 16 or 32.
+        attribute_index: with an ``attribute`` path, the entry to read of each of its axes beyond
+            x, y and z, e.g. ``{"t": 3}`` (``isogrid extract --color-index``).
         labels: instead of an isovalue, the surface of each label of a label volume, as
             :func:`isogrid.extract` takes it (``"all"``, a label, a list, or ``"1,5-9"``); the
             statistics then list the labels (``stats["labels"]``, as ``LabelGrid.labels``). An
@@ -219,6 +234,7 @@ def extract(
                                          _label_selection(labels), 0.0 if smooth is None else float(smooth),
                                          bits, path, label_table, names_of),
             attribute, ((nx, ny, nz), spacing3, origin3, geometry["direction"]), attribute_precision,
+            attribute_index,
         )
         stats["seconds"] = {"read": read, "extract": time.perf_counter() - start - read, "write": 0.0}
         return stats
@@ -270,7 +286,7 @@ def extract(
     )
     stats = _written_with_attribute(
         out, lambda path: extraction.write(path, emits), attribute,
-        ((nx, ny, nz), spacing3, origin3, geometry["direction"]), attribute_precision,
+        ((nx, ny, nz), spacing3, origin3, geometry["direction"]), attribute_precision, attribute_index,
     )
     stats["seconds"] = {"read": read, "extract": time.perf_counter() - start - read, "write": 0.0}
     if stats["active_cells"] == 0:
@@ -379,18 +395,20 @@ class _Counter:
 
 
 def _written_with_attribute(out: str, write: Callable[[str], Dict[str, Any]], attribute: Any,
-                            grid: Tuple[Any, ...], precision: int) -> Dict[str, Any]:
+                            grid: Tuple[Any, ...], precision: int,
+                            index: Optional[Dict[str, int]]) -> Dict[str, Any]:
     """Writes the grid with `write(path)` (which gives its statistics) to `out`. With an
     attribute, the grid goes to a file beside the output, gets its attribute (`grid`: the
     surface's dims, spacing, origin and direction), then takes the output's name: on any error
     nothing is left under it."""
+    _attribute_index_needs_attribute(attribute, index)
     if attribute is None:
         return write(out)
     bits = _int(precision, "attribute_precision")
     surface = os.path.join(os.path.dirname(os.path.abspath(out)), f".{os.path.basename(out)}.surface{os.getpid()}")
     try:
         stats = write(surface)
-        _attach_attribute(surface, attribute, *grid, bits)
+        _attach_attribute(surface, attribute, *grid, bits, index)
         os.replace(surface, out)
     finally:
         if os.path.exists(surface):
@@ -400,13 +418,16 @@ def _written_with_attribute(out: str, write: Callable[[str], Dict[str, Any]], at
 
 
 def _attach_attribute(path: str, attribute: Any, dims: Tuple[int, int, int], spacing: Tuple[float, ...],
-                      origin: Tuple[float, ...], direction: Any, bits: int) -> None:
-    """Samples `attribute` (a path, or an array [z, y, x] on the surface's samples) at the cells
-    of the `.cgc` file `path`, rewriting it."""
+                      origin: Tuple[float, ...], direction: Any, bits: int,
+                      index: Optional[Dict[str, int]]) -> None:
+    """Samples `attribute` (a path, whose extra axes `index` picks from, or an array [z, y, x]
+    on the surface's samples) at the cells of the `.cgc` file `path`, rewriting it."""
     if isinstance(attribute, (str, os.PathLike)):
-        _isogrid._attach_attribute(path, attribute_path=os.fspath(attribute), bits=bits)
+        _isogrid._attach_attribute(
+            path, attribute_path=os.fspath(attribute), bits=bits, attribute_index=_indices(index, "attribute_index")
+        )
         return
-    array = np.asarray(attribute)
+    array = np.asarray(_volume_of(attribute, index=index, keyword="attribute_index"))
     if array.shape != dims[::-1]:
         raise ValueError(
             f"an attribute array of shape {array.shape} (z, y, x) lies on the surface's samples, "

@@ -157,7 +157,7 @@ pub fn extract_labels<'py>(
 /// the image at `path` with `labels_of` naming one of its label images), then `label_table`'s.
 /// `spacing`, `origin` and `direction` replace the file's. Returns the grid and notices.
 #[pyfunction]
-#[pyo3(signature = (path, labels, smooth=0.0, precision=None, threads=None, labels_of=None, label_table=None, series=None, spacing=None, origin=None, direction=None, progress=None))]
+#[pyo3(signature = (path, labels, smooth=0.0, precision=None, threads=None, labels_of=None, label_table=None, series=None, spacing=None, origin=None, direction=None, progress=None, index=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn extract_labels_file<'py>(
     py: Python<'py>,
@@ -173,15 +173,19 @@ pub fn extract_labels_file<'py>(
     origin: Option<Vec<f64>>,
     direction: Option<Vec<Vec<f64>>>,
     progress: Option<Bound<'py, PyAny>>,
+    index: Option<Vec<(String, u64)>>,
 ) -> PyResult<(Bound<'py, PyAny>, Vec<String>)> {
     let options = label_options(labels, smooth, precision)?;
     check_callback(progress.as_ref())?;
     let table = read_table(py, label_table.as_deref())?;
     let place = crate::array::Placement::new(spacing, origin, direction)?;
-    let read_options = isogrid_io::ReadOptions {
+    let mut read_options = isogrid_io::ReadOptions {
         series,
         ..Default::default()
     };
+    read_options.zarr.indices = index.unwrap_or_default();
+    read_options.zarr.index_flag = isogrid_io::IndexFlag::Python("index");
+    read_options.zarr.trusted_certificates = isogrid_io::ssl_cert_file_from_env();
     let (mut source, mut notices) = py
         .detach(|| isogrid_io::labels::read_labels_of(&path, labels_of.as_deref(), &read_options))
         .map_err(to_py)?;
@@ -278,7 +282,7 @@ pub fn _empty_surface_note(grid: &Bound<'_, CellGrid>, all_nan: bool) -> String 
 /// sampled at each active cell's surface point; the file is rewritten atomically. For
 /// `isogrid.dask.extract`, whose driver writes the surface first.
 #[pyfunction]
-#[pyo3(signature = (path, attribute_path=None, array=None, bits=16, threads=None))]
+#[pyo3(signature = (path, attribute_path=None, array=None, bits=16, threads=None, attribute_index=None))]
 pub fn _attach_attribute(
     py: Python<'_>,
     path: PathBuf,
@@ -286,9 +290,11 @@ pub fn _attach_attribute(
     array: Option<AttributeArg<'_, '_>>,
     bits: u32,
     threads: Option<usize>,
+    attribute_index: Option<Vec<(String, u64)>>,
 ) -> PyResult<()> {
     let grid = py.detach(|| isogrid::cgc::open(&path)).map_err(to_py)?;
-    let sampled = sampled_attribute(py, &grid, attribute_path, array, bits, threads)?;
+    let path_of = attribute_path.map(|p| (p, attribute_index.unwrap_or_default()));
+    let sampled = sampled_attribute(py, &grid, path_of, array, bits, threads)?;
     let grid = grid.with_attribute(sampled).map_err(to_py)?;
     py.detach(|| isogrid::cgc::write(&path, &grid))
         .map_err(to_py)
@@ -298,7 +304,7 @@ pub fn _attach_attribute(
 /// `array`, sampled as [`_attach_attribute`] samples it. For `extract_labels(..., attribute=)`,
 /// whose label extraction comes first.
 #[pyfunction]
-#[pyo3(signature = (grid, attribute_path=None, array=None, bits=16, threads=None))]
+#[pyo3(signature = (grid, attribute_path=None, array=None, bits=16, threads=None, attribute_index=None))]
 pub fn _with_attribute<'py>(
     py: Python<'py>,
     grid: &Bound<'py, CellGrid>,
@@ -306,9 +312,11 @@ pub fn _with_attribute<'py>(
     array: Option<AttributeArg<'_, 'py>>,
     bits: u32,
     threads: Option<usize>,
+    attribute_index: Option<Vec<(String, u64)>>,
 ) -> PyResult<Bound<'py, PyAny>> {
     let inner = grid.get().inner();
-    let sampled = sampled_attribute(py, inner, attribute_path, array, bits, threads)?;
+    let path_of = attribute_path.map(|p| (p, attribute_index.unwrap_or_default()));
+    let sampled = sampled_attribute(py, inner, path_of, array, bits, threads)?;
     // The grid is frozen: the copy goes through its bytes, checked again as any file's are.
     let copy = py
         .detach(|| isogrid::cgc::read_bytes(&isogrid::cgc::to_bytes(inner)))
@@ -316,12 +324,13 @@ pub fn _with_attribute<'py>(
     CellGrid::wrap(py, copy.with_attribute(sampled).map_err(to_py)?)
 }
 
-/// The attribute of the volume file `attribute_path` (read by region where its format allows) or
-/// of `array`, sampled at each active cell's surface point of `grid`, at `bits`.
+/// The attribute of the volume file `attribute_path` (read by region where its format allows,
+/// with the entries of its extra axes given as `attribute_index`) or of `array`, sampled at each
+/// active cell's surface point of `grid`, at `bits`.
 fn sampled_attribute(
     py: Python<'_>,
     grid: &isogrid::CellGrid,
-    attribute_path: Option<PathBuf>,
+    attribute_path: Option<(PathBuf, Vec<(String, u64)>)>,
     array: Option<AttributeArg<'_, '_>>,
     bits: u32,
     threads: Option<usize>,
@@ -332,11 +341,19 @@ fn sampled_attribute(
         ))
     })?;
     match (attribute_path, array) {
-        (Some(attribute_path), None) => {
-            let name = attribute_path
+        (Some((attribute_path, indices)), None) => {
+            let mut name = attribute_path
                 .file_name()
                 .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
-            let options = isogrid_io::ReadOptions::default();
+            // Named as the CLI names it: `pet.nii.gz t=3`.
+            if !indices.is_empty() {
+                let picked: Vec<String> = indices.iter().map(|(a, i)| format!("{a}={i}")).collect();
+                name = format!("{name} {}", picked.join(","));
+            }
+            let mut options = isogrid_io::ReadOptions::default();
+            options.zarr.indices = indices;
+            options.zarr.index_flag = isogrid_io::IndexFlag::Python("attribute_index");
+            options.zarr.trusted_certificates = isogrid_io::ssl_cert_file_from_env();
             run_detached(py, threads, move || -> isogrid::Result<_> {
                 match isogrid_io::open_region(&attribute_path, &options)? {
                     Some(mut region) => sample_attribute(grid, region.as_mut(), &name, precision),

@@ -20,9 +20,10 @@ use std::path::PathBuf;
 /// user, e.g. other DICOM series left out). `series` picks a DICOM series by
 /// SeriesInstanceUID, as the CLI's `--series`.
 #[pyfunction]
-#[pyo3(signature = (path, raw_shape=None, raw_dtype=None, big_endian=false, series=None, level=0, index=None))]
-pub fn load_volume(
-    py: Python<'_>,
+#[pyo3(signature = (path, raw_shape=None, raw_dtype=None, big_endian=false, series=None, level=0, index=None, index_keyword="index"))]
+#[allow(clippy::too_many_arguments)]
+pub fn load_volume<'py>(
+    py: Python<'py>,
     path: PathBuf,
     raw_shape: Option<[usize; 3]>,
     raw_dtype: Option<String>,
@@ -30,7 +31,8 @@ pub fn load_volume(
     series: Option<String>,
     level: usize,
     index: Option<Vec<(String, u64)>>,
-) -> PyResult<Bound<'_, PyDict>> {
+    index_keyword: &str,
+) -> PyResult<Bound<'py, PyDict>> {
     let raw = match (raw_shape, raw_dtype.as_deref()) {
         (None, None) => None,
         (Some(dims), Some(name)) => Some(RawSpec {
@@ -51,7 +53,7 @@ pub fn load_volume(
             level,
             indices: index.unwrap_or_default(),
             trusted_certificates: isogrid_io::ssl_cert_file_from_env(),
-            ..ZarrOptions::default()
+            index_flag: index_flag(index_keyword)?,
         },
     };
     let (volume, notices) = py
@@ -60,6 +62,18 @@ pub fn load_volume(
     let d = volume_dict(py, volume)?;
     d.set_item("notices", notices)?;
     Ok(d)
+}
+
+/// The keyword argument that picks entries of extra axes (`index`, or `attribute_index` for the
+/// volume a surface is coloured by), as the readers' errors name it.
+pub(crate) fn index_flag(keyword: &str) -> PyResult<isogrid_io::IndexFlag> {
+    match keyword {
+        "index" => Ok(isogrid_io::IndexFlag::Python("index")),
+        "attribute_index" => Ok(isogrid_io::IndexFlag::Python("attribute_index")),
+        other => Err(invalid(format!(
+            "index_keyword must be 'index' or 'attribute_index', not {other:?}"
+        ))),
+    }
 }
 
 /// For `isogrid.dask`: the array path of level `level` of the OME-Zarr image at `location`, whose
@@ -88,6 +102,7 @@ pub fn _zarr_selection<'py>(
     let options = ZarrOptions {
         level,
         indices: index.unwrap_or_default(),
+        index_flag: isogrid_io::IndexFlag::Python("index"),
         ..ZarrOptions::default()
     };
     let selection = isogrid_io::region::zarr::select(group_attrs, axes, &shape, &options, location)

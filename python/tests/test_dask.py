@@ -446,6 +446,24 @@ def test_an_attribute_gives_the_bytes_of_extract_with_it(tmp_path):
         isogrid.dask.extract(str(store), iso_normalized=0.5, output=tmp_path / "bad.cgc",
                              attribute=np.zeros((3, 3, 3), np.float32))
     assert not (tmp_path / "bad.cgc").exists()
+    # One channel of a (c, z, y, x) Zarr as the attribute: attribute_index picks it, as
+    # extract's does, and an attribute without it fails naming the argument.
+    channels = tmp_path / "channels.zarr"
+    zc = zarr.open(str(channels), mode="w", shape=(2, *a.shape), chunks=(1, *CHUNKS), dtype=np.float32,
+                   dimension_names=["c", "z", "y", "x"], zarr_format=3)
+    zc[0], zc[1] = field, -field
+    expected = isogrid.extract(a, iso_normalized=0.5, attribute=channels, attribute_index={"c": 1})
+    assert expected.attribute_info["name"] == "channels.zarr c=1"
+    np.testing.assert_array_equal(
+        expected.attribute, isogrid.extract(a, iso_normalized=0.5, attribute=-field).attribute
+    )
+    out = tmp_path / "channel.cgc"
+    isogrid.dask.extract(str(store), iso_normalized=0.5, output=out, tile_bytes=TILE_BYTES,
+                         attribute=channels, attribute_index={"c": 1})
+    assert out.read_bytes() == expected.to_bytes()
+    with pytest.raises(ValueError, match=r'with attribute_index=, e.g. attribute_index=\{"c": 0\}'):
+        isogrid.dask.extract(str(store), iso_normalized=0.5, output=tmp_path / "bad.cgc", attribute=channels)
+    assert not (tmp_path / "bad.cgc").exists()
     assert not [p for p in os.listdir(tmp_path) if p.startswith(".")]
 
 

@@ -133,9 +133,9 @@ def test_a_4d_nifti_gives_the_volume_index_t_picks(cli, tmp_path):
             np.testing.assert_array_equal(vol.array, data[..., t].transpose())
             assert vol.spacing == (2.0, 2.0, 2.5) and vol.origin == (-10.0, 4.0, 7.5)
         for index, message in [
-            (None, r"4-D NIfTI file of 5 volumes \(t=0\.\.4\): pass --index t=N"),
-            ({"t": 5}, "t=5 is out of range"),
-            ({"c": 0}, "names c, which is not an axis of this NIfTI file of 5 volumes"),
+            (None, r'4-D NIfTI file of 5 volumes \(t=0\.\.4\): pass index=\{"t": N\} to read one'),
+            ({"t": 5}, r'index=\{"t": 5\} is out of range'),
+            ({"c": 0}, "index= names c, which is not an axis of this NIfTI file of 5 volumes"),
         ]:
             with pytest.raises(ValueError, match=message):
                 isogrid.load_volume(tmp_path / name, index=index)
@@ -185,6 +185,54 @@ def test_a_4d_nifti_gives_the_volume_index_t_picks(cli, tmp_path):
     ]:
         run, out = colored(*extra)
         assert run.returncode == 1 and message in run.stderr and not out.exists(), run.stderr
+
+    # Python reads the paths as the CLI does: index= and attribute_index= give its bytes, and the
+    # errors name the keyword arguments.
+    run, out = colored("--color-index", "t=4")
+    from_paths = isogrid.extract(
+        tmp_path / "bold.nii", iso=0.5, index={"t": 3}, attribute=tmp_path / "bold.nii.gz",
+        attribute_index={"t": 4},
+    )
+    assert from_paths.to_bytes() == out.read_bytes()
+    vertices, _, values = isogrid.marching_cubes(
+        tmp_path / "bold.nii", iso=0.5, index={"t": 3}, attribute=tmp_path / "bold.nii.gz", attribute_index={"t": 4}
+    )
+    reference_mesh = isogrid.marching_cubes(
+        isogrid.load_volume(tmp_path / "bold.nii", index={"t": 3}), iso=0.5,
+        attribute=isogrid.load_volume(tmp_path / "bold.nii.gz", index={"t": 4}),
+    )
+    np.testing.assert_array_equal(vertices, reference_mesh[0])
+    np.testing.assert_array_equal(values, reference_mesh[2])
+    labels = (data[..., 0] > 0.5).astype(np.uint8) + (data[..., 1] > 0.5)
+    stack = np.stack([labels, 2 - labels], axis=-1)
+    nib.save(nib.Nifti1Image(np.asfortranarray(stack), affine), tmp_path / "labels4d.nii.gz")
+    by_path = isogrid.extract_labels(
+        tmp_path / "labels4d.nii.gz", index={"t": 1}, attribute=tmp_path / "bold.nii.gz", attribute_index={"t": 4}
+    )
+    by_volume = isogrid.extract_labels(
+        isogrid.load_volume(tmp_path / "labels4d.nii.gz", index={"t": 1}),
+        attribute=isogrid.load_volume(tmp_path / "bold.nii.gz", index={"t": 4}),
+    )
+    assert by_path.labels == by_volume.labels and len(by_path.labels) == 2
+    np.testing.assert_array_equal(by_path.attribute, by_volume.attribute)
+    assert by_path.attribute_info["name"] == "bold.nii.gz t=4"
+    for call, message in [
+        (lambda: isogrid.extract(tmp_path / "bold.nii", iso=0.5), r'pass index=\{"t": N\} to read one'),
+        (
+            lambda: isogrid.extract(tmp_path / "bold.nii", iso=0.5, index={"t": 3}, attribute=tmp_path / "bold.nii.gz"),
+            r'pass attribute_index=\{"t": N\} to read one',
+        ),
+        (
+            lambda: isogrid.extract_labels(tmp_path / "labels4d.nii.gz", index={"t": 1}, attribute=tmp_path / "bold.nii.gz",
+                                           attribute_index={"t": 9}),
+            r'attribute_index=\{"t": 9\} is out of range',
+        ),
+        (lambda: isogrid.extract_labels(tmp_path / "labels4d.nii.gz"), r'pass index=\{"t": N\}'),
+        (lambda: isogrid.extract(data[..., 0], iso=0.5, index={"t": 0}), "this input is an array or Volume already"),
+        (lambda: isogrid.extract(tmp_path / "bold.nii", iso=0.5, index={"t": 0}, attribute_index={"t": 0}), "needs attribute"),
+    ]:
+        with pytest.raises(ValueError, match=message):
+            call()
 
 
 def test_mni_template_if_fetched():

@@ -196,6 +196,22 @@ def test_vtp_holds_the_glb_meshes_with_each_triangles_label_name_and_colour(cli,
         np.testing.assert_array_equal(triangles, glb[value][3])
 
 
+def test_vtp_labels_keep_their_values_beyond_int64_and_below_zero(cli, tmp_path):
+    """Connectomics ids past 2^63 are a UInt64 cell array; a signed volume's negative labels an
+    Int64 one."""
+    a = _labels()
+    for dtype, values in ((np.uint64, [2**63 + 5, 2**64 - 2]), (np.int32, [-7, 12])):
+        b = np.zeros(a.shape, dtype)
+        b[a == 4], b[a == 9] = values
+        path = tmp_path / f"{np.dtype(dtype).name}.npy"
+        np.save(path, b)
+        _mc(cli, path, tmp_path / f"{np.dtype(dtype).name}.vtp")
+        vtp, whole = _vtp_meshes(tmp_path / f"{np.dtype(dtype).name}.vtp")
+        assert whole.cell_data["label"].dtype == (np.uint64 if dtype == np.uint64 else np.int64)
+        assert sorted(vtp) == sorted(values)
+        assert sorted(whole.field_data["label_values"].tolist()) == sorted(values)
+
+
 def test_label_meshes_carry_the_color_by_values_at_their_vertices(cli, tmp_path):
     """``mc --labels --color-by``: a field linear in position, which trilinear sampling gives
     exactly, at every vertex of every label, in the .glb's ``_VALUE`` and the .vtp's point array

@@ -14,7 +14,7 @@ use isogrid::extract::attribute::{
     sample_points_in_memory, Alignment,
 };
 use isogrid::{AttributePrecision, CellAttribute, CellGrid};
-use isogrid_io::ReadOptions;
+use isogrid_io::{IndexFlag, ReadOptions};
 use std::path::{Path, PathBuf};
 
 /// `--attribute-precision BITS`.
@@ -96,7 +96,7 @@ impl AttributeInput {
             let indices = parse_indices(text, "--color-by").map_err(anyhow::Error::msg)?;
             let mut options = input_options.clone();
             options.zarr.indices = indices;
-            options.zarr.index_flag = "--color-by";
+            options.zarr.index_flag = IndexFlag::Cli("--color-by");
             return Ok(AttributeInput {
                 path: input.to_path_buf(),
                 options,
@@ -105,7 +105,7 @@ impl AttributeInput {
         }
         let mut options = ReadOptions::default();
         options.zarr.trusted_certificates = input_options.zarr.trusted_certificates.clone();
-        options.zarr.index_flag = "--color-index";
+        options.zarr.index_flag = IndexFlag::Cli("--color-index");
         let mut name = as_path
             .file_name()
             .map_or_else(|| text.to_string(), |n| n.to_string_lossy().into_owned());

@@ -46,7 +46,7 @@ pub use nrrd::{read_nrrd, write_nrrd};
 pub use raw::{read_raw, RawSpec};
 pub use read::{read_volume, read_volume_noted, read_volume_with_progress};
 pub use read_options::ssl_cert_file_from_env;
-pub use read_options::{AxisPick, ReadOptions};
+pub use read_options::{AxisPick, IndexFlag, ReadOptions};
 pub use region::{open_region, ZarrOptions};
 pub use tiff::read_tiff;
 pub use vti::read_vti;

@@ -83,7 +83,8 @@ impl Header {
             }
             if *index >= t as u64 {
                 return Err(Error::invalid(format!(
-                    "{flag} t={index} is out of range: this is a {described}"
+                    "{} is out of range: this is a {described}",
+                    flag.with(&[(name, &index.to_string())])
                 )));
             }
         }
@@ -91,7 +92,8 @@ impl Header {
             Some(&(_, index)) => Ok(index as usize),
             None if t == 1 => Ok(0),
             None => Err(Error::invalid(format!(
-                "this is a 4-D {described}: pass {flag} t=N to read one"
+                "this is a 4-D {described}: pass {} to read one",
+                flag.with(&[("t", "N")])
             ))),
         }
     }

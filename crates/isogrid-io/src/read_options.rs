@@ -26,9 +26,50 @@ pub struct ZarrOptions {
     /// Mozilla's (a site's own certificate authority); front ends take it from
     /// [`ssl_cert_file_from_env`].
     pub trusted_certificates: Option<std::path::PathBuf>,
-    /// The flag that gave `indices`, which errors about them name (`--index`; `--color-index`
-    /// for the file a surface is coloured by).
-    pub index_flag: &'static str,
+    /// The option that gave `indices`, which errors about them name (`--index`; `--color-index`
+    /// for the file a surface is coloured by; Python's `index=`).
+    pub index_flag: IndexFlag,
+}
+
+/// The option that picks entries of axes beyond x, y and z, as errors write it: a command-line
+/// flag (`--index t=3,c=0`) or a Python keyword argument (`index={"t": 3, "c": 0}`), so each
+/// front end's errors name what its users type.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum IndexFlag {
+    /// A flag such as `--index`.
+    Cli(&'static str),
+    /// A keyword argument such as `index`.
+    Python(&'static str),
+}
+
+impl IndexFlag {
+    /// The option with these entries (axis name, entry as text) given.
+    pub fn with(self, entries: &[(&str, &str)]) -> String {
+        match self {
+            IndexFlag::Cli(flag) => {
+                let entries: Vec<String> =
+                    entries.iter().map(|(a, i)| format!("{a}={i}")).collect();
+                format!("{flag} {}", entries.join(","))
+            }
+            IndexFlag::Python(keyword) => {
+                let entries: Vec<String> = entries
+                    .iter()
+                    .map(|(a, i)| format!("\"{a}\": {i}"))
+                    .collect();
+                format!("{keyword}={{{}}}", entries.join(", "))
+            }
+        }
+    }
+}
+
+impl std::fmt::Display for IndexFlag {
+    /// The option's name: `--index`, or `index=`.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            IndexFlag::Cli(flag) => f.write_str(flag),
+            IndexFlag::Python(keyword) => write!(f, "{keyword}="),
+        }
+    }
 }
 
 impl Default for ZarrOptions {
@@ -37,7 +78,7 @@ impl Default for ZarrOptions {
             level: 0,
             indices: Vec::new(),
             trusted_certificates: None,
-            index_flag: "--index",
+            index_flag: IndexFlag::Cli("--index"),
         }
     }
 }
@@ -57,14 +98,14 @@ impl ZarrOptions {
 #[derive(Debug, Clone, Copy)]
 pub struct AxisPick<'a> {
     pub indices: &'a [(String, u64)],
-    pub flag: &'a str,
+    pub flag: IndexFlag,
 }
 
 impl AxisPick<'static> {
     /// No entry picked: a file with axes beyond x, y and z of more than one entry is refused.
     pub const NONE: AxisPick<'static> = AxisPick {
         indices: &[],
-        flag: "--index",
+        flag: IndexFlag::Cli("--index"),
     };
 }
 

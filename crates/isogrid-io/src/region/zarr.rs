@@ -410,8 +410,9 @@ fn select_axes(
             Some(i) if i < shape[axis] => fixed.push((axis, i)),
             Some(i) => {
                 return Err(Error::invalid(format!(
-                    "{} {name}={i} is out of range: axis {name} has {} entries",
-                    options.index_flag, shape[axis]
+                    "{} is out of range: axis {name} has {} entries",
+                    options.index_flag.with(&[(name, &i.to_string())]),
+                    shape[axis]
                 ))
                 .with_path(location))
             }
@@ -422,16 +423,18 @@ fn select_axes(
     if !unindexed.is_empty() {
         let flag = options.index_flag;
         return Err(Error::invalid(format!(
-            "{}-D data with axes [{}]: pick one entry of {} with {flag}, e.g. {flag} {}",
+            "{}-D data with axes [{}]: pick one entry of {} with {flag}, e.g. {}",
             shape.len(),
             axes.join(", "),
             unindexed.join(" and "),
-            axes.iter()
-                .enumerate()
-                .filter(|(a, _)| !spatial.contains(a) && shape[*a] > 1)
-                .map(|(_, n)| format!("{n}=0"))
-                .collect::<Vec<_>>()
-                .join(",")
+            flag.with(
+                &axes
+                    .iter()
+                    .enumerate()
+                    .filter(|(a, _)| !spatial.contains(a) && shape[*a] > 1)
+                    .map(|(_, n)| (n.as_str(), "0"))
+                    .collect::<Vec<_>>()
+            )
         ))
         .with_path(location));
     }

@@ -113,7 +113,8 @@ impl Hyperstack {
             };
             if *index >= self.sizes[axis] as u64 {
                 return Err(Error::invalid(format!(
-                    "{flag} {name}={index} is out of range: this is an {described}"
+                    "{} is out of range: this is an {described}",
+                    flag.with(&[(name, &index.to_string())])
                 )));
             }
         }
@@ -127,14 +128,14 @@ impl Hyperstack {
         match (given(0), given(2)) {
             (Some(c), Some(t)) => Ok((c, t)),
             (c, t) => {
-                let missing: Vec<String> = [(0, c), (2, t)]
+                let missing: Vec<(&str, &str)> = [(0, c), (2, t)]
                     .iter()
                     .filter(|(_, v)| v.is_none())
-                    .map(|&(axis, _)| format!("{}=N", NAMES[axis]))
+                    .map(|&(axis, _)| (NAMES[axis], "N"))
                     .collect();
                 Err(Error::invalid(format!(
-                    "this is an {described}: pass {flag} {}",
-                    missing.join(",")
+                    "this is an {described}: pass {}",
+                    flag.with(&missing)
                 )))
             }
         }
@@ -170,7 +171,7 @@ mod tests {
         fn pick(indices: &[(String, u64)]) -> AxisPick<'_> {
             AxisPick {
                 indices,
-                flag: "--index",
+                flag: crate::IndexFlag::Cli("--index"),
             }
         }
         let err = h.pick(AxisPick::NONE).unwrap_err();
