@@ -796,7 +796,8 @@ def render(
         mode: ``"cgc"`` (cell rasterisation with EWA normals on a GPU; ray traced on the CPU),
             ``"cgc-noewa"`` (GPU only), ``"pathtrace"`` (``spp`` samples per pixel under
             ``env``; the GPU takes one sample per frame) or, for a label grid, ``"mc"`` (GPU
-            only: the Marching Cubes meshes of its labels' cells, in their colours).
+            only: the Marching Cubes meshes of its labels' cells, in their colours, or by the
+            attribute with each vertex the mean of its label's cells around it).
         backend: ``"auto"`` (a hardware GPU adapter when there is one; with only a software one
             such as lavapipe, whichever was measured faster for the mode, see
             ``docs/benchmarks-render-policy.md``; else the CPU), ``"gpu"`` (any adapter, lavapipe
@@ -820,7 +821,7 @@ def render(
             ``"inferno"``, ``"plasma"``, ``"cividis"``, ``"turbo"``, ``"gray"`` or ``"rdbu"``. A grid
             with an attribute is always drawn in colour, by either backend in every mode (path
             tracing takes the colour as albedo), a label grid with one too (its labels' colours
-            otherwise; MC, which draws the labels' meshes in those, refuses the attribute).
+            otherwise).
         clim: ``(lo, hi)``, the values the map spans (default the attribute's range on the surface).
         show: a label grid: draw only these labels, as ``"1,5-9,liver"`` or a list of values and
             names (``[1, "liver"]``; a name picks the labels that have it, in any case; default
