@@ -244,6 +244,10 @@ def test_label_meshes_carry_the_color_by_values_at_their_vertices(cli, tmp_path)
     )
     _mc(cli, cgc, tmp_path / "cells.vtp")
     cells, _ = _vtp_meshes(tmp_path / "cells.vtp")
+    # Neuroglancer's format has no place for the values: written without them, and said so.
+    ng = subprocess.run([cli, "mc", cgc, "--labels", "all", "-o", tmp_path / "ng"], capture_output=True, text=True)
+    assert ng.returncode == 0 and (tmp_path / "ng" / "info").exists(), ng.stderr
+    assert 'the attribute "field.npy" is left out' in ng.stderr
     grid = isogrid.load(cgc)
     nx, ny, _ = grid.info["dims"]
     label_of = np.array([l["value"] for l in grid.labels])[_cell_labels(grid)]

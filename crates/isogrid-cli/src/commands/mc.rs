@@ -343,8 +343,11 @@ fn run_labels(args: Args) -> Result<()> {
     let spinner = progress::spinner("meshing labels".into());
     let start = Instant::now();
     // Per-vertex values: --color-by's volume sampled at the vertices, else the grid's own
-    // attribute (a .cgc file's) as its cells hold it.
-    let own_attribute = grid.attribute().filter(|_| attribute.is_none());
+    // attribute (a .cgc file's) as its cells hold it, where the output keeps them.
+    let keeps_values = matches!(output, Some(LabelOutput::Glb(_) | LabelOutput::Vtp(_)));
+    let own_attribute = grid
+        .attribute()
+        .filter(|_| attribute.is_none() && keeps_values);
     let geometry = isogrid::extract::attribute::grid_geometry(grid.info());
     let (mut meshes, mut values): (Vec<McMesh>, Vec<Option<Vec<f32>>>) = match own_attribute {
         Some(_) => pool.install(|| label_meshes_with_values(&grid)),
@@ -377,7 +380,8 @@ fn run_labels(args: Args) -> Result<()> {
             .with_context(|| args.input.display().to_string())?;
     }
     spinner.finish_and_clear();
-    if let (Some(name), Some(LabelOutput::Precomputed(_))) = (&attribute_name, &output) {
+    let dropped = grid.attribute().map(|a| &a.info().name);
+    if let (Some(name), Some(LabelOutput::Precomputed(_))) = (dropped, &output) {
         eprintln!(
             "isogrid: note: {}: neuroglancer's precomputed meshes carry no per-vertex values, so \
              the attribute {name:?} is left out (.glb and .vtp keep it)",
