@@ -33,6 +33,26 @@ def test_trimesh_takes_the_mesh_closed_with_the_balls_volume():
     np.testing.assert_allclose(mesh.center_mass, centre, atol=0.05)
 
 
+def test_the_mc_stl_is_the_mesh_a_slicer_gets(cli, tmp_path):
+    """``isogrid mc -o ball.stl`` (3D printing): trimesh reads the binary STL as the world-space
+    mesh ``marching_cubes`` gives, merged back to a closed solid of the ball's volume."""
+    import subprocess
+
+    trimesh = pytest.importorskip("trimesh")
+    path = tmp_path / "ball.nrrd"
+    nrrd = pytest.importorskip("nrrd")
+    nrrd.write(str(path), _ball().transpose().copy(order="F"), {"space directions": np.diag([0.5, 1.0, 2.0]),
+               "space origin": [10.0, -5.0, 3.0], "space": "left-posterior-superior"})
+    subprocess.run([cli, "mc", path, "--iso", "0", "-o", tmp_path / "ball.stl"], check=True, capture_output=True)
+    vertices, faces = isogrid.marching_cubes(path, iso=0.0)
+    stl = trimesh.load(tmp_path / "ball.stl", file_type="stl")  # merges the corners STL repeats
+    assert len(stl.faces) == len(faces) and len(stl.vertices) == len(vertices)
+    np.testing.assert_array_equal(np.sort(stl.vertices, axis=0), np.sort(vertices, axis=0))
+    assert stl.is_watertight and stl.is_winding_consistent
+    assert stl.volume == pytest.approx(trimesh.Trimesh(vertices, faces, process=False).volume, rel=1e-6)
+    assert stl.volume > 0
+
+
 def test_pyvista_takes_the_mesh_and_its_attribute():
     pv = pytest.importorskip("pyvista")
     ball = _ball()

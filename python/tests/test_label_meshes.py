@@ -283,6 +283,62 @@ def test_label_meshes_carry_the_color_by_values_at_their_vertices(cli, tmp_path)
         isogrid.extract_labels(a).meshes(values=True)
 
 
+def test_one_file_per_label_from_a_template(cli, tmp_path):
+    """``-o "organs/{name}.stl"``: each label's mesh as its own binary STL (read back with
+    trimesh), named after the label, the triangles of the .glb's mesh with outward normals; a
+    .vtp per label keeps the --color-by values; names are made safe as file names, two labels
+    given one file are refused, and a failed run writes nothing."""
+    trimesh = pytest.importorskip("trimesh")
+    a = _labels()
+    path, field_path = tmp_path / "labels.npy", tmp_path / "field.npy"
+    np.save(path, a)
+    z, y, x = np.mgrid[: a.shape[0], : a.shape[1], : a.shape[2]].astype(np.float32)
+    np.save(field_path, x + 2 * y + 3 * z)
+    _mc(cli, path, tmp_path / "labels.glb")
+    glb = _glb_meshes(tmp_path / "labels.glb")
+    lut = tmp_path / "names.txt"
+    lut.write_text("4 left/right 255 0 0 0\n9 Nine 0 255 0 0\n17 sheet 0 0 255 0\n")
+    report = json.loads(_mc(cli, path, tmp_path / "organs" / "{name}.stl", "--label-table", lut))
+    names = {4: "left_right", 9: "Nine", 17: "sheet", 3: "label 3", 60000: "label 60000"}
+    assert sorted(p.name for p in (tmp_path / "organs").iterdir()) == sorted(f"{n}.stl" for n in names.values())
+    assert report["triangles"] == sum(len(m[3]) for m in glb.values())
+    for value, name in names.items():
+        body = (tmp_path / "organs" / f"{name}.stl").read_bytes()
+        assert not body.startswith(b"solid")
+        stl = trimesh.load(tmp_path / "organs" / f"{name}.stl", file_type="stl", process=False)
+        _, _, positions, triangles, _ = glb[value]
+        assert len(stl.faces) == len(triangles)
+        corners = np.asarray(stl.vertices)[np.asarray(stl.faces)]
+        np.testing.assert_array_equal(corners, positions[triangles])
+        # The file's normals, as written (trimesh keeps them), point out: along the winding's.
+        stored = np.frombuffer(body[84:], np.dtype([("n", "<f4", 3), ("p", "<f4", 9), ("a", "<u2")]))["n"]
+        winding = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+        winding /= np.linalg.norm(winding, axis=1, keepdims=True)
+        np.testing.assert_allclose(stored, winding, atol=1e-5)
+    # Another format into the existing folder, beside what is there; with the attribute.
+    _mc(cli, path, tmp_path / "organs" / "{value}.vtp", "--color-by", field_path)
+    assert len(list((tmp_path / "organs").iterdir())) == 10
+    for value in names:
+        pv = pytest.importorskip("pyvista")
+        mesh = pv.read(tmp_path / "organs" / f"{value}.vtp")
+        np.testing.assert_array_equal(mesh.points, glb[value][2])
+        p = mesh.points.astype(np.float64)
+        np.testing.assert_allclose(mesh["field.npy"], p[:, 0] + 2 * p[:, 1] + 3 * p[:, 2], atol=1e-4)
+    # Refused, writing nothing.
+    lut.write_text("4 same 255 0 0 0\n9 Same 0 255 0 0\n")
+    for extra, message in [
+        (["--label-table", lut], "labels 4 and 9 would both be written as"),
+        (["--color-by", field_path], "STL files carry no per-vertex values"),
+    ]:
+        failed = subprocess.run(
+            [cli, "mc", path, "--labels", "all", "-o", tmp_path / "new" / "{name}.stl", *extra],
+            capture_output=True, text=True,
+        )
+        assert failed.returncode == 1 and message in failed.stderr, failed.stderr
+        assert failed.stderr.strip().count("\n") == 0
+        assert not (tmp_path / "new").exists()
+
+
 def test_refusals_are_one_line_and_write_nothing(cli, tmp_path):
     a = _labels()
     path = tmp_path / "labels.npy"

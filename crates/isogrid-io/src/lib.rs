@@ -17,6 +17,7 @@ pub mod image;
 pub mod label_meshes;
 pub mod labels;
 pub mod mesh;
+pub mod mesh_write;
 pub mod metaimage;
 pub mod mrc;
 pub mod nifti;

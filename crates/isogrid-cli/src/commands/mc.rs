@@ -12,7 +12,11 @@ use isogrid::mc::{
     MeshSpace,
 };
 use isogrid::{CellGrid, Progress};
-use isogrid_io::label_meshes::{write_glb, write_precomputed, write_vtp, LabelMesh};
+use isogrid_io::label_meshes::{
+    file_names, is_template, write_each, write_glb, write_precomputed, write_vtp, EachFormat,
+    LabelMesh,
+};
+use isogrid_io::mesh_write::MeshFileFormat;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
@@ -29,11 +33,12 @@ pub struct Args {
     pub threads: ThreadArgs,
     #[command(flatten)]
     pub input_args: InputArgs,
-    /// Write the mesh: .ply (binary), .obj or .vtp (VTK XML PolyData, for ParaView); with
+    /// Write the mesh: .ply (binary), .obj, .stl (binary, for 3D printing) or .vtp (VTK XML
+    /// PolyData, for ParaView); with
     /// --labels, .glb (glTF 2.0: a named, coloured mesh per label), .vtp (one mesh, each
     /// triangle's label and colour as cell arrays) or a new folder of neuroglancer precomputed
     /// meshes (any name without an extension).
-    #[arg(short, long, value_name = "MESH.ply|.obj|.vtp|.glb|FOLDER")]
+    #[arg(short, long, value_name = "MESH.ply|.obj|.stl|.vtp|.glb|FOLDER")]
     pub output: Option<PathBuf>,
     #[command(flatten)]
     pub label: LabelArgs,
@@ -64,54 +69,15 @@ impl Space {
     }
 }
 
-/// The mesh file formats `mc` writes, by extension.
-#[derive(Clone, Copy, PartialEq, Eq)]
-enum MeshFormat {
-    Ply,
-    Obj,
-    Vtp,
-}
-
-impl MeshFormat {
-    fn of(path: &Path) -> Result<MeshFormat> {
-        match path
-            .extension()
-            .and_then(|e| e.to_str())
-            .map(str::to_ascii_lowercase)
-            .as_deref()
-        {
-            Some("ply") => Ok(MeshFormat::Ply),
-            Some("obj") => Ok(MeshFormat::Obj),
-            Some("vtp") => Ok(MeshFormat::Vtp),
-            _ => bail!(
-                "{}: mesh output must end in .ply, .obj or .vtp",
-                path.display()
-            ),
-        }
-    }
-
-    /// Refuses per-vertex values where the format has no place for them.
-    fn check_values(self, path: &Path, values: bool) -> Result<()> {
-        if values && self == MeshFormat::Obj {
-            bail!(
-                "{}: OBJ has no per-vertex values; write the mesh as .ply (MeshLab's vertex \
-                 quality) or .vtp (a ParaView point array) with --color-by",
-                path.display()
-            );
-        }
-        Ok(())
-    }
-}
-
-/// Writes `mesh` to `path` in the format its extension names, with `values` (the attribute's
-/// name and one value per vertex) where the format holds them.
-fn write_mesh(mesh: &McMesh, path: &Path, values: Option<(&str, &[f32])>) -> Result<()> {
-    let format = MeshFormat::of(path)?;
-    format.check_values(path, values.is_some())?;
-    match format {
-        MeshFormat::Ply => mesh.write_ply_with_values(path, values.map(|(_, v)| v))?,
-        MeshFormat::Obj => mesh.write_obj(path)?,
-        MeshFormat::Vtp => mesh.write_vtp(path, values)?,
+/// Refuses per-vertex values where `format` has no place for them.
+fn check_values(format: MeshFileFormat, path: &Path, values: bool) -> Result<()> {
+    if values && !format.holds_values() {
+        bail!(
+            "{}: {} has no per-vertex values; write the mesh as .ply (MeshLab's vertex quality) \
+             or .vtp (a ParaView point array) with --color-by",
+            path.display(),
+            format.name()
+        );
     }
     Ok(())
 }
@@ -134,7 +100,7 @@ pub fn run(args: Args) -> Result<()> {
     let output = args.output.as_deref().map(|path| Output {
         role: "the mesh",
         path,
-        extensions: &[".ply", ".obj", ".vtp"],
+        extensions: &[".ply", ".obj", ".stl", ".vtp"],
     });
     let read_options = args.input_args.read_options()?;
     let attribute = args.color.attribute(&args.input, &read_options)?;
@@ -142,9 +108,10 @@ pub fn run(args: Args) -> Result<()> {
         &AttributeInput::inputs(&args.input, attribute.as_ref()),
         output.as_slice(),
     )?;
-    // Refused before the work, as write_mesh would refuse it after.
-    if let Some(out) = &args.output {
-        MeshFormat::of(out)?.check_values(out, attribute.is_some())?;
+    // Refused before the work, not after it.
+    let format = args.output.as_deref().map(MeshFileFormat::of).transpose()?;
+    if let (Some(format), Some(out)) = (format, &args.output) {
+        check_values(format, out, attribute.is_some())?;
     }
     let (volume, read) = input::read_volume(&args.input, &read_options)?;
     let iso = args
@@ -199,7 +166,8 @@ pub fn run(args: Args) -> Result<()> {
     if let Some(out) = &args.output {
         let start = Instant::now();
         let named = attribute.as_ref().zip(values.as_deref());
-        write_mesh(&mesh, out, named.map(|(a, v)| (a.name.as_str(), v)))?;
+        let format = format.expect("a format for every output");
+        format.write(&mesh, out, named.map(|(a, v)| (a.name.as_str(), v)))?;
         write = start.elapsed().as_secs_f64();
     }
     let dims = volume.dims().map(|d| d as u32);
@@ -225,10 +193,24 @@ enum LabelOutput<'a> {
     Glb(&'a Path),
     Vtp(&'a Path),
     Precomputed(&'a Path),
+    /// One file per label, named from a template (`organs/{name}.stl`).
+    Each(&'a Path, EachFormat),
 }
 
 impl<'a> LabelOutput<'a> {
+    /// Whether the output keeps a value per vertex.
+    fn holds_values(&self) -> bool {
+        match self {
+            LabelOutput::Glb(_) | LabelOutput::Vtp(_) => true,
+            LabelOutput::Precomputed(_) => false,
+            LabelOutput::Each(_, format) => format.holds_values(),
+        }
+    }
+
     fn of(path: &'a Path) -> Result<Self> {
+        if is_template(path) {
+            return Ok(LabelOutput::Each(path, EachFormat::of(path)?));
+        }
         match path
             .extension()
             .and_then(|e| e.to_str())
@@ -239,8 +221,9 @@ impl<'a> LabelOutput<'a> {
             Some("vtp") => Ok(LabelOutput::Vtp(path)),
             None => Ok(LabelOutput::Precomputed(path)),
             Some(_) => bail!(
-                "{}: label meshes are written as .glb (glTF 2.0), .vtp (VTK XML PolyData) or as a \
-                 folder of neuroglancer precomputed meshes (a name without an extension)",
+                "{}: label meshes are written as .glb (glTF 2.0), .vtp (VTK XML PolyData), a \
+                 folder of neuroglancer precomputed meshes (a name without an extension), or one \
+                 file per label named from a template such as organs/{{name}}.stl",
                 path.display()
             ),
         }
@@ -290,10 +273,15 @@ fn run_labels(args: Args) -> Result<()> {
     let output = args.output.as_deref().map(LabelOutput::of).transpose()?;
     let read_options = args.input_args.read_options()?;
     let attribute = args.color.attribute(&args.input, &read_options)?;
-    if attribute.is_some() && matches!(output, Some(LabelOutput::Precomputed(_))) {
+    if attribute.is_some() && output.as_ref().is_some_and(|o| !o.holds_values()) {
         bail!(
-            "--color-by: neuroglancer's precomputed meshes carry no per-vertex values; write the \
-             label meshes as .glb (the vertex attribute _VALUE) or .vtp (a ParaView point array)"
+            "--color-by: {} carry no per-vertex values; write the label meshes as .glb (the \
+             vertex attribute _VALUE) or .vtp (a ParaView point array), or one .ply or .vtp per \
+             label",
+            match &output {
+                Some(LabelOutput::Each(_, EachFormat::Mesh(f))) => format!("{} files", f.name()),
+                _ => "neuroglancer's precomputed meshes".to_string(),
+            }
         );
     }
     let mut inputs = AttributeInput::inputs(&args.input, attribute.as_ref());
@@ -344,7 +332,7 @@ fn run_labels(args: Args) -> Result<()> {
     let start = Instant::now();
     // Per-vertex values: --color-by's volume sampled at the vertices, else the grid's own
     // attribute (a .cgc file's) as its cells hold it, where the output keeps them.
-    let keeps_values = matches!(output, Some(LabelOutput::Glb(_) | LabelOutput::Vtp(_)));
+    let keeps_values = output.as_ref().is_some_and(LabelOutput::holds_values);
     let own_attribute = grid
         .attribute()
         .filter(|_| attribute.is_none() && keeps_values);
@@ -381,12 +369,14 @@ fn run_labels(args: Args) -> Result<()> {
     }
     spinner.finish_and_clear();
     let dropped = grid.attribute().map(|a| &a.info().name);
-    if let (Some(name), Some(LabelOutput::Precomputed(_))) = (dropped, &output) {
-        eprintln!(
-            "isogrid: note: {}: neuroglancer's precomputed meshes carry no per-vertex values, so \
-             the attribute {name:?} is left out (.glb and .vtp keep it)",
-            args.input.display()
-        );
+    if let (Some(name), Some(out)) = (dropped, &output) {
+        if !out.holds_values() {
+            eprintln!(
+                "isogrid: note: {}: the meshes' format carries no per-vertex values, so the \
+                 attribute {name:?} is left out (.glb, .vtp and .ply keep it)",
+                args.input.display()
+            );
+        }
     }
     let labels = grid.labels().expect("a label grid has labels");
     let signed = isogrid::labels::signed_labels(grid.info().scalar_type);
@@ -426,6 +416,19 @@ fn run_labels(args: Args) -> Result<()> {
             LabelOutput::Glb(path) => write_glb(path, &label_meshes, attribute_name.as_deref())?,
             LabelOutput::Vtp(path) => write_vtp(path, &label_meshes, attribute_name.as_deref())?,
             LabelOutput::Precomputed(path) => write_precomputed(path, &label_meshes)?,
+            LabelOutput::Each(template, _) => {
+                let files = file_names(template, &label_meshes)?;
+                let outputs: Vec<Output> = files
+                    .iter()
+                    .map(|path| Output {
+                        role: "a label's mesh",
+                        path,
+                        extensions: &[".stl", ".obj", ".ply", ".vtp", ".glb"],
+                    })
+                    .collect();
+                outputs::check(&inputs, &outputs)?;
+                write_each(template, &label_meshes, attribute_name.as_deref())?;
+            }
         }
         write = start.elapsed().as_secs_f64();
     }

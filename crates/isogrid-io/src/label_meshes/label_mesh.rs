@@ -20,16 +20,7 @@ pub struct LabelMesh<'a> {
 pub(crate) fn vertex_normals(mesh: &McMesh) -> Vec<[f32; 3]> {
     let mut sums = vec![[0.0f64; 3]; mesh.positions.len()];
     for t in &mesh.triangles {
-        let p = t.map(|v| mesh.positions[v as usize].map(|c| c as f64));
-        let (u, w) = (
-            [0, 1, 2].map(|a| p[1][a] - p[0][a]),
-            [0, 1, 2].map(|a| p[2][a] - p[0][a]),
-        );
-        let n = [
-            u[1] * w[2] - u[2] * w[1],
-            u[2] * w[0] - u[0] * w[2],
-            u[0] * w[1] - u[1] * w[0],
-        ];
+        let n = mesh.area_normal(*t);
         for &v in t {
             for a in 0..3 {
                 sums[v as usize][a] += n[a];

@@ -34,13 +34,6 @@ pub enum MeshSpace {
 }
 
 impl McMesh {
-    /// Moves the vertices from the renderer's frame (sample (i, j, k) at (i·sx, j·sy, k·sz)) into
-    /// `space` of the volume of `geometry`. In world space sample (i, j, k) is at
-    /// origin + i·sx·d_i + j·sy·d_j + k·sz·d_k, d_i, d_j, d_k being the direction rows. Directions
-    /// that mirror (a flipped axis: negative determinant) would turn the triangles inside out, so
-    /// their winding is reversed to stay counter-clockwise seen from outside. Sums are taken in
-    /// f64 and rounded once to f32. A vertex beyond f32's range (a spacing or origin of 1e200) is
-    /// an error: a mesh file of `inf` coordinates is no mesh.
     /// The vertices in index space (sample (i, j, k) at (i, j, k)), in f64, from the library's
     /// (i·sx, j·sy, k·sz) with `spacing`: where per-vertex values are looked up.
     pub fn index_positions(&self, spacing: [f64; 3]) -> Vec<[f64; 3]> {
@@ -50,6 +43,28 @@ impl McMesh {
             .collect()
     }
 
+    /// `(p1 − p0) × (p2 − p0)` of `triangle`, in f64 in the frame the positions are in: twice its
+    /// area, pointing out (triangles wind counter-clockwise seen from outside).
+    pub fn area_normal(&self, triangle: [u32; 3]) -> [f64; 3] {
+        let p = triangle.map(|v| self.positions[v as usize].map(f64::from));
+        let (u, w) = (
+            [0, 1, 2].map(|a| p[1][a] - p[0][a]),
+            [0, 1, 2].map(|a| p[2][a] - p[0][a]),
+        );
+        [
+            u[1] * w[2] - u[2] * w[1],
+            u[2] * w[0] - u[0] * w[2],
+            u[0] * w[1] - u[1] * w[0],
+        ]
+    }
+
+    /// Moves the vertices from the renderer's frame (sample (i, j, k) at (i·sx, j·sy, k·sz)) into
+    /// `space` of the volume of `geometry`. In world space sample (i, j, k) is at
+    /// origin + i·sx·d_i + j·sy·d_j + k·sz·d_k, d_i, d_j, d_k being the direction rows. Directions
+    /// that mirror (a flipped axis: negative determinant) would turn the triangles inside out, so
+    /// their winding is reversed to stay counter-clockwise seen from outside. Sums are taken in
+    /// f64 and rounded once to f32. A vertex beyond f32's range (a spacing or origin of 1e200) is
+    /// an error: a mesh file of `inf` coordinates is no mesh.
     pub fn place(&mut self, geometry: &crate::volume::Geometry, space: MeshSpace) -> Result<()> {
         let s = geometry.spacing;
         match space {

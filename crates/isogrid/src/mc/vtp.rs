@@ -165,6 +165,14 @@ impl Sink<'_> {
 /// When an array's length does not match what it is per: the points or triangles of all meshes,
 /// or the number of meshes for the per-mesh kinds.
 pub fn write_vtp(path: &Path, meshes: &[&McMesh], arrays: VtpArrays) -> Result<()> {
+    write_atomic(path, |out| write_vtp_to(out, meshes, arrays))
+}
+
+/// [`write_vtp`] into `out`.
+///
+/// # Panics
+/// As [`write_vtp`].
+pub fn write_vtp_to(out: &mut dyn Write, meshes: &[&McMesh], arrays: VtpArrays) -> Result<()> {
     let points: Vec<u64> = meshes.iter().map(|m| m.positions.len() as u64).collect();
     let triangles: Vec<u64> = meshes.iter().map(|m| m.triangles.len() as u64).collect();
     let (n, t) = (points.iter().sum::<u64>(), triangles.iter().sum::<u64>());
@@ -205,109 +213,107 @@ pub fn write_vtp(path: &Path, meshes: &[&McMesh], arrays: VtpArrays) -> Result<(
     let [points_at, connectivity_at, offsets_at] =
         [12 * n, 3 * index_bytes * t, 8 * t].map(&mut next);
 
-    write_atomic(path, |out| {
-        let declare = |out: &mut dyn Write,
-                       tag: &str,
-                       list: &[VtkArray],
-                       at: &[u64],
-                       per_mesh: &[u64]|
-         -> std::io::Result<()> {
-            if list.is_empty() {
-                return writeln!(out, "      <{tag}/>");
-            }
-            match tag {
-                "FieldData" => writeln!(out, "    <{tag}>")?,
-                _ => writeln!(
-                    out,
-                    "      <{tag} Scalars=\"{}\">",
-                    xml_escaped(list[0].name)
-                )?,
-            }
-            for (a, at) in list.iter().zip(at) {
-                let (element, indent) = match tag {
-                    "FieldData" => ("Array", "      "),
-                    _ => ("DataArray", "        "),
-                };
-                writeln!(
-                    out,
-                    "{indent}<{element} type=\"{}\" Name=\"{}\" NumberOfComponents=\"{}\" \
-                     NumberOfTuples=\"{}\" format=\"appended\" offset=\"{at}\"/>",
-                    a.values.vtk_type(),
-                    xml_escaped(a.name),
-                    a.values.components(),
-                    a.values.tuples(per_mesh),
-                )?;
-            }
-            match tag {
-                "FieldData" => writeln!(out, "    </{tag}>"),
-                _ => writeln!(out, "      </{tag}>"),
-            }
-        };
-        writeln!(out, "<?xml version=\"1.0\"?>")?;
-        writeln!(
-            out,
-            "<VTKFile type=\"PolyData\" version=\"1.0\" byte_order=\"LittleEndian\" \
-             header_type=\"UInt64\">\n  <PolyData>"
-        )?;
-        if !arrays.field.is_empty() {
-            declare(out, "FieldData", arrays.field, &field_at, &[])?;
+    let declare = |out: &mut dyn Write,
+                   tag: &str,
+                   list: &[VtkArray],
+                   at: &[u64],
+                   per_mesh: &[u64]|
+     -> std::io::Result<()> {
+        if list.is_empty() {
+            return writeln!(out, "      <{tag}/>");
         }
-        writeln!(
-            out,
-            "    <Piece NumberOfPoints=\"{n}\" NumberOfVerts=\"0\" NumberOfLines=\"0\" \
-             NumberOfStrips=\"0\" NumberOfPolys=\"{t}\">"
-        )?;
-        declare(out, "PointData", arrays.point, &point_at, &points)?;
-        declare(out, "CellData", arrays.cell, &cell_at, &triangles)?;
-        writeln!(
-            out,
-            "      <Points>\n        <DataArray type=\"Float32\" NumberOfComponents=\"3\" \
-             format=\"appended\" offset=\"{points_at}\"/>\n      </Points>\n      <Polys>\n        \
-             <DataArray type=\"{}\" Name=\"connectivity\" format=\"appended\" offset=\"{connectivity_at}\"/>\n        \
-             <DataArray type=\"UInt64\" Name=\"offsets\" format=\"appended\" offset=\"{offsets_at}\"/>\n      \
-             </Polys>\n    </Piece>\n  </PolyData>\n  <AppendedData encoding=\"raw\">",
-            if wide { "UInt64" } else { "UInt32" },
-        )?;
-        out.write_all(b"   _")?;
-        let mut sink = Sink {
-            out,
-            buf: Vec::with_capacity(CHUNK + 64),
-        };
-        for (list, per_mesh) in [
-            (arrays.point, &points[..]),
-            (arrays.cell, &triangles[..]),
-            (arrays.field, &[][..]),
-        ] {
-            for a in list {
-                sink.put(&a.values.bytes(per_mesh).to_le_bytes())?;
-                a.values.write(per_mesh, &mut sink)?;
+        match tag {
+            "FieldData" => writeln!(out, "    <{tag}>")?,
+            _ => writeln!(
+                out,
+                "      <{tag} Scalars=\"{}\">",
+                xml_escaped(list[0].name)
+            )?,
+        }
+        for (a, at) in list.iter().zip(at) {
+            let (element, indent) = match tag {
+                "FieldData" => ("Array", "      "),
+                _ => ("DataArray", "        "),
+            };
+            writeln!(
+                out,
+                "{indent}<{element} type=\"{}\" Name=\"{}\" NumberOfComponents=\"{}\" \
+                 NumberOfTuples=\"{}\" format=\"appended\" offset=\"{at}\"/>",
+                a.values.vtk_type(),
+                xml_escaped(a.name),
+                a.values.components(),
+                a.values.tuples(per_mesh),
+            )?;
+        }
+        match tag {
+            "FieldData" => writeln!(out, "    </{tag}>"),
+            _ => writeln!(out, "      </{tag}>"),
+        }
+    };
+    writeln!(out, "<?xml version=\"1.0\"?>")?;
+    writeln!(
+        out,
+        "<VTKFile type=\"PolyData\" version=\"1.0\" byte_order=\"LittleEndian\" \
+         header_type=\"UInt64\">\n  <PolyData>"
+    )?;
+    if !arrays.field.is_empty() {
+        declare(out, "FieldData", arrays.field, &field_at, &[])?;
+    }
+    writeln!(
+        out,
+        "    <Piece NumberOfPoints=\"{n}\" NumberOfVerts=\"0\" NumberOfLines=\"0\" \
+         NumberOfStrips=\"0\" NumberOfPolys=\"{t}\">"
+    )?;
+    declare(out, "PointData", arrays.point, &point_at, &points)?;
+    declare(out, "CellData", arrays.cell, &cell_at, &triangles)?;
+    writeln!(
+        out,
+        "      <Points>\n        <DataArray type=\"Float32\" NumberOfComponents=\"3\" \
+         format=\"appended\" offset=\"{points_at}\"/>\n      </Points>\n      <Polys>\n        \
+         <DataArray type=\"{}\" Name=\"connectivity\" format=\"appended\" offset=\"{connectivity_at}\"/>\n        \
+         <DataArray type=\"UInt64\" Name=\"offsets\" format=\"appended\" offset=\"{offsets_at}\"/>\n      \
+         </Polys>\n    </Piece>\n  </PolyData>\n  <AppendedData encoding=\"raw\">",
+        if wide { "UInt64" } else { "UInt32" },
+    )?;
+    out.write_all(b"   _")?;
+    let mut sink = Sink {
+        out,
+        buf: Vec::with_capacity(CHUNK + 64),
+    };
+    for (list, per_mesh) in [
+        (arrays.point, &points[..]),
+        (arrays.cell, &triangles[..]),
+        (arrays.field, &[][..]),
+    ] {
+        for a in list {
+            sink.put(&a.values.bytes(per_mesh).to_le_bytes())?;
+            a.values.write(per_mesh, &mut sink)?;
+        }
+    }
+    sink.put(&(12 * n).to_le_bytes())?;
+    for m in meshes {
+        for c in m.positions.iter().flatten() {
+            sink.put(&c.to_le_bytes())?;
+        }
+    }
+    sink.put(&(3 * index_bytes * t).to_le_bytes())?;
+    let mut first = 0u64;
+    for m in meshes {
+        for &i in m.triangles.iter().flatten() {
+            match wide {
+                true => sink.put(&(first + i as u64).to_le_bytes())?,
+                false => sink.put(&((first + i as u64) as u32).to_le_bytes())?,
             }
         }
-        sink.put(&(12 * n).to_le_bytes())?;
-        for m in meshes {
-            for c in m.positions.iter().flatten() {
-                sink.put(&c.to_le_bytes())?;
-            }
-        }
-        sink.put(&(3 * index_bytes * t).to_le_bytes())?;
-        let mut first = 0u64;
-        for m in meshes {
-            for &i in m.triangles.iter().flatten() {
-                match wide {
-                    true => sink.put(&(first + i as u64).to_le_bytes())?,
-                    false => sink.put(&((first + i as u64) as u32).to_le_bytes())?,
-                }
-            }
-            first += m.positions.len() as u64;
-        }
-        sink.put(&(8 * t).to_le_bytes())?;
-        for k in 1..=t {
-            sink.put(&(3 * k).to_le_bytes())?;
-        }
-        sink.flush()?;
-        writeln!(out, "\n  </AppendedData>\n</VTKFile>")?;
-        Ok(())
-    })
+        first += m.positions.len() as u64;
+    }
+    sink.put(&(8 * t).to_le_bytes())?;
+    for k in 1..=t {
+        sink.put(&(3 * k).to_le_bytes())?;
+    }
+    sink.flush()?;
+    writeln!(out, "\n  </AppendedData>\n</VTKFile>")?;
+    Ok(())
 }
 
 /// `text` with XML's five special characters escaped, for an attribute value.
