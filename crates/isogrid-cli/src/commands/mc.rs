@@ -36,9 +36,10 @@ pub struct Args {
     /// Write the mesh: .ply (binary), .obj, .stl (binary, for 3D printing) or .vtp (VTK XML
     /// PolyData, for ParaView); with
     /// --labels, .glb (glTF 2.0: a named, coloured mesh per label), .vtp (one mesh, each
-    /// triangle's label and colour as cell arrays) or a new folder of neuroglancer precomputed
-    /// meshes (any name without an extension).
-    #[arg(short, long, value_name = "MESH.ply|.obj|.stl|.vtp|.glb|FOLDER")]
+    /// triangle's label and colour as cell arrays), a new folder of neuroglancer precomputed
+    /// meshes (any name without an extension), or one file per label named from a template
+    /// holding {name} or {value}, e.g. "organs/{name}.stl" (.stl, .obj, .ply, .vtp or .glb).
+    #[arg(short, long, value_name = "MESH.ply|.obj|.stl|.vtp|.glb|FOLDER|TEMPLATE")]
     pub output: Option<PathBuf>,
     #[command(flatten)]
     pub label: LabelArgs,
