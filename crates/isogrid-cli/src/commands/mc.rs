@@ -39,7 +39,11 @@ pub struct Args {
     /// triangle's label and colour as cell arrays), a new folder of neuroglancer precomputed
     /// meshes (any name without an extension), or one file per label named from a template
     /// holding {name} or {value}, e.g. "organs/{name}.stl" (.stl, .obj, .ply, .vtp or .glb).
-    #[arg(short, long, value_name = "MESH.ply|.obj|.stl|.vtp|.glb|FOLDER|TEMPLATE")]
+    #[arg(
+        short,
+        long,
+        value_name = "MESH.ply|.obj|.stl|.vtp|.glb|FOLDER|TEMPLATE"
+    )]
     pub output: Option<PathBuf>,
     #[command(flatten)]
     pub label: LabelArgs,

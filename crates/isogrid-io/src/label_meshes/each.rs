@@ -1,7 +1,7 @@
 //! One mesh file per label, named from a template: `organs/{name}.stl` (3D printing, and what 3D
 //! Slicer's "export to files" gives) or `segments/{value}.ply`. `{name}` is the label's name made
-//! safe as a file name (path separators, control characters and `:*?"<>|` become `_`), `{value}`
-//! its value. The format is the template's extension: .stl, .obj, .ply, .vtp (`mesh_write`) or
+//! safe as a file name (path separators, control characters and `:*?"<>|` become `_`, leading
+//! dots go), `{value}` its value. The format is the template's extension: .stl, .obj, .ply, .vtp (`mesh_write`) or
 //! .glb (one label's glTF).
 //!
 //! All or nothing: into a folder that does not exist yet, the files are written into a new
@@ -57,7 +57,7 @@ impl EachFormat {
 }
 
 /// A label's name as a piece of a file name: path separators, control characters and characters
-/// Windows refuses become `_`; an empty or all-dots name becomes `_`.
+/// Windows refuses become `_`, and leading dots go (no hidden files); an empty name becomes `_`.
 fn safe_name(name: &str) -> String {
     let safe: String = name
         .chars()
@@ -67,10 +67,30 @@ fn safe_name(name: &str) -> String {
             c => c,
         })
         .collect();
-    match safe.trim().trim_matches('.').is_empty() {
-        true => "_".to_string(),
-        false => safe.trim().to_string(),
+    match safe.trim().trim_start_matches('.').trim() {
+        "" => "_".to_string(),
+        kept => kept.to_string(),
     }
+}
+
+/// `pattern` with each `{name}` and `{value}` replaced, in one pass (a name holding `{value}`
+/// stays as it is).
+fn filled(pattern: &str, name: &str, value: &str) -> String {
+    let mut out = String::with_capacity(pattern.len() + name.len());
+    let mut rest = pattern;
+    while let Some(at) = rest.find('{') {
+        out.push_str(&rest[..at]);
+        rest = &rest[at..];
+        let (text, skip) = match () {
+            _ if rest.starts_with("{name}") => (name, "{name}".len()),
+            _ if rest.starts_with("{value}") => (value, "{value}".len()),
+            _ => ("{", 1),
+        };
+        out.push_str(text);
+        rest = &rest[skip..];
+    }
+    out.push_str(rest);
+    out
 }
 
 /// The file of each of `meshes` under `template`, in their order. Two labels given one file (the
@@ -85,9 +105,7 @@ pub fn file_names(template: &Path, meshes: &[LabelMesh]) -> Result<Vec<PathBuf>>
     meshes
         .iter()
         .map(|m| {
-            let name = pattern
-                .replace("{name}", &safe_name(&m.label.name))
-                .replace("{value}", m.value);
+            let name = filled(&pattern, &safe_name(&m.label.name), m.value);
             if let Some(other) = seen.insert(name.to_lowercase(), m.value) {
                 return Err(Error::invalid(format!(
                     "labels {other} and {} would both be written as {name}; name the files by \
@@ -156,4 +174,22 @@ pub fn write_each(
         s.commit()?;
     }
     Ok(files)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{filled, safe_name};
+
+    #[test]
+    fn names_become_file_names_and_fill_the_template_once() {
+        assert_eq!(safe_name("left/right: a*b?"), "left_right_ a_b_");
+        assert_eq!(safe_name("..hidden"), "hidden");
+        assert_eq!(safe_name(" .. "), "_");
+        assert_eq!(safe_name("tab\there"), "tab_here");
+        assert_eq!(
+            filled("{name}-{value}.stl", "{value}", "7"),
+            "{value}-7.stl"
+        );
+        assert_eq!(filled("a{b}{name}", "x", "1"), "a{b}x");
+    }
 }
