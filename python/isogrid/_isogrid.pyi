@@ -76,6 +76,10 @@ class LabelGrid(CellGrid):
     ) -> Dict[int, Tuple[npt.NDArray[Any], ...]]:
         """Each label's (vertices float32, faces uint32), by label value, in the order of
         ``labels``; with ``values=True`` also the grid's attribute at the vertices (float32)."""
+    def write_meshes(self, path: _Path, space: str = "world", threads: Optional[int] = None) -> None:
+        """Each label's mesh written as ``isogrid mc --labels -o PATH`` writes it: a ``.glb`` or
+        ``.vtp``, a neuroglancer folder, or one file per label from a template such as
+        ``"organs/{name}.stl"``."""
 
 def extract(
     array: np.ndarray,

@@ -814,15 +814,7 @@ impl LabelGrid {
         values: bool,
     ) -> PyResult<Bound<'py, PyDict>> {
         let py = slf.py();
-        let space = match space {
-            "world" => isogrid::mc::MeshSpace::World,
-            "index" => isogrid::mc::MeshSpace::Index,
-            other => {
-                return Err(invalid(format!(
-                    "space must be 'world' or 'index', not {other:?}"
-                )))
-            }
-        };
+        let space = mesh_space(space)?;
         let grid = slf.as_super().get().inner();
         let labels = grid
             .labels()
@@ -834,21 +826,8 @@ impl LabelGrid {
             ));
         }
         let signed = isogrid::labels::signed_labels(grid.info().scalar_type);
-        let meshes = run_detached(py, threads, move || -> isogrid::Result<_> {
-            let geometry = isogrid::extract::attribute::grid_geometry(grid.info());
-            let mut meshes: Vec<(isogrid::mc::McMesh, Option<Vec<f32>>)> = match values {
-                true => isogrid::mc::label_meshes_with_values(grid)?,
-                false => isogrid::mc::label_meshes(grid)?
-                    .into_iter()
-                    .map(|m| (m, None))
-                    .collect(),
-            };
-            for (mesh, _) in &mut meshes {
-                mesh.place(&geometry, space)?;
-            }
-            Ok(meshes)
-        })?
-        .map_err(to_py)?;
+        let meshes = run_detached(py, threads, move || placed_meshes(grid, space, values))?
+            .map_err(to_py)?;
         let out = PyDict::new(py);
         for (label, (mesh, mesh_values)) in labels.table().iter().zip(meshes) {
             let vertices = to_array2(py, mesh.positions)?;
@@ -866,6 +845,55 @@ impl LabelGrid {
             }
         }
         Ok(out)
+    }
+
+    /// Writes each label's mesh (as `meshes` gives them) where `path` says, as `isogrid mc
+    /// --labels -o PATH` writes them: a `.glb` or `.vtp` of every label, a new folder of
+    /// neuroglancer precomputed meshes (a name without an extension), or one file per label from a
+    /// template holding `{name}` or `{value}` (`"organs/{name}.stl"`; .stl, .obj, .ply, .vtp or
+    /// .glb). The grid's attribute goes with the vertices where the format keeps values.
+    /// Atomically: all the files or none.
+    #[pyo3(signature = (path, space="world", threads=None))]
+    fn write_meshes(
+        slf: &Bound<'_, Self>,
+        path: PathBuf,
+        space: &str,
+        threads: Option<usize>,
+    ) -> PyResult<()> {
+        let py = slf.py();
+        let space = mesh_space(space)?;
+        let grid = slf.as_super().get().inner();
+        let output = isogrid_io::label_meshes::LabelMeshOutput::of(&path).map_err(to_py)?;
+        let labels = grid
+            .labels()
+            .ok_or_else(|| invalid("a LabelGrid holds labels"))?;
+        let signed = isogrid::labels::signed_labels(grid.info().scalar_type);
+        let values = output.holds_values() && grid.attribute().is_some();
+        run_detached(py, threads, move || -> isogrid::Result<()> {
+            let meshes = placed_meshes(grid, space, values)?;
+            let shown: Vec<String> = labels
+                .table()
+                .iter()
+                .map(|l| isogrid::labels::display_value(l.value, signed))
+                .collect();
+            let label_meshes: Vec<isogrid_io::label_meshes::LabelMesh> = labels
+                .table()
+                .iter()
+                .zip(&shown)
+                .zip(&meshes)
+                .map(
+                    |((label, value), (mesh, values))| isogrid_io::label_meshes::LabelMesh {
+                        label,
+                        value,
+                        mesh,
+                        values: values.as_deref(),
+                    },
+                )
+                .collect();
+            let attribute = grid.attribute().map(|a| a.info().name.as_str());
+            output.write(&label_meshes, attribute)
+        })?
+        .map_err(to_py)
     }
 
     fn __repr__(slf: &Bound<'_, Self>) -> String {
@@ -905,4 +933,36 @@ pub fn to_array2<T: numpy::Element, const N: usize>(
 pub fn tuple3<T>(v: [T; 3]) -> (T, T, T) {
     let [a, b, c] = v;
     (a, b, c)
+}
+
+/// Every label's mesh of `grid`, placed in `space`, with its values of the grid's attribute when
+/// `values` is set.
+fn placed_meshes(
+    grid: &isogrid::CellGrid,
+    space: isogrid::mc::MeshSpace,
+    values: bool,
+) -> isogrid::Result<Vec<(isogrid::mc::McMesh, Option<Vec<f32>>)>> {
+    let geometry = isogrid::extract::attribute::grid_geometry(grid.info());
+    let mut meshes: Vec<(isogrid::mc::McMesh, Option<Vec<f32>>)> = match values {
+        true => isogrid::mc::label_meshes_with_values(grid)?,
+        false => isogrid::mc::label_meshes(grid)?
+            .into_iter()
+            .map(|m| (m, None))
+            .collect(),
+    };
+    for (mesh, _) in &mut meshes {
+        mesh.place(&geometry, space)?;
+    }
+    Ok(meshes)
+}
+
+/// `space="world"` or `"index"` of the mesh methods.
+fn mesh_space(space: &str) -> PyResult<isogrid::mc::MeshSpace> {
+    match space {
+        "world" => Ok(isogrid::mc::MeshSpace::World),
+        "index" => Ok(isogrid::mc::MeshSpace::Index),
+        other => Err(invalid(format!(
+            "space must be 'world' or 'index', not {other:?}"
+        ))),
+    }
 }

@@ -339,6 +339,33 @@ def test_one_file_per_label_from_a_template(cli, tmp_path):
         assert not (tmp_path / "new").exists()
 
 
+def test_python_writes_the_cli_label_mesh_files(cli, tmp_path):
+    """``LabelGrid.write_meshes(path)`` writes the bytes ``isogrid mc GRID.cgc --labels all -o
+    path`` writes, in every output kind, with the grid's attribute where the format keeps it."""
+    a = _labels()
+    path, field_path = tmp_path / "labels.npy", tmp_path / "field.npy"
+    np.save(path, a)
+    np.save(field_path, np.arange(a.size, dtype=np.float32).reshape(a.shape))
+    cgc = tmp_path / "labels.cgc"
+    subprocess.run([cli, "extract", path, "--labels", "all", "--color-by", field_path, "-o", cgc], check=True,
+                   capture_output=True)
+    grid = isogrid.load(cgc)
+    (tmp_path / "cli").mkdir()
+    (tmp_path / "py").mkdir()
+    for name in ("all.glb", "all.vtp", "ng", "each/{name}.stl", "each/{value}.ply", "each/{value}.glb"):
+        subprocess.run([cli, "mc", cgc, "--labels", "all", "-o", tmp_path / "cli" / name], check=True,
+                       capture_output=True)
+        grid.write_meshes(tmp_path / "py" / name)
+    cli_files = sorted(p.relative_to(tmp_path / "cli") for p in (tmp_path / "cli").rglob("*") if p.is_file())
+    py_files = sorted(p.relative_to(tmp_path / "py") for p in (tmp_path / "py").rglob("*") if p.is_file())
+    assert cli_files == py_files and len(cli_files) > 20
+    for f in cli_files:
+        assert (tmp_path / "cli" / f).read_bytes() == (tmp_path / "py" / f).read_bytes(), f
+    assert b"quality" in (tmp_path / "py" / "each" / "4.ply").read_bytes()[:400]
+    with pytest.raises(ValueError, match="label meshes are written as"):
+        grid.write_meshes(tmp_path / "x.ply")
+
+
 def test_refusals_are_one_line_and_write_nothing(cli, tmp_path):
     a = _labels()
     path = tmp_path / "labels.npy"

@@ -12,10 +12,7 @@ use isogrid::mc::{
     MeshSpace,
 };
 use isogrid::{CellGrid, Progress};
-use isogrid_io::label_meshes::{
-    file_names, is_template, write_each, write_glb, write_precomputed, write_vtp, EachFormat,
-    LabelMesh,
-};
+use isogrid_io::label_meshes::{file_names, LabelMesh, LabelMeshOutput};
 use isogrid_io::mesh_write::MeshFileFormat;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -192,49 +189,6 @@ pub fn run(args: Args) -> Result<()> {
     report.print(args.json)
 }
 
-/// Where `mc --labels` writes: a glTF binary, VTK XML PolyData or a neuroglancer precomputed
-/// folder.
-enum LabelOutput<'a> {
-    Glb(&'a Path),
-    Vtp(&'a Path),
-    Precomputed(&'a Path),
-    /// One file per label, named from a template (`organs/{name}.stl`).
-    Each(&'a Path, EachFormat),
-}
-
-impl<'a> LabelOutput<'a> {
-    /// Whether the output keeps a value per vertex.
-    fn holds_values(&self) -> bool {
-        match self {
-            LabelOutput::Glb(_) | LabelOutput::Vtp(_) => true,
-            LabelOutput::Precomputed(_) => false,
-            LabelOutput::Each(_, format) => format.holds_values(),
-        }
-    }
-
-    fn of(path: &'a Path) -> Result<Self> {
-        if is_template(path) {
-            return Ok(LabelOutput::Each(path, EachFormat::of(path)?));
-        }
-        match path
-            .extension()
-            .and_then(|e| e.to_str())
-            .map(str::to_ascii_lowercase)
-            .as_deref()
-        {
-            Some("glb") => Ok(LabelOutput::Glb(path)),
-            Some("vtp") => Ok(LabelOutput::Vtp(path)),
-            None => Ok(LabelOutput::Precomputed(path)),
-            Some(_) => bail!(
-                "{}: label meshes are written as .glb (glTF 2.0), .vtp (VTK XML PolyData), a \
-                 folder of neuroglancer precomputed meshes (a name without an extension), or one \
-                 file per label named from a template such as organs/{{name}}.stl",
-                path.display()
-            ),
-        }
-    }
-}
-
 /// The labels `--labels` selects of the label grid in the `.cgc` file `args.input` (memory-mapped;
 /// only the selected labels' clusters are read), and the seconds it took. The grid's labels,
 /// smoothing and precision were fixed when it was extracted.
@@ -275,23 +229,24 @@ fn open_label_grid(args: &Args) -> Result<(CellGrid, f64)> {
 /// own attribute.
 fn run_labels(args: Args) -> Result<()> {
     let options = args.label.options(None).expect("called with --labels");
-    let output = args.output.as_deref().map(LabelOutput::of).transpose()?;
+    let output = args
+        .output
+        .as_deref()
+        .map(LabelMeshOutput::of)
+        .transpose()?;
     let read_options = args.input_args.read_options()?;
     let attribute = args.color.attribute(&args.input, &read_options)?;
-    if attribute.is_some() && output.as_ref().is_some_and(|o| !o.holds_values()) {
+    if let Some(out) = output.filter(|o| attribute.is_some() && !o.holds_values()) {
         bail!(
             "--color-by: {} carry no per-vertex values; write the label meshes as .glb (the \
              vertex attribute _VALUE) or .vtp (a ParaView point array), or one .ply or .vtp per \
              label",
-            match &output {
-                Some(LabelOutput::Each(_, EachFormat::Mesh(f))) => format!("{} files", f.name()),
-                _ => "neuroglancer's precomputed meshes".to_string(),
-            }
+            out.describe()
         );
     }
     let mut inputs = AttributeInput::inputs(&args.input, attribute.as_ref());
     inputs.extend(args.label.label_table.as_deref());
-    if let Some(LabelOutput::Glb(path) | LabelOutput::Vtp(path)) = output {
+    if let Some(LabelMeshOutput::Glb(path) | LabelMeshOutput::Vtp(path)) = output {
         let file = Output {
             role: "the meshes",
             path,
@@ -299,7 +254,7 @@ fn run_labels(args: Args) -> Result<()> {
         };
         outputs::check(&inputs, &[file])?;
     }
-    if let Some(LabelOutput::Precomputed(path)) = output {
+    if let Some(LabelMeshOutput::Precomputed(path)) = output {
         if path.symlink_metadata().is_ok() {
             bail!(
                 "{}: already exists; the precomputed meshes are written as a new folder",
@@ -337,7 +292,7 @@ fn run_labels(args: Args) -> Result<()> {
     let start = Instant::now();
     // Per-vertex values: --color-by's volume sampled at the vertices, else the grid's own
     // attribute (a .cgc file's) as its cells hold it, where the output keeps them.
-    let keeps_values = output.as_ref().is_some_and(LabelOutput::holds_values);
+    let keeps_values = output.as_ref().is_some_and(LabelMeshOutput::holds_values);
     let own_attribute = grid
         .attribute()
         .filter(|_| attribute.is_none() && keeps_values);
@@ -417,24 +372,20 @@ fn run_labels(args: Args) -> Result<()> {
     let mut write = 0.0;
     if let Some(output) = &output {
         let start = Instant::now();
-        match output {
-            LabelOutput::Glb(path) => write_glb(path, &label_meshes, attribute_name.as_deref())?,
-            LabelOutput::Vtp(path) => write_vtp(path, &label_meshes, attribute_name.as_deref())?,
-            LabelOutput::Precomputed(path) => write_precomputed(path, &label_meshes)?,
-            LabelOutput::Each(template, _) => {
-                let files = file_names(template, &label_meshes)?;
-                let outputs: Vec<Output> = files
-                    .iter()
-                    .map(|path| Output {
-                        role: "a label's mesh",
-                        path,
-                        extensions: &[".stl", ".obj", ".ply", ".vtp", ".glb"],
-                    })
-                    .collect();
-                outputs::check(&inputs, &outputs)?;
-                write_each(template, &label_meshes, attribute_name.as_deref())?;
-            }
+        if let LabelMeshOutput::Each(template, _) = output {
+            // The files' names are known now, from the labels' names.
+            let files = file_names(template, &label_meshes)?;
+            let outputs: Vec<Output> = files
+                .iter()
+                .map(|path| Output {
+                    role: "a label's mesh",
+                    path,
+                    extensions: &[".stl", ".obj", ".ply", ".vtp", ".glb"],
+                })
+                .collect();
+            outputs::check(&inputs, &outputs)?;
         }
+        output.write(&label_meshes, attribute_name.as_deref())?;
         write = start.elapsed().as_secs_f64();
     }
     let sum = |f: fn(&McMesh) -> usize| label_meshes.iter().map(|m| f(m.mesh) as u64).sum();

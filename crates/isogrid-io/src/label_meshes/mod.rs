@@ -10,11 +10,13 @@
 mod each;
 mod gltf;
 mod label_mesh;
+mod output;
 mod precomputed;
 mod vtp;
 
 pub use self::gltf::write_glb;
 pub use each::{file_names, is_template, write_each, EachFormat};
 pub use label_mesh::LabelMesh;
+pub use output::LabelMeshOutput;
 pub use precomputed::write_precomputed;
 pub use vtp::write_vtp;
