@@ -90,7 +90,7 @@ fn format_name(extension: &str) -> &'static str {
         ".nrrd" => "NRRD",
         ".png" => "PNG",
         ".npy" => "NumPy .npy",
-        ".ply" | ".obj" => "a mesh",
+        ".ply" | ".obj" | ".stl" | ".vtp" | ".glb" => "a mesh file",
         _ => "its format",
     }
 }

@@ -297,8 +297,8 @@ fn bad_input_gets_one_clear_line() {
         "normalised isovalue",
     );
     fails(
-        &["mc", s(&volume), "--iso", "1", "-o", s(&dir.join("m.stl"))],
-        "m.stl",
+        &["mc", s(&volume), "--iso", "1", "-o", s(&dir.join("m.off"))],
+        "m.off: the mesh is written as a mesh file, so its name must end in .ply or .obj or .stl or .vtp",
     );
     fails(
         &[
