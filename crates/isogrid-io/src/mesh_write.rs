@@ -1,6 +1,8 @@
 //! The mesh file a name asks for, by its extension, written by the core's writers
 //! (`isogrid::mc`): binary PLY, OBJ, binary STL and VTK XML PolyData. One rule for `isogrid mc`'s
-//! mesh and for one file per label.
+//! mesh and for one file per label. Positions are written as the mesh holds them: the caller
+//! places it in world (patient) or index space first (`McMesh::place`); the formats carry no
+//! unit.
 
 use isogrid::mc::vtp::{write_vtp_to, VtkArray, VtkValues, VtpArrays};
 use isogrid::mc::McMesh;

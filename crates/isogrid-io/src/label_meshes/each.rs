@@ -2,7 +2,7 @@
 //! Slicer's "export to files" gives) or `segments/{value}.ply`. `{name}` is the label's name made
 //! safe as a file name (path separators, control characters and `:*?"<>|` become `_`, leading
 //! dots go), `{value}` its value. The format is the template's extension: .stl, .obj, .ply, .vtp (`mesh_write`) or
-//! .glb (one label's glTF).
+//! .glb (one label's glTF). Positions as the caller placed the meshes (world or index space).
 //!
 //! All or nothing: into a folder that does not exist yet, the files are written into a new
 //! temporary folder that is then renamed into place; into an existing folder, each file is staged
