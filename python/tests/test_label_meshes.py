@@ -375,6 +375,12 @@ def test_refusals_are_one_line_and_write_nothing(cli, tmp_path):
         (["--labels", "all", "-o", tmp_path / "labels.ply"], "written as .glb"),
         (["--iso", "1", "--smooth", "1", "-o", tmp_path / "x.ply"], "needs --labels"),
         (["--labels", "all", "--color-by", path, "-o", tmp_path / "folder"], "carry no per-vertex values"),
+        # Missing folders are found before the work, naming the folder.
+        (["--labels", "all", "-o", tmp_path / "a" / "b" / "{name}.stl"], f"the folder {tmp_path / 'a'} does not exist"),
+        (["--labels", "all", "-o", tmp_path / "a" / "all.glb"], f"the folder {tmp_path / 'a'} does not exist"),
+        (["--labels", "all", "-o", tmp_path / "a" / "ng"], f"the folder {tmp_path / 'a'} does not exist"),
+        (["--iso", "1", "-o", tmp_path / "a" / "x.stl"], f"the folder {tmp_path / 'a'} does not exist"),
+        (["--labels", "all", "-o", tmp_path / "{name}" / "{value}.stl"], "fill in the file name, not a folder"),
     ]
     for args, message in cases:
         failed = subprocess.run([cli, "mc", path, *args], capture_output=True, text=True)

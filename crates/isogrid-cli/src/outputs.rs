@@ -1,7 +1,8 @@
 //! The files a request will write, checked together before any work so that nothing is lost:
 //! each output's extension names the format written into it, no output is one of the inputs
 //! (same path, link or hard link) or a file an input reads (a header's data file, a slice of a
-//! folder), no output is a folder, and no two outputs are the same file.
+//! folder), no output is a folder, each output's folder exists, and no two outputs are the same
+//! file.
 //!
 //! Every subcommand that writes calls [`check`] once with all its inputs and outputs.
 
@@ -46,6 +47,7 @@ pub fn check(inputs: &[&Path], outputs: &[Output]) -> Result<()> {
         }
     }
     for out in outputs {
+        check_folder(out.role, out.path)?;
         // Found before any work: the write would fail only after the others had been written.
         if out.path.is_dir() {
             bail!(
@@ -82,6 +84,27 @@ pub fn check(inputs: &[&Path], outputs: &[Output]) -> Result<()> {
         }
     }
     Ok(())
+}
+
+/// Checks that the folder `path` is to be written into exists, so that a long extraction does not
+/// end in "No such file or directory". `role` names what is written there, for the message.
+pub fn check_folder(role: &str, path: &Path) -> Result<()> {
+    let Some(folder) = path.parent().filter(|d| !d.as_os_str().is_empty()) else {
+        return Ok(());
+    };
+    match std::fs::metadata(folder) {
+        Ok(m) if m.is_dir() => Ok(()),
+        Ok(_) => bail!(
+            "{}: {role} cannot be written there: {} is not a folder",
+            path.display(),
+            folder.display()
+        ),
+        Err(_) => bail!(
+            "{}: {role} cannot be written there: the folder {} does not exist; create it first",
+            path.display(),
+            folder.display()
+        ),
+    }
 }
 
 fn format_name(extension: &str) -> &'static str {

@@ -261,6 +261,17 @@ fn run_labels(args: Args) -> Result<()> {
                 path.display()
             );
         }
+        outputs::check_folder("the precomputed meshes", path)?;
+    }
+    // A template's folder is made when it is not there yet, in a folder that is.
+    let new_template_folder = match output {
+        Some(LabelMeshOutput::Each(template, _)) => template
+            .parent()
+            .filter(|d| !d.as_os_str().is_empty() && d.symlink_metadata().is_err()),
+        _ => None,
+    };
+    if let Some(folder) = new_template_folder {
+        outputs::check_folder("the label meshes' folder", folder)?;
     }
     let pool = args.threads.pool()?;
     let table = args.label.table()?;
@@ -372,8 +383,9 @@ fn run_labels(args: Args) -> Result<()> {
     let mut write = 0.0;
     if let Some(output) = &output {
         let start = Instant::now();
-        if let LabelMeshOutput::Each(template, _) = output {
-            // The files' names are known now, from the labels' names.
+        if let (LabelMeshOutput::Each(template, _), None) = (output, new_template_folder) {
+            // The files' names are known now, from the labels' names; in a new folder, none can
+            // be an input or another output.
             let files = file_names(template, &label_meshes)?;
             let outputs: Vec<Output> = files
                 .iter()

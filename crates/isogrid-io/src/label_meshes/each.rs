@@ -31,8 +31,16 @@ pub enum EachFormat {
 }
 
 impl EachFormat {
-    /// The format the template's extension names; errors name `template`.
+    /// The format the template's extension names; errors name `template`, and refuse `{name}`
+    /// or `{value}` in its folder.
     pub fn of(template: &Path) -> Result<Self> {
+        let folder = template.parent().map(|d| d.to_string_lossy());
+        if folder.is_some_and(|d| d.contains("{name}") || d.contains("{value}")) {
+            return Err(Error::invalid(
+                "{name} and {value} fill in the file name, not a folder: write organs/{name}.stl",
+            )
+            .with_path(template));
+        }
         let glb = template
             .extension()
             .is_some_and(|e| e.eq_ignore_ascii_case("glb"));

@@ -827,6 +827,16 @@ fn render_writes_all_its_outputs_or_none() {
     let folder_args: Vec<&str> = folder_args.iter().map(String::as_str).collect();
     fails(&folder_args, "it is a folder");
     assert_eq!(std::fs::read(&png).unwrap(), b"old picture");
+    // An AOV into a folder that is not there, or is a file, is found before the render too.
+    for (missing, message) in [
+        (dir.join("none").join("d.npy"), "the folder"),
+        (png.join("d.npy"), "is not a folder"),
+    ] {
+        let missing_args = args(&missing);
+        let missing_args: Vec<&str> = missing_args.iter().map(String::as_str).collect();
+        fails(&missing_args, message);
+        assert_eq!(std::fs::read(&png).unwrap(), b"old picture");
+    }
     // A file-size limit that the PNG fits (64x64 RGB, compressed, under 8 KiB) and the depth AOV
     // does not (64 x 64 x 4 bytes = 16 KiB).
     let depth = dir.join("d2.npy");
