@@ -53,6 +53,52 @@ def test_the_mc_stl_is_the_mesh_a_slicer_gets(cli, tmp_path):
     assert stl.volume > 0
 
 
+def test_the_mc_glb_is_the_mesh_with_its_values_for_blender_and_the_web(cli, tmp_path):
+    """``isogrid mc -o ball.glb --color-by f``: trimesh reads the glTF as the world-space mesh
+    ``marching_cubes`` gives, closed and wound outwards, pygltflib finds the attribute as the vertex
+    attribute ``_VALUE`` (named after the attribute file) equal to the PLY's ``quality``, and an
+    empty surface is a glTF with no scene that both open."""
+    import subprocess
+
+    trimesh = pytest.importorskip("trimesh")
+    pygltflib = pytest.importorskip("pygltflib")
+    nrrd = pytest.importorskip("nrrd")
+    path = tmp_path / "ball.nrrd"
+    header = {"space directions": np.diag([0.5, 1.0, 2.0]), "space origin": [10.0, -5.0, 3.0],
+              "space": "left-posterior-superior"}
+    nrrd.write(str(path), _ball().transpose().copy(order="F"), header)
+    z, y, x = np.mgrid[:40, :40, :40].astype(np.float32)
+    nrrd.write(str(tmp_path / "f.nrrd"), (x + 2 * y - z).transpose().copy(order="F"), header)
+    for out in ("ball.glb", "ball.ply"):
+        subprocess.run([cli, "mc", path, "--iso", "0", "--color-by", tmp_path / "f.nrrd", "-o", tmp_path / out],
+                       check=True, capture_output=True)
+    vertices, faces = isogrid.marching_cubes(path, iso=0.0)
+    scene = trimesh.load(tmp_path / "ball.glb", process=False)
+    (mesh,) = scene.geometry.values()
+    np.testing.assert_array_equal(mesh.vertices, vertices)
+    np.testing.assert_array_equal(mesh.faces, faces)
+    assert mesh.is_watertight and mesh.is_winding_consistent and mesh.volume > 0
+    gltf = pygltflib.GLTF2().load(str(tmp_path / "ball.glb"))
+    (node,) = [gltf.nodes[i] for i in gltf.scenes[gltf.scene].nodes]
+    assert node.name == "isosurface"
+    accessor = gltf.accessors[gltf.meshes[node.mesh].primitives[0].attributes._VALUE]
+    assert accessor.name == "f.nrrd" and accessor.count == len(vertices)
+    view = gltf.bufferViews[accessor.bufferView]
+    values = np.frombuffer(gltf.binary_blob(), "<f4", accessor.count, view.byteOffset + (accessor.byteOffset or 0))
+    ply = (tmp_path / "ball.ply").read_bytes()
+    assert b"property float quality" in ply[:400]
+    quality = np.frombuffer(ply[ply.index(b"end_header\n") + 11:], "<f4", len(vertices) * 4).reshape(-1, 4)[:, 3]
+    np.testing.assert_array_equal(values, quality)
+    # The attribute shares the surface's patient space: its index at each world vertex, x + 2y - z.
+    index = (vertices - np.array([10.0, -5.0, 3.0])) / np.array([0.5, 1.0, 2.0])
+    np.testing.assert_allclose(values, index[:, 0] + 2 * index[:, 1] - index[:, 2], atol=1e-3)
+    # Nothing above the isovalue: an empty glTF, not an error.
+    subprocess.run([cli, "mc", path, "--iso", "100", "-o", tmp_path / "empty.glb"], check=True, capture_output=True)
+    empty = pygltflib.GLTF2().load(str(tmp_path / "empty.glb"))
+    assert empty.nodes == [] and empty.scene is None
+    assert len(trimesh.load(tmp_path / "empty.glb").geometry) == 0
+
+
 def test_pyvista_takes_the_mesh_and_its_attribute():
     pv = pytest.importorskip("pyvista")
     ball = _ball()

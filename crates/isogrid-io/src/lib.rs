@@ -13,6 +13,7 @@
 //! FIFO, device or directory given as a file is refused rather than waited on.
 
 pub mod dicom;
+pub mod glb;
 pub mod image;
 pub mod label_meshes;
 pub mod labels;

@@ -1,9 +1,11 @@
 //! The mesh file a name asks for, by its extension, written by the core's writers
-//! (`isogrid::mc`): binary PLY, OBJ, binary STL and VTK XML PolyData. One rule for `isogrid mc`'s
+//! (`isogrid::mc`, and [`crate::glb`] for glTF): binary PLY, OBJ, binary STL, VTK XML PolyData and
+//! glTF 2.0 binary. One rule for `isogrid mc`'s
 //! mesh and for one file per label. Positions are written as the mesh holds them: the caller
 //! places it in world (patient) or index space first (`McMesh::place`); the formats carry no
 //! unit.
 
+use crate::glb::{glb_bytes, GltfMesh};
 use isogrid::mc::vtp::{write_vtp_to, VtkArray, VtkValues, VtpArrays};
 use isogrid::mc::McMesh;
 use isogrid::{Error, Result};
@@ -21,6 +23,9 @@ pub enum MeshFileFormat {
     Stl,
     /// VTK XML PolyData (ParaView, PyVista); per-vertex values as a named point array.
     Vtp,
+    /// glTF 2.0 binary (Blender, three.js, web viewers): one mesh named `isosurface` in the
+    /// renderer's surface colour; per-vertex values as the vertex attribute `_VALUE`.
+    Glb,
 }
 
 impl MeshFileFormat {
@@ -35,8 +40,10 @@ impl MeshFileFormat {
             Some("obj") => Ok(MeshFileFormat::Obj),
             Some("stl") => Ok(MeshFileFormat::Stl),
             Some("vtp") => Ok(MeshFileFormat::Vtp),
+            Some("glb") => Ok(MeshFileFormat::Glb),
             _ => Err(
-                Error::invalid("mesh output must end in .ply, .obj, .stl or .vtp").with_path(path),
+                Error::invalid("mesh output must end in .ply, .obj, .stl, .vtp or .glb")
+                    .with_path(path),
             ),
         }
     }
@@ -48,12 +55,16 @@ impl MeshFileFormat {
             MeshFileFormat::Obj => "OBJ",
             MeshFileFormat::Stl => "STL",
             MeshFileFormat::Vtp => "VTK PolyData",
+            MeshFileFormat::Glb => "glTF",
         }
     }
 
     /// Whether the format holds a value per vertex.
     pub fn holds_values(self) -> bool {
-        matches!(self, MeshFileFormat::Ply | MeshFileFormat::Vtp)
+        matches!(
+            self,
+            MeshFileFormat::Ply | MeshFileFormat::Vtp | MeshFileFormat::Glb
+        )
     }
 
     /// Writes `mesh` in this format into `out`, with `values` (the attribute's name and one
@@ -85,6 +96,18 @@ impl MeshFileFormat {
                     ..Default::default()
                 };
                 write_vtp_to(out, &[mesh], arrays)
+            }
+            MeshFileFormat::Glb => {
+                let [r, g, b] = isogrid::shading::ALBEDO;
+                let surface = GltfMesh {
+                    name: "isosurface",
+                    color: [r, g, b, 1.0],
+                    extras: None,
+                    mesh,
+                    values: values.map(|(_, v)| v),
+                };
+                let bytes = glb_bytes(&[surface], values.map(|(name, _)| name))?;
+                Ok(out.write_all(&bytes)?)
             }
         }
     }

@@ -30,8 +30,8 @@ pub struct Args {
     pub threads: ThreadArgs,
     #[command(flatten)]
     pub input_args: InputArgs,
-    /// Write the mesh: .ply (binary), .obj, .stl (binary, for 3D printing) or .vtp (VTK XML
-    /// PolyData, for ParaView); with
+    /// Write the mesh: .ply (binary), .obj, .stl (binary, for 3D printing), .vtp (VTK XML
+    /// PolyData, for ParaView) or .glb (glTF 2.0, for Blender and the web); with
     /// --labels, .glb (glTF 2.0: a named, coloured mesh per label), .vtp (one mesh, each
     /// triangle's label and colour as cell arrays), a new folder of neuroglancer precomputed
     /// meshes (any name without an extension), or one file per label named from a template
@@ -75,8 +75,8 @@ impl Space {
 fn check_values(format: MeshFileFormat, path: &Path, values: bool) -> Result<()> {
     if values && !format.holds_values() {
         bail!(
-            "{}: {} has no per-vertex values; write the mesh as .ply (MeshLab's vertex quality) \
-             or .vtp (a ParaView point array) with --color-by",
+            "{}: {} has no per-vertex values; write the mesh as .ply (MeshLab's vertex quality), \
+             .vtp (a ParaView point array) or .glb (the vertex attribute _VALUE) with --color-by",
             path.display(),
             format.name()
         );
@@ -102,7 +102,7 @@ pub fn run(args: Args) -> Result<()> {
     let output = args.output.as_deref().map(|path| Output {
         role: "the mesh",
         path,
-        extensions: &[".ply", ".obj", ".stl", ".vtp"],
+        extensions: &[".ply", ".obj", ".stl", ".vtp", ".glb"],
     });
     let read_options = args.input_args.read_options()?;
     let attribute = args.color.attribute(&args.input, &read_options)?;

@@ -298,7 +298,7 @@ fn bad_input_gets_one_clear_line() {
     );
     fails(
         &["mc", s(&volume), "--iso", "1", "-o", s(&dir.join("m.off"))],
-        "m.off: the mesh is written as a mesh file, so its name must end in .ply or .obj or .stl or .vtp",
+        "m.off: the mesh is written as a mesh file, so its name must end in .ply or .obj or .stl or .vtp or .glb",
     );
     fails(
         &[
