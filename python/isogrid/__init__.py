@@ -336,8 +336,9 @@ def extract_labels(
         spacing, precision, threads, series, origin, direction: as :func:`extract` takes them;
             ``precision`` is the bits per stored corner (default 1 without smoothing).
         label_table: a colour table file that names and colours the labels
-            (``isogrid extract --label-table``): a FreeSurfer LUT, a 3D Slicer ``.ctbl`` or an
-            ITK-SNAP label description, told apart by content. Labels it lists that the grid
+            (``isogrid extract --label-table``): a FreeSurfer LUT, a 3D Slicer ``.ctbl``, an
+            ITK-SNAP label description, or a CSV/TSV with a header naming its columns (a BIDS
+            ``dseg.tsv``: ``index``, ``name``, ``color``), told apart by content. Labels it lists that the grid
             lacks give a :class:`UserWarning`. When ``array`` is a path, the file's own names and
             colours come first (a 3D Slicer ``.seg.nrrd``, whose overlapping layers become labels
             of their own; an OME-Zarr label image), and the table's win over them.

