@@ -153,11 +153,14 @@ class Volume:
 
     ``array`` is C-ordered with shape ``(nz, ny, nx)`` (index it ``array[z, y, x]``);
     ``spacing`` and ``origin`` are ``(x, y, z)`` in the file's units (usually mm); ``direction``
-    rows are the world directions of the x, y, z axes (metadata). A Volume can be passed wherever
-    an array is accepted, and then also supplies the spacing.
+    rows are the world directions of the x, y, z axes (metadata). ``frame`` names the convention
+    of those world coordinates: ``"LPS"`` (DICOM, MetaImage, NRRD's ``left-posterior-superior``),
+    ``"RAS"`` (NIfTI, NRRD's ``right-anterior-superior``) or ``None`` (none known); an attribute
+    of the other convention than its surface is taken into the surface's before it is sampled. A
+    Volume can be passed wherever an array is accepted, and then also supplies the spacing.
     """
 
-    __slots__ = ("array", "spacing", "origin", "direction")
+    __slots__ = ("array", "spacing", "origin", "direction", "frame")
 
     def __init__(
         self,
@@ -165,6 +168,7 @@ class Volume:
         spacing: Sequence[float] = (1.0, 1.0, 1.0),
         origin: Sequence[float] = (0.0, 0.0, 0.0),
         direction: Sequence[Sequence[float]] = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)),
+        frame: Optional[str] = None,
     ) -> None:
         self.array: np.ndarray = array
         self.spacing: Triple = _triple(spacing, "spacing")
@@ -172,6 +176,9 @@ class Volume:
         self.direction: Tuple[Triple, Triple, Triple] = tuple(  # type: ignore[assignment]
             _triple(row, "direction row") for row in direction
         )
+        if frame not in (None, "LPS", "RAS"):
+            raise ValueError(f'frame must be "LPS", "RAS" or None, not {frame!r}')
+        self.frame: Optional[str] = frame
 
     @property
     def dims(self) -> Tuple[int, int, int]:
@@ -275,11 +282,11 @@ def extract(
     if label_table is not None or labels_of is not None:
         raise ValueError("label_table and labels_of name the labels of labels=, and need it")
     _attribute_index_needs_attribute(attribute, attribute_index)
-    prepared, fortran, spacing3, origin, direction = _placed(array, series, spacing, origin, direction, index)
+    prepared, fortran, spacing3, origin, direction, frame = _placed(array, series, spacing, origin, direction, index)
     attribute_arg = None
     if attribute is not None:
         attribute_arg = _attribute_arg(
-            attribute, prepared, fortran, spacing3, origin, direction,
+            attribute, prepared, fortran, spacing3, origin, direction, frame,
             _int(attribute_precision, "attribute_precision"), attribute_index,
         )
     grid = _isogrid.extract(
@@ -294,6 +301,7 @@ def extract(
         direction=None if direction is None else [_triple(row, "direction row") for row in direction],
         attribute=attribute_arg,
         progress=progress,
+        frame=frame,
     )
     _warn_if_empty(grid, prepared)
     return grid
@@ -389,7 +397,7 @@ def extract_labels(
         return _with_notices(grid, notices)
     if labels_of is not None:
         raise ValueError("labels_of names a label image of an OME-Zarr image, and needs its path")
-    prepared, fortran, spacing3, origin, direction = _placed(array, series, spacing, origin, direction, index)
+    prepared, fortran, spacing3, origin, direction, frame = _placed(array, series, spacing, origin, direction, index)
     grid, notices = _isogrid.extract_labels(
         prepared,
         fortran,
@@ -397,6 +405,7 @@ def extract_labels(
         selection,
         origin=None if origin is None else _triple(origin, "origin"),
         direction=None if direction is None else [_triple(row, "direction row") for row in direction],
+        frame=frame,
         **common,
     )
     grid = _with_attribute_of(grid, attribute, attribute_precision, threads, attribute_index)
@@ -424,7 +433,7 @@ def _with_attribute_of(
     attribute = _volume_of(attribute, index=index, keyword="attribute_index")
     prepared, fortran = _prepare(attribute)
     if isinstance(attribute, Volume):
-        place = (attribute.spacing, attribute.origin, attribute.direction)
+        place = (attribute.spacing, attribute.origin, attribute.direction, attribute.frame)
     else:
         dims = prepared.shape if fortran else prepared.shape[::-1]
         if tuple(dims) != tuple(info["dims"]):
@@ -432,11 +441,11 @@ def _with_attribute_of(
                 f"an attribute array of {tuple(dims)} samples (x, y, z) lies on the labels' grid of "
                 f"{tuple(info['dims'])}; pass a Volume with its own geometry to resample it"
             )
-        place = (info["spacing"], info["origin"], info["direction"])
-    spacing, origin, direction = place
+        place = (info["spacing"], info["origin"], info["direction"], info["frame"])
+    spacing, origin, direction, frame = place
     arg = (
         prepared, fortran, _triple(spacing, "spacing"), _triple(origin, "origin"),
-        [_triple(row, "direction row") for row in direction], "attribute", bits,
+        [_triple(row, "direction row") for row in direction], frame, "attribute", bits,
     )
     return _isogrid._with_attribute(grid, array=arg, bits=bits, threads=threads)
 
@@ -448,17 +457,19 @@ def _placed(
     origin: Optional[Sequence[float]],
     direction: Optional[Sequence[Sequence[float]]],
     index: Optional[Dict[str, int]] = None,
-) -> Tuple[np.ndarray, bool, Triple, Any, Any]:
+) -> Tuple[np.ndarray, bool, Triple, Any, Any, Optional[str]]:
     """The samples of ``array`` (an array, a Volume or a path, whose extra axes ``index`` picks
-    from) as the extension takes them, with its spacing, origin and direction: the arguments
-    where given, else a Volume's own."""
+    from) as the extension takes them, with its spacing, origin and direction (the arguments
+    where given, else a Volume's own) and a Volume's world frame."""
     array = _volume_of(array, series, index)
     spacing3 = _spacing_of(array, spacing)
+    frame = None
     if isinstance(array, Volume):
         origin = array.origin if origin is None else origin
         direction = array.direction if direction is None else direction
+        frame = array.frame
     prepared, fortran = _prepare(array)
-    return prepared, fortran, spacing3, origin, direction
+    return prepared, fortran, spacing3, origin, direction, frame
 
 
 def _with_notices(grid: CellGrid, notices: Sequence[str]) -> Any:
@@ -503,12 +514,14 @@ def _attribute_arg(
     spacing: Triple,
     origin: Optional[Sequence[float]],
     direction: Optional[Sequence[Sequence[float]]],
+    frame: Optional[str],
     bits: int,
     index: Optional[Dict[str, int]] = None,
 ) -> Tuple[Any, ...]:
     """The attribute of :func:`extract` as the extension takes it: (array, fortran, spacing,
-    origin, direction, name, bits); a path's extra axes picked by ``index`` (``attribute_index``)
-    and named with it, as the CLI names ``--color-by FILE --color-index t=3``."""
+    origin, direction, frame, name, bits), an array on the surface's samples taking the surface's
+    geometry and world frame; a path's extra axes picked by ``index`` (``attribute_index``) and
+    named with it, as the CLI names ``--color-by FILE --color-index t=3``."""
     name = "attribute"
     if isinstance(attribute, (str, os.PathLike)):
         name = os.path.basename(os.fspath(attribute))
@@ -517,7 +530,8 @@ def _attribute_arg(
     attribute = _volume_of(attribute, index=index, keyword="attribute_index")
     prepared, attribute_fortran = _prepare(attribute)
     if isinstance(attribute, Volume):
-        return (prepared, attribute_fortran, attribute.spacing, attribute.origin, attribute.direction, name, bits)
+        return (prepared, attribute_fortran, attribute.spacing, attribute.origin, attribute.direction, attribute.frame,
+                name, bits)
     dims = prepared.shape if attribute_fortran else prepared.shape[::-1]
     surface_dims = surface.shape if fortran else surface.shape[::-1]
     if tuple(dims) != tuple(surface_dims):
@@ -531,6 +545,7 @@ def _attribute_arg(
         spacing,
         None if origin is None else _triple(origin, "origin"),
         None if direction is None else [_triple(row, "direction row") for row in direction],
+        frame,
         name,
         bits,
     )
@@ -607,7 +622,7 @@ def _load(path: PathLike, shape: Optional[Sequence[int]], dtype_name: Optional[s
     )
     for notice in d["notices"]:
         warnings.warn(f"{os.fspath(path)}: {notice}", UserWarning, stacklevel=_caller_level())
-    return Volume(d["array"], d["spacing"], d["origin"], d["direction"])
+    return Volume(d["array"], d["spacing"], d["origin"], d["direction"], d.get("frame"))
 
 
 def _attribute_index_needs_attribute(attribute: Any, attribute_index: Optional[Dict[str, int]]) -> None:
@@ -670,11 +685,13 @@ def marching_cubes(
         raise ValueError(f"space must be 'world' or 'index', not {space!r}")
     origin = array.origin if isinstance(array, Volume) else None
     direction = array.direction if isinstance(array, Volume) else None
+    frame = array.frame if isinstance(array, Volume) else None
     prepared, fortran = _prepare(array)
     _attribute_index_needs_attribute(attribute, attribute_index)
     attribute_arg = None
     if attribute is not None:
-        attribute_arg = _attribute_arg(attribute, prepared, fortran, spacing3, origin, direction, 32, attribute_index)
+        attribute_arg = _attribute_arg(attribute, prepared, fortran, spacing3, origin, direction, frame, 32,
+                                       attribute_index)
     mesh = _isogrid.marching_cubes(
         prepared,
         fortran,
@@ -687,6 +704,7 @@ def marching_cubes(
         index_space=space == "index",
         attribute=attribute_arg,
         progress=progress,
+        frame=frame,
     )
     if len(mesh[1]) == 0:
         # As extract warns, and `isogrid mc` notes.
@@ -742,7 +760,7 @@ def voxelize(
         cube=bool(cube),
         threads=None if threads is None else _int(threads, "threads", 1),
     )
-    return Volume(d["array"], d["spacing"], d["origin"], d["direction"])
+    return Volume(d["array"], d["spacing"], d["origin"], d["direction"], d.get("frame"))
 
 
 # --- preparing arguments -------------------------------------------------------------------------

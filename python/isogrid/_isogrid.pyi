@@ -30,8 +30,8 @@ class CellGrid:
         (None, or {name, bits, range, bytes, bytes_per_cell}), and labels for a label volume's grid."""
     @property
     def info(self) -> Dict[str, Any]:
-        """dims, spacing, origin, direction, scalar_type, value_range, iso, precision, iso_code,
-        mapping {offset, step, iso_code}, world_bounds."""
+        """dims, spacing, origin, direction, frame ("LPS", "RAS" or None), scalar_type,
+        value_range, iso, precision, iso_code, mapping {offset, step, iso_code}, world_bounds."""
     @property
     def active_cells(self) -> int: ...
     @property
@@ -93,6 +93,7 @@ def extract(
     direction: Optional[Sequence[Sequence[float]]] = None,
     attribute: Optional[Tuple[Any, ...]] = None,
     progress: Optional[Callable[[int, int], Any]] = None,
+    frame: Optional[str] = None,
 ) -> CellGrid: ...
 def extract_labels(
     array: np.ndarray,
@@ -106,6 +107,7 @@ def extract_labels(
     direction: Optional[Sequence[Sequence[float]]] = None,
     label_table: Optional[_Path] = None,
     progress: Optional[Callable[[int, int], Any]] = None,
+    frame: Optional[str] = None,
 ) -> Tuple[LabelGrid, List[str]]: ...
 def extract_labels_file(
     path: _Path,
@@ -159,6 +161,7 @@ def marching_cubes(
     index_space: bool = False,
     attribute: Optional[Tuple[Any, ...]] = None,
     progress: Optional[Callable[[int, int], Any]] = None,
+    frame: Optional[str] = None,
 ) -> Tuple[np.ndarray, ...]: ...
 def skimage_normals_values(
     array: np.ndarray,

@@ -436,7 +436,7 @@ def _attach_attribute(path: str, attribute: Any, dims: Tuple[int, int, int], spa
     prepared, fortran = _prepare(array)
     direction = [list(map(float, row)) for row in direction]
     _isogrid._attach_attribute(
-        path, array=(prepared, fortran, list(spacing), list(origin), direction, "attribute", bits), bits=bits
+        path, array=(prepared, fortran, list(spacing), list(origin), direction, None, "attribute", bits), bits=bits
     )
 
 

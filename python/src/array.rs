@@ -8,7 +8,7 @@
 //! converting is the Python layer's job, where it is visible.
 
 use crate::errors::invalid;
-use isogrid::{Geometry, Samples, VolumeView};
+use isogrid::{Geometry, Samples, VolumeView, WorldFrame};
 use numpy::{Element, PyReadonlyArrayDyn, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 
@@ -100,15 +100,18 @@ impl<'py> VolumeArg<'py> {
     }
 
     /// Sets where the volume sits in the world: the position of sample (0, 0, 0) and, as rows,
-    /// the directions of the x, y, z axes (metadata); `None` keeps the defaults.
+    /// the directions of the x, y, z axes (metadata), in the convention `frame` names (`"LPS"`,
+    /// `"RAS"`); `None` keeps the defaults (no convention).
     pub fn place(
         mut self,
         origin: Option<Vec<f64>>,
         direction: Option<Vec<Vec<f64>>>,
+        frame: Option<&str>,
     ) -> PyResult<Self> {
         let place = Placement::new(None, origin, direction)?;
         self.geometry.origin = place.origin.unwrap_or(self.geometry.origin);
         self.geometry.direction = place.direction.unwrap_or(self.geometry.direction);
+        self.geometry.frame = frame_arg(frame)?;
         Ok(self)
     }
 
@@ -140,6 +143,23 @@ fn layout<T: Element>(a: &PyReadonlyArrayDyn<'_, T>) -> (Vec<usize>, bool, bool)
 fn slice<'a, T: Element>(a: &'a PyReadonlyArrayDyn<'_, T>) -> PyResult<&'a [T]> {
     a.as_slice()
         .map_err(|_| invalid("array is not contiguous and aligned"))
+}
+
+/// The world frame a Volume's `frame` names: `"LPS"`, `"RAS"`, or `None` for none.
+pub fn frame_arg(frame: Option<&str>) -> PyResult<WorldFrame> {
+    match frame {
+        None => Ok(WorldFrame::Unknown),
+        Some("LPS") => Ok(WorldFrame::Lps),
+        Some("RAS") => Ok(WorldFrame::Ras),
+        Some(other) => Err(invalid(format!(
+            "frame must be \"LPS\", \"RAS\" or None, not {other:?}"
+        ))),
+    }
+}
+
+/// The name of `frame` as a Volume's `frame` holds it (`None`: no convention).
+pub fn frame_name(frame: WorldFrame) -> Option<&'static str> {
+    (frame != WorldFrame::Unknown).then(|| frame.name())
 }
 
 /// `spacing` as three positive finite numbers (the library checks them again).

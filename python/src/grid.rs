@@ -72,7 +72,7 @@ pub struct LabelGrid;
 
 /// Extracts the active cells of a 3-D array (see `isogrid.extract`, which prepares `array`).
 #[pyfunction]
-#[pyo3(signature = (array, fortran, spacing, iso=None, iso_normalized=None, precision=None, threads=None, origin=None, direction=None, attribute=None, progress=None))]
+#[pyo3(signature = (array, fortran, spacing, iso=None, iso_normalized=None, precision=None, threads=None, origin=None, direction=None, attribute=None, progress=None, frame=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn extract(
     py: Python<'_>,
@@ -87,8 +87,13 @@ pub fn extract(
     direction: Option<Vec<Vec<f64>>>,
     attribute: Option<AttributeArg<'_, '_>>,
     progress: Option<Bound<'_, PyAny>>,
+    frame: Option<String>,
 ) -> PyResult<CellGrid> {
-    let volume = VolumeArg::new(array, fortran, spacing3(spacing)?)?.place(origin, direction)?;
+    let volume = VolumeArg::new(array, fortran, spacing3(spacing)?)?.place(
+        origin,
+        direction,
+        frame.as_deref(),
+    )?;
     let view = volume.view()?;
     let mut options = ExtractOptions::new(iso_arg(iso, iso_normalized)?);
     options.precision = precision.map(precision_arg).transpose()?;
@@ -98,14 +103,17 @@ pub fn extract(
     let mut inner = run_watched(py, threads, &watch, progress.as_ref(), || {
         isogrid::extract_with_progress(&view, &options, &watch)
     })?;
-    if let Some((array, fortran, spacing, origin, direction, name, bits)) = attribute {
+    if let Some((array, fortran, spacing, origin, direction, frame, name, bits)) = attribute {
         let precision = AttributePrecision::from_bits(bits).ok_or_else(|| {
             invalid(format!(
                 "attribute precision must be 8, 16 or 32, not {bits}"
             ))
         })?;
-        let volume =
-            VolumeArg::new(&array, fortran, spacing3(spacing)?)?.place(origin, direction)?;
+        let volume = VolumeArg::new(&array, fortran, spacing3(spacing)?)?.place(
+            origin,
+            direction,
+            frame.as_deref(),
+        )?;
         let view = volume.view()?;
         let grid = &inner;
         let sampled = run_detached(py, threads, move || {
@@ -122,7 +130,7 @@ pub fn extract(
 /// the colour table file `label_table` when given. Returns the grid and notices for the user (the
 /// table's labels the grid lacks).
 #[pyfunction]
-#[pyo3(signature = (array, fortran, spacing, labels, smooth=0.0, precision=None, threads=None, origin=None, direction=None, label_table=None, progress=None))]
+#[pyo3(signature = (array, fortran, spacing, labels, smooth=0.0, precision=None, threads=None, origin=None, direction=None, label_table=None, progress=None, frame=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn extract_labels<'py>(
     py: Python<'py>,
@@ -137,8 +145,13 @@ pub fn extract_labels<'py>(
     direction: Option<Vec<Vec<f64>>>,
     label_table: Option<PathBuf>,
     progress: Option<Bound<'py, PyAny>>,
+    frame: Option<String>,
 ) -> PyResult<(Bound<'py, PyAny>, Vec<String>)> {
-    let volume = VolumeArg::new(array, fortran, spacing3(spacing)?)?.place(origin, direction)?;
+    let volume = VolumeArg::new(array, fortran, spacing3(spacing)?)?.place(
+        origin,
+        direction,
+        frame.as_deref(),
+    )?;
     let view = volume.view()?;
     let options = label_options(labels, smooth, precision)?;
     check_callback(progress.as_ref())?;
@@ -367,9 +380,12 @@ fn sampled_attribute(
                 .map_err(|e| e.with_path(&attribute_path))
             })?
         }
-        (None, Some((array, fortran, spacing, origin, direction, name, _))) => {
-            let volume =
-                VolumeArg::new(&array, fortran, spacing3(spacing)?)?.place(origin, direction)?;
+        (None, Some((array, fortran, spacing, origin, direction, frame, name, _))) => {
+            let volume = VolumeArg::new(&array, fortran, spacing3(spacing)?)?.place(
+                origin,
+                direction,
+                frame.as_deref(),
+            )?;
             let view = volume.view()?;
             run_detached(py, threads, move || {
                 sample_attribute_in_memory(grid, &view, &name, precision)
@@ -381,13 +397,14 @@ fn sampled_attribute(
 }
 
 /// The attribute volume of `extract` and `marching_cubes`: (array, fortran, spacing, origin,
-/// direction, name, bits).
+/// direction, frame, name, bits).
 pub(crate) type AttributeArg<'a, 'py> = (
     Bound<'py, PyAny>,
     bool,
     Vec<f64>,
     Option<Vec<f64>>,
     Option<Vec<Vec<f64>>>,
+    Option<String>,
     String,
     u32,
 );
@@ -579,6 +596,7 @@ impl CellGrid {
         d.set_item("spacing", tuple3(i.spacing))?;
         d.set_item("origin", tuple3(i.origin))?;
         d.set_item("direction", tuple3(i.direction.map(tuple3)))?;
+        d.set_item("frame", crate::array::frame_name(i.frame))?;
         d.set_item("scalar_type", dtype_name(i.scalar_type))?;
         d.set_item("value_range", (i.value_range[0], i.value_range[1]))?;
         d.set_item("iso", i.iso)?;

@@ -14,7 +14,7 @@ use pyo3::types::PyTuple;
 /// counter-clockwise seen from outside (value < iso). With `above`, inside is `value > iso`
 /// (scikit-image's rule) instead of `value >= iso`. See `isogrid.marching_cubes`.
 #[pyfunction]
-#[pyo3(signature = (array, fortran, spacing, iso=None, iso_normalized=None, threads=None, origin=None, above=false, direction=None, index_space=false, attribute=None, progress=None))]
+#[pyo3(signature = (array, fortran, spacing, iso=None, iso_normalized=None, threads=None, origin=None, above=false, direction=None, index_space=false, attribute=None, progress=None, frame=None))]
 #[allow(clippy::type_complexity, clippy::too_many_arguments)]
 pub fn marching_cubes<'py>(
     py: Python<'py>,
@@ -30,9 +30,14 @@ pub fn marching_cubes<'py>(
     index_space: bool,
     attribute: Option<AttributeArg<'_, 'py>>,
     progress: Option<Bound<'py, PyAny>>,
+    frame: Option<String>,
 ) -> PyResult<Bound<'py, PyTuple>> {
     check_callback(progress.as_ref())?;
-    let volume = VolumeArg::new(array, fortran, spacing3(spacing)?)?.place(origin, direction)?;
+    let volume = VolumeArg::new(array, fortran, spacing3(spacing)?)?.place(
+        origin,
+        direction,
+        frame.as_deref(),
+    )?;
     let view = volume.view()?;
     let iso = iso_arg(iso, iso_normalized)?;
     let inside = if above {
@@ -41,9 +46,15 @@ pub fn marching_cubes<'py>(
         Inside::AtOrAbove
     };
     let attribute = attribute
-        .map(|(array, fortran, spacing, origin, direction, _, _)| {
-            VolumeArg::new(&array, fortran, spacing3(spacing)?)?.place(origin, direction)
-        })
+        .map(
+            |(array, fortran, spacing, origin, direction, frame, _, _)| {
+                VolumeArg::new(&array, fortran, spacing3(spacing)?)?.place(
+                    origin,
+                    direction,
+                    frame.as_deref(),
+                )
+            },
+        )
         .transpose()?;
     let attribute_view = attribute.as_ref().map(|a| a.view()).transpose()?;
     // Ctrl-C and the callback are watched while Marching Cubes runs; either stops it.

@@ -201,5 +201,6 @@ fn volume_dict(py: Python<'_>, volume: Volume) -> PyResult<Bound<'_, PyDict>> {
     d.set_item("spacing", tuple3(g.spacing))?;
     d.set_item("origin", tuple3(g.origin))?;
     d.set_item("direction", tuple3(g.direction.map(tuple3)))?;
+    d.set_item("frame", crate::array::frame_name(g.frame))?;
     Ok(d)
 }

@@ -252,3 +252,50 @@ def test_marching_cubes_returns_the_attribute_at_every_vertex():
     _, _, resampled = isogrid.marching_cubes(sphere, iso=127.5, attribute=coarse)
     np.testing.assert_allclose(resampled, expected, atol=1e-3)
     assert len(isogrid.marching_cubes(sphere, iso=127.5)) == 2
+
+
+def test_an_attribute_in_the_other_world_convention_is_sampled_where_it_lies(cli, tmp_path):
+    """SimpleITK writes one image as NIfTI (RAS world coordinates) and as MetaImage (ITK's LPS),
+    the same place in its physical space. A surface of either file coloured by an attribute in
+    either file takes the attribute's values at the same points: the attribute's coordinates are
+    taken into the surface's convention (before, a NIfTI surface took an LPS attribute mirrored
+    in x and y). The CLI, in memory and streamed, and Python agree; marching cubes too."""
+    import subprocess
+
+    sitk = pytest.importorskip("SimpleITK")
+    z, y, x = np.mgrid[:36, :32, :28].astype(np.float32)
+    # An off-centre ball, so that a mirrored attribute would be sampled elsewhere.
+    ball = 9 - np.sqrt((x - 11.5) ** 2 + (y - 18) ** 2 + (z - 15) ** 2)
+    field = x + 2 * y - 0.5 * z
+    for name, array in (("ct", ball), ("pet", field)):
+        image = sitk.GetImageFromArray(array.astype(np.float32))
+        image.SetOrigin((-30.0, 12.5, 5.0))
+        image.SetSpacing((1.5, 1.0, 0.75))
+        image.SetDirection((0.0, -1.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0))
+        for extension in ("nii.gz", "nii", "mha"):
+            sitk.WriteImage(image, str(tmp_path / f"{name}.{extension}"))
+    assert isogrid.load_volume(tmp_path / "ct.nii.gz").frame == "RAS"
+    assert isogrid.load_volume(tmp_path / "pet.mha").frame == "LPS"
+    reference = isogrid.extract(tmp_path / "ct.mha", iso=0, attribute=tmp_path / "pet.mha")
+    expected = np.asarray(reference.attribute)
+    assert np.isfinite(expected).all() and len(expected) > 500
+    for surface in ("ct.nii.gz", "ct.nii", "ct.mha"):
+        for attribute in ("pet.nii.gz", "pet.mha"):
+            for source in (tmp_path / attribute, isogrid.load_volume(tmp_path / attribute)):
+                grid = isogrid.extract(tmp_path / surface, iso=0, attribute=source)
+                np.testing.assert_array_equal(np.asarray(grid.attribute), expected, err_msg=f"{surface} {attribute}")
+            # Streamed (an uncompressed NIfTI is read by slabs): the frame goes through its file.
+            for extra in ([], ["--max-memory", "64M"]):
+                out = tmp_path / "out.cgc"
+                run = subprocess.run([cli, "extract", tmp_path / surface, "--iso", "0", "--color-by",
+                                      tmp_path / attribute, "-o", out, *extra], capture_output=True, text=True)
+                assert run.returncode == 0, run.stderr
+                assert ("taken into" in run.stderr) == (surface.endswith("mha") != attribute.endswith("mha")), run.stderr
+                np.testing.assert_array_equal(np.asarray(isogrid.load(out).attribute), expected)
+    # The values are the field at the surface points: x + 2y - z/2 in the volume's index space.
+    p = _surface_points(reference)
+    np.testing.assert_allclose(expected, p[:, 0] + 2 * p[:, 1] - 0.5 * p[:, 2], atol=0.01)
+    # Marching cubes: every vertex of a NIfTI surface takes the MetaImage attribute as the other way.
+    vertices, _, values = isogrid.marching_cubes(tmp_path / "ct.nii.gz", iso=0, attribute=tmp_path / "pet.mha",
+                                                 space="index")
+    np.testing.assert_allclose(values, vertices[:, 0] + 2 * vertices[:, 1] - 0.5 * vertices[:, 2], atol=1e-3)

@@ -92,9 +92,11 @@ def test_nifti_with_spacing(tmp_path):
     vol = isogrid.load_volume(tmp_path / "v.nii.gz")
     assert vol.spacing == (0.5, 0.75, 2.0)
     np.testing.assert_array_equal(vol.array, f.transpose())
-    # nibabel's own array, Fortran (x, y, z), with its zooms gives the grid of the Rust reader.
+    # nibabel's own array, Fortran (x, y, z), with its zooms, in NIfTI's RAS world, gives the grid
+    # of the Rust reader.
+    assert vol.frame == "RAS"
     loaded = nib.load(tmp_path / "v.nii.gz")
-    direct = isogrid.extract(np.asanyarray(loaded.dataobj), iso=3, spacing=loaded.header.get_zooms())
+    direct = isogrid.extract(isogrid.Volume(np.asanyarray(loaded.dataobj), loaded.header.get_zooms(), frame="RAS"), iso=3)
     assert same_grid(direct, isogrid.extract(vol, iso=3))
 
 
@@ -106,8 +108,12 @@ def test_nifti_of_shape_x_y_z_1_as_nibabel_returns_it(tmp_path):
     data = loaded.get_fdata(dtype=np.float32)
     assert data.shape[3:] == (1,) and data.flags.f_contiguous
     zooms = loaded.header.get_zooms()[:3]
-    # The same grid as the Rust reader's (t = 1 read as 3-D) and as nibabel's array without the t axis.
-    by_reader = isogrid.extract(isogrid.load_volume(tmp_path / "t1.nii.gz"), iso=0.5)
+    # The same grid as the Rust reader's (t = 1 read as 3-D; its RAS frame left out, as the arrays
+    # have none) and as nibabel's array without the t axis.
+    read = isogrid.load_volume(tmp_path / "t1.nii.gz")
+    assert read.frame == "RAS"
+    read.frame = None
+    by_reader = isogrid.extract(read, iso=0.5)
     assert same_grid(isogrid.extract(data, iso=0.5, spacing=zooms), by_reader)
     assert same_grid(isogrid.extract(data[..., 0], iso=0.5, spacing=zooms), by_reader)
     # The C-order counterpart (1, z, y, x); a length-1 axis where a volume axis is, is not dropped.

@@ -165,6 +165,18 @@ impl AttributeInput {
                 surface.display()
             )
         };
+        let surface_frame = grid.info().frame;
+        if ![geometry.frame, surface_frame].contains(&isogrid::WorldFrame::Unknown)
+            && geometry.frame != surface_frame
+        {
+            eprintln!(
+                "isogrid: note: {}'s {} world coordinates are taken into {}'s {} ones",
+                self.path.display(),
+                geometry.frame.name(),
+                surface.display(),
+                surface_frame.name()
+            );
+        }
         if let Alignment::Resampled { .. } =
             alignment(&grid_geometry(grid.info()), &geometry).map_err(name_both)?
         {

@@ -260,6 +260,10 @@ fn stack(mut frames: Vec<Frame>) -> Result<(Volume, Option<String>)> {
         step.or(first.slice_step).unwrap_or(1.0),
     ];
     geometry.origin = first.position.unwrap_or([0.0; 3]);
+    // Image Position (Patient) places the series in patient space: LPS.
+    if first.position.is_some() {
+        geometry.frame = isogrid::WorldFrame::Lps;
+    }
     if let (Some((row, col)), Some(normal)) = (first.orientation, normal) {
         geometry.direction = [row, col, normal];
     }

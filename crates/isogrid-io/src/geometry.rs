@@ -40,12 +40,14 @@ pub(crate) fn normalized(a: Vec3) -> Option<Vec3> {
     (n.is_finite() && n > 0.0).then(|| a.map(|x| x / n))
 }
 
-/// A geometry from possibly odd file values: see the module doc for the rules.
+/// A geometry from possibly odd file values, its world coordinates in `frame`: see the module
+/// doc for the rules.
 pub(crate) fn geometry(
     dims: [usize; 3],
     spacing: [f64; 3],
     origin: [f64; 3],
     direction: Option<[Vec3; 3]>,
+    frame: isogrid::WorldFrame,
 ) -> Result<Geometry> {
     if let Some(axis) = (0..3).find(|&a| spacing[a] == 0.0 || spacing[a].is_infinite()) {
         return Err(Error::corrupt(format!(
@@ -54,6 +56,7 @@ pub(crate) fn geometry(
         )));
     }
     let mut g = Geometry::new(dims);
+    g.frame = frame;
     if let Some(direction) = direction {
         if direction.iter().flatten().all(|x| x.is_finite()) {
             g.direction = direction;

@@ -125,7 +125,14 @@ fn read(path: &Path) -> Result<Volume> {
     for f in 0..3 {
         dims[header.axis_of[f]] = header.crs[f];
     }
-    let g = geometry(dims, header.spacing, header.origin, header.direction)?;
+    // MRC coordinates are the map's own (Å), not a patient's.
+    let g = geometry(
+        dims,
+        header.spacing,
+        header.origin,
+        header.direction,
+        isogrid::WorldFrame::Unknown,
+    )?;
     Volume::with_geometry(g, data)
 }
 

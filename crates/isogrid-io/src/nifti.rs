@@ -26,7 +26,7 @@ use crate::samples::{
     byte_count, check_available, check_deflate_budget, expect_end, gzip_error, read_samples,
     rescaled, sample_count, skip_bytes, ElemType,
 };
-use isogrid::{Error, Result, ResultExt, Volume, VolumeData};
+use isogrid::{Error, Result, ResultExt, Volume, VolumeData, WorldFrame};
 use std::io::{BufReader, Read, Seek, SeekFrom};
 use std::path::Path;
 
@@ -59,10 +59,22 @@ struct Header {
     spacing: [f64; 3],
     origin: Vec3,
     direction: Option<[Vec3; 3]>,
+    frame: WorldFrame,
     scale: Option<(f32, f32)>,
 }
 
 impl Header {
+    /// The volume's geometry (world coordinates RAS+ when the file gives an sform or qform).
+    fn geometry(&self) -> Result<isogrid::Geometry> {
+        geometry(
+            self.dims,
+            self.spacing,
+            self.origin,
+            self.direction,
+            self.frame,
+        )
+    }
+
     /// The volume `pick` chooses: `t=N` of a file of several, else the only one. An index of
     /// another axis, out of range or given twice, or a missing one, is an error.
     fn pick(&self, pick: AxisPick) -> Result<usize> {
@@ -171,7 +183,7 @@ impl Opened {
         } else {
             check_available(all_bytes, file_len.saturating_sub(header.vox_offset))?;
         }
-        let geometry = geometry(header.dims, header.spacing, header.origin, header.direction)?;
+        let geometry = header.geometry()?;
         let mut opened = Opened {
             reader,
             header,
@@ -276,7 +288,7 @@ pub(crate) fn region_layout(
             data_offset: header.vox_offset + volume_bytes * t as u64,
             elem: header.elem,
             big_endian: header.big_endian,
-            geometry: geometry(header.dims, header.spacing, header.origin, header.direction)?,
+            geometry: header.geometry()?,
             scale: header.scale,
         }))
     })()
@@ -366,12 +378,15 @@ fn parse_header(raw: &[u8; HEADER_SIZE]) -> Result<Header> {
     let (slope, inter) = (h.f32(112), h.f32(116));
     let scale = (slope != 0.0 && slope.is_finite() && (slope, inter) != (1.0, 0.0))
         .then_some((slope, if inter.is_finite() { inter } else { 0.0 }));
-    let (origin, direction) = if h.i16(254) > 0 {
-        sform(&h)
+    // sform or qform: RAS+ world coordinates; neither: index × spacing, no frame.
+    let (origin, direction, frame) = if h.i16(254) > 0 {
+        let (origin, direction) = sform(&h);
+        (origin, direction, WorldFrame::Ras)
     } else if h.i16(252) > 0 {
-        qform(&h, pixdim(0))
+        let (origin, direction) = qform(&h, pixdim(0));
+        (origin, direction, WorldFrame::Ras)
     } else {
-        ([0.0; 3], None)
+        ([0.0; 3], None, WorldFrame::Unknown)
     };
     Ok(Header {
         dims,
@@ -383,6 +398,7 @@ fn parse_header(raw: &[u8; HEADER_SIZE]) -> Result<Header> {
         spacing: spacing.map(|s| if s == 0.0 { f64::NAN } else { s.abs() }),
         origin,
         direction,
+        frame,
         scale,
     })
 }

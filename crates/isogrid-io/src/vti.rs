@@ -182,6 +182,8 @@ fn parse(bytes: &[u8]) -> Result<Volume> {
         layout.spacing,
         origin,
         Some([axis(0), axis(1), axis(2)]),
+        // VTK image data names no anatomical convention.
+        isogrid::WorldFrame::Unknown,
     )?;
     Volume::with_geometry(g, data)
 }

@@ -19,6 +19,9 @@ pub struct GridInfo {
     pub origin: [f64; 3],
     /// Rows: world direction of the i, j, k axes (metadata only).
     pub direction: [[f64; 3]; 3],
+    /// The convention of `origin` and `direction` (the `.cgc` world frame section; unknown when
+    /// absent).
+    pub frame: crate::volume::WorldFrame,
     /// Type of the source samples.
     pub scalar_type: ScalarType,
     /// Smallest and largest finite sample of the source volume.
@@ -43,6 +46,7 @@ impl GridInfo {
             spacing: geometry.spacing,
             origin: geometry.origin,
             direction: geometry.direction,
+            frame: geometry.frame,
             scalar_type,
             value_range,
             iso,

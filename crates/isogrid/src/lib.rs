@@ -63,4 +63,6 @@ pub use layout::{Block, ClusterBound, Metacell, Precision};
 pub use progress::Progress;
 pub use quantize::ValueMapping;
 pub use stats::GridStats;
-pub use volume::{Geometry, Samples, Scalar, ScalarType, Volume, VolumeData, VolumeView, MAX_DIM};
+pub use volume::{
+    Geometry, Samples, Scalar, ScalarType, Volume, VolumeData, VolumeView, WorldFrame, MAX_DIM,
+};

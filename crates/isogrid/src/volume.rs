@@ -250,6 +250,34 @@ impl<'a> Samples<'a> {
     }
 }
 
+/// The anatomical convention of a file's world coordinates: which way +x and +y point. Formats
+/// differ: DICOM, ITK's MetaImage and NRRD's `left-posterior-superior` are LPS (patient space);
+/// NIfTI, FreeSurfer and NRRD's `right-anterior-superior` are RAS; arrays, Zarr, TIFF, MRC and VTK
+/// files have none. Two volumes of one patient in different conventions differ in the signs of x
+/// and y, so a volume sampled at another's world points is first taken into its frame
+/// ([`Geometry::in_frame`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Hash)]
+pub enum WorldFrame {
+    /// No convention is known: world coordinates are taken as they are.
+    #[default]
+    Unknown,
+    /// +x left, +y posterior, +z superior (DICOM patient space).
+    Lps,
+    /// +x right, +y anterior, +z superior (NIfTI scanner or template space).
+    Ras,
+}
+
+impl WorldFrame {
+    /// The convention's name, as reports show it.
+    pub fn name(self) -> &'static str {
+        match self {
+            WorldFrame::Unknown => "unknown",
+            WorldFrame::Lps => "LPS",
+            WorldFrame::Ras => "RAS",
+        }
+    }
+}
+
 /// Geometry shared by owned volumes and borrowed views.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Geometry {
@@ -261,6 +289,8 @@ pub struct Geometry {
     pub origin: [f64; 3],
     /// Rows: world direction of the i, j, k axes. Metadata only; rendering ignores it.
     pub direction: [[f64; 3]; 3],
+    /// The convention of `origin` and `direction`.
+    pub frame: WorldFrame,
 }
 
 impl Geometry {
@@ -270,6 +300,24 @@ impl Geometry {
             spacing: [1.0; 3],
             origin: [0.0; 3],
             direction: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+            frame: WorldFrame::Unknown,
+        }
+    }
+
+    /// The same samples placed in `frame`'s world coordinates: where both conventions are known
+    /// and differ (LPS and RAS), x and y of the origin and of every axis direction change sign;
+    /// otherwise the geometry as it is.
+    pub fn in_frame(&self, frame: WorldFrame) -> Geometry {
+        let known = self.frame != WorldFrame::Unknown && frame != WorldFrame::Unknown;
+        if !known || self.frame == frame {
+            return *self;
+        }
+        let flip = |v: [f64; 3]| [-v[0], -v[1], v[2]];
+        Geometry {
+            origin: flip(self.origin),
+            direction: self.direction.map(flip),
+            frame,
+            ..*self
         }
     }
     pub fn sample_count(&self) -> usize {

@@ -44,16 +44,21 @@ pub fn run(args: Args) -> Result<()> {
     } else {
         report.print_human(None, "")?;
         let info = grid.info();
+        // The convention of the world coordinates, where the source file named one.
+        let frame = match info.frame {
+            isogrid::WorldFrame::Unknown => String::new(),
+            frame => format!(", world coordinates {}", frame.name()),
+        };
         if grid.labels().is_some() {
             outln!(
-                "source        {} label volume; the corners hold each label's indicator (0 to 1), spacing {:?}",
+                "source        {} label volume; the corners hold each label's indicator (0 to 1), spacing {:?}{frame}",
                 info.scalar_type.name(),
                 info.spacing
             );
             return Ok(());
         }
         outln!(
-            "source        {} samples in [{}, {}], spacing {:?}",
+            "source        {} samples in [{}, {}], spacing {:?}{frame}",
             info.scalar_type.name(),
             info.scalar_type.display_value(info.value_range[0]),
             info.scalar_type.display_value(info.value_range[1]),

@@ -103,7 +103,15 @@ pub fn read_metaimage_noted(path: &Path) -> Result<(Volume, Vec<String>)> {
             read_pieces(base, &names, &header, count)?
         }
     };
-    let g = geometry(header.dims, header.spacing, header.origin, header.direction).at_path(path)?;
+    // ITK's physical space, which MetaImage files are written in: LPS.
+    let g = geometry(
+        header.dims,
+        header.spacing,
+        header.origin,
+        header.direction,
+        isogrid::WorldFrame::Lps,
+    )
+    .at_path(path)?;
     let volume = Volume::with_geometry(g, data).at_path(path)?;
     let notices = notices
         .into_iter()

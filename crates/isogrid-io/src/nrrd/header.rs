@@ -8,7 +8,7 @@
 
 use crate::geometry::{norm, normalized, Vec3};
 use crate::samples::ElemType;
-use isogrid::{Error, Result};
+use isogrid::{Error, Result, WorldFrame};
 
 /// How the data bytes are encoded.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -36,6 +36,9 @@ pub(crate) struct Header {
     pub spacing: [f64; 3],
     pub origin: Vec3,
     pub direction: Option<[Vec3; 3]>,
+    /// The `space` field's convention: LPS for `left-posterior-superior` (3D Slicer's files, ITK),
+    /// RAS for `right-anterior-superior`; unknown for any other space or none.
+    pub frame: WorldFrame,
     pub line_skip: u64,
     /// -1 means "the data is the last bytes of the file" (raw encoding only).
     pub byte_skip: i64,
@@ -65,7 +68,6 @@ const IGNORED: &[&str] = &[
     "labels",
     "units",
     "kinds",
-    "space",
     "spaceunits",
     "measurementframe",
     "blocksize",
@@ -86,6 +88,7 @@ pub(crate) fn parse(lines: &[String]) -> Result<Header> {
     let mut byte_skip = 0i64;
     let mut data = DataFiles::Attached;
     let mut space_dim = None;
+    let mut frame = WorldFrame::Unknown;
     let mut key_values = Vec::new();
 
     let mut index = 0;
@@ -127,6 +130,13 @@ pub(crate) fn parse(lines: &[String]) -> Result<Header> {
                 origin = Some(v.ok_or_else(|| Error::corrupt("space origin cannot be 'none'"))?);
             }
             "spacedimension" => space_dim = Some(parse_int::<usize>(value, "space dimension")?),
+            "space" => {
+                frame = match value.to_ascii_lowercase().as_str() {
+                    "left-posterior-superior" | "lps" => WorldFrame::Lps,
+                    "right-anterior-superior" | "ras" => WorldFrame::Ras,
+                    _ => WorldFrame::Unknown,
+                }
+            }
             "lineskip" => line_skip = parse_int(value, "line skip")?,
             "byteskip" => {
                 byte_skip = parse_int(value, "byte skip")?;
@@ -243,6 +253,7 @@ pub(crate) fn parse(lines: &[String]) -> Result<Header> {
         spacing,
         origin,
         direction,
+        frame,
         line_skip,
         byte_skip,
         data,

@@ -57,7 +57,14 @@ pub(crate) fn read_nrrd_layers(path: &Path, layered: bool) -> Result<(Vec<Volume
         })
         .at_path(path)?;
     // Before the data: a bad spacing fails without reading gigabytes.
-    let g = geometry(header.dims, header.spacing, header.origin, header.direction).at_path(path)?;
+    let g = geometry(
+        header.dims,
+        header.spacing,
+        header.origin,
+        header.direction,
+        header.frame,
+    )
+    .at_path(path)?;
     let data = match &header.data {
         DataFiles::Attached => {
             let offset = data_offset.ok_or_else(|| {
@@ -206,8 +213,14 @@ pub(crate) fn region_layout(path: &Path) -> Result<Option<crate::mapped_layout::
         data_offset,
         elem: header.elem,
         big_endian: header.big_endian,
-        geometry: geometry(header.dims, header.spacing, header.origin, header.direction)
-            .at_path(path)?,
+        geometry: geometry(
+            header.dims,
+            header.spacing,
+            header.origin,
+            header.direction,
+            header.frame,
+        )
+        .at_path(path)?,
         scale: None,
     }))
 }

@@ -5,7 +5,7 @@
 //! spec forbids `spacings` next to `space directions`, so spacing lives only in the vector
 //! lengths; [`read_nrrd`](super::read_nrrd) recovers it as those lengths.
 
-use isogrid::{Error, Result, Volume, VolumeData};
+use isogrid::{Error, Result, Volume, VolumeData, WorldFrame};
 use std::io::Write;
 use std::path::Path;
 
@@ -36,6 +36,12 @@ fn header_text(volume: &Volume) -> String {
         .map(|axis| vector(g.direction[axis].map(|x| x * g.spacing[axis])))
         .collect();
     let [nx, ny, nz] = g.dims;
+    // The space names the convention of the coordinates, where it is known.
+    let space = match g.frame {
+        WorldFrame::Lps => "space: left-posterior-superior",
+        WorldFrame::Ras => "space: right-anterior-superior",
+        WorldFrame::Unknown => "space dimension: 3",
+    };
     format!(
         "NRRD0004\n\
          # Complete NRRD file format specification at:\n\
@@ -43,7 +49,7 @@ fn header_text(volume: &Volume) -> String {
          # written by isogrid\n\
          type: {type_name}\n\
          dimension: 3\n\
-         space dimension: 3\n\
+         {space}\n\
          sizes: {nx} {ny} {nz}\n\
          space directions: {}\n\
          kinds: domain domain domain\n\

@@ -304,3 +304,45 @@ fn unknown_extension_is_sniffed() {
         assert_eq!(v.scalar_type(), scalar, "{fixture_name}");
     }
 }
+
+/// Each format's convention of world coordinates, from the fixtures the reference tools wrote:
+/// NIfTI with an sform or qform is RAS, MetaImage (ITK) and DICOM are LPS, NRRD says it in its
+/// `space` field (pynrrd wrote `left-posterior-superior`; none: unknown); NumPy, MRC and TIFF
+/// have none. `write_nrrd` keeps it.
+#[test]
+fn each_format_names_the_convention_of_its_world_coordinates() {
+    use isogrid::WorldFrame::{Lps, Ras, Unknown};
+    for (name, frame) in [
+        ("u8.nii", Ras),
+        ("f32_qform.nii", Ras),
+        ("i16.nii.gz", Ras),
+        ("u8.mha", Lps),
+        ("i16_z.mhd", Lps),
+        ("dicom_ct", Lps),
+        ("i16_gzip.nrrd", Lps),
+        ("u16_raw.nrrd", Unknown),
+        ("u8_c.npy", Unknown),
+        ("f32.mrc", Unknown),
+        ("u8_stack.tif", Unknown),
+    ] {
+        assert_eq!(read(name).geometry().frame, frame, "{name}");
+    }
+    let dir = TempDir::new("frames");
+    for frame in [Lps, Ras, Unknown] {
+        let mut volume = read("u8_c.npy");
+        let geometry = isogrid::Geometry {
+            frame,
+            ..*volume.geometry()
+        };
+        volume = isogrid::Volume::with_geometry(geometry, volume.into_data()).unwrap();
+        let path = dir.path("v.nrrd");
+        isogrid_io::write_nrrd(&path, &volume).unwrap();
+        assert_eq!(
+            read_volume(&path, &ReadOptions::default())
+                .unwrap()
+                .geometry()
+                .frame,
+            frame
+        );
+    }
+}

@@ -34,10 +34,39 @@ pub enum SectionKind {
     LabelIndex,
     /// Per label: value, name and colour ([`crate::labels`]).
     LabelTable,
+    /// The convention of the header's origin and directions ([`WORLD_FRAME_SIZE`] bytes: the
+    /// [`crate::WorldFrame`] code, u32, 1 LPS or 2 RAS, then 4 zero bytes; optional: absent, the
+    /// frame is unknown).
+    WorldFrame,
+}
+
+/// Bytes of a world frame section.
+pub(crate) const WORLD_FRAME_SIZE: u64 = 8;
+
+/// The world frame section's bytes for `frame` (none when it is unknown).
+pub(crate) fn world_frame_bytes(frame: crate::WorldFrame) -> Option<[u8; 8]> {
+    let code: u32 = match frame {
+        crate::WorldFrame::Unknown => return None,
+        crate::WorldFrame::Lps => 1,
+        crate::WorldFrame::Ras => 2,
+    };
+    let mut bytes = [0u8; 8];
+    bytes[..4].copy_from_slice(&code.to_le_bytes());
+    Some(bytes)
+}
+
+/// The frame a world frame section's `bytes` name; an error for any other bytes.
+pub(crate) fn world_frame_of(bytes: &[u8]) -> crate::Result<crate::WorldFrame> {
+    [crate::WorldFrame::Lps, crate::WorldFrame::Ras]
+        .into_iter()
+        .find(|&f| world_frame_bytes(f).is_some_and(|b| b[..] == *bytes))
+        .ok_or_else(|| {
+            crate::Error::corrupt("world frame section is not an LPS (1) or RAS (2) code")
+        })
 }
 
 impl SectionKind {
-    pub const ALL: [SectionKind; 7] = [
+    pub const ALL: [SectionKind; 8] = [
         SectionKind::Blocks,
         SectionKind::Metacells,
         SectionKind::Cells,
@@ -45,6 +74,7 @@ impl SectionKind {
         SectionKind::ClusterLabels,
         SectionKind::LabelIndex,
         SectionKind::LabelTable,
+        SectionKind::WorldFrame,
     ];
     /// The label sections, which a file holds all or none of, in this order.
     pub const LABELS: [SectionKind; 3] = [
@@ -62,6 +92,7 @@ impl SectionKind {
             SectionKind::ClusterLabels => 5,
             SectionKind::LabelIndex => 6,
             SectionKind::LabelTable => 7,
+            SectionKind::WorldFrame => 8,
         }
     }
     pub fn from_code(code: u32) -> Option<SectionKind> {
@@ -87,6 +118,7 @@ impl SectionKind {
             SectionKind::ClusterLabels => "cluster labels",
             SectionKind::LabelIndex => "label index",
             SectionKind::LabelTable => "label table",
+            SectionKind::WorldFrame => "world frame",
         }
     }
 }

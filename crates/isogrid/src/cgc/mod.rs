@@ -44,6 +44,7 @@
 //! | 5 | cluster labels | optional | a u32 label per cluster ([`crate::labels`]) |
 //! | 6 | label index | optional | per label: cells, bounds, runs of clusters ([`crate::labels`]) |
 //! | 7 | label table | optional | per label: value, colour, name ([`crate::labels`]) |
+//! | 8 | world frame | optional | the convention of the header's origin and directions: u32 1 LPS or 2 RAS, then 4 zero bytes ([`crate::WorldFrame`]); absent: unknown |
 //!
 //! A file holds the three label sections together or none of them; the reader checks them
 //! against each other and against the metacells (every cluster's label in range, the index

@@ -4,8 +4,9 @@
 //! and no grid is returned before every checksum, pointer and position has been checked.
 
 use super::format::{
-    scalar_of_code, SectionKind, TableEntry, FLAG_REQUIRED, HEADER_CRC_AT, HEADER_SIZE, MAGIC,
-    MAX_SECTIONS, TABLE_ENTRY_SIZE, TABLE_FIELDS_AT, VERSION, VERSION_1,
+    scalar_of_code, world_frame_of, SectionKind, TableEntry, FLAG_REQUIRED, HEADER_CRC_AT,
+    HEADER_SIZE, MAGIC, MAX_SECTIONS, TABLE_ENTRY_SIZE, TABLE_FIELDS_AT, VERSION, VERSION_1,
+    WORLD_FRAME_SIZE,
 };
 use crate::attribute::{AttributeInfo, AttributePrecision, CellAttribute, ATTRIBUTE_HEAD_SIZE};
 use crate::error::{Error, Result, ResultExt};
@@ -29,6 +30,8 @@ struct Header {
     attribute: Option<Range<usize>>,
     /// The cluster labels, label index and label table, when the file has labels.
     labels: Option<[Range<usize>; 3]>,
+    /// The world frame section, when there is one.
+    frame: Option<Range<usize>>,
     /// Bytes between sections, which must be zero (version 2).
     gaps: Vec<Range<usize>>,
     occupied: u64,
@@ -138,6 +141,7 @@ fn parse_header(h: &[u8], file_len: u64) -> Result<Header> {
         spacing,
         origin,
         direction,
+        frame: crate::volume::WorldFrame::Unknown,
         scalar_type,
         value_range,
         iso,
@@ -180,6 +184,7 @@ fn parse_header(h: &[u8], file_len: u64) -> Result<Header> {
         checksummed: Vec::new(),
         attribute: None,
         labels: None,
+        frame: None,
         gaps: Vec::new(),
         occupied,
     };
@@ -266,6 +271,14 @@ fn parse_header(h: &[u8], file_len: u64) -> Result<Header> {
                     header.sections[s] = range.clone();
                 } else if kind == SectionKind::CellAttribute {
                     header.attribute = Some(range.clone());
+                } else if kind == SectionKind::WorldFrame {
+                    if entry.len != WORLD_FRAME_SIZE {
+                        return Err(Error::corrupt(format!(
+                            "{name} section is {} bytes, not {WORLD_FRAME_SIZE}",
+                            entry.len
+                        )));
+                    }
+                    header.frame = Some(range.clone());
                 } else if let Some(l) = SectionKind::LABELS.iter().position(|&k| k == kind) {
                     labels[l] = Some(range.clone());
                 }
@@ -492,12 +505,22 @@ pub fn read_bytes(bytes: &[u8]) -> Result<CellGrid> {
         &cells,
         &Progress::new(),
     )?;
-    let grid = CellGrid::from_parts(header.info.clone(), blocks, metacells, cells);
+    let info = with_frame(&header.info, header.frame.clone().map(|r| &bytes[r]))?;
+    let grid = CellGrid::from_parts(info, blocks, metacells, cells);
     with_optional(
         grid,
         header.attribute.map(|r| &bytes[r]),
         header.labels.map(|l| l.map(|r| &bytes[r])),
     )
+}
+
+/// `info` in the world frame its section's bytes name (`None`: the file has none, unknown).
+fn with_frame(info: &GridInfo, section: Option<&[u8]>) -> Result<GridInfo> {
+    let mut info = info.clone();
+    if let Some(bytes) = section {
+        info.frame = world_frame_of(bytes)?;
+    }
+    Ok(info)
 }
 
 /// `grid` with the attribute of section bytes `attribute` and the labels of the three label
@@ -614,7 +637,8 @@ pub fn read(path: &Path) -> Result<CellGrid> {
             &cells,
             &Progress::new(),
         )?;
-        let grid = CellGrid::from_parts(header.info.clone(), blocks, metacells, cells);
+        let info = with_frame(&header.info, header.frame.as_ref().map(bytes_of))?;
+        let grid = CellGrid::from_parts(info, blocks, metacells, cells);
         with_optional(grid, attribute, labels)
     })()
     .at_path(path)
@@ -673,8 +697,9 @@ pub fn open_with_progress(path: &Path, progress: &Progress) -> Result<CellGrid> 
                 )
             })
             .transpose()?;
+        let info = with_frame(&header.info, header.frame.clone().map(|r| &map[r]))?;
         let mut grid = CellGrid::from_storage(
-            header.info,
+            info,
             Storage::Mapped {
                 map,
                 blocks: b,

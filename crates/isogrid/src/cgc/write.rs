@@ -9,8 +9,8 @@
 //! never gets a valid header.
 
 use super::format::{
-    align16, scalar_code, SectionKind, TableEntry, FLAG_REQUIRED, HEADER_CRC_AT, HEADER_SIZE,
-    MAGIC, MAX_SECTIONS, TABLE_ENTRY_SIZE, VERSION,
+    align16, scalar_code, world_frame_bytes, SectionKind, TableEntry, FLAG_REQUIRED, HEADER_CRC_AT,
+    HEADER_SIZE, MAGIC, MAX_SECTIONS, TABLE_ENTRY_SIZE, VERSION, WORLD_FRAME_SIZE,
 };
 use crate::error::{Error, Result};
 use crate::grid::{CellGrid, GridInfo};
@@ -78,9 +78,12 @@ pub(crate) struct FilePlan {
 }
 
 impl FilePlan {
-    /// The plan of a file with sections of these kinds and byte lengths, in this order. The three
-    /// grid sections must come first, in the order blocks, metacells, cells.
-    pub(crate) fn new(sections: &[(SectionKind, u64)]) -> Self {
+    /// The plan of a file with sections of these kinds and byte lengths, in this order, then the
+    /// world frame section when `frame` is known (its bytes written by [`CgcWriter::finish`]). The
+    /// three grid sections must come first, in the order blocks, metacells, cells.
+    pub(crate) fn new(sections: &[(SectionKind, u64)], frame: crate::WorldFrame) -> Self {
+        let frame = world_frame_bytes(frame).map(|_| (SectionKind::WorldFrame, WORLD_FRAME_SIZE));
+        let sections: Vec<(SectionKind, u64)> = sections.iter().copied().chain(frame).collect();
         assert!(
             sections.len() <= MAX_SECTIONS
                 && sections.iter().map(|s| s.0).take(3).eq([
@@ -162,9 +165,12 @@ impl<'a> CgcWriter<'a> {
         Ok(())
     }
 
-    /// Checks that every section was written exactly once, then writes the section table and the
-    /// header: the file is complete.
-    pub(crate) fn finish(self, info: &GridInfo, counts: &HeaderCounts) -> Result<()> {
+    /// Writes the world frame section of `info`, checks that every section was written exactly
+    /// once, then writes the section table and the header: the file is complete.
+    pub(crate) fn finish(mut self, info: &GridInfo, counts: &HeaderCounts) -> Result<()> {
+        if let Some(bytes) = world_frame_bytes(info.frame) {
+            self.put(SectionKind::WorldFrame, 0, &bytes)?;
+        }
         let mut table = Vec::with_capacity(TABLE_ENTRY_SIZE * self.plan.sections.len());
         for (&(kind, offset, len), mut pieces) in self.plan.sections.iter().zip(self.pieces) {
             pieces.sort_by_key(|p| p.at);
@@ -287,6 +293,7 @@ fn write_to(grid: &CellGrid, target: &mut dyn WriteAt) -> Result<()> {
             .iter()
             .map(|(kind, pieces)| (*kind, pieces.iter().map(|p| p.len() as u64).sum()))
             .collect::<Vec<_>>(),
+        grid.info().frame,
     );
     let mut writer = CgcWriter::new(target, plan)?;
     for (kind, pieces) in &sections {
@@ -330,7 +337,8 @@ impl WriteAt for HeadOnly {
 pub(crate) fn head_of(grid: &CellGrid) -> (Vec<u8>, u64) {
     let sections = 3
         + grid.attribute().is_some() as usize
-        + grid.labels().map_or(0, |_| SectionKind::LABELS.len());
+        + grid.labels().map_or(0, |_| SectionKind::LABELS.len())
+        + world_frame_bytes(grid.info().frame).is_some() as usize;
     let mut target = HeadOnly {
         head: vec![0; HEADER_SIZE + TABLE_ENTRY_SIZE * sections],
         len: 0,

@@ -110,12 +110,15 @@ pub fn grid_geometry(info: &GridInfo) -> Geometry {
         spacing: info.spacing,
         origin: info.origin,
         direction: info.direction,
+        frame: info.frame,
     }
 }
 
-/// How `attribute` lines up with `grid`. Fails when the attribute volume does not overlap the
-/// grid's box in world space, or when either geometry has no inverse.
+/// How `attribute` lines up with `grid`, once in the grid's world frame (an LPS attribute of a RAS
+/// grid has the signs of its x and y turned: [`Geometry::in_frame`]). Fails when the attribute
+/// volume does not overlap the grid's box in world space, or when either geometry has no inverse.
 pub fn alignment(grid: &Geometry, attribute: &Geometry) -> Result<Alignment> {
+    let attribute = &attribute.in_frame(grid.frame);
     if attribute.dims.iter().any(|&n| n < 2) {
         let [x, y, z] = attribute.dims;
         return Err(Error::invalid(format!(

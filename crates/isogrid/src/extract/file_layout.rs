@@ -112,6 +112,6 @@ impl FileLayout {
             (SectionKind::Cells, cells),
         ];
         sections.extend_from_slice(&self.more);
-        FilePlan::new(&sections)
+        FilePlan::new(&sections, self.info.frame)
     }
 }

@@ -433,3 +433,34 @@ fn the_surface_point_is_the_centroid_of_the_edge_crossings() {
     let corners = [1.0f32, 0.0, 1.0, 0.0, 1.0, 0.0, 1.0, 0.0].map(|v| v * 4.0);
     assert_eq!(surface_point(&corners, 3.0), [0.25, 0.5, 0.5]);
 }
+
+/// An attribute in the other convention (LPS for a RAS grid) lines up once its x and y change
+/// sign: the same place is the same grid; a geometry of no known convention is taken as it is.
+#[test]
+fn an_attribute_of_the_other_world_convention_is_taken_into_the_grids() {
+    use isogrid::{Geometry, WorldFrame};
+    let ras = Geometry {
+        spacing: [1.5, 1.0, 0.75],
+        origin: [30.0, -12.5, 5.0],
+        direction: [[-1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, 1.0]],
+        frame: WorldFrame::Ras,
+        ..Geometry::new([8, 7, 6])
+    };
+    let lps = Geometry {
+        origin: [-30.0, 12.5, 5.0],
+        direction: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+        frame: WorldFrame::Lps,
+        ..ras
+    };
+    assert_eq!(lps.in_frame(WorldFrame::Ras), ras);
+    assert_eq!(ras.in_frame(WorldFrame::Lps), lps);
+    assert_eq!(ras.in_frame(WorldFrame::Unknown), ras);
+    assert!(matches!(alignment(&ras, &lps), Ok(Alignment::SameGrid)));
+    assert!(matches!(alignment(&lps, &ras), Ok(Alignment::SameGrid)));
+    // Without a convention on one side the numbers are taken as they are: here, no overlap.
+    let unknown = Geometry {
+        frame: WorldFrame::Unknown,
+        ..lps
+    };
+    assert!(alignment(&ras, &unknown).is_err());
+}

@@ -4,17 +4,25 @@ use crate::common::{blobs_u8, Rng};
 use crate::labels::tiny_labelled_grid;
 use isogrid::{
     cgc, extract, CellGrid, ErrorKind, ExtractOptions, Iso, Precision, Volume, VolumeData,
+    WorldFrame,
 };
 use std::path::PathBuf;
 
 fn tiny_grid() -> CellGrid {
+    tiny_grid_in(WorldFrame::Unknown)
+}
+
+/// A tiny grid of a volume whose world coordinates are `frame`'s.
+fn tiny_grid_in(frame: WorldFrame) -> CellGrid {
     let mut data = vec![0u8; 18];
     data[1 + 3] = 200; // sample (1,1,0)
     data[2 + 3 * 2 + 9] = 90; // sample (2,2,1)
-    let volume = Volume::new([3, 3, 2], VolumeData::U8(data))
-        .unwrap()
-        .with_spacing([0.5, 1.0, 2.0])
-        .unwrap();
+    let geometry = isogrid::Geometry {
+        spacing: [0.5, 1.0, 2.0],
+        frame,
+        ..isogrid::Geometry::new([3, 3, 2])
+    };
+    let volume = Volume::with_geometry(geometry, VolumeData::U8(data)).unwrap();
     extract(&volume.view(), &ExtractOptions::new(Iso::Value(100.0))).unwrap()
 }
 
@@ -153,7 +161,11 @@ fn round_trip_through_files_and_memory_maps() {
 
 #[test]
 fn every_truncation_is_rejected() {
-    for grid in [tiny_grid(), tiny_labelled_grid()] {
+    for grid in [
+        tiny_grid(),
+        tiny_labelled_grid(),
+        tiny_grid_in(WorldFrame::Ras),
+    ] {
         let bytes = cgc::to_bytes(&grid);
         for len in 0..bytes.len() {
             let err = cgc::read_bytes(&bytes[..len]).unwrap_err();
@@ -177,7 +189,11 @@ fn every_truncation_is_rejected() {
 fn damaged_bytes_are_rejected_without_panicking() {
     // Every bit of a small file: the header, the table, the padding between sections and every
     // section are covered by a checksum or a zero check, so no flip goes unnoticed.
-    for grid in [tiny_grid(), tiny_labelled_grid()] {
+    for grid in [
+        tiny_grid(),
+        tiny_labelled_grid(),
+        tiny_grid_in(WorldFrame::Lps),
+    ] {
         let bytes = cgc::to_bytes(&grid);
         for at in 0..bytes.len() {
             for bit in 0..8 {
@@ -262,6 +278,55 @@ pub(crate) fn section(file: &[u8], e: usize) -> &[u8] {
     let u64_at = |o: usize| u64::from_le_bytes(file[o..o + 8].try_into().unwrap()) as usize;
     let (offset, len) = (u64_at(320 + 32 * e + 8), u64_at(320 + 32 * e + 16));
     &file[offset..offset + len]
+}
+
+#[test]
+fn the_world_frame_travels_in_its_own_optional_section() {
+    // The frame of the volume, in every way a file is read; a grid of no frame has no section.
+    for frame in [WorldFrame::Lps, WorldFrame::Ras, WorldFrame::Unknown] {
+        let grid = tiny_grid_in(frame);
+        assert_eq!(grid.info().frame, frame);
+        let bytes = cgc::to_bytes(&grid);
+        let sections = u32::from_le_bytes(bytes[168..172].try_into().unwrap());
+        assert_eq!(sections, 3 + (frame != WorldFrame::Unknown) as u32);
+        let path = temp_path(&format!("frame-{}.cgc", frame.name()));
+        cgc::write(&path, &grid).unwrap();
+        for read in [
+            cgc::read_bytes(&bytes).unwrap(),
+            cgc::read(&path).unwrap(),
+            cgc::open(&path).unwrap(),
+        ] {
+            same(&read, &grid);
+        }
+        std::fs::remove_file(&path).unwrap();
+    }
+    // Kind 8, optional, eight bytes: the code (1 LPS, 2 RAS) and four zero bytes.
+    let model = cgc::to_bytes(&tiny_grid());
+    let [blocks, metacells, cells] = [0, 1, 2].map(|e| section(&model, e));
+    let with = |frame: &[u8]| {
+        assemble(
+            &model,
+            &[
+                (1, 1, blocks),
+                (2, 1, metacells),
+                (3, 1, cells),
+                (8, 0, frame),
+            ],
+        )
+    };
+    assert_eq!(
+        with(&[2, 0, 0, 0, 0, 0, 0, 0]),
+        cgc::to_bytes(&tiny_grid_in(WorldFrame::Ras))
+    );
+    for bad in [
+        &[3u8, 0, 0, 0, 0, 0, 0, 0][..],
+        &[1, 0, 0, 0, 0, 0, 0, 1],
+        &[1, 0, 0, 0],
+    ] {
+        let err = cgc::read_bytes(&with(bad)).unwrap_err();
+        assert_eq!(err.kind(), ErrorKind::Corrupt, "{err}");
+        assert!(err.to_string().contains("world frame"), "{err}");
+    }
 }
 
 #[test]
