@@ -166,9 +166,7 @@ impl AttributeInput {
             )
         };
         let surface_frame = grid.info().frame;
-        if ![geometry.frame, surface_frame].contains(&isogrid::WorldFrame::Unknown)
-            && geometry.frame != surface_frame
-        {
+        if geometry.frame.converts_to(surface_frame) {
             eprintln!(
                 "isogrid: note: {}'s {} world coordinates are taken into {}'s {} ones",
                 self.path.display(),

@@ -276,6 +276,12 @@ impl WorldFrame {
             WorldFrame::Ras => "RAS",
         }
     }
+
+    /// Whether coordinates in this convention must be converted to be read in `other`'s: both
+    /// are known and they differ.
+    pub fn converts_to(self, other: WorldFrame) -> bool {
+        self != WorldFrame::Unknown && other != WorldFrame::Unknown && self != other
+    }
 }
 
 /// Geometry shared by owned volumes and borrowed views.
@@ -308,8 +314,7 @@ impl Geometry {
     /// and differ (LPS and RAS), x and y of the origin and of every axis direction change sign;
     /// otherwise the geometry as it is.
     pub fn in_frame(&self, frame: WorldFrame) -> Geometry {
-        let known = self.frame != WorldFrame::Unknown && frame != WorldFrame::Unknown;
-        if !known || self.frame == frame {
+        if !self.frame.converts_to(frame) {
             return *self;
         }
         let flip = |v: [f64; 3]| [-v[0], -v[1], v[2]];
