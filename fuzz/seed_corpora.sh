@@ -22,6 +22,8 @@ add tiff "$io"/*.tif
 add dicom "$io"/dicom_*/*.dcm
 add metaimage "$io"/*.mha
 add mrc "$io"/*.mrc "$io"/*.map
+add mgh "$io"/*.mgh "$io"/*.mgz
+for f in "$io"/*.mgz; do gzip -dc "$f" > "corpus/mgh/$(basename "$f" .mgz).mgh"; done
 add cgc "$cgc"/*.cgc
 add seg_nrrd "$io"/labels/*.seg.nrrd
 for target in corpus-seeds/*/; do

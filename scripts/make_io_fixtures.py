@@ -7,7 +7,7 @@ follows a formula of the base value f = i + 10*j + 100*k that the Rust tests rec
     u8   : f                 i16 : f - 150          u16 : 200*f
     f32  : 0.25*f - 3.5      f64 : same as f32, stored as double
 
-Files are written by nibabel, pynrrd, numpy, pydicom, tifffile, SimpleITK and mrcfile (pip install
+Files are written by nibabel (NIfTI and MGH), pynrrd, numpy, pydicom, tifffile, SimpleITK and mrcfile (pip install
 numpy nibabel pynrrd pydicom tifffile SimpleITK mrcfile), so the readers are checked against other
 implementations of the formats. Run from the repository root:
 
@@ -232,6 +232,21 @@ def write_mrc():
         assert m.header.mode == 6 and m.data.dtype.byteorder == ">", "mrcfile wrote little endian"
 
 
+def write_mgh():
+    # FreeSurfer MGH, written by nibabel. An oblique affine (a rotation of 30 degrees about the
+    # superior axis, then axes swapped as FreeSurfer's LIA volumes have them), spacing
+    # (0.5, 0.75, 2), voxel (0, 0, 0) at (10, -20, 30); int32 gzip-compressed (as aseg.mgz).
+    c, s = np.cos(np.pi / 6), np.sin(np.pi / 6)
+    columns = np.array([[-c, -s, 0.0], [0.0, 0.0, -1.0], [-s, c, 0.0]]).T * [0.5, 0.75, 2.0]
+    aff = np.eye(4)
+    aff[:3, :3] = columns
+    aff[:3, 3] = (10.0, -20.0, 30.0)
+    nib.save(nib.MGHImage((BASE - 150).astype(np.int32), aff), path("i32.mgz"))
+    # float32, uncompressed, with two frames: frame 1 is frame 0 plus 1000.
+    two = np.stack([f32(), f32() + 1000], axis=-1)
+    nib.save(nib.MGHImage(two, np.diag([0.5, 0.75, 2.0, 1.0])), path("f32_frames.mgh"))
+
+
 WRITERS = {
     "nifti": write_nifti,
     "nrrd": write_nrrd,
@@ -241,6 +256,7 @@ WRITERS = {
     "tiff_channels": write_tiff_channels,
     "metaimage": write_metaimage,
     "mrc": write_mrc,
+    "mgh": write_mgh,
 }
 
 if __name__ == "__main__":

@@ -70,6 +70,42 @@ pub fn fuzz_volume(
     }
 }
 
+/// Reads `bytes` as the file `name` with `--index t=T`, whole and (where the file opens by
+/// region: an uncompressed NIfTI or MGH) by region: the two succeed together and agree, sample
+/// for sample and in geometry, as streamed extraction relies on.
+pub fn fuzz_frame_whole_and_by_region(name: &str, bytes: &[u8], t: u64) {
+    init();
+    let path = scratch_file(name, bytes);
+    let options = isogrid_io::ReadOptions {
+        zarr: isogrid_io::ZarrOptions {
+            indices: vec![("t".to_string(), t)],
+            ..Default::default()
+        },
+        ..Default::default()
+    };
+    let whole = isogrid_io::read_volume(&path, &options);
+    if let Ok(volume) = &whole {
+        check_volume(volume);
+    }
+    let region = match isogrid_io::open_region(&path, &options) {
+        Ok(Some(mut source)) => isogrid_io::region::read_all(source.as_mut()),
+        Ok(None) => return,
+        Err(e) => Err(e),
+    };
+    match (whole, region) {
+        (Ok(whole), Ok(region)) => {
+            assert_eq!(whole.geometry(), region.geometry());
+            assert!(whole.data() == region.data(), "samples differ");
+        }
+        (Err(_), Err(_)) => {}
+        (whole, region) => panic!(
+            "whole: {:?}, by region: {:?}",
+            whole.map(|v| v.dims()),
+            region.map(|v| v.dims())
+        ),
+    }
+}
+
 /// Reads `bytes` as the NIfTI file `name` (`in.nii` or `in.nii.gz`) both whole and as the one
 /// mask of a folder of masks, which streams it a chunk at a time into bits: the two succeed
 /// together, and the mask's label is exactly where the whole volume's samples are inside (non-zero

@@ -255,7 +255,7 @@ def extract(
             volume's labels, as ``isogrid extract --labels`` gives them: the call is then
             :func:`extract_labels` (see there) with these arguments and the attribute.
         index: when ``array`` is a path, the entry to read of each axis beyond x, y and z, as
-            :func:`load_volume` takes it (``{"t": 3}`` of a 4-D NIfTI file, ``{"c": 1}`` of a
+            :func:`load_volume` takes it (``{"t": 3}`` of a 4-D NIfTI or MGH file, ``{"c": 1}`` of a
             Zarr image or TIFF hyperstack; ``isogrid extract --index``).
         attribute_index: the same for an ``attribute`` given as a path (``--color-index``); the
             attribute is then named after both, e.g. ``"pet.nii.gz t=3"``.
@@ -571,7 +571,8 @@ def load_volume(
 ) -> Volume:
     """Reads a volume file: NIfTI-1 (``.nii``, ``.nii.gz``), NRRD (``.nrrd``, ``.nhdr``), NumPy
     ``.npy``, TIFF stacks or a folder of TIFF slices, a DICOM series (a folder), MetaImage
-    (``.mha``, ``.mhd`` + data file; raw or zlib), MRC/CCP4 maps (``.mrc``, ``.map``, ``.ccp4``,
+    (``.mha``, ``.mhd`` + data file; raw or zlib), FreeSurfer MGH (``.mgh``, ``.mgz``), MRC/CCP4 maps
+    (``.mrc``, ``.map``, ``.ccp4``,
     ``.mrcs``), VTK XML image data (``.vti``), Zarr v2/v3 and OME-Zarr 0.4/0.5 (a folder, or an ``http://`` URL), or headerless
     raw samples. Other names are recognised by their content.
 
@@ -596,7 +597,7 @@ def load_volume(
         index: Zarr axes other than x, y, z and the entry to read of each, e.g.
             ``{"t": 0, "c": 1}``; 4-D and 5-D arrays need it (the error names the axes). It also
             picks the channel and time point of an ImageJ hyperstack or OME-TIFF with several
-            (``{"c": 1}``), and the volume of a 4-D NIfTI file (``{"t": 3}``).
+            (``{"c": 1}``), and the volume of a 4-D NIfTI or MGH file (``{"t": 3}``).
     """
     dtype_name = None
     if raw_dtype is not None:

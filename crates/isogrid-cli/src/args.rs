@@ -137,7 +137,7 @@ pub struct InputArgs {
     #[arg(long, value_name = "N", default_value_t = 0)]
     pub level: usize,
     /// Entry of each extra (non-x/y/z) axis of a Zarr array, e.g. `t=0,c=1`, the channel and time
-    /// point of a TIFF hyperstack, or the volume `t` of a 4-D NIfTI file. Checked when the
+    /// point of a TIFF hyperstack, or the volume `t` of a 4-D NIfTI or MGH file. Checked when the
     /// request is built, so a bad value gets the one-line error every other input error gets.
     #[arg(long, value_name = "AXIS=I,...")]
     pub index: Option<String>,

@@ -39,7 +39,7 @@ pub struct ColorByArgs {
     #[arg(long, value_name = "ATTR")]
     pub color_by: Option<String>,
     /// Entry of each extra axis of the --color-by file, as --index picks INPUT's: the volume t of
-    /// a 4-D NIfTI file, a channel or time point of a Zarr image or TIFF hyperstack, e.g.
+    /// a 4-D NIfTI or MGH file, a channel or time point of a Zarr image or TIFF hyperstack, e.g.
     /// `--color-by pet.nii.gz --color-index t=3`.
     #[arg(long, value_name = "AXIS=I,...", requires = "color_by")]
     pub color_index: Option<String>,

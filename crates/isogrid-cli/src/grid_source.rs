@@ -25,7 +25,7 @@ pub struct OptionalIso {
 /// Where the grid of a render or benchmark comes from.
 #[derive(clap::Args, Debug, Clone)]
 pub struct GridSource {
-    /// A .cgc file, or a volume (.nii/.nii.gz, .nrrd, .npy, .tif, .mha, .mrc, .vti, DICOM folder, raw) to
+    /// A .cgc file, or a volume (.nii/.nii.gz, .nrrd, .npy, .tif, .mha, .mgz, .mrc, .vti, DICOM folder, raw) to
     /// extract.
     pub input: PathBuf,
     #[command(flatten)]

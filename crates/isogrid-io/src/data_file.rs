@@ -1,8 +1,9 @@
 //! Opening the data files that a header names (NRRD `data file`, MetaImage `ElementDataFile`) and
-//! the files the readers open themselves.
+//! the files the readers open themselves, gzip-compressed or not.
 
 use isogrid::{Error, Result, ResultExt};
 use std::fs::File;
+use std::io::{BufReader, Read, Seek, SeekFrom};
 use std::path::{Path, PathBuf};
 
 /// `name` as a header gives it: relative to the header's folder `base` unless absolute.
@@ -26,3 +27,60 @@ pub(crate) fn open_regular(path: &Path) -> Result<File> {
     }
     File::open(path).at_path(path)
 }
+
+/// A file that may be gzip-compressed (detected from its first bytes, as `.nii.gz` and `.mgz`
+/// are), open at its start.
+pub(crate) struct MaybeGzip {
+    /// The decompressed bytes (the file's own where it is not compressed).
+    pub reader: Box<dyn Read>,
+    pub gzipped: bool,
+    /// The file's length on disk.
+    pub file_len: u64,
+}
+
+/// Opens a regular file that may be gzip-compressed.
+pub(crate) fn open_maybe_gzip(path: &Path) -> Result<MaybeGzip> {
+    let mut file = isogrid::fs::open_regular(path)?;
+    let file_len = file.metadata()?.len();
+    let mut magic = [0u8; 2];
+    let gzipped = file.read(&mut magic)? == 2 && magic == GZIP_MAGIC;
+    file.seek(SeekFrom::Start(0))?;
+    let reader: Box<dyn Read> = if gzipped {
+        Box::new(flate2::read::MultiGzDecoder::new(BufReader::new(file)))
+    } else {
+        Box::new(BufReader::new(file))
+    };
+    Ok(MaybeGzip {
+        reader,
+        gzipped,
+        file_len,
+    })
+}
+
+/// The first `N` bytes of a file (its header) and the file's length, for reading the samples
+/// by region; `None` for a gzip-compressed file, which must be decompressed from its start. A
+/// file shorter than `N` bytes is `Corrupt`, the message saying it is shorter than `header`.
+pub(crate) fn uncompressed_head<const N: usize>(
+    path: &Path,
+    header: &str,
+) -> Result<Option<([u8; N], u64)>> {
+    let mut file = isogrid::fs::open_regular(path)?;
+    let file_len = file.metadata()?.len();
+    let mut raw = [0u8; N];
+    let mut got = 0;
+    while got < N {
+        match file.read(&mut raw[got..])? {
+            0 => break,
+            n => got += n,
+        }
+    }
+    if got >= 2 && raw[..2] == GZIP_MAGIC {
+        return Ok(None);
+    }
+    if got < N {
+        return Err(Error::corrupt(format!("file is shorter than {header}")));
+    }
+    Ok(Some((raw, file_len)))
+}
+
+const GZIP_MAGIC: [u8; 2] = [0x1f, 0x8b];

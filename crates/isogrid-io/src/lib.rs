@@ -1,13 +1,13 @@
 //! Volume file formats for isogrid: NIfTI-1, NRRD, NumPy `.npy`, raw, DICOM series, TIFF
-//! stacks, MetaImage, MRC/CCP4 maps and VTK XML image data (`.vti`), read into an [`isogrid::Volume`], and NRRD written back;
+//! stacks, MetaImage, FreeSurfer MGH, MRC/CCP4 maps and VTK XML image data (`.vti`), read into an [`isogrid::Volume`], and NRRD written back;
 //! label volumes with the names and colours their files give, and colour tables ([`labels`]); triangle meshes ([`mesh`]) and
 //! their solid voxelisation into coverage volumes ([`voxelize`], paper §4).
 //!
 //! Every reader keeps the file's storage order (voxel (i, j, k), i fastest; no reorientation or
 //! resampling; MRC maps alone are permuted to x-fastest, see [`mrc`]), keeps spacing and origin in physical file units in [`isogrid::Geometry`] and the
-//! axis directions as metadata when the format has them. Sample types u8, u16, i16 and f32 are
-//! kept; i8 becomes i16, bool becomes u8, and u32/i32/u64/i64/f64 become f32 (integers above 2²⁴
-//! and f64 precision are rounded). Malformed or truncated files give one-line errors naming the
+//! axis directions as metadata when the format has them, and the convention of world coordinates
+//! (LPS, RAS or none) in [`isogrid::Geometry::frame`]. Samples keep the file's type (8 to 64-bit
+//! integers, f32, f64); i8 becomes i16 and bool u8. Malformed or truncated files give one-line errors naming the
 //! file; declared sizes are checked against the file, and against the memory there is
 //! ([`isogrid::memory`]), before anything is allocated. Only regular files are read: a pipe,
 //! FIFO, device or directory given as a file is refused rather than waited on.
@@ -20,6 +20,7 @@ pub mod labels;
 pub mod mesh;
 pub mod mesh_write;
 pub mod metaimage;
+pub mod mgh;
 pub mod mrc;
 pub mod nifti;
 pub mod npy;
@@ -32,6 +33,7 @@ pub mod vti;
 
 mod data_file;
 mod files_read;
+mod four_d;
 mod geometry;
 mod mapped_layout;
 mod read;
@@ -41,6 +43,7 @@ mod samples;
 pub use dicom::{read_dicom, read_dicom_series};
 pub use files_read::files_read;
 pub use metaimage::read_metaimage;
+pub use mgh::{read_mgh, read_mgh_indexed};
 pub use mrc::read_mrc;
 pub use nifti::{read_nifti, read_nifti_indexed};
 pub use npy::read_npy;

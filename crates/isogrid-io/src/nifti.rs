@@ -20,14 +20,16 @@
 //! - Types: u8, i8, u16, i16, u32, i32, u64, i64, f32, f64 (converted as in the crate docs);
 //!   complex, RGB and binary are `Unsupported`. NIfTI-2 and the `.hdr/.img` pair are `Unsupported`.
 
+use crate::data_file::{open_maybe_gzip, uncompressed_head, MaybeGzip};
+use crate::four_d::{pick_volume, PickedVolume};
 use crate::geometry::{cross, geometry, normalized, Vec3};
 use crate::read_options::AxisPick;
 use crate::samples::{
-    byte_count, check_available, check_deflate_budget, expect_end, gzip_error, read_samples,
-    rescaled, sample_count, skip_bytes, ElemType,
+    check_available, check_deflate_budget, expect_end, gzip_error, read_samples, rescaled,
+    skip_bytes, ElemType,
 };
 use isogrid::{Error, Result, ResultExt, Volume, VolumeData, WorldFrame};
-use std::io::{BufReader, Read, Seek, SeekFrom};
+use std::io::Read;
 use std::path::Path;
 
 const HEADER_SIZE: usize = 348;
@@ -64,6 +66,11 @@ struct Header {
 }
 
 impl Header {
+    /// The volume `pick` chooses, with its sample count and bytes.
+    fn picked(&self, pick: AxisPick) -> Result<PickedVolume> {
+        pick_volume(pick, "NIfTI file", self.dims, self.times, self.elem)
+    }
+
     /// The volume's geometry (world coordinates RAS+ when the file gives an sform or qform).
     fn geometry(&self) -> Result<isogrid::Geometry> {
         geometry(
@@ -73,68 +80,6 @@ impl Header {
             self.direction,
             self.frame,
         )
-    }
-
-    /// The volume `pick` chooses: `t=N` of a file of several, else the only one. An index of
-    /// another axis, out of range or given twice, or a missing one, is an error.
-    fn pick(&self, pick: AxisPick) -> Result<usize> {
-        crate::read_options::refuse_repeated_axes(pick)?;
-        let flag = pick.flag;
-        let t = self.times;
-        if t == 1 && !pick.indices.is_empty() {
-            return Err(Error::invalid(format!(
-                "{flag} picks a volume of a 4-D file, and this NIfTI file holds one 3-D volume"
-            )));
-        }
-        let described = format!("NIfTI file of {t} volumes (t=0..{})", t.saturating_sub(1));
-        for (name, index) in pick.indices {
-            if !name.eq_ignore_ascii_case("t") {
-                return Err(Error::invalid(format!(
-                    "{flag} names {name}, which is not an axis of this {described}: use t"
-                )));
-            }
-            if *index >= t as u64 {
-                return Err(Error::invalid(format!(
-                    "{} is out of range: this is a {described}",
-                    flag.with(&[(name, &index.to_string())])
-                )));
-            }
-        }
-        match pick.indices.first() {
-            Some(&(_, index)) => Ok(index as usize),
-            None if t == 1 => Ok(0),
-            None => Err(Error::invalid(format!(
-                "this is a 4-D {described}: pass {} to read one",
-                flag.with(&[("t", "N")])
-            ))),
-        }
-    }
-}
-
-/// The volume a pick chooses of a file, and its size.
-struct Picked {
-    t: usize,
-    count: usize,
-    volume_bytes: u64,
-    /// The bytes of all the file's volumes.
-    all_bytes: u64,
-}
-
-impl Header {
-    /// The volume `pick` chooses ([`Header::pick`]), with its sample count and bytes.
-    fn picked(&self, pick: AxisPick) -> Result<Picked> {
-        let t = self.pick(pick)?;
-        let count = sample_count(self.dims)?;
-        let volume_bytes = byte_count(count, self.elem)?;
-        let all_bytes = volume_bytes
-            .checked_mul(self.times as u64)
-            .ok_or_else(|| Error::too_large("the volumes' size overflows 64 bits"))?;
-        Ok(Picked {
-            t,
-            count,
-            volume_bytes,
-            all_bytes,
-        })
     }
 }
 
@@ -152,16 +97,11 @@ struct Opened {
 
 impl Opened {
     fn open(path: &Path, pick: AxisPick) -> Result<Opened> {
-        let mut file = isogrid::fs::open_regular(path)?;
-        let file_len = file.metadata()?.len();
-        let mut magic = [0u8; 2];
-        let gzipped = file.read(&mut magic)? == 2 && magic == [0x1f, 0x8b];
-        file.seek(SeekFrom::Start(0))?;
-        let mut reader: Box<dyn Read> = if gzipped {
-            Box::new(flate2::read::MultiGzDecoder::new(BufReader::new(file)))
-        } else {
-            Box::new(BufReader::new(file))
-        };
+        let MaybeGzip {
+            mut reader,
+            gzipped,
+            file_len,
+        } = open_maybe_gzip(path)?;
         let mut raw = [0u8; HEADER_SIZE];
         reader.read_exact(&mut raw).map_err(|e| match e.kind() {
             std::io::ErrorKind::UnexpectedEof => {
@@ -170,18 +110,14 @@ impl Opened {
             _ => Error::corrupt(format!("cannot read the NIfTI header: {e}")),
         })?;
         let header = parse_header(&raw)?;
-        let Picked {
-            t,
-            count,
-            volume_bytes,
-            all_bytes,
-        } = header.picked(pick)?;
-        let before = volume_bytes * t as u64;
+        let picked = header.picked(pick)?;
+        let (t, count, volume_bytes) = (picked.t, picked.count, picked.volume_bytes);
+        let before = picked.bytes_before();
         if gzipped {
             // Decompressed up to the end of volume t, and on to the end when it is the last.
             check_deflate_budget(header.vox_offset + before + volume_bytes, file_len)?;
         } else {
-            check_available(all_bytes, file_len.saturating_sub(header.vox_offset))?;
+            check_available(picked.all_bytes, file_len.saturating_sub(header.vox_offset))?;
         }
         let geometry = header.geometry()?;
         let mut opened = Opened {
@@ -258,34 +194,17 @@ pub(crate) fn region_layout(
     path: &Path,
     pick: AxisPick,
 ) -> Result<Option<crate::mapped_layout::MappedLayout>> {
-    (|| {
-        let mut file = isogrid::fs::open_regular(path)?;
-        let file_len = file.metadata()?.len();
-        let mut raw = [0u8; HEADER_SIZE];
-        let mut got = 0;
-        while got < HEADER_SIZE {
-            match file.read(&mut raw[got..])? {
-                0 => break,
-                n => got += n,
-            }
-        }
-        if got >= 2 && raw[..2] == [0x1f, 0x8b] {
+    (|| -> Result<Option<crate::mapped_layout::MappedLayout>> {
+        let Some((raw, file_len)) = uncompressed_head::<HEADER_SIZE>(path, "a NIfTI-1 header")?
+        else {
             return Ok(None);
-        }
-        if got < HEADER_SIZE {
-            return Err(Error::corrupt("file is shorter than a NIfTI-1 header"));
-        }
+        };
         let header = parse_header(&raw)?;
-        let Picked {
-            t,
-            volume_bytes,
-            all_bytes,
-            ..
-        } = header.picked(pick)?;
-        check_available(all_bytes, file_len.saturating_sub(header.vox_offset))?;
+        let picked = header.picked(pick)?;
+        check_available(picked.all_bytes, file_len.saturating_sub(header.vox_offset))?;
         Ok(Some(crate::mapped_layout::MappedLayout {
             data_path: path.to_path_buf(),
-            data_offset: header.vox_offset + volume_bytes * t as u64,
+            data_offset: header.vox_offset + picked.bytes_before(),
             elem: header.elem,
             big_endian: header.big_endian,
             geometry: header.geometry()?,

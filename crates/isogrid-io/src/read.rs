@@ -10,7 +10,7 @@ use std::path::Path;
 /// Reads a volume, detecting the format from the path: a Zarr store or OME-Zarr image (see
 /// [`crate::region`]); a folder of 2-D TIFF slices; another directory or a `.dcm` file (or one
 /// with the `DICM` marker) = DICOM (see [`crate::dicom`]); `.nii`/`.nii.gz`; `.nrrd`/`.nhdr`;
-/// `.npy`; `.tif`/`.tiff`; `.mha`/`.mhd`; `.mrc`/`.map`/`.ccp4`/`.mrcs`; `.vti`; any file when `opts.raw` is set
+/// `.npy`; `.tif`/`.tiff`; `.mha`/`.mhd`; `.mgh`/`.mgz`; `.mrc`/`.map`/`.ccp4`/`.mrcs`; `.vti`; any file when `opts.raw` is set
 /// (`.raw`/`.bin` without it are an error asking for the spec). Other names are sniffed by
 /// their magic bytes. Errors name `path`. Notices are dropped; see [`read_volume_noted`].
 pub fn read_volume(path: &Path, opts: &ReadOptions) -> Result<Volume> {
@@ -41,7 +41,7 @@ pub fn read_volume_noted(path: &Path, opts: &ReadOptions) -> Result<(Volume, Vec
 }
 
 /// [`read_volume`], counting the planes read in `progress` for inputs read by region (Zarr, TIFF
-/// slice folders, uncompressed raw, NRRD and NIfTI), which also stop with a `Cancelled` error
+/// slice folders, uncompressed raw, NRRD, NIfTI and MGH), which also stop with a `Cancelled` error
 /// once `progress` is cancelled; other formats are read in one go, without counts.
 pub fn read_volume_with_progress(
     path: &Path,
@@ -86,6 +86,9 @@ fn read_single(path: &Path, opts: &ReadOptions) -> Result<Volume> {
     let ends = |ext: &str| name.ends_with(ext);
     if crate::nifti::is_nifti_name(&name) {
         return crate::nifti::read_nifti_indexed(path, opts.zarr.pick());
+    }
+    if crate::mgh::is_mgh_name(&name) {
+        return crate::mgh::read_mgh_indexed(path, opts.zarr.pick());
     }
     if ends(".nrrd") || ends(".nhdr") {
         return crate::read_nrrd(path);
@@ -147,7 +150,7 @@ fn sniff(path: &Path, opts: &ReadOptions) -> Result<Volume> {
         crate::dicom::read_dicom(path, opts).map(|(volume, _)| volume)
     } else {
         Err(Error::unsupported(
-            "unknown volume format (expected .nii, .nii.gz, .nrrd, .nhdr, .npy, .tif, .mha, .mhd, .mrc, .map, DICOM, or a raw spec)",
+            "unknown volume format (expected .nii, .nii.gz, .nrrd, .nhdr, .npy, .tif, .mha, .mhd, .mgh, .mgz, .mrc, .map, .vti, DICOM, or a raw spec)",
         )
         .with_path(path))
     }

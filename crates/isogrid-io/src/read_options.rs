@@ -136,21 +136,22 @@ pub(crate) fn refuse_repeated_axes(pick: AxisPick) -> isogrid::Result<()> {
 }
 
 /// Refuses an `--index` for an input it cannot apply to: only Zarr arrays (read before this is
-/// asked), TIFF files (ImageJ and OME hyperstacks) and NIfTI files (4-D) have axes beyond x, y
-/// and z to pick from, and any other reader would ignore the index without a word.
+/// asked), TIFF files (ImageJ and OME hyperstacks), NIfTI files (4-D) and MGH files (frames) have
+/// axes beyond x, y and z to pick from, and any other reader would ignore the index without a word.
 pub(crate) fn refuse_unused_index(
     path: &std::path::Path,
     options: &ReadOptions,
 ) -> isogrid::Result<()> {
-    let nifti = path
-        .file_name()
-        .is_some_and(|n| crate::nifti::is_nifti_name(&n.to_string_lossy()));
-    if options.zarr.indices.is_empty() || is_tiff_file(path) || nifti {
+    let four_d = path.file_name().is_some_and(|n| {
+        let name = n.to_string_lossy();
+        crate::nifti::is_nifti_name(&name) || crate::mgh::is_mgh_name(&name)
+    });
+    if options.zarr.indices.is_empty() || is_tiff_file(path) || four_d {
         return Ok(());
     }
     refuse_repeated_axes(options.zarr.pick()).map_err(|e| e.with_path(path))?;
     Err(isogrid::Error::invalid(format!(
-        "{} picks a channel or time point of a Zarr, TIFF or 4-D NIfTI image; this input \
+        "{} picks a channel or time point of a Zarr, TIFF, 4-D NIfTI or MGH image; this input \
          has no axes beyond x, y and z",
         options.zarr.index_flag
     ))

@@ -23,7 +23,7 @@ use std::time::Instant;
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// Volume: .nii/.nii.gz, .nrrd/.nhdr, .npy, .tif/.tiff, .mha/.mhd, .mrc/.map, .vti, a folder of
+    /// Volume: .nii/.nii.gz, .nrrd/.nhdr, .npy, .tif/.tiff, .mha/.mhd, .mgh/.mgz, .mrc/.map, .vti, a folder of
     /// TIFF slices, a Zarr or OME-Zarr store, a DICOM folder, or raw with --raw-shape.
     pub input: PathBuf,
     #[command(flatten)]

@@ -20,7 +20,7 @@ use std::time::Instant;
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// Volume: .nii/.nii.gz, .nrrd/.nhdr, .npy, .tif/.tiff, .mha/.mhd, .mrc/.map, .vti, a DICOM
+    /// Volume: .nii/.nii.gz, .nrrd/.nhdr, .npy, .tif/.tiff, .mha/.mhd, .mgh/.mgz, .mrc/.map, .vti, a DICOM
     /// folder, or raw with --raw-shape; with --labels also a .cgc file of labels (`extract
     /// --labels`), whose selected labels are meshed from their cells without the volume.
     pub input: PathBuf,

@@ -1,8 +1,8 @@
 //! Volumes read by region, for extraction in bounded memory ([`isogrid::extract::stream`]):
-//! uncompressed raw, NRRD and NIfTI through memory maps ([`mapped`]), folders of 2-D TIFF slices
+//! uncompressed raw, NRRD, NIfTI and MGH through memory maps ([`mapped`]), folders of 2-D TIFF slices
 //! ([`slices`]), and Zarr v2/v3 and OME-Zarr ([`zarr`]) from a folder or over HTTP
 //! ([`http_store`]). Formats that must be decoded from their
-//! start (gzip NIfTI and NRRD, ascii NRRD, multi-page TIFF, npy, DICOM) are read whole instead.
+//! start (gzip NIfTI, MGH and NRRD, ascii NRRD, multi-page TIFF, npy, DICOM) are read whole instead.
 
 #[cfg(feature = "zarr")]
 pub mod http_store;
@@ -67,6 +67,8 @@ pub fn open_region(
         .unwrap_or_default();
     let layout = if name.ends_with(".nii") {
         crate::nifti::region_layout(path, options.zarr.pick())?
+    } else if crate::mgh::is_mgh_name(&name) {
+        crate::mgh::region_layout(path, options.zarr.pick())?
     } else if name.ends_with(".nrrd") || name.ends_with(".nhdr") {
         crate::nrrd::region_layout(path)?
     } else {

@@ -9,6 +9,7 @@ mod dicom;
 mod fuzz_regressions;
 mod labels;
 mod metaimage;
+mod mgh;
 mod mrc;
 mod readers;
 mod region;

@@ -306,7 +306,7 @@ fn unknown_extension_is_sniffed() {
 }
 
 /// Each format's convention of world coordinates, from the fixtures the reference tools wrote:
-/// NIfTI with an sform or qform is RAS, MetaImage (ITK) and DICOM are LPS, NRRD says it in its
+/// NIfTI with an sform or qform and FreeSurfer MGH are RAS, MetaImage (ITK) and DICOM are LPS, NRRD says it in its
 /// `space` field (pynrrd wrote `left-posterior-superior`; none: unknown); NumPy, MRC and TIFF
 /// have none. `write_nrrd` keeps it.
 #[test]
@@ -316,6 +316,7 @@ fn each_format_names_the_convention_of_its_world_coordinates() {
         ("u8.nii", Ras),
         ("f32_qform.nii", Ras),
         ("i16.nii.gz", Ras),
+        ("i32.mgz", Ras),
         ("u8.mha", Lps),
         ("i16_z.mhd", Lps),
         ("dicom_ct", Lps),
