@@ -136,6 +136,16 @@ def test_an_mgh_surface_takes_an_attribute_where_it_lies_in_either_convention(cl
     assert "LPS world coordinates are taken into" in run.stderr
     np.testing.assert_array_equal(np.asarray(isogrid.load(tmp_path / "out.cgc").attribute),
                                   np.asarray(by_metaimage.attribute))
+    # `info --json` gives the source's place in the world as the .mgz holds it.
+    import json
+
+    info = json.loads(subprocess.run([cli, "info", tmp_path / "out.cgc", "--json"], check=True,
+                                     capture_output=True, text=True).stdout)["source"]
+    assert info["frame"] == "RAS" and info["scalar_type"] == "f32"
+    got = np.eye(4)
+    got[:3, :3] = (np.asarray(info["direction"]) * np.asarray(info["spacing"])[:, None]).T
+    got[:3, 3] = info["origin"]
+    np.testing.assert_allclose(got, affine, atol=1e-5)
 
 
 def test_bad_mgh_files_are_one_line_errors(cli, tmp_path):

@@ -75,6 +75,9 @@ pub struct GridReport {
     /// The labels of a label volume's grid (`--labels`); absent for an isosurface.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub labels: Option<Vec<LabelReport>>,
+    /// The volume the grid was extracted from (`info`); absent where the report does not say.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub source: Option<SourceReport>,
     pub seconds: Seconds,
     /// The grid of a `.cgc` file (`info`), timed opening and validating it: nothing was
     /// extracted or written, so the table shows that time alone.
@@ -102,6 +105,40 @@ pub struct LabelReport {
     /// Its active cells' box in cell indices, `[lo, hi)` per axis (index space).
     pub lo: [u32; 3],
     pub hi: [u32; 3],
+}
+
+/// The volume a grid was extracted from, as its header keeps it.
+#[derive(Serialize)]
+pub struct SourceReport {
+    /// Its sample type (`u8`, `i16`, `f32`, ...).
+    pub scalar_type: &'static str,
+    /// Its smallest and largest finite sample, in data units.
+    pub value_range: [f64; 2],
+    /// Sample spacing along i, j, k, in the file's units.
+    pub spacing: [f64; 3],
+    /// The world position of sample (0, 0, 0).
+    pub origin: [f64; 3],
+    /// The world directions of the i, j and k axes, one row each.
+    pub direction: [[f64; 3]; 3],
+    /// The convention of the world coordinates: `"LPS"`, `"RAS"`, or null where the source file
+    /// named none.
+    pub frame: Option<&'static str>,
+}
+
+impl SourceReport {
+    pub fn new(info: &isogrid::GridInfo) -> Self {
+        SourceReport {
+            scalar_type: info.scalar_type.name(),
+            value_range: info.value_range,
+            spacing: info.spacing,
+            origin: info.origin,
+            direction: info.direction,
+            frame: match info.frame {
+                isogrid::WorldFrame::Unknown => None,
+                frame => Some(frame.name()),
+            },
+        }
+    }
 }
 
 /// A grid's per-cell attribute in a report.
@@ -153,6 +190,7 @@ impl GridReport {
             bytes_per_cell: stats.bytes_per_cell(),
             attribute: None,
             labels: None,
+            source: None,
             seconds,
             opened_file: false,
         }

@@ -1,6 +1,6 @@
 //! `isogrid info`: statistics of a `.cgc` file (validated on open).
 
-use crate::report::{print_json, GridReport, Seconds};
+use crate::report::{print_json, GridReport, Seconds, SourceReport};
 use anyhow::Result;
 use isogrid::GridStats;
 use std::path::PathBuf;
@@ -29,6 +29,7 @@ pub fn run(args: Args) -> Result<()> {
     crate::report::note_if_empty(&args.file, &grid, None);
     let report = GridReport {
         opened_file: true,
+        source: Some(SourceReport::new(grid.info())),
         ..GridReport::new(
             &GridStats::of(&grid),
             Seconds {

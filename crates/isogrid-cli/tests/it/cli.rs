@@ -173,6 +173,13 @@ fn extract_info_and_mc_report_consistent_numbers() {
         assert_eq!(i[k], e[k], "{k} differs between extract and info");
     }
     assert_eq!(i["iso"], e["iso"]);
+    // The source as `generate` wrote it: u8 over the full range, unit grid, no world convention.
+    let source = &i["source"];
+    assert_eq!(source["scalar_type"], "u8");
+    assert_eq!(source["value_range"], serde_json::json!([0.0, 255.0]));
+    assert_eq!(source["spacing"], serde_json::json!([1.0, 1.0, 1.0]));
+    assert_eq!(source["origin"], serde_json::json!([0.0, 0.0, 0.0]));
+    assert_eq!(source["frame"], serde_json::Value::Null);
 
     let ply = dir.join("torus.ply");
     let m = ok_json(&[
