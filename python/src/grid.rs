@@ -292,6 +292,13 @@ pub fn _empty_surface_note(grid: &Bound<'_, CellGrid>, all_nan: bool) -> String 
         .empty_surface_note(inner.labels().map(|l| l.table()), || all_nan)
 }
 
+/// Why images of `grid` show its world mirrored ([`isogrid::GridInfo::mirrored_note`]), the
+/// text of `MirroredAxesWarning`; `None` when they do not.
+#[pyfunction]
+pub fn _mirrored_note(grid: &Bound<'_, CellGrid>) -> Option<String> {
+    grid.get().inner().info().mirrored_note()
+}
+
 /// Gives the `.cgc` file `path` the attribute of the volume file `attribute_path` (read by region
 /// where its format allows, as `isogrid extract --color-by`), or of `array` (an `AttributeArg`),
 /// sampled at each active cell's surface point; the file is rewritten atomically. For

@@ -75,3 +75,75 @@ def test_voxelize_then_marching_cubes_lands_on_the_mesh():
     tolerance = max(vol.spacing)
     np.testing.assert_allclose(v2.min(0), v.min(0), atol=tolerance)
     np.testing.assert_allclose(v2.max(0), v.max(0), atol=tolerance)
+
+
+def _letter_axes(codes):
+    """A 3×3 matrix whose columns point along the RAS letters `codes` (e.g. "LIA"), turned 10°
+    about z so that the axes are oblique."""
+    unit = {"R": (1, 0, 0), "L": (-1, 0, 0), "A": (0, 1, 0), "P": (0, -1, 0), "S": (0, 0, 1), "I": (0, 0, -1)}
+    columns = np.array([unit[c] for c in codes], dtype=float).T
+    t = np.radians(10)
+    turn = np.array([[np.cos(t), -np.sin(t), 0], [np.sin(t), np.cos(t), 0], [0, 0, 1]])
+    return turn @ columns
+
+
+@pytest.mark.parametrize("codes", ["RAS", "LAS", "LIA", "PSR", "ASL"])
+def test_info_names_the_axes_and_drawing_commands_say_when_they_mirror(cli, tmp_path, codes):
+    """The axes' anatomical directions against nibabel's aff2axcodes (NIfTI, MGH) and SimpleITK's
+    DICOMOrientImageFilter (MetaImage, LPS); render says the image is mirrored exactly when the
+    file's axes are a mirror image of patient space (LAS as FSL stores, LIA as FreeSurfer does)."""
+    import json
+    import subprocess
+
+    sitk = pytest.importorskip("SimpleITK")
+    affine = np.eye(4)
+    affine[:3, :3] = _letter_axes(codes) * [0.9, 1.1, 1.3]
+    affine[:3, 3] = (-20.0, 15.0, 5.0)
+    mirrored = np.linalg.det(affine[:3, :3]) < 0
+    f = np.asfortranarray(sphere(shape_zyx=(14, 16, 18), centre_xyz=(8.0, 7.0, 6.0), radius=5.0).transpose())
+    nib.save(nib.Nifti1Image(f, affine), tmp_path / "v.nii.gz")
+    nib.save(nib.MGHImage(f, affine), tmp_path / "v.mgz")
+    sitk.WriteImage(sitk.ReadImage(str(tmp_path / "v.nii.gz")), str(tmp_path / "v.mha"))
+    expected = {
+        "v.nii.gz": "".join(nib.aff2axcodes(affine)),
+        "v.mgz": "".join(nib.aff2axcodes(affine)),
+        "v.mha": sitk.DICOMOrientImageFilter.GetOrientationFromDirectionCosines(
+            sitk.ReadImage(str(tmp_path / "v.mha")).GetDirection()),
+    }
+    assert expected["v.nii.gz"] == codes
+    for name, axes in expected.items():
+        out = tmp_path / f"{name}.cgc"
+        subprocess.run([cli, "extract", tmp_path / name, "--iso", "0", "-o", out], check=True, capture_output=True)
+        source = json.loads(subprocess.run([cli, "info", out, "--json"], check=True, capture_output=True,
+                                           text=True).stdout)["source"]
+        assert source["axes"] == axes, name
+        assert source["frame"] == ("LPS" if name.endswith("mha") else "RAS")
+        for shown in (out, tmp_path / name):
+            iso = [] if shown == out else ["--iso", "0"]
+            run = subprocess.run([cli, "render", shown, *iso, "--size", "32x24", "--backend", "cpu",
+                                  "-o", tmp_path / "x.png"], capture_output=True, text=True)
+            assert run.returncode == 0, run.stderr
+            note = f"its axes run {axes}, a mirror image of {source['frame']}"
+            assert (note in run.stderr) == mirrored, (name, run.stderr)
+
+
+@pytest.mark.parametrize("codes", ["RAS", "LIA"])
+def test_render_warns_when_the_axes_mirror_the_world(tmp_path, codes):
+    """isogrid.render's MirroredAxesWarning carries the CLI's note, for a mirrored file only."""
+    import warnings
+
+    affine = np.eye(4)
+    affine[:3, :3] = _letter_axes(codes)
+    f = np.asfortranarray(sphere(shape_zyx=(14, 16, 18), centre_xyz=(8.0, 7.0, 6.0), radius=5.0).transpose())
+    nib.save(nib.MGHImage(f, affine), tmp_path / "v.mgz")
+    grid = isogrid.extract(tmp_path / "v.mgz", iso=0)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        isogrid.render(grid, size=(32, 24), backend="cpu")
+    mirrored = [w for w in caught if issubclass(w.category, isogrid.MirroredAxesWarning)]
+    if codes == "LIA":
+        assert len(mirrored) == 1
+        assert str(mirrored[0].message).startswith("its axes run LIA, a mirror image of RAS")
+        assert mirrored[0].filename == __file__
+    else:
+        assert not mirrored

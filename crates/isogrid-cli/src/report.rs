@@ -23,6 +23,14 @@ pub fn note_if_empty(source: &Path, grid: &CellGrid, volume: Option<&Volume>) {
     );
 }
 
+/// One line on stderr when images of a grid from `source` show its world mirrored
+/// ([`isogrid::GridInfo::mirrored_note`]): the renderers draw along the stored axes.
+pub fn note_if_mirrored(source: &Path, info: &isogrid::GridInfo) {
+    if let Some(note) = info.mirrored_note() {
+        eprintln!("isogrid: note: {}: {note}", source.display());
+    }
+}
+
 /// [`note_if_empty`] from a grid's header, cell count and label table (a streamed grid is never
 /// in memory). `all_nan` says whether the volume has no finite sample; asked only for an empty
 /// isosurface.
@@ -123,6 +131,9 @@ pub struct SourceReport {
     /// The convention of the world coordinates: `"LPS"`, `"RAS"`, or null where the source file
     /// named none.
     pub frame: Option<&'static str>,
+    /// The anatomical direction of the i, j and k axes (`"LIA"` for FreeSurfer's conformed
+    /// volumes), or null without a convention.
+    pub axes: Option<String>,
 }
 
 impl SourceReport {
@@ -137,6 +148,7 @@ impl SourceReport {
                 isogrid::WorldFrame::Unknown => None,
                 frame => Some(frame.name()),
             },
+            axes: info.frame.axis_codes(&info.direction),
         }
     }
 }

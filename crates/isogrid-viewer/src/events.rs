@@ -21,6 +21,8 @@ pub struct SourceInfo {
     pub grid_info: Option<GridInfo>,
     /// The name of a `.cgc` file's per-cell attribute, when it has one.
     pub attribute: Option<String>,
+    /// Why the view shows the source's world mirrored (`Geometry::mirrored_note`), when it does.
+    pub mirrored_note: Option<String>,
 }
 
 impl SourceInfo {

@@ -237,6 +237,7 @@ impl Worker {
                     value_range: range,
                     grid_info: None,
                     attribute: None,
+                    mirrored_note: volume.geometry().mirrored_note(),
                 };
                 self.notify.send(Event::Opened {
                     generation: request.generation,
@@ -261,6 +262,7 @@ impl Worker {
                         spacing: info.spacing,
                         scalar_type: info.scalar_type,
                         value_range: Some((info.value_range[0], info.value_range[1])),
+                        mirrored_note: info.mirrored_note(),
                         grid_info: Some(info),
                         attribute: grid.attribute().map(|a| a.info().name.clone()),
                     },
@@ -352,6 +354,7 @@ impl Worker {
                 spacing: info.spacing,
                 scalar_type: info.scalar_type,
                 value_range: Some((info.value_range[0], info.value_range[1])),
+                mirrored_note: info.mirrored_note(),
                 grid_info: Some(info),
                 attribute: grid.attribute().map(|a| a.info().name.clone()),
             },

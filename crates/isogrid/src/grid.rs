@@ -72,6 +72,12 @@ impl GridInfo {
         self.block_dims().iter().map(|&n| n as usize).product()
     }
 
+    /// Why images of this grid show its world mirrored, when they do
+    /// ([`crate::volume::mirrored_axes_note`]).
+    pub fn mirrored_note(&self) -> Option<String> {
+        crate::volume::mirrored_axes_note(&self.direction, self.frame)
+    }
+
     /// Why a surface of this header has no active cell, as the one line the front doors show for
     /// it (the CLI's note, Python's `EmptySurfaceWarning`): an empty surface is a valid result,
     /// but a blank image or zero hits alone look like a failure elsewhere. `labels`: the label

@@ -282,6 +282,64 @@ impl WorldFrame {
     pub fn converts_to(self, other: WorldFrame) -> bool {
         self != WorldFrame::Unknown && other != WorldFrame::Unknown && self != other
     }
+
+    /// The anatomical direction each of the i, j and k axes of `direction` (rows, in this
+    /// convention's coordinates) points closest to, as radiology tools write it: `"RAS"` for a
+    /// NIfTI template, `"LIA"` for FreeSurfer's conformed volumes, `"LPS"` for a DICOM axial
+    /// series. `None` where no convention is known.
+    pub fn axis_codes(self, direction: &[[f64; 3]; 3]) -> Option<String> {
+        // The letters of +x, +y, +z, then of −x, −y, −z.
+        let letters = match self {
+            WorldFrame::Unknown => return None,
+            WorldFrame::Lps => ["L", "P", "S", "R", "A", "I"],
+            WorldFrame::Ras => ["R", "A", "S", "L", "P", "I"],
+        };
+        Some(
+            direction
+                .iter()
+                .map(|row| {
+                    let axis = (0..3)
+                        .max_by(|&a, &b| row[a].abs().total_cmp(&row[b].abs()))
+                        .expect("three components");
+                    letters[axis + if row[axis] < 0.0 { 3 } else { 0 }]
+                })
+                .collect(),
+        )
+    }
+}
+
+/// Why images of a volume of these axes (direction rows, in `frame`) show its world mirrored,
+/// when they do: renderers draw along the stored axes, in index × spacing space, and these axes
+/// are a mirror image of the world's ([`directions_mirror`]), as in FreeSurfer's LIA volumes and
+/// FSL's LAS ones. One line for the user, naming what writes world space instead.
+pub fn mirrored_axes_note(direction: &[[f64; 3]; 3], frame: WorldFrame) -> Option<String> {
+    if !directions_mirror(direction) {
+        return None;
+    }
+    let axes = match frame.axis_codes(direction) {
+        Some(codes) => format!(
+            "its axes run {codes}, a mirror image of {}, so images, drawn along the stored axes \
+             rather than in patient space, show left and right swapped",
+            frame.name()
+        ),
+        None => "its axes' directions are a mirror image of its world's x, y and z, so images, \
+                 drawn along the stored axes, show its world mirrored"
+            .to_string(),
+    };
+    Some(format!(
+        "{axes}; `isogrid mc` writes the surface in world space"
+    ))
+}
+
+/// Whether the i, j, k axes of `direction` (rows) are a mirror image of x, y, z (a negative
+/// determinant, as when one axis is flipped): a volume stored so, drawn in index × spacing
+/// space, shows its world mirrored.
+pub fn directions_mirror(direction: &[[f64; 3]; 3]) -> bool {
+    let d = direction;
+    let det = d[0][0] * (d[1][1] * d[2][2] - d[1][2] * d[2][1])
+        - d[0][1] * (d[1][0] * d[2][2] - d[1][2] * d[2][0])
+        + d[0][2] * (d[1][0] * d[2][1] - d[1][1] * d[2][0]);
+    det < 0.0
 }
 
 /// Geometry shared by owned volumes and borrowed views.
@@ -300,6 +358,12 @@ pub struct Geometry {
 }
 
 impl Geometry {
+    /// Why images of this volume show its world mirrored, when they do
+    /// ([`mirrored_axes_note`]).
+    pub fn mirrored_note(&self) -> Option<String> {
+        mirrored_axes_note(&self.direction, self.frame)
+    }
+
     pub fn new(dims: [usize; 3]) -> Self {
         Geometry {
             dims,

@@ -46,9 +46,9 @@ pub fn run(args: Args) -> Result<()> {
         report.print_human(None, "")?;
         let info = grid.info();
         // The convention of the world coordinates, where the source file named one.
-        let frame = match info.frame {
-            isogrid::WorldFrame::Unknown => String::new(),
-            frame => format!(", world coordinates {}", frame.name()),
+        let frame = match info.frame.axis_codes(&info.direction) {
+            Some(axes) => format!(", world coordinates {}, axes {axes}", info.frame.name()),
+            None => String::new(),
         };
         if grid.labels().is_some() {
             outln!(

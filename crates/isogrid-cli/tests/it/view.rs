@@ -223,6 +223,59 @@ fn scripted_window_says_why_a_surface_is_empty() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+/// A volume whose axes are a mirror image of the world's (here FreeSurfer's LIA, in an NRRD whose
+/// space is RAS): the window says, in the words of `render`'s note, that it shows left and right
+/// swapped.
+#[test]
+fn scripted_window_says_when_the_axes_mirror_the_world() {
+    let Some(xvfb) = xvfb_run() else { return };
+    if renderer().is_none() {
+        return;
+    }
+    let dir = temp_dir("mirrored");
+    let input = dir.join("torus_lia.nrrd");
+    let volume = generate(Field::Torus, 24, 1);
+    let geometry = isogrid::Geometry {
+        direction: [[-1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]],
+        frame: isogrid::WorldFrame::Ras,
+        ..*volume.geometry()
+    };
+    let volume = isogrid::Volume::with_geometry(geometry, volume.into_data()).unwrap();
+    isogrid_io::write_nrrd(&input, &volume).unwrap();
+    let png = dir.join("render.png");
+    let render = crate::common::isogrid(&[
+        "render",
+        input.to_str().unwrap(),
+        "--iso-normalized",
+        "0.5",
+        "--size",
+        "32x24",
+        "-o",
+        png.to_str().unwrap(),
+    ]);
+    let render = String::from_utf8_lossy(&render.stderr);
+    let note = render
+        .lines()
+        .find_map(|l| l.strip_prefix(&format!("isogrid: note: {}: ", input.display())))
+        .expect("render notes the mirrored axes")
+        .to_string();
+    assert!(
+        note.starts_with("its axes run LIA, a mirror image of RAS"),
+        "{note}"
+    );
+    let stdout = scripted_view(
+        &xvfb,
+        &[input.to_str().unwrap(), "--iso-normalized", "0.5"],
+        [160, 120],
+        &dir.join("window.png"),
+    );
+    assert!(
+        stdout.contains(&format!("isogrid view: note: {note}")),
+        "{stdout}"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 /// A volume coloured by a second one (`--color-by`, `--cmap`) shows, in the window, what the
 /// headless renderer draws with the same colour map over the attribute's range; and the picture is
 /// in colour, not grey.

@@ -80,10 +80,7 @@ impl McMesh {
                     *p = [0, 1, 2]
                         .map(|a| (o[a] + q[0] * d[0][a] + q[1] * d[1][a] + q[2] * d[2][a]) as f32);
                 }
-                let det = d[0][0] * (d[1][1] * d[2][2] - d[1][2] * d[2][1])
-                    - d[0][1] * (d[1][0] * d[2][2] - d[1][2] * d[2][0])
-                    + d[0][2] * (d[1][0] * d[2][1] - d[1][1] * d[2][0]);
-                if det < 0.0 {
+                if crate::volume::directions_mirror(&d) {
                     for t in &mut self.triangles {
                         t.swap(1, 2);
                     }
