@@ -14,6 +14,7 @@ implementations of the formats. Run from the repository root:
     python3 scripts/make_io_fixtures.py              # every fixture
     python3 scripts/make_io_fixtures.py mrc nifti    # only these formats
 """
+import gzip
 import os
 import shutil
 import struct
@@ -92,6 +93,26 @@ def write_nifti():
         f.write(struct.pack("<ff", 0.5, -10.0))
     check = nib.load(path("scaled.nii")).get_fdata()
     assert np.allclose(check, 0.5 * BASE - 10), "scl_slope patch did not take"
+
+    # NIfTI-2 (64-bit sizes and floats): sform with a flipped j axis, spacing (0.5, 0.75, 2),
+    # origin (10, -20, 30); and big-endian with the qform only, scl_slope 0.25 and inter -3.5 (so
+    # the stored int16 BASE reads back as the f32 formula).
+    aff = np.diag([0.5, -0.75, 2.0, 1.0])
+    aff[:3, 3] = [10, -20, 30]
+    img = nib.Nifti2Image(i16(), aff)
+    img.set_qform(None, code=0)
+    img.to_filename(path("i16_v2.nii"))
+    hdr = nib.Nifti2Header(endianness=">")
+    hdr.set_data_dtype(np.int16)
+    img = nib.Nifti2Image((BASE).astype(np.int16), np.diag([2.0, 3.0, 4.0, 1.0]), header=hdr)
+    img.set_sform(None, code=0)
+    img.set_qform(np.diag([2.0, 3.0, 4.0, 1.0]), code=1)
+    img.header.set_slope_inter(0.25, -3.5)
+    img.to_filename(path("scaled_v2_big.nii.gz"))
+    with gzip.open(path("scaled_v2_big.nii.gz"), "rb") as f:
+        assert struct.unpack(">i", f.read(4))[0] == 540, "nibabel wrote little endian"
+    check = nib.load(path("scaled_v2_big.nii.gz")).get_fdata()
+    assert np.allclose(check, 0.25 * BASE - 3.5), "scl_slope did not take"
 
 
 def write_nrrd():

@@ -122,7 +122,39 @@ def test_nifti_of_shape_x_y_z_1_as_nibabel_returns_it(tmp_path):
         isogrid.extract(np.zeros((4, 5, 6, 2), order="F"), iso=0.5)
 
 
-def test_a_4d_nifti_gives_the_volume_index_t_picks(cli, tmp_path):
+NIFTI2_TYPES = [np.uint8, np.int8, np.int16, np.uint16, np.int32, np.uint32, np.int64, np.uint64, np.float32,
+                np.float64]
+
+
+@pytest.mark.parametrize("dtype", NIFTI2_TYPES, ids=[np.dtype(t).name for t in NIFTI2_TYPES])
+@pytest.mark.parametrize("suffix", [".nii", ".nii.gz"])
+def test_nifti2_matches_nibabel(tmp_path, dtype, suffix):
+    """NIfTI-2 (64-bit sizes and doubles; what tools write for volumes beyond NIfTI-1's 32,767
+    samples per axis), written by nibabel with an oblique sform: every sample and the affine."""
+    nib = pytest.importorskip("nibabel")
+    x, y, z = np.indices((9, 7, 5))
+    values = np.asfortranarray((x + 11 * y + 83 * z).astype(dtype))
+    t = np.radians(20)
+    affine = np.eye(4)
+    affine[:3, :3] = np.array([[np.cos(t), -np.sin(t), 0], [np.sin(t), np.cos(t), 0], [0, 0, 1]]) @ np.diag([0.7, 1.2, 2.5])
+    affine[:3, 3] = (-12.5, 30.25, 4.0)
+    path = tmp_path / f"v{suffix}"
+    nib.save(nib.Nifti2Image(values, affine, dtype=dtype), path)
+    reference = nib.load(path)
+    assert isinstance(reference, nib.Nifti2Image) and reference.get_data_dtype() == dtype
+    volume = isogrid.load_volume(path)
+    kept = np.int16 if dtype == np.int8 else dtype
+    assert volume.array.dtype == kept
+    np.testing.assert_array_equal(volume.array, np.asarray(reference.dataobj).astype(kept).transpose())
+    got = np.eye(4)
+    got[:3, :3] = (np.asarray(volume.direction) * np.asarray(volume.spacing)[:, None]).T
+    got[:3, 3] = volume.origin
+    np.testing.assert_allclose(got, reference.affine, atol=1e-12)
+    assert volume.frame == "RAS"
+
+
+@pytest.mark.parametrize("image_class", ["Nifti1Image", "Nifti2Image"])
+def test_a_4d_nifti_gives_the_volume_index_t_picks(cli, tmp_path, image_class):
     """A 4-D NIfTI written by nibabel (an fMRI-like time series; .nii.gz and .nii): ``index={"t": k}``
     (``--index t=k``) reads nibabel's ``data[..., k]``; without an index, with another axis or out of
     range it fails naming the volumes. The CLI reads the uncompressed file's volume by region within
@@ -133,7 +165,7 @@ def test_a_4d_nifti_gives_the_volume_index_t_picks(cli, tmp_path):
     affine = np.diag([2.0, 2.0, 2.5, 1.0])
     affine[:3, 3] = [-10.0, 4.0, 7.5]
     for name in ("bold.nii.gz", "bold.nii"):
-        nib.save(nib.Nifti1Image(data, affine), tmp_path / name)
+        nib.save(getattr(nib, image_class)(data, affine), tmp_path / name)
         for t in range(5):
             vol = isogrid.load_volume(tmp_path / name, index={"t": t})
             np.testing.assert_array_equal(vol.array, data[..., t].transpose())

@@ -57,28 +57,23 @@ pub(crate) fn open_maybe_gzip(path: &Path) -> Result<MaybeGzip> {
     })
 }
 
-/// The first `N` bytes of a file (its header) and the file's length, for reading the samples
-/// by region; `None` for a gzip-compressed file, which must be decompressed from its start. A
-/// file shorter than `N` bytes is `Corrupt`, the message saying it is shorter than `header`.
-pub(crate) fn uncompressed_head<const N: usize>(
-    path: &Path,
-    header: &str,
-) -> Result<Option<([u8; N], u64)>> {
+/// Up to the first `len` bytes of a file (its header; fewer where the file is shorter) and the
+/// file's length, for reading the samples by region; `None` for a gzip-compressed file, which must
+/// be decompressed from its start.
+pub(crate) fn uncompressed_head(path: &Path, len: usize) -> Result<Option<(Vec<u8>, u64)>> {
     let mut file = isogrid::fs::open_regular(path)?;
     let file_len = file.metadata()?.len();
-    let mut raw = [0u8; N];
+    let mut raw = vec![0u8; len];
     let mut got = 0;
-    while got < N {
+    while got < len {
         match file.read(&mut raw[got..])? {
             0 => break,
             n => got += n,
         }
     }
-    if got >= 2 && raw[..2] == GZIP_MAGIC {
+    raw.truncate(got);
+    if raw.starts_with(&GZIP_MAGIC) {
         return Ok(None);
-    }
-    if got < N {
-        return Err(Error::corrupt(format!("file is shorter than {header}")));
     }
     Ok(Some((raw, file_len)))
 }

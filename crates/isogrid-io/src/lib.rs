@@ -1,4 +1,4 @@
-//! Volume file formats for isogrid: NIfTI-1, NRRD, NumPy `.npy`, raw, DICOM series, TIFF
+//! Volume file formats for isogrid: NIfTI-1 and NIfTI-2, NRRD, NumPy `.npy`, raw, DICOM series, TIFF
 //! stacks, MetaImage, FreeSurfer MGH, MRC/CCP4 maps and VTK XML image data (`.vti`), read into an [`isogrid::Volume`], and NRRD written back;
 //! label volumes with the names and colours their files give, and colour tables ([`labels`]); triangle meshes ([`mesh`]) and
 //! their solid voxelisation into coverage volumes ([`voxelize`], paper §4).

@@ -16,5 +16,5 @@ pub(crate) struct MappedLayout {
     pub big_endian: bool,
     pub geometry: Geometry,
     /// NIfTI intensity scaling (slope, intercept), applied as the in-memory reader applies it.
-    pub scale: Option<(f32, f32)>,
+    pub scale: Option<(f64, f64)>,
 }

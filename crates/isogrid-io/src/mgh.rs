@@ -125,10 +125,14 @@ pub(crate) fn region_layout(
     pick: AxisPick,
 ) -> Result<Option<crate::mapped_layout::MappedLayout>> {
     (|| -> Result<Option<crate::mapped_layout::MappedLayout>> {
-        let Some((raw, file_len)) = uncompressed_head::<HEADER_SIZE>(path, "an MGH header")? else {
+        let Some((raw, file_len)) = uncompressed_head(path, HEADER_SIZE)? else {
             return Ok(None);
         };
-        let header = parse_header(&raw)?;
+        let raw: &[u8; HEADER_SIZE] = raw
+            .as_slice()
+            .try_into()
+            .map_err(|_| Error::corrupt("file is shorter than an MGH header"))?;
+        let header = parse_header(raw)?;
         let picked = header.picked(pick)?;
         check_available(picked.all_bytes, file_len.saturating_sub(DATA_OFFSET))?;
         Ok(Some(crate::mapped_layout::MappedLayout {

@@ -1,9 +1,11 @@
-//! NIfTI-1 single-file volumes (`.nii`, and gzip-compressed `.nii.gz`).
+//! NIfTI-1 and NIfTI-2 single-file volumes (`.nii`, and gzip-compressed `.nii.gz`).
 //!
-//! Spec: the NIfTI-1 header `nifti1.h` (348-byte header, magic `n+1`, data at `vox_offset`).
-//! The header is parsed here directly: it is small and fixed, and a hand parser lets every size be
-//! checked against the file before anything is allocated (the `nifti` crate would bring nalgebra
-//! and ndarray for no gain here). Either byte order is accepted (detected from `sizeof_hdr`).
+//! Spec: the NIfTI-1 header `nifti1.h` (348 bytes, magic `n+1`, data at `vox_offset`) and the
+//! NIfTI-2 header `nifti2.h` (540 bytes, magic `n+2`: the same fields with 64-bit sizes and
+//! doubles, in another order, for volumes beyond 32,767 samples per axis). The header is parsed
+//! here directly: it is small and fixed, and a hand parser lets every size be checked against the
+//! file before anything is allocated (the `nifti` crate would bring nalgebra and ndarray for no
+//! gain here). Either version and byte order is accepted (detected from `sizeof_hdr`).
 //!
 //! - Grid: voxel (i, j, k) in file order, i fastest; no reorientation.
 //! - Spacing: `|pixdim[1..=3]|`; 0 is what tools write when they leave the field unset and
@@ -18,7 +20,7 @@
 //!   silent pick of the first. Only volume `N` is read: an uncompressed file by region, a gzip
 //!   file decompressed up to its end. Dimensions 5 to 7 above 1 (vector data) are `Unsupported`.
 //! - Types: u8, i8, u16, i16, u32, i32, u64, i64, f32, f64 (converted as in the crate docs);
-//!   complex, RGB and binary are `Unsupported`. NIfTI-2 and the `.hdr/.img` pair are `Unsupported`.
+//!   complex, RGB and binary are `Unsupported`, and so is the `.hdr/.img` pair.
 
 use crate::data_file::{open_maybe_gzip, uncompressed_head, MaybeGzip};
 use crate::four_d::{pick_volume, PickedVolume};
@@ -31,8 +33,6 @@ use crate::samples::{
 use isogrid::{Error, Result, ResultExt, Volume, VolumeData, WorldFrame};
 use std::io::Read;
 use std::path::Path;
-
-const HEADER_SIZE: usize = 348;
 
 /// Whether a file name is a NIfTI file's (`.nii` or `.nii.gz`, any case).
 pub(crate) fn is_nifti_name(name: &str) -> bool {
@@ -62,7 +62,9 @@ struct Header {
     origin: Vec3,
     direction: Option<[Vec3; 3]>,
     frame: WorldFrame,
-    scale: Option<(f32, f32)>,
+    scale: Option<(f64, f64)>,
+    /// The header's size: 348 (NIfTI-1) or 540 (NIfTI-2) bytes.
+    size: usize,
 }
 
 impl Header {
@@ -102,14 +104,8 @@ impl Opened {
             gzipped,
             file_len,
         } = open_maybe_gzip(path)?;
-        let mut raw = [0u8; HEADER_SIZE];
-        reader.read_exact(&mut raw).map_err(|e| match e.kind() {
-            std::io::ErrorKind::UnexpectedEof => {
-                Error::corrupt("file is shorter than a NIfTI-1 header")
-            }
-            _ => Error::corrupt(format!("cannot read the NIfTI header: {e}")),
-        })?;
-        let header = parse_header(&raw)?;
+        let header =
+            read_header(reader.as_mut()).map_err(|e| if gzipped { gzip_error(e) } else { e })?;
         let picked = header.picked(pick)?;
         let (t, count, volume_bytes) = (picked.t, picked.count, picked.volume_bytes);
         let before = picked.bytes_before();
@@ -128,7 +124,7 @@ impl Opened {
             count,
             geometry,
         };
-        let skip = opened.header.vox_offset - HEADER_SIZE as u64 + before;
+        let skip = opened.header.vox_offset - opened.header.size as u64 + before;
         opened.gzip_errors(|reader| skip_bytes(reader, skip))?;
         Ok(opened)
     }
@@ -138,7 +134,7 @@ impl Opened {
         let (elem, big_endian) = (self.header.elem, self.header.big_endian);
         let data = self.gzip_errors(|reader| read_samples(reader, elem, big_endian, count))?;
         Ok(match self.header.scale {
-            Some((slope, inter)) => rescaled(&data, elem, slope as f64, inter as f64),
+            Some((slope, inter)) => rescaled(&data, elem, slope, inter),
             None => data,
         })
     }
@@ -195,8 +191,7 @@ pub(crate) fn region_layout(
     pick: AxisPick,
 ) -> Result<Option<crate::mapped_layout::MappedLayout>> {
     (|| -> Result<Option<crate::mapped_layout::MappedLayout>> {
-        let Some((raw, file_len)) = uncompressed_head::<HEADER_SIZE>(path, "a NIfTI-1 header")?
-        else {
+        let Some((raw, file_len)) = uncompressed_head(path, Version::Two.size())? else {
             return Ok(None);
         };
         let header = parse_header(&raw)?;
@@ -214,40 +209,120 @@ pub(crate) fn region_layout(
     .at_path(path)
 }
 
-fn parse_header(raw: &[u8; HEADER_SIZE]) -> Result<Header> {
-    let big_endian = match (
-        i32::from_le_bytes(field(raw, 0)),
-        i32::from_be_bytes(field(raw, 0)),
-    ) {
-        (348, _) => false,
-        (_, 348) => true,
-        (540, _) | (_, 540) => return Err(Error::unsupported("NIfTI-2 files are not supported")),
-        _ => return Err(Error::corrupt("not a NIfTI-1 file: sizeof_hdr is not 348")),
+/// The two header layouts: NIfTI-1 (348 bytes, 16-bit sizes, 32-bit floats) and NIfTI-2 (540
+/// bytes, 64-bit sizes and floats), with the offset of each field this reader uses.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Version {
+    One,
+    Two,
+}
+
+impl Version {
+    /// The header's size, its `sizeof_hdr`.
+    fn size(self) -> usize {
+        match self {
+            Version::One => 348,
+            Version::Two => 540,
+        }
+    }
+    fn name(self) -> &'static str {
+        match self {
+            Version::One => "NIfTI-1",
+            Version::Two => "NIfTI-2",
+        }
+    }
+    /// Where the magic (`n+1`, `n+2`; `ni1`, `ni2` for a header/image pair) lies.
+    fn magic(self) -> usize {
+        match self {
+            Version::One => 344,
+            Version::Two => 4,
+        }
+    }
+}
+
+/// The header's version and byte order, from its first four bytes (`sizeof_hdr`).
+fn version_of(first: [u8; 4]) -> Result<(Version, bool)> {
+    match (i32::from_le_bytes(first), i32::from_be_bytes(first)) {
+        (348, _) => Ok((Version::One, false)),
+        (_, 348) => Ok((Version::One, true)),
+        (540, _) => Ok((Version::Two, false)),
+        (_, 540) => Ok((Version::Two, true)),
+        _ => Err(Error::corrupt(
+            "not a NIfTI file: sizeof_hdr is neither 348 (NIfTI-1) nor 540 (NIfTI-2)",
+        )),
+    }
+}
+
+/// Reads a whole header from the start of `reader`: its first four bytes say how long it is.
+fn read_header(reader: &mut dyn Read) -> Result<Header> {
+    let short = |e: std::io::Error| match e.kind() {
+        std::io::ErrorKind::UnexpectedEof => Error::corrupt("file is shorter than a NIfTI header"),
+        _ => Error::corrupt(format!("cannot read the NIfTI header: {e}")),
     };
-    let h = Fields { raw, big_endian };
-    match &raw[344..348] {
-        b"n+1\0" => {}
-        b"ni1\0" => {
+    let mut first = [0u8; 4];
+    reader.read_exact(&mut first).map_err(short)?;
+    let (version, _) = version_of(first)?;
+    let mut raw = vec![0u8; version.size()];
+    raw[..4].copy_from_slice(&first);
+    reader
+        .read_exact(&mut raw[4..])
+        .map_err(|e| match e.kind() {
+            std::io::ErrorKind::UnexpectedEof => {
+                Error::corrupt(format!("file is shorter than a {} header", version.name()))
+            }
+            _ => short(e),
+        })?;
+    parse_header(&raw)
+}
+
+/// Parses a header: `raw` holds at least its `sizeof_hdr` bytes.
+fn parse_header(raw: &[u8]) -> Result<Header> {
+    if raw.len() < 4 {
+        return Err(Error::corrupt("file is shorter than a NIfTI header"));
+    }
+    let (version, big_endian) = version_of(field(raw, 0))?;
+    if raw.len() < version.size() {
+        return Err(Error::corrupt(format!(
+            "file is shorter than a {} header",
+            version.name()
+        )));
+    }
+    let h = Fields {
+        raw,
+        big_endian,
+        version,
+    };
+    let at = version.magic();
+    match (&raw[at..at + 4], version) {
+        (b"n+1\0", Version::One) | (b"n+2\0", Version::Two) => {}
+        (b"ni1\0", Version::One) | (b"ni2\0", Version::Two) => {
             return Err(Error::unsupported(
                 "NIfTI .hdr/.img pairs are not supported; convert to a single .nii",
             ))
         }
-        _ => return Err(Error::corrupt("not a NIfTI-1 file: bad magic")),
+        _ => {
+            return Err(Error::corrupt(format!(
+                "not a {} file: bad magic",
+                version.name()
+            )))
+        }
     }
-    let ndim = h.i16(40);
+    let ndim = h.dim(0);
     if !(1..=7).contains(&ndim) {
         return Err(Error::corrupt(format!("dim[0] = {ndim} is outside 1..=7")));
     }
     let mut dims = [1usize; 3];
     let mut times = 1;
     for d in 1..=7usize {
-        let n = if d <= ndim as usize {
-            h.i16(40 + 2 * d)
-        } else {
-            1
-        };
+        let n = if d <= ndim as usize { h.dim(d) } else { 1 };
         if n < 1 {
             return Err(Error::corrupt(format!("dim[{d}] = {n} is not positive")));
+        }
+        if n > isogrid::MAX_DIM as i64 && d <= 4 {
+            return Err(Error::too_large(format!(
+                "dim[{d}] = {n} is more than the {} samples per axis isogrid reads",
+                isogrid::MAX_DIM
+            )));
         }
         match d {
             1..=3 => dims[d - 1] = n as usize,
@@ -261,7 +336,7 @@ fn parse_header(raw: &[u8; HEADER_SIZE]) -> Result<Header> {
             _ => {}
         }
     }
-    let datatype = h.i16(70);
+    let datatype = h.i16(if version == Version::One { 70 } else { 12 });
     let elem = match datatype {
         2 => ElemType::U8,
         4 => ElemType::I16,
@@ -279,13 +354,16 @@ fn parse_header(raw: &[u8; HEADER_SIZE]) -> Result<Header> {
             )))
         }
     };
-    let vox_offset = h.f32(108);
-    if !(vox_offset.is_finite() && vox_offset >= HEADER_SIZE as f32 && vox_offset < 1e12) {
+    let vox_offset = match version {
+        Version::One => h.f32(108) as f64,
+        Version::Two => h.i64(168) as f64,
+    };
+    if !(vox_offset.is_finite() && vox_offset >= version.size() as f64 && vox_offset < 1e12) {
         return Err(Error::corrupt(format!(
             "vox_offset {vox_offset} is not a valid data offset"
         )));
     }
-    let pixdim = |d: usize| h.f32(76 + 4 * d) as f64;
+    let pixdim = |d: usize| h.float(76 + 4 * d, 104 + 8 * d);
     let spacing = [pixdim(1), pixdim(2), pixdim(3)];
     if let Some(axis) = (0..3).find(|&a| !spacing[a].is_finite()) {
         return Err(Error::corrupt(format!(
@@ -294,14 +372,18 @@ fn parse_header(raw: &[u8; HEADER_SIZE]) -> Result<Header> {
             spacing[axis]
         )));
     }
-    let (slope, inter) = (h.f32(112), h.f32(116));
+    let (slope, inter) = (h.float(112, 176), h.float(116, 184));
     let scale = (slope != 0.0 && slope.is_finite() && (slope, inter) != (1.0, 0.0))
         .then_some((slope, if inter.is_finite() { inter } else { 0.0 }));
     // sform or qform: RAS+ world coordinates; neither: index × spacing, no frame.
-    let (origin, direction, frame) = if h.i16(254) > 0 {
+    let (qform_code, sform_code) = match version {
+        Version::One => (h.i16(252) as i32, h.i16(254) as i32),
+        Version::Two => (h.i32(344), h.i32(348)),
+    };
+    let (origin, direction, frame) = if sform_code > 0 {
         let (origin, direction) = sform(&h);
         (origin, direction, WorldFrame::Ras)
-    } else if h.i16(252) > 0 {
+    } else if qform_code > 0 {
         let (origin, direction) = qform(&h, pixdim(0));
         (origin, direction, WorldFrame::Ras)
     } else {
@@ -319,12 +401,13 @@ fn parse_header(raw: &[u8; HEADER_SIZE]) -> Result<Header> {
         direction,
         frame,
         scale,
+        size: version.size(),
     })
 }
 
 /// Origin and axis directions from the sform rows `srow_x/y/z` (world = S · (i, j, k, 1)).
 fn sform(h: &Fields) -> (Vec3, Option<[Vec3; 3]>) {
-    let row = |r: usize| [0, 1, 2, 3].map(|c| h.f32(280 + 16 * r + 4 * c) as f64);
+    let row = |r: usize| [0, 1, 2, 3].map(|c| h.float(280 + 16 * r + 4 * c, 400 + 32 * r + 8 * c));
     let rows = [row(0), row(1), row(2)];
     let origin = [rows[0][3], rows[1][3], rows[2][3]];
     let column = |c: usize| normalized([rows[0][c], rows[1][c], rows[2][c]]);
@@ -337,8 +420,10 @@ fn sform(h: &Fields) -> (Vec3, Option<[Vec3; 3]>) {
 
 /// Origin and axis directions from the qform quaternion; `qfac` (pixdim[0]) flips k when negative.
 fn qform(h: &Fields, qfac: f64) -> (Vec3, Option<[Vec3; 3]>) {
-    let (b, c, d) = (h.f32(256) as f64, h.f32(260) as f64, h.f32(264) as f64);
-    let origin = [h.f32(268) as f64, h.f32(272) as f64, h.f32(276) as f64];
+    // quatern_b, c, d, then qoffset_x, y, z.
+    let q = |n: usize| h.float(256 + 4 * n, 352 + 8 * n);
+    let (b, c, d) = (q(0), q(1), q(2));
+    let origin = [q(3), q(4), q(5)];
     let a = (1.0 - (b * b + c * c + d * d)).max(0.0).sqrt();
     // Columns of the rotation matrix of nifti1.h are the world directions of i, j, k.
     let i_dir = [
@@ -358,32 +443,47 @@ fn qform(h: &Fields, qfac: f64) -> (Vec3, Option<[Vec3; 3]>) {
     (origin, Some([i_dir, j_dir, k_dir]))
 }
 
-/// Typed access to header fields in the file's byte order.
+/// Typed access to header fields in the file's byte order and layout.
 struct Fields<'a> {
-    raw: &'a [u8; HEADER_SIZE],
+    raw: &'a [u8],
     big_endian: bool,
+    version: Version,
+}
+
+/// `fn NAME(&self, at) -> TYPE` for each field type: the bytes at `at` in the file's order.
+macro_rules! field_readers {
+    ($($name:ident: $t:ty),*) => {
+        $(fn $name(&self, at: usize) -> $t {
+            let b = field(self.raw, at);
+            if self.big_endian {
+                <$t>::from_be_bytes(b)
+            } else {
+                <$t>::from_le_bytes(b)
+            }
+        })*
+    };
 }
 
 impl Fields<'_> {
-    fn i16(&self, at: usize) -> i16 {
-        let b = field(self.raw, at);
-        if self.big_endian {
-            i16::from_be_bytes(b)
-        } else {
-            i16::from_le_bytes(b)
+    field_readers!(i16: i16, i32: i32, i64: i64, f32: f32, f64: f64);
+
+    /// A float field: f32 at `one` in NIfTI-1, f64 at `two` in NIfTI-2.
+    fn float(&self, one: usize, two: usize) -> f64 {
+        match self.version {
+            Version::One => self.f32(one) as f64,
+            Version::Two => self.f64(two),
         }
     }
-    fn f32(&self, at: usize) -> f32 {
-        let b = field(self.raw, at);
-        if self.big_endian {
-            f32::from_be_bytes(b)
-        } else {
-            f32::from_le_bytes(b)
+    /// `dim[d]`: i16 in NIfTI-1, i64 in NIfTI-2.
+    fn dim(&self, d: usize) -> i64 {
+        match self.version {
+            Version::One => self.i16(40 + 2 * d) as i64,
+            Version::Two => self.i64(16 + 8 * d),
         }
     }
 }
 
-fn field<const N: usize>(raw: &[u8; HEADER_SIZE], at: usize) -> [u8; N] {
+fn field<const N: usize>(raw: &[u8], at: usize) -> [u8; N] {
     let mut out = [0u8; N];
     out.copy_from_slice(&raw[at..at + N]);
     out

@@ -138,7 +138,9 @@ fn sniff(path: &Path, opts: &ReadOptions) -> Result<Volume> {
         || head.starts_with(b"MM\0+")
     {
         crate::tiff::read_tiff_indexed(path, opts.zarr.pick())
-    } else if head.len() == 348 && &head[344..347] == b"n+1" {
+    } else if (head.len() == 348 && &head[344..347] == b"n+1")
+        || (head.len() >= 8 && &head[4..7] == b"n+2")
+    {
         crate::nifti::read_nifti_indexed(path, opts.zarr.pick())
     } else if head.len() >= 212 && &head[208..211] == b"MAP" {
         crate::read_mrc(path)

@@ -35,7 +35,7 @@ impl MappedSource {
         let file = File::open(&layout.data_path).at_path(&layout.data_path)?;
         // The kept type: what `read_samples` (and rescaling) turns the stored type into.
         let scalar = match layout.scale {
-            Some((slope, inter)) => rescaled_type(layout.elem, slope as f64, inter as f64),
+            Some((slope, inter)) => rescaled_type(layout.elem, slope, inter),
             None => layout.elem.kept(),
         };
         Ok(MappedSource {
@@ -76,9 +76,7 @@ impl MappedSource {
                 count,
             )?;
             let data = match self.layout.scale {
-                Some((slope, inter)) => {
-                    rescaled(&data, self.layout.elem, slope as f64, inter as f64)
-                }
+                Some((slope, inter)) => rescaled(&data, self.layout.elem, slope, inter),
                 None => data,
             };
             copy_into(&data, &mut out, (done / size as u64) as usize)?;

@@ -48,6 +48,21 @@ fn nifti_scl_slope_and_inter_are_applied() {
 }
 
 #[test]
+fn nifti_2_reads_its_64_bit_fields_in_either_byte_order() {
+    let v = read("i16_v2.nii");
+    check_samples(&v, ScalarType::I16, |i, j, k| base(i, j, k) - 150.0);
+    assert_close(v.spacing(), [0.5, 0.75, 2.0]);
+    assert_close(v.origin(), [10.0, -20.0, 30.0]);
+    assert_close(v.geometry().direction[1], [0.0, -1.0, 0.0]);
+    assert_eq!(v.geometry().frame, isogrid::WorldFrame::Ras);
+    // Big-endian, gzip, the qform alone, and scl_slope / scl_inter as doubles.
+    let v = read("scaled_v2_big.nii.gz");
+    check_samples(&v, ScalarType::F32, |i, j, k| 0.25 * base(i, j, k) - 3.5);
+    assert_close(v.spacing(), [2.0, 3.0, 4.0]);
+    assert_eq!(v.geometry().frame, isogrid::WorldFrame::Ras);
+}
+
+#[test]
 fn nrrd_attached_raw_with_spacings() {
     let v = read("u16_raw.nrrd");
     check_samples(&v, ScalarType::U16, |i, j, k| 200.0 * base(i, j, k));
@@ -298,6 +313,7 @@ fn unknown_extension_is_sniffed() {
         ("u8_c.npy", ScalarType::U8),
         ("u16_raw.nrrd", ScalarType::U16),
         ("u8.nii", ScalarType::U8),
+        ("i16_v2.nii", ScalarType::I16),
     ] {
         let p = dir.file("volume.dat", &std::fs::read(fixture(fixture_name)).unwrap());
         let v = read_volume(&p, &ReadOptions::default()).unwrap();
@@ -316,6 +332,7 @@ fn each_format_names_the_convention_of_its_world_coordinates() {
         ("u8.nii", Ras),
         ("f32_qform.nii", Ras),
         ("i16.nii.gz", Ras),
+        ("i16_v2.nii", Ras),
         ("i32.mgz", Ras),
         ("u8.mha", Lps),
         ("i16_z.mhd", Lps),

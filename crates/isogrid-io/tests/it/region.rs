@@ -167,7 +167,7 @@ fn mapped_raw_nrrd_and_nifti_stream_byte_identically() {
     streams_like_memory(&small, &ReadOptions::default(), &isos[..1]);
 
     // Fixtures written by nibabel and pynrrd (scripts/make_io_fixtures.py), some of which convert.
-    for name in ["f32_qform.nii", "f32_big.nrrd", "scaled.nii"] {
+    for name in ["f32_qform.nii", "f32_big.nrrd", "scaled.nii", "i16_v2.nii"] {
         let path = fixture(name);
         assert!(
             open_region(&path, &ReadOptions::default())
