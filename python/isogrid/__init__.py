@@ -188,6 +188,13 @@ class Volume:
         self.frame: Optional[str] = frame
 
     @property
+    def axes(self) -> Optional[str]:
+        """The anatomical direction each of the x, y and z axes points closest to, as radiology
+        tools write it (``"RAS"``, FreeSurfer's ``"LIA"``, a DICOM axial series' ``"LPS"``), or
+        ``None`` where ``frame`` is."""
+        return _isogrid._axis_codes(self.direction, self.frame)
+
+    @property
     def dims(self) -> Tuple[int, int, int]:
         """Samples per axis, (nx, ny, nz), by the axis rule of this module."""
         _, fortran = _layout(np.asarray(self.array))

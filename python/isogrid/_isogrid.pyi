@@ -30,8 +30,9 @@ class CellGrid:
         (None, or {name, bits, range, bytes, bytes_per_cell}), and labels for a label volume's grid."""
     @property
     def info(self) -> Dict[str, Any]:
-        """dims, spacing, origin, direction, frame ("LPS", "RAS" or None), scalar_type,
-        value_range, iso, precision, iso_code, mapping {offset, step, iso_code}, world_bounds."""
+        """dims, spacing, origin, direction, frame ("LPS", "RAS" or None), axes (e.g. "LIA", or
+        None), scalar_type, value_range, iso, precision, iso_code, mapping {offset, step,
+        iso_code}, world_bounds."""
     @property
     def active_cells(self) -> int: ...
     @property
@@ -143,6 +144,7 @@ def _with_attribute(
 ) -> Union[CellGrid, LabelGrid]: ...
 def _empty_surface_note(grid: CellGrid, all_nan: bool = False) -> str: ...
 def _mirrored_note(grid: CellGrid) -> Optional[str]: ...
+def _axis_codes(direction: Sequence[Sequence[float]], frame: Optional[str] = None) -> Optional[str]: ...
 def _isosurface_empty_note(
     array: np.ndarray,
     fortran: bool,

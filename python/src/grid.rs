@@ -292,6 +292,14 @@ pub fn _empty_surface_note(grid: &Bound<'_, CellGrid>, all_nan: bool) -> String 
         .empty_surface_note(inner.labels().map(|l| l.table()), || all_nan)
 }
 
+/// The anatomical directions of the i, j and k axes of `direction` (rows) in `frame`
+/// ([`isogrid::WorldFrame::axis_codes`]): `Volume.axes` and `grid.info["axes"]`.
+#[pyfunction]
+#[pyo3(signature = (direction, frame=None))]
+pub fn _axis_codes(direction: [[f64; 3]; 3], frame: Option<&str>) -> PyResult<Option<String>> {
+    Ok(crate::array::frame_arg(frame)?.axis_codes(&direction))
+}
+
 /// Why images of `grid` show its world mirrored ([`isogrid::GridInfo::mirrored_note`]), the
 /// text of `MirroredAxesWarning`; `None` when they do not.
 #[pyfunction]
@@ -603,6 +611,7 @@ impl CellGrid {
         d.set_item("spacing", tuple3(i.spacing))?;
         d.set_item("origin", tuple3(i.origin))?;
         d.set_item("direction", tuple3(i.direction.map(tuple3)))?;
+        d.set_item("axes", i.frame.axis_codes(&i.direction))?;
         d.set_item("frame", crate::array::frame_name(i.frame))?;
         d.set_item("scalar_type", dtype_name(i.scalar_type))?;
         d.set_item("value_range", (i.value_range[0], i.value_range[1]))?;

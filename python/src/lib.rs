@@ -38,6 +38,7 @@ fn _isogrid(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(grid::_with_attribute, m)?)?;
     m.add_function(wrap_pyfunction!(grid::_empty_surface_note, m)?)?;
     m.add_function(wrap_pyfunction!(grid::_mirrored_note, m)?)?;
+    m.add_function(wrap_pyfunction!(grid::_axis_codes, m)?)?;
     m.add_function(wrap_pyfunction!(mesh::marching_cubes, m)?)?;
     m.add_function(wrap_pyfunction!(mesh::_isosurface_empty_note, m)?)?;
     m.add_function(wrap_pyfunction!(skimage::skimage_normals_values, m)?)?;

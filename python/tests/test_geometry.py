@@ -118,6 +118,8 @@ def test_info_names_the_axes_and_drawing_commands_say_when_they_mirror(cli, tmp_
                                            text=True).stdout)["source"]
         assert source["axes"] == axes, name
         assert source["frame"] == ("LPS" if name.endswith("mha") else "RAS")
+        assert isogrid.load_volume(tmp_path / name).axes == axes
+        assert isogrid.load(out).info["axes"] == axes
         for shown in (out, tmp_path / name):
             iso = [] if shown == out else ["--iso", "0"]
             run = subprocess.run([cli, "render", shown, *iso, "--size", "32x24", "--backend", "cpu",
