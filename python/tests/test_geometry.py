@@ -120,6 +120,13 @@ def test_info_names_the_axes_and_drawing_commands_say_when_they_mirror(cli, tmp_
         assert source["frame"] == ("LPS" if name.endswith("mha") else "RAS")
         assert isogrid.load_volume(tmp_path / name).axes == axes
         assert isogrid.load(out).info["axes"] == axes
+        # `info` of the volume file: the same place in the world, and the samples' range.
+        volume = json.loads(subprocess.run([cli, "info", tmp_path / name, "--json"], check=True,
+                                           capture_output=True, text=True).stdout)
+        for key in ("axes", "frame", "spacing", "origin", "direction", "scalar_type"):
+            assert volume[key] == source[key], (name, key)
+        assert volume["dims"] == [18, 16, 14]
+        assert volume["value_range"] == pytest.approx([float(f.min()), float(f.max())])
         for shown in (out, tmp_path / name):
             iso = [] if shown == out else ["--iso", "0"]
             run = subprocess.run([cli, "render", shown, *iso, "--size", "32x24", "--backend", "cpu",

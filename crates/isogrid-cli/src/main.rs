@@ -30,7 +30,7 @@ struct Cli {
 enum Command {
     /// Extract the active cells of a volume into a .cgc file and print their statistics.
     Extract(commands::extract::Args),
-    /// Print the statistics of a .cgc file.
+    /// Print the statistics of a .cgc file, or describe a volume: grid, type, values, world place.
     Info(commands::info::Args),
     /// Extract the Marching Cubes mesh the paper compares with (indexed, snorm16 positions).
     Mc(commands::mc::Args),

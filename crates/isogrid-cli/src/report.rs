@@ -138,18 +138,93 @@ pub struct SourceReport {
 
 impl SourceReport {
     pub fn new(info: &isogrid::GridInfo) -> Self {
-        SourceReport {
-            scalar_type: info.scalar_type.name(),
-            value_range: info.value_range,
+        let geometry = isogrid::Geometry {
+            dims: info.dims.map(|d| d as usize),
             spacing: info.spacing,
             origin: info.origin,
             direction: info.direction,
-            frame: match info.frame {
+            frame: info.frame,
+        };
+        SourceReport::of(&geometry, info.scalar_type, info.value_range)
+    }
+
+    /// A volume of `geometry` and `scalar_type` whose finite samples span `value_range` (NaN
+    /// where it has none: null in JSON).
+    pub fn of(
+        geometry: &isogrid::Geometry,
+        scalar_type: isogrid::ScalarType,
+        value_range: [f64; 2],
+    ) -> Self {
+        SourceReport {
+            scalar_type: scalar_type.name(),
+            value_range,
+            spacing: geometry.spacing,
+            origin: geometry.origin,
+            direction: geometry.direction,
+            frame: match geometry.frame {
                 isogrid::WorldFrame::Unknown => None,
                 frame => Some(frame.name()),
             },
-            axes: info.frame.axis_codes(&info.direction),
+            axes: geometry.frame.axis_codes(&geometry.direction),
         }
+    }
+}
+
+/// `info` of a volume: its grid, and what [`SourceReport`] says of a grid's source.
+#[derive(Serialize)]
+pub struct VolumeReport {
+    /// Samples along i, j, k.
+    pub dims: [usize; 3],
+    #[serde(flatten)]
+    pub volume: SourceReport,
+    /// Reading the volume (its header, and every sample for the value range).
+    pub seconds: f64,
+}
+
+impl VolumeReport {
+    pub fn new(
+        geometry: &isogrid::Geometry,
+        scalar_type: isogrid::ScalarType,
+        range: Option<(f64, f64)>,
+        seconds: f64,
+    ) -> Self {
+        let range = range.map_or([f64::NAN; 2], |(lo, hi)| [lo, hi]);
+        VolumeReport {
+            dims: geometry.dims,
+            volume: SourceReport::of(geometry, scalar_type, range),
+            seconds,
+        }
+    }
+
+    /// The human table.
+    pub fn print_human(&self) -> Result<(), crate::stdout::StdoutError> {
+        let [x, y, z] = self.dims;
+        let v = &self.volume;
+        let scalar = isogrid::ScalarType::named(v.scalar_type).expect("a type's own name");
+        let values = if v.value_range[0].is_nan() {
+            "no finite sample".to_string()
+        } else {
+            format!(
+                "[{}, {}]",
+                scalar.display_value(v.value_range[0]),
+                scalar.display_value(v.value_range[1])
+            )
+        };
+        outln!("volume        {x} x {y} x {z} samples, {}", v.scalar_type);
+        outln!("values        {values}");
+        outln!("spacing       {:?}", v.spacing);
+        outln!("origin        {:?} (sample 0, 0, 0)", v.origin);
+        match (&v.axes, v.frame) {
+            (Some(axes), Some(frame)) => {
+                outln!("axes          {axes}, world coordinates {frame}")
+            }
+            _ => outln!(
+                "axes          directions {:?}, no world convention named",
+                v.direction
+            ),
+        }
+        outln!("seconds       read {:.3}", self.seconds);
+        Ok(())
     }
 }
 

@@ -9,7 +9,7 @@ use std::path::Path;
 
 /// Reads a volume, detecting the format from the path: a Zarr store or OME-Zarr image (see
 /// [`crate::region`]); a folder of 2-D TIFF slices; another directory or a `.dcm` file (or one
-/// with the `DICM` marker) = DICOM (see [`crate::dicom`]); `.nii`/`.nii.gz`; `.nrrd`/`.nhdr`;
+/// whose name names no format and that has the `DICM` marker) = DICOM (see [`crate::dicom`]); `.nii`/`.nii.gz`; `.nrrd`/`.nhdr`;
 /// `.npy`; `.tif`/`.tiff`; `.mha`/`.mhd`; `.mgh`/`.mgz`; `.mrc`/`.map`/`.ccp4`/`.mrcs`; `.vti`; any file when `opts.raw` is set
 /// (`.raw`/`.bin` without it are an error asking for the spec). Other names are sniffed by
 /// their magic bytes. Errors name `path`. Notices are dropped; see [`read_volume_noted`].
@@ -30,14 +30,28 @@ pub fn read_volume_noted(path: &Path, opts: &ReadOptions) -> Result<(Volume, Vec
         let notices = crate::region::slices::skipped_files_notice(path);
         return Ok((volume, notices.into_iter().collect()));
     }
-    if path.is_dir() || (opts.raw.is_none() && is_dicom_file(path)) {
+    if path.is_dir() {
         return crate::dicom::read_dicom(path, opts);
     }
-    let name = path.to_string_lossy().to_ascii_lowercase();
-    if opts.raw.is_none() && (name.ends_with(".mha") || name.ends_with(".mhd")) {
-        return crate::metaimage::read_metaimage_noted(path);
+    if opts.raw.is_none() {
+        let name = file_name(path);
+        if name.ends_with(".mha") || name.ends_with(".mhd") {
+            return crate::metaimage::read_metaimage_noted(path);
+        }
+        // A name that says DICOM, or DICOM's marker in a file whose name names no format: the
+        // name of another format wins over the marker, as it does for reading by region.
+        if has_dicom_name(&name) || (reader_of_name(&name).is_none() && has_dicm_marker(path)) {
+            return crate::dicom::read_dicom(path, opts);
+        }
     }
     read_single(path, opts).map(|volume| (volume, Vec::new()))
+}
+
+/// The file name of `path`, lower case.
+fn file_name(path: &Path) -> String {
+    path.file_name()
+        .map(|n| n.to_string_lossy().to_ascii_lowercase())
+        .unwrap_or_default()
 }
 
 /// [`read_volume`], counting the planes read in `progress` for inputs read by region (Zarr, TIFF
@@ -56,17 +70,15 @@ pub fn read_volume_with_progress(
     }
 }
 
-/// A file named `.dcm`/`.dicom`/`.ima`, or with `DICM` at byte 128 (or 0: no preamble).
-fn is_dicom_file(path: &Path) -> bool {
+/// A DICOM file's name: `.dcm`, `.dicom` or `.ima`.
+fn has_dicom_name(name: &str) -> bool {
+    [".dcm", ".dicom", ".ima"].iter().any(|e| name.ends_with(e))
+}
+
+/// A regular file with `DICM` at byte 128 (or 0: no preamble).
+fn has_dicm_marker(path: &Path) -> bool {
     if !path.is_file() {
         return false;
-    }
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().to_ascii_lowercase())
-        .unwrap_or_default();
-    if [".dcm", ".dicom", ".ima"].iter().any(|e| name.ends_with(e)) {
-        return true;
     }
     let mut head = [0u8; 132];
     std::fs::File::open(path)
@@ -75,46 +87,50 @@ fn is_dicom_file(path: &Path) -> bool {
         && (&head[128..] == b"DICM" || &head[..4] == b"DICM")
 }
 
+/// A reader of one file, given the caller's options.
+type Reader = fn(&Path, &ReadOptions) -> Result<Volume>;
+
+/// The reader the extension of `name` (lower case) names; `None` for a name that names no
+/// format, whose content then decides.
+fn reader_of_name(name: &str) -> Option<Reader> {
+    let ends = |ext: &str| name.ends_with(ext);
+    let reader: Reader = if crate::nifti::is_nifti_name(name) {
+        |path, opts| crate::nifti::read_nifti_indexed(path, opts.zarr.pick())
+    } else if crate::mgh::is_mgh_name(name) {
+        |path, opts| crate::mgh::read_mgh_indexed(path, opts.zarr.pick())
+    } else if ends(".nrrd") || ends(".nhdr") {
+        |path, _| crate::read_nrrd(path)
+    } else if ends(".npy") {
+        |path, _| crate::read_npy(path)
+    } else if ends(".tif") || ends(".tiff") {
+        |path, opts| crate::tiff::read_tiff_indexed(path, opts.zarr.pick())
+    } else if ends(".mha") || ends(".mhd") {
+        |path, _| crate::read_metaimage(path)
+    } else if ends(".mrc") || ends(".map") || ends(".ccp4") || ends(".mrcs") {
+        |path, _| crate::read_mrc(path)
+    } else if ends(".vti") {
+        |path, _| crate::read_vti(path)
+    } else if ends(".raw") || ends(".bin") {
+        |path, _| {
+            Err(
+                Error::invalid("raw files need their shape, type and byte order (a raw spec)")
+                    .with_path(path),
+            )
+        }
+    } else {
+        return None;
+    };
+    Some(reader)
+}
+
 fn read_single(path: &Path, opts: &ReadOptions) -> Result<Volume> {
     if let Some(spec) = &opts.raw {
         return crate::read_raw(path, spec);
     }
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().to_ascii_lowercase())
-        .unwrap_or_default();
-    let ends = |ext: &str| name.ends_with(ext);
-    if crate::nifti::is_nifti_name(&name) {
-        return crate::nifti::read_nifti_indexed(path, opts.zarr.pick());
+    match reader_of_name(&file_name(path)) {
+        Some(reader) => reader(path, opts),
+        None => sniff(path, opts),
     }
-    if crate::mgh::is_mgh_name(&name) {
-        return crate::mgh::read_mgh_indexed(path, opts.zarr.pick());
-    }
-    if ends(".nrrd") || ends(".nhdr") {
-        return crate::read_nrrd(path);
-    }
-    if ends(".npy") {
-        return crate::read_npy(path);
-    }
-    if ends(".tif") || ends(".tiff") {
-        return crate::tiff::read_tiff_indexed(path, opts.zarr.pick());
-    }
-    if ends(".mha") || ends(".mhd") {
-        return crate::read_metaimage(path);
-    }
-    if ends(".mrc") || ends(".map") || ends(".ccp4") || ends(".mrcs") {
-        return crate::read_mrc(path);
-    }
-    if ends(".vti") {
-        return crate::read_vti(path);
-    }
-    if ends(".raw") || ends(".bin") {
-        return Err(
-            Error::invalid("raw files need their shape, type and byte order (a raw spec)")
-                .with_path(path),
-        );
-    }
-    sniff(path, opts)
 }
 
 fn sniff(path: &Path, opts: &ReadOptions) -> Result<Volume> {

@@ -506,7 +506,7 @@ fn note_read_whole(args: &Args) {
 /// machine's memory (4 GiB where it cannot be read), lowered to what the process may allocate now
 /// ([`isogrid::memory::available_to_plan`]: free memory, the cgroup's limit, `ulimit -v` less the
 /// threads' malloc arenas). A budget past that would abort in the allocator.
-fn budget(max_memory: Option<u64>) -> u64 {
+pub(crate) fn budget(max_memory: Option<u64>) -> u64 {
     let asked = max_memory.unwrap_or_else(|| {
         let total = std::fs::read_to_string("/proc/meminfo")
             .ok()

@@ -1,27 +1,42 @@
-//! `isogrid info`: statistics of a `.cgc` file (validated on open).
+//! `isogrid info`: statistics of a `.cgc` file (validated on open), or what a volume holds and
+//! where it lies (its grid, sample type, value range, spacing, origin and axes).
 
-use crate::report::{print_json, GridReport, Seconds, SourceReport};
+use crate::args::InputArgs;
+use crate::report::{print_json, GridReport, Seconds, SourceReport, VolumeReport};
 use anyhow::Result;
 use isogrid::GridStats;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// A .cgc file written by `isogrid extract`.
+    /// A .cgc file written by `isogrid extract`, or a volume (any file, folder or Zarr URL
+    /// `extract` reads) to describe: read by region within a quarter of the memory where its
+    /// format allows, else whole.
     pub file: PathBuf,
+    #[command(flatten)]
+    pub input_args: InputArgs,
     /// Print one JSON object instead of a table.
     #[arg(long)]
     pub json: bool,
 }
 
+/// Whether `path` is a `.cgc` file: by its name, or by its first bytes.
+fn is_cgc_file(path: &Path) -> bool {
+    if crate::grid_source::is_cgc(path) {
+        return true;
+    }
+    let mut head = [0u8; 8];
+    path.is_file()
+        && std::fs::File::open(path)
+            .and_then(|mut f| std::io::Read::read_exact(&mut f, &mut head))
+            .is_ok()
+        && isogrid::cgc::is_cgc_magic(&head)
+}
+
 pub fn run(args: Args) -> Result<()> {
-    if isogrid_io::region::is_url(&args.file) {
-        // Without this the URL is taken for a local path: "No such file or directory".
-        anyhow::bail!(
-            "{}: info reads .cgc files, which are local; `isogrid extract URL -o FILE.cgc` reads a Zarr store at a URL",
-            args.file.display()
-        );
+    if !is_cgc_file(&args.file) {
+        return describe_volume(&args);
     }
     let start = Instant::now();
     let grid = isogrid::cgc::open(&args.file)?;
@@ -66,5 +81,39 @@ pub fn run(args: Args) -> Result<()> {
             info.spacing
         );
         Ok(())
+    }
+}
+
+/// `info VOLUME`: the volume's grid, type, value range and place in the world, without extracting.
+fn describe_volume(args: &Args) -> Result<()> {
+    let path = &args.file;
+    let options = args.input_args.read_options()?;
+    let start = Instant::now();
+    let (geometry, scalar_type, range) = match isogrid_io::open_region(path, &options)? {
+        Some(mut source) => {
+            let spinner = crate::progress::spinner(format!("reading {}", path.display()));
+            let range = isogrid::extract::stream::source_value_range(
+                source.as_mut(),
+                crate::commands::extract::budget(None),
+                &isogrid::Progress::new(),
+            )
+            .map_err(|e| e.with_path(path))?;
+            spinner.finish_and_clear();
+            (source.geometry(), source.scalar_type(), range)
+        }
+        None => {
+            let (volume, _) = crate::input::read_volume(path, &options)?;
+            let range = volume.value_range();
+            (*volume.geometry(), volume.scalar_type(), range)
+        }
+    };
+    let report = VolumeReport::new(&geometry, scalar_type, range, start.elapsed().as_secs_f64());
+    if let Some(note) = geometry.mirrored_note() {
+        eprintln!("isogrid: note: {}: {note}", path.display());
+    }
+    if args.json {
+        print_json(&report)
+    } else {
+        Ok(report.print_human()?)
     }
 }

@@ -173,6 +173,30 @@ fn extract_info_and_mc_report_consistent_numbers() {
         assert_eq!(i[k], e[k], "{k} differs between extract and info");
     }
     assert_eq!(i["iso"], e["iso"]);
+    // `info` of the volume itself: the same source, without extracting; read by region (a raw
+    // spec) too, within memory, with the same value range.
+    let v = ok_json(&["info", s(&volume), "--json"]);
+    assert_eq!(v["dims"], serde_json::json!([40, 40, 40]));
+    for k in ["scalar_type", "value_range", "spacing", "origin", "frame"] {
+        assert_eq!(v[k], i["source"][k], "{k}");
+    }
+    let raw = dir.join("torus.raw");
+    let torus = isogrid_io::read_volume(&volume, &Default::default()).unwrap();
+    let isogrid::VolumeData::U8(samples) = torus.data() else {
+        panic!("generate writes u8")
+    };
+    std::fs::write(&raw, samples).unwrap();
+    let r = ok_json(&[
+        "info",
+        s(&raw),
+        "--raw-shape",
+        "40,40,40",
+        "--raw-type",
+        "u8",
+        "--json",
+    ]);
+    assert_eq!(r["value_range"], v["value_range"]);
+    assert_eq!(r["dims"], v["dims"]);
     // The source as `generate` wrote it: u8 over the full range, unit grid, no world convention.
     let source = &i["source"];
     assert_eq!(source["scalar_type"], "u8");

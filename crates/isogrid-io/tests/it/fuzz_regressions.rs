@@ -243,3 +243,39 @@ fn dicom_jpeg_2000_image_larger_than_the_dicom_image_is_refused_before_decoding(
         "the JPEG 2000 stream is 64x40 but the image is 8x8",
     );
 }
+
+/// Found by the `nifti` and `mgh` targets comparing a volume read whole with it read by region: a
+/// NIfTI or MGH file with `DICM` at byte 128 (NIfTI-1's `cal_min`; an MGH sample) was read as
+/// DICOM, and failed, by the whole reader, which sniffed the marker before the name, while the
+/// region reader, going by the name, read it. A format's name now wins over the marker, in both.
+#[test]
+fn a_named_format_wins_over_the_dicom_marker() {
+    let dir = crate::common::TempDir::new("fuzz-dicm");
+    for name in ["u8.nii", "f32_frames.mgh"] {
+        let mut bytes = std::fs::read(crate::common::fixture(name)).unwrap();
+        bytes[128..132].copy_from_slice(b"DICM");
+        let path = dir.file(name, &bytes);
+        let options = ReadOptions {
+            zarr: isogrid_io::ZarrOptions {
+                indices: if name.ends_with(".mgh") {
+                    vec![("t".into(), 0)]
+                } else {
+                    Vec::new()
+                },
+                ..Default::default()
+            },
+            ..Default::default()
+        };
+        let whole = isogrid_io::read_volume(&path, &options).unwrap_or_else(|e| panic!("{e}"));
+        let mut source = isogrid_io::open_region(&path, &options).unwrap().unwrap();
+        let region = isogrid_io::region::read_all(source.as_mut()).unwrap();
+        assert_eq!(whole.geometry(), region.geometry(), "{name}");
+        assert!(whole.data() == region.data(), "{name}");
+    }
+    // A name that names no format: the marker still says DICOM.
+    let mut bytes = vec![0u8; 132];
+    bytes[128..132].copy_from_slice(b"DICM");
+    let path = dir.file("scan", &bytes);
+    let err = isogrid_io::read_volume(&path, &ReadOptions::default()).unwrap_err();
+    assert!(err.to_string().contains("DICOM"), "{err}");
+}

@@ -74,3 +74,8 @@ pub use pack::{
 pub use read::{open, open_with_progress, read, read_bytes};
 pub use write::{to_bytes, write};
 pub(crate) use write::{CgcWriter, FilePlan, HeaderCounts};
+
+/// Whether `head` (a file's first 8 bytes) is the magic of a `.cgc` file or of its packed form.
+pub fn is_cgc_magic(head: &[u8; 8]) -> bool {
+    *head == format::MAGIC || *head == PACKED_MAGIC
+}

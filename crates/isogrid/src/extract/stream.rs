@@ -444,6 +444,38 @@ pub fn extract_planned(
     }
 }
 
+/// The NaN-free (min, max) of every sample of `source` (`None` without one), read slab by slab
+/// within `max_memory` as [`extract_to_file`] plans its reads: what
+/// [`crate::VolumeView::value_range`] gives of the volume read whole, for a volume that need not
+/// fit in memory. Counts blocks in `progress` and stops once it is cancelled.
+pub fn source_value_range(
+    source: &mut dyn RegionSource,
+    max_memory: u64,
+    progress: &Progress,
+) -> Result<Option<(f64, f64)>> {
+    let plan = plan(source, max_memory)?;
+    let geometry = source.geometry();
+    geometry.validate(geometry.sample_count())?;
+    let mut run = Run {
+        source,
+        geometry,
+        plan,
+        progress,
+        held: None,
+    };
+    match run.source.scalar_type() {
+        ScalarType::U8 => run.value_range::<u8>(&mut Vec::new()),
+        ScalarType::U16 => run.value_range::<u16>(&mut Vec::new()),
+        ScalarType::I16 => run.value_range::<i16>(&mut Vec::new()),
+        ScalarType::F32 => run.value_range::<f32>(&mut Vec::new()),
+        ScalarType::U32 => run.value_range::<u32>(&mut Vec::new()),
+        ScalarType::I32 => run.value_range::<i32>(&mut Vec::new()),
+        ScalarType::U64 => run.value_range::<u64>(&mut Vec::new()),
+        ScalarType::I64 => run.value_range::<i64>(&mut Vec::new()),
+        ScalarType::F64 => run.value_range::<f64>(&mut Vec::new()),
+    }
+}
+
 /// Sample types a slab buffer can hold.
 pub(super) trait SlabScalar: ExtractScalar + Default {
     /// The buffer as a [`RegionSource`] fills it.
