@@ -583,7 +583,7 @@ def load_volume(
     level: int = 0,
     index: Optional[Dict[str, int]] = None,
 ) -> Volume:
-    """Reads a volume file: NIfTI-1 and NIfTI-2 (``.nii``, ``.nii.gz``), NRRD (``.nrrd``, ``.nhdr``), NumPy
+    """Reads a volume file: NIfTI-1 and NIfTI-2 (``.nii``, ``.nii.gz``, ``.hdr``/``.img`` pairs), NRRD (``.nrrd``, ``.nhdr``), NumPy
     ``.npy``, TIFF stacks or a folder of TIFF slices, a DICOM series (a folder), MetaImage
     (``.mha``, ``.mhd`` + data file; raw or zlib), FreeSurfer MGH (``.mgh``, ``.mgz``), MRC/CCP4 maps
     (``.mrc``, ``.map``, ``.ccp4``,

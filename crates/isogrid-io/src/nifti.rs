@@ -19,8 +19,12 @@
 //!   `N` (from 0); without it a file of several volumes is an error naming them rather than a
 //!   silent pick of the first. Only volume `N` is read: an uncompressed file by region, a gzip
 //!   file decompressed up to its end. Dimensions 5 to 7 above 1 (vector data) are `Unsupported`.
+//! - Header/image pairs (magic `ni1`, `ni2`; SPM's and older FSL's output): the header `.hdr` and
+//!   the samples `.img` from byte `vox_offset`, each gzip-compressed or not; either name may be
+//!   given. An Analyze 7.5 header (no magic) is `Unsupported`: Analyze leaves the orientation
+//!   undefined, and tools disagree on it.
 //! - Types: u8, i8, u16, i16, u32, i32, u64, i64, f32, f64 (converted as in the crate docs);
-//!   complex, RGB and binary are `Unsupported`, and so is the `.hdr/.img` pair.
+//!   complex, RGB and binary are `Unsupported`.
 
 use crate::data_file::{open_maybe_gzip, uncompressed_head, MaybeGzip};
 use crate::four_d::{pick_volume, PickedVolume};
@@ -32,12 +36,70 @@ use crate::samples::{
 };
 use isogrid::{Error, Result, ResultExt, Volume, VolumeData, WorldFrame};
 use std::io::Read;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
-/// Whether a file name is a NIfTI file's (`.nii` or `.nii.gz`, any case).
+/// Whether a file name is a single NIfTI file's (`.nii` or `.nii.gz`, any case).
 pub(crate) fn is_nifti_name(name: &str) -> bool {
     let lower = name.to_ascii_lowercase();
     lower.ends_with(".nii") || lower.ends_with(".nii.gz")
+}
+
+/// Whether a file name is one of a NIfTI header/image pair's (`.hdr`, `.img`, either
+/// gzip-compressed; any case): either names the pair.
+pub(crate) fn is_nifti_pair_name(name: &str) -> bool {
+    let lower = name.to_ascii_lowercase();
+    [".hdr", ".hdr.gz", ".img", ".img.gz"]
+        .iter()
+        .any(|e| lower.ends_with(e))
+}
+
+/// `path` with its name's ending `from` (matched in any case) replaced by `to`, letter for letter
+/// in the same case: `brain.IMG` → `brain.HDR`. `None` when the name does not end so.
+fn with_ending(path: &Path, from: &str, to: &str) -> Option<PathBuf> {
+    let name = path.file_name()?.to_str()?;
+    let cut = name.len().checked_sub(from.len())?;
+    let ending = name.get(cut..)?;
+    if !ending.eq_ignore_ascii_case(from) {
+        return None;
+    }
+    let replaced: String = ending
+        .chars()
+        .zip(to.chars())
+        .map(|(old, new)| {
+            if old.is_ascii_uppercase() {
+                new.to_ascii_uppercase()
+            } else {
+                new
+            }
+        })
+        .collect();
+    Some(path.with_file_name(format!("{}{replaced}", &name[..cut])))
+}
+
+/// The header to read for `path`: the `.hdr` of a pair's `.img`, else `path` itself.
+fn header_path(path: &Path) -> PathBuf {
+    with_ending(path, ".img.gz", ".hdr.gz")
+        .or_else(|| with_ending(path, ".img", ".hdr"))
+        .unwrap_or_else(|| path.to_path_buf())
+}
+
+/// The image file of the pair whose header is `header` (`.hdr` → `.img`, `.hdr.gz` → `.img.gz`).
+fn image_path(header: &Path) -> Result<PathBuf> {
+    let image = with_ending(header, ".hdr.gz", ".img.gz")
+        .or_else(|| with_ending(header, ".hdr", ".img"))
+        .ok_or_else(|| {
+            Error::corrupt(
+                "the header says its samples are in a separate .img file (magic ni1/ni2), but it \
+                 is not named .hdr",
+            )
+        })?;
+    if !image.is_file() {
+        return Err(Error::corrupt(format!(
+            "the image file {} of this NIfTI pair is missing",
+            image.display()
+        )));
+    }
+    Ok(image)
 }
 
 /// Reads a `.nii` or `.nii.gz` file (gzip is detected from the content). Errors name `path`.
@@ -65,6 +127,8 @@ struct Header {
     scale: Option<(f64, f64)>,
     /// The header's size: 348 (NIfTI-1) or 540 (NIfTI-2) bytes.
     size: usize,
+    /// A `.hdr`/`.img` pair's header: the samples are in the `.img` file.
+    pair: bool,
 }
 
 impl Header {
@@ -99,13 +163,21 @@ struct Opened {
 
 impl Opened {
     fn open(path: &Path, pick: AxisPick) -> Result<Opened> {
+        let header_file = header_path(path);
         let MaybeGzip {
             mut reader,
             gzipped,
             file_len,
-        } = open_maybe_gzip(path)?;
+        } = open_maybe_gzip(&header_file)?;
         let header =
             read_header(reader.as_mut()).map_err(|e| if gzipped { gzip_error(e) } else { e })?;
+        // A pair keeps its samples in the .img file, from its byte vox_offset.
+        let (reader, gzipped, file_len, read) = if header.pair {
+            let image = open_maybe_gzip(&image_path(&header_file)?)?;
+            (image.reader, image.gzipped, image.file_len, 0)
+        } else {
+            (reader, gzipped, file_len, header.size as u64)
+        };
         let picked = header.picked(pick)?;
         let (t, count, volume_bytes) = (picked.t, picked.count, picked.volume_bytes);
         let before = picked.bytes_before();
@@ -124,7 +196,7 @@ impl Opened {
             count,
             geometry,
         };
-        let skip = opened.header.vox_offset - opened.header.size as u64 + before;
+        let skip = opened.header.vox_offset - read + before;
         opened.gzip_errors(|reader| skip_bytes(reader, skip))?;
         Ok(opened)
     }
@@ -191,14 +263,24 @@ pub(crate) fn region_layout(
     pick: AxisPick,
 ) -> Result<Option<crate::mapped_layout::MappedLayout>> {
     (|| -> Result<Option<crate::mapped_layout::MappedLayout>> {
-        let Some((raw, file_len)) = uncompressed_head(path, Version::Two.size())? else {
+        let header_file = header_path(path);
+        let Some((raw, file_len)) = uncompressed_head(&header_file, Version::Two.size())? else {
             return Ok(None);
         };
         let header = parse_header(&raw)?;
+        let (data_path, file_len) = if header.pair {
+            let image = image_path(&header_file)?;
+            match uncompressed_head(&image, 2)? {
+                Some((_, len)) => (image, len),
+                None => return Ok(None),
+            }
+        } else {
+            (path.to_path_buf(), file_len)
+        };
         let picked = header.picked(pick)?;
         check_available(picked.all_bytes, file_len.saturating_sub(header.vox_offset))?;
         Ok(Some(crate::mapped_layout::MappedLayout {
-            data_path: path.to_path_buf(),
+            data_path,
             data_offset: header.vox_offset + picked.bytes_before(),
             elem: header.elem,
             big_endian: header.big_endian,
@@ -293,11 +375,13 @@ fn parse_header(raw: &[u8]) -> Result<Header> {
         version,
     };
     let at = version.magic();
-    match (&raw[at..at + 4], version) {
-        (b"n+1\0", Version::One) | (b"n+2\0", Version::Two) => {}
-        (b"ni1\0", Version::One) | (b"ni2\0", Version::Two) => {
+    let pair = match (&raw[at..at + 4], version) {
+        (b"n+1\0", Version::One) | (b"n+2\0", Version::Two) => false,
+        (b"ni1\0", Version::One) | (b"ni2\0", Version::Two) => true,
+        ([0, 0, 0, 0], Version::One) => {
             return Err(Error::unsupported(
-                "NIfTI .hdr/.img pairs are not supported; convert to a single .nii",
+                "an Analyze 7.5 header (no NIfTI magic) is not read: Analyze leaves the axes' \
+                 orientation undefined; convert the file to NIfTI",
             ))
         }
         _ => {
@@ -306,7 +390,7 @@ fn parse_header(raw: &[u8]) -> Result<Header> {
                 version.name()
             )))
         }
-    }
+    };
     let ndim = h.dim(0);
     if !(1..=7).contains(&ndim) {
         return Err(Error::corrupt(format!("dim[0] = {ndim} is outside 1..=7")));
@@ -358,7 +442,9 @@ fn parse_header(raw: &[u8]) -> Result<Header> {
         Version::One => h.f32(108) as f64,
         Version::Two => h.i64(168) as f64,
     };
-    if !(vox_offset.is_finite() && vox_offset >= version.size() as f64 && vox_offset < 1e12) {
+    // A single file's samples follow its header; a pair's start anywhere in its .img.
+    let first = if pair { 0.0 } else { version.size() as f64 };
+    if !(vox_offset.is_finite() && vox_offset >= first && vox_offset < 1e12) {
         return Err(Error::corrupt(format!(
             "vox_offset {vox_offset} is not a valid data offset"
         )));
@@ -402,6 +488,7 @@ fn parse_header(raw: &[u8]) -> Result<Header> {
         frame,
         scale,
         size: version.size(),
+        pair,
     })
 }
 

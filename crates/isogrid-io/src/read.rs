@@ -9,7 +9,8 @@ use std::path::Path;
 
 /// Reads a volume, detecting the format from the path: a Zarr store or OME-Zarr image (see
 /// [`crate::region`]); a folder of 2-D TIFF slices; another directory or a `.dcm` file (or one
-/// whose name names no format and that has the `DICM` marker) = DICOM (see [`crate::dicom`]); `.nii`/`.nii.gz`; `.nrrd`/`.nhdr`;
+/// whose name names no format and that has the `DICM` marker) = DICOM (see [`crate::dicom`]); `.nii`/`.nii.gz`
+/// or a `.hdr`/`.img` pair; `.nrrd`/`.nhdr`;
 /// `.npy`; `.tif`/`.tiff`; `.mha`/`.mhd`; `.mgh`/`.mgz`; `.mrc`/`.map`/`.ccp4`/`.mrcs`; `.vti`; any file when `opts.raw` is set
 /// (`.raw`/`.bin` without it are an error asking for the spec). Other names are sniffed by
 /// their magic bytes. Errors name `path`. Notices are dropped; see [`read_volume_noted`].
@@ -94,32 +95,33 @@ type Reader = fn(&Path, &ReadOptions) -> Result<Volume>;
 /// format, whose content then decides.
 fn reader_of_name(name: &str) -> Option<Reader> {
     let ends = |ext: &str| name.ends_with(ext);
-    let reader: Reader = if crate::nifti::is_nifti_name(name) {
-        |path, opts| crate::nifti::read_nifti_indexed(path, opts.zarr.pick())
-    } else if crate::mgh::is_mgh_name(name) {
-        |path, opts| crate::mgh::read_mgh_indexed(path, opts.zarr.pick())
-    } else if ends(".nrrd") || ends(".nhdr") {
-        |path, _| crate::read_nrrd(path)
-    } else if ends(".npy") {
-        |path, _| crate::read_npy(path)
-    } else if ends(".tif") || ends(".tiff") {
-        |path, opts| crate::tiff::read_tiff_indexed(path, opts.zarr.pick())
-    } else if ends(".mha") || ends(".mhd") {
-        |path, _| crate::read_metaimage(path)
-    } else if ends(".mrc") || ends(".map") || ends(".ccp4") || ends(".mrcs") {
-        |path, _| crate::read_mrc(path)
-    } else if ends(".vti") {
-        |path, _| crate::read_vti(path)
-    } else if ends(".raw") || ends(".bin") {
-        |path, _| {
-            Err(
-                Error::invalid("raw files need their shape, type and byte order (a raw spec)")
-                    .with_path(path),
-            )
-        }
-    } else {
-        return None;
-    };
+    let reader: Reader =
+        if crate::nifti::is_nifti_name(name) || crate::nifti::is_nifti_pair_name(name) {
+            |path, opts| crate::nifti::read_nifti_indexed(path, opts.zarr.pick())
+        } else if crate::mgh::is_mgh_name(name) {
+            |path, opts| crate::mgh::read_mgh_indexed(path, opts.zarr.pick())
+        } else if ends(".nrrd") || ends(".nhdr") {
+            |path, _| crate::read_nrrd(path)
+        } else if ends(".npy") {
+            |path, _| crate::read_npy(path)
+        } else if ends(".tif") || ends(".tiff") {
+            |path, opts| crate::tiff::read_tiff_indexed(path, opts.zarr.pick())
+        } else if ends(".mha") || ends(".mhd") {
+            |path, _| crate::read_metaimage(path)
+        } else if ends(".mrc") || ends(".map") || ends(".ccp4") || ends(".mrcs") {
+            |path, _| crate::read_mrc(path)
+        } else if ends(".vti") {
+            |path, _| crate::read_vti(path)
+        } else if ends(".raw") || ends(".bin") {
+            |path, _| {
+                Err(
+                    Error::invalid("raw files need their shape, type and byte order (a raw spec)")
+                        .with_path(path),
+                )
+            }
+        } else {
+            return None;
+        };
     Some(reader)
 }
 
@@ -168,7 +170,7 @@ fn sniff(path: &Path, opts: &ReadOptions) -> Result<Volume> {
         crate::dicom::read_dicom(path, opts).map(|(volume, _)| volume)
     } else {
         Err(Error::unsupported(
-            "unknown volume format (expected .nii, .nii.gz, .nrrd, .nhdr, .npy, .tif, .mha, .mhd, .mgh, .mgz, .mrc, .map, .vti, DICOM, or a raw spec)",
+            "unknown volume format (expected .nii, .nii.gz, .hdr/.img, .nrrd, .nhdr, .npy, .tif, .mha, .mhd, .mgh, .mgz, .mrc, .map, .vti, DICOM, or a raw spec)",
         )
         .with_path(path))
     }

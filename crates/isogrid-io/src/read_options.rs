@@ -144,7 +144,9 @@ pub(crate) fn refuse_unused_index(
 ) -> isogrid::Result<()> {
     let four_d = path.file_name().is_some_and(|n| {
         let name = n.to_string_lossy();
-        crate::nifti::is_nifti_name(&name) || crate::mgh::is_mgh_name(&name)
+        crate::nifti::is_nifti_name(&name)
+            || crate::nifti::is_nifti_pair_name(&name)
+            || crate::mgh::is_mgh_name(&name)
     });
     if options.zarr.indices.is_empty() || is_tiff_file(path) || four_d {
         return Ok(());
