@@ -317,6 +317,10 @@ def test_nifti_pairs_read_through_either_file(cli, tmp_path, pair_class, gz):
         assert ("read whole" in run.stderr) == (gz and bool(extra)), run.stderr
         files.append(out.read_bytes())
     assert files[0] == files[1]
+    header.rename(tmp_path / "moved")
+    with pytest.raises(ValueError, match="the header file .*pair.hdr.* of this NIfTI pair is missing"):
+        isogrid.load_volume(image, index={"t": 0})
+    (tmp_path / "moved").rename(header)
     image.unlink()
     with pytest.raises(ValueError, match="the image file .*pair.img.* of this NIfTI pair is missing"):
         isogrid.load_volume(header, index={"t": 0})

@@ -76,11 +76,17 @@ fn with_ending(path: &Path, from: &str, to: &str) -> Option<PathBuf> {
     Some(path.with_file_name(format!("{}{replaced}", &name[..cut])))
 }
 
-/// The header to read for `path`: the `.hdr` of a pair's `.img`, else `path` itself.
-fn header_path(path: &Path) -> PathBuf {
-    with_ending(path, ".img.gz", ".hdr.gz")
-        .or_else(|| with_ending(path, ".img", ".hdr"))
-        .unwrap_or_else(|| path.to_path_buf())
+/// The header to read for `path`: the `.hdr` of a pair's `.img` (which must exist), else `path`
+/// itself.
+fn header_path(path: &Path) -> Result<PathBuf> {
+    match with_ending(path, ".img.gz", ".hdr.gz").or_else(|| with_ending(path, ".img", ".hdr")) {
+        Some(header) if !header.is_file() => Err(Error::corrupt(format!(
+            "the header file {} of this NIfTI pair is missing",
+            header.display()
+        ))),
+        Some(header) => Ok(header),
+        None => Ok(path.to_path_buf()),
+    }
 }
 
 /// The image file of the pair whose header is `header` (`.hdr` → `.img`, `.hdr.gz` → `.img.gz`).
@@ -163,7 +169,7 @@ struct Opened {
 
 impl Opened {
     fn open(path: &Path, pick: AxisPick) -> Result<Opened> {
-        let header_file = header_path(path);
+        let header_file = header_path(path)?;
         let MaybeGzip {
             mut reader,
             gzipped,
@@ -263,7 +269,7 @@ pub(crate) fn region_layout(
     pick: AxisPick,
 ) -> Result<Option<crate::mapped_layout::MappedLayout>> {
     (|| -> Result<Option<crate::mapped_layout::MappedLayout>> {
-        let header_file = header_path(path);
+        let header_file = header_path(path)?;
         let Some((raw, file_len)) = uncompressed_head(&header_file, Version::Two.size())? else {
             return Ok(None);
         };
