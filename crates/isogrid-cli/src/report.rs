@@ -138,13 +138,7 @@ pub struct SourceReport {
 
 impl SourceReport {
     pub fn new(info: &isogrid::GridInfo) -> Self {
-        let geometry = isogrid::Geometry {
-            dims: info.dims.map(|d| d as usize),
-            spacing: info.spacing,
-            origin: info.origin,
-            direction: info.direction,
-            frame: info.frame,
-        };
+        let geometry = isogrid::extract::attribute::grid_geometry(info);
         SourceReport::of(&geometry, info.scalar_type, info.value_range)
     }
 
