@@ -65,7 +65,9 @@ pub fn open_region(
         .file_name()
         .map(|n| n.to_string_lossy().to_ascii_lowercase())
         .unwrap_or_default();
-    let layout = if name.ends_with(".nii") || name.ends_with(".hdr") || name.ends_with(".img") {
+    // The readers name formats one way for whole and by-region reads; a gzip file's layout is
+    // `None` (it is read whole).
+    let layout = if crate::nifti::is_nifti_name(&name) || crate::nifti::is_nifti_pair_name(&name) {
         crate::nifti::region_layout(path, options.zarr.pick())?
     } else if crate::mgh::is_mgh_name(&name) {
         crate::mgh::region_layout(path, options.zarr.pick())?
