@@ -34,6 +34,7 @@ export const SECTION_CELL_ATTRIBUTE = 4;
 export const SECTION_CLUSTER_LABELS = 5;
 export const SECTION_LABEL_INDEX = 6;
 export const SECTION_LABEL_TABLE = 7;
+export const SECTION_WORLD_FRAME = 8;
 const KIND_NAMES: Record<number, string> = {
   1: 'blocks',
   2: 'metacells',
@@ -42,6 +43,7 @@ const KIND_NAMES: Record<number, string> = {
   5: 'cluster labels',
   6: 'label index',
   7: 'label table',
+  8: 'world frame',
 };
 /** The three label sections, in the order `GridLabels` reads them (`SectionKind::LABELS`). */
 const LABEL_KINDS = [SECTION_CLUSTER_LABELS, SECTION_LABEL_INDEX, SECTION_LABEL_TABLE];
@@ -92,6 +94,8 @@ export interface CgcHeader {
   attribute: Section | null;
   /** Cluster labels, label index and label table, when the file has labels. */
   labels: [Section, Section, Section] | null;
+  /** The convention of `origin` and `direction` (`world_frame_of`), when the file names one. */
+  worldFrame: Section | null;
   /** Every section in file order, each checked against its CRC once complete. */
   sections: Section[];
   /** Byte ranges [start, end) between sections that must be zero (version 2). */
@@ -325,6 +329,7 @@ export function parseHeader(head: Uint8Array, fileLength: number): CgcHeader {
   const sections: Section[] = [];
   const gaps: [number, number][] = [];
   let attribute: Section | null = null;
+  let worldFrame: Section | null = null;
   const labels: (Section | null)[] = [null, null, null];
   if (version === 1) {
     let end = BigInt(HEADER_SIZE);
@@ -390,6 +395,8 @@ export function parseHeader(head: Uint8Array, fileLength: number): CgcHeader {
           attribute = section;
         } else if (LABEL_KINDS.includes(kind)) {
           labels[LABEL_KINDS.indexOf(kind)] = section;
+        } else if (kind === SECTION_WORLD_FRAME) {
+          worldFrame = section;
         }
       }
       sections.push(section);
@@ -425,6 +432,7 @@ export function parseHeader(head: Uint8Array, fileLength: number): CgcHeader {
     cells: grid[2]!,
     attribute,
     labels: labels[0] ? (labels as [Section, Section, Section]) : null,
+    worldFrame,
     sections,
     gaps,
   };
@@ -566,6 +574,19 @@ export function validateStructure(h: CgcHeader, blocks: Uint8Array, metacells: U
   const check = new StructureCheck(h, blocks, metacells);
   check.advance(metacells.byteLength / SLOT_BYTES);
   check.finish();
+}
+
+// ---- The world frame (kind 8; `world_frame_of` in crates/isogrid/src/cgc/format.rs) ----
+
+/** The patient-space convention of a file's origin and directions. */
+export type WorldFrame = 'LPS' | 'RAS';
+
+/** The convention a world frame section names: a u32 code (1 LPS, 2 RAS), then 4 zero bytes. */
+export function parseWorldFrame(bytes: Uint8Array): WorldFrame {
+  const code = bytes.length === 8 && bytes.subarray(1).every((b) => b === 0) ? bytes[0] : 0;
+  if (code === 1) return 'LPS';
+  if (code === 2) return 'RAS';
+  throw corrupt('world frame section is not an LPS (1) or RAS (2) code');
 }
 
 // ---- The cell attribute (kind 4; crates/isogrid/src/attribute.rs) ----
@@ -877,6 +898,8 @@ export interface CgcFile {
   cells: Uint8Array;
   attribute: CellAttribute | null;
   labels: GridLabels | null;
+  /** The world frame section's convention; null without one (the frame is unknown). */
+  frame: WorldFrame | null;
 }
 
 /** Parses and validates a whole file in memory, in the Rust reader's order. */
@@ -890,5 +913,6 @@ export function parseCgc(bytes: Uint8Array): CgcFile {
   validateStructure(header, blocks, metacells);
   const attribute = header.attribute ? parseAttribute(part(header.attribute), header.activeCells) : null;
   const labels = header.labels ? parseLabels(...(header.labels.map(part) as [Uint8Array, Uint8Array, Uint8Array]), metacells) : null;
-  return { header, blocks, metacells, cells: part(header.cells), attribute, labels };
+  const frame = header.worldFrame ? parseWorldFrame(part(header.worldFrame)) : null;
+  return { header, blocks, metacells, cells: part(header.cells), attribute, labels, frame };
 }

@@ -10,7 +10,7 @@
 import { Crc32 } from './crc32.js';
 import {
   CgcError, CgcHeader, HEAD_READ, Section, SLOT_BYTES, CLUSTER_SLOTS, BOUND_SLOT, ATTRIBUTE_HEAD_SIZE, AttributeInfo,
-  BorderCheck, CellAttribute, GridLabels, checkGaps, checkLabels, checkSection, parseAttribute, parseAttributeHead, parseHeader, readLabels,
+  BorderCheck, CellAttribute, GridLabels, WorldFrame, checkGaps, checkLabels, checkSection, parseAttribute, parseAttributeHead, parseHeader, parseWorldFrame, readLabels,
   StructureCheck,
 } from './cgc.js';
 
@@ -155,6 +155,8 @@ export interface StreamSink {
    * their checks against the metacells follow, and fail the stream if the labels do not hold).
    */
   labels?(l: GridLabels): void;
+  /** The convention of the header's origin and directions, once its section is in and checked. */
+  worldFrame?(frame: WorldFrame): void;
 }
 
 /**
@@ -213,6 +215,7 @@ export async function streamCgc(src: ByteSource, sink: StreamSink, chunk?: numbe
   let labels: GridLabels | null = null;
   let labelsChecked = !h.labels;
   let attributeOut = !h.attribute;
+  let frameOut = !h.worldFrame;
   const part = (s: Section) => file.subarray(s.offset, s.offset + s.length);
   let attrInfo: AttributeInfo | null = null;
   let attrFed = 0; // attribute values handed to the sink
@@ -248,7 +251,13 @@ export async function streamCgc(src: ByteSource, sink: StreamSink, chunk?: numbe
     }
     if (!attributeOut && done.has(attr!)) {
       attributeOut = true;
-      sink.attribute?.(parseAttribute(part(attr!), h.activeCells));
+      const attribute = parseAttribute(part(attr!), h.activeCells); // checked whether or not the sink takes it
+      sink.attribute?.(attribute);
+    }
+    if (!frameOut && done.has(h.worldFrame!)) {
+      frameOut = true;
+      const frame = parseWorldFrame(part(h.worldFrame!)); // checked whether or not the sink takes it
+      sink.worldFrame?.(frame);
     }
     if (h.labels && !labels && h.labels.every((s) => done.has(s))) {
       labels = readLabels(part(h.labels[0]), part(h.labels[1]), part(h.labels[2]), h.slotCount / CLUSTER_SLOTS);

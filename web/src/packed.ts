@@ -7,7 +7,7 @@
 // the preamble; rangecoder.ts decodes the blocks.
 
 import { Crc32 } from './crc32.js';
-import { ATTRIBUTE_HEAD_SIZE, BLOCK_BYTES, BLOCK_CELLS, BOUND_SLOT, CgcError, CgcHeader, CLUSTER_SLOTS, SLOT_BYTES, Section, blockDims, parseHeader } from './cgc.js';
+import { ATTRIBUTE_HEAD_SIZE, BLOCK_BYTES, BLOCK_CELLS, BOUND_SLOT, CgcError, CgcHeader, CLUSTER_SLOTS, SECTION_WORLD_FRAME, SLOT_BYTES, Section, blockDims, parseHeader } from './cgc.js';
 import type { ByteSource } from './loader.js';
 import { BlockModels, RangeDecoder, bitLength, residualContext, unfoldResidual } from './rangecoder.js';
 
@@ -310,7 +310,7 @@ export function packedSource(name: string, open: () => Promise<ReadableStream<Ui
       }
       if (v.getUint32(52, true) !== 0) throw new CgcError('packed head has reserved bytes set (damaged)');
       const h = parseHeader(head, cgcLength);
-      if (h.sections.some((s) => s.kind > 7)) throw new CgcError('a packed file holds no section of an unknown kind (damaged)');
+      if (h.sections.some((s) => s.kind > SECTION_WORLD_FRAME)) throw new CgcError('a packed file holds no section of an unknown kind (damaged)');
       if (HEADER_SIZE + h.sections.length * TABLE_ENTRY_SIZE !== headLength) throw new CgcError('packed head and section table disagree (damaged)');
       const total = PACKED_HEAD_SIZE + headLength + streamLength + codedLength;
       download.setTotal(total);
@@ -387,6 +387,11 @@ async function rebuild(
   for (const s of h.labels ?? []) {
     file.set(body.bytes(s.length), s.offset);
     filled.set(s, s.length);
+  }
+  // The world frame section as it is.
+  if (h.worldFrame) {
+    file.set(body.bytes(h.worldFrame.length), h.worldFrame.offset);
+    filled.set(h.worldFrame, h.worldFrame.length);
   }
   body.end();
   const clusterLabels = h.labels ? new DataView(file.buffer, file.byteOffset + h.labels[0].offset, h.labels[0].length) : null;

@@ -11,7 +11,7 @@ import { Crc32, crc32 } from '../build/node/crc32.js';
 import zlib from 'node:zlib';
 import { randomBytes } from 'node:crypto';
 import { defaultClim, labelColorWords, hiddenClusters } from '../build/node/colors.js';
-import { realFiles, toVersion2, resealHeader, resealSection, isogridBinary, infoJson, labelFile, coloredSphereFile, ballFile } from './fixtures.mjs';
+import { realFiles, toVersion2, resealHeader, resealSection, isogridBinary, infoJson, labelFile, coloredSphereFile, ballFile, placedSphereFile } from './fixtures.mjs';
 
 const files = realFiles();
 const versions = files.flatMap(([name, bytes]) => {
@@ -268,7 +268,7 @@ test('label sections read as isogrid info reports them; hiding goes by the index
   assert.ok(hidden.some((h) => h) && hidden.some((h) => !h));
 });
 
-test('damaged label and attribute sections that pass their checksums are refused with the Rust messages', { skip: !isogridBinary() && 'no isogrid binary' }, () => {
+test('damaged label and attribute sections that pass their checksums are refused with the Rust messages, whole and streamed', { skip: !isogridBinary() && 'no isogrid binary' }, async () => {
   const labels = new Uint8Array(readFileSync(labelFile()));
   const h = parseCgc(labels).header;
   const entry = (kind) => h.sections.findIndex((s) => s.kind === kind);
@@ -314,6 +314,34 @@ test('damaged label and attribute sections that pass their checksums are refused
     const m = refused(bytes);
     if (expected instanceof RegExp) assert.match(m ?? 'accepted', expected);
     else assert.equal(m, expected);
+    // Streamed into a sink that takes only the cells, as the viewer's takes no whole attribute.
+    let streamed = 'accepted';
+    await streamCgc(memorySource(bytes), { header() {}, progress() {}, clusters() {} }).catch((e) => (streamed = e.message));
+    if (expected instanceof RegExp) assert.match(streamed, expected);
+    else assert.equal(streamed, expected);
+  }
+});
+
+test('the world frame section reads as isogrid info reports it, whole and streamed; a damaged one is refused with the Rust message', { skip: !isogridBinary() && 'no isogrid binary' }, async () => {
+  const file = placedSphereFile();
+  const bytes = new Uint8Array(readFileSync(file));
+  const info = infoJson(file).source;
+  const { header, frame } = parseCgc(bytes);
+  assert.equal(frame, info.frame);
+  assert.deepEqual(header.direction, info.direction);
+  assert.deepEqual(header.origin, info.origin);
+  let streamed = null;
+  await streamCgc(memorySource(bytes), { header() {}, progress() {}, clusters() {}, worldFrame: (f) => (streamed = f) });
+  assert.equal(streamed, 'RAS');
+  // Without the section the frame is unknown.
+  assert.equal(parseCgc(new Uint8Array(readFileSync(coloredSphereFile(24, 16)))).frame, null);
+  const at = header.sections.findIndex((s) => s.kind === 8);
+  for (const change of [(b) => (b[0] = 3), (b) => (b[0] = 0), (b) => (b[7] = 1)]) {
+    const b = bytes.slice();
+    change(b.subarray(header.worldFrame.offset, header.worldFrame.offset + 8));
+    const damaged = resealSection(b, at);
+    assert.equal(refused(damaged), 'world frame section is not an LPS (1) or RAS (2) code');
+    await assert.rejects(streamCgc(memorySource(damaged), { header() {}, progress() {}, clusters() {} }), (e) => e instanceof CgcError && e.message === 'world frame section is not an LPS (1) or RAS (2) code');
   }
 });
 

@@ -176,6 +176,34 @@ export function precisionSphereFile(bits, size = 24) {
   return cgc;
 }
 
+/**
+ * A ball in patient space: an n³ u8 NRRD in RAS whose first axis runs to the left (axes LAS, a
+ * mirror image of RAS), extracted by the binary, so the .cgc has a world frame section; or null.
+ */
+export function placedSphereFile(n = 24) {
+  const bin = isogridBinary();
+  if (!bin) return null;
+  const dir = binaryDir(bin);
+  const cgc = join(dir, `placed${n}.cgc`);
+  if (!existsSync(cgc)) {
+    const samples = new Uint8Array(n * n * n);
+    const c = (n - 1) / 2;
+    for (let z = 0; z < n; z++) {
+      for (let y = 0; y < n; y++) {
+        for (let x = 0; x < n; x++) samples[x + n * (y + n * z)] = Math.hypot(x - c, y - c, z - c) < 0.35 * n ? 200 : 0;
+      }
+    }
+    const header = [
+      'NRRD0004', 'type: uint8', 'dimension: 3', `sizes: ${n} ${n} ${n}`, 'space: right-anterior-superior',
+      'space directions: (-1,0,0) (0,1,0) (0,0,1)', 'space origin: (10,-20,30)', 'encoding: raw', '', '',
+    ].join('\n');
+    const nrrd = join(dir, `placed${n}.nrrd`);
+    writeFileSync(nrrd, Buffer.concat([Buffer.from(header), Buffer.from(samples)]));
+    execFileSync(bin, ['extract', nrrd, '--iso', '100', '-o', cgc], { stdio: 'ignore' });
+  }
+  return cgc;
+}
+
 /** The packed form (`isogrid pack`, .cgcz) of the .cgc at `cgc`, beside it. */
 export function packedFile(cgc) {
   const out = `${cgc}z`;
@@ -190,7 +218,7 @@ export function infoJson(file) {
 
 /**
  * Every .cgc in the repository's fixtures and, with the binary, the sphere, spheres with a cell
- * attribute of 8, 16 and 32 bits and a label grid: [name, bytes].
+ * attribute of 8, 16 and 32 bits, a label grid and a ball with a world frame: [name, bytes].
  */
 export function realFiles() {
   const dir = join(repo, 'crates', 'isogrid', 'tests', 'fixtures');
@@ -200,6 +228,7 @@ export function realFiles() {
   if (isogridBinary()) {
     for (const bits of [8, 16, 32]) files.push([`colored24-${bits}.cgc`, new Uint8Array(readFileSync(coloredSphereFile(24, bits)))]);
     files.push(['labels32.cgc', new Uint8Array(readFileSync(labelFile()))]);
+    files.push(['placed24.cgc', new Uint8Array(readFileSync(placedSphereFile()))]);
   }
   return files;
 }

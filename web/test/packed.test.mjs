@@ -1,6 +1,6 @@
 // The packed transfer form (.cgcz, written by `isogrid pack`) rebuilt by web/src/packed.ts: byte for
 // byte the .cgc the binary writes, at every corner precision, with and without a cell attribute,
-// label grids binary and smoothed,
+// label grids binary and smoothed, a grid with a world frame,
 // whether the bytes arrive at once or a few at a time; and every truncation and single-byte change
 // of a packed file refused with a CgcError (by the packed head, the inflater, the range decoder, the rebuild or the
 // .cgc's own checks on the rebuilt bytes) or rebuilt into the same file, never a different one.
@@ -9,7 +9,7 @@ import assert from 'node:assert/strict';
 import { readFileSync } from 'node:fs';
 import { CgcError, parseCgc } from '../build/node/cgc.js';
 import { packedSource } from '../build/node/packed.js';
-import { isogridBinary, sphereFile, coloredSphereFile, precisionSphereFile, packedFile, labelFile, streamOf } from './fixtures.mjs';
+import { isogridBinary, sphereFile, coloredSphereFile, precisionSphereFile, packedFile, labelFile, placedSphereFile, streamOf } from './fixtures.mjs';
 
 const bin = isogridBinary();
 // Browsers have it; node has it since 20.14 and 21.2 (Debian bookworm's node 18 does not).
@@ -60,6 +60,7 @@ const cases = !skip
       ...[8, 16, 32].map((bits) => [`sphere24 with a ${bits}-bit attribute`, coloredSphereFile(24, bits)]),
       ['labels32.cgc', labelFile(32)],
       ['labels32.cgc smoothed (sigma 1)', labelFile(32, 1)],
+      ['placed24.cgc, with a world frame', placedSphereFile()],
     ]
   : [];
 
@@ -87,7 +88,7 @@ test('a packed file of another version is refused by its version', { skip }, asy
 });
 
 test('every truncation and single-byte change of a packed file is refused', { skip, timeout: 600_000 }, async (t) => {
-  for (const cgc of !skip ? [precisionSphereFile(8), labelFile(32)] : []) {
+  for (const cgc of !skip ? [precisionSphereFile(8), labelFile(32), placedSphereFile()] : []) {
     const original = new Uint8Array(readFileSync(cgc));
     const packed = new Uint8Array(readFileSync(packedFile(cgc)));
     for (let n = 0; n < packed.length; n++) {

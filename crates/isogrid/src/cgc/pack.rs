@@ -6,7 +6,8 @@
 //! over, `docs/benchmarks-web.md`), and everything in its metacells and blocks besides the cells'
 //! positions and masks follows from them. The packed form sends each corner sample once, predicted
 //! from its neighbours, and the positions as Morton steps, every field range-coded under a model of
-//! its own ([`super::range_coder`]). It holds the surface, its cell attribute and its labels.
+//! its own ([`super::range_coder`]). It holds the surface, its cell attribute, its labels and its
+//! world frame.
 //!
 //! Layout, all little-endian. A 56-byte head:
 //!
@@ -31,6 +32,7 @@
 //! | every block's cluster count | a LEB128 varint per block |
 //! | the cell attribute's head, when the file has one | 96 |
 //! | the cluster labels, label index and label table sections, when the file has labels | their lengths |
+//! | the world frame section, when the file has one | 8 |
 //!
 //! The block stream is chunks, each a varint count of blocks, a varint length and that many bytes
 //! of range coder output (its first byte zero), which codes those blocks (the blocks with
@@ -357,6 +359,10 @@ fn write_preamble(grid: &CellGrid, body: &mut impl Write) -> std::io::Result<u64
             body.write_all(&bytes)?;
             length += bytes.len() as u64;
         }
+    }
+    if let Some(bytes) = super::format::world_frame_bytes(grid.info().frame) {
+        body.write_all(&bytes)?;
+        length += bytes.len() as u64;
     }
     Ok(length)
 }

@@ -7,7 +7,7 @@ use crate::common::blobs_u8;
 use crate::labels::{label_volume, DIMS};
 use isogrid::{
     cgc, extract, extract_labels, CellGrid, ErrorKind, ExtractOptions, Iso, LabelOptions,
-    LabelSelection, Progress, Volume, VolumeData,
+    LabelSelection, Progress, Volume, VolumeData, WorldFrame,
 };
 use std::io::{Cursor, Read, Seek, SeekFrom, Write};
 
@@ -23,7 +23,17 @@ fn grids() -> Vec<(&'static str, CellGrid)> {
     let surface = extract(&volume.view(), &ExtractOptions::new(Iso::Value(127.5))).unwrap();
     let labels = Volume::new(DIMS, VolumeData::U16(label_volume())).unwrap();
     let labels = extract_labels(&labels.view(), &LabelOptions::new(LabelSelection::All)).unwrap();
-    vec![("surface", surface), ("labels", labels)]
+    // A volume placed in patient space (RAS, mirrored axes): the file has a world frame section.
+    let mut geometry = *volume.geometry();
+    geometry.frame = WorldFrame::Ras;
+    geometry.direction = [[-1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    let placed = Volume::with_geometry(geometry, volume.into_data()).unwrap();
+    let placed = extract(&placed.view(), &ExtractOptions::new(Iso::Value(127.5))).unwrap();
+    vec![
+        ("surface", surface),
+        ("labels", labels),
+        ("surface in RAS", placed),
+    ]
 }
 
 #[test]
@@ -103,6 +113,17 @@ fn head_and_body_are_as_the_byte_table_says() {
             "{name}: one-byte varints"
         );
         assert_eq!(&body[at..at + blocks.len()], &counts[..], "{name}");
+        // It closes with the world frame section as it is, when the file has one.
+        let frame = cgc::read_bytes(&file).unwrap().info().frame;
+        assert_eq!(frame, grid.info().frame, "{name}");
+        if frame != WorldFrame::Unknown {
+            let code = if frame == WorldFrame::Lps { 1u8 } else { 2 };
+            assert_eq!(
+                &body[body.len() - 8..],
+                &[code, 0, 0, 0, 0, 0, 0, 0],
+                "{name}"
+            );
+        }
         // Far smaller than the file.
         assert!(
             packed.len() * 3 < file.len(),
