@@ -129,11 +129,15 @@ def test_info_names_the_axes_and_drawing_commands_say_when_they_mirror(cli, tmp_
         assert volume["value_range"] == pytest.approx([float(f.min()), float(f.max())])
         for shown in (out, tmp_path / name):
             iso = [] if shown == out else ["--iso", "0"]
+            note = f"its axes run {axes}, a mirror image of {source['frame']}"
             run = subprocess.run([cli, "render", shown, *iso, "--size", "32x24", "--backend", "cpu",
                                   "-o", tmp_path / "x.png"], capture_output=True, text=True)
             assert run.returncode == 0, run.stderr
-            note = f"its axes run {axes}, a mirror image of {source['frame']}"
             assert (note in run.stderr) == mirrored, (name, run.stderr)
+            # `info` of the .cgc and of the volume says it too.
+            run = subprocess.run([cli, "info", shown], capture_output=True, text=True)
+            assert run.returncode == 0, run.stderr
+            assert (f"isogrid: note: {shown}: {note}" in run.stderr) == mirrored, (name, run.stderr)
 
 
 @pytest.mark.parametrize("codes", ["RAS", "LIA"])

@@ -20,7 +20,7 @@ import puppeteer from 'puppeteer-core';
 import { PNG } from 'pngjs';
 import { build } from '../build.mjs';
 import { startServer } from './server.mjs';
-import { isogridBinary, sphereFile, resealHeader, resealSection, realFiles, coloredSphereFile, colouredLabelFile, labelFile, labelAt, packedFile, emptyFiles } from './fixtures.mjs';
+import { isogridBinary, sphereFile, resealHeader, resealSection, realFiles, coloredSphereFile, colouredLabelFile, labelFile, labelAt, packedFile, emptyFiles, infoNote, placedSphereFile } from './fixtures.mjs';
 import { basis, presetCamera } from '../build/node/camera.js';
 import { parseCgc, labelText } from '../build/node/cgc.js';
 
@@ -248,6 +248,8 @@ for (const B of BROWSERS) {
       files['damaged.cgcz'] = damagedPacked;
       files['truncated.cgcz'] = spherePacked.slice(0, spherePacked.length - 1000);
       for (const [name, path] of emptyFiles()) files[name] = new Uint8Array(readFileSync(path));
+      files['placed24.cgc'] = new Uint8Array(readFileSync(placedSphereFile()));
+      files['placed24.cgcz'] = new Uint8Array(readFileSync(packedFile(placedSphereFile())));
     }
     const server = await startServer({ dist, files });
     const plain = await startServer({ dist, files, ranges: false });
@@ -625,6 +627,17 @@ for (const B of BROWSERS) {
         const empty = emptyFiles();
         assert.equal(empty.length, 2);
         for (const [name, , note] of empty) {
+          const { page, outcome, stats } = await open(server.url, `src=/${name}`);
+          assert.equal(outcome, 'ready', stats.message);
+          assert.equal(stats.message, `${name}: ${note}`);
+          assert.equal(await page.$eval('#message', (m) => m.className), 'notice');
+          await page.close();
+        }
+      });
+      await t.test('axes that mirror the world: the file loads and the note is isogrid info\'s, from the .cgc and its packed form', async () => {
+        const note = infoNote(placedSphereFile());
+        assert.match(note, /^its axes run LAS, a mirror image of RAS/);
+        for (const name of ['placed24.cgc', 'placed24.cgcz']) {
           const { page, outcome, stats } = await open(server.url, `src=/${name}`);
           assert.equal(outcome, 'ready', stats.message);
           assert.equal(stats.message, `${name}: ${note}`);

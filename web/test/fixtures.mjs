@@ -137,13 +137,16 @@ export function emptyFiles() {
     writeNpy(join(dir, 'filled8.npy'), 8, () => 7);
     execFileSync(bin, ['extract', join(dir, 'filled8.npy'), '--labels', 'all', '-o', labels], { stdio: 'ignore' });
   }
-  return [iso, labels].map((path) => {
-    const { stderr } = spawnSync(bin, ['info', path], { encoding: 'utf8' });
-    const prefix = `isogrid: note: ${path}: `;
-    const note = stderr.split('\n').find((line) => line.startsWith(prefix));
-    if (!note) throw new Error(`isogrid info ${path} printed no note: ${stderr}`);
-    return [basename(path), path, note.slice(prefix.length)];
-  });
+  return [iso, labels].map((path) => [basename(path), path, infoNote(path)]);
+}
+
+/** The note `isogrid info` prints for `path`, past its `isogrid: note: PATH: `. */
+export function infoNote(path) {
+  const { stderr } = spawnSync(isogridBinary(), ['info', path], { encoding: 'utf8' });
+  const prefix = `isogrid: note: ${path}: `;
+  const note = stderr.split('\n').find((line) => line.startsWith(prefix));
+  if (!note) throw new Error(`isogrid info ${path} printed no note: ${stderr}`);
+  return note.slice(prefix.length);
 }
 
 /**

@@ -42,6 +42,7 @@ pub fn run(args: Args) -> Result<()> {
     let grid = isogrid::cgc::open(&args.file)?;
     let read = start.elapsed().as_secs_f64();
     crate::report::note_if_empty(&args.file, &grid, None);
+    crate::report::note_if_mirrored(&args.file, grid.info());
     let report = GridReport {
         opened_file: true,
         source: Some(SourceReport::new(grid.info())),
