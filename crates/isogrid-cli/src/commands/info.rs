@@ -1,10 +1,15 @@
 //! `isogrid info`: statistics of a `.cgc` file (validated on open), or what a volume holds and
-//! where it lies (its grid, sample type, value range, spacing, origin and axes).
+//! where it lies (its grid, sample type, value range, spacing, origin and axes), and with
+//! `--labels` the labels of a label volume (each one's voxels, volume, box, name and colour).
 
-use crate::args::InputArgs;
-use crate::report::{print_json, GridReport, Seconds, SourceReport, VolumeReport};
-use anyhow::Result;
-use isogrid::GridStats;
+use crate::args::{parse_labels_or_names, InputArgs};
+use crate::report::{
+    print_json, GridReport, LabelValue, Seconds, SourceReport, VolumeLabelReport, VolumeReport,
+};
+use anyhow::{bail, Context, Result};
+use isogrid::label_census::{label_census, LabelCount};
+use isogrid::labels::{signed_labels, Label};
+use isogrid::{GridStats, LabelSelection};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -19,6 +24,18 @@ pub struct Args {
     /// Print one JSON object instead of a table.
     #[arg(long)]
     pub json: bool,
+    /// Read the volume as labels (as `extract --labels` does: a layered .seg.nrrd's layers, an
+    /// OME-Zarr label image) and list the selected ones (`all`, or values, ranges and names such
+    /// as `1,5-9,liver`) but the background 0: each one's voxels, volume (voxels × the voxel's
+    /// volume, in the spacing's units cubed), box in sample indices, name and colour.
+    #[arg(long, value_name = "all|1,5-9", value_parser = parse_labels_or_names)]
+    pub labels: Option<LabelSelection>,
+    /// With --labels: name and colour the labels from a colour table (as `extract --label-table`).
+    #[arg(long, value_name = "FILE", requires = "labels")]
+    pub label_table: Option<PathBuf>,
+    /// With --labels and an OME-Zarr image: its label image NAME (`FILE/labels/NAME`).
+    #[arg(long, value_name = "NAME", requires = "labels")]
+    pub labels_of: Option<String>,
 }
 
 /// Whether `path` is a `.cgc` file: by its name, or by its first bytes.
@@ -36,7 +53,16 @@ fn is_cgc_file(path: &Path) -> bool {
 
 pub fn run(args: Args) -> Result<()> {
     if !is_cgc_file(&args.file) {
-        return describe_volume(&args);
+        return match &args.labels {
+            Some(selection) => describe_labels(&args, selection),
+            None => describe_volume(&args),
+        };
+    }
+    if args.labels.is_some() {
+        bail!(
+            "{}: --labels lists the labels of a label volume; `isogrid info` lists a .cgc file's labels without it",
+            args.file.display()
+        );
     }
     let start = Instant::now();
     let grid = isogrid::cgc::open(&args.file)?;
@@ -109,11 +135,100 @@ fn describe_volume(args: &Args) -> Result<()> {
         }
     };
     let report = VolumeReport::new(&geometry, scalar_type, range, start.elapsed().as_secs_f64());
+    print_volume_report(args, &geometry, &report)
+}
+
+/// `info VOLUME --labels SELECTION`: the volume's place in the world and its selected labels,
+/// counted in one pass ([`label_census`]), named and coloured as `extract --labels` names them
+/// (the default palette, then the file's names, then the colour table's).
+fn describe_labels(args: &Args, selection: &LabelSelection) -> Result<()> {
+    let path = &args.file;
+    // A malformed table fails before the volume is read, as in `extract`.
+    let table = match &args.label_table {
+        Some(table) => Some(isogrid_io::labels::read_label_table(table)?),
+        None => None,
+    };
+    let options = args.input_args.read_options()?;
+    let start = Instant::now();
+    let (source, _) = crate::input::read_label_volume(path, args.labels_of.as_deref(), &options)?;
+    let selection =
+        isogrid_io::labels::resolve_label_names(selection, &source.names, table.as_deref())
+            .with_context(|| path.display().to_string())?;
+    let first = &source.layers[0].volume;
+    let (geometry, scalar_type) = (*first.geometry(), first.scalar_type());
+    let signed = signed_labels(scalar_type);
+    // Each layer's values but 0 are the file's labels less the layer's offset.
+    let mut counts: Vec<LabelCount> = Vec::new();
+    let mut background = false;
+    for layer in &source.layers {
+        let census = label_census(&layer.volume.view()).map_err(|e| e.with_path(path))?;
+        for count in census {
+            match count.value {
+                0 => background = true,
+                v => counts.push(LabelCount {
+                    value: v.wrapping_add(layer.offset),
+                    ..count
+                }),
+            }
+        }
+    }
+    counts.sort_by_key(|c| c.value);
+    let mut labels: Vec<Label> = counts
+        .iter()
+        .map(|c| Label::default_for(c.value, signed))
+        .collect();
+    isogrid_io::labels::name_labels(&mut labels, &source.names);
+    if let (Some(table), Some(table_path)) = (&table, &args.label_table) {
+        let absent = isogrid_io::labels::name_labels(&mut labels, table);
+        if let Some(notice) =
+            isogrid_io::labels::absent_labels_notice(table_path, &absent, &selection, signed)
+        {
+            eprintln!("isogrid: note: {notice}");
+        }
+    }
+    // The labels' values, the background's among them where a sample holds it.
+    let keys = counts
+        .iter()
+        .map(|c| c.value)
+        .chain(background.then_some(0));
+    let as_value = |k: u64| if signed { k as i64 as f64 } else { k as f64 };
+    let range = keys.map(as_value).fold(None, |r: Option<(f64, f64)>, v| {
+        Some(r.map_or((v, v), |(lo, hi)| (lo.min(v), hi.max(v))))
+    });
+    let voxel = geometry.spacing.iter().product::<f64>();
+    let mut report =
+        VolumeReport::new(&geometry, scalar_type, range, start.elapsed().as_secs_f64());
+    report.labels = Some(
+        counts
+            .iter()
+            .zip(&labels)
+            .filter(|(c, _)| selection.selects(c.value))
+            .map(|(c, label)| VolumeLabelReport {
+                value: LabelValue::of(c.value, signed),
+                name: label.name.clone(),
+                color: label.color_hex(),
+                voxels: c.voxels,
+                volume: c.voxels as f64 * voxel,
+                lo: c.lo,
+                hi: c.hi,
+            })
+            .collect(),
+    );
+    print_volume_report(args, &geometry, &report)
+}
+
+/// Prints `report` of the volume of `geometry` as `args` ask, after the note when its axes are a
+/// mirror image of the world's.
+fn print_volume_report(
+    args: &Args,
+    geometry: &isogrid::Geometry,
+    report: &VolumeReport,
+) -> Result<()> {
     if let Some(note) = geometry.mirrored_note() {
-        eprintln!("isogrid: note: {}: {note}", path.display());
+        eprintln!("isogrid: note: {}: {note}", args.file.display());
     }
     if args.json {
-        print_json(&report)
+        print_json(report)
     } else {
         Ok(report.print_human()?)
     }

@@ -7,6 +7,7 @@ mod cgc;
 mod common;
 mod extract;
 mod heap;
+mod label_census;
 mod label_stream;
 mod labels;
 mod labels_many;
