@@ -96,7 +96,6 @@ __version__: str = _isogrid.__version__
 __all__ = [
     "CellGrid",
     "EmptySurfaceWarning",
-    "MirroredAxesWarning",
     "IsogridError",
     "LabelGrid",
     "Volume",
@@ -137,12 +136,6 @@ def _vulkan_device_select_quieted() -> Iterator[None]:
 class EmptySurfaceWarning(RuntimeWarning):
     """:func:`extract` found no cell that crosses the isovalue, or :func:`extract_labels` no selected
     label with a boundary: the grid, and its surface, are empty."""
-
-
-class MirroredAxesWarning(UserWarning):
-    """:func:`render` draws a grid along its volume's stored axes (index × spacing space), and
-    these axes are a mirror image of the world's (FreeSurfer's LIA, FSL's LAS): the image shows
-    left and right swapped. :func:`marching_cubes` places vertices in world space."""
 
 
 def _warn_if_empty(grid: CellGrid, samples: Optional[np.ndarray] = None) -> None:
@@ -871,9 +864,10 @@ def render(
             and once at the end. If it raises, the render stops within a tile or a frame and the
             exception propagates. Ctrl-C stops the render the same way.
 
-    The grid is drawn along its volume's stored axes, in index × spacing space (directions are
-    not applied); where those axes are a mirror image of the world's (FreeSurfer's LIA, FSL's
-    LAS), a :class:`MirroredAxesWarning` says that left and right appear swapped.
+    The grid is drawn in index × spacing space (the camera's coordinates; directions are not
+    applied); where its axes are a mirror image of the world's (FreeSurfer's LIA, FSL's LAS), the
+    image is mirrored back, so that it shows the world as it lies rather than left and right
+    swapped.
 
     Returns:
         The sRGB image as a uint8 array of shape (H, W, 3); with ``aovs``, ``(image, {name: value})``.
@@ -891,10 +885,6 @@ def render(
         raise ValueError("the value AOV is the grid's attribute, and the grid has none")
     if "label" in names and grid.labels is None:
         raise ValueError("the label AOV needs a label grid (extract with labels=...)")
-    mirrored = _isogrid._mirrored_note(grid)
-    if mirrored is not None:
-        warnings.warn(mirrored, MirroredAxesWarning, stacklevel=_caller_level())
-
     with _vulkan_device_select_quieted():
         out = _isogrid.render(
             grid,

@@ -300,13 +300,6 @@ pub fn _axis_codes(direction: [[f64; 3]; 3], frame: Option<&str>) -> PyResult<Op
     Ok(crate::array::frame_arg(frame)?.axis_codes(&direction))
 }
 
-/// Why images of `grid` show its world mirrored ([`isogrid::GridInfo::mirrored_note`]), the
-/// text of `MirroredAxesWarning`; `None` when they do not.
-#[pyfunction]
-pub fn _mirrored_note(grid: &Bound<'_, CellGrid>) -> Option<String> {
-    grid.get().inner().info().mirrored_note()
-}
-
 /// Gives the `.cgc` file `path` the attribute of the volume file `attribute_path` (read by region
 /// where its format allows, as `isogrid extract --color-by`), or of `array` (an `AttributeArg`),
 /// sampled at each active cell's surface point; the file is rewritten atomically. For

@@ -37,7 +37,6 @@ fn _isogrid(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(grid::_attach_attribute, m)?)?;
     m.add_function(wrap_pyfunction!(grid::_with_attribute, m)?)?;
     m.add_function(wrap_pyfunction!(grid::_empty_surface_note, m)?)?;
-    m.add_function(wrap_pyfunction!(grid::_mirrored_note, m)?)?;
     m.add_function(wrap_pyfunction!(grid::_axis_codes, m)?)?;
     m.add_function(wrap_pyfunction!(mesh::marching_cubes, m)?)?;
     m.add_function(wrap_pyfunction!(mesh::_isosurface_empty_note, m)?)?;

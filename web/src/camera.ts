@@ -1,7 +1,8 @@
 // The native camera conventions (crates/isogrid/src/camera.rs) and the frame uniforms
 // (crates/isogrid-gpu/src/render/uniforms.rs), in f64 as there, so that `?view=N&size=WxH` gives
 // the camera of `isogrid render --view N --size WxH`. World space: sample (i, j, k) at
-// (i·sx, j·sy, k·sz); origin and direction cosines are ignored, as natively.
+// (i·sx, j·sy, k·sz); of the direction cosines only their handedness is taken, as natively: a
+// grid whose axes mirror its world is drawn by mirrored cameras (`Camera::mirrored`).
 
 export type Vec3 = [number, number, number];
 
@@ -12,6 +13,8 @@ export interface Camera {
   fovyDegrees: number;
   width: number;
   height: number;
+  /** Image right is up × forward: the camera of a grid whose axes mirror its world (`directionsMirror`). */
+  mirrored: boolean;
 }
 
 export const PRESET_FOVY = 35;
@@ -33,8 +36,11 @@ function normalize(a: Vec3): Vec3 {
   return s.map((v) => v / n) as Vec3;
 }
 
-/** `Camera::preset`: view 1 from +z, view 2 oblique; both frame the box's bounding sphere. */
-export function presetCamera(view: number, lo: number[], hi: number[], width: number, height: number): Camera {
+/**
+ * `Camera::preset`: view 1 from +z, view 2 oblique; both frame the box's bounding sphere. Mirrored
+ * for a grid whose axes mirror its world, as the native front door's cameras are.
+ */
+export function presetCamera(view: number, lo: number[], hi: number[], width: number, height: number, mirrored = false): Camera {
   const center = [0, 1, 2].map((a) => 0.5 * (lo[a] + hi[a])) as Vec3;
   const d = sub(hi as Vec3, lo as Vec3);
   const radius = 0.5 * Math.max(Math.sqrt(dot(d, d)), 1e-9);
@@ -53,6 +59,7 @@ export function presetCamera(view: number, lo: number[], hi: number[], width: nu
     fovyDegrees: PRESET_FOVY,
     width,
     height,
+    mirrored,
   };
 }
 
@@ -71,17 +78,21 @@ export function widestCellPixels(c: Camera, spacing: number[], [lo, hi]: [number
   return distance <= 0 ? Infinity : (2 * diagonal * focalPixels) / distance;
 }
 
-/** Orthonormal (right, up, forward), `Camera::basis`. */
+/** Orthonormal (right, up, forward): image right, image up, view direction (`Camera::basis`). */
 export function basis(c: Camera): [Vec3, Vec3, Vec3] {
   const forward = normalize(sub(c.target, c.eye));
   const right = normalize(cross(forward, c.up));
   const up = cross(right, forward);
-  return [right, up, forward];
+  return [c.mirrored ? (right.map((v) => -v) as Vec3) : right, up, forward];
 }
 
-/** Orbits the eye around the target by yaw/pitch radians (about world up and image right). */
+/**
+ * Orbits the eye around the target by yaw/pitch radians (about world up and the unmirrored image
+ * right); in a mirrored image the yaw turns the other way, so a drag turns the picture alike.
+ */
 export function orbit(c: Camera, yaw: number, pitch: number): Camera {
-  const [right, , ] = basis(c);
+  const [right] = basis({ ...c, mirrored: false });
+  if (c.mirrored) yaw = -yaw;
   const rot = (v: Vec3, axis: Vec3, ang: number): Vec3 => {
     const k = normalize(axis);
     const cs = Math.cos(ang), sn = Math.sin(ang);

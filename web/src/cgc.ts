@@ -590,36 +590,15 @@ export function parseWorldFrame(bytes: Uint8Array): WorldFrame {
 }
 
 /**
- * The anatomical direction each of the i, j and k axes of `direction` (rows, in `frame`'s
- * coordinates) points closest to, as radiology tools write it ("LIA" for FreeSurfer's conformed
- * volumes): `WorldFrame::axis_codes` of crates/isogrid, checked against its vectors
- * (test/rules.generated.json). A row whose largest components tie takes the last of them.
+ * Whether the i, j, k axes of `direction` (rows) are a mirror image of x, y, z (a negative
+ * determinant): `directions_mirror` of crates/isogrid, checked against its vectors
+ * (test/rules.generated.json). Such a grid is drawn by mirrored cameras, so that the picture shows
+ * its world as it lies rather than left and right swapped.
  */
-export function axisCodes(frame: WorldFrame, direction: number[][]): string {
-  // The letters of +x, +y, +z, then of −x, −y, −z.
-  const letters = frame === 'LPS' ? 'LPSRAI' : 'RASLPI';
-  return direction
-    .map((row) => {
-      let axis = 0;
-      for (let a = 1; a < 3; a++) if (Math.abs(row[a]) >= Math.abs(row[axis])) axis = a;
-      return letters[axis + (row[axis] < 0 ? 3 : 0)];
-    })
-    .join('');
-}
-
-/**
- * Why the picture shows the file's world mirrored, when it does: the viewer draws along the stored
- * axes (index × spacing), and these axes are a mirror image of the world's (a negative
- * determinant). `mirrored_axes_note` of crates/isogrid, word for word (test/rules.generated.json).
- */
-export function mirroredAxesNote(direction: number[][], frame: WorldFrame | null): string | null {
+export function directionsMirror(direction: number[][]): boolean {
   const [a, b, c] = direction;
   const det = a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0]) + a[2] * (b[0] * c[1] - b[1] * c[0]);
-  if (!(det < 0)) return null;
-  const axes = frame
-    ? `its axes run ${axisCodes(frame, direction)}, a mirror image of ${frame}, so images, drawn along the stored axes rather than in patient space, show left and right swapped`
-    : "its axes' directions are a mirror image of its world's x, y and z, so images, drawn along the stored axes, show its world mirrored";
-  return `${axes}; \`isogrid mc\` writes the surface in world space`;
+  return det < 0;
 }
 
 // ---- The cell attribute (kind 4; crates/isogrid/src/attribute.rs) ----

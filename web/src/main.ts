@@ -11,7 +11,7 @@
 // `pagebytes=N` (pages of at most N bytes instead of the storage binding limit: tests paging).
 
 import {
-  AttributeInfo, CgcError, CgcHeader, CodeMapping, GridLabels, codeMapping, codesOf, emptySurfaceNote, labelText, mirroredAxesNote, WorldFrame, worldBounds,
+  AttributeInfo, CgcError, CgcHeader, CodeMapping, GridLabels, codeMapping, codesOf, directionsMirror, emptySurfaceNote, labelText, worldBounds,
 } from './cgc.js';
 import {
   COLOR_LABELS, COLOR_RECORDS, MAP_NAMES, labelColorWords, colorUniforms, defaultClim, hiddenClusters, mapTable, parseClim,
@@ -159,8 +159,6 @@ let context2d: CanvasRenderingContext2D | null = null;
 let renderer: Renderer | null = null;
 let rendererReady = false;
 let header: CgcHeader | null = null;
-/** The convention of the header's origin and directions, once its section is in (null: unknown). */
-let frame: WorldFrame | null = null;
 let camera: Camera | null = null;
 let view = params.get('view') === '1' ? 1 : 2;
 const fixedSize = parseSize(params.get('size'));
@@ -201,12 +199,15 @@ function canvasSize(): [number, number] {
   return [Math.max(1, Math.round(r.width * dpr)), Math.max(1, Math.round(r.height * dpr))];
 }
 
-/** The current view's camera framing world box [lo, hi] (default: the grid's bounds). */
+/**
+ * The current view's camera framing world box [lo, hi] (default: the grid's bounds), mirrored
+ * where the grid's axes mirror its world, so that it shows the world as it lies.
+ */
 function resetCamera(box: [number[], number[]] | null = null): void {
   if (!header) return;
   const [w, h] = canvasSize();
   const [lo, hi] = box ?? worldBounds(header);
-  camera = presetCamera(view, lo, hi, w, h);
+  camera = presetCamera(view, lo, hi, w, h, directionsMirror(header.direction));
   requestFrame();
 }
 
@@ -369,7 +370,6 @@ async function load(src: ByteSource): Promise<void> {
     await streamCgc(src, {
       header(h) {
         header = h;
-        frame = null;
         const [lo, hi] = worldBounds(h);
         renderer = new Renderer(device!, { precisionBits: h.precisionBits, spacing: h.spacing, isoCode: h.isoCode, bounds: [lo, hi], slotCount: h.slotCount, activeCells: h.activeCells, labelGrid: h.labels !== null }, params.get('ewa') !== '0', true, cellRasterParam, Number(params.get('pagebytes')) || undefined);
         stats.headerAt = performance.now();
@@ -412,9 +412,6 @@ async function load(src: ByteSource): Promise<void> {
         l.table.forEach((label, i) => hide.has(labelText(label.value, header!.scalarType)) && hiddenLabels.add(i));
         applyHidden();
       },
-      worldFrame(f) {
-        frame = f;
-      },
       borderOutside(outside) {
         renderer!.setBorderOutside(outside);
         stats.backfaceCulling = outside;
@@ -430,14 +427,10 @@ async function load(src: ByteSource): Promise<void> {
       },
     });
     stats.completeAt = performance.now();
-    // An empty surface draws nothing: say why, as the command line's note does. Axes that
-    // mirror the world draw it mirrored: say so, as `isogrid render` and `view` do.
-    const mirrored = header && mirroredAxesNote(header.direction, frame);
+    // An empty surface draws nothing: say why, as the command line's note does.
     if (header && header.activeCells === 0) {
       const values = header.labels ? (labels?.table ?? []).map((l) => l.value) : null;
       showMessage(`${src.name}: ${emptySurfaceNote(header, values)}`, true);
-    } else if (mirrored) {
-      showMessage(`${src.name}: ${mirrored}`, true);
     }
     // Where a packed file was rebuilt ('worker' or 'page'; packed-client.ts).
     if ('thread' in given) stats.rebuildThread = (given as PackedSource).thread;

@@ -180,27 +180,34 @@ export function precisionSphereFile(bits, size = 24) {
 }
 
 /**
- * A ball in patient space: an n³ u8 NRRD in RAS whose first axis runs to the left (axes LAS, a
- * mirror image of RAS), extracted by the binary, so the .cgc has a world frame section; or null.
+ * A ball with a bump towards the first axis's high end, in patient space: an n³ u8 NRRD in RAS
+ * whose first axis runs to the left (axes LAS, a mirror image of RAS), extracted by the binary, so
+ * the .cgc has a world frame section; or null. With `twin`, the same world stored the other way
+ * round: the samples flipped along the first axis, which then runs to the right (axes RAS).
  */
-export function placedSphereFile(n = 24) {
+export function placedSphereFile(n = 24, twin = false) {
   const bin = isogridBinary();
   if (!bin) return null;
   const dir = binaryDir(bin);
-  const cgc = join(dir, `placed${n}.cgc`);
+  const name = `placed${n}${twin ? '-ras' : ''}`;
+  const cgc = join(dir, `${name}.cgc`);
   if (!existsSync(cgc)) {
     const samples = new Uint8Array(n * n * n);
     const c = (n - 1) / 2;
     for (let z = 0; z < n; z++) {
       for (let y = 0; y < n; y++) {
-        for (let x = 0; x < n; x++) samples[x + n * (y + n * z)] = Math.hypot(x - c, y - c, z - c) < 0.35 * n ? 200 : 0;
+        for (let x = 0; x < n; x++) {
+          const ball = Math.hypot(x - c, y - c, z - c) < 0.3 * n;
+          const bump = Math.hypot(x - 0.8 * n, y - 0.6 * n, z - c) < 0.12 * n;
+          samples[(twin ? n - 1 - x : x) + n * (y + n * z)] = ball || bump ? 200 : 0;
+        }
       }
     }
     const header = [
       'NRRD0004', 'type: uint8', 'dimension: 3', `sizes: ${n} ${n} ${n}`, 'space: right-anterior-superior',
-      'space directions: (-1,0,0) (0,1,0) (0,0,1)', 'space origin: (10,-20,30)', 'encoding: raw', '', '',
+      `space directions: (${twin ? 1 : -1},0,0) (0,1,0) (0,0,1)`, `space origin: (${twin ? 10 - (n - 1) : 10},-20,30)`, 'encoding: raw', '', '',
     ].join('\n');
-    const nrrd = join(dir, `placed${n}.nrrd`);
+    const nrrd = join(dir, `${name}.nrrd`);
     writeFileSync(nrrd, Buffer.concat([Buffer.from(header), Buffer.from(samples)]));
     execFileSync(bin, ['extract', nrrd, '--iso', '100', '-o', cgc], { stdio: 'ignore' });
   }

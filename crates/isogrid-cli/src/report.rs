@@ -23,14 +23,6 @@ pub fn note_if_empty(source: &Path, grid: &CellGrid, volume: Option<&Volume>) {
     );
 }
 
-/// One line on stderr when images of a grid from `source` show its world mirrored
-/// ([`isogrid::GridInfo::mirrored_note`]): the renderers draw along the stored axes.
-pub fn note_if_mirrored(source: &Path, info: &isogrid::GridInfo) {
-    if let Some(note) = info.mirrored_note() {
-        eprintln!("isogrid: note: {}: {note}", source.display());
-    }
-}
-
 /// [`note_if_empty`] from a grid's header, cell count and label table (a streamed grid is never
 /// in memory). `all_nan` says whether the volume has no finite sample; asked only for an empty
 /// isosurface.

@@ -22,7 +22,12 @@ pub fn render(
     // Checked before anything is uploaded or traced.
     let shown = shown_labels(request, grid)?;
     let grid = shown.as_ref().unwrap_or(grid);
-    let camera = request.camera(grid.info().world_bounds(), grid.surface_bounds())?;
+    let info = grid.info();
+    let camera = request.camera(
+        info.world_bounds(),
+        grid.surface_bounds(),
+        info.mirrors_world(),
+    )?;
     let mut rendered = match placement {
         Placement::Cpu => crate::cpu::render(request, grid, &camera, progress),
         Placement::Gpu => {

@@ -240,10 +240,18 @@ impl RenderRequest {
 
     /// The camera for a grid whose box is `grid_box` and whose surface's is `surface_box` (in
     /// the renderers' frame, index × spacing; `None` for an empty surface): standard views frame
-    /// one of the two.
-    pub fn camera(&self, grid_box: Box3, surface_box: Option<Box3>) -> Result<Camera> {
+    /// one of the two. `mirrored`: the grid's axes mirror its world
+    /// ([`isogrid::GridInfo::mirrors_world`]), and the camera is mirrored so that its image shows
+    /// the world as it lies.
+    pub fn camera(
+        &self,
+        grid_box: Box3,
+        surface_box: Option<Box3>,
+        mirrored: bool,
+    ) -> Result<Camera> {
         let (w, h) = self.parts.size;
-        self.parts.camera.resolve(grid_box, surface_box, w, h)
+        let camera = self.parts.camera.resolve(grid_box, surface_box, w, h)?;
+        Ok(camera.with_mirror(mirrored))
     }
 }
 
@@ -279,6 +287,7 @@ impl CameraSpec {
                     fovy_degrees,
                     width,
                     height,
+                    mirrored: false,
                 };
                 camera.validate()?;
                 Ok(camera)

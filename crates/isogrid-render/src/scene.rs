@@ -28,6 +28,8 @@ pub struct UploadedScene<'r> {
     renderer: &'r Renderer,
     /// The input's world box: standard views ([`crate::CameraSpec::View`]) frame it.
     world_bounds: ([f64; 3], [f64; 3]),
+    /// The input's axes mirror its world: its cameras are mirrored ([`GridInfo::mirrors_world`]).
+    mirrored: bool,
     /// The shown grid's surface box ([`CellGrid::surface_bounds`]): surface views frame it.
     surface_bounds: Option<([f64; 3], [f64; 3])>,
     grid: Option<GpuGrid>,
@@ -67,6 +69,7 @@ impl<'r> UploadedScene<'r> {
         UploadedScene {
             renderer,
             world_bounds: info.world_bounds(),
+            mirrored: info.mirrors_world(),
             surface_bounds: None,
             grid: None,
             attribute: None,
@@ -190,7 +193,7 @@ impl<'r> UploadedScene<'r> {
     ) -> Result<Rendered> {
         let parts = request.parts();
         let mode = parts.mode;
-        let camera = request.camera(self.world_bounds, self.surface_bounds)?;
+        let camera = request.camera(self.world_bounds, self.surface_bounds, self.mirrored)?;
         if !self.can_draw(mode) {
             return Err(Error::invalid(format!(
                 "mode {mode} has nothing uploaded to draw{}",

@@ -21,8 +21,9 @@ pub struct SourceInfo {
     pub grid_info: Option<GridInfo>,
     /// The name of a `.cgc` file's per-cell attribute, when it has one.
     pub attribute: Option<String>,
-    /// Why the view shows the source's world mirrored (`Geometry::mirrored_note`), when it does.
-    pub mirrored_note: Option<String>,
+    /// The source's axes mirror its world (`isogrid::directions_mirror`): the view is drawn by
+    /// mirrored cameras, which show the world as it lies.
+    pub mirrored: bool,
 }
 
 impl SourceInfo {

@@ -237,7 +237,7 @@ impl Worker {
                     value_range: range,
                     grid_info: None,
                     attribute: None,
-                    mirrored_note: volume.geometry().mirrored_note(),
+                    mirrored: isogrid::directions_mirror(&volume.geometry().direction),
                 };
                 self.notify.send(Event::Opened {
                     generation: request.generation,
@@ -262,7 +262,7 @@ impl Worker {
                         spacing: info.spacing,
                         scalar_type: info.scalar_type,
                         value_range: Some((info.value_range[0], info.value_range[1])),
-                        mirrored_note: info.mirrored_note(),
+                        mirrored: info.mirrors_world(),
                         grid_info: Some(info),
                         attribute: grid.attribute().map(|a| a.info().name.clone()),
                     },
@@ -354,7 +354,7 @@ impl Worker {
                 spacing: info.spacing,
                 scalar_type: info.scalar_type,
                 value_range: Some((info.value_range[0], info.value_range[1])),
-                mirrored_note: info.mirrored_note(),
+                mirrored: info.mirrors_world(),
                 grid_info: Some(info),
                 attribute: grid.attribute().map(|a| a.info().name.clone()),
             },

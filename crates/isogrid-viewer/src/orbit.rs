@@ -26,6 +26,8 @@ pub struct Orbit {
     pub fovy_degrees: f64,
     /// Radius of the scene's bounding sphere: bounds zoom and scales panning before any view.
     pub scene_radius: f64,
+    /// The scene's axes mirror its world: the image is mirrored back ([`Camera::mirrored`]).
+    pub mirrored: bool,
 }
 
 impl Orbit {
@@ -46,13 +48,24 @@ impl Orbit {
             pitch,
             fovy_degrees: camera.fovy_degrees,
             scene_radius: scene_radius.max(1e-9),
+            mirrored: camera.mirrored,
         }
     }
 
-    /// `Camera::preset(view, lo, hi, ..)` as an orbit; the image size does not matter except
-    /// through the aspect ratio the preset frames for.
-    pub fn preset(view: u8, lo: [f64; 3], hi: [f64; 3], width: u32, height: u32) -> Option<Orbit> {
-        let camera = Camera::preset(view, lo, hi, width.max(1), height.max(1)).ok()?;
+    /// `Camera::preset(view, lo, hi, ..)` as an orbit, mirrored for a scene whose axes mirror its
+    /// world; the image size does not matter except through the aspect ratio the preset frames
+    /// for.
+    pub fn preset(
+        view: u8,
+        lo: [f64; 3],
+        hi: [f64; 3],
+        width: u32,
+        height: u32,
+        mirrored: bool,
+    ) -> Option<Orbit> {
+        let camera = Camera::preset(view, lo, hi, width.max(1), height.max(1))
+            .ok()?
+            .with_mirror(mirrored);
         let d = [0, 1, 2].map(|a| hi[a] - lo[a]);
         let radius = 0.5 * (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
         Some(Orbit::from_camera(&camera, radius))
@@ -70,12 +83,15 @@ impl Orbit {
             fovy_degrees: self.fovy_degrees,
             width,
             height,
+            mirrored: self.mirrored,
         }
     }
 
     /// Turntable rotation by a drag of (dx, dy) points: right drag turns the object right,
-    /// down drag tilts it towards the viewer.
+    /// down drag tilts it towards the viewer (in a mirrored image too, where the yaw that does
+    /// so turns the other way).
     pub fn rotate(&mut self, dx: f64, dy: f64) {
+        let dx = if self.mirrored { -dx } else { dx };
         self.yaw -= dx * ROTATE_PER_POINT;
         self.pitch = (self.pitch + dy * ROTATE_PER_POINT).clamp(-MAX_PITCH, MAX_PITCH);
         self.yaw = self.yaw.rem_euclid(std::f64::consts::TAU);
@@ -110,6 +126,7 @@ impl Default for Orbit {
             pitch: 0.0,
             fovy_degrees: PRESET_FOVY,
             scene_radius: 1.0,
+            mirrored: false,
         }
     }
 }
@@ -127,7 +144,7 @@ mod tests {
         let (lo, hi) = ([0.0; 3], [63.0, 40.0, 80.0]);
         for view in [1, 2] {
             let preset = Camera::preset(view, lo, hi, 320, 200).unwrap();
-            let camera = Orbit::preset(view, lo, hi, 320, 200)
+            let camera = Orbit::preset(view, lo, hi, 320, 200, false)
                 .unwrap()
                 .camera(320, 200);
             assert!(
@@ -144,7 +161,7 @@ mod tests {
 
     #[test]
     fn rotation_keeps_distance_and_never_reaches_the_pole() {
-        let mut orbit = Orbit::preset(2, [0.0; 3], [10.0; 3], 100, 100).unwrap();
+        let mut orbit = Orbit::preset(2, [0.0; 3], [10.0; 3], 100, 100, false).unwrap();
         let d0 = orbit.distance;
         orbit.rotate(123.0, 1e6);
         let c = orbit.camera(100, 100);
@@ -159,7 +176,7 @@ mod tests {
 
     #[test]
     fn pan_moves_the_target_in_the_view_plane_only() {
-        let mut orbit = Orbit::preset(1, [0.0; 3], [10.0; 3], 100, 100).unwrap();
+        let mut orbit = Orbit::preset(1, [0.0; 3], [10.0; 3], 100, 100, false).unwrap();
         let before = orbit.target;
         orbit.pan(10.0, 0.0, 100.0);
         // View 1 looks down −z with +x to the right: a rightward drag moves the target to −x.
@@ -168,9 +185,37 @@ mod tests {
         assert!((orbit.target[2] - before[2]).abs() < 1e-12);
     }
 
+    /// Image x of world point `p` (right of centre positive), as the camera draws it.
+    fn image_x(camera: &Camera, p: [f64; 3]) -> f64 {
+        let (right, _, forward) = camera.basis();
+        let d = [0, 1, 2].map(|a| p[a] - camera.eye[a]);
+        let dot = |u: [f64; 3]| (0..3).map(|a| u[a] * d[a]).sum::<f64>();
+        dot(right) / dot(forward)
+    }
+
+    #[test]
+    fn drags_move_the_picture_alike_whether_or_not_it_is_mirrored() {
+        for mirrored in [false, true] {
+            // A right drag turns the object right: its near side moves right in the picture.
+            let mut orbit = Orbit::preset(1, [0.0; 3], [10.0; 3], 100, 100, mirrored).unwrap();
+            let near = [orbit.target[0], orbit.target[1], orbit.target[2] + 4.0];
+            let before = image_x(&orbit.camera(100, 100), near);
+            orbit.rotate(20.0, 0.0);
+            let after = image_x(&orbit.camera(100, 100), near);
+            assert!(after > before, "mirrored {mirrored}: {before} → {after}");
+            // A right drag pans the picture right: the point under the cursor follows it.
+            let mut orbit = Orbit::preset(1, [0.0; 3], [10.0; 3], 100, 100, mirrored).unwrap();
+            let point = orbit.target;
+            let before = image_x(&orbit.camera(100, 100), point);
+            orbit.pan(10.0, 0.0, 100.0);
+            let after = image_x(&orbit.camera(100, 100), point);
+            assert!(after > before, "mirrored {mirrored}: {before} → {after}");
+        }
+    }
+
     #[test]
     fn zoom_is_bounded_by_the_scene_size() {
-        let mut orbit = Orbit::preset(1, [0.0; 3], [10.0; 3], 100, 100).unwrap();
+        let mut orbit = Orbit::preset(1, [0.0; 3], [10.0; 3], 100, 100, false).unwrap();
         orbit.zoom(1e9);
         assert!(orbit.distance >= orbit.scene_radius * 0.02 * (1.0 - 1e-12));
         orbit.zoom(-1e9);

@@ -2,9 +2,16 @@
 //! so that their images and AOVs line up pixel for pixel.
 //!
 //! World space: sample (i, j, k) sits at (i·sx, j·sy, k·sz) with the volume's spacing; origin and
-//! direction cosines are ignored for rendering. Perspective projection with a vertical field of
+//! direction cosines are not applied (of the directions only their handedness counts, below). Perspective projection with a vertical field of
 //! view; pixel (0, 0) is the top-left; one ray passes through the centre of each pixel. Image right
 //! is `forward × up` and image up is the camera's up, made orthogonal to the view direction.
+//!
+//! A grid whose axes are a mirror image of its world's (a negative determinant of its directions,
+//! as FreeSurfer's LIA and FSL's LAS volumes have) drawn so would show its world mirrored: left and
+//! right swapped. Its cameras are [`Camera::mirrored`]: image right is `up × forward`, so the picture
+//! is the mirror image of the index × spacing drawing, which is the world as it lies, seen from
+//! the camera's mirror point. Every renderer takes the image axes from [`Camera::basis`], so all
+//! of them (and their AOVs, and the lights, which are fixed in the image) follow.
 
 use crate::error::{Error, Result};
 
@@ -25,6 +32,9 @@ pub struct Camera {
     pub fovy_degrees: f64,
     pub width: u32,
     pub height: u32,
+    /// Image right is `up × forward` rather than `forward × up`: the camera of a grid whose axes
+    /// mirror its world (`crate::directions_mirror`), which it then shows as it lies.
+    pub mirrored: bool,
 }
 
 pub(crate) fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
@@ -93,6 +103,7 @@ impl Camera {
             fovy_degrees: PRESET_FOVY,
             width,
             height,
+            mirrored: false,
         })
     }
 
@@ -129,6 +140,7 @@ impl Camera {
             fovy_degrees: fovy,
             width,
             height,
+            mirrored: false,
         };
         camera.validate()?;
         Ok(camera)
@@ -170,12 +182,24 @@ impl Camera {
         Ok(())
     }
 
-    /// Orthonormal (right, up, forward) of the view.
+    /// Orthonormal (right, up, forward) of the view: image right, image up and the view
+    /// direction (right-handed, or left-handed when [`Camera::mirrored`]).
     pub fn basis(&self) -> ([f64; 3], [f64; 3], [f64; 3]) {
         let forward = normalize(sub(self.target, self.eye));
         let right = normalize(cross(forward, self.up));
         let up = cross(right, forward);
+        let right = if self.mirrored {
+            right.map(|c| -c)
+        } else {
+            right
+        };
         (right, up, forward)
+    }
+
+    /// This camera, its image mirrored when `mirrored` (the camera of a grid whose axes are a
+    /// mirror image of its world's).
+    pub fn with_mirror(self, mirrored: bool) -> Camera {
+        Camera { mirrored, ..self }
     }
 
     /// The ray through the centre of pixel (x, y), (0, 0) being the top-left.
@@ -211,6 +235,7 @@ mod tests {
             fovy_degrees: 90.0,
             width: 2,
             height: 2,
+            mirrored: false,
         };
         let r = cam.ray_at(1.0, 1.0);
         assert!((r.direction[2] + 1.0).abs() < 1e-12);

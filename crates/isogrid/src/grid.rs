@@ -72,10 +72,11 @@ impl GridInfo {
         self.block_dims().iter().map(|&n| n as usize).product()
     }
 
-    /// Why images of this grid show its world mirrored, when they do
-    /// ([`crate::volume::mirrored_axes_note`]).
-    pub fn mirrored_note(&self) -> Option<String> {
-        crate::volume::mirrored_axes_note(&self.direction, self.frame)
+    /// Whether the grid's axes are a mirror image of its world's
+    /// ([`crate::volume::directions_mirror`]): its images are then drawn by mirrored cameras
+    /// ([`crate::Camera::mirrored`]), so that they show the world as it lies.
+    pub fn mirrors_world(&self) -> bool {
+        crate::volume::directions_mirror(&self.direction)
     }
 
     /// Why a surface of this header has no active cell, as the one line the front doors show for

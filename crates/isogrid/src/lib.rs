@@ -65,6 +65,6 @@ pub use progress::Progress;
 pub use quantize::ValueMapping;
 pub use stats::GridStats;
 pub use volume::{
-    directions_mirror, mirrored_axes_note, Geometry, Samples, Scalar, ScalarType, Volume,
-    VolumeData, VolumeView, WorldFrame, MAX_DIM,
+    directions_mirror, Geometry, Samples, Scalar, ScalarType, Volume, VolumeData, VolumeView,
+    WorldFrame, MAX_DIM,
 };

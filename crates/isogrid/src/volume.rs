@@ -308,32 +308,9 @@ impl WorldFrame {
     }
 }
 
-/// Why images of a volume of these axes (direction rows, in `frame`) show its world mirrored,
-/// when they do: renderers draw along the stored axes, in index × spacing space, and these axes
-/// are a mirror image of the world's ([`directions_mirror`]), as in FreeSurfer's LIA volumes and
-/// FSL's LAS ones. One line for the user, naming what writes world space instead.
-pub fn mirrored_axes_note(direction: &[[f64; 3]; 3], frame: WorldFrame) -> Option<String> {
-    if !directions_mirror(direction) {
-        return None;
-    }
-    let axes = match frame.axis_codes(direction) {
-        Some(codes) => format!(
-            "its axes run {codes}, a mirror image of {}, so images, drawn along the stored axes \
-             rather than in patient space, show left and right swapped",
-            frame.name()
-        ),
-        None => "its axes' directions are a mirror image of its world's x, y and z, so images, \
-                 drawn along the stored axes, show its world mirrored"
-            .to_string(),
-    };
-    Some(format!(
-        "{axes}; `isogrid mc` writes the surface in world space"
-    ))
-}
-
 /// Whether the i, j, k axes of `direction` (rows) are a mirror image of x, y, z (a negative
 /// determinant, as when one axis is flipped): a volume stored so, drawn in index × spacing
-/// space, shows its world mirrored.
+/// space, would show its world mirrored, so its cameras are mirrored ([`crate::Camera::mirrored`]).
 pub fn directions_mirror(direction: &[[f64; 3]; 3]) -> bool {
     let d = direction;
     let det = d[0][0] * (d[1][1] * d[2][2] - d[1][2] * d[2][1])
@@ -351,19 +328,14 @@ pub struct Geometry {
     pub spacing: [f64; 3],
     /// Physical position of sample (0, 0, 0).
     pub origin: [f64; 3],
-    /// Rows: world direction of the i, j, k axes. Metadata only; rendering ignores it.
+    /// Rows: world direction of the i, j, k axes. Renderers draw in index × spacing space and take
+    /// only its handedness ([`directions_mirror`]).
     pub direction: [[f64; 3]; 3],
     /// The convention of `origin` and `direction`.
     pub frame: WorldFrame,
 }
 
 impl Geometry {
-    /// Why images of this volume show its world mirrored, when they do
-    /// ([`mirrored_axes_note`]).
-    pub fn mirrored_note(&self) -> Option<String> {
-        mirrored_axes_note(&self.direction, self.frame)
-    }
-
     pub fn new(dims: [usize; 3]) -> Self {
         Geometry {
             dims,

@@ -68,7 +68,6 @@ pub fn run(args: Args) -> Result<()> {
     let grid = isogrid::cgc::open(&args.file)?;
     let read = start.elapsed().as_secs_f64();
     crate::report::note_if_empty(&args.file, &grid, None);
-    crate::report::note_if_mirrored(&args.file, grid.info());
     let report = GridReport {
         opened_file: true,
         source: Some(SourceReport::new(grid.info())),
@@ -135,7 +134,7 @@ fn describe_volume(args: &Args) -> Result<()> {
         }
     };
     let report = VolumeReport::new(&geometry, scalar_type, range, start.elapsed().as_secs_f64());
-    print_volume_report(args, &geometry, &report)
+    print_volume_report(args, &report)
 }
 
 /// `info VOLUME --labels SELECTION`: the volume's place in the world and its selected labels,
@@ -214,19 +213,11 @@ fn describe_labels(args: &Args, selection: &LabelSelection) -> Result<()> {
             })
             .collect(),
     );
-    print_volume_report(args, &geometry, &report)
+    print_volume_report(args, &report)
 }
 
-/// Prints `report` of the volume of `geometry` as `args` ask, after the note when its axes are a
-/// mirror image of the world's.
-fn print_volume_report(
-    args: &Args,
-    geometry: &isogrid::Geometry,
-    report: &VolumeReport,
-) -> Result<()> {
-    if let Some(note) = geometry.mirrored_note() {
-        eprintln!("isogrid: note: {}: {note}", args.file.display());
-    }
+/// Prints `report` as `args` ask.
+fn print_volume_report(args: &Args, report: &VolumeReport) -> Result<()> {
     if args.json {
         print_json(report)
     } else {

@@ -483,7 +483,6 @@ pub fn run(args: Args) -> Result<()> {
     // The input before the GPU: a bad file or a missing --iso fails without starting a device
     // (whose drivers may print their own lines).
     let (grid, volume) = args.threads.install(|| args.source.load_with_volume())??;
-    crate::report::note_if_mirrored(&args.source.input, grid.info());
     if color_asked(&args) && grid.attribute().is_none() {
         bail!(
             "{}: --cmap, --clim, --colorbar and the value AOV colour by the grid's attribute, and it has none \

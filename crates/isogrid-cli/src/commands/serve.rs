@@ -126,7 +126,6 @@ fn packed_file(
 
 pub fn run(args: Args) -> Result<()> {
     let (file, mut temp, grid) = cgc_file(&args.source)?;
-    crate::report::note_if_mirrored(&args.source.input, grid.info());
     let name = file
         .file_name()
         .and_then(|n| n.to_str())

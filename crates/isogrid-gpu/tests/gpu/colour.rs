@@ -91,6 +91,7 @@ fn gpu_path_tracing_takes_each_surface_colour_as_its_albedo_like_the_cpu() {
         fovy_degrees: 40.0,
         width: size,
         height: size,
+        mirrored: false,
     };
     let cpu = isogrid_trace::render(
         &grid,

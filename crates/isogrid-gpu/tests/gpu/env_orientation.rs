@@ -77,6 +77,7 @@ fn cpu_and_gpu_path_tracers_see_the_environment_map_the_same_way_round() {
         fovy_degrees: 70.0,
         width: size as u32,
         height: size as u32,
+        mirrored: false,
     };
     let (gpu, cpu) = path_trace_on_both(r, &grid, &cam, &map, (samples, bounces, 3));
 

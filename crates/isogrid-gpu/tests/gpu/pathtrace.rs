@@ -249,6 +249,7 @@ fn a_lit_plane_integrates_the_environment_with_cosine_weights() {
         fovy_degrees: 30.0,
         width: 48,
         height: 48,
+        mirrored: false,
     };
     let frames = 8;
     let frame = r
@@ -315,6 +316,7 @@ fn misses_show_the_sky_or_the_environment_map() {
         fovy_degrees: 100.0,
         width: 64,
         height: 48,
+        mirrored: false,
     };
     let sky = r.path_trace(&gpu, &cam, &Default::default()).unwrap();
     let radiance = |d: [f32; 3]| [0.5 + 0.4 * d[0], 0.6 + 0.3 * d[1], 0.7 - 0.5 * d[2]];

@@ -49,8 +49,18 @@ fn consistent_parts_make_a_request() {
         ..RequestParts::default()
     })
     .unwrap();
-    let c = r.camera(([0.0; 3], [1.0; 3]), None).unwrap();
+    let c = r.camera(([0.0; 3], [1.0; 3]), None, false).unwrap();
     assert_eq!((c.width, c.height, c.eye), (20, 10, [0.0, 0.0, 10.0]));
+    assert!(!c.mirrored);
+    // A grid whose axes mirror its world gets the same camera, mirrored.
+    let m = r.camera(([0.0; 3], [1.0; 3]), None, true).unwrap();
+    assert_eq!(
+        m,
+        isogrid::Camera {
+            mirrored: true,
+            ..c
+        }
+    );
     // A standard view frames the grid's box, a surface view the surface's (the grid's when the
     // surface is empty), whichever box is the larger.
     let (grid_box, surface_box) = (([0.0; 3], [40.0; 3]), ([5.0, 6.0, 7.0], [9.0, 8.0, 20.0]));
@@ -68,7 +78,7 @@ fn consistent_parts_make_a_request() {
         })
         .unwrap();
         assert_eq!(
-            r.camera(grid_box, surface).unwrap(),
+            r.camera(grid_box, surface, false).unwrap(),
             preset(framed),
             "{camera:?}"
         );

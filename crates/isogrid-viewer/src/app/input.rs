@@ -10,7 +10,7 @@ impl App {
     pub(super) fn set_view(&mut self, preset: u8, size: [u32; 2]) {
         if let Some(source) = &self.source {
             let (lo, hi) = source.world_bounds();
-            if let Some(orbit) = Orbit::preset(preset, lo, hi, size[0], size[1]) {
+            if let Some(orbit) = Orbit::preset(preset, lo, hi, size[0], size[1], source.mirrored) {
                 self.orbit = orbit;
                 self.has_view = true;
             }

@@ -89,7 +89,9 @@ impl App {
             return;
         };
         let (lo, hi) = list.labels().index()[i].world_box(source.spacing);
-        if let Some(orbit) = Orbit::preset(self.options.view, lo, hi, size[0], size[1]) {
+        if let Some(orbit) =
+            Orbit::preset(self.options.view, lo, hi, size[0], size[1], source.mirrored)
+        {
             self.orbit = orbit;
             self.has_view = true;
         }

@@ -125,7 +125,7 @@ mod tests {
     /// names, whatever the scene's box.
     #[test]
     fn requests_carry_the_orbit_camera_and_mode() {
-        let orbit = crate::orbit::Orbit::preset(2, [0.0; 3], [40.0, 30.0, 20.0], 320, 240)
+        let orbit = crate::orbit::Orbit::preset(2, [0.0; 3], [40.0, 30.0, 20.0], 320, 240, false)
             .expect("a preset view of a box");
         let key = ViewKey {
             camera: orbit.camera(320, 240),
@@ -138,7 +138,7 @@ mod tests {
         assert_eq!(request.mode(), Mode::PathTrace);
         assert_eq!((request.width(), request.height()), (320, 240));
         assert_eq!(request.parts().samples, 1);
-        let camera = request.camera(([-5.0; 3], [99.0; 3]), None).unwrap();
+        let camera = request.camera(([-5.0; 3], [99.0; 3]), None, false).unwrap();
         assert_eq!(camera, key.camera);
     }
 }

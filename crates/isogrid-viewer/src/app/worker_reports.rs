@@ -131,13 +131,6 @@ impl App {
             None => String::new(),
         };
         self.note(format!("opened {}{colour}", info.path.display()), false);
-        if let Some(note) = &info.mirrored_note {
-            // On stdout too in scripted runs, as the empty-surface note.
-            if self.script.is_some() {
-                println!("isogrid view: note: {note}");
-            }
-            self.note(note.clone(), false);
-        }
         self.source = Some(info);
         self.texture = None;
         self.shown = None;

@@ -2,8 +2,8 @@
 //! TypeScript: this test writes `web/src/colormaps.generated.ts` (the colour maps' tables, the NaN
 //! colour and the sRGB → linear decoding, which the viewer uploads as `ColorUniforms` and label
 //! albedos, and the corner precisions its `.cgc` reader accepts) and `web/test/rules.generated.json` (input/output vectors of the attribute code rule,
-//! the default colour range, the empty-surface note and the mirrored-axes note, which the viewer's
-//! own `codes16`, `defaultClim`, `emptySurfaceNote` and `mirroredAxesNote` must reproduce: `web/test/cgc.test.mjs`). It fails while a committed file differs from what
+//! the default colour range, the empty-surface note and whether directions mirror the world, which
+//! the viewer's own `codes16`, `defaultClim`, `emptySurfaceNote` and `directionsMirror` must reproduce: `web/test/cgc.test.mjs`). It fails while a committed file differs from what
 //! `isogrid::colormap` and `isogrid::attribute` give; `ISOGRID_BLESS=1 cargo test -p isogrid --test
 //! it web_tables` rewrites them.
 
@@ -126,11 +126,11 @@ fn rules_json() -> String {
     })
     .collect();
     format!(
-        "{{\n  \"generated_by\": \"crates/isogrid/tests/it/web_tables.rs (ISOGRID_BLESS=1 to rewrite)\",\n  \"codes16\": [\n{}\n  ],\n  \"default_clim\": [\n{}\n  ],\n  \"empty_notes\": [\n{}\n  ],\n  \"mirrored_notes\": [\n{}\n  ]\n}}\n",
+        "{{\n  \"generated_by\": \"crates/isogrid/tests/it/web_tables.rs (ISOGRID_BLESS=1 to rewrite)\",\n  \"codes16\": [\n{}\n  ],\n  \"default_clim\": [\n{}\n  ],\n  \"empty_notes\": [\n{}\n  ],\n  \"mirrored_axes\": [\n{}\n  ]\n}}\n",
         cases.join(",\n"),
         clims.join(",\n"),
         empty_notes().join(",\n"),
-        mirrored_notes().join(",\n")
+        mirrored_axes().join(",\n")
     )
 }
 
@@ -220,15 +220,15 @@ fn empty_notes() -> Vec<String> {
         .collect()
 }
 
-/// Axes and the note `isogrid::mirrored_axes_note` gives for them, which the viewer's
-/// `axisCodes` and `mirroredAxesNote` must reproduce: the standard radiological orientations
-/// (RAS, LAS, LIA, RAI, LPS), an oblique rotation, an oblique mirror whose rows tie between two
-/// axes, and each frame (LPS, RAS, unknown).
-fn mirrored_notes() -> Vec<String> {
-    use isogrid::{mirrored_axes_note, WorldFrame};
+/// Directions and whether `isogrid::directions_mirror` says they mirror the world, which the
+/// viewer's `directionsMirror` must reproduce (it mirrors the camera by it): the standard
+/// radiological orientations (RAS, LAS, LIA, RAI, LPS), an oblique rotation, oblique mirrors, a
+/// degenerate matrix.
+fn mirrored_axes() -> Vec<String> {
+    use isogrid::directions_mirror;
     let h = std::f64::consts::FRAC_1_SQRT_2;
     let (c, s) = (0.8f64, 0.6f64);
-    let directions: [[[f64; 3]; 3]; 8] = [
+    let directions: [[[f64; 3]; 3]; 9] = [
         [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
         [[-1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
         [[-1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]],
@@ -237,23 +237,17 @@ fn mirrored_notes() -> Vec<String> {
         [[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]],
         [[h, h, 0.0], [h, -h, 0.0], [0.0, 0.0, 1.0]],
         [[0.0, 0.0, -1.0], [-h, h, 0.0], [h, h, 0.0]],
+        [[1.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]],
     ];
-    let mut out = Vec::new();
-    for d in directions {
-        for frame in [WorldFrame::Lps, WorldFrame::Ras, WorldFrame::Unknown] {
-            let json_str = |v: Option<String>| v.map_or("null".to_string(), |v| format!("{v:?}"));
-            let frame_name = match frame {
-                WorldFrame::Unknown => "null".to_string(),
-                known => format!("\"{}\"", known.name()),
-            };
-            out.push(format!(
-                "    {{\"direction\": {d:?}, \"frame\": {frame_name}, \"axes\": {}, \"note\": {}}}",
-                json_str(frame.axis_codes(&d)),
-                json_str(mirrored_axes_note(&d, frame)),
-            ));
-        }
-    }
-    out
+    directions
+        .iter()
+        .map(|d| {
+            format!(
+                "    {{\"direction\": {d:?}, \"mirrors\": {}}}",
+                directions_mirror(d)
+            )
+        })
+        .collect()
 }
 
 #[test]
