@@ -4,6 +4,7 @@ when its eight corners are neither all L nor all other labels."""
 
 import json
 import pickle
+import re
 import subprocess
 import warnings
 from pathlib import Path
@@ -806,8 +807,11 @@ def test_info_lists_a_label_volumes_labels_with_voxels_boxes_names_and_colours(c
 
 
 def test_info_labels_refusals(cli, tmp_path):
-    """A float volume that is not labels, and --labels of a .cgc, get one line naming the file and
-    exit 1."""
+    """A float volume that is not labels, --labels of a .cgc, and noise given as labels whose
+    distinct values outgrow the memory allowed (no giant allocation) get one line naming the file
+    and exit 1."""
+    import os
+
     nibabel = pytest.importorskip("nibabel")
     floats = np.zeros((6, 5, 4), np.float32)
     floats[2, 2, 2] = 1.5
@@ -820,3 +824,11 @@ def test_info_labels_refusals(cli, tmp_path):
         lines = run.stderr.strip().splitlines()
         assert len(lines) == 1 and lines[0].startswith(f"isogrid: error: {target}") and message in lines[0], run.stderr
         assert run.stdout == ""
+    noise = tmp_path / "noise.npy"
+    np.save(noise, np.random.default_rng(1).integers(0, 2**32 - 1, size=(64, 64, 64), dtype=np.uint32))
+    run = subprocess.run([cli, "info", noise, "--labels", "all"], capture_output=True, text=True,
+                         env={**os.environ, "ISOGRID_MEMORY_LIMIT": "4M"})
+    assert run.returncode == 1 and run.stdout == "", run
+    # The size counts every thread's table: it depends on the cores.
+    assert re.fullmatch(re.escape(f"isogrid: error: {noise}: counting the volume's labels needs ")
+                        + r"[\d.]+ MiB of memory but ISOGRID_MEMORY_LIMIT is 4\.0 MiB", run.stderr.strip()), run.stderr
