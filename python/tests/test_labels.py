@@ -806,6 +806,31 @@ def test_info_lists_a_label_volumes_labels_with_voxels_boxes_names_and_colours(c
     assert report["value_range"] == [-7, 300]
 
 
+def test_info_labels_of_a_volume_larger_than_the_memory_allowed_are_counted_by_region(cli, tmp_path):
+    """An uncompressed NIfTI of 68 MB of u32 labels (4,046 blocks of supervoxel size) under a 64 MiB
+    memory limit: read slab by slab, each label's voxels are numpy's count and its box the block
+    it fills."""
+    import os
+
+    nibabel = pytest.importorskip("nibabel")
+    x, y, z = np.meshgrid(np.arange(256), np.arange(256), np.arange(260), indexing="ij")
+    labels = (1 + x // 16 + 16 * (y // 16) + 256 * (z // 17)).astype(np.uint32)
+    labels[labels % 97 == 0] = 0  # some blocks are background
+    path = tmp_path / "big.nii"
+    nibabel.save(nibabel.Nifti1Image(labels, np.eye(4)), path)
+    assert path.stat().st_size > 64 << 20
+    run = subprocess.run([cli, "info", path, "--labels", "all", "--json"], capture_output=True, text=True,
+                         env={**os.environ, "ISOGRID_MEMORY_LIMIT": "64M"})
+    assert run.returncode == 0, run.stderr
+    report = json.loads(run.stdout)["labels"]
+    values, counts = np.unique(labels, return_counts=True)
+    assert [(l["value"], l["voxels"]) for l in report] == [(int(v), int(c)) for v, c in zip(values, counts) if v]
+    for l in report[::97]:
+        v = l["value"] - 1
+        lo = [16 * (v % 16), 16 * (v // 16 % 16), 17 * (v // 256)]
+        assert (l["lo"], l["hi"]) == (lo, [lo[0] + 16, lo[1] + 16, min(lo[2] + 17, 260)]), l
+
+
 def test_info_labels_refusals(cli, tmp_path):
     """A float volume that is not labels, --labels of a .cgc, and noise given as labels whose
     distinct values outgrow the memory allowed (no giant allocation) get one line naming the file

@@ -8,7 +8,7 @@
 
 use crate::error::{Error, Result};
 use crate::labels::{check_label_samples, LabelSample};
-use crate::volume::VolumeView;
+use crate::volume::{Samples, VolumeView};
 use rayon::prelude::*;
 use std::collections::HashMap;
 
@@ -33,16 +33,67 @@ const BYTES_PER_LABEL: u64 = 96;
 /// `TooLarge` error when the distinct values would outgrow the memory available (a volume of
 /// noise given as labels).
 pub fn label_census(volume: &VolumeView<'_>) -> Result<Vec<LabelCount>> {
-    let dims = volume.geometry().dims;
-    crate::volume::with_samples!(volume.samples(), s => census(s, dims))
+    let mut census = Census::default();
+    census.add(volume.samples(), volume.geometry().dims, 0)?;
+    Ok(census.into_counts())
 }
 
-fn census<T: LabelSample>(samples: &[T], dims: [usize; 3]) -> Result<Vec<LabelCount>> {
+/// Counts gathered from parts of a volume (whole, or slab by slab as
+/// [`crate::extract::stream::source_label_census`] reads it).
+#[derive(Default)]
+pub(crate) struct Census {
+    counts: HashMap<u64, LabelCount>,
+}
+
+impl Census {
+    /// Adds the samples of planes `z0..` of the volume (`dims`: the part's samples per axis).
+    pub(crate) fn add(&mut self, samples: Samples<'_>, dims: [usize; 3], z0: usize) -> Result<()> {
+        let part = crate::volume::with_samples!(samples, s => census(s, dims, z0))?;
+        let (mut into, from) = if self.counts.len() < part.len() {
+            (part, std::mem::take(&mut self.counts))
+        } else {
+            (std::mem::take(&mut self.counts), part)
+        };
+        for count in from.into_values() {
+            ensure_room(&into, count.value, 1)?;
+            add(&mut into, count);
+        }
+        self.counts = into;
+        Ok(())
+    }
+
+    /// The counts in increasing key order.
+    pub(crate) fn into_counts(self) -> Vec<LabelCount> {
+        let mut counts: Vec<LabelCount> = self.counts.into_values().collect();
+        counts.sort_unstable_by_key(|c| c.value);
+        counts
+    }
+}
+
+/// Fails with a `TooLarge` error when adding `key` to `counts` would grow its table past the
+/// memory available, counting `tables` tables of its size (one per thread while they count).
+fn ensure_room(counts: &HashMap<u64, LabelCount>, key: u64, tables: u64) -> Result<()> {
+    if counts.len() == counts.capacity() && !counts.contains_key(&key) {
+        let room = (counts.capacity().max(8) * 2) as u64;
+        crate::memory::ensure_fits(
+            "counting the volume's labels",
+            room * BYTES_PER_LABEL * tables,
+        )?;
+    }
+    Ok(())
+}
+
+/// The counts of `samples` (planes of a volume of `dims`, the first being plane `z0` of it).
+fn census<T: LabelSample>(
+    samples: &[T],
+    dims: [usize; 3],
+    z0: usize,
+) -> Result<HashMap<u64, LabelCount>> {
     check_label_samples(samples)?;
     let [nx, ny, nz] = dims;
     let threads = rayon::current_num_threads() as u64;
     // Planes in parallel; along a row, a run of one value is one update (labels come in runs).
-    let counts = (0..nz)
+    (0..nz)
         .into_par_iter()
         .try_fold(HashMap::<u64, LabelCount>::new, |mut counts, z| {
             for y in 0..ny {
@@ -54,14 +105,8 @@ fn census<T: LabelSample>(samples: &[T], dims: [usize; 3]) -> Result<Vec<LabelCo
                     while x < nx && row[x].key() == key {
                         x += 1;
                     }
-                    if counts.len() == counts.capacity() && !counts.contains_key(&key) {
-                        let room = (counts.capacity().max(8) * 2) as u64;
-                        crate::memory::ensure_fits(
-                            "counting the volume's labels",
-                            room * BYTES_PER_LABEL * threads,
-                        )?;
-                    }
-                    let [y, z] = [y, z].map(|c| c as u64);
+                    ensure_room(&counts, key, threads)?;
+                    let [y, z] = [y, z0 + z].map(|c| c as u64);
                     add(
                         &mut counts,
                         LabelCount {
@@ -81,10 +126,7 @@ fn census<T: LabelSample>(samples: &[T], dims: [usize; 3]) -> Result<Vec<LabelCo
                 add(&mut into, count);
             }
             Ok(into)
-        })?;
-    let mut counts: Vec<LabelCount> = counts.into_values().collect();
-    counts.sort_unstable_by_key(|c| c.value);
-    Ok(counts)
+        })
 }
 
 /// Adds `count`'s voxels and box to those `counts` holds for its value.

@@ -149,23 +149,52 @@ fn describe_labels(args: &Args, selection: &LabelSelection) -> Result<()> {
     };
     let options = args.input_args.read_options()?;
     let start = Instant::now();
-    let (source, _) = crate::input::read_label_volume(path, args.labels_of.as_deref(), &options)?;
-    let selection =
-        isogrid_io::labels::resolve_label_names(selection, &source.names, table.as_deref())
-            .with_context(|| path.display().to_string())?;
-    let first = &source.layers[0].volume;
-    let (geometry, scalar_type) = (*first.geometry(), first.scalar_type());
+    // By region within a quarter of the memory where the format allows (a connectomics volume
+    // need not fit), else whole: each layer's census with the offset of its values.
+    let (geometry, scalar_type, censuses, names) =
+        match isogrid_io::labels::open_label_region(path, args.labels_of.as_deref(), &options)? {
+            Some((mut source, names)) => {
+                let spinner = crate::progress::spinner(format!("reading {}", path.display()));
+                let census = isogrid::extract::stream::source_label_census(
+                    source.as_mut(),
+                    crate::commands::extract::budget(None),
+                    &isogrid::Progress::new(),
+                )
+                .map_err(|e| e.with_path(path))?;
+                spinner.finish_and_clear();
+                let (geometry, scalar_type) = (source.geometry(), source.scalar_type());
+                (geometry, scalar_type, vec![(census, 0)], names)
+            }
+            None => {
+                let (source, _) =
+                    crate::input::read_label_volume(path, args.labels_of.as_deref(), &options)?;
+                let first = &source.layers[0].volume;
+                let mut censuses = Vec::new();
+                for layer in &source.layers {
+                    let census =
+                        label_census(&layer.volume.view()).map_err(|e| e.with_path(path))?;
+                    censuses.push((census, layer.offset));
+                }
+                (
+                    *first.geometry(),
+                    first.scalar_type(),
+                    censuses,
+                    source.names,
+                )
+            }
+        };
+    let selection = isogrid_io::labels::resolve_label_names(selection, &names, table.as_deref())
+        .with_context(|| path.display().to_string())?;
     let signed = signed_labels(scalar_type);
     // Each layer's values but 0 are the file's labels less the layer's offset.
     let mut counts: Vec<LabelCount> = Vec::new();
     let mut background = false;
-    for layer in &source.layers {
-        let census = label_census(&layer.volume.view()).map_err(|e| e.with_path(path))?;
+    for (census, offset) in censuses {
         for count in census {
             match count.value {
                 0 => background = true,
                 v => counts.push(LabelCount {
-                    value: v.wrapping_add(layer.offset),
+                    value: v.wrapping_add(offset),
                     ..count
                 }),
             }
@@ -176,7 +205,7 @@ fn describe_labels(args: &Args, selection: &LabelSelection) -> Result<()> {
         .iter()
         .map(|c| Label::default_for(c.value, signed))
         .collect();
-    isogrid_io::labels::name_labels(&mut labels, &source.names);
+    isogrid_io::labels::name_labels(&mut labels, &names);
     if let (Some(table), Some(table_path)) = (&table, &args.label_table) {
         let absent = isogrid_io::labels::name_labels(&mut labels, table);
         if let Some(notice) =

@@ -453,6 +453,42 @@ pub fn source_value_range(
     max_memory: u64,
     progress: &Progress,
 ) -> Result<Option<(f64, f64)>> {
+    let mut range: Option<(f64, f64)> = None;
+    each_source_slab(source, max_memory, progress, &mut |samples, _| {
+        if let Some((lo, hi)) = samples.value_range() {
+            range = Some(range.map_or((lo, hi), |(a, b)| (a.min(lo), b.max(hi))));
+        }
+        Ok(())
+    })?;
+    Ok(range)
+}
+
+/// Every label value of `source` with its voxel count and box, as
+/// [`crate::label_census::label_census`] gives them of the volume read whole, read slab by slab
+/// as [`source_value_range`] reads them: a connectomics volume need not fit in memory to be
+/// counted.
+pub fn source_label_census(
+    source: &mut dyn RegionSource,
+    max_memory: u64,
+    progress: &Progress,
+) -> Result<Vec<crate::label_census::LabelCount>> {
+    let [nx, ny, _] = source.geometry().dims;
+    let mut census = crate::label_census::Census::default();
+    each_source_slab(source, max_memory, progress, &mut |samples, z| {
+        census.add(samples, [nx, ny, z.len()], z.start)
+    })?;
+    Ok(census.into_counts())
+}
+
+/// Reads every sample of `source` once, in slabs of whole block layers planned within
+/// `max_memory` as [`extract_to_file`] plans its reads, handing each slab's samples and planes to
+/// `take`; counts blocks in `progress` and stops once it is cancelled.
+fn each_source_slab(
+    source: &mut dyn RegionSource,
+    max_memory: u64,
+    progress: &Progress,
+    take: &mut dyn FnMut(Samples<'_>, Range<usize>) -> Result<()>,
+) -> Result<()> {
     let plan = plan(source, max_memory)?;
     let geometry = source.geometry();
     geometry.validate(geometry.sample_count())?;
@@ -464,15 +500,15 @@ pub fn source_value_range(
         held: None,
     };
     match run.source.scalar_type() {
-        ScalarType::U8 => run.value_range::<u8>(&mut Vec::new()),
-        ScalarType::U16 => run.value_range::<u16>(&mut Vec::new()),
-        ScalarType::I16 => run.value_range::<i16>(&mut Vec::new()),
-        ScalarType::F32 => run.value_range::<f32>(&mut Vec::new()),
-        ScalarType::U32 => run.value_range::<u32>(&mut Vec::new()),
-        ScalarType::I32 => run.value_range::<i32>(&mut Vec::new()),
-        ScalarType::U64 => run.value_range::<u64>(&mut Vec::new()),
-        ScalarType::I64 => run.value_range::<i64>(&mut Vec::new()),
-        ScalarType::F64 => run.value_range::<f64>(&mut Vec::new()),
+        ScalarType::U8 => run.each_slab::<u8>(&mut Vec::new(), take),
+        ScalarType::U16 => run.each_slab::<u16>(&mut Vec::new(), take),
+        ScalarType::I16 => run.each_slab::<i16>(&mut Vec::new(), take),
+        ScalarType::F32 => run.each_slab::<f32>(&mut Vec::new(), take),
+        ScalarType::U32 => run.each_slab::<u32>(&mut Vec::new(), take),
+        ScalarType::I32 => run.each_slab::<i32>(&mut Vec::new(), take),
+        ScalarType::U64 => run.each_slab::<u64>(&mut Vec::new(), take),
+        ScalarType::I64 => run.each_slab::<i64>(&mut Vec::new(), take),
+        ScalarType::F64 => run.each_slab::<f64>(&mut Vec::new(), take),
     }
 }
 
@@ -597,17 +633,31 @@ impl<'a> Run<'a> {
     /// NaN-free (min, max) over all samples, `None` without one: the in-memory `value_range`.
     /// Counts a block in `progress` once the planes it reads are all read.
     fn value_range<T: SlabScalar>(&mut self, buffer: &mut Vec<T>) -> Result<Option<(f64, f64)>> {
+        let mut range: Option<(f64, f64)> = None;
+        self.each_slab(buffer, |samples, _| {
+            if let Some((lo, hi)) = samples.value_range() {
+                range = Some(range.map_or((lo, hi), |(a, b)| (a.min(lo), b.max(hi))));
+            }
+            Ok(())
+        })?;
+        Ok(range)
+    }
+
+    /// Reads the volume in slabs of whole block layers that do not overlap (every sample once)
+    /// and hands each to `take` with its planes, counting its blocks in the progress.
+    fn each_slab<T: SlabScalar>(
+        &mut self,
+        buffer: &mut Vec<T>,
+        mut take: impl FnMut(Samples<'_>, Range<usize>) -> Result<()>,
+    ) -> Result<()> {
         let nz = self.geometry.dims[2];
         let [nbx, nby, nbz] = self.geometry.cell_dims().map(|c| c.div_ceil(BLOCK_CELLS));
         let step = BLOCK_CELLS * self.plan.slab_layers + 1;
-        let mut range: Option<(f64, f64)> = None;
         let mut layers_done = 0;
         for z0 in (0..nz).step_by(step) {
             let z = z0..(z0 + step).min(nz);
             self.read(z.clone(), buffer, None)?;
-            if let Some((lo, hi)) = T::samples(buffer).value_range() {
-                range = Some(range.map_or((lo, hi), |(a, b)| (a.min(lo), b.max(hi))));
-            }
+            take(T::samples(buffer), z.clone())?;
             // Layer b reads planes 16·b ..= 16·b + 16.
             let layers = if z.end == nz {
                 nbz
@@ -618,7 +668,7 @@ impl<'a> Run<'a> {
                 .advance(((layers - layers_done) * nbx * nby) as u64);
             layers_done = layers;
         }
-        Ok(range)
+        Ok(())
     }
 
     fn extract<T: SlabScalar>(

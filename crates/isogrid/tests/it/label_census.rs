@@ -102,3 +102,32 @@ fn a_float_volume_that_is_not_labels_is_refused() {
     assert_eq!(e.kind(), ErrorKind::InvalidInput);
     assert!(e.to_string().contains("holds 2.5"), "{e}");
 }
+
+#[test]
+fn the_census_read_slab_by_slab_is_the_census_of_the_whole() {
+    use isogrid::extract::stream::{plan, source_label_census};
+    // Labels repeated along z so that slabs share them, and one each slab's own.
+    let [nx, ny, nz] = [29, 23, 70];
+    let labels = label_volume();
+    let data: Vec<u32> = (0..nx * ny * nz)
+        .map(|i| {
+            let [x, y, z] = [i % nx, i / nx % ny, i / (nx * ny)];
+            let [dx, dy, dz] = DIMS;
+            let v = labels[x % dx + dx * (y % dy + dy * (z % dz))] as u32;
+            if (x, y) == (3, 4) {
+                1000 + z as u32 / 20
+            } else {
+                v
+            }
+        })
+        .collect();
+    let volume = Volume::new([nx, ny, nz], VolumeData::U32(data)).unwrap();
+    let whole = label_census(&volume.view()).unwrap();
+    let minimum = plan(&volume.view(), u64::MAX).unwrap().minimum;
+    for budget in [minimum, minimum + (nx * ny * 4 * 16) as u64, u64::MAX] {
+        let mut source = volume.view();
+        let streamed = source_label_census(&mut source, budget, &isogrid::Progress::new()).unwrap();
+        assert_eq!(streamed, whole, "budget {budget}");
+    }
+    assert!(whole.iter().any(|c| c.value == 1003));
+}
