@@ -767,10 +767,16 @@ def test_info_lists_a_label_volumes_labels_with_voxels_boxes_names_and_colours(c
         assert (l["name"], l["color"]) == named[l["value"]]
     assert report["dims"] == list(atlas.shape) and report["value_range"] == [0, 83]
     assert report["axes"] == "RAS" and report["frame"] == "RAS"
-    # A selection by value, range and name lists those labels only.
+    # A selection by value, range and name lists those labels only, of the volume and of its .cgc.
     insula = sorted(v for v, (name, _) in named.items() if name == "insula")
     report, _ = _info_labels(cli, path, "--labels", "insula,3-4", "--label-table", table)
     assert [l["value"] for l in report["labels"]] == sorted(insula + [3, 4])
+    cgc = tmp_path / "atlas.cgc"
+    grid.save(cgc)
+    listed, _ = _info_labels(cli, cgc, "--labels", "insula,3-4")
+    everything, _ = _info_labels(cli, cgc)
+    assert listed["labels"] == [l for l in everything["labels"] if l["value"] in insula + [3, 4]]
+    assert len(listed["labels"]) == 4 and len(everything["labels"]) == 83
     # The human table: one row per label, its voxels grouped in thousands.
     text = subprocess.run([cli, "info", path, "--labels", "1"], check=True, capture_output=True, text=True).stdout
     voxels = expected[1][0]
@@ -832,7 +838,7 @@ def test_info_labels_of_a_volume_larger_than_the_memory_allowed_are_counted_by_r
 
 
 def test_info_labels_refusals(cli, tmp_path):
-    """A float volume that is not labels, --labels of a .cgc, and noise given as labels whose
+    """A float volume that is not labels, --labels of an isosurface's .cgc, and noise given as labels whose
     distinct values outgrow the memory allowed (no giant allocation) get one line naming the file
     and exit 1."""
     import os
@@ -843,7 +849,7 @@ def test_info_labels_refusals(cli, tmp_path):
     nibabel.save(nibabel.Nifti1Image(floats, np.eye(4)), tmp_path / "f.nii")
     cgc = tmp_path / "l.cgc"
     subprocess.run([cli, "extract", tmp_path / "f.nii", "--iso", "1", "-o", cgc], check=True, capture_output=True)
-    for target, message in [(tmp_path / "f.nii", "holds 1.5"), (cgc, "--labels lists the labels of a label volume")]:
+    for target, message in [(tmp_path / "f.nii", "holds 1.5"), (cgc, "--labels lists a label grid's labels, and this grid is an isosurface")]:
         run = subprocess.run([cli, "info", target, "--labels", "all"], capture_output=True, text=True)
         assert run.returncode == 1, run
         lines = run.stderr.strip().splitlines()

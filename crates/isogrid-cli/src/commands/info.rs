@@ -27,7 +27,8 @@ pub struct Args {
     /// Read the volume as labels (as `extract --labels` does: a layered .seg.nrrd's layers, an
     /// OME-Zarr label image) and list the selected ones (`all`, or values, ranges and names such
     /// as `1,5-9,liver`) but the background 0: each one's voxels, volume (voxels × the voxel's
-    /// volume, in the spacing's units cubed), box in sample indices, name and colour.
+    /// volume, in the spacing's units cubed), box in sample indices, name and colour. Of a label
+    /// grid's .cgc, list the selected labels only.
     #[arg(long, value_name = "all|1,5-9", value_parser = parse_labels_or_names)]
     pub labels: Option<LabelSelection>,
     /// With --labels: name and colour the labels from a colour table (as `extract --label-table`).
@@ -58,9 +59,9 @@ pub fn run(args: Args) -> Result<()> {
             None => describe_volume(&args),
         };
     }
-    if args.labels.is_some() {
+    if args.label_table.is_some() || args.labels_of.is_some() {
         bail!(
-            "{}: --labels lists the labels of a label volume; `isogrid info` lists a .cgc file's labels without it",
+            "{}: --label-table and --labels-of read a label volume; a .cgc file keeps its labels' names and colours",
             args.file.display()
         );
     }
@@ -68,7 +69,20 @@ pub fn run(args: Args) -> Result<()> {
     let grid = isogrid::cgc::open(&args.file)?;
     let read = start.elapsed().as_secs_f64();
     crate::report::note_if_empty(&args.file, &grid, None);
-    let report = GridReport {
+    // `--labels`: the labels listed, chosen by value or name as `render --show` chooses them.
+    let shown = match (&args.labels, grid.labels()) {
+        (None, _) => None,
+        (Some(_), None) => bail!(
+            "{}: --labels lists a label grid's labels, and this grid is an isosurface",
+            args.file.display()
+        ),
+        (Some(selection), Some(labels)) => Some(
+            selection
+                .resolved(labels.table())
+                .with_context(|| args.file.display().to_string())?,
+        ),
+    };
+    let mut report = GridReport {
         opened_file: true,
         source: Some(SourceReport::new(grid.info())),
         ..GridReport::new(
@@ -81,6 +95,12 @@ pub fn run(args: Args) -> Result<()> {
     }
     .with_attribute(grid.attribute())
     .with_labels(&grid);
+    if let (Some(selection), Some(labels), Some(reports)) =
+        (&shown, grid.labels(), report.labels.as_mut())
+    {
+        let mut table = labels.table().iter();
+        reports.retain(|_| selection.selects(table.next().expect("an entry per label").value));
+    }
     if args.json {
         print_json(&report)
     } else {
