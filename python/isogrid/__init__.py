@@ -817,8 +817,8 @@ def render(
     Args:
         grid: a :class:`CellGrid` or :class:`LabelGrid` (from :func:`extract`, :func:`extract_labels` or :func:`load`).
         camera: ``1`` (front) or ``2`` (oblique) for the standard views of the box ``frame``
-            names, or ``(eye, target, up, fovy_degrees)`` with points as (x, y, z) world
-            coordinates.
+            names, or ``(eye, target, up, fovy_degrees)`` with points as (x, y, z) in index ×
+            spacing units (sample (i, j, k) at (i·sx, j·sy, k·sz)).
         size: ``(width, height)`` in pixels.
         mode: ``"cgc"`` (cell rasterisation with EWA normals on a GPU; ray traced on the CPU),
             ``"cgc-noewa"`` (GPU only), ``"pathtrace"`` (``spp`` samples per pixel under

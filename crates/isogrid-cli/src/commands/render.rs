@@ -84,7 +84,9 @@ pub struct Args {
     /// the image.
     #[arg(long, value_enum, default_value_t = Frame::Grid, conflicts_with = "camera")]
     pub frame: Frame,
-    /// Camera as EYE:TARGET:UP:FOVY in world units (points x,y,z; FOVY in degrees).
+    /// Camera as EYE:TARGET:UP:FOVY, points as x,y,z in index × spacing units (sample (i, j, k)
+    /// at (i·sx, j·sy, k·sz)), FOVY in degrees. Where the volume's axes mirror its world, the
+    /// image is mirrored back so that it shows the world as it lies.
     #[arg(long, value_name = "EYE:TARGET:UP:FOVY", allow_hyphen_values = true)]
     pub camera: Option<String>,
     /// Write the image here (PNG).
