@@ -19,6 +19,9 @@ docs/benchmarks-labels.md.
                                               # (zarr-python; 17 GB of samples, compressed), streamed
     python scripts/bench_labels.py --dask-budgets # isogrid.dask.extract of the 512³ supervoxels
                                               # from a Zarr copy, at several tile_bytes
+    python scripts/bench_labels.py --census   # `isogrid info --labels all` (voxels and boxes of
+                                              # every label) against numpy.unique + scipy
+                                              # find_objects, on the three volumes
     python scripts/bench_labels.py --masks    # a TotalSegmentator-like folder of 117 NIfTI masks
                                               # (the frog's 25 tissues and 92 empty ones, written
                                               # by nibabel): `isogrid extract FOLDER --labels all`
@@ -644,7 +647,43 @@ def masks_table():
           f"{r['total']:.1f} | {mb(r['peak'])} | {r['quads']:,} quads, {r['labels']} labels |")
 
 
+def census_peer(path):
+    """Child: what a Python user does for segment statistics: numpy loads the labels, counts each
+    value (np.unique) and scipy.ndimage.find_objects gives each label's box. Prints JSON."""
+    from scipy import ndimage
+
+    start = time.perf_counter()
+    labels = np.load(path)
+    values, counts = np.unique(labels, return_counts=True)
+    boxes = ndimage.find_objects(labels)
+    seconds = time.perf_counter() - start
+    print(json.dumps({"seconds": seconds, "labels": int((values != 0).sum()), "peak": peak_rss_bytes(),
+                      "boxes": sum(b is not None for b in boxes)}))
+
+
+def census_table():
+    """`isogrid info X.npy --labels all --json` (GNU time: wall seconds and peak resident memory,
+    reading included) against numpy + scipy in a fresh process, best of 5 each, on the three
+    volumes of the main table."""
+    print("| volume | isogrid info --labels all | peak memory | numpy.unique + scipy find_objects | peak memory | labels |")
+    print("|---|---|---|---|---|---|")
+    for name in VOLUMES:
+        path = npy_of(name)[0]
+        ours = min(timed_cli(["info", path, "--labels", "all", "--json"]) for _ in range(5))
+        peers = []
+        for _ in range(5):
+            run = subprocess.run([sys.executable, __file__, "child-census", path], check=True,
+                                 capture_output=True, text=True)
+            peers.append(json.loads(run.stdout.strip().splitlines()[-1]))
+        peer = min(peers, key=lambda r: r["seconds"])
+        print(f"| {name} | {ours[0]:.2f} s | {mb(ours[1])} | {peer['seconds']:.2f} s | {mb(peer['peak'])} | {peer['labels']:,} |",
+              flush=True)
+
+
 def main():
+    if "--census" in sys.argv:
+        census_table()
+        return
     if "--masks" in sys.argv:
         masks_table()
         return
@@ -703,7 +742,9 @@ def main():
 
 
 if __name__ == "__main__":
-    if len(sys.argv) > 1 and sys.argv[1] == "child-masks":
+    if len(sys.argv) > 1 and sys.argv[1] == "child-census":
+        census_peer(sys.argv[2])
+    elif len(sys.argv) > 1 and sys.argv[1] == "child-masks":
         masks_peer(sys.argv[2])
     elif len(sys.argv) > 1 and sys.argv[1] == "child":
         child(sys.argv[2], sys.argv[3], json.loads(sys.argv[4]), json.loads(sys.argv[5]), int(sys.argv[6]))
