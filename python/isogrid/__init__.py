@@ -101,6 +101,7 @@ __all__ = [
     "Volume",
     "extract",
     "extract_labels",
+    "label_statistics",
     "load",
     "load_volume",
     "marching_cubes",
@@ -420,6 +421,57 @@ def extract_labels(
     return _with_notices(grid, notices)
 
 
+def label_statistics(
+    array: Union[np.ndarray, Volume, PathLike, Any],
+    labels: Union[str, int, Iterable[int], None] = None,
+    spacing: Optional[Sequence[float]] = None,
+    label_table: Optional[PathLike] = None,
+    labels_of: Optional[str] = None,
+    series: Optional[str] = None,
+    index: Optional[Dict[str, int]] = None,
+) -> List[Dict[str, Any]]:
+    """Segment statistics of a label volume, before any surface is extracted
+    (``isogrid info VOLUME --labels``): each selected label's voxels, volume, box, name and colour.
+
+    Args:
+        array: 3-D integer labels, a :class:`Volume`, or the path of a label volume file, as
+            :func:`extract_labels` takes it. A path is read by region where its format allows
+            (Zarr, uncompressed NIfTI, NRRD and others), so a volume larger than memory is counted
+            slab by slab.
+        labels: which labels, as :func:`extract_labels` selects them: ``None`` or ``"all"``
+            (every label but the background 0), a label, a list, ``"1,5-9"``, or names.
+        spacing: the voxel's size along each axis, replacing the file's or the Volume's (default:
+            theirs, or 1 for an array): volumes are in its units cubed.
+        label_table, labels_of, series, index: as :func:`extract_labels` takes them.
+
+    Returns:
+        One dict per label present, by increasing value, with the keys of
+        ``isogrid info --labels --json``: ``value``, ``name`` and ``color`` (``"#rrggbbaa"``) as
+        :func:`extract_labels` names the label, ``voxels`` (samples holding it), ``volume``
+        (``voxels`` times the product of the spacing) and ``lo``, ``hi`` (its voxels' box in
+        sample indices, ``[lo, hi)`` along x, y and z). Labels a colour table lists that the volume lacks
+        give a :class:`UserWarning`.
+    """
+    selection = _label_selection("all" if labels is None else labels)
+    table = None if label_table is None else os.fspath(label_table)
+    if isinstance(array, (str, os.PathLike)):
+        stats, notices = _isogrid.label_statistics_file(
+            os.fspath(array),
+            selection,
+            labels_of=labels_of,
+            label_table=table,
+            series=series,
+            spacing=None if spacing is None else _triple(spacing, "spacing"),
+            index=_indices(index, "index"),
+        )
+        return _with_notices(stats, notices)
+    if labels_of is not None:
+        raise ValueError("labels_of names a label image of an OME-Zarr image, and needs its path")
+    prepared, fortran, spacing3, _, _, _ = _placed(array, series, spacing, None, None, index)
+    stats, notices = _isogrid.label_statistics(prepared, fortran, spacing3, selection, label_table=table)
+    return _with_notices(stats, notices)
+
+
 def _with_attribute_of(
     grid: CellGrid, attribute: Any, precision: int, threads: Optional[int], index: Optional[Dict[str, int]] = None
 ) -> Any:
@@ -479,12 +531,12 @@ def _placed(
     return prepared, fortran, spacing3, origin, direction, frame
 
 
-def _with_notices(grid: CellGrid, notices: Sequence[str]) -> Any:
-    """The grid, after each notice of its extraction as a :class:`UserWarning`, attributed to the
-    caller's line outside this package."""
+def _with_notices(result: Any, notices: Sequence[str]) -> Any:
+    """The result (a grid, statistics), after each notice of its making as a :class:`UserWarning`,
+    attributed to the caller's line outside this package."""
     for notice in notices:
         warnings.warn(notice, UserWarning, stacklevel=_caller_level())
-    return grid
+    return result
 
 
 def _caller_level() -> int:

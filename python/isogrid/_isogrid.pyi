@@ -125,6 +125,22 @@ def extract_labels_file(
     progress: Optional[Callable[[int, int], Any]] = None,
     index: Optional[Sequence[Tuple[str, int]]] = None,
 ) -> Tuple[LabelGrid, List[str]]: ...
+def label_statistics(
+    array: np.ndarray,
+    fortran: bool,
+    spacing: Sequence[float],
+    labels: str,
+    label_table: Optional[_Path] = None,
+) -> Tuple[List[Dict[str, Any]], List[str]]: ...
+def label_statistics_file(
+    path: _Path,
+    labels: str,
+    labels_of: Optional[str] = None,
+    label_table: Optional[_Path] = None,
+    series: Optional[str] = None,
+    spacing: Optional[Sequence[float]] = None,
+    index: Optional[Sequence[Tuple[str, int]]] = None,
+) -> Tuple[List[Dict[str, Any]], List[str]]: ...
 def load(path: _Path) -> Union[CellGrid, LabelGrid]: ...
 def _attach_attribute(
     path: _Path,

@@ -192,13 +192,7 @@ pub fn extract_labels_file<'py>(
     check_callback(progress.as_ref())?;
     let table = read_table(py, label_table.as_deref())?;
     let place = crate::array::Placement::new(spacing, origin, direction)?;
-    let mut read_options = isogrid_io::ReadOptions {
-        series,
-        ..Default::default()
-    };
-    read_options.zarr.indices = index.unwrap_or_default();
-    read_options.zarr.index_flag = isogrid_io::IndexFlag::Python("index");
-    read_options.zarr.trusted_certificates = isogrid_io::ssl_cert_file_from_env();
+    let read_options = crate::volume_io::file_read_options(series, index, "index");
     let (mut source, mut notices) = py
         .detach(|| isogrid_io::labels::read_labels_of(&path, labels_of.as_deref(), &read_options))
         .map_err(to_py)?;
@@ -250,7 +244,7 @@ pub(crate) fn resolve_names(
 }
 
 /// A colour table file, read before the volume so that a malformed one fails first.
-fn read_table(
+pub(crate) fn read_table(
     py: Python<'_>,
     path: Option<&std::path::Path>,
 ) -> PyResult<Option<(PathBuf, Vec<isogrid::Label>)>> {
@@ -373,10 +367,8 @@ fn sampled_attribute(
                 let picked: Vec<String> = indices.iter().map(|(a, i)| format!("{a}={i}")).collect();
                 name = format!("{name} {}", picked.join(","));
             }
-            let mut options = isogrid_io::ReadOptions::default();
-            options.zarr.indices = indices;
-            options.zarr.index_flag = isogrid_io::IndexFlag::Python("attribute_index");
-            options.zarr.trusted_certificates = isogrid_io::ssl_cert_file_from_env();
+            let options =
+                crate::volume_io::file_read_options(None, Some(indices), "attribute_index");
             run_detached(py, threads, move || -> isogrid::Result<_> {
                 match isogrid_io::open_region(&attribute_path, &options)? {
                     Some(mut region) => sample_attribute(grid, region.as_mut(), &name, precision),

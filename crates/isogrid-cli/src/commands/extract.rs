@@ -502,31 +502,16 @@ fn note_read_whole(args: &Args) {
     }
 }
 
-/// The memory budget of a streamed extraction: `--max-memory`, by default a quarter of the
-/// machine's memory (4 GiB where it cannot be read), lowered to what the process may allocate now
-/// ([`isogrid::memory::available_to_plan`]: free memory, the cgroup's limit, `ulimit -v` less the
-/// threads' malloc arenas). A budget past that would abort in the allocator.
+/// The memory budget of a streamed extraction: `--max-memory`, else
+/// [`isogrid::memory::streaming_budget`]'s default; a note says when a `--max-memory` given was
+/// lowered to what the process may allocate now.
 pub(crate) fn budget(max_memory: Option<u64>) -> u64 {
-    let asked = max_memory.unwrap_or_else(|| {
-        let total = std::fs::read_to_string("/proc/meminfo")
-            .ok()
-            .and_then(|text| {
-                let line = text.lines().find(|l| l.starts_with("MemTotal:"))?;
-                let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
-                Some(kib * 1024)
-            });
-        total.map_or(4 << 30, |t| t / 4)
-    });
-    match isogrid::memory::available_to_plan() {
-        Some((room, source)) if room < asked => {
-            if max_memory.is_some() {
-                eprintln!(
-                    "isogrid: note: --max-memory lowered to {}, {source}",
-                    stream::format_bytes(room)
-                );
-            }
-            room
-        }
-        _ => asked,
+    let (budget, lowered_by) = isogrid::memory::streaming_budget(max_memory);
+    if let (Some(source), Some(_)) = (lowered_by, max_memory) {
+        eprintln!(
+            "isogrid: note: --max-memory lowered to {}, {source}",
+            stream::format_bytes(budget)
+        );
     }
+    budget
 }

@@ -7,9 +7,8 @@ use crate::report::{
     print_json, GridReport, LabelValue, Seconds, SourceReport, VolumeLabelReport, VolumeReport,
 };
 use anyhow::{bail, Context, Result};
-use isogrid::label_census::{label_census, LabelCount};
-use isogrid::labels::{signed_labels, Label};
 use isogrid::{GridStats, LabelSelection};
+use isogrid_io::label_statistics::GivenTable;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -157,108 +156,53 @@ fn describe_volume(args: &Args) -> Result<()> {
     print_volume_report(args, &report)
 }
 
-/// `info VOLUME --labels SELECTION`: the volume's place in the world and its selected labels,
-/// counted in one pass ([`label_census`]), named and coloured as `extract --labels` names them
-/// (the default palette, then the file's names, then the colour table's).
+/// `info VOLUME --labels SELECTION`: the volume's place in the world and its selected labels
+/// ([`isogrid_io::label_statistics::file_label_statistics`]: counted in one pass, by region where the format
+/// allows, named and coloured as `extract --labels` names them).
 fn describe_labels(args: &Args, selection: &LabelSelection) -> Result<()> {
     let path = &args.file;
     // A malformed table fails before the volume is read, as in `extract`.
     let table = match &args.label_table {
-        Some(table) => Some(isogrid_io::labels::read_label_table(table)?),
+        Some(table) => Some((table, isogrid_io::labels::read_label_table(table)?)),
         None => None,
     };
     let options = args.input_args.read_options()?;
     let start = Instant::now();
-    // By region within a quarter of the memory where the format allows (a connectomics volume
-    // need not fit), else whole: each layer's census with the offset of its values.
-    let (geometry, scalar_type, censuses, names) =
-        match isogrid_io::labels::open_label_region(path, args.labels_of.as_deref(), &options)? {
-            Some((mut source, names)) => {
-                let spinner = crate::progress::spinner(format!("reading {}", path.display()));
-                let census = isogrid::extract::stream::source_label_census(
-                    source.as_mut(),
-                    crate::commands::extract::budget(None),
-                    &isogrid::Progress::new(),
-                )
-                .map_err(|e| e.with_path(path))?;
-                spinner.finish_and_clear();
-                let (geometry, scalar_type) = (source.geometry(), source.scalar_type());
-                (geometry, scalar_type, vec![(census, 0)], names)
-            }
-            None => {
-                let (source, _) =
-                    crate::input::read_label_volume(path, args.labels_of.as_deref(), &options)?;
-                let first = &source.layers[0].volume;
-                let mut censuses = Vec::new();
-                for layer in &source.layers {
-                    let census =
-                        label_census(&layer.volume.view()).map_err(|e| e.with_path(path))?;
-                    censuses.push((census, layer.offset));
-                }
-                (
-                    *first.geometry(),
-                    first.scalar_type(),
-                    censuses,
-                    source.names,
-                )
-            }
-        };
-    let selection = isogrid_io::labels::resolve_label_names(selection, &names, table.as_deref())
-        .with_context(|| path.display().to_string())?;
-    let signed = signed_labels(scalar_type);
-    // Each layer's values but 0 are the file's labels less the layer's offset.
-    let mut counts: Vec<LabelCount> = Vec::new();
-    let mut background = false;
-    for (census, offset) in censuses {
-        for count in census {
-            match count.value {
-                0 => background = true,
-                v => counts.push(LabelCount {
-                    value: v.wrapping_add(offset),
-                    ..count
-                }),
-            }
-        }
+    let spinner = crate::progress::spinner(format!("reading {}", path.display()));
+    let volume = isogrid_io::label_statistics::file_label_statistics(
+        path,
+        args.labels_of.as_deref(),
+        &options,
+        selection,
+        table
+            .as_ref()
+            .map(|(path, labels)| GivenTable { path, labels }),
+        None,
+        crate::commands::extract::budget(None),
+        &isogrid::Progress::new(),
+    )?;
+    spinner.finish_and_clear();
+    for notice in &volume.notices {
+        eprintln!("isogrid: note: {notice}");
     }
-    counts.sort_by_key(|c| c.value);
-    let mut labels: Vec<Label> = counts
-        .iter()
-        .map(|c| Label::default_for(c.value, signed))
-        .collect();
-    isogrid_io::labels::name_labels(&mut labels, &names);
-    if let (Some(table), Some(table_path)) = (&table, &args.label_table) {
-        let absent = isogrid_io::labels::name_labels(&mut labels, table);
-        if let Some(notice) =
-            isogrid_io::labels::absent_labels_notice(table_path, &absent, &selection, signed)
-        {
-            eprintln!("isogrid: note: {notice}");
-        }
-    }
-    // The labels' values, the background's among them where a sample holds it.
-    let keys = counts
-        .iter()
-        .map(|c| c.value)
-        .chain(background.then_some(0));
-    let as_value = |k: u64| if signed { k as i64 as f64 } else { k as f64 };
-    let range = keys.map(as_value).fold(None, |r: Option<(f64, f64)>, v| {
-        Some(r.map_or((v, v), |(lo, hi)| (lo.min(v), hi.max(v))))
-    });
-    let voxel = geometry.spacing.iter().product::<f64>();
-    let mut report =
-        VolumeReport::new(&geometry, scalar_type, range, start.elapsed().as_secs_f64());
+    let mut report = VolumeReport::new(
+        &volume.geometry,
+        volume.scalar_type,
+        volume.range,
+        start.elapsed().as_secs_f64(),
+    );
     report.labels = Some(
-        counts
+        volume
+            .labels
             .iter()
-            .zip(&labels)
-            .filter(|(c, _)| selection.selects(c.value))
-            .map(|(c, label)| VolumeLabelReport {
-                value: LabelValue::of(c.value, signed),
-                name: label.name.clone(),
-                color: label.color_hex(),
-                voxels: c.voxels,
-                volume: c.voxels as f64 * voxel,
-                lo: c.lo,
-                hi: c.hi,
+            .map(|l| VolumeLabelReport {
+                value: LabelValue::of(l.label.value, volume.signed),
+                name: l.label.name.clone(),
+                color: l.label.color_hex(),
+                voxels: l.voxels,
+                volume: l.volume,
+                lo: l.lo,
+                hi: l.hi,
             })
             .collect(),
     );
