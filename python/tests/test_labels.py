@@ -818,10 +818,10 @@ def test_info_lists_a_label_volumes_labels_with_voxels_boxes_names_and_colours(c
     assert report["value_range"] == [-7, 300]
 
 
-def test_info_labels_of_a_volume_larger_than_the_memory_allowed_are_counted_by_region(cli, tmp_path):
+def test_info_labels_of_a_volume_larger_than_the_memory_allowed_are_counted_by_region(cli, tmp_path, monkeypatch):
     """An uncompressed NIfTI of 68 MB of u32 labels (4,046 blocks of supervoxel size) under a 64 MiB
     memory limit: read slab by slab, each label's voxels are numpy's count and its box the block
-    it fills."""
+    it fills; ``isogrid.label_statistics`` of the path lists the same."""
     import os
 
     nibabel = pytest.importorskip("nibabel")
@@ -841,6 +841,8 @@ def test_info_labels_of_a_volume_larger_than_the_memory_allowed_are_counted_by_r
         v = l["value"] - 1
         lo = [16 * (v % 16), 16 * (v // 16 % 16), 17 * (v // 256)]
         assert (l["lo"], l["hi"]) == (lo, [lo[0] + 16, lo[1] + 16, min(lo[2] + 17, 260)]), l
+    monkeypatch.setenv("ISOGRID_MEMORY_LIMIT", "64M")
+    assert isogrid.label_statistics(path) == report
 
 
 def test_info_labels_refusals(cli, tmp_path):
