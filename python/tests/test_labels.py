@@ -604,6 +604,13 @@ def test_ome_zarr_label_image_from_ome_zarr(tmp_path):
     assert _summary(isogrid.extract_labels(image / "labels" / "cells", labels="all")) == expected
     with pytest.raises(ValueError, match=r'no label image "nuclei"; the image has "cells"'):
         isogrid.extract_labels(image, labels="all", labels_of="nuclei")
+    # Its segment statistics, read by region: numpy's counts, with the image-label names and colours.
+    census = _census(cells)
+    for stats in (isogrid.label_statistics(image, labels_of="cells"),
+                  isogrid.label_statistics(image / "labels" / "cells", labels="cytoplasm,1")):
+        assert [(l["value"], l["name"], l["color"], l["voxels"], l["lo"], l["hi"]) for l in stats] == [
+            (v, name, color, *census[v]) for v, name, color, _ in expected
+        ]
 
 
 def test_bad_tables_and_arguments_are_refused(tmp_path):
