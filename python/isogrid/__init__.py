@@ -429,6 +429,7 @@ def label_statistics(
     labels_of: Optional[str] = None,
     series: Optional[str] = None,
     index: Optional[Dict[str, int]] = None,
+    progress: Optional[Callable[[int, int], Any]] = None,
 ) -> List[Dict[str, Any]]:
     """Segment statistics of a label volume, before any surface is extracted
     (``isogrid info VOLUME --labels``): each selected label's voxels, volume, box, name and colour.
@@ -443,6 +444,9 @@ def label_statistics(
         spacing: the voxel's size along each axis, replacing the file's or the Volume's (default:
             theirs, or 1 for an array): volumes are in its units cubed.
         label_table, labels_of, series, index: as :func:`extract_labels` takes them.
+        progress: called as ``progress(done, total)`` about ten times a second while a file is
+            read by region (blocks counted), and once at the end (an array is counted in one
+            step). If it raises, or on Ctrl-C, counting stops and the exception is raised.
 
     Returns:
         One dict per label present, by increasing value, with the keys of
@@ -463,12 +467,15 @@ def label_statistics(
             series=series,
             spacing=None if spacing is None else _triple(spacing, "spacing"),
             index=_indices(index, "index"),
+            progress=progress,
         )
         return _with_notices(stats, notices)
     if labels_of is not None:
         raise ValueError("labels_of names a label image of an OME-Zarr image, and needs its path")
     prepared, fortran, spacing3, _, _, _ = _placed(array, series, spacing, None, None, index)
-    stats, notices = _isogrid.label_statistics(prepared, fortran, spacing3, selection, label_table=table)
+    stats, notices = _isogrid.label_statistics(
+        prepared, fortran, spacing3, selection, label_table=table, progress=progress
+    )
     return _with_notices(stats, notices)
 
 

@@ -131,6 +131,7 @@ def label_statistics(
     spacing: Sequence[float],
     labels: str,
     label_table: Optional[_Path] = None,
+    progress: Optional[Callable[[int, int], Any]] = None,
 ) -> Tuple[List[Dict[str, Any]], List[str]]: ...
 def label_statistics_file(
     path: _Path,
@@ -140,6 +141,7 @@ def label_statistics_file(
     series: Optional[str] = None,
     spacing: Optional[Sequence[float]] = None,
     index: Optional[Sequence[Tuple[str, int]]] = None,
+    progress: Optional[Callable[[int, int], Any]] = None,
 ) -> Tuple[List[Dict[str, Any]], List[str]]: ...
 def load(path: _Path) -> Union[CellGrid, LabelGrid]: ...
 def _attach_attribute(

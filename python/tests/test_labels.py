@@ -928,6 +928,35 @@ def test_label_statistics_of_an_array_or_a_file_are_numpys_count_and_the_clis_li
     ]
 
 
+def test_label_statistics_report_progress_and_stop_when_it_raises(tmp_path):
+    """``progress=`` hears increasing block counts up to the total while a path is read by region,
+    and one step for an array or a file read whole; an exception from it (as Ctrl-C, which the
+    same watcher raises) stops the count."""
+    a = _labels((70, 64, 66))
+    nibabel = pytest.importorskip("nibabel")
+    nii, gz = tmp_path / "labels.nii", tmp_path / "labels.nii.gz"
+    for path in (nii, gz):  # uncompressed: read by region; gzip: read whole
+        nibabel.save(nibabel.Nifti1Image(np.asfortranarray(a.transpose()), np.eye(4)), path)
+    want = isogrid.label_statistics(a)
+    for source, steps in ((nii, None), (gz, 1), (a, 1)):
+        calls = []
+        assert isogrid.label_statistics(source, progress=lambda done, total: calls.append((done, total))) == want
+        done = [d for d, _ in calls]
+        assert done == sorted(done) and calls[-1][0] == calls[-1][1] > 0, calls
+        if steps is not None:
+            assert calls[-1] == (steps, steps)
+        else:
+            assert calls[-1][1] > 1  # by region: blocks
+
+        def stop(done, total):
+            raise _Stop(f"stopped at {done} of {total}")
+
+        with pytest.raises(_Stop, match="stopped at"):
+            isogrid.label_statistics(source, progress=stop)
+    with pytest.raises(ValueError, match="callable"):
+        isogrid.label_statistics(a, progress=3)
+
+
 def test_label_statistics_refusals(tmp_path):
     """Samples that are not labels, a name no table gives, and labels_of without a path are refused
     with the reason."""

@@ -56,8 +56,9 @@ pub struct GivenTable<'a> {
 /// `table` give) of the label volume file `path`, or of its OME-Zarr label image `labels_of`.
 /// Reads by region within `max_memory` bytes where the format allows ([`open_label_region`]),
 /// so a volume larger than memory is counted slab by slab; else whole ([`read_labels_of`]: a
-/// layered segmentation's layers each count their own values, numbered after each other).
-/// `spacing` replaces the file's. Errors name `path`.
+/// layered segmentation's layers each count their own values, numbered after each other), as
+/// one step of `progress`. `spacing` replaces the file's. Errors name `path`; a cancelled
+/// `progress` stops the count by region between slabs.
 #[allow(clippy::too_many_arguments)]
 pub fn file_label_statistics(
     path: &Path,
@@ -82,8 +83,11 @@ pub fn file_label_statistics(
                 (geometry, scalar_type, vec![(census, 0)], names, Vec::new())
             }
             None => {
+                // Read whole and counted in memory: one step of `progress`.
+                progress.start(1);
                 let (volume, notices) = read_labels_of(path, labels_of, options)?;
                 let (geometry, scalar_type, censuses) = layer_censuses(&volume).at_path(path)?;
+                progress.advance(1);
                 (geometry, scalar_type, censuses, volume.names, notices)
             }
         };

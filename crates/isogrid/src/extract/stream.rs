@@ -482,7 +482,8 @@ pub fn source_label_census(
 
 /// Reads every sample of `source` once, in slabs of whole block layers planned within
 /// `max_memory` as [`extract_to_file`] plans its reads, handing each slab's samples and planes to
-/// `take`; counts blocks in `progress` and stops once it is cancelled.
+/// `take`; counts blocks in `progress` (starting it at the volume's block count) and stops once
+/// it is cancelled.
 fn each_source_slab(
     source: &mut dyn RegionSource,
     max_memory: u64,
@@ -492,6 +493,8 @@ fn each_source_slab(
     let plan = plan(source, max_memory)?;
     let geometry = source.geometry();
     geometry.validate(geometry.sample_count())?;
+    let [nbx, nby, nbz] = geometry.cell_dims().map(|c| c.div_ceil(BLOCK_CELLS));
+    progress.start((nbx * nby * nbz) as u64);
     let mut run = Run {
         source,
         geometry,
