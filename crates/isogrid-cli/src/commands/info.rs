@@ -10,6 +10,7 @@ use anyhow::{bail, Context, Result};
 use isogrid::{GridStats, LabelSelection};
 use isogrid_io::label_statistics::GivenTable;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 use std::time::Instant;
 
 #[derive(clap::Args)]
@@ -136,14 +137,17 @@ fn describe_volume(args: &Args) -> Result<()> {
     let start = Instant::now();
     let (geometry, scalar_type, range) = match isogrid_io::open_region(path, &options)? {
         Some(mut source) => {
-            let spinner = crate::progress::spinner(format!("reading {}", path.display()));
-            let range = isogrid::extract::stream::source_value_range(
-                source.as_mut(),
-                crate::commands::extract::budget(None),
-                &isogrid::Progress::new(),
-            )
+            // A bar over the blocks read; Ctrl-C stops the pass.
+            let progress = Arc::new(isogrid::Progress::new());
+            let message = format!("reading {}", path.display());
+            let range = crate::progress::watched(&message, &progress, || {
+                isogrid::extract::stream::source_value_range(
+                    source.as_mut(),
+                    crate::commands::extract::budget(None),
+                    &progress,
+                )
+            })
             .map_err(|e| e.with_path(path))?;
-            spinner.finish_and_clear();
             (source.geometry(), source.scalar_type(), range)
         }
         None => {
@@ -157,8 +161,9 @@ fn describe_volume(args: &Args) -> Result<()> {
 }
 
 /// `info VOLUME --labels SELECTION`: the volume's place in the world and its selected labels
-/// ([`isogrid_io::label_statistics::file_label_statistics`]: counted in one pass, by region where the format
-/// allows, named and coloured as `extract --labels` names them).
+/// ([`isogrid_io::label_statistics::file_label_statistics`]: counted in one pass, by region where
+/// the format allows, under a bar that Ctrl-C stops; named and coloured as `extract --labels`
+/// names them).
 fn describe_labels(args: &Args, selection: &LabelSelection) -> Result<()> {
     let path = &args.file;
     // A malformed table fails before the volume is read, as in `extract`.
@@ -168,20 +173,23 @@ fn describe_labels(args: &Args, selection: &LabelSelection) -> Result<()> {
     };
     let options = args.input_args.read_options()?;
     let start = Instant::now();
-    let spinner = crate::progress::spinner(format!("reading {}", path.display()));
-    let volume = isogrid_io::label_statistics::file_label_statistics(
-        path,
-        args.labels_of.as_deref(),
-        &options,
-        selection,
-        table
-            .as_ref()
-            .map(|(path, labels)| GivenTable { path, labels }),
-        None,
-        crate::commands::extract::budget(None),
-        &isogrid::Progress::new(),
-    )?;
-    spinner.finish_and_clear();
+    // A bar over the blocks counted; Ctrl-C stops the count.
+    let progress = Arc::new(isogrid::Progress::new());
+    let message = format!("counting the labels of {}", path.display());
+    let volume = crate::progress::watched(&message, &progress, || {
+        isogrid_io::label_statistics::file_label_statistics(
+            path,
+            args.labels_of.as_deref(),
+            &options,
+            selection,
+            table
+                .as_ref()
+                .map(|(path, labels)| GivenTable { path, labels }),
+            None,
+            crate::commands::extract::budget(None),
+            &progress,
+        )
+    })?;
     for notice in &volume.notices {
         eprintln!("isogrid: note: {notice}");
     }
