@@ -70,9 +70,14 @@ pub fn file_label_statistics(
     max_memory: u64,
     progress: &Progress,
 ) -> Result<VolumeLabels> {
-    let (mut geometry, scalar_type, censuses, names, notices) =
+    let resolve = |names: &[Label]| {
+        resolve_label_names(selection, names, table.map(|t| t.labels)).at_path(path)
+    };
+    let (mut geometry, scalar_type, censuses, names, notices, selection) =
         match open_label_region(path, labels_of, options)? {
             Some((mut source, names)) => {
+                // Names are resolved first: a name the file does not give fails before the count.
+                let selection = resolve(&names)?;
                 let census = isogrid::extract::stream::source_label_census(
                     source.as_mut(),
                     max_memory,
@@ -80,22 +85,29 @@ pub fn file_label_statistics(
                 )
                 .at_path(path)?;
                 let (geometry, scalar_type) = (source.geometry(), source.scalar_type());
-                (geometry, scalar_type, vec![(census, 0)], names, Vec::new())
+                let census = vec![(census, 0)];
+                (geometry, scalar_type, census, names, Vec::new(), selection)
             }
             None => {
                 // Read whole and counted in memory: one step of `progress`.
                 progress.start(1);
                 let (volume, notices) = read_labels_of(path, labels_of, options)?;
+                let selection = resolve(&volume.names)?;
                 let (geometry, scalar_type, censuses) = layer_censuses(&volume).at_path(path)?;
                 progress.advance(1);
-                (geometry, scalar_type, censuses, volume.names, notices)
+                (
+                    geometry,
+                    scalar_type,
+                    censuses,
+                    volume.names,
+                    notices,
+                    selection,
+                )
             }
         };
     if let Some(spacing) = spacing {
         geometry.spacing = spacing;
     }
-    let selection =
-        resolve_label_names(selection, &names, table.map(|t| t.labels)).at_path(path)?;
     let mut labels = statistics(censuses, geometry, scalar_type, &names, &selection, table);
     labels.notices.splice(0..0, notices);
     Ok(labels)
