@@ -262,7 +262,7 @@ def test_selections_smoothing_and_refusals():
     assert floats.labels == binary.labels
     bad = a.astype(np.float32)
     bad[0, 0, 0] = 0.25
-    with pytest.raises(ValueError, match="integer label values"):
+    with pytest.raises(ValueError, match="label values must be integers"):
         isogrid.extract_labels(bad, labels="all")
     with pytest.raises(ValueError):
         isogrid.extract(a, labels="all", iso=1)
@@ -623,7 +623,7 @@ def test_bad_tables_and_arguments_are_refused(tmp_path):
         isogrid.extract(a, iso=1, label_table=table)
     with pytest.raises(ValueError, match="needs its path"):
         isogrid.extract_labels(a, labels="all", labels_of="cells")
-    with pytest.raises(ValueError, match="integer label values"):
+    with pytest.raises(ValueError, match="label values must be integers"):
         isogrid.extract_labels(a.astype(np.float32) + 0.5, labels="all")
 
 def test_render_label_aov_show_and_hide():

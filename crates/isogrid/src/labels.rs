@@ -735,7 +735,7 @@ pub fn check_label_samples<T: LabelSample>(samples: &[T]) -> Result<()> {
     match samples.par_iter().find_first(|v| !v.is_label()) {
         None => Ok(()),
         Some(v) => Err(Error::invalid(format!(
-            "--labels needs integer label values, and this {} volume holds {} (a float volume is a label volume only when every value is an integer of at most 2^24)",
+            "label values must be integers, and this {} volume holds {} (a float volume is a label volume only when every value is an integer of at most 2^24)",
             T::TYPE.name(),
             v.to_f64()
         ))),

@@ -384,7 +384,7 @@ fn bad_label_requests_fail_in_one_line_and_write_nothing() {
     let out = dir.join("out.cgc");
     fails(
         &["extract", s(&npy), "--labels", "all", "-o", s(&out)],
-        "integer label values",
+        "label values must be integers",
     );
     let good = labels_npy(&dir);
     fails(
