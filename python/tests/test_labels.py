@@ -970,3 +970,10 @@ def test_label_statistics_refusals(tmp_path):
         isogrid.label_statistics(np.ones((4, 4, 4), np.uint8), labels_of="cells")
     with pytest.raises(FileNotFoundError, match="missing.nii"):
         isogrid.label_statistics(tmp_path / "missing.nii")
+    # A name the file does not give fails before the count starts.
+    nibabel = pytest.importorskip("nibabel")
+    nibabel.save(nibabel.Nifti1Image(np.ones((8, 8, 8), np.uint8), np.eye(4)), tmp_path / "ones.nii")
+    calls = []
+    with pytest.raises(ValueError, match=r"ones.nii: .*liver"):
+        isogrid.label_statistics(tmp_path / "ones.nii", labels="liver", progress=lambda d, t: calls.append((d, t)))
+    assert calls == []
