@@ -421,11 +421,7 @@ pub fn label_dicts<'py>(
         .zip(index)
         .map(|(label, entry)| {
             let d = PyDict::new(py);
-            if signed {
-                d.set_item("value", label.value as i64)?;
-            } else {
-                d.set_item("value", label.value)?;
-            }
+            set_label_value(&d, label.value, signed)?;
             d.set_item("name", &label.name)?;
             d.set_item("color", label.color_hex())?;
             d.set_item("cells", entry.cell_count)?;
@@ -434,6 +430,15 @@ pub fn label_dicts<'py>(
             Ok(d)
         })
         .collect()
+}
+
+/// `d["value"]`: a label key as the label's value, a signed type's as its negative where it is.
+pub(crate) fn set_label_value(d: &Bound<'_, PyDict>, key: u64, signed: bool) -> PyResult<()> {
+    if signed {
+        d.set_item("value", key as i64)
+    } else {
+        d.set_item("value", key)
+    }
 }
 
 /// `stats` as a dict with the names of the CLI's `--json` output (without `seconds`), with the

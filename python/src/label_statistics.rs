@@ -3,7 +3,7 @@
 
 use crate::array::{spacing3, VolumeArg};
 use crate::errors::to_py;
-use crate::grid::read_table;
+use crate::grid::{read_table, set_label_value};
 use crate::pool::{check_callback, run_watched};
 use isogrid::{LabelSelection, Progress};
 use isogrid_io::label_statistics::{GivenTable, VolumeLabels};
@@ -98,11 +98,7 @@ fn statistics_dicts(
         .iter()
         .map(|l| {
             let d = PyDict::new(py);
-            if stats.signed {
-                d.set_item("value", l.label.value as i64)?;
-            } else {
-                d.set_item("value", l.label.value)?;
-            }
+            set_label_value(&d, l.label.value, stats.signed)?;
             d.set_item("name", &l.label.name)?;
             d.set_item("color", l.label.color_hex())?;
             d.set_item("voxels", l.voxels)?;
