@@ -330,13 +330,7 @@ fn stream_labels(
     // Checked before the pass, so a budget too small fails at once.
     label_stream::plan_labels(source, options, max_memory)
         .with_context(|| format!("{}", args.input.display()))?;
-    let target = args
-        .output
-        .clone()
-        .unwrap_or_else(|| std::env::temp_dir().join("isogrid-extract.cgc"));
-    let scratch = (attribute.is_some() || args.output.is_none())
-        .then(|| isogrid::fs::ScratchFile::beside(&target, "labels.tmp"))
-        .transpose()?;
+    let (scratch, target) = streamed_output(args, attribute, "labels.tmp")?;
     let out: &Path = scratch.as_ref().map_or(target.as_path(), |s| s.path());
     let progress = Arc::new(Progress::new());
     let mut absent = Vec::new();
@@ -403,17 +397,7 @@ fn stream_to_file(
 ) -> Result<(GridStats, Option<AttributeReport>)> {
     // Checked before any pass, so a budget too small fails at once.
     stream::plan(source, max_memory).with_context(|| format!("{}", args.input.display()))?;
-    // Without an output the surface goes to a scratch file (for the statistics and the
-    // attribute), and with an attribute too: the attribute pass reads it back (memory-mapped)
-    // and the output is written whole, or not at all. Scratch files go when dropped, and on a
-    // signal.
-    let target = args
-        .output
-        .clone()
-        .unwrap_or_else(|| std::env::temp_dir().join("isogrid-extract.cgc"));
-    let scratch = (attribute.is_some() || args.output.is_none())
-        .then(|| isogrid::fs::ScratchFile::beside(&target, "surface.tmp"))
-        .transpose()?;
+    let (scratch, target) = streamed_output(args, attribute, "surface.tmp")?;
     let out: &Path = scratch.as_ref().map_or(target.as_path(), |s| s.path());
     let progress = Arc::new(Progress::new());
     let result = progress::watched("extracting", &progress, || {
@@ -432,6 +416,26 @@ fn stream_to_file(
     );
     let attribute_report = attach_streamed(args, out, attribute)?;
     Ok((summary.stats, attribute_report))
+}
+
+/// Where a streamed extraction writes, as (scratch, target): the target is `--output`, or a name
+/// in the temporary folder without one. A scratch file beside it (named after `role`) takes the
+/// grid instead when there is no output (the grid is read back for its statistics only) or an
+/// attribute (the attribute pass reads the grid back, memory-mapped, and the output is then
+/// written whole, or not at all). Scratch files go when dropped, and on a signal.
+fn streamed_output(
+    args: &Args,
+    attribute: Option<&AttributeInput>,
+    role: &str,
+) -> Result<(Option<isogrid::fs::ScratchFile>, PathBuf)> {
+    let target = args
+        .output
+        .clone()
+        .unwrap_or_else(|| std::env::temp_dir().join("isogrid-extract.cgc"));
+    let scratch = (attribute.is_some() || args.output.is_none())
+        .then(|| isogrid::fs::ScratchFile::beside(&target, role))
+        .transpose()?;
+    Ok((scratch, target))
 }
 
 /// With an attribute, the streamed grid in the scratch file `scratch` read back (memory-mapped),
