@@ -440,6 +440,12 @@ pub(super) fn read_frames(path: &Path) -> Result<Vec<Frame>> {
                         super::jpeg_header::check_frame(&stream, cols, rows, bits_allocated as u16)
                             .map_err(fails)?;
                     }
+                    if JPEG_LS_SYNTAXES.contains(&ts_uid.as_str()) {
+                        let stream =
+                            jpeg12::frame_stream(fragment_list, seq.offset_table(), frames, k)
+                                .map_err(fails)?;
+                        super::jpeg_header::check_jpeg_ls_end(&stream).map_err(fails)?;
+                    }
                     if JPEG_2000_SYNTAXES.contains(&ts_uid.as_str()) {
                         let stream =
                             jpeg12::frame_stream(fragment_list, seq.offset_table(), frames, k)
@@ -579,6 +585,9 @@ const JPEG_DECODER_SYNTAXES: [&str; 4] = [
     "1.2.840.10008.1.2.4.57",
     "1.2.840.10008.1.2.4.70",
 ];
+
+/// JPEG-LS lossless and near-lossless (PS3.5 A.4.3), decoded by CharLS.
+const JPEG_LS_SYNTAXES: [&str; 2] = ["1.2.840.10008.1.2.4.80", "1.2.840.10008.1.2.4.81"];
 
 /// JPEG 2000 lossless only and lossy (PS3.5 A.4.4).
 const JPEG_2000_SYNTAXES: [&str; 2] = ["1.2.840.10008.1.2.4.90", "1.2.840.10008.1.2.4.91"];

@@ -2,7 +2,8 @@
 //! (SIZ, ITU T.800 A.5.1) of a JPEG 2000 codestream, checked against the DICOM image before the
 //! decoder sees the stream: dicom-transfer-syntax-registry copies whatever the decoder returns
 //! into a buffer sized from Rows × Columns and panics (a slice index out of range) when the
-//! stream declares a larger image, more components or 16-bit samples in an 8-bit image.
+//! stream declares a larger image, more components or 16-bit samples in an 8-bit image. A
+//! JPEG-LS stream must end with its EOI marker (ITU T.87 C.1.2) before CharLS sees it.
 
 /// Precision, lines, samples per line and component count of the stream's first frame header;
 /// `None` when no header comes before the first scan (the decoder then reports the damage).
@@ -114,4 +115,20 @@ pub(super) fn check_j2k(
         ));
     }
     Ok(())
+}
+
+/// Checks that a JPEG-LS stream ends with its EOI marker (`FF D9`), after the zero bytes that pad
+/// a DICOM fragment to even length. CharLS 2.4 reads a scan up to the next marker; a scan that
+/// runs to the end of the buffer instead leaves its bit reader counting down past zero, so a
+/// damaged 1 KB stream took seconds to fail (an `int` wrapping around) rather than failing at once.
+pub(super) fn check_jpeg_ls_end(stream: &[u8]) -> Result<(), String> {
+    let end = stream
+        .iter()
+        .rposition(|&b| b != 0)
+        .map_or(0, |last| last + 1);
+    if stream[..end].ends_with(&[0xFF, 0xD9]) {
+        Ok(())
+    } else {
+        Err("the JPEG-LS stream does not end with an EOI marker (FF D9): it is truncated or damaged".into())
+    }
 }

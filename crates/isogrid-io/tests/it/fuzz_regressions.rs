@@ -222,6 +222,21 @@ fn dicom_jpeg_frame_larger_than_the_image_is_refused_before_decoding() {
     );
 }
 
+/// A JPEG-LS scan that runs to the end of its fragment with no EOI marker: the fuzzer's
+/// reproducer (`fixtures/jpeg_ls_no_eoi.dcm`, a 32x40 12-bit JPEG-LS Lossless frame of 978 bytes
+/// whose last marker was mutated away) took CharLS 2.4.5 over five seconds to fail, its bit
+/// reader counting past zero until an `int` wrapped. A stream must now end with EOI (after
+/// DICOM's zero padding) before CharLS sees it, so every scan ends at a marker.
+#[test]
+fn dicom_jpeg_ls_stream_without_eoi_is_refused_before_decoding() {
+    expect_err(
+        &crate::common::fixture("jpeg_ls_no_eoi.dcm"),
+        &ReadOptions::default(),
+        ErrorKind::Corrupt,
+        "the JPEG-LS stream does not end with an EOI marker",
+    );
+}
+
 /// The same in JPEG 2000, found by the fuzzer once OpenJPEG decoded the J2K seeds: a codestream
 /// whose image is larger than Rows × Columns panicked in the registry's JPEG 2000 adapter. The
 /// codestream's SIZ marker is now compared with the image before OpenJPEG runs.
