@@ -433,25 +433,23 @@ pub(super) fn read_frames(path: &Path) -> Result<Vec<Frame>> {
                                 .map_err(fails)?;
                         return jpeg12::decode_frame(&stream, cols, rows).map_err(fails);
                     }
-                    if JPEG_DECODER_SYNTAXES.contains(&ts_uid.as_str()) {
+                    // The codec's stream checked before the codec sees it (jpeg_header.rs).
+                    let syntax_uid = ts_uid.as_str();
+                    let check: Option<fn(&[u8], usize, usize, u16) -> Result<(), String>> =
+                        if JPEG_DECODER_SYNTAXES.contains(&syntax_uid) {
+                            Some(super::jpeg_header::check_frame)
+                        } else if JPEG_LS_SYNTAXES.contains(&syntax_uid) {
+                            Some(|stream, _, _, _| super::jpeg_header::check_jpeg_ls_end(stream))
+                        } else if JPEG_2000_SYNTAXES.contains(&syntax_uid) {
+                            Some(super::jpeg_header::check_j2k)
+                        } else {
+                            None
+                        };
+                    if let Some(check) = check {
                         let stream =
                             jpeg12::frame_stream(fragment_list, seq.offset_table(), frames, k)
                                 .map_err(fails)?;
-                        super::jpeg_header::check_frame(&stream, cols, rows, bits_allocated as u16)
-                            .map_err(fails)?;
-                    }
-                    if JPEG_LS_SYNTAXES.contains(&ts_uid.as_str()) {
-                        let stream =
-                            jpeg12::frame_stream(fragment_list, seq.offset_table(), frames, k)
-                                .map_err(fails)?;
-                        super::jpeg_header::check_jpeg_ls_end(&stream).map_err(fails)?;
-                    }
-                    if JPEG_2000_SYNTAXES.contains(&ts_uid.as_str()) {
-                        let stream =
-                            jpeg12::frame_stream(fragment_list, seq.offset_table(), frames, k)
-                                .map_err(fails)?;
-                        super::jpeg_header::check_j2k(&stream, cols, rows, bits_allocated as u16)
-                            .map_err(fails)?;
+                        check(&stream, cols, rows, bits_allocated as u16).map_err(fails)?;
                     }
                     // The codecs are third-party code on hostile input: a panic in one becomes
                     // this frame's error instead of taking the process down.
